@@ -1,0 +1,178 @@
+"""An IEEE 802.15.4-like shared radio medium (seed 000 §3.2, §3.4; SPEC §2).
+
+- Frames take airtime ``(overhead + payload) * 8 / bitrate`` after a driver latency.
+- Unslotted CSMA-CA: random backoff of ``0 … 2^BE − 1`` unit periods, then a clear-channel
+  assessment (CCA). A busy channel raises BE and backs off again (frame dropped after
+  ``max_backoffs``). A frame whose transmission started less than ``turnaround_s`` ago is not yet
+  sensed, so two senders whose CCAs fall within the turnaround both transmit: that is how
+  simultaneous responses collide.
+- At each receiver a frame is destroyed when another transmission in range overlaps it in time
+  (collision), when the receiver was itself transmitting (half duplex), or by independent random
+  loss ``loss_prob`` (injected corruption).
+- Every frame carries a PAN ID. The MAC of a receiver drops frames of any PAN other than the one it
+  is on, so a foreign swarm's frames never reach its middleware (several swarms share one medium).
+- No MAC-level acknowledgement or retransmission: the middleware retries (seed 000 §4.5).
+
+The medium also gives each received frame a received-signal distance estimate (log-distance path
+loss with shadowing), which is what a master uses to rank candidates by closeness (Table 2).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, Callable, Protocol
+
+import numpy as np
+import simpy
+
+from petswarm_env.config import RadioConfig
+
+BROADCAST = -1
+PAN_WAITING = 0x0000  # robots not in a swarm listen here (chosen)
+
+
+@dataclass
+class Frame:
+    kind: str
+    src: int
+    dst: int  # BROADCAST or a node id
+    pan: int
+    payload: dict[str, Any] = field(default_factory=dict)
+    size_bytes: int = 12
+    rx_distance_est_m: float = math.nan  # filled per reception
+
+
+class Station(Protocol):
+    node_id: int
+    pans: frozenset[int]  # PAN IDs its MAC accepts
+
+    def position(self) -> tuple[float, float]: ...
+
+    def receive(self, frame: Frame) -> None: ...
+
+
+@dataclass
+class RadioStats:
+    frames_sent: int = 0
+    frames_dropped_busy: int = 0  # CSMA gave up
+    receptions: int = 0
+    frames_lost: int = 0  # random loss at a receiver
+    frames_collided: int = 0  # receptions destroyed by overlap
+    foreign_pan_dropped: int = 0  # filtered by the MAC
+
+
+class _Tx:
+    __slots__ = ("frame", "start", "end", "x", "y")
+
+    def __init__(self, frame: Frame, start: float, end: float, x: float, y: float):
+        self.frame, self.start, self.end, self.x, self.y = frame, start, end, x, y
+
+
+class RadioMedium:
+    """One shared channel; stations attach, then send frames."""
+
+    def __init__(self, clock: simpy.Environment, cfg: RadioConfig, rng: np.random.Generator):
+        self.clock = clock
+        self.cfg = cfg
+        self.rng = rng
+        self.stations: dict[int, Station] = {}
+        self.stats = RadioStats()
+        self._air: list[_Tx] = []  # transmissions that may still overlap something
+        self._queues: dict[int, list[Frame]] = {}  # per station: frames waiting for the MAC
+        self.drop_filter: Callable[[Frame], bool] | None = None  # fault injection (tests)
+        self._range2 = cfg.range_m**2
+
+    def attach(self, station: Station) -> None:
+        self.stations[station.node_id] = station
+        self._queues[station.node_id] = []
+
+    def airtime_s(self, frame: Frame) -> float:
+        return (self.cfg.frame_overhead_bytes + frame.size_bytes) * 8.0 / self.cfg.bitrate_bps
+
+    # -- sending --------------------------------------------------------------------------------
+    def send(self, station: Station, frame: Frame) -> None:
+        """Queue ``frame`` from ``station``; its MAC sends one frame at a time, in order:
+        latency, then CSMA-CA, then airtime."""
+        queue = self._queues[station.node_id]
+        queue.append(frame)
+        if len(queue) == 1:
+            self._start(station)
+
+    def _start(self, station: Station) -> None:
+        frame = self._queues[station.node_id][0]
+        self._after(self.cfg.latency_s + self._backoff(self.cfg.min_be), self._cca, station, frame, 0, self.cfg.min_be)
+
+    def _done(self, station: Station) -> None:
+        queue = self._queues[station.node_id]
+        queue.pop(0)
+        if queue:
+            self._start(station)
+
+    def _backoff(self, be: int) -> float:
+        return int(self.rng.integers(0, 2**be)) * self.cfg.backoff_slot_s
+
+    def _after(self, delay: float, fn, *args) -> None:
+        ev = self.clock.timeout(delay)
+        ev.callbacks.append(lambda _ev: fn(*args))
+
+    def _cca(self, station: Station, frame: Frame, nb: int, be: int) -> None:
+        now = self.clock.now
+        x, y = station.position()
+        sensed_from = now - self.cfg.turnaround_s
+        busy = any(
+            tx.start <= sensed_from and tx.end > now and (tx.x - x) ** 2 + (tx.y - y) ** 2 <= self._range2
+            for tx in self._air
+        )
+        if busy:
+            if nb >= self.cfg.max_backoffs:
+                self.stats.frames_dropped_busy += 1
+                self._done(station)
+                return
+            be = min(be + 1, self.cfg.max_be)
+            self._after(self._backoff(be), self._cca, station, frame, nb + 1, be)
+            return
+        self._after(self.cfg.turnaround_s, self._transmit, station, frame)
+
+    def _transmit(self, station: Station, frame: Frame) -> None:
+        now = self.clock.now
+        x, y = station.position()
+        tx = _Tx(frame, now, now + self.airtime_s(frame), x, y)
+        self._air.append(tx)
+        self.stats.frames_sent += 1
+        self._after(tx.end - now, self._deliver, tx, station)
+
+    # -- receiving ------------------------------------------------------------------------------
+    def _deliver(self, tx: _Tx, sender: Station) -> None:
+        self._done(sender)
+        now = self.clock.now
+        frame = tx.frame
+        # forget transmissions that can no longer overlap anything still on the air
+        oldest_live = min((t.start for t in self._air if t.end >= now and t is not tx), default=now)
+        self._air = [t for t in self._air if t.end >= oldest_live or t is tx]
+        overlapping = [t for t in self._air if t is not tx and t.start < tx.end and t.end > tx.start]
+        if self.drop_filter is not None and self.drop_filter(frame):
+            return
+        targets = self.stations.values() if frame.dst == BROADCAST else [self.stations.get(frame.dst)]
+        cfg = self.cfg
+        for st in targets:
+            if st is None or st.node_id == frame.src:
+                continue
+            rx, ry = st.position()
+            d2 = (rx - tx.x) ** 2 + (ry - tx.y) ** 2
+            if d2 > self._range2:
+                continue
+            if frame.pan not in st.pans:
+                self.stats.foreign_pan_dropped += 1
+                continue
+            self.stats.receptions += 1
+            if any((t.x - rx) ** 2 + (t.y - ry) ** 2 <= self._range2 or t.frame.src == st.node_id for t in overlapping):
+                self.stats.frames_collided += 1
+                continue
+            if cfg.loss_prob > 0 and self.rng.random() < cfg.loss_prob:
+                self.stats.frames_lost += 1
+                continue
+            # RSSI-based distance estimate: log-distance path loss with log-normal shadowing
+            d = max(math.sqrt(d2), 0.1)
+            est = d * 10 ** (self.rng.normal(0.0, cfg.rssi_shadowing_db) / (10.0 * cfg.path_loss_exponent))
+            st.receive(Frame(frame.kind, frame.src, frame.dst, frame.pan, frame.payload, frame.size_bytes, est))

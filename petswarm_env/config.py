@@ -1,0 +1,261 @@
+"""Typed, validated configuration.
+
+The values live in one place, ``configs/default.yaml`` (shipped inside the package as
+``petswarm_env/default.yaml`` and mirrored at the repository's ``configs/``); this module holds
+only their *types and ranges*. A user's file or ``--set`` overrides are merged over the defaults,
+then validated as a whole: an unknown key or a bad value raises :class:`ConfigError` whose message
+names the key, what is wrong and what is allowed.
+"""
+
+from __future__ import annotations
+
+import copy
+from importlib import resources
+from pathlib import Path
+from typing import Any, Literal, Mapping
+
+import yaml
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+from petswarm_env.middleware.ir import IRConfig
+
+SCENARIOS = (
+    "straight",
+    "turn_left_60",
+    "turn_right_60",
+    "zigzag",
+    "u_turn",
+    "stop_and_go",
+    "random_walk",
+)
+FORMATIONS = ("column", "row", "wedge", "grid", "custom")
+DRIVING_MODES = ("following", "leading")
+
+
+class ConfigError(ValueError):
+    """A configuration key or value is wrong; the message says which and how to fix it."""
+
+
+class _Section(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class BoxObstacle(_Section):
+    center_m: tuple[float, float]
+    size_m: tuple[float, float] = Field(description="width (x) and height (y)")
+
+
+class WorldConfig(_Section):
+    arena_m: tuple[float, float] = Field(description="walled arena width, height (m); 0 = no walls")
+    obstacles: list[BoxObstacle]
+
+
+class UltrasonicConfig(_Section):
+    count: int = Field(ge=0, le=32)
+    min_range_m: float = Field(ge=0)
+    max_range_m: float = Field(gt=0)
+    noise_m: float = Field(ge=0)
+
+
+class RobotConfig(_Section):
+    radius_m: float = Field(gt=0)
+    mass_kg: float = Field(gt=0)
+    max_speed_mps: float = Field(gt=0, description="wheel-limited translation speed")
+    max_omega_rps: float = Field(gt=0)
+    max_accel_mps2: float = Field(gt=0)
+    max_alpha_rps2: float = Field(gt=0)
+    wheel_lever_m: float = Field(gt=0, description="lx + ly of the mecanum wheel layout")
+    ultrasonic: UltrasonicConfig
+    ahrs_noise_deg: float = Field(ge=0)
+    ahrs_drift_dps: float = Field(ge=0)
+    odometry_noise_rel: float = Field(ge=0)
+
+
+class CustomLink(_Section):
+    robot: int = Field(ge=1, description="member number of the slave")
+    neighbour: int = Field(ge=0, description="member number of its reference neighbour (0 = master)")
+    offset_m: tuple[float, float] = Field(description="reference offset in the formation frame")
+
+
+class SwarmConfig(_Section):
+    num_slaves: int = Field(ge=1, le=16)
+    extra_robots: int = Field(ge=0, le=16, description="waiting robots beyond the required number")
+    formation: Literal["column", "row", "wedge", "grid", "custom"]
+    spacing_m: float = Field(gt=0)
+    custom_links: list[CustomLink]
+    mode: Literal["following", "leading"]
+    spawn_jitter_m: float = Field(ge=0)
+    other_user_robots: int = Field(ge=0, le=16, description="waiting robots already connected to another user")
+
+
+class RadioConfig(_Section):
+    bitrate_bps: float = Field(gt=0)
+    frame_overhead_bytes: int = Field(ge=0)
+    latency_s: float = Field(ge=0)
+    loss_prob: float = Field(ge=0, le=1)
+    processing_s: float = Field(ge=0, description="MCU time to handle a frame before replying")
+    processing_jitter_s: float = Field(ge=0)
+    backoff_slot_s: float = Field(gt=0)
+    min_be: int = Field(ge=0, le=8)
+    max_be: int = Field(ge=0, le=8)
+    max_backoffs: int = Field(ge=0, le=8)
+    turnaround_s: float = Field(ge=0, description="CCA-to-TX turnaround: a frame started inside it is not sensed")
+    range_m: float = Field(gt=0)
+    rssi_shadowing_db: float = Field(ge=0, description="σ of log-normal shadowing on the RSSI")
+    path_loss_exponent: float = Field(gt=0)
+
+
+class ProtocolConfig(_Section):
+    join_radius_m: float = Field(gt=0, description="master's available region (seed 000 Table 1)")
+    scan_window_s: float = Field(gt=0)
+    response_timeout_s: float = Field(gt=0)
+    max_retries: int = Field(ge=0)
+    organize_timeout_s: float = Field(gt=0)
+    ring_response_timeout_s: float = Field(gt=0, description="token holder waits this long for responses")
+    ir_tx_s: float = Field(gt=0, description="IR transmission time of one token holder")
+    token_timeout_s: float = Field(gt=0, description="master regenerates the token after this silence")
+    token_retries: int = Field(ge=0)
+    broadcast_period_s: float = Field(gt=0, description="master's speed/activity broadcast")
+
+
+class UserConfig(_Section):
+    scenario: Literal[SCENARIOS]  # type: ignore[valid-type]
+    radius_m: float = Field(gt=0)
+    walk_speed_mps: float = Field(gt=0)
+    run_speed_mps: float = Field(gt=0)
+    turn_rate_dps: float = Field(gt=0)
+    start_delay_s: float = Field(ge=0)
+
+
+class MasterConfig(_Section):
+    distance_m: float = Field(gt=0, description="standard distance to the user (seed 000 §3.6.2)")
+    user_pos_noise_m: float = Field(ge=0)
+    gain: float = Field(gt=0)
+
+
+class RewardConfig(_Section):
+    formation: float
+    heading: float
+    collision: float
+    smoothness: float
+
+
+class RenderConfig(_Section):
+    fps: int = Field(gt=0)
+    pixels_per_m: float = Field(gt=0)
+    size_px: tuple[int, int]
+
+
+class Config(_Section):
+    seed: int = Field(ge=0)
+    max_cycles: int = Field(gt=0)
+    control_period_s: float = Field(gt=0)
+    physics_substeps: int = Field(ge=1, le=100)
+    world: WorldConfig
+    robot: RobotConfig
+    swarm: SwarmConfig
+    radio: RadioConfig
+    protocol: ProtocolConfig
+    ir: IRConfig
+    user: UserConfig
+    master: MasterConfig
+    reward: RewardConfig
+    render: RenderConfig
+
+    @model_validator(mode="after")
+    def _check_consistency(self) -> "Config":
+        if self.radio.max_be < self.radio.min_be:
+            raise ValueError("radio.max_be must be >= radio.min_be")
+        if self.swarm.formation == "custom" and not self.swarm.custom_links:
+            raise ValueError("swarm.formation 'custom' needs swarm.custom_links (robot, neighbour, offset_m)")
+        return self
+
+    def to_dict(self) -> dict[str, Any]:
+        return self.model_dump(mode="json")
+
+
+def default_config_path() -> Path:
+    return Path(str(resources.files("petswarm_env") / "default.yaml"))
+
+
+def _read_yaml(path: str | Path) -> dict[str, Any]:
+    path = Path(path)
+    if not path.is_file():
+        raise ConfigError(f"config file '{path}' does not exist; pass an existing YAML file")
+    try:
+        data = yaml.safe_load(path.read_text())
+    except yaml.YAMLError as exc:
+        raise ConfigError(f"config file '{path}' is not valid YAML: {exc}".replace("\n", " ")) from None
+    if data is None:
+        return {}
+    if not isinstance(data, dict):
+        raise ConfigError(f"config file '{path}' must hold a mapping of keys, got {type(data).__name__}")
+    return data
+
+
+def _merge(base: dict[str, Any], over: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
+    out = copy.deepcopy(base)
+    for key, value in over.items():
+        dotted = f"{prefix}{key}"
+        if key not in out:
+            allowed = ", ".join(sorted(out)) if out else "(none)"
+            raise ConfigError(f"unknown config key '{dotted}'; allowed keys here: {allowed}")
+        if isinstance(out[key], dict) and isinstance(value, Mapping):
+            out[key] = _merge(out[key], value, prefix=f"{dotted}.")
+        else:
+            out[key] = copy.deepcopy(value)
+    return out
+
+
+def parse_override(item: str) -> tuple[str, Any]:
+    """Parse ``KEY=VALUE`` (VALUE read as YAML, so ``3``, ``0.1``, ``true``, ``[1, 2]`` work)."""
+    if "=" not in item:
+        raise ConfigError(f"override '{item}' must look like KEY=VALUE, e.g. swarm.num_slaves=3")
+    key, raw = item.split("=", 1)
+    try:
+        value = yaml.safe_load(raw)
+    except yaml.YAMLError:
+        value = raw
+    return key.strip(), value
+
+
+def _dotted_to_nested(overrides: Mapping[str, Any]) -> dict[str, Any]:
+    nested: dict[str, Any] = {}
+    for key, value in overrides.items():
+        parts = key.split(".")
+        node = nested
+        for part in parts[:-1]:
+            node = node.setdefault(part, {})
+            if not isinstance(node, dict):
+                raise ConfigError(f"override '{key}' conflicts with another override of '{part}'")
+        node[parts[-1]] = value
+    return nested
+
+
+def _format_validation_error(exc: ValidationError) -> str:
+    err = exc.errors()[0]
+    loc = ".".join(str(p) for p in err["loc"]) or "(config)"
+    msg = err["msg"]
+    if err["type"] == "extra_forbidden":
+        return f"unknown config key '{loc}'"
+    return f"bad config value for '{loc}': {msg} (got {err.get('input')!r})"
+
+
+def load_config(
+    path: str | Path | None = None,
+    overrides: Mapping[str, Any] | None = None,
+) -> Config:
+    """Load the defaults, merge a user YAML file and dotted overrides over them, validate.
+
+    ``overrides`` maps dotted keys (``"swarm.num_slaves"``) or top-level sections (``"swarm":
+    {...}``) to values. Raises :class:`ConfigError` with a one-line reason on any problem.
+    """
+    data = _read_yaml(default_config_path())
+    if path is not None:
+        data = _merge(data, _read_yaml(path))
+    if overrides:
+        data = _merge(data, _dotted_to_nested(overrides))
+    try:
+        return Config.model_validate(data)
+    except ValidationError as exc:
+        raise ConfigError(_format_validation_error(exc)) from None

@@ -1,0 +1,110 @@
+"""Formation shapes as neighbour tables (seed 000 §3.5, Fig. 10).
+
+Leader–follower: each slave (member number ≥ 1) keeps a reference offset relative to one or two
+reference neighbours. Offsets are in the *formation frame*: x along the swarm heading (the
+master's heading), y to its left. The master is member 0. The user chooses each robot's
+neighbours, which defines the shape; ``custom`` takes the table from the config.
+
+Hierarchy levels are numbered from the robot farthest from the user (level 1) (seed 000 §3.5).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from petswarm_env.config import SwarmConfig
+
+MAX_LINKS = 2  # reference neighbours per slave (grid uses front and side)
+
+
+@dataclass(frozen=True)
+class Link:
+    neighbour: int  # member number of the reference neighbour
+    offset_m: tuple[float, float]  # this robot's reference position relative to the neighbour
+
+
+@dataclass(frozen=True)
+class Formation:
+    shape: str
+    links: dict[int, tuple[Link, ...]]  # member number -> its reference links
+
+    @property
+    def size(self) -> int:
+        return len(self.links) + 1
+
+    def slot_positions(self) -> np.ndarray:
+        """Reference position of every member in the formation frame, master at the origin."""
+        pos = {0: np.zeros(2)}
+        pending = dict(self.links)
+        while pending:
+            progressed = False
+            for m, links in list(pending.items()):
+                if all(link.neighbour in pos for link in links):
+                    pos[m] = np.mean([pos[lk.neighbour] + np.asarray(lk.offset_m) for lk in links], axis=0)
+                    del pending[m]
+                    progressed = True
+            if not progressed:
+                raise ValueError(f"formation links do not reach the master from members {sorted(pending)}")
+        return np.array([pos[m] for m in range(self.size)])
+
+    def neighbours(self, member: int) -> set[int]:
+        """Symmetric neighbour set: the robots that exchange headings with ``member`` (Fig. 9)."""
+        out = {lk.neighbour for lk in self.links.get(member, ())}
+        out |= {m for m, links in self.links.items() if any(lk.neighbour == member for lk in links)}
+        return out
+
+    def hierarchy_levels(self, user_position_formation: tuple[float, float]) -> dict[int, int]:
+        """Level 1 = farthest from the user, counting up toward the user (seed 000 Fig. 10)."""
+        slots = self.slot_positions()
+        d = np.hypot(*(slots - np.asarray(user_position_formation)).T)
+        order = sorted(range(self.size), key=lambda m: (-round(float(d[m]), 6), m))
+        return {m: i + 1 for i, m in enumerate(order)}
+
+
+def build_formation(cfg: SwarmConfig, num_members: int) -> Formation:
+    """Neighbour table for ``num_members`` robots (master included) in the configured shape."""
+    s = cfg.spacing_m
+    n = num_members
+    links: dict[int, tuple[Link, ...]] = {}
+    if cfg.formation == "column":  # each robot behind the previous one
+        for m in range(1, n):
+            links[m] = (Link(m - 1, (-s, 0.0)),)
+    elif cfg.formation == "row":  # alternately left and right, outward from the master
+        for m in range(1, n):
+            side = 1.0 if m % 2 == 1 else -1.0
+            links[m] = (Link(max(m - 2, 0), (0.0, side * s)),)
+    elif cfg.formation == "wedge":  # V opening backwards: two arms at 30° off the back axis
+        back, lateral = -s * math.cos(math.radians(30)), s * math.sin(math.radians(30))
+        for m in range(1, n):
+            side = 1.0 if m % 2 == 1 else -1.0
+            links[m] = (Link(max(m - 2, 0), (back, side * lateral)),)
+    elif cfg.formation == "grid":  # two columns; front neighbour and left neighbour
+        for m in range(1, n):
+            row, col = divmod(m, 2)
+            own: list[Link] = []
+            if row > 0:
+                own.append(Link(m - 2, (-s, 0.0)))
+            if col == 1:
+                own.append(Link(m - 1, (0.0, -s)))
+            links[m] = tuple(own)
+    else:  # custom
+        for link in cfg.custom_links:
+            links.setdefault(link.robot, ())
+            links[link.robot] = links[link.robot] + (Link(link.neighbour, tuple(link.offset_m)),)
+        expected = set(range(1, n))
+        if set(links) != expected:
+            raise ValueError(
+                f"swarm.custom_links must give links for members {sorted(expected)}, got {sorted(links)}"
+            )
+        for m, lks in links.items():
+            if len(lks) > MAX_LINKS:
+                raise ValueError(f"swarm.custom_links: member {m} has {len(lks)} links; at most {MAX_LINKS}")
+            for lk in lks:
+                if not 0 <= lk.neighbour < n or lk.neighbour == m:
+                    raise ValueError(f"swarm.custom_links: member {m} refers to invalid neighbour {lk.neighbour}")
+    formation = Formation(cfg.formation, links)
+    formation.slot_positions()  # validates reachability
+    return formation

@@ -1,0 +1,167 @@
+"""Swarm-network formation: the join protocol (seed 000 §3.4, Fig. 8, Tables 1–2).
+
+1. The master broadcasts a *scan*; waiting robots answer; the master takes the responders as
+   joining candidates (too few responders → scan again: a retry).
+2. The master broadcasts the *joining query* to the candidates; each decides by Table 1 and
+   answers joining-available / joining-unavailable. Missing answers → query again (retry).
+3. The master selects by Table 2 and sends each candidate a *joining notification* (new PAN ID,
+   member number, total number of members) or a *non-participating notification*; each answers
+   with an acknowledgement. Missing acknowledgements → notify again (retry).
+4. Joined robots switch to the new PAN ID.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from petswarm_env.comms.radio import BROADCAST, PAN_WAITING, Frame
+from petswarm_env.middleware import messages as msg
+from petswarm_env.middleware.node import Node
+
+
+def can_join(connected_user: int | None, distance_m: float, available_radius_m: float) -> bool:
+    """Table 1 (seed 000): connection is checked first — a robot connected to another user
+    cannot join and never checks distance; otherwise it can join inside the available region."""
+    if connected_user is not None:
+        return False
+    return distance_m <= available_radius_m
+
+
+def select_joiners(available: dict[int, float], required: int) -> list[int]:
+    """Table 2 (seed 000): ``available`` maps robot id -> estimated distance to the master.
+    If fewer are required than can join, take the closest; otherwise take all."""
+    ranked = sorted(available, key=lambda rid: (available[rid], rid))
+    if required < len(ranked):
+        return sorted(ranked[:required])
+    return sorted(ranked)
+
+
+@dataclass
+class OrganizeResult:
+    members: dict[int, int] = field(default_factory=dict)  # member number -> node id
+    retries: int = 0
+    elapsed_s: float = 0.0
+    candidates: list[int] = field(default_factory=list)
+    unavailable: list[int] = field(default_factory=list)
+    not_selected: list[int] = field(default_factory=list)
+    complete: bool = False
+
+
+class JoinManager:
+    """Both roles of the join protocol on one robot."""
+
+    def __init__(self, node: Node):
+        self.node = node
+        self._expect: set[int] = set()
+        self._got: dict[int, Frame] = {}
+        self._all_in = None
+        self._joined_at: float | None = None
+        node.on(msg.SCAN, self._on_scan)
+        node.on(msg.JOIN_QUERY, self._on_query)
+        node.on(msg.JOIN_NOTIFY, self._on_notify)
+        node.on(msg.NON_PARTICIPATE, self._on_non_participate)
+        for kind in (msg.SCAN_RESPONSE, msg.JOIN_ANSWER, msg.NOTIFY_ACK):
+            node.on(kind, self._on_response)
+
+    # -- master side ----------------------------------------------------------------------------
+    def _on_response(self, frame: Frame) -> None:
+        if frame.dst != self.node.node_id:
+            return
+        if frame.kind == msg.SCAN_RESPONSE or frame.src in self._expect:
+            self._got[frame.src] = frame
+        if self._expect and self._expect <= set(self._got) and self._all_in is not None and not self._all_in.triggered:
+            self._all_in.succeed()
+
+    def _collect(self, expect: set[int], timeout_s: float):
+        """Wait until every robot in ``expect`` answered or the timeout passes (SimPy)."""
+        clock = self.node.clock
+        self._expect = set(expect)
+        self._all_in = clock.event()
+        yield clock.any_of([self._all_in, clock.timeout(timeout_s)])
+        self._expect = set()
+
+    def organize(self, required: int, pan: int, formation_shape: str, result: OrganizeResult):
+        """Master-side organize process (SimPy generator); fills ``result``."""
+        node = self.node
+        cfg = node.cfg.protocol
+        clock = node.clock
+        t0 = clock.now
+        node.pans = frozenset({PAN_WAITING, pan})
+        # 1. scan
+        while True:
+            self._got = {}
+            node.send(msg.SCAN, pan=PAN_WAITING)
+            yield clock.timeout(cfg.scan_window_s)
+            candidates = {rid: f.rx_distance_est_m for rid, f in self._got.items()}
+            if len(candidates) >= required or result.retries >= cfg.max_retries:
+                break
+            result.retries += 1
+        result.candidates = sorted(candidates)
+        # 2. joining query
+        self._got = {}
+        answers: dict[int, Frame] = {}
+        pending = set(candidates)
+        while pending:
+            node.send(msg.JOIN_QUERY, pan=PAN_WAITING, candidates=sorted(pending))
+            yield from self._collect(pending, cfg.response_timeout_s)
+            answers.update({rid: self._got[rid] for rid in pending if rid in self._got})
+            pending -= set(answers)
+            if pending:
+                if result.retries >= cfg.max_retries:
+                    break
+                result.retries += 1
+        # 3. selection (Table 2)
+        available = {rid: candidates[rid] for rid, f in answers.items() if f.payload["available"]}
+        result.unavailable = sorted(set(answers) - set(available))
+        joiners = select_joiners(available, required)
+        members = {0: node.node_id}
+        members.update({i + 1: rid for i, rid in enumerate(joiners)})
+        result.not_selected = sorted(set(answers) - set(joiners))
+        # 4. notifications, one robot after another, each acknowledged
+        notify = {rid: msg.JOIN_NOTIFY for rid in joiners}
+        notify.update({rid: msg.NON_PARTICIPATE for rid in result.not_selected})
+        for rid in sorted(notify, key=lambda r: (notify[r] != msg.JOIN_NOTIFY, r)):
+            attempt = 0
+            while True:
+                self._got = {}
+                pans = [PAN_WAITING] if attempt == 0 or notify[rid] != msg.JOIN_NOTIFY else [PAN_WAITING, pan]
+                for p in pans:  # a robot whose ack was lost has already moved to the new PAN
+                    if notify[rid] == msg.JOIN_NOTIFY:
+                        member = next(m for m, n in members.items() if n == rid)
+                        node.send(msg.JOIN_NOTIFY, dst=rid, pan=p, new_pan=pan, member=member,
+                                  total=len(members), members=dict(members), shape=formation_shape)
+                    else:
+                        node.send(msg.NON_PARTICIPATE, dst=rid, pan=p)
+                yield from self._collect({rid}, cfg.response_timeout_s)
+                if rid in self._got or result.retries >= cfg.max_retries:
+                    break
+                result.retries += 1
+                attempt += 1
+        node.pans = frozenset({pan})
+        result.members = members
+        result.elapsed_s = clock.now - t0
+        result.complete = len(joiners) == min(required, len(available)) and len(joiners) > 0
+
+    # -- candidate side -------------------------------------------------------------------------
+    def _on_scan(self, frame: Frame) -> None:
+        if self.node.state == "waiting":
+            self.node.send(msg.SCAN_RESPONSE, dst=frame.src, pan=PAN_WAITING)
+
+    def _on_query(self, frame: Frame) -> None:
+        node = self.node
+        if node.state != "waiting" or node.node_id not in frame.payload["candidates"]:
+            return
+        ok = can_join(node.connected_user, frame.rx_distance_est_m, node.cfg.protocol.join_radius_m)
+        node.send(msg.JOIN_ANSWER, dst=frame.src, pan=PAN_WAITING, available=ok)
+
+    def _on_notify(self, frame: Frame) -> None:
+        node = self.node
+        p = frame.payload
+        if node.state == "waiting":
+            node.swarm.become_slave(node, frame.src, p["new_pan"], p["member"], p["members"], p["shape"])
+        if node.swarm_pan == p["new_pan"]:  # (re-)acknowledge, also when the first ack was lost
+            node.send(msg.NOTIFY_ACK, dst=frame.src, pan=frame.pan)
+
+    def _on_non_participate(self, frame: Frame) -> None:
+        if self.node.state == "waiting":
+            self.node.send(msg.NOTIFY_ACK, dst=frame.src, pan=PAN_WAITING)

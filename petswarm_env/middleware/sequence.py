@@ -1,0 +1,64 @@
+"""The sequence manager: organize, maintain, disperse (seed 000 §3.1, Fig. 4).
+
+Robot states: a *waiting* robot that receives the swarm-organizing request goes to
+*organizing* and then *slave*-role driving; the user-connected robot goes from its driving state
+(*following*/*leading*/*remote*) to *organizing* and then *master*-role driving. On the disperse
+request, slaves return to *waiting* and the master to its previous driving state.
+"""
+
+from __future__ import annotations
+
+from petswarm_env.comms.radio import PAN_WAITING, Frame
+from petswarm_env.middleware import messages as msg
+from petswarm_env.middleware.node import Knowledge, Node
+
+STATES = ("waiting", "organizing", "master", "slave", "following", "leading", "remote")
+
+
+class SequenceManager:
+    def __init__(self, node: Node):
+        self.node = node
+        self.previous_driving_state = "following"
+        node.on(msg.DISPERSE, self._on_disperse)
+        node.on(msg.DISPERSE_ACK, self._on_disperse_ack)
+        self._acks: set[int] = set()
+
+    def leave_swarm(self) -> None:
+        """Back to waiting on the common PAN, forgetting the swarm."""
+        node = self.node
+        node.state = "waiting"
+        node.pans = frozenset({PAN_WAITING})
+        node.swarm_pan = None
+        node.formation = None
+        node.know = Knowledge()
+
+    def _on_disperse(self, frame: Frame) -> None:
+        node = self.node
+        if node.state != "slave":
+            return
+        node.send(msg.DISPERSE_ACK, dst=frame.src)
+        # leave once the acknowledgement is on its way (the MAC keeps the PAN of queued frames)
+        self.leave_swarm()
+
+    def _on_disperse_ack(self, frame: Frame) -> None:
+        if frame.dst == self.node.node_id:
+            self._acks.add(frame.src)
+
+    def disperse(self, result: dict):
+        """Master process: broadcast disperse until every slave acknowledged (or retries run out)."""
+        node = self.node
+        clock = node.clock
+        cfg = node.cfg.protocol
+        slaves = {n for m, n in node.know.members.items() if m != 0}
+        self._acks = set()
+        retries = 0
+        while True:
+            node.send(msg.DISPERSE)
+            yield clock.timeout(cfg.response_timeout_s)
+            if slaves <= self._acks or retries >= cfg.max_retries:
+                break
+            retries += 1
+        result["acknowledged"] = sorted(self._acks & slaves)
+        result["retries"] = retries
+        self.leave_swarm()
+        node.state = self.previous_driving_state

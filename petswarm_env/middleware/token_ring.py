@@ -1,0 +1,171 @@
+"""The IR token ring and the heading exchange (seed 000 §3.3 Fig. 7, §3.5 Fig. 9).
+
+Robots have independent clocks, so IR transmission is sequenced by a token:
+
+1. the holder broadcasts the *transmission-start* sign and waits for the responses;
+2. it transmits IR until its deadline while all others receive and measure it;
+   the holder's neighbours then send it *heading information* (the bearing at which they saw it);
+3. at the deadline it broadcasts the *token* with the number of the next robot and waits for the
+   responses (retrying when the next robot does not answer, skipping it after ``token_retries``);
+4. the next robot sends the *sync* message, switches its IR module to transmit and starts over.
+
+A lost token must not stall the ring (SPEC §3.3, chosen): the master watches the ring and, after
+``token_timeout_s`` of silence, regenerates the token and transmits itself.
+
+Heading exchange: robot j saw robot i at bearing φ_ji (in j's frame); i saw j at φ_ij. Then
+θ_j − θ_i = φ_ij − φ_ji + π (SPEC §3.4), with no compass.
+"""
+
+from __future__ import annotations
+
+import math
+
+from petswarm_env.comms.radio import Frame
+from petswarm_env.middleware import messages as msg
+from petswarm_env.middleware.node import HeadingEstimate, Node
+
+
+def wrap(a: float) -> float:
+    return (a + math.pi) % (2 * math.pi) - math.pi
+
+
+def relative_heading(bearing_self_sees_other: float, bearing_other_sees_self: float) -> float:
+    """θ_other − θ_self from the two mutual IR bearings (seed 000 §3.5; SPEC §3.4)."""
+    return wrap(bearing_self_sees_other - bearing_other_sees_self + math.pi)
+
+
+class TokenRing:
+    def __init__(self, node: Node):
+        self.node = node
+        self.token_seq = -1  # highest token sequence number seen
+        self.holding = False
+        self.last_activity_s = 0.0
+        self.recoveries = 0  # master only: tokens regenerated
+        self.drop_next_token = False  # fault injection: silently lose the next token handed to us
+        self._acks: set[int] = set()
+        self._acks_needed: set[int] = set()
+        self._acks_event = None
+        node.on(msg.TX_START, self._on_tx_start)
+        node.on(msg.TOKEN, self._on_token)
+        node.on(msg.SYNC, self._on_sync)
+        node.on(msg.HEADING, self._on_heading)
+        node.on(msg.TX_START_ACK, self._on_ack)
+        node.on(msg.TOKEN_ACK, self._on_ack)
+
+    # -- ring order -----------------------------------------------------------------------------
+    def _next_member(self, member: int) -> int:
+        return (member + 1) % self.node.know.total_members
+
+    def _ring_peers(self) -> set[int]:
+        return {n for n in self.node.know.members.values() if n != self.node.node_id}
+
+    # -- holder -----------------------------------------------------------------------------------
+    def _wait_acks(self, needed: set[int]):
+        clock = self.node.clock
+        self._acks = set()
+        self._acks_needed = needed
+        self._acks_event = clock.event()
+        yield clock.any_of([self._acks_event, clock.timeout(self.node.cfg.protocol.ring_response_timeout_s)])
+
+    def _on_ack(self, frame: Frame) -> None:
+        if frame.dst != self.node.node_id:
+            return
+        self._acks.add(frame.src)
+        ev = self._acks_event
+        if ev is not None and not ev.triggered and self._acks_needed <= self._acks:
+            ev.succeed()
+
+    def hold(self, seq: int):
+        """Holder's slot (SimPy process): start sign, IR transmission, token hand-over."""
+        node = self.node
+        clock = node.clock
+        cfg = node.cfg.protocol
+        self.holding = True
+        self.token_seq = seq
+        self.last_activity_s = clock.now
+        peers = self._ring_peers()
+        node.send(msg.TX_START, seq=seq)
+        yield from self._wait_acks(peers)
+        yield clock.timeout(cfg.ir_tx_s)
+        if self.token_seq != seq:  # a regenerated token superseded us
+            self.holding = False
+            return
+        node.swarm.ir_slot(node)  # every other member measures our IR now
+        member = node.know.member
+        nxt = self._next_member(member)
+        for _skip in range(node.know.total_members):
+            target = node.know.members[nxt]
+            for _attempt in range(cfg.token_retries + 1):
+                node.send(msg.TOKEN, seq=seq + 1, next=nxt)
+                yield from self._wait_acks({target})
+                if target in self._acks:
+                    break
+            if target in self._acks or nxt == member:
+                break
+            nxt = self._next_member(nxt)  # skip a robot that does not answer
+        self.holding = False
+        self.last_activity_s = clock.now
+        if nxt == member:  # nobody else answered: keep the token
+            node.clock.process(self._begin(seq + 1))
+
+    def _begin(self, seq: int):
+        """Become the holder: send the sync message, switch IR to transmit, run the slot."""
+        self.node.send(msg.SYNC, seq=seq)
+        yield from self.hold(seq)
+
+    # -- everyone ---------------------------------------------------------------------------------
+    def _on_tx_start(self, frame: Frame) -> None:
+        self.last_activity_s = self.node.clock.now
+        seq = frame.payload["seq"]
+        if seq >= self.token_seq:
+            self.token_seq = seq
+        self.node.send(msg.TX_START_ACK, dst=frame.src)
+
+    def _on_token(self, frame: Frame) -> None:
+        node = self.node
+        self.last_activity_s = node.clock.now
+        node.send(msg.TOKEN_ACK, dst=frame.src)
+        seq = frame.payload["seq"]
+        if seq <= self.token_seq or node.know.members.get(frame.payload["next"]) != node.node_id:
+            return
+        self.token_seq = seq
+        if self.drop_next_token:
+            self.drop_next_token = False
+            return
+        node.clock.process(self._begin(seq))
+
+    def _on_sync(self, frame: Frame) -> None:
+        self.last_activity_s = self.node.clock.now
+        self.token_seq = max(self.token_seq, frame.payload["seq"])
+
+    def send_heading(self, holder: int, bearing_rad: float) -> None:
+        """Neighbour of the transmitter: report the bearing at which we saw it (Fig. 9)."""
+        self.node.send(msg.HEADING, dst=holder, bearing=bearing_rad)
+
+    def _on_heading(self, frame: Frame) -> None:
+        node = self.node
+        if frame.dst != node.node_id:
+            return
+        seen = node.know.ir.get(frame.src)
+        if seen is None:
+            return
+        # our bearing of the sender dates from its slot: carry it over our own rotation since (AHRS)
+        yaw = node.ahrs_yaw()
+        bearing_now = seen.bearing_rad - (yaw - seen.own_yaw_rad)
+        rel = relative_heading(bearing_now, frame.payload["bearing"])
+        node.know.heading[frame.src] = HeadingEstimate(rel, node.clock.now, yaw)
+
+    # -- master: watchdog -------------------------------------------------------------------------
+    def watchdog(self):
+        """Master process: regenerate a lost token after ``token_timeout_s`` of ring silence."""
+        node = self.node
+        clock = node.clock
+        timeout = node.cfg.protocol.token_timeout_s
+        while node.state == "master":
+            yield clock.timeout(timeout / 2)
+            if node.state != "master":
+                return
+            if not self.holding and clock.now - self.last_activity_s > timeout:
+                self.recoveries += 1
+                self.token_seq += 1000  # supersede any stale holder
+                clock.process(self.hold(self.token_seq))

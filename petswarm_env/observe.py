@@ -1,0 +1,181 @@
+"""What a policy sees: one fixed-size vector per slave, built from its middleware only.
+
+The layout is declared once, in :data:`FIELDS`; the builder, the documentation table
+(:func:`markdown_table`) and the policies' accessors (:class:`ObservationLayout`) all read it.
+Every value is scaled to about [-1, 1]; ``scale`` says by what (value_in_obs = value / scale).
+Nothing here reads ground truth: the inputs are a node's :class:`~.middleware.node.Knowledge`,
+its own sensors (odometry, AHRS, ultrasonic ring) and its last action.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from petswarm_env.middleware.formation import MAX_LINKS
+from petswarm_env.middleware.node import Node
+from petswarm_env.sim.scenarios import ACTIVITIES
+
+OBS_VERSION = 1
+POS_SCALE_M = 3.0
+AGE_SCALE_S = 2.0
+
+
+@dataclass(frozen=True)
+class Field:
+    name: str
+    size: int
+    scale: str  # human-readable scale, for the docs
+    doc: str
+
+
+def _link_fields(k: int) -> list[Field]:
+    p = f"link{k}."
+    return [
+        Field(p + "present", 1, "0/1", f"reference link {k} exists (slot 0 = primary neighbour, 1 = second, grid)"),
+        Field(p + "ir_valid", 1, "0/1", "an IR measurement of that neighbour has been received"),
+        Field(p + "neighbour_xy", 2, f"m / {POS_SCALE_M}", "IR-estimated position of the neighbour in own body frame (x forward, y left), carried over own rotation since (AHRS)"),
+        Field(p + "ir_age", 1, f"s / {AGE_SCALE_S}, clipped to 1", "age of that IR measurement"),
+        Field(p + "offset_xy", 2, f"m / {POS_SCALE_M}", "own reference offset from the neighbour, formation frame (x = swarm heading)"),
+        Field(p + "heading_sincos", 2, "-", "sin, cos of θ_neighbour − θ_self from the heading exchange, carried over own rotation since (AHRS); (0, 1) if unknown"),
+        Field(p + "heading_valid", 1, "0/1", "a heading exchange with that neighbour has happened"),
+        Field(p + "heading_age", 1, f"s / {AGE_SCALE_S}, clipped to 1", "age of the heading estimate"),
+    ]
+
+
+FIELDS: list[Field] = [
+    *[f for k in range(MAX_LINKS) for f in _link_fields(k)],
+    Field("master.valid", 1, "0/1", "a master status broadcast has been received"),
+    Field("master.age", 1, "s / 1, clipped to 1", "age of the last master broadcast"),
+    Field("master.velocity", 3, "/ (v_max, v_max, ω_max)", "master's (Vx, Vy, ω) in its body frame, as broadcast"),
+    Field("master.activity", len(ACTIVITIES), "one-hot", "user activity broadcast by the master: " + ", ".join(ACTIVITIES)),
+    Field("master.rotating", 1, "0/1", "user rotation flag (|turn rate| > 0.1 rad/s)"),
+    Field("master.turn_rate", 1, "/ ω_max", "user turn rate as broadcast (rad/s, CCW +)"),
+    Field("master.leading", 1, "0/1", "driving mode: 1 = leading, 0 = following"),
+    Field("master.user_xy", 2, f"m / {POS_SCALE_M}", "user position relative to the master, master's frame, as broadcast"),
+    Field("self.odometry", 3, "/ (v_max, v_max, ω_max)", "own wheel-odometry (Vx, Vy, ω), body frame"),
+    Field("self.yaw_sincos", 2, "-", "own AHRS yaw (noisy, drifting)"),
+    Field("self.last_action", 3, "[-1, 1]", "the action applied last step"),
+    Field("self.offset_from_master_xy", 2, f"m / {POS_SCALE_M}", "own reference position relative to the master, formation frame (from the neighbour table)"),
+    Field("self.ultrasonic", -1, "m / max_range", "ultrasonic ring ranges, sensor 0 forward, counter-clockwise"),
+    Field("self.hierarchy", 1, "level / members", "hierarchy level (1 = farthest from the user) over the number of members"),
+    Field("self.members", 1, "/ 16", "number of swarm members (master included)"),
+    Field("self.member", 1, "/ 16", "own member number"),
+]
+
+
+class ObservationLayout:
+    """Offsets of every named field; the same object documents, builds and reads observations."""
+
+    def __init__(self, num_ultrasonic: int):
+        self.slices: dict[str, slice] = {}
+        self.fields: list[Field] = []
+        i = 0
+        for f in FIELDS:
+            size = num_ultrasonic if f.size == -1 else f.size
+            self.fields.append(Field(f.name, size, f.scale, f.doc))
+            self.slices[f.name] = slice(i, i + size)
+            i += size
+        self.size = i
+
+    def get(self, obs: np.ndarray, name: str) -> np.ndarray:
+        return obs[self.slices[name]]
+
+    def signature(self) -> list[tuple[str, int]]:
+        """(name, size) of every field: what a saved policy records and is matched against."""
+        return [(f.name, f.size) for f in self.fields]
+
+
+def markdown_table(layout: ObservationLayout) -> str:
+    rows = ["| index | field | size | scale | meaning |", "|---|---|---|---|---|"]
+    for f in layout.fields:
+        s = layout.slices[f.name]
+        idx = f"{s.start}" if f.size == 1 else f"{s.start}–{s.stop - 1}"
+        rows.append(f"| {idx} | `{f.name}` | {f.size} | {f.scale} | {f.doc} |")
+    return "\n".join(rows)
+
+
+def _clip_age(age: float, scale: float) -> float:
+    return min(age / scale, 1.0)
+
+
+def build_observation(
+    layout: ObservationLayout,
+    out: np.ndarray,
+    node: Node,
+    now: float,
+    odometry: tuple[float, float, float],
+    yaw_rad: float,
+    last_action: np.ndarray,
+    ultrasonic_m: np.ndarray,
+    hierarchy_level: int,
+    offset_from_master: tuple[float, float],
+    limits: tuple[float, float, float],
+    us_max_range_m: float,
+) -> np.ndarray:
+    """Fill ``out`` (layout.size,) with the observation of one slave."""
+    out[:] = 0.0
+    sl = layout.slices
+    vmax, _, wmax = limits
+    know = node.know
+    for k, link in enumerate(node.reference_links()):
+        base = sl[f"link{k}.present"].start
+        out[base] = 1.0
+        nb = know.members.get(link.neighbour)
+        m = know.ir.get(nb)
+        if m is not None:  # bearing carried over own rotation since the measurement (AHRS)
+            b = m.bearing_rad - (yaw_rad - m.own_yaw_rad)
+            out[base + 1] = 1.0
+            out[base + 2] = m.distance_m * math.cos(b) / POS_SCALE_M
+            out[base + 3] = m.distance_m * math.sin(b) / POS_SCALE_M
+            out[base + 4] = _clip_age(now - m.time_s, AGE_SCALE_S)
+        else:
+            out[base + 4] = 1.0
+        out[base + 5] = link.offset_m[0] / POS_SCALE_M
+        out[base + 6] = link.offset_m[1] / POS_SCALE_M
+        h = know.heading.get(nb)
+        if h is not None:  # θ_nb − θ_self falls as we turn: carry it over own rotation (AHRS)
+            rel = h.relative_rad - (yaw_rad - h.own_yaw_rad)
+            out[base + 7] = math.sin(rel)
+            out[base + 8] = math.cos(rel)
+            out[base + 9] = 1.0
+            out[base + 10] = _clip_age(now - h.time_s, AGE_SCALE_S)
+        else:
+            out[base + 8] = 1.0
+            out[base + 10] = 1.0
+    st = know.status
+    i = sl["master.valid"].start
+    if st is not None:
+        out[i] = 1.0
+        out[i + 1] = _clip_age(now - st.time_s, 1.0)
+        out[i + 2] = st.velocity[0] / vmax
+        out[i + 3] = st.velocity[1] / vmax
+        out[i + 4] = st.velocity[2] / wmax
+        out[sl["master.activity"].start + ACTIVITIES.index(st.activity)] = 1.0
+        out[sl["master.rotating"].start] = 1.0 if abs(st.user_turn_rate_rps) > 0.1 else 0.0
+        out[sl["master.turn_rate"].start] = st.user_turn_rate_rps / wmax
+        out[sl["master.leading"].start] = 1.0 if st.mode == "leading" else 0.0
+        j = sl["master.user_xy"].start
+        out[j] = st.user_position_m[0] / POS_SCALE_M
+        out[j + 1] = st.user_position_m[1] / POS_SCALE_M
+    else:
+        out[i + 1] = 1.0
+    j = sl["self.odometry"].start
+    out[j] = odometry[0] / vmax
+    out[j + 1] = odometry[1] / vmax
+    out[j + 2] = odometry[2] / wmax
+    j = sl["self.yaw_sincos"].start
+    out[j] = math.sin(yaw_rad)
+    out[j + 1] = math.cos(yaw_rad)
+    out[sl["self.last_action"]] = last_action
+    j = sl["self.offset_from_master_xy"].start
+    out[j] = offset_from_master[0] / POS_SCALE_M
+    out[j + 1] = offset_from_master[1] / POS_SCALE_M
+    out[sl["self.ultrasonic"]] = ultrasonic_m / us_max_range_m
+    total = max(know.total_members, 1)
+    out[sl["self.hierarchy"].start] = hierarchy_level / total
+    out[sl["self.members"].start] = total / 16.0
+    out[sl["self.member"].start] = know.member / 16.0
+    return out

@@ -1,0 +1,36 @@
+"""Reward of one slave for one step, from ground truth (the experimenter's view).
+
+    r = − w_formation · e
+        − w_heading   · (1 − cos(θ − θ_formation))
+        − w_collision · (contacts this robot began this step: robot, user or wall)
+        − w_smoothness · ‖a_t − a_{t−1}‖²
+
+``e`` is the distance (m) from the slave's true position to its reference position, θ its true
+heading, θ_formation the master's true heading, ``a`` the action in [-1, 1]³. Weights are in the
+``reward`` section of the config.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from petswarm_env.config import RewardConfig
+
+
+def slave_reward(
+    cfg: RewardConfig,
+    formation_error_m: float,
+    heading_error_rad: float,
+    new_contacts: int,
+    action: np.ndarray,
+    last_action: np.ndarray,
+) -> float:
+    da = action - last_action
+    return float(
+        -cfg.formation * formation_error_m
+        - cfg.heading * (1.0 - math.cos(heading_error_rad))
+        - cfg.collision * new_contacts
+        - cfg.smoothness * float(da @ da)
+    )

@@ -1,0 +1,133 @@
+"""A mecanum-wheeled Pet-Bot: body-frame commands, wheel kinematics, limits, own sensors.
+
+Control factors (seed 000 §3.6.1, Fig. 11; seed 002 §3.4): ``Vx`` front/rear speed, ``Vy``
+left/right speed, ``ω`` angular speed, all in the robot's body frame (x forward, y left, ω CCW).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pymunk
+
+from petswarm_env.config import RobotConfig
+
+COLLISION_ROBOT = 1
+COLLISION_USER = 2
+COLLISION_WALL = 3
+
+# Wheel order: front-left, front-right, rear-left, rear-right. Linear wheel-rim speeds (m/s).
+_INV = np.array(  # body (vx, vy, L*ω) -> wheels
+    [
+        [1.0, -1.0, -1.0],
+        [1.0, 1.0, 1.0],
+        [1.0, 1.0, -1.0],
+        [1.0, -1.0, 1.0],
+    ]
+)
+_FWD = _INV.T / 4.0  # wheels -> body (vx, vy, L*ω); the pseudo-inverse of _INV
+
+
+def wheel_speeds(vx: float, vy: float, omega: float, lever_m: float) -> np.ndarray:
+    """Standard mecanum inverse kinematics: body velocity -> four wheel rim speeds (m/s)."""
+    return _INV @ np.array([vx, vy, lever_m * omega])
+
+
+def body_velocity(wheels: np.ndarray, lever_m: float) -> tuple[float, float, float]:
+    """Mecanum forward kinematics: four wheel rim speeds -> body (vx, vy, ω)."""
+    vx, vy, l_omega = _FWD @ wheels
+    return float(vx), float(vy), float(l_omega / lever_m)
+
+
+def saturate_command(vx: float, vy: float, omega: float, cfg: RobotConfig) -> tuple[float, float, float]:
+    """Clip ω to its limit, then scale all wheels together so none exceeds the wheel limit.
+
+    Scaling the four wheels by one factor keeps the commanded direction (SPEC §1: a saturated
+    command keeps its direction).
+    """
+    omega = max(-cfg.max_omega_rps, min(cfg.max_omega_rps, omega))
+    lever = cfg.wheel_lever_m
+    # max |wheel| of _INV @ (vx, vy, Lω) without building arrays (hot path)
+    a, b = vx + vy, vx - vy
+    lw = lever * omega
+    peak = max(abs(b - lw), abs(a + lw), abs(a - lw), abs(b + lw))
+    if peak > cfg.max_speed_mps:
+        k = cfg.max_speed_mps / peak
+        return vx * k, vy * k, omega * k
+    return vx, vy, omega
+
+
+class Robot:
+    """Physical truth of one robot: a pymunk body driven by velocity commands."""
+
+    def __init__(self, index: int, cfg: RobotConfig, space: pymunk.Space, position, heading_rad: float):
+        self.index = index
+        self.cfg = cfg
+        moment = pymunk.moment_for_circle(cfg.mass_kg, 0, cfg.radius_m)
+        self.body = pymunk.Body(cfg.mass_kg, moment)
+        self.body.position = tuple(position)
+        self.body.angle = heading_rad
+        self.shape = pymunk.Circle(self.body, cfg.radius_m)
+        self.shape.collision_type = COLLISION_ROBOT
+        self.shape.friction = 0.3
+        self.shape.elasticity = 0.0
+        self.shape.robot_index = index  # read by collision callbacks
+        space.add(self.body, self.shape)
+        # commanded (saturated) body-frame velocity, and the achieved one after acceleration limits
+        self.command = (0.0, 0.0, 0.0)
+        self.velocity_body = (0.0, 0.0, 0.0)
+        # AHRS: yaw with white noise and a slowly drifting bias (random walk in time)
+        self.ahrs_rng = np.random.default_rng(0)
+        self._ahrs_bias = 0.0
+        self._ahrs_time = 0.0
+
+    def ahrs_yaw(self, now_s: float) -> float:
+        """AHRS yaw reading (rad) at clock time ``now_s``: truth + drifting bias + white noise."""
+        cfg = self.cfg
+        dt = now_s - self._ahrs_time
+        if dt > 0:
+            self._ahrs_bias += math.radians(cfg.ahrs_drift_dps) * math.sqrt(dt) * self.ahrs_rng.standard_normal()
+            self._ahrs_time = now_s
+        return self.body.angle + self._ahrs_bias + math.radians(cfg.ahrs_noise_deg) * self.ahrs_rng.standard_normal()
+
+    @property
+    def position(self) -> tuple[float, float]:
+        p = self.body.position
+        return (p.x, p.y)
+
+    @property
+    def heading(self) -> float:
+        return self.body.angle
+
+    def set_command(self, vx: float, vy: float, omega: float) -> None:
+        """Body-frame command (m/s, m/s, rad/s); wheel saturation applies here."""
+        self.command = saturate_command(vx, vy, omega, self.cfg)
+
+    def apply(self, dt: float) -> None:
+        """Move the achieved velocity toward the command within the acceleration limits, then
+        hand it to the physics body (collisions may still change it during the step)."""
+        cfg = self.cfg
+        body = self.body
+        th = body.angle
+        c, s = math.cos(th), math.sin(th)
+        # the body's actual velocity (after last step's collisions) in its own frame
+        wv = body.velocity
+        vx = c * wv.x + s * wv.y
+        vy = -s * wv.x + c * wv.y
+        w = body.angular_velocity
+        cx, cy, cw = self.command
+        dvx, dvy = cx - vx, cy - vy
+        dv = math.hypot(dvx, dvy)
+        max_dv = cfg.max_accel_mps2 * dt
+        if dv > max_dv:
+            k = max_dv / dv
+            dvx *= k
+            dvy *= k
+        vx += dvx
+        vy += dvy
+        max_dw = cfg.max_alpha_rps2 * dt
+        w += max(-max_dw, min(max_dw, cw - w))
+        self.velocity_body = (vx, vy, w)
+        body.velocity = (c * vx - s * vy, s * vx + c * vy)
+        body.angular_velocity = w

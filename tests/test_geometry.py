@@ -1,0 +1,110 @@
+"""Tests for petswarm_env.sim.geometry against hand-computed cases."""
+
+import numpy as np
+import pytest
+
+from petswarm_env.sim.geometry import ray_circle_distances, ray_segment_distances, segments_blocked
+
+
+def test_ray_circle_hand_cases():
+    origins = np.array([[0.0, 0.0], [0.0, 0.0], [0.0, 0.0], [0.0, 0.0]])
+    dirs = np.array([[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0], [np.sqrt(0.5), np.sqrt(0.5)]])
+    centers = np.array([[5.0, 0.0], [0.0, 3.0]])
+    radii = np.array([1.0, 0.5])
+    d = ray_circle_distances(origins, dirs, centers, radii, max_range=10.0)
+    assert d.shape == (4, 2)
+    assert d[0, 0] == pytest.approx(4.0)  # straight at the first circle
+    assert d[0, 1] == np.inf  # perpendicular to the second
+    assert d[1, 0] == np.inf  # circle behind the ray
+    assert d[2, 1] == pytest.approx(2.5)
+    assert d[2, 0] == np.inf
+    # 45° ray vs circle at (5, 0) r=1: closest approach 5/√2 ≈ 3.54 > 1 → miss
+    assert d[3, 0] == np.inf
+
+
+def test_ray_circle_tangent_and_oblique():
+    # Ray along y = 1 grazes the unit circle at (5, 0): tangent hit at x = 5.
+    d = ray_circle_distances([[0.0, 1.0]], [[1.0, 0.0]], [[5.0, 0.0]], [1.0], max_range=10.0)
+    assert d[0, 0] == pytest.approx(5.0)
+    # Ray along y = 0.6 hits the unit circle at x = 5 − 0.8.
+    d = ray_circle_distances([[0.0, 0.6]], [[1.0, 0.0]], [[5.0, 0.0]], [1.0], max_range=10.0)
+    assert d[0, 0] == pytest.approx(4.2)
+
+
+def test_ray_circle_max_range_and_origin_inside():
+    d = ray_circle_distances([[0.0, 0.0]], [[1.0, 0.0]], [[5.0, 0.0]], [1.0], max_range=3.9)
+    assert d[0, 0] == np.inf
+    # Origin inside its own body: that circle is ignored, the other one is still seen.
+    d = ray_circle_distances([[0.0, 0.0]], [[1.0, 0.0]], [[0.0, 0.0], [2.0, 0.0]], [0.3, 0.5], max_range=10.0)
+    assert d[0, 0] == np.inf
+    assert d[0, 1] == pytest.approx(1.5)
+
+
+def test_ray_segment_hand_cases():
+    origins = np.zeros((4, 2))
+    dirs = np.array([[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [np.sqrt(0.5), np.sqrt(0.5)]])
+    seg_a = np.array([[3.0, -1.0], [-1.0, 2.0], [2.0, 0.0]])
+    seg_b = np.array([[3.0, 1.0], [1.0, 2.0], [0.0, 2.0]])
+    d = ray_segment_distances(origins, dirs, seg_a, seg_b, max_range=10.0)
+    assert d.shape == (4, 3)
+    assert d[0, 0] == pytest.approx(3.0)
+    assert d[0, 1] == np.inf  # parallel to the horizontal segment
+    assert d[0, 2] == pytest.approx(2.0)  # diagonal segment's end point (2, 0)
+    assert d[1, 1] == pytest.approx(2.0)
+    assert d[1, 0] == np.inf  # parallel to the vertical segment
+    assert np.all(d[2] == np.inf)  # everything is behind the ray
+    assert d[3, 2] == pytest.approx(np.sqrt(2.0))  # hits the diagonal at (1, 1)
+    assert d[3, 0] == np.inf  # would cross x = 3 at y = 3, beyond the segment
+    assert d[3, 1] == np.inf  # would cross y = 2 at x = 2, beyond the segment
+
+
+def test_ray_segment_misses_beyond_end_and_range():
+    d = ray_segment_distances([[0.0, 5.0]], [[1.0, 0.0]], [[3.0, -1.0]], [[3.0, 1.0]], max_range=10.0)
+    assert d[0, 0] == np.inf
+    d = ray_segment_distances([[0.0, 0.0]], [[1.0, 0.0]], [[3.0, -1.0]], [[3.0, 1.0]], max_range=2.5)
+    assert d[0, 0] == np.inf
+    # End point counts as a hit.
+    d = ray_segment_distances([[0.0, 1.0]], [[1.0, 0.0]], [[3.0, -1.0]], [[3.0, 1.0]], max_range=10.0)
+    assert d[0, 0] == pytest.approx(3.0)
+
+
+def test_empty_inputs():
+    origins = np.zeros((3, 2))
+    dirs = np.tile([1.0, 0.0], (3, 1))
+    assert ray_circle_distances(origins, dirs, np.zeros((0, 2)), np.zeros(0), 5.0).shape == (3, 0)
+    assert ray_segment_distances(origins, dirs, np.zeros((0, 2)), np.zeros((0, 2)), 5.0).shape == (3, 0)
+    assert ray_circle_distances(np.zeros((0, 2)), np.zeros((0, 2)), [[1.0, 0.0]], [0.5], 5.0).shape == (0, 1)
+    blocked = segments_blocked(origins, origins + 1.0, np.zeros((0, 2)), np.zeros(0), np.zeros((3, 0), bool))
+    assert blocked.shape == (3,)
+    assert not blocked.any()
+    assert segments_blocked(np.zeros((0, 2)), np.zeros((0, 2)), [[0.0, 0.0]], [1.0], np.zeros((0, 1), bool)).shape == (
+        0,
+    )
+
+
+def test_segments_blocked_with_exclude():
+    # Three robots on a line: A(0,0), B(1,0), C(2,0), radius 0.2; plus one off-line body D(1,1).
+    centers = np.array([[0.0, 0.0], [1.0, 0.0], [2.0, 0.0], [1.0, 1.0]])
+    radii = np.full(4, 0.2)
+    p_from = np.array([[0.0, 0.0], [0.0, 0.0], [0.0, 0.0]])
+    p_to = np.array([[2.0, 0.0], [1.0, 0.0], [2.0, 2.0]])
+    exclude = np.zeros((3, 4), bool)
+    exclude[0, [0, 2]] = True  # A → C: B sits in between
+    exclude[1, [0, 1]] = True  # A → B: nothing in between
+    exclude[2, [0]] = True  # A → (2,2): passes through D at (1,1)
+    blocked = segments_blocked(p_from, p_to, centers, radii, exclude)
+    np.testing.assert_array_equal(blocked, [True, False, True])
+    # Excluding the blocker clears the line of sight.
+    exclude[0, 1] = True
+    exclude[2, 3] = True
+    np.testing.assert_array_equal(segments_blocked(p_from, p_to, centers, radii, exclude), [False, False, False])
+
+
+def test_segments_blocked_near_miss_and_beyond_end():
+    centers = np.array([[1.0, 0.25], [3.0, 0.0]])
+    radii = np.array([0.2, 0.5])
+    # Body 0.25 m off the segment with radius 0.2: clear. Body beyond the segment end: clear.
+    blocked = segments_blocked([[0.0, 0.0]], [[2.0, 0.0]], centers, radii, np.zeros((1, 2), bool))
+    assert not blocked[0]
+    blocked = segments_blocked([[0.0, 0.0]], [[2.6, 0.0]], centers, radii, np.zeros((1, 2), bool))
+    assert blocked[0]

@@ -1,0 +1,100 @@
+"""Run episodes of the swarm with a slave policy and collect the per-episode metrics."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import tempfile
+from pathlib import Path
+from typing import Any, Callable
+
+from baselines.policy import Policy, PolicySpec, make_policy
+from petswarm_env import PetSwarmEnv
+from petswarm_env.config import Config
+
+
+def run_episode(env: PetSwarmEnv, policy: Policy, seed: int, on_frame: Callable[[], None] | None = None) -> dict[str, Any]:
+    """One episode with ``policy`` driving every slave; returns ``env.episode_summary()``."""
+    observations, _ = env.reset(seed=seed)
+    policy.reset(seed)
+    if on_frame:
+        on_frame()
+    summary: dict[str, Any] = {}
+    while env.agents:
+        observations, _, _, _, infos = env.step(policy.act_all(observations))
+        if on_frame:
+            on_frame()
+        for info in infos.values():
+            if "episode" in info:
+                summary = info["episode"]
+    summary["seed"] = seed
+    return summary
+
+
+def summarize(episodes: list[dict[str, Any]]) -> dict[str, Any]:
+    """Run summary: mean formation RMSE, total collisions, mean organize time, total retries."""
+    n = len(episodes)
+    finite = [e["formation_rmse_m"] for e in episodes if math.isfinite(e["formation_rmse_m"])]
+    return {
+        "episodes": n,
+        "formation_rmse_m": sum(finite) / len(finite) if finite else math.nan,
+        "collisions": sum(sum(e["collisions"].values()) for e in episodes),
+        "robot_robot_collisions": sum(e["collisions"]["robot_robot"] for e in episodes),
+        "organize_time_s": sum(e["organize_time_s"] for e in episodes) / n if n else math.nan,
+        "join_retries": sum(e["join_retries"] for e in episodes),
+    }
+
+
+def run(
+    config: Config,
+    policy_name: str = "scripted",
+    episodes: int = 1,
+    seed: int | None = None,
+    render_mode: str | None = None,
+    video: str | None = None,
+    progress: Callable[[dict[str, Any]], None] | None = None,
+) -> dict[str, Any]:
+    """Run ``episodes`` episodes (seeds ``seed, seed+1, …``); return the JSON-ready result."""
+    base_seed = config.seed if seed is None else seed
+    mode = "rgb_array" if video else render_mode
+    env = PetSwarmEnv(config, render_mode=mode)
+    policy = make_policy(policy_name, PolicySpec.from_env(env), base_seed)
+    writer = None
+    on_frame = None
+    if video:
+        from petswarm_env.render import GifWriter
+
+        writer = GifWriter(video, fps=config.render.fps)
+        on_frame = lambda: writer.append(env.render())  # noqa: E731
+    elif render_mode == "human":
+        on_frame = env.render
+    results = []
+    try:
+        for i in range(episodes):
+            ep = run_episode(env, policy, base_seed + i, on_frame if (i == 0 or not video) else None)
+            ep["policy"] = policy_name
+            results.append(ep)
+            if progress:
+                progress(ep)
+    finally:
+        env.close()
+        if writer is not None:
+            writer.close()
+    return {"config": config.to_dict(), "episodes": results, "summary": summarize(results)}
+
+
+def write_json_atomic(path: str | os.PathLike, data: Any) -> None:
+    """Write JSON to a temporary file beside ``path``, then rename: never a half-written file."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
+    try:
+        with os.fdopen(fd, "w") as f:
+            json.dump(data, f, indent=2, allow_nan=True)
+            f.write("\n")
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise

@@ -1,0 +1,57 @@
+"""The petswarm command line: help, one-line errors without traceback, JSON and GIF output."""
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+from training.cli import main
+
+
+def _run(*args):
+    return subprocess.run([sys.executable, "-m", "training.cli", *args], capture_output=True, text=True, timeout=300)
+
+
+def test_run_help_documents_every_option():
+    out = _run("run", "--help")
+    assert out.returncode == 0
+    for opt in ("--config", "--set", "--policy", "--episodes", "--seed", "--json", "--render", "--video"):
+        assert opt in out.stdout
+
+
+@pytest.mark.parametrize(
+    "args, words",
+    [
+        (["--set", "swarm.formaton=wedge"], "swarm.formaton"),
+        (["--set", "swarm.formation=hexagon"], "swarm.formation"),
+        (["--set", "user.scenario=moonwalk"], "user.scenario"),
+        (["--set", "radio.loss_prob=2"], "radio.loss_prob"),
+        (["--set", "nokeyvalue"], "KEY=VALUE"),
+        (["--policy", "clever"], "--policy"),
+        (["--episodes", "-1"], "--episodes"),
+        (["--config", "/does/not/exist.yaml"], "does not exist"),
+    ],
+)
+def test_bad_options_exit_nonzero_with_one_line(args, words):
+    out = _run("run", *args)
+    assert out.returncode != 0
+    assert "Traceback" not in out.stderr
+    lines = [ln for ln in out.stderr.splitlines() if ln.strip()]
+    assert lines and words in lines[-1]
+    assert lines[-1].startswith("petswarm")
+
+
+def test_run_writes_json_and_gif(tmp_path, capsys):
+    out = tmp_path / "res.json"
+    gif = tmp_path / "ep.gif"
+    code = main(["run", "--set", "max_cycles=20", "--episodes", "2", "--seed", "3", "--json", str(out), "--video", str(gif)])
+    assert code == 0
+    data = json.loads(out.read_text())
+    assert data["summary"]["episodes"] == 2
+    assert [e["seed"] for e in data["episodes"]] == [3, 4]
+    assert data["config"]["max_cycles"] == 20
+    assert gif.stat().st_size > 0
+    printed = capsys.readouterr().out
+    assert "summary:" in printed and "rmse_m" in printed
+    assert not list(tmp_path.glob(".*"))  # no temp files left behind

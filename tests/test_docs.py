@@ -1,0 +1,43 @@
+"""The documentation stays true to the code."""
+
+import re
+from pathlib import Path
+
+from petswarm_env.config import load_config
+from petswarm_env.observe import ObservationLayout, markdown_table
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_observation_doc_matches_the_layout():
+    layout = ObservationLayout(load_config().robot.ultrasonic.count)
+    doc = (ROOT / "docs" / "observation.md").read_text()
+    assert markdown_table(layout) in doc, "regenerate with: python -m petswarm_env.observe > docs/observation.md"
+    assert f"{layout.size} values" in doc
+
+
+def test_readme_states_the_observation_size_and_the_ci_command():
+    readme = (ROOT / "README.md").read_text()
+    layout = ObservationLayout(load_config().robot.ultrasonic.count)
+    assert f"({layout.size},)" in readme
+    ci = (ROOT / ".ci" / "run").read_text()
+    test_cmd = "bash scripts/setup.sh test && .venv/bin/python -m pytest"
+    assert test_cmd in readme and test_cmd in ci
+
+
+def test_configs_default_is_the_packaged_default():
+    assert (ROOT / "configs" / "default.yaml").read_text() == (ROOT / "petswarm_env" / "default.yaml").read_text()
+
+
+def test_every_default_value_has_a_comment_or_a_commented_section():
+    text = (ROOT / "petswarm_env" / "default.yaml").read_text()
+    headers: dict[int, str] = {}  # indentation -> the section line above
+    for line in text.splitlines():
+        if not line.strip() or line.lstrip().startswith("#"):
+            continue
+        indent = len(line) - len(line.lstrip())
+        if line.rstrip().endswith(":") or re.match(r"^\s*\w+:\s+#", line):
+            headers[indent] = line
+            continue
+        parents = [h for i, h in headers.items() if i < indent]
+        assert "#" in line or any("#" in h for h in parents), f"undocumented default: {line.strip()}"

@@ -1,0 +1,221 @@
+"""Formation shapes as neighbour tables (seed 000 §3.5, Fig. 10; SPEC §3.5)."""
+
+import math
+
+import numpy as np
+import pytest
+
+import petswarm_env
+from petswarm_env.config import ConfigError, load_config
+from petswarm_env.middleware.formation import MAX_LINKS, build_formation
+
+C30, S30 = math.cos(math.radians(30)), math.sin(math.radians(30))
+
+# formation frame: x along the swarm heading, y to the left; master (member 0) at the origin
+EXPECTED_SLOTS = {
+    "column": [(0, 0), (-1, 0), (-2, 0), (-3, 0), (-4, 0)],
+    "row": [(0, 0), (0, 1), (0, -1), (0, 2), (0, -2)],
+    "wedge": [(0, 0), (-C30, S30), (-C30, -S30), (-2 * C30, 2 * S30), (-2 * C30, -2 * S30)],
+    "grid": [(0, 0), (0, -1), (-1, 0), (-1, -1), (-2, 0)],
+}
+SHAPES = list(EXPECTED_SLOTS)
+
+
+def swarm_cfg(**overrides):
+    return load_config(overrides={f"swarm.{k}": v for k, v in overrides.items()}).swarm
+
+
+def formation(shape, n=5, spacing=1.0):
+    return build_formation(swarm_cfg(formation=shape, spacing_m=spacing), n)
+
+
+def path_to_master(f, member):
+    """Follow the first reference link of each robot; return the chain of members to 0."""
+    seen = [member]
+    while seen[-1] != 0:
+        nxt = f.links[seen[-1]][0].neighbour
+        assert nxt not in seen, f"cycle in links: {seen + [nxt]}"
+        seen.append(nxt)
+    return seen
+
+
+@pytest.mark.parametrize("shape", SHAPES)
+def test_slot_positions(shape):
+    f = formation(shape)
+    assert f.size == 5
+    assert f.shape == shape
+    np.testing.assert_allclose(f.slot_positions(), np.array(EXPECTED_SLOTS[shape], float), atol=1e-12)
+
+
+def test_wedge_robot_1_behind_left_of_master():
+    slots = formation("wedge").slot_positions()
+    assert slots[1] == pytest.approx((-0.866, 0.5), abs=1e-3)
+    assert slots[1][0] < 0 and slots[1][1] > 0  # behind, left
+    assert slots[2][0] < 0 and slots[2][1] < 0  # behind, right
+
+
+@pytest.mark.parametrize("shape", SHAPES)
+def test_slots_scale_with_spacing(shape):
+    np.testing.assert_allclose(
+        formation(shape, spacing=1.7).slot_positions(), 1.7 * formation(shape).slot_positions(), atol=1e-12
+    )
+
+
+@pytest.mark.parametrize("shape", SHAPES)
+def test_every_member_reachable_and_slots_distinct(shape):
+    f = formation(shape)
+    assert set(f.links) == {1, 2, 3, 4}
+    for m in range(1, 5):
+        assert 1 <= len(f.links[m]) <= MAX_LINKS
+        assert path_to_master(f, m)[-1] == 0
+    slots = f.slot_positions()
+    d = np.hypot(*(slots[:, None, :] - slots[None, :, :]).transpose(2, 0, 1))
+    assert d[~np.eye(5, dtype=bool)].min() >= 1.0 - 1e-9  # no two robots share a slot
+
+
+@pytest.mark.parametrize("shape", SHAPES)
+def test_each_link_offset_is_one_spacing(shape):
+    f = formation(shape, spacing=1.3)
+    for links in f.links.values():
+        for lk in links:
+            assert math.hypot(*lk.offset_m) == pytest.approx(1.3)
+
+
+@pytest.mark.parametrize("shape", SHAPES)
+def test_neighbours_symmetric(shape):
+    f = formation(shape)
+    for m in range(5):
+        nb = f.neighbours(m)
+        assert m not in nb
+        assert nb, f"member {m} has no neighbour"
+        for k in nb:
+            assert m in f.neighbours(k)
+    # every reference link is a neighbour relation
+    for m, links in f.links.items():
+        for lk in links:
+            assert lk.neighbour in f.neighbours(m)
+
+
+def test_neighbours_of_wedge():
+    f = formation("wedge")
+    assert f.neighbours(0) == {1, 2}
+    assert f.neighbours(1) == {0, 3}
+    assert f.neighbours(4) == {2}
+
+
+def test_grid_uses_front_and_side_neighbour():
+    f = formation("grid")
+    assert {lk.neighbour for lk in f.links[3]} == {1, 2}
+
+
+@pytest.mark.parametrize("shape", SHAPES)
+def test_hierarchy_level_1_is_farthest_from_user(shape):
+    f = formation(shape)
+    slots = f.slot_positions()
+    for user in [(1.0, 0.0), (float(slots[:, 0].min()) - 1.0, 0.0), (0.3, 2.5)]:
+        levels = f.hierarchy_levels(user)
+        assert sorted(levels.values()) == [1, 2, 3, 4, 5]
+        dist = {m: math.dist(slots[m], user) for m in range(5)}
+        by_level = sorted(range(5), key=lambda m: levels[m])
+        # level 1 is (one of) the farthest, and levels count up toward the user
+        assert dist[by_level[0]] == pytest.approx(max(dist.values()))
+        assert all(dist[a] >= dist[b] - 1e-9 for a, b in zip(by_level, by_level[1:]))
+
+
+def test_hierarchy_master_placement():
+    f = formation("column")
+    # following mode: user ahead of the master; master is closest -> highest level
+    assert f.hierarchy_levels((1.0, 0.0)) == {4: 1, 3: 2, 2: 3, 1: 4, 0: 5}
+    # leading mode: user behind the formation; master is farthest -> level 1
+    assert f.hierarchy_levels((-5.0, 0.0))[0] == 1
+
+
+def test_formation_scales_to_other_sizes():
+    for shape in SHAPES:
+        for n in (1, 2, 3, 6, 9):
+            f = formation(shape, n=n)
+            assert f.size == n
+            assert len(f.slot_positions()) == n
+
+
+# -- custom neighbour tables ----------------------------------------------------------------------
+
+CUSTOM = [
+    {"robot": 1, "neighbour": 0, "offset_m": [-1.0, 0.5]},
+    {"robot": 2, "neighbour": 1, "offset_m": [-1.0, 0.0]},
+    {"robot": 3, "neighbour": 1, "offset_m": [0.0, -1.0]},
+    {"robot": 3, "neighbour": 2, "offset_m": [1.0, -1.0]},
+]
+
+
+def custom_cfg(links):
+    return load_config(overrides={"swarm.formation": "custom", "swarm.custom_links": links}).swarm
+
+
+def test_custom_links_from_config():
+    f = build_formation(custom_cfg(CUSTOM), 4)
+    assert f.shape == "custom"
+    np.testing.assert_allclose(f.slot_positions(), [(0, 0), (-1, 0.5), (-2, 0.5), (-1, -0.5)])
+    assert {lk.neighbour for lk in f.links[3]} == {1, 2}
+    assert f.neighbours(1) == {0, 2, 3}
+
+
+def test_custom_formation_through_the_env():
+    env = petswarm_env.parallel_env(
+        **{"swarm.formation": "custom", "swarm.custom_links": CUSTOM[:3], "swarm.num_slaves": 3}
+    )
+    env.reset(seed=0)
+    assert env.swarm.formation.shape == "custom"
+    np.testing.assert_allclose(env.swarm.formation.slot_positions()[2], (-2.0, 0.5))
+    for n in env.swarm.slave_ids():
+        assert env.swarm.nodes[n].formation.links == env.swarm.formation.links
+
+
+def test_custom_without_links_is_refused():
+    with pytest.raises(ConfigError, match="swarm.custom_links"):
+        load_config(overrides={"swarm.formation": "custom"})
+
+
+@pytest.mark.parametrize(
+    "links, n, match",
+    [
+        (CUSTOM[:2], 4, r"members \[1, 2, 3\]"),  # member 3 has no link
+        (CUSTOM, 3, r"members \[1, 2\]"),  # a link for a member that does not exist
+        ([{"robot": 1, "neighbour": 1, "offset_m": [-1, 0]}], 2, "invalid neighbour 1"),  # self link
+        ([{"robot": 1, "neighbour": 5, "offset_m": [-1, 0]}], 2, "invalid neighbour 5"),  # out of range
+        (
+            [
+                {"robot": 1, "neighbour": 2, "offset_m": [-1, 0]},
+                {"robot": 2, "neighbour": 1, "offset_m": [1, 0]},
+            ],
+            3,
+            "do not reach the master",
+        ),  # a cycle that never reaches member 0
+        (
+            [
+                {"robot": 1, "neighbour": 0, "offset_m": [-1, 0]},
+                {"robot": 2, "neighbour": 0, "offset_m": [0, 1]},
+                {"robot": 3, "neighbour": 0, "offset_m": [0, -1]},
+                {"robot": 3, "neighbour": 1, "offset_m": [1, -1]},
+                {"robot": 3, "neighbour": 2, "offset_m": [0, -2]},
+            ],
+            4,
+            "at most 2",
+        ),  # too many links
+    ],
+)
+def test_bad_custom_links_raise_clear_value_error(links, n, match):
+    with pytest.raises(ValueError, match=match) as exc:
+        build_formation(custom_cfg(links), n)
+    assert "swarm.custom_links" in str(exc.value) or "formation links" in str(exc.value)
+
+
+def test_bad_custom_links_refused_by_env_reset():
+    env = petswarm_env.parallel_env(**{"swarm.formation": "custom", "swarm.custom_links": CUSTOM[:2], "swarm.num_slaves": 3})
+    with pytest.raises(ValueError, match="swarm.custom_links"):
+        env.reset(seed=0)
+
+
+def test_custom_link_member_numbers_validated_by_config():
+    with pytest.raises(ConfigError, match="robot"):
+        load_config(overrides={"swarm.formation": "custom", "swarm.custom_links": [{"robot": 0, "neighbour": 0, "offset_m": [1, 0]}]})

@@ -1,0 +1,239 @@
+"""The join protocol (seed 000 §3.4, Fig. 8, Tables 1–2, §4.5 Table 5, Fig. 22)."""
+
+import pytest
+
+import petswarm_env
+from petswarm_env.comms.radio import PAN_WAITING
+from petswarm_env.env import OTHER_USER_ID, SWARM_PAN
+from petswarm_env.middleware.join import can_join, select_joiners
+
+# -- Table 1: can a robot join? --------------------------------------------------------------------
+
+
+class _NoCompare:
+    """A distance that must never be looked at."""
+
+    def __le__(self, other):
+        raise AssertionError("distance was checked")
+
+    __lt__ = __ge__ = __gt__ = __le__
+
+
+def test_connected_robot_never_checks_distance():
+    assert can_join(OTHER_USER_ID, _NoCompare(), 3.0) is False
+    assert can_join(OTHER_USER_ID, 0.0, 3.0) is False  # even right next to the master
+    assert can_join(0, 0.0, 3.0) is False  # user id 0 is a connection too (not "falsy = free")
+
+
+def test_unconnected_robot_checks_distance():
+    with pytest.raises(AssertionError, match="distance was checked"):
+        can_join(None, _NoCompare(), 3.0)
+
+
+@pytest.mark.parametrize("d, ok", [(0.0, True), (1.5, True), (2.999, True), (3.0, True), (3.001, False), (10.0, False)])
+def test_inside_outside_available_region(d, ok):
+    assert can_join(None, d, 3.0) is ok
+
+
+# -- Table 2: selection ------------------------------------------------------------------------------
+
+
+def test_fewer_required_than_available_takes_the_closest():
+    available = {7: 2.5, 3: 0.9, 5: 1.2, 9: 2.0}
+    assert select_joiners(available, 2) == [3, 5]
+    assert select_joiners(available, 3) == [3, 5, 9]
+    assert select_joiners(available, 1) == [3]
+
+
+def test_required_at_least_available_takes_all():
+    available = {7: 2.5, 3: 0.9, 5: 1.2}
+    assert select_joiners(available, 3) == [3, 5, 7]
+    assert select_joiners(available, 10) == [3, 5, 7]
+    assert select_joiners({}, 4) == []
+
+
+def test_selection_ties_are_deterministic():
+    assert select_joiners({4: 1.0, 2: 1.0, 6: 1.0}, 2) == [2, 4]
+
+
+# -- the protocol through the environment --------------------------------------------------------------
+
+
+def organize(seed, **overrides):
+    env = petswarm_env.parallel_env(**overrides)
+    env.reset(seed=seed)
+    return env, env.swarm.organize_result
+
+
+def slaves_consistent(env):
+    """Every member is a slave on the swarm PAN and knows the same member table as the master."""
+    sw = env.swarm
+    res = sw.organize_result
+    assert res.members[0] == sw.master.node_id
+    assert sw.master.state == "master"
+    assert sorted(set(res.members.values()) - {sw.master.node_id}) == sw.slave_ids()
+    for member, nid in res.members.items():
+        node = sw.nodes[nid]
+        assert node.know.member == member
+        assert node.know.members == res.members
+        assert node.swarm_pan == SWARM_PAN
+        assert node.pans == frozenset({SWARM_PAN})
+        if member:
+            assert node.state == "slave"
+    assert sorted(env.agents) == sorted(f"robot_{n}" for n in sw.slave_ids())
+
+
+def test_default_join_builds_a_consistent_swarm():
+    for seed in range(3):
+        env, res = organize(seed)
+        assert res.complete
+        assert len(res.members) == env.cfg.swarm.num_slaves + 1
+        assert res.unavailable == [] and res.not_selected == []
+        slaves_consistent(env)
+
+
+OTHER = {"swarm.other_user_robots": 2}
+
+
+def test_robot_connected_to_other_user_never_joins():
+    seen_unavailable = set()
+    for seed in range(6):
+        env, res = organize(seed, **OTHER)
+        others = set(env._other_user_robots)
+        assert len(others) == 2
+        for i in others:
+            node = env.swarm.nodes[i]
+            assert node.connected_user == OTHER_USER_ID
+            assert node.state == "waiting"
+            assert node.pans == frozenset({PAN_WAITING})
+            assert node.know.member == -1
+        assert not others & set(res.members.values())
+        # whenever such a robot answered the scan, it said "joining-unavailable"
+        assert others & set(res.candidates) <= set(res.unavailable)
+        assert set(res.unavailable) <= others  # nobody else is unavailable: they are all in range
+        seen_unavailable |= set(res.unavailable)
+        slaves_consistent(env)
+    assert seen_unavailable == others  # each of them was refused at least once
+
+
+@pytest.mark.xfail(
+    strict=True,
+    raises=AssertionError,
+    reason="library bug (join.py scan step): the scan stops once #responders >= required, counting "
+    "robots that later turn out unavailable or extra; a robot whose scan response collided is never "
+    "asked again, so fewer than num_slaves join although enough available robots wait nearby",
+)
+def test_other_user_robots_do_not_cost_a_slave():
+    for seed in range(6):
+        env, res = organize(seed, **OTHER)
+        assert len(res.members) == env.cfg.swarm.num_slaves + 1, (seed, res)
+
+
+EXTRA = {"swarm.extra_robots": 2, "radio.rssi_shadowing_db": 0.0}
+
+
+def test_extra_robots_get_non_participating_and_stay_waiting():
+    for seed in range(6):
+        env, res = organize(seed, **EXTRA)
+        n = env.cfg.swarm.num_slaves
+        joined = set(res.members.values()) - {env.swarm.master.node_id}
+        assert len(joined) <= n
+        assert joined <= set(res.candidates)
+        # everybody asked but not taken got the non-participating notification: all still waiting
+        assert set(res.not_selected) == set(res.candidates) - joined
+        for i in set(env.swarm.nodes) - joined - {env.swarm.master.node_id}:
+            node = env.swarm.nodes[i]
+            assert node.state == "waiting"
+            assert node.pans == frozenset({PAN_WAITING})
+            assert node.swarm_pan is None and node.know.member == -1
+        # Table 2 with exact RSSI: among the robots that answered, the closest ones were taken
+        robots = env.world.robots
+        master = robots[env.swarm.master.node_id].position
+
+        def dist(i):
+            return sum((a - b) ** 2 for a, b in zip(robots[i].position, master)) ** 0.5
+
+        if res.not_selected:
+            assert max(dist(i) for i in joined) <= min(dist(i) for i in res.not_selected) + 0.05
+        slaves_consistent(env)
+
+
+@pytest.mark.xfail(
+    strict=True,
+    raises=AssertionError,
+    reason="library bug (join.py scan step): see test_other_user_robots_do_not_cost_a_slave; with extra "
+    "robots a collided scan response lets a farther extra robot in, or leaves the swarm short",
+)
+def test_extra_robots_exactly_num_slaves_join_and_extras_stay_out():
+    for seed in range(6):
+        env, res = organize(seed, **EXTRA)
+        n = env.cfg.swarm.num_slaves
+        extras = set(range(n + 1, n + 3))
+        joined = set(res.members.values())
+        assert len(joined) == n + 1, (seed, res)
+        assert not extras & joined, (seed, res)
+        for i in extras:
+            assert env.swarm.nodes[i].state == "waiting"
+
+
+def test_join_completes_under_frame_loss():
+    retries = []
+    for seed in range(5):
+        env, res = organize(seed, **{"radio.loss_prob": 0.2, "swarm.num_slaves": 3})
+        assert res.complete
+        assert len(res.members) == 4  # every required slave joined
+        slaves_consistent(env)
+        assert env.radio.stats.frames_lost > 0
+        retries.append(res.retries)
+    assert sum(r > 0 for r in retries) >= 2, retries
+    assert max(retries) < env.cfg.protocol.max_retries
+
+
+def test_retries_emerge_from_collisions_without_loss():
+    n_retry = 0
+    for seed in range(8):
+        env, res = organize(seed, **{"swarm.num_slaves": 3})
+        assert env.radio.stats.frames_lost == 0  # no injected loss
+        if res.retries:
+            n_retry += 1
+            assert env.radio.stats.frames_collided > 0
+        assert len(res.members) == 4
+    assert n_retry >= 1
+
+
+def test_one_slave_never_retries_without_loss():
+    for seed in range(30):
+        _, res = organize(seed, **{"swarm.num_slaves": 1})
+        assert res.retries == 0, seed
+        assert len(res.members) == 2
+
+
+def test_organize_time_grows_with_slaves():
+    minima = []
+    for n in range(1, 6):
+        times = []
+        for seed in range(20):
+            _, res = organize(seed, **{"swarm.num_slaves": n})
+            if res.retries == 0:
+                times.append(res.elapsed_s)
+        assert times, f"no retry-free run with {n} slaves"
+        minima.append(min(times))
+    assert 0.4 <= minima[0] <= 0.9, minima  # seed 000 Fig. 22: 0.6 s with one slave
+    assert all(a < b for a, b in zip(minima, minima[1:])), minima
+    assert minima[-1] <= 1.2, minima  # paper: about 0.8 s with five
+
+
+def test_retry_probability_grows_with_slaves():
+    """Seed 000 Table 5 trend: retries are rare with few slaves and common with many."""
+    frac = {}
+    for n in (1, 5):
+        runs = [organize(seed, **{"swarm.num_slaves": n})[1].retries > 0 for seed in range(10)]
+        frac[n] = sum(runs) / len(runs)
+    assert frac[1] == 0.0
+    assert frac[5] >= 0.3, frac
+
+
+def test_join_is_reproducible_per_seed():
+    a = organize(3)[1]
+    b = organize(3)[1]
+    assert (a.members, a.retries, a.elapsed_s) == (b.members, b.retries, b.elapsed_s)

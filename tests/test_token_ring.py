@@ -1,0 +1,221 @@
+"""The IR token ring and the heading exchange (seed 000 §3.3 Fig. 7, §3.5 Fig. 9; SPEC §3.3–3.4)."""
+
+import math
+
+import numpy as np
+import pytest
+
+import petswarm_env
+from petswarm_env.middleware import messages as msg
+from petswarm_env.middleware.token_ring import relative_heading, wrap
+
+STILL = {"user.start_delay_s": 100.0}  # the user stands: every robot (nearly) still, truth stable
+
+
+def bearing(from_pos, from_heading, to_pos):
+    """True bearing of ``to_pos`` in the body frame of a robot at ``from_pos``."""
+    return wrap(math.atan2(to_pos[1] - from_pos[1], to_pos[0] - from_pos[0]) - from_heading)
+
+
+def test_relative_heading_matches_geometry():
+    rng = np.random.default_rng(0)
+    for _ in range(200):
+        p_self, p_other = rng.uniform(-5, 5, 2), rng.uniform(-5, 5, 2)
+        th_self, th_other = rng.uniform(-math.pi, math.pi, 2)
+        phi_self = bearing(p_self, th_self, p_other)  # where self sees other
+        phi_other = bearing(p_other, th_other, p_self)  # where other sees self
+        est = relative_heading(phi_self, phi_other)
+        assert -math.pi <= est < math.pi
+        assert wrap(est - (th_other - th_self)) == pytest.approx(0.0, abs=1e-9)
+
+
+def test_relative_heading_simple_cases():
+    # facing each other head on: other is at bearing 0 for self, self at bearing 0 for other
+    assert abs(wrap(relative_heading(0.0, 0.0) - math.pi)) < 1e-12
+    # same heading, other straight ahead: self sees it at 0, it sees self at π
+    assert relative_heading(0.0, math.pi) == pytest.approx(0.0, abs=1e-12)
+    # other at self's left, turned 90° left: self sees it at +90°, it sees self straight behind (±180°)
+    assert relative_heading(math.pi / 2, -math.pi) == pytest.approx(math.pi / 2)
+    assert relative_heading(math.pi / 2, math.pi) == pytest.approx(math.pi / 2)
+
+
+def run_env(seed=0, steps=50, **overrides):
+    env = petswarm_env.parallel_env(**{**STILL, **overrides})
+    env.reset(seed=seed)
+    for _ in range(steps):
+        env.step({})
+    return env
+
+
+def reference_pairs(env):
+    sw = env.swarm
+    for n in sw.slave_ids():
+        node = sw.nodes[n]
+        links = node.reference_links()
+        assert links, f"slave {n} has no reference link"
+        for lk in links:
+            yield n, node, node.know.members[lk.neighbour]
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_slaves_measure_their_reference_neighbours(seed):
+    env = run_env(seed)
+    robots = env.world.robots
+    now = env.world.now
+    for n, node, ref in reference_pairs(env):
+        m = node.know.ir.get(ref)
+        assert m is not None, f"slave {n} has no IR measurement of its reference neighbour {ref}"
+        assert now - m.time_s < 1.5  # fresh: measured in one of the last ring rounds
+        true_d = math.dist(robots[n].position, robots[ref].position)
+        assert abs(m.distance_m - true_d) < 0.3
+        true_b = bearing(robots[n].position, robots[n].heading, robots[ref].position)
+        assert abs(wrap(m.bearing_rad - true_b)) < math.radians(20)
+        h = node.know.heading.get(ref)
+        assert h is not None, f"slave {n} has no heading estimate of {ref}"
+        true_rel = wrap(robots[ref].heading - robots[n].heading)
+        assert abs(wrap(h.relative_rad - true_rel)) < math.radians(25)
+
+
+def test_ring_runs_through_every_member_without_recovery():
+    env = run_env(0, steps=30)
+    sw = env.swarm
+    members = sw.master.know.members
+    # every member held the token: each one's IR was measured by the others (a pair may be
+    # occluded by a robot in between, so count over all receivers)
+    measured = {tx for nid in members.values() for tx in sw.nodes[nid].know.ir}
+    assert measured == set(members.values())
+    for nid in members.values():
+        assert len(sw.nodes[nid].know.ir) >= len(members) - 2
+    assert sw.token_recoveries() == 0  # no spurious regeneration while the ring is healthy
+
+
+def ir_times(env):
+    """(receiver, transmitter) -> time of the latest measurement."""
+    return {(n, o): m.time_s for n in env.swarm.slave_ids() for o, m in env.swarm.nodes[n].know.ir.items()}
+
+
+def fresh_measurements(before, after):
+    return {k for k, t in after.items() if t > before.get(k, -1.0)}
+
+
+def test_dropped_token_is_recovered_by_the_master():
+    env = run_env(1, steps=5)
+    sw = env.swarm
+    slave = sw.nodes[sw.master.know.members[2]]
+    slave.ring.drop_next_token = True
+    for _ in range(30):
+        env.step({})
+    assert slave.ring.drop_next_token is False  # the token did reach it and was lost there
+    assert sw.token_recoveries() == 1
+    before = ir_times(env)
+    for _ in range(15):
+        env.step({})
+    fresh = fresh_measurements(before, ir_times(env))
+    # the ring keeps going: every member transmitted again, including the one that lost the token
+    assert {tx for _, tx in fresh} == set(sw.master.know.members.values())
+    assert sw.token_recoveries() == 1
+
+
+def test_tokens_dropped_by_every_slave_are_all_recovered():
+    env = run_env(0, steps=2)
+    sw = env.swarm
+    for n in sw.slave_ids():
+        sw.nodes[n].ring.drop_next_token = True
+    for _ in range(50):
+        env.step({})
+    assert all(not sw.nodes[n].ring.drop_next_token for n in sw.slave_ids())
+    assert 1 <= sw.token_recoveries() <= len(sw.slave_ids())
+    before = ir_times(env)
+    for _ in range(15):
+        env.step({})
+    assert {tx for _, tx in fresh_measurements(before, ir_times(env))} == set(sw.master.know.members.values())
+
+
+def test_silence_before_recovery_is_about_the_timeout():
+    env = run_env(2, steps=3)
+    sw = env.swarm
+    slave = sw.nodes[sw.master.know.members[1]]
+    slave.ring.drop_next_token = True
+    dt = env.cfg.control_period_s
+    t_drop = None
+    for _ in range(30):
+        env.step({})
+        if t_drop is None and not slave.ring.drop_next_token:
+            t_drop = env.world.now
+        if sw.token_recoveries():
+            break
+    assert t_drop is not None and sw.token_recoveries() == 1
+    silence = env.world.now - t_drop
+    timeout = env.cfg.protocol.token_timeout_s
+    # the watchdog looks every timeout/2, so it fires between timeout and 1.5 timeout of silence
+    assert timeout - dt <= silence <= 1.5 * timeout + 2 * dt
+
+
+class TokenCounter:
+    def __init__(self, predicate):
+        self.predicate = predicate
+        self.dropped = 0
+        self.seen = 0
+
+    def __call__(self, frame):
+        if frame.kind != msg.TOKEN:
+            return False
+        self.seen += 1
+        if self.predicate(frame, self.seen):
+            self.dropped += 1
+            return True
+        return False
+
+
+def test_lost_token_frames_are_retried():
+    env = run_env(0, steps=3)
+    sw = env.swarm
+    # every other TOKEN frame is lost on the air; the holder's retries get through
+    flt = TokenCounter(lambda f, k: k % 2 == 1)
+    env.radio.drop_filter = flt
+    before = ir_times(env)
+    for _ in range(40):
+        env.step({})
+    assert flt.dropped >= 5
+    assert sw.token_recoveries() == 0  # retries, not regeneration
+    fresh = fresh_measurements(before, ir_times(env))
+    assert {tx for _, tx in fresh} == set(sw.master.know.members.values())
+
+
+def test_unreachable_next_robot_is_skipped():
+    env = run_env(0, steps=3)
+    sw = env.swarm
+    members = sw.master.know.members
+    deaf = members[2]
+    # every token naming member 2 is lost: its predecessor retries, then skips it
+    flt = TokenCounter(lambda f, k: f.payload["next"] == 2)
+    env.radio.drop_filter = flt
+    for _ in range(5):
+        env.step({})
+    before = ir_times(env)
+    for _ in range(30):
+        env.step({})
+    after = ir_times(env)
+    fresh = fresh_measurements(before, after)
+    transmitters = {tx for _, tx in fresh}
+    assert transmitters == set(members.values()) - {deaf}  # the ring goes on without it
+    assert flt.dropped >= 3 * (env.cfg.protocol.token_retries + 1)
+    assert sw.token_recoveries() == 0
+    # lifting the fault lets it back in
+    env.radio.drop_filter = None
+    before = after
+    for _ in range(15):
+        env.step({})
+    assert deaf in {tx for _, tx in fresh_measurements(before, ir_times(env))}
+
+
+def test_heading_reports_go_to_the_transmitter_only_from_neighbours():
+    env = run_env(0, steps=40)
+    sw = env.swarm
+    f = sw.formation
+    members = sw.master.know.members
+    number = {nid: m for m, nid in members.items()}
+    for nid in members.values():
+        senders = {number[o] for o in sw.nodes[nid].know.heading}
+        assert senders, f"member {number[nid]} got no heading report"
+        assert senders <= f.neighbours(number[nid])

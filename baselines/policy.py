@@ -67,12 +67,40 @@ class RandomPolicy(Policy):
         return self.rng.uniform(-1.0, 1.0, 3).astype(np.float32)
 
 
+class MixedPolicy(Policy):
+    """A mixed team: ``per_agent`` policies for some robots, ``default`` for the others."""
+
+    name = "mixed"
+
+    def __init__(self, spec: PolicySpec, default: Policy, per_agent: dict[str, Policy]):
+        super().__init__(spec)
+        self.default = default
+        self.per_agent = per_agent
+
+    def reset(self, seed: int | None = None) -> None:
+        self.default.reset(seed)
+        for p in self.per_agent.values():
+            p.reset(seed)
+
+    def act(self, agent: str, observation: np.ndarray) -> np.ndarray:
+        return self.per_agent.get(agent, self.default).act(agent, observation)
+
+
+POLICY_NAMES = ("scripted", "random", "learned")
+
+
 def make_policy(name: str, spec: PolicySpec, seed: int = 0) -> Policy:
-    """``scripted`` (the leader–follower reference) or ``random``."""
+    """``scripted`` (the leader–follower reference), ``random``, ``learned`` (the shipped model)
+    or the path of a saved policy file (``.npz``)."""
     from baselines.leader_follower import LeaderFollowerPolicy
+    from baselines.learned import LearnedPolicy, shipped_policy_path
 
     if name == "scripted":
         return LeaderFollowerPolicy(spec)
     if name == "random":
         return RandomPolicy(spec, seed)
-    raise ValueError(f"unknown policy '{name}'; choose scripted or random")
+    if name == "learned":
+        return LearnedPolicy.load(shipped_policy_path(), spec)
+    if name.endswith(".npz") or "/" in name:
+        return LearnedPolicy.load(name, spec)
+    raise ValueError(f"unknown policy '{name}'; choose scripted, random, learned or the path of a .npz policy file")

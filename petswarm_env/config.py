@@ -178,7 +178,7 @@ def default_config_path() -> Path:
     return Path(str(resources.files("petswarm_env") / "default.yaml"))
 
 
-def _read_yaml(path: str | Path) -> dict[str, Any]:
+def read_yaml(path: str | Path) -> dict[str, Any]:
     path = Path(path)
     if not path.is_file():
         raise ConfigError(f"config file '{path}' does not exist; pass an existing YAML file")
@@ -193,7 +193,7 @@ def _read_yaml(path: str | Path) -> dict[str, Any]:
     return data
 
 
-def _merge(base: dict[str, Any], over: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
+def merge_mappings(base: dict[str, Any], over: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
     out = copy.deepcopy(base)
     for key, value in over.items():
         dotted = f"{prefix}{key}"
@@ -201,7 +201,7 @@ def _merge(base: dict[str, Any], over: Mapping[str, Any], prefix: str = "") -> d
             allowed = ", ".join(sorted(out)) if out else "(none)"
             raise ConfigError(f"unknown config key '{dotted}'; allowed keys here: {allowed}")
         if isinstance(out[key], dict) and isinstance(value, Mapping):
-            out[key] = _merge(out[key], value, prefix=f"{dotted}.")
+            out[key] = merge_mappings(out[key], value, prefix=f"{dotted}.")
         else:
             out[key] = copy.deepcopy(value)
     return out
@@ -219,7 +219,7 @@ def parse_override(item: str) -> tuple[str, Any]:
     return key.strip(), value
 
 
-def _dotted_to_nested(overrides: Mapping[str, Any]) -> dict[str, Any]:
+def nest_dotted(overrides: Mapping[str, Any]) -> dict[str, Any]:
     nested: dict[str, Any] = {}
     for key, value in overrides.items():
         parts = key.split(".")
@@ -232,7 +232,7 @@ def _dotted_to_nested(overrides: Mapping[str, Any]) -> dict[str, Any]:
     return nested
 
 
-def _format_validation_error(exc: ValidationError) -> str:
+def format_validation_error(exc: ValidationError) -> str:
     err = exc.errors()[0]
     loc = ".".join(str(p) for p in err["loc"]) or "(config)"
     msg = err["msg"]
@@ -250,12 +250,12 @@ def load_config(
     ``overrides`` maps dotted keys (``"swarm.num_slaves"``) or top-level sections (``"swarm":
     {...}``) to values. Raises :class:`ConfigError` with a one-line reason on any problem.
     """
-    data = _read_yaml(default_config_path())
+    data = read_yaml(default_config_path())
     if path is not None:
-        data = _merge(data, _read_yaml(path))
+        data = merge_mappings(data, read_yaml(path))
     if overrides:
-        data = _merge(data, _dotted_to_nested(overrides))
+        data = merge_mappings(data, nest_dotted(overrides))
     try:
         return Config.model_validate(data)
     except ValidationError as exc:
-        raise ConfigError(_format_validation_error(exc)) from None
+        raise ConfigError(format_validation_error(exc)) from None

@@ -177,7 +177,7 @@ class PetSwarmEnv(ParallelEnv):
         truncations = {a: truncated for a in self.agents}
         if truncated:
             for a in self.agents:
-                infos[a]["episode"] = self.episode_summary()
+                infos[a]["episode_summary"] = self.episode_summary()
             self.agents = []
         if self.render_mode == "human":
             self.render()

@@ -49,7 +49,7 @@ def test_truncation_at_max_cycles_ends_the_episode():
         _, _, terms, truncs, infos = env.step({a: np.zeros(3) for a in env.agents})
     assert all(truncs.values()) and not any(terms.values())
     assert env.agents == []
-    assert all("episode" in info for info in infos.values())
+    assert all("episode_summary" in info for info in infos.values())
     with pytest.raises(RuntimeError, match="reset"):
         env.step({})
 

@@ -61,6 +61,44 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--render", choices=["human"], help="show a window while running")
     run.add_argument("--video", metavar="OUT.gif", help="write the first episode as an animated GIF")
     run.add_argument("--quiet", action="store_true", help="print only the summary line")
+
+    train = sub.add_parser(
+        "train",
+        help="train a slave policy with PPO (stable-baselines3 + SuperSuit)",
+        description="Train one PPO policy shared by all slaves. Hyper-parameters and env overrides come from "
+        "configs/train/ppo.yaml (or --config), copied into the run folder; checkpoints are atomic; "
+        "--resume continues a run.",
+    )
+    train.add_argument("--config", metavar="FILE", help="training YAML merged over configs/train/ppo.yaml")
+    train.add_argument("--set", metavar="KEY=VALUE", action="append", default=[],
+                       help="override a training key (ppo.learning_rate=1e-4) or an env key (env.swarm.num_slaves=3)")
+    train.add_argument("--timesteps", type=_positive_int, metavar="N", help="total agent-steps (overrides the config)")
+    train.add_argument("--out", metavar="runs/NAME", default="runs/ppo", help="run folder (default runs/ppo)")
+    train.add_argument("--resume", action="store_true", help="continue the run in --out from its latest checkpoint")
+    train.add_argument("--no-progress", action="store_true", help="no progress bar")
+
+    ev = sub.add_parser(
+        "eval",
+        help="evaluate a slave policy (or a mixed team) on named scenarios",
+        description="Evaluate a slave policy on each scenario over the same seeds; JSON as `petswarm run` plus "
+        "per-scenario summaries, error traces and trajectories (input of `petswarm report`).",
+    )
+    ev.add_argument("--policy", default="scripted", metavar="scripted|random|learned|PATH",
+                    help="policy of every slave not named in --mix (learned = the model shipped in the package)")
+    ev.add_argument("--mix", metavar="ROBOT=POLICY", action="append", default=[],
+                    help="give one robot another policy, e.g. --mix robot_2=learned (repeatable)")
+    ev.add_argument("--scenarios", metavar="a,b,...", help="comma-separated scenarios (default: the config's scenario)")
+    ev.add_argument("--episodes", type=_positive_int, default=5, metavar="N", help="episodes (seeds) per scenario (default 5)")
+    ev.add_argument("--seed", type=_seed, metavar="S", help="first seed (default: config seed)")
+    ev.add_argument("--config", metavar="FILE", help="YAML file merged over configs/default.yaml")
+    ev.add_argument("--set", metavar="KEY=VALUE", action="append", default=[], help="override a config key (repeatable)")
+    ev.add_argument("--json", metavar="OUT", help="write the results as JSON (atomically)")
+    ev.add_argument("--video-dir", metavar="DIR", help="write a GIF of the first episode of each scenario into DIR")
+
+    rep = sub.add_parser("report", help="compare evaluation results in one self-contained HTML page",
+                         description="Compare the JSON results of `petswarm eval` (one per policy) in one HTML page.")
+    rep.add_argument("results", nargs="+", metavar="RESULT.json")
+    rep.add_argument("--out", default="report.html", metavar="report.html", help="output HTML file (default report.html)")
     return parser
 
 
@@ -102,13 +140,61 @@ def _cmd_run(args) -> int:
     return 0
 
 
+def _cmd_train(args, argv: list[str]) -> int:
+    from training.train import load_train_config, train
+
+    overrides = dict(parse_override(item) for item in args.set)
+    if args.timesteps:
+        overrides["timesteps"] = args.timesteps
+    cfg = load_train_config(args.config, overrides)
+    log = train(cfg, args.out, resume=args.resume, progress_bar=not args.no_progress,
+                command="petswarm " + " ".join(argv))
+    last = log["evaluations"][-1] if log["evaluations"] else {}
+    print(f"trained {log['timesteps']} agent-steps in {log['wall_time_s']:.0f} s; "
+          f"eval formation_rmse_m {last.get('formation_rmse_m', float('nan')):.3f} "
+          f"(scripted {log['scripted_eval_rmse_m']:.3f}); policy: {args.out}/policy.npz")
+    return 0
+
+
+def _cmd_eval(args) -> int:
+    from training.evaluate import evaluate, format_table, parse_mix
+    from training.runner import write_json_atomic
+
+    cfg = load_config(args.config, dict(parse_override(item) for item in args.set))
+    scenarios = [s.strip() for s in args.scenarios.split(",") if s.strip()] if args.scenarios else None
+    result = evaluate(cfg, args.policy, parse_mix(args.mix), scenarios, args.episodes, args.seed, args.video_dir)
+    print(format_table(result))
+    if args.json:
+        write_json_atomic(args.json, result)
+        print(f"wrote {args.json}")
+    return 0
+
+
+def _cmd_report(args) -> int:
+    from training.report import write_report
+
+    write_report(args.results, args.out)
+    print(f"wrote {args.out}")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
     args = build_parser().parse_args(argv)
     try:
         if args.command == "run":
             return _cmd_run(args)
+        if args.command == "train":
+            return _cmd_train(args, argv)
+        if args.command == "eval":
+            return _cmd_eval(args)
+        if args.command == "report":
+            return _cmd_report(args)
     except (ConfigError, ValueError, RuntimeError, OSError) as exc:
         print(f"petswarm: error: {exc}", file=sys.stderr)
+        return 2
+    except ImportError as exc:
+        print(f"petswarm: error: {exc.name or exc} is not installed; set up the training stack with: bash scripts/setup.sh train", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("petswarm: interrupted", file=sys.stderr)

@@ -14,21 +14,51 @@ from petswarm_env import PetSwarmEnv
 from petswarm_env.config import Config
 
 
-def run_episode(env: PetSwarmEnv, policy: Policy, seed: int, on_frame: Callable[[], None] | None = None) -> dict[str, Any]:
-    """One episode with ``policy`` driving every slave; returns ``env.episode_summary()``."""
+TRAJECTORY_EVERY = 5  # record positions every 5 steps (0.5 s)
+
+
+def _positions(env: PetSwarmEnv) -> tuple[list[float], dict[str, list[float]]]:
+    user = [round(v, 3) for v in env.world.user.position]
+    robots = {f"robot_{r.index}": [round(v, 3) for v in r.position] for r in env.world.robots}
+    return user, robots
+
+
+def run_episode(
+    env: PetSwarmEnv,
+    policy: Policy,
+    seed: int,
+    on_frame: Callable[[], None] | None = None,
+    record: bool = False,
+) -> dict[str, Any]:
+    """One episode with ``policy`` driving every slave; returns ``env.episode_summary()`` plus the
+    seed, and with ``record`` the per-step mean formation error and the trajectories (truth)."""
     observations, _ = env.reset(seed=seed)
     policy.reset(seed)
     if on_frame:
         on_frame()
     summary: dict[str, Any] = {}
+    traj_user, traj_robots = [], {}
     while env.agents:
+        if record and env.num_cycles % TRAJECTORY_EVERY == 0:
+            user, robots = _positions(env)
+            traj_user.append(user)
+            for rid, p in robots.items():
+                traj_robots.setdefault(rid, []).append(p)
         observations, _, _, _, infos = env.step(policy.act_all(observations))
         if on_frame:
             on_frame()
         for info in infos.values():
-            if "episode" in info:
-                summary = info["episode"]
+            if "episode_summary" in info:
+                summary = info["episode_summary"]
     summary["seed"] = seed
+    if record:
+        summary["error_trace"] = [round(e, 4) for e in env.metrics.error_trace]
+        summary["trajectory"] = {
+            "dt_s": TRAJECTORY_EVERY * env.cfg.control_period_s,
+            "user": traj_user,
+            "master": f"robot_{env.swarm.master.node_id}",
+            "robots": traj_robots,
+        }
     return summary
 
 
@@ -93,6 +123,7 @@ def write_json_atomic(path: str | os.PathLike, data: Any) -> None:
         with os.fdopen(fd, "w") as f:
             json.dump(data, f, indent=2, allow_nan=True)
             f.write("\n")
+        os.chmod(tmp, 0o644)
         os.replace(tmp, path)
     except BaseException:
         if os.path.exists(tmp):

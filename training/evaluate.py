@@ -1,0 +1,108 @@
+"""Evaluate a slave policy — or a mixed team — scenario by scenario, with recorded traces."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+from baselines.policy import MixedPolicy, PolicySpec, make_policy
+from petswarm_env.config import SCENARIOS, Config, ConfigError, load_config
+from petswarm_env.env import PetSwarmEnv, _flatten
+from training.runner import run_episode, summarize
+from training.stats import mean_ci95
+
+
+def parse_mix(items: list[str]) -> dict[str, str]:
+    """``["robot_2=learned", ...]`` -> ``{"robot_2": "learned"}``."""
+    mix = {}
+    for item in items:
+        robot, sep, policy = item.partition("=")
+        if not sep or not robot.startswith("robot_") or not policy:
+            raise ConfigError(f"--mix '{item}' must look like ROBOT=POLICY, e.g. robot_2=learned")
+        mix[robot.strip()] = policy.strip()
+    return mix
+
+
+def team_label(policy: str, mix: dict[str, str]) -> str:
+    if not mix:
+        return policy
+    return f"{policy}+" + ",".join(f"{r}={p}" for r, p in sorted(mix.items()))
+
+
+def make_team(env: PetSwarmEnv, policy: str, mix: dict[str, str], seed: int):
+    spec = PolicySpec.from_env(env)
+    default = make_policy(policy, spec, seed)
+    if not mix:
+        return default
+    unknown = sorted(set(mix) - set(env.possible_agents))
+    if unknown:
+        raise ConfigError(f"--mix names {unknown}, which are not slaves of this swarm; slaves: {env.possible_agents}")
+    return MixedPolicy(spec, default, {r: make_policy(p, spec, seed) for r, p in mix.items()})
+
+
+def evaluate(
+    config: Config,
+    policy: str = "scripted",
+    mix: dict[str, str] | None = None,
+    scenarios: list[str] | None = None,
+    episodes: int = 5,
+    seed: int | None = None,
+    video_dir: str | None = None,
+) -> dict[str, Any]:
+    """Run ``episodes`` seeds on each scenario; the same seeds for every policy, so results pair up."""
+    mix = mix or {}
+    scenarios = scenarios or [config.user.scenario]
+    bad = [s for s in scenarios if s not in SCENARIOS]
+    if bad:
+        raise ConfigError(f"unknown scenario(s) {bad}; choose from: {', '.join(SCENARIOS)}")
+    base_seed = config.seed if seed is None else seed
+    label = team_label(policy, mix)
+    all_eps: list[dict[str, Any]] = []
+    per_scenario: dict[str, Any] = {}
+    for scenario in scenarios:
+        cfg = load_config(overrides={**_flatten(config.to_dict()), "user.scenario": scenario})
+        env = PetSwarmEnv(cfg, render_mode="rgb_array" if video_dir else None)
+        team = make_team(env, policy, mix, base_seed)
+        eps = []
+        for i in range(episodes):
+            on_frame, writer = None, None
+            gif = None
+            if video_dir and i == 0:
+                from petswarm_env.render import GifWriter
+
+                gif = str(Path(video_dir) / f"{scenario}_seed{base_seed}.gif")
+                writer = GifWriter(gif, fps=cfg.render.fps)
+                on_frame = lambda w=writer: w.append(env.render())  # noqa: E731
+            ep = run_episode(env, team, base_seed + i, on_frame, record=True)
+            if writer is not None:
+                writer.close()
+                ep["gif"] = gif
+            ep.update({"scenario": scenario, "policy": label})
+            eps.append(ep)
+        env.close()
+        mean, half = mean_ci95([e["formation_rmse_m"] for e in eps])
+        per_scenario[scenario] = {
+            "episodes": len(eps),
+            "formation_rmse_m": mean,
+            "formation_rmse_ci95": half,
+            "collisions": sum(sum(e["collisions"].values()) for e in eps),
+        }
+        all_eps.extend(eps)
+    return {
+        "label": label,
+        "policy": policy,
+        "mix": mix,
+        "config": config.to_dict(),
+        "episodes": all_eps,
+        "summary": summarize(all_eps),
+        "scenarios": per_scenario,
+    }
+
+
+def format_table(result: dict[str, Any]) -> str:
+    lines = [f"policy: {result['label']}", f"{'scenario':<15} {'episodes':>8} {'rmse_m':>8} {'±95%':>7} {'collisions':>10}"]
+    for name, s in result["scenarios"].items():
+        half = s["formation_rmse_ci95"]
+        lines.append(f"{name:<15} {s['episodes']:>8} {s['formation_rmse_m']:>8.3f} {half if math.isfinite(half) else float('nan'):>7.3f} {s['collisions']:>10}")
+    return "\n".join(lines)

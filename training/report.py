@@ -1,0 +1,728 @@
+"""A self-contained HTML report comparing evaluation results of slave policies.
+
+    write_report(["runs/scripted.json", "runs/learned.json"], "report.html")
+
+Each result file is the JSON written by an evaluation of one policy (or one mixed team) over
+several scenarios and seeds: ``{"label", "config", "episodes": [...], "summary", "scenarios"}``.
+The report holds a header (files, labels, config differences), a per-scenario table of
+formation RMSE (mean ± 95 % t-interval computed here from the episodes, ratio to the
+``scripted`` label), error-over-time and trajectory plots (PNG, base64-embedded), collision,
+arbiter and communication tables, and relative links to episode GIFs. No external resources:
+the file opens from disk in any browser.
+
+Older result files may lack fields; whatever is missing shows as "n/a".
+"""
+
+from __future__ import annotations
+
+import base64
+import datetime as _dt
+import html
+import io
+import json
+import math
+import os
+import tempfile
+import urllib.parse
+from pathlib import Path
+from typing import Any, Iterable
+
+__all__ = ["load_result", "mean_ci95", "t_critical_95", "write_report"]
+
+REFERENCE_LABEL = "scripted"
+DEFAULT_DT_S = 0.1  # control period of one env step (configs/default.yaml: control_period_s)
+NA = "n/a"
+DASH = "—"
+
+# two-sided 95 % critical values of Student's t, by degrees of freedom (used without scipy)
+_T95 = {
+    1: 12.706, 2: 4.303, 3: 3.182, 4: 2.776, 5: 2.571, 6: 2.447, 7: 2.365, 8: 2.306, 9: 2.262,
+    10: 2.228, 11: 2.201, 12: 2.179, 13: 2.160, 14: 2.145, 15: 2.131, 16: 2.120, 17: 2.110,
+    18: 2.101, 19: 2.093, 20: 2.086, 21: 2.080, 22: 2.074, 23: 2.069, 24: 2.064, 25: 2.060,
+    26: 2.056, 27: 2.052, 28: 2.048, 29: 2.045, 30: 2.042,
+}
+
+
+# -- statistics ----------------------------------------------------------------------------------
+def t_critical_95(dof: int) -> float:
+    """Two-sided 95 % critical value of Student's t with ``dof`` degrees of freedom
+    (scipy if installed; otherwise a table for dof ≤ 30 and 1.96 beyond)."""
+    if dof < 1:
+        return math.nan
+    try:
+        from scipy.special import stdtrit
+
+        return float(stdtrit(dof, 0.975))
+    except ImportError:
+        return _T95.get(dof, 1.96)
+
+
+def mean_ci95(values: Iterable[Any]) -> tuple[float, float, int]:
+    """(mean, half-width of the 95 % t confidence interval, n) over the finite values.
+    The half-width is NaN with fewer than two values; the mean is NaN with none."""
+    xs = [v for v in (_num(x) for x in values) if math.isfinite(v)]
+    n = len(xs)
+    if n == 0:
+        return math.nan, math.nan, 0
+    mean = sum(xs) / n
+    if n < 2:
+        return mean, math.nan, n
+    sd = math.sqrt(sum((x - mean) ** 2 for x in xs) / (n - 1))
+    return mean, t_critical_95(n - 1) * sd / math.sqrt(n), n
+
+
+def _num(x: Any) -> float:
+    """A float, or NaN for anything that is not a number (None, strings, bools, …)."""
+    if isinstance(x, bool) or not isinstance(x, (int, float)):
+        return math.nan
+    return float(x)
+
+
+def _sum_or_nan(values: Iterable[Any]) -> float:
+    """Sum of the finite numbers; NaN if there are none."""
+    xs = [v for v in (_num(x) for x in values) if math.isfinite(v)]
+    return float(sum(xs)) if xs else math.nan
+
+
+# -- loading -------------------------------------------------------------------------------------
+def load_result(path: str | os.PathLike) -> dict[str, Any]:
+    """Read and check one result file. Raises ``ValueError("<path>: <problem>")`` on a missing,
+    unreadable, non-JSON or wrongly shaped file."""
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ValueError(f"{path}: result file not found") from None
+    except IsADirectoryError:
+        raise ValueError(f"{path}: is a directory, not a result file") from None
+    except UnicodeDecodeError:
+        raise ValueError(f"{path}: not a JSON result file (not UTF-8 text)") from None
+    except OSError as e:
+        raise ValueError(f"{path}: cannot read result file ({e.strerror or e})") from None
+    if not text.strip():
+        raise ValueError(f"{path}: result file is empty")
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError as e:
+        raise ValueError(f"{path}: not valid JSON ({e.msg} at line {e.lineno} column {e.colno})") from None
+    except RecursionError:
+        raise ValueError(f"{path}: not valid JSON (nested too deeply)") from None
+    if not isinstance(data, dict):
+        raise ValueError(f"{path}: expected a JSON object with an 'episodes' list, got {type(data).__name__}")
+    episodes = data.get("episodes", [])
+    if episodes is None:
+        episodes = []
+    if not isinstance(episodes, list):
+        raise ValueError(f"{path}: 'episodes' must be a list, got {type(episodes).__name__}")
+    for i, ep in enumerate(episodes):
+        if not isinstance(ep, dict):
+            raise ValueError(f"{path}: episode {i} must be a JSON object, got {type(ep).__name__}")
+    data["episodes"] = episodes
+    if not isinstance(data.get("config"), dict):
+        data["config"] = {}
+    return data
+
+
+class _Result:
+    """One loaded result file, with its display label."""
+
+    def __init__(self, path: str, data: dict[str, Any]):
+        self.path = path
+        self.dir = Path(path).resolve().parent
+        self.data = data
+        raw = data.get("label")
+        self.label = str(raw) if raw not in (None, "") else Path(path).stem
+        self.config: dict[str, Any] = data["config"]
+        self.episodes: list[dict[str, Any]] = data["episodes"]
+        self.dt_s = _num(self.config.get("control_period_s"))
+        if not (math.isfinite(self.dt_s) and self.dt_s > 0):
+            self.dt_s = DEFAULT_DT_S
+        default_scn = None
+        user = self.config.get("user")
+        if isinstance(user, dict) and user.get("scenario") not in (None, ""):
+            default_scn = str(user["scenario"])
+        self.default_scenario = default_scn or "default"
+
+    def scenario_of(self, ep: dict[str, Any]) -> str:
+        s = ep.get("scenario")
+        return str(s) if s not in (None, "") else self.default_scenario
+
+    def by_scenario(self) -> dict[str, list[dict[str, Any]]]:
+        out: dict[str, list[dict[str, Any]]] = {}
+        for ep in self.episodes:
+            out.setdefault(self.scenario_of(ep), []).append(ep)
+        return out
+
+
+def _unique_labels(results: list[_Result]) -> None:
+    """Give results with the same label distinct names (label [file name])."""
+    counts: dict[str, int] = {}
+    for r in results:
+        counts[r.label] = counts.get(r.label, 0) + 1
+    seen: dict[str, int] = {}
+    for r in results:
+        if counts[r.label] > 1:
+            base = f"{r.label} [{Path(r.path).name}]"
+            k = seen.get(base, 0)
+            seen[base] = k + 1
+            r.label = base if k == 0 else f"{base} #{k + 1}"
+
+
+# -- formatting ----------------------------------------------------------------------------------
+def _e(x: Any) -> str:
+    return html.escape(str(x), quote=True)
+
+
+def _fmt(x: Any, digits: int = 3) -> str:
+    v = _num(x)
+    return f"{v:.{digits}f}" if math.isfinite(v) else NA
+
+
+def _fmt_int(x: Any) -> str:
+    v = _num(x)
+    return str(int(round(v))) if math.isfinite(v) else NA
+
+
+def _fmt_pct(num: float, den: float) -> str:
+    if not (math.isfinite(num) and math.isfinite(den)) or den <= 0:
+        return NA
+    return f"{100.0 * num / den:.1f} %"
+
+
+def _fmt_ci(mean: float, half: float, digits: int = 3) -> str:
+    if not math.isfinite(mean):
+        return NA
+    if not math.isfinite(half):
+        return f"{mean:.{digits}f} ± {NA}"
+    return f"{mean:.{digits}f} ± {half:.{digits}f}"
+
+
+def _flatten(d: dict[str, Any], prefix: str = "") -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for k, v in d.items():
+        key = f"{prefix}{k}"
+        if isinstance(v, dict) and v:
+            out.update(_flatten(v, key + "."))
+        else:
+            out[key] = v
+    return out
+
+
+def _cfg_value(v: Any) -> str:
+    if isinstance(v, (dict, list)):
+        return json.dumps(v, sort_keys=True)
+    return str(v)
+
+
+
+def _env_name(results: list[_Result]) -> str:
+    for r in results:
+        for key in ("env", "env_name"):
+            v = r.data.get(key) or r.config.get(key)
+            if isinstance(v, str) and v:
+                return v
+    try:
+        from petswarm_env.env import ENV_NAME
+
+        return ENV_NAME
+    except Exception:  # pragma: no cover - the report must not depend on the env importing
+        return "petswarm"
+
+
+def _gif_href(result: _Result, gif: str, out_dir: Path) -> tuple[str, bool]:
+    """The href of a GIF named relative to its result file, relative to the report's directory;
+    and whether the file exists."""
+    if "://" in gif:
+        return gif, True
+    target = Path(gif)
+    if not target.is_absolute():
+        target = result.dir / target
+    target = Path(os.path.normpath(target))
+    try:
+        rel = os.path.relpath(target, out_dir)
+    except ValueError:  # different drives (Windows): fall back to a file URI
+        return target.as_uri(), target.exists()
+    return urllib.parse.quote(Path(rel).as_posix()), target.exists()
+
+
+# -- plots ---------------------------------------------------------------------------------------
+_COLORS = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf"]
+
+
+def _new_figure(w: float, h: float, top_in: float = 0.35, bottom_in: float = 0.55, wspace: float = 0.2, hspace: float = 0.2):
+    """A pyplot-free Agg figure with fixed margins in inches (cheaper than tight/constrained layout)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(w, h), dpi=100)
+    FigureCanvasAgg(fig)
+    fig.subplots_adjust(left=0.75 / w, right=1 - 0.15 / w, bottom=bottom_in / h, top=1 - top_in / h, wspace=wspace, hspace=hspace)
+    return fig
+
+
+def _png(fig) -> str:
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=90)
+    return base64.b64encode(buf.getvalue()).decode("ascii")
+
+
+def _img(b64: str, alt: str) -> str:
+    return f'<img src="data:image/png;base64,{b64}" alt="{_e(alt)}">'
+
+
+def _as_xy(points: Any):
+    """An (n, 2) float array from a list of [x, y], or None when it is not one."""
+    import numpy as np
+
+    try:
+        a = np.asarray(points, dtype=float)
+    except (TypeError, ValueError):
+        return None
+    if a.ndim != 2 or a.shape[1] < 2 or a.shape[0] == 0:
+        return None
+    return a[:, :2]
+
+
+def _trace_matrix(episodes: list[dict[str, Any]]):
+    """Episodes' error traces as rows of a NaN-padded matrix (None when there are none)."""
+    import numpy as np
+
+    traces = []
+    for ep in episodes:
+        tr = ep.get("error_trace")
+        if isinstance(tr, list) and tr:
+            traces.append([_num(x) for x in tr])
+    if not traces:
+        return None
+    m = np.full((len(traces), max(len(t) for t in traces)), np.nan)
+    for i, t in enumerate(traces):
+        m[i, : len(t)] = t
+    return m
+
+
+def _plot_rmse_bars(scenarios: list[str], labels: list[str], table: dict[tuple[str, str], tuple[float, float, int]], colors: dict[str, str]) -> str | None:
+    import numpy as np
+
+    if not any(math.isfinite(v[0]) for v in table.values()):
+        return None
+    fig = _new_figure(max(5.0, 1.2 + 0.9 * len(scenarios) * max(1, len(labels)) * 0.5), 3.4)
+    ax = fig.add_subplot(1, 1, 1)
+    width = 0.8 / max(1, len(labels))
+    x = np.arange(len(scenarios))
+    for j, label in enumerate(labels):
+        means, errs = [], []
+        for s in scenarios:
+            m, h, _ = table.get((s, label), (math.nan, math.nan, 0))
+            means.append(m)
+            errs.append(h if math.isfinite(h) else 0.0)
+        ax.bar(x + (j - (len(labels) - 1) / 2) * width, means, width, yerr=errs, capsize=3, color=colors[label], label=label)
+    ax.set_xticks(x)
+    ax.set_xticklabels(scenarios)
+    ax.set_ylabel("formation RMSE (m)")
+    ax.grid(axis="y", alpha=0.3)
+    ax.legend(fontsize=8, loc="best")
+    return _png(fig)
+
+
+def _plot_error_over_time(scenario: str, series: list[tuple[str, Any, float]], colors: dict[str, str]) -> str | None:
+    import warnings
+
+    import numpy as np
+
+    if not series:
+        return None
+    fig = _new_figure(7.5, 3.4)
+    ax = fig.add_subplot(1, 1, 1)
+    for label, m, dt in series:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN columns
+            mean = np.nanmean(m, axis=0)
+            q25 = np.nanpercentile(m, 25, axis=0)
+            q75 = np.nanpercentile(m, 75, axis=0)
+        t = np.arange(m.shape[1]) * dt
+        c = colors[label]
+        ax.plot(t, mean, color=c, lw=1.5, label=f"{label} (n={m.shape[0]})")
+        ax.fill_between(t, q25, q75, color=c, alpha=0.2, lw=0)
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("mean formation error (m)")
+    ax.set_title(f"scenario {scenario}", fontsize=10)
+    ax.set_ylim(bottom=0)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8, loc="upper right")
+    return _png(fig)
+
+
+_SLAVE_COLORS = ["#1f77b4", "#ff7f0e", "#2ca02c", "#9467bd", "#8c564b", "#e377c2", "#17becf", "#bcbd22", "#7f7f7f"]
+_MASTER_COLOR = "#d62728"
+
+
+def _plot_trajectories(scenario: str, panels: list[tuple[str, dict[str, Any]]]) -> str | None:
+    import numpy as np
+
+    drawable = []
+    for label, ep in panels:
+        traj = ep.get("trajectory")
+        if not isinstance(traj, dict):
+            continue
+        robots = traj.get("robots") if isinstance(traj.get("robots"), dict) else {}
+        paths = {str(name): xy for name, xy in ((n, _as_xy(p)) for n, p in robots.items()) if xy is not None}
+        user = _as_xy(traj.get("user"))
+        if paths or user is not None:
+            drawable.append((label, ep, str(traj.get("master")), paths, user))
+    if not drawable:
+        return None
+    # panel shape from the data's overall aspect, so equal-aspect panels are not mostly blank
+    pts = np.concatenate([a for _, _, _, paths, user in drawable for a in [*paths.values(), *([user] if user is not None else [])]])
+    pts = pts[np.isfinite(pts).all(axis=1)]
+    aspect = 1.0
+    if len(pts):
+        span = np.ptp(pts, axis=0)
+        aspect = float((span[1] + 1.0) / (span[0] + 1.0))
+    ncols = min(3, len(drawable))
+    nrows = math.ceil(len(drawable) / ncols)
+    panel_w = 11.0 / ncols if ncols > 1 else 6.0
+    panel_h = min(max(panel_w * aspect, 2.2), 6.0)
+    fig = _new_figure(panel_w * ncols, panel_h * nrows + 1.2, top_in=0.55, bottom_in=0.95, wspace=0.25, hspace=0.35)
+    names = sorted({n for _, _, _, paths, _ in drawable for n in paths}, key=lambda s: (len(s), s))
+    slave_names = [n for n in names if all(n != m for _, _, m, _, _ in drawable)]
+    colors = {n: _SLAVE_COLORS[i % len(_SLAVE_COLORS)] for i, n in enumerate(slave_names)}
+    legend: dict[str, Any] = {}
+    for k, (label, ep, master, paths, user) in enumerate(drawable):
+        ax = fig.add_subplot(nrows, ncols, k + 1)
+        for name in sorted(paths, key=lambda s: (s != master, len(s), s)):
+            xy = paths[name]
+            if name == master:
+                (line,) = ax.plot(xy[:, 0], xy[:, 1], color=_MASTER_COLOR, lw=2.2, zorder=3)
+                ax.plot(xy[-1, 0], xy[-1, 1], "o", color=_MASTER_COLOR, ms=6, zorder=4)
+                legend.setdefault("master robot", line)
+            else:
+                c = colors.get(name, "#7f7f7f")
+                (line,) = ax.plot(xy[:, 0], xy[:, 1], color=c, lw=0.9, alpha=0.85, zorder=2)
+                ax.plot(xy[-1, 0], xy[-1, 1], "o", color=c, ms=3.5, zorder=2)
+                legend.setdefault(name, line)
+        if user is not None:
+            (line,) = ax.plot(user[:, 0], user[:, 1], color="black", lw=1.6, ls="--", zorder=5)
+            ax.plot(user[0, 0], user[0, 1], "s", color="black", ms=5, zorder=5)
+            ax.plot(user[-1, 0], user[-1, 1], "*", color="black", ms=9, zorder=5)
+            legend.setdefault("user", line)
+        seed = ep.get("seed")
+        ax.set_title(f"{label} — seed {seed if seed is not None else NA} (master {master})", fontsize=9)
+        ax.set_aspect("equal", adjustable="datalim")
+        ax.grid(alpha=0.3)
+        ax.set_xlabel("x (m)", fontsize=8)
+        ax.set_ylabel("y (m)", fontsize=8)
+        ax.tick_params(labelsize=7)
+    order = ["user", "master robot"] + [n for n in legend if n not in ("user", "master robot")]
+    order = [n for n in order if n in legend]
+    fig.legend([legend[n] for n in order], order, loc="lower center", ncol=min(len(order), 8), fontsize=8, frameon=False)
+    fig.suptitle(f"scenario {scenario}", fontsize=10)
+    return _png(fig)
+
+
+# -- HTML ----------------------------------------------------------------------------------------
+_CSS = """
+body{font-family:system-ui,-apple-system,"Segoe UI",Roboto,Helvetica,Arial,sans-serif;margin:1.5em auto;max-width:1100px;padding:0 1em;color:#222;line-height:1.4}
+h1{font-size:1.6em;margin-bottom:.2em}h2{border-bottom:2px solid #ddd;padding-bottom:.2em;margin-top:1.8em}h3{margin-bottom:.3em}
+table{border-collapse:collapse;margin:.6em 0 1em;font-size:.9em}
+th,td{border:1px solid #ccc;padding:.25em .6em;text-align:right;vertical-align:top}
+th{background:#f0f0f0}td.l,th.l{text-align:left}
+tr.best td{background:#e6f4e6;font-weight:600}
+tr.total td{background:#f7f7f7;font-style:italic}
+.meta td{text-align:left}.muted{color:#777}.warn{color:#a60}
+figure{margin:.6em 0 1.4em}figure img{max-width:100%;border:1px solid #eee}
+figcaption{font-size:.85em;color:#555;max-width:900px}
+code{background:#f4f4f4;padding:0 .2em}details{margin:.4em 0}
+ul.gifs{columns:2;font-size:.9em}
+"""
+
+
+def _table(headers: list[str], rows: list[tuple[list[str], str]], left_cols: int = 1) -> str:
+    """``rows``: (escaped cell texts, tr class). The first ``left_cols`` columns are left-aligned."""
+    out = ["<table><thead><tr>"]
+    out += [f'<th class="l">{h}</th>' if i < left_cols else f"<th>{h}</th>" for i, h in enumerate(headers)]
+    out.append("</tr></thead><tbody>")
+    for cells, cls in rows:
+        out.append(f'<tr class="{cls}">' if cls else "<tr>")
+        out += [f'<td class="l">{c}</td>' if i < left_cols else f"<td>{c}</td>" for i, c in enumerate(cells)]
+        out.append("</tr>")
+    out.append("</tbody></table>")
+    return "".join(out)
+
+
+def _section_header(results: list[_Result], generated: str) -> str:
+    parts = [f"<h1>petswarm evaluation report</h1><p class=\"muted\">generated {_e(generated)} · environment <code>{_e(_env_name(results))}</code></p>"]
+    rows = []
+    for r in results:
+        scns = sorted(r.by_scenario())
+        rows.append(([_e(r.label), f"<code>{_e(r.path)}</code>", str(len(r.episodes)), _e(", ".join(scns)) if scns else NA], ""))
+    parts.append("<h2>1. Results compared</h2>")
+    parts.append(_table(["label", "file", "episodes", "scenarios"], rows, left_cols=2))
+    # config differences
+    flat = [_flatten(r.config) for r in results]
+    keys = sorted(set().union(*flat)) if flat else []
+    diff = [k for k in keys if len({_cfg_value(f[k]) if k in f else "\0missing" for f in flat}) > 1]
+    if len(results) < 2:
+        parts.append("<p>One result only: nothing to compare configurations against.</p>")
+    elif not any(flat):
+        parts.append(f"<p>Configuration differences: {NA} (no configuration recorded).</p>")
+    elif not diff:
+        parts.append("<p>Configuration differences: none — all results share the same configuration.</p>")
+    else:
+        drows = [([f"<code>{_e(k)}</code>"] + [_e(_cfg_value(f[k])) if k in f else f'<span class="muted">{NA}</span>' for f in flat], "") for k in diff]
+        parts.append("<p>Configuration differences between results:</p>")
+        parts.append(_table(["key"] + [_e(r.label) for r in results], drows))
+    if any(flat):
+        first = next((r for r, f in zip(results, flat) if f), results[0])
+        crow = [([f"<code>{_e(k)}</code>", _e(_cfg_value(v))], "") for k, v in sorted(_flatten(first.config).items())]
+        parts.append(f"<details><summary>full configuration of <b>{_e(first.label)}</b></summary>{_table(['key', 'value'], crow, left_cols=2)}</details>")
+    return "".join(parts)
+
+
+def _section_rmse(results: list[_Result], scenarios: list[str], colors: dict[str, str]) -> str:
+    labels = [r.label for r in results]
+    stats: dict[tuple[str, str], tuple[float, float, int]] = {}
+    counts: dict[tuple[str, str], tuple[int, int]] = {}
+    for r in results:
+        for s, eps in r.by_scenario().items():
+            stats[(s, r.label)] = mean_ci95(ep.get("formation_rmse_m") for ep in eps)
+            counts[(s, r.label)] = (len(eps), stats[(s, r.label)][2])
+    ref_label = REFERENCE_LABEL if REFERENCE_LABEL in labels else None
+    parts = ["<h2>2. Formation RMSE per scenario</h2>"]
+    if not scenarios:
+        parts.append(f"<p>No episodes in any result: {NA}.</p>")
+        return "".join(parts)
+    rows = []
+    for s in scenarios:
+        present = [lab for lab in labels if (s, lab) in stats]
+        finite = [stats[(s, lab)][0] for lab in present if math.isfinite(stats[(s, lab)][0])]
+        best = min(finite) if finite else None
+        ref = stats.get((s, ref_label), (math.nan, math.nan, 0))[0] if ref_label else math.nan
+        for lab in present:
+            m, h, n_fin = stats[(s, lab)]
+            n_eps, _ = counts[(s, lab)]
+            n_txt = str(n_eps) if n_fin == n_eps else f"{n_eps} ({n_eps - n_fin} without a value)"
+            ratio = f"{m / ref:.2f}" if math.isfinite(m) and math.isfinite(ref) and ref > 0 else DASH
+            is_best = best is not None and math.isfinite(m) and m == best
+            rows.append(([_e(s), _e(lab) + (" ★" if is_best and len(present) > 1 else ""), _fmt_ci(m, h), n_txt, ratio], "best" if is_best and len(present) > 1 else ""))
+    ref_txt = f"<b>{_e(REFERENCE_LABEL)}</b>" if ref_label else f"{DASH} (no result labelled <code>{REFERENCE_LABEL}</code>)"
+    parts.append(
+        "<p>Formation RMSE (m) per scenario: mean over episodes ± half-width of the 95 % confidence interval "
+        "(Student's t over the episodes' <code>formation_rmse_m</code>; n/a with a single episode). "
+        f"Ratio: mean ÷ mean of the reference {ref_txt} on the same scenario (lower is better). "
+        "The best (lowest mean) label per scenario is highlighted.</p>"
+    )
+    parts.append(_table(["scenario", "label", "formation RMSE (m), mean ± 95 % CI", "episodes", f"ratio to {_e(REFERENCE_LABEL)}"], rows, left_cols=2))
+    bars = _plot_rmse_bars(scenarios, labels, stats, colors)
+    if bars:
+        parts.append(f"<figure>{_img(bars, 'formation RMSE per scenario')}<figcaption>Formation RMSE per scenario and label; error bars: 95 % t confidence interval over episodes.</figcaption></figure>")
+    return "".join(parts)
+
+
+def _section_error_time(results: list[_Result], scenarios: list[str], colors: dict[str, str]) -> str:
+    parts = ["<h2>3. Formation error over time</h2>"]
+    for s in scenarios:
+        series = []
+        for r in results:
+            m = _trace_matrix(r.by_scenario().get(s, []))
+            if m is not None:
+                series.append((r.label, m, r.dt_s))
+        png = _plot_error_over_time(s, series, colors)
+        if png is None:
+            parts.append(f"<h3>{_e(s)}</h3><p>{NA}: no error traces recorded.</p>")
+            continue
+        dts = sorted({dt for _, _, dt in series})
+        parts.append(
+            f"<h3>{_e(s)}</h3><figure>{_img(png, f'formation error over time, {s}')}<figcaption>Mean formation error per step "
+            f"(m) across episodes, line = mean over episodes, shaded band = 25–75 percentile (interquartile range) over episodes. "
+            f"Time axis: step index × {', '.join(f'{d:g}' for d in dts)} s, from the first step with a recorded error.</figcaption></figure>"
+        )
+    if not scenarios:
+        parts.append(f"<p>{NA}: no episodes.</p>")
+    return "".join(parts)
+
+
+def _section_trajectories(results: list[_Result], scenarios: list[str]) -> str:
+    parts = ["<h2>4. Trajectories</h2>"]
+    if not scenarios:
+        parts.append(f"<p>{NA}: no episodes.</p>")
+    for s in scenarios:
+        panels = []
+        for r in results:
+            eps = r.by_scenario().get(s, [])
+            if eps:
+                panels.append((r.label, eps[0]))
+        png = _plot_trajectories(s, panels)
+        if png is None:
+            parts.append(f"<h3>{_e(s)}</h3><p>{NA}: no trajectories recorded.</p>")
+            continue
+        parts.append(
+            f"<h3>{_e(s)}</h3><figure>{_img(png, f'trajectories, {s}')}<figcaption>First episode of each label in this scenario: "
+            "user path (black dashed, ■ start, ★ end), master robot (thick red), slave robots (thin lines), ● = final positions. "
+            "Axes in metres, equal aspect.</figcaption></figure>"
+        )
+    return "".join(parts)
+
+
+def _collision_counts(eps: list[dict[str, Any]]) -> list[float]:
+    out = []
+    for key in ("robot_robot", "robot_user", "robot_wall"):
+        out.append(_sum_or_nan((ep.get("collisions") or {}).get(key) if isinstance(ep.get("collisions"), dict) else None for ep in eps))
+    return out
+
+
+def _comm_cells(eps: list[dict[str, Any]]) -> list[str]:
+    def frames(key):
+        return _sum_or_nan(ep["frames"].get(key) if isinstance(ep.get("frames"), dict) else None for ep in eps)
+
+    sent, lost, coll = frames("sent"), frames("lost"), frames("collided")
+    org_m, org_h, _ = mean_ci95(ep.get("organize_time_s") for ep in eps)
+    return [
+        _fmt_int(sent),
+        f"{_fmt_int(lost)} ({_fmt_pct(lost, sent)})" if math.isfinite(lost) else NA,
+        f"{_fmt_int(coll)} ({_fmt_pct(coll, sent)})" if math.isfinite(coll) else NA,
+        _fmt_int(_sum_or_nan(ep.get("join_retries") for ep in eps)),
+        _fmt_int(_sum_or_nan(ep.get("token_recoveries") for ep in eps)),
+        _fmt_ci(org_m, org_h, 2),
+    ]
+
+
+def _section_collisions_comms(results: list[_Result], scenarios: list[str]) -> str:
+    parts = ["<h2>5. Collisions, arbiter and communication</h2>"]
+    if not scenarios:
+        parts.append(f"<p>{NA}: no episodes.</p>")
+        return "".join(parts)
+    # collisions
+    rows = []
+    for s in scenarios:
+        for r in results:
+            eps = r.by_scenario().get(s)
+            if eps:
+                c = _collision_counts(eps)
+                rows.append(([_e(s), _e(r.label), str(len(eps))] + [_fmt_int(x) for x in c] + [_fmt_int(_sum_or_nan(c))], ""))
+    for r in results:
+        if r.episodes:
+            c = _collision_counts(r.episodes)
+            rows.append((["all scenarios", _e(r.label), str(len(r.episodes))] + [_fmt_int(x) for x in c] + [_fmt_int(_sum_or_nan(c))], "total"))
+    parts.append("<h3>Collisions</h3><p>Total collision events over all episodes (contact starts, counted by the physics engine).</p>")
+    parts.append(_table(["scenario", "label", "episodes", "robot–robot", "robot–user", "robot–wall", "total"], rows, left_cols=2))
+    # arbiter
+    keys: list[str] = []
+    for r in results:
+        for ep in r.episodes:
+            if isinstance(ep.get("arbiter_wins"), dict):
+                for k in ep["arbiter_wins"]:
+                    if str(k) not in keys:
+                        keys.append(str(k))
+    order = [k for k in ("safety", "user", "policy") if k in keys] + [k for k in keys if k not in ("safety", "user", "policy")]
+    if not order:
+        order = ["safety", "user", "policy"]
+    arows = []
+    for r in results:
+        eps = [ep for ep in r.episodes if isinstance(ep.get("arbiter_wins"), dict)]
+        if not eps:
+            arows.append(([_e(r.label), "0"] + [NA] * len(order) + [NA], ""))
+            continue
+        wins = {k: _sum_or_nan(ep["arbiter_wins"].get(k) for ep in eps) for k in order}
+        ticks_known = all(math.isfinite(_num(ep.get("steps"))) and math.isfinite(_num(ep.get("slaves"))) for ep in eps)
+        ticks = sum(_num(ep["steps"]) * _num(ep["slaves"]) for ep in eps) if ticks_known else _sum_or_nan(wins.values())
+        cells = [f"{_fmt_int(wins[k])} ({_fmt_pct(wins[k], ticks)})" if math.isfinite(wins[k]) else NA for k in order]
+        arows.append(([_e(r.label), str(len(eps))] + cells + [_fmt_int(ticks)], ""))
+    parts.append(
+        "<h3>Arbiter</h3><p>Which layer won the command arbitration, summed over episodes, as a share of ticks "
+        "(ticks = steps × slaves per episode; the sum of wins when those are missing). "
+        f"{NA}: the result records no arbiter statistics.</p>"
+    )
+    parts.append(_table(["label", "episodes with data"] + [_e(k) for k in order] + ["ticks"], arows))
+    # communication
+    crow = []
+    for s in scenarios:
+        for r in results:
+            eps = r.by_scenario().get(s)
+            if eps:
+                crow.append(([_e(s), _e(r.label), str(len(eps))] + _comm_cells(eps), ""))
+    for r in results:
+        if r.episodes:
+            crow.append((["all scenarios", _e(r.label), str(len(r.episodes))] + _comm_cells(r.episodes), "total"))
+    parts.append(
+        "<h3>Communication</h3><p>802.15.4 frames summed over episodes (lost and collided as a share of sent), "
+        "join retries and IR token recoveries summed, organize time (s) mean ± 95 % CI over episodes.</p>"
+    )
+    parts.append(_table(["scenario", "label", "episodes", "frames sent", "lost", "collided", "join retries", "token recoveries", "organize time (s)"], crow, left_cols=2))
+    return "".join(parts)
+
+
+def _section_gifs(results: list[_Result], out_dir: Path) -> str:
+    parts = ["<h2>6. Episode animations</h2>"]
+    items = []
+    for r in results:
+        for ep in r.episodes:
+            gif = ep.get("gif")
+            if not isinstance(gif, str) or not gif:
+                continue
+            href, exists = _gif_href(r, gif, out_dir)
+            text = f"{r.label} — {r.scenario_of(ep)}, seed {ep.get('seed', NA)}"
+            missing = "" if exists else ' <span class="warn">(file not found)</span>'
+            items.append(f'<li><a href="{_e(href)}">{_e(text)}</a>{missing}</li>')
+    if items:
+        parts.append("<p>GIFs recorded during evaluation (links relative to this report).</p><ul class=\"gifs\">" + "".join(items) + "</ul>")
+    else:
+        parts.append("<p>No GIFs recorded.</p>")
+    return "".join(parts)
+
+
+def _render_html(results: list[_Result], out_path: str | os.PathLike, generated: str | None = None) -> str:
+    out_dir = Path(out_path).resolve().parent
+    if generated is None:
+        generated = _dt.datetime.now().astimezone().isoformat(timespec="seconds")
+    scenarios: list[str] = []
+    for r in results:
+        for s in r.by_scenario():
+            if s not in scenarios:
+                scenarios.append(s)
+    colors = {r.label: _COLORS[i % len(_COLORS)] for i, r in enumerate(results)}
+    body = [
+        _section_header(results, generated),
+        _section_rmse(results, scenarios, colors),
+        _section_error_time(results, scenarios, colors),
+        _section_trajectories(results, scenarios),
+        _section_collisions_comms(results, scenarios),
+        _section_gifs(results, out_dir),
+    ]
+    title = "petswarm report: " + " vs ".join(r.label for r in results)
+    return (
+        f'<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8"><title>{_e(title)}</title>'
+        f'<meta name="viewport" content="width=device-width, initial-scale=1"><style>{_CSS}</style></head>\n<body>\n'
+        + "\n".join(body)
+        + "\n</body></html>\n"
+    )
+
+
+def _umask() -> int:
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
+def _write_atomic(path: Path, text: str) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
+            f.write(text)
+        os.chmod(tmp, 0o666 & ~_umask())  # mkstemp creates 0600; give the report ordinary permissions
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def write_report(result_paths: list[str], out_path: str) -> None:
+    """Write one self-contained HTML report comparing the results in ``result_paths`` to
+    ``out_path`` (atomically). Raises ``ValueError`` naming the file on a bad result file."""
+    if not result_paths:
+        raise ValueError("no result files given")
+    results = [_Result(str(p), load_result(p)) for p in result_paths]
+    _unique_labels(results)
+    out = Path(out_path)
+    _write_atomic(out, _render_html(results, out))

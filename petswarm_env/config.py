@@ -238,6 +238,8 @@ def format_validation_error(exc: ValidationError) -> str:
     msg = err["msg"]
     if err["type"] == "extra_forbidden":
         return f"unknown config key '{loc}'"
+    if not err["loc"]:  # a rule across keys (model validator): the message names the keys
+        return f"bad config: {msg.removeprefix('Value error, ')}"
     return f"bad config value for '{loc}': {msg} (got {err.get('input')!r})"
 
 

@@ -219,3 +219,30 @@ def test_heading_reports_go_to_the_transmitter_only_from_neighbours():
         senders = {number[o] for o in sw.nodes[nid].know.heading}
         assert senders, f"member {number[nid]} got no heading report"
         assert senders <= f.neighbours(number[nid])
+
+
+def test_most_heading_reports_reach_the_transmitter():
+    env = petswarm_env.parallel_env(**STILL)
+    env.reset(seed=0)
+    sent, delivered = [0], [0]
+    send = env.radio.send
+
+    def counting_send(station, frame):
+        if frame.kind == msg.HEADING:
+            sent[0] += 1
+        send(station, frame)
+
+    env.radio.send = counting_send
+    for node in env.swarm.nodes.values():
+        receive = node.receive
+
+        def counting_receive(frame, receive=receive, me=node.node_id):
+            if frame.kind == msg.HEADING and frame.dst == me:
+                delivered[0] += 1
+            receive(frame)
+
+        node.receive = counting_receive
+    for _ in range(50):
+        env.step({})
+    assert sent[0] >= 40
+    assert delivered[0] >= 0.8 * sent[0], (delivered[0], sent[0])

@@ -24,8 +24,9 @@ import math
 import os
 import tempfile
 import urllib.parse
+from collections.abc import Iterable
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any
 
 __all__ = ["load_result", "mean_ci95", "t_critical_95", "write_report"]
 
@@ -108,15 +109,15 @@ def load_result(path: str | os.PathLike) -> dict[str, Any]:
     except RecursionError:
         raise ValueError(f"{path}: not valid JSON (nested too deeply)") from None
     if not isinstance(data, dict):
-        raise ValueError(f"{path}: expected a JSON object with an 'episodes' list, got {type(data).__name__}")
+        raise ValueError(f"{path}: expected a JSON object with an 'episodes' list, got {type(data).__name__}")  # noqa: TRY004 (bad file content)
     episodes = data.get("episodes", [])
     if episodes is None:
         episodes = []
     if not isinstance(episodes, list):
-        raise ValueError(f"{path}: 'episodes' must be a list, got {type(episodes).__name__}")
+        raise ValueError(f"{path}: 'episodes' must be a list, got {type(episodes).__name__}")  # noqa: TRY004 (bad file content)
     for i, ep in enumerate(episodes):
         if not isinstance(ep, dict):
-            raise ValueError(f"{path}: episode {i} must be a JSON object, got {type(ep).__name__}")
+            raise ValueError(f"{path}: episode {i} must be a JSON object, got {type(ep).__name__}")  # noqa: TRY004 (bad file content)
     data["episodes"] = episodes
     if not isinstance(data.get("config"), dict):
         data["config"] = {}
@@ -180,7 +181,7 @@ def _fmt(x: Any, digits: int = 3) -> str:
 
 def _fmt_int(x: Any) -> str:
     v = _num(x)
-    return str(int(round(v))) if math.isfinite(v) else NA
+    return str(round(v)) if math.isfinite(v) else NA
 
 
 def _fmt_pct(num: float, den: float) -> str:
@@ -225,18 +226,20 @@ def _env_name(results: list[_Result]) -> str:
         from petswarm_env.env import ENV_NAME
 
         return ENV_NAME
-    except Exception:  # pragma: no cover - the report must not depend on the env importing
+    except ImportError:  # pragma: no cover - the report must not depend on the env importing
         return "petswarm"
 
 
 def _gif_href(result: _Result, gif: str, out_dir: Path) -> tuple[str, bool]:
-    """The href of a GIF named relative to its result file, relative to the report's directory;
-    and whether the file exists."""
+    """The href of a GIF, relative to the report's directory, and whether the file exists.
+    A relative ``gif`` is taken relative to its result file; if no file is there but one is at
+    that path from the current directory (a path recorded as given on the command line), that one."""
     if "://" in gif:
         return gif, True
     target = Path(gif)
     if not target.is_absolute():
-        target = result.dir / target
+        beside = result.dir / target
+        target = beside if beside.exists() or not target.exists() else target.resolve()
     target = Path(os.path.normpath(target))
     try:
         rel = os.path.relpath(target, out_dir)
@@ -348,7 +351,7 @@ def _plot_error_over_time(scenario: str, series: list[tuple[str, Any, float]], c
     ax.set_title(f"scenario {scenario}", fontsize=10)
     ax.set_ylim(bottom=0)
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8, loc="upper right")
+    ax.legend(fontsize=8, loc="best")
     return _png(fig)
 
 
@@ -428,6 +431,7 @@ th,td{border:1px solid #ccc;padding:.25em .6em;text-align:right;vertical-align:t
 th{background:#f0f0f0}td.l,th.l{text-align:left}
 tr.best td{background:#e6f4e6;font-weight:600}
 tr.total td{background:#f7f7f7;font-style:italic}
+tr.grp td{border-top:2px solid #999}
 .meta td{text-align:left}.muted{color:#777}.warn{color:#a60}
 figure{margin:.6em 0 1.4em}figure img{max-width:100%;border:1px solid #eee}
 figcaption{font-size:.85em;color:#555;max-width:900px}
@@ -453,7 +457,7 @@ def _section_header(results: list[_Result], generated: str) -> str:
     parts = [f"<h1>petswarm evaluation report</h1><p class=\"muted\">generated {_e(generated)} · environment <code>{_e(_env_name(results))}</code></p>"]
     rows = []
     for r in results:
-        scns = sorted(r.by_scenario())
+        scns = list(r.by_scenario())
         rows.append(([_e(r.label), f"<code>{_e(r.path)}</code>", str(len(r.episodes)), _e(", ".join(scns)) if scns else NA], ""))
     parts.append("<h2>1. Results compared</h2>")
     parts.append(_table(["label", "file", "episodes", "scenarios"], rows, left_cols=2))
@@ -503,7 +507,8 @@ def _section_rmse(results: list[_Result], scenarios: list[str], colors: dict[str
             n_txt = str(n_eps) if n_fin == n_eps else f"{n_eps} ({n_eps - n_fin} without a value)"
             ratio = f"{m / ref:.2f}" if math.isfinite(m) and math.isfinite(ref) and ref > 0 else DASH
             is_best = best is not None and math.isfinite(m) and m == best
-            rows.append(([_e(s), _e(lab) + (" ★" if is_best and len(present) > 1 else ""), _fmt_ci(m, h), n_txt, ratio], "best" if is_best and len(present) > 1 else ""))
+            cls = " ".join(c for c in ("grp" if lab == present[0] else "", "best" if is_best and len(present) > 1 else "") if c)
+            rows.append(([_e(s), _e(lab) + (" ★" if is_best and len(present) > 1 else ""), _fmt_ci(m, h), n_txt, ratio], cls))
     ref_txt = f"<b>{_e(REFERENCE_LABEL)}</b>" if ref_label else f"{DASH} (no result labelled <code>{REFERENCE_LABEL}</code>)"
     parts.append(
         "<p>Formation RMSE (m) per scenario: mean over episodes ± half-width of the 95 % confidence interval "
@@ -603,7 +608,7 @@ def _section_collisions_comms(results: list[_Result], scenarios: list[str]) -> s
         if r.episodes:
             c = _collision_counts(r.episodes)
             rows.append((["all scenarios", _e(r.label), str(len(r.episodes))] + [_fmt_int(x) for x in c] + [_fmt_int(_sum_or_nan(c))], "total"))
-    parts.append("<h3>Collisions</h3><p>Total collision events over all episodes (contact starts, counted by the physics engine).</p>")
+    parts.append("<h3>Collisions</h3><p>Collision events summed over episodes, as counted by the environment (<code>collisions</code> of each episode).</p>")
     parts.append(_table(["scenario", "label", "episodes", "robot–robot", "robot–user", "robot–wall", "total"], rows, left_cols=2))
     # arbiter
     keys: list[str] = []

@@ -3,9 +3,9 @@
 - Frames take airtime ``(overhead + payload) * 8 / bitrate`` after a driver latency.
 - Unslotted CSMA-CA: random backoff of ``0 … 2^BE − 1`` unit periods, then a clear-channel
   assessment (CCA). A busy channel raises BE and backs off again (frame dropped after
-  ``max_backoffs``). A frame whose transmission started less than ``turnaround_s`` ago is not yet
-  sensed, so two senders whose CCAs fall within the turnaround both transmit: that is how
-  simultaneous responses collide.
+  ``max_backoffs``). After a clear CCA the radio needs ``turnaround_s`` to start sending, so two
+  senders whose CCAs fall within one turnaround both transmit: that is how simultaneous
+  responses collide.
 - At each receiver a frame is destroyed when another transmission in range overlaps it in time
   (collision), when the receiver was itself transmitting (half duplex), or by independent random
   loss ``loss_prob`` (injected corruption).
@@ -119,11 +119,7 @@ class RadioMedium:
     def _cca(self, station: Station, frame: Frame, nb: int, be: int) -> None:
         now = self.clock.now
         x, y = station.position()
-        sensed_from = now - self.cfg.turnaround_s
-        busy = any(
-            tx.start <= sensed_from and tx.end > now and (tx.x - x) ** 2 + (tx.y - y) ** 2 <= self._range2
-            for tx in self._air
-        )
+        busy = any(tx.start <= now < tx.end and (tx.x - x) ** 2 + (tx.y - y) ** 2 <= self._range2 for tx in self._air)
         if busy:
             if nb >= self.cfg.max_backoffs:
                 self.stats.frames_dropped_busy += 1
@@ -148,7 +144,7 @@ class RadioMedium:
         now = self.clock.now
         frame = tx.frame
         # forget transmissions that can no longer overlap anything still on the air
-        oldest_live = min((t.start for t in self._air if t.end >= now and t is not tx), default=now)
+        oldest_live = min((t.start for t in self._air if t.end >= now), default=now)
         self._air = [t for t in self._air if t.end >= oldest_live or t is tx]
         overlapping = [t for t in self._air if t is not tx and t.start < tx.end and t.end > tx.start]
         if self.drop_filter is not None and self.drop_filter(frame):

@@ -1,9 +1,11 @@
 """Swarm-network formation: the join protocol (seed 000 §3.4, Fig. 8, Tables 1–2).
 
 1. The master broadcasts a *scan*; waiting robots answer; the master takes the responders as
-   joining candidates (too few responders → scan again: a retry).
+   joining candidates.
 2. The master broadcasts the *joining query* to the candidates; each decides by Table 1 and
    answers joining-available / joining-unavailable. Missing answers → query again (retry).
+   Fewer available robots than the user requires → scan again (retry; a scan response may have
+   been lost), until two scans in a row bring no new robot.
 3. The master selects by Table 2 and sends each candidate a *joining notification* (new PAN ID,
    member number, total number of members) or a *non-participating notification*; each answers
    with an acknowledgement. Missing acknowledgements → notify again (retry).
@@ -87,29 +89,35 @@ class JoinManager:
         clock = node.clock
         t0 = clock.now
         node.pans = frozenset({PAN_WAITING, pan})
-        # 1. scan
+        # 1.–2. scan, then query the new candidates; scan again (a retry) while fewer robots are
+        # available than the user requires — a scan response may have been lost — until two scans
+        # in a row bring no new robot
+        candidates: dict[int, float] = {}
+        answers: dict[int, Frame] = {}
+        fruitless_scans = 0  # consecutive scans that found no new robot
         while True:
             self._got = {}
             node.send(msg.SCAN, pan=PAN_WAITING)
             yield clock.timeout(cfg.scan_window_s)
-            candidates = {rid: f.rx_distance_est_m for rid, f in self._got.items()}
-            if len(candidates) >= required or result.retries >= cfg.max_retries:
+            new = {rid: f.rx_distance_est_m for rid, f in self._got.items() if rid not in candidates}
+            candidates.update(new)
+            pending = set(new)
+            self._got = {}
+            while pending:
+                node.send(msg.JOIN_QUERY, pan=PAN_WAITING, candidates=sorted(pending))
+                yield from self._collect(pending, cfg.response_timeout_s)
+                answers.update({rid: self._got[rid] for rid in pending if rid in self._got})
+                pending -= set(answers)
+                if pending:
+                    if result.retries >= cfg.max_retries:
+                        break
+                    result.retries += 1
+            fruitless_scans = 0 if new else fruitless_scans + 1
+            n_available = sum(1 for f in answers.values() if f.payload["available"])
+            if n_available >= required or fruitless_scans >= 2 or result.retries >= cfg.max_retries:
                 break
             result.retries += 1
         result.candidates = sorted(candidates)
-        # 2. joining query
-        self._got = {}
-        answers: dict[int, Frame] = {}
-        pending = set(candidates)
-        while pending:
-            node.send(msg.JOIN_QUERY, pan=PAN_WAITING, candidates=sorted(pending))
-            yield from self._collect(pending, cfg.response_timeout_s)
-            answers.update({rid: self._got[rid] for rid in pending if rid in self._got})
-            pending -= set(answers)
-            if pending:
-                if result.retries >= cfg.max_retries:
-                    break
-                result.retries += 1
         # 3. selection (Table 2)
         available = {rid: candidates[rid] for rid, f in answers.items() if f.payload["available"]}
         result.unavailable = sorted(set(answers) - set(available))

@@ -22,6 +22,7 @@ class SequenceManager:
         node.on(msg.DISPERSE, self._on_disperse)
         node.on(msg.DISPERSE_ACK, self._on_disperse_ack)
         self._acks: set[int] = set()
+        self.last_master: int | None = None  # to re-acknowledge a repeated disperse request
 
     def leave_swarm(self) -> None:
         """Back to waiting on the common PAN, forgetting the swarm."""
@@ -34,11 +35,14 @@ class SequenceManager:
 
     def _on_disperse(self, frame: Frame) -> None:
         node = self.node
-        if node.state != "slave":
-            return
-        node.send(msg.DISPERSE_ACK, dst=frame.src)
-        # leave once the acknowledgement is on its way (the MAC keeps the PAN of queued frames)
-        self.leave_swarm()
+        if node.state == "slave":
+            self.last_master = node.member_node(0)
+            node.send(msg.DISPERSE_ACK, dst=frame.src)
+            # leave once the acknowledgement is on its way (the MAC keeps the PAN of queued frames)
+            self.leave_swarm()
+        elif node.state == "waiting" and frame.src == self.last_master:
+            # our acknowledgement was lost and the master asks again on the common PAN
+            node.send(msg.DISPERSE_ACK, dst=frame.src, pan=frame.pan)
 
     def _on_disperse_ack(self, frame: Frame) -> None:
         if frame.dst == self.node.node_id:
@@ -52,8 +56,11 @@ class SequenceManager:
         slaves = {n for m, n in node.know.members.items() if m != 0}
         self._acks = set()
         retries = 0
+        node.pans = node.pans | {PAN_WAITING}  # acknowledgements of robots that already left
         while True:
             node.send(msg.DISPERSE)
+            if retries:  # a slave whose acknowledgement was lost is already back on the common PAN
+                node.send(msg.DISPERSE, pan=PAN_WAITING)
             yield clock.timeout(cfg.response_timeout_s)
             if slaves <= self._acks or retries >= cfg.max_retries:
                 break

@@ -65,6 +65,7 @@ class Swarm:
     # -- organize (seed 000 §3.4) --------------------------------------------------------------
     def start_organize(self) -> None:
         master = self.master
+        self.organize_result = OrganizeResult()
         master.seq.previous_driving_state = master.state
         master.state = "organizing"
         self.clock.process(self._organize())
@@ -104,15 +105,18 @@ class Swarm:
         return sorted(n for n, node in self.nodes.items() if node.state == "slave" and node.swarm_pan == self.pan)
 
     # -- IR slot and heading exchange (seed 000 §3.3, §3.5) -------------------------------------
-    def ir_slot(self, holder: Node) -> None:
+    def ir_slot(self, holder: Node) -> list[int]:
+        """The holder's IR transmission: every other member measures it; the holder's neighbours
+        that saw it report their bearing back (heading exchange). Returns the reporters' ids."""
         receivers = [n for n in holder.know.members.values() if n != holder.node_id and self.nodes[n].swarm_pan == self.pan]
         if not receivers:
-            return
+            return []
         dist, bearing, valid = self.ir_channel.measure(holder.node_id, receivers)
         for rid, d, b, ok in zip(receivers, dist, bearing, valid):
             if ok:
                 self.nodes[rid].store_ir(holder.node_id, float(d), float(b))
         neighbours = self.formation.neighbours(holder.know.member) if self.formation else set()
+        reporters = []
         for m in neighbours:
             rid = holder.know.members.get(m)
             node = self.nodes.get(rid)
@@ -121,6 +125,8 @@ class Swarm:
             seen = node.know.ir.get(holder.node_id)
             if seen is not None and seen.time_s == self.clock.now:
                 node.ring.send_heading(holder.node_id, seen.bearing_rad)
+                reporters.append(rid)
+        return reporters
 
     # -- master broadcast (seed 000 §3.5, Fig. 9) ------------------------------------------------
     def _broadcast_status(self):

@@ -45,6 +45,8 @@ class TokenRing:
         self._acks: set[int] = set()
         self._acks_needed: set[int] = set()
         self._acks_event = None
+        self._headings_expected: set[int] = set()
+        self._headings_event = None
         node.on(msg.TX_START, self._on_tx_start)
         node.on(msg.TOKEN, self._on_token)
         node.on(msg.SYNC, self._on_sync)
@@ -80,6 +82,7 @@ class TokenRing:
         node = self.node
         clock = node.clock
         cfg = node.cfg.protocol
+        know = node.know  # leave_swarm() replaces it: then this slot is over
         self.holding = True
         self.token_seq = seq
         self.last_activity_s = clock.now
@@ -87,10 +90,19 @@ class TokenRing:
         node.send(msg.TX_START, seq=seq)
         yield from self._wait_acks(peers)
         yield clock.timeout(cfg.ir_tx_s)
-        if self.token_seq != seq:  # a regenerated token superseded us
+        if self.token_seq != seq or node.know is not know:  # superseded, or left the swarm
             self.holding = False
             return
-        node.swarm.ir_slot(node)  # every other member measures our IR now
+        reporters = node.swarm.ir_slot(node)  # every other member measures our IR now
+        # the neighbours send us the bearing they saw us at; wait for them before passing on
+        self._headings_expected = set(reporters)
+        self._headings_event = clock.event()
+        if reporters:
+            yield clock.any_of([self._headings_event, clock.timeout(cfg.ring_response_timeout_s)])
+        self._headings_expected = set()
+        if node.know is not know:
+            self.holding = False
+            return
         member = node.know.member
         nxt = self._next_member(member)
         for _skip in range(node.know.total_members):
@@ -98,6 +110,9 @@ class TokenRing:
             for _attempt in range(cfg.token_retries + 1):
                 node.send(msg.TOKEN, seq=seq + 1, next=nxt)
                 yield from self._wait_acks({target})
+                if node.know is not know:
+                    self.holding = False
+                    return
                 if target in self._acks:
                     break
             if target in self._acks or nxt == member:
@@ -139,8 +154,12 @@ class TokenRing:
         self.token_seq = max(self.token_seq, frame.payload["seq"])
 
     def send_heading(self, holder: int, bearing_rad: float) -> None:
-        """Neighbour of the transmitter: report the bearing at which we saw it (Fig. 9)."""
-        self.node.send(msg.HEADING, dst=holder, bearing=bearing_rad)
+        """Neighbour of the transmitter: report the bearing at which we saw it (Fig. 9), after the
+        MCU has processed the measurement."""
+        node = self.node
+        delay = node.cfg.radio.processing_s + node.rng.uniform(0.0, node.cfg.radio.processing_jitter_s)
+        ev = node.clock.timeout(delay)
+        ev.callbacks.append(lambda _ev: node.send(msg.HEADING, dst=holder, bearing=bearing_rad))
 
     def _on_heading(self, frame: Frame) -> None:
         node = self.node
@@ -154,6 +173,10 @@ class TokenRing:
         bearing_now = seen.bearing_rad - (yaw - seen.own_yaw_rad)
         rel = relative_heading(bearing_now, frame.payload["bearing"])
         node.know.heading[frame.src] = HeadingEstimate(rel, node.clock.now, yaw)
+        self._headings_expected.discard(frame.src)
+        ev = self._headings_event
+        if ev is not None and not ev.triggered and not self._headings_expected:
+            ev.succeed()
 
     # -- master: watchdog -------------------------------------------------------------------------
     def watchdog(self):

@@ -134,7 +134,7 @@ class LearnedPolicy(Policy):
         self._identity = identity
 
     @classmethod
-    def load(cls, path: str | os.PathLike, spec: PolicySpec) -> "LearnedPolicy":
+    def load(cls, path: str | os.PathLike, spec: PolicySpec) -> LearnedPolicy:
         meta, layers = read_policy_file(path)
         if meta.get("env_name") != ENV_NAME:
             raise PolicyLoadError(f"policy '{path}' was trained on env '{meta.get('env_name')}', this is '{ENV_NAME}'")

@@ -26,7 +26,7 @@ class PolicySpec:
     us_max_range_m: float
 
     @classmethod
-    def from_env(cls, env) -> "PolicySpec":
+    def from_env(cls, env) -> PolicySpec:
         r = env.cfg.robot
         return cls(env.layout, r.max_speed_mps, r.max_omega_rps, r.ultrasonic.max_range_m)
 

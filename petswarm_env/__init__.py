@@ -12,7 +12,7 @@ from petswarm_env.config import Config, ConfigError, load_config
 from petswarm_env.env import ENV_NAME, PetSwarmEnv
 
 __version__ = "0.1.0"
-__all__ = ["Config", "ConfigError", "ENV_NAME", "PetSwarmEnv", "env", "load_config", "parallel_env", "raw_env"]
+__all__ = ["ENV_NAME", "Config", "ConfigError", "PetSwarmEnv", "env", "load_config", "parallel_env", "raw_env"]
 
 
 def _dotted(overrides: dict[str, Any]) -> dict[str, Any]:

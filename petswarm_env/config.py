@@ -10,9 +10,10 @@ names the key, what is wrong and what is allowed.
 from __future__ import annotations
 
 import copy
+from collections.abc import Mapping
 from importlib import resources
 from pathlib import Path
-from typing import Any, Literal, Mapping
+from typing import Any, Literal
 
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
@@ -163,7 +164,7 @@ class Config(_Section):
     render: RenderConfig
 
     @model_validator(mode="after")
-    def _check_consistency(self) -> "Config":
+    def _check_consistency(self) -> Config:
         if self.radio.max_be < self.radio.min_be:
             raise ValueError("radio.max_be must be >= radio.min_be")
         if self.swarm.formation == "custom" and not self.swarm.custom_links:
@@ -204,6 +205,17 @@ def merge_mappings(base: dict[str, Any], over: Mapping[str, Any], prefix: str = 
             out[key] = merge_mappings(out[key], value, prefix=f"{dotted}.")
         else:
             out[key] = copy.deepcopy(value)
+    return out
+
+
+def flatten_dotted(d: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
+    """``{"swarm": {"num_slaves": 4}}`` -> ``{"swarm.num_slaves": 4}`` (lists stay values)."""
+    out: dict[str, Any] = {}
+    for key, value in d.items():
+        if isinstance(value, Mapping):
+            out.update(flatten_dotted(value, f"{prefix}{key}."))
+        else:
+            out[f"{prefix}{key}"] = value
     return out
 
 

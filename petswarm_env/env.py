@@ -27,7 +27,7 @@ from pettingzoo import ParallelEnv
 
 from petswarm_env.comms.ir_channel import IRChannel
 from petswarm_env.comms.radio import RadioMedium
-from petswarm_env.config import Config, load_config
+from petswarm_env.config import Config, flatten_dotted, load_config
 from petswarm_env.control.master import MasterController
 from petswarm_env.metrics import EpisodeMetrics
 from petswarm_env.middleware.swarm import Swarm
@@ -56,7 +56,7 @@ class PetSwarmEnv(ParallelEnv):
 
     def __init__(self, config: Config | str | None = None, render_mode: str | None = None, **overrides: Any):
         if isinstance(config, Config):
-            cfg = load_config(overrides={**_flatten(config.to_dict()), **overrides}) if overrides else config
+            cfg = load_config(overrides={**flatten_dotted(config.to_dict()), **overrides}) if overrides else config
         else:
             cfg = load_config(config, overrides)
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
@@ -380,12 +380,3 @@ class PetSwarmEnv(ParallelEnv):
             text=text,
         )
 
-
-def _flatten(d: dict, prefix: str = "") -> dict[str, Any]:
-    out = {}
-    for k, v in d.items():
-        if isinstance(v, dict):
-            out.update(_flatten(v, f"{prefix}{k}."))
-        else:
-            out[f"{prefix}{k}"] = v
-    return out

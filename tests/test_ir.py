@@ -20,7 +20,6 @@ from petswarm_env.middleware.ir import (
 )
 
 
-
 def calibrated_config() -> IRConfig:
     """The calibrated IR parameters: the ``ir`` section of the default configuration."""
     return load_config().ir

@@ -1,6 +1,5 @@
 """The shared 802.15.4-like radio medium (seed 000 §3.2, §3.4; SPEC §2)."""
 
-import math
 
 import numpy as np
 import pytest

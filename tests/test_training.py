@@ -10,13 +10,13 @@ import pytest
 pytest.importorskip("stable_baselines3")
 pytest.importorskip("supersuit")
 
-from baselines.learned import LearnedPolicy, PolicyLoadError, read_policy_file, save_policy  # noqa: E402
-from baselines.policy import PolicySpec  # noqa: E402
-from petswarm_env import parallel_env  # noqa: E402
-from petswarm_env.config import ConfigError, load_config  # noqa: E402
-from petswarm_env.observe import ObservationLayout  # noqa: E402
-from training.evaluate import evaluate  # noqa: E402
-from training.train import load_train_config, train  # noqa: E402
+from baselines.learned import LearnedPolicy, PolicyLoadError, read_policy_file, save_policy
+from baselines.policy import PolicySpec
+from petswarm_env import parallel_env
+from petswarm_env.config import ConfigError, load_config
+from petswarm_env.observe import ObservationLayout
+from training.evaluate import evaluate
+from training.train import load_train_config, train
 
 SHORT = {
     "timesteps": 2048,

@@ -165,6 +165,12 @@ def _cmd_eval(args) -> int:
     result = evaluate(cfg, args.policy, parse_mix(args.mix), scenarios, args.episodes, args.seed, args.video_dir)
     print(format_table(result))
     if args.json:
+        import os
+
+        base = os.path.dirname(os.path.abspath(args.json))
+        for ep in result["episodes"]:  # GIF paths relative to the JSON file, as the report expects
+            if "gif" in ep:
+                ep["gif"] = os.path.relpath(os.path.abspath(ep["gif"]), base)
         write_json_atomic(args.json, result)
         print(f"wrote {args.json}")
     return 0

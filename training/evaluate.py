@@ -7,8 +7,8 @@ from pathlib import Path
 from typing import Any
 
 from baselines.policy import MixedPolicy, PolicySpec, make_policy
-from petswarm_env.config import SCENARIOS, Config, ConfigError, load_config
-from petswarm_env.env import PetSwarmEnv, _flatten
+from petswarm_env.config import SCENARIOS, Config, ConfigError, flatten_dotted, load_config
+from petswarm_env.env import PetSwarmEnv
 from training.runner import run_episode, summarize
 from training.stats import mean_ci95
 
@@ -61,7 +61,7 @@ def evaluate(
     all_eps: list[dict[str, Any]] = []
     per_scenario: dict[str, Any] = {}
     for scenario in scenarios:
-        cfg = load_config(overrides={**_flatten(config.to_dict()), "user.scenario": scenario})
+        cfg = load_config(overrides={**flatten_dotted(config.to_dict()), "user.scenario": scenario})
         env = PetSwarmEnv(cfg, render_mode="rgb_array" if video_dir else None)
         team = make_team(env, policy, mix, base_seed)
         eps = []
@@ -73,7 +73,7 @@ def evaluate(
 
                 gif = str(Path(video_dir) / f"{scenario}_seed{base_seed}.gif")
                 writer = GifWriter(gif, fps=cfg.render.fps)
-                on_frame = lambda w=writer: w.append(env.render())  # noqa: E731
+                on_frame = lambda w=writer: w.append(env.render())
             ep = run_episode(env, team, base_seed + i, on_frame, record=True)
             if writer is not None:
                 writer.close()
@@ -81,7 +81,7 @@ def evaluate(
             ep.update({"scenario": scenario, "policy": label})
             eps.append(ep)
         env.close()
-        mean, half = mean_ci95([e["formation_rmse_m"] for e in eps])
+        mean, half, _ = mean_ci95([e["formation_rmse_m"] for e in eps])
         per_scenario[scenario] = {
             "episodes": len(eps),
             "formation_rmse_m": mean,

@@ -28,55 +28,16 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
-__all__ = ["load_result", "mean_ci95", "t_critical_95", "write_report"]
+__all__ = ["load_result", "mean_ci95", "t_critical_95", "write_report"]  # stats re-exported from training.stats
+
+from petswarm_env.config import flatten_dotted
+from training.stats import as_number as _num
+from training.stats import mean_ci95, t_critical_95
 
 REFERENCE_LABEL = "scripted"
 DEFAULT_DT_S = 0.1  # control period of one env step (configs/default.yaml: control_period_s)
 NA = "n/a"
 DASH = "—"
-
-# two-sided 95 % critical values of Student's t, by degrees of freedom (used without scipy)
-_T95 = {
-    1: 12.706, 2: 4.303, 3: 3.182, 4: 2.776, 5: 2.571, 6: 2.447, 7: 2.365, 8: 2.306, 9: 2.262,
-    10: 2.228, 11: 2.201, 12: 2.179, 13: 2.160, 14: 2.145, 15: 2.131, 16: 2.120, 17: 2.110,
-    18: 2.101, 19: 2.093, 20: 2.086, 21: 2.080, 22: 2.074, 23: 2.069, 24: 2.064, 25: 2.060,
-    26: 2.056, 27: 2.052, 28: 2.048, 29: 2.045, 30: 2.042,
-}
-
-
-# -- statistics ----------------------------------------------------------------------------------
-def t_critical_95(dof: int) -> float:
-    """Two-sided 95 % critical value of Student's t with ``dof`` degrees of freedom
-    (scipy if installed; otherwise a table for dof ≤ 30 and 1.96 beyond)."""
-    if dof < 1:
-        return math.nan
-    try:
-        from scipy.special import stdtrit
-
-        return float(stdtrit(dof, 0.975))
-    except ImportError:
-        return _T95.get(dof, 1.96)
-
-
-def mean_ci95(values: Iterable[Any]) -> tuple[float, float, int]:
-    """(mean, half-width of the 95 % t confidence interval, n) over the finite values.
-    The half-width is NaN with fewer than two values; the mean is NaN with none."""
-    xs = [v for v in (_num(x) for x in values) if math.isfinite(v)]
-    n = len(xs)
-    if n == 0:
-        return math.nan, math.nan, 0
-    mean = sum(xs) / n
-    if n < 2:
-        return mean, math.nan, n
-    sd = math.sqrt(sum((x - mean) ** 2 for x in xs) / (n - 1))
-    return mean, t_critical_95(n - 1) * sd / math.sqrt(n), n
-
-
-def _num(x: Any) -> float:
-    """A float, or NaN for anything that is not a number (None, strings, bools, …)."""
-    if isinstance(x, bool) or not isinstance(x, (int, float)):
-        return math.nan
-    return float(x)
 
 
 def _sum_or_nan(values: Iterable[Any]) -> float:
@@ -196,17 +157,6 @@ def _fmt_ci(mean: float, half: float, digits: int = 3) -> str:
     if not math.isfinite(half):
         return f"{mean:.{digits}f} ± {NA}"
     return f"{mean:.{digits}f} ± {half:.{digits}f}"
-
-
-def _flatten(d: dict[str, Any], prefix: str = "") -> dict[str, Any]:
-    out: dict[str, Any] = {}
-    for k, v in d.items():
-        key = f"{prefix}{k}"
-        if isinstance(v, dict) and v:
-            out.update(_flatten(v, key + "."))
-        else:
-            out[key] = v
-    return out
 
 
 def _cfg_value(v: Any) -> str:
@@ -462,7 +412,7 @@ def _section_header(results: list[_Result], generated: str) -> str:
     parts.append("<h2>1. Results compared</h2>")
     parts.append(_table(["label", "file", "episodes", "scenarios"], rows, left_cols=2))
     # config differences
-    flat = [_flatten(r.config) for r in results]
+    flat = [flatten_dotted(r.config) for r in results]
     keys = sorted(set().union(*flat)) if flat else []
     diff = [k for k in keys if len({_cfg_value(f[k]) if k in f else "\0missing" for f in flat}) > 1]
     if len(results) < 2:
@@ -477,7 +427,7 @@ def _section_header(results: list[_Result], generated: str) -> str:
         parts.append(_table(["key"] + [_e(r.label) for r in results], drows))
     if any(flat):
         first = next((r for r, f in zip(results, flat) if f), results[0])
-        crow = [([f"<code>{_e(k)}</code>", _e(_cfg_value(v))], "") for k, v in sorted(_flatten(first.config).items())]
+        crow = [([f"<code>{_e(k)}</code>", _e(_cfg_value(v))], "") for k, v in sorted(flatten_dotted(first.config).items())]
         parts.append(f"<details><summary>full configuration of <b>{_e(first.label)}</b></summary>{_table(['key', 'value'], crow, left_cols=2)}</details>")
     return "".join(parts)
 

@@ -6,13 +6,13 @@ import json
 import math
 import os
 import tempfile
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 from baselines.policy import Policy, PolicySpec, make_policy
 from petswarm_env import PetSwarmEnv
 from petswarm_env.config import Config
-
 
 TRAJECTORY_EVERY = 5  # record positions every 5 steps (0.5 s)
 
@@ -96,7 +96,7 @@ def run(
         from petswarm_env.render import GifWriter
 
         writer = GifWriter(video, fps=config.render.fps)
-        on_frame = lambda: writer.append(env.render())  # noqa: E731
+        on_frame = lambda: writer.append(env.render())
     elif render_mode == "human":
         on_frame = env.render
     results = []

@@ -20,8 +20,9 @@ loss with shadowing), which is what a master uses to rank candidates by closenes
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, Callable, Protocol
+from typing import Any, Protocol
 
 import numpy as np
 import simpy
@@ -63,7 +64,7 @@ class RadioStats:
 
 
 class _Tx:
-    __slots__ = ("frame", "start", "end", "x", "y")
+    __slots__ = ("end", "frame", "start", "x", "y")
 
     def __init__(self, frame: Frame, start: float, end: float, x: float, y: float):
         self.frame, self.start, self.end, self.x, self.y = frame, start, end, x, y

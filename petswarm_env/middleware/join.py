@@ -16,7 +16,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from petswarm_env.comms.radio import BROADCAST, PAN_WAITING, Frame
+from petswarm_env.comms.radio import PAN_WAITING, Frame
 from petswarm_env.middleware import messages as msg
 from petswarm_env.middleware.node import Node
 

@@ -9,8 +9,9 @@ identification manager (:mod:`.token_ring`). Everything a policy may see is in :
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, Callable
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import simpy
@@ -65,7 +66,7 @@ class Knowledge:
 class Node:
     """Middleware of one robot, attached to the radio as a station."""
 
-    def __init__(self, swarm: "Swarm", node_id: int, rng: np.random.Generator):
+    def __init__(self, swarm: Swarm, node_id: int, rng: np.random.Generator):
         self.swarm = swarm
         self.node_id = node_id
         self.clock: simpy.Environment = swarm.clock

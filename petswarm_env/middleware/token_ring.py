@@ -132,8 +132,7 @@ class TokenRing:
     def _on_tx_start(self, frame: Frame) -> None:
         self.last_activity_s = self.node.clock.now
         seq = frame.payload["seq"]
-        if seq >= self.token_seq:
-            self.token_seq = seq
+        self.token_seq = max(seq, self.token_seq)
         self.node.send(msg.TX_START_ACK, dst=frame.src)
 
     def _on_token(self, frame: Frame) -> None:

@@ -1,0 +1,77 @@
+"""The physical world: scenarios, the user, obstacles and the ultrasonic ring."""
+
+import math
+
+import numpy as np
+import pytest
+
+from petswarm_env.config import SCENARIOS, load_config
+from petswarm_env.sim.robot import Robot
+from petswarm_env.sim.scenarios import ScenarioScript, build_scenario
+from petswarm_env.sim.world import World
+
+
+def _walk(name, seconds, seed=0, **overrides):
+    cfg = load_config(overrides={"user.scenario": name, **overrides})
+    world = World(cfg, ScenarioScript(build_scenario(name, cfg.user, np.random.default_rng(seed))))
+    world.user.walking = True
+    world.advance(int(seconds / world.dt_sub))
+    return world
+
+
+@pytest.mark.parametrize("name, turn_deg", [("turn_left_60", 60.0), ("turn_right_60", -60.0), ("u_turn", 180.0)])
+def test_turn_scenarios_turn_by_their_angle(name, turn_deg):
+    world = _walk(name, 30.0)
+    assert math.degrees(world.user.heading) == pytest.approx(turn_deg, abs=1.0)
+
+
+def test_user_stands_during_the_start_delay_then_walks():
+    cfg = load_config()
+    world = _walk("straight", cfg.user.start_delay_s - 0.2)
+    assert world.user.position == pytest.approx((0.0, 0.0), abs=1e-9)
+    world.advance(int((10.2) / world.dt_sub))
+    assert world.user.position[0] == pytest.approx(cfg.user.walk_speed_mps * 10.0, rel=0.02)
+
+
+def test_stop_and_go_stops():
+    world = _walk("stop_and_go", load_config().user.start_delay_s + 6.5)
+    assert world.user.activity == "stop"
+
+
+def test_random_walk_is_seeded():
+    a = _walk("random_walk", 20.0, seed=1).user.position
+    b = _walk("random_walk", 20.0, seed=1).user.position
+    c = _walk("random_walk", 20.0, seed=2).user.position
+    assert a == b and a != c
+
+
+def test_unknown_scenario_is_refused_with_the_choices():
+    with pytest.raises(ValueError, match="zigzag"):
+        build_scenario("moonwalk", load_config().user, np.random.default_rng(0))
+    assert len(SCENARIOS) == 7
+
+
+def test_ultrasonic_sees_a_box_ahead_and_a_robot_collides_with_it():
+    cfg = load_config(overrides={"world.obstacles": [{"center_m": [3.0, 0.0], "size_m": [1.0, 2.0]}]})
+    world = World(cfg, ScenarioScript(build_scenario("straight", cfg.user, np.random.default_rng(0))))
+    world.user.body.position = (-10.0, 0.0)
+    robot: Robot = world.add_robot((1.0, 0.0), 0.0)
+    rng = np.random.default_rng(0)
+    front = world.ultrasonic_ranges([0], rng)[0, 0]
+    assert front == pytest.approx(3.0 - 0.5 - 1.0 - cfg.robot.radius_m, abs=0.05)
+    back = world.ultrasonic_ranges([0], rng)[0, 4]
+    assert back == pytest.approx(cfg.robot.ultrasonic.max_range_m)  # nothing behind within range
+    robot.set_command(1.0, 0.0, 0.0)
+    world.advance(400)  # 4 s at 1 m/s: it reaches the box
+    assert world.collisions.robot_wall >= 1
+    assert robot.position[0] < 2.5 - cfg.robot.radius_m + 0.05  # the box stops it
+
+
+def test_robots_bump_into_the_user_and_the_user_does_not_yield():
+    cfg = load_config()
+    world = World(cfg, ScenarioScript(build_scenario("straight", cfg.user, np.random.default_rng(0))))
+    robot = world.add_robot((-2.0, 0.0), 0.0)
+    robot.set_command(1.0, 0.0, 0.0)
+    world.advance(300)
+    assert world.collisions.robot_user >= 1
+    assert world.user.position == pytest.approx((0.0, 0.0), abs=1e-6)

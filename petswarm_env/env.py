@@ -122,7 +122,8 @@ class PetSwarmEnv(ParallelEnv):
         formation = swarm.formation
         slots = formation.slot_positions()
         self._offset_from_master = {m: (float(slots[m][0]), float(slots[m][1])) for m in range(formation.size)}
-        user_f = (cfg.master.distance_m, 0.0) if cfg.swarm.mode == "following" else (float(slots[:, 0].min()) - cfg.master.distance_m, 0.0)
+        self._formation_depth_m = -float(slots[:, 0].min())
+        user_f = (cfg.master.distance_m, 0.0) if cfg.swarm.mode == "following" else (-self._formation_depth_m - cfg.master.distance_m, 0.0)
         self._levels = formation.hierarchy_levels(user_f)
         self._last_action = {a: np.zeros(3, np.float32) for a in self.agents}
         self._obs_buf = {a: np.zeros(self.layout.size, np.float32) for a in self.agents}
@@ -211,17 +212,17 @@ class PetSwarmEnv(ParallelEnv):
         d = cfg.master.distance_m
         n = cfg.swarm.num_slaves
         leading = cfg.swarm.mode == "leading"
-        master_pos = np.array([d, 0.0]) if leading else np.array([-d, 0.0])
-        world.add_robot(master_pos, 0.0)
         slots = build_formation(cfg.swarm, n + 1).slot_positions()
+        depth = -float(slots[:, 0].min())
+        master_pos = np.array([d + depth, 0.0]) if leading else np.array([-d, 0.0])
+        world.add_robot(master_pos, 0.0)
         jitter = cfg.swarm.spawn_jitter_m
         for m in range(1, n + 1):
             offset = rng.uniform(-jitter, jitter, 2)
             world.add_robot(master_pos + slots[m] + offset, float(rng.uniform(-0.3, 0.3)))
-        depth = float(slots[:, 0].min())
         for k in range(cfg.swarm.extra_robots):
             side = 1.0 if k % 2 == 0 else -1.0
-            world.add_robot(master_pos + np.array([depth - 0.8 - 0.6 * (k // 2), side * 1.6]), 0.0)
+            world.add_robot(master_pos + np.array([-depth - 0.8 - 0.6 * (k // 2), side * 1.6]), 0.0)
         self._other_user_robots = []
         for k in range(cfg.swarm.other_user_robots):
             r = world.add_robot(master_pos + np.array([0.6 * k, -1.8 - 0.2 * (k % 2)]) * np.array([-1, 1]), 0.0)
@@ -252,7 +253,8 @@ class PetSwarmEnv(ParallelEnv):
         swarm, world = self.swarm, self.world
         swarm.sense_user()
         master = world.robots[swarm.master.node_id]
-        cmd = self.master_ctrl.command(swarm.user_estimate, self._odometry(master.index), self.cfg.swarm.mode, self.cfg.control_period_s)
+        cmd = self.master_ctrl.command(swarm.user_estimate, self._odometry(master.index), self.cfg.swarm.mode,
+                                       self.cfg.control_period_s, self._formation_depth_m)
         master.set_command(*cmd)
 
     def _odometry(self, index: int) -> tuple[float, float, float]:

@@ -3,7 +3,8 @@
 Seed 000 §3.6.2 (details in seed 002 §3.4). Inputs are the master's own view of its user: a
 noisy position relative to itself (until the wearable chain of seed 002 lands, see
 :meth:`Swarm.sense_user`) and its own odometry. Following mode: stay 1 m behind the user and face
-them. Leading mode: stay 1 m ahead of the user, facing away from them.
+them. Leading mode: stay ahead of the user — 1 m beyond the formation's depth, since the master
+leads the others — facing away from them.
 
 The user's velocity is estimated from successive relative positions plus the master's own motion
 (low-pass filtered) and fed forward, in the spirit of seed 002's ACC-style speed matching; the
@@ -31,8 +32,13 @@ class MasterController:
         self.prev_user = None
         self.user_vel = (0.0, 0.0)
 
-    def command(self, user_rel: tuple[float, float], own_velocity: tuple[float, float, float], mode: str, dt: float):
-        """(Vx, Vy, ω) body-frame command from the user's relative position (master frame)."""
+    def command(self, user_rel: tuple[float, float], own_velocity: tuple[float, float, float], mode: str, dt: float,
+                formation_depth_m: float = 0.0):
+        """(Vx, Vy, ω) body-frame command from the user's relative position (master frame).
+
+        In leading mode the master is the robot farthest from the user (seed 000 §3.5, Fig. 10):
+        the slaves drive between it and the user, so it keeps the standard distance plus the depth
+        of the formation behind it (``formation_depth_m``, from the neighbour table)."""
         ux, uy = user_rel
         vx, vy, w = own_velocity
         if self.prev_user is not None:
@@ -46,7 +52,7 @@ class MasterController:
         k = self.cfg.master.gain
         bearing = math.atan2(uy, ux)
         if mode == "leading":
-            target = (-d_std, 0.0)  # user 1 m behind
+            target = (-(d_std + formation_depth_m), 0.0)  # user behind the whole formation
             heading_err = _wrap(bearing - math.pi)
         else:
             target = (d_std, 0.0)  # user 1 m ahead

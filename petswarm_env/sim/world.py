@@ -36,12 +36,24 @@ class CollisionCounts:
         return self.robot_robot + self.robot_user + self.robot_wall
 
 
+class Clock(simpy.Environment):
+    """The one discrete-event clock (SimPy)."""
+
+    def run_until(self, t: float) -> None:
+        """Process every event before ``t``, then stand at ``t`` — what ``run(until=t)`` does,
+        without scheduling a stop event and raising to leave the loop on every call."""
+        peek, step = self.peek, self.step
+        while peek() < t:
+            step()
+        self._now = t
+
+
 class World:
     """Bodies, geometry and time. Knows nothing about messages or policies."""
 
     def __init__(self, cfg: Config, script: ScenarioScript):
         self.cfg = cfg
-        self.clock = simpy.Environment()
+        self.clock = Clock()
         self.space = pymunk.Space()
         self.space.gravity = (0.0, 0.0)  # top view
         self.dt_sub = cfg.control_period_s / cfg.physics_substeps
@@ -110,7 +122,7 @@ class World:
         for _ in range(substeps):
             self._substeps_done += 1
             t_next = self._substeps_done * dt
-            self.clock.run(until=t_next)
+            self.clock.run_until(t_next)
             for r in robots:
                 r.apply(dt)
             user.apply(dt)

@@ -412,9 +412,10 @@ class GifWriter:
     """Collects RGB frames and writes them as an animated GIF on :meth:`close`.
 
     The GIF is written to a temporary file in the target directory and moved into place with
-    :func:`os.replace`, so readers never see a half-written file. Frames are kept in memory until
-    :meth:`close` (about 1.5 MB per 720x720 frame). Closing with no frames writes nothing. Note that
-    the GIF encoder (Pillow) merges consecutive identical frames into one longer frame.
+    :func:`os.replace`, so readers never see a half-written file. Each frame is reduced to a
+    256-colour palette image as it arrives (one byte a pixel: about 0.5 MB per 720x720 frame) and
+    kept until :meth:`close`. Closing with no frames writes nothing. Note that the GIF encoder
+    (Pillow) merges consecutive identical frames into one longer frame.
     """
 
     def __init__(self, path: str | os.PathLike[str], fps: float) -> None:
@@ -422,7 +423,8 @@ class GifWriter:
             raise ValueError(f"fps must be a positive number, got {fps!r}")
         self.path = os.fspath(path)
         self.fps = float(fps)
-        self._frames: list[np.ndarray] = []
+        self._frames: list[Any] = []  # PIL palette images
+        self._shape: tuple[int, ...] | None = None
         self._closed = False
 
     def __len__(self) -> int:
@@ -434,13 +436,14 @@ class GifWriter:
         arr = np.asarray(frame)
         if arr.ndim != 3 or arr.shape[2] != 3:
             raise ValueError(f"frame must be an (H, W, 3) RGB array, got shape {arr.shape}")
-        if self._frames and arr.shape != self._frames[0].shape:
-            raise ValueError(
-                f"all frames must have the same shape; first was {self._frames[0].shape}, got {arr.shape}"
-            )
+        if self._shape is not None and arr.shape != self._shape:
+            raise ValueError(f"all frames must have the same shape; first was {self._shape}, got {arr.shape}")
         if arr.dtype != np.uint8:
             arr = np.clip(arr, 0, 255).astype(np.uint8)
-        self._frames.append(arr.copy())
+        from PIL import Image
+
+        self._shape = arr.shape
+        self._frames.append(Image.fromarray(np.ascontiguousarray(arr)).quantize(256, method=Image.Quantize.FASTOCTREE))
 
     def close(self) -> str | None:
         """Write the GIF (atomically); return its path, or ``None`` if there were no frames."""
@@ -450,7 +453,6 @@ class GifWriter:
         frames, self._frames = self._frames, []
         if not frames:
             return None
-        import imageio.v3 as iio
 
         directory = os.path.dirname(os.path.abspath(self.path))
         os.makedirs(directory, exist_ok=True)
@@ -461,7 +463,7 @@ class GifWriter:
         try:
             os.chmod(tmp, 0o644)  # mkstemp makes it 0600; a GIF is an ordinary artefact
             duration_ms = 1000.0 / self.fps
-            iio.imwrite(tmp, np.stack(frames), extension=".gif", duration=duration_ms, loop=0)
+            frames[0].save(tmp, format="GIF", save_all=True, append_images=frames[1:], duration=duration_ms, loop=0)
             os.replace(tmp, self.path)
         except BaseException:
             try:

@@ -9,7 +9,7 @@ from typing import Any
 from baselines.policy import MixedPolicy, PolicySpec, make_policy
 from petswarm_env.config import SCENARIOS, Config, ConfigError, flatten_dotted, load_config
 from petswarm_env.env import PetSwarmEnv
-from training.runner import run_episode, summarize
+from training.runner import VideoRecorder, run_episode, summarize
 from training.stats import mean_ci95
 
 

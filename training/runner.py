@@ -15,6 +15,27 @@ from petswarm_env import PetSwarmEnv
 from petswarm_env.config import Config
 
 TRAJECTORY_EVERY = 5  # record positions every 5 steps (0.5 s)
+VIDEO_EVERY = 2  # a GIF frame every 2 steps (5 frames/s of simulated time at the default 0.1 s step)
+
+
+class VideoRecorder:
+    """Renders every ``VIDEO_EVERY``-th step of an env into a GIF (written atomically on close)."""
+
+    def __init__(self, env: PetSwarmEnv, path: str):
+        from petswarm_env.render import GifWriter
+
+        self.env = env
+        self.path = path
+        self.writer = GifWriter(path, fps=env.cfg.render.fps / VIDEO_EVERY)
+        self._calls = 0
+
+    def __call__(self) -> None:
+        if self._calls % VIDEO_EVERY == 0:
+            self.writer.append(self.env.render())
+        self._calls += 1
+
+    def close(self) -> str | None:
+        return self.writer.close()
 
 
 def _positions(env: PetSwarmEnv) -> tuple[list[float], dict[str, list[float]]]:

@@ -1,0 +1,1109 @@
+"""``petswarm bench``: how fast is the environment, and what does a step cost?
+
+All measurements run in one command on one machine, one after the other:
+
+* **petswarm** ``env.step`` rate for 1 master + 2, 5 and 9 slaves, with the scripted
+  leader–follower policy and with uniform random actions. Only ``env.step`` is timed; the policy's
+  time and ``reset`` (which runs the join protocol on the clock) are timed and reported apart.
+* **physics floor**: the same pymunk bodies as the env (the env's own :class:`World` with its
+  robots, the kinematic user and the arena walls) stepped ``physics_substeps`` times per control
+  step, setting every body's velocity before each substep as ``Robot.apply`` does, and nothing else:
+  no clock, no radio, no observations.
+* **peer**: PettingZoo MPE ``simple_spread`` (package ``mpe2``, optional ``bench`` extra) with as
+  many agents as petswarm has robots, random continuous actions, ``parallel_env``.
+* **breakdown** of a 5-slave step from cProfile (physics, radio + middleware, observation,
+  reward + metrics, other), see :func:`breakdown_from_stats`.
+* **memory**: tracemalloc and RSS of a long 5-slave run (resets as episodes end), in a fresh process.
+* **training throughput**: SB3 PPO samples/s through the training vector env, in-process and with
+  two worker processes.
+
+``main_bench(quick, json_out)`` runs it all and returns the result dict (the JSON);
+``format_report(result)`` is the console text; ``write_benchmarks_md(result, path, plot_path)``
+writes ``docs/benchmarks.md`` and its plot.
+"""
+
+from __future__ import annotations
+
+import cProfile
+import datetime as _dt
+import gc
+import math
+import os
+import platform
+import pstats
+import subprocess
+import sys
+import sysconfig
+import tempfile
+import time
+from dataclasses import asdict, dataclass, replace
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+
+# The issue's targets (printed next to the measurements, never asserted).
+TARGET_VS_MPE = 2.0  # petswarm (1 master + 5 slaves) steps/s >= 2x MPE simple_spread N=6
+TARGET_SCALING = 2.0  # per-step cost at 9 slaves <= 2x the cost at 5
+MEMORY_GROWTH_TOLERANCE_MB = 1.0  # "no growth": tracemalloc growth below this between the two checkpoints
+
+CATEGORIES = ("physics", "radio_middleware", "observation", "reward_metrics", "other")
+
+
+@dataclass(frozen=True)
+class BenchSettings:
+    """How long and how much to measure. ``FULL`` and ``QUICK`` are the two CLI presets."""
+
+    slaves: tuple[int, ...] = (2, 5, 9)  # petswarm sizes: 1 master + n slaves
+    target_s: float = 3.0  # timed env.step seconds per speed measurement (after warm-up)
+    warmup_steps: int = 50  # untimed steps (and one reset) before each speed measurement
+    min_steps: int = 200  # at least this many timed steps per measurement
+    profile_target_s: float = 4.0  # profiled env.step seconds for the breakdown
+    memory_steps: tuple[int, int] = (1_000, 100_000)  # tracemalloc/RSS checkpoints (env steps)
+    memory_isolated: bool = True  # run the memory measurement in a fresh (spawned) process
+    training_samples: int = 8192  # PPO samples (agent-steps) timed per worker setting
+    training_rollout: int = 1024  # samples per PPO rollout (n_steps = rollout / vector rows)
+    training_workers: tuple[int, ...] = (1, 2)  # 1 = in-process, k >= 2 = k worker processes
+    mpe: bool = True  # measure the MPE peer if mpe2 is installed
+    seed: int = 0
+
+
+FULL = BenchSettings()
+QUICK = BenchSettings(
+    target_s=0.5, warmup_steps=10, min_steps=50, profile_target_s=1.0, memory_steps=(1_000, 10_000),
+    training_samples=1024, training_rollout=256,
+)
+
+
+def _log(verbose: bool, msg: str) -> None:
+    if verbose:
+        print(f"[bench] {msg}", file=sys.stderr, flush=True)
+
+
+# -- petswarm ---------------------------------------------------------------------------------------
+class _EnvLoop:
+    """Steps a petswarm env with a policy, resetting (seed, seed + 1, ...) as episodes end, and
+    accumulates env.step, policy and reset wall times separately."""
+
+    def __init__(self, num_slaves: int, policy_name: str, seed: int):
+        import petswarm_env
+        from baselines.policy import PolicySpec, make_policy
+
+        self.env = petswarm_env.parallel_env(**{"swarm.num_slaves": num_slaves})
+        self.policy = make_policy(policy_name, PolicySpec.from_env(self.env), seed=seed)
+        self.next_seed = seed
+        self.obs: dict | None = None
+        self.clear()
+
+    def clear(self) -> None:
+        self.step_s = self.policy_s = self.reset_s = 0.0
+        self.steps = self.agent_steps = self.resets = 0
+
+    def _reset(self) -> None:
+        t0 = time.perf_counter()
+        self.obs, _ = self.env.reset(seed=self.next_seed)
+        self.reset_s += time.perf_counter() - t0
+        self.policy.reset(self.next_seed)
+        self.next_seed += 1
+        self.resets += 1
+
+    def run(self, steps: int | None = None, seconds: float | None = None, min_steps: int = 0,
+            step_hook: Callable[[], None] | None = None, on_step: Callable[[int], None] | None = None) -> None:
+        """Run ``steps`` steps, or until ``seconds`` of env.step time and ``min_steps`` steps."""
+        env, policy = self.env, self.policy
+        perf = time.perf_counter
+        while True:
+            if steps is not None and self.steps >= steps:
+                return
+            if seconds is not None and self.step_s >= seconds and self.steps >= min_steps:
+                return
+            if self.obs is None or not env.agents:
+                self._reset()
+            t0 = perf()
+            actions = policy.act_all(self.obs)
+            t1 = perf()
+            if step_hook is None:
+                self.obs, *_ = env.step(actions)
+            else:
+                step_hook()
+                self.obs, *_ = env.step(actions)
+                step_hook()
+            t2 = perf()
+            self.policy_s += t1 - t0
+            self.step_s += t2 - t1
+            self.steps += 1
+            self.agent_steps += len(actions)
+            if on_step is not None:
+                on_step(self.steps)
+
+
+def bench_petswarm(num_slaves: int, policy_name: str, s: BenchSettings) -> dict:
+    loop = _EnvLoop(num_slaves, policy_name, s.seed)
+    loop.run(steps=s.warmup_steps)
+    loop.clear()
+    gc.collect()
+    loop.run(seconds=s.target_s, min_steps=s.min_steps)
+    # time a few more resets if the measurement saw fewer than 3 (their cost is reported apart)
+    extra = 0
+    while loop.resets + extra < 3:
+        t0 = time.perf_counter()
+        loop.env.reset(seed=loop.next_seed + extra)
+        loop.reset_s += time.perf_counter() - t0
+        extra += 1
+    resets = loop.resets + extra
+    return {
+        "name": f"petswarm_{policy_name}_{num_slaves}",
+        "kind": "petswarm",
+        "label": f"petswarm {policy_name} (1+{num_slaves})",
+        "policy": policy_name,
+        "slaves": num_slaves,
+        "agents": num_slaves + 1,
+        "steps": loop.steps,
+        "steps_per_s": loop.steps / loop.step_s,
+        "agent_steps_per_s": loop.agent_steps / loop.step_s,
+        "ms_per_step": 1e3 * loop.step_s / loop.steps,
+        "policy_ms_per_step": 1e3 * loop.policy_s / loop.steps,
+        "reset_ms": 1e3 * loop.reset_s / resets,
+        "resets": resets,
+        "substeps": loop.env.cfg.physics_substeps,
+    }
+
+
+# -- physics floor ----------------------------------------------------------------------------------
+def bench_floor(num_robots: int, s: BenchSettings) -> dict:
+    """The env's pymunk bodies stepped with the env's substeps and nothing else."""
+    from petswarm_env.config import load_config
+    from petswarm_env.sim.scenarios import ScenarioScript, build_scenario
+    from petswarm_env.sim.world import World
+
+    cfg = load_config()
+    world = World(cfg, ScenarioScript(build_scenario(cfg.user.scenario, cfg.user, np.random.default_rng(s.seed))))
+    spacing = cfg.swarm.spacing_m
+    cols = 4
+    for i in range(num_robots):  # a grid behind the user, spaced like a formation: no contacts
+        world.add_robot((-1.0 - spacing * (i // cols), spacing * (i % cols - (cols - 1) / 2)), 0.0)
+    space = world.space
+    bodies = [r.body for r in world.robots] + [world.user.body]
+    substeps, dt = cfg.physics_substeps, world.dt_sub
+    speed, turn = 0.8, 0.5  # every body drives the same circle: the group stays in the arena, no contacts
+    steps = 0
+
+    def run(n: int) -> float:
+        nonlocal steps
+        t0 = time.perf_counter()
+        for _ in range(n):
+            a = turn * cfg.control_period_s * steps
+            vel = (speed * math.cos(a), speed * math.sin(a))
+            for _ in range(substeps):
+                for b in bodies:
+                    b.velocity = vel
+                    b.angular_velocity = 0.0
+                space.step(dt)
+            steps += 1
+        return time.perf_counter() - t0
+
+    run(s.warmup_steps)
+    gc.collect()
+    elapsed, done, chunk = 0.0, 0, 100
+    while elapsed < s.target_s or done < s.min_steps:
+        elapsed += run(chunk)
+        done += chunk
+    return {
+        "name": f"floor_{num_robots}",
+        "kind": "floor",
+        "label": f"physics floor ({num_robots} bodies)",
+        "agents": num_robots,
+        "steps": done,
+        "steps_per_s": done / elapsed,
+        "agent_steps_per_s": num_robots * done / elapsed,
+        "ms_per_step": 1e3 * elapsed / done,
+        "substeps": substeps,
+        "contacts": world.collisions.total(),
+    }
+
+
+# -- MPE peer ---------------------------------------------------------------------------------------
+def mpe_available() -> tuple[bool, str]:
+    try:
+        from mpe2 import simple_spread_v3  # noqa: F401
+    except ImportError as exc:
+        return False, f"mpe2 is not installed ({exc}); install the bench extra: pip install -e '.[bench]'"
+    return True, ""
+
+
+def bench_mpe(n_agents: int, s: BenchSettings, max_cycles: int) -> dict:
+    """MPE simple_spread parallel_env, N agents, random continuous actions (generated outside the
+    timed call), resets timed apart."""
+    from mpe2 import simple_spread_v3
+
+    env = simple_spread_v3.parallel_env(N=n_agents, continuous_actions=True, max_cycles=max_cycles)
+    rng = np.random.default_rng(s.seed)
+    space = env.action_space(env.possible_agents[0])
+    low, high = space.low, space.high
+    perf = time.perf_counter
+    state = {"seed": s.seed, "agents": []}
+    tot = {"step": 0.0, "policy": 0.0, "reset": 0.0, "steps": 0, "agent_steps": 0, "resets": 0}
+
+    def run(steps: int | None = None, seconds: float | None = None, min_steps: int = 0) -> None:
+        while True:
+            if steps is not None and tot["steps"] >= steps:
+                return
+            if seconds is not None and tot["step"] >= seconds and tot["steps"] >= min_steps:
+                return
+            if not env.agents:
+                t0 = perf()
+                env.reset(seed=state["seed"])
+                tot["reset"] += perf() - t0
+                tot["resets"] += 1
+                state["seed"] += 1
+            t0 = perf()
+            acts = rng.uniform(low, high, (len(env.agents), len(low))).astype(np.float32)
+            actions = dict(zip(env.agents, acts))
+            t1 = perf()
+            env.step(actions)
+            t2 = perf()
+            tot["policy"] += t1 - t0
+            tot["step"] += t2 - t1
+            tot["steps"] += 1
+            tot["agent_steps"] += len(actions)
+
+    env.reset(seed=state["seed"])
+    state["seed"] += 1
+    run(steps=s.warmup_steps)
+    for k in tot:
+        tot[k] = 0 if isinstance(tot[k], int) else 0.0
+    gc.collect()
+    run(seconds=s.target_s, min_steps=s.min_steps)
+    env.close()
+    out = {
+        "name": f"mpe_simple_spread_{n_agents}",
+        "kind": "mpe",
+        "label": f"MPE simple_spread N={n_agents}",
+        "agents": n_agents,
+        "steps": tot["steps"],
+        "steps_per_s": tot["steps"] / tot["step"],
+        "agent_steps_per_s": tot["agent_steps"] / tot["step"],
+        "ms_per_step": 1e3 * tot["step"] / tot["steps"],
+        "policy_ms_per_step": 1e3 * tot["policy"] / tot["steps"],
+        "max_cycles": max_cycles,
+    }
+    if tot["resets"]:
+        out["reset_ms"] = 1e3 * tot["reset"] / tot["resets"]
+        out["resets"] = tot["resets"]
+    return out
+
+
+# -- breakdown --------------------------------------------------------------------------------------
+def _norm(path: str) -> str:
+    return path.replace("\\", "/")
+
+
+_STDLIB = {_norm(p) for p in (sysconfig.get_paths().get("stdlib"), sysconfig.get_paths().get("platstdlib")) if p}
+
+# functions whose category differs from their file's (file suffix, function name) -> category;
+# None = neutral: the time goes to whoever called it
+_FUNCTION_CATEGORY: dict[tuple[str, str], str | None] = {
+    ("petswarm_env/env.py", "_formation_errors"): "reward_metrics",
+    ("petswarm_env/env.py", "reference_positions"): "reward_metrics",
+    ("petswarm_env/env.py", "_observe"): "observation",
+    ("petswarm_env/env.py", "_odometry"): None,  # sensor noise: the observation's or the master's
+    ("petswarm_env/sim/world.py", "ultrasonic_ranges"): "observation",
+    ("petswarm_env/sim/world.py", "body_circles"): "observation",
+    ("petswarm_env/sim/world.py", "robot_positions"): "observation",
+    ("petswarm_env/sim/world.py", "robot_headings"): "observation",
+    ("petswarm_env/sim/world.py", "now"): None,
+    ("petswarm_env/sim/robot.py", "ahrs_yaw"): "observation",
+    ("petswarm_env/sim/robot.py", "position"): None,
+    ("petswarm_env/sim/robot.py", "heading"): None,
+    ("petswarm_env/sim/user.py", "position"): None,
+    ("petswarm_env/sim/user.py", "heading"): None,
+    ("petswarm_env/sim/user.py", "turn_rate_rps"): None,
+    ("petswarm_env/sim/user.py", "activity"): None,
+    ("pymunk/space.py", "step"): "physics",
+}
+
+# file path fragments -> category; checked in order, first match wins
+_FILE_CATEGORY: tuple[tuple[str, str | None], ...] = (
+    ("petswarm_env/comms/", "radio_middleware"),
+    ("petswarm_env/middleware/", "radio_middleware"),
+    ("/simpy/", "radio_middleware"),
+    ("petswarm_env/observe.py", "observation"),
+    ("petswarm_env/reward.py", "reward_metrics"),
+    ("petswarm_env/metrics.py", "reward_metrics"),
+    ("petswarm_env/sim/geometry.py", None),  # ray casts (observation) and IR occlusion (middleware)
+    ("petswarm_env/sim/scenarios.py", None),  # the user's script, read by User.apply
+    ("petswarm_env/sim/", "physics"),  # Robot.apply/set_command, User.apply, World.advance, contact callbacks
+    ("/pymunk/", None),  # property getters/setters: whoever uses them (Space.step itself is physics)
+    ("/numpy/", None),
+)
+
+
+def _category(func: tuple[str, int, str]) -> str | None:
+    """Category of a function's own time, or None (neutral: attributed to its callers)."""
+    filename, _, name = func
+    path = _norm(filename)
+    if filename == "~" or path.startswith("<"):
+        return None  # built-ins (C functions, including pymunk's cffi calls) and frozen modules
+    for (suffix, fname), cat in _FUNCTION_CATEGORY.items():
+        if name == fname and path.endswith(suffix):
+            return cat
+    for fragment, cat in _FILE_CATEGORY:
+        if fragment in path:
+            return cat
+    if any(path.startswith(p + "/") for p in _STDLIB) and "site-packages" not in path:
+        return None
+    return "other"
+
+
+def breakdown_from_stats(stats: pstats.Stats) -> dict[str, Any]:
+    """Share of profiled time per category, by *self time attribution*.
+
+    Every function's own time (cProfile ``tottime``) goes to the category of the function: by
+    function name for a few (``_formation_errors``/``reference_positions`` → reward/metrics,
+    ``ultrasonic_ranges``/``_observe``/``ahrs_yaw`` → observation, pymunk ``Space.step`` →
+    physics), else by its file (``comms/``, ``middleware/``, simpy → radio/middleware;
+    ``observe.py`` → observation; ``reward.py``, ``metrics.py`` → reward/metrics; the rest of
+    ``sim/`` → physics; other files → other). *Neutral* functions — C built-ins (pymunk's cffi
+    calls, math, list methods), numpy, the standard library, pymunk's property accessors,
+    geometry helpers and position getters — pass their own time to their callers, in proportion
+    to the time spent in them from each caller (cProfile's per-caller statistics), recursively.
+    So ``cpSpaceStep`` and the contact callbacks count as physics, a numpy call inside
+    ``observe.py`` as observation, a ``body.position`` read from the reward code as reward/metrics.
+    """
+    raw = stats.stats  # func -> (cc, nc, tt, ct, callers{caller: (nc, cc, tt, ct)})
+    memo: dict[tuple, dict[str, float]] = {}
+
+    def resolve(func: tuple, stack: set) -> dict[str, float]:
+        if func in memo:
+            return memo[func]
+        cat = _category(func)
+        if cat is not None:
+            memo[func] = {cat: 1.0}
+            return memo[func]
+        if func in stack or func not in raw:
+            return {"other": 1.0}
+        callers = raw[func][4]
+        weights = {c: v[2] for c, v in callers.items()}
+        total = sum(weights.values())
+        if total <= 0:
+            weights = {c: v[0] for c, v in callers.items()}
+            total = sum(weights.values())
+        if total <= 0:
+            memo[func] = {"other": 1.0}
+            return memo[func]
+        dist: dict[str, float] = {}
+        stack = stack | {func}
+        for c, w in weights.items():
+            for k, f in resolve(c, stack).items():
+                dist[k] = dist.get(k, 0.0) + f * w / total
+        memo[func] = dist
+        return dist
+
+    totals = dict.fromkeys(CATEGORIES, 0.0)
+    per_func = []
+    for func, (_cc, _nc, tt, _ct, _callers) in raw.items():
+        if "_lsprof" in func[2]:  # the profiler's own enable/disable
+            continue
+        dist = resolve(func, set())
+        for k, f in dist.items():
+            totals[k] += tt * f
+        per_func.append((tt, func, max(dist, key=dist.get)))
+    total = sum(totals.values()) or 1.0
+    per_func.sort(reverse=True)
+    top = [
+        {"function": _func_label(func), "self_share": tt / total, "category": cat}
+        for tt, func, cat in per_func[:12]
+    ]
+    return {"shares": {k: v / total for k, v in totals.items()}, "profiled_s": total, "top_functions": top}
+
+
+def _func_label(func: tuple[str, int, str]) -> str:
+    filename, line, name = func
+    if filename == "~":
+        return name
+    path = _norm(filename)
+    for marker in ("/site-packages/", _norm(str(ROOT)) + "/"):
+        if marker in path:
+            path = path.split(marker, 1)[1]
+            break
+    return f"{path}:{line}({name})"
+
+
+def bench_breakdown(num_slaves: int, s: BenchSettings) -> dict:
+    """cProfile of env.step only (enabled around each call) for the scripted policy."""
+    loop = _EnvLoop(num_slaves, "scripted", s.seed)
+    loop.run(steps=s.warmup_steps)
+    loop.clear()
+    gc.collect()
+    prof = cProfile.Profile()
+    on = [False]
+
+    def toggle() -> None:
+        if on[0]:
+            prof.disable()
+        else:
+            prof.enable()
+        on[0] = not on[0]
+
+    loop.run(seconds=s.profile_target_s, min_steps=max(20, s.min_steps // 2), step_hook=toggle)
+    result = breakdown_from_stats(pstats.Stats(prof))
+    result.update(
+        env=f"1 master + {num_slaves} slaves, scripted policy",
+        slaves=num_slaves,
+        steps=loop.steps,
+        profiled_ms_per_step=1e3 * loop.step_s / loop.steps,
+        method="cProfile around env.step only; self time (tottime) attributed by file and function, "
+        "neutral functions (C built-ins, numpy, stdlib, pymunk accessors) to their callers",
+    )
+    return result
+
+
+# -- memory -----------------------------------------------------------------------------------------
+def _rss_mb() -> float | None:
+    """Current resident set size (Linux /proc), MB."""
+    try:
+        with open("/proc/self/statm") as f:
+            pages = int(f.read().split()[1])
+        return pages * os.sysconf("SC_PAGE_SIZE") / 2**20
+    except (OSError, ValueError, IndexError, AttributeError):
+        return None
+
+
+def _peak_rss_mb() -> float | None:
+    try:
+        import resource
+    except ImportError:
+        return None
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return peak / 2**20 if sys.platform == "darwin" else peak / 1024  # bytes on macOS, KiB on Linux
+
+
+def memory_run(num_slaves: int, checkpoints: tuple[int, ...], seed: int) -> dict:
+    """Step the env (scripted, resets as episodes end) with tracemalloc on; at each checkpoint
+    (env steps since tracing started) record traced memory, current and peak RSS."""
+    import tracemalloc
+
+    loop = _EnvLoop(num_slaves, "scripted", seed)
+    loop.run(steps=50)  # imports, caches, first episode
+    loop.clear()
+    gc.collect()
+    tracemalloc.start()
+    samples = []
+    marks = sorted(set(checkpoints))
+    t0 = time.perf_counter()
+    for mark in marks:
+        loop.run(steps=mark)
+        gc.collect()
+        current, peak = tracemalloc.get_traced_memory()
+        samples.append({
+            "steps": loop.steps,
+            "tracemalloc_current": current / 2**20,
+            "tracemalloc_peak": peak / 2**20,
+            "rss": _rss_mb(),
+            "peak_rss": _peak_rss_mb(),
+            "resets": loop.resets,
+        })
+    tracemalloc.stop()
+    return {"samples": samples, "wall_s": time.perf_counter() - t0}
+
+
+def bench_memory(num_slaves: int, s: BenchSettings) -> dict:
+    a, b = s.memory_steps
+    marks = sorted({a, b, *(m for m in (b // 4, b // 2) if a < m < b)})
+    isolated = False
+    reason = ""
+    if s.memory_isolated:
+        try:
+            import multiprocessing as mp
+            from concurrent.futures import ProcessPoolExecutor
+
+            with ProcessPoolExecutor(max_workers=1, mp_context=mp.get_context("spawn")) as pool:
+                out = pool.submit(memory_run, num_slaves, tuple(marks), s.seed).result()
+            isolated = True
+        except (OSError, RuntimeError, ImportError) as exc:  # no process spawning here: measure in-process
+            reason = f"in-process ({type(exc).__name__}: {exc})"
+            out = memory_run(num_slaves, tuple(marks), s.seed)
+    else:
+        out = memory_run(num_slaves, tuple(marks), s.seed)
+    samples = out["samples"]
+    first = next(x for x in samples if x["steps"] == a)
+    last = next(x for x in samples if x["steps"] == b)
+
+    def diff(key: str) -> float | None:
+        return None if first[key] is None or last[key] is None else last[key] - first[key]
+
+    growth = {k: diff(k) for k in ("tracemalloc_current", "rss", "peak_rss")}
+    result = {
+        "env": f"1 master + {num_slaves} slaves, scripted policy, resets as episodes end",
+        "steps_first": a,
+        "steps_last": b,
+        "first": first,
+        "last": last,
+        "growth": growth,
+        "samples": samples,
+        "no_growth": growth["tracemalloc_current"] is not None and growth["tracemalloc_current"] < MEMORY_GROWTH_TOLERANCE_MB,
+        "tolerance": MEMORY_GROWTH_TOLERANCE_MB,
+        "isolated_process": isolated,
+        "wall_s": out["wall_s"],
+        "unit": "MB (2^20 bytes)",
+    }
+    if reason:
+        result["note"] = reason
+    return result
+
+
+# -- training throughput ----------------------------------------------------------------------------
+def bench_training(s: BenchSettings, verbose: bool = False) -> dict:
+    """PPO samples/s (agent-steps per second of ``model.learn``, updates included) through the
+    training vector env: 1 worker = the env copy in this process (num_envs 1, num_cpus 0);
+    k workers = k env copies in k worker processes (num_envs k, num_cpus k)."""
+    try:
+        import torch
+        from stable_baselines3 import PPO
+        from stable_baselines3.common.utils import set_random_seed
+
+        from training.train import load_train_config, make_vec_env
+    except ImportError as exc:
+        return {"skipped": f"{exc.name or exc} is not installed; set up the training stack with: bash scripts/setup.sh train"}
+
+    tcfg = load_train_config()
+    env_cfg = tcfg.env_config()
+    slaves = env_cfg.swarm.num_slaves + env_cfg.swarm.extra_robots
+    p = tcfg.ppo
+    torch.set_num_threads(1)  # as `petswarm train`: the cores run the env workers
+    runs = []
+    for workers in s.training_workers:
+        num_envs, num_cpus = (1, 0) if workers <= 1 else (workers, workers)
+        rows = num_envs * slaves
+        n_steps = max(8, s.training_rollout // rows)
+        rollout = n_steps * rows
+        batch = min(p.batch_size, rollout)
+        _log(verbose, f"training: {workers} worker(s), {s.training_samples} samples, n_steps {n_steps}")
+        set_random_seed(s.seed)
+        venv = make_vec_env(env_cfg, num_envs, num_cpus, s.seed)
+        try:
+            act = torch.nn.Tanh if p.activation == "tanh" else torch.nn.ReLU
+            model = PPO(
+                "MlpPolicy", venv, learning_rate=p.learning_rate, n_steps=n_steps, batch_size=batch,
+                n_epochs=p.n_epochs, gamma=p.gamma, gae_lambda=p.gae_lambda, clip_range=p.clip_range,
+                ent_coef=p.ent_coef, vf_coef=p.vf_coef, max_grad_norm=p.max_grad_norm,
+                policy_kwargs={"net_arch": list(p.net_arch), "activation_fn": act, "log_std_init": p.log_std_init},
+                seed=s.seed, device="cpu", verbose=0,
+            )
+            t0 = time.perf_counter()
+            model.learn(total_timesteps=s.training_samples, progress_bar=False)
+            wall = time.perf_counter() - t0
+            samples = int(model.num_timesteps)
+        finally:
+            venv.close()
+        runs.append({
+            "workers": workers,
+            "num_envs": num_envs,
+            "num_cpus": num_cpus,
+            "vector_rows": rows,
+            "n_steps": n_steps,
+            "rollout_samples": rollout,
+            "batch_size": batch,
+            "n_epochs": p.n_epochs,
+            "samples": samples,
+            "wall_s": wall,
+            "samples_per_s": samples / wall,
+        })
+    out: dict[str, Any] = {
+        "env": f"training env (configs/train/ppo.yaml): {slaves} slaves, max_cycles {env_cfg.max_cycles}",
+        "net_arch": list(p.net_arch),
+        "torch_threads": 1,
+        "runs": runs,
+        "method": "wall time of model.learn(total_timesteps) for a fresh PPO (configs/train/ppo.yaml "
+        "hyper-parameters, n_steps = rollout / vector rows); includes env steps, policy inference and "
+        "the PPO updates; model and env construction are excluded. 1 worker = one env copy in this "
+        "process (num_envs 1, num_cpus 0); k workers = k copies in k processes (num_envs k, num_cpus k).",
+    }
+    if len(runs) >= 2:
+        out["speedup"] = runs[-1]["samples_per_s"] / runs[0]["samples_per_s"]
+    return out
+
+
+# -- machine ----------------------------------------------------------------------------------------
+def _version(pkg: str) -> str | None:
+    from importlib import metadata
+
+    try:
+        return metadata.version(pkg)
+    except metadata.PackageNotFoundError:
+        return None
+
+
+def _loadavg() -> list[float] | None:
+    try:
+        return [round(x, 2) for x in os.getloadavg()]
+    except (OSError, AttributeError):
+        return None
+
+
+def machine_info() -> dict:
+    cpu_model = platform.processor() or None
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    cpu_model = line.split(":", 1)[1].strip()
+                    break
+    except OSError:
+        pass
+    try:
+        affinity = len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        affinity = os.cpu_count()
+    git: dict[str, Any] = {}
+    try:
+        head = subprocess.run(["git", "rev-parse", "HEAD"], cwd=ROOT, capture_output=True, text=True, timeout=5)
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=ROOT, capture_output=True,
+                               text=True, timeout=5)
+        if head.returncode == 0:
+            git = {"commit": head.stdout.strip(), "dirty": bool(dirty.stdout.strip())}
+    except (OSError, subprocess.SubprocessError):
+        pass
+    pkgs = ("petswarm", "numpy", "pymunk", "simpy", "pettingzoo", "gymnasium", "mpe2", "stable-baselines3",
+            "supersuit", "torch", "matplotlib")
+    return {
+        "cpu_count": os.cpu_count(),
+        "cpus_available": affinity,
+        "cpu_model": cpu_model,
+        "platform": platform.platform(),
+        "python": platform.python_version(),
+        "python_implementation": platform.python_implementation(),
+        "versions": {k: _version(k) for k in pkgs},
+        "git": git,
+        "loadavg_start": _loadavg(),
+    }
+
+
+# -- the whole benchmark ----------------------------------------------------------------------------
+def _find(results: list[dict], kind: str, agents: int, policy: str | None = None) -> dict | None:
+    for r in results:
+        if r["kind"] == kind and r["agents"] == agents and (policy is None or r.get("policy") == policy):
+            return r
+    return None
+
+
+def _ratio(a: dict | None, b: dict | None) -> float | None:
+    if a is None or b is None:
+        return None
+    return a["steps_per_s"] / b["steps_per_s"]
+
+
+def _clean(x: Any) -> Any:
+    """Plain JSON types (numpy scalars -> float/int, tuples -> lists)."""
+    if isinstance(x, dict):
+        return {str(k): _clean(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_clean(v) for v in x]
+    if isinstance(x, np.integer):
+        return int(x)
+    if isinstance(x, (np.floating, float)):
+        return float(x)
+    return x
+
+
+def run_bench(s: BenchSettings, mode: str = "custom", verbose: bool = False) -> dict:
+    """Every measurement with settings ``s``; returns the result dict (see the module docstring)."""
+    started = time.perf_counter()
+    machine = machine_info()
+    machine["timestamp_utc"] = _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
+    results: list[dict] = []
+    skipped: list[dict] = []
+
+    for n in s.slaves:
+        for pol in ("scripted", "random"):
+            _log(verbose, f"petswarm 1+{n} {pol}")
+            results.append(bench_petswarm(n, pol, s))
+    for n in s.slaves:
+        _log(verbose, f"physics floor {n + 1} bodies")
+        results.append(bench_floor(n + 1, s))
+    if s.mpe:
+        ok, reason = mpe_available()
+        if ok:
+            from petswarm_env.config import load_config
+
+            max_cycles = load_config().max_cycles
+            for n in s.slaves:
+                _log(verbose, f"MPE simple_spread N={n + 1}")
+                results.append(bench_mpe(n + 1, s, max_cycles))
+        else:
+            skipped.append({"name": "mpe_simple_spread", "reason": reason})
+    else:
+        skipped.append({"name": "mpe_simple_spread", "reason": "disabled in the settings"})
+
+    prof_slaves = 5 if 5 in s.slaves else s.slaves[len(s.slaves) // 2]
+    _log(verbose, f"breakdown (cProfile) 1+{prof_slaves}")
+    breakdown = bench_breakdown(prof_slaves, s)
+    ref = _find(results, "petswarm", prof_slaves + 1, "scripted")
+    if ref is not None:
+        breakdown["unprofiled_ms_per_step"] = ref["ms_per_step"]
+        breakdown["ms_per_step"] = {k: v * ref["ms_per_step"] for k, v in breakdown["shares"].items()}
+
+    _log(verbose, f"memory 1+{prof_slaves}: {s.memory_steps[0]} vs {s.memory_steps[1]} steps")
+    memory = bench_memory(prof_slaves, s)
+
+    _log(verbose, "training throughput")
+    training = bench_training(s, verbose) if s.training_workers else {"skipped": "disabled in the settings"}
+
+    ps6 = _find(results, "petswarm", 6, "scripted")
+    ratios = {
+        "petswarm_vs_mpe_6": _ratio(ps6, _find(results, "mpe", 6)),
+        "petswarm_vs_floor_6": _ratio(ps6, _find(results, "floor", 6)),
+        "cost_9_vs_5_slaves": _ratio(ps6, _find(results, "petswarm", 10, "scripted")),
+    }
+    mem_growth = memory["growth"]["tracemalloc_current"]
+    targets = {
+        "petswarm_vs_mpe_6": {"measured": ratios["petswarm_vs_mpe_6"], "target": f">= {TARGET_VS_MPE:g}",
+                              "met": None if ratios["petswarm_vs_mpe_6"] is None else ratios["petswarm_vs_mpe_6"] >= TARGET_VS_MPE},
+        "cost_9_vs_5_slaves": {"measured": ratios["cost_9_vs_5_slaves"], "target": f"<= {TARGET_SCALING:g}",
+                               "met": None if ratios["cost_9_vs_5_slaves"] is None else ratios["cost_9_vs_5_slaves"] <= TARGET_SCALING},
+        "memory_growth_mb": {"measured": mem_growth, "target": f"none (< {MEMORY_GROWTH_TOLERANCE_MB:g} MB tracemalloc)",
+                             "met": memory["no_growth"]},
+    }
+    machine["loadavg_end"] = _loadavg()
+    result = {
+        "mode": mode,
+        "settings": asdict(s),
+        "results": results,
+        "skipped": skipped,
+        "ratios": ratios,
+        "targets": targets,
+        "memory_mb": memory,
+        "breakdown": breakdown,
+        "training": training,
+        "machine": machine,
+        "wall_s": time.perf_counter() - started,
+    }
+    return _clean(result)
+
+
+def main_bench(quick: bool, json_out: str | None, md_out: str | None = None, plot_out: str | None = None,
+               settings: BenchSettings | None = None, verbose: bool = True) -> dict:
+    """``petswarm bench [--quick] [--json OUT]``: run, optionally write the JSON (atomically) and
+    the markdown report with its plot; return the result dict."""
+    s = settings or (QUICK if quick else FULL)
+    mode = "custom" if settings is not None else ("quick" if quick else "full")
+    result = run_bench(s, mode, verbose)
+    if json_out:
+        from training.runner import write_json_atomic
+
+        write_json_atomic(json_out, result)
+    if md_out:
+        write_benchmarks_md(result, md_out, plot_out or default_plot_path(md_out))
+    return result
+
+
+def default_plot_path(md_path: str | os.PathLike) -> str:
+    p = Path(md_path)
+    return str(p.with_name(p.stem + "_steps.png"))
+
+
+# -- text report ------------------------------------------------------------------------------------
+def _fmt(x: float | None, spec: str = ".2f") -> str:
+    if x is None or (isinstance(x, float) and not math.isfinite(x)):
+        return "–"
+    return format(x, spec)
+
+
+def _verdict(met: bool | None) -> str:
+    return "n/a" if met is None else ("met" if met else "not met")
+
+
+def _target_rows(result: dict) -> list[tuple[str, str, str, str]]:
+    t = result["targets"]
+    m = result["memory_mb"]
+    r = result["ratios"]
+    return [
+        ("petswarm (1+5) / MPE simple_spread N=6, steps/s", _fmt(t["petswarm_vs_mpe_6"]["measured"]) + "×",
+         "≥ 2×", _verdict(t["petswarm_vs_mpe_6"]["met"])),
+        ("per-step cost 9 slaves / 5 slaves", _fmt(t["cost_9_vs_5_slaves"]["measured"]) + "×", "≤ 2×",
+         _verdict(t["cost_9_vs_5_slaves"]["met"])),
+        (f"memory growth {m['steps_first']:,} → {m['steps_last']:,} steps (tracemalloc)",
+         _fmt(t["memory_growth_mb"]["measured"], "+.3f") + " MB", "none", _verdict(t["memory_growth_mb"]["met"])),
+        ("petswarm (1+5) / physics floor (6 bodies), steps/s", _fmt(r["petswarm_vs_floor_6"], ".4f") + "×", "(info)", ""),
+    ]
+
+
+def format_report(result: dict) -> str:
+    m = result["machine"]
+    lines = [
+        f"petswarm bench ({result['mode']}): {m['cpus_available']} CPUs ({m.get('cpu_model') or '?'}), "
+        f"Python {m['python']}, load average {m.get('loadavg_start')} at start, {m.get('loadavg_end')} at end; "
+        f"{result['wall_s']:.0f} s",
+        "",
+        f"{'measurement':<34} {'robots':>6} {'steps/s':>10} {'agent-st/s':>11} {'ms/step':>8} {'policy ms':>9} {'reset ms':>8} {'steps':>7}",
+    ]
+    for r in result["results"]:
+        lines.append(
+            f"{r['label']:<34} {r['agents']:>6} {r['steps_per_s']:>10,.0f} {r['agent_steps_per_s']:>11,.0f} "
+            f"{r['ms_per_step']:>8.3f} {_fmt(r.get('policy_ms_per_step'), '.3f'):>9} {_fmt(r.get('reset_ms'), '.1f'):>8} {r['steps']:>7}"
+        )
+    for sk in result.get("skipped", []):
+        lines.append(f"{sk['name']:<34} skipped: {sk['reason']}")
+    lines += ["", "targets (reported, not asserted):"]
+    for name, measured, target, verdict in _target_rows(result):
+        lines.append(f"  {name:<56} {measured:>12}  target {target:<6} {verdict}")
+    b = result["breakdown"]
+    shares = ", ".join(f"{k} {100 * v:.0f}%" for k, v in b["shares"].items())
+    lines += ["", f"breakdown of one step ({b['env']}, cProfile over {b['steps']} steps): {shares}"]
+    for f in b["top_functions"][:5]:
+        lines.append(f"  {100 * f['self_share']:5.1f}%  {f['function']}  [{f['category']}]")
+    mem = result["memory_mb"]
+    lines += [
+        "",
+        f"memory ({mem['env']}): tracemalloc {_fmt(mem['first']['tracemalloc_current'], '.2f')} MB after "
+        f"{mem['steps_first']:,} steps, {_fmt(mem['last']['tracemalloc_current'], '.2f')} MB after {mem['steps_last']:,}; "
+        f"RSS {_fmt(mem['first']['rss'], '.0f')} → {_fmt(mem['last']['rss'], '.0f')} MB, peak RSS "
+        f"{_fmt(mem['first']['peak_rss'], '.0f')} → {_fmt(mem['last']['peak_rss'], '.0f')} MB",
+    ]
+    tr = result["training"]
+    if "skipped" in tr:
+        lines.append(f"training throughput: skipped: {tr['skipped']}")
+    else:
+        parts = [f"{r['workers']} worker{'s' if r['workers'] > 1 else ''} {r['samples_per_s']:,.0f} samples/s" for r in tr["runs"]]
+        lines.append(f"training throughput (PPO, {tr['env']}): " + "; ".join(parts))
+    return "\n".join(lines)
+
+
+# -- docs/benchmarks.md -----------------------------------------------------------------------------
+def _write_bytes_atomic(path: Path, write: Callable[[str], None], suffix: str) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=suffix, dir=path.parent)
+    os.close(fd)
+    try:
+        write(tmp)
+        os.chmod(tmp, 0o644)
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+
+
+def write_plot(result: dict, plot_path: str | os.PathLike) -> None:
+    """Steps/s against swarm size (robots), log scale, one line per kind of measurement."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(7, 4.5), dpi=110)
+    FigureCanvasAgg(fig)
+    ax = fig.add_subplot(1, 1, 1)
+    series = [
+        ("floor", None, "physics floor (pymunk only)", "s--", "0.45"),
+        ("mpe", None, "MPE simple_spread (mpe2)", "^-", "tab:orange"),
+        ("petswarm", "random", "petswarm, random actions", "o-", "tab:cyan"),
+        ("petswarm", "scripted", "petswarm, scripted policy", "o-", "tab:blue"),
+    ]
+    for kind, pol, label, style, color in series:
+        pts = sorted((r["agents"], r["steps_per_s"]) for r in result["results"]
+                     if r["kind"] == kind and (pol is None or r.get("policy") == pol))
+        if pts:
+            xs, ys = zip(*pts)
+            ax.plot(xs, ys, style, color=color, label=label)
+    mpe6 = _find(result["results"], "mpe", 6)
+    if mpe6 is not None:
+        ax.plot([6], [TARGET_VS_MPE * mpe6["steps_per_s"]], "*", color="tab:red", markersize=12,
+                label=f"target: {TARGET_VS_MPE:g}× MPE at 6 robots")
+    ax.set_yscale("log")
+    ax.set_xlabel("robots (master + slaves; MPE: agents)")
+    ax.set_ylabel("env steps per second (log)")
+    ax.set_xticks(sorted({r["agents"] for r in result["results"]}))
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    m = result["machine"]
+    ax.set_title(f"petswarm bench ({result['mode']}), {m['cpus_available']} CPUs, Python {m['python']}", fontsize=10)
+    fig.tight_layout()
+    _write_bytes_atomic(Path(plot_path), lambda tmp: fig.savefig(tmp, format="png"), ".png")
+
+
+def benchmarks_markdown(result: dict, plot_rel: str) -> str:
+    m = result["machine"]
+    v = m["versions"]
+    b = result["breakdown"]
+    mem = result["memory_mb"]
+    tr = result["training"]
+    s = result["settings"]
+    cmd = "petswarm bench" + (" --quick" if result["mode"] == "quick" else "")
+    git = m.get("git") or {}
+    out = [
+        "# Benchmarks",
+        "",
+        f"Generated by `{cmd}` (`training/bench.py`) on {m.get('timestamp_utc', '?')}"
+        + (f", commit `{git['commit'][:10]}`{' (with local changes)' if git.get('dirty') else ''}" if git.get("commit") else "")
+        + ". Regenerate with `petswarm bench --json bench.json --md docs/benchmarks.md`.",
+        "",
+        f"Machine: {m['cpus_available']} CPUs ({m.get('cpu_model') or 'unknown CPU'}), {m['platform']}, "
+        f"Python {m['python']}; numpy {v.get('numpy')}, pymunk {v.get('pymunk')}, simpy {v.get('simpy')}, "
+        f"pettingzoo {v.get('pettingzoo')}, mpe2 {v.get('mpe2') or 'not installed'}, "
+        f"stable-baselines3 {v.get('stable-baselines3') or 'not installed'}, torch {v.get('torch') or 'not installed'}. "
+        f"Load average {m.get('loadavg_start')} at the start, {m.get('loadavg_end')} at the end "
+        "(1, 5, 15 min; anything near the CPU count means the numbers are depressed). "
+        f"The whole run took {result['wall_s']:.0f} s.",
+        "",
+        "## Targets",
+        "",
+        "| | measured | target | |",
+        "|---|---:|---:|---|",
+    ]
+    for name, measured, target, verdict in _target_rows(result):
+        out.append(f"| {name} | {measured} | {target} | {verdict} |")
+    out += [
+        "",
+        "## Steps per second",
+        "",
+        f"![steps/s against swarm size]({plot_rel})",
+        "",
+        "| measurement | robots | steps/s | agent-steps/s | ms/step | policy ms/step | reset ms | timed steps |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|",
+    ]
+    for r in result["results"]:
+        out.append(
+            f"| {r['label']} | {r['agents']} | {r['steps_per_s']:,.0f} | {r['agent_steps_per_s']:,.0f} | "
+            f"{r['ms_per_step']:.3f} | {_fmt(r.get('policy_ms_per_step'), '.3f')} | {_fmt(r.get('reset_ms'), '.1f')} | {r['steps']:,} |"
+        )
+    for sk in result.get("skipped", []):
+        out.append(f"| {sk['name']} | | skipped: {sk['reason']} | | | | | |")
+    out += [
+        "",
+        "* **petswarm**: `petswarm_env.parallel_env(**{\"swarm.num_slaves\": n})`, full middleware (join "
+        f"protocol, radio medium, IR token ring, master broadcasts), {s['warmup_steps']} warm-up steps, then "
+        f"`env.step` timed with `time.perf_counter` until ≥ {s['target_s']:g} s and ≥ {s['min_steps']} steps. "
+        "The policy's time (scripted leader–follower, or uniform random actions) is timed apart (*policy "
+        "ms/step*), as is `reset` (*reset ms*; it runs the join protocol on the clock). Episodes reset as they "
+        "end (seeds 0, 1, …). *agent-steps/s* counts the acting agents (the slaves) per step; *robots* "
+        "counts the master too.",
+        "* **physics floor**: the env's own `World` with the same bodies (robots with the configured radius "
+        "and mass, the user as a kinematic circle, the arena walls), stepped `physics_substeps` times per "
+        "control step, setting every body's velocity before each substep as `Robot.apply` does, and nothing "
+        "else: no clock, radio, sensors or rewards. The bodies drive one circle together, so there are no "
+        "contacts.",
+        "* **MPE simple_spread**: `mpe2.simple_spread_v3.parallel_env(N=robots, continuous_actions=True, "
+        "max_cycles=<petswarm max_cycles>)`, uniform random actions drawn outside the timed call; resets "
+        "timed apart, as for petswarm.",
+        "",
+        "## Where a step's time goes",
+        "",
+        f"cProfile of `env.step` only ({b['env']}, {b['steps']:,} steps; profiling inflates the step to "
+        f"{b['profiled_ms_per_step']:.2f} ms"
+        + (f", against {b['unprofiled_ms_per_step']:.2f} ms unprofiled" if b.get("unprofiled_ms_per_step") else "")
+        + "). *ms/step* applies the share to the unprofiled step time.",
+        "",
+        "| part | share | ms/step |",
+        "|---|---:|---:|",
+    ]
+    names = {
+        "physics": "physics (pymunk `Space.step`, `Robot.apply`, `User.apply`, substep loop, contact callbacks)",
+        "radio_middleware": "radio and middleware events (`comms/*`, `middleware/*`, simpy)",
+        "observation": "observation (`observe.py`, ultrasonic ray casts, AHRS)",
+        "reward_metrics": "reward and metrics (`reward.py`, `metrics.py`, `_formation_errors`, `reference_positions`)",
+        "other": "other (action checks, master controller, `env.step` itself)",
+    }
+    for k, share in b["shares"].items():
+        ms = (b.get("ms_per_step") or {}).get(k)
+        out.append(f"| {names.get(k, k)} | {100 * share:.1f}% | {_fmt(ms, '.3f')} |")
+    out += [
+        "",
+        "Method: every function's own time (cProfile *tottime*) is attributed by the function and its file: "
+        "pymunk `Space.step` and the rest of `petswarm_env/sim/` → physics; `petswarm_env/comms/`, "
+        "`petswarm_env/middleware/` and simpy → radio/middleware; `observe.py`, `World.ultrasonic_ranges`, "
+        "`Robot.ahrs_yaw`, `env._observe` → observation; `reward.py`, `metrics.py`, `env._formation_errors`, "
+        "`env.reference_positions` → reward/metrics; any other file → other. Neutral functions (C built-ins "
+        "such as pymunk's cffi `cpSpaceStep`, numpy, the standard library, pymunk's property accessors, "
+        "`sim/geometry.py`, position getters) pass their own time on to their callers, in proportion to the "
+        "time spent in them from each caller (cProfile's per-caller statistics), recursively. cProfile adds a "
+        "fixed cost per Python call, so call-heavy Python parts (middleware, accessors) look somewhat larger "
+        "than they are and C-heavy parts (pymunk's solver) smaller.",
+        "",
+        "Largest own times:",
+        "",
+        "| function | own share | part |",
+        "|---|---:|---|",
+    ]
+    for f in b["top_functions"][:10]:
+        out.append(f"| `{f['function']}` | {100 * f['self_share']:.1f}% | {f['category']} |")
+    out += [
+        "",
+        "## Memory",
+        "",
+        f"{mem['env']}; tracemalloc started after a 50-step warm-up, garbage collected before each reading"
+        + (", in a fresh process (so peak RSS is this run's own)" if mem.get("isolated_process") else ", in the benchmark's process")
+        + ". MB = 2^20 bytes.",
+        "",
+        "| env steps | tracemalloc current MB | tracemalloc peak MB | RSS MB | peak RSS MB | resets |",
+        "|---:|---:|---:|---:|---:|---:|",
+    ]
+    for x in mem["samples"]:
+        out.append(
+            f"| {x['steps']:,} | {_fmt(x['tracemalloc_current'], '.3f')} | {_fmt(x['tracemalloc_peak'], '.3f')} | "
+            f"{_fmt(x['rss'], '.1f')} | {_fmt(x['peak_rss'], '.1f')} | {x['resets']} |"
+        )
+    g = mem["growth"]
+    out += [
+        "",
+        f"Growth from {mem['steps_first']:,} to {mem['steps_last']:,} steps: tracemalloc {_fmt(g['tracemalloc_current'], '+.3f')} MB, "
+        f"RSS {_fmt(g['rss'], '+.1f')} MB, peak RSS {_fmt(g['peak_rss'], '+.1f')} MB "
+        f"(\"no growth\" = tracemalloc growth below {mem['tolerance']:g} MB: {_verdict(mem['no_growth'])}).",
+        "",
+        "## Training throughput",
+        "",
+    ]
+    if "skipped" in tr:
+        out.append(f"Skipped: {tr['skipped']}")
+    else:
+        out += [
+            f"PPO (stable-baselines3 via SuperSuit), {tr['env']}, net {tr['net_arch']}, torch threads {tr['torch_threads']}.",
+            "",
+            "| workers | num_envs | num_cpus | vector rows | n_steps | rollout | batch | epochs | samples | s | samples/s |",
+            "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
+        ]
+        for r in tr["runs"]:
+            out.append(
+                f"| {r['workers']} | {r['num_envs']} | {r['num_cpus']} | {r['vector_rows']} | {r['n_steps']} | "
+                f"{r['rollout_samples']} | {r['batch_size']} | {r['n_epochs']} | {r['samples']:,} | {r['wall_s']:.1f} | "
+                f"{r['samples_per_s']:,.0f} |"
+            )
+        out += ["", tr["method"]]
+    out.append("")
+    return "\n".join(out)
+
+
+def write_benchmarks_md(result: dict, path: str | os.PathLike, plot_path: str | os.PathLike) -> None:
+    """Write the markdown report to ``path`` and the steps/s plot to ``plot_path`` (PNG), each
+    atomically (temporary file beside it, then rename); the markdown links the plot relatively."""
+    path, plot_path = Path(path), Path(plot_path)
+    write_plot(result, plot_path)
+    rel = os.path.relpath(plot_path.resolve(), path.resolve().parent).replace(os.sep, "/")
+    text = benchmarks_markdown(result, rel)
+
+    def write(tmp: str) -> None:
+        with open(tmp, "w", encoding="utf-8") as f:
+            f.write(text)
+
+    _write_bytes_atomic(path, write, ".md")
+
+
+def tiny_settings(**changes: Any) -> BenchSettings:
+    """Very short settings (tests, smoke runs): every measurement, a few steps each."""
+    base = BenchSettings(
+        slaves=(2, 5, 9), target_s=0.05, warmup_steps=3, min_steps=5, profile_target_s=0.05,
+        memory_steps=(20, 60), memory_isolated=False, training_samples=64, training_rollout=32,
+        training_workers=(1,),
+    )
+    return replace(base, **changes)
+
+
+if __name__ == "__main__":
+    import argparse
+
+    ap = argparse.ArgumentParser(description="petswarm speed benchmark (same as `petswarm bench`)")
+    ap.add_argument("--quick", action="store_true")
+    ap.add_argument("--json", metavar="OUT")
+    ap.add_argument("--md", metavar="docs/benchmarks.md")
+    a = ap.parse_args()
+    res = main_bench(a.quick, a.json, md_out=a.md)
+    print(format_report(res))

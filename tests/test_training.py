@@ -31,6 +31,8 @@ SHORT = {
     "eval.max_cycles": 20,
     "checkpoint.every_steps": 1024,
     "env.max_cycles": 50,
+    "pretrain.samples": 400,
+    "pretrain.epochs": 2,
 }
 
 
@@ -51,6 +53,14 @@ def test_short_run_writes_checkpoint_policy_config_and_log(trained):
     assert saved_log["evaluations"] and saved_log["scripted_eval_rmse_m"] > 0
     assert list((out / "tb").rglob("events.out.tfevents*")), "TensorBoard logs are written"
     assert not list(out.rglob(".*.zip")) and not list(out.rglob(".*.npz")), "no temp files left"
+
+
+def test_warm_start_imitates_the_scripted_reference_before_ppo(trained):
+    _, log = trained
+    pre = log["pretrain"]
+    assert pre["samples"] == 400
+    assert pre["actor_mse"] < 0.5  # regressed toward the reference's actions in [-1, 1]
+    assert pre["eval_formation_rmse_m"] > 0
 
 
 def test_resume_continues_the_run(trained):

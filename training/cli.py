@@ -1,7 +1,11 @@
 """The ``petswarm`` command line.
 
-    petswarm run [--config FILE] [--set KEY=VALUE ...] [--policy scripted|random]
-                 [--episodes N] [--seed S] [--json OUT] [--render human] [--video OUT.gif]
+    petswarm run    [--config FILE] [--set KEY=VALUE ...] [--policy scripted|random|learned|PATH]
+                    [--episodes N] [--seed S] [--json OUT] [--render human] [--video OUT.gif]
+    petswarm train  [--config configs/train/ppo.yaml] [--set KEY=VALUE ...] [--timesteps N] [--out runs/NAME] [--resume]
+    petswarm eval   --policy scripted|random|learned|PATH [--mix ROBOT=POLICY ...] [--scenarios a,b] [--episodes N] ...
+    petswarm report RESULT.json ... --out report.html
+    petswarm bench  [--quick] [--json OUT] [--md docs/benchmarks.md]
 """
 
 from __future__ import annotations
@@ -37,6 +41,12 @@ def _seed(text: str) -> int:
     return value
 
 
+def _policy_name(text: str) -> str:
+    if text in ("scripted", "random", "learned") or text.endswith(".npz"):
+        return text
+    raise argparse.ArgumentTypeError(f"expected scripted, random, learned or a .npz policy file, got '{text}'")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="petswarm", description="Pet-Bot swarm environment: run, evaluate and measure.")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
@@ -54,7 +64,9 @@ def build_parser() -> argparse.ArgumentParser:
         default=[],
         help="override a config key with a dotted path, e.g. --set swarm.num_slaves=3 (repeatable)",
     )
-    run.add_argument("--policy", choices=["scripted", "random"], default="scripted", help="slave policy (default: scripted leader-follower)")
+    run.add_argument("--policy", type=_policy_name, default="scripted", metavar="scripted|random|learned|PATH",
+                     help="slave policy: the scripted leader-follower reference (default), random, the shipped learned model, "
+                     "or a saved policy file (.npz)")
     run.add_argument("--episodes", type=_positive_int, default=1, metavar="N", help="number of episodes (default 1)")
     run.add_argument("--seed", type=_seed, metavar="S", help="seed of the first episode; episode i uses S+i (default: config seed)")
     run.add_argument("--json", metavar="OUT", help="write the results as JSON to OUT (atomically)")
@@ -83,7 +95,7 @@ def build_parser() -> argparse.ArgumentParser:
         description="Evaluate a slave policy on each scenario over the same seeds; JSON as `petswarm run` plus "
         "per-scenario summaries, error traces and trajectories (input of `petswarm report`).",
     )
-    ev.add_argument("--policy", default="scripted", metavar="scripted|random|learned|PATH",
+    ev.add_argument("--policy", type=_policy_name, default="scripted", metavar="scripted|random|learned|PATH",
                     help="policy of every slave not named in --mix (learned = the model shipped in the package)")
     ev.add_argument("--mix", metavar="ROBOT=POLICY", action="append", default=[],
                     help="give one robot another policy, e.g. --mix robot_2=learned (repeatable)")
@@ -94,6 +106,17 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--set", metavar="KEY=VALUE", action="append", default=[], help="override a config key (repeatable)")
     ev.add_argument("--json", metavar="OUT", help="write the results as JSON (atomically)")
     ev.add_argument("--video-dir", metavar="DIR", help="write a GIF of the first episode of each scenario into DIR")
+
+    bench = sub.add_parser(
+        "bench",
+        help="measure env speed (vs. the physics floor and MPE), a step's cost breakdown, memory and training throughput",
+        description="Speed benchmark: petswarm env.step rate with 2, 5 and 9 slaves (scripted and random actions), the "
+        "pymunk physics floor, MPE simple_spread (mpe2, the bench extra), a cProfile breakdown of one step, memory "
+        "growth over a long run and PPO samples/s; prints a report and the issue's targets.",
+    )
+    bench.add_argument("--quick", action="store_true", help="short measurements (about a minute) instead of the full run")
+    bench.add_argument("--json", metavar="OUT", help="write the results as JSON (atomically)")
+    bench.add_argument("--md", metavar="docs/benchmarks.md", help="also write the markdown report, with its plot beside it (*_steps.png)")
 
     rep = sub.add_parser("report", help="compare evaluation results in one self-contained HTML page",
                          description="Compare the JSON results of `petswarm eval` (one per policy) in one HTML page.")
@@ -176,6 +199,18 @@ def _cmd_eval(args) -> int:
     return 0
 
 
+def _cmd_bench(args) -> int:
+    from training.bench import default_plot_path, format_report, main_bench
+
+    result = main_bench(args.quick, args.json, md_out=args.md)
+    print(format_report(result))
+    if args.json:
+        print(f"wrote {args.json}")
+    if args.md:
+        print(f"wrote {args.md} and {default_plot_path(args.md)}")
+    return 0
+
+
 def _cmd_report(args) -> int:
     from training.report import write_report
 
@@ -196,6 +231,8 @@ def main(argv: list[str] | None = None) -> int:
             return _cmd_eval(args)
         if args.command == "report":
             return _cmd_report(args)
+        if args.command == "bench":
+            return _cmd_bench(args)
     except (ConfigError, ValueError, RuntimeError, OSError) as exc:
         print(f"petswarm: error: {exc}", file=sys.stderr)
         return 2

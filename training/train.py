@@ -77,6 +77,14 @@ class CheckpointConfig(_Section):
     every_steps: int = Field(ge=1)
 
 
+class PretrainConfig(_Section):
+    samples: int = Field(ge=0, description="agent-samples of the scripted reference to imitate; 0 = no warm start")
+    noise_std: float = Field(ge=0, description="action noise while collecting (visits recovery states)")
+    epochs: int = Field(ge=1)
+    batch_size: int = Field(ge=8)
+    learning_rate: float = Field(gt=0)
+
+
 class TrainConfig(_Section):
     seed: int = Field(ge=0)
     timesteps: int = Field(ge=1)
@@ -86,6 +94,7 @@ class TrainConfig(_Section):
     ppo: PPOConfig
     eval: EvalConfig
     checkpoint: CheckpointConfig
+    pretrain: PretrainConfig
 
     def env_config(self) -> Config:
         return load_config(overrides=self.env)
@@ -201,6 +210,73 @@ def evaluate_policy(env_cfg: Config, policy, seeds: list[int]) -> float:
     env.close()
     values = [v for v in values if math.isfinite(v)]
     return float(np.mean(values)) if values else math.nan
+
+
+# -- warm start: imitate the scripted reference ---------------------------------------------------
+def collect_demonstrations(env_cfg: Config, samples: int, noise_std: float, seed: int, gamma: float):
+    """Run the scripted reference with action noise; return observations, the reference's
+    (noise-free) actions and discounted returns of the executed trajectories (for the critic)."""
+    env = PetSwarmEnv(env_cfg)
+    teacher = make_policy("scripted", PolicySpec.from_env(env))
+    rng = np.random.default_rng(seed)
+    obs_l, act_l, ret_l = [], [], []
+    episode = 0
+    while len(obs_l) < samples:
+        obs, _ = env.reset(seed=seed + episode)
+        episode += 1
+        traj: dict[str, list[tuple[np.ndarray, np.ndarray, float]]] = {a: [] for a in env.agents}
+        while env.agents:
+            target = teacher.act_all(obs)
+            noisy = {a: np.clip(v + rng.normal(0.0, noise_std, 3), -1.0, 1.0).astype(np.float32) for a, v in target.items()}
+            next_obs, rewards, _, _, _ = env.step(noisy)
+            for a in target:
+                traj[a].append((obs[a], target[a], rewards[a]))
+            obs = next_obs
+        for steps in traj.values():
+            g = 0.0
+            returns = []
+            for _, _, r in reversed(steps):
+                g = r + gamma * g
+                returns.append(g)
+            for (o, t, _), g in zip(steps, reversed(returns)):
+                obs_l.append(o)
+                act_l.append(t)
+                ret_l.append(g)
+    env.close()
+    return np.array(obs_l[:samples]), np.array(act_l[:samples]), np.array(ret_l[:samples], dtype=np.float32)
+
+
+def pretrain_policy(model, cfg: TrainConfig, env_cfg: Config) -> dict:
+    """Behaviour cloning of the scripted reference into the actor (MSE on the mean action) and a
+    regression of the critic on the demonstrations' returns, before PPO takes over."""
+    import torch
+
+    p = cfg.pretrain
+    t0 = time.time()
+    obs, act, ret = collect_demonstrations(env_cfg, p.samples, p.noise_std, cfg.seed + 100_000, cfg.ppo.gamma)
+    x = torch.as_tensor(obs, dtype=torch.float32)
+    y = torch.as_tensor(act, dtype=torch.float32)
+    g = torch.as_tensor(ret, dtype=torch.float32)[:, None]
+    policy = model.policy
+    params = [*policy.mlp_extractor.parameters(), *policy.action_net.parameters(), *policy.value_net.parameters(),
+              *policy.features_extractor.parameters()]
+    opt = torch.optim.Adam(params, lr=p.learning_rate)
+    gen = torch.Generator().manual_seed(cfg.seed)
+    n = len(x)
+    actor_loss = critic_loss = math.nan
+    for _ in range(p.epochs):
+        perm = torch.randperm(n, generator=gen)
+        for i in range(0, n, p.batch_size):
+            idx = perm[i:i + p.batch_size]
+            features = policy.extract_features(x[idx])
+            latent_pi, latent_vf = policy.mlp_extractor(features)
+            a_loss = ((policy.action_net(latent_pi) - y[idx]) ** 2).mean()
+            v_loss = ((policy.value_net(latent_vf) - g[idx]) ** 2).mean()
+            opt.zero_grad()
+            (a_loss + 0.01 * v_loss).backward()
+            opt.step()
+            actor_loss, critic_loss = float(a_loss), float(v_loss)
+    return {"samples": n, "actor_mse": actor_loss, "critic_mse": critic_loss, "wall_time_s": round(time.time() - t0, 1)}
 
 
 def _save_atomic(model, path: Path) -> None:
@@ -335,6 +411,12 @@ def train(cfg: TrainConfig, out_dir: str | os.PathLike, resume: bool = False, pr
                 device="cpu",
                 verbose=0,
             )
+            if cfg.pretrain.samples > 0:
+                log["pretrain"] = pretrain_policy(model, cfg, env_cfg)
+                spec = PolicySpec.from_env(PetSwarmEnv(eval_cfg))
+                imitation = LearnedPolicy(spec, actor_layers(model), cfg.ppo.activation, np.arange(layout.size))
+                seeds = list(range(cfg.eval.seed, cfg.eval.seed + cfg.eval.episodes))
+                log["pretrain"]["eval_formation_rmse_m"] = evaluate_policy(eval_cfg, imitation, seeds)
         callback = _make_callback(cfg, out, layout, log, eval_cfg)
         remaining = cfg.timesteps - model.num_timesteps
         if remaining > 0:

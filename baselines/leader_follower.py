@@ -35,8 +35,8 @@ class LeaderFollowerPolicy(Policy):
         position_gain: float = 1.2,
         heading_gain: float = 1.5,
         heading_band_rad: float = math.radians(3.0),  # error band of step 3
-        keep_out_m: float = 0.30,
-        repulsion_gain: float = 3.0,
+        keep_out_m: float = 0.50,
+        repulsion_gain: float = 5.0,
     ):
         super().__init__(spec)
         self.kp = position_gain
@@ -57,7 +57,7 @@ class LeaderFollowerPolicy(Policy):
         have_status = obs[sl["master.valid"]][0] > 0.5
         mv = obs[sl["master.velocity"]] * np.array([vmax, vmax, wmax]) if have_status else np.zeros(3)
 
-        targets, dthetas = [], []
+        targets, dthetas, ref_dists = [], [], []
         for k in range(2):
             p = f"link{k}."
             if obs[sl[p + "present"]][0] < 0.5:
@@ -76,6 +76,7 @@ class LeaderFollowerPolicy(Policy):
             nb_v = np.array([cd * mv[0] - sd * mv[1], sd * mv[0] + cd * mv[1]])
             nb_now = nb + (nb_v - odo[:2]) * age
             off = obs[sl[p + "offset_xy"]] * POS_SCALE_M
+            ref_dists.append(math.hypot(off[0], off[1]))
             targets.append(nb_now + np.array([cd * off[0] - sd * off[1], sd * off[0] + cd * off[1]]))
 
         dth = float(np.mean(dthetas)) if dthetas else 0.0
@@ -93,10 +94,14 @@ class LeaderFollowerPolicy(Policy):
             v = v + np.array([cd * arc[0] - sd * arc[1], sd * arc[0] + cd * arc[1]])
         # step 3: twisted-heading correction inside an error band, plus the swarm's rotation
         omega = mv[2] + (self.kh * dth if abs(dth) > self.band else 0.0)
-        # step 5: ultrasonic keep-out
+        # step 5: ultrasonic keep-out (shrunk for tight formations: never beyond 85 % of the rim-to-rim
+        # gap the formation itself asks for, taking 0.4 m for two robot radii)
+        keep_out = self.keep_out
+        if ref_dists:
+            keep_out = min(keep_out, max(0.1, 0.85 * (min(ref_dists) - 0.4)))
         ranges = obs[sl["self.ultrasonic"]] * self.spec.us_max_range_m
-        close = ranges < self.keep_out
+        close = ranges < keep_out
         if close.any():
-            push = ((self.keep_out - ranges[close])[:, None] * self._us_dirs[close]).sum(axis=0)
+            push = ((keep_out - ranges[close])[:, None] * self._us_dirs[close]).sum(axis=0)
             v = v - self.krep * push
         return np.clip(np.array([v[0] / vmax, v[1] / vmax, omega / wmax], dtype=np.float32), -1.0, 1.0)

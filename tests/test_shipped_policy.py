@@ -1,0 +1,23 @@
+"""The learned policy shipped with the package loads safely and holds the default formation."""
+
+from baselines.learned import LearnedPolicy, read_policy_file, shipped_policy_path
+from baselines.policy import PolicySpec, make_policy
+from petswarm_env import parallel_env
+from training.runner import run_episode
+
+
+def test_shipped_policy_records_how_it_was_trained():
+    meta, layers = read_policy_file(shipped_policy_path())
+    assert meta["env_name"] == "petswarm_v0"
+    assert meta["info"]["command"].startswith("petswarm train")
+    assert meta["info"]["timesteps"] >= 1_000_000
+    assert layers[-1][0].shape[0] == 3
+
+
+def test_shipped_policy_holds_the_default_wedge():
+    env = parallel_env(max_cycles=300)
+    policy = make_policy("learned", PolicySpec.from_env(env))
+    assert isinstance(policy, LearnedPolicy)
+    summary = run_episode(env, policy, seed=0)
+    assert summary["formation_rmse_m"] < 0.25, summary
+    assert summary["collisions"]["robot_robot"] == 0

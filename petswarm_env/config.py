@@ -121,6 +121,7 @@ class ProtocolConfig(_Section):
 
 class UserConfig(_Section):
     scenario: Literal[SCENARIOS]  # type: ignore[valid-type]
+    scenario_pool: list[Literal[SCENARIOS]]  # type: ignore[valid-type]
     radius_m: float = Field(gt=0)
     walk_speed_mps: float = Field(gt=0)
     run_speed_mps: float = Field(gt=0)

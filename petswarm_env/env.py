@@ -92,7 +92,9 @@ class PetSwarmEnv(ParallelEnv):
         rng_world, rng_radio, rng_ir, rng_swarm, rng_sensors, rng_script = (np.random.default_rng(s) for s in streams)
         self._rng_sensors = rng_sensors
         cfg = self.cfg
-        script = ScenarioScript(build_scenario(cfg.user.scenario, cfg.user, rng_script))
+        pool = cfg.user.scenario_pool
+        self.scenario = pool[int(rng_script.integers(len(pool)))] if pool else cfg.user.scenario
+        script = ScenarioScript(build_scenario(self.scenario, cfg.user, rng_script))
         self.world = world = World(cfg, script)
         self._place_robots(world, rng_world)
         self.radio = RadioMedium(world.clock, cfg.radio, rng_radio)
@@ -328,6 +330,7 @@ class PetSwarmEnv(ParallelEnv):
         r0 = self._radio_at_start
         m = self.metrics
         return {
+            "scenario": self.scenario,
             "steps": m.steps,
             "formation_rmse_m": m.formation_rmse_m,
             "collisions": {
@@ -366,7 +369,7 @@ class PetSwarmEnv(ParallelEnv):
         refs = [tuple(p) for p in self.reference_positions().values()]
         err = self.metrics.error_trace[-1] if self.metrics.error_trace else float("nan")
         text = [
-            f"scenario {self.cfg.user.scenario}   formation {self.cfg.swarm.formation}   mode {self.cfg.swarm.mode}",
+            f"scenario {self.scenario}   formation {self.cfg.swarm.formation}   mode {self.cfg.swarm.mode}",
             f"step {self.num_cycles}/{self.cfg.max_cycles}   mean formation error {err:.2f} m",
         ]
         return Scene(

@@ -109,3 +109,18 @@ def test_aec_wrapper_works():
     for agent in env.agent_iter(max_iter=20):
         obs, rew, term, trunc, info = env.last()
         env.step(None if term or trunc else np.zeros(3, np.float32))
+
+
+def test_scenario_pool_draws_a_seeded_scenario_per_episode():
+    pool = ["u_turn", "straight", "zigzag"]
+    env = petswarm_env.parallel_env(**{"user.scenario_pool": pool, "max_cycles": 2})
+    drawn = []
+    for seed in range(12):
+        env.reset(seed=seed)
+        drawn.append(env.scenario)
+    assert set(drawn) <= set(pool) and len(set(drawn)) > 1
+    env.reset(seed=3)
+    assert env.scenario == drawn[3]
+    while env.agents:
+        _, _, _, _, infos = env.step({})
+    assert next(iter(infos.values()))["episode_summary"]["scenario"] == drawn[3]

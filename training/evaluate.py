@@ -61,7 +61,7 @@ def evaluate(
     all_eps: list[dict[str, Any]] = []
     per_scenario: dict[str, Any] = {}
     for scenario in scenarios:
-        cfg = load_config(overrides={**flatten_dotted(config.to_dict()), "user.scenario": scenario})
+        cfg = load_config(overrides={**flatten_dotted(config.to_dict()), "user.scenario": scenario, "user.scenario_pool": []})
         env = PetSwarmEnv(cfg, render_mode="rgb_array" if video_dir else None)
         team = make_team(env, policy, mix, base_seed)
         eps = []

@@ -55,3 +55,17 @@ def test_run_writes_json_and_gif(tmp_path, capsys):
     printed = capsys.readouterr().out
     assert "summary:" in printed and "rmse_m" in printed
     assert not list(tmp_path.glob(".*"))  # no temp files left behind
+
+
+def test_eval_writes_per_scenario_summaries_and_gifs_relative_to_the_json(tmp_path):
+    out = tmp_path / "res" / "eval.json"
+    code = main(["eval", "--scenarios", "straight,u_turn", "--episodes", "2", "--set", "max_cycles=12",
+                 "--video-dir", str(tmp_path / "gifs"), "--json", str(out)])
+    assert code == 0
+    data = json.loads(out.read_text())
+    assert set(data["scenarios"]) == {"straight", "u_turn"}
+    assert all(s["episodes"] == 2 for s in data["scenarios"].values())
+    gifs = [e["gif"] for e in data["episodes"] if "gif" in e]
+    assert len(gifs) == 2 and all(not g.startswith("/") for g in gifs)
+    assert all((out.parent / g).is_file() for g in gifs)
+    assert len(data["episodes"][0]["error_trace"]) == 12

@@ -66,18 +66,12 @@ def evaluate(
         team = make_team(env, policy, mix, base_seed)
         eps = []
         for i in range(episodes):
-            on_frame, writer = None, None
-            gif = None
+            recorder = None
             if video_dir and i == 0:
-                from petswarm_env.render import GifWriter
-
-                gif = str(Path(video_dir) / f"{scenario}_seed{base_seed}.gif")
-                writer = GifWriter(gif, fps=cfg.render.fps)
-                on_frame = lambda w=writer: w.append(env.render())
-            ep = run_episode(env, team, base_seed + i, on_frame, record=True)
-            if writer is not None:
-                writer.close()
-                ep["gif"] = gif
+                recorder = VideoRecorder(env, str(Path(video_dir) / f"{scenario}_seed{base_seed}.gif"))
+            ep = run_episode(env, team, base_seed + i, recorder, record=True)
+            if recorder is not None:
+                ep["gif"] = recorder.close()
             ep.update({"scenario": scenario, "policy": label})
             eps.append(ep)
         env.close()

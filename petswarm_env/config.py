@@ -81,10 +81,10 @@ class CustomLink(_Section):
 class SwarmConfig(_Section):
     num_slaves: int = Field(ge=1, le=16)
     extra_robots: int = Field(ge=0, le=16, description="waiting robots beyond the required number")
-    formation: Literal["column", "row", "wedge", "grid", "custom"]
+    formation: Literal[FORMATIONS]  # type: ignore[valid-type]
     spacing_m: float = Field(gt=0)
     custom_links: list[CustomLink]
-    mode: Literal["following", "leading"]
+    mode: Literal[DRIVING_MODES]  # type: ignore[valid-type]
     spawn_jitter_m: float = Field(ge=0)
     other_user_robots: int = Field(ge=0, le=16, description="waiting robots already connected to another user")
 

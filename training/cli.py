@@ -42,9 +42,18 @@ def _seed(text: str) -> int:
 
 
 def _policy_name(text: str) -> str:
-    if text in ("scripted", "random", "learned") or text.endswith(".npz"):
+    from baselines.policy import POLICY_NAMES
+
+    if text in POLICY_NAMES or text.endswith(".npz"):
         return text
     raise argparse.ArgumentTypeError(f"expected scripted, random, learned or a .npz policy file, got '{text}'")
+
+
+def _add_env_config_options(parser: argparse.ArgumentParser) -> None:
+    """--config and --set of the commands that build an environment from configs/default.yaml."""
+    parser.add_argument("--config", metavar="FILE", help="YAML file merged over configs/default.yaml")
+    parser.add_argument("--set", metavar="KEY=VALUE", action="append", default=[],
+                        help="override a config key with a dotted path, e.g. --set swarm.num_slaves=3 (repeatable)")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -56,14 +65,7 @@ def build_parser() -> argparse.ArgumentParser:
         description="Run episodes of the swarm (master + slaves) with a slave policy; print a per-episode "
         "table and optionally write JSON, a GIF, or show a window.",
     )
-    run.add_argument("--config", metavar="FILE", help="YAML file merged over configs/default.yaml")
-    run.add_argument(
-        "--set",
-        metavar="KEY=VALUE",
-        action="append",
-        default=[],
-        help="override a config key with a dotted path, e.g. --set swarm.num_slaves=3 (repeatable)",
-    )
+    _add_env_config_options(run)
     run.add_argument("--policy", type=_policy_name, default="scripted", metavar="scripted|random|learned|PATH",
                      help="slave policy: the scripted leader-follower reference (default), random, the shipped learned model, "
                      "or a saved policy file (.npz)")
@@ -102,8 +104,7 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--scenarios", metavar="a,b,...", help="comma-separated scenarios (default: the config's scenario)")
     ev.add_argument("--episodes", type=_positive_int, default=5, metavar="N", help="episodes (seeds) per scenario (default 5)")
     ev.add_argument("--seed", type=_seed, metavar="S", help="first seed (default: config seed)")
-    ev.add_argument("--config", metavar="FILE", help="YAML file merged over configs/default.yaml")
-    ev.add_argument("--set", metavar="KEY=VALUE", action="append", default=[], help="override a config key (repeatable)")
+    _add_env_config_options(ev)
     ev.add_argument("--json", metavar="OUT", help="write the results as JSON (atomically)")
     ev.add_argument("--video-dir", metavar="DIR", help="write a GIF of the first episode of each scenario into DIR")
 

@@ -57,7 +57,6 @@ class JoinManager:
         self._expect: set[int] = set()
         self._got: dict[int, Frame] = {}
         self._all_in = None
-        self._joined_at: float | None = None
         node.on(msg.SCAN, self._on_scan)
         node.on(msg.JOIN_QUERY, self._on_query)
         node.on(msg.JOIN_NOTIFY, self._on_notify)
@@ -166,7 +165,7 @@ class JoinManager:
         node = self.node
         p = frame.payload
         if node.state == "waiting":
-            node.swarm.become_slave(node, frame.src, p["new_pan"], p["member"], p["members"], p["shape"])
+            node.swarm.become_slave(node, p["new_pan"], p["member"], p["members"], p["shape"])
         if node.swarm_pan == p["new_pan"]:  # (re-)acknowledge, also when the first ack was lost
             node.send(msg.NOTIFY_ACK, dst=frame.src, pan=frame.pan)
 

@@ -12,8 +12,6 @@ from petswarm_env.comms.radio import PAN_WAITING, Frame
 from petswarm_env.middleware import messages as msg
 from petswarm_env.middleware.node import Knowledge, Node
 
-STATES = ("waiting", "organizing", "master", "slave", "following", "leading", "remote")
-
 
 class SequenceManager:
     def __init__(self, node: Node):

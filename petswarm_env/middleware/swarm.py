@@ -86,7 +86,7 @@ class Swarm:
             self.clock.process(master.ring.watchdog())
         self.clock.process(self._broadcast_status())
 
-    def become_slave(self, node: Node, master_id: int, pan: int, member: int, members: dict, shape: str) -> None:
+    def become_slave(self, node: Node, pan: int, member: int, members: dict, shape: str) -> None:
         """A waiting robot accepts the joining notification: new PAN, member number, neighbours."""
         node.state = "slave"
         node.swarm_pan = pan

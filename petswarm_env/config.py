@@ -19,6 +19,7 @@ import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from petswarm_env.middleware.ir import IRConfig
+from petswarm_env.wearables.lf import LFConfig
 
 SCENARIOS = (
     "straight",
@@ -159,6 +160,7 @@ class Config(_Section):
     radio: RadioConfig
     protocol: ProtocolConfig
     ir: IRConfig
+    lf: LFConfig
     user: UserConfig
     master: MasterConfig
     reward: RewardConfig

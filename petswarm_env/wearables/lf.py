@@ -1,0 +1,386 @@
+"""LF user localisation and wake-up of seed 002 (§3.2, §3.3, §4.2): the 125 kHz field, the belt's
+RSSI readings, and the paper's estimator on them.
+
+Seed 002 §3.3 (Figs. 6–7): the robot carries two LF transmit antennas, side by side 20 cm apart,
+which send LF bursts in turn every 350 ms. The user's smart belt measures the RSSI of each and
+reports it over BLE. The robot converts each RSSI to a distance with an RSSI→distance table it
+created beforehand, checks that the two distances and the antenna spacing form a triangle (Eq. 1),
+and computes the user's position, distance and direction with Eqs. 2–3. The location is reliable
+within 2 m and ±25° of the robot's forward axis (§3.3, §3.5, Figs. 10–11).
+
+The two halves are kept apart, as in :mod:`petswarm_env.middleware.ir`:
+
+* :func:`lf_rssi` is the *physics*. At 125 kHz the wavelength is 2.4 km, so at a few metres the belt
+  is deep in the near field (r ≪ λ/2π ≈ 380 m) of each antenna, a small magnetic dipole: the field
+  amplitude falls as 1/r³, i.e. 60 dB per decade of distance, and an LF wake-up receiver's RSSI is
+  logarithmic in it. The antennas stand vertically (§3.3: "placed vertically side-by-side"), so the
+  field is the same in every horizontal direction. On top of that: a *common* Gaussian error per
+  burst, shared by both readings (the two bursts are milliseconds apart and land on the same belt
+  coil, whose orientation and coupling to the body vary from burst to burst); an independent
+  Gaussian error per reading (receiver noise); quantisation of the RSSI register; an angular
+  distortion outside the reliable half-angle (the robot's own body shadows the far-side antenna
+  and scatters the field: a loss on the far antenna and extra noise on both, growing with the
+  angle beyond ±25°; seed 002 Fig. 11: "distortion of the LF signal worsens outside this region");
+  and no reception at all when the carrier is below the receiver's sensitivity (§3.3: beyond 2 m
+  "the RSSI value cannot be calculated"). Detection is decided on the carrier itself, which the
+  receiver integrates over the whole wake-up preamble; the per-reading noise acts on the RSSI.
+* :func:`estimate` is the *paper's estimator*: table lookup with linear interpolation
+  (:func:`rssi_to_distance`), then Eq. 1 and Eqs. 2–3 (:func:`position_from_distances`). Its table is the noiseless, undistorted calibration curve, so every noise source and
+  the distortion show up as estimation error, as on the paper's hardware.
+
+Frames. The paper's Eqs. 2–3 use a frame centred between the antennas with x along the baseline
+from the left antenna to the right one (the robot's right) and y forward; θ = atan(x/y) is positive
+to the right. Our body frame has +x forward and +y left, bearings counter-clockwise from +x. The
+single conversion is :func:`_paper_to_body`. The antenna midpoint sits ``antenna_forward_m`` ahead
+of the robot's centre; ``distance`` and ``direction`` of a fix are the paper's d and θ (measured
+from that midpoint), ``x_fwd``/``y_left`` are relative to the robot's centre.
+
+The estimator cannot tell front from back (y = dl·sin α ≥ 0): a belt behind the robot is reported
+mirrored into the front half-plane — and heavily distorted, since it is far outside ±25°.
+"""
+
+from __future__ import annotations
+
+import functools
+from typing import Any, NamedTuple
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+# Distances are clamped to at least this (m) so that log10 of a zero distance cannot occur.
+_MIN_DISTANCE_M = 0.01
+
+# Seed 002 §4.2 (Fig. 16, Table 3): the location-identification test. The text gives the range
+# (25–200 cm) and 50 RSSI samples a point; Fig. 16 (the positions) is lost in the extraction.
+# Chosen: 25 cm steps, and three directions inside the ±25° reliable region: straight ahead and
+# its two edges. (The Y > distance RMSE of Table 3 needs off-axis points: straight ahead the
+# forward error *is* the distance error. With five directions −25…25° in 12.5° steps the same
+# parameters give Y ≈ 10 % low; see the report of scripts/calibrate_lf.py --angles.)
+PAPER_DISTANCES_M = np.round(np.arange(0.25, 2.0 + 1e-9, 0.25), 2)
+EVAL_ANGLES_DEG = np.array([-25.0, 0.0, 25.0])
+PAPER_SAMPLES_PER_POINT = 50
+# Seed 002 Table 3. The paper's X is lateral (to the right), its Y is forward.
+PAPER_RMSE = {
+    "rmse_x_cm": 15.57,
+    "rmse_y_cm": 8.96,
+    "rmse_distance_cm": 5.10,
+    "rmse_direction_deg": 6.52,
+}
+
+
+class LFConfig(BaseModel):
+    """LF wake-up and localisation parameters (seed 002 §3.2–3.3). Values live in the YAML config."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    antenna_spacing_m: float = Field(..., gt=0, description="dw: distance between the two transmit antennas, m.")
+    antenna_forward_m: float = Field(
+        ..., description="Forward offset of the antenna midpoint from the robot's centre (body +x), m."
+    )
+    burst_period_s: float = Field(..., gt=0, description="Localisation bursts while leading/following, s.")
+    wake_period_s: float = Field(..., gt=0, description="Wake-up bursts while waiting for a user, s.")
+    wake_range_m: float = Field(..., gt=0, description="A belt within this distance receives the wake-up burst, m.")
+    reliable_range_m: float = Field(..., gt=0, description="Location is reliable within this distance, m.")
+    reliable_half_angle_deg: float = Field(
+        ..., gt=0, lt=90, description="Location is reliable within ± this angle of the robot's forward axis, deg."
+    )
+    rssi_at_1m_db: float = Field(..., description="Noiseless RSSI at 1 m from an antenna, dB (receiver scale).")
+    falloff_db_per_decade: float = Field(
+        ..., gt=0, description="RSSI fall-off per decade of distance, dB (near-field magnetic dipole: 60)."
+    )
+    sensitivity_db: float = Field(..., description="Carriers weaker than this RSSI level are not received, dB.")
+    noise_common_db: float = Field(
+        ..., ge=0, description="σ of the Gaussian RSSI error shared by both readings of one burst, dB."
+    )
+    noise_antenna_db: float = Field(..., ge=0, description="σ of the independent Gaussian error per reading, dB.")
+    rssi_step_db: float = Field(..., ge=0, description="RSSI register quantisation step, dB (0 = none).")
+    distortion_loss_db_per_deg: float = Field(
+        ...,
+        ge=0,
+        description="Loss on the far-side antenna per degree of bearing beyond the reliable half-angle, dB/deg.",
+    )
+    distortion_noise_db_per_deg: float = Field(
+        ...,
+        ge=0,
+        description="Extra σ per reading per degree of bearing beyond the reliable half-angle, dB/deg.",
+    )
+    table_min_m: float = Field(..., gt=0, description="First distance of the RSSI→distance table, m.")
+    table_max_m: float = Field(..., gt=0, description="Last distance of the RSSI→distance table, m.")
+    table_step_m: float = Field(..., gt=0, description="Distance step of the RSSI→distance table, m.")
+
+    @model_validator(mode="after")
+    def _check_ranges(self) -> LFConfig:
+        if self.table_max_m <= self.table_min_m:
+            raise ValueError("lf.table_max_m must be greater than lf.table_min_m")
+        hearing = self.hearing_range_m
+        if hearing < self.reliable_range_m:
+            raise ValueError(
+                f"lf.sensitivity_db hears only to {hearing:.2f} m on axis; it must reach lf.reliable_range_m "
+                f"({self.reliable_range_m} m): lower lf.sensitivity_db"
+            )
+        if self.table_max_m < hearing:
+            raise ValueError(
+                f"lf.table_max_m ({self.table_max_m} m) must cover the hearing range ({hearing:.2f} m on axis)"
+            )
+        return self
+
+    @property
+    def hearing_range_m(self) -> float:
+        """Distance at which the on-axis carrier falls to the receiver's sensitivity, m."""
+        return float(10.0 ** ((self.rssi_at_1m_db - self.sensitivity_db) / self.falloff_db_per_decade))
+
+
+class LFFix(NamedTuple):
+    """One or many user fixes (arrays, or scalars from :func:`locate` with one position).
+
+    ``x_fwd``, ``y_left``: user position relative to the robot's centre, body frame, m.
+    ``distance``: the paper's d (Eq. 3) from the antenna midpoint, m.
+    ``direction``: the paper's θ (Eq. 3) from the robot's forward axis, counter-clockwise, rad.
+    ``valid``: both bursts received and the triangle check (Eq. 1) passed; otherwise the other
+    fields are nan. ``reliable``: valid and inside the reliable region (2 m, ±25°).
+    """
+
+    x_fwd: Any
+    y_left: Any
+    distance: Any
+    direction: Any
+    valid: Any
+    reliable: Any
+
+
+def antenna_positions(cfg: LFConfig) -> np.ndarray:
+    """(2, 2) body-frame positions of the left and the right antenna, m (seed 002 §3.3, Fig. 6)."""
+    half = 0.5 * cfg.antenna_spacing_m
+    return np.array([[cfg.antenna_forward_m, half], [cfg.antenna_forward_m, -half]])
+
+
+def calibration_curve(cfg: LFConfig, distance_m: np.ndarray) -> np.ndarray:
+    """Noiseless RSSI (dB) at ``distance_m`` from one antenna: 1/r³ near field, 60 dB/decade."""
+    d = np.maximum(np.asarray(distance_m, dtype=float), _MIN_DISTANCE_M)
+    return cfg.rssi_at_1m_db - cfg.falloff_db_per_decade * np.log10(d)
+
+
+def lf_rssi(
+    cfg: LFConfig, rel_pos_body: np.ndarray, rng: np.random.Generator
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The belt's RSSI readings of one burst from each antenna, for N belt positions.
+
+    Args:
+        cfg: LF parameters.
+        rel_pos_body: (N, 2) or (2,) belt position relative to the robot's centre, body frame, m.
+        rng: random generator; draws 5·N normals per call, whatever is received (reproducible).
+
+    Returns:
+        rssi_left (N,), rssi_right (N,) in dB (nan where not received), received (N,) bool.
+    """
+    # seed 002 §3.3: two antennas 20 cm apart send in turn; the belt measures each RSSI.
+    p = np.asarray(rel_pos_body, dtype=float).reshape(-1, 2)
+    n = p.shape[0]
+    ant = antenna_positions(cfg)
+    d = np.hypot(p[:, None, 0] - ant[None, :, 0], p[:, None, 1] - ant[None, :, 1])  # (N, 2)
+    # Angular distortion beyond the reliable region (seed 002 §3.5, Fig. 11), bearing from the midpoint.
+    bearing_deg = np.rad2deg(np.arctan2(p[:, 1], p[:, 0] - cfg.antenna_forward_m))
+    excess_deg = np.maximum(0.0, np.abs(bearing_deg) - cfg.reliable_half_angle_deg)
+    far = np.where(bearing_deg > 0.0, 1, 0)  # user on the left → the right antenna is the far one
+    shadow = np.zeros((n, 2))
+    shadow[np.arange(n), far] = cfg.distortion_loss_db_per_deg * excess_deg
+    carrier = calibration_curve(cfg, d) - shadow
+    # seed 002 §3.3: beyond the receiver's sensitivity the RSSI cannot be calculated.
+    received = np.all(carrier >= cfg.sensitivity_db, axis=1)
+
+    z = rng.standard_normal((n, 5))  # one draw: [common, own left, own right, scatter left, scatter right]
+    common = cfg.noise_common_db * z[:, :1]
+    own = cfg.noise_antenna_db * z[:, 1:3]
+    scatter = (cfg.distortion_noise_db_per_deg * excess_deg)[:, None] * z[:, 3:5]
+    rssi = carrier + common + own + scatter
+    if cfg.rssi_step_db > 0.0:
+        rssi = np.round(rssi / cfg.rssi_step_db) * cfg.rssi_step_db
+    rssi = np.where(received[:, None], rssi, np.nan)
+    return rssi[:, 0], rssi[:, 1], received
+
+
+@functools.lru_cache(maxsize=16)
+def _table(rssi_at_1m_db: float, falloff: float, dmin: float, dmax: float, step: float) -> tuple[np.ndarray, np.ndarray]:
+    count = int(np.floor((dmax - dmin) / step + 1e-9)) + 1
+    dist = dmin + step * np.arange(count)
+    rssi = rssi_at_1m_db - falloff * np.log10(dist)
+    # np.interp needs increasing x: strongest RSSI (shortest distance) last.
+    rssi_inc, dist_inc = rssi[::-1].copy(), dist[::-1].copy()
+    rssi_inc.setflags(write=False)
+    dist_inc.setflags(write=False)
+    return rssi_inc, dist_inc
+
+
+def rssi_table(cfg: LFConfig) -> tuple[np.ndarray, np.ndarray]:
+    """The robot's RSSI→distance table (seed 002 §3.3: "We created an RSSI value table using the
+    distance"): the noiseless calibration curve on the configured distance grid, built once per
+    parameter set and cached. Returns (rssi_db increasing, distance_m decreasing), read-only."""
+    return _table(cfg.rssi_at_1m_db, cfg.falloff_db_per_decade, cfg.table_min_m, cfg.table_max_m, cfg.table_step_m)
+
+
+def rssi_to_distance(cfg: LFConfig, rssi_db: np.ndarray) -> np.ndarray:
+    """Table lookup with linear interpolation; readings beyond the table clamp to its ends."""
+    rssi_inc, dist_inc = rssi_table(cfg)
+    return np.interp(rssi_db, rssi_inc, dist_inc)
+
+
+def triangle_formed(dl: np.ndarray, dr: np.ndarray, dw: float) -> np.ndarray:
+    """Seed 002, Eq. 1: d_B + d_C > d_A, d_A the longest of the three sides (dl, dr, dw)."""
+    longest = np.maximum(np.maximum(dl, dr), dw)
+    return (dl + dr + dw) - longest > longest
+
+
+def _paper_to_body(cfg: LFConfig, x_p, y_p, theta_p):
+    """The paper's frame (x right, y forward, θ clockwise, origin between the antennas) → body frame
+    (x forward, y left, direction counter-clockwise, origin at the robot's centre)."""
+    return y_p + cfg.antenna_forward_m, -x_p, -theta_p
+
+
+def position_from_distances(cfg: LFConfig, dl: np.ndarray, dr: np.ndarray, heard: np.ndarray | bool = True) -> LFFix:
+    """Seed 002 Eqs. 1–3 on the distances to the left and the right antenna (vectorised).
+
+    Triangle check (Eq. 1), failure → no fix; α = acos((dl² + dw² − dr²)/(2·dl·dw)),
+    x = dl·cos α − dw/2, y = dl·sin α (Eq. 2); d = √(x² + y²), θ = atan(x/y) (Eq. 3); then the
+    paper's frame is mapped to the body frame. ``heard`` False also gives no fix.
+    """
+    dl = np.asarray(dl, dtype=float)
+    dr = np.asarray(dr, dtype=float)
+    dw = cfg.antenna_spacing_m
+    valid = np.asarray(heard, dtype=bool) & triangle_formed(dl, dr, dw)  # seed 002, Eq. 1
+    safe_dl = np.where(valid, dl, 1.0)
+    # seed 002, Eq. 2 (the clip only guards the rows that failed Eq. 1)
+    alpha = np.arccos(np.clip((safe_dl**2 + dw**2 - dr**2) / (2.0 * safe_dl * dw), -1.0, 1.0))
+    x_p = safe_dl * np.cos(alpha) - dw / 2.0
+    y_p = safe_dl * np.sin(alpha)
+    # seed 002, Eq. 3 (a formed triangle has sin α > 0, so y > 0)
+    d = np.sqrt(x_p**2 + y_p**2)
+    theta_p = np.arctan(x_p / np.where(valid, y_p, 1.0))
+    x_fwd, y_left, direction = _paper_to_body(cfg, x_p, y_p, theta_p)
+    reliable = valid & (d <= cfg.reliable_range_m) & (np.abs(direction) <= np.deg2rad(cfg.reliable_half_angle_deg))
+    nan = np.nan
+    return LFFix(
+        x_fwd=np.where(valid, x_fwd, nan),
+        y_left=np.where(valid, y_left, nan),
+        distance=np.where(valid, d, nan),
+        direction=np.where(valid, direction, nan),
+        valid=valid,
+        reliable=reliable,
+    )
+
+
+def estimate(cfg: LFConfig, rssi_left: np.ndarray, rssi_right: np.ndarray) -> LFFix:
+    """The paper's estimator on the two RSSI readings (vectorised; nan readings give no fix):
+    RSSI → dl, dr by the table (§3.3), then Eqs. 1–3 (:func:`position_from_distances`)."""
+    rl = np.asarray(rssi_left, dtype=float)
+    rr = np.asarray(rssi_right, dtype=float)
+    heard = np.isfinite(rl) & np.isfinite(rr)
+    dl = rssi_to_distance(cfg, np.where(heard, rl, cfg.rssi_at_1m_db))
+    dr = rssi_to_distance(cfg, np.where(heard, rr, cfg.rssi_at_1m_db))
+    return position_from_distances(cfg, dl, dr, heard)
+
+
+def locate(cfg: LFConfig, rel_pos_body: np.ndarray, rng: np.random.Generator) -> LFFix:
+    """One burst pair and the robot's fix: :func:`lf_rssi` then :func:`estimate`.
+
+    ``rel_pos_body`` (2,) gives a fix of Python scalars (one user per burst); (N, 2) gives arrays.
+    """
+    pos = np.asarray(rel_pos_body, dtype=float)
+    rssi_l, rssi_r, _ = lf_rssi(cfg, pos, rng)
+    fix = estimate(cfg, rssi_l, rssi_r)
+    if pos.ndim == 1:
+        return LFFix(
+            float(fix.x_fwd[0]),
+            float(fix.y_left[0]),
+            float(fix.distance[0]),
+            float(fix.direction[0]),
+            bool(fix.valid[0]),
+            bool(fix.reliable[0]),
+        )
+    return fix
+
+
+def wakes_up(cfg: LFConfig, distance_m: float, pattern_sent: Any, pattern_stored: Any) -> bool:
+    """Seed 002 §3.2 (Fig. 5): a belt within the wake range receives the robot's LF wake-up burst;
+    it compares the received pattern with the one in its register and wakes its main processor
+    only if they are equal."""
+    return bool(distance_m <= cfg.wake_range_m and pattern_sent == pattern_stored)
+
+
+def _wrap(angle_rad: np.ndarray) -> np.ndarray:
+    return (np.asarray(angle_rad) + np.pi) % (2.0 * np.pi) - np.pi
+
+
+def lf_accuracy_experiment(
+    cfg: LFConfig,
+    rng: np.random.Generator,
+    samples_per_point: int = PAPER_SAMPLES_PER_POINT,
+    *,
+    distances_m: np.ndarray = PAPER_DISTANCES_M,
+    angles_deg: np.ndarray = EVAL_ANGLES_DEG,
+) -> dict:
+    """Seed 002 §4.2 location-identification test (Fig. 16, Table 3), on the simulated LF chain.
+
+    The belt is placed at each (distance, direction) of the grid, measured from the antenna
+    midpoint and counter-clockwise from the robot's forward axis, and located
+    ``samples_per_point`` times. Paper: 25–200 cm, 50 samples a point; steps and directions not
+    given (Fig. 16 lost) — we use 25 cm steps and −25°, 0°, 25° (inside the reliable region).
+
+    Errors over all valid samples: X = lateral (the paper's x, our −y_left), Y = forward (the
+    paper's y, our x_fwd), distance (Eq. 3 d minus true), direction (θ minus true, wrapped).
+
+    Returns:
+        ``rmse_x_cm``, ``rmse_y_cm``, ``rmse_distance_cm``, ``rmse_direction_deg``: each
+        ``{"paper": float, "sim": float}``; ``valid_fraction``; ``actual_m`` and ``estimated_m``
+        (M, 2) body-frame positions relative to the robot's centre (nan rows where no fix), ``valid``
+        (M,); ``distances_m``, ``angles_deg``, ``samples_per_point``; ``points``: per grid point
+        distance, angle, distance/direction RMSE and valid fraction.
+    """
+    # seed 002, §4.2, Table 3
+    dist_grid, ang_grid = np.meshgrid(
+        np.asarray(distances_m, dtype=float), np.asarray(angles_deg, dtype=float), indexing="ij"
+    )
+    point_d = dist_grid.reshape(-1)
+    point_a = np.deg2rad(ang_grid.reshape(-1))
+    true_d = np.repeat(point_d, samples_per_point)
+    true_a = np.repeat(point_a, samples_per_point)
+    actual = np.stack([cfg.antenna_forward_m + true_d * np.cos(true_a), true_d * np.sin(true_a)], axis=1)
+    fix = locate(cfg, actual, rng)
+    ok = fix.valid
+
+    err_x_cm = -(fix.y_left - actual[:, 1]) * 100.0  # the paper's x points right
+    err_y_cm = (fix.x_fwd - actual[:, 0]) * 100.0
+    err_d_cm = (fix.distance - true_d) * 100.0
+    err_t_deg = np.rad2deg(_wrap(fix.direction - true_a))
+
+    def rmse(err: np.ndarray, mask: np.ndarray) -> float:
+        return float(np.sqrt(np.mean(err[mask] ** 2))) if mask.any() else float("nan")
+
+    sims = {
+        "rmse_x_cm": rmse(err_x_cm, ok),
+        "rmse_y_cm": rmse(err_y_cm, ok),
+        "rmse_distance_cm": rmse(err_d_cm, ok),
+        "rmse_direction_deg": rmse(err_t_deg, ok),
+    }
+    shape = (point_d.size, samples_per_point)
+    points = [
+        {
+            "distance_cm": float(point_d[p] * 100.0),
+            "angle_deg": float(np.rad2deg(point_a[p])),
+            "rmse_distance_cm": rmse(err_d_cm.reshape(shape)[p], ok.reshape(shape)[p]),
+            "rmse_direction_deg": rmse(err_t_deg.reshape(shape)[p], ok.reshape(shape)[p]),
+            "valid_fraction": float(ok.reshape(shape)[p].mean()),
+        }
+        for p in range(point_d.size)
+    ]
+    out: dict = {key: {"paper": PAPER_RMSE[key], "sim": sims[key]} for key in PAPER_RMSE}
+    out.update(
+        valid_fraction=float(ok.mean()),
+        actual_m=actual,
+        estimated_m=np.stack([fix.x_fwd, fix.y_left], axis=1),
+        valid=ok,
+        distances_m=[float(v) for v in np.asarray(distances_m)],
+        angles_deg=[float(v) for v in np.asarray(angles_deg)],
+        samples_per_point=int(samples_per_point),
+        points=points,
+    )
+    return out

@@ -1,0 +1,226 @@
+"""Tests for the LF user localisation and wake-up of seed 002 (§3.2, §3.3, §4.2, Table 3)."""
+
+import math
+
+import numpy as np
+import pytest
+
+from petswarm_env.config import ConfigError, load_config
+from petswarm_env.wearables.lf import (
+    PAPER_RMSE,
+    LFConfig,
+    antenna_positions,
+    calibration_curve,
+    estimate,
+    lf_accuracy_experiment,
+    lf_rssi,
+    locate,
+    position_from_distances,
+    rssi_table,
+    rssi_to_distance,
+    triangle_formed,
+    wakes_up,
+)
+
+
+def calibrated() -> LFConfig:
+    """The calibrated LF parameters: the ``lf`` section of the default configuration."""
+    return load_config().lf
+
+
+def noiseless(cfg: LFConfig) -> LFConfig:
+    return cfg.model_copy(update={"noise_common_db": 0.0, "noise_antenna_db": 0.0, "rssi_step_db": 0.0})
+
+
+def true_distances(cfg: LFConfig, pos: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    ant = antenna_positions(cfg)
+    p = np.asarray(pos, dtype=float).reshape(-1, 2)
+    return np.hypot(*(p - ant[0]).T), np.hypot(*(p - ant[1]).T)
+
+
+# Straight ahead, left, right, close, far, and a nearly sideways one (both sides).
+POSITIONS = np.array(
+    [[1.0, 0.0], [0.25, 0.0], [1.2, 0.5], [0.8, -0.6], [0.3, 0.05], [1.9, -0.3], [0.2, 0.9], [0.1, -1.5]]
+)
+
+
+@pytest.mark.parametrize("forward", [0.0, 0.15])
+def test_eqs_1_to_3_exact_on_noiseless_distances(forward):
+    cfg = calibrated().model_copy(update={"antenna_forward_m": forward})
+    pos = POSITIONS + [forward, 0.0]
+    dl, dr = true_distances(cfg, pos)
+    fix = position_from_distances(cfg, dl, dr)
+    assert fix.valid.all()
+    np.testing.assert_allclose(fix.x_fwd, pos[:, 0], atol=1e-9)
+    np.testing.assert_allclose(fix.y_left, pos[:, 1], atol=1e-9)
+    rel = pos - [forward, 0.0]  # the paper's d and θ are measured from the antenna midpoint
+    np.testing.assert_allclose(fix.distance, np.hypot(rel[:, 0], rel[:, 1]), atol=1e-9)
+    np.testing.assert_allclose(fix.direction, np.arctan2(rel[:, 1], rel[:, 0]), atol=1e-9)
+
+
+def test_frame_left_antenna_is_on_the_left_and_directions_are_ccw():
+    cfg = calibrated()
+    ant = antenna_positions(cfg)
+    assert ant[0, 1] == pytest.approx(cfg.antenna_spacing_m / 2) and ant[1, 1] == pytest.approx(-cfg.antenna_spacing_m / 2)
+    # a user on the robot's left is closer to the left antenna, and is reported on the left
+    dl, dr = true_distances(cfg, [[1.0, 0.4]])
+    assert dl[0] < dr[0]
+    fix = position_from_distances(cfg, dl, dr)
+    assert fix.y_left[0] > 0 and fix.direction[0] > 0
+
+
+def test_paper_formulas_by_hand():
+    """Eq. 2–3 worked by hand for dl = 1.0 m, dr = 1.1 m, dw = 0.2 m."""
+    cfg = calibrated()
+    dl, dr, dw = 1.0, 1.1, cfg.antenna_spacing_m
+    alpha = math.acos((dl**2 + dw**2 - dr**2) / (2 * dl * dw))
+    x, y = dl * math.cos(alpha) - dw / 2, dl * math.sin(alpha)
+    fix = position_from_distances(cfg, np.array([dl]), np.array([dr]))
+    # the paper's x is to the right, ours (y_left) to the left; its θ = atan(x/y) is clockwise
+    assert fix.y_left[0] == pytest.approx(-x) and fix.x_fwd[0] == pytest.approx(y)
+    assert fix.distance[0] == pytest.approx(math.hypot(x, y))
+    assert fix.direction[0] == pytest.approx(-math.atan(x / y))
+    assert x < 0  # closer to the left antenna → left of the axis
+
+
+def test_triangle_check_rejects_impossible_triples():
+    dw = 0.2
+    # |dl − dr| ≥ dw (one side longer than the other two together), dl + dr ≤ dw, and the exact
+    # degenerate case (Eq. 1 is strict) give no triangle; a proper triangle passes.
+    dl = np.array([1.0, 1.3, 0.05, 1.0, 1.0, 1.0])
+    dr = np.array([1.3, 1.0, 0.05, 1.25, 1.0, 1.1])
+    expect = np.array([False, False, False, False, True, True])
+    np.testing.assert_array_equal(triangle_formed(dl, dr, dw), expect)
+    assert not triangle_formed(0.5, 0.7, 0.2)  # exactly degenerate: 0.5 + 0.2 = 0.7
+    fix = position_from_distances(calibrated(), dl, dr)
+    np.testing.assert_array_equal(fix.valid, expect)
+    assert np.isnan(fix.distance[~expect]).all() and np.isnan(fix.direction[~expect]).all()
+    assert np.isfinite(fix.distance[expect]).all()
+
+
+def test_estimate_gives_no_fix_from_rssis_whose_distances_form_no_triangle():
+    cfg = calibrated()
+    rssi = calibration_curve(cfg, np.array([0.5, 1.0]))  # 0.5 m and 1.0 m differ by more than dw
+    fix = estimate(cfg, rssi[0], rssi[1])
+    assert not fix.valid and np.isnan(fix.x_fwd)
+
+
+def test_table_is_the_noiseless_calibration_curve_built_once():
+    cfg = calibrated()
+    rssi, dist = rssi_table(cfg)
+    assert rssi_table(cfg)[0] is rssi  # cached: no table is built per call
+    assert not rssi.flags.writeable
+    assert np.all(np.diff(rssi) > 0)
+    np.testing.assert_allclose(rssi, calibration_curve(cfg, dist))
+    np.testing.assert_allclose(rssi_to_distance(cfg, rssi), dist, atol=1e-12)  # exact at the rows
+    d = np.linspace(0.3, 2.0, 50)
+    looked_up = rssi_to_distance(cfg, calibration_curve(cfg, d))
+    np.testing.assert_allclose(looked_up, d, rtol=5e-3)
+    # linear interpolation between the rows of a log curve, not the analytic inverse: it overshoots a little
+    assert np.all(looked_up >= d - 1e-12) and np.max(looked_up - d) > 1e-4
+
+
+def test_noiseless_chain_is_accurate_inside_the_reliable_region():
+    cfg = noiseless(calibrated())
+    ang = np.deg2rad(np.linspace(-25, 25, 11))
+    dist = np.linspace(0.25, 2.0, 8)
+    a, d = np.meshgrid(ang, dist)
+    pos = np.stack([d.ravel() * np.cos(a.ravel()), d.ravel() * np.sin(a.ravel())], axis=1)
+    fix = locate(cfg, pos, np.random.default_rng(0))
+    assert fix.valid.all()
+    core = (d.ravel() < 1.9) & (np.abs(a.ravel()) < np.deg2rad(20.0))
+    assert fix.reliable[core].all()
+    assert np.max(np.abs(fix.distance - d.ravel())) < 0.01  # table interpolation only
+    assert np.max(np.abs(fix.direction - a.ravel())) < np.deg2rad(3.0)
+
+
+def test_no_fix_beyond_2_m():
+    cfg = calibrated()
+    rng = np.random.default_rng(1)
+    bearings = np.deg2rad([0.0, 10.0, -20.0, 25.0, 45.0, -90.0, 180.0])
+    for dist in (2.1, 2.5, 3.0, 5.0):
+        pos = np.stack([dist * np.cos(bearings), dist * np.sin(bearings)], axis=1)
+        pos = np.repeat(pos, 20, axis=0)
+        rl, rr, received = lf_rssi(cfg, pos, rng)
+        assert not received.any(), dist
+        assert np.isnan(rl).all() and np.isnan(rr).all()
+        assert not locate(cfg, pos, rng).valid.any()
+    # ...but everything inside 2 m and ±25° is received
+    inside = np.deg2rad([-25.0, 0.0, 25.0])
+    pos = np.stack([2.0 * np.cos(inside), 2.0 * np.sin(inside)], axis=1)
+    assert lf_rssi(cfg, np.repeat(pos, 20, axis=0), rng)[2].all()
+
+
+def test_errors_outside_25_deg_clearly_larger_than_inside():
+    cfg = calibrated()
+    dists = np.array([0.5, 1.0, 1.5])
+    inside = lf_accuracy_experiment(cfg, np.random.default_rng(0), 40, distances_m=dists, angles_deg=np.array([-20.0, 0.0, 20.0]))
+    outside = lf_accuracy_experiment(cfg, np.random.default_rng(0), 40, distances_m=dists, angles_deg=np.array([-55.0, 55.0]))
+    assert outside["rmse_direction_deg"]["sim"] > 2.0 * inside["rmse_direction_deg"]["sim"]
+    assert outside["rmse_y_cm"]["sim"] > 2.0 * inside["rmse_y_cm"]["sim"]
+    assert outside["valid_fraction"] < inside["valid_fraction"] == 1.0
+    # and it is the modelled distortion, not only the geometry
+    plain = cfg.model_copy(update={"distortion_loss_db_per_deg": 0.0, "distortion_noise_db_per_deg": 0.0})
+    undistorted = lf_accuracy_experiment(plain, np.random.default_rng(0), 40, distances_m=dists, angles_deg=np.array([-55.0, 55.0]))
+    assert outside["rmse_direction_deg"]["sim"] > 1.3 * undistorted["rmse_direction_deg"]["sim"]
+
+
+def test_calibrated_accuracy_within_20_percent_of_table_3():
+    res = lf_accuracy_experiment(calibrated(), np.random.default_rng(0), samples_per_point=20)
+    assert res["valid_fraction"] == 1.0
+    for key, paper in PAPER_RMSE.items():
+        assert res[key]["paper"] == paper
+        assert res[key]["sim"] == pytest.approx(paper, rel=0.20), key
+    n = 8 * 3 * 20  # 8 distances × 3 directions × 20 samples
+    assert res["actual_m"].shape == res["estimated_m"].shape == (n, 2)
+    assert len(res["points"]) == 8 * 3
+
+
+def test_same_seed_same_output():
+    cfg = calibrated()
+    pos = np.array([[1.0, 0.2], [0.5, -0.1], [1.8, 0.3]])
+    a = lf_rssi(cfg, pos, np.random.default_rng(7))
+    b = lf_rssi(cfg, pos, np.random.default_rng(7))
+    c = lf_rssi(cfg, pos, np.random.default_rng(8))
+    for x, y in zip(a, b):
+        np.testing.assert_array_equal(x, y)
+    assert not np.array_equal(a[0], c[0])
+    r1 = lf_accuracy_experiment(cfg, np.random.default_rng(3), 5)
+    r2 = lf_accuracy_experiment(cfg, np.random.default_rng(3), 5)
+    np.testing.assert_array_equal(r1["estimated_m"], r2["estimated_m"])
+    assert r1["rmse_x_cm"] == r2["rmse_x_cm"]
+
+
+def test_locate_one_user_per_burst_gives_scalars():
+    cfg = calibrated()
+    fix = locate(cfg, (1.0, 0.1), np.random.default_rng(0))
+    assert isinstance(fix.x_fwd, float) and isinstance(fix.valid, bool) and isinstance(fix.reliable, bool)
+    assert fix.valid and abs(fix.distance - math.hypot(1.0, 0.1)) < 0.3
+    far = locate(cfg, (4.0, 0.0), np.random.default_rng(0))
+    assert not far.valid and math.isnan(far.distance)
+
+
+@pytest.mark.parametrize(
+    "distance, sent, stored, wakes",
+    [
+        (0.5, 0x5A3C, 0x5A3C, True),  # right pattern, inside 1 m
+        (1.0, 0x5A3C, 0x5A3C, True),  # at the edge of the wake range
+        (0.5, 0x5A3C, 0x1234, False),  # wrong pattern: ignored
+        (1.5, 0x5A3C, 0x5A3C, False),  # right pattern, too far
+        (1.5, 0x5A3C, 0x1234, False),
+    ],
+)
+def test_wake_up_pattern(distance, sent, stored, wakes):
+    assert wakes_up(calibrated(), distance, sent, stored) is wakes
+
+
+def test_config_from_seed_002_and_checked():
+    cfg = calibrated()
+    assert cfg.antenna_spacing_m == 0.20 and cfg.burst_period_s == 0.35
+    assert cfg.wake_period_s == 3.0 and cfg.wake_range_m == 1.0
+    assert cfg.reliable_range_m == 2.0 and cfg.reliable_half_angle_deg == 25.0
+    assert cfg.reliable_range_m <= cfg.hearing_range_m <= cfg.table_max_m
+    with pytest.raises(ConfigError, match="sensitivity"):
+        load_config(overrides={"lf.sensitivity_db": 45.0})  # would hear only to ≈ 1.9 m
+    with pytest.raises(ConfigError, match="lf"):
+        load_config(overrides={"lf.noise_common_db": -1.0})

@@ -172,13 +172,18 @@ def test_extra_robots_exactly_num_slaves_join_and_the_closest_candidates_are_cho
 
 def test_join_completes_under_frame_loss():
     retries = []
+    lost = received = 0
     for seed in range(5):
         env, res = organize(seed, **{"radio.loss_prob": 0.2, "swarm.num_slaves": 3})
         assert res.complete
         assert len(res.members) == 4  # every required slave joined
         slaves_consistent(env)
-        assert env.radio.stats.frames_lost > 0
+        lost += env.radio.stats.frames_lost
+        received += env.radio.stats.receptions
         retries.append(res.retries)
+    # the loss was injected, at about its rate (one organize has ~30 receptions: 0.8^30 ≈ 0.1 %
+    # of seeds lose none, so this is checked over all of them)
+    assert 0.1 < lost / received < 0.3, (lost, received)
     assert sum(r > 0 for r in retries) >= 2, retries
     assert max(retries) < env.cfg.protocol.max_retries
 

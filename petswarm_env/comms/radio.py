@@ -13,6 +13,13 @@
   is on, so a foreign swarm's frames never reach its middleware (several swarms share one medium).
 - No MAC-level acknowledgement or retransmission: the middleware retries (seed 000 §4.5).
 
+Events per frame: one for latency + backoff ending in the CCA (one more per busy re-assessment),
+one when the frame has left the air (delivery to every receiver at once). The turnaround is not an
+event of its own: a clear CCA puts the frame on the medium's list with its start one turnaround
+later, so a CCA inside that turnaround does not sense it (``start <= now``) while the overlap test
+at delivery (``start < end``) still sees it. The sender's antenna position is read at its CCA
+(a robot moves < 0.3 mm in the 192 µs turnaround).
+
 The medium also gives each received frame a received-signal distance estimate (log-distance path
 loss with shadowing), which is what a master uses to rank candidates by closeness (Table 2).
 """
@@ -26,6 +33,7 @@ from typing import Any, Protocol
 
 import numpy as np
 import simpy
+from simpy.events import NORMAL
 
 from petswarm_env.config import RadioConfig
 
@@ -63,6 +71,56 @@ class RadioStats:
     foreign_pan_dropped: int = 0  # filtered by the MAC
 
 
+class _Later(simpy.Event):
+    """A bare timeout that calls ``fn(*args)`` when the clock reaches it (cheaper than a
+    ``Timeout`` with a lambda callback: no closure, no checks)."""
+
+    def __init__(self, clock: simpy.Environment, delay: float, fn: Callable[..., Any], args: tuple):
+        self.env = clock
+        self.callbacks = [_fire]
+        self._value = None
+        self._ok = True
+        self.fn = fn
+        self.args = args
+        clock.schedule(self, NORMAL, delay)
+
+
+def _fire(ev: _Later) -> None:
+    ev.fn(*ev.args)
+
+
+def call_later(clock: simpy.Environment, delay: float, fn: Callable[..., Any], *args: Any) -> None:
+    """Run ``fn(*args)`` after ``delay`` seconds of clock time (one event on the clock)."""
+    _Later(clock, delay, fn, args)
+
+
+class Draws:
+    """Scalar random draws from a Generator, taken from it in blocks (one numpy call per draw costs
+    several times the draw). Deterministic: the same generator gives the same sequence."""
+
+    __slots__ = ("_n", "_u", "block", "rng")
+
+    def __init__(self, rng: np.random.Generator, block: int = 256):
+        self.rng = rng
+        self.block = block
+        self._u: list[float] = []
+        self._n: list[float] = []
+
+    def uniform(self) -> float:
+        """U[0, 1)."""
+        u = self._u
+        if not u:
+            u.extend(self.rng.random(self.block).tolist())
+        return u.pop()
+
+    def normal(self) -> float:
+        """N(0, 1)."""
+        n = self._n
+        if not n:
+            n.extend(self.rng.standard_normal(self.block).tolist())
+        return n.pop()
+
+
 class _Tx:
     __slots__ = ("end", "frame", "start", "x", "y")
 
@@ -77,12 +135,19 @@ class RadioMedium:
         self.clock = clock
         self.cfg = cfg
         self.rng = rng
+        # two independent streams: the MAC's backoffs, and what happens at receivers (loss,
+        # shadowing), so that e.g. injecting loss does not reshuffle the backoffs
+        mac_rng, rx_rng = rng.spawn(2)
+        self._mac_draws = Draws(mac_rng)
+        self._rx_draws = Draws(rx_rng)
         self.stations: dict[int, Station] = {}
         self.stats = RadioStats()
         self._air: list[_Tx] = []  # transmissions that may still overlap something
         self._queues: dict[int, list[Frame]] = {}  # per station: frames waiting for the MAC
         self.drop_filter: Callable[[Frame], bool] | None = None  # fault injection (tests)
         self._range2 = cfg.range_m**2
+        # RSSI distance estimate d * 10^(σ·z / (10 n)), z ~ N(0, 1)
+        self._shadow_k = cfg.rssi_shadowing_db / (10.0 * cfg.path_loss_exponent)
 
     def attach(self, station: Station) -> None:
         self.stations[station.node_id] = station
@@ -102,7 +167,8 @@ class RadioMedium:
 
     def _start(self, station: Station) -> None:
         frame = self._queues[station.node_id][0]
-        self._after(self.cfg.latency_s + self._backoff(self.cfg.min_be), self._cca, station, frame, 0, self.cfg.min_be)
+        be = self.cfg.min_be
+        _Later(self.clock, self.cfg.latency_s + self._backoff(be), self._cca, (station, frame, 0, be))
 
     def _done(self, station: Station) -> None:
         queue = self._queues[station.node_id]
@@ -111,65 +177,73 @@ class RadioMedium:
             self._start(station)
 
     def _backoff(self, be: int) -> float:
-        return int(self.rng.integers(0, 2**be)) * self.cfg.backoff_slot_s
-
-    def _after(self, delay: float, fn, *args) -> None:
-        ev = self.clock.timeout(delay)
-        ev.callbacks.append(lambda _ev: fn(*args))
+        """Random backoff of 0 … 2^BE − 1 unit periods."""
+        return int(self._mac_draws.uniform() * (1 << be)) * self.cfg.backoff_slot_s
 
     def _cca(self, station: Station, frame: Frame, nb: int, be: int) -> None:
         now = self.clock.now
         x, y = station.position()
-        busy = any(tx.start <= now < tx.end and (tx.x - x) ** 2 + (tx.y - y) ** 2 <= self._range2 for tx in self._air)
-        if busy:
-            if nb >= self.cfg.max_backoffs:
-                self.stats.frames_dropped_busy += 1
-                self._done(station)
+        r2 = self._range2
+        for tx in self._air:
+            if tx.start <= now < tx.end and (tx.x - x) ** 2 + (tx.y - y) ** 2 <= r2:  # busy
+                if nb >= self.cfg.max_backoffs:
+                    self.stats.frames_dropped_busy += 1
+                    self._done(station)
+                    return
+                be = min(be + 1, self.cfg.max_be)
+                _Later(self.clock, self._backoff(be), self._cca, (station, frame, nb + 1, be))
                 return
-            be = min(be + 1, self.cfg.max_be)
-            self._after(self._backoff(be), self._cca, station, frame, nb + 1, be)
-            return
-        self._after(self.cfg.turnaround_s, self._transmit, station, frame)
-
-    def _transmit(self, station: Station, frame: Frame) -> None:
-        now = self.clock.now
-        x, y = station.position()
-        tx = _Tx(frame, now, now + self.airtime_s(frame), x, y)
+        # clear: on the air after the RX-to-TX turnaround, which the CCA of others cannot sense
+        start = now + self.cfg.turnaround_s
+        tx = _Tx(frame, start, start + self.airtime_s(frame), x, y)
         self._air.append(tx)
         self.stats.frames_sent += 1
-        self._after(tx.end - now, self._deliver, tx, station)
+        _Later(self.clock, tx.end - now, self._deliver, (tx, station))
 
     # -- receiving ------------------------------------------------------------------------------
     def _deliver(self, tx: _Tx, sender: Station) -> None:
+        """The frame has left the air: every station in range gets it now, unless it collided."""
         self._done(sender)
         now = self.clock.now
         frame = tx.frame
+        air = self._air
         # forget transmissions that can no longer overlap anything still on the air
-        oldest_live = min((t.start for t in self._air if t.end >= now), default=now)
-        self._air = [t for t in self._air if t.end >= oldest_live or t is tx]
-        overlapping = [t for t in self._air if t is not tx and t.start < tx.end and t.end > tx.start]
+        oldest_live = min((t.start for t in air if t.end >= now), default=now)
+        if air[0].end < oldest_live:
+            self._air = air = [t for t in air if t.end >= oldest_live or t is tx]
+        overlapping = [t for t in air if t is not tx and t.start < tx.end and t.end > tx.start]
         if self.drop_filter is not None and self.drop_filter(frame):
             return
-        targets = self.stations.values() if frame.dst == BROADCAST else [self.stations.get(frame.dst)]
-        cfg = self.cfg
+        if frame.dst == BROADCAST:
+            targets = self.stations.values()
+        else:
+            st = self.stations.get(frame.dst)
+            targets = () if st is None else (st,)
+        stats = self.stats
+        r2 = self._range2
+        loss = self.cfg.loss_prob
+        shadow_k = self._shadow_k
+        draws = self._rx_draws
+        src, pan, tx_x, tx_y = frame.src, frame.pan, tx.x, tx.y
         for st in targets:
-            if st is None or st.node_id == frame.src:
+            node_id = st.node_id
+            if node_id == src:
                 continue
             rx, ry = st.position()
-            d2 = (rx - tx.x) ** 2 + (ry - tx.y) ** 2
-            if d2 > self._range2:
+            d2 = (rx - tx_x) ** 2 + (ry - tx_y) ** 2
+            if d2 > r2:
                 continue
-            if frame.pan not in st.pans:
-                self.stats.foreign_pan_dropped += 1
+            if pan not in st.pans:
+                stats.foreign_pan_dropped += 1
                 continue
-            self.stats.receptions += 1
-            if any((t.x - rx) ** 2 + (t.y - ry) ** 2 <= self._range2 or t.frame.src == st.node_id for t in overlapping):
-                self.stats.frames_collided += 1
+            stats.receptions += 1
+            if overlapping and any(t.frame.src == node_id or (t.x - rx) ** 2 + (t.y - ry) ** 2 <= r2 for t in overlapping):
+                stats.frames_collided += 1  # overlap in range, or it was transmitting (half duplex)
                 continue
-            if cfg.loss_prob > 0 and self.rng.random() < cfg.loss_prob:
-                self.stats.frames_lost += 1
+            if loss > 0 and draws.uniform() < loss:
+                stats.frames_lost += 1
                 continue
             # RSSI-based distance estimate: log-distance path loss with log-normal shadowing
             d = max(math.sqrt(d2), 0.1)
-            est = d * 10 ** (self.rng.normal(0.0, cfg.rssi_shadowing_db) / (10.0 * cfg.path_loss_exponent))
-            st.receive(Frame(frame.kind, frame.src, frame.dst, frame.pan, frame.payload, frame.size_bytes, est))
+            est = d * 10.0 ** (shadow_k * draws.normal()) if shadow_k > 0 else d
+            st.receive(Frame(frame.kind, src, frame.dst, pan, frame.payload, frame.size_bytes, est))

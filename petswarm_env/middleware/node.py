@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import simpy
 
-from petswarm_env.comms.radio import BROADCAST, PAN_WAITING, Frame, RadioMedium
+from petswarm_env.comms.radio import BROADCAST, PAN_WAITING, Draws, Frame, RadioMedium, call_later
 from petswarm_env.middleware import messages as msg
 from petswarm_env.middleware.formation import Formation
 
@@ -44,11 +44,12 @@ class MasterStatus:
     """The master's periodic broadcast (seed 000 §3.5, Fig. 9)."""
 
     velocity: tuple[float, float, float]  # master's (vx, vy, ω) in its body frame
-    activity: str  # user activity: stop | rest | walk | run
-    mode: str  # following | leading
+    activity: str  # user activity: stop | rest | walk | run (the belt's recognition)
+    mode: str  # following | leading | remote | emergency
     user_turn_rate_rps: float
     user_position_m: tuple[float, float]  # user relative to the master, master's frame
     time_s: float  # when this robot received it
+    user_rotating: bool = False  # the belt's rotation flag (seed 002 §3.4)
 
 
 @dataclass
@@ -73,6 +74,7 @@ class Node:
         self.radio: RadioMedium = swarm.radio
         self.cfg = swarm.cfg
         self.rng = rng
+        self.draws = Draws(rng)  # scalar draws (MCU processing jitter) taken from rng in blocks
         self.pans: frozenset[int] = frozenset({PAN_WAITING})
         self.state = "waiting"  # sequence manager state, see sequence.py
         self.connected_user: int | None = None  # the user this robot is connected to, if any
@@ -98,9 +100,13 @@ class Node:
         handler = self.handlers.get(frame.kind)
         if handler is None:
             return
-        delay = self.cfg.radio.processing_s + self.rng.uniform(0.0, self.cfg.radio.processing_jitter_s)
-        ev = self.clock.timeout(delay)
-        ev.callbacks.append(lambda _ev: self._handle(handler, frame))
+        call_later(self.clock, self.processing_delay(), self._handle, handler, frame)
+
+    def processing_delay(self) -> float:
+        """MCU time to handle a received frame before it can answer (``processing_s`` plus a
+        uniform jitter of up to ``processing_jitter_s``)."""
+        radio = self.cfg.radio
+        return radio.processing_s + radio.processing_jitter_s * self.draws.uniform()
 
     def _handle(self, handler: Callable[[Frame], None], frame: Frame) -> None:
         if frame.pan not in self.pans:  # the PAN changed while the frame was being processed

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import math
 
-from petswarm_env.comms.radio import Frame
+from petswarm_env.comms.radio import Frame, call_later
 from petswarm_env.middleware import messages as msg
 from petswarm_env.middleware.node import HeadingEstimate, Node
 
@@ -156,9 +156,7 @@ class TokenRing:
         """Neighbour of the transmitter: report the bearing at which we saw it (Fig. 9), after the
         MCU has processed the measurement."""
         node = self.node
-        delay = node.cfg.radio.processing_s + node.rng.uniform(0.0, node.cfg.radio.processing_jitter_s)
-        ev = node.clock.timeout(delay)
-        ev.callbacks.append(lambda _ev: node.send(msg.HEADING, dst=holder, bearing=bearing_rad))
+        call_later(node.clock, node.processing_delay(), lambda: node.send(msg.HEADING, dst=holder, bearing=bearing_rad))
 
     def _on_heading(self, frame: Frame) -> None:
         node = self.node

@@ -13,6 +13,16 @@ import pymunk
 
 from petswarm_env.config import RobotConfig
 
+# Chipmunk's body accessors (``pymunk.cp``, pymunk's low-level handle): the per-substep drive and
+# the radio's position reads call them directly instead of through pymunk's Python properties,
+# which build a Vec2d and go through a typing ``__setattr__`` on every access. Same C calls.
+_get_position = pymunk.cp.cpBodyGetPosition
+_get_angle = pymunk.cp.cpBodyGetAngle
+_get_velocity = pymunk.cp.cpBodyGetVelocity
+_get_angular_velocity = pymunk.cp.cpBodyGetAngularVelocity
+_set_velocity = pymunk.cp.cpBodySetVelocity
+_set_angular_velocity = pymunk.cp.cpBodySetAngularVelocity
+
 COLLISION_ROBOT = 1
 COLLISION_USER = 2
 COLLISION_WALL = 3
@@ -74,6 +84,7 @@ class Robot:
         self.shape.elasticity = 0.0
         self.shape.robot_index = index  # read by collision callbacks
         space.add(self.body, self.shape)
+        self._cbody = self.body._body  # the Chipmunk body behind self.body
         # commanded (saturated) body-frame velocity, and the achieved one after acceleration limits
         self.command = (0.0, 0.0, 0.0)
         self.velocity_body = (0.0, 0.0, 0.0)
@@ -89,16 +100,16 @@ class Robot:
         if dt > 0:
             self._ahrs_bias += math.radians(cfg.ahrs_drift_dps) * math.sqrt(dt) * self.ahrs_rng.standard_normal()
             self._ahrs_time = now_s
-        return self.body.angle + self._ahrs_bias + math.radians(cfg.ahrs_noise_deg) * self.ahrs_rng.standard_normal()
+        return _get_angle(self._cbody) + self._ahrs_bias + math.radians(cfg.ahrs_noise_deg) * self.ahrs_rng.standard_normal()
 
     @property
     def position(self) -> tuple[float, float]:
-        p = self.body.position
+        p = _get_position(self._cbody)
         return (p.x, p.y)
 
     @property
     def heading(self) -> float:
-        return self.body.angle
+        return _get_angle(self._cbody)
 
     def set_command(self, vx: float, vy: float, omega: float) -> None:
         """Body-frame command (m/s, m/s, rad/s); wheel saturation applies here."""
@@ -108,14 +119,15 @@ class Robot:
         """Move the achieved velocity toward the command within the acceleration limits, then
         hand it to the physics body (collisions may still change it during the step)."""
         cfg = self.cfg
-        body = self.body
-        th = body.angle
+        cbody = self._cbody
+        th = _get_angle(cbody)
         c, s = math.cos(th), math.sin(th)
         # the body's actual velocity (after last step's collisions) in its own frame
-        wv = body.velocity
-        vx = c * wv.x + s * wv.y
-        vy = -s * wv.x + c * wv.y
-        w = body.angular_velocity
+        wv = _get_velocity(cbody)
+        wx, wy = wv.x, wv.y
+        vx = c * wx + s * wy
+        vy = -s * wx + c * wy
+        w = _get_angular_velocity(cbody)
         cx, cy, cw = self.command
         dvx, dvy = cx - vx, cy - vy
         dv = math.hypot(dvx, dvy)
@@ -129,5 +141,5 @@ class Robot:
         max_dw = cfg.max_alpha_rps2 * dt
         w += max(-max_dw, min(max_dw, cw - w))
         self.velocity_body = (vx, vy, w)
-        body.velocity = (c * vx - s * vy, s * vx + c * vy)
-        body.angular_velocity = w
+        _set_velocity(cbody, (c * vx - s * vy, s * vx + c * vy))
+        _set_angular_velocity(cbody, w)

@@ -20,6 +20,8 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 
 from petswarm_env.middleware.ir import IRConfig
 from petswarm_env.wearables.lf import LFConfig
+from petswarm_env.wearables.belt import BeltConfig
+from petswarm_env.wearables.watch import WatchConfig
 
 SCENARIOS = (
     "straight",
@@ -162,6 +164,8 @@ class Config(_Section):
     ir: IRConfig
     lf: LFConfig
     user: UserConfig
+    belt: BeltConfig
+    watch: WatchConfig
     master: MasterConfig
     reward: RewardConfig
     render: RenderConfig

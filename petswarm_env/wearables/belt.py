@@ -1,0 +1,370 @@
+"""Smart belt: the waist IMU of seed 002 §3.4, its signals and the paper's motion recognition.
+
+Seed 002 §3.4 (User-Motion Recognition) gives the belt two jobs:
+
+* **Movement state** from the z accelerometer (Fig. 8, Table 2). "The periodicity is defined by
+  checking the number of sign changes of the values that occur within a valid time period. If the
+  periodicity indicates that the user does a periodic action, then the smart belt applies the
+  signal magnitude area (SMA). The SMA accumulates the accelerometer values within the
+  programmer-defined time." Table 2 then reads (rows *Periodicity / SMA / State*)::
+
+      Movement      3   Run
+                    2   Walk
+                    1   Rest
+      Non-movement  X   Stop
+
+  The SMA is applied only to a periodic signal, and "X" is a don't-care: a non-periodic window is
+  Stop whatever its SMA; a periodic one is Run / Walk / Rest by SMA level 3 / 2 / 1. (Reading Rest
+  as non-periodic + SMA 1 would overlap the Stop row's "X" and contradict "if periodic, then the
+  SMA".) So Rest is a small periodic motion: the user sways or shifts weight in place.
+* **Rotation state** from the z gyro: "The gyro sensor value is sampled at 70 ms intervals. It
+  minimizes the amount of noise by using a moving-average filter. The robot must know the rotation
+  state, angular speed, and accumulated angle of the human."
+
+This module keeps the physics and the recognition apart, as ``middleware/ir.py`` does:
+
+* *Signals* (``_synth_*``): the waist's vertical acceleration is gravity plus a gait oscillation
+  at the step frequency (cadence grows with speed; walk and run differ) whose amplitude is that of
+  a vertical centre-of-mass excursion ``h`` at that frequency, ``(2πf)²·h``; resting is a small,
+  irregular sway; standing still gives only sensor noise. The gyro measures the true turn rate
+  plus the pelvis' yaw wobble at the stride frequency, a constant bias and noise. Numbers are chosen
+  (see ``default.yaml``).
+* *Recognition* (:func:`count_sign_changes`, :func:`signal_magnitude_area`, :func:`sma_level`,
+  :func:`classify`, and the gyro filter in :class:`SmartBelt`): the paper's rules, run on every
+  sample. Recognition latency and errors come out of the window and the filter, not a table.
+  Choices where the paper is silent: gravity is removed as the window mean; a sample's sign counts
+  only beyond a dead band (else white noise around zero would look highly "periodic"); the rotation
+  flag has an on and a lower off threshold; the accumulated angle integrates the filtered rate
+  while the flag is set, restarts at 0 when a rotation starts and holds its value after it ends.
+  Natural consequences: a walk→stop or stop→walk change passes through Rest for a few samples
+  (the window holds a fading gait: periodic, small SMA), and a turn's angle comes out a few
+  degrees short (the filter's ramp before the flag rises).
+
+Units: seconds, metres, radians; angular rates in rad/s (``*_dps`` config keys are °/s).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.lib.stride_tricks import sliding_window_view
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+ACTIVITIES = ("stop", "rest", "walk", "run")  # seed 002 Table 2; index = activity code below
+GRAVITY_MPS2 = 9.80665
+_EPS_S = 1e-9  # sample times are compared with this slack (float accumulation of 0.1 s steps)
+
+
+class BeltConfig(BaseModel):
+    """Smart-belt IMU and recognition parameters (seed 002 §3.4). Values live in ``default.yaml``."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    # --- accelerometer (z, vertical) ---
+    accel_rate_hz: float = Field(gt=0, description="accelerometer sample rate, Hz")
+    accel_noise_mps2: float = Field(ge=0, description="σ of the white noise on each z sample, m/s²")
+    walk_cadence_hz: tuple[float, float] = Field(description="walking step frequency = c0 + c1·speed: (c0 Hz, c1 Hz per m/s)")
+    run_cadence_hz: tuple[float, float] = Field(description="running step frequency = c0 + c1·speed: (c0 Hz, c1 Hz per m/s)")
+    walk_bounce_m: float = Field(ge=0, description="amplitude of the waist's vertical excursion when walking, m")
+    run_bounce_m: float = Field(ge=0, description="amplitude of the waist's vertical excursion when running, m")
+    gait_phase_jitter: float = Field(ge=0, description="step-to-step irregularity: phase random walk, rad/√s")
+    rest_sway_hz: float = Field(gt=0, description="mean frequency of the resting sway, Hz")
+    rest_sway_mps2: float = Field(ge=0, description="amplitude of the resting sway's vertical acceleration, m/s²")
+    rest_phase_jitter: float = Field(ge=0, description="irregularity of the resting sway: phase random walk, rad/√s")
+    # --- movement recognition (Table 2) ---
+    window_s: float = Field(gt=0, description="valid time period of the periodicity and the SMA, s")
+    sign_deadband_mps2: float = Field(
+        ge=0, description="a sample's sign counts only beyond ±this (mean-removed), m/s²; within it the last sign holds"
+    )
+    min_sign_changes: int = Field(ge=1, description="periodic if the window holds at least this many sign changes")
+    sma_level2_mps2: float = Field(gt=0, description="SMA at or above this is level 2, m/s²")
+    sma_level3_mps2: float = Field(gt=0, description="SMA at or above this is level 3, m/s²")
+    # --- gyro (z, yaw rate) and rotation recognition ---
+    gyro_period_s: float = Field(gt=0, description="gyro sample period, s")
+    gyro_noise_dps: float = Field(ge=0, description="σ of the white noise on each gyro sample, °/s")
+    gyro_bias_dps: float = Field(ge=0, description="σ of the constant bias drawn per belt, °/s")
+    gait_yaw_wobble_deg: float = Field(ge=0, description="amplitude of the pelvis' yaw oscillation at the stride frequency, °")
+    ma_samples: int = Field(ge=1, description="length of the moving-average filter, gyro samples")
+    rotation_on_dps: float = Field(gt=0, description="rotation starts when |filtered rate| exceeds this, °/s")
+    rotation_off_dps: float = Field(gt=0, description="rotation ends when |filtered rate| falls below this, °/s")
+
+    @model_validator(mode="after")
+    def _check(self) -> BeltConfig:
+        if self.sma_level3_mps2 <= self.sma_level2_mps2:
+            raise ValueError("belt.sma_level3_mps2 must be greater than belt.sma_level2_mps2")
+        if self.rotation_off_dps > self.rotation_on_dps:
+            raise ValueError("belt.rotation_off_dps must not exceed belt.rotation_on_dps")
+        if round(self.window_s * self.accel_rate_hz) < 2:
+            raise ValueError("belt.window_s must hold at least 2 accelerometer samples")
+        return self
+
+    @property
+    def window_samples(self) -> int:
+        """Accelerometer samples in one recognition window."""
+        return round(self.window_s * self.accel_rate_hz)
+
+    def cadence_hz(self, posture: str, speed_mps: float) -> float:
+        """Step frequency of the gait (walk or run) at a speed, Hz."""
+        c0, c1 = self.run_cadence_hz if posture == "run" else self.walk_cadence_hz
+        return max(0.0, c0 + c1 * max(0.0, speed_mps))
+
+
+# --------------------------------------------------------------------------- recognition rules
+
+
+def count_sign_changes(windows: np.ndarray, deadband: float) -> np.ndarray:
+    """Periodicity of seed 002 §3.4: sign changes of the mean-removed values in each window.
+
+    ``windows`` is ``(..., W)``. The mean is removed per window (it holds gravity). A sample's sign
+    is + above ``deadband``, − below ``-deadband``; a sample inside the band keeps the last sign, so
+    sensor noise around zero is not counted as motion. Returns the count per window.
+    """
+    return _sign_changes(_remove_mean(windows), deadband)
+
+
+def signal_magnitude_area(windows: np.ndarray) -> np.ndarray:
+    """SMA of seed 002 §3.4: the accumulated |acceleration| over the window, per second (m/s²).
+
+    The window mean (gravity) is removed first, as for the periodicity.
+    """
+    return _sma(_remove_mean(windows))
+
+
+def _remove_mean(windows: np.ndarray) -> np.ndarray:
+    w = windows.shape[-1]
+    return windows - np.add.reduce(windows, axis=-1, keepdims=True) * (1.0 / w)
+
+
+def _sma(x: np.ndarray) -> np.ndarray:
+    return np.add.reduce(np.abs(x), axis=-1) * (1.0 / x.shape[-1])
+
+
+def _sign_changes(x: np.ndarray, deadband: float) -> np.ndarray:
+    """Sign changes per row of mean-removed ``x`` (..., W), the sign held inside the dead band."""
+    shape, w = x.shape[:-1], x.shape[-1]
+    s = (x > deadband).view(np.int8) - (x < -deadband).view(np.int8)
+    nz = np.flatnonzero(s)  # samples with a sign, row-major
+    signs = s.reshape(-1)[nz]
+    row = nz // w
+    changed = (signs[1:] != signs[:-1]) & (row[1:] == row[:-1])
+    return np.bincount(row[1:][changed], minlength=x.size // w).reshape(shape)
+
+
+def sma_level(sma: np.ndarray, cfg: BeltConfig) -> np.ndarray:
+    """SMA level 1 / 2 / 3 by the two thresholds (seed 002 Table 2)."""
+    sma = np.asarray(sma)
+    return 1 + (sma >= cfg.sma_level2_mps2).view(np.int8) + (sma >= cfg.sma_level3_mps2).view(np.int8)
+
+
+def classify(periodic: np.ndarray, level: np.ndarray) -> np.ndarray:
+    """Seed 002 Table 2 as activity codes (index into :data:`ACTIVITIES`).
+
+    Periodic ("Movement"): SMA 3 → Run (3), 2 → Walk (2), 1 → Rest (1).
+    Non-periodic ("Non-movement"), any SMA ("X") → Stop (0).
+    """
+    return np.where(periodic, level, 0)
+
+
+# --------------------------------------------------------------------------- the device
+
+
+@dataclass(frozen=True)
+class BeltReading:
+    """What the belt knows (and sends over BLE): seed 002 §3.4's movement and rotation states."""
+
+    activity: str  # stop | rest | walk | run (Table 2)
+    rotating: bool  # rotation state
+    angular_speed_rps: float  # moving-average filtered yaw rate, CCW positive
+    accumulated_angle_rad: float  # angle of the current (or last finished) rotation, CCW positive
+    time_s: float  # time the belt has been advanced to
+    activity_since_s: float  # accelerometer sample time at which the current activity was first recognised
+    rotation_since_s: float  # gyro sample time at which the rotation flag last changed
+    sign_changes: int  # periodicity of the last window
+    sma_mps2: float  # SMA of the last window
+
+
+class SmartBelt:
+    """The smart belt on the user's waist: IMU sampling and the recognition of seed 002 §3.4.
+
+    ``advance(t_end, ...)`` synthesises and processes every accelerometer and gyro sample up to
+    ``t_end`` with the user's true motion held constant since the previous call (the env calls it
+    once per control period). ``reading()`` is the belt's current knowledge. Until the first full
+    window the activity is Stop (nothing recognised yet).
+    """
+
+    def __init__(self, cfg: BeltConfig, rng: np.random.Generator, t0_s: float = 0.0):
+        self.cfg = cfg
+        self.rng = rng
+        self._t0 = float(t0_s)
+        self._t = float(t0_s)
+        # accelerometer: sample k (k = 1, 2, ...) at t0 + k/rate
+        self._acc_dt = 1.0 / cfg.accel_rate_hz
+        self._w = cfg.window_samples
+        self._n_acc = 0
+        self._hist = np.zeros(2 * self._w - 1)  # last W-1 samples, then room for a chunk of up to W
+        self._windows = sliding_window_view(self._hist, self._w)  # row j = the window ending at sample W-1+j
+        self._gait_phase = float(rng.uniform(0.0, 2.0 * math.pi))
+        # gyro: sample k at t0 + k·period
+        self._n_gyro = 0
+        self._stride_phase = float(rng.uniform(0.0, 2.0 * math.pi))
+        self._bias_rps = math.radians(cfg.gyro_bias_dps) * float(rng.standard_normal())
+        self._ma = [0.0] * cfg.ma_samples  # ring buffer of the moving-average filter
+        self._on_rps = math.radians(cfg.rotation_on_dps)
+        self._off_rps = math.radians(cfg.rotation_off_dps)
+        # the belt's knowledge
+        self._activity = 0
+        self._activity_since = self._t0
+        self._sign_changes = 0
+        self._sma = 0.0
+        self._rotating = False
+        self._rotation_since = self._t0
+        self._omega_f = 0.0
+        self._angle = 0.0
+
+    # ------------------------------------------------------------------ public API
+
+    def advance(self, t_end: float, speed_mps: float, turn_rate_rps: float, posture: str) -> None:
+        """Sample and process the IMU up to ``t_end`` (s), the user's state constant since the last call.
+
+        ``speed_mps`` and ``turn_rate_rps`` (CCW positive) are the user's true motion; ``posture`` is
+        the user's true activity (stop | rest | walk | run), which selects the gait model.
+        """
+        if posture not in ACTIVITIES:
+            raise ValueError(f"posture '{posture}' is not one of {', '.join(ACTIVITIES)}")
+        if t_end < self._t - _EPS_S:
+            raise ValueError(f"belt time runs forward: t_end {t_end} < {self._t}")
+        n_target = math.floor((t_end - self._t0) / self._acc_dt + _EPS_S)
+        while self._n_acc < n_target:
+            n = min(self._w, n_target - self._n_acc)
+            self._accel_chunk(n, speed_mps, posture)
+        m_target = math.floor((t_end - self._t0) / self.cfg.gyro_period_s + _EPS_S)
+        if m_target > self._n_gyro:
+            self._gyro_samples(m_target - self._n_gyro, speed_mps, turn_rate_rps, posture)
+        self._t = max(self._t, float(t_end))
+
+    def reading(self) -> BeltReading:
+        return BeltReading(
+            activity=ACTIVITIES[self._activity],
+            rotating=self._rotating,
+            angular_speed_rps=self._omega_f,
+            accumulated_angle_rad=self._angle,
+            time_s=self._t,
+            activity_since_s=self._activity_since,
+            rotation_since_s=self._rotation_since,
+            sign_changes=self._sign_changes,
+            sma_mps2=self._sma,
+        )
+
+    # ------------------------------------------------------------------ accelerometer
+
+    def _synth_accel(self, n: int, speed_mps: float, posture: str) -> np.ndarray:
+        """n vertical-acceleration samples (m/s², gravity included) of the waist."""
+        cfg, dt = self.cfg, self._acc_dt
+        if posture in ("walk", "run"):
+            f = cfg.cadence_hz(posture, speed_mps)
+            bounce = cfg.run_bounce_m if posture == "run" else cfg.walk_bounce_m
+            amp, jitter = (2.0 * math.pi * f) ** 2 * bounce, cfg.gait_phase_jitter
+        elif posture == "rest":
+            f, amp, jitter = cfg.rest_sway_hz, cfg.rest_sway_mps2, cfg.rest_phase_jitter
+        else:  # stop: the body is still
+            f, amp, jitter = 0.0, 0.0, 0.0
+        z = self.rng.standard_normal(2 * n)  # sensor noise, then phase jitter
+        dphi = np.full(n, 2.0 * math.pi * f * dt)
+        if jitter > 0.0 and amp > 0.0:
+            dphi += jitter * math.sqrt(dt) * z[n:]
+        phase = self._gait_phase + np.cumsum(dphi)
+        self._gait_phase = float(phase[-1] % (2.0 * math.pi))
+        return GRAVITY_MPS2 + amp * np.sin(phase) + cfg.accel_noise_mps2 * z[:n]
+
+    def _accel_chunk(self, n: int, speed_mps: float, posture: str) -> None:
+        """Sample n (≤ W) accelerometer values and run Table 2 on the window ending at each."""
+        w, h = self._w, self._hist
+        h[w - 1 : w - 1 + n] = self._synth_accel(n, speed_mps, posture)
+        first = self._n_acc  # index (0-based) of the first new sample
+        valid_from = max(0, (w - 1) - first)  # windows need W samples since power-on
+        if valid_from < n:
+            cfg = self.cfg
+            x = _remove_mean(self._windows[valid_from:n])
+            changes = _sign_changes(x, cfg.sign_deadband_mps2)
+            sma = _sma(x)
+            codes = classify(changes >= cfg.min_sign_changes, sma_level(sma, cfg)).tolist()
+            t_first = self._t0 + self._acc_dt * (first + 1 + valid_from)
+            for j, code in enumerate(codes):
+                if code != self._activity:
+                    self._activity, self._activity_since = code, t_first + self._acc_dt * j
+            self._sign_changes = int(changes[-1])
+            self._sma = float(sma[-1])
+        h[: w - 1] = h[n : n + w - 1]  # keep the last W-1 samples
+        self._n_acc += n
+
+    # ------------------------------------------------------------------ gyro
+
+    def _gyro_samples(self, m: int, speed_mps: float, turn_rate_rps: float, posture: str) -> None:
+        """Sample m gyro values (every 70 ms, seed 002 §3.4), filter them, update the rotation state."""
+        cfg = self.cfg
+        dt = cfg.gyro_period_s
+        if posture in ("walk", "run"):
+            f_stride = 0.5 * cfg.cadence_hz(posture, speed_mps)  # one stride = two steps
+            wobble_rps = math.radians(cfg.gait_yaw_wobble_deg) * 2.0 * math.pi * f_stride
+        else:
+            f_stride, wobble_rps = 0.0, 0.0
+        noise = (math.radians(cfg.gyro_noise_dps) * self.rng.standard_normal(m)).tolist()
+        n_ma = cfg.ma_samples
+        for k in range(m):
+            self._stride_phase = (self._stride_phase + 2.0 * math.pi * f_stride * dt) % (2.0 * math.pi)
+            raw = turn_rate_rps + wobble_rps * math.cos(self._stride_phase) + self._bias_rps + noise[k]
+            self._ma[self._n_gyro % n_ma] = raw
+            self._n_gyro += 1
+            filled = min(self._n_gyro, n_ma)
+            omega = sum(self._ma[:filled]) / filled  # moving average (shorter until it fills)
+            self._omega_f = omega
+            t_k = self._t0 + self._n_gyro * dt
+            if not self._rotating and abs(omega) > self._on_rps:
+                self._rotating, self._rotation_since, self._angle = True, t_k, 0.0
+            elif self._rotating and abs(omega) < self._off_rps:
+                self._rotating, self._rotation_since = False, t_k
+            if self._rotating:
+                self._angle += omega * dt  # accumulated angle of the current rotation
+
+
+# --------------------------------------------------------------------------- experiments
+
+
+def recognition_latency_experiment(
+    cfg: BeltConfig,
+    rng: np.random.Generator,
+    trials: int,
+    *,
+    turn_rate_dps: float = 60.0,
+    speed_mps: float = 1.0,
+    posture: str = "walk",
+    step_s: float = 0.1,
+    timeout_s: float = 3.0,
+) -> np.ndarray:
+    """Latency (s) from the start of a user rotation to the belt's rotation flag, per trial.
+
+    Each trial: a fresh belt, the user walks straight for a random 3–4 s (windows filled, rotation
+    start at a random phase of the 70 ms gyro grid and of the gait), then turns at
+    ``turn_rate_dps`` (positive = CCW). The belt is advanced in ``step_s`` steps, as the env does.
+    The latency is the gyro sample time at which the flag rises minus the rotation start; NaN if
+    it does not rise within ``timeout_s``. Used by the reaction-time experiment (seed 000 §4.4).
+    """
+    out = np.full(trials, np.nan)
+    rate = math.radians(turn_rate_dps)
+    for i in range(trials):
+        belt = SmartBelt(cfg, rng)
+        t_start = float(rng.uniform(3.0, 4.0))
+        t = 0.0
+        while t < t_start - _EPS_S:
+            t = min(t + step_s, t_start)
+            belt.advance(t, speed_mps, 0.0, posture)
+        while t < t_start + timeout_s:
+            t += step_s
+            belt.advance(t, speed_mps, rate, posture)
+            r = belt.reading()
+            if r.rotating and r.rotation_since_s > t_start:
+                out[i] = r.rotation_since_s - t_start
+                break
+    return out

@@ -31,6 +31,7 @@ SCENARIOS = (
     "u_turn",
     "stop_and_go",
     "random_walk",
+    "mode_change",
 )
 FORMATIONS = ("column", "row", "wedge", "grid", "custom")
 DRIVING_MODES = ("following", "leading")
@@ -52,6 +53,8 @@ class BoxObstacle(_Section):
 class WorldConfig(_Section):
     arena_m: tuple[float, float] = Field(description="walled arena width, height (m); 0 = no walls")
     obstacles: list[BoxObstacle]
+    num_users: int = Field(ge=1, le=8, description="users, each with a master, a robot pool and its own PAN")
+    user_spacing_m: float = Field(gt=0, description="distance between the users' start positions (along y)")
 
 
 class UltrasonicConfig(_Section):
@@ -89,6 +92,7 @@ class SwarmConfig(_Section):
     custom_links: list[CustomLink]
     mode: Literal[DRIVING_MODES]  # type: ignore[valid-type]
     spawn_jitter_m: float = Field(ge=0)
+    master_change: bool = Field(description="the user's master-change request on a driving-mode change (Table 3)")
     other_user_robots: int = Field(ge=0, le=16, description="waiting robots already connected to another user")
 
 
@@ -134,8 +138,29 @@ class UserConfig(_Section):
 
 class MasterConfig(_Section):
     distance_m: float = Field(gt=0, description="standard distance to the user (seed 000 §3.6.2)")
-    user_pos_noise_m: float = Field(ge=0)
-    gain: float = Field(gt=0)
+    acc_band_m: float = Field(ge=0, description="ACC: speed matching inside ±band of the distance, distance control outside")
+    distance_gain: float = Field(gt=0, description="distance-control gain outside the band (1/s)")
+    speed_gain: float = Field(ge=0, description="distance correction while speed matching (1/s)")
+    rotate_gain: float = Field(gt=0, description="following: ω per rad of user bearing beyond the deadband")
+    rotate_deadband_deg: float = Field(ge=0, le=25, description="following: no rotation while the user is inside ±this (within the reliable ±25°)")
+    sideways_gain: float = Field(gt=0, description="leading: Vy per m of lateral user offset outside ±reliable angle")
+    arc_gain: float = Field(ge=0, description="leading: arc-rate correction per rad of accumulated-angle gap")
+    tracker_alpha: float = Field(gt=0, le=1, description="LF-fix tracker position gain")
+    tracker_beta: float = Field(ge=0, le=2, description="LF-fix tracker velocity gain")
+    lost_user_s: float = Field(gt=0, description="no LF fix for this long -> emergency (seed 002 Fig. 4)")
+    exception_range_m: float = Field(gt=0, description="leading: obstacle closer than this in the travel direction -> exception")
+
+
+class ControlConfig(_Section):
+    safety_layer: bool = Field(description="the ultrasonic safety stage of the control arbiter (seed 001)")
+    safety_stop_m: float = Field(gt=0, description="brake before this ultrasonic range: speed toward an obstacle ≤ √(2a(range − this))")
+    safety_backoff_mps: float = Field(ge=0, description="back-away speed when closer than half the stop range")
+
+
+class BLEConfig(_Section):
+    latency_s: float = Field(ge=0, description="one BLE message, wearable <-> robot")
+    connect_s: float = Field(ge=0, description="BLE connection set-up after the belt woke up or a handover")
+    report_period_s: float = Field(gt=0, description="belt -> robot reports (activity, rotation)")
 
 
 class RewardConfig(_Section):
@@ -167,6 +192,8 @@ class Config(_Section):
     belt: BeltConfig
     watch: WatchConfig
     master: MasterConfig
+    control: ControlConfig
+    ble: BLEConfig
     reward: RewardConfig
     render: RenderConfig
 

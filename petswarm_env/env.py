@@ -1,15 +1,22 @@
 """petswarm_v0 — a PettingZoo ``ParallelEnv`` of a Pet-Bot swarm accompanying a walking user.
 
-One master robot accompanies the user; the other robots (the *agents*) are the slaves that joined
-its swarm through the join protocol of seed 000 and keep a leader–follower formation. Every robot
-runs the swarm middleware on one discrete-event clock: radio frames on a shared 802.15.4-like
-medium, the IR token ring with heading exchange, the master's status broadcast.
+Each user (``world.num_users``) wears a smart belt and a smart watch (seed 002); the robot that
+pairs with the belt becomes the master of the user's swarm and accompanies the user through the
+wearables (LF localisation, activity and rotation recognition, gestures, over BLE). The other
+robots (the *agents*) are the slaves that joined a swarm through the join protocol of seed 000 and
+keep a leader–follower formation. Every robot runs the swarm middleware on one discrete-event
+clock: radio frames on a shared 802.15.4-like medium (one PAN per swarm), the IR token ring with
+heading exchange, the master's status broadcast, mode changes with master change (Table 3).
 
-``reset(seed)`` builds the world and runs the organize phase on the clock (its duration and
-retries are in ``infos[agent]["organize"]``); the agents are the robots that joined. Each
-``step(actions)`` applies the slaves' body-frame commands, the master's controller, and runs the
-clock for one control period (0.1 s). Observations come from each slave's middleware only
-(:mod:`petswarm_env.observe`); rewards and metrics from ground truth (:mod:`petswarm_env.reward`).
+``reset(seed)`` builds the world and runs, on the clock, the pairing, the user's start-up commands
+(driving mode, then organize — in leading mode after the master shifted to its place) and the join
+protocol (its duration and retries are in ``infos[agent]["organize"]``); the agents are the robots
+that joined. Each ``step(actions)`` passes every robot's command through its control arbiter
+(safety > user > policy, seed 001) and runs the clock for one control period (0.1 s). Agents come
+and go with the middleware: a robot that stops being a slave (it became the master, or the swarm
+dispersed) is terminated; a robot that becomes a slave joins ``agents``. Observations come from each
+slave's middleware only (:mod:`petswarm_env.observe`); rewards and metrics from ground truth
+(:mod:`petswarm_env.reward`).
 
 Spaces: observation ``Box(-inf, inf, (N,), float32)`` with values scaled to about [-1, 1]
 (N = 57 with 8 ultrasonic sensors), action ``Box(-1, 1, (3,), float32)`` = (Vx, Vy, ω) scaled by
@@ -28,9 +35,11 @@ from pettingzoo import ParallelEnv
 from petswarm_env.comms.ir_channel import IRChannel
 from petswarm_env.comms.radio import RadioMedium
 from petswarm_env.config import Config, flatten_dotted, load_config
-from petswarm_env.control.master import MasterController
+from petswarm_env.control.arbiter import SOURCES, ControlArbiter, SafetyStage
 from petswarm_env.metrics import EpisodeMetrics
-from petswarm_env.middleware.swarm import Swarm
+from petswarm_env.middleware.formation import Formation, formation_for_mode, user_position_in_formation
+from petswarm_env.middleware.swarm import Fleet, Swarm
+from petswarm_env.middleware.user_session import UserSession
 from petswarm_env.observe import OBS_VERSION, ObservationLayout, build_observation
 from petswarm_env.reward import slave_reward
 from petswarm_env.sim.scenarios import ScenarioScript, build_scenario
@@ -38,7 +47,9 @@ from petswarm_env.sim.world import World
 
 ENV_NAME = "petswarm_v0"
 OTHER_USER_ID = 99  # the user that "other user" robots are connected to (Table 1)
-SWARM_PAN = 0x1001
+SWARM_PAN = 0x1001  # user u's swarm uses PAN SWARM_PAN + u
+WAKE_PATTERN = 0x5A00  # user u's belt and robot share the LF wake-up pattern WAKE_PATTERN + u
+PAIRING_DISTANCE_M = 0.8  # chosen: each user starts this close to their robot (LF wake-up range 1 m)
 
 
 def _wrap(a: float) -> float:
@@ -64,8 +75,12 @@ class PetSwarmEnv(ParallelEnv):
         self.cfg = cfg
         self.render_mode = render_mode
         self.metadata = dict(self.metadata, render_fps=cfg.render.fps)
-        n_candidates = cfg.swarm.num_slaves + cfg.swarm.extra_robots
-        self.possible_agents = [f"robot_{i}" for i in range(1, n_candidates + 1)]
+        pool = cfg.swarm.num_slaves + cfg.swarm.extra_robots
+        per_user = 1 + pool
+        may_change_master = cfg.swarm.master_change and "mode_change" in (*cfg.user.scenario_pool, cfg.user.scenario)
+        self.possible_agents = [
+            f"robot_{u * per_user + k}" for u in range(cfg.world.num_users) for k in range(0 if may_change_master else 1, per_user)
+        ]
         self.agents: list[str] = []
         self.layout = ObservationLayout(cfg.robot.ultrasonic.count)
         self._obs_space = gymnasium.spaces.Box(-np.inf, np.inf, (self.layout.size,), np.float32)
@@ -88,62 +103,85 @@ class PetSwarmEnv(ParallelEnv):
             self._seed_seq = np.random.SeedSequence(seed)
         elif self._seed_seq is None:
             self._seed_seq = np.random.SeedSequence(self.cfg.seed)
-        streams = self._seed_seq.spawn(1)[0].spawn(6)
-        rng_world, rng_radio, rng_ir, rng_swarm, rng_sensors, rng_script = (np.random.default_rng(s) for s in streams)
+        streams = self._seed_seq.spawn(1)[0].spawn(7)
+        rng_world, rng_radio, rng_ir, rng_swarm, rng_sensors, rng_script, rng_users = (np.random.default_rng(s) for s in streams)
         self._rng_sensors = rng_sensors
         cfg = self.cfg
         pool = cfg.user.scenario_pool
         self.scenario = pool[int(rng_script.integers(len(pool)))] if pool else cfg.user.scenario
-        script = ScenarioScript(build_scenario(self.scenario, cfg.user, rng_script))
-        self.world = world = World(cfg, script)
-        self._place_robots(world, rng_world)
+        script_rngs = rng_script.spawn(cfg.world.num_users)
+        self.world = world = World(cfg, ScenarioScript(build_scenario(self.scenario, cfg.user, script_rngs[0])))
+        for u in range(1, cfg.world.num_users):
+            world.add_user(ScenarioScript(build_scenario(self.scenario, cfg.user, script_rngs[u])), (0.0, u * cfg.world.user_spacing_m), 0.0)
+        pools = self._place_robots(world, rng_world)
         self.radio = RadioMedium(world.clock, cfg.radio, rng_radio)
         self.ir_channel = IRChannel(world, cfg.ir, rng_ir)
-        pool = [r.index for r in world.robots[1:]]
-        self.swarm = swarm = Swarm(cfg, world, self.radio, self.ir_channel, rng_swarm, 0, SWARM_PAN, 0, pool)
+        self.fleet = fleet = Fleet(cfg, world, self.radio, self.ir_channel, rng_swarm)
+        self.swarms: list[Swarm] = []
+        self.sessions: list[UserSession] = []
+        for u, (master_idx, pool_idx) in enumerate(pools):
+            swarm = Swarm(fleet, u, SWARM_PAN + u, master_idx, pool_idx)
+            self.swarms.append(swarm)
         for idx in self._other_user_robots:
-            swarm.nodes[idx].connected_user = OTHER_USER_ID
-        self.master_ctrl = MasterController(cfg)
+            node = fleet.add_node(idx, self.swarms[0])
+            node.connected_user = OTHER_USER_ID
+        for u, (swarm, user_rng) in enumerate(zip(self.swarms, rng_users.spawn(cfg.world.num_users))):
+            session = UserSession(cfg, world, swarm, world.users[u], user_rng, WAKE_PATTERN + u, WAKE_PATTERN + u)
+            session.startup = [f"mode:{cfg.swarm.mode}", "organize"]
+            self.sessions.append(session)
+        self.swarm, self.session = self.swarms[0], self.sessions[0]
         for robot, ss in zip(world.robots, rng_world.spawn(len(world.robots))):
             robot.ahrs_rng = ss
+        safety = SafetyStage(cfg.robot.ultrasonic.count, cfg.control.safety_stop_m, cfg.control.safety_backoff_mps,
+                             cfg.robot.max_accel_mps2) \
+            if cfg.control.safety_layer else None
+        self.arbiters = {r.index: ControlArbiter(safety) for r in world.robots}
+        self._ranges = world.ultrasonic_ranges([r.index for r in world.robots], rng_sensors)
+        self._last_action: dict[str, np.ndarray] = {}
+        self._formation_cache: dict[int, tuple[Formation, np.ndarray, dict[int, int]]] = {}
 
-        swarm.start_organize()
-        limit = int(math.ceil(cfg.protocol.organize_timeout_s / cfg.control_period_s))
+        limit = int(math.ceil((cfg.lf.wake_period_s + cfg.ble.connect_s + cfg.protocol.organize_timeout_s + 10.0) / cfg.control_period_s))
         for _ in range(limit):
+            self._control(None)
             world.advance(cfg.physics_substeps)
-            if swarm.organized:
+            self._ranges = world.ultrasonic_ranges([r.index for r in world.robots], rng_sensors)
+            if all(sw.organized for sw in self.swarms):
                 break
-        if not swarm.organized or not swarm.slave_ids():
-            raise RuntimeError(
-                f"the swarm did not organize within protocol.organize_timeout_s={cfg.protocol.organize_timeout_s} s "
-                f"(radio.loss_prob={cfg.radio.loss_prob}); raise the timeout or protocol.max_retries"
-            )
-        self._slave_ids = swarm.slave_ids()
+        for u, (session, swarm) in enumerate(zip(self.sessions, self.swarms)):
+            if session.connected_robot is None:
+                raise RuntimeError(
+                    f"user {u}'s belt never woke up: its robot must start within lf.wake_range_m={cfg.lf.wake_range_m} m "
+                    "and burst the belt's wake-up pattern")
+            if not swarm.organized or not swarm.slave_ids():
+                raise RuntimeError(
+                    f"user {u}'s swarm did not organize within protocol.organize_timeout_s={cfg.protocol.organize_timeout_s} s "
+                    f"(radio.loss_prob={cfg.radio.loss_prob}); raise the timeout or protocol.max_retries"
+                )
+        for arb in self.arbiters.values():
+            arb.counts = type(arb.counts)()
+        self._slave_ids = self._current_slaves()
         self.agents = [f"robot_{i}" for i in self._slave_ids]
-        self._agent_index = {a: i for a, i in zip(self.agents, self._slave_ids)}
-        formation = swarm.formation
-        slots = formation.slot_positions()
-        self._offset_from_master = {m: (float(slots[m][0]), float(slots[m][1])) for m in range(formation.size)}
-        self._formation_depth_m = -float(slots[:, 0].min())
-        user_f = (cfg.master.distance_m, 0.0) if cfg.swarm.mode == "following" else (-self._formation_depth_m - cfg.master.distance_m, 0.0)
-        self._levels = formation.hierarchy_levels(user_f)
+        self._agent_index = {f"robot_{i}": i for i in range(len(world.robots))}
         self._last_action = {a: np.zeros(3, np.float32) for a in self.agents}
-        self._obs_buf = {a: np.zeros(self.layout.size, np.float32) for a in self.agents}
+        self._obs_buf = {a: np.zeros(self.layout.size, np.float32) for a in self.possible_agents}
         self._contacts_seen = dict(world.collisions.per_robot)
         self._collisions_at_start = (world.collisions.robot_robot, world.collisions.robot_user, world.collisions.robot_wall)
+        self._events_at_start = self._event_counts()
         self.metrics = EpisodeMetrics(
-            organize_time_s=swarm.organize_result.elapsed_s, join_retries=swarm.organize_result.retries
+            organize_time_s=swarm.organize_result.elapsed_s, join_retries=sum(sw.organize_result.retries for sw in self.swarms)
         )
+        self.metrics.organize_time_s = self.swarm.organize_result.elapsed_s
         self._radio_at_start = (self.radio.stats.frames_sent, self.radio.stats.frames_lost, self.radio.stats.frames_collided)
-        world.user.walking = True
+        for user in world.users:
+            user.walking = True
         self.num_cycles = 0
         observations = self._observe()
-        org = {
-            "organize_time_s": swarm.organize_result.elapsed_s,
-            "join_retries": swarm.organize_result.retries,
-            "members": dict(swarm.organize_result.members),
-        }
-        infos = {a: {"member": swarm.nodes[self._agent_index[a]].know.member, "organize": org} for a in self.agents}
+        infos = {}
+        for a in self.agents:
+            sw = self._node(a).swarm
+            org = {"organize_time_s": sw.organize_result.elapsed_s, "join_retries": sw.organize_result.retries,
+                   "members": dict(sw.organize_result.members)}
+            infos[a] = {"member": self._node(a).know.member, "organize": org}
         if self.render_mode == "human":
             self.render()
         return observations, infos
@@ -152,14 +190,13 @@ class PetSwarmEnv(ParallelEnv):
         if self.world is None:
             raise RuntimeError("call reset() before step()")
         if not self.agents:
-            raise RuntimeError("the episode is over (all agents truncated); call reset()")
+            raise RuntimeError("the episode is over (no live agents); call reset()")
         cfg = self.cfg
         world = self.world
         acts = self._validate(actions)
-        for agent, a in acts.items():
-            world.robots[self._agent_index[agent]].set_command(a[0] * self._limits[0], a[1] * self._limits[1], a[2] * self._limits[2])
-        self._drive_master()
+        self._control(acts)
         world.advance(cfg.physics_substeps)
+        self._ranges = world.ultrasonic_ranges([r.index for r in world.robots], self._rng_sensors)
         self.num_cycles += 1
 
         errors, heading_errs = self._formation_errors()
@@ -170,18 +207,31 @@ class PetSwarmEnv(ParallelEnv):
             idx = self._agent_index[agent]
             new_contacts = per_robot.get(idx, 0) - self._contacts_seen.get(idx, 0)
             self._contacts_seen[idx] = per_robot.get(idx, 0)
-            rewards[agent] = slave_reward(cfg.reward, errors[agent], heading_errs[agent], new_contacts, acts[agent], self._last_action[agent])
-            infos[agent] = {"formation_error_m": errors[agent], "new_contacts": new_contacts}
+            err = errors.get(agent, 0.0)
+            rewards[agent] = slave_reward(cfg.reward, err, heading_errs.get(agent, 0.0), new_contacts, acts[agent], self._last_action[agent])
+            infos[agent] = {"formation_error_m": err, "new_contacts": new_contacts}
             self._last_action[agent] = acts[agent]
         self.metrics.add_step(list(errors.values()))
-        observations = self._observe()
         truncated = self.num_cycles >= cfg.max_cycles
-        terminations = {a: False for a in self.agents}
+        # agents follow the middleware: a robot that left slave-role driving is done, a new slave joins
+        slaves = self._current_slaves()
+        live = {f"robot_{i}" for i in slaves}
+        terminations = {a: a not in live for a in self.agents}
         truncations = {a: truncated for a in self.agents}
-        if truncated:
-            for a in self.agents:
-                infos[a]["episode_summary"] = self.episode_summary()
-            self.agents = []
+        joined = [f"robot_{i}" for i in slaves if f"robot_{i}" not in self.agents and f"robot_{i}" in self._obs_buf]
+        for a in joined:
+            self._last_action[a] = np.zeros(3, np.float32)
+        self._slave_ids = slaves
+        before = list(self.agents)
+        self.agents = [a for a in before if a in live and not truncated] + ([] if truncated else joined)
+        observations = self._observe(before + [a for a in joined if a not in before])
+        for a in joined:
+            rewards[a], terminations[a], truncations[a] = 0.0, False, truncated
+            infos[a] = {"formation_error_m": 0.0, "new_contacts": 0, "joined": True}
+        if not self.agents:
+            summary = self.episode_summary()
+            for a in infos:
+                infos[a]["episode_summary"] = summary
         if self.render_mode == "human":
             self.render()
         return observations, rewards, terminations, truncations, infos
@@ -205,30 +255,47 @@ class PetSwarmEnv(ParallelEnv):
             self._renderer = None
 
     # -- construction ----------------------------------------------------------------------------
-    def _place_robots(self, world: World, rng: np.random.Generator) -> None:
-        """Master 1 m from the user; waiting robots around their formation slots (jittered);
-        extra candidates farther out; robots of another user to the side."""
+    def _place_robots(self, world: World, rng: np.random.Generator) -> list[tuple[int, list[int]]]:
+        """Per user: the user's own robot close to the user (to pair), facing them — behind the user
+        in following, ahead in leading; waiting robots around their formation slots (jittered; in
+        leading off the master's shifting path); extra candidates farther out; then robots of
+        another user to the side. Returns (master index, pool indices) per user."""
         cfg = self.cfg
-        from petswarm_env.middleware.formation import build_formation
-
         d = cfg.master.distance_m
         n = cfg.swarm.num_slaves
         leading = cfg.swarm.mode == "leading"
-        slots = build_formation(cfg.swarm, n + 1).slot_positions()
-        depth = -float(slots[:, 0].min())
-        master_pos = np.array([d + depth, 0.0]) if leading else np.array([-d, 0.0])
-        world.add_robot(master_pos, 0.0)
+        formation = formation_for_mode(cfg.swarm, n + 1, cfg.swarm.mode)
+        slots = formation.slot_positions()  # master frame
+        heading = math.pi if leading else 0.0  # every robot faces its user
+        c, s = math.cos(heading), math.sin(heading)
+        world_slots = np.stack([c * slots[:, 0] - s * slots[:, 1], s * slots[:, 0] + c * slots[:, 1]], axis=1)
+        final = np.array([user_position_in_formation(formation, d)[0], 0.0]) * (1 if leading else -1)
+        depth = float(np.abs(world_slots[:, 0]).max())
         jitter = cfg.swarm.spawn_jitter_m
-        for m in range(1, n + 1):
-            offset = rng.uniform(-jitter, jitter, 2)
-            world.add_robot(master_pos + slots[m] + offset, float(rng.uniform(-0.3, 0.3)))
-        for k in range(cfg.swarm.extra_robots):
-            side = 1.0 if k % 2 == 0 else -1.0
-            world.add_robot(master_pos + np.array([-depth - 0.8 - 0.6 * (k // 2), side * 1.6]), 0.0)
+        pools = []
+        for u in range(cfg.world.num_users):
+            base = np.array([0.0, u * cfg.world.user_spacing_m])
+            start = base + np.array([PAIRING_DISTANCE_M if leading else -PAIRING_DISTANCE_M, 0.0])
+            master = world.add_robot(start, heading)
+            pool = []
+            for m in range(1, n + 1):
+                p = base + final + world_slots[m] + rng.uniform(-jitter, jitter, 2)
+                if leading and abs(world_slots[m][1]) < 0.9:  # keep the master's shifting path clear
+                    side = np.sign(world_slots[m][1]) or (1.0 if m % 2 else -1.0)
+                    p[1] = base[1] + side * 0.9 + rng.uniform(-jitter, jitter) * 0.3
+                pool.append(world.add_robot(p, heading + float(rng.uniform(-0.3, 0.3))).index)
+            for k in range(cfg.swarm.extra_robots):
+                side = 1.0 if k % 2 == 0 else -1.0
+                far = -1.0 if not leading else 1.0
+                p = base + final + np.array([far * (depth + 0.8 + 0.6 * (k // 2)), side * 1.6])
+                pool.append(world.add_robot(p, heading).index)
+            pools.append((master.index, pool))
         self._other_user_robots = []
+        base = np.array([0.0, 0.0]) + final
         for k in range(cfg.swarm.other_user_robots):
-            r = world.add_robot(master_pos + np.array([0.6 * k, -1.8 - 0.2 * (k % 2)]) * np.array([-1, 1]), 0.0)
+            r = world.add_robot(base + np.array([-0.6 * k, -1.8 - 0.2 * (k % 2)]), heading)
             self._other_user_robots.append(r.index)
+        return pools
 
     # -- per step --------------------------------------------------------------------------------
     def _validate(self, actions: dict[str, Any]) -> dict[str, np.ndarray]:
@@ -251,13 +318,35 @@ class PetSwarmEnv(ParallelEnv):
             out[agent] = np.clip(arr, -1.0, 1.0)
         return out
 
-    def _drive_master(self) -> None:
-        swarm, world = self.swarm, self.world
-        swarm.sense_user()
-        master = world.robots[swarm.master.node_id]
-        cmd = self.master_ctrl.command(swarm.user_estimate, self._odometry(master.index), self.cfg.swarm.mode,
-                                       self.cfg.control_period_s, self._formation_depth_m)
-        master.set_command(*cmd)
+    def _control(self, acts: dict[str, np.ndarray] | None) -> None:
+        """One command per robot through its arbiter (seed 001): masters from their user session,
+        slaves from the agents' actions; the slaves stop when their master broadcasts an emergency."""
+        world = self.world
+        lim = self._limits
+        masters = set()
+        for session in self.sessions:
+            idx = session.swarm.master.node_id
+            masters.add(idx)
+            policy, user_cmd, stop = session.step(self._odometry(idx), self._ranges[idx])
+            cmd, _ = self.arbiters[idx].decide(policy, user_cmd, self._ranges[idx], stop)
+            world.robots[idx].set_command(*cmd)
+        if acts is None:
+            return
+        for agent, a in acts.items():
+            idx = self._agent_index[agent]
+            if idx in masters:
+                continue
+            node = self.fleet.nodes[idx]
+            st = node.know.status
+            stop = st is not None and st.mode == "emergency"
+            cmd, _ = self.arbiters[idx].decide((a[0] * lim[0], a[1] * lim[1], a[2] * lim[2]), None, self._ranges[idx], stop)
+            world.robots[idx].set_command(*cmd)
+
+    def _current_slaves(self) -> list[int]:
+        return sorted(i for sw in self.swarms for i in sw.slave_ids())
+
+    def _node(self, agent: str):
+        return self.fleet.nodes[self._agent_index[agent]]
 
     def _odometry(self, index: int) -> tuple[float, float, float]:
         vx, vy, w = self.world.robots[index].velocity_body
@@ -267,68 +356,104 @@ class PetSwarmEnv(ParallelEnv):
             return vx * (1 + e[0]), vy * (1 + e[1]), w * (1 + e[2])
         return vx, vy, w
 
-    def _observe(self) -> dict[str, np.ndarray]:
+    def _formation_geometry(self, formation: Formation) -> tuple[np.ndarray, dict[int, int]]:
+        """Slot positions and hierarchy levels of a neighbour table (cached per table)."""
+        hit = self._formation_cache.get(id(formation))
+        if hit is None or hit[0] is not formation:
+            slots = formation.slot_positions()
+            levels = formation.hierarchy_levels(user_position_in_formation(formation, self.cfg.master.distance_m))
+            hit = (formation, slots, levels)
+            self._formation_cache[id(formation)] = hit
+        return hit[1], hit[2]
+
+    def _observe(self, agents: list[str] | None = None) -> dict[str, np.ndarray]:
         world = self.world
         now = world.now
-        indices = [self._agent_index[a] for a in self.agents]
-        ranges = world.ultrasonic_ranges(indices, self._rng_sensors)
         obs = {}
-        for k, agent in enumerate(self.agents):
-            idx = indices[k]
-            node = self.swarm.nodes[idx]
+        for agent in self.agents if agents is None else agents:
+            idx = self._agent_index[agent]
+            node = self.fleet.nodes[idx]
             member = node.know.member
+            level, offset = 0, (0.0, 0.0)
+            if node.formation is not None and 0 <= member < node.formation.size:
+                slots, levels = self._formation_geometry(node.formation)
+                level, offset = levels.get(member, 0), (float(slots[member][0]), float(slots[member][1]))
             obs[agent] = build_observation(
                 self.layout,
                 self._obs_buf[agent],
                 node,
                 now,
                 self._odometry(idx),
-                self.world.robots[idx].ahrs_yaw(now),
-                self._last_action[agent],
-                ranges[k],
-                self._levels.get(member, 0),
-                self._offset_from_master.get(member, (0.0, 0.0)),
+                world.robots[idx].ahrs_yaw(now),
+                self._last_action.get(agent, np.zeros(3, np.float32)),
+                self._ranges[idx],
+                level,
+                offset,
                 self._limits,
                 self.cfg.robot.ultrasonic.max_range_m,
             ).copy()
         return obs
 
     def reference_positions(self) -> dict[int, np.ndarray]:
-        """True reference position of every slave (robot index -> (x, y)): the experimenter's view."""
-        swarm, world = self.swarm, self.world
-        members = swarm.master.know.members
-        th = world.robots[swarm.master.node_id].heading
-        c, s = math.cos(th), math.sin(th)
+        """True reference position of every slave (robot index -> (x, y)): the experimenter's view,
+        from each swarm's current neighbour table and its master's true heading."""
+        world = self.world
         out = {}
-        for idx in self._slave_ids:
-            node = swarm.nodes[idx]
-            pts = []
-            for link in swarm.formation.links.get(node.know.member, ()):
-                nx, ny = world.robots[members[link.neighbour]].position
-                ox, oy = link.offset_m
-                pts.append((nx + c * ox - s * oy, ny + s * ox + c * oy))
-            out[idx] = np.mean(np.array(pts), axis=0)
+        for swarm in self.swarms:
+            if swarm.formation is None or not swarm.organized:
+                continue
+            members = swarm.master.know.members
+            th = world.robots[swarm.master.node_id].heading
+            c, s = math.cos(th), math.sin(th)
+            for m, links in swarm.formation.links.items():
+                idx = members.get(m)
+                if idx is None or not links:
+                    continue
+                pts = []
+                for link in links:
+                    nx, ny = world.robots[members[link.neighbour]].position
+                    ox, oy = link.offset_m
+                    pts.append((nx + c * ox - s * oy, ny + s * ox + c * oy))
+                out[idx] = np.mean(np.array(pts), axis=0)
         return out
 
     def _formation_errors(self) -> tuple[dict[str, float], dict[str, float]]:
         refs = self.reference_positions()
-        th_f = self.world.robots[self.swarm.master.node_id].heading
         errors, heading = {}, {}
         for agent in self.agents:
             idx = self._agent_index[agent]
+            if idx not in refs:
+                continue
             x, y = self.world.robots[idx].position
             rx, ry = refs[idx]
             errors[agent] = math.hypot(x - rx, y - ry)
+            th_f = self.world.robots[self.fleet.nodes[idx].swarm.master.node_id].heading
             heading[agent] = _wrap(self.world.robots[idx].heading - th_f)
         return errors, heading
 
     # -- reporting -------------------------------------------------------------------------------
+    def _event_counts(self) -> dict[str, Any]:
+        wins = {s: sum(a.counts.wins[s] for a in self.arbiters.values()) for s in SOURCES}
+        return {
+            "master_changes": sum(sw.events["master_changes"] for sw in self.swarms),
+            "mode_changes": sum(sw.events["mode_changes"] for sw in self.swarms),
+            "token_recoveries": sum(sw.token_recoveries() for sw in self.swarms),
+            "emergencies": sum(se.events["emergencies"] for se in self.sessions),
+            "exceptions": sum(se.events["exceptions"] for se in self.sessions),
+            "arbiter_wins": wins,
+        }
+
     def episode_summary(self) -> dict[str, Any]:
         c = self.world.collisions
         c0 = self._collisions_at_start
         st = self.radio.stats
         r0 = self._radio_at_start
         m = self.metrics
+        now, start = self._event_counts(), self._events_at_start
+        events = {k: now[k] - start[k] for k in ("master_changes", "mode_changes", "token_recoveries", "emergencies", "exceptions")}
+        events["join_retries"] = m.join_retries
+        events["arbiter_wins"] = now["arbiter_wins"]  # counted from the end of reset
+        events["foreign_pan_frames_processed"] = self.fleet.foreign_pan_frames_processed()
         return {
             "scenario": self.scenario,
             "steps": m.steps,
@@ -340,37 +465,45 @@ class PetSwarmEnv(ParallelEnv):
             },
             "organize_time_s": m.organize_time_s,
             "join_retries": m.join_retries,
-            "token_recoveries": self.swarm.token_recoveries(),
+            "token_recoveries": now["token_recoveries"],
             "frames": {"sent": st.frames_sent - r0[0], "lost": st.frames_lost - r0[1], "collided": st.frames_collided - r0[2]},
-            "foreign_pan_frames_processed": self.swarm.foreign_pan_frames_processed(),
+            "foreign_pan_frames_processed": events["foreign_pan_frames_processed"],
             "slaves": len(self._slave_ids),
+            "users": self.cfg.world.num_users,
+            "events": events,
         }
 
     def scene(self):
         """A plain description of the current truth for the renderer."""
         from petswarm_env.render import RobotView, Scene
 
-        world, swarm = self.world, self.swarm
-        members = swarm.master.know.members
+        world = self.world
+        masters = {sw.master.node_id for sw in self.swarms}
+        slaves = set(self._current_slaves())
         robots = []
         for r in world.robots:
-            node = swarm.nodes.get(r.index)
-            role = "master" if r.index == swarm.master.node_id else "slave" if r.index in self._slave_ids else "waiting"
+            node = self.fleet.nodes.get(r.index)
+            role = "master" if r.index in masters else "slave" if r.index in slaves else "waiting"
             if r.index in self._other_user_robots:
                 role = "other"
             label = str(node.know.member) if node is not None and node.know.member >= 0 else f"r{r.index}"
             robots.append(RobotView(r.position, r.heading, self.cfg.robot.radius_m, role, label))
         links = []
-        if swarm.formation is not None:
+        for swarm in self.swarms:
+            if swarm.formation is None or not swarm.organized:
+                continue
+            members = swarm.master.know.members
             for m, lks in swarm.formation.links.items():
                 for lk in lks:
                     if m in members and lk.neighbour in members:
                         links.append((world.robots[members[lk.neighbour]].position, world.robots[members[m]].position))
         refs = [tuple(p) for p in self.reference_positions().values()]
         err = self.metrics.error_trace[-1] if self.metrics.error_trace else float("nan")
+        states = "  ".join(f"user {u}: {se.state}, master r{se.swarm.master.node_id}" for u, se in enumerate(self.sessions))
         text = [
-            f"scenario {self.scenario}   formation {self.cfg.swarm.formation}   mode {self.cfg.swarm.mode}",
+            f"scenario {self.scenario}   formation {self.cfg.swarm.formation}   mode {self.swarm.mode}",
             f"step {self.num_cycles}/{self.cfg.max_cycles}   mean formation error {err:.2f} m",
+            states,
         ]
         return Scene(
             time_s=world.now,
@@ -383,5 +516,5 @@ class PetSwarmEnv(ParallelEnv):
             walls=list(world.wall_segments[:4]) if self.cfg.world.arena_m[0] > 0 else [],
             boxes=[(tuple(b.center_m), tuple(b.size_m)) for b in self.cfg.world.obstacles],
             text=text,
+            other_users=[(u.position, u.heading) for u in world.users[1:]],
         )
-

@@ -84,6 +84,7 @@ class Scene:
     walls: list[tuple[Point, Point]] = field(default_factory=list)  # segments
     boxes: list[tuple[Point, Point]] = field(default_factory=list)  # (center, size)
     text: list[str] = field(default_factory=list)  # HUD lines, top-left
+    other_users: list[tuple[Point, float]] = field(default_factory=list)  # further users: (position, heading)
 
 
 def _xy(p: Sequence[float]) -> tuple[float, float]:
@@ -314,7 +315,9 @@ class Renderer:
             pg.draw.line(surf, REFERENCE, (c - arm, r - arm), (c + arm, r + arm), 2)
             pg.draw.line(surf, REFERENCE, (c - arm, r + arm), (c + arm, r - arm), 2)
 
-        self._draw_user(surf, scene)
+        for position, heading in scene.other_users:
+            self._draw_user(surf, position, heading, scene.user_radius_m)
+        self._draw_user(surf, scene.user_position_m, scene.user_heading_rad, scene.user_radius_m)
         self._draw_hud(surf, scene)
 
     def _draw_grid(self, surf: Any) -> None:
@@ -355,14 +358,14 @@ class Renderer:
                 off = rad + (6 if robot.role == "master" else 2)
                 surf.blit(img, (c + off, r - off - img.get_height() // 2))
 
-    def _draw_user(self, surf: Any, scene: Scene) -> None:
+    def _draw_user(self, surf: Any, position: Point, heading: float, radius_m: float) -> None:
         pg = self._pygame()
-        x, y = _xy(scene.user_position_m)
+        x, y = _xy(position)
         if not _finite(x, y):
             return
-        th = float(scene.user_heading_rad)
+        th = float(heading)
         c, r = self.world_to_px((x, y))
-        rad = max(4, round(float(scene.user_radius_m) * self.pixels_per_m))
+        rad = max(4, round(float(radius_m) * self.pixels_per_m))
         if math.isfinite(th):  # a pointed "nose" in the walking direction
             ux, uy = math.cos(th), -math.sin(th)
             nx, ny = -uy, ux

@@ -48,7 +48,7 @@ def test_random_walk_is_seeded():
 def test_unknown_scenario_is_refused_with_the_choices():
     with pytest.raises(ValueError, match="zigzag"):
         build_scenario("moonwalk", load_config().user, np.random.default_rng(0))
-    assert len(SCENARIOS) == 7
+    assert len(SCENARIOS) == 8
 
 
 def test_ultrasonic_sees_a_box_ahead_and_a_robot_collides_with_it():

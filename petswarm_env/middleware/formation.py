@@ -56,12 +56,74 @@ class Formation:
         out |= {m for m, links in self.links.items() if any(lk.neighbour == member for lk in links)}
         return out
 
+    def rotated(self, angle_rad: float) -> Formation:
+        """The same neighbour table with every reference offset rotated by ``angle_rad``."""
+        c, s = math.cos(angle_rad), math.sin(angle_rad)
+        links = {
+            m: tuple(Link(lk.neighbour, (round(c * lk.offset_m[0] - s * lk.offset_m[1], 12),
+                                         round(s * lk.offset_m[0] + c * lk.offset_m[1], 12))) for lk in lks)
+            for m, lks in self.links.items()
+        }
+        return Formation(self.shape, links)
+
+    def rerooted(self, new_root: int) -> tuple[Formation, dict[int, int]]:
+        """The same neighbour pairs and geometry with ``new_root`` as the master (member 0).
+
+        Seed 000 Table 3, "select the closest robot as the master, but do not change the neighbour
+        robots' relative-location reference": every robot keeps its neighbours and where it stands
+        relative to them; only the direction of the references along the way to the new master
+        turns around. The new master and the old one swap member numbers; returns the new table
+        and the renumbering ``old member -> new member``."""
+        pos = self.slot_positions()
+        renumber = {m: m for m in range(self.size)}
+        renumber[new_root], renumber[0] = 0, new_root
+        edges: dict[int, set[int]] = {m: set() for m in range(self.size)}
+        for m, lks in self.links.items():
+            for lk in lks:
+                edges[m].add(lk.neighbour)
+                edges[lk.neighbour].add(m)
+        order, seen = [new_root], {new_root}
+        for m in order:  # breadth-first from the new master: references point back toward it
+            for nb in sorted(edges[m]):
+                if nb not in seen:
+                    seen.add(nb)
+                    order.append(nb)
+        rank = {m: i for i, m in enumerate(order)}
+        links: dict[int, tuple[Link, ...]] = {}
+        for m in order[1:]:
+            refs = sorted((nb for nb in edges[m] if rank[nb] < rank[m]), key=lambda nb: rank[nb])[:MAX_LINKS]
+            links[renumber[m]] = tuple(
+                Link(renumber[nb], (round(float(pos[m][0] - pos[nb][0]), 12), round(float(pos[m][1] - pos[nb][1]), 12)))
+                for nb in refs
+            )
+        return Formation(self.shape, links), renumber
+
     def hierarchy_levels(self, user_position_formation: tuple[float, float]) -> dict[int, int]:
         """Level 1 = farthest from the user, counting up toward the user (seed 000 Fig. 10)."""
         slots = self.slot_positions()
         d = np.hypot(*(slots - np.asarray(user_position_formation)).T)
         order = sorted(range(self.size), key=lambda m: (-round(float(d[m]), 6), m))
         return {m: i + 1 for i, m in enumerate(order)}
+
+
+def user_position_in_formation(formation: Formation, distance_m: float) -> tuple[float, float]:
+    """Where the user stands in the master's frame for a formation laid out for its mode: the
+    formation lies behind the master (following, x ≤ 0) or between the master and the user
+    (leading, x ≥ 0); the user is ``distance_m`` beyond the master or beyond the whole formation."""
+    slots = formation.slot_positions()
+    return (distance_m + max(0.0, float(slots[:, 0].max())), 0.0)
+
+
+def formation_for_mode(cfg: SwarmConfig, num_members: int, mode: str) -> Formation:
+    """The standard neighbour table of the configured shape, laid out for a driving mode.
+
+    Every robot faces its user (the LF antennas must see the belt within ±25°, seed 002 §3.3), so
+    the swarm heading is the master's heading toward the user. Following: the formation trails
+    behind the master, which is closest to the user. Leading: the master is farthest from the user
+    (seed 000 §3.5, Fig. 10) and the formation lies between it and the user — the same table
+    turned by 180°."""
+    formation = build_formation(cfg, num_members)
+    return formation.rotated(math.pi) if mode == "leading" else formation
 
 
 def build_formation(cfg: SwarmConfig, num_members: int) -> Formation:

@@ -23,6 +23,11 @@ STATUS = "status"  # master -> slaves: driving speed and user activity (periodic
 DISPERSE = "disperse"  # master -> slaves
 DISPERSE_ACK = "disperse_ack"
 
+MODE_CHANGE = "mode_change"  # master -> swarm: new driving mode, member and neighbour tables (Table 3)
+MODE_CHANGE_ACK = "mode_change_ack"
+HANDOVER = "handover"  # old master -> new master: take over the user connection
+HANDOVER_ACK = "handover_ack"
+
 SIZE_BYTES = {
     SCAN: 4,
     SCAN_RESPONSE: 4,
@@ -40,4 +45,8 @@ SIZE_BYTES = {
     STATUS: 24,
     DISPERSE: 4,
     DISPERSE_ACK: 4,
+    MODE_CHANGE: 40,
+    MODE_CHANGE_ACK: 4,
+    HANDOVER: 12,
+    HANDOVER_ACK: 4,
 }

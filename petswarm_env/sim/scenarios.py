@@ -1,8 +1,9 @@
 """Named user scenarios: what the walking user does, as a script of segments.
 
-A segment is ``(duration_s, speed_mps, turn_rate_dps, activity)``; the user walks at ``speed``
-along its heading while the heading turns at ``turn_rate``. The last segment repeats until the
-episode ends. Trajectory tests of seed 002 Fig. 18 (60° left/right turns, zigzag, U-turn) give the
+A segment is ``(duration_s, speed_mps, turn_rate_dps, activity, command)``; the user walks at
+``speed`` along its heading while the heading turns at ``turn_rate``; ``command`` (optional) is what
+the user tells the robots through the watch when the segment starts (see
+:data:`USER_COMMANDS`). The last segment repeats until the episode ends. Trajectory tests of seed 002 Fig. 18 (60° left/right turns, zigzag, U-turn) give the
 shapes; durations are chosen.
 """
 
@@ -15,6 +16,10 @@ import numpy as np
 from petswarm_env.config import SCENARIOS, UserConfig
 
 ACTIVITIES = ("stop", "rest", "walk", "run")  # seed 002 Table 2
+# What a user can tell the robots through the smart watch (seed 002 §2, Fig. 4; seed 000 Fig. 4):
+# the driving mode, organize / disperse the swarm, return from an exception, and the seven
+# remote-control gestures of seed 002 Table 1 ("gesture:forward", ...).
+USER_COMMANDS = ("mode:following", "mode:leading", "mode:remote", "organize", "disperse", "return")
 
 
 @dataclass(frozen=True)
@@ -23,6 +28,7 @@ class Segment:
     speed_mps: float
     turn_rate_dps: float
     activity: str
+    command: str = ""
 
 
 def _turn(angle_deg: float, rate_dps: float, speed: float) -> Segment:
@@ -47,6 +53,9 @@ def build_scenario(name: str, cfg: UserConfig, rng: np.random.Generator) -> list
         body = [leg, _turn(45.0, rate, walk)]
         for _ in range(6):
             body += [leg, _turn(-90.0, rate, walk), leg, _turn(90.0, rate, walk)]
+    elif name == "mode_change":  # seed 002 Fig. 18d: following, then the user turns and walks back
+        back = Segment(1e9, walk, 0.0, "walk", "mode:leading")
+        return [stand, Segment(8.0, walk, 0.0, "walk"), _turn(180.0, rate, 0.5 * walk), back]
     elif name == "u_turn":
         body = [Segment(8.0, walk, 0.0, "walk"), _turn(180.0, rate, 0.5 * walk)]
     elif name == "stop_and_go":

@@ -21,9 +21,11 @@ class User:
         self.shape = pymunk.Circle(self.body, cfg.radius_m)
         self.shape.collision_type = COLLISION_USER
         space.add(self.body, self.shape)
+        self.index = 0  # user number (several users share a world)
         self.segment: Segment = script.segments[0]
         self.script_time_s = 0.0
         self.walking = False  # the script starts when the swarm is organized
+        self.pending_commands: list[str] = []  # commands the user issued (wearables pick them up)
 
     @property
     def position(self) -> tuple[float, float]:
@@ -49,6 +51,8 @@ class User:
             self.body.angular_velocity = 0.0
             return
         seg = self.script.at(self.script_time_s)
+        if seg is not self.segment and seg.command:
+            self.pending_commands.append(seg.command)
         self.segment = seg
         self.script_time_s += dt
         th = self.body.angle

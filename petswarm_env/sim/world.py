@@ -59,7 +59,8 @@ class World:
         self.dt_sub = cfg.control_period_s / cfg.physics_substeps
         self._substeps_done = 0
         self.robots: list[Robot] = []
-        self.user = User(cfg.user, self.space, script, (0.0, 0.0), 0.0)
+        self.users: list[User] = []
+        self.user = self.add_user(script, (0.0, 0.0), 0.0)  # the first user (user 0)
         self.collisions = CollisionCounts()
         self.wall_a, self.wall_b = self._build_static()
         self.space.on_collision(COLLISION_ROBOT, COLLISION_ROBOT, begin=self._on_robot_robot)
@@ -88,6 +89,13 @@ class World:
         if not segs:
             return np.zeros((0, 2)), np.zeros((0, 2))
         return np.array([s[0] for s in segs], float), np.array([s[1] for s in segs], float)
+
+    def add_user(self, script: ScenarioScript, position, heading_rad: float) -> User:
+        """Another walking user (several users share the world and the radio medium)."""
+        user = User(self.cfg.user, self.space, script, position, heading_rad)
+        user.index = len(self.users)
+        self.users.append(user)
+        return user
 
     def add_robot(self, position, heading_rad: float) -> Robot:
         robot = Robot(len(self.robots), self.cfg.robot, self.space, position, heading_rad)
@@ -118,14 +126,15 @@ class World:
         """Run the clock for ``substeps`` physics substeps (events first, then physics)."""
         dt = self.dt_sub
         robots = self.robots
-        user = self.user
+        users = self.users
         for _ in range(substeps):
             self._substeps_done += 1
             t_next = self._substeps_done * dt
             self.clock.run_until(t_next)
             for r in robots:
                 r.apply(dt)
-            user.apply(dt)
+            for user in users:
+                user.apply(dt)
             self.space.step(dt)
 
     # -- truth arrays (for sensor models, metrics, rendering) ------------------------------------
@@ -136,11 +145,11 @@ class World:
         return np.array([r.body.angle for r in self.robots], dtype=float)
 
     def body_circles(self) -> tuple[np.ndarray, np.ndarray]:
-        """Centres and radii of every round body (robots, then the user)."""
+        """Centres and radii of every round body (robots, then the users)."""
         pos = self.robot_positions()
-        centers = np.vstack([pos, np.asarray(self.user.position, float)[None, :]])
+        centers = np.vstack([pos, np.array([u.position for u in self.users], float).reshape(-1, 2)])
         radii = np.full(len(centers), self.cfg.robot.radius_m)
-        radii[-1] = self.cfg.user.radius_m
+        radii[len(pos):] = self.cfg.user.radius_m
         return centers, radii
 
     def ultrasonic_ranges(self, indices: list[int], rng: np.random.Generator) -> np.ndarray:

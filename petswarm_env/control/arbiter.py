@@ -1,0 +1,97 @@
+"""The control arbiter of seed 001 (§3, "control arbiter"): one command reaches the motors per tick.
+
+Several sources want to drive one robot body. Seed 001 ranks them: robot self-protection
+(collision avoidance, safety) above the user above the software agent. Here the sources are
+
+* ``safety`` — the ultrasonic safety stage (seed 002 §3.4: "the final step is to avoid walls or
+  obstacles") and the emergency stop (seed 002 Fig. 4);
+* ``user`` — the user's own commands: remote control by watch gestures (seed 002 Table 1);
+* ``policy`` — the software agent: the scripted or learned slave policy, or the master-role
+  controller of the user-connected robot.
+
+The highest-priority source that has something to say suppresses the lower ones; which source won
+is counted per robot and per episode. ``control.safety_layer: false`` removes the ultrasonic stage
+(a pure-RL study that wants the policy to learn avoidance by itself); the emergency stop stays.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+SOURCES = ("safety", "user", "policy")  # seed 001: self-protection > user > software agent
+
+
+@dataclass
+class ArbiterCounts:
+    wins: dict[str, int] = field(default_factory=lambda: {s: 0 for s in SOURCES})
+
+    def add(self, source: str) -> None:
+        self.wins[source] += 1
+
+
+class SafetyStage:
+    """Ultrasonic collision avoidance on a commanded body velocity.
+
+    Each sensor limits the commanded speed toward what it sees to the speed from which the robot
+    can still brake (at ``max_accel``) before ``stop_distance_m``: v ≤ √(2·a·(range − stop)); anything
+    closer than half of ``stop_distance_m`` is backed away from. The stage *wins* the tick when it
+    changed the command; otherwise it stays silent and the lower sources pass. It reads only the
+    robot's own ultrasonic ring (its sensor), never ground truth.
+    """
+
+    def __init__(self, num_sensors: int, stop_distance_m: float, backoff_speed_mps: float, max_accel_mps2: float):
+        ang = np.arange(num_sensors) * (2 * math.pi / max(num_sensors, 1))
+        self.dirs = np.stack([np.cos(ang), np.sin(ang)], axis=1)
+        self.stop = stop_distance_m
+        self.backoff = backoff_speed_mps
+        self.two_a = 2.0 * max_accel_mps2
+
+    def filter(self, command: tuple[float, float, float], ranges: np.ndarray) -> tuple[float, float, float] | None:
+        """The safe version of ``command`` (body frame), or None when nothing needed changing."""
+        v = np.array(command[:2], dtype=float)
+        allowed = np.sqrt(self.two_a * np.maximum(ranges - self.stop, 0.0))
+        toward = self.dirs @ v
+        over = (toward > allowed + 1e-9) | (ranges < 0.5 * self.stop)
+        if not over.any():
+            return None
+        for k in np.flatnonzero(over):
+            d = self.dirs[k]
+            excess = float(v @ d) - allowed[k]
+            if excess > 0.0:  # too fast toward the obstacle: take the excess off
+                v = v - excess * d
+            if ranges[k] < 0.5 * self.stop:  # too close already: back away
+                v = v - self.backoff * (1.0 - ranges[k] / (0.5 * self.stop)) * d
+        return float(v[0]), float(v[1]), float(command[2])
+
+
+class ControlArbiter:
+    """Per-robot priority arbitration: safety > user > policy (seed 001)."""
+
+    def __init__(self, safety: SafetyStage | None):
+        self.safety = safety
+        self.counts = ArbiterCounts()
+
+    def decide(
+        self,
+        policy_cmd: tuple[float, float, float],
+        user_cmd: tuple[float, float, float] | None = None,
+        ranges: np.ndarray | None = None,
+        emergency_stop: bool = False,
+    ) -> tuple[tuple[float, float, float], str]:
+        """The one command for the motors this tick and the source that won.
+
+        The emergency stop (user lost, seed 002 Fig. 4) is self-protection: it always wins, also
+        with the ultrasonic stage switched off."""
+        if emergency_stop:
+            cmd, source = (0.0, 0.0, 0.0), "safety"
+        else:
+            cmd, source = (user_cmd, "user") if user_cmd is not None else (policy_cmd, "policy")
+            if self.safety is not None and ranges is not None:
+                safe = self.safety.filter(cmd, ranges)
+                if safe is not None:
+                    cmd, source = safe, "safety"
+        self.counts.add(source)
+        return cmd, source

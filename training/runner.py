@@ -65,7 +65,8 @@ def run_episode(
             traj_user.append(user)
             for rid, p in robots.items():
                 traj_robots.setdefault(rid, []).append(p)
-        observations, _, _, _, infos = env.step(policy.act_all(observations))
+        # act for the live agents only (one that just left slave-role driving gets its last observation)
+        observations, _, _, _, infos = env.step(policy.act_all({a: observations[a] for a in env.agents}))
         if on_frame:
             on_frame()
         for info in infos.values():

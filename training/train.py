@@ -226,11 +226,11 @@ def collect_demonstrations(env_cfg: Config, samples: int, noise_std: float, seed
         episode += 1
         traj: dict[str, list[tuple[np.ndarray, np.ndarray, float]]] = {a: [] for a in env.agents}
         while env.agents:
-            target = teacher.act_all(obs)
+            target = teacher.act_all({a: obs[a] for a in env.agents})
             noisy = {a: np.clip(v + rng.normal(0.0, noise_std, 3), -1.0, 1.0).astype(np.float32) for a, v in target.items()}
             next_obs, rewards, _, _, _ = env.step(noisy)
             for a in target:
-                traj[a].append((obs[a], target[a], rewards[a]))
+                traj.setdefault(a, []).append((obs[a], target[a], rewards[a]))
             obs = next_obs
         for steps in traj.values():
             g = 0.0

@@ -21,6 +21,11 @@ from petswarm_env.middleware import messages as msg
 from petswarm_env.middleware.node import Node
 
 
+# Robots on the common PAN that answer a scan: waiting robots, and user-connected robots not in a
+# swarm (command-waiting or driving alone), which then decline by Table 1 (connected to a user).
+SCAN_ANSWERING_STATES = ("waiting", "command_waiting", "following", "leading", "remote")
+
+
 def can_join(connected_user: int | None, distance_m: float, available_radius_m: float) -> bool:
     """Table 1 (seed 000): connection is checked first — a robot connected to another user
     cannot join and never checks distance; otherwise it can join inside the available region."""
@@ -151,13 +156,15 @@ class JoinManager:
 
     # -- candidate side -------------------------------------------------------------------------
     def _on_scan(self, frame: Frame) -> None:
-        if self.node.state == "waiting":
+        if self.node.state in SCAN_ANSWERING_STATES:
             self.node.send(msg.SCAN_RESPONSE, dst=frame.src, pan=PAN_WAITING)
 
     def _on_query(self, frame: Frame) -> None:
         node = self.node
-        if node.state != "waiting" or node.node_id not in frame.payload["candidates"]:
+        if node.node_id not in frame.payload["candidates"]:
             return
+        if node.state not in SCAN_ANSWERING_STATES and node.connected_user is None:
+            return  # joined another swarm meanwhile: it no longer hears the common PAN anyway
         ok = can_join(node.connected_user, frame.rx_distance_est_m, node.cfg.protocol.join_radius_m)
         node.send(msg.JOIN_ANSWER, dst=frame.src, pan=PAN_WAITING, available=ok)
 

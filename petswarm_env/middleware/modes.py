@@ -19,6 +19,14 @@ Hierarchy levels are numbered from the robot farthest from the user (level 1, se
 farthest from the user, where the leading-mode master belongs (Fig. 10). "The closest robot" is
 the one closest to the user.
 
+The following → leading cell with a master change reads, in the text extraction, "select the robot
+with the highest hierarchical level as master, and the neighbor robots' relative-location
+reference"; the paper's running text states the rule for both rows: "if Master-change request is
+the 'Change' condition and driving-mode change occurs, the master is changed, but the neighbor
+robot's relative-location reference is not" — and that is the point of changing the master (no
+re-forming, less delay). The running text wins here: with a master change the references are kept
+in both directions (the table re-rooted at the new master).
+
 :func:`plan_mode_change` is the pure rule; :class:`ModeManager` runs it on the radio: the master
 broadcasts the *mode-change* frame (new mode, member table, neighbour table) until every member
 acknowledged, then hands the user connection over to the new master (*handover* frame,
@@ -28,8 +36,6 @@ acknowledged), which takes the user's wearables over BLE.
 from __future__ import annotations
 
 from dataclasses import dataclass
-
-import numpy as np
 
 from petswarm_env.comms.radio import Frame
 from petswarm_env.config import SwarmConfig
@@ -57,14 +63,11 @@ def plan_mode_change(
     new_mode: str,
     master_change: bool,
     user_distance_m: float,
-    positions: dict[int, tuple[float, float]] | None = None,
 ) -> ModeChangePlan:
     """Apply Table 3 to the current swarm.
 
-    ``positions`` maps member number -> its estimated position in the master's frame (the
-    master's IR measurements); it is used only to give each robot the nearest slot when the
-    neighbour references are re-selected around a new master. Changes between a Table 3 mode and
-    remote control keep master and references (the table has no row for them).
+    Changes between a Table 3 mode and remote control keep master and references (the table has no
+    row for them).
     """
     if old_mode == new_mode or old_mode not in TABLE3_MODES or new_mode not in TABLE3_MODES:
         return ModeChangePlan(new_mode, dict(members), formation, False, False)
@@ -72,29 +75,13 @@ def plan_mode_change(
     levels = formation.hierarchy_levels(user_position_in_formation(formation, user_distance_m))
     if not master_change:  # keep the master, change the references: the standard layout of the new mode
         return ModeChangePlan(new_mode, dict(members), formation_for_mode(cfg, n, new_mode), False, True)
-    if new_mode == "following":  # leading → following: the closest robot, references unchanged
+    if new_mode == "following":  # leading → following: the closest robot
         new_root = max(range(n), key=lambda m: (levels[m], -m))
-        new_formation, renumber = formation.rerooted(new_root)
-        new_members = {renumber[m]: node for m, node in members.items()}
-        return ModeChangePlan(new_mode, new_members, new_formation, new_root != 0, False)
-    # following → leading: the top of the hierarchy (farthest from the user) and new references
-    new_root = min(range(n), key=lambda m: (levels[m], m))
-    new_formation = formation_for_mode(cfg, n, new_mode)
-    slots = new_formation.slot_positions()
-    pos = formation.slot_positions() if positions is None else np.array(
-        [positions.get(m, tuple(formation.slot_positions()[m])) for m in range(n)], float)
-    rel = pos - pos[new_root]  # where each robot stands, seen from the new master
-    new_members = {0: members[new_root]}
-    free = [m for m in range(n) if m != new_root]
-    pairs = sorted((float(np.hypot(*(rel[m] - slots[k]))), k, m) for k in range(1, n) for m in free)
-    taken_slots: set[int] = set()
-    for _d, k, m in pairs:  # nearest robot to each slot, greedily
-        if k in taken_slots or m not in free:
-            continue
-        new_members[k] = members[m]
-        taken_slots.add(k)
-        free.remove(m)
-    return ModeChangePlan(new_mode, dict(sorted(new_members.items())), new_formation, new_root != 0, True)
+    else:  # following → leading: the top of the hierarchy, the robot farthest from the user
+        new_root = min(range(n), key=lambda m: (levels[m], m))
+    new_formation, renumber = formation.rerooted(new_root)  # references unchanged
+    new_members = {renumber[m]: node for m, node in members.items()}
+    return ModeChangePlan(new_mode, dict(sorted(new_members.items())), new_formation, new_root != 0, False)
 
 
 def _links_payload(formation: Formation) -> dict:

@@ -73,6 +73,9 @@ class Swarm:
         self.master_previous_state = cfg.swarm.mode
         self.organize_result = OrganizeResult()
         self.formation: Formation | None = None
+        self.previous_formation: Formation | None = None  # the tables before the last mode change
+        self.previous_members: dict[int, int] = {}
+        self.mode_changed_s = -float("inf")
         self.user_view: MasterStatus | None = None  # the master's view of its user (set by the session)
         self.events = {"master_changes": 0, "mode_changes": 0}
         self._mode_seq = 0
@@ -193,15 +196,8 @@ class Swarm:
             self.mode = new_mode
             self.events["mode_changes"] += 1
             return None
-        positions = {}
-        for m, nid in master.know.members.items():  # the master's own IR view of every member
-            seen = master.know.ir.get(nid)
-            if m == 0:
-                positions[m] = (0.0, 0.0)
-            elif seen is not None:
-                positions[m] = (seen.distance_m * np.cos(seen.bearing_rad), seen.distance_m * np.sin(seen.bearing_rad))
         plan = plan_mode_change(self.cfg.swarm, self.formation, master.know.members, self.mode, new_mode,
-                                master_change, user_distance_m, positions)
+                                master_change, user_distance_m)
         self._mode_seq += 1
         self.mode_change_result: dict = {}
         self.clock.process(master.modes.change(plan, self._mode_seq, self.mode_change_result))
@@ -211,6 +207,8 @@ class Swarm:
         """The (old) master commits the plan once every member acknowledged it."""
         self.mode = plan.mode
         self.events["mode_changes"] += 1
+        self.mode_changed_s = self.clock.now
+        self.previous_formation, self.previous_members = self.formation, dict(master.know.members)
         self.formation = plan.formation
         master.know.members = dict(plan.members)
         master.know.total_members = len(plan.members)

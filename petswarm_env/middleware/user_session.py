@@ -48,6 +48,8 @@ from petswarm_env.wearables.belt import SmartBelt
 from petswarm_env.wearables.watch import Command, RemoteDriver, Watch
 
 DRIVING_STATES = ("following", "leading", "remote")
+MODE_SETTLE_S = 5.0  # chosen: after a mode change the re-forming swarm raises no obstacle exception
+MEMBER_ECHO_AGE_S = 2.0  # chosen: IR positions this fresh explain an ultrasonic echo as a swarm member
 LEADING_LF_MARGIN_M = 0.3  # chosen: a leading master stays this far inside its LF range
 ROBOT_STATES = ("waiting_user", "command_waiting", *DRIVING_STATES, "exception", "emergency")  # seed 002 Fig. 4
 
@@ -276,14 +278,11 @@ class UserSession:
             self.state = self.previous_mode
         self.swarm.emergency = self.state == "emergency"
         # exception: an obstacle in the leading robot's travel direction (behind it: it faces the user)
-        if self.state == "leading" and ranges is not None and len(ranges):
-            n = len(ranges)
-            back = [k for k in range(n) if abs(wrap(2 * math.pi * k / n - math.pi)) <= math.pi / 4 + 1e-9]
-            if min(ranges[k] for k in back) < cfg.master.exception_range_m:
-                self.state = "exception"
-                self.events["exceptions"] += 1
-                self.events["alerts_to_belt"] += 1
-                self._remote_stop()
+        if self.state == "leading" and ranges is not None and len(ranges) and self._obstacle_behind(ranges):
+            self.state = "exception"
+            self.events["exceptions"] += 1
+            self.events["alerts_to_belt"] += 1
+            self._remote_stop()
         self.swarm.user_view = UserView(
             self.belt_view.activity,
             self.belt_view.angular_speed_rps,
@@ -300,10 +299,64 @@ class UserSession:
             return zero, self.remote.command(now, yaw), False
         return zero, None, self.state == "emergency"
 
+    def _obstacle_behind(self, ranges: np.ndarray) -> bool:
+        """Something closer than ``master.exception_range_m`` in the leading master's travel
+        direction (its back, ±45°) that is not one of its own swarm's robots — those the master
+        knows from its IR measurements (fresh within ``MEMBER_ECHO_AGE_S``)."""
+        master = self.swarm.master
+        n = len(ranges)
+        yaw = master.ahrs_yaw()
+        members = []
+        if self.swarm.organized:
+            if self.clock.now - self.swarm.mode_changed_s < MODE_SETTLE_S:
+                return False  # the swarm is re-forming around the master: its echoes are members
+            slots = self.swarm.formation.slot_positions() if self.swarm.formation is not None else None
+            for m, nid in master.know.members.items():
+                seen = master.know.ir.get(nid)
+                if nid == master.node_id:
+                    continue
+                if seen is not None and self.clock.now - seen.time_s <= MEMBER_ECHO_AGE_S:
+                    members.append((seen.distance_m, seen.bearing_rad - wrap(yaw - seen.own_yaw_rad)))
+                elif slots is not None and m < len(slots):  # occluded from its IR: where its slot is
+                    members.append((math.hypot(*slots[m]), math.atan2(slots[m][1], slots[m][0])))
+        rim = self.cfg.robot.radius_m
+        for k in range(n):
+            a = 2 * math.pi * k / n
+            if abs(wrap(a - math.pi)) > math.pi / 4 + 1e-9 or ranges[k] >= self.cfg.master.exception_range_m:
+                continue
+            echo_from_member = any(abs(wrap(b - a)) < math.radians(35) and d - 2 * rim < ranges[k] + 0.35 for d, b in members)
+            if not echo_from_member:
+                return True
+        return False
+
     # -- master change (seed 000 Table 3) ---------------------------------------------------------
     def _on_master_change(self, old, new) -> None:
-        """The new master takes over the user: the wearables reconnect to it over BLE."""
+        """The new master takes over the user: the wearables reconnect to it over BLE, and the old
+        master hands over where it last saw the user, placed through its own IR view of the new
+        master (headings taken as aligned unless a heading exchange says otherwise)."""
+        now = self.clock.now
+        est = self.tracker.user_body(now)
+        seen = old.know.ir.get(new.node_id)
         self.connected_robot = new.node_id
-        self.link_since_s = self.clock.now + self.cfg.ble.connect_s
+        self.link_since_s = now + self.cfg.ble.connect_s
         self.tracker.reset()
         self.ctrl.reset()
+        if est is None:
+            return
+        yaw = old.ahrs_yaw()
+        if seen is not None and now - seen.time_s <= MEMBER_ECHO_AGE_S:
+            b = seen.bearing_rad - wrap(yaw - seen.own_yaw_rad)
+            px, py = seen.distance_m * math.cos(b), seen.distance_m * math.sin(b)
+        else:  # not seen lately (occluded by another member): its slot in the old neighbour table
+            formation, members = self.swarm.previous_formation, self.swarm.previous_members
+            member = next((m for m, n in members.items() if n == new.node_id), None)
+            if formation is None or member is None:
+                return
+            px, py = (float(v) for v in formation.slot_positions()[member])
+        head = old.know.heading.get(new.node_id)
+        phi = head.relative_rad - wrap(yaw - head.own_yaw_rad) if head is not None else 0.0
+        c, s = math.cos(-phi), math.sin(-phi)
+        dx, dy = est[0][0] - px, est[0][1] - py
+        self.tracker.fix((c * dx - s * dy, s * dx + c * dy), now)
+        vx, vy = est[1]
+        self.tracker.vel = [c * vx - s * vy, s * vx + c * vy]

@@ -53,9 +53,10 @@ def build_scenario(name: str, cfg: UserConfig, rng: np.random.Generator) -> list
         body = [leg, _turn(45.0, rate, walk)]
         for _ in range(6):
             body += [leg, _turn(-90.0, rate, walk), leg, _turn(90.0, rate, walk)]
-    elif name == "mode_change":  # seed 002 Fig. 18d: following, then the user turns and walks back
-        back = Segment(1e9, walk, 0.0, "walk", "mode:leading")
-        return [stand, Segment(8.0, walk, 0.0, "walk"), _turn(180.0, rate, 0.5 * walk), back]
+    elif name == "mode_change":  # seed 002 Fig. 18d: following, then the user turns and walks back;
+        # the user asks for leading as they turn
+        turn = Segment(180.0 / rate, 0.5 * walk, rate, "walk", "mode:leading")
+        return [stand, Segment(8.0, walk, 0.0, "walk"), turn, straight]
     elif name == "u_turn":
         body = [Segment(8.0, walk, 0.0, "walk"), _turn(180.0, rate, 0.5 * walk)]
     elif name == "stop_and_go":

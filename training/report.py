@@ -541,6 +541,14 @@ def _comm_cells(eps: list[dict[str, Any]]) -> list[str]:
     ]
 
 
+def _arbiter_wins(ep: dict) -> dict | None:
+    """The episode's arbiter counts (``events.arbiter_wins``; older results kept them at the top)."""
+    events = ep.get("events")
+    if isinstance(events, dict) and isinstance(events.get("arbiter_wins"), dict):
+        return events["arbiter_wins"]
+    return ep.get("arbiter_wins")
+
+
 def _section_collisions_comms(results: list[_Result], scenarios: list[str]) -> str:
     parts = ["<h2>5. Collisions, arbiter and communication</h2>"]
     if not scenarios:
@@ -564,8 +572,8 @@ def _section_collisions_comms(results: list[_Result], scenarios: list[str]) -> s
     keys: list[str] = []
     for r in results:
         for ep in r.episodes:
-            if isinstance(ep.get("arbiter_wins"), dict):
-                for k in ep["arbiter_wins"]:
+            if isinstance(_arbiter_wins(ep), dict):
+                for k in _arbiter_wins(ep):
                     if str(k) not in keys:
                         keys.append(str(k))
     order = [k for k in ("safety", "user", "policy") if k in keys] + [k for k in keys if k not in ("safety", "user", "policy")]
@@ -573,18 +581,17 @@ def _section_collisions_comms(results: list[_Result], scenarios: list[str]) -> s
         order = ["safety", "user", "policy"]
     arows = []
     for r in results:
-        eps = [ep for ep in r.episodes if isinstance(ep.get("arbiter_wins"), dict)]
+        eps = [ep for ep in r.episodes if isinstance(_arbiter_wins(ep), dict)]
         if not eps:
             arows.append(([_e(r.label), "0"] + [NA] * len(order) + [NA], ""))
             continue
-        wins = {k: _sum_or_nan(ep["arbiter_wins"].get(k) for ep in eps) for k in order}
-        ticks_known = all(math.isfinite(_num(ep.get("steps"))) and math.isfinite(_num(ep.get("slaves"))) for ep in eps)
-        ticks = sum(_num(ep["steps"]) * _num(ep["slaves"]) for ep in eps) if ticks_known else _sum_or_nan(wins.values())
+        wins = {k: _sum_or_nan(_arbiter_wins(ep).get(k) for ep in eps) for k in order}
+        ticks = _sum_or_nan(wins.values())  # one source wins per robot and tick
         cells = [f"{_fmt_int(wins[k])} ({_fmt_pct(wins[k], ticks)})" if math.isfinite(wins[k]) else NA for k in order]
         arows.append(([_e(r.label), str(len(eps))] + cells + [_fmt_int(ticks)], ""))
     parts.append(
-        "<h3>Arbiter</h3><p>Which layer won the command arbitration, summed over episodes, as a share of ticks "
-        "(ticks = steps × slaves per episode; the sum of wins when those are missing). "
+        "<h3>Arbiter</h3><p>Which source won the command arbitration of seed 001 (safety &gt; user &gt; policy), "
+        "summed over every robot (master included) and tick of the episodes, as a share of robot-ticks. "
         f"{NA}: the result records no arbiter statistics.</p>"
     )
     parts.append(_table(["label", "episodes with data"] + [_e(k) for k in order] + ["ticks"], arows))

@@ -278,6 +278,11 @@ def test_mode_change_scenario_changes_master_over_the_radio():
         assert env.fleet.nodes[nid].know.members == members
         assert env.fleet.nodes[nid].know.member == m
     assert infos  # the episode went on
+    # the renderer draws the current master, its links and the user
+    scene = env.scene()
+    masters = [rv for rv in scene.robots if rv.role == "master"]
+    assert len(masters) == 1 and masters[0].position_m == env.world.robots[top_node].position
+    assert len(scene.links) >= len(members) - 1 and "master r%d" % top_node in " ".join(scene.text)
 
 
 # -- control arbiter (seed 001) -------------------------------------------------------------------------

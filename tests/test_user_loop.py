@@ -365,3 +365,18 @@ def test_a_robot_connected_to_another_user_declines_to_join():
             assert other_master not in sw.organize_result.members.values()
             declined += other_master in sw.organize_result.unavailable
     assert declined >= 1
+
+
+def test_user_disperse_request_sends_robots_back_and_ends_their_agency():
+    env = petswarm_env.parallel_env(**{"user.scenario": "straight", "user.start_delay_s": 100.0})
+    env.reset(seed=0)
+    slaves = env.swarm.slave_ids()
+    env.world.user.pending_commands.append("disperse")
+    infos = run(env, 30)
+    assert env.agents == []  # every slave left slave-role driving: terminated
+    for i in slaves:
+        assert env.fleet.nodes[i].state == "waiting" and env.fleet.nodes[i].swarm_pan is None
+    assert "episode_summary" in next(iter(infos.values()))  # no agent left: the episode is over
+    for _ in range(5):  # the master's disperse process ends after its last acknowledgement window
+        env.world.advance(env.cfg.physics_substeps)
+    assert env.swarm.master.state == "following" and env.session.state == "following"

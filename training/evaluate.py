@@ -81,6 +81,10 @@ def evaluate(
             "formation_rmse_m": mean,
             "formation_rmse_ci95": half,
             "collisions": sum(sum(e["collisions"].values()) for e in eps),
+            "robot_robot": sum(e["collisions"]["robot_robot"] for e in eps),
+            "robot_user": sum(e["collisions"]["robot_user"] for e in eps),
+            "emergencies": sum(e.get("events", {}).get("emergencies", 0) for e in eps),
+            "master_changes": sum(e.get("events", {}).get("master_changes", 0) for e in eps),
         }
         all_eps.extend(eps)
     return {
@@ -95,8 +99,11 @@ def evaluate(
 
 
 def format_table(result: dict[str, Any]) -> str:
-    lines = [f"policy: {result['label']}", f"{'scenario':<15} {'episodes':>8} {'rmse_m':>8} {'±95%':>7} {'collisions':>10}"]
+    lines = [f"policy: {result['label']}",
+             f"{'scenario':<15} {'episodes':>8} {'rmse_m':>8} {'±95%':>7} {'collisions':>10} {'r-r':>5} {'r-user':>6} {'emerg':>5} {'m-chg':>5}"]
     for name, s in result["scenarios"].items():
         half = s["formation_rmse_ci95"]
-        lines.append(f"{name:<15} {s['episodes']:>8} {s['formation_rmse_m']:>8.3f} {half if math.isfinite(half) else float('nan'):>7.3f} {s['collisions']:>10}")
+        lines.append(f"{name:<15} {s['episodes']:>8} {s['formation_rmse_m']:>8.3f} {half if math.isfinite(half) else float('nan'):>7.3f} "
+                     f"{s['collisions']:>10} {s.get('robot_robot', 0):>5} {s.get('robot_user', 0):>6} {s.get('emergencies', 0):>5} "
+                     f"{s.get('master_changes', 0):>5}")
     return "\n".join(lines)

@@ -5,7 +5,10 @@
 2. The master broadcasts the *joining query* to the candidates; each decides by Table 1 and
    answers joining-available / joining-unavailable. Missing answers → query again (retry).
    Fewer available robots than the user requires → scan again (retry; a scan response may have
-   been lost), until two scans in a row bring no new robot.
+   been lost), until two scans in a row bring no new robot (while no robot at all has answered,
+   every response may have collided: keep scanning within ``protocol.max_retries``). A rescan
+   lists the robots already heard, which stay silent (chosen), so the answers of the missing
+   robots do not collide with theirs again.
 3. The master selects by Table 2 and sends each candidate a *joining notification* (new PAN ID,
    member number, total number of members) or a *non-participating notification*; each answers
    with an acknowledgement. Missing acknowledgements → notify again (retry).
@@ -95,13 +98,14 @@ class JoinManager:
         node.pans = frozenset({PAN_WAITING, pan})
         # 1.–2. scan, then query the new candidates; scan again (a retry) while fewer robots are
         # available than the user requires — a scan response may have been lost — until two scans
-        # in a row bring no new robot
+        # in a row bring no new robot; while nobody has answered yet, all responses may have
+        # collided (seed 000 §4.5: "simultaneous message reception"), so keep scanning
         candidates: dict[int, float] = {}
         answers: dict[int, Frame] = {}
         fruitless_scans = 0  # consecutive scans that found no new robot
         while True:
             self._got = {}
-            node.send(msg.SCAN, pan=PAN_WAITING)
+            node.send(msg.SCAN, pan=PAN_WAITING, known=sorted(candidates))
             yield clock.timeout(cfg.scan_window_s)
             new = {rid: f.rx_distance_est_m for rid, f in self._got.items() if rid not in candidates}
             candidates.update(new)
@@ -118,7 +122,7 @@ class JoinManager:
                     result.retries += 1
             fruitless_scans = 0 if new else fruitless_scans + 1
             n_available = sum(1 for f in answers.values() if f.payload["available"])
-            if n_available >= required or fruitless_scans >= 2 or result.retries >= cfg.max_retries:
+            if n_available >= required or (fruitless_scans >= 2 and candidates) or result.retries >= cfg.max_retries:
                 break
             result.retries += 1
         result.candidates = sorted(candidates)
@@ -156,7 +160,7 @@ class JoinManager:
 
     # -- candidate side -------------------------------------------------------------------------
     def _on_scan(self, frame: Frame) -> None:
-        if self.node.state in SCAN_ANSWERING_STATES:
+        if self.node.state in SCAN_ANSWERING_STATES and self.node.node_id not in frame.payload.get("known", ()):
             self.node.send(msg.SCAN_RESPONSE, dst=frame.src, pan=PAN_WAITING)
 
     def _on_query(self, frame: Frame) -> None:

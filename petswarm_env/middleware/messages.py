@@ -4,7 +4,7 @@ Join protocol (seed 000 §3.4, Fig. 8), IR token ring (§3.3, Fig. 7), heading e
 master's periodic broadcast (§3.5, Fig. 9), disperse (Fig. 4).
 """
 
-SCAN = "scan"  # master -> waiting robots (broadcast)
+SCAN = "scan"  # master -> waiting robots (broadcast; a rescan lists the robots already heard)
 SCAN_RESPONSE = "scan_response"  # waiting robot -> master
 JOIN_QUERY = "join_query"  # master -> joining candidates (broadcast, lists the candidates)
 JOIN_ANSWER = "join_answer"  # candidate -> master: joining-available / joining-unavailable
@@ -29,7 +29,7 @@ HANDOVER = "handover"  # old master -> new master: take over the user connection
 HANDOVER_ACK = "handover_ack"
 
 SIZE_BYTES = {
-    SCAN: 4,
+    SCAN: 12,
     SCAN_RESPONSE: 4,
     JOIN_QUERY: 20,
     JOIN_ANSWER: 5,

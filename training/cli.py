@@ -6,6 +6,7 @@
     petswarm eval   --policy scripted|random|learned|PATH [--mix ROBOT=POLICY ...] [--scenarios a,b] [--episodes N] ...
     petswarm report RESULT.json ... --out report.html
     petswarm bench  [--quick] [--json OUT] [--md docs/benchmarks.md]
+    petswarm reproduce [--only NAME,...] [--quick] [--json OUT] [--report OUT.html] [--check]
 """
 
 from __future__ import annotations
@@ -54,6 +55,21 @@ def _add_env_config_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--config", metavar="FILE", help="YAML file merged over configs/default.yaml")
     parser.add_argument("--set", metavar="KEY=VALUE", action="append", default=[],
                         help="override a config key with a dotted path, e.g. --set swarm.num_slaves=3 (repeatable)")
+
+
+def _experiment_list() -> list[str]:
+    from training.reproduce import EXPERIMENTS
+
+    return list(EXPERIMENTS)
+
+
+def _experiment_names(text: str) -> list[str]:
+    from training.reproduce import parse_only
+
+    try:
+        return parse_only(text)
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -118,6 +134,22 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--quick", action="store_true", help="short measurements (about a minute) instead of the full run")
     bench.add_argument("--json", metavar="OUT", help="write the results as JSON (atomically)")
     bench.add_argument("--md", metavar="docs/benchmarks.md", help="also write the markdown report, with its plot beside it (*_steps.png)")
+
+    repro = sub.add_parser(
+        "reproduce",
+        help="run the papers' evaluations in the simulation and print paper vs sim",
+        description="Run the papers' own experiments (seed 000 §4.3-4.5, seed 002 Tables 3-4) through the code the "
+        "environment uses and print paper vs simulation with the tolerance of each figure. --check exits 1 when a row "
+        "is outside its tolerance or an experiment is not available yet.",
+    )
+    repro.add_argument("--only", type=_experiment_names, metavar="NAME,...",
+                       help="comma-separated experiments (default: all): " + ", ".join(_experiment_list()))
+    repro.add_argument("--quick", action="store_true", help="fewer trials where an experiment is slow (for CI)")
+    repro.add_argument("--json", metavar="OUT", help="write the rows (and the data behind the plots) as JSON, atomically")
+    repro.add_argument("--report", metavar="OUT.html", help="write a self-contained HTML page with the papers' plots")
+    repro.add_argument("--check", action="store_true", help="exit 1 unless every row is within its tolerance")
+    repro.add_argument("--seed", type=_seed, metavar="S", help="seed of the experiments (default: config seed)")
+    _add_env_config_options(repro)
 
     rep = sub.add_parser("report", help="compare evaluation results in one self-contained HTML page",
                          description="Compare the JSON results of `petswarm eval` (one per policy) in one HTML page.")
@@ -212,6 +244,34 @@ def _cmd_bench(args) -> int:
     return 0
 
 
+def _cmd_reproduce(args, argv: list[str]) -> int:
+    import time
+
+    from training.reproduce import EXPERIMENTS, ProgressBars, check_passed, print_table, results_json, run_experiments
+    from training.runner import write_json_atomic
+
+    cfg = load_config(args.config, dict(parse_override(item) for item in args.set))
+    names = args.only or list(EXPERIMENTS)
+    seed = cfg.seed if args.seed is None else args.seed
+    t0 = time.perf_counter()
+    with ProgressBars(names) as progress_for:
+        results = run_experiments(names, cfg, seed, args.quick, progress_for)
+    wall = time.perf_counter() - t0
+    print_table(results)
+    passed = check_passed(results)
+    print(f"{'PASS' if passed else 'FAIL'}: {sum(r.ok for r in results.values())}/{len(results)} experiments within "
+          f"tolerance; wall time {wall:.1f} s")
+    if args.json:
+        write_json_atomic(args.json, results_json(results, seed, args.quick))
+        print(f"wrote {args.json}")
+    if args.report:
+        from training.reproduce_report import write_reproduce_report
+
+        write_reproduce_report(results, args.report, "petswarm " + " ".join(argv))
+        print(f"wrote {args.report}")
+    return 1 if args.check and not passed else 0
+
+
 def _cmd_report(args) -> int:
     from training.report import write_report
 
@@ -234,6 +294,8 @@ def main(argv: list[str] | None = None) -> int:
             return _cmd_report(args)
         if args.command == "bench":
             return _cmd_bench(args)
+        if args.command == "reproduce":
+            return _cmd_reproduce(args, argv)
     except (ConfigError, ValueError, RuntimeError, OSError) as exc:
         print(f"petswarm: error: {exc}", file=sys.stderr)
         return 2

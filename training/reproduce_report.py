@@ -163,13 +163,58 @@ def _section_lf(res: ExperimentResult | None) -> str:
     return "".join(out)
 
 
-def _section_placeholder_only(title: str, name: str, res: ExperimentResult | None) -> str:
-    out = [f"<h2>{_e(title)}</h2>"]
+# -- seed 000 Fig. 20–21 ---------------------------------------------------------------------------------
+def _section_reaction(res: ExperimentResult | None) -> str:
+    out = ["<h2>Reaction time to a user-activity change (seed 000 §4.4, Fig. 20–21)</h2>"]
     if res is None or not res.available:
-        return "".join(out) + _placeholder(name, res)
-    rows = [([_e(r.metric), _num(r.paper), _num(r.sim), "±" + _num(r.tolerance), "✓" if r.ok else "✗"], "" if r.ok else "fail")
-            for r in res.rows]
-    return "".join(out) + _table(["metric", "paper", "sim", "tolerance", "ok"], rows)
+        return "".join(out) + _placeholder("reaction_time", res)
+    import numpy as np
+
+    cdf = res.data.get("cdf", {})
+    fig = _new_figure(9.0, 3.6)
+    ax1, ax2 = fig.add_subplot(1, 2, 1), fig.add_subplot(1, 2, 2)
+    for key, color, label, paper in (("master", "#d62728", "master", 1.1), ("slave", _SIM_COLOR, "slave", 1.2)):
+        v = np.asarray(cdf.get(key, []), dtype=float)
+        if v.size:
+            ax1.step(v, np.arange(1, v.size + 1) / v.size, where="post", color=color, label=f"{label} (sim)")
+        ax1.axvline(paper, color=color, ls=":", lw=1, label=f"{label}: paper 90 % ≤ {paper} s")
+    ax1.axhline(0.9, color=_PAPER_COLOR, lw=0.8)
+    ax1.set_xlabel("reaction time (s)")
+    ax1.set_ylabel("cumulative probability")
+    ax1.set_title("Fig. 20: master and slave", fontsize=9)
+    ax1.legend(fontsize=7, loc="lower right")
+    v = np.asarray(cdf.get("slave_minus_master", []), dtype=float)
+    if v.size:
+        ax2.step(v, np.arange(1, v.size + 1) / v.size, where="post", color=_SIM_COLOR, label="sim")
+    ax2.axvline(0.24, color=_PAPER_COLOR, ls=":", lw=1, label="paper 90 % ≤ 0.24 s")
+    ax2.axhline(0.9, color=_PAPER_COLOR, lw=0.8)
+    ax2.set_xlabel("slave − master (s)")
+    ax2.set_title("Fig. 21: master → slave interval", fontsize=9)
+    ax2.legend(fontsize=7, loc="lower right")
+    for ax in (ax1, ax2):
+        ax.grid(alpha=0.3)
+    n = len(res.data.get("trials", []))
+    out.append(f"<figure>{_img(_png(fig), 'reaction-time CDFs')}<figcaption>{n} trials: a leading swarm stands with its "
+               "user, who starts turning on the spot; time from the rotation start to the start of each robot's motion "
+               "(per trial the slaves' median).</figcaption></figure>")
+    if res.note:
+        out.append(f'<p class="warn">{_e(res.note)}</p>')
+    return "".join(out)
+
+
+# -- seed 002 Table 4 -------------------------------------------------------------------------------------
+def _section_rotation(res: ExperimentResult | None) -> str:
+    out = ["<h2>Rotation recognition and synchronization (seed 002 §4.3, Table 4)</h2>"]
+    if res is None or not res.available:
+        return "".join(out) + _placeholder("rotation_sync", res)
+    rows = []
+    for target, t in res.data.get("targets", {}).items():
+        rows.append(([_e(f"{float(target):+.0f}"), _num(t.get("paper_mean_deg"), 2), _num(t.get("sim_mean_deg"), 2),
+                      _num(t.get("sim_sigma_deg"), 2), _num(t.get("sim_accuracy_pct"), 2), str(len(t.get("arcs_deg", [])))], ""))
+    out.append("<p>Target user turn, the robot's arc angle around its user (paper mean, simulated mean and σ), and "
+               "accuracy = 100·(1 − mean|arc − target|/|target|).</p>")
+    out.append(_table(["target (°)", "paper mean (°)", "sim mean (°)", "sim σ (°)", "sim accuracy (%)", "trials"], rows))
+    return "".join(out)
 
 
 def render_html(results: dict[str, ExperimentResult], command: str = "petswarm reproduce", generated: str | None = None) -> str:
@@ -186,12 +231,10 @@ def render_html(results: dict[str, ExperimentResult], command: str = "petswarm r
         "<h2>Paper vs simulation</h2>",
         _rows_table(results),
         _section_ir(results.get("ir_accuracy")),
-        _section_placeholder_only("Reaction time to a user-activity change (seed 000 §4.4, Fig. 20–21)", "reaction_time",
-                                  results.get("reaction_time")),
+        _section_reaction(results.get("reaction_time")),
         _section_organize(results.get("organize_time")),
         _section_lf(results.get("lf_accuracy")),
-        _section_placeholder_only("Rotation recognition and synchronization (seed 002 §4.3, Table 4)", "rotation_sync",
-                                  results.get("rotation_sync")),
+        _section_rotation(results.get("rotation_sync")),
     ]
     css = _CSS + "tr.fail td{background:#fbeaea}\n"
     return (

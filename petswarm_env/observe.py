@@ -79,6 +79,10 @@ class ObservationLayout:
             self.slices[f.name] = slice(i, i + size)
             i += size
         self.size = i
+        # start offsets the builder writes at (resolved once, not per observation)
+        st = {name: sl.start for name, sl in self.slices.items()}
+        self._link_starts = tuple(st[f"link{k}.present"] for k in range(MAX_LINKS))
+        self._offsets = st
 
     def get(self, obs: np.ndarray, name: str) -> np.ndarray:
         return obs[self.slices[name]]
@@ -117,11 +121,10 @@ def build_observation(
 ) -> np.ndarray:
     """Fill ``out`` (layout.size,) with the observation of one slave."""
     out[:] = 0.0
-    sl = layout.slices
+    o = layout._offsets
     vmax, _, wmax = limits
     know = node.know
-    for k, link in enumerate(node.reference_links()):
-        base = sl[f"link{k}.present"].start
+    for base, link in zip(layout._link_starts, node.reference_links()):
         out[base] = 1.0
         nb = know.members.get(link.neighbour)
         m = know.ir.get(nb)
@@ -146,38 +149,40 @@ def build_observation(
             out[base + 8] = 1.0
             out[base + 10] = 1.0
     st = know.status
-    i = sl["master.valid"].start
+    i = o["master.valid"]
     if st is not None:
         out[i] = 1.0
         out[i + 1] = _clip_age(now - st.time_s, 1.0)
         out[i + 2] = st.velocity[0] / vmax
         out[i + 3] = st.velocity[1] / vmax
         out[i + 4] = st.velocity[2] / wmax
-        out[sl["master.activity"].start + ACTIVITIES.index(st.activity)] = 1.0
-        out[sl["master.rotating"].start] = 1.0 if abs(st.user_turn_rate_rps) > 0.1 else 0.0
-        out[sl["master.turn_rate"].start] = st.user_turn_rate_rps / wmax
-        out[sl["master.leading"].start] = 1.0 if st.mode == "leading" else 0.0
-        j = sl["master.user_xy"].start
+        out[o["master.activity"] + ACTIVITIES.index(st.activity)] = 1.0
+        out[o["master.rotating"]] = 1.0 if abs(st.user_turn_rate_rps) > 0.1 else 0.0
+        out[o["master.turn_rate"]] = st.user_turn_rate_rps / wmax
+        out[o["master.leading"]] = 1.0 if st.mode == "leading" else 0.0
+        j = o["master.user_xy"]
         out[j] = st.user_position_m[0] / POS_SCALE_M
         out[j + 1] = st.user_position_m[1] / POS_SCALE_M
     else:
         out[i + 1] = 1.0
-    j = sl["self.odometry"].start
+    j = o["self.odometry"]
     out[j] = odometry[0] / vmax
     out[j + 1] = odometry[1] / vmax
     out[j + 2] = odometry[2] / wmax
-    j = sl["self.yaw_sincos"].start
+    j = o["self.yaw_sincos"]
     out[j] = math.sin(yaw_rad)
     out[j + 1] = math.cos(yaw_rad)
-    out[sl["self.last_action"]] = last_action
-    j = sl["self.offset_from_master_xy"].start
+    j = o["self.last_action"]
+    out[j : j + 3] = last_action
+    j = o["self.offset_from_master_xy"]
     out[j] = offset_from_master[0] / POS_SCALE_M
     out[j + 1] = offset_from_master[1] / POS_SCALE_M
-    out[sl["self.ultrasonic"]] = ultrasonic_m / us_max_range_m
+    j = o["self.ultrasonic"]
+    out[j : j + len(ultrasonic_m)] = ultrasonic_m / us_max_range_m
     total = max(know.total_members, 1)
-    out[sl["self.hierarchy"].start] = hierarchy_level / total
-    out[sl["self.members"].start] = total / 16.0
-    out[sl["self.member"].start] = know.member / 16.0
+    out[o["self.hierarchy"]] = hierarchy_level / total
+    out[o["self.members"]] = total / 16.0
+    out[o["self.member"]] = know.member / 16.0
     return out
 
 

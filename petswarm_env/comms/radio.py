@@ -41,7 +41,7 @@ BROADCAST = -1
 PAN_WAITING = 0x0000  # robots not in a swarm listen here (chosen)
 
 
-@dataclass
+@dataclass(slots=True)
 class Frame:
     kind: str
     src: int

@@ -75,6 +75,8 @@ class Node:
         self.cfg = swarm.cfg
         self.rng = rng
         self.draws = Draws(rng)  # scalar draws (MCU processing jitter) taken from rng in blocks
+        self._processing = (self.cfg.radio.processing_s, self.cfg.radio.processing_jitter_s)
+        self._robots = swarm.world.robots  # the world's robot list (node id = robot index)
         self.pans: frozenset[int] = frozenset({PAN_WAITING})
         self.state = "waiting"  # sequence manager state, see sequence.py
         self.connected_user: int | None = None  # the user this robot is connected to, if any
@@ -88,7 +90,7 @@ class Node:
     # -- lower layer ------------------------------------------------------------------------------
     def position(self) -> tuple[float, float]:
         """Antenna position: the radio's propagation model needs it (not the middleware)."""
-        return self.swarm.world.robots[self.node_id].position
+        return self._robots[self.node_id].position
 
     def send(self, kind: str, dst: int = BROADCAST, pan: int | None = None, **payload: Any) -> None:
         pan = self.swarm_pan if pan is None else pan
@@ -105,8 +107,8 @@ class Node:
     def processing_delay(self) -> float:
         """MCU time to handle a received frame before it can answer (``processing_s`` plus a
         uniform jitter of up to ``processing_jitter_s``)."""
-        radio = self.cfg.radio
-        return radio.processing_s + radio.processing_jitter_s * self.draws.uniform()
+        base, jitter = self._processing
+        return base + jitter * self.draws.uniform()
 
     def _handle(self, handler: Callable[[Frame], None], frame: Frame) -> None:
         if frame.pan not in self.pans:  # the PAN changed while the frame was being processed

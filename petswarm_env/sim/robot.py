@@ -112,8 +112,10 @@ class Robot:
         return _get_angle(self._cbody)
 
     def set_command(self, vx: float, vy: float, omega: float) -> None:
-        """Body-frame command (m/s, m/s, rad/s); wheel saturation applies here."""
-        self.command = saturate_command(vx, vy, omega, self.cfg)
+        """Body-frame command (m/s, m/s, rad/s); wheel saturation applies here. Stored as Python
+        floats: a float32 action would otherwise carry numpy-scalar arithmetic (slow, and rounded
+        to float32) into every substep of the drive."""
+        self.command = saturate_command(float(vx), float(vy), float(omega), self.cfg)
 
     def apply(self, dt: float) -> None:
         """Move the achieved velocity toward the command within the acceleration limits, then
@@ -139,7 +141,12 @@ class Robot:
         vx += dvx
         vy += dvy
         max_dw = cfg.max_alpha_rps2 * dt
-        w += max(-max_dw, min(max_dw, cw - w))
-        self.velocity_body = (vx, vy, w)
-        _set_velocity(cbody, (c * vx - s * vy, s * vx + c * vy))
-        _set_angular_velocity(cbody, w)
+        w_new = w + max(-max_dw, min(max_dw, cw - w))
+        self.velocity_body = (vx, vy, w_new)
+        # write only what changed (a body turning at its commanded rate, or driving straight at its
+        # commanded speed, keeps its values): the same state as writing it again
+        if w_new != w:
+            _set_angular_velocity(cbody, w_new)
+        vx_w, vy_w = c * vx - s * vy, s * vx + c * vy
+        if vx_w != wx or vy_w != wy:
+            _set_velocity(cbody, (vx_w, vy_w))

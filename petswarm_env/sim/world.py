@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from heapq import heappop
 
 import numpy as np
 import pymunk
@@ -41,10 +42,18 @@ class Clock(simpy.Environment):
 
     def run_until(self, t: float) -> None:
         """Process every event before ``t``, then stand at ``t`` — what ``run(until=t)`` does,
-        without scheduling a stop event and raising to leave the loop on every call."""
-        peek, step = self.peek, self.step
-        while peek() < t:
-            step()
+        without scheduling a stop event and raising to leave the loop on every call. The body of
+        ``simpy.Environment.step`` is inlined (no peek/step call per event)."""
+        queue = self._queue
+        while queue and queue[0][0] < t:
+            self._now, _, _, event = heappop(queue)
+            callbacks, event.callbacks = event.callbacks, None
+            for callback in callbacks:
+                callback(event)
+            if not event._ok and not hasattr(event, "_defused"):  # a failed event nobody handled
+                exc = type(event._value)(*event._value.args)
+                exc.__cause__ = event._value
+                raise exc
         self._now = t
 
 

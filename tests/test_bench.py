@@ -3,10 +3,11 @@ No timing is asserted (speeds depend on the machine and its load)."""
 
 import json
 import math
+from collections import Counter
 
 import pytest
 
-from training.bench import CATEGORIES, _category, format_report, main_bench, tiny_settings
+from training.bench import CATEGORIES, _category, breakdown_from_samples, format_report, main_bench, tiny_settings
 
 
 def _positive(x) -> bool:
@@ -117,3 +118,22 @@ def test_missing_mpe_is_recorded_as_skipped(monkeypatch):
     assert _positive(result["ratios"]["petswarm_vs_floor_6"])
     assert "skipped" in result["training"]
     assert "skipped: mpe2 is not installed" in format_report(result)
+
+
+def test_sampled_breakdown_charges_the_innermost_non_neutral_frame_below_env_step():
+    site = "/venv/lib/python3.11/site-packages"
+    outside = ("/repo/training/bench.py", 1, "run", "_EnvLoop.run")
+    step = ("/repo/petswarm_env/env.py", 1, "step", "PetSwarmEnv.step")
+    deliver = ("/repo/petswarm_env/comms/radio.py", 1, "_deliver", "RadioMedium._deliver")
+    rays = ("/repo/petswarm_env/sim/world.py", 1, "ultrasonic_ranges", "World.ultrasonic_ranges")
+    clip = (f"{site}/numpy/_core/fromnumeric.py", 1, "clip", "clip")  # neutral: counts for its caller
+    stacks = Counter({(outside, step, deliver): 3, (outside, step, rays, clip): 1, (outside,): 5})  # last: not in a step
+    r = breakdown_from_samples(stacks)
+    assert r["samples"] == 4
+    assert r["shares"]["radio_middleware"] == pytest.approx(0.75)
+    assert r["shares"]["observation"] == pytest.approx(0.25)
+    assert sum(r["shares"].values()) == pytest.approx(1.0)
+    inclusive = {f["function"].rsplit("/", 1)[-1]: f["share"] for f in r["inclusive"]}
+    assert inclusive["env.py:PetSwarmEnv.step"] == pytest.approx(1.0)
+    assert inclusive["radio.py:RadioMedium._deliver"] == pytest.approx(0.75)
+    assert {f["function"].rsplit("/", 1)[-1] for f in r["self"]} == {"radio.py:RadioMedium._deliver", "fromnumeric.py:clip"}

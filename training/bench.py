@@ -11,8 +11,10 @@ All measurements run in one command on one machine, one after the other:
   no clock, no radio, no observations.
 * **peer**: PettingZoo MPE ``simple_spread`` (package ``mpe2``, optional ``bench`` extra) with as
   many agents as petswarm has robots, random continuous actions, ``parallel_env``.
-* **breakdown** of a 5-slave step from cProfile (physics, radio + middleware, observation,
-  reward + metrics, other), see :func:`breakdown_from_stats`.
+* **breakdown** of a 5-slave step (physics, radio + middleware, user sensing, control,
+  observation, reward + metrics, other) two ways: cProfile self times (:func:`breakdown_from_stats`)
+  and a statistical stack sampler (:class:`StackSampler`, SIGPROF on CPU time), which has no
+  per-call cost and so does not inflate call-heavy Python code.
 * **memory**: tracemalloc and RSS of a long 5-slave run (resets as episodes end), in a fresh process.
 * **training throughput**: SB3 PPO samples/s through the training vector env, in-process and with
   two worker processes.
@@ -24,6 +26,7 @@ writes ``docs/benchmarks.md`` and its plot.
 
 from __future__ import annotations
 
+import collections
 import cProfile
 import datetime as _dt
 import gc
@@ -31,6 +34,7 @@ import math
 import os
 import platform
 import pstats
+import signal
 import subprocess
 import sys
 import sysconfig
@@ -40,7 +44,7 @@ import warnings
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, Self
 
 import numpy as np
 
@@ -52,7 +56,7 @@ TARGET_SCALING = 2.0  # per-step cost at 9 slaves <= 2x the cost at 5
 MEMORY_GROWTH_TOLERANCE_MB = 0.5  # "no growth": tracemalloc growth per episode below this
 MEMORY_BLOCKS_TOLERANCE = 0.01  # ... and live pymalloc blocks grow by less than 1 % between the checkpoints
 
-CATEGORIES = ("physics", "radio_middleware", "observation", "reward_metrics", "other")
+CATEGORIES = ("physics", "radio_middleware", "user_sensing", "control", "observation", "reward_metrics", "other")
 
 
 @dataclass(frozen=True)
@@ -200,7 +204,10 @@ def bench_floor(num_robots: int, s: BenchSettings) -> dict:
     for i in range(num_robots):  # a grid behind the user, spaced like a formation: no contacts
         world.add_robot((-1.0 - spacing * (i // cols), spacing * (i % cols - (cols - 1) / 2)), 0.0)
     space = world.space
-    bodies = [r.body for r in world.robots] + [world.user.body]
+    # written the way Robot.apply writes them: Chipmunk's setters on the body handles
+    from petswarm_env.sim.robot import _set_angular_velocity, _set_velocity
+
+    bodies = [r.body._body for r in world.robots] + [u.body._body for u in world.users]
     substeps, dt = cfg.physics_substeps, world.dt_sub
     speed, turn = 0.8, 0.5  # every body drives the same circle: the group stays in the arena, no contacts
     steps = 0
@@ -213,8 +220,8 @@ def bench_floor(num_robots: int, s: BenchSettings) -> dict:
             vel = (speed * math.cos(a), speed * math.sin(a))
             for _ in range(substeps):
                 for b in bodies:
-                    b.velocity = vel
-                    b.angular_velocity = 0.0
+                    _set_velocity(b, vel)
+                    _set_angular_velocity(b, 0.0)
                 space.step(dt)
             steps += 1
         return time.perf_counter() - t0
@@ -351,6 +358,9 @@ _FUNCTION_CATEGORY: dict[tuple[str, str], str | None] = {
 # file path fragments -> category; checked in order, first match wins
 _FILE_CATEGORY: tuple[tuple[str, str | None], ...] = (
     ("petswarm_env/comms/", "radio_middleware"),
+    ("petswarm_env/middleware/user_session.py", "user_sensing"),  # the master's wearables chain (LF, belt)
+    ("petswarm_env/wearables/", "user_sensing"),
+    ("petswarm_env/control/", "control"),  # master controller, control arbiter
     ("petswarm_env/middleware/", "radio_middleware"),
     ("/simpy/", "radio_middleware"),
     ("petswarm_env/observe.py", "observation"),
@@ -455,6 +465,89 @@ def _func_label(func: tuple[str, int, str]) -> str:
     return f"{path}:{line}({name})"
 
 
+class StackSampler:
+    """A statistical profiler: every ``interval_s`` of process CPU time (``ITIMER_PROF``) the
+    SIGPROF handler records the interrupted Python stack, while :attr:`active` is set.
+
+    Unlike cProfile it adds no cost per Python call, so call-heavy code (the event-driven
+    middleware) is not inflated against C-heavy code (pymunk, numpy); the price is sampling noise
+    (a share from n samples has a standard error of about sqrt(p(1-p)/n)). Time in C functions is
+    charged to the Python frame that called them. Unix only (:meth:`available`)."""
+
+    def __init__(self, interval_s: float = 0.001):
+        self.interval_s = interval_s
+        self.active = False
+        self.stacks: collections.Counter = collections.Counter()  # stack (root first) -> samples
+        self._old_handler: Any = None
+
+    @staticmethod
+    def available() -> bool:
+        return hasattr(signal, "setitimer") and hasattr(signal, "SIGPROF")
+
+    def _handler(self, signum, frame) -> None:
+        if not self.active:
+            return
+        stack = []
+        while frame is not None:
+            code = frame.f_code
+            stack.append((code.co_filename, code.co_firstlineno, code.co_name, code.co_qualname))
+            frame = frame.f_back
+        stack.reverse()
+        self.stacks[tuple(stack)] += 1
+
+    def __enter__(self) -> Self:
+        self._old_handler = signal.signal(signal.SIGPROF, self._handler)
+        signal.setitimer(signal.ITIMER_PROF, self.interval_s, self.interval_s)
+        return self
+
+    def __exit__(self, *exc) -> None:
+        signal.setitimer(signal.ITIMER_PROF, 0.0, 0.0)
+        signal.signal(signal.SIGPROF, self._old_handler or signal.SIG_DFL)
+
+
+def _is_env_step(fr: tuple) -> bool:
+    return fr[2] == "step" and _norm(fr[0]).endswith("petswarm_env/env.py")
+
+
+def _frame_label(fr: tuple) -> str:
+    return _func_label((fr[0], fr[1], fr[3])).rsplit("(", 1)[0].rsplit(":", 1)[0] + f":{fr[3]}"
+
+
+def breakdown_from_samples(stacks: collections.Counter, top: int = 40) -> dict[str, Any]:
+    """Shares of ``env.step`` per category from stack samples: a sample counts for the category of
+    its innermost frame that has one (neutral frames — numpy, pymunk accessors, the standard
+    library, geometry helpers — defer to their caller, as in :func:`breakdown_from_stats`).
+    Also the inclusive share of the functions seen most (a function counts once per sample)."""
+    totals = dict.fromkeys(CATEGORIES, 0)
+    inclusive: collections.Counter = collections.Counter()
+    leaf: collections.Counter = collections.Counter()
+    n = 0
+    for stack, count in stacks.items():
+        idx = next((i for i, fr in enumerate(stack) if _is_env_step(fr)), None)
+        if idx is None:
+            continue
+        inner = stack[idx:]
+        n += count
+        cat = "other"
+        for fr in reversed(inner):
+            c = _category((fr[0], fr[1], fr[2]))
+            if c is not None:
+                cat = c
+                break
+        totals[cat] += count
+        for label in {_frame_label(fr) for fr in inner}:
+            inclusive[label] += count
+        leaf[_frame_label(inner[-1])] += count
+    if n == 0:
+        return {"samples": 0, "shares": dict.fromkeys(CATEGORIES, 0.0), "inclusive": [], "self": []}
+    return {
+        "samples": n,
+        "shares": {k: v / n for k, v in totals.items()},
+        "inclusive": [{"function": f, "share": c / n} for f, c in inclusive.most_common(top)],
+        "self": [{"function": f, "share": c / n} for f, c in leaf.most_common(top // 2)],
+    }
+
+
 def bench_breakdown(num_slaves: int, s: BenchSettings) -> dict:
     """cProfile of env.step only (enabled around each call) for the scripted policy."""
     loop = _EnvLoop(num_slaves, "scripted", s.seed)
@@ -473,13 +566,29 @@ def bench_breakdown(num_slaves: int, s: BenchSettings) -> dict:
 
     loop.run(seconds=s.profile_target_s, min_steps=max(20, s.min_steps // 2), step_hook=toggle)
     result = breakdown_from_stats(pstats.Stats(prof))
+    result.update(steps=loop.steps, profiled_ms_per_step=1e3 * loop.step_s / loop.steps)
+    if StackSampler.available():  # the same loop again, sampled instead of traced
+        sampler = StackSampler()
+        loop.clear()
+
+        def flip() -> None:
+            sampler.active = not sampler.active
+
+        with sampler:
+            loop.run(seconds=s.profile_target_s, min_steps=max(20, s.min_steps // 2), step_hook=flip)
+        sampler.active = False
+        result["sampled"] = breakdown_from_samples(sampler.stacks)
+        n = result["sampled"]["samples"]
+        result["sampled"].update(
+            interval_ms=1e3 * sampler.interval_s, steps=loop.steps, sampled_ms_per_step=1e3 * loop.step_s / max(loop.steps, 1),
+            # the kernel delivers SIGPROF at its tick at best: the effective interval, over env.step time
+            effective_interval_ms=1e3 * loop.step_s / n if n else None)
     result.update(
         env=f"1 master + {num_slaves} slaves, scripted policy",
         slaves=num_slaves,
-        steps=loop.steps,
-        profiled_ms_per_step=1e3 * loop.step_s / loop.steps,
         method="cProfile around env.step only; self time (tottime) attributed by file and function, "
-        "neutral functions (C built-ins, numpy, stdlib, pymunk accessors) to their callers",
+        "neutral functions (C built-ins, numpy, stdlib, pymunk accessors) to their callers; then the same "
+        "loop under a SIGPROF stack sampler, each sample to the category of its innermost non-neutral frame",
     )
     return result
 
@@ -820,7 +929,10 @@ def run_bench(s: BenchSettings, mode: str = "custom", verbose: bool = False) -> 
     ref = _find(results, "petswarm", prof_slaves + 1, "scripted")
     if ref is not None:
         breakdown["unprofiled_ms_per_step"] = ref["ms_per_step"]
-        breakdown["ms_per_step"] = {k: v * ref["ms_per_step"] for k, v in breakdown["shares"].items()}
+        # the sampler's shares when there are any (no per-call bias), else cProfile's
+        sampled = breakdown.get("sampled") or {}
+        shares = sampled["shares"] if sampled.get("samples") else breakdown["shares"]
+        breakdown["ms_per_step"] = {k: v * ref["ms_per_step"] for k, v in shares.items()}
 
     phase("breakdown")
     _log(verbose, f"memory 1+{prof_slaves}: {s.memory_steps[0]} vs {s.memory_steps[1]} steps")
@@ -941,6 +1053,10 @@ def format_report(result: dict) -> str:
     b = result["breakdown"]
     shares = ", ".join(f"{k} {100 * v:.0f}%" for k, v in b["shares"].items())
     lines += ["", f"breakdown of one step ({b['env']}, cProfile over {b['steps']} steps): {shares}"]
+    sm = b.get("sampled") or {}
+    if sm.get("samples"):
+        lines.append(f"  sampled ({sm['samples']} stack samples): "
+                     + ", ".join(f"{k} {100 * v:.0f}%" for k, v in sm["shares"].items()))
     for f in b["top_functions"][:5]:
         lines.append(f"  {100 * f['self_share']:5.1f}%  {f['function']}  [{f['category']}]")
     mem = result["memory_mb"]
@@ -1012,6 +1128,86 @@ def write_plot(result: dict, plot_path: str | os.PathLike) -> None:
     _write_bytes_atomic(Path(plot_path), lambda tmp: fig.savefig(tmp, format="png"), ".png")
 
 
+_PART_NAMES = {
+    "physics": "physics (`Space.step`, `Robot.apply`, `User.apply`, the substep loop, contact callbacks)",
+    "radio_middleware": "radio and middleware events (`comms/*`, `middleware/*` except the user session, simpy, the clock loop)",
+    "user_sensing": "user sensing: the master's wearables chain (`wearables/*`, `middleware/user_session.py`)",
+    "control": "control (`control/*`: master controller, control arbiter)",
+    "observation": "observation (`observe.py`, ultrasonic ray casts, AHRS, `env._observe`)",
+    "reward_metrics": "reward and metrics (`reward.py`, `metrics.py`, `_formation_errors`, `reference_positions`)",
+    "other": "other (action checks, `env.step` itself, anything else)",
+}
+
+
+def _breakdown_markdown(b: dict) -> list[str]:
+    """The "Where a step's time goes" section: shares by part (stack sampler and cProfile), the
+    functions the sampler saw most, and cProfile's largest own times."""
+    sm = b.get("sampled") or {}
+    has_sm = bool(sm.get("samples"))
+    unprof = f", against {b['unprofiled_ms_per_step']:.2f} ms unprofiled" if b.get("unprofiled_ms_per_step") else ""
+    out: list[str] = []
+    if has_sm:
+        out += [
+            (f"{b['env']}: two profiles of `env.step` alone, each over its own run of the same loop: a **stack "
+             f"sampler** ({sm['samples']:,} samples over {sm['steps']:,} steps, one per ~"
+             f"{_fmt(sm.get('effective_interval_ms'), '.1f')} ms of CPU time; the sampled step took "
+             f"{sm['sampled_ms_per_step']:.2f} ms) and **cProfile** ({b['steps']:,} steps; tracing inflates the step "
+             f"to {b['profiled_ms_per_step']:.2f} ms{unprof}). *ms/step* applies the sampled share to the "
+             "unprofiled step time."),
+            "",
+            "| part | share (sampled) | ms/step | share (cProfile) |",
+            "|---|---:|---:|---:|",
+        ]
+        for k in CATEGORIES:
+            ms = (b.get("ms_per_step") or {}).get(k)
+            out.append(f"| {_PART_NAMES.get(k, k)} | {100 * sm['shares'].get(k, 0.0):.1f}% | {_fmt(ms, '.3f')} | "
+                       f"{100 * b['shares'].get(k, 0.0):.1f}% |")
+    else:
+        out += [
+            (f"cProfile of `env.step` only ({b['env']}, {b['steps']:,} steps; profiling inflates the step to "
+             f"{b['profiled_ms_per_step']:.2f} ms{unprof}). *ms/step* applies the share to the unprofiled step time."),
+            "",
+            "| part | share | ms/step |",
+            "|---|---:|---:|",
+        ]
+        for k in CATEGORIES:
+            ms = (b.get("ms_per_step") or {}).get(k)
+            out.append(f"| {_PART_NAMES.get(k, k)} | {100 * b['shares'].get(k, 0.0):.1f}% | {_fmt(ms, '.3f')} |")
+    out += [
+        "",
+        ("Method: a function's time goes to a part by the function and its file: pymunk `Space.step` and the "
+         "rest of `petswarm_env/sim/` → physics; `comms/`, `middleware/`, simpy and `Clock.run_until` → "
+         "radio/middleware, except `middleware/user_session.py` and `wearables/` → user sensing; `control/` → "
+         "control; `observe.py`, `World.ultrasonic_ranges`, `Robot.ahrs_yaw`, `env._observe` → observation; "
+         "`reward.py`, `metrics.py`, `env._formation_errors`, `env.reference_positions` → reward/metrics; any "
+         "other file → other. Neutral functions (C built-ins such as pymunk's cffi calls, numpy, the standard "
+         "library, pymunk's property accessors, `sim/geometry.py`, position getters) count for their caller: "
+         "the sampler charges a sample to the innermost non-neutral frame of its stack, cProfile splits a "
+         "neutral function's own time over its callers by its per-caller statistics. cProfile adds a fixed "
+         "cost to every Python call, so it overweights call-heavy Python (the event-driven middleware) against "
+         "C- and numpy-heavy code; the sampler has no per-call cost but a sampling error of about √(p(1−p)/n) "
+         "(±1.5 points for a 30 % share from 1,000 samples)."),
+        "",
+    ]
+    if has_sm:
+        out += [
+            ("Functions the sampler saw most (*inclusive*: share of the samples with the function anywhere on the "
+             "stack below `env.step`; nested entries overlap):"),
+            "",
+            "| function | inclusive share |",
+            "|---|---:|",
+        ]
+        out += [f"| `{f['function']}` | {100 * f['share']:.1f}% |" for f in sm["inclusive"][:30]]
+        out += ["", "Innermost Python frame of the samples (own time, the C calls it makes included):", "",
+                "| function | own share |", "|---|---:|"]
+        out += [f"| `{f['function']}` | {100 * f['share']:.1f}% |" for f in sm["self"][:12]]
+        out.append("")
+    out += ["cProfile's largest own times:", "", "| function | own share | part |", "|---|---:|---|"]
+    out += [f"| `{f['function']}` | {100 * f['self_share']:.1f}% | {f['category']} |" for f in b["top_functions"][:10]]
+    out.append("")
+    return out
+
+
 def benchmarks_markdown(result: dict, plot_rel: str) -> str:
     m = result["machine"]
     v = m["versions"]
@@ -1070,9 +1266,9 @@ def benchmarks_markdown(result: dict, plot_rel: str) -> str:
         "counts the master too."),
         "* **physics floor**: the env's own `World` with the same bodies (robots with the configured radius "
         "and mass, the user as a kinematic circle, the arena walls), stepped `physics_substeps` times per "
-        "control step, setting every body's velocity before each substep as `Robot.apply` does, and nothing "
-        "else: no clock, radio, sensors or rewards. The bodies drive one circle together, so there are no "
-        "contacts. The Python velocity writes dominate it; `Space.step` alone (no writes) runs at "
+        "control step, setting every body's velocity and angular velocity before each substep with Chipmunk's "
+        "setters (`pymunk.cp`), the write path of `Robot.apply`, and nothing else: no clock, radio, sensors or "
+        "rewards. The bodies drive one circle together, so there are no contacts. `Space.step` alone (no writes) runs at "
         + ", ".join(f"{r['bare_steps_per_s']:,.0f}" for r in result["results"] if r["kind"] == "floor")
         + " control steps/s for "
         + ", ".join(str(r["agents"]) for r in result["results"] if r["kind"] == "floor") + " robots.",
@@ -1082,46 +1278,7 @@ def benchmarks_markdown(result: dict, plot_rel: str) -> str:
         "",
         "## Where a step's time goes",
         "",
-        f"cProfile of `env.step` only ({b['env']}, {b['steps']:,} steps; profiling inflates the step to "
-        f"{b['profiled_ms_per_step']:.2f} ms"
-        + (f", against {b['unprofiled_ms_per_step']:.2f} ms unprofiled" if b.get("unprofiled_ms_per_step") else "")
-        + "). *ms/step* applies the share to the unprofiled step time.",
-        "",
-        "| part | share | ms/step |",
-        "|---|---:|---:|",
-    ]
-    names = {
-        "physics": "physics (pymunk `Space.step`, `Robot.apply`, `User.apply`, substep loop, contact callbacks)",
-        "radio_middleware": "radio and middleware events (`comms/*`, `middleware/*`, simpy, the clock loop)",
-        "observation": "observation (`observe.py`, ultrasonic ray casts, AHRS)",
-        "reward_metrics": "reward and metrics (`reward.py`, `metrics.py`, `_formation_errors`, `reference_positions`)",
-        "other": "other (action checks, master controller, `env.step` itself)",
-    }
-    for k, share in b["shares"].items():
-        ms = (b.get("ms_per_step") or {}).get(k)
-        out.append(f"| {names.get(k, k)} | {100 * share:.1f}% | {_fmt(ms, '.3f')} |")
-    out += [
-        "",
-        ("Method: every function's own time (cProfile *tottime*) is attributed by the function and its file: "
-        "pymunk `Space.step` and the rest of `petswarm_env/sim/` → physics; `petswarm_env/comms/`, "
-        "`petswarm_env/middleware/`, simpy and `Clock.run_until` → radio/middleware; `observe.py`, `World.ultrasonic_ranges`, "
-        "`Robot.ahrs_yaw`, `env._observe` → observation; `reward.py`, `metrics.py`, `env._formation_errors`, "
-        "`env.reference_positions` → reward/metrics; any other file → other. Neutral functions (C built-ins "
-        "such as pymunk's cffi `cpSpaceStep`, numpy, the standard library, pymunk's property accessors, "
-        "`sim/geometry.py`, position getters) pass their own time on to their callers, in proportion to the "
-        "time spent in them from each caller (cProfile's per-caller statistics), recursively. cProfile adds a "
-        "fixed cost per Python call, so call-heavy Python parts (middleware, accessors) look somewhat larger "
-        "than they are and C-heavy parts (pymunk's solver) smaller."),
-        "",
-        "Largest own times:",
-        "",
-        "| function | own share | part |",
-        "|---|---:|---|",
-    ]
-    for f in b["top_functions"][:10]:
-        out.append(f"| `{f['function']}` | {100 * f['self_share']:.1f}% | {f['category']} |")
-    out += [
-        "",
+        *_breakdown_markdown(b),
         "## Memory",
         "",
         f"{mem['env']}"

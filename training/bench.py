@@ -107,7 +107,7 @@ class _EnvLoop:
         self.clear()
 
     def clear(self) -> None:
-        self.step_s = self.policy_s = self.reset_s = 0.0
+        self.step_s = self.step_cpu_s = self.policy_s = self.reset_s = 0.0
         self.steps = self.agent_steps = self.resets = 0
 
     def _reset(self) -> None:
@@ -132,7 +132,7 @@ class _EnvLoop:
             step_hook: Callable[[], None] | None = None, on_step: Callable[[int], None] | None = None) -> None:
         """Run ``steps`` steps, or until ``seconds`` of env.step time and ``min_steps`` steps."""
         env, policy = self.env, self.policy
-        perf = time.perf_counter
+        perf, cpu = time.perf_counter, time.process_time
         while True:
             if steps is not None and self.steps >= steps:
                 return
@@ -142,16 +142,17 @@ class _EnvLoop:
                 self._reset()
             t0 = perf()
             actions = policy.act_all(self.obs)
-            t1 = perf()
+            t1, c1 = perf(), cpu()
             if step_hook is None:
                 self.obs, *_ = env.step(actions)
             else:
                 step_hook()
                 self.obs, *_ = env.step(actions)
                 step_hook()
-            t2 = perf()
+            t2, c2 = perf(), cpu()
             self.policy_s += t1 - t0
             self.step_s += t2 - t1
+            self.step_cpu_s += c2 - c1
             self.steps += 1
             self.agent_steps += len(actions)
             if on_step is not None:
@@ -183,6 +184,7 @@ def bench_petswarm(num_slaves: int, policy_name: str, s: BenchSettings) -> dict:
         "steps_per_s": loop.steps / loop.step_s,
         "agent_steps_per_s": loop.agent_steps / loop.step_s,
         "ms_per_step": 1e3 * loop.step_s / loop.steps,
+        "cpu_ms_per_step": 1e3 * loop.step_cpu_s / loop.steps,  # process CPU time: less sensitive to load
         "policy_ms_per_step": 1e3 * loop.policy_s / loop.steps,
         "reset_ms": 1e3 * loop.reset_s / resets,
         "resets": resets,
@@ -275,7 +277,7 @@ def bench_mpe(n_agents: int, s: BenchSettings, max_cycles: int) -> dict:
     low, high = space.low, space.high
     perf = time.perf_counter
     state = {"seed": s.seed, "agents": []}
-    tot = {"step": 0.0, "policy": 0.0, "reset": 0.0, "steps": 0, "agent_steps": 0, "resets": 0}
+    tot = {"step": 0.0, "step_cpu": 0.0, "policy": 0.0, "reset": 0.0, "steps": 0, "agent_steps": 0, "resets": 0}
 
     def run(steps: int | None = None, seconds: float | None = None, min_steps: int = 0) -> None:
         while True:
@@ -292,11 +294,12 @@ def bench_mpe(n_agents: int, s: BenchSettings, max_cycles: int) -> dict:
             t0 = perf()
             acts = rng.uniform(low, high, (len(env.agents), len(low))).astype(np.float32)
             actions = dict(zip(env.agents, acts))
-            t1 = perf()
+            t1, c1 = perf(), time.process_time()
             env.step(actions)
-            t2 = perf()
+            t2, c2 = perf(), time.process_time()
             tot["policy"] += t1 - t0
             tot["step"] += t2 - t1
+            tot["step_cpu"] += c2 - c1
             tot["steps"] += 1
             tot["agent_steps"] += len(actions)
 
@@ -316,6 +319,7 @@ def bench_mpe(n_agents: int, s: BenchSettings, max_cycles: int) -> dict:
         "steps_per_s": tot["steps"] / tot["step"],
         "agent_steps_per_s": tot["agent_steps"] / tot["step"],
         "ms_per_step": 1e3 * tot["step"] / tot["steps"],
+        "cpu_ms_per_step": 1e3 * tot["step_cpu"] / tot["steps"],
         "policy_ms_per_step": 1e3 * tot["policy"] / tot["steps"],
         "max_cycles": max_cycles,
     }
@@ -869,6 +873,13 @@ def _ratio(a: dict | None, b: dict | None) -> float | None:
     return a["steps_per_s"] / b["steps_per_s"]
 
 
+def _cpu_ratio(a: dict | None, b: dict | None) -> float | None:
+    """Speed ratio a/b from CPU time per step (process_time), or None."""
+    if a is None or b is None or not a.get("cpu_ms_per_step") or not b.get("cpu_ms_per_step"):
+        return None
+    return b["cpu_ms_per_step"] / a["cpu_ms_per_step"]
+
+
 def _clean(x: Any) -> Any:
     """Plain JSON types (numpy scalars -> float/int, tuples -> lists)."""
     if isinstance(x, dict):
@@ -946,6 +957,7 @@ def run_bench(s: BenchSettings, mode: str = "custom", verbose: bool = False) -> 
     ps6 = _find(results, "petswarm", 6, "scripted")
     ratios = {
         "petswarm_vs_mpe_6": _ratio(ps6, _find(results, "mpe", 6)),
+        "petswarm_vs_mpe_6_cpu": _cpu_ratio(ps6, _find(results, "mpe", 6)),
         "petswarm_vs_floor_6": _ratio(ps6, _find(results, "floor", 6)),
         "cost_9_vs_5_slaves": _ratio(ps6, _find(results, "petswarm", 10, "scripted")),
     }
@@ -1020,6 +1032,8 @@ def _target_rows(result: dict) -> list[tuple[str, str, str, str]]:
     return [
         ("petswarm (1+5) / MPE simple_spread N=6, steps/s", _fmt(t["petswarm_vs_mpe_6"]["measured"]) + "×",
          "≥ 2×", _verdict(t["petswarm_vs_mpe_6"]["met"])),
+        ("the same from CPU time per step (`time.process_time`: less sensitive to other processes' load)",
+         _fmt(r.get("petswarm_vs_mpe_6_cpu")) + "×", "(info)", ""),
         ("per-step cost 9 slaves / 5 slaves", _fmt(t["cost_9_vs_5_slaves"]["measured"]) + "×", "≤ 2×",
          _verdict(t["cost_9_vs_5_slaves"]["met"])),
         (f"memory growth {m['steps_first']:,} → {m['steps_last']:,} steps: RSS / live blocks",
@@ -1245,21 +1259,23 @@ def benchmarks_markdown(result: dict, plot_rel: str) -> str:
         "",
         f"![steps/s against swarm size]({plot_rel})",
         "",
-        "| measurement | robots | steps/s | agent-steps/s | ms/step | policy ms/step | reset ms | timed steps |",
-        "|---|---:|---:|---:|---:|---:|---:|---:|",
+        "| measurement | robots | steps/s | agent-steps/s | ms/step | CPU ms/step | policy ms/step | reset ms | timed steps |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for r in result["results"]:
         out.append(
             f"| {r['label']} | {r['agents']} | {r['steps_per_s']:,.0f} | {r['agent_steps_per_s']:,.0f} | "
-            f"{r['ms_per_step']:.3f} | {_fmt(r.get('policy_ms_per_step'), '.3f')} | {_fmt(r.get('reset_ms'), '.1f')} | {r['steps']:,} |"
+            f"{r['ms_per_step']:.3f} | {_fmt(r.get('cpu_ms_per_step'), '.3f')} | {_fmt(r.get('policy_ms_per_step'), '.3f')} | "
+            f"{_fmt(r.get('reset_ms'), '.1f')} | {r['steps']:,} |"
         )
     for sk in result.get("skipped", []):
-        out.append(f"| {sk['name']} | | skipped: {sk['reason']} | | | | | |")
+        out.append(f"| {sk['name']} | | skipped: {sk['reason']} | | | | | | |")
     out += [
         "",
         ("* **petswarm**: `petswarm_env.parallel_env(**{\"swarm.num_slaves\": n})`, full middleware (join "
         f"protocol, radio medium, IR token ring, master broadcasts), {s['warmup_steps']} warm-up steps, then "
-        f"`env.step` timed with `time.perf_counter` until ≥ {s['target_s']:g} s and ≥ {s['min_steps']} steps. "
+        f"`env.step` timed with `time.perf_counter` until ≥ {s['target_s']:g} s and ≥ {s['min_steps']} steps "
+        "(*CPU ms/step*: `time.process_time` over the same calls, which other processes' load disturbs less). "
         "The policy's time (scripted leader–follower, or uniform random actions) is timed apart (*policy "
         "ms/step*), as is `reset` (*reset ms*; it runs the join protocol on the clock). Episodes reset as they "
         "end (seeds 0, 1, …). *agent-steps/s* counts the acting agents (the slaves) per step; *robots* "

@@ -157,7 +157,7 @@ def build_observation(
         out[i + 3] = st.velocity[1] / vmax
         out[i + 4] = st.velocity[2] / wmax
         out[o["master.activity"] + ACTIVITIES.index(st.activity)] = 1.0
-        out[o["master.rotating"]] = 1.0 if abs(st.user_turn_rate_rps) > 0.1 else 0.0
+        out[o["master.rotating"]] = 1.0 if st.user_rotating else 0.0
         out[o["master.turn_rate"]] = st.user_turn_rate_rps / wmax
         out[o["master.leading"]] = 1.0 if st.mode == "leading" else 0.0
         j = o["master.user_xy"]

@@ -185,6 +185,8 @@ def bench_petswarm(num_slaves: int, policy_name: str, s: BenchSettings) -> dict:
         "agent_steps_per_s": loop.agent_steps / loop.step_s,
         "ms_per_step": 1e3 * loop.step_s / loop.steps,
         "cpu_ms_per_step": 1e3 * loop.step_cpu_s / loop.steps,  # process CPU time: less sensitive to load
+        # slaves that joined, per step: a candidate can stay out (join radius vs its RSSI distance estimate)
+        "mean_slaves_joined": loop.agent_steps / loop.steps,
         "policy_ms_per_step": 1e3 * loop.policy_s / loop.steps,
         "reset_ms": 1e3 * loop.reset_s / resets,
         "resets": resets,
@@ -1259,17 +1261,17 @@ def benchmarks_markdown(result: dict, plot_rel: str) -> str:
         "",
         f"![steps/s against swarm size]({plot_rel})",
         "",
-        "| measurement | robots | steps/s | agent-steps/s | ms/step | CPU ms/step | policy ms/step | reset ms | timed steps |",
-        "|---|---:|---:|---:|---:|---:|---:|---:|---:|",
+        "| measurement | robots | slaves joined | steps/s | agent-steps/s | ms/step | CPU ms/step | policy ms/step | reset ms | timed steps |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for r in result["results"]:
         out.append(
-            f"| {r['label']} | {r['agents']} | {r['steps_per_s']:,.0f} | {r['agent_steps_per_s']:,.0f} | "
+            f"| {r['label']} | {r['agents']} | {_fmt(r.get('mean_slaves_joined'), '.2f')} | {r['steps_per_s']:,.0f} | {r['agent_steps_per_s']:,.0f} | "
             f"{r['ms_per_step']:.3f} | {_fmt(r.get('cpu_ms_per_step'), '.3f')} | {_fmt(r.get('policy_ms_per_step'), '.3f')} | "
             f"{_fmt(r.get('reset_ms'), '.1f')} | {r['steps']:,} |"
         )
     for sk in result.get("skipped", []):
-        out.append(f"| {sk['name']} | | skipped: {sk['reason']} | | | | | | |")
+        out.append(f"| {sk['name']} | | | skipped: {sk['reason']} | | | | | | |")
     out += [
         "",
         ("* **petswarm**: `petswarm_env.parallel_env(**{\"swarm.num_slaves\": n})`, full middleware (join "
@@ -1279,7 +1281,8 @@ def benchmarks_markdown(result: dict, plot_rel: str) -> str:
         "The policy's time (scripted leader–follower, or uniform random actions) is timed apart (*policy "
         "ms/step*), as is `reset` (*reset ms*; it runs the join protocol on the clock). Episodes reset as they "
         "end (seeds 0, 1, …). *agent-steps/s* counts the acting agents (the slaves) per step; *robots* "
-        "counts the master too."),
+        "counts the master too; *slaves joined* is the mean number of slaves in the episodes timed (a candidate "
+        "whose RSSI distance estimate puts it beyond the join radius stays out, Table 1)."),
         "* **physics floor**: the env's own `World` with the same bodies (robots with the configured radius "
         "and mass, the user as a kinematic circle, the arena walls), stepped `physics_substeps` times per "
         "control step, setting every body's velocity and angular velocity before each substep with Chipmunk's "

@@ -49,6 +49,7 @@ ENV_NAME = "petswarm_v0"
 OTHER_USER_ID = 99  # the user that "other user" robots are connected to (Table 1)
 SWARM_PAN = 0x1001  # user u's swarm uses PAN SWARM_PAN + u
 WAKE_PATTERN = 0x5A00  # user u's belt and robot share the LF wake-up pattern WAKE_PATTERN + u
+SPAWN_REACH = 0.85  # chosen: waiting robots start within 85 % of the master's available region (Table 1)
 PAIRING_DISTANCE_M = 0.8  # chosen: each user starts this close to their robot (LF wake-up range 1 m)
 
 
@@ -278,8 +279,12 @@ class PetSwarmEnv(ParallelEnv):
             start = base + np.array([PAIRING_DISTANCE_M if leading else -PAIRING_DISTANCE_M, 0.0])
             master = world.add_robot(start, heading)
             pool = []
+            reach = SPAWN_REACH * cfg.protocol.join_radius_m
             for m in range(1, n + 1):
-                p = base + final + world_slots[m] + rng.uniform(-jitter, jitter, 2)
+                rel = world_slots[m] + rng.uniform(-jitter, jitter, 2)
+                if np.hypot(*rel) > reach:  # a far slot (e.g. the 5th of a wedge, 3 m): start inside the region
+                    rel = rel * (reach / np.hypot(*rel))
+                p = base + final + rel
                 if leading and abs(world_slots[m][1]) < 0.9:  # keep the master's shifting path clear
                     side = np.sign(world_slots[m][1]) or (1.0 if m % 2 else -1.0)
                     p[1] = base[1] + side * 0.9 + rng.uniform(-jitter, jitter) * 0.3

@@ -28,13 +28,14 @@ class IRChannel:
         (rad), and validity, each of shape (len(rx_indices),).
         """
         centers, radii = self.world.body_circles()
-        headings = self.world.robot_headings()
+        robots = self.world.robots
+        headings = np.array([robots[i].heading for i in rx_indices], dtype=float)  # the receivers' only
         rx = np.asarray(rx_indices, dtype=int)
         p_rx = centers[rx]
         p_tx = np.broadcast_to(centers[tx_index], p_rx.shape)
         delta = p_tx - p_rx
         distance = np.hypot(delta[:, 0], delta[:, 1])
-        bearing = np.arctan2(delta[:, 1], delta[:, 0]) - headings[rx]
+        bearing = np.arctan2(delta[:, 1], delta[:, 0]) - headings
         exclude = np.zeros((len(rx), len(centers)), dtype=bool)
         exclude[np.arange(len(rx)), rx] = True
         exclude[:, tx_index] = True

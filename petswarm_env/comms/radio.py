@@ -36,6 +36,7 @@ import simpy
 from simpy.events import NORMAL
 
 from petswarm_env.config import RadioConfig
+from petswarm_env.sim.draws import Draws
 
 BROADCAST = -1
 PAN_WAITING = 0x0000  # robots not in a swarm listen here (chosen)
@@ -92,33 +93,6 @@ def _fire(ev: _Later) -> None:
 def call_later(clock: simpy.Environment, delay: float, fn: Callable[..., Any], *args: Any) -> None:
     """Run ``fn(*args)`` after ``delay`` seconds of clock time (one event on the clock)."""
     _Later(clock, delay, fn, args)
-
-
-class Draws:
-    """Scalar random draws from a Generator, taken from it in blocks (one numpy call per draw costs
-    several times the draw). Deterministic: the same generator gives the same sequence."""
-
-    __slots__ = ("_n", "_u", "block", "rng")
-
-    def __init__(self, rng: np.random.Generator, block: int = 256):
-        self.rng = rng
-        self.block = block
-        self._u: list[float] = []
-        self._n: list[float] = []
-
-    def uniform(self) -> float:
-        """U[0, 1)."""
-        u = self._u
-        if not u:
-            u.extend(self.rng.random(self.block).tolist())
-        return u.pop()
-
-    def normal(self) -> float:
-        """N(0, 1)."""
-        n = self._n
-        if not n:
-            n.extend(self.rng.standard_normal(self.block).tolist())
-        return n.pop()
 
 
 class _Tx:

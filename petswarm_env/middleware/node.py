@@ -16,9 +16,10 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import simpy
 
-from petswarm_env.comms.radio import BROADCAST, PAN_WAITING, Draws, Frame, RadioMedium, call_later
+from petswarm_env.comms.radio import BROADCAST, PAN_WAITING, Frame, RadioMedium, call_later
 from petswarm_env.middleware import messages as msg
 from petswarm_env.middleware.formation import Formation
+from petswarm_env.sim.draws import Draws
 
 if TYPE_CHECKING:
     from petswarm_env.middleware.swarm import Swarm

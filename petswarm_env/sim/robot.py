@@ -12,6 +12,7 @@ import numpy as np
 import pymunk
 
 from petswarm_env.config import RobotConfig
+from petswarm_env.sim.draws import Draws
 
 # Chipmunk's body accessors (``pymunk.cp``, pymunk's low-level handle): the per-substep drive and
 # the radio's position reads call them directly instead of through pymunk's Python properties,
@@ -89,18 +90,27 @@ class Robot:
         self.command = (0.0, 0.0, 0.0)
         self.velocity_body = (0.0, 0.0, 0.0)
         # AHRS: yaw with white noise and a slowly drifting bias (random walk in time)
-        self.ahrs_rng = np.random.default_rng(0)
+        self.ahrs_rng = np.random.default_rng(0)  # (the env gives every robot its own stream)
         self._ahrs_bias = 0.0
         self._ahrs_time = 0.0
+
+    @property
+    def ahrs_rng(self) -> np.random.Generator:
+        """The AHRS noise stream; its normals are drawn in blocks (:class:`~.draws.Draws`)."""
+        return self._ahrs_draws.rng
+
+    @ahrs_rng.setter
+    def ahrs_rng(self, rng: np.random.Generator) -> None:
+        self._ahrs_draws = Draws(rng)
 
     def ahrs_yaw(self, now_s: float) -> float:
         """AHRS yaw reading (rad) at clock time ``now_s``: truth + drifting bias + white noise."""
         cfg = self.cfg
         dt = now_s - self._ahrs_time
         if dt > 0:
-            self._ahrs_bias += math.radians(cfg.ahrs_drift_dps) * math.sqrt(dt) * self.ahrs_rng.standard_normal()
+            self._ahrs_bias += math.radians(cfg.ahrs_drift_dps) * math.sqrt(dt) * self._ahrs_draws.normal()
             self._ahrs_time = now_s
-        return _get_angle(self._cbody) + self._ahrs_bias + math.radians(cfg.ahrs_noise_deg) * self.ahrs_rng.standard_normal()
+        return _get_angle(self._cbody) + self._ahrs_bias + math.radians(cfg.ahrs_noise_deg) * self._ahrs_draws.normal()
 
     @property
     def position(self) -> tuple[float, float]:

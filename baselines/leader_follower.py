@@ -5,9 +5,15 @@ It reads only the observation, like a learned policy. Per step:
 1. ``Vx, Vy`` from the reference location minus the actual location: for each reference
    neighbour, the IR-measured neighbour position (propagated over the measurement's age with the
    master's broadcast speed and the robot's own odometry) plus the reference offset rotated by the
-   twisted heading Δθ gives where the robot should be, in its own frame;
+   twisted heading Δθ gives where the robot should be, in its own frame. Chosen: a reference
+   location closer than ``user_keep_out_m`` to the user (the master's broadcast user position) is
+   moved out to that distance — a formation that lags its user's turn must not put a robot on the
+   user's path;
 2. revise ``Vx, Vy`` with the master's broadcast driving speed (feed-forward that compensates the
-   update delay of the sequential IR ring);
+   update delay of the sequential IR ring). Chosen reading of "driving speed": the velocity the
+   master's motion gives the reference location — the master's translation plus its rotation ω
+   carrying the location about it (ω × offset from the master), so a turning master does not
+   leave its formation behind;
 3. estimate the twisted heading Δθ = θ_neighbour − θ_self from the heading exchange and correct
    it with ω until it is inside the error band;
 4. on user rotation: leading mode → arc driving (the velocity a point at the robot's distance
@@ -37,6 +43,8 @@ class LeaderFollowerPolicy(Policy):
         heading_band_rad: float = math.radians(3.0),  # error band of step 3
         keep_out_m: float = 0.50,
         repulsion_gain: float = 5.0,
+        carry_rotation: bool = True,
+        user_keep_out_m: float = 1.1,
     ):
         super().__init__(spec)
         self.kp = position_gain
@@ -44,6 +52,8 @@ class LeaderFollowerPolicy(Policy):
         self.band = heading_band_rad
         self.keep_out = keep_out_m
         self.krep = repulsion_gain
+        self.carry = carry_rotation
+        self.user_keep_out = user_keep_out_m
         lay = spec.layout
         self._sl = lay.slices
         n_us = lay.slices["self.ultrasonic"].stop - lay.slices["self.ultrasonic"].start
@@ -67,8 +77,8 @@ class LeaderFollowerPolicy(Policy):
             if obs[sl[p + "heading_valid"]][0] > 0.5:  # the neighbour kept turning with the swarm since
                 dth = math.atan2(s, c) + mv[2] * obs[sl[p + "heading_age"]][0] * AGE_SCALE_S
             dthetas.append(dth)
-            if obs[sl[p + "ir_valid"]][0] < 0.5:
-                continue
+            if obs[sl[p + "ir_valid"]][0] < 0.5 or obs[sl[p + "ir_age"]][0] >= 1.0:
+                continue  # no measurement, or one older than the observation's age range: move with the swarm
             nb = obs[sl[p + "neighbour_xy"]] * POS_SCALE_M
             age = obs[sl[p + "ir_age"]][0] * AGE_SCALE_S
             cd, sd = math.cos(dth), math.sin(dth)
@@ -81,15 +91,32 @@ class LeaderFollowerPolicy(Policy):
 
         dth = float(np.mean(dthetas)) if dthetas else 0.0
         cd, sd = math.cos(dth), math.sin(dth)
-        # step 2: master's driving speed, rotated from the formation frame into ours
-        v = np.array([cd * mv[0] - sd * mv[1], sd * mv[0] + cd * mv[1]])
-        # step 1: toward the reference location
+        # step 2: master's driving speed, rotated from the formation frame into ours — the velocity
+        # the master's motion gives the reference location: its translation plus its rotation
+        # carrying the location about it (ω × offset from the master); in a leading turn step 4's
+        # arc about the user takes the rotation's place
+        ref = obs[sl["self.offset_from_master_xy"]] * POS_SCALE_M
+        leading_turn = have_status and obs[sl["master.leading"]][0] > 0.5 and obs[sl["master.rotating"]][0] > 0.5
+        wr = 0.0 if leading_turn or not self.carry else mv[2]
+        fx, fy = mv[0] - wr * ref[1], mv[1] + wr * ref[0]
+        v = np.array([cd * fx - sd * fy, sd * fx + cd * fy])
+        # step 1: toward the reference location — moved out of a keep-out disc around the user (the
+        # master's broadcast user position, carried from the formation frame into ours): a formation
+        # that lags its user's turn must not place anyone on the user's path
         if targets:
-            v = v + self.kp * np.mean(targets, axis=0)
+            target = np.mean(targets, axis=0)
+            if have_status and self.user_keep_out > 0:
+                du = obs[sl["master.user_xy"]] * POS_SCALE_M - ref  # user relative to our reference
+                user = target + np.array([cd * du[0] - sd * du[1], sd * du[0] + cd * du[1]])
+                away = target - user
+                gap = float(np.hypot(*away))
+                if gap < self.user_keep_out:
+                    target = user + (away / gap if gap > 1e-6 else -user / max(float(np.hypot(*user)), 1e-6)) * self.user_keep_out
+            v = v + self.kp * target
         # step 4: leading mode arc driving on user rotation
         turn = obs[sl["master.turn_rate"]][0] * wmax
-        if have_status and obs[sl["master.leading"]][0] > 0.5 and obs[sl["master.rotating"]][0] > 0.5:
-            r = (obs[sl["self.offset_from_master_xy"]] - obs[sl["master.user_xy"]]) * POS_SCALE_M
+        if leading_turn:
+            r = ref - obs[sl["master.user_xy"]] * POS_SCALE_M
             arc = np.array([-turn * r[1], turn * r[0]])
             v = v + np.array([cd * arc[0] - sd * arc[1], sd * arc[0] + cd * arc[1]])
         # step 3: twisted-heading correction inside an error band, plus the swarm's rotation

@@ -1,17 +1,25 @@
 """Master-role controller of seed 002 §3.4 (Fig. 13): the user-connected robot keeps its user.
 
 Inputs are the robot's own view only: the user's position from the LF localisation (tracked
-between the 350 ms fixes by :class:`UserTracker`), the belt's rotation report over BLE, and its own
-odometry. The control system of Fig. 13, in order:
+between the 350 ms fixes by :class:`UserTracker`), the belt's activity and rotation reports over
+BLE, and its own odometry. The control system of Fig. 13, in order:
 
 1. **distance and speed** — adaptive-cruise-control style (seed 002 ref. [19]): the robot keeps
-   pace with the user's tracked velocity; far from the standard distance (outside ``acc_band_m``)
-   it is a distance controller, near it only a gentle distance correction remains;
-2. **per mode** — *following*: rotate (ω) toward the user once it leaves a small deadband, so the
-   user stays well inside the reliable ±25° region (the belt's Stop / Rest zeroes the speed to match); *leading*: while the belt reports a rotation, move along the arc around the user
-   (the robot's position turns about the user with the user's angular speed, until the arc has
-   covered the accumulated angle the belt reports); otherwise, when the user leaves ±25°, correct
-   sideways (Vy);
+   pace with the user's velocity; far from the standard distance (outside ``acc_band_m``) it is a
+   distance controller, near it only a gentle distance correction remains. The user's velocity is
+   the tracked speed along a walking direction ψ that turns with the belt's accumulated rotation
+   angle (the LF track alone lags a turn by a second) and is pulled slowly toward the track's
+   direction while the user walks straight (:meth:`MasterController.user_velocity`);
+2. **per mode** — where around the user the robot belongs. *Following*: behind the walking user;
+   the robot keeps its place relative to the user (pace) and drifts in behind them at
+   ``trail_rps`` (a bounded swing the formation can follow), and rotates toward the user once they
+   leave a small deadband, keeping them well inside the reliable ±25° region. *Leading*: straight
+   ahead of the user. While the belt reports a rotation, a robot ahead of its user moves along the
+   arc about the user at the user's angular speed (seed 002 §3.4, Table 4); a remaining angle
+   between its place and straight ahead is closed at ``arc_gain``; when the user leaves ±25° and
+   is not rotating, the robot corrects sideways (Vy). The leading robot drives backwards along the
+   user's walking direction (its heading follows ψ, never turning the user out of the reliable
+   region), so keeping pace costs one wheel axis only;
 3. **safety** — last, in the control arbiter (:mod:`petswarm_env.control.arbiter`).
 
 Every robot faces its user in both modes (the LF antennas must see the belt inside ±25°); a leading
@@ -98,14 +106,61 @@ class UserTracker:
 
 
 class MasterController:
+    """Seed 002 Fig. 13 for one robot: ``command`` maps the tracked user and the belt's report to
+    (Vx, Vy, ω) in the body frame. State: the walking direction ψ (body frame) and the belt's
+    accumulated angle at the last step."""
+
     def __init__(self, cfg: MasterConfig, reliable_half_angle_rad: float):
         self.cfg = cfg
         self.half_angle = reliable_half_angle_rad
         self.reset()
 
     def reset(self) -> None:
-        self.arc_done_rad = 0.0  # leading: arc covered during the current user rotation
+        self._walk_dir: float | None = None  # ψ: the user's walking direction, body frame
+        self._trusted = False  # ψ steers: tracked, or guessed while the user stood still (not mid-turn)
+        self._belt_angle = 0.0  # the belt's accumulated angle at the last step (current rotation)
         self._was_rotating = False
+
+    @property
+    def walk_direction_rad(self) -> float | None:
+        """ψ, the user's walking direction in the body frame (None before the first command)."""
+        return self._walk_dir
+
+    def user_velocity(self, user_vel: tuple[float, float], belt: BeltView, own_omega: float, mode: str,
+                      bearing: float, dt: float) -> tuple[tuple[float, float], bool]:
+        """The user's velocity (body frame) and whether they walk.
+
+        While the belt says Walk / Run: the tracked speed along ψ, a complementary filter — ψ turns
+        with the increments of the belt's accumulated rotation angle (fast, seed 002 §3.4) and,
+        while the user walks straight, is pulled toward the track's direction at
+        ``heading_blend_rps`` (slow, noisy); the first track replaces the initial guess (the user
+        faces the robot in leading, away from it in following). While the belt says Stop / Rest the
+        user stands — unless the track's component along the line of sight (the accurate LF range)
+        is already walking speed: the belt's activity window lags the start of a walk by about a
+        second."""
+        cfg = self.cfg
+        speed = math.hypot(*user_vel)
+        if self._walk_dir is None:
+            self._walk_dir = _wrap(bearing + math.pi) if mode == "leading" else bearing
+            self._trusted = belt.activity in ("stop", "rest") and not belt.rotating
+        turn = 0.0
+        if belt.rotating:  # the belt's accumulated angle restarts at 0 with every rotation
+            turn = belt.accumulated_angle_rad - (self._belt_angle if self._was_rotating else 0.0)
+            self._belt_angle = belt.accumulated_angle_rad
+        self._was_rotating = belt.rotating
+        self._walk_dir = _wrap(self._walk_dir + turn - own_omega * dt)
+        if belt.activity in ("stop", "rest"):
+            c, s = math.cos(bearing), math.sin(bearing)
+            radial = user_vel[0] * c + user_vel[1] * s
+            if abs(radial) < cfg.walk_speed_mps:
+                return (0.0, 0.0), False
+            return (radial * c, radial * s), True
+        if speed > cfg.walk_speed_mps and not belt.rotating:
+            track = math.atan2(user_vel[1], user_vel[0])
+            k = min(1.0, cfg.heading_blend_rps * dt) if self._trusted else 1.0
+            self._walk_dir = _wrap(self._walk_dir + k * _wrap(track - self._walk_dir))
+            self._trusted = True
+        return (speed * math.cos(self._walk_dir), speed * math.sin(self._walk_dir)), True
 
     def command(
         self,
@@ -117,7 +172,8 @@ class MasterController:
         target_distance_m: float,
         dt: float,
     ) -> tuple[float, float, float]:
-        """(Vx, Vy, ω) body-frame command. ``user_pos``/``user_vel`` in the body frame."""
+        """(Vx, Vy, ω) body-frame command. ``user_pos``/``user_vel`` in the body frame (tracker),
+        ``own_velocity`` the robot's odometry (Vx, Vy, ω)."""
         cfg = self.cfg
         ux, uy = user_pos
         r = math.hypot(ux, uy)
@@ -125,30 +181,36 @@ class MasterController:
             return 0.0, 0.0, 0.0
         nx, ny = ux / r, uy / r  # unit vector toward the user
         bearing = math.atan2(uy, ux)
-        # 1. ACC: distance control far from the target, speed matching near it
+        (wx, wy), walking = self.user_velocity(user_vel, belt, own_velocity[2], mode, bearing, dt)
+        psi = self._walk_dir
+        band = math.radians(cfg.rotate_deadband_deg)
+
+        def beyond(a: float) -> float:  # an angle beyond the deadband
+            return a - max(-band, min(band, a))
+
+        # 1. ACC: keep pace with the user; distance control far from the target, gentle near it
         err = r - target_distance_m
         gain = cfg.distance_gain if abs(err) > cfg.acc_band_m else cfg.speed_gain
-        if belt.activity in ("stop", "rest"):  # the belt says the user stands: no speed to match
-            user_vel = (0.0, 0.0)
-        # keep pace with the user (their whole velocity) and close the distance error along the line
-        vx, vy, w = user_vel[0] + gain * err * nx, user_vel[1] + gain * err * ny, 0.0
-        # 2. mode
-        if mode == "leading":
-            if belt.rotating:
-                if not self._was_rotating:
-                    self.arc_done_rad = 0.0
-                # arc about the user: the robot's position relative to the user, −user_pos, turns
-                # at the user's rate; correct toward the accumulated angle the belt reports
-                rate = belt.angular_speed_rps + cfg.arc_gain * (belt.accumulated_angle_rad - self.arc_done_rad)
-                vx += rate * uy
-                vy += -rate * ux
-                w = rate
-                self.arc_done_rad += rate * dt
-            elif abs(bearing) > self.half_angle:
-                vy += cfg.sideways_gain * uy  # move sideways until the user is back inside ±25°
-            self._was_rotating = belt.rotating
-        else:  # following (and remote/solo driving toward the user)
-            band = math.radians(cfg.rotate_deadband_deg)
-            w = cfg.rotate_gain * (bearing - max(-band, min(band, bearing)))
-            self._was_rotating = False
+        vx, vy = wx + gain * err * nx, wy + gain * err * ny
+        # 2. per mode: the robot's place about the user turns at ``swing`` (rad/s, CCW)
+        arc = swing = 0.0
+        if mode == "leading":  # straight ahead of the user
+            off = _wrap(bearing + math.pi - psi)  # the robot's place about the user from straight ahead
+            if self._trusted:
+                if belt.rotating:  # the arc: a robot ahead of its user turns with the user; one beside
+                    arc = belt.angular_speed_rps * max(0.0, math.cos(off))  # or behind is met by the turn
+                swing = arc - cfg.arc_gain * math.sin(beyond(off))
+        elif walking:  # following: drift in behind the walking user
+            swing = -cfg.trail_rps * math.sin(_wrap(bearing - psi))
+        vx += swing * uy  # the robot's place relative to the user, −user_pos, turns at ``swing``
+        vy += -swing * ux
+        if mode == "leading" and not belt.rotating and abs(bearing) > self.half_angle:
+            vy += cfg.sideways_gain * uy  # move sideways until the user is back inside ±25°
+        # 3. heading: face the user
+        if mode == "leading":  # drive backwards along the user's walk, the user kept inside the region
+            lim = self.half_angle - band
+            w = arc + cfg.rotate_gain * min(bearing + lim, max(bearing - lim, beyond(_wrap(psi - math.pi))))
+        else:  # turn with the line of sight (from the odometry) and correct beyond the deadband
+            w = (ux * (wy - own_velocity[1]) - uy * (wx - own_velocity[0])) / (r * r)
+            w += cfg.rotate_gain * beyond(bearing)
         return vx, vy, w

@@ -526,6 +526,7 @@ ROTATION_MIN_ACCURACY_PCT = 94.0  # issue 4 / seed 002 §4.3: accuracy over 94 %
 ROTATION_MAX_SIGMA_DEG = 4.0  # standard deviation within 4°
 ROTATION_SETUP = {"swarm.mode": "leading", "swarm.num_slaves": 1, "swarm.formation": "row", "user.scenario": "straight"}
 ROTATION_TRIALS = 20  # per target angle (the paper does not say how many)
+ROTATION_SETTLE_S = 4.0  # the arc angle is read this long after the user's turn ends
 
 
 def rotation_trial(cfg: Config, seed: int, target_deg: float) -> float:
@@ -550,7 +551,7 @@ def rotation_trial(cfg: Config, seed: int, target_deg: float) -> float:
     for _ in range(steps_before):
         obs = _step(env, pol, obs)
     b0 = bearing()
-    for _ in range(int(round((abs(target_deg) / TURN_RATE_DPS + 4.0) / cfg.control_period_s))):
+    for _ in range(int(round((abs(target_deg) / TURN_RATE_DPS + ROTATION_SETTLE_S) / cfg.control_period_s))):
         obs = _step(env, pol, obs)
     env.close()
     return math.degrees(math.remainder(bearing() - b0, 2 * math.pi))

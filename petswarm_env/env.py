@@ -169,9 +169,8 @@ class PetSwarmEnv(ParallelEnv):
         self._collisions_at_start = (world.collisions.robot_robot, world.collisions.robot_user, world.collisions.robot_wall)
         self._events_at_start = self._event_counts()
         self.metrics = EpisodeMetrics(
-            organize_time_s=swarm.organize_result.elapsed_s, join_retries=sum(sw.organize_result.retries for sw in self.swarms)
+            organize_time_s=self.swarm.organize_result.elapsed_s, join_retries=sum(sw.organize_result.retries for sw in self.swarms)
         )
-        self.metrics.organize_time_s = self.swarm.organize_result.elapsed_s
         self._radio_at_start = (self.radio.stats.frames_sent, self.radio.stats.frames_lost, self.radio.stats.frames_collided)
         for user in world.users:
             user.walking = True

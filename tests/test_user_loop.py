@@ -13,7 +13,7 @@ from petswarm_env.comms.radio import RadioMedium
 from petswarm_env.config import load_config
 from petswarm_env.control.arbiter import ControlArbiter, SafetyStage
 from petswarm_env.middleware import node as node_mod
-from petswarm_env.middleware.formation import build_formation, formation_for_mode, user_position_in_formation
+from petswarm_env.middleware.formation import formation_for_mode, user_position_in_formation
 from petswarm_env.middleware.modes import plan_mode_change
 from petswarm_env.middleware.swarm import Fleet, Swarm
 from petswarm_env.middleware.user_session import UserSession
@@ -202,9 +202,14 @@ def _levels(formation):
     return formation.hierarchy_levels(user_position_in_formation(formation, 1.0))
 
 
-def _relative_geometry(formation):
-    slots = formation.slot_positions()
-    return {frozenset((a, b)): slots[b] - slots[a] for a in range(len(slots)) for b in range(len(slots)) if a < b}
+def _assert_geometry_kept(formation, members, plan):
+    """Every robot (node id) stands where it stood relative to every other one: nobody has to move."""
+    old_slots, new_slots = formation.slot_positions(), plan.formation.slot_positions()
+    node_old = {members[m]: old_slots[m] for m in members}
+    node_new = {plan.members[m]: new_slots[m] for m in plan.members}
+    for a, pa in node_old.items():
+        for b, pb in node_old.items():
+            np.testing.assert_allclose(node_new[b] - node_new[a], pb - pa, atol=1e-9)
 
 
 @pytest.mark.parametrize("shape", ["wedge", "column", "grid", "row"])
@@ -218,12 +223,7 @@ def test_table3_leading_to_following_with_change_takes_the_closest_robot_and_kee
     assert plan.members[0] == members[closest] and plan.master_changed == (closest != 0)
     assert not plan.references_changed
     # every robot keeps its neighbours and where it stands relative to them
-    old_slots, new_slots = f.slot_positions(), plan.formation.slot_positions()
-    node_old = {members[m]: old_slots[m] for m in range(5)}
-    node_new = {plan.members[m]: new_slots[m] for m in range(5)}
-    for a in node_old:
-        for b in node_old:
-            np.testing.assert_allclose(node_new[b] - node_new[a], node_old[b] - node_old[a], atol=1e-9)
+    _assert_geometry_kept(f, members, plan)
     pairs_old = {frozenset((members[m], members[lk.neighbour])) for m, lks in f.links.items() for lk in lks}
     pairs_new = {frozenset((plan.members[m], plan.members[lk.neighbour])) for m, lks in plan.formation.links.items() for lk in lks}
     assert pairs_old == pairs_new
@@ -239,12 +239,7 @@ def test_table3_following_to_leading_with_change_takes_the_top_of_the_hierarchy_
     top = min(range(5), key=lambda m: (levels[m], m))
     assert levels[top] == 1  # the robot farthest from the user
     assert plan.members[0] == members[top] and plan.master_changed and not plan.references_changed
-    old_slots, new_slots = f.slot_positions(), plan.formation.slot_positions()
-    node_old = {members[m]: old_slots[m] for m in range(5)}
-    node_new = {plan.members[m]: new_slots[m] for m in range(5)}
-    for a in node_old:  # nobody has to move: the geometry is the same
-        for b in node_old:
-            np.testing.assert_allclose(node_new[b] - node_new[a], node_old[b] - node_old[a], atol=1e-9)
+    _assert_geometry_kept(f, members, plan)
     assert sorted(plan.members.values()) == sorted(members.values())
 
 

@@ -15,7 +15,7 @@ from petswarm_env.comms.ir_channel import IRChannel
 from petswarm_env.comms.radio import RadioMedium
 from petswarm_env.config import Config
 from petswarm_env.middleware import messages as msg
-from petswarm_env.middleware.formation import Formation, formation_for_mode, user_position_in_formation
+from petswarm_env.middleware.formation import Formation, formation_for_mode
 from petswarm_env.middleware.join import JoinManager, OrganizeResult
 from petswarm_env.middleware.modes import ModeChangePlan, ModeManager, plan_mode_change
 from petswarm_env.middleware.node import MasterStatus, Node
@@ -78,6 +78,7 @@ class Swarm:
         self.mode_changed_s = -float("inf")
         self.user_view: MasterStatus | None = None  # the master's view of its user (set by the session)
         self.events = {"master_changes": 0, "mode_changes": 0}
+        self.emergency = False  # the user is lost (seed 002 Fig. 4); set by the user session
         self._mode_seq = 0
         self.on_master_change = None  # callback(old_node, new_node), set by the user session
 
@@ -178,8 +179,6 @@ class Swarm:
     def broadcast_mode(self) -> str:
         """The mode the slaves hear: the driving mode, or ``emergency`` while the user is lost."""
         return "emergency" if self.emergency else self.mode
-
-    emergency = False  # set by the user session (seed 002 Fig. 4)
 
     def on_status(self, node: Node, frame) -> None:
         p = frame.payload

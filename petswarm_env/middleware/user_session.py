@@ -51,7 +51,6 @@ DRIVING_STATES = ("following", "leading", "remote")
 MODE_SETTLE_S = 5.0  # chosen: after a mode change the re-forming swarm raises no obstacle exception
 MEMBER_ECHO_AGE_S = 2.0  # chosen: IR positions this fresh explain an ultrasonic echo as a swarm member
 LEADING_LF_MARGIN_M = 0.3  # chosen: a leading master stays this far inside its LF range
-ROBOT_STATES = ("waiting_user", "command_waiting", *DRIVING_STATES, "exception", "emergency")  # seed 002 Fig. 4
 
 
 def master_distance_m(cfg: Config, formation, mode: str) -> float:
@@ -197,10 +196,9 @@ class UserSession:
         elif command == "disperse":
             if swarm.organized:
                 swarm.start_disperse()
-        elif command == "return":
-            if self.state == "exception":
-                self.state = self.previous_mode
-                self._remote_stop()
+        elif command == "return" and self.state == "exception":
+            self.state = self.previous_mode
+            self._remote_stop()
 
     def handle_gesture(self, cmd: Command) -> None:
         """A recognised gesture (seed 002 Table 1) reaches the robot."""

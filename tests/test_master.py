@@ -67,7 +67,8 @@ def _arc_in_place(angle_deg: float, seed: int) -> float:
     t_turn, t_done = 2.0, 2.0 + math.radians(abs(angle_deg)) / abs(rate)
     t, next_fix = 0.0, 0.0
     while t < t_done + 4.0:
-        belt.advance(t + dt, 0.0, rate if t_turn <= t < t_done else 0.0, "stop")
+        turning = max(0.0, min(t + dt, t_done) - max(t, t_turn))  # of this period (the gyro integrates)
+        belt.advance(t + dt, 0.0, rate * turning / dt, "stop")
         b = belt.reading()
         view = BeltView(b.activity, b.rotating, b.angular_speed_rps, b.accumulated_angle_rad, t)
         odo = robot.body_velocity()

@@ -120,6 +120,8 @@ class MasterController:
         self._trusted = False  # ψ steers: tracked, or guessed while the user stood still (not mid-turn)
         self._belt_angle = 0.0  # the belt's accumulated angle at the last step (current rotation)
         self._was_rotating = False
+        self._sync: list[float] | None = None  # leading arc of the current rotation: [share, arc done]
+        self._was_rotating_arc = False
 
     @property
     def walk_direction_rad(self) -> float | None:
@@ -162,6 +164,35 @@ class MasterController:
             self._trusted = True
         return (speed * math.cos(self._walk_dir), speed * math.sin(self._walk_dir)), True
 
+    def _arc(self, belt: BeltView, off: float, user_pos: tuple[float, float], user_vel: tuple[float, float],
+             own_velocity: tuple[float, float, float], dt: float) -> float | None:
+        """Leading: the moving arc that synchronises the robot with its user's rotation (seed 002
+        §3.4: "the robot must know the rotation state, angular speed, and accumulated angle of the
+        human to synchronize with their rotation"; Table 4). While the belt reports a rotation the
+        robot's place about the user turns at the user's angular speed, and the arc it has made so far
+        (dead-reckoned from its odometry relative to the tracked user) is closed on the belt's
+        accumulated angle at ``arc_sync_gain``; once the rotation ends, the rest of the accumulated
+        angle is closed the same way. A robot ahead of its user turns with them; one beside or behind
+        is met by the turn (its share ``max(0, cos off)`` is fixed when the rotation starts). None when
+        there is no rotation to synchronise with."""
+        cfg = self.cfg
+        if belt.rotating and not (self._sync is not None and self._was_rotating_arc):
+            self._sync = [max(0.0, math.cos(off)), 0.0]  # a new rotation: the belt's angle restarts at 0
+        self._was_rotating_arc = belt.rotating
+        if self._sync is None:
+            return None
+        share, done = self._sync
+        ux, uy = user_pos
+        r2 = ux * ux + uy * uy
+        rvx, rvy = own_velocity[0] - user_vel[0], own_velocity[1] - user_vel[1]
+        done += (uy * rvx - ux * rvy) / r2 * dt  # the robot's place (−user_pos) turned by p × v / |p|²
+        self._sync[1] = done
+        gap = share * belt.accumulated_angle_rad - done
+        if not belt.rotating and abs(gap) < math.radians(cfg.arc_sync_done_deg):
+            self._sync = None  # synchronised
+            return None
+        return share * (belt.angular_speed_rps if belt.rotating else 0.0) + cfg.arc_sync_gain * gap
+
     def command(
         self,
         user_pos: tuple[float, float],
@@ -196,10 +227,12 @@ class MasterController:
         arc = swing = 0.0
         if mode == "leading":  # straight ahead of the user
             off = _wrap(bearing + math.pi - psi)  # the robot's place about the user from straight ahead
-            if self._trusted:
-                if belt.rotating:  # the arc: a robot ahead of its user turns with the user; one beside
-                    arc = belt.angular_speed_rps * max(0.0, math.cos(off))  # or behind is met by the turn
-                swing = arc - cfg.arc_gain * math.sin(beyond(off))
+            arc = self._arc(belt, off, (ux, uy), (wx, wy), own_velocity, dt) if self._trusted else None
+            if arc is None:  # no rotation to synchronise with: close on straight ahead
+                arc = 0.0
+                swing = -cfg.arc_gain * math.sin(beyond(off))
+            else:
+                swing = arc
         elif walking:  # following: drift in behind the walking user
             swing = -cfg.trail_rps * math.sin(_wrap(bearing - psi))
         vx += swing * uy  # the robot's place relative to the user, −user_pos, turns at ``swing``

@@ -85,6 +85,7 @@ class UserSession:
         rngs = rng.spawn(4)
         self.rng_lf, rng_belt, rng_watch, self.rng_misc = rngs
         self.belt = SmartBelt(cfg.belt, rng_belt, t0_s=world.now)
+        self._belt_fed = (world.now, user.heading)  # the user's heading when the belt was last advanced
         self.watch = Watch(cfg.watch, rng_watch)
         self.remote = RemoteDriver(cfg.watch)
         self.ctrl = MasterController(cfg.master, math.radians(cfg.lf.reliable_half_angle_deg))
@@ -259,8 +260,10 @@ class UserSession:
         user = self.user
         seg = user.segment
         moving = user.walking
-        self.belt.advance(now, seg.speed_mps if moving else 0.0, user.turn_rate_rps if moving else 0.0,
-                          seg.activity if moving else "stop")
+        t_fed, heading_fed = self._belt_fed  # the waist's mean yaw rate over the period (the gyro integrates
+        turn = (user.heading - heading_fed) / (now - t_fed) if now > t_fed else 0.0  # the true rotation)
+        self._belt_fed = (now, user.heading)
+        self.belt.advance(now, seg.speed_mps if moving else 0.0, turn, seg.activity if moving else "stop")
         self._pick_up_user_commands()
         master = self.swarm.master
         yaw = master.ahrs_yaw()

@@ -34,11 +34,13 @@ This module keeps the physics and the recognition apart, as ``middleware/ir.py``
   sample. Recognition latency and errors come out of the window and the filter, not a table.
   Choices where the paper is silent: gravity is removed as the window mean; a sample's sign counts
   only beyond a dead band (else white noise around zero would look highly "periodic"); the rotation
-  flag has an on and a lower off threshold; the accumulated angle integrates the filtered rate
-  while the flag is set, restarts at 0 when a rotation starts and holds its value after it ends.
+  flag has an on and a lower off threshold; the accumulated angle integrates the gyro samples (an
+  integral is its own low-pass: the filter is for the flag and the angular speed) from the oldest
+  sample in the filter window when the flag rises — the onset the average was ramping up to — to
+  the sample at which it falls, restarts with every rotation and holds its value after it ends.
   Natural consequences: a walk→stop or stop→walk change passes through Rest for a few samples
-  (the window holds a fading gait: periodic, small SMA), and a turn's angle comes out a few
-  degrees short (the filter's ramp before the flag rises).
+  (the window holds a fading gait: periodic, small SMA), and a turn's angle carries the gyro's
+  bias and noise over the rotation plus the pelvis' yaw wobble when the user turns while walking.
 
 Units: seconds, metres, radians; angular rates in rad/s (``*_dps`` config keys are °/s).
 """
@@ -322,11 +324,14 @@ class SmartBelt:
             self._omega_f = omega
             t_k = self._t0 + self._n_gyro * dt
             if not self._rotating and abs(omega) > self._on_rps:
-                self._rotating, self._rotation_since, self._angle = True, t_k, 0.0
+                # the rotation starts: its angle so far is the gyro samples in the filter window
+                # (the onset the moving average was still ramping up to)
+                self._rotating, self._rotation_since = True, t_k
+                self._angle = sum(self._ma[:filled]) * dt
             elif self._rotating and abs(omega) < self._off_rps:
                 self._rotating, self._rotation_since = False, t_k
-            if self._rotating:
-                self._angle += omega * dt  # accumulated angle of the current rotation
+            elif self._rotating:
+                self._angle += raw * dt  # accumulated angle of the current rotation: the gyro's integral
 
 
 # --------------------------------------------------------------------------- experiments

@@ -23,6 +23,8 @@ are in arbitrary ADC units.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
@@ -112,15 +114,27 @@ def received_strengths(
     d = np.maximum(np.asarray(distance_m, dtype=float).reshape(-1), _MIN_DISTANCE_M)
     bearing = np.asarray(bearing_rad, dtype=float).reshape(-1)
     occ = np.asarray(occluded, dtype=bool).reshape(-1)
-    axes = np.arange(cfg.num_receivers) * cfg.spacing_rad  # (K,)
-    lobe = np.maximum(0.0, np.cos(bearing[:, None] - axes[None, :])) ** cfg.lobe_exponent
+    axes = _ring(cfg.num_receivers)[0]  # (K,)
+    lobe = np.maximum(0.0, np.cos(bearing[:, None] - axes)) ** cfg.lobe_exponent
     on_axis = cfg.strength_at_1m / d**2  # inverse-square fall-off
     on_axis = np.where(occ, on_axis * cfg.occlusion_attenuation, on_axis)
     on_axis = np.where(d > cfg.max_range_m, 0.0, on_axis)
     signal = on_axis[:, None] * lobe
-    noisy = signal * (1.0 + cfg.noise_rel * rng.standard_normal(signal.shape))
-    noisy = noisy + cfg.noise_abs * rng.standard_normal(signal.shape)
-    return np.clip(noisy, 0.0, cfg.saturation)
+    # the multiplicative, then the additive noise of every receiver: one draw of both (the same
+    # numbers as two draws of signal.shape, one after the other)
+    z = rng.standard_normal((2, *signal.shape))
+    noisy = signal * (1.0 + cfg.noise_rel * z[0])
+    noisy = noisy + cfg.noise_abs * z[1]
+    return np.minimum(np.maximum(noisy, 0.0), cfg.saturation)  # np.clip(noisy, 0, saturation)
+
+
+@functools.cache
+def _ring(num_receivers: int) -> tuple[np.ndarray, float, float, float]:
+    """Receiver axes (rad) of a ring of ``num_receivers``, its spacing Δ, cos Δ and sin Δ."""
+    delta = 2.0 * np.pi / num_receivers
+    axes = np.arange(num_receivers) * delta
+    axes.flags.writeable = False
+    return axes, delta, float(np.cos(delta)), float(np.sin(delta))
 
 
 def estimate(cfg: IRConfig, strengths: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -148,14 +162,14 @@ def estimate(cfg: IRConfig, strengths: np.ndarray) -> tuple[np.ndarray, np.ndarr
     # seed 000, §3.3, Eqs. 1–3 (text garbled in the extraction; reconstructed as above)
     s = np.asarray(strengths, dtype=float).reshape(-1, cfg.num_receivers)
     k = cfg.num_receivers
-    delta = cfg.spacing_rad
+    _, delta, cos_d, sin_d = _ring(k)
     rows = np.arange(s.shape[0])
     i = np.argmax(s, axis=1)
     s0 = s[rows, i]
     s_plus = s[rows, (i + 1) % k]
     s_minus = s[rows, (i - 1) % k]
-    a = (s0 + (s_plus + s_minus) * np.cos(delta)) / (1.0 + 2.0 * np.cos(delta) ** 2)
-    b = (s_plus - s_minus) * np.sin(delta) / (2.0 * np.sin(delta) ** 2)
+    a = (s0 + (s_plus + s_minus) * cos_d) / (1.0 + 2.0 * cos_d**2)
+    b = (s_plus - s_minus) * sin_d / (2.0 * sin_d**2)
     r = np.hypot(a, b)
     valid = (s0 >= cfg.detect_threshold) & (r > 0.0)
     safe_r = np.where(valid, r, 1.0)

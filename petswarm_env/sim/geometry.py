@@ -95,6 +95,84 @@ def ray_segment_distances(
     return np.where(hit, t, np.inf)
 
 
+class SegmentSet:
+    """Fixed line segments (walls, box edges) prepared for :func:`ring_first_hits`: end points and
+    bounding boxes, so that a cast can leave out every segment out of reach of all its rays."""
+
+    def __init__(self, seg_a: np.ndarray, seg_b: np.ndarray, max_range: float):
+        self.a = _as_points(seg_a)
+        self.b = _as_points(seg_b)
+        # bounding boxes grown by the reach of a ray: a ray from outside cannot hit the segment
+        lo = np.minimum(self.a, self.b) - max_range
+        hi = np.maximum(self.a, self.b) + max_range
+        self._boxes = [(i, *lo[i].tolist(), *hi[i].tolist()) for i in range(len(self.a))]
+        self.max_range = max_range
+
+    def __len__(self) -> int:
+        return len(self.a)
+
+    def near(self, points: np.ndarray) -> list[int]:
+        """Indices of the segments that some ray of length ``max_range`` from ``points`` may hit:
+        those whose grown bounding box overlaps the bounding box of the points."""
+        if not self._boxes or not len(points):
+            return []
+        x0, y0 = points.min(axis=0).tolist()
+        x1, y1 = points.max(axis=0).tolist()
+        return [i for i, lx, ly, hx, hy in self._boxes if lx <= x1 and ly <= y1 and hx >= x0 and hy >= y0]
+
+
+def ring_first_hits(
+    origins: np.ndarray,
+    headings: np.ndarray,
+    angles: np.ndarray,
+    centers: np.ndarray,
+    radii: np.ndarray,
+    walls: SegmentSet | None,
+    max_range: float,
+) -> np.ndarray:
+    """A ring of rays from each origin: distance to the first circle or wall each ray meets.
+
+    Ray ``k`` of origin ``i`` points at ``headings[i] + angles[k]``. The result is what
+    :func:`ray_circle_distances` and :func:`ray_segment_distances` give for these rays, reduced
+    by ``min`` over circles and segments (same formulas, same rules: a ray never sees a circle its
+    origin is inside, hits beyond ``max_range`` are ``inf``), computed in one pass: the
+    origin-to-centre vectors are shared by the rays of one origin, and segments out of reach of
+    every origin are left out.
+
+    Args:
+        origins: (N, 2) ray start points, m.
+        headings: (N,) heading of each origin, rad.
+        angles: (K,) ray directions relative to the heading, rad.
+        centers: (C, 2) circle centres, m; radii: (C,) m.
+        walls: the segments (or None); ``walls.max_range`` must be at least ``max_range``.
+        max_range: m.
+
+    Returns:
+        (N, K) distances, m; ``inf`` where the ray meets nothing within ``max_range``.
+    """
+    o = _as_points(origins)
+    c = _as_points(centers)
+    ang = np.asarray(headings, dtype=float).reshape(-1, 1) + np.asarray(angles, dtype=float).reshape(1, -1)
+    dx, dy = np.cos(ang), np.sin(ang)  # (N, K)
+    mx = o[:, 0:1] - c[:, 0]  # (N, C) centre -> origin
+    my = o[:, 1:2] - c[:, 1]
+    r = np.asarray(radii, dtype=float).reshape(-1)
+    cc = mx * mx + my * my - r**2  # |m|² − r², ≤ 0 when the origin is inside: never seen
+    cc = np.where(cc > 0.0, cc, np.inf)[:, None, :]
+    b = dx[:, :, None] * mx[:, None, :] + dy[:, :, None] * my[:, None, :]  # (N, K, C) d·m
+    disc = b * b - cc
+    t = -b - np.sqrt(np.maximum(disc, 0.0))  # nearer root of t² + 2bt + cc = 0
+    hit = (disc >= 0.0) & (t >= 0.0) & (t <= max_range)
+    d = np.where(hit, t, np.inf).min(axis=2) if c.shape[0] else np.full(ang.shape, np.inf)
+    if walls is not None and len(walls):
+        near = walls.near(o)
+        if len(near):
+            dirs = np.stack([dx, dy], axis=-1).reshape(-1, 2)
+            seg = ray_segment_distances(np.repeat(o, ang.shape[1], axis=0), dirs, walls.a[near], walls.b[near], max_range)
+            d = np.minimum(d, seg.min(axis=1).reshape(ang.shape))
+    return d
+
+
 def segments_blocked(
     p_from: np.ndarray,
     p_to: np.ndarray,

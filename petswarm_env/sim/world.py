@@ -18,7 +18,7 @@ import simpy
 
 from petswarm_env.config import Config
 from petswarm_env.sim import geometry
-from petswarm_env.sim.robot import COLLISION_ROBOT, COLLISION_USER, COLLISION_WALL, Robot
+from petswarm_env.sim.robot import COLLISION_ROBOT, COLLISION_USER, COLLISION_WALL, Robot, _get_angle, _get_position
 from petswarm_env.sim.scenarios import ScenarioScript
 from petswarm_env.sim.user import User
 
@@ -67,6 +67,9 @@ class World:
         self.space.gravity = (0.0, 0.0)  # top view
         self.dt_sub = cfg.control_period_s / cfg.physics_substeps
         self._substeps_done = 0
+        self._physics_steps = 0  # Space.step calls so far: the truth arrays are valid for one value
+        self._truth_at = -1  # _physics_steps when the truth arrays were read (-1: stale)
+        self._truth: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         self.robots: list[Robot] = []
         self.users: list[User] = []
         self.user = self.add_user(script, (0.0, 0.0), 0.0)  # the first user (user 0)
@@ -77,6 +80,8 @@ class World:
         self.space.on_collision(COLLISION_ROBOT, COLLISION_WALL, begin=self._on_robot_wall)
         n_us = cfg.robot.ultrasonic.count
         self._us_angles = np.arange(n_us) * (2 * math.pi / max(n_us, 1))
+        reach = cfg.robot.ultrasonic.max_range_m + cfg.robot.radius_m
+        self._us_walls = geometry.SegmentSet(self.wall_a, self.wall_b, reach)
 
     # -- construction -------------------------------------------------------------------------
     def _build_static(self) -> tuple[np.ndarray, np.ndarray]:
@@ -104,11 +109,13 @@ class World:
         user = User(self.cfg.user, self.space, script, position, heading_rad)
         user.index = len(self.users)
         self.users.append(user)
+        self._truth_at = -1
         return user
 
     def add_robot(self, position, heading_rad: float) -> Robot:
         robot = Robot(len(self.robots), self.cfg.robot, self.space, position, heading_rad)
         self.robots.append(robot)
+        self._truth_at = -1
         return robot
 
     # -- collisions (experimenter's view) ------------------------------------------------------
@@ -136,29 +143,63 @@ class World:
         dt = self.dt_sub
         robots = self.robots
         users = self.users
+        run_until = self.clock.run_until
+        step = self.space.step
         for _ in range(substeps):
             self._substeps_done += 1
-            t_next = self._substeps_done * dt
-            self.clock.run_until(t_next)
+            run_until(self._substeps_done * dt)
             for r in robots:
                 r.apply(dt)
             for user in users:
                 user.apply(dt)
-            self.space.step(dt)
+            step(dt)
+            self._physics_steps += 1
 
     # -- truth arrays (for sensor models, metrics, rendering) ------------------------------------
+    def invalidate_truth(self) -> None:
+        """Forget the truth arrays: call after moving a body by hand (outside :meth:`advance`)."""
+        self._truth_at = -1
+
+    def truth_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Centres of every round body (robots, then the users), their radii and the robots'
+        headings, read from Chipmunk once per physics step (read-only arrays, shared by every
+        caller until the next ``Space.step``)."""
+        if self._truth_at == self._physics_steps and self._truth is not None:
+            return self._truth
+        xy = []
+        for r in self.robots:
+            p = _get_position(r._cbody)
+            xy.append(p.x)
+            xy.append(p.y)
+        for u in self.users:
+            p = _get_position(u.body._body)
+            xy.append(p.x)
+            xy.append(p.y)
+        centers = np.array(xy, dtype=float).reshape(-1, 2)
+        headings = np.array([_get_angle(r._cbody) for r in self.robots], dtype=float)
+        if self._truth is None or len(self._truth[1]) != len(centers):
+            radii = np.full(len(centers), self.cfg.robot.radius_m)
+            radii[len(self.robots):] = self.cfg.user.radius_m
+            radii.flags.writeable = False
+        else:
+            radii = self._truth[1]
+        centers.flags.writeable = False
+        headings.flags.writeable = False
+        self._truth = (centers, radii, headings)
+        self._truth_at = self._physics_steps
+        return self._truth
+
     def robot_positions(self) -> np.ndarray:
-        return np.array([r.body.position for r in self.robots], dtype=float).reshape(-1, 2)
+        """(N, 2) true robot positions (read-only)."""
+        return self.truth_arrays()[0][: len(self.robots)]
 
     def robot_headings(self) -> np.ndarray:
-        return np.array([r.body.angle for r in self.robots], dtype=float)
+        """(N,) true robot headings, rad (read-only)."""
+        return self.truth_arrays()[2]
 
     def body_circles(self) -> tuple[np.ndarray, np.ndarray]:
-        """Centres and radii of every round body (robots, then the users)."""
-        pos = self.robot_positions()
-        centers = np.vstack([pos, np.array([u.position for u in self.users], float).reshape(-1, 2)])
-        radii = np.full(len(centers), self.cfg.robot.radius_m)
-        radii[len(pos):] = self.cfg.user.radius_m
+        """Centres and radii of every round body (robots, then the users); read-only arrays."""
+        centers, radii, _ = self.truth_arrays()
         return centers, radii
 
     def ultrasonic_ranges(self, indices: list[int], rng: np.random.Generator) -> np.ndarray:
@@ -166,18 +207,12 @@ class World:
         against bodies and walls from the robot's rim, clipped to [min_range, max_range]."""
         us = self.cfg.robot.ultrasonic
         n = us.count
-        if n == 0 or not indices:
+        if n == 0 or not len(indices):
             return np.zeros((len(indices), n))
-        centers, radii = self.body_circles()
-        pos = centers[indices]
-        th = self.robot_headings()[indices]
-        ang = th[:, None] + self._us_angles[None, :]
-        dirs = np.stack([np.cos(ang), np.sin(ang)], axis=-1).reshape(-1, 2)
-        origins = np.repeat(pos, n, axis=0)
+        centers, radii, headings = self.truth_arrays()
+        pos, th = centers[indices], headings[indices]
         reach = us.max_range_m + self.cfg.robot.radius_m
-        d = geometry.ray_circle_distances(origins, dirs, centers, radii, reach).min(axis=1)
-        if len(self.wall_a):
-            d = np.minimum(d, geometry.ray_segment_distances(origins, dirs, self.wall_a, self.wall_b, reach).min(axis=1))
+        d = geometry.ring_first_hits(pos, th, self._us_angles, centers, radii, self._us_walls, reach).reshape(-1)
         d = d - self.cfg.robot.radius_m  # from the sensor on the rim
         d = d + rng.normal(0.0, us.noise_m, d.shape) if us.noise_m > 0 else d
         return np.clip(d, us.min_range_m, us.max_range_m).reshape(len(indices), n)

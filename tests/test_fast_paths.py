@@ -1,0 +1,116 @@
+"""The vectorised hot paths (issue 6) give what the general routines give, on random scenes."""
+
+import math
+
+import numpy as np
+import pytest
+
+from petswarm_env.comms.ir_channel import IRChannel, _line_of_sight_blocked
+from petswarm_env.config import load_config
+from petswarm_env.middleware import ir
+from petswarm_env.sim import geometry
+from petswarm_env.sim.scenarios import ScenarioScript, build_scenario
+from petswarm_env.sim.world import World
+
+
+def _scene(rng, n_robots, n_other):
+    centers = rng.uniform(-3.0, 3.0, (n_robots + n_other, 2))
+    radii = rng.uniform(0.1, 0.4, n_robots + n_other)
+    headings = rng.uniform(-math.pi, math.pi, n_robots)
+    return centers, radii, headings
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_ring_first_hits_equals_ray_casts_against_circles_and_segments(seed):
+    rng = np.random.default_rng(seed)
+    n, k = int(rng.integers(1, 8)), int(rng.integers(1, 13))
+    centers, radii, headings = _scene(rng, n, int(rng.integers(0, 3)))
+    seg_a = rng.uniform(-4.0, 4.0, (int(rng.integers(0, 6)), 2))
+    seg_b = seg_a + rng.uniform(-3.0, 3.0, seg_a.shape)
+    reach = float(rng.uniform(0.5, 3.0))
+    angles = np.arange(k) * (2 * math.pi / k)
+    got = geometry.ring_first_hits(centers[:n], headings, angles, centers, radii, geometry.SegmentSet(seg_a, seg_b, reach), reach)
+    ang = headings[:, None] + angles[None, :]
+    dirs = np.stack([np.cos(ang), np.sin(ang)], axis=-1).reshape(-1, 2)
+    origins = np.repeat(centers[:n], k, axis=0)
+    want = geometry.ray_circle_distances(origins, dirs, centers, radii, reach).min(axis=1)
+    if len(seg_a):
+        want = np.minimum(want, geometry.ray_segment_distances(origins, dirs, seg_a, seg_b, reach).min(axis=1))
+    want = want.reshape(n, k)
+    assert np.array_equal(np.isinf(got), np.isinf(want))
+    assert np.isfinite(want).any() or seed > 0  # the scenes do produce hits
+    np.testing.assert_allclose(got[np.isfinite(got)], want[np.isfinite(want)], rtol=0, atol=1e-9)
+
+
+def test_segments_out_of_reach_are_left_out_but_near_ones_are_hit():
+    walls = geometry.SegmentSet(np.array([[5.0, -1.0], [-50.0, -1.0]]), np.array([[5.0, 1.0], [-50.0, 1.0]]), 2.0)
+    assert walls.near(np.array([[0.0, 0.0]])) == []
+    assert walls.near(np.array([[3.5, 0.0]])) == [0]
+    d = geometry.ring_first_hits(np.array([[3.5, 0.0]]), np.array([0.0]), np.array([0.0, math.pi]), np.zeros((0, 2)),
+                                 np.zeros(0), walls, 2.0)
+    assert d[0, 0] == pytest.approx(1.5) and d[0, 1] == np.inf
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_ir_line_of_sight_equals_segments_blocked(seed):
+    rng = np.random.default_rng(100 + seed)
+    centers, radii, _ = _scene(rng, 8, 2)
+    tx = int(rng.integers(8))
+    rx = np.array([i for i in range(8) if i != tx and rng.random() < 0.8] or [(tx + 1) % 8])
+    exclude = np.zeros((len(rx), len(centers)), bool)
+    exclude[np.arange(len(rx)), rx] = True
+    exclude[:, tx] = True
+    want = geometry.segments_blocked(centers[rx], np.broadcast_to(centers[tx], (len(rx), 2)), centers, radii, exclude)
+    got = _line_of_sight_blocked(centers[rx], centers[tx] - centers[rx], centers, radii, rx, tx)
+    assert np.array_equal(got, want)
+
+
+def test_ir_measure_of_a_slot_equals_the_per_receiver_model():
+    """One IR slot measured for all receivers at once equals the optical model run on each
+    receiver alone (occlusion, ring, estimator), given the same noise."""
+    cfg = load_config()
+    world = World(cfg, ScenarioScript(build_scenario("straight", cfg.user, np.random.default_rng(0))))
+    rng = np.random.default_rng(3)
+    for p, th in zip(rng.uniform(-2.0, 2.0, (6, 2)), rng.uniform(-3.0, 3.0, 6)):
+        world.add_robot(p, th)
+    channel = IRChannel(world, cfg.ir, np.random.default_rng(7))
+    tx, rxs = 2, [0, 1, 3, 4, 5]
+    dist, bearing, valid = channel.measure(tx, rxs)
+    centers, radii = world.body_circles()
+    z = np.random.default_rng(7).standard_normal((2, len(rxs), cfg.ir.num_receivers))  # the slot's noise
+    for j, r in enumerate(rxs):
+        others = [i for i in range(len(centers)) if i not in (r, tx)]
+        delta = centers[tx] - centers[r]
+        occluded = geometry.segments_blocked(centers[r:r + 1], centers[tx:tx + 1], centers[others], radii[others],
+                                             np.zeros((1, len(others)), bool))
+        b = math.atan2(delta[1], delta[0]) - world.robots[r].heading
+        d = max(math.hypot(*delta), 0.01)
+        lobe = np.maximum(0.0, np.cos(b - np.arange(cfg.ir.num_receivers) * cfg.ir.spacing_rad)) ** cfg.ir.lobe_exponent
+        on_axis = 0.0 if d > cfg.ir.max_range_m else cfg.ir.strength_at_1m / d**2 * (cfg.ir.occlusion_attenuation if occluded[0] else 1.0)
+        s = np.clip(on_axis * lobe * (1 + cfg.ir.noise_rel * z[0, j]) + cfg.ir.noise_abs * z[1, j], 0.0, cfg.ir.saturation)
+        d_one, b_one, ok_one = ir.estimate(cfg.ir, s[None, :])
+        assert valid[j] == ok_one[0]
+        if ok_one[0]:
+            assert dist[j] == pytest.approx(d_one[0], abs=1e-9)
+            assert bearing[j] == pytest.approx(b_one[0], abs=1e-9)
+    assert valid.any()
+
+
+def test_truth_arrays_follow_the_physics_and_are_read_only():
+    cfg = load_config()
+    world = World(cfg, ScenarioScript(build_scenario("straight", cfg.user, np.random.default_rng(0))))
+    robot = world.add_robot((1.0, 2.0), 0.5)
+    centers, radii, headings = world.truth_arrays()
+    assert centers[0].tolist() == [1.0, 2.0] and headings[0] == 0.5
+    assert radii.tolist() == [cfg.robot.radius_m, cfg.user.radius_m]
+    with pytest.raises(ValueError):
+        centers[0, 0] = 0.0
+    robot.set_command(1.0, 0.0, 1.0)
+    world.advance(5)
+    c2, _, h2 = world.truth_arrays()
+    assert c2[0].tolist() == list(robot.position) and h2[0] == robot.heading and c2[0, 0] > 1.0
+    world.add_robot((-1.0, 0.0), 0.0)  # a new body: new arrays
+    assert world.truth_arrays()[0].shape == (3, 2)
+    robot.body.position = (9.0, 9.0)  # moved by hand: stale until told
+    world.invalidate_truth()
+    assert world.robot_positions()[0].tolist() == [9.0, 9.0]

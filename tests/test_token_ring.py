@@ -246,3 +246,37 @@ def test_most_heading_reports_reach_the_transmitter():
         env.step({})
     assert sent[0] >= 40
     assert delivered[0] >= 0.8 * sent[0], (delivered[0], sent[0])
+
+
+def test_heading_is_not_paired_with_a_measurement_from_an_older_round():
+    """A slave that misses its reference neighbour's IR slots (occluded) keeps receiving the
+    neighbour's bearing reports; pairing them with its own bearing from an older round would give
+    a wrong heading, so it must not update its heading estimate until it measures the neighbour again."""
+    env = run_env(0, steps=30)
+    n, node, ref = next(reference_pairs(env))
+    store = node.store_ir
+    blind = [True]
+
+    def store_ir(tx, d, b):
+        if not (blind[0] and tx == ref):
+            store(tx, d, b)
+
+    node.store_ir = store_ir
+    received = []
+    on_heading = node.ring._on_heading
+
+    def count(frame):
+        if frame.dst == n and frame.src == ref:
+            received.append(env.world.now)
+        on_heading(frame)
+
+    node.on(msg.HEADING, count)
+    t_blind = env.world.now
+    for _ in range(30):
+        env.step({})
+    assert received, "the neighbour's heading reports must still arrive"
+    assert node.know.heading[ref].time_s <= t_blind + 1.0  # at most the round in progress paired
+    blind[0] = False
+    for _ in range(20):
+        env.step({})
+    assert node.know.heading[ref].time_s > env.world.now - 1.5  # measuring again: paired again

@@ -13,7 +13,10 @@ A lost token must not stall the ring (SPEC §3.3, chosen): the master watches th
 ``token_timeout_s`` of silence, regenerates the token and transmits itself.
 
 Heading exchange: robot j saw robot i at bearing φ_ji (in j's frame); i saw j at φ_ij. Then
-θ_j − θ_i = φ_ij − φ_ji + π (SPEC §3.4), with no compass.
+θ_j − θ_i = φ_ij − φ_ji + π (SPEC §3.4), with no compass. The two bearings must come from the same
+round of the ring: i pairs j's report with its own measurement of j's latest slot, and drops the
+report when it missed that slot (j occluded or out of range) — a bearing from an older round, with
+both robots moved since, would give a wrong heading.
 """
 
 from __future__ import annotations
@@ -47,6 +50,7 @@ class TokenRing:
         self._acks_event = None
         self._headings_expected: set[int] = set()
         self._headings_event = None
+        self._slot_start: dict[int, float] = {}  # robot -> start of its latest IR slot (its TX_START)
         node.on(msg.TX_START, self._on_tx_start)
         node.on(msg.TOKEN, self._on_token)
         node.on(msg.SYNC, self._on_sync)
@@ -130,7 +134,7 @@ class TokenRing:
 
     # -- everyone ---------------------------------------------------------------------------------
     def _on_tx_start(self, frame: Frame) -> None:
-        self.last_activity_s = self.node.clock.now
+        self.last_activity_s = self._slot_start[frame.src] = self.node.clock.now
         seq = frame.payload["seq"]
         self.token_seq = max(seq, self.token_seq)
         self.node.send(msg.TX_START_ACK, dst=frame.src)
@@ -163,13 +167,13 @@ class TokenRing:
         if frame.dst != node.node_id:
             return
         seen = node.know.ir.get(frame.src)
-        if seen is None:
-            return
-        # our bearing of the sender dates from its slot: carry it over our own rotation since (AHRS)
-        yaw = node.ahrs_yaw()
-        bearing_now = seen.bearing_rad - (yaw - seen.own_yaw_rad)
-        rel = relative_heading(bearing_now, frame.payload["bearing"])
-        node.know.heading[frame.src] = HeadingEstimate(rel, node.clock.now, yaw)
+        if seen is not None and seen.time_s >= self._slot_start.get(frame.src, -math.inf):
+            # our bearing of the sender dates from its slot: carry it over our own rotation since (AHRS)
+            yaw = node.ahrs_yaw()
+            bearing_now = seen.bearing_rad - (yaw - seen.own_yaw_rad)
+            rel = relative_heading(bearing_now, frame.payload["bearing"])
+            node.know.heading[frame.src] = HeadingEstimate(rel, node.clock.now, yaw)
+        # else we missed the sender's latest slot: no pair of bearings from this round
         self._headings_expected.discard(frame.src)
         ev = self._headings_event
         if ev is not None and not ev.triggered and not self._headings_expected:

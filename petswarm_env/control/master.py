@@ -164,32 +164,38 @@ class MasterController:
             self._trusted = True
         return (speed * math.cos(self._walk_dir), speed * math.sin(self._walk_dir)), True
 
-    def _arc(self, belt: BeltView, off: float, user_pos: tuple[float, float], user_vel: tuple[float, float],
-             own_velocity: tuple[float, float, float], dt: float) -> float | None:
-        """Leading: the moving arc that synchronises the robot with its user's rotation (seed 002
-        §3.4: "the robot must know the rotation state, angular speed, and accumulated angle of the
-        human to synchronize with their rotation"; Table 4). While the belt reports a rotation the
-        robot's place about the user turns at the user's angular speed, and the arc it has made so far
-        (dead-reckoned from its odometry relative to the tracked user) is closed on the belt's
-        accumulated angle at ``arc_sync_gain``; once the rotation ends, the rest of the accumulated
-        angle is closed the same way. A robot ahead of its user turns with them; one beside or behind
-        is met by the turn (its share ``max(0, cos off)`` is fixed when the rotation starts). None when
-        there is no rotation to synchronise with."""
+    def _arc_in_place(self, belt: BeltView, off: float, user_pos: tuple[float, float],
+                      own_velocity: tuple[float, float, float], dt: float) -> float | None:
+        """Leading, the user turning on the spot: the moving arc that synchronises the robot with the
+        rotation (seed 002 §3.4: "the robot must know the rotation state, angular speed, and
+        accumulated angle of the human to synchronize with their rotation"; §4.3, Table 4). While the
+        belt reports a rotation the robot's place about the user turns at the user's angular speed,
+        and the arc it has made so far (dead-reckoned from its odometry about the tracked user) is
+        closed on the belt's accumulated angle at ``arc_sync_gain``; once the rotation ends, the rest
+        of the accumulated angle is closed the same way, until the arc comes to rest. A robot ahead of
+        its user turns with them; one beside or behind is met by the turn (its share ``max(0, cos
+        off)`` is fixed when the rotation starts). None when there is no such rotation, and as soon as
+        the belt says the user walks: the arc about a walking user cannot be dead-reckoned from the
+        robot's own motion, and the LF track and the walking direction take over."""
         cfg = self.cfg
+        if belt.activity in ("walk", "run"):
+            self._sync, self._was_rotating_arc = None, belt.rotating
+            return None
         if belt.rotating and not (self._sync is not None and self._was_rotating_arc):
-            self._sync = [max(0.0, math.cos(off)), 0.0]  # a new rotation: the belt's angle restarts at 0
+            # a new rotation (the belt's angle restarts at 0): the robot's place before it (ψ has turned already)
+            self._sync = [max(0.0, math.cos(off + belt.accumulated_angle_rad)), 0.0]
         self._was_rotating_arc = belt.rotating
         if self._sync is None:
             return None
         share, done = self._sync
         ux, uy = user_pos
-        r2 = ux * ux + uy * uy
-        rvx, rvy = own_velocity[0] - user_vel[0], own_velocity[1] - user_vel[1]
-        done += (uy * rvx - ux * rvy) / r2 * dt  # the robot's place (−user_pos) turned by p × v / |p|²
+        rate = (uy * own_velocity[0] - ux * own_velocity[1]) / (ux * ux + uy * uy)  # place −user_pos: p × v / |p|²
+        done += rate * dt
         self._sync[1] = done
         gap = share * belt.accumulated_angle_rad - done
-        if not belt.rotating and abs(gap) < math.radians(cfg.arc_sync_done_deg):
-            self._sync = None  # synchronised
+        settle = math.radians(cfg.arc_sync_done_deg)
+        if not belt.rotating and abs(gap) < settle and abs(rate) < cfg.arc_sync_gain * settle:
+            self._sync = None  # synchronised: at the accumulated angle, and the arc has come to rest
             return None
         return share * (belt.angular_speed_rps if belt.rotating else 0.0) + cfg.arc_sync_gain * gap
 
@@ -227,12 +233,13 @@ class MasterController:
         arc = swing = 0.0
         if mode == "leading":  # straight ahead of the user
             off = _wrap(bearing + math.pi - psi)  # the robot's place about the user from straight ahead
-            arc = self._arc(belt, off, (ux, uy), (wx, wy), own_velocity, dt) if self._trusted else None
-            if arc is None:  # no rotation to synchronise with: close on straight ahead
-                arc = 0.0
-                swing = -cfg.arc_gain * math.sin(beyond(off))
-            else:
-                swing = arc
+            sync = self._arc_in_place(belt, off, (ux, uy), own_velocity, dt) if self._trusted else None
+            if sync is not None:  # the user turns on the spot: the arc closes on the accumulated angle
+                arc = swing = sync
+            elif self._trusted:
+                if belt.rotating:  # the arc: a robot ahead of its user turns with the user; one beside
+                    arc = belt.angular_speed_rps * max(0.0, math.cos(off))  # or behind is met by the turn
+                swing = arc - cfg.arc_gain * math.sin(beyond(off))  # and closes on straight ahead
         elif walking:  # following: drift in behind the walking user
             swing = -cfg.trail_rps * math.sin(_wrap(bearing - psi))
         vx += swing * uy  # the robot's place relative to the user, −user_pos, turns at ``swing``

@@ -308,6 +308,15 @@ class PetSwarmEnv(ParallelEnv):
         unknown = set(actions) - set(self.agents)
         if unknown:
             raise KeyError(f"actions for agents not in the episode: {sorted(unknown)}; live agents: {self.agents}")
+        # the common case in one numpy pass: an action for every agent, all finite, shape (3,)
+        if len(actions) == len(self.agents):
+            try:
+                arr = np.array([actions[a] for a in self.agents], dtype=np.float32)
+            except (ValueError, TypeError):
+                arr = None
+            if arr is not None and arr.shape == (len(self.agents), 3) and np.isfinite(arr).all():
+                np.clip(arr, -1.0, 1.0, out=arr)
+                return dict(zip(self.agents, arr))
         out = {}
         for agent in self.agents:
             a = actions.get(agent)
@@ -352,11 +361,13 @@ class PetSwarmEnv(ParallelEnv):
     def _node(self, agent: str):
         return self.fleet.nodes[self._agent_index[agent]]
 
-    def _odometry(self, index: int) -> tuple[float, float, float]:
+    def _odometry(self, index: int, noise: list[float] | None = None) -> tuple[float, float, float]:
+        """Wheel odometry: the achieved body velocity with relative noise (``noise``: the three
+        N(0, odometry_noise_rel) draws, when the caller drew them already)."""
         vx, vy, w = self.world.robots[index].velocity_body
         k = self.cfg.robot.odometry_noise_rel
         if k > 0:
-            e = self._rng_sensors.normal(0.0, k, 3)
+            e = self._rng_sensors.normal(0.0, k, 3).tolist() if noise is None else noise
             return vx * (1 + e[0]), vy * (1 + e[1]), w * (1 + e[2])
         return vx, vy, w
 
@@ -374,7 +385,11 @@ class PetSwarmEnv(ParallelEnv):
         world = self.world
         now = world.now
         obs = {}
-        for agent in self.agents if agents is None else agents:
+        agents = self.agents if agents is None else agents
+        # the odometry noise of every agent in one draw (the same numbers as one draw per agent)
+        k = self.cfg.robot.odometry_noise_rel
+        noise = self._rng_sensors.normal(0.0, k, (len(agents), 3)).tolist() if k > 0 else None
+        for i, agent in enumerate(agents):
             idx = self._agent_index[agent]
             node = self.fleet.nodes[idx]
             member = node.know.member
@@ -387,7 +402,7 @@ class PetSwarmEnv(ParallelEnv):
                 self._obs_buf[agent],
                 node,
                 now,
-                self._odometry(idx),
+                self._odometry(idx, noise[i] if noise is not None else None),
                 world.robots[idx].ahrs_yaw(now),
                 self._last_action.get(agent, np.zeros(3, np.float32)),
                 self._ranges[idx],
@@ -401,38 +416,47 @@ class PetSwarmEnv(ParallelEnv):
     def reference_positions(self) -> dict[int, np.ndarray]:
         """True reference position of every slave (robot index -> (x, y)): the experimenter's view,
         from each swarm's current neighbour table and its master's true heading."""
-        world = self.world
+        return {idx: np.array(p) for idx, p in self._reference_points().items()}
+
+    def _reference_points(self) -> dict[int, tuple[float, float]]:
+        """:meth:`reference_positions` as Python floats (the mean over a slave's links taken as
+        numpy's mean of so few points is: their sum in order, over their number)."""
+        robots = self.world.robots
         out = {}
         for swarm in self.swarms:
             if swarm.formation is None or not swarm.organized:
                 continue
             members = swarm.master.know.members
-            th = world.robots[swarm.master.node_id].heading
+            th = robots[swarm.master.node_id].heading
             c, s = math.cos(th), math.sin(th)
             for m, links in swarm.formation.links.items():
                 idx = members.get(m)
                 if idx is None or not links:
                     continue
-                pts = []
+                sx = sy = 0.0
                 for link in links:
-                    nx, ny = world.robots[members[link.neighbour]].position
+                    nx, ny = robots[members[link.neighbour]].position
                     ox, oy = link.offset_m
-                    pts.append((nx + c * ox - s * oy, ny + s * ox + c * oy))
-                out[idx] = np.mean(np.array(pts), axis=0)
+                    sx += nx + c * ox - s * oy
+                    sy += ny + s * ox + c * oy
+                out[idx] = (sx / len(links), sy / len(links))
         return out
 
     def _formation_errors(self) -> tuple[dict[str, float], dict[str, float]]:
-        refs = self.reference_positions()
+        refs = self._reference_points()
+        robots = self.world.robots
+        nodes = self.fleet.nodes
         errors, heading = {}, {}
         for agent in self.agents:
             idx = self._agent_index[agent]
-            if idx not in refs:
+            ref = refs.get(idx)
+            if ref is None:
                 continue
-            x, y = self.world.robots[idx].position
-            rx, ry = refs[idx]
-            errors[agent] = math.hypot(x - rx, y - ry)
-            th_f = self.world.robots[self.fleet.nodes[idx].swarm.master.node_id].heading
-            heading[agent] = _wrap(self.world.robots[idx].heading - th_f)
+            robot = robots[idx]
+            x, y = robot.position
+            errors[agent] = math.hypot(x - ref[0], y - ref[1])
+            th_f = robots[nodes[idx].swarm.master.node_id].heading
+            heading[agent] = _wrap(robot.heading - th_f)
         return errors, heading
 
     # -- reporting -------------------------------------------------------------------------------

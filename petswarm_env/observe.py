@@ -119,70 +119,72 @@ def build_observation(
     limits: tuple[float, float, float],
     us_max_range_m: float,
 ) -> np.ndarray:
-    """Fill ``out`` (layout.size,) with the observation of one slave."""
-    out[:] = 0.0
+    """Fill ``out`` (layout.size,) with the observation of one slave (built as a Python list and
+    written in one assignment: one numpy conversion instead of one per value)."""
+    v = [0.0] * layout.size
     o = layout._offsets
     vmax, _, wmax = limits
     know = node.know
     for base, link in zip(layout._link_starts, node.reference_links()):
-        out[base] = 1.0
+        v[base] = 1.0
         nb = know.members.get(link.neighbour)
         m = know.ir.get(nb)
         if m is not None:  # bearing carried over own rotation since the measurement (AHRS)
             b = m.bearing_rad - (yaw_rad - m.own_yaw_rad)
-            out[base + 1] = 1.0
-            out[base + 2] = m.distance_m * math.cos(b) / POS_SCALE_M
-            out[base + 3] = m.distance_m * math.sin(b) / POS_SCALE_M
-            out[base + 4] = _clip_age(now - m.time_s, AGE_SCALE_S)
+            v[base + 1] = 1.0
+            v[base + 2] = m.distance_m * math.cos(b) / POS_SCALE_M
+            v[base + 3] = m.distance_m * math.sin(b) / POS_SCALE_M
+            v[base + 4] = _clip_age(now - m.time_s, AGE_SCALE_S)
         else:
-            out[base + 4] = 1.0
-        out[base + 5] = link.offset_m[0] / POS_SCALE_M
-        out[base + 6] = link.offset_m[1] / POS_SCALE_M
+            v[base + 4] = 1.0
+        v[base + 5] = link.offset_m[0] / POS_SCALE_M
+        v[base + 6] = link.offset_m[1] / POS_SCALE_M
         h = know.heading.get(nb)
         if h is not None:  # θ_nb − θ_self falls as we turn: carry it over own rotation (AHRS)
             rel = h.relative_rad - (yaw_rad - h.own_yaw_rad)
-            out[base + 7] = math.sin(rel)
-            out[base + 8] = math.cos(rel)
-            out[base + 9] = 1.0
-            out[base + 10] = _clip_age(now - h.time_s, AGE_SCALE_S)
+            v[base + 7] = math.sin(rel)
+            v[base + 8] = math.cos(rel)
+            v[base + 9] = 1.0
+            v[base + 10] = _clip_age(now - h.time_s, AGE_SCALE_S)
         else:
-            out[base + 8] = 1.0
-            out[base + 10] = 1.0
+            v[base + 8] = 1.0
+            v[base + 10] = 1.0
     st = know.status
     i = o["master.valid"]
     if st is not None:
-        out[i] = 1.0
-        out[i + 1] = _clip_age(now - st.time_s, 1.0)
-        out[i + 2] = st.velocity[0] / vmax
-        out[i + 3] = st.velocity[1] / vmax
-        out[i + 4] = st.velocity[2] / wmax
-        out[o["master.activity"] + ACTIVITIES.index(st.activity)] = 1.0
-        out[o["master.rotating"]] = 1.0 if st.user_rotating else 0.0
-        out[o["master.turn_rate"]] = st.user_turn_rate_rps / wmax
-        out[o["master.leading"]] = 1.0 if st.mode == "leading" else 0.0
+        v[i] = 1.0
+        v[i + 1] = _clip_age(now - st.time_s, 1.0)
+        v[i + 2] = st.velocity[0] / vmax
+        v[i + 3] = st.velocity[1] / vmax
+        v[i + 4] = st.velocity[2] / wmax
+        v[o["master.activity"] + ACTIVITIES.index(st.activity)] = 1.0
+        v[o["master.rotating"]] = 1.0 if st.user_rotating else 0.0
+        v[o["master.turn_rate"]] = st.user_turn_rate_rps / wmax
+        v[o["master.leading"]] = 1.0 if st.mode == "leading" else 0.0
         j = o["master.user_xy"]
-        out[j] = st.user_position_m[0] / POS_SCALE_M
-        out[j + 1] = st.user_position_m[1] / POS_SCALE_M
+        v[j] = st.user_position_m[0] / POS_SCALE_M
+        v[j + 1] = st.user_position_m[1] / POS_SCALE_M
     else:
-        out[i + 1] = 1.0
+        v[i + 1] = 1.0
     j = o["self.odometry"]
-    out[j] = odometry[0] / vmax
-    out[j + 1] = odometry[1] / vmax
-    out[j + 2] = odometry[2] / wmax
+    v[j] = odometry[0] / vmax
+    v[j + 1] = odometry[1] / vmax
+    v[j + 2] = odometry[2] / wmax
     j = o["self.yaw_sincos"]
-    out[j] = math.sin(yaw_rad)
-    out[j + 1] = math.cos(yaw_rad)
+    v[j] = math.sin(yaw_rad)
+    v[j + 1] = math.cos(yaw_rad)
     j = o["self.last_action"]
-    out[j : j + 3] = last_action
+    v[j : j + 3] = last_action.tolist()
     j = o["self.offset_from_master_xy"]
-    out[j] = offset_from_master[0] / POS_SCALE_M
-    out[j + 1] = offset_from_master[1] / POS_SCALE_M
+    v[j] = offset_from_master[0] / POS_SCALE_M
+    v[j + 1] = offset_from_master[1] / POS_SCALE_M
     j = o["self.ultrasonic"]
-    out[j : j + len(ultrasonic_m)] = ultrasonic_m / us_max_range_m
+    v[j : j + len(ultrasonic_m)] = (ultrasonic_m / us_max_range_m).tolist()
     total = max(know.total_members, 1)
-    out[o["self.hierarchy"]] = hierarchy_level / total
-    out[o["self.members"]] = total / 16.0
-    out[o["self.member"]] = know.member / 16.0
+    v[o["self.hierarchy"]] = hierarchy_level / total
+    v[o["self.members"]] = total / 16.0
+    v[o["self.member"]] = know.member / 16.0
+    out[:] = v
     return out
 
 

@@ -114,3 +114,37 @@ def test_truth_arrays_follow_the_physics_and_are_read_only():
     robot.body.position = (9.0, 9.0)  # moved by hand: stale until told
     world.invalidate_truth()
     assert world.robot_positions()[0].tolist() == [9.0, 9.0]
+
+
+def _safety_reference(stage, command, ranges):
+    """The ultrasonic safety stage in numpy, as it was written before the plain-Python version."""
+    v = np.array(command[:2], dtype=float)
+    allowed = np.sqrt(stage.two_a * np.maximum(ranges - stage.stop, 0.0))
+    over = (stage.dirs @ v > allowed + 1e-9) | (ranges < 0.5 * stage.stop)
+    if not over.any():
+        return None
+    for k in np.flatnonzero(over):
+        d = stage.dirs[k]
+        excess = float(v @ d) - allowed[k]
+        if excess > 0.0:
+            v = v - excess * d
+        if ranges[k] < 0.5 * stage.stop:
+            v = v - stage.backoff * (1.0 - ranges[k] / (0.5 * stage.stop)) * d
+    return float(v[0]), float(v[1]), float(command[2])
+
+
+def test_safety_stage_equals_the_numpy_formulation():
+    from petswarm_env.control.arbiter import SafetyStage
+
+    rng = np.random.default_rng(5)
+    stage = SafetyStage(8, 0.35, 0.3, 2.0)
+    changed = 0
+    for _ in range(500):
+        cmd = tuple(rng.uniform(-1.5, 1.5, 3))
+        ranges = rng.uniform(0.05, 2.0, 8) if rng.random() < 0.7 else np.full(8, 2.0)
+        want, got = _safety_reference(stage, cmd, ranges), stage.filter(cmd, ranges)
+        assert (want is None) == (got is None)
+        if want is not None:
+            changed += 1
+            np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
+    assert 50 < changed < 500

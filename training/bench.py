@@ -349,6 +349,7 @@ _FUNCTION_CATEGORY: dict[tuple[str, str], str | None] = {
     ("petswarm_env/sim/world.py", "body_circles"): "observation",
     ("petswarm_env/sim/world.py", "robot_positions"): "observation",
     ("petswarm_env/sim/world.py", "robot_headings"): "observation",
+    ("petswarm_env/sim/world.py", "truth_arrays"): None,  # read by the ultrasonic ring and the IR slots
     ("petswarm_env/sim/world.py", "now"): None,
     ("petswarm_env/sim/world.py", "run_until"): "radio_middleware",  # Clock.run_until: the event loop
     ("petswarm_env/sim/robot.py", "ahrs_yaw"): "observation",
@@ -374,6 +375,7 @@ _FILE_CATEGORY: tuple[tuple[str, str | None], ...] = (
     ("petswarm_env/metrics.py", "reward_metrics"),
     ("petswarm_env/sim/geometry.py", None),  # ray casts (observation) and IR occlusion (middleware)
     ("petswarm_env/sim/scenarios.py", None),  # the user's script, read by User.apply
+    ("petswarm_env/sim/events.py", "radio_middleware"),  # bare callbacks on the clock (call_later)
     ("petswarm_env/sim/", "physics"),  # Robot.apply/set_command, User.apply, World.advance, contact callbacks
     ("/pymunk/", None),  # property getters/setters: whoever uses them (Space.step itself is physics)
     ("/numpy/", None),

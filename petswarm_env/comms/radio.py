@@ -33,10 +33,12 @@ from typing import Any, Protocol
 
 import numpy as np
 import simpy
-from simpy.events import NORMAL
 
 from petswarm_env.config import RadioConfig
 from petswarm_env.sim.draws import Draws
+from petswarm_env.sim.events import call_later
+
+__all__ = ["BROADCAST", "PAN_WAITING", "Frame", "RadioMedium", "RadioStats", "Station", "call_later"]
 
 BROADCAST = -1
 PAN_WAITING = 0x0000  # robots not in a swarm listen here (chosen)
@@ -70,29 +72,6 @@ class RadioStats:
     frames_lost: int = 0  # random loss at a receiver
     frames_collided: int = 0  # receptions destroyed by overlap
     foreign_pan_dropped: int = 0  # filtered by the MAC
-
-
-class _Later(simpy.Event):
-    """A bare timeout that calls ``fn(*args)`` when the clock reaches it (cheaper than a
-    ``Timeout`` with a lambda callback: no closure, no checks)."""
-
-    def __init__(self, clock: simpy.Environment, delay: float, fn: Callable[..., Any], args: tuple):
-        self.env = clock
-        self.callbacks = [_fire]
-        self._value = None
-        self._ok = True
-        self.fn = fn
-        self.args = args
-        clock.schedule(self, NORMAL, delay)
-
-
-def _fire(ev: _Later) -> None:
-    ev.fn(*ev.args)
-
-
-def call_later(clock: simpy.Environment, delay: float, fn: Callable[..., Any], *args: Any) -> None:
-    """Run ``fn(*args)`` after ``delay`` seconds of clock time (one event on the clock)."""
-    _Later(clock, delay, fn, args)
 
 
 class _Tx:
@@ -142,7 +121,7 @@ class RadioMedium:
     def _start(self, station: Station) -> None:
         frame = self._queues[station.node_id][0]
         be = self.cfg.min_be
-        _Later(self.clock, self.cfg.latency_s + self._backoff(be), self._cca, (station, frame, 0, be))
+        call_later(self.clock, self.cfg.latency_s + self._backoff(be), self._cca, station, frame, 0, be)
 
     def _done(self, station: Station) -> None:
         queue = self._queues[station.node_id]
@@ -165,14 +144,14 @@ class RadioMedium:
                     self._done(station)
                     return
                 be = min(be + 1, self.cfg.max_be)
-                _Later(self.clock, self._backoff(be), self._cca, (station, frame, nb + 1, be))
+                call_later(self.clock, self._backoff(be), self._cca, station, frame, nb + 1, be)
                 return
         # clear: on the air after the RX-to-TX turnaround, which the CCA of others cannot sense
         start = now + self.cfg.turnaround_s
         tx = _Tx(frame, start, start + self.airtime_s(frame), x, y)
         self._air.append(tx)
         self.stats.frames_sent += 1
-        _Later(self.clock, tx.end - now, self._deliver, (tx, station))
+        call_later(self.clock, tx.end - now, self._deliver, tx, station)
 
     # -- receiving ------------------------------------------------------------------------------
     def _deliver(self, tx: _Tx, sender: Station) -> None:

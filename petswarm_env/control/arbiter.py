@@ -45,26 +45,33 @@ class SafetyStage:
     def __init__(self, num_sensors: int, stop_distance_m: float, backoff_speed_mps: float, max_accel_mps2: float):
         ang = np.arange(num_sensors) * (2 * math.pi / max(num_sensors, 1))
         self.dirs = np.stack([np.cos(ang), np.sin(ang)], axis=1)
+        self._dirs = [tuple(d) for d in self.dirs.tolist()]  # Python floats: the check runs per robot and tick
         self.stop = stop_distance_m
         self.backoff = backoff_speed_mps
         self.two_a = 2.0 * max_accel_mps2
 
     def filter(self, command: tuple[float, float, float], ranges: np.ndarray) -> tuple[float, float, float] | None:
-        """The safe version of ``command`` (body frame), or None when nothing needed changing."""
-        v = np.array(command[:2], dtype=float)
-        allowed = np.sqrt(self.two_a * np.maximum(ranges - self.stop, 0.0))
-        toward = self.dirs @ v
-        over = (toward > allowed + 1e-9) | (ranges < 0.5 * self.stop)
-        if not over.any():
+        """The safe version of ``command`` (body frame), or None when nothing needed changing.
+
+        Plain Python over the few sensors of the ring (a numpy call costs more than the
+        arithmetic on eight values)."""
+        vx, vy = float(command[0]), float(command[1])
+        stop, two_a, half = self.stop, self.two_a, 0.5 * self.stop
+        rs = ranges.tolist() if isinstance(ranges, np.ndarray) else [float(r) for r in ranges]
+        allowed = [math.sqrt(two_a * max(r - stop, 0.0)) for r in rs]
+        over = [k for k, ((dx, dy), r, lim) in enumerate(zip(self._dirs, rs, allowed))
+                if dx * vx + dy * vy > lim + 1e-9 or r < half]
+        if not over:
             return None
-        for k in np.flatnonzero(over):
-            d = self.dirs[k]
-            excess = float(v @ d) - allowed[k]
+        for k in over:
+            dx, dy = self._dirs[k]
+            excess = (vx * dx + vy * dy) - allowed[k]
             if excess > 0.0:  # too fast toward the obstacle: take the excess off
-                v = v - excess * d
-            if ranges[k] < 0.5 * self.stop:  # too close already: back away
-                v = v - self.backoff * (1.0 - ranges[k] / (0.5 * self.stop)) * d
-        return float(v[0]), float(v[1]), float(command[2])
+                vx, vy = vx - excess * dx, vy - excess * dy
+            if rs[k] < half:  # too close already: back away
+                back = self.backoff * (1.0 - rs[k] / half)
+                vx, vy = vx - back * dx, vy - back * dy
+        return vx, vy, float(command[2])
 
 
 class ControlArbiter:

@@ -20,6 +20,7 @@ from petswarm_env.comms.radio import BROADCAST, PAN_WAITING, Frame, RadioMedium,
 from petswarm_env.middleware import messages as msg
 from petswarm_env.middleware.formation import Formation
 from petswarm_env.sim.draws import Draws
+from petswarm_env.sim.robot import _get_position
 
 if TYPE_CHECKING:
     from petswarm_env.middleware.swarm import Swarm
@@ -78,6 +79,7 @@ class Node:
         self.draws = Draws(rng)  # scalar draws (MCU processing jitter) taken from rng in blocks
         self._processing = (self.cfg.radio.processing_s, self.cfg.radio.processing_jitter_s)
         self._robots = swarm.world.robots  # the world's robot list (node id = robot index)
+        self._cbody = self._robots[node_id]._cbody  # own body in Chipmunk (the antenna's position)
         self.pans: frozenset[int] = frozenset({PAN_WAITING})
         self.state = "waiting"  # sequence manager state, see sequence.py
         self.connected_user: int | None = None  # the user this robot is connected to, if any
@@ -91,7 +93,8 @@ class Node:
     # -- lower layer ------------------------------------------------------------------------------
     def position(self) -> tuple[float, float]:
         """Antenna position: the radio's propagation model needs it (not the middleware)."""
-        return self._robots[self.node_id].position
+        p = _get_position(self._cbody)
+        return (p.x, p.y)
 
     def send(self, kind: str, dst: int = BROADCAST, pan: int | None = None, **payload: Any) -> None:
         pan = self.swarm_pan if pan is None else pan
@@ -103,7 +106,8 @@ class Node:
         handler = self.handlers.get(frame.kind)
         if handler is None:
             return
-        call_later(self.clock, self.processing_delay(), self._handle, handler, frame)
+        base, jitter = self._processing  # processing_delay(), inlined: called for every reception
+        call_later(self.clock, base + jitter * self.draws.uniform(), self._handle, handler, frame)
 
     def processing_delay(self) -> float:
         """MCU time to handle a received frame before it can answer (``processing_s`` plus a

@@ -76,12 +76,13 @@ class ScenarioScript:
 
     def __init__(self, segments: list[Segment]):
         self.segments = segments
-        self.ends = np.cumsum([s.duration_s for s in segments])
+        self.ends = np.cumsum([s.duration_s for s in segments]).tolist()  # floats: read every substep
+        self._last = len(self.ends) - 1
         self._i = 0
 
     def at(self, t_s: float) -> Segment:
         i = self._i
-        while i < len(self.ends) - 1 and t_s >= self.ends[i]:
+        while i < self._last and t_s >= self.ends[i]:
             i += 1
         self._i = i
         return self.segments[i]

@@ -18,6 +18,7 @@ import simpy
 
 from petswarm_env.config import Config
 from petswarm_env.sim import geometry
+from petswarm_env.sim.events import Call
 from petswarm_env.sim.robot import COLLISION_ROBOT, COLLISION_USER, COLLISION_WALL, Robot, _get_angle, _get_position
 from petswarm_env.sim.scenarios import ScenarioScript
 from petswarm_env.sim.user import User
@@ -43,10 +44,14 @@ class Clock(simpy.Environment):
     def run_until(self, t: float) -> None:
         """Process every event before ``t``, then stand at ``t`` — what ``run(until=t)`` does,
         without scheduling a stop event and raising to leave the loop on every call. The body of
-        ``simpy.Environment.step`` is inlined (no peek/step call per event)."""
+        ``simpy.Environment.step`` is inlined (no peek/step call per event); a bare
+        :class:`~.events.Call` is called directly."""
         queue = self._queue
         while queue and queue[0][0] < t:
             self._now, _, _, event = heappop(queue)
+            if type(event) is Call:  # a bare callback (sim/events.py): no event machinery
+                event.fn(*event.args)
+                continue
             callbacks, event.callbacks = event.callbacks, None
             for callback in callbacks:
                 callback(event)

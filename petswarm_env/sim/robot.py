@@ -23,6 +23,7 @@ _get_velocity = pymunk.cp.cpBodyGetVelocity
 _get_angular_velocity = pymunk.cp.cpBodyGetAngularVelocity
 _set_velocity = pymunk.cp.cpBodySetVelocity
 _set_angular_velocity = pymunk.cp.cpBodySetAngularVelocity
+_cos, _sin, _hypot = math.cos, math.sin, math.hypot
 
 COLLISION_ROBOT = 1
 COLLISION_USER = 2
@@ -89,6 +90,8 @@ class Robot:
         # commanded (saturated) body-frame velocity, and the achieved one after acceleration limits
         self.command = (0.0, 0.0, 0.0)
         self.velocity_body = (0.0, 0.0, 0.0)
+        self._limits_dt = -1.0  # the substep length the acceleration limits below were computed for
+        self._max_dv = self._max_dw = 0.0
         # AHRS: yaw with white noise and a slowly drifting bias (random walk in time)
         self.ahrs_rng = np.random.default_rng(0)  # (the env gives every robot its own stream)
         self._ahrs_bias = 0.0
@@ -130,10 +133,13 @@ class Robot:
     def apply(self, dt: float) -> None:
         """Move the achieved velocity toward the command within the acceleration limits, then
         hand it to the physics body (collisions may still change it during the step)."""
-        cfg = self.cfg
+        if dt != self._limits_dt:  # the per-substep limits, computed once per substep length
+            self._limits_dt = dt
+            self._max_dv = self.cfg.max_accel_mps2 * dt
+            self._max_dw = self.cfg.max_alpha_rps2 * dt
         cbody = self._cbody
         th = _get_angle(cbody)
-        c, s = math.cos(th), math.sin(th)
+        c, s = _cos(th), _sin(th)
         # the body's actual velocity (after last step's collisions) in its own frame
         wv = _get_velocity(cbody)
         wx, wy = wv.x, wv.y
@@ -142,16 +148,21 @@ class Robot:
         w = _get_angular_velocity(cbody)
         cx, cy, cw = self.command
         dvx, dvy = cx - vx, cy - vy
-        dv = math.hypot(dvx, dvy)
-        max_dv = cfg.max_accel_mps2 * dt
+        dv = _hypot(dvx, dvy)
+        max_dv = self._max_dv
         if dv > max_dv:
             k = max_dv / dv
             dvx *= k
             dvy *= k
         vx += dvx
         vy += dvy
-        max_dw = cfg.max_alpha_rps2 * dt
-        w_new = w + max(-max_dw, min(max_dw, cw - w))
+        max_dw = self._max_dw
+        dw = cw - w  # clipped to [-max_dw, max_dw]
+        if dw > max_dw:
+            dw = max_dw
+        elif dw < -max_dw:
+            dw = -max_dw
+        w_new = w + dw
         self.velocity_body = (vx, vy, w_new)
         # write only what changed (a body turning at its commanded rate, or driving straight at its
         # commanded speed, keeps its values): the same state as writing it again

@@ -381,7 +381,7 @@ def reaction_time(cfg: Config, seed: int, quick: bool, progress: Progress) -> Ex
         notes.append(
             f"faster than the paper's prototype: the belt's rotation flag, a BLE report every {cfg.ble.report_period_s:g} s "
             f"and a {cfg.control_period_s:g} s control step; slowing the BLE reports until the master and slave rows "
-            "pass makes the leading master lose its user in walking turns, so they are left failing (README, "
+            "pass makes the leading master learn of walking turns too late (robots touch the user), so they are left failing (README, "
             "'The papers' measurements')")
     return ExperimentResult(rows, data, note="; ".join(notes))
 

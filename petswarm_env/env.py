@@ -53,6 +53,10 @@ SPAWN_REACH = 0.85  # chosen: waiting robots start within 85 % of the master's a
 PAIRING_DISTANCE_M = 0.8  # chosen: each user starts this close to their robot (LF wake-up range 1 m)
 
 
+_NO_ACTION = np.zeros(3, np.float32)  # the last action of an agent that has not acted yet (read only)
+_NO_ACTION.flags.writeable = False
+
+
 def _wrap(a: float) -> float:
     return (a + math.pi) % (2 * math.pi) - math.pi
 
@@ -164,7 +168,7 @@ class PetSwarmEnv(ParallelEnv):
         self.agents = [f"robot_{i}" for i in self._slave_ids]
         self._agent_index = {f"robot_{i}": i for i in range(len(world.robots))}
         self._last_action = {a: np.zeros(3, np.float32) for a in self.agents}
-        self._obs_buf = {a: np.zeros(self.layout.size, np.float32) for a in self.possible_agents}
+        self._possible = set(self.possible_agents)
         self._contacts_seen = dict(world.collisions.per_robot)
         self._collisions_at_start = (world.collisions.robot_robot, world.collisions.robot_user, world.collisions.robot_wall)
         self._events_at_start = self._event_counts()
@@ -218,7 +222,7 @@ class PetSwarmEnv(ParallelEnv):
         live = {f"robot_{i}" for i in slaves}
         terminations = {a: a not in live for a in self.agents}
         truncations = {a: truncated for a in self.agents}
-        joined = [f"robot_{i}" for i in slaves if f"robot_{i}" not in self.agents and f"robot_{i}" in self._obs_buf]
+        joined = [f"robot_{i}" for i in slaves if f"robot_{i}" not in self.agents and f"robot_{i}" in self._possible]
         for a in joined:
             self._last_action[a] = np.zeros(3, np.float32)
         self._slave_ids = slaves
@@ -371,11 +375,11 @@ class PetSwarmEnv(ParallelEnv):
             return vx * (1 + e[0]), vy * (1 + e[1]), w * (1 + e[2])
         return vx, vy, w
 
-    def _formation_geometry(self, formation: Formation) -> tuple[np.ndarray, dict[int, int]]:
+    def _formation_geometry(self, formation: Formation) -> tuple[list[tuple[float, float]], dict[int, int]]:
         """Slot positions and hierarchy levels of a neighbour table (cached per table)."""
         hit = self._formation_cache.get(id(formation))
         if hit is None or hit[0] is not formation:
-            slots = formation.slot_positions()
+            slots = [tuple(p) for p in formation.slot_positions().tolist()]  # Python floats
             levels = formation.hierarchy_levels(user_position_in_formation(formation, self.cfg.master.distance_m))
             hit = (formation, slots, levels)
             self._formation_cache[id(formation)] = hit
@@ -386,6 +390,7 @@ class PetSwarmEnv(ParallelEnv):
         now = world.now
         obs = {}
         agents = self.agents if agents is None else agents
+        us_max = self.cfg.robot.ultrasonic.max_range_m
         # the odometry noise of every agent in one draw (the same numbers as one draw per agent)
         k = self.cfg.robot.odometry_noise_rel
         noise = self._rng_sensors.normal(0.0, k, (len(agents), 3)).tolist() if k > 0 else None
@@ -396,21 +401,22 @@ class PetSwarmEnv(ParallelEnv):
             level, offset = 0, (0.0, 0.0)
             if node.formation is not None and 0 <= member < node.formation.size:
                 slots, levels = self._formation_geometry(node.formation)
-                level, offset = levels.get(member, 0), (float(slots[member][0]), float(slots[member][1]))
+                level, offset = levels.get(member, 0), slots[member]
+            last = self._last_action.get(agent)
             obs[agent] = build_observation(
                 self.layout,
-                self._obs_buf[agent],
+                None,  # a new array: what the agent gets is its own
                 node,
                 now,
                 self._odometry(idx, noise[i] if noise is not None else None),
                 world.robots[idx].ahrs_yaw(now),
-                self._last_action.get(agent, np.zeros(3, np.float32)),
+                last if last is not None else _NO_ACTION,
                 self._ranges[idx],
                 level,
                 offset,
                 self._limits,
-                self.cfg.robot.ultrasonic.max_range_m,
-            ).copy()
+                us_max,
+            )
         return obs
 
     def reference_positions(self) -> dict[int, np.ndarray]:

@@ -107,7 +107,7 @@ def _clip_age(age: float, scale: float) -> float:
 
 def build_observation(
     layout: ObservationLayout,
-    out: np.ndarray,
+    out: np.ndarray | None,
     node: Node,
     now: float,
     odometry: tuple[float, float, float],
@@ -119,8 +119,9 @@ def build_observation(
     limits: tuple[float, float, float],
     us_max_range_m: float,
 ) -> np.ndarray:
-    """Fill ``out`` (layout.size,) with the observation of one slave (built as a Python list and
-    written in one assignment: one numpy conversion instead of one per value)."""
+    """The observation of one slave, written into ``out`` (layout.size,) or, with ``out=None``, a
+    new float32 array. Built as a Python list and converted once (one numpy conversion instead of
+    one per value)."""
     v = [0.0] * layout.size
     o = layout._offsets
     vmax, _, wmax = limits
@@ -184,6 +185,8 @@ def build_observation(
     v[o["self.hierarchy"]] = hierarchy_level / total
     v[o["self.members"]] = total / 16.0
     v[o["self.member"]] = know.member / 16.0
+    if out is None:
+        return np.array(v, dtype=np.float32)
     out[:] = v
     return out
 

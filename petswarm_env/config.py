@@ -55,6 +55,7 @@ class WorldConfig(_Section):
     obstacles: list[BoxObstacle]
     num_users: int = Field(ge=1, le=8, description="users, each with a master, a robot pool and its own PAN")
     user_spacing_m: float = Field(gt=0, description="distance between the users' start positions (along y)")
+    collision_slop_m: float = Field(gt=0, description="overlap of two bodies in contact that the physics leaves uncorrected (m; pymunk's collision_slop)")
 
 
 class UltrasonicConfig(_Section):

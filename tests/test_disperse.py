@@ -4,8 +4,10 @@ import pytest
 
 import petswarm_env
 from petswarm_env.comms.radio import PAN_WAITING
+from petswarm_env.config import load_config
 
-SUBSTEPS_PER_S = 100  # default: 0.1 s control period, 10 physics substeps
+_CFG = load_config()
+SUBSTEPS_PER_S = round(_CFG.physics_substeps / _CFG.control_period_s)  # world.advance(n) runs n substeps
 
 # Library bug: a robot that leaves the swarm while its TokenRing.hold() process is still running
 # (the slave holding the token when DISPERSE arrives, or the master itself when its disperse

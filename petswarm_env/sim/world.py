@@ -70,6 +70,7 @@ class World:
         self.clock = Clock()
         self.space = pymunk.Space()
         self.space.gravity = (0.0, 0.0)  # top view
+        self.space.collision_slop = cfg.world.collision_slop_m
         self.dt_sub = cfg.control_period_s / cfg.physics_substeps
         self._substeps_done = 0
         self._physics_steps = 0  # Space.step calls so far: the truth arrays are valid for one value

@@ -4,6 +4,7 @@ import math
 
 import numpy as np
 import pytest
+import simpy
 
 from petswarm_env.comms.ir_channel import IRChannel, _line_of_sight_blocked
 from petswarm_env.config import load_config
@@ -148,3 +149,36 @@ def test_safety_stage_equals_the_numpy_formulation():
             changed += 1
             np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
     assert 50 < changed < 500
+
+
+def _trace_of_waits(clock):
+    """Processes that wait on "an event or a timeout", as the token ring does; (time, label) trace."""
+    from petswarm_env.sim.events import call_later
+
+    trace = []
+
+    def waiter(name, ev, timeout):
+        got = yield clock.any_of([ev, clock.timeout(timeout)])
+        trace.append((clock.now, name, ev in got))
+
+    evs = [clock.event() for _ in range(4)]
+    for k, ev in enumerate(evs):
+        clock.process(waiter(f"w{k}", ev, 0.05 + 0.01 * k))
+    call_later(clock, 0.02, evs[0].succeed)  # before its timeout
+    call_later(clock, 0.08, evs[1].succeed)  # after its timeout: too late
+    evs[2].succeed()  # already triggered when the condition is built? (processed at t=0)
+    call_later(clock, 0.03, lambda: trace.append((clock.now, "tick", None)))
+    clock.run_until(0.2)
+    return trace
+
+
+def test_first_of_resumes_like_simpy_any_of():
+    from petswarm_env.sim.world import Clock
+
+    class SimpyClock(Clock):
+        def any_of(self, events):
+            return simpy.AnyOf(self, events)
+
+    fast, ref = _trace_of_waits(Clock()), _trace_of_waits(SimpyClock())
+    assert fast == ref
+    assert [t[1] for t in fast] == ["w2", "w0", "tick", "w1", "w3"]

@@ -142,9 +142,9 @@ class Swarm:
         if not receivers:
             return []
         dist, bearing, valid = self.ir_channel.measure(holder.node_id, receivers)
-        for rid, d, b, ok in zip(receivers, dist, bearing, valid):
+        for rid, d, b, ok in zip(receivers, dist.tolist(), bearing.tolist(), valid.tolist()):
             if ok:
-                self.nodes[rid].store_ir(holder.node_id, float(d), float(b))
+                self.nodes[rid].store_ir(holder.node_id, d, b)
         formation = holder.formation
         neighbours = formation.neighbours(holder.know.member) if formation is not None else set()
         reporters = []

@@ -15,6 +15,7 @@ from heapq import heappop
 import numpy as np
 import pymunk
 import simpy
+from simpy.events import PENDING, ConditionValue
 
 from petswarm_env.config import Config
 from petswarm_env.sim import geometry
@@ -60,6 +61,38 @@ class Clock(simpy.Environment):
                 exc.__cause__ = event._value
                 raise exc
         self._now = t
+
+
+    def any_of(self, events) -> simpy.Event:
+        """An event that succeeds when the first of ``events`` has been processed — what
+        ``simpy.AnyOf`` does for a process that only waits on it (the token ring's "responses or
+        timeout"), without building a condition value. The same events go on the queue in the same
+        order as with ``AnyOf``. Its value is a ``ConditionValue`` holding the first event."""
+        return _FirstOf(self, events)
+
+
+class _FirstOf(simpy.Event):
+
+    def __init__(self, clock: Clock, events):
+        self.env = clock
+        self.callbacks = []
+        self._value = PENDING
+        for event in events:
+            if event.callbacks is None:  # already processed
+                self._check(event)
+            else:
+                event.callbacks.append(self._check)
+
+    def _check(self, event: simpy.Event) -> None:
+        if self._value is not PENDING:
+            return  # an event after the first one (e.g. the timeout after the responses)
+        if not event._ok:
+            event._defused = True
+            self.fail(event._value)
+        else:
+            value = ConditionValue()
+            value.events.append(event)
+            self.succeed(value)
 
 
 class World:

@@ -182,3 +182,23 @@ def test_first_of_resumes_like_simpy_any_of():
     fast, ref = _trace_of_waits(Clock()), _trace_of_waits(SimpyClock())
     assert fast == ref
     assert [t[1] for t in fast] == ["w2", "w0", "tick", "w1", "w3"]
+
+
+def test_bare_callbacks_run_in_clock_order_on_either_loop():
+    """call_later on the env's clock (bare tuples) and on a plain SimPy environment (Call events)
+    run the same callbacks in the same order, with run_until or with SimPy's run."""
+    from petswarm_env.sim.events import call_later
+    from petswarm_env.sim.world import Clock
+
+    def trace(clock, run):
+        out = []
+        for k, delay in enumerate([0.3, 0.1, 0.2, 0.1, 0.0]):
+            call_later(clock, delay, lambda k=k: out.append((round(clock.now, 9), k)))
+        clock.process((lambda: (yield clock.timeout(0.15)) or out.append((0.15, "proc")))())
+        run(clock)
+        return out
+
+    want = [(0.0, 4), (0.1, 1), (0.1, 3), (0.15, "proc"), (0.2, 2), (0.3, 0)]
+    assert trace(Clock(), lambda c: c.run_until(1.0)) == want
+    assert trace(Clock(), lambda c: c.run(until=1.0)) == want
+    assert trace(simpy.Environment(), lambda c: c.run(until=1.0)) == want

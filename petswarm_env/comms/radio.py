@@ -160,11 +160,20 @@ class RadioMedium:
         now = self.clock.now
         frame = tx.frame
         air = self._air
-        # forget transmissions that can no longer overlap anything still on the air
-        oldest_live = min((t.start for t in air if t.end >= now), default=now)
+        # one pass: the transmissions that overlap this one, and the start of the oldest one still
+        # on the air (this one included, so never later than now)
+        oldest_live = now
+        overlapping = []
+        start, end = tx.start, tx.end
+        for t in air:
+            if t.end >= now and t.start < oldest_live:
+                oldest_live = t.start
+            if t is not tx and t.start < end and t.end > start:
+                overlapping.append(t)
+        # forget transmissions that can no longer overlap anything still on the air (none of them
+        # overlaps this one: they ended before the oldest live start, at most this one's start)
         if air[0].end < oldest_live:
-            self._air = air = [t for t in air if t.end >= oldest_live or t is tx]
-        overlapping = [t for t in air if t is not tx and t.start < tx.end and t.end > tx.start]
+            self._air = [t for t in air if t.end >= oldest_live or t is tx]
         if self.drop_filter is not None and self.drop_filter(frame):
             return
         if frame.dst == BROADCAST:

@@ -19,7 +19,6 @@ from simpy.events import PENDING, ConditionValue
 
 from petswarm_env.config import Config
 from petswarm_env.sim import geometry
-from petswarm_env.sim.events import Call
 from petswarm_env.sim.robot import COLLISION_ROBOT, COLLISION_USER, COLLISION_WALL, Robot, _get_angle, _get_position
 from petswarm_env.sim.scenarios import ScenarioScript
 from petswarm_env.sim.user import User
@@ -42,16 +41,27 @@ class CollisionCounts:
 class Clock(simpy.Environment):
     """The one discrete-event clock (SimPy)."""
 
+    fast_calls = True  # call_later may queue bare (fn, args) tuples: run_until and step call them
+
+    def step(self) -> None:
+        """SimPy's ``step`` (used by ``run``), which also runs a bare callback."""
+        queue = self._queue
+        if queue and type(queue[0][3]) is tuple:
+            self._now, _, _, (fn, args) = heappop(queue)
+            fn(*args)
+            return
+        super().step()
+
     def run_until(self, t: float) -> None:
         """Process every event before ``t``, then stand at ``t`` — what ``run(until=t)`` does,
         without scheduling a stop event and raising to leave the loop on every call. The body of
-        ``simpy.Environment.step`` is inlined (no peek/step call per event); a bare
-        :class:`~.events.Call` is called directly."""
+        ``simpy.Environment.step`` is inlined (no peek/step call per event); a bare callback of
+        :func:`~.events.call_later` is called directly."""
         queue = self._queue
         while queue and queue[0][0] < t:
             self._now, _, _, event = heappop(queue)
-            if type(event) is Call:  # a bare callback (sim/events.py): no event machinery
-                event.fn(*event.args)
+            if type(event) is tuple:  # a bare callback (sim/events.py): no event machinery
+                event[0](*event[1])
                 continue
             callbacks, event.callbacks = event.callbacks, None
             for callback in callbacks:
@@ -254,4 +264,4 @@ class World:
         d = geometry.ring_first_hits(pos, th, self._us_angles, centers, radii, self._us_walls, reach).reshape(-1)
         d = d - self.cfg.robot.radius_m  # from the sensor on the rim
         d = d + rng.normal(0.0, us.noise_m, d.shape) if us.noise_m > 0 else d
-        return np.clip(d, us.min_range_m, us.max_range_m).reshape(len(indices), n)
+        return np.minimum(np.maximum(d, us.min_range_m), us.max_range_m).reshape(len(indices), n)  # np.clip

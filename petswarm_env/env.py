@@ -41,7 +41,7 @@ from petswarm_env.middleware.formation import Formation, formation_for_mode, use
 from petswarm_env.middleware.swarm import Fleet, Swarm
 from petswarm_env.middleware.user_session import UserSession
 from petswarm_env.observe import OBS_VERSION, ObservationLayout, build_observation
-from petswarm_env.reward import slave_reward
+from petswarm_env.reward import slave_rewards
 from petswarm_env.sim.scenarios import ScenarioScript, build_scenario
 from petswarm_env.sim.world import World
 
@@ -204,16 +204,23 @@ class PetSwarmEnv(ParallelEnv):
         self.num_cycles += 1
 
         errors, heading_errs = self._formation_errors()
-        rewards = {}
         per_robot = world.collisions.per_robot
         infos = {}
+        errs, heads, contacts = [], [], []
         for agent in self.agents:
             idx = self._agent_index[agent]
             new_contacts = per_robot.get(idx, 0) - self._contacts_seen.get(idx, 0)
             self._contacts_seen[idx] = per_robot.get(idx, 0)
             err = errors.get(agent, 0.0)
-            rewards[agent] = slave_reward(cfg.reward, err, heading_errs.get(agent, 0.0), new_contacts, acts[agent], self._last_action[agent])
+            errs.append(err)
+            heads.append(heading_errs.get(agent, 0.0))
+            contacts.append(new_contacts)
             infos[agent] = {"formation_error_m": err, "new_contacts": new_contacts}
+        # every slave's reward in one pass over the slaves (reward.py)
+        now_acts = np.array([acts[a] for a in self.agents], dtype=np.float32).reshape(-1, 3)
+        last_acts = np.array([self._last_action[a] for a in self.agents], dtype=np.float32).reshape(-1, 3)
+        rewards = dict(zip(self.agents, slave_rewards(cfg.reward, errs, heads, contacts, now_acts, last_acts)))
+        for agent in self.agents:
             self._last_action[agent] = acts[agent]
         self.metrics.add_step(list(errors.values()))
         truncated = self.num_cycles >= cfg.max_cycles

@@ -34,3 +34,21 @@ def slave_reward(
         - cfg.collision * new_contacts
         - cfg.smoothness * float(da @ da)
     )
+
+
+def slave_rewards(
+    cfg: RewardConfig,
+    formation_errors_m: list[float],
+    heading_errors_rad: list[float],
+    new_contacts: list[int],
+    actions: np.ndarray,
+    last_actions: np.ndarray,
+) -> list[float]:
+    """:func:`slave_reward` of n slaves at once (``actions``, ``last_actions``: (n, 3)); the same
+    numbers (the squared action changes by ``np.vecdot``, which sums as ``a @ a`` does)."""
+    da = np.asarray(actions) - np.asarray(last_actions)
+    smooth = np.vecdot(da, da).tolist() if len(da) else []
+    return [
+        float(-cfg.formation * e - cfg.heading * (1.0 - math.cos(h)) - cfg.collision * c - cfg.smoothness * q)
+        for e, h, c, q in zip(formation_errors_m, heading_errors_rad, new_contacts, smooth)
+    ]

@@ -202,3 +202,17 @@ def test_bare_callbacks_run_in_clock_order_on_either_loop():
     assert trace(Clock(), lambda c: c.run_until(1.0)) == want
     assert trace(Clock(), lambda c: c.run(until=1.0)) == want
     assert trace(simpy.Environment(), lambda c: c.run(until=1.0)) == want
+
+
+def test_rewards_of_all_slaves_at_once_equal_one_at_a_time():
+    from petswarm_env.reward import slave_reward, slave_rewards
+
+    cfg = load_config().reward
+    rng = np.random.default_rng(9)
+    n = 7
+    acts = rng.uniform(-1, 1, (n, 3)).astype(np.float32)
+    last = rng.uniform(-1, 1, (n, 3)).astype(np.float32)
+    errs, heads, contacts = rng.uniform(0, 2, n).tolist(), rng.uniform(-3, 3, n).tolist(), rng.integers(0, 3, n).tolist()
+    want = [slave_reward(cfg, e, h, c, a, b) for e, h, c, a, b in zip(errs, heads, contacts, acts, last)]
+    assert slave_rewards(cfg, errs, heads, contacts, acts, last) == want
+    assert slave_rewards(cfg, [], [], [], np.zeros((0, 3), np.float32), np.zeros((0, 3), np.float32)) == []

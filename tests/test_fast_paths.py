@@ -194,7 +194,11 @@ def test_bare_callbacks_run_in_clock_order_on_either_loop():
         out = []
         for k, delay in enumerate([0.3, 0.1, 0.2, 0.1, 0.0]):
             call_later(clock, delay, lambda k=k: out.append((round(clock.now, 9), k)))
-        clock.process((lambda: (yield clock.timeout(0.15)) or out.append((0.15, "proc")))())
+        def proc():
+            yield clock.timeout(0.15)
+            out.append((0.15, "proc"))
+
+        clock.process(proc())
         run(clock)
         return out
 

@@ -220,3 +220,23 @@ def test_rewards_of_all_slaves_at_once_equal_one_at_a_time():
     want = [slave_reward(cfg, e, h, c, a, b) for e, h, c, a, b in zip(errs, heads, contacts, acts, last)]
     assert slave_rewards(cfg, errs, heads, contacts, acts, last) == want
     assert slave_rewards(cfg, [], [], [], np.zeros((0, 3), np.float32), np.zeros((0, 3), np.float32)) == []
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_ir_rows_in_plain_python_equal_the_numpy_model_exactly(seed):
+    """received_strengths_rows / estimate_rows (one IR slot, plain Python) give the very numbers
+    of received_strengths / estimate, also for saturated, occluded, out-of-range and undetected rows."""
+    cfg = load_config().ir
+    rng = np.random.default_rng(seed)
+    m = 9
+    d = np.concatenate([[0.05, 0.3, cfg.max_range_m + 0.5, 5.0], rng.uniform(0.1, 3.5, m - 4)])
+    b = rng.uniform(-4.0, 4.0, m)
+    occ = rng.random(m) < 0.3
+    want = ir.received_strengths(cfg, d, b, occ, np.random.default_rng(seed))
+    got = ir.received_strengths_rows(cfg, d.tolist(), b.tolist(), occ.tolist(), np.random.default_rng(seed))
+    assert np.array_equal(np.array(got), want)
+    assert (want == cfg.saturation).any() and (want.max(axis=1) < cfg.detect_threshold).any()
+    d1, b1, ok1 = ir.estimate(cfg, want)
+    d2, b2, ok2 = ir.estimate_rows(cfg, got)
+    assert np.array_equal(ok1, ok2) and ok1.any() and not ok1.all()
+    assert np.array_equal(d1, np.array(d2), equal_nan=True) and np.array_equal(b1, np.array(b2), equal_nan=True)

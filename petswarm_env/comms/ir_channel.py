@@ -8,6 +8,8 @@ positions and headings, decides occlusion by bodies, simulates the receiver ring
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from petswarm_env.middleware import ir
@@ -27,32 +29,43 @@ class IRChannel:
         (rad), and validity, each of shape (len(rx_indices),).
         """
         centers, radii, headings = self.world.truth_arrays()
-        rx = np.asarray(rx_indices, dtype=int)
-        p_rx = centers[rx]
-        delta = centers[tx_index] - p_rx  # receiver -> transmitter
-        dx, dy = delta[:, 0], delta[:, 1]
-        distance = np.hypot(dx, dy)
-        bearing = np.arctan2(dy, dx) - headings[rx]  # in the receivers' frames (their headings only)
-        occluded = _line_of_sight_blocked(p_rx, delta, centers, radii, rx, tx_index)
-        strengths = ir.received_strengths(self.cfg, distance, bearing, occluded, self.rng)
-        return ir.estimate(self.cfg, strengths)
+        cl, rl, hl = centers.tolist(), radii.tolist(), headings.tolist()
+        tx_x, tx_y = cl[tx_index]
+        dxs, dys, bearing, occluded = [], [], [], []
+        for r in rx_indices:
+            px, py = cl[r]
+            dx, dy = tx_x - px, tx_y - py  # receiver -> transmitter
+            dxs.append(dx)
+            dys.append(dy)
+            bearing.append(math.atan2(dy, dx) - hl[r])  # in the receiver's frame (its heading only)
+            occluded.append(_blocked(px, py, dx, dy, cl, rl, r, tx_index))
+        distance = np.hypot(dxs, dys).tolist()
+        strengths = ir.received_strengths_rows(self.cfg, distance, bearing, occluded, self.rng)
+        d, b, ok = ir.estimate_rows(self.cfg, strengths)
+        return np.array(d), np.array(b), np.array(ok, dtype=bool)
+
+
+def _blocked(px: float, py: float, vx: float, vy: float, centers: list, radii: list, rx: int, tx: int) -> bool:
+    """Does a body other than the receiver ``rx`` and the transmitter ``tx`` cut the line of sight
+    ``p → p + v``? :func:`~petswarm_env.sim.geometry.segments_blocked` for one segment (same
+    formulas, in plain Python: an IR slot has a handful of them)."""
+    vv = vx * vx + vy * vy
+    den = vv if vv > 0.0 else 1.0
+    for j, ((cx, cy), r) in enumerate(zip(centers, radii)):
+        if j == rx or j == tx:
+            continue
+        u = ((cx - px) * vx + (cy - py) * vy) / den  # the closest point's parameter on the segment
+        u = max(u, 0.0)
+        u = min(u, 1.0)
+        ex, ey = cx - (px + u * vx), cy - (py + u * vy)
+        if ex * ex + ey * ey < r * r:
+            return True
+    return False
 
 
 def _line_of_sight_blocked(p_rx: np.ndarray, v: np.ndarray, centers: np.ndarray, radii: np.ndarray,
                            rx: np.ndarray, tx_index: int) -> np.ndarray:
-    """:func:`~petswarm_env.sim.geometry.segments_blocked` for the segments ``p_rx → p_rx + v`` of
-    one IR slot, the bodies of the transmitter and of each segment's receiver left out (same
-    formulas, without the exclusion matrix and the general-purpose reshaping)."""
-    px, py = p_rx[:, 0:1], p_rx[:, 1:2]  # (M, 1)
-    vx, vy = v[:, 0:1], v[:, 1:2]
-    vv = vx * vx + vy * vy
-    pcx = centers[:, 0] - px  # (M, C)
-    pcy = centers[:, 1] - py
-    u = (pcx * vx + pcy * vy) / np.where(vv > 0.0, vv, 1.0)  # closest point's parameter on the segment
-    u = np.minimum(np.maximum(u, 0.0), 1.0)
-    ex = centers[:, 0] - (px + u * vx)
-    ey = centers[:, 1] - (py + u * vy)
-    cut = ex * ex + ey * ey < radii * radii
-    cut[:, tx_index] = False
-    cut[np.arange(len(rx)), rx] = False
-    return cut.any(axis=1)
+    """:func:`_blocked` for every segment ``p_rx[m] → p_rx[m] + v[m]`` (receiver ``rx[m]``)."""
+    cl, rl = centers.tolist(), radii.tolist()
+    return np.array([_blocked(px, py, vx, vy, cl, rl, int(r), tx_index)
+                     for (px, py), (vx, vy), r in zip(p_rx.tolist(), v.tolist(), rx)], dtype=bool)

@@ -24,6 +24,7 @@ are in arbitrary ADC units.
 from __future__ import annotations
 
 import functools
+import math
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
@@ -175,6 +176,73 @@ def estimate(cfg: IRConfig, strengths: np.ndarray) -> tuple[np.ndarray, np.ndarr
     safe_r = np.where(valid, r, 1.0)
     distance = np.where(valid, np.sqrt(cfg.strength_at_1m / safe_r), np.nan)
     bearing = np.where(valid, wrap_angle(np.arctan2(b, a) + i * delta), np.nan)
+    return distance, bearing, valid
+
+
+# -- the same for the few receivers of one IR slot, in plain Python ------------------------------------
+# An IR slot has 1-9 receivers: numpy's fixed cost per call (about 1 µs) outweighs its arithmetic on so
+# few rows, so the channel runs the two functions above row by row with Python floats. Every
+# operation is the one numpy does, in the same order (``a*a`` for ``**2``, numpy's maximum/minimum
+# rules for the clip, one ``np.hypot`` call for r), so the numbers are the same
+# (tests/test_fast_paths.py).
+
+
+def received_strengths_rows(
+    cfg: IRConfig,
+    distance_m: list[float],
+    bearing_rad: list[float],
+    occluded: list[bool],
+    rng: np.random.Generator,
+) -> list[list[float]]:
+    """:func:`received_strengths` for a few pairs (lists in, a list of K readings per pair out),
+    drawing the same noise from ``rng``."""
+    k = cfg.num_receivers
+    axes = _ring(k)[0].tolist()
+    z_rel, z_abs = rng.standard_normal((2, len(distance_m), k)).tolist()
+    s1, att, far, exponent = cfg.strength_at_1m, cfg.occlusion_attenuation, cfg.max_range_m, cfg.lobe_exponent
+    rel, add, sat = cfg.noise_rel, cfg.noise_abs, cfg.saturation
+    out = []
+    for d, bearing, occ, zr, za in zip(distance_m, bearing_rad, occluded, z_rel, z_abs):
+        d = max(d, _MIN_DISTANCE_M)
+        on_axis = s1 / (d * d)  # inverse-square fall-off
+        if occ:
+            on_axis = on_axis * att
+        if d > far:
+            on_axis = 0.0
+        row = []
+        for axis, z1, z2 in zip(axes, zr, za):
+            c = math.cos(bearing - axis)
+            lobe = max(c, 0.0) ** exponent
+            x = on_axis * lobe * (1.0 + rel * z1) + add * z2
+            x = max(x, 0.0)
+            row.append(min(x, sat))
+        out.append(row)
+    return out
+
+
+def estimate_rows(cfg: IRConfig, strengths: list[list[float]]) -> tuple[list[float], list[float], list[bool]]:
+    """:func:`estimate` (seed 000 §3.3, Eqs. 1–3) for a few rows of readings, as lists."""
+    k = cfg.num_receivers
+    _, delta, cos_d, sin_d = _ring(k)
+    den_a, den_b = 1.0 + 2.0 * cos_d**2, 2.0 * sin_d**2
+    picks = []
+    for s in strengths:
+        i = s.index(max(s))  # the strongest receiver (the first of equals, as argmax)
+        s0, s_plus, s_minus = s[i], s[(i + 1) % k], s[(i - 1) % k]
+        picks.append((i, s0, (s0 + (s_plus + s_minus) * cos_d) / den_a, (s_plus - s_minus) * sin_d / den_b))
+    r_all = np.hypot([p[2] for p in picks], [p[3] for p in picks]).tolist()
+    distance, bearing, valid = [], [], []
+    for (i, s0, a, b), r in zip(picks, r_all):
+        ok = s0 >= cfg.detect_threshold and r > 0.0
+        valid.append(ok)
+        if ok:
+            distance.append(math.sqrt(cfg.strength_at_1m / r))
+            theta = math.atan2(b, a) + i * delta
+            w = math.pi - (math.pi - theta) % (2.0 * math.pi)  # wrap_angle
+            bearing.append(w + 2.0 * math.pi if w <= -math.pi else w)
+        else:
+            distance.append(math.nan)
+            bearing.append(math.nan)
     return distance, bearing, valid
 
 

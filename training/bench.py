@@ -1332,7 +1332,7 @@ def _bounds_markdown(result: dict) -> list[str]:
          "and its delivery, and some 21 receptions, each handled after its own MCU delay (the jitter decides "
          "which responses collide, so receptions cannot share an event); the token-ring processes; and, in "
          "each IR slot (0.6 a step), the optical model of `comms/ir_channel.py` (occlusion, the receiver ring, "
-         "the paper's estimator: `middleware/ir.py`) in numpy on a few rows, about 120 µs a slot."),
+         "the paper's estimator: `middleware/ir.py`), in plain Python for its 1–9 receivers, about 50 µs a slot."),
         ("* **observation**: the ultrasonic ring (`World.ultrasonic_ranges`: 48 rays against every body and "
          "wall in one numpy pass, about 60 µs), the AHRS, the builder filling 57 values per slave."),
         ("* **physics**: 5 substeps (`physics_substeps`), each with the drive of every robot (`Robot.apply`: 3 "
@@ -1349,8 +1349,8 @@ def _bounds_markdown(result: dict) -> list[str]:
          "per step, callgrind). Then, with bit-identical episodes at the same substeps (checked on 1+4 and 1+5, "
          "seeds 0–2): the truth arrays (body centres, radii, headings) read from Chipmunk once per physics step "
          "and shared (`World.truth_arrays`); the ultrasonic ring of all robots in one pass "
-         "(`geometry.ring_first_hits`, walls out of reach left out: 200 → 60 µs); an IR slot without the "
-         "exclusion matrix and with one noise draw (190 → 120 µs); bare `(fn, args)` callbacks on the clock "
+         "(`geometry.ring_first_hits`, walls out of reach left out: 200 → 60 µs); an IR slot's optics in "
+         "plain Python row by row, every operation as numpy does it (190 → 47 µs); bare `(fn, args)` callbacks on the clock "
          "(`sim/events.py`) instead of event objects for CCAs, deliveries and MCU handling; `Clock.any_of` as a "
          "first-of event for the token ring's \"responses or timeout\"; the env's per-step bookkeeping "
          "(formation errors, action checks, odometry noise, the observation vector, the safety stage) in plain "
@@ -1358,8 +1358,9 @@ def _bounds_markdown(result: dict) -> list[str]:
          "And one model change: 5 physics substeps instead of 10 (SPEC: ≥ 5), with pymunk's collision slop "
          "set to 0.05 m (its default 0.1 is sized for pixels) so contacts stay as shallow as before; the "
          "scripted figures stay within their seed-to-seed spread (the `physics_substeps` comment in "
-         "`default.yaml` has them). Together, interleaved A/B on this machine: 1.72 → 1.13 ms CPU per 1+5 "
-         "step (−34 %). Tried and dropped: `pymunk.batch` and a numpy drive (fixed cost per call above the "
+         "`default.yaml` has them). Together, timed interleaved with the code as it was before this round (same machine, same "
+         "minutes, 12 bursts of 300 steps each): 2.43 → 1.47 ms CPU per 1+5 step (−40 %), against MPE N=6's "
+         "1.58 ms in the same bursts: 0.65× → 1.07×. Tried and dropped: `pymunk.batch` and a numpy drive (fixed cost per call above the "
          "per-robot loop at 6–10 bodies), a vectorised reward (the float32 dot of the action change does not "
          "come out bit-identical from numpy's other reductions, for about 1 % of the step)."),
         "",
@@ -1368,8 +1369,9 @@ def _bounds_markdown(result: dict) -> list[str]:
          "alone is most of the 2× budget. Closing the gap needs a compiled event core (the middleware in C or "
          "Cython) or a coarser protocol model (e.g. frames delivered without CSMA and per-receiver MCU "
          "delays), which this issue rules out (full middleware fidelity). Smaller items left: the belt's "
-         "Table 2 recognition runs numpy on every accelerometer sample (`wearables/belt.py`, about 8 % of "
-         "the step); the IR estimator and the ultrasonic cast are some 40 numpy calls each on 5–50 numbers."),
+         "Table 2 recognition runs numpy on every accelerometer sample (`wearables/belt.py`, about 10 % of "
+         "the step); the ultrasonic cast is some 30 numpy calls on 48 rays × 7 bodies (a plain-Python cast "
+         "costs as much); the observation builder, some 12 µs per slave."),
         "",
     ]
     return out

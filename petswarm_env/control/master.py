@@ -15,8 +15,10 @@ BLE, and its own odometry. The control system of Fig. 13, in order:
    ``trail_rps`` (a bounded swing the formation can follow), and rotates toward the user once they
    leave a small deadband, keeping them well inside the reliable ±25° region. *Leading*: straight
    ahead of the user. While the belt reports a rotation, a robot ahead of its user moves along the
-   arc about the user at the user's angular speed (seed 002 §3.4, Table 4); a remaining angle
-   between its place and straight ahead is closed at ``arc_gain``; when the user leaves ±25° and
+   arc about the user at the user's angular speed (seed 002 §3.4, Table 4); for a user turning on
+   the spot, the arc it has made is closed on the belt's accumulated angle at ``arc_sync_gain``
+   (:meth:`MasterController._arc_in_place`); otherwise a remaining angle between its place and
+   straight ahead is closed at ``arc_gain``; when the user leaves ±25° and
    is not rotating, the robot corrects sideways (Vy). The leading robot drives backwards along the
    user's walking direction (its heading follows ψ, never turning the user out of the reliable
    region), so keeping pace costs one wheel axis only;

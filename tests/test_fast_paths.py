@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import simpy
 
-from petswarm_env.comms.ir_channel import IRChannel, _line_of_sight_blocked
+from petswarm_env.comms.ir_channel import IRChannel, _blocked
 from petswarm_env.config import load_config
 from petswarm_env.middleware import ir
 from petswarm_env.sim import geometry
@@ -62,7 +62,8 @@ def test_ir_line_of_sight_equals_segments_blocked(seed):
     exclude[np.arange(len(rx)), rx] = True
     exclude[:, tx] = True
     want = geometry.segments_blocked(centers[rx], np.broadcast_to(centers[tx], (len(rx), 2)), centers, radii, exclude)
-    got = _line_of_sight_blocked(centers[rx], centers[tx] - centers[rx], centers, radii, rx, tx)
+    cl, rl = centers.tolist(), radii.tolist()
+    got = np.array([_blocked(*centers[r], *(centers[tx] - centers[r]), cl, rl, int(r), tx) for r in rx])
     assert np.array_equal(got, want)
 
 

@@ -62,10 +62,3 @@ def _blocked(px: float, py: float, vx: float, vy: float, centers: list, radii: l
             return True
     return False
 
-
-def _line_of_sight_blocked(p_rx: np.ndarray, v: np.ndarray, centers: np.ndarray, radii: np.ndarray,
-                           rx: np.ndarray, tx_index: int) -> np.ndarray:
-    """:func:`_blocked` for every segment ``p_rx[m] → p_rx[m] + v[m]`` (receiver ``rx[m]``)."""
-    cl, rl = centers.tolist(), radii.tolist()
-    return np.array([_blocked(px, py, vx, vy, cl, rl, int(r), tx_index)
-                     for (px, py), (vx, vy), r in zip(p_rx.tolist(), v.tolist(), rx)], dtype=bool)

@@ -72,7 +72,6 @@ class Clock(simpy.Environment):
                 raise exc
         self._now = t
 
-
     def any_of(self, events) -> simpy.Event:
         """An event that succeeds when the first of ``events`` has been processed — what
         ``simpy.AnyOf`` does for a process that only waits on it (the token ring's "responses or

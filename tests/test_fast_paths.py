@@ -185,16 +185,19 @@ def test_first_of_resumes_like_simpy_any_of():
     assert [t[1] for t in fast] == ["w2", "w0", "tick", "w1", "w3"]
 
 
-def test_bare_callbacks_run_in_clock_order_on_either_loop():
+@pytest.mark.parametrize("bound", [False, True], ids=["call_later", "scheduler"])
+def test_bare_callbacks_run_in_clock_order_on_either_loop(bound):
     """call_later on the env's clock (bare tuples) and on a plain SimPy environment (Call events)
-    run the same callbacks in the same order, with run_until or with SimPy's run."""
-    from petswarm_env.sim.events import call_later
+    run the same callbacks in the same order, with run_until or with SimPy's run; so does the
+    clock-bound form of the radio and the nodes (``scheduler(clock)``)."""
+    from petswarm_env.sim.events import call_later, scheduler
     from petswarm_env.sim.world import Clock
 
     def trace(clock, run):
         out = []
+        later = scheduler(clock) if bound else lambda *a: call_later(clock, *a)
         for k, delay in enumerate([0.3, 0.1, 0.2, 0.1, 0.0]):
-            call_later(clock, delay, lambda k=k: out.append((round(clock.now, 9), k)))
+            later(delay, lambda k=k: out.append((round(clock.now, 9), k)))
         def proc():
             yield clock.timeout(0.15)
             out.append((0.15, "proc"))

@@ -36,9 +36,9 @@ import simpy
 
 from petswarm_env.config import RadioConfig
 from petswarm_env.sim.draws import Draws
-from petswarm_env.sim.events import call_later
+from petswarm_env.sim.events import scheduler
 
-__all__ = ["BROADCAST", "PAN_WAITING", "Frame", "RadioMedium", "RadioStats", "Station", "call_later"]
+__all__ = ["BROADCAST", "PAN_WAITING", "Frame", "RadioMedium", "RadioStats", "Station"]
 
 BROADCAST = -1
 PAN_WAITING = 0x0000  # robots not in a swarm listen here (chosen)
@@ -86,6 +86,7 @@ class RadioMedium:
 
     def __init__(self, clock: simpy.Environment, cfg: RadioConfig, rng: np.random.Generator):
         self.clock = clock
+        self._later = scheduler(clock)  # later(delay, fn, *args): a call on the clock
         self.cfg = cfg
         self.rng = rng
         # two independent streams: the MAC's backoffs, and what happens at receivers (loss,
@@ -121,7 +122,7 @@ class RadioMedium:
     def _start(self, station: Station) -> None:
         frame = self._queues[station.node_id][0]
         be = self.cfg.min_be
-        call_later(self.clock, self.cfg.latency_s + self._backoff(be), self._cca, station, frame, 0, be)
+        self._later(self.cfg.latency_s + self._backoff(be), self._cca, station, frame, 0, be)
 
     def _done(self, station: Station) -> None:
         queue = self._queues[station.node_id]
@@ -144,14 +145,14 @@ class RadioMedium:
                     self._done(station)
                     return
                 be = min(be + 1, self.cfg.max_be)
-                call_later(self.clock, self._backoff(be), self._cca, station, frame, nb + 1, be)
+                self._later(self._backoff(be), self._cca, station, frame, nb + 1, be)
                 return
         # clear: on the air after the RX-to-TX turnaround, which the CCA of others cannot sense
         start = now + self.cfg.turnaround_s
         tx = _Tx(frame, start, start + self.airtime_s(frame), x, y)
         self._air.append(tx)
         self.stats.frames_sent += 1
-        call_later(self.clock, tx.end - now, self._deliver, tx, station)
+        self._later(tx.end - now, self._deliver, tx, station)
 
     # -- receiving ------------------------------------------------------------------------------
     def _deliver(self, tx: _Tx, sender: Station) -> None:
@@ -185,7 +186,7 @@ class RadioMedium:
         r2 = self._range2
         loss = self.cfg.loss_prob
         shadow_k = self._shadow_k
-        draws = self._rx_draws
+        uniform, normal = self._rx_draws.uniform, self._rx_draws.normal
         src, pan, tx_x, tx_y = frame.src, frame.pan, tx.x, tx.y
         for st in targets:
             node_id = st.node_id
@@ -202,10 +203,10 @@ class RadioMedium:
             if overlapping and any(t.frame.src == node_id or (t.x - rx) ** 2 + (t.y - ry) ** 2 <= r2 for t in overlapping):
                 stats.frames_collided += 1  # overlap in range, or it was transmitting (half duplex)
                 continue
-            if loss > 0 and draws.uniform() < loss:
+            if loss > 0 and uniform() < loss:
                 stats.frames_lost += 1
                 continue
             # RSSI-based distance estimate: log-distance path loss with log-normal shadowing
             d = max(math.sqrt(d2), 0.1)
-            est = d * 10.0 ** (shadow_k * draws.normal()) if shadow_k > 0 else d
+            est = d * 10.0 ** (shadow_k * normal()) if shadow_k > 0 else d
             st.receive(Frame(frame.kind, src, frame.dst, pan, frame.payload, frame.size_bytes, est))

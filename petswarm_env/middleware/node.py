@@ -16,10 +16,11 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import simpy
 
-from petswarm_env.comms.radio import BROADCAST, PAN_WAITING, Frame, RadioMedium, call_later
+from petswarm_env.comms.radio import BROADCAST, PAN_WAITING, Frame, RadioMedium
 from petswarm_env.middleware import messages as msg
 from petswarm_env.middleware.formation import Formation
 from petswarm_env.sim.draws import Draws
+from petswarm_env.sim.events import scheduler
 from petswarm_env.sim.robot import _get_position
 
 if TYPE_CHECKING:
@@ -73,6 +74,7 @@ class Node:
         self.swarm = swarm
         self.node_id = node_id
         self.clock: simpy.Environment = swarm.clock
+        self.later = scheduler(self.clock)  # later(delay, fn, *args): a call on the clock
         self.radio: RadioMedium = swarm.radio
         self.cfg = swarm.cfg
         self.rng = rng
@@ -107,7 +109,7 @@ class Node:
         if handler is None:
             return
         base, jitter = self._processing  # processing_delay(), inlined: called for every reception
-        call_later(self.clock, base + jitter * self.draws.uniform(), self._handle, handler, frame)
+        self.later(base + jitter * self.draws.uniform(), self._handle, handler, frame)
 
     def processing_delay(self) -> float:
         """MCU time to handle a received frame before it can answer (``processing_s`` plus a

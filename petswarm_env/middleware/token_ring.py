@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import math
 
-from petswarm_env.comms.radio import Frame, call_later
+from petswarm_env.comms.radio import Frame
 from petswarm_env.middleware import messages as msg
 from petswarm_env.middleware.node import HeadingEstimate, Node
 
@@ -160,7 +160,7 @@ class TokenRing:
         """Neighbour of the transmitter: report the bearing at which we saw it (Fig. 9), after the
         MCU has processed the measurement."""
         node = self.node
-        call_later(node.clock, node.processing_delay(), lambda: node.send(msg.HEADING, dst=holder, bearing=bearing_rad))
+        node.later(node.processing_delay(), lambda: node.send(msg.HEADING, dst=holder, bearing=bearing_rad))
 
     def _on_heading(self, frame: Frame) -> None:
         node = self.node

@@ -36,6 +36,24 @@ def _run(call: Call) -> None:
 _RUN = (_run,)
 
 
+def scheduler(clock: simpy.Environment) -> Callable[..., None]:
+    """:func:`call_later` bound to one clock, ``later(delay, fn, *args)``: the same queue entry,
+    without finding the clock's kind again on every call (the radio and the nodes schedule a few
+    dozen calls per control step)."""
+    queue, eid = clock._queue, clock._eid  # SimPy never replaces either
+    if getattr(clock, "fast_calls", False):
+
+        def later(delay: float, fn: Callable[..., Any], *args: Any) -> None:
+            heappush(queue, (clock._now + delay, NORMAL, next(eid), (fn, args)))
+
+    else:
+
+        def later(delay: float, fn: Callable[..., Any], *args: Any) -> None:
+            heappush(queue, (clock._now + delay, NORMAL, next(eid), Call(fn, args)))
+
+    return later
+
+
 def call_later(clock: simpy.Environment, delay: float, fn: Callable[..., Any], *args: Any) -> None:
     """Run ``fn(*args)`` after ``delay`` seconds of clock time (one entry on the clock's queue,
     ordered as ``clock.schedule`` orders events). On the env's clock (:class:`~.world.Clock`,

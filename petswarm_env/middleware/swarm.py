@@ -142,7 +142,7 @@ class Swarm:
         if not receivers:
             return []
         dist, bearing, valid = self.ir_channel.measure(holder.node_id, receivers)
-        for rid, d, b, ok in zip(receivers, dist.tolist(), bearing.tolist(), valid.tolist()):
+        for rid, d, b, ok in zip(receivers, dist, bearing, valid):
             if ok:
                 self.nodes[rid].store_ir(holder.node_id, d, b)
         formation = holder.formation

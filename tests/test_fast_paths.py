@@ -95,7 +95,7 @@ def test_ir_measure_of_a_slot_equals_the_per_receiver_model():
         if ok_one[0]:
             assert dist[j] == pytest.approx(d_one[0], abs=1e-9)
             assert bearing[j] == pytest.approx(b_one[0], abs=1e-9)
-    assert valid.any()
+    assert any(valid)
 
 
 def test_truth_arrays_follow_the_physics_and_are_read_only():

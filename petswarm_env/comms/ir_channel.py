@@ -22,11 +22,11 @@ class IRChannel:
         self.cfg = cfg
         self.rng = rng
 
-    def measure(self, tx_index: int, rx_indices: list[int]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def measure(self, tx_index: int, rx_indices: list[int]) -> tuple[list[float], list[float], list[bool]]:
         """Receivers ``rx_indices`` measure the IR of robot ``tx_index``.
 
         Returns estimated distance (m), bearing of the transmitter in each receiver's body frame
-        (rad), and validity, each of shape (len(rx_indices),).
+        (rad), and validity, one entry per receiver (nan where not valid).
         """
         centers, radii, headings = self.world.truth_arrays()
         cl, rl, hl = centers.tolist(), radii.tolist(), headings.tolist()
@@ -39,10 +39,10 @@ class IRChannel:
             dys.append(dy)
             bearing.append(math.atan2(dy, dx) - hl[r])  # in the receiver's frame (its heading only)
             occluded.append(_blocked(px, py, dx, dy, cl, rl, r, tx_index))
-        distance = np.hypot(dxs, dys).tolist()
+        # numpy's hypot (libm's), not math.hypot: the two differ in the last bit now and then
+        distance = np.hypot(np.array(dxs), np.array(dys)).tolist()
         strengths = ir.received_strengths_rows(self.cfg, distance, bearing, occluded, self.rng)
-        d, b, ok = ir.estimate_rows(self.cfg, strengths)
-        return np.array(d), np.array(b), np.array(ok, dtype=bool)
+        return ir.estimate_rows(self.cfg, strengths)
 
 
 def _blocked(px: float, py: float, vx: float, vy: float, centers: list, radii: list, rx: int, tx: int) -> bool:
@@ -55,8 +55,10 @@ def _blocked(px: float, py: float, vx: float, vy: float, centers: list, radii: l
         if j == rx or j == tx:
             continue
         u = ((cx - px) * vx + (cy - py) * vy) / den  # the closest point's parameter on the segment
-        u = max(u, 0.0)
-        u = min(u, 1.0)
+        if u < 0.0:  # clamped to the segment, as max(u, 0.0) then min(u, 1.0)
+            u = 0.0
+        elif u > 1.0:
+            u = 1.0
         ex, ey = cx - (px + u * vx), cy - (py + u * vy)
         if ex * ex + ey * ey < r * r:
             return True

@@ -184,7 +184,9 @@ def estimate(cfg: IRConfig, strengths: np.ndarray) -> tuple[np.ndarray, np.ndarr
 # few rows, so the channel runs the two functions above row by row with Python floats. Every
 # operation is the one numpy does, in the same order (``a*a`` for ``**2``, numpy's maximum/minimum
 # rules for the clip, one ``np.hypot`` call for r), so the numbers are the same
-# (tests/test_fast_paths.py).
+# (tests/test_fast_paths.py). The one shortcut: a receiver facing away from the source (lobe 0,
+# about half the ring) reads the additive noise alone, which is what ``on_axis·0·(1 + …) + noise``
+# gives.
 
 
 def received_strengths_rows(
@@ -201,6 +203,7 @@ def received_strengths_rows(
     z_rel, z_abs = rng.standard_normal((2, len(distance_m), k)).tolist()
     s1, att, far, exponent = cfg.strength_at_1m, cfg.occlusion_attenuation, cfg.max_range_m, cfg.lobe_exponent
     rel, add, sat = cfg.noise_rel, cfg.noise_abs, cfg.saturation
+    cos = math.cos
     out = []
     for d, bearing, occ, zr, za in zip(distance_m, bearing_rad, occluded, z_rel, z_abs):
         d = max(d, _MIN_DISTANCE_M)
@@ -211,11 +214,17 @@ def received_strengths_rows(
             on_axis = 0.0
         row = []
         for axis, z1, z2 in zip(axes, zr, za):
-            c = math.cos(bearing - axis)
-            lobe = max(c, 0.0) ** exponent
-            x = on_axis * lobe * (1.0 + rel * z1) + add * z2
-            x = max(x, 0.0)
-            row.append(min(x, sat))
+            c = cos(bearing - axis)
+            if c > 0.0:
+                x = on_axis * c**exponent * (1.0 + rel * z1) + add * z2
+            else:  # the source is behind this receiver: a zero lobe, so the reading is the additive noise
+                x = add * z2
+            # the clip to [0, sat], as max(x, 0.0) then min(x, sat)
+            if x < 0.0:
+                x = 0.0
+            elif x > sat:
+                x = sat
+            row.append(x)
         out.append(row)
     return out
 
@@ -225,18 +234,22 @@ def estimate_rows(cfg: IRConfig, strengths: list[list[float]]) -> tuple[list[flo
     k = cfg.num_receivers
     _, delta, cos_d, sin_d = _ring(k)
     den_a, den_b = 1.0 + 2.0 * cos_d**2, 2.0 * sin_d**2
-    picks = []
+    strongest, s0_all, a_all, b_all = [], [], [], []
     for s in strengths:
         i = s.index(max(s))  # the strongest receiver (the first of equals, as argmax)
         s0, s_plus, s_minus = s[i], s[(i + 1) % k], s[(i - 1) % k]
-        picks.append((i, s0, (s0 + (s_plus + s_minus) * cos_d) / den_a, (s_plus - s_minus) * sin_d / den_b))
-    r_all = np.hypot([p[2] for p in picks], [p[3] for p in picks]).tolist()
+        strongest.append(i)
+        s0_all.append(s0)
+        a_all.append((s0 + (s_plus + s_minus) * cos_d) / den_a)
+        b_all.append((s_plus - s_minus) * sin_d / den_b)
+    r_all = np.hypot(np.array(a_all), np.array(b_all)).tolist()
+    threshold, s1 = cfg.detect_threshold, cfg.strength_at_1m
     distance, bearing, valid = [], [], []
-    for (i, s0, a, b), r in zip(picks, r_all):
-        ok = s0 >= cfg.detect_threshold and r > 0.0
+    for i, s0, a, b, r in zip(strongest, s0_all, a_all, b_all, r_all):
+        ok = s0 >= threshold and r > 0.0
         valid.append(ok)
         if ok:
-            distance.append(math.sqrt(cfg.strength_at_1m / r))
+            distance.append(math.sqrt(s1 / r))
             theta = math.atan2(b, a) + i * delta
             w = math.pi - (math.pi - theta) % (2.0 * math.pi)  # wrap_angle
             bearing.append(w + 2.0 * math.pi if w <= -math.pi else w)

@@ -142,7 +142,7 @@ class Swarm:
         if not receivers:
             return []
         dist, bearing, valid = self.ir_channel.measure(holder.node_id, receivers)
-        for rid, d, b, ok in zip(receivers, dist.tolist(), bearing.tolist(), valid.tolist()):
+        for rid, d, b, ok in zip(receivers, dist, bearing, valid):
             if ok:
                 self.nodes[rid].store_ir(holder.node_id, d, b)
         formation = holder.formation
@@ -162,12 +162,12 @@ class Swarm:
     # -- master broadcast (seed 000 §3.5, Fig. 9) ------------------------------------------------
     def _broadcast_status(self, master: Node):
         period = self.cfg.protocol.broadcast_period_s
+        robot = self.world.robots[master.node_id]
         while master.state == "master" and self.master is master:
-            vx, vy, w = self.world.robots[master.node_id].velocity_body
             view = self.user_view
             master.send(
                 msg.STATUS,
-                velocity=(vx, vy, w),
+                velocity=robot.velocity_body,  # (vx, vy, ω), an immutable tuple
                 activity=view.activity if view else "stop",
                 mode=self.broadcast_mode(),
                 turn_rate=view.user_turn_rate_rps if view else 0.0,

@@ -94,6 +94,8 @@ class Robot:
         self._max_dv = self._max_dw = 0.0
         # AHRS: yaw with white noise and a slowly drifting bias (random walk in time)
         self.ahrs_rng = np.random.default_rng(0)  # (the env gives every robot its own stream)
+        self._ahrs_noise_rad = math.radians(cfg.ahrs_noise_deg)  # σ of the white noise
+        self._ahrs_drift_rad = math.radians(cfg.ahrs_drift_dps)  # σ of the bias walk over one second
         self._ahrs_bias = 0.0
         self._ahrs_time = 0.0
 
@@ -108,12 +110,12 @@ class Robot:
 
     def ahrs_yaw(self, now_s: float) -> float:
         """AHRS yaw reading (rad) at clock time ``now_s``: truth + drifting bias + white noise."""
-        cfg = self.cfg
+        draws = self._ahrs_draws
         dt = now_s - self._ahrs_time
         if dt > 0:
-            self._ahrs_bias += math.radians(cfg.ahrs_drift_dps) * math.sqrt(dt) * self._ahrs_draws.normal()
+            self._ahrs_bias += self._ahrs_drift_rad * math.sqrt(dt) * draws.normal()
             self._ahrs_time = now_s
-        return _get_angle(self._cbody) + self._ahrs_bias + math.radians(cfg.ahrs_noise_deg) * self._ahrs_draws.normal()
+        return _get_angle(self._cbody) + self._ahrs_bias + self._ahrs_noise_rad * draws.normal()
 
     @property
     def position(self) -> tuple[float, float]:

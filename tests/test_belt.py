@@ -48,8 +48,38 @@ def test_table_2_rules():
     for level, name in [(3, "run"), (2, "walk"), (1, "rest")]:
         assert ACTIVITIES[int(classify(True, level))] == name
         assert ACTIVITIES[int(classify(False, level))] == "stop"
-    sma = np.array([0.0, CFG.sma_level2_mps2, CFG.sma_level3_mps2 - 1e-6, CFG.sma_level3_mps2])
-    assert list(sma_level(sma, CFG)) == [1, 2, 2, 3]
+    sma = [0.0, CFG.sma_level2_mps2, CFG.sma_level3_mps2 - 1e-6, CFG.sma_level3_mps2]
+    assert [sma_level(v, CFG) for v in sma] == [1, 2, 2, 3]
+
+
+@pytest.mark.parametrize("posture, speed", [("walk", 1.0), ("run", 2.5), ("rest", 0.0), ("stop", 0.0)])
+def test_accelerometer_samples_equal_the_array_model(posture, speed):
+    # the belt synthesises a control period's samples in plain Python (speed); they must be,
+    # bit for bit, G + amp·sin(φ0 + cumsum(dφ)) + σ·z of the array model, with the same draws
+    belt = SmartBelt(CFG, np.random.default_rng(11))
+    rng = np.random.default_rng(12)
+    belt.rng = np.random.default_rng(12)
+    dt = 1.0 / CFG.accel_rate_hz
+    if posture in ("walk", "run"):
+        f = CFG.cadence_hz(posture, speed)
+        amp = (2 * np.pi * f) ** 2 * (CFG.run_bounce_m if posture == "run" else CFG.walk_bounce_m)
+        jitter = CFG.gait_phase_jitter
+    elif posture == "rest":
+        f, amp, jitter = CFG.rest_sway_hz, CFG.rest_sway_mps2, CFG.rest_phase_jitter
+    else:
+        f, amp, jitter = 0.0, 0.0, 0.0
+    phase = belt._gait_phase
+    for n in (5, 5, 1, 7):
+        z = rng.standard_normal(2 * n)
+        dphi = np.full(n, 2.0 * np.pi * f * dt)
+        if jitter > 0.0 and amp > 0.0:
+            dphi += jitter * np.sqrt(dt) * z[n:]
+        phases = phase + np.cumsum(dphi)
+        expected = 9.80665 + amp * np.sin(phases) + CFG.accel_noise_mps2 * z[:n]
+        phase = float(phases[-1] % (2 * np.pi))
+        got = belt._synth_accel(n, speed, posture)
+        assert got == expected.tolist()
+        assert belt._gait_phase == phase
 
 
 def test_sign_changes_of_a_sine_and_of_noise():

@@ -144,29 +144,31 @@ def _sma(x: np.ndarray) -> np.ndarray:
 
 
 def _sign_changes(x: np.ndarray, deadband: float) -> np.ndarray:
-    """Sign changes per row of mean-removed ``x`` (..., W), the sign held inside the dead band."""
+    """Sign changes per row of mean-removed ``x`` (..., W), the sign held inside the dead band.
+
+    Each row's signs (+1, −1, or 0 inside the band) become a byte string; dropping the zeros keeps
+    the last sign across the band, and a change is a ``+1 −1`` or a ``−1 +1`` pair."""
     shape, w = x.shape[:-1], x.shape[-1]
-    s = (x > deadband).view(np.int8) - (x < -deadband).view(np.int8)
-    nz = np.flatnonzero(s)  # samples with a sign, row-major
-    signs = s.reshape(-1)[nz]
-    row = nz // w
-    changed = (signs[1:] != signs[:-1]) & (row[1:] == row[:-1])
-    return np.bincount(row[1:][changed], minlength=x.size // w).reshape(shape)
+    signs = ((x > deadband).view(np.int8) - (x < -deadband).view(np.int8)).tobytes()
+    counts = []
+    for i in range(0, len(signs), w):
+        held = signs[i : i + w].replace(b"\x00", b"")
+        counts.append(held.count(b"\x01\xff") + held.count(b"\xff\x01"))
+    return np.array(counts, dtype=np.intp).reshape(shape)
 
 
-def sma_level(sma: np.ndarray, cfg: BeltConfig) -> np.ndarray:
-    """SMA level 1 / 2 / 3 by the two thresholds (seed 002 Table 2)."""
-    sma = np.asarray(sma)
-    return 1 + (sma >= cfg.sma_level2_mps2).view(np.int8) + (sma >= cfg.sma_level3_mps2).view(np.int8)
+def sma_level(sma: float, cfg: BeltConfig) -> int:
+    """SMA level 1 / 2 / 3 of one window by the two thresholds (seed 002 Table 2)."""
+    return 1 + (sma >= cfg.sma_level2_mps2) + (sma >= cfg.sma_level3_mps2)
 
 
-def classify(periodic: np.ndarray, level: np.ndarray) -> np.ndarray:
-    """Seed 002 Table 2 as activity codes (index into :data:`ACTIVITIES`).
+def classify(periodic: bool, level: int) -> int:
+    """Seed 002 Table 2 for one window, as an activity code (index into :data:`ACTIVITIES`).
 
     Periodic ("Movement"): SMA 3 → Run (3), 2 → Walk (2), 1 → Rest (1).
     Non-periodic ("Non-movement"), any SMA ("X") → Stop (0).
     """
-    return np.where(periodic, level, 0)
+    return level if periodic else 0
 
 
 # --------------------------------------------------------------------------- the device
@@ -261,7 +263,7 @@ class SmartBelt:
 
     # ------------------------------------------------------------------ accelerometer
 
-    def _synth_accel(self, n: int, speed_mps: float, posture: str) -> np.ndarray:
+    def _synth_accel(self, n: int, speed_mps: float, posture: str) -> list[float]:
         """n vertical-acceleration samples (m/s², gravity included) of the waist."""
         cfg, dt = self.cfg, self._acc_dt
         if posture in ("walk", "run"):
@@ -272,13 +274,19 @@ class SmartBelt:
             f, amp, jitter = cfg.rest_sway_hz, cfg.rest_sway_mps2, cfg.rest_phase_jitter
         else:  # stop: the body is still
             f, amp, jitter = 0.0, 0.0, 0.0
-        z = self.rng.standard_normal(2 * n)  # sensor noise, then phase jitter
-        dphi = np.full(n, 2.0 * math.pi * f * dt)
-        if jitter > 0.0 and amp > 0.0:
-            dphi += jitter * math.sqrt(dt) * z[n:]
-        phase = self._gait_phase + np.cumsum(dphi)
-        self._gait_phase = float(phase[-1] % (2.0 * math.pi))
-        return GRAVITY_MPS2 + amp * np.sin(phase) + cfg.accel_noise_mps2 * z[:n]
+        # plain Python on the handful of samples of one control period: the same operations, in the
+        # same order, as the array expression G + amp·sin(φ0 + cumsum(dφ)) + σ·z (bit-identical)
+        z = self.rng.standard_normal(2 * n).tolist()  # sensor noise, then phase jitter
+        step = 2.0 * math.pi * f * dt
+        jitter_step = jitter * math.sqrt(dt) if jitter > 0.0 and amp > 0.0 else 0.0
+        phase0, noise = self._gait_phase, cfg.accel_noise_mps2
+        out, turned = [], 0.0
+        for k in range(n):
+            dphi = step + jitter_step * z[n + k] if jitter_step else step
+            turned = turned + dphi if k else dphi
+            out.append(GRAVITY_MPS2 + amp * math.sin(phase0 + turned) + noise * z[k])
+        self._gait_phase = (phase0 + turned) % (2.0 * math.pi)
+        return out
 
     def _accel_chunk(self, n: int, speed_mps: float, posture: str) -> None:
         """Sample n (≤ W) accelerometer values and run Table 2 on the window ending at each."""
@@ -289,15 +297,15 @@ class SmartBelt:
         if valid_from < n:
             cfg = self.cfg
             x = _remove_mean(self._windows[valid_from:n])
-            changes = _sign_changes(x, cfg.sign_deadband_mps2)
-            sma = _sma(x)
-            codes = classify(changes >= cfg.min_sign_changes, sma_level(sma, cfg)).tolist()
+            changes = _sign_changes(x, cfg.sign_deadband_mps2).tolist()
+            sma = _sma(x).tolist()
             t_first = self._t0 + self._acc_dt * (first + 1 + valid_from)
-            for j, code in enumerate(codes):
+            for j in range(len(sma)):  # Table 2 on the window ending at each new sample
+                code = classify(changes[j] >= cfg.min_sign_changes, sma_level(sma[j], cfg))
                 if code != self._activity:
                     self._activity, self._activity_since = code, t_first + self._acc_dt * j
-            self._sign_changes = int(changes[-1])
-            self._sma = float(sma[-1])
+            self._sign_changes = changes[-1]
+            self._sma = sma[-1]
         h[: w - 1] = h[n : n + w - 1]  # keep the last W-1 samples
         self._n_acc += n
 

@@ -183,10 +183,12 @@ def estimate(cfg: IRConfig, strengths: np.ndarray) -> tuple[np.ndarray, np.ndarr
 # An IR slot has 1-9 receivers: numpy's fixed cost per call (about 1 µs) outweighs its arithmetic on so
 # few rows, so the channel runs the two functions above row by row with Python floats. Every
 # operation is the one numpy does, in the same order (``a*a`` for ``**2``, numpy's maximum/minimum
-# rules for the clip, one ``np.hypot`` call for r), so the numbers are the same
-# (tests/test_fast_paths.py). The one shortcut: a receiver facing away from the source (lobe 0,
-# about half the ring) reads the additive noise alone, which is what ``on_axis·0·(1 + …) + noise``
-# gives.
+# rules for the clip, one ``np.hypot`` call for r), so the numbers are the same (tests/test_fast_paths.py)
+# but for one operation: the lobe's ``cos**lobe_exponent`` is the C library's ``pow`` here, and numpy's
+# ``power`` on an array is a SIMD routine on CPUs with AVX-512 that can round the last bit differently.
+# The env runs only this path, so its episodes do not depend on numpy's SIMD dispatch for the lobe.
+# The one shortcut: a receiver facing away from the source (lobe 0, about half the ring) reads the
+# additive noise alone, which is what ``on_axis·0·(1 + …) + noise`` gives.
 
 
 def received_strengths_rows(

@@ -184,9 +184,10 @@ def estimate(cfg: IRConfig, strengths: np.ndarray) -> tuple[np.ndarray, np.ndarr
 # few rows, so the channel runs the two functions above row by row with Python floats. Every
 # operation is the one numpy does, in the same order (``a*a`` for ``**2``, numpy's maximum/minimum
 # rules for the clip, one ``np.hypot`` call for r), so the numbers are the same (tests/test_fast_paths.py)
-# but for one operation: the lobe's ``cos**lobe_exponent`` is the C library's ``pow`` here, and numpy's
-# ``power`` on an array is a SIMD routine on CPUs with AVX-512 that can round the last bit differently.
-# The env runs only this path, so its episodes do not depend on numpy's SIMD dispatch for the lobe.
+# but for two operations: the lobe's ``cos**lobe_exponent`` and the bearing's ``atan2`` are the C
+# library's here, and numpy's ``power`` and ``arctan2`` on arrays are SIMD routines on CPUs with AVX-512
+# that can round the last bit differently. The env runs only this path, so its episodes do not depend
+# on numpy's SIMD dispatch for them.
 # The one shortcut: a receiver facing away from the source (lobe 0, about half the ring) reads the
 # additive noise alone, which is what ``on_axis·0·(1 + …) + noise`` gives.
 

@@ -9,6 +9,9 @@ from petswarm_env.config import ConfigError, load_config
 from petswarm_env.wearables.lf import (
     PAPER_RMSE,
     LFConfig,
+    LFFix,
+    _interp_one,
+    _locate_one,
     antenna_positions,
     calibration_curve,
     estimate,
@@ -198,6 +201,84 @@ def test_locate_one_user_per_burst_gives_scalars():
     assert fix.valid and abs(fix.distance - math.hypot(1.0, 0.1)) < 0.3
     far = locate(cfg, (4.0, 0.0), np.random.default_rng(0))
     assert not far.valid and math.isnan(far.distance)
+
+
+def one_point_positions(cfg: LFConfig, rng: np.random.Generator, n_per_group: int) -> np.ndarray:
+    """Belt positions for the fast-path check: inside the reliable region, outside ±25°, behind the
+    robot, beyond the hearing range, within centimetres of the antennas, plus the edge cases."""
+    mid = np.array([cfg.antenna_forward_m, 0.0])
+
+    def polar(d, a_deg):
+        a = np.deg2rad(a_deg)
+        return mid + np.stack([d * np.cos(a), d * np.sin(a)], axis=1)
+
+    k = n_per_group
+    groups = [
+        polar(rng.uniform(0.0, 2.0, k), rng.uniform(-25.0, 25.0, k)),  # reliable region
+        polar(rng.uniform(0.0, 2.3, k), rng.choice([-1.0, 1.0], k) * rng.uniform(25.0, 90.0, k)),  # outside ±25°
+        polar(rng.uniform(0.0, 2.3, k), rng.uniform(90.0, 270.0, k)),  # behind the robot
+        polar(rng.uniform(2.0, 10.0, k), rng.uniform(-180.0, 180.0, k)),  # beyond the hearing range
+        antenna_positions(cfg)[rng.integers(0, 2, k)] + rng.normal(0.0, 0.02, (k, 2)),  # at the antennas
+    ]
+    ant = antenna_positions(cfg)
+    edges = [ant[0], ant[1], mid, [0.0, 0.0], [-0.0, -0.0], mid + [1e-9, 0.0], mid + [-1.0, 0.0], [1e3, 0.0]]
+    edges += list(polar(np.array([0.5, 1.0, 2.0, cfg.hearing_range_m] * 2), np.repeat([-25.0, 25.0], 4)))
+    edges += list(polar(np.full(4, cfg.reliable_range_m), [0.0, 10.0, -10.0, 180.0]))
+    return np.concatenate(groups + [np.repeat(np.asarray(edges, dtype=float), 20, axis=0)])
+
+
+def assert_same_fix(fast: LFFix, vec: LFFix, i, where) -> None:
+    for name, a, b in zip(LFFix._fields, fast, vec):
+        b = b[i] if isinstance(b, np.ndarray) else b
+        assert type(a) is type(b.item() if isinstance(b, np.generic) else b), (where, name)
+        assert a == b or (math.isnan(a) and math.isnan(b)), (where, name, a, b)
+
+
+@pytest.mark.parametrize(
+    "update, n_per_group",
+    [({}, 4800), ({"antenna_forward_m": 0.15, "rssi_step_db": 0.5}, 1000), ({"rssi_step_db": 0.0}, 1000)],
+)
+def test_one_point_fast_path_is_bit_identical_to_the_vector_path(update, n_per_group):
+    """locate() with one (2,) position runs the plain-Python _locate_one; it must give exactly the
+    fix of the vectorised chain (lf_rssi → estimate → position_from_distances) on that point, and
+    leave the rng in the same state, for the same seed."""
+    cfg = calibrated().model_copy(update=update)
+    pos = one_point_positions(cfg, np.random.default_rng(11), n_per_group)
+    assert len(pos) >= (20_000 if not update else 5_000)
+    rng_fast, rng_locate, rng_vec = (np.random.default_rng(2024) for _ in range(3))
+    for i, p in enumerate(pos):
+        fast = _locate_one(cfg, float(p[0]), float(p[1]), rng_fast)
+        via_locate = locate(cfg, p, rng_locate)
+        vec = locate(cfg, p[None, :], rng_vec)  # the vector path on (1, 2)
+        assert_same_fix(fast, vec, 0, p)
+        assert_same_fix(via_locate, vec, 0, p)
+        if i % 97 == 0:
+            assert rng_fast.bit_generator.state == rng_vec.bit_generator.state == rng_locate.bit_generator.state
+    assert rng_fast.bit_generator.state == rng_vec.bit_generator.state == rng_locate.bit_generator.state
+
+    # ...and the same fixes as one (N, 2) call (numpy's elementwise results do not depend on N)
+    many = locate(cfg, pos, np.random.default_rng(2024))
+    rng_fast = np.random.default_rng(2024)
+    for i, p in enumerate(pos):
+        assert_same_fix(_locate_one(cfg, float(p[0]), float(p[1]), rng_fast), many, i, p)
+
+    # the positions reach every branch: reliable, valid only, heard but no triangle (Eq. 1), not heard
+    rl, rr, received = lf_rssi(cfg, pos, np.random.default_rng(2024))
+    assert many.reliable.sum() > 500
+    assert (many.valid & ~many.reliable).sum() > 500
+    assert (received & ~many.valid).sum() > 500
+    assert (~received).sum() > 500
+
+
+def test_interp_one_is_np_interp():
+    cfg = calibrated()
+    xp, fp = rssi_table(cfg)
+    xl, fl = xp.tolist(), fp.tolist()
+    vals = [v for x in xl for v in (x, math.nextafter(x, -math.inf), math.nextafter(x, math.inf))]
+    vals += ((xp[:-1] + xp[1:]) / 2).tolist() + [float(k) for k in range(-10, 120)] + [k + 0.5 for k in range(-10, 120)]
+    vals += np.random.default_rng(0).uniform(xl[0] - 5.0, xl[-1] + 5.0, 50_000).tolist() + [-1e300, 1e300, 0.0, -0.0]
+    expect = np.interp(np.array(vals), xp, fp).tolist()
+    assert [_interp_one(v, xl, fl) for v in vals] == expect
 
 
 @pytest.mark.parametrize(

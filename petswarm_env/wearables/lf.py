@@ -27,6 +27,9 @@ The two halves are kept apart, as in :mod:`petswarm_env.middleware.ir`:
 * :func:`estimate` is the *paper's estimator*: table lookup with linear interpolation
   (:func:`rssi_to_distance`), then Eq. 1 and Eqs. 2–3 (:func:`position_from_distances`). Its table is the noiseless, undistorted calibration curve, so every noise source and
   the distortion show up as estimation error, as on the paper's hardware.
+* :func:`locate` with one belt position (the robot's burst every 350 ms) runs :func:`_locate_one`,
+  the same chain written out on Python floats: the same equations, the same fix bit for bit and
+  the same random draws, without the cost of numpy on 1-element arrays.
 
 Frames. The paper's Eqs. 2–3 use a frame centred between the antennas with x along the baseline
 from the left antenna to the right one (the robot's right) and y forward; θ = atan(x/y) is positive
@@ -42,6 +45,8 @@ mirrored into the front half-plane — and heavily distorted, since it is far ou
 from __future__ import annotations
 
 import functools
+import math
+from bisect import bisect_right
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -211,6 +216,12 @@ def _table(rssi_at_1m_db: float, falloff: float, dmin: float, dmax: float, step:
     return rssi_inc, dist_inc
 
 
+@functools.lru_cache(maxsize=16)
+def _table_lists(rssi_at_1m_db: float, falloff: float, dmin: float, dmax: float, step: float) -> tuple[list, list]:
+    rssi_inc, dist_inc = _table(rssi_at_1m_db, falloff, dmin, dmax, step)
+    return rssi_inc.tolist(), dist_inc.tolist()
+
+
 def rssi_table(cfg: LFConfig) -> tuple[np.ndarray, np.ndarray]:
     """The robot's RSSI→distance table (seed 002 §3.3: "We created an RSSI value table using the
     distance"): the noiseless calibration curve on the configured distance grid, built once per
@@ -282,9 +293,13 @@ def estimate(cfg: LFConfig, rssi_left: np.ndarray, rssi_right: np.ndarray) -> LF
 def locate(cfg: LFConfig, rel_pos_body: np.ndarray, rng: np.random.Generator) -> LFFix:
     """One burst pair and the robot's fix: :func:`lf_rssi` then :func:`estimate`.
 
-    ``rel_pos_body`` (2,) gives a fix of Python scalars (one user per burst); (N, 2) gives arrays.
+    ``rel_pos_body`` (2,) gives a fix of Python scalars (one user per burst), computed by
+    :func:`_locate_one`, the same chain on floats; (N, 2) gives arrays.
     """
     pos = np.asarray(rel_pos_body, dtype=float)
+    if pos.shape == (2,):
+        x, y = pos.tolist()
+        return _locate_one(cfg, x, y, rng)
     rssi_l, rssi_r, _ = lf_rssi(cfg, pos, rng)
     fix = estimate(cfg, rssi_l, rssi_r)
     if pos.ndim == 1:
@@ -297,6 +312,102 @@ def locate(cfg: LFConfig, rel_pos_body: np.ndarray, rng: np.random.Generator) ->
             bool(fix.reliable[0]),
         )
     return fix
+
+
+_NO_FIX = LFFix(math.nan, math.nan, math.nan, math.nan, False, False)
+
+
+def _interp_one(v: float, xp: list, fp: list) -> float:
+    """np.interp for one finite value, its formula as in numpy's C code (arr_interp): clamp to the
+    table's ends, the row j with xp[j] <= v < xp[j+1], fp[j] on an exact hit, else
+    slope·(v − xp[j]) + fp[j] with slope = (fp[j+1] − fp[j]) / (xp[j+1] − xp[j])."""
+    if v > xp[-1]:
+        return fp[-1]
+    if v < xp[0]:
+        return fp[0]
+    j = bisect_right(xp, v) - 1
+    if j == len(xp) - 1 or xp[j] == v:
+        return fp[j]
+    return (fp[j + 1] - fp[j]) / (xp[j + 1] - xp[j]) * (v - xp[j]) + fp[j]
+
+
+def _locate_one(cfg: LFConfig, x: float, y: float, rng: np.random.Generator) -> LFFix:
+    """:func:`locate` for one belt position (x, y) (body frame, m), in plain Python.
+
+    It mirrors the vectorised chain :func:`lf_rssi` → :func:`estimate` →
+    :func:`position_from_distances` step by step, same operations in the same order, and gives
+    bit for bit the same fix and the same rng draws (tests/test_lf.py compares the two on many
+    positions); a change to one must be made to the other. log10, arctan2, arccos, arctan, cos,
+    sin and hypot are numpy's, called on floats: numpy may evaluate them with its own SIMD code
+    (on AVX-512: SVML), whose results differ from ``math``'s in the last bit, and np.hypot is
+    libm's while math.hypot has its own algorithm. ``math`` is used only for the correctly
+    rounded sqrt and for degrees/radians (the single products x·(180/π), x·(π/180) of
+    np.rad2deg/np.deg2rad); ``round`` is half-to-even like np.round.
+    """
+    # --- lf_rssi: seed 002 §3.3, two antennas 20 cm apart send in turn; the belt measures each RSSI.
+    fwd = cfg.antenna_forward_m
+    half = 0.5 * cfg.antenna_spacing_m  # antenna_positions(): left at +half, right at -half
+    dx = x - fwd
+    d_l = float(np.hypot(dx, y - half))
+    d_r = float(np.hypot(dx, y - -half))
+    # Angular distortion beyond the reliable region (seed 002 §3.5, Fig. 11), bearing from the midpoint.
+    bearing_deg = math.degrees(float(np.arctan2(y, dx)))
+    excess_deg = abs(bearing_deg) - cfg.reliable_half_angle_deg
+    excess_deg = 0.0 if excess_deg <= 0.0 else excess_deg  # np.maximum(0.0, ·), nan kept
+    # calibration_curve(): distances clamped to _MIN_DISTANCE_M (np.maximum, nan kept)
+    carrier_l = cfg.rssi_at_1m_db - cfg.falloff_db_per_decade * float(
+        np.log10(_MIN_DISTANCE_M if d_l < _MIN_DISTANCE_M else d_l)
+    )
+    carrier_r = cfg.rssi_at_1m_db - cfg.falloff_db_per_decade * float(
+        np.log10(_MIN_DISTANCE_M if d_r < _MIN_DISTANCE_M else d_r)
+    )
+    if bearing_deg > 0.0:  # user on the left → the right antenna is the far one
+        carrier_r = carrier_r - cfg.distortion_loss_db_per_deg * excess_deg
+    else:
+        carrier_l = carrier_l - cfg.distortion_loss_db_per_deg * excess_deg
+    # seed 002 §3.3: beyond the receiver's sensitivity the RSSI cannot be calculated.
+    received = carrier_l >= cfg.sensitivity_db and carrier_r >= cfg.sensitivity_db
+    # one draw whatever is received: [common, own left, own right, scatter left, scatter right]
+    z_common, z_own_l, z_own_r, z_scat_l, z_scat_r = rng.standard_normal(5).tolist()
+    if not received:  # nan readings → estimate() gives no fix
+        return _NO_FIX
+    common = cfg.noise_common_db * z_common
+    scatter_sigma = cfg.distortion_noise_db_per_deg * excess_deg
+    rssi_l = carrier_l + common + cfg.noise_antenna_db * z_own_l + scatter_sigma * z_scat_l
+    rssi_r = carrier_r + common + cfg.noise_antenna_db * z_own_r + scatter_sigma * z_scat_r
+    step = cfg.rssi_step_db
+    if step > 0.0:  # round() is half-to-even, as np.round
+        rssi_l = round(rssi_l / step) * step
+        rssi_r = round(rssi_r / step) * step
+
+    # --- estimate: RSSI → dl, dr by the table (seed 002 §3.3, rssi_to_distance()).
+    rssi_inc, dist_inc = _table_lists(
+        cfg.rssi_at_1m_db, cfg.falloff_db_per_decade, cfg.table_min_m, cfg.table_max_m, cfg.table_step_m
+    )
+    dl = _interp_one(rssi_l, rssi_inc, dist_inc)
+    dr = _interp_one(rssi_r, rssi_inc, dist_inc)
+
+    # --- position_from_distances (seed 002 Eqs. 1–3), then the paper's frame → body frame.
+    dw = cfg.antenna_spacing_m
+    # seed 002, Eq. 1 (triangle_formed()): d_B + d_C > d_A, d_A the longest of dl, dr, dw; else no fix
+    longest = dl if dl >= dr else dr
+    longest = longest if longest >= dw else dw
+    if not (dl + dr + dw) - longest > longest:
+        return _NO_FIX
+    # seed 002, Eq. 2: α = acos((dl² + dw² − dr²)/(2·dl·dw)), x = dl·cos α − dw/2, y = dl·sin α.
+    # (dl² is dl*dl as numpy's array**2; dw**2 is Python's pow on a float in both paths; clipped as there.)
+    cos_alpha = (dl * dl + dw**2 - dr * dr) / (2.0 * dl * dw)
+    cos_alpha = -1.0 if cos_alpha < -1.0 else (1.0 if cos_alpha > 1.0 else cos_alpha)
+    alpha = float(np.arccos(cos_alpha))
+    x_p = dl * float(np.cos(alpha)) - dw / 2.0
+    y_p = dl * float(np.sin(alpha))
+    # seed 002, Eq. 3: d = √(x² + y²), θ = atan(x/y) (a formed triangle has sin α > 0, so y > 0;
+    # should rounding give y = 0, x/y is ±inf as in numpy)
+    d = math.sqrt(x_p * x_p + y_p * y_p)
+    theta_p = float(np.arctan(x_p / y_p if y_p != 0.0 else np.float64(x_p) / y_p))
+    x_fwd, y_left, direction = _paper_to_body(cfg, x_p, y_p, theta_p)
+    reliable = d <= cfg.reliable_range_m and abs(direction) <= math.radians(cfg.reliable_half_angle_deg)
+    return LFFix(x_fwd, y_left, d, direction, True, reliable)
 
 
 def wakes_up(cfg: LFConfig, distance_m: float, pattern_sent: Any, pattern_stored: Any) -> bool:

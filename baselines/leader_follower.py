@@ -20,16 +20,33 @@ It reads only the observation, like a learned policy. Per step:
    from the user has when the formation turns with the user); following mode → just keep moving
    toward the reference location;
 5. ultrasonic ranges push the robot away from anything closer than the keep-out distance.
+
+Arithmetic. The controller runs once per slave and step on a few dozen numbers, so it is written on
+Python floats (a numpy call costs more than its arithmetic here). It computes, value for value,
+what its first, numpy form computed, so the scripted figures stay the same: the observation is
+float32, and numpy keeps ``float32 · Python float`` in float32 — the scaled observation fields and
+the products of their offsets with cos/sin of Δθ are float32 there, rounded here with ``_r32``;
+everything mixed with float64 values is float64. tests/test_leader_follower.py holds the two equal,
+bit for bit, on recorded and random observations.
 """
 
 from __future__ import annotations
 
 import math
+from array import array
 
 import numpy as np
 
 from baselines.policy import Policy, PolicySpec
-from petswarm_env.observe import AGE_SCALE_S, POS_SCALE_M
+from petswarm_env.observe import AGE_SCALE_S, MAX_LINKS, POS_SCALE_M
+
+_F32 = array("f", [0.0])
+
+
+def _r32(x: float) -> float:
+    """``x`` rounded to float32 (as numpy's float32 arithmetic rounds each result)."""
+    _F32[0] = x
+    return _F32[0]
 
 
 class LeaderFollowerPolicy(Policy):
@@ -54,81 +71,109 @@ class LeaderFollowerPolicy(Policy):
         self.krep = repulsion_gain
         self.carry = carry_rotation
         self.user_keep_out = user_keep_out_m
-        lay = spec.layout
-        self._sl = lay.slices
-        n_us = lay.slices["self.ultrasonic"].stop - lay.slices["self.ultrasonic"].start
-        ang = np.arange(n_us) * (2 * math.pi / max(n_us, 1))
-        self._us_dirs = np.stack([np.cos(ang), np.sin(ang)], axis=1)
+        st = {name: sl.start for name, sl in spec.layout.slices.items()}
+        self._i = st  # index of each observation field's first value
+        self._links = [
+            tuple(st[f"link{k}.{f}"] for f in ("present", "heading_sincos", "heading_valid", "heading_age",
+                                               "ir_valid", "ir_age", "neighbour_xy", "offset_xy"))
+            for k in range(MAX_LINKS)
+        ]
+        us = spec.layout.slices["self.ultrasonic"]
+        self._us = range(us.start, us.stop)
+        n_us = us.stop - us.start
+        self._us_dirs = [(math.cos(a), math.sin(a)) for a in (k * (2 * math.pi / max(n_us, 1)) for k in range(n_us))]
+        # the float32 scales of the observation fields (a Python float meets float32 values as float32)
+        self._pos32, self._age32 = _r32(POS_SCALE_M), _r32(AGE_SCALE_S)
+        self._omega32, self._us32 = _r32(spec.max_omega_rps), _r32(spec.us_max_range_m)
 
     def act(self, agent: str, obs: np.ndarray) -> np.ndarray:
-        sl = self._sl
+        o = np.asarray(obs, dtype=np.float32).tolist()
+        i = self._i
+        r32, pos32 = _r32, self._pos32
         vmax, wmax = self.spec.max_speed_mps, self.spec.max_omega_rps
-        odo = obs[sl["self.odometry"]] * np.array([vmax, vmax, wmax])
-        have_status = obs[sl["master.valid"]][0] > 0.5
-        mv = obs[sl["master.velocity"]] * np.array([vmax, vmax, wmax]) if have_status else np.zeros(3)
+        odo_x, odo_y = o[i["self.odometry"]] * vmax, o[i["self.odometry"] + 1] * vmax
+        have_status = o[i["master.valid"]] > 0.5
+        j = i["master.velocity"]
+        mv0, mv1, mv2 = (o[j] * vmax, o[j + 1] * vmax, o[j + 2] * wmax) if have_status else (0.0, 0.0, 0.0)
 
         targets, dthetas, ref_dists = [], [], []
-        for k in range(2):
-            p = f"link{k}."
-            if obs[sl[p + "present"]][0] < 0.5:
+        for present, sincos, h_valid, h_age, ir_valid, ir_age, nb_xy, off_xy in self._links:
+            if o[present] < 0.5:
                 continue
-            s, c = obs[sl[p + "heading_sincos"]]
             dth = 0.0
-            if obs[sl[p + "heading_valid"]][0] > 0.5:  # the neighbour kept turning with the swarm since
-                dth = math.atan2(s, c) + mv[2] * obs[sl[p + "heading_age"]][0] * AGE_SCALE_S
+            if o[h_valid] > 0.5:  # the neighbour kept turning with the swarm since
+                dth = math.atan2(o[sincos], o[sincos + 1]) + mv2 * o[h_age] * AGE_SCALE_S
             dthetas.append(dth)
-            if obs[sl[p + "ir_valid"]][0] < 0.5 or obs[sl[p + "ir_age"]][0] >= 1.0:
+            if o[ir_valid] < 0.5 or o[ir_age] >= 1.0:
                 continue  # no measurement, or one older than the observation's age range: move with the swarm
-            nb = obs[sl[p + "neighbour_xy"]] * POS_SCALE_M
-            age = obs[sl[p + "ir_age"]][0] * AGE_SCALE_S
+            nbx, nby = r32(o[nb_xy] * pos32), r32(o[nb_xy + 1] * pos32)
+            age = r32(o[ir_age] * self._age32)
             cd, sd = math.cos(dth), math.sin(dth)
             # the neighbour moved with the swarm (master speed, formation frame) and we moved (odometry)
-            nb_v = np.array([cd * mv[0] - sd * mv[1], sd * mv[0] + cd * mv[1]])
-            nb_now = nb + (nb_v - odo[:2]) * age
-            off = obs[sl[p + "offset_xy"]] * POS_SCALE_M
-            ref_dists.append(math.hypot(off[0], off[1]))
-            targets.append(nb_now + np.array([cd * off[0] - sd * off[1], sd * off[0] + cd * off[1]]))
+            now_x = nbx + (cd * mv0 - sd * mv1 - odo_x) * age
+            now_y = nby + (sd * mv0 + cd * mv1 - odo_y) * age
+            offx, offy = r32(o[off_xy] * pos32), r32(o[off_xy + 1] * pos32)
+            ref_dists.append(math.hypot(offx, offy))
+            cd, sd = r32(cd), r32(sd)
+            targets.append((now_x + r32(r32(cd * offx) - r32(sd * offy)), now_y + r32(r32(sd * offx) + r32(cd * offy))))
 
-        dth = float(np.mean(dthetas)) if dthetas else 0.0
+        dth = sum(dthetas, 0.0) / len(dthetas) if dthetas else 0.0  # their mean
         cd, sd = math.cos(dth), math.sin(dth)
+        cd32, sd32 = r32(cd), r32(sd)
         # step 2: master's driving speed, rotated from the formation frame into ours — the velocity
         # the master's motion gives the reference location: its translation plus its rotation
         # carrying the location about it (ω × offset from the master); in a leading turn step 4's
         # arc about the user takes the rotation's place
-        ref = obs[sl["self.offset_from_master_xy"]] * POS_SCALE_M
-        leading_turn = have_status and obs[sl["master.leading"]][0] > 0.5 and obs[sl["master.rotating"]][0] > 0.5
-        wr = 0.0 if leading_turn or not self.carry else mv[2]
-        fx, fy = mv[0] - wr * ref[1], mv[1] + wr * ref[0]
-        v = np.array([cd * fx - sd * fy, sd * fx + cd * fy])
+        j = i["self.offset_from_master_xy"]
+        refx, refy = r32(o[j] * pos32), r32(o[j + 1] * pos32)
+        leading_turn = have_status and o[i["master.leading"]] > 0.5 and o[i["master.rotating"]] > 0.5
+        wr = 0.0 if leading_turn or not self.carry else mv2
+        fx, fy = mv0 - wr * refy, mv1 + wr * refx
+        vx, vy = cd * fx - sd * fy, sd * fx + cd * fy
+        j = i["master.user_xy"]
+        user_x, user_y = r32(o[j] * pos32), r32(o[j + 1] * pos32)
         # step 1: toward the reference location — moved out of a keep-out disc around the user (the
         # master's broadcast user position, carried from the formation frame into ours): a formation
         # that lags its user's turn must not place anyone on the user's path
         if targets:
-            target = np.mean(targets, axis=0)
+            tx = sum((t[0] for t in targets), 0.0) / len(targets)  # their mean
+            ty = sum((t[1] for t in targets), 0.0) / len(targets)
             if have_status and self.user_keep_out > 0:
-                du = obs[sl["master.user_xy"]] * POS_SCALE_M - ref  # user relative to our reference
-                user = target + np.array([cd * du[0] - sd * du[1], sd * du[0] + cd * du[1]])
-                away = target - user
-                gap = float(np.hypot(*away))
+                dux, duy = r32(user_x - refx), r32(user_y - refy)  # user relative to our reference
+                ux = tx + r32(r32(cd32 * dux) - r32(sd32 * duy))
+                uy = ty + r32(r32(sd32 * dux) + r32(cd32 * duy))
+                away_x, away_y = tx - ux, ty - uy
+                gap = float(np.hypot(away_x, away_y))
                 if gap < self.user_keep_out:
-                    target = user + (away / gap if gap > 1e-6 else -user / max(float(np.hypot(*user)), 1e-6)) * self.user_keep_out
-            v = v + self.kp * target
+                    if gap > 1e-6:
+                        dx, dy = away_x / gap, away_y / gap
+                    else:
+                        norm = max(float(np.hypot(ux, uy)), 1e-6)
+                        dx, dy = -ux / norm, -uy / norm
+                    tx, ty = ux + dx * self.user_keep_out, uy + dy * self.user_keep_out
+            vx, vy = vx + self.kp * tx, vy + self.kp * ty
         # step 4: leading mode arc driving on user rotation
-        turn = obs[sl["master.turn_rate"]][0] * wmax
         if leading_turn:
-            r = ref - obs[sl["master.user_xy"]] * POS_SCALE_M
-            arc = np.array([-turn * r[1], turn * r[0]])
-            v = v + np.array([cd * arc[0] - sd * arc[1], sd * arc[0] + cd * arc[1]])
+            turn = r32(o[i["master.turn_rate"]] * self._omega32)
+            rx, ry = r32(refx - user_x), r32(refy - user_y)
+            ax, ay = r32(-turn * ry), r32(turn * rx)
+            vx, vy = vx + r32(r32(cd32 * ax) - r32(sd32 * ay)), vy + r32(r32(sd32 * ax) + r32(cd32 * ay))
         # step 3: twisted-heading correction inside an error band, plus the swarm's rotation
-        omega = mv[2] + (self.kh * dth if abs(dth) > self.band else 0.0)
+        omega = mv2 + (self.kh * dth if abs(dth) > self.band else 0.0)
         # step 5: ultrasonic keep-out (shrunk for tight formations: never beyond 85 % of the rim-to-rim
         # gap the formation itself asks for, taking 0.4 m for two robot radii)
         keep_out = self.keep_out
         if ref_dists:
             keep_out = min(keep_out, max(0.1, 0.85 * (min(ref_dists) - 0.4)))
-        ranges = obs[sl["self.ultrasonic"]] * self.spec.us_max_range_m
-        close = ranges < keep_out
-        if close.any():
-            push = ((keep_out - ranges[close])[:, None] * self._us_dirs[close]).sum(axis=0)
-            v = v - self.krep * push
-        return np.clip(np.array([v[0] / vmax, v[1] / vmax, omega / wmax], dtype=np.float32), -1.0, 1.0)
+        keep32, us32 = r32(keep_out), self._us32
+        push_x = push_y = 0.0
+        close = False
+        for k, (ux_k, uy_k) in zip(self._us, self._us_dirs):
+            rng_k = r32(o[k] * us32)
+            if rng_k < keep32:
+                depth = r32(keep32 - rng_k)
+                push_x, push_y = push_x + depth * ux_k, push_y + depth * uy_k
+                close = True
+        if close:
+            vx, vy = vx - self.krep * push_x, vy - self.krep * push_y
+        return np.clip(np.array([vx / vmax, vy / vmax, omega / wmax], dtype=np.float32), -1.0, 1.0)

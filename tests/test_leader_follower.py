@@ -1,0 +1,123 @@
+"""The scripted leader–follower controller on Python floats computes, bit for bit, what its numpy
+form computed (the reference figures of the README depend on it), on recorded and random observations."""
+
+import math
+
+import numpy as np
+import pytest
+
+import petswarm_env
+from baselines.leader_follower import LeaderFollowerPolicy
+from baselines.policy import PolicySpec
+from petswarm_env.observe import AGE_SCALE_S, POS_SCALE_M
+
+
+def numpy_act(p: LeaderFollowerPolicy, obs: np.ndarray) -> np.ndarray:
+    """The controller's first form (numpy on the observation's float32 slices), kept as the reference."""
+    sl = p.spec.layout.slices
+    vmax, wmax = p.spec.max_speed_mps, p.spec.max_omega_rps
+    odo = obs[sl["self.odometry"]] * np.array([vmax, vmax, wmax])
+    have_status = obs[sl["master.valid"]][0] > 0.5
+    mv = obs[sl["master.velocity"]] * np.array([vmax, vmax, wmax]) if have_status else np.zeros(3)
+    targets, dthetas, ref_dists = [], [], []
+    for k in range(2):
+        q = f"link{k}."
+        if obs[sl[q + "present"]][0] < 0.5:
+            continue
+        s, c = obs[sl[q + "heading_sincos"]]
+        dth = 0.0
+        if obs[sl[q + "heading_valid"]][0] > 0.5:
+            dth = math.atan2(s, c) + mv[2] * obs[sl[q + "heading_age"]][0] * AGE_SCALE_S
+        dthetas.append(dth)
+        if obs[sl[q + "ir_valid"]][0] < 0.5 or obs[sl[q + "ir_age"]][0] >= 1.0:
+            continue
+        nb = obs[sl[q + "neighbour_xy"]] * POS_SCALE_M
+        age = obs[sl[q + "ir_age"]][0] * AGE_SCALE_S
+        cd, sd = math.cos(dth), math.sin(dth)
+        nb_v = np.array([cd * mv[0] - sd * mv[1], sd * mv[0] + cd * mv[1]])
+        nb_now = nb + (nb_v - odo[:2]) * age
+        off = obs[sl[q + "offset_xy"]] * POS_SCALE_M
+        ref_dists.append(math.hypot(off[0], off[1]))
+        targets.append(nb_now + np.array([cd * off[0] - sd * off[1], sd * off[0] + cd * off[1]]))
+    dth = float(np.mean(dthetas)) if dthetas else 0.0
+    cd, sd = math.cos(dth), math.sin(dth)
+    ref = obs[sl["self.offset_from_master_xy"]] * POS_SCALE_M
+    leading_turn = have_status and obs[sl["master.leading"]][0] > 0.5 and obs[sl["master.rotating"]][0] > 0.5
+    wr = 0.0 if leading_turn or not p.carry else mv[2]
+    fx, fy = mv[0] - wr * ref[1], mv[1] + wr * ref[0]
+    v = np.array([cd * fx - sd * fy, sd * fx + cd * fy])
+    if targets:
+        target = np.mean(targets, axis=0)
+        if have_status and p.user_keep_out > 0:
+            du = obs[sl["master.user_xy"]] * POS_SCALE_M - ref
+            user = target + np.array([cd * du[0] - sd * du[1], sd * du[0] + cd * du[1]])
+            away = target - user
+            gap = float(np.hypot(*away))
+            if gap < p.user_keep_out:
+                target = user + (away / gap if gap > 1e-6 else -user / max(float(np.hypot(*user)), 1e-6)) * p.user_keep_out
+        v = v + p.kp * target
+    turn = obs[sl["master.turn_rate"]][0] * wmax
+    if leading_turn:
+        r = ref - obs[sl["master.user_xy"]] * POS_SCALE_M
+        arc = np.array([-turn * r[1], turn * r[0]])
+        v = v + np.array([cd * arc[0] - sd * arc[1], sd * arc[0] + cd * arc[1]])
+    omega = mv[2] + (p.kh * dth if abs(dth) > p.band else 0.0)
+    keep_out = p.keep_out
+    if ref_dists:
+        keep_out = min(keep_out, max(0.1, 0.85 * (min(ref_dists) - 0.4)))
+    ranges = obs[sl["self.ultrasonic"]] * p.spec.us_max_range_m
+    close = ranges < keep_out
+    if close.any():
+        dirs = np.array(p._us_dirs)
+        push = ((keep_out - ranges[close])[:, None] * dirs[close]).sum(axis=0)
+        v = v - p.krep * push
+    return np.clip(np.array([v[0] / vmax, v[1] / vmax, omega / wmax], dtype=np.float32), -1.0, 1.0)
+
+
+def _recorded(overrides: dict, steps: int) -> tuple[LeaderFollowerPolicy, list[np.ndarray]]:
+    env = petswarm_env.parallel_env(max_cycles=steps, **overrides)
+    policy = LeaderFollowerPolicy(PolicySpec.from_env(env))
+    obs, _ = env.reset(seed=0)
+    seen = []
+    while env.agents:
+        seen += [obs[a] for a in env.agents]
+        obs, *_ = env.step(policy.act_all({a: obs[a] for a in env.agents}))
+    return policy, seen
+
+
+def _assert_same(policy: LeaderFollowerPolicy, observations) -> None:
+    for obs in observations:
+        got, want = policy.act("robot_1", obs), numpy_act(policy, obs)
+        assert got.dtype == want.dtype == np.float32
+        assert got.tobytes() == want.tobytes(), (obs.tolist(), got, want)
+
+
+@pytest.mark.parametrize(
+    "overrides",
+    [{}, {"swarm.mode": "leading", "swarm.num_slaves": 5}, {"user.scenario": "mode_change"}],
+    ids=["following", "leading", "mode_change"],
+)
+def test_equals_the_numpy_form_on_recorded_observations(overrides):
+    policy, seen = _recorded(overrides, 150)
+    assert len(seen) > 400
+    _assert_same(policy, seen)
+
+
+def test_equals_the_numpy_form_on_random_observations():
+    """Every branch: flags on and off, leading turns, the user inside the keep-out disc, sensors
+    closer than the keep-out (up to the whole ring), stale and fresh measurements."""
+    env = petswarm_env.parallel_env()
+    policy = LeaderFollowerPolicy(PolicySpec.from_env(env))
+    sl = policy.spec.layout.slices
+    flags = [name for name in sl if name.endswith(("present", "valid", "leading", "rotating"))]
+    rng = np.random.default_rng(5)
+    observations = []
+    for _ in range(6000):
+        obs = rng.uniform(-1.0, 1.0, policy.spec.layout.size).astype(np.float32)
+        for name in flags:
+            obs[sl[name]] = rng.random() < 0.8
+        obs[sl["self.ultrasonic"]] = rng.uniform(0.0, rng.choice([0.3, 1.0]), sl["self.ultrasonic"].stop - sl["self.ultrasonic"].start)
+        if rng.random() < 0.3:  # the user right on the reference location
+            obs[sl["master.user_xy"]] = obs[sl["self.offset_from_master_xy"]] + rng.normal(0, 0.05, 2).astype(np.float32)
+        observations.append(obs)
+    _assert_same(policy, observations)

@@ -58,6 +58,11 @@ class SafetyStage:
         vx, vy = float(command[0]), float(command[1])
         stop, two_a, half = self.stop, self.two_a, 0.5 * self.stop
         rs = ranges.tolist() if isinstance(ranges, np.ndarray) else [float(r) for r in ranges]
+        nearest = min(rs, default=math.inf)
+        if nearest >= half and vx * vx + vy * vy <= two_a * max(nearest - stop, 0.0):
+            # the whole speed is below the nearest sensor's braking limit, so no sensor's component
+            # of it can exceed its own (1e-9 m/s of slack below absorbs the rounding): nothing to do
+            return None
         allowed = [math.sqrt(two_a * max(r - stop, 0.0)) for r in rs]
         over = [k for k, ((dx, dy), r, lim) in enumerate(zip(self._dirs, rs, allowed))
                 if dx * vx + dy * vy > lim + 1e-9 or r < half]

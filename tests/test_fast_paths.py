@@ -43,6 +43,50 @@ def test_ring_first_hits_equals_ray_casts_against_circles_and_segments(seed):
     np.testing.assert_allclose(got[np.isfinite(got)], want[np.isfinite(want)], rtol=0, atol=1e-9)
 
 
+def _ring_first_hits_masked(origins, headings, angles, centers, radii, seg_a, seg_b, max_range):
+    """ring_first_hits as it was written before its calls were cut down: (origin, ray, circle)
+    arrays, boolean hit masks, the range cut on every pair, every segment."""
+    o, c = origins, centers
+    ang = headings[:, None] + angles[None, :]
+    dx, dy = np.cos(ang), np.sin(ang)
+    mx, my = o[:, 0:1] - c[:, 0], o[:, 1:2] - c[:, 1]
+    cc = mx * mx + my * my - radii**2
+    cc = np.where(cc > 0.0, cc, np.inf)[:, None, :]
+    b = dx[:, :, None] * mx[:, None, :] + dy[:, :, None] * my[:, None, :]
+    disc = b * b - cc
+    t = -b - np.sqrt(np.maximum(disc, 0.0))
+    hit = (disc >= 0.0) & (t >= 0.0) & (t <= max_range)
+    d = np.where(hit, t, np.inf).min(axis=2) if len(c) else np.full(ang.shape, np.inf)
+    if len(seg_a):
+        dirs = np.stack([dx, dy], axis=-1).reshape(-1, 2)
+        seg = geometry.ray_segment_distances(np.repeat(o, len(angles), axis=0), dirs, seg_a, seg_b, max_range)
+        d = np.minimum(d, seg.min(axis=1).reshape(ang.shape))
+    return d
+
+
+@pytest.mark.parametrize("seed", range(10))
+def test_ring_first_hits_equals_the_masked_formulation_bit_for_bit(seed):
+    """Crowded scenes (touching and overlapping bodies, walls close by, origins inside other
+    bodies): every distance equal to the bit, misses and the range cut included."""
+    rng = np.random.default_rng(500 + seed)
+    hits = 0
+    for _ in range(200):
+        n, k = int(rng.integers(1, 10)), int(rng.choice([1, 4, 8, 12]))
+        centers = rng.uniform(-1.5, 1.5, (n + int(rng.integers(0, 3)), 2))
+        radii = rng.uniform(0.1, 0.4, len(centers))
+        headings = rng.uniform(-4.0, 4.0, n)
+        seg_a = rng.uniform(-3.0, 3.0, (int(rng.integers(0, 4)), 2))
+        seg_b = seg_a + rng.uniform(-3.0, 3.0, seg_a.shape)
+        reach = float(rng.uniform(0.3, 2.5))
+        angles = np.arange(k) * (2 * math.pi / k)
+        want = _ring_first_hits_masked(centers[:n], headings, angles, centers, radii, seg_a, seg_b, reach)
+        got = geometry.ring_first_hits(centers[:n], headings, angles, centers, radii,
+                                       geometry.SegmentSet(seg_a, seg_b, reach), reach)
+        assert got.shape == want.shape and np.array_equal(got, want)
+        hits += int(np.isfinite(want).sum())
+    assert hits > 1000
+
+
 def test_segments_out_of_reach_are_left_out_but_near_ones_are_hit():
     walls = geometry.SegmentSet(np.array([[5.0, -1.0], [-50.0, -1.0]]), np.array([[5.0, 1.0], [-50.0, 1.0]]), 2.0)
     assert walls.near(np.array([[0.0, 0.0]])) == []

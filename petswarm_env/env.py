@@ -401,27 +401,37 @@ class PetSwarmEnv(ParallelEnv):
         # the odometry noise of every agent in one draw (the same numbers as one draw per agent)
         k = self.cfg.robot.odometry_noise_rel
         noise = self._rng_sensors.normal(0.0, k, (len(agents), 3)).tolist() if k > 0 else None
+        ranges = self._ranges.tolist()  # every robot's ring as Python floats, in one conversion
+        robots, nodes, agent_index = world.robots, self.fleet.nodes, self._agent_index
+        layout, limits, last_actions = self.layout, self._limits, self._last_action
         for i, agent in enumerate(agents):
-            idx = self._agent_index[agent]
-            node = self.fleet.nodes[idx]
+            idx = agent_index[agent]
+            node = nodes[idx]
+            robot = robots[idx]
             member = node.know.member
             level, offset = 0, (0.0, 0.0)
             if node.formation is not None and 0 <= member < node.formation.size:
                 slots, levels = self._formation_geometry(node.formation)
                 level, offset = levels.get(member, 0), slots[member]
-            last = self._last_action.get(agent)
+            last = last_actions.get(agent)
+            if noise is not None:  # _odometry(idx, noise[i]), written out
+                vx, vy, w = robot.velocity_body
+                e = noise[i]
+                odometry = (vx * (1 + e[0]), vy * (1 + e[1]), w * (1 + e[2]))
+            else:
+                odometry = robot.velocity_body
             obs[agent] = build_observation(
-                self.layout,
+                layout,
                 None,  # a new array: what the agent gets is its own
                 node,
                 now,
-                self._odometry(idx, noise[i] if noise is not None else None),
-                world.robots[idx].ahrs_yaw(now),
+                odometry,
+                robot.ahrs_yaw(now),
                 last if last is not None else _NO_ACTION,
-                self._ranges[idx],
+                ranges[idx],
                 level,
                 offset,
-                self._limits,
+                limits,
                 us_max,
             )
         return obs

@@ -367,6 +367,33 @@ def _build_observation_reference(layout, node, now, odometry, yaw_rad, last_acti
     return v
 
 
+def _assert_formation_errors_from_the_bodies(env):
+    """_formation_errors (read from the truth arrays as lists) equals the same formulas on the
+    bodies' own position and heading properties."""
+    from petswarm_env.env import _wrap
+
+    robots, errors, heads = env.world.robots, {}, {}
+    for swarm in env.swarms:
+        if swarm.formation is None or not swarm.organized:
+            continue
+        members, th = swarm.master.know.members, robots[swarm.master.node_id].heading
+        for m, links in swarm.formation.links.items():
+            idx = members.get(m)
+            agent = f"robot_{idx}"
+            if idx is None or not links or agent not in env.agents:
+                continue
+            sx = sy = 0.0
+            for link in links:
+                nx, ny = robots[members[link.neighbour]].position
+                ox, oy = link.offset_m
+                sx += nx + math.cos(th) * ox - math.sin(th) * oy
+                sy += ny + math.sin(th) * ox + math.cos(th) * oy
+            x, y = robots[idx].position
+            errors[agent] = math.hypot(x - sx / len(links), y - sy / len(links))
+            heads[agent] = _wrap(robots[idx].heading - th)
+    assert env._formation_errors() == (errors, heads)
+
+
 @pytest.mark.parametrize("overrides", [{"swarm.num_slaves": 9, "swarm.formation": "grid", "user.scenario": "u_turn"}, {"user.scenario": "mode_change"}],
                          ids=["9 slaves grid", "mode_change"])
 def test_observation_builder_equals_the_reference_bit_for_bit(overrides):
@@ -403,6 +430,7 @@ def test_observation_builder_equals_the_reference_bit_for_bit(overrides):
             checked += 1
             clipped += int(want[env.layout.slices["link0.ir_age"]][0] == 1.0 and bool(node.know.ir))
             two_links += int(want[env.layout.slices["link1.present"]][0] == 1.0)
+        _assert_formation_errors_from_the_bodies(env)
         obs, *_ = env.step(pol.act_all({a: obs[a] for a in env.agents}))
     assert checked > 500 and clipped > 10 and (two_links > 10 or "swarm.formation" not in overrides)
 

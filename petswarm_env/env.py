@@ -401,27 +401,37 @@ class PetSwarmEnv(ParallelEnv):
         # the odometry noise of every agent in one draw (the same numbers as one draw per agent)
         k = self.cfg.robot.odometry_noise_rel
         noise = self._rng_sensors.normal(0.0, k, (len(agents), 3)).tolist() if k > 0 else None
+        ranges = self._ranges.tolist()  # every robot's ring as Python floats, in one conversion
+        robots, nodes, agent_index = world.robots, self.fleet.nodes, self._agent_index
+        layout, limits, last_actions = self.layout, self._limits, self._last_action
         for i, agent in enumerate(agents):
-            idx = self._agent_index[agent]
-            node = self.fleet.nodes[idx]
+            idx = agent_index[agent]
+            node = nodes[idx]
+            robot = robots[idx]
             member = node.know.member
             level, offset = 0, (0.0, 0.0)
             if node.formation is not None and 0 <= member < node.formation.size:
                 slots, levels = self._formation_geometry(node.formation)
                 level, offset = levels.get(member, 0), slots[member]
-            last = self._last_action.get(agent)
+            last = last_actions.get(agent)
+            if noise is not None:  # _odometry(idx, noise[i]), written out
+                vx, vy, w = robot.velocity_body
+                e = noise[i]
+                odometry = (vx * (1 + e[0]), vy * (1 + e[1]), w * (1 + e[2]))
+            else:
+                odometry = robot.velocity_body
             obs[agent] = build_observation(
-                self.layout,
+                layout,
                 None,  # a new array: what the agent gets is its own
                 node,
                 now,
-                self._odometry(idx, noise[i] if noise is not None else None),
-                world.robots[idx].ahrs_yaw(now),
+                odometry,
+                robot.ahrs_yaw(now),
                 last if last is not None else _NO_ACTION,
-                self._ranges[idx],
+                ranges[idx],
                 level,
                 offset,
-                self._limits,
+                limits,
                 us_max,
             )
         return obs
@@ -431,24 +441,28 @@ class PetSwarmEnv(ParallelEnv):
         from each swarm's current neighbour table and its master's true heading."""
         return {idx: np.array(p) for idx, p in self._reference_points().items()}
 
-    def _reference_points(self) -> dict[int, tuple[float, float]]:
+    def _reference_points(self, xy: list | None = None, th: list | None = None) -> dict[int, tuple[float, float]]:
         """:meth:`reference_positions` as Python floats (the mean over a slave's links taken as
-        numpy's mean of so few points is: their sum in order, over their number)."""
-        robots = self.world.robots
+        numpy's mean of so few points is: their sum in order, over their number). Positions and
+        headings are the world's truth arrays as lists (``xy``, ``th``; read here if not given):
+        the values Chipmunk gives each body, read once per physics step."""
+        if xy is None or th is None:
+            centers, _, headings = self.world.truth_arrays()
+            xy, th = centers.tolist(), headings.tolist()
         out = {}
         for swarm in self.swarms:
             if swarm.formation is None or not swarm.organized:
                 continue
             members = swarm.master.know.members
-            th = robots[swarm.master.node_id].heading
-            c, s = math.cos(th), math.sin(th)
+            t = th[swarm.master.node_id]
+            c, s = math.cos(t), math.sin(t)
             for m, links in swarm.formation.links.items():
                 idx = members.get(m)
                 if idx is None or not links:
                     continue
                 sx = sy = 0.0
                 for link in links:
-                    nx, ny = robots[members[link.neighbour]].position
+                    nx, ny = xy[members[link.neighbour]]
                     ox, oy = link.offset_m
                     sx += nx + c * ox - s * oy
                     sy += ny + s * ox + c * oy
@@ -456,20 +470,21 @@ class PetSwarmEnv(ParallelEnv):
         return out
 
     def _formation_errors(self) -> tuple[dict[str, float], dict[str, float]]:
-        refs = self._reference_points()
-        robots = self.world.robots
-        nodes = self.fleet.nodes
+        """Each slave's distance from its reference point and heading error from its master's
+        heading (truth), from the truth arrays as lists (one conversion for all robots)."""
+        centers, _, headings = self.world.truth_arrays()
+        xy, th = centers.tolist(), headings.tolist()
+        refs = self._reference_points(xy, th)
+        nodes, agent_index = self.fleet.nodes, self._agent_index
         errors, heading = {}, {}
         for agent in self.agents:
-            idx = self._agent_index[agent]
+            idx = agent_index[agent]
             ref = refs.get(idx)
             if ref is None:
                 continue
-            robot = robots[idx]
-            x, y = robot.position
+            x, y = xy[idx]
             errors[agent] = math.hypot(x - ref[0], y - ref[1])
-            th_f = robots[nodes[idx].swarm.master.node_id].heading
-            heading[agent] = _wrap(robot.heading - th_f)
+            heading[agent] = _wrap(th[idx] - th[nodes[idx].swarm.master.node_id])
         return errors, heading
 
     # -- reporting -------------------------------------------------------------------------------

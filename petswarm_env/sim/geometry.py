@@ -116,8 +116,8 @@ class SegmentSet:
         those whose grown bounding box overlaps the bounding box of the points."""
         if not self._boxes or not len(points):
             return []
-        x0, y0 = points.min(axis=0).tolist()
-        x1, y1 = points.max(axis=0).tolist()
+        xs, ys = np.asarray(points).T.tolist()  # the bounding box in Python (a handful of points)
+        x0, x1, y0, y1 = min(xs), max(xs), min(ys), max(ys)
         return [i for i, lx, ly, hx, hy in self._boxes if lx <= x1 and ly <= y1 and hx >= x0 and hy >= y0]
 
 
@@ -139,6 +139,14 @@ def ring_first_hits(
     origin-to-centre vectors are shared by the rays of one origin, and segments out of reach of
     every origin are left out.
 
+    Written for few numpy calls on small arrays (a handful of robots, where a call costs more than
+    its arithmetic): the (circle, origin, ray) arrays have the circles first, so the nearest hit is
+    a reduction over the leading axis; misses are marked by overwriting in place rather than by
+    boolean masks combined with ``&``; the ``max_range`` cut is applied once, to the nearest hit of
+    each ray (it is within range iff some hit is). The root ``t = −b − √disc`` is kept negated,
+    ``tn = b + √disc``: rounding to nearest is symmetric, so ``−tn`` is ``t`` to the bit (up to the
+    sign of a zero).
+
     Args:
         origins: (N, 2) ray start points, m.
         headings: (N,) heading of each origin, rad.
@@ -154,22 +162,27 @@ def ring_first_hits(
     c = _as_points(centers)
     ang = np.asarray(headings, dtype=float).reshape(-1, 1) + np.asarray(angles, dtype=float).reshape(1, -1)
     dx, dy = np.cos(ang), np.sin(ang)  # (N, K)
-    mx = o[:, 0:1] - c[:, 0]  # (N, C) centre -> origin
-    my = o[:, 1:2] - c[:, 1]
-    r = np.asarray(radii, dtype=float).reshape(-1)
-    cc = mx * mx + my * my - r**2  # |m|² − r², ≤ 0 when the origin is inside: never seen
-    cc = np.where(cc > 0.0, cc, np.inf)[:, None, :]
-    b = dx[:, :, None] * mx[:, None, :] + dy[:, :, None] * my[:, None, :]  # (N, K, C) d·m
-    disc = b * b - cc
-    t = -b - np.sqrt(np.maximum(disc, 0.0))  # nearer root of t² + 2bt + cc = 0
-    hit = (disc >= 0.0) & (t >= 0.0) & (t <= max_range)
-    d = np.where(hit, t, np.inf).min(axis=2) if c.shape[0] else np.full(ang.shape, np.inf)
+    if c.shape[0]:
+        r = np.asarray(radii, dtype=float).reshape(-1, 1, 1)
+        mx = (o[:, 0] - c[:, 0:1])[:, :, None]  # (C, N, 1) centre -> origin
+        my = (o[:, 1] - c[:, 1:2])[:, :, None]
+        cc = mx * mx + my * my - r * r  # |m|² − r², ≤ 0 when the origin is inside: never seen
+        cc[cc <= 0.0] = np.inf
+        b = dx * mx + dy * my  # (C, N, K) d·m
+        disc = b * b - cc  # −inf when inside
+        disc[disc < 0.0] = np.inf  # a miss: its root below becomes +inf, i.e. not in front
+        tn = b + np.sqrt(disc)  # −t, t = −b − √disc the nearer root of t² + 2bt + cc = 0
+        tn[tn > 0.0] = -np.inf  # behind the origin (t < 0), or a miss
+        d = -tn.max(axis=0)  # (N, K) the nearest hit in front; inf for none
+    else:
+        d = np.full(ang.shape, np.inf)
     if walls is not None and len(walls):
         near = walls.near(o)
         if len(near):
             dirs = np.stack([dx, dy], axis=-1).reshape(-1, 2)
             seg = ray_segment_distances(np.repeat(o, ang.shape[1], axis=0), dirs, walls.a[near], walls.b[near], max_range)
             d = np.minimum(d, seg.min(axis=1).reshape(ang.shape))
+    d[d > max_range] = np.inf
     return d
 
 

@@ -258,9 +258,15 @@ class World:
         if n == 0 or not len(indices):
             return np.zeros((len(indices), n))
         centers, radii, headings = self.truth_arrays()
-        pos, th = centers[indices], headings[indices]
+        if isinstance(indices, list) and indices == list(range(len(self.robots))):
+            pos, th = centers[: len(indices)], headings  # every robot, in order (the env's call): views
+        else:
+            pos, th = centers[indices], headings[indices]
         reach = us.max_range_m + self.cfg.robot.radius_m
         d = geometry.ring_first_hits(pos, th, self._us_angles, centers, radii, self._us_walls, reach).reshape(-1)
-        d = d - self.cfg.robot.radius_m  # from the sensor on the rim
-        d = d + rng.normal(0.0, us.noise_m, d.shape) if us.noise_m > 0 else d
-        return np.minimum(np.maximum(d, us.min_range_m), us.max_range_m).reshape(len(indices), n)  # np.clip
+        d -= self.cfg.robot.radius_m  # from the sensor on the rim (d is a new array: in place)
+        if us.noise_m > 0:
+            d += rng.normal(0.0, us.noise_m, d.shape)
+        np.maximum(d, us.min_range_m, out=d)  # np.clip
+        np.minimum(d, us.max_range_m, out=d)
+        return d.reshape(len(indices), n)

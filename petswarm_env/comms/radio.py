@@ -135,7 +135,7 @@ class RadioMedium:
         return int(self._mac_draws.uniform() * (1 << be)) * self.cfg.backoff_slot_s
 
     def _cca(self, station: Station, frame: Frame, nb: int, be: int) -> None:
-        now = self.clock.now
+        now = self.clock._now
         x, y = station.position()
         r2 = self._range2
         for tx in self._air:
@@ -158,7 +158,7 @@ class RadioMedium:
     def _deliver(self, tx: _Tx, sender: Station) -> None:
         """The frame has left the air: every station in range gets it now, unless it collided."""
         self._done(sender)
-        now = self.clock.now
+        now = self.clock._now  # (the clock's ``now``, read without the property)
         frame = tx.frame
         air = self._air
         # one pass: the transmissions that overlap this one, and the start of the oldest one still
@@ -187,7 +187,9 @@ class RadioMedium:
         loss = self.cfg.loss_prob
         shadow_k = self._shadow_k
         uniform, normal = self._rx_draws.uniform, self._rx_draws.normal
-        src, pan, tx_x, tx_y = frame.src, frame.pan, tx.x, tx.y
+        sqrt = math.sqrt
+        kind, src, dst, pan, payload, size = frame.kind, frame.src, frame.dst, frame.pan, frame.payload, frame.size_bytes
+        tx_x, tx_y = tx.x, tx.y
         for st in targets:
             node_id = st.node_id
             if node_id == src:
@@ -200,13 +202,20 @@ class RadioMedium:
                 stats.foreign_pan_dropped += 1
                 continue
             stats.receptions += 1
-            if overlapping and any(t.frame.src == node_id or (t.x - rx) ** 2 + (t.y - ry) ** 2 <= r2 for t in overlapping):
-                stats.frames_collided += 1  # overlap in range, or it was transmitting (half duplex)
+            collided = False
+            for t in overlapping:  # another transmission in range, or it was transmitting (half duplex)
+                if t.frame.src == node_id or (t.x - rx) ** 2 + (t.y - ry) ** 2 <= r2:
+                    collided = True
+                    break
+            if collided:
+                stats.frames_collided += 1
                 continue
             if loss > 0 and uniform() < loss:
                 stats.frames_lost += 1
                 continue
             # RSSI-based distance estimate: log-distance path loss with log-normal shadowing
-            d = max(math.sqrt(d2), 0.1)
+            d = sqrt(d2)
+            if d < 0.1:  # max(d, 0.1)
+                d = 0.1
             est = d * 10.0 ** (shadow_k * normal()) if shadow_k > 0 else d
-            st.receive(Frame(frame.kind, src, frame.dst, pan, frame.payload, frame.size_bytes, est))
+            st.receive(Frame(kind, src, dst, pan, payload, size, est))

@@ -102,13 +102,19 @@ class RadioMedium:
         self._range2 = cfg.range_m**2
         # RSSI distance estimate d * 10^(σ·z / (10 n)), z ~ N(0, 1)
         self._shadow_k = cfg.rssi_shadowing_db / (10.0 * cfg.path_loss_exponent)
+        # the values read for every frame, as plain attributes (a field of the pydantic config
+        # costs several times an attribute to read)
+        self._overhead_bytes, self._bitrate_bps = cfg.frame_overhead_bytes, cfg.bitrate_bps
+        self._latency_s, self._turnaround_s = cfg.latency_s, cfg.turnaround_s
+        self._min_be, self._backoff_slot_s = cfg.min_be, cfg.backoff_slot_s
+        self._loss_prob = cfg.loss_prob
 
     def attach(self, station: Station) -> None:
         self.stations[station.node_id] = station
         self._queues[station.node_id] = []
 
     def airtime_s(self, frame: Frame) -> float:
-        return (self.cfg.frame_overhead_bytes + frame.size_bytes) * 8.0 / self.cfg.bitrate_bps
+        return (self._overhead_bytes + frame.size_bytes) * 8.0 / self._bitrate_bps
 
     # -- sending --------------------------------------------------------------------------------
     def send(self, station: Station, frame: Frame) -> None:
@@ -117,22 +123,22 @@ class RadioMedium:
         queue = self._queues[station.node_id]
         queue.append(frame)
         if len(queue) == 1:
-            self._start(station)
+            self._start(station, frame)
 
-    def _start(self, station: Station) -> None:
-        frame = self._queues[station.node_id][0]
-        be = self.cfg.min_be
-        self._later(self.cfg.latency_s + self._backoff(be), self._cca, station, frame, 0, be)
+    def _start(self, station: Station, frame: Frame) -> None:
+        """The MAC takes the first frame of the station's queue: driver latency, first backoff."""
+        be = self._min_be
+        self._later(self._latency_s + self._backoff(be), self._cca, station, frame, 0, be)
 
     def _done(self, station: Station) -> None:
         queue = self._queues[station.node_id]
         queue.pop(0)
         if queue:
-            self._start(station)
+            self._start(station, queue[0])
 
     def _backoff(self, be: int) -> float:
         """Random backoff of 0 … 2^BE − 1 unit periods."""
-        return int(self._mac_draws.uniform() * (1 << be)) * self.cfg.backoff_slot_s
+        return int(self._mac_draws.uniform() * (1 << be)) * self._backoff_slot_s
 
     def _cca(self, station: Station, frame: Frame, nb: int, be: int) -> None:
         now = self.clock._now
@@ -148,8 +154,8 @@ class RadioMedium:
                 self._later(self._backoff(be), self._cca, station, frame, nb + 1, be)
                 return
         # clear: on the air after the RX-to-TX turnaround, which the CCA of others cannot sense
-        start = now + self.cfg.turnaround_s
-        tx = _Tx(frame, start, start + self.airtime_s(frame), x, y)
+        start = now + self._turnaround_s
+        tx = _Tx(frame, start, start + (self._overhead_bytes + frame.size_bytes) * 8.0 / self._bitrate_bps, x, y)  # airtime_s
         self._air.append(tx)
         self.stats.frames_sent += 1
         self._later(tx.end - now, self._deliver, tx, station)
@@ -184,7 +190,7 @@ class RadioMedium:
             targets = () if st is None else (st,)
         stats = self.stats
         r2 = self._range2
-        loss = self.cfg.loss_prob
+        loss = self._loss_prob
         shadow_k = self._shadow_k
         uniform, normal = self._rx_draws.uniform, self._rx_draws.normal
         sqrt = math.sqrt

@@ -102,13 +102,19 @@ class RadioMedium:
         self._range2 = cfg.range_m**2
         # RSSI distance estimate d * 10^(σ·z / (10 n)), z ~ N(0, 1)
         self._shadow_k = cfg.rssi_shadowing_db / (10.0 * cfg.path_loss_exponent)
+        # the values read for every frame, as plain attributes (a field of the pydantic config
+        # costs several times an attribute to read)
+        self._overhead_bytes, self._bitrate_bps = cfg.frame_overhead_bytes, cfg.bitrate_bps
+        self._latency_s, self._turnaround_s = cfg.latency_s, cfg.turnaround_s
+        self._min_be, self._backoff_slot_s = cfg.min_be, cfg.backoff_slot_s
+        self._loss_prob = cfg.loss_prob
 
     def attach(self, station: Station) -> None:
         self.stations[station.node_id] = station
         self._queues[station.node_id] = []
 
     def airtime_s(self, frame: Frame) -> float:
-        return (self.cfg.frame_overhead_bytes + frame.size_bytes) * 8.0 / self.cfg.bitrate_bps
+        return (self._overhead_bytes + frame.size_bytes) * 8.0 / self._bitrate_bps
 
     # -- sending --------------------------------------------------------------------------------
     def send(self, station: Station, frame: Frame) -> None:
@@ -117,25 +123,25 @@ class RadioMedium:
         queue = self._queues[station.node_id]
         queue.append(frame)
         if len(queue) == 1:
-            self._start(station)
+            self._start(station, frame)
 
-    def _start(self, station: Station) -> None:
-        frame = self._queues[station.node_id][0]
-        be = self.cfg.min_be
-        self._later(self.cfg.latency_s + self._backoff(be), self._cca, station, frame, 0, be)
+    def _start(self, station: Station, frame: Frame) -> None:
+        """The MAC takes the first frame of the station's queue: driver latency, first backoff."""
+        be = self._min_be
+        self._later(self._latency_s + self._backoff(be), self._cca, station, frame, 0, be)
 
     def _done(self, station: Station) -> None:
         queue = self._queues[station.node_id]
         queue.pop(0)
         if queue:
-            self._start(station)
+            self._start(station, queue[0])
 
     def _backoff(self, be: int) -> float:
         """Random backoff of 0 … 2^BE − 1 unit periods."""
-        return int(self._mac_draws.uniform() * (1 << be)) * self.cfg.backoff_slot_s
+        return int(self._mac_draws.uniform() * (1 << be)) * self._backoff_slot_s
 
     def _cca(self, station: Station, frame: Frame, nb: int, be: int) -> None:
-        now = self.clock.now
+        now = self.clock._now
         x, y = station.position()
         r2 = self._range2
         for tx in self._air:
@@ -148,8 +154,8 @@ class RadioMedium:
                 self._later(self._backoff(be), self._cca, station, frame, nb + 1, be)
                 return
         # clear: on the air after the RX-to-TX turnaround, which the CCA of others cannot sense
-        start = now + self.cfg.turnaround_s
-        tx = _Tx(frame, start, start + self.airtime_s(frame), x, y)
+        start = now + self._turnaround_s
+        tx = _Tx(frame, start, start + (self._overhead_bytes + frame.size_bytes) * 8.0 / self._bitrate_bps, x, y)  # airtime_s
         self._air.append(tx)
         self.stats.frames_sent += 1
         self._later(tx.end - now, self._deliver, tx, station)
@@ -158,7 +164,7 @@ class RadioMedium:
     def _deliver(self, tx: _Tx, sender: Station) -> None:
         """The frame has left the air: every station in range gets it now, unless it collided."""
         self._done(sender)
-        now = self.clock.now
+        now = self.clock._now  # (the clock's ``now``, read without the property)
         frame = tx.frame
         air = self._air
         # one pass: the transmissions that overlap this one, and the start of the oldest one still
@@ -184,10 +190,12 @@ class RadioMedium:
             targets = () if st is None else (st,)
         stats = self.stats
         r2 = self._range2
-        loss = self.cfg.loss_prob
+        loss = self._loss_prob
         shadow_k = self._shadow_k
         uniform, normal = self._rx_draws.uniform, self._rx_draws.normal
-        src, pan, tx_x, tx_y = frame.src, frame.pan, tx.x, tx.y
+        sqrt = math.sqrt
+        kind, src, dst, pan, payload, size = frame.kind, frame.src, frame.dst, frame.pan, frame.payload, frame.size_bytes
+        tx_x, tx_y = tx.x, tx.y
         for st in targets:
             node_id = st.node_id
             if node_id == src:
@@ -200,13 +208,20 @@ class RadioMedium:
                 stats.foreign_pan_dropped += 1
                 continue
             stats.receptions += 1
-            if overlapping and any(t.frame.src == node_id or (t.x - rx) ** 2 + (t.y - ry) ** 2 <= r2 for t in overlapping):
-                stats.frames_collided += 1  # overlap in range, or it was transmitting (half duplex)
+            collided = False
+            for t in overlapping:  # another transmission in range, or it was transmitting (half duplex)
+                if t.frame.src == node_id or (t.x - rx) ** 2 + (t.y - ry) ** 2 <= r2:
+                    collided = True
+                    break
+            if collided:
+                stats.frames_collided += 1
                 continue
             if loss > 0 and uniform() < loss:
                 stats.frames_lost += 1
                 continue
             # RSSI-based distance estimate: log-distance path loss with log-normal shadowing
-            d = max(math.sqrt(d2), 0.1)
+            d = sqrt(d2)
+            if d < 0.1:  # max(d, 0.1)
+                d = 0.1
             est = d * 10.0 ** (shadow_k * normal()) if shadow_k > 0 else d
-            st.receive(Frame(frame.kind, src, frame.dst, pan, frame.payload, frame.size_bytes, est))
+            st.receive(Frame(kind, src, dst, pan, payload, size, est))

@@ -118,9 +118,10 @@ class Node:
         return base + jitter * self.draws.uniform()
 
     def _handle(self, handler: Callable[[Frame], None], frame: Frame) -> None:
-        if frame.pan not in self.pans:  # the PAN changed while the frame was being processed
+        pan = frame.pan
+        if pan not in self.pans:  # the PAN changed while the frame was being processed
             return
-        if frame.pan != PAN_WAITING and frame.pan != self.swarm_pan:
+        if pan != PAN_WAITING and pan != self.swarm_pan:
             self.counters["foreign_pan_frames_processed"] += 1  # must never happen
         self.counters["frames_handled"] += 1
         handler(frame)
@@ -139,8 +140,8 @@ class Node:
 
     def ahrs_yaw(self) -> float:
         """Own AHRS reading (an own sensor: noisy, drifting)."""
-        return self.swarm.world.robots[self.node_id].ahrs_yaw(self.clock.now)
+        return self._robots[self.node_id].ahrs_yaw(self.clock._now)  # (clock.now without the property)
 
     def store_ir(self, other: int, distance_m: float, bearing_rad: float) -> None:
         if math.isfinite(distance_m):
-            self.know.ir[other] = IRMeasurement(distance_m, bearing_rad, self.clock.now, self.ahrs_yaw())
+            self.know.ir[other] = IRMeasurement(distance_m, bearing_rad, self.clock._now, self.ahrs_yaw())

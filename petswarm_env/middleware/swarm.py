@@ -183,7 +183,7 @@ class Swarm:
     def on_status(self, node: Node, frame) -> None:
         p = frame.payload
         node.know.status = MasterStatus(p["velocity"], p["activity"], p["mode"], p["turn_rate"], p["user"],
-                                        self.clock.now, p["rotating"])
+                                        self.clock._now, p["rotating"])  # (clock.now, per frame)
 
     # -- driving-mode change (seed 000 §3.5, Table 3) --------------------------------------------
     def change_mode(self, new_mode: str, master_change: bool, user_distance_m: float) -> ModeChangePlan | None:

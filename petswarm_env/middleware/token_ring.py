@@ -134,14 +134,14 @@ class TokenRing:
 
     # -- everyone ---------------------------------------------------------------------------------
     def _on_tx_start(self, frame: Frame) -> None:
-        self.last_activity_s = self._slot_start[frame.src] = self.node.clock.now
+        self.last_activity_s = self._slot_start[frame.src] = self.node.clock._now  # (clock.now, per frame)
         seq = frame.payload["seq"]
         self.token_seq = max(seq, self.token_seq)
         self.node.send(msg.TX_START_ACK, dst=frame.src)
 
     def _on_token(self, frame: Frame) -> None:
         node = self.node
-        self.last_activity_s = node.clock.now
+        self.last_activity_s = node.clock._now
         node.send(msg.TOKEN_ACK, dst=frame.src)
         seq = frame.payload["seq"]
         if seq <= self.token_seq or node.know.members.get(frame.payload["next"]) != node.node_id:
@@ -153,7 +153,7 @@ class TokenRing:
         node.clock.process(self._begin(seq))
 
     def _on_sync(self, frame: Frame) -> None:
-        self.last_activity_s = self.node.clock.now
+        self.last_activity_s = self.node.clock._now
         self.token_seq = max(self.token_seq, frame.payload["seq"])
 
     def send_heading(self, holder: int, bearing_rad: float) -> None:

@@ -414,12 +414,7 @@ class PetSwarmEnv(ParallelEnv):
                 slots, levels = self._formation_geometry(node.formation)
                 level, offset = levels.get(member, 0), slots[member]
             last = last_actions.get(agent)
-            if noise is not None:  # _odometry(idx, noise[i]), written out
-                vx, vy, w = robot.velocity_body
-                e = noise[i]
-                odometry = (vx * (1 + e[0]), vy * (1 + e[1]), w * (1 + e[2]))
-            else:
-                odometry = robot.velocity_body
+            odometry = self._odometry(idx, noise[i] if noise is not None else None)
             obs[agent] = build_observation(
                 layout,
                 None,  # a new array: what the agent gets is its own

@@ -155,7 +155,7 @@ class RadioMedium:
                 return
         # clear: on the air after the RX-to-TX turnaround, which the CCA of others cannot sense
         start = now + self._turnaround_s
-        tx = _Tx(frame, start, start + (self._overhead_bytes + frame.size_bytes) * 8.0 / self._bitrate_bps, x, y)  # airtime_s
+        tx = _Tx(frame, start, start + self.airtime_s(frame), x, y)
         self._air.append(tx)
         self.stats.frames_sent += 1
         self._later(tx.end - now, self._deliver, tx, station)

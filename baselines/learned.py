@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import json
 import os
-import tempfile
 import zipfile
 from importlib import resources
 from pathlib import Path
@@ -25,6 +24,7 @@ import numpy as np
 
 from baselines.policy import Policy, PolicySpec
 from petswarm_env.env import ENV_NAME
+from petswarm_env.files import write_atomic
 from petswarm_env.observe import OBS_VERSION, ObservationLayout
 
 FORMAT = "petswarm-policy"
@@ -60,17 +60,7 @@ def save_policy(path: str | os.PathLike, layers: list[tuple[np.ndarray, np.ndarr
     for i, (w, b) in enumerate(layers):
         arrays[f"w{i}"] = np.asarray(w, dtype=np.float32)
         arrays[f"b{i}"] = np.asarray(b, dtype=np.float32)
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".npz", dir=path.parent)
-    os.close(fd)
-    try:
-        np.savez(tmp, **arrays)
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+    write_atomic(path, lambda tmp: np.savez(tmp, **arrays), suffix=".npz")
 
 
 def read_policy_file(path: str | os.PathLike) -> tuple[dict[str, Any], list[tuple[np.ndarray, np.ndarray]]]:

@@ -3,7 +3,8 @@
 A policy maps one slave's observation (the documented vector of :mod:`petswarm_env.observe`) to
 its action ``(Vx, Vy, ω)`` in [-1, 1]³. It never sees ground truth. Policies are built for an
 environment's observation layout and action limits (:class:`PolicySpec`), so a scripted and a
-learned slave can be swapped robot by robot.
+learned slave can be swapped robot by robot. Policies are built by name in
+:mod:`baselines.registry` (``make_policy``), which imports this module, never the other way.
 """
 
 from __future__ import annotations
@@ -84,23 +85,3 @@ class MixedPolicy(Policy):
 
     def act(self, agent: str, observation: np.ndarray) -> np.ndarray:
         return self.per_agent.get(agent, self.default).act(agent, observation)
-
-
-POLICY_NAMES = ("scripted", "random", "learned")
-
-
-def make_policy(name: str, spec: PolicySpec, seed: int = 0) -> Policy:
-    """``scripted`` (the leader–follower reference), ``random``, ``learned`` (the shipped model)
-    or the path of a saved policy file (``.npz``)."""
-    from baselines.leader_follower import LeaderFollowerPolicy
-    from baselines.learned import LearnedPolicy, shipped_policy_path
-
-    if name == "scripted":
-        return LeaderFollowerPolicy(spec)
-    if name == "random":
-        return RandomPolicy(spec, seed)
-    if name == "learned":
-        return LearnedPolicy.load(shipped_policy_path(), spec)
-    if name.endswith(".npz") or "/" in name:
-        return LearnedPolicy.load(name, spec)
-    raise ValueError(f"unknown policy '{name}'; choose scripted, random, learned or the path of a .npz policy file")

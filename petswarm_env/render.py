@@ -18,12 +18,13 @@ from __future__ import annotations
 import math
 import os
 import sys
-import tempfile
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any, Self
 
 import numpy as np
+
+from petswarm_env.files import write_atomic
 
 ROLES = ("master", "slave", "waiting", "other")
 MODES = ("rgb_array", "human")
@@ -414,8 +415,8 @@ class Renderer:
 class GifWriter:
     """Collects RGB frames and writes them as an animated GIF on :meth:`close`.
 
-    The GIF is written to a temporary file in the target directory and moved into place with
-    :func:`os.replace`, so readers never see a half-written file. Each frame is reduced to a
+    The GIF is written with :func:`petswarm_env.files.write_atomic` (a temporary file in the
+    target directory moved into place), so readers never see a half-written file. Each frame is reduced to a
     256-colour palette image as it arrives (one byte a pixel: about 0.5 MB per 720x720 frame) and
     kept until :meth:`close`. Closing with no frames writes nothing. Note that the GIF encoder
     (Pillow) merges consecutive identical frames into one longer frame.
@@ -457,23 +458,9 @@ class GifWriter:
         if not frames:
             return None
 
-        directory = os.path.dirname(os.path.abspath(self.path))
-        os.makedirs(directory, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(
-            prefix="." + os.path.basename(self.path) + ".", suffix=".tmp", dir=directory
-        )
-        os.close(fd)
-        try:
-            os.chmod(tmp, 0o644)  # mkstemp makes it 0600; a GIF is an ordinary artefact
-            duration_ms = 1000.0 / self.fps
-            frames[0].save(tmp, format="GIF", save_all=True, append_images=frames[1:], duration=duration_ms, loop=0)
-            os.replace(tmp, self.path)
-        except BaseException:
-            try:
-                os.remove(tmp)
-            except OSError:
-                pass
-            raise
+        duration_ms = 1000.0 / self.fps
+        write_atomic(self.path, lambda tmp: frames[0].save(
+            tmp, format="GIF", save_all=True, append_images=frames[1:], duration=duration_ms, loop=0))
         return self.path
 
     def __enter__(self) -> Self:

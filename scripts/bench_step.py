@@ -14,7 +14,8 @@ import argparse
 import time
 
 import petswarm_env
-from baselines.policy import PolicySpec, make_policy
+from baselines.policy import PolicySpec
+from baselines.registry import make_policy
 from petswarm_env.config import parse_override
 
 

@@ -402,7 +402,8 @@ def test_observation_builder_equals_the_reference_bit_for_bit(overrides):
     and converted to float32 — on the knowledge of real episodes; ages beyond the clip and both
     link slots occur."""
     import petswarm_env
-    from baselines.policy import PolicySpec, make_policy
+    from baselines.policy import PolicySpec
+    from baselines.registry import make_policy
     from petswarm_env.observe import build_observation
 
     env = petswarm_env.parallel_env(max_cycles=300, **overrides)

@@ -1,7 +1,8 @@
 """The learned policy shipped with the package loads safely and holds the default formation."""
 
 from baselines.learned import LearnedPolicy, read_policy_file, shipped_policy_path
-from baselines.policy import PolicySpec, make_policy
+from baselines.policy import PolicySpec
+from baselines.registry import make_policy
 from petswarm_env import parallel_env
 from training.runner import run_episode
 

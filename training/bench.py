@@ -38,7 +38,6 @@ import signal
 import subprocess
 import sys
 import sysconfig
-import tempfile
 import time
 import warnings
 from collections.abc import Callable
@@ -47,6 +46,8 @@ from pathlib import Path
 from typing import Any, Self
 
 import numpy as np
+
+from petswarm_env.files import jsonable, write_atomic, write_text_atomic
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -101,7 +102,8 @@ class _EnvLoop:
 
     def __init__(self, num_slaves: int, policy_name: str, seed: int, **overrides: Any):
         import petswarm_env
-        from baselines.policy import PolicySpec, make_policy
+        from baselines.policy import PolicySpec
+        from baselines.registry import make_policy
 
         self.env = petswarm_env.parallel_env(**{"swarm.num_slaves": num_slaves, **overrides})
         self.policy = make_policy(policy_name, PolicySpec.from_env(self.env), seed=seed)
@@ -938,19 +940,6 @@ def _cpu_ratio(a: dict | None, b: dict | None) -> float | None:
     return b["cpu_ms_per_step"] / a["cpu_ms_per_step"]
 
 
-def _clean(x: Any) -> Any:
-    """Plain JSON types (numpy scalars -> float/int, tuples -> lists)."""
-    if isinstance(x, dict):
-        return {str(k): _clean(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_clean(v) for v in x]
-    if isinstance(x, np.integer):
-        return int(x)
-    if isinstance(x, (np.floating, float)):
-        return float(x)
-    return x
-
-
 def run_bench(s: BenchSettings, mode: str = "custom", verbose: bool = False) -> dict:
     """Every measurement with settings ``s``; returns the result dict (see the module docstring)."""
     started = time.perf_counter()
@@ -1056,7 +1045,7 @@ def run_bench(s: BenchSettings, mode: str = "custom", verbose: bool = False) -> 
         "wall_s": time.perf_counter() - started,
         "phase_wall_s": phases,
     }
-    return _clean(result)
+    return jsonable(result)
 
 
 def main_bench(quick: bool, json_out: str | None, md_out: str | None = None, plot_out: str | None = None,
@@ -1067,7 +1056,7 @@ def main_bench(quick: bool, json_out: str | None, md_out: str | None = None, plo
     mode = "custom" if settings is not None else ("quick" if quick else "full")
     result = run_bench(s, mode, verbose)
     if json_out:
-        from training.runner import write_json_atomic
+        from petswarm_env.files import write_json_atomic
 
         write_json_atomic(json_out, result)
     if md_out:
@@ -1161,19 +1150,6 @@ def format_report(result: dict) -> str:
 
 
 # -- docs/benchmarks.md -----------------------------------------------------------------------------
-def _write_bytes_atomic(path: Path, write: Callable[[str], None], suffix: str) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=suffix, dir=path.parent)
-    os.close(fd)
-    try:
-        write(tmp)
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-
-
 def write_plot(result: dict, plot_path: str | os.PathLike) -> None:
     """Steps/s against swarm size (robots), log scale, one line per kind of measurement."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
@@ -1207,7 +1183,7 @@ def write_plot(result: dict, plot_path: str | os.PathLike) -> None:
     m = result["machine"]
     ax.set_title(f"petswarm bench ({result['mode']}), {m['cpus_available']} CPUs, Python {m['python']}", fontsize=10)
     fig.tight_layout()
-    _write_bytes_atomic(Path(plot_path), lambda tmp: fig.savefig(tmp, format="png"), ".png")
+    write_atomic(plot_path, lambda tmp: fig.savefig(tmp, format="png"))
 
 
 _PART_NAMES = {
@@ -1562,13 +1538,7 @@ def write_benchmarks_md(result: dict, path: str | os.PathLike, plot_path: str | 
     path, plot_path = Path(path), Path(plot_path)
     write_plot(result, plot_path)
     rel = os.path.relpath(plot_path.resolve(), path.resolve().parent).replace(os.sep, "/")
-    text = benchmarks_markdown(result, rel)
-
-    def write(tmp: str) -> None:
-        with open(tmp, "w", encoding="utf-8") as f:
-            f.write(text)
-
-    _write_bytes_atomic(path, write, ".md")
+    write_text_atomic(path, benchmarks_markdown(result, rel))
 
 
 def tiny_settings(**changes: Any) -> BenchSettings:

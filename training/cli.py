@@ -43,7 +43,7 @@ def _seed(text: str) -> int:
 
 
 def _policy_name(text: str) -> str:
-    from baselines.policy import POLICY_NAMES
+    from baselines.registry import POLICY_NAMES
 
     if text in POLICY_NAMES or text.endswith(".npz"):
         return text
@@ -176,7 +176,8 @@ def _print_table(result: dict) -> None:
 
 
 def _cmd_run(args) -> int:
-    from training.runner import run, write_json_atomic
+    from petswarm_env.files import write_json_atomic
+    from training.runner import run
 
     overrides = dict(parse_override(item) for item in args.set)
     cfg = load_config(args.config, overrides)
@@ -213,8 +214,8 @@ def _cmd_train(args, argv: list[str]) -> int:
 
 
 def _cmd_eval(args) -> int:
+    from petswarm_env.files import write_json_atomic
     from training.evaluate import evaluate, format_table, parse_mix
-    from training.runner import write_json_atomic
 
     cfg = load_config(args.config, dict(parse_override(item) for item in args.set))
     scenarios = [s.strip() for s in args.scenarios.split(",") if s.strip()] if args.scenarios else None
@@ -247,8 +248,8 @@ def _cmd_bench(args) -> int:
 def _cmd_reproduce(args, argv: list[str]) -> int:
     import time
 
+    from petswarm_env.files import write_json_atomic
     from training.reproduce import EXPERIMENTS, ProgressBars, check_passed, print_table, results_json, run_experiments
-    from training.runner import write_json_atomic
 
     cfg = load_config(args.config, dict(parse_override(item) for item in args.set))
     names = args.only or list(EXPERIMENTS)

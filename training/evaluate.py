@@ -6,7 +6,8 @@ import math
 from pathlib import Path
 from typing import Any
 
-from baselines.policy import MixedPolicy, PolicySpec, make_policy
+from baselines.policy import MixedPolicy, PolicySpec
+from baselines.registry import make_policy
 from petswarm_env.config import SCENARIOS, Config, ConfigError, flatten_dotted, load_config
 from petswarm_env.env import PetSwarmEnv
 from training.runner import VideoRecorder, run_episode, summarize

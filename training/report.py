@@ -22,7 +22,6 @@ import io
 import json
 import math
 import os
-import tempfile
 import urllib.parse
 from collections.abc import Iterable
 from pathlib import Path
@@ -31,6 +30,7 @@ from typing import Any
 __all__ = ["load_result", "mean_ci95", "t_critical_95", "write_report"]  # stats re-exported from training.stats
 
 from petswarm_env.config import flatten_dotted
+from petswarm_env.files import write_text_atomic
 from training.stats import as_number as _num
 from training.stats import mean_ci95, t_critical_95
 
@@ -659,26 +659,6 @@ def _render_html(results: list[_Result], out_path: str | os.PathLike, generated:
     )
 
 
-def _umask() -> int:
-    mask = os.umask(0o022)
-    os.umask(mask)
-    return mask
-
-
-def _write_atomic(path: Path, text: str) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
-            f.write(text)
-        os.chmod(tmp, 0o666 & ~_umask())  # mkstemp creates 0600; give the report ordinary permissions
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-
-
 def write_report(result_paths: list[str], out_path: str) -> None:
     """Write one self-contained HTML report comparing the results in ``result_paths`` to
     ``out_path`` (atomically). Raises ``ValueError`` naming the file on a bad result file."""
@@ -687,4 +667,4 @@ def write_report(result_paths: list[str], out_path: str) -> None:
     results = [_Result(str(p), load_result(p)) for p in result_paths]
     _unique_labels(results)
     out = Path(out_path)
-    _write_atomic(out, _render_html(results, out))
+    write_text_atomic(out, _render_html(results, out))

@@ -36,6 +36,7 @@ from typing import Any
 import numpy as np
 
 from petswarm_env.config import Config
+from petswarm_env.files import jsonable
 from petswarm_env.middleware.ir import (
     PAPER_ANGLES_DEG,
     PAPER_DIRECTION_RMSE_DEG,
@@ -189,23 +190,6 @@ def check_passed(results: dict[str, ExperimentResult]) -> bool:
     return bool(results) and all(r.ok for r in results.values())
 
 
-def _jsonable(x: Any) -> Any:
-    """Plain JSON: numpy scalars and arrays as numbers and lists, NaN and inf as null."""
-    if isinstance(x, dict):
-        return {str(k): _jsonable(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_jsonable(v) for v in x]
-    if isinstance(x, np.ndarray):
-        return _jsonable(x.tolist())
-    if isinstance(x, (bool, np.bool_)):
-        return bool(x)
-    if isinstance(x, (int, np.integer)):
-        return int(x)
-    if isinstance(x, (float, np.floating)):
-        return float(x) if math.isfinite(x) else None
-    return x
-
-
 def results_json(results: dict[str, ExperimentResult], seed: int | None = None, quick: bool | None = None) -> dict[str, Any]:
     """``{"experiments": {name: {"rows": [{metric, paper, sim, tolerance, ok}], ...}}}``; beside
     ``rows`` each experiment has ``title``, ``available``, ``note``, ``ok``, ``wall_s``, ``seed``,
@@ -223,7 +207,7 @@ def results_json(results: dict[str, ExperimentResult], seed: int | None = None, 
             "quick": quick,
             "data": r.data,
         }
-    return _jsonable({"experiments": exps})
+    return jsonable({"experiments": exps})
 
 
 # -- ir_accuracy: seed 000 §4.3 ------------------------------------------------------------------------
@@ -293,7 +277,8 @@ def _turn_on_the_spot(env, angle_deg: float, rate_dps: float = TURN_RATE_DPS) ->
 
 
 def _policy(env):
-    from baselines.policy import PolicySpec, make_policy
+    from baselines.policy import PolicySpec
+    from baselines.registry import make_policy
 
     return make_policy("scripted", PolicySpec.from_env(env))
 

@@ -12,9 +12,9 @@ from __future__ import annotations
 
 import datetime as _dt
 import math
-from pathlib import Path
 
-from training.report import _CSS, _e, _img, _new_figure, _png, _table, _write_atomic
+from petswarm_env.files import write_text_atomic
+from training.report import _CSS, _e, _img, _new_figure, _png, _table
 from training.reproduce import ExperimentResult
 
 _PAPER_COLOR = "#7f7f7f"
@@ -247,7 +247,7 @@ def render_html(results: dict[str, ExperimentResult], command: str = "petswarm r
 
 def write_reproduce_report(results: dict[str, ExperimentResult], out_path: str, command: str = "petswarm reproduce") -> None:
     """Write the page to ``out_path`` atomically (temporary file beside it, then rename)."""
-    _write_atomic(Path(out_path), render_html(results, command))
+    write_text_atomic(out_path, render_html(results, command))
 
 
 __all__ = ["render_html", "write_reproduce_report"]

@@ -19,7 +19,6 @@ from __future__ import annotations
 import json
 import math
 import os
-import tempfile
 import time
 from pathlib import Path
 from typing import Any, Literal
@@ -29,7 +28,8 @@ import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from baselines.learned import LearnedPolicy, save_policy
-from baselines.policy import PolicySpec, make_policy
+from baselines.policy import PolicySpec
+from baselines.registry import make_policy
 from petswarm_env.config import (
     Config,
     ConfigError,
@@ -41,7 +41,8 @@ from petswarm_env.config import (
 )
 from petswarm_env.env import PetSwarmEnv
 from petswarm_env.observe import ObservationLayout
-from training.runner import run_episode, write_json_atomic
+from petswarm_env.files import write_atomic, write_json_atomic
+from training.runner import run_episode
 
 DEFAULT_TRAIN_CONFIG = Path(__file__).resolve().parents[1] / "configs" / "train" / "ppo.yaml"
 
@@ -279,18 +280,6 @@ def pretrain_policy(model, cfg: TrainConfig, env_cfg: Config) -> dict:
     return {"samples": n, "actor_mse": actor_loss, "critic_mse": critic_loss, "wall_time_s": round(time.time() - t0, 1)}
 
 
-def _save_atomic(model, path: Path) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=".zip", dir=path.parent)
-    os.close(fd)
-    try:
-        model.save(tmp)
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-
-
 def _make_callback(cfg: TrainConfig, out: Path, layout: ObservationLayout, log: dict, eval_cfg: Config):
     from stable_baselines3.common.callbacks import BaseCallback
 
@@ -317,7 +306,7 @@ def _make_callback(cfg: TrainConfig, out: Path, layout: ObservationLayout, log: 
         def checkpoint(self) -> None:
             log["timesteps"] = int(self.num_timesteps)
             log["wall_time_s"] = log["wall_time_before_s"] + time.time() - log["_start"]
-            _save_atomic(self.model, out / "checkpoints" / "latest.zip")
+            write_atomic(out / "checkpoints" / "latest.zip", self.model.save)
             export_policy(self.model, out / "policy.npz", layout, cfg.ppo.activation, _policy_info(cfg, log))
             write_json_atomic(out / "train_log.json", {k: v for k, v in log.items() if not k.startswith("_")})
 

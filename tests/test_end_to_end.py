@@ -5,8 +5,8 @@ import math
 
 import pytest
 
+from evaluation.runner import run
 from petswarm_env.config import load_config
-from training.runner import run
 
 SEEDS = 5
 

@@ -1,4 +1,4 @@
-"""The HTML comparison report (training/report.py) on small synthetic result files."""
+"""The HTML comparison report (evaluation/report.py) on small synthetic result files."""
 
 from __future__ import annotations
 
@@ -10,7 +10,8 @@ import sys
 
 import pytest
 
-from training.report import load_result, mean_ci95, t_critical_95, write_report
+from evaluation.report import load_result, write_report
+from evaluation.stats import mean_ci95, t_critical_95
 
 
 def _episode(seed: int, scenario: str, policy: str, rmse: float, steps: int = 12, gif: str | None = None) -> dict:

@@ -3,8 +3,8 @@
 from baselines.learned import LearnedPolicy, read_policy_file, shipped_policy_path
 from baselines.policy import PolicySpec
 from baselines.registry import make_policy
+from evaluation.runner import run_episode
 from petswarm_env import parallel_env
-from training.runner import run_episode
 
 
 def test_shipped_policy_records_how_it_was_trained():

@@ -12,10 +12,10 @@ pytest.importorskip("supersuit")
 
 from baselines.learned import LearnedPolicy, PolicyLoadError, read_policy_file, save_policy
 from baselines.policy import PolicySpec
+from evaluation.evaluate import evaluate
 from petswarm_env import parallel_env
 from petswarm_env.config import ConfigError, load_config
 from petswarm_env.observe import ObservationLayout
-from training.evaluate import evaluate
 from training.train import load_train_config, train
 
 SHORT = {

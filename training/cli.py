@@ -177,7 +177,7 @@ def _print_table(result: dict) -> None:
 
 def _cmd_run(args) -> int:
     from petswarm_env.files import write_json_atomic
-    from training.runner import run
+    from evaluation.runner import run
 
     overrides = dict(parse_override(item) for item in args.set)
     cfg = load_config(args.config, overrides)
@@ -215,7 +215,7 @@ def _cmd_train(args, argv: list[str]) -> int:
 
 def _cmd_eval(args) -> int:
     from petswarm_env.files import write_json_atomic
-    from training.evaluate import evaluate, format_table, parse_mix
+    from evaluation.evaluate import evaluate, format_table, parse_mix
 
     cfg = load_config(args.config, dict(parse_override(item) for item in args.set))
     scenarios = [s.strip() for s in args.scenarios.split(",") if s.strip()] if args.scenarios else None
@@ -274,7 +274,7 @@ def _cmd_reproduce(args, argv: list[str]) -> int:
 
 
 def _cmd_report(args) -> int:
-    from training.report import write_report
+    from evaluation.report import write_report
 
     write_report(args.results, args.out)
     print(f"wrote {args.out}")

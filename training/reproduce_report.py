@@ -10,11 +10,10 @@ gets a placeholder saying so.
 
 from __future__ import annotations
 
-import datetime as _dt
 import math
 
 from petswarm_env.files import write_text_atomic
-from training.report import _CSS, _e, _img, _new_figure, _png, _table
+from evaluation.html import escape, img, new_figure, now_stamp, page, png_base64, table
 from training.reproduce import ExperimentResult
 
 _PAPER_COLOR = "#7f7f7f"
@@ -31,21 +30,21 @@ def _num(v: float | None, digits: int = 3) -> str:
 
 def _placeholder(name: str, res: ExperimentResult | None) -> str:
     if res is None:
-        return f'<p class="muted">Not run in this report (select it with <code>--only {_e(name)}</code>).</p>'
-    return f'<p class="warn">{_e(res.note or "not available yet")}</p>'
+        return f'<p class="muted">Not run in this report (select it with <code>--only {escape(name)}</code>).</p>'
+    return f'<p class="warn">{escape(res.note or "not available yet")}</p>'
 
 
 def _rows_table(results: dict[str, ExperimentResult]) -> str:
     rows = []
     for name, res in results.items():
         if not res.available:
-            rows.append(([_e(name), _e(res.note or "not available yet"), "", "", "", "✗"], "grp"))
+            rows.append(([escape(name), escape(res.note or "not available yet"), "", "", "", "✗"], "grp"))
             continue
         for i, r in enumerate(res.rows):
             cls = ("grp " if i == 0 else "") + ("" if r.ok else "fail")
-            rows.append(([_e(name) if i == 0 else "", _e(r.metric), _num(r.paper), _num(r.sim), "±" + _num(r.tolerance),
+            rows.append(([escape(name) if i == 0 else "", escape(r.metric), _num(r.paper), _num(r.sim), "±" + _num(r.tolerance),
                           "✓" if r.ok else "✗"], cls.strip()))
-    return _table(["experiment", "metric", "paper", "sim", "tolerance", "ok"], rows, left_cols=2)
+    return table(["experiment", "metric", "paper", "sim", "tolerance", "ok"], rows, left_cols=2)
 
 
 # -- seed 000 Fig. 19 ------------------------------------------------------------------------------
@@ -58,7 +57,7 @@ def _section_ir(res: ExperimentResult | None) -> str:
     fig19 = res.data["fig19"]
     act = np.asarray(fig19["actual_m"], dtype=float) * 100.0
     est = np.asarray(fig19["estimated_m"], dtype=float) * 100.0
-    fig = _new_figure(7.0, 4.4)
+    fig = new_figure(7.0, 4.4)
     ax = fig.add_subplot(1, 1, 1)
     if est.size:
         ax.scatter(est[:, 0], est[:, 1], s=10, marker="s", facecolors="none", edgecolors=_SIM_COLOR, linewidths=0.6,
@@ -71,7 +70,7 @@ def _section_ir(res: ExperimentResult | None) -> str:
     ax.grid(alpha=0.3)
     ax.legend(loc="upper left", fontsize=8)
     ax.set_title("relative location of the receiving robot: actual vs estimated", fontsize=10)
-    out.append(f"<figure>{_img(_png(fig), 'IR estimated vs actual positions')}<figcaption>Receiver at 40–200 cm, "
+    out.append(f"<figure>{img(png_base64(fig), 'IR estimated vs actual positions')}<figcaption>Receiver at 40–200 cm, "
                f"0–180° in 30° steps; RMSEs over {res.data['samples_per_point']} samples a point "
                f"(valid fraction {_num(res.data['valid_fraction'])}).</figcaption></figure>")
     return "".join(out)
@@ -93,7 +92,7 @@ def _section_organize(res: ExperimentResult | None) -> str:
     pct = np.array([summ[str(n)]["retry_pct"] for n in counts])
     pmin = [paper["min_s"].get(str(n), math.nan) for n in counts]
     ppct = [paper["retry_pct"].get(str(n), math.nan) for n in counts]
-    fig = _new_figure(10.0, 3.8, wspace=0.3)
+    fig = new_figure(10.0, 3.8, wspace=0.3)
     ax = fig.add_subplot(1, 2, 1)
     ax.errorbar(counts, mean, yerr=[mean - lo, hi - mean], fmt="o-", color=_SIM_COLOR, capsize=5, label="sim: mean, min–max")
     ax.plot(counts, pmin, "s--", color=_PAPER_COLOR, mfc="none", label="paper: minimum (0.6 → 0.8 s)")
@@ -115,7 +114,7 @@ def _section_organize(res: ExperimentResult | None) -> str:
     ax2.grid(alpha=0.3, axis="y")
     ax2.legend(fontsize=8, loc="upper left")
     ax2.set_title("Table 5: retry probability", fontsize=10)
-    out.append(f"<figure>{_img(_png(fig), 'organize time and retry probability vs slaves')}<figcaption>"
+    out.append(f"<figure>{img(png_base64(fig), 'organize time and retry probability vs slaves')}<figcaption>"
                f"{res.data['organizations_per_count']} organizations per slave count through the environment's reset "
                "(join protocol on the simulated 802.15.4 medium). Error bars: minimum and maximum.</figcaption></figure>")
     out.append("<p>Setup: the robots wait around the grid formation's slots, all inside the master's 3 m available "
@@ -125,13 +124,13 @@ def _section_organize(res: ExperimentResult | None) -> str:
                "(Fig. 22 itself is lost from the text). The paper's own 50 organizations a count estimate a probability "
                "to about ±7 points (one σ).</p>")
     if res.note:
-        out.append(f'<p class="warn">{_e(res.note)}</p>')
+        out.append(f'<p class="warn">{escape(res.note)}</p>')
     rows = []
     for n, p_min, p_pct in zip(counts, pmin, ppct):
         s = summ[str(n)]
         rows.append(([str(n), _num(p_min, 2), _num(s["min_s"]), _num(s["mean_s"]), _num(s["max_s"]), _num(p_pct, 1),
                       _num(s["retry_pct"], 1), _num(s["mean_retries"], 2), str(s["failed"])], ""))
-    out.append(_table(["slaves", "paper min (s)", "sim min (s)", "sim mean (s)", "sim max (s)", "paper retry (%)",
+    out.append(table(["slaves", "paper min (s)", "sim min (s)", "sim mean (s)", "sim max (s)", "paper retry (%)",
                        "sim retry (%)", "sim retries / organization", "failed"], rows))
     return "".join(out)
 
@@ -146,7 +145,7 @@ def _section_lf(res: ExperimentResult | None) -> str:
     act = np.asarray(res.data.get("actual_m") or np.zeros((0, 2)), dtype=float) * 100.0
     est = np.asarray(res.data.get("estimated_m") or np.zeros((0, 2)), dtype=float) * 100.0
     if act.size:
-        fig = _new_figure(6.0, 4.4)
+        fig = new_figure(6.0, 4.4)
         ax = fig.add_subplot(1, 1, 1)
         # the paper's frame: x to the right, y forward
         if est.size:
@@ -158,7 +157,7 @@ def _section_lf(res: ExperimentResult | None) -> str:
         ax.set_ylabel("y, forward (cm)")
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8, loc="lower right")
-        out.append(f"<figure>{_img(_png(fig), 'LF measured vs actual user positions')}<figcaption>"
+        out.append(f"<figure>{img(png_base64(fig), 'LF measured vs actual user positions')}<figcaption>"
                    f"{res.data.get('samples_per_point')} samples a point; one measured point in five drawn.</figcaption></figure>")
     return "".join(out)
 
@@ -171,7 +170,7 @@ def _section_reaction(res: ExperimentResult | None) -> str:
     import numpy as np
 
     cdf = res.data.get("cdf", {})
-    fig = _new_figure(9.0, 3.6)
+    fig = new_figure(9.0, 3.6)
     ax1, ax2 = fig.add_subplot(1, 2, 1), fig.add_subplot(1, 2, 2)
     for key, color, label, paper in (("master", "#d62728", "master", 1.1), ("slave", _SIM_COLOR, "slave", 1.2)):
         v = np.asarray(cdf.get(key, []), dtype=float)
@@ -194,11 +193,11 @@ def _section_reaction(res: ExperimentResult | None) -> str:
     for ax in (ax1, ax2):
         ax.grid(alpha=0.3)
     n = len(res.data.get("trials", []))
-    out.append(f"<figure>{_img(_png(fig), 'reaction-time CDFs')}<figcaption>{n} trials: a leading swarm stands with its "
+    out.append(f"<figure>{img(png_base64(fig), 'reaction-time CDFs')}<figcaption>{n} trials: a leading swarm stands with its "
                "user, who starts turning on the spot; time from the rotation start to the start of each robot's motion "
                "(per trial the slaves' median).</figcaption></figure>")
     if res.note:
-        out.append(f'<p class="warn">{_e(res.note)}</p>')
+        out.append(f'<p class="warn">{escape(res.note)}</p>')
     return "".join(out)
 
 
@@ -209,23 +208,23 @@ def _section_rotation(res: ExperimentResult | None) -> str:
         return "".join(out) + _placeholder("rotation_sync", res)
     rows = []
     for target, t in res.data.get("targets", {}).items():
-        rows.append(([_e(f"{float(target):+.0f}"), _num(t.get("paper_mean_deg"), 2), _num(t.get("sim_mean_deg"), 2),
+        rows.append(([escape(f"{float(target):+.0f}"), _num(t.get("paper_mean_deg"), 2), _num(t.get("sim_mean_deg"), 2),
                       _num(t.get("sim_sigma_deg"), 2), _num(t.get("sim_accuracy_pct"), 2), str(len(t.get("arcs_deg", [])))], ""))
     out.append("<p>Target user turn, the robot's arc angle around its user (paper mean, simulated mean and σ), and "
                "accuracy = 100·(1 − mean|arc − target|/|target|).</p>")
-    out.append(_table(["target (°)", "paper mean (°)", "sim mean (°)", "sim σ (°)", "sim accuracy (%)", "trials"], rows))
+    out.append(table(["target (°)", "paper mean (°)", "sim mean (°)", "sim σ (°)", "sim accuracy (%)", "trials"], rows))
     return "".join(out)
 
 
 def render_html(results: dict[str, ExperimentResult], command: str = "petswarm reproduce", generated: str | None = None) -> str:
     if generated is None:
-        generated = _dt.datetime.now().astimezone().isoformat(timespec="seconds")
+        generated = now_stamp()
     passed = bool(results) and all(r.ok for r in results.values())
     wall = sum(r.wall_s for r in results.values())
     status = '<span style="color:#2a2">all rows within tolerance</span>' if passed else '<span class="warn">check fails</span>'
     body = [
         "<h1>petswarm: the papers' measurements, reproduced in simulation</h1>",
-        f'<p class="muted">generated {_e(generated)} · <code>{_e(command)}</code> · {wall:.1f} s of experiments</p>',
+        f'<p class="muted">generated {escape(generated)} · <code>{escape(command)}</code> · {wall:.1f} s of experiments</p>',
         (f"<p>Status: {status}. Each row compares a figure published in seed 000 / seed 002 with the same "
          "experiment run in the simulation, through the code the environment uses.</p>"),
         "<h2>Paper vs simulation</h2>",
@@ -236,13 +235,7 @@ def render_html(results: dict[str, ExperimentResult], command: str = "petswarm r
         _section_lf(results.get("lf_accuracy")),
         _section_rotation(results.get("rotation_sync")),
     ]
-    css = _CSS + "tr.fail td{background:#fbeaea}\n"
-    return (
-        '<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8"><title>petswarm reproduce</title>'
-        f'<meta name="viewport" content="width=device-width, initial-scale=1"><style>{css}</style></head>\n<body>\n'
-        + "\n".join(body)
-        + "\n</body></html>\n"
-    )
+    return page("petswarm reproduce", body, "tr.fail td{background:#fbeaea}\n")
 
 
 def write_reproduce_report(results: dict[str, ExperimentResult], out_path: str, command: str = "petswarm reproduce") -> None:

@@ -30,6 +30,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 from baselines.learned import LearnedPolicy, save_policy
 from baselines.policy import PolicySpec
 from baselines.registry import make_policy
+from evaluation.runner import run_episode
 from petswarm_env.config import (
     Config,
     ConfigError,
@@ -40,9 +41,8 @@ from petswarm_env.config import (
     read_yaml,
 )
 from petswarm_env.env import PetSwarmEnv
-from petswarm_env.observe import ObservationLayout
 from petswarm_env.files import write_atomic, write_json_atomic
-from training.runner import run_episode
+from petswarm_env.observe import ObservationLayout
 
 DEFAULT_TRAIN_CONFIG = Path(__file__).resolve().parents[1] / "configs" / "train" / "ppo.yaml"
 

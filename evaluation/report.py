@@ -15,10 +15,6 @@ Older result files may lack fields; whatever is missing shows as "n/a".
 
 from __future__ import annotations
 
-import base64
-import datetime as _dt
-import html
-import io
 import json
 import math
 import os
@@ -27,16 +23,15 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
-__all__ = ["load_result", "mean_ci95", "t_critical_95", "write_report"]  # stats re-exported from training.stats
-
+from evaluation.html import NA, escape, img, now_stamp, page, table
+from evaluation.report_plots import COLORS, plot_error_over_time, plot_rmse_bars, plot_trajectories, trace_matrix
+from evaluation.stats import as_number as _num
+from evaluation.stats import mean_ci95
 from petswarm_env.config import flatten_dotted
 from petswarm_env.files import write_text_atomic
-from training.stats import as_number as _num
-from training.stats import mean_ci95, t_critical_95
 
 REFERENCE_LABEL = "scripted"
 DEFAULT_DT_S = 0.1  # control period of one env step (configs/default.yaml: control_period_s)
-NA = "n/a"
 DASH = "—"
 
 
@@ -131,10 +126,6 @@ def _unique_labels(results: list[_Result]) -> None:
 
 
 # -- formatting ----------------------------------------------------------------------------------
-def _e(x: Any) -> str:
-    return html.escape(str(x), quote=True)
-
-
 def _fmt(x: Any, digits: int = 3) -> str:
     v = _num(x)
     return f"{v:.{digits}f}" if math.isfinite(v) else NA
@@ -198,219 +189,15 @@ def _gif_href(result: _Result, gif: str, out_dir: Path) -> tuple[str, bool]:
     return urllib.parse.quote(Path(rel).as_posix()), target.exists()
 
 
-# -- plots ---------------------------------------------------------------------------------------
-_COLORS = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf"]
-
-
-def _new_figure(w: float, h: float, top_in: float = 0.35, bottom_in: float = 0.55, wspace: float = 0.2, hspace: float = 0.2):
-    """A pyplot-free Agg figure with fixed margins in inches (cheaper than tight/constrained layout)."""
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=(w, h), dpi=100)
-    FigureCanvasAgg(fig)
-    fig.subplots_adjust(left=0.75 / w, right=1 - 0.15 / w, bottom=bottom_in / h, top=1 - top_in / h, wspace=wspace, hspace=hspace)
-    return fig
-
-
-def _png(fig) -> str:
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=90)
-    return base64.b64encode(buf.getvalue()).decode("ascii")
-
-
-def _img(b64: str, alt: str) -> str:
-    return f'<img src="data:image/png;base64,{b64}" alt="{_e(alt)}">'
-
-
-def _as_xy(points: Any):
-    """An (n, 2) float array from a list of [x, y], or None when it is not one."""
-    import numpy as np
-
-    try:
-        a = np.asarray(points, dtype=float)
-    except (TypeError, ValueError):
-        return None
-    if a.ndim != 2 or a.shape[1] < 2 or a.shape[0] == 0:
-        return None
-    return a[:, :2]
-
-
-def _trace_matrix(episodes: list[dict[str, Any]]):
-    """Episodes' error traces as rows of a NaN-padded matrix (None when there are none)."""
-    import numpy as np
-
-    traces = []
-    for ep in episodes:
-        tr = ep.get("error_trace")
-        if isinstance(tr, list) and tr:
-            traces.append([_num(x) for x in tr])
-    if not traces:
-        return None
-    m = np.full((len(traces), max(len(t) for t in traces)), np.nan)
-    for i, t in enumerate(traces):
-        m[i, : len(t)] = t
-    return m
-
-
-def _plot_rmse_bars(scenarios: list[str], labels: list[str], table: dict[tuple[str, str], tuple[float, float, int]], colors: dict[str, str]) -> str | None:
-    import numpy as np
-
-    if not any(math.isfinite(v[0]) for v in table.values()):
-        return None
-    fig = _new_figure(max(5.0, 1.2 + 0.9 * len(scenarios) * max(1, len(labels)) * 0.5), 3.4)
-    ax = fig.add_subplot(1, 1, 1)
-    width = 0.8 / max(1, len(labels))
-    x = np.arange(len(scenarios))
-    for j, label in enumerate(labels):
-        means, errs = [], []
-        for s in scenarios:
-            m, h, _ = table.get((s, label), (math.nan, math.nan, 0))
-            means.append(m)
-            errs.append(h if math.isfinite(h) else 0.0)
-        ax.bar(x + (j - (len(labels) - 1) / 2) * width, means, width, yerr=errs, capsize=3, color=colors[label], label=label)
-    ax.set_xticks(x)
-    ax.set_xticklabels(scenarios)
-    ax.set_ylabel("formation RMSE (m)")
-    ax.grid(axis="y", alpha=0.3)
-    ax.legend(fontsize=8, loc="best")
-    return _png(fig)
-
-
-def _plot_error_over_time(scenario: str, series: list[tuple[str, Any, float]], colors: dict[str, str]) -> str | None:
-    import warnings
-
-    import numpy as np
-
-    if not series:
-        return None
-    fig = _new_figure(7.5, 3.4)
-    ax = fig.add_subplot(1, 1, 1)
-    for label, m, dt in series:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN columns
-            mean = np.nanmean(m, axis=0)
-            q25 = np.nanpercentile(m, 25, axis=0)
-            q75 = np.nanpercentile(m, 75, axis=0)
-        t = np.arange(m.shape[1]) * dt
-        c = colors[label]
-        ax.plot(t, mean, color=c, lw=1.5, label=f"{label} (n={m.shape[0]})")
-        ax.fill_between(t, q25, q75, color=c, alpha=0.2, lw=0)
-    ax.set_xlabel("time (s)")
-    ax.set_ylabel("mean formation error (m)")
-    ax.set_title(f"scenario {scenario}", fontsize=10)
-    ax.set_ylim(bottom=0)
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=8, loc="best")
-    return _png(fig)
-
-
-_SLAVE_COLORS = ["#1f77b4", "#ff7f0e", "#2ca02c", "#9467bd", "#8c564b", "#e377c2", "#17becf", "#bcbd22", "#7f7f7f"]
-_MASTER_COLOR = "#d62728"
-
-
-def _plot_trajectories(scenario: str, panels: list[tuple[str, dict[str, Any]]]) -> str | None:
-    import numpy as np
-
-    drawable = []
-    for label, ep in panels:
-        traj = ep.get("trajectory")
-        if not isinstance(traj, dict):
-            continue
-        robots = traj.get("robots") if isinstance(traj.get("robots"), dict) else {}
-        paths = {str(name): xy for name, xy in ((n, _as_xy(p)) for n, p in robots.items()) if xy is not None}
-        user = _as_xy(traj.get("user"))
-        if paths or user is not None:
-            drawable.append((label, ep, str(traj.get("master")), paths, user))
-    if not drawable:
-        return None
-    # panel shape from the data's overall aspect, so equal-aspect panels are not mostly blank
-    pts = np.concatenate([a for _, _, _, paths, user in drawable for a in [*paths.values(), *([user] if user is not None else [])]])
-    pts = pts[np.isfinite(pts).all(axis=1)]
-    aspect = 1.0
-    if len(pts):
-        span = np.ptp(pts, axis=0)
-        aspect = float((span[1] + 1.0) / (span[0] + 1.0))
-    ncols = min(3, len(drawable))
-    nrows = math.ceil(len(drawable) / ncols)
-    panel_w = 11.0 / ncols if ncols > 1 else 6.0
-    panel_h = min(max(panel_w * aspect, 2.2), 6.0)
-    fig = _new_figure(panel_w * ncols, panel_h * nrows + 1.2, top_in=0.55, bottom_in=0.95, wspace=0.25, hspace=0.35)
-    names = sorted({n for _, _, _, paths, _ in drawable for n in paths}, key=lambda s: (len(s), s))
-    slave_names = [n for n in names if all(n != m for _, _, m, _, _ in drawable)]
-    colors = {n: _SLAVE_COLORS[i % len(_SLAVE_COLORS)] for i, n in enumerate(slave_names)}
-    legend: dict[str, Any] = {}
-    for k, (label, ep, master, paths, user) in enumerate(drawable):
-        ax = fig.add_subplot(nrows, ncols, k + 1)
-        for name in sorted(paths, key=lambda s: (s != master, len(s), s)):
-            xy = paths[name]
-            if name == master:
-                (line,) = ax.plot(xy[:, 0], xy[:, 1], color=_MASTER_COLOR, lw=2.2, zorder=3)
-                ax.plot(xy[-1, 0], xy[-1, 1], "o", color=_MASTER_COLOR, ms=6, zorder=4)
-                legend.setdefault("master robot", line)
-            else:
-                c = colors.get(name, "#7f7f7f")
-                (line,) = ax.plot(xy[:, 0], xy[:, 1], color=c, lw=0.9, alpha=0.85, zorder=2)
-                ax.plot(xy[-1, 0], xy[-1, 1], "o", color=c, ms=3.5, zorder=2)
-                legend.setdefault(name, line)
-        if user is not None:
-            (line,) = ax.plot(user[:, 0], user[:, 1], color="black", lw=1.6, ls="--", zorder=5)
-            ax.plot(user[0, 0], user[0, 1], "s", color="black", ms=5, zorder=5)
-            ax.plot(user[-1, 0], user[-1, 1], "*", color="black", ms=9, zorder=5)
-            legend.setdefault("user", line)
-        seed = ep.get("seed")
-        ax.set_title(f"{label} — seed {seed if seed is not None else NA} (master {master})", fontsize=9)
-        ax.set_aspect("equal", adjustable="datalim")
-        ax.grid(alpha=0.3)
-        ax.set_xlabel("x (m)", fontsize=8)
-        ax.set_ylabel("y (m)", fontsize=8)
-        ax.tick_params(labelsize=7)
-    order = ["user", "master robot"] + [n for n in legend if n not in ("user", "master robot")]
-    order = [n for n in order if n in legend]
-    fig.legend([legend[n] for n in order], order, loc="lower center", ncol=min(len(order), 8), fontsize=8, frameon=False)
-    fig.suptitle(f"scenario {scenario}", fontsize=10)
-    return _png(fig)
-
-
-# -- HTML ----------------------------------------------------------------------------------------
-_CSS = """
-body{font-family:system-ui,-apple-system,"Segoe UI",Roboto,Helvetica,Arial,sans-serif;margin:1.5em auto;max-width:1100px;padding:0 1em;color:#222;line-height:1.4}
-h1{font-size:1.6em;margin-bottom:.2em}h2{border-bottom:2px solid #ddd;padding-bottom:.2em;margin-top:1.8em}h3{margin-bottom:.3em}
-table{border-collapse:collapse;margin:.6em 0 1em;font-size:.9em}
-th,td{border:1px solid #ccc;padding:.25em .6em;text-align:right;vertical-align:top}
-th{background:#f0f0f0}td.l,th.l{text-align:left}
-tr.best td{background:#e6f4e6;font-weight:600}
-tr.total td{background:#f7f7f7;font-style:italic}
-tr.grp td{border-top:2px solid #999}
-.meta td{text-align:left}.muted{color:#777}.warn{color:#a60}
-figure{margin:.6em 0 1.4em}figure img{max-width:100%;border:1px solid #eee}
-figcaption{font-size:.85em;color:#555;max-width:900px}
-code{background:#f4f4f4;padding:0 .2em}details{margin:.4em 0}
-ul.gifs{columns:2;font-size:.9em}
-"""
-
-
-def _table(headers: list[str], rows: list[tuple[list[str], str]], left_cols: int = 1) -> str:
-    """``rows``: (escaped cell texts, tr class). The first ``left_cols`` columns are left-aligned."""
-    out = ["<table><thead><tr>"]
-    out += [f'<th class="l">{h}</th>' if i < left_cols else f"<th>{h}</th>" for i, h in enumerate(headers)]
-    out.append("</tr></thead><tbody>")
-    for cells, cls in rows:
-        out.append(f'<tr class="{cls}">' if cls else "<tr>")
-        out += [f'<td class="l">{c}</td>' if i < left_cols else f"<td>{c}</td>" for i, c in enumerate(cells)]
-        out.append("</tr>")
-    out.append("</tbody></table>")
-    return "".join(out)
-
-
+# -- sections ----------------------------------------------------------------------------------------
 def _section_header(results: list[_Result], generated: str) -> str:
-    parts = [f"<h1>petswarm evaluation report</h1><p class=\"muted\">generated {_e(generated)} · environment <code>{_e(_env_name(results))}</code></p>"]
+    parts = [f"<h1>petswarm evaluation report</h1><p class=\"muted\">generated {escape(generated)} · environment <code>{escape(_env_name(results))}</code></p>"]
     rows = []
     for r in results:
         scns = list(r.by_scenario())
-        rows.append(([_e(r.label), f"<code>{_e(r.path)}</code>", str(len(r.episodes)), _e(", ".join(scns)) if scns else NA], ""))
+        rows.append(([escape(r.label), f"<code>{escape(r.path)}</code>", str(len(r.episodes)), escape(", ".join(scns)) if scns else NA], ""))
     parts.append("<h2>1. Results compared</h2>")
-    parts.append(_table(["label", "file", "episodes", "scenarios"], rows, left_cols=2))
+    parts.append(table(["label", "file", "episodes", "scenarios"], rows, left_cols=2))
     # config differences
     flat = [flatten_dotted(r.config) for r in results]
     keys = sorted(set().union(*flat)) if flat else []
@@ -422,13 +209,13 @@ def _section_header(results: list[_Result], generated: str) -> str:
     elif not diff:
         parts.append("<p>Configuration differences: none — all results share the same configuration.</p>")
     else:
-        drows = [([f"<code>{_e(k)}</code>"] + [_e(_cfg_value(f[k])) if k in f else f'<span class="muted">{NA}</span>' for f in flat], "") for k in diff]
+        drows = [([f"<code>{escape(k)}</code>"] + [escape(_cfg_value(f[k])) if k in f else f'<span class="muted">{NA}</span>' for f in flat], "") for k in diff]
         parts.append("<p>Configuration differences between results:</p>")
-        parts.append(_table(["key"] + [_e(r.label) for r in results], drows))
+        parts.append(table(["key"] + [escape(r.label) for r in results], drows))
     if any(flat):
         first = next((r for r, f in zip(results, flat) if f), results[0])
-        crow = [([f"<code>{_e(k)}</code>", _e(_cfg_value(v))], "") for k, v in sorted(flatten_dotted(first.config).items())]
-        parts.append(f"<details><summary>full configuration of <b>{_e(first.label)}</b></summary>{_table(['key', 'value'], crow, left_cols=2)}</details>")
+        crow = [([f"<code>{escape(k)}</code>", escape(_cfg_value(v))], "") for k, v in sorted(flatten_dotted(first.config).items())]
+        parts.append(f"<details><summary>full configuration of <b>{escape(first.label)}</b></summary>{table(['key', 'value'], crow, left_cols=2)}</details>")
     return "".join(parts)
 
 
@@ -458,18 +245,18 @@ def _section_rmse(results: list[_Result], scenarios: list[str], colors: dict[str
             ratio = f"{m / ref:.2f}" if math.isfinite(m) and math.isfinite(ref) and ref > 0 else DASH
             is_best = best is not None and math.isfinite(m) and m == best
             cls = " ".join(c for c in ("grp" if lab == present[0] else "", "best" if is_best and len(present) > 1 else "") if c)
-            rows.append(([_e(s), _e(lab) + (" ★" if is_best and len(present) > 1 else ""), _fmt_ci(m, h), n_txt, ratio], cls))
-    ref_txt = f"<b>{_e(REFERENCE_LABEL)}</b>" if ref_label else f"{DASH} (no result labelled <code>{REFERENCE_LABEL}</code>)"
+            rows.append(([escape(s), escape(lab) + (" ★" if is_best and len(present) > 1 else ""), _fmt_ci(m, h), n_txt, ratio], cls))
+    ref_txt = f"<b>{escape(REFERENCE_LABEL)}</b>" if ref_label else f"{DASH} (no result labelled <code>{REFERENCE_LABEL}</code>)"
     parts.append(
         "<p>Formation RMSE (m) per scenario: mean over episodes ± half-width of the 95 % confidence interval "
         "(Student's t over the episodes' <code>formation_rmse_m</code>; n/a with a single episode). "
         f"Ratio: mean ÷ mean of the reference {ref_txt} on the same scenario (lower is better). "
         "The best (lowest mean) label per scenario is highlighted.</p>"
     )
-    parts.append(_table(["scenario", "label", "formation RMSE (m), mean ± 95 % CI", "episodes", f"ratio to {_e(REFERENCE_LABEL)}"], rows, left_cols=2))
-    bars = _plot_rmse_bars(scenarios, labels, stats, colors)
+    parts.append(table(["scenario", "label", "formation RMSE (m), mean ± 95 % CI", "episodes", f"ratio to {escape(REFERENCE_LABEL)}"], rows, left_cols=2))
+    bars = plot_rmse_bars(scenarios, labels, stats, colors)
     if bars:
-        parts.append(f"<figure>{_img(bars, 'formation RMSE per scenario')}<figcaption>Formation RMSE per scenario and label; error bars: 95 % t confidence interval over episodes.</figcaption></figure>")
+        parts.append(f"<figure>{img(bars, 'formation RMSE per scenario')}<figcaption>Formation RMSE per scenario and label; error bars: 95 % t confidence interval over episodes.</figcaption></figure>")
     return "".join(parts)
 
 
@@ -478,16 +265,16 @@ def _section_error_time(results: list[_Result], scenarios: list[str], colors: di
     for s in scenarios:
         series = []
         for r in results:
-            m = _trace_matrix(r.by_scenario().get(s, []))
+            m = trace_matrix(r.by_scenario().get(s, []))
             if m is not None:
                 series.append((r.label, m, r.dt_s))
-        png = _plot_error_over_time(s, series, colors)
+        png = plot_error_over_time(s, series, colors)
         if png is None:
-            parts.append(f"<h3>{_e(s)}</h3><p>{NA}: no error traces recorded.</p>")
+            parts.append(f"<h3>{escape(s)}</h3><p>{NA}: no error traces recorded.</p>")
             continue
         dts = sorted({dt for _, _, dt in series})
         parts.append(
-            f"<h3>{_e(s)}</h3><figure>{_img(png, f'formation error over time, {s}')}<figcaption>Mean formation error per step "
+            f"<h3>{escape(s)}</h3><figure>{img(png, f'formation error over time, {s}')}<figcaption>Mean formation error per step "
             f"(m) across episodes, line = mean over episodes, shaded band = 25–75 percentile (interquartile range) over episodes. "
             f"Time axis: step index × {', '.join(f'{d:g}' for d in dts)} s, from the first step with a recorded error.</figcaption></figure>"
         )
@@ -506,12 +293,12 @@ def _section_trajectories(results: list[_Result], scenarios: list[str]) -> str:
             eps = r.by_scenario().get(s, [])
             if eps:
                 panels.append((r.label, eps[0]))
-        png = _plot_trajectories(s, panels)
+        png = plot_trajectories(s, panels)
         if png is None:
-            parts.append(f"<h3>{_e(s)}</h3><p>{NA}: no trajectories recorded.</p>")
+            parts.append(f"<h3>{escape(s)}</h3><p>{NA}: no trajectories recorded.</p>")
             continue
         parts.append(
-            f"<h3>{_e(s)}</h3><figure>{_img(png, f'trajectories, {s}')}<figcaption>First episode of each label in this scenario: "
+            f"<h3>{escape(s)}</h3><figure>{img(png, f'trajectories, {s}')}<figcaption>First episode of each label in this scenario: "
             "user path (black dashed, ■ start, ★ end), master robot (thick red), slave robots (thin lines), ● = final positions. "
             "Axes in metres, equal aspect.</figcaption></figure>"
         )
@@ -561,13 +348,13 @@ def _section_collisions_comms(results: list[_Result], scenarios: list[str]) -> s
             eps = r.by_scenario().get(s)
             if eps:
                 c = _collision_counts(eps)
-                rows.append(([_e(s), _e(r.label), str(len(eps))] + [_fmt_int(x) for x in c] + [_fmt_int(_sum_or_nan(c))], ""))
+                rows.append(([escape(s), escape(r.label), str(len(eps))] + [_fmt_int(x) for x in c] + [_fmt_int(_sum_or_nan(c))], ""))
     for r in results:
         if r.episodes:
             c = _collision_counts(r.episodes)
-            rows.append((["all scenarios", _e(r.label), str(len(r.episodes))] + [_fmt_int(x) for x in c] + [_fmt_int(_sum_or_nan(c))], "total"))
+            rows.append((["all scenarios", escape(r.label), str(len(r.episodes))] + [_fmt_int(x) for x in c] + [_fmt_int(_sum_or_nan(c))], "total"))
     parts.append("<h3>Collisions</h3><p>Collision events summed over episodes, as counted by the environment (<code>collisions</code> of each episode).</p>")
-    parts.append(_table(["scenario", "label", "episodes", "robot–robot", "robot–user", "robot–wall", "total"], rows, left_cols=2))
+    parts.append(table(["scenario", "label", "episodes", "robot–robot", "robot–user", "robot–wall", "total"], rows, left_cols=2))
     # arbiter
     keys: list[str] = []
     for r in results:
@@ -583,33 +370,33 @@ def _section_collisions_comms(results: list[_Result], scenarios: list[str]) -> s
     for r in results:
         eps = [ep for ep in r.episodes if isinstance(_arbiter_wins(ep), dict)]
         if not eps:
-            arows.append(([_e(r.label), "0"] + [NA] * len(order) + [NA], ""))
+            arows.append(([escape(r.label), "0"] + [NA] * len(order) + [NA], ""))
             continue
         wins = {k: _sum_or_nan(_arbiter_wins(ep).get(k) for ep in eps) for k in order}
         ticks = _sum_or_nan(wins.values())  # one source wins per robot and tick
         cells = [f"{_fmt_int(wins[k])} ({_fmt_pct(wins[k], ticks)})" if math.isfinite(wins[k]) else NA for k in order]
-        arows.append(([_e(r.label), str(len(eps))] + cells + [_fmt_int(ticks)], ""))
+        arows.append(([escape(r.label), str(len(eps))] + cells + [_fmt_int(ticks)], ""))
     parts.append(
         "<h3>Arbiter</h3><p>Which source won the command arbitration of seed 001 (safety &gt; user &gt; policy), "
         "summed over every robot (master included) and tick of the episodes, as a share of robot-ticks. "
         f"{NA}: the result records no arbiter statistics.</p>"
     )
-    parts.append(_table(["label", "episodes with data"] + [_e(k) for k in order] + ["ticks"], arows))
+    parts.append(table(["label", "episodes with data"] + [escape(k) for k in order] + ["ticks"], arows))
     # communication
     crow = []
     for s in scenarios:
         for r in results:
             eps = r.by_scenario().get(s)
             if eps:
-                crow.append(([_e(s), _e(r.label), str(len(eps))] + _comm_cells(eps), ""))
+                crow.append(([escape(s), escape(r.label), str(len(eps))] + _comm_cells(eps), ""))
     for r in results:
         if r.episodes:
-            crow.append((["all scenarios", _e(r.label), str(len(r.episodes))] + _comm_cells(r.episodes), "total"))
+            crow.append((["all scenarios", escape(r.label), str(len(r.episodes))] + _comm_cells(r.episodes), "total"))
     parts.append(
         "<h3>Communication</h3><p>802.15.4 frames summed over episodes (lost and collided as a share of sent), "
         "join retries and IR token recoveries summed, organize time (s) mean ± 95 % CI over episodes.</p>"
     )
-    parts.append(_table(["scenario", "label", "episodes", "frames sent", "lost", "collided", "join retries", "token recoveries", "organize time (s)"], crow, left_cols=2))
+    parts.append(table(["scenario", "label", "episodes", "frames sent", "lost", "collided", "join retries", "token recoveries", "organize time (s)"], crow, left_cols=2))
     return "".join(parts)
 
 
@@ -624,7 +411,7 @@ def _section_gifs(results: list[_Result], out_dir: Path) -> str:
             href, exists = _gif_href(r, gif, out_dir)
             text = f"{r.label} — {r.scenario_of(ep)}, seed {ep.get('seed', NA)}"
             missing = "" if exists else ' <span class="warn">(file not found)</span>'
-            items.append(f'<li><a href="{_e(href)}">{_e(text)}</a>{missing}</li>')
+            items.append(f'<li><a href="{escape(href)}">{escape(text)}</a>{missing}</li>')
     if items:
         parts.append("<p>GIFs recorded during evaluation (links relative to this report).</p><ul class=\"gifs\">" + "".join(items) + "</ul>")
     else:
@@ -635,13 +422,13 @@ def _section_gifs(results: list[_Result], out_dir: Path) -> str:
 def _render_html(results: list[_Result], out_path: str | os.PathLike, generated: str | None = None) -> str:
     out_dir = Path(out_path).resolve().parent
     if generated is None:
-        generated = _dt.datetime.now().astimezone().isoformat(timespec="seconds")
+        generated = now_stamp()
     scenarios: list[str] = []
     for r in results:
         for s in r.by_scenario():
             if s not in scenarios:
                 scenarios.append(s)
-    colors = {r.label: _COLORS[i % len(_COLORS)] for i, r in enumerate(results)}
+    colors = {r.label: COLORS[i % len(COLORS)] for i, r in enumerate(results)}
     body = [
         _section_header(results, generated),
         _section_rmse(results, scenarios, colors),
@@ -650,13 +437,7 @@ def _render_html(results: list[_Result], out_path: str | os.PathLike, generated:
         _section_collisions_comms(results, scenarios),
         _section_gifs(results, out_dir),
     ]
-    title = "petswarm report: " + " vs ".join(r.label for r in results)
-    return (
-        f'<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8"><title>{_e(title)}</title>'
-        f'<meta name="viewport" content="width=device-width, initial-scale=1"><style>{_CSS}</style></head>\n<body>\n'
-        + "\n".join(body)
-        + "\n</body></html>\n"
-    )
+    return page("petswarm report: " + " vs ".join(r.label for r in results), body)
 
 
 def write_report(result_paths: list[str], out_path: str) -> None:

@@ -10,8 +10,8 @@ from baselines.policy import MixedPolicy, PolicySpec
 from baselines.registry import make_policy
 from petswarm_env.config import SCENARIOS, Config, ConfigError, flatten_dotted, load_config
 from petswarm_env.env import PetSwarmEnv
-from training.runner import VideoRecorder, run_episode, summarize
-from training.stats import mean_ci95
+from evaluation.runner import VideoRecorder, run_episode, summarize
+from evaluation.stats import mean_ci95
 
 
 def parse_mix(items: list[str]) -> dict[str, str]:

@@ -1,0 +1,1 @@
+"""Evaluation: run and evaluate slave policies (runner, evaluate), statistics, and the HTML comparison report."""

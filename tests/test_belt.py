@@ -5,6 +5,7 @@ import math
 import numpy as np
 import pytest
 
+from experiments.measure_wearables import recognition_latency_experiment
 from petswarm_env.config import load_config
 from petswarm_env.wearables.belt import (
     ACTIVITIES,
@@ -12,7 +13,6 @@ from petswarm_env.wearables.belt import (
     SmartBelt,
     classify,
     count_sign_changes,
-    recognition_latency_experiment,
     signal_magnitude_area,
     sma_level,
 )

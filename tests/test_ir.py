@@ -5,15 +5,17 @@ import numpy as np
 import pydantic
 import pytest
 
-from petswarm_env.config import load_config
-from petswarm_env.middleware.ir import (
+from experiments.ir_accuracy import (
     PAPER_ANGLES_DEG,
     PAPER_DIRECTION_RMSE_DEG,
     PAPER_DISTANCE_RMSE_CM,
     PAPER_DISTANCES_M,
     PAPER_SAMPLES_PER_POINT,
-    IRConfig,
     accuracy_experiment,
+)
+from petswarm_env.config import load_config
+from petswarm_env.middleware.ir import (
+    IRConfig,
     estimate,
     received_strengths,
     wrap_angle,

@@ -5,9 +5,9 @@ import math
 import numpy as np
 import pytest
 
+from experiments.lf_accuracy import PAPER_RMSE, lf_accuracy_experiment
 from petswarm_env.config import ConfigError, load_config
 from petswarm_env.wearables.lf import (
-    PAPER_RMSE,
     LFConfig,
     LFFix,
     _interp_one,
@@ -15,7 +15,6 @@ from petswarm_env.wearables.lf import (
     antenna_positions,
     calibration_curve,
     estimate,
-    lf_accuracy_experiment,
     lf_rssi,
     locate,
     position_from_distances,

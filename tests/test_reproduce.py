@@ -9,10 +9,15 @@ import os
 
 import pytest
 
+from experiments import registry
+from experiments.ir_accuracy import IR_QUICK_SAMPLES_PER_POINT
+from experiments.organize_time import PAPER_MIN_ORGANIZE_S, organize_rows, organize_summary, organize_time
+from experiments.reaction_time import reaction_trial
+from experiments.report import render_html
+from experiments.results import Experiment, ExperimentResult, NotAvailable, Row
+from experiments.rotation_sync import rotation_trial
 from petswarm_env.config import load_config
-from training import reproduce as rp
 from training.cli import main
-from training.reproduce_report import render_html
 
 ROW_KEYS = {"metric", "paper", "sim", "tolerance", "ok"}
 
@@ -20,9 +25,9 @@ ROW_KEYS = {"metric", "paper", "sim", "tolerance", "ok"}
 def _fake(rows=(), missing: str | None = None):
     def run(cfg, seed, quick, progress):
         if missing:
-            raise rp.NotAvailable(missing)
+            raise NotAvailable(missing)
         progress(1, 1)
-        return rp.ExperimentResult(rows=list(rows), data={"seed": seed, "quick": quick})
+        return ExperimentResult(rows=list(rows), data={"seed": seed, "quick": quick})
 
     return run
 
@@ -30,24 +35,24 @@ def _fake(rows=(), missing: str | None = None):
 @pytest.fixture
 def fakes(monkeypatch):
     """Experiments with known rows: one within tolerance, one outside, one not available."""
-    good = [rp.Row.within("a (s)", 1.0, 1.05, 0.1)]
-    bad = [rp.Row.within("a (s)", 1.0, 1.05, 0.1), rp.Row.within("b (%)", 30.0, 50.0, 15.0)]
+    good = [Row.within("a (s)", 1.0, 1.05, 0.1)]
+    bad = [Row.within("a (s)", 1.0, 1.05, 0.1), Row.within("b (%)", 30.0, 50.0, 15.0)]
     for name, fn in [("fake_ok", _fake(good)), ("fake_bad", _fake(bad)), ("fake_na", _fake(missing="needs the widget"))]:
-        monkeypatch.setitem(rp.EXPERIMENTS, name, rp.Experiment(name, name, fn))
+        monkeypatch.setitem(registry.EXPERIMENTS, name, Experiment(name, name, fn))
 
 
 # -- registry and arguments -----------------------------------------------------------------------------
 def test_registry_has_the_issue_names_in_order():
-    assert list(rp.EXPERIMENTS) == ["ir_accuracy", "reaction_time", "organize_time", "lf_accuracy", "rotation_sync"]
+    assert list(registry.EXPERIMENTS) == ["ir_accuracy", "reaction_time", "organize_time", "lf_accuracy", "rotation_sync"]
 
 
 def test_parse_only():
-    assert rp.parse_only(None) == list(rp.EXPERIMENTS)
-    assert rp.parse_only(" organize_time, ir_accuracy,organize_time") == ["organize_time", "ir_accuracy"]
+    assert registry.parse_only(None) == list(registry.EXPERIMENTS)
+    assert registry.parse_only(" organize_time, ir_accuracy,organize_time") == ["organize_time", "ir_accuracy"]
     with pytest.raises(ValueError, match="unknown experiment 'nope'; valid experiments: ir_accuracy, reaction_time"):
-        rp.parse_only("ir_accuracy,nope")
+        registry.parse_only("ir_accuracy,nope")
     with pytest.raises(ValueError, match="no experiment named"):
-        rp.parse_only(" , ")
+        registry.parse_only(" , ")
 
 
 def test_cli_unknown_experiment_lists_the_valid_ones(capsys):
@@ -61,10 +66,10 @@ def test_cli_unknown_experiment_lists_the_valid_ones(capsys):
 
 
 def test_row_tolerance():
-    assert rp.Row.within("m", 10.0, 11.9, 2.0).ok
-    assert rp.Row.within("m", 10.0, 8.0, 2.0).ok
-    assert not rp.Row.within("m", 10.0, 12.1, 2.0).ok
-    assert not rp.Row.within("m", 10.0, math.nan, 2.0).ok
+    assert Row.within("m", 10.0, 11.9, 2.0).ok
+    assert Row.within("m", 10.0, 8.0, 2.0).ok
+    assert not Row.within("m", 10.0, 12.1, 2.0).ok
+    assert not Row.within("m", 10.0, math.nan, 2.0).ok
 
 
 # -- --check and the JSON ------------------------------------------------------------------------------
@@ -101,7 +106,7 @@ def test_json_schema(fakes, tmp_path):
     ir = exps["ir_accuracy"]
     assert [r["metric"] for r in ir["rows"]] == ["distance RMSE (cm)", "direction RMSE (°)"]
     assert ir["rows"][0]["paper"] == 7.898 and ir["rows"][1]["paper"] == 5.8
-    assert ir["data"]["samples_per_point"] == rp.IR_QUICK_SAMPLES_PER_POINT
+    assert ir["data"]["samples_per_point"] == IR_QUICK_SAMPLES_PER_POINT
     assert [r["ok"] for r in exps["fake_bad"]["rows"]] == [True, False]
     assert exps["fake_na"]["rows"] == [] and exps["fake_na"]["available"] is False
 
@@ -109,7 +114,7 @@ def test_json_schema(fakes, tmp_path):
 # -- organize_time -----------------------------------------------------------------------------------------
 def test_organize_time_small_run_gives_sane_rows():
     calls = []
-    res = rp.organize_time(load_config(), 0, True, lambda d, t: calls.append((d, t)), slave_counts=(1, 2), trials=4)
+    res = organize_time(load_config(), 0, True, lambda d, t: calls.append((d, t)), slave_counts=(1, 2), trials=4)
     assert calls[-1] == (8, 8)
     assert [r.metric for r in res.rows] == [
         "min organize time, 1 slave (s)", "min organize time, 2 slaves (s)",
@@ -129,13 +134,13 @@ def test_organize_time_small_run_gives_sane_rows():
 
 def test_organize_rows_flag_misses_and_a_falling_probability():
     def summ(pcts):
-        return {n: {"min_s": rp.PAPER_MIN_ORGANIZE_S[n], "retry_pct": p} for n, p in pcts.items()}
+        return {n: {"min_s": PAPER_MIN_ORGANIZE_S[n], "retry_pct": p} for n, p in pcts.items()}
 
-    rows = {r.metric: r for r in rp.organize_rows(summ({1: 0.0, 2: 40.0, 3: 30.0}))}
+    rows = {r.metric: r for r in organize_rows(summ({1: 0.0, 2: 40.0, 3: 30.0}))}
     assert rows["retry probability, 2 slaves (%)"].ok is False  # 40 vs 6 > 15 points
     assert rows["retry probability, 3 slaves (%)"].ok is True
     assert rows["retry probability rises with the slave count (1 = yes)"].ok is False  # 40 → 30 falls
-    rows = rp.organize_rows(summ({1: 0.0, 2: 10.0, 3: 30.0}))
+    rows = organize_rows(summ({1: 0.0, 2: 10.0, 3: 30.0}))
     assert all(r.ok for r in rows)
 
 
@@ -146,7 +151,7 @@ def test_organize_summary_counts_a_failed_organization_as_retried():
         {"elapsed_s": math.nan, "retries": 3, "complete": False},
         {"elapsed_s": 0.7, "retries": 0, "complete": True},
     ]
-    s = rp.organize_summary(trials)
+    s = organize_summary(trials)
     assert s["failed"] == 1
     assert s["retry_pct"] == 50.0
     assert (s["min_s"], s["max_s"]) == (0.6, 1.2)
@@ -155,9 +160,9 @@ def test_organize_summary_counts_a_failed_organization_as_retried():
 # -- report and atomic writes ---------------------------------------------------------------------------------
 def test_html_report_has_plots_and_placeholders():
     cfg = load_config()
-    results = rp.run_experiments(["ir_accuracy"], cfg, 0, True)
-    results["organize_time"] = rp.organize_time(cfg, 0, True, lambda d, t: None, slave_counts=(1, 2), trials=2)
-    results["rotation_sync"] = rp.ExperimentResult(rows=[], available=False, note="not available yet: a test")
+    results = registry.run_experiments(["ir_accuracy"], cfg, 0, True)
+    results["organize_time"] = organize_time(cfg, 0, True, lambda d, t: None, slave_counts=(1, 2), trials=2)
+    results["rotation_sync"] = ExperimentResult(rows=[], available=False, note="not available yet: a test")
     page = render_html(results, "petswarm reproduce --test")
     assert page.count('src="data:image/png;base64,') == 2  # Fig. 19 and Fig. 22 / Table 5
     assert "not available yet" in page  # rotation_sync
@@ -212,24 +217,24 @@ def test_master_rescans_while_every_scan_response_was_lost(monkeypatch):
 
 # -- the experiments with the user in the loop ------------------------------------------------------------------
 def test_reaction_trial_measures_master_then_slaves():
-    t = rp.reaction_trial(load_config(), 0)
+    t = reaction_trial(load_config(), 0)
     assert 0.1 < t["master_s"] < 2.0 and 0.1 < t["slave_s"] < 2.5  # the chain takes time, but reacts
     assert t["slave_minus_master_s"] == pytest.approx(t["slave_s"] - t["master_s"])
 
 
 @pytest.mark.parametrize("target", [-90.0, 45.0])
 def test_rotation_trial_arcs_with_the_user(target):
-    arc = rp.rotation_trial(load_config(), 0, target)
+    arc = rotation_trial(load_config(), 0, target)
     assert arc * target > 0 and abs(arc - target) < 0.3 * abs(target)
 
 
 def test_reaction_and_rotation_sections_render():
     res = {
-        "reaction_time": rp.ExperimentResult(
-            rows=[rp.Row.within("master reaction, 90th percentile (s)", 1.1, 0.6, 0.2)],
+        "reaction_time": ExperimentResult(
+            rows=[Row.within("master reaction, 90th percentile (s)", 1.1, 0.6, 0.2)],
             data={"trials": [{}] * 3, "cdf": {"master": [0.4, 0.5, 0.6], "slave": [0.5, 0.7, 0.8], "slave_minus_master": [0.1, 0.2, 0.2]}}),
-        "rotation_sync": rp.ExperimentResult(
-            rows=[rp.Row("+90°: accuracy (%) > 94", 95.78, 96.0, 1.78, True)],
+        "rotation_sync": ExperimentResult(
+            rows=[Row("+90°: accuracy (%) > 94", 95.78, 96.0, 1.78, True)],
             data={"targets": {"90.0": {"paper_mean_deg": 87.56, "sim_mean_deg": 88.0, "sim_sigma_deg": 2.0,
                                        "sim_accuracy_pct": 96.0, "arcs_deg": [88.0, 86.0, 90.0]}}}),
     }

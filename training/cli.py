@@ -58,13 +58,13 @@ def _add_env_config_options(parser: argparse.ArgumentParser) -> None:
 
 
 def _experiment_list() -> list[str]:
-    from training.reproduce import EXPERIMENTS
+    from experiments.registry import EXPERIMENTS
 
     return list(EXPERIMENTS)
 
 
 def _experiment_names(text: str) -> list[str]:
-    from training.reproduce import parse_only
+    from experiments.registry import parse_only
 
     try:
         return parse_only(text)
@@ -246,31 +246,13 @@ def _cmd_bench(args) -> int:
 
 
 def _cmd_reproduce(args, argv: list[str]) -> int:
-    import time
-
-    from petswarm_env.files import write_json_atomic
-    from training.reproduce import EXPERIMENTS, ProgressBars, check_passed, print_table, results_json, run_experiments
+    from experiments.registry import EXPERIMENTS
+    from experiments.reproduce import reproduce
 
     cfg = load_config(args.config, dict(parse_override(item) for item in args.set))
-    names = args.only or list(EXPERIMENTS)
     seed = cfg.seed if args.seed is None else args.seed
-    t0 = time.perf_counter()
-    with ProgressBars(names) as progress_for:
-        results = run_experiments(names, cfg, seed, args.quick, progress_for)
-    wall = time.perf_counter() - t0
-    print_table(results)
-    passed = check_passed(results)
-    print(f"{'PASS' if passed else 'FAIL'}: {sum(r.ok for r in results.values())}/{len(results)} experiments within "
-          f"tolerance; wall time {wall:.1f} s")
-    if args.json:
-        write_json_atomic(args.json, results_json(results, seed, args.quick))
-        print(f"wrote {args.json}")
-    if args.report:
-        from training.reproduce_report import write_reproduce_report
-
-        write_reproduce_report(results, args.report, "petswarm " + " ".join(argv))
-        print(f"wrote {args.report}")
-    return 1 if args.check and not passed else 0
+    return reproduce(cfg, args.only or list(EXPERIMENTS), seed, args.quick, args.json, args.report, args.check,
+                     "petswarm " + " ".join(argv))
 
 
 def _cmd_report(args) -> int:

@@ -32,13 +32,6 @@ from pydantic import BaseModel, ConfigDict, Field
 # Distances are clamped to at least this (m) so a degenerate zero distance cannot produce inf·0.
 _MIN_DISTANCE_M = 0.01
 
-# Seed 000, §4.3 (Fig. 18, Table 4): the accuracy-evaluation grid and the reported RMSEs.
-PAPER_DISTANCES_M = np.round(np.arange(0.40, 2.0 + 1e-9, 0.20), 2)
-PAPER_ANGLES_DEG = np.arange(0.0, 180.0 + 1e-9, 30.0)
-PAPER_SAMPLES_PER_POINT = 300
-PAPER_DISTANCE_RMSE_CM = 7.898
-PAPER_DIRECTION_RMSE_DEG = 5.8  # Table 4; the running text says 6.52°
-
 
 class IRConfig(BaseModel):
     """Parameters of the IR module. Values live in the YAML config (calibrated to seed 000 Table 4)."""
@@ -260,69 +253,3 @@ def estimate_rows(cfg: IRConfig, strengths: list[list[float]]) -> tuple[list[flo
             distance.append(math.nan)
             bearing.append(math.nan)
     return distance, bearing, valid
-
-
-def accuracy_experiment(
-    cfg: IRConfig,
-    rng: np.random.Generator,
-    distances_m: np.ndarray,
-    angles_deg: np.ndarray,
-    samples_per_point: int,
-) -> dict:
-    """Seed 000 §4.3 accuracy evaluation (Fig. 18, Table 4), run on the simulated module.
-
-    The transmitting robot sits at the origin; the receiving robot is placed at each
-    ``(distance, angle)`` of the grid, i.e. at ``distance·(cos angle, sin angle)``, and measures
-    the IR signal ``samples_per_point`` times (clear line of sight). The paper grid is 40–200 cm
-    in 20 cm steps, 0–180° in 30° steps, 300 samples a point (``PAPER_*`` constants).
-
-    Orientation choice: the text does not say how the receiver is oriented (Fig. 18 is lost).
-    Fig. 19 plots estimated against actual receiver locations in one 2-D plane, which is natural
-    when every robot keeps the same heading. So the receiving robot always faces +x (parallel to
-    the transmitter) and the source bearing in its body frame is ``angle + 180°``; over the grid
-    the source is seen on-axis of a receiver and between receivers, which exercises the
-    estimator's interpolation.
-
-    Errors: distance error is estimated minus true distance; direction error is the wrapped
-    difference between estimated and true bearing. RMSEs are over all valid samples.
-
-    Returns:
-        dict with ``distance_rmse_cm``, ``direction_rmse_deg``, ``valid_fraction`` and ``points``:
-        one dict per grid point with ``distance_cm``, ``angle_deg``, ``distance_rmse_cm``,
-        ``direction_rmse_deg``, ``valid_fraction``.
-    """
-    # seed 000, §4.3, Table 4
-    dist_grid, ang_grid = np.meshgrid(
-        np.asarray(distances_m, dtype=float), np.asarray(angles_deg, dtype=float), indexing="ij"
-    )
-    point_d = dist_grid.reshape(-1)
-    point_bearing = wrap_angle(np.deg2rad(ang_grid.reshape(-1)) + np.pi)
-    n_points = point_d.size
-    true_d = np.repeat(point_d, samples_per_point)
-    true_bearing = np.repeat(point_bearing, samples_per_point)
-    strengths = received_strengths(cfg, true_d, true_bearing, np.zeros(true_d.size, dtype=bool), rng)
-    est_d, est_bearing, valid = estimate(cfg, strengths)
-
-    err_d_cm = ((est_d - true_d) * 100.0).reshape(n_points, samples_per_point)
-    err_b_deg = np.rad2deg(wrap_angle(est_bearing - true_bearing)).reshape(n_points, samples_per_point)
-    ok = valid.reshape(n_points, samples_per_point)
-
-    def rmse(err: np.ndarray, mask: np.ndarray) -> float:
-        return float(np.sqrt(np.mean(err[mask] ** 2))) if mask.any() else float("nan")
-
-    points = [
-        {
-            "distance_cm": float(point_d[p] * 100.0),
-            "angle_deg": float(ang_grid.reshape(-1)[p]),
-            "distance_rmse_cm": rmse(err_d_cm[p], ok[p]),
-            "direction_rmse_deg": rmse(err_b_deg[p], ok[p]),
-            "valid_fraction": float(ok[p].mean()),
-        }
-        for p in range(n_points)
-    ]
-    return {
-        "distance_rmse_cm": rmse(err_d_cm, ok),
-        "direction_rmse_deg": rmse(err_b_deg, ok),
-        "valid_fraction": float(ok.mean()),
-        "points": points,
-    }

@@ -55,24 +55,6 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 # Distances are clamped to at least this (m) so that log10 of a zero distance cannot occur.
 _MIN_DISTANCE_M = 0.01
 
-# Seed 002 §4.2 (Fig. 16, Table 3): the location-identification test. The text gives the range
-# (25–200 cm) and 50 RSSI samples a point; Fig. 16 (the positions) is lost in the extraction.
-# Chosen: 25 cm steps, and three directions inside the ±25° reliable region: straight ahead and
-# its two edges. (The Y > distance RMSE of Table 3 needs off-axis points: straight ahead the
-# forward error *is* the distance error. With five directions −25…25° in 12.5° steps the same
-# parameters give Y ≈ 10 % low; see the report of scripts/calibrate_lf.py --angles.)
-PAPER_DISTANCES_M = np.round(np.arange(0.25, 2.0 + 1e-9, 0.25), 2)
-EVAL_ANGLES_DEG = np.array([-25.0, 0.0, 25.0])
-PAPER_SAMPLES_PER_POINT = 50
-# Seed 002 Table 3. The paper's X is lateral (to the right), its Y is forward.
-PAPER_RMSE = {
-    "rmse_x_cm": 15.57,
-    "rmse_y_cm": 8.96,
-    "rmse_distance_cm": 5.10,
-    "rmse_direction_deg": 6.52,
-}
-
-
 class LFConfig(BaseModel):
     """LF wake-up and localisation parameters (seed 002 §3.2–3.3). Values live in the YAML config."""
 
@@ -415,83 +397,3 @@ def wakes_up(cfg: LFConfig, distance_m: float, pattern_sent: Any, pattern_stored
     it compares the received pattern with the one in its register and wakes its main processor
     only if they are equal."""
     return bool(distance_m <= cfg.wake_range_m and pattern_sent == pattern_stored)
-
-
-def _wrap(angle_rad: np.ndarray) -> np.ndarray:
-    return (np.asarray(angle_rad) + np.pi) % (2.0 * np.pi) - np.pi
-
-
-def lf_accuracy_experiment(
-    cfg: LFConfig,
-    rng: np.random.Generator,
-    samples_per_point: int = PAPER_SAMPLES_PER_POINT,
-    *,
-    distances_m: np.ndarray = PAPER_DISTANCES_M,
-    angles_deg: np.ndarray = EVAL_ANGLES_DEG,
-) -> dict:
-    """Seed 002 §4.2 location-identification test (Fig. 16, Table 3), on the simulated LF chain.
-
-    The belt is placed at each (distance, direction) of the grid, measured from the antenna
-    midpoint and counter-clockwise from the robot's forward axis, and located
-    ``samples_per_point`` times. Paper: 25–200 cm, 50 samples a point; steps and directions not
-    given (Fig. 16 lost) — we use 25 cm steps and −25°, 0°, 25° (inside the reliable region).
-
-    Errors over all valid samples: X = lateral (the paper's x, our −y_left), Y = forward (the
-    paper's y, our x_fwd), distance (Eq. 3 d minus true), direction (θ minus true, wrapped).
-
-    Returns:
-        ``rmse_x_cm``, ``rmse_y_cm``, ``rmse_distance_cm``, ``rmse_direction_deg``: each
-        ``{"paper": float, "sim": float}``; ``valid_fraction``; ``actual_m`` and ``estimated_m``
-        (M, 2) body-frame positions relative to the robot's centre (nan rows where no fix), ``valid``
-        (M,); ``distances_m``, ``angles_deg``, ``samples_per_point``; ``points``: per grid point
-        distance, angle, distance/direction RMSE and valid fraction.
-    """
-    # seed 002, §4.2, Table 3
-    dist_grid, ang_grid = np.meshgrid(
-        np.asarray(distances_m, dtype=float), np.asarray(angles_deg, dtype=float), indexing="ij"
-    )
-    point_d = dist_grid.reshape(-1)
-    point_a = np.deg2rad(ang_grid.reshape(-1))
-    true_d = np.repeat(point_d, samples_per_point)
-    true_a = np.repeat(point_a, samples_per_point)
-    actual = np.stack([cfg.antenna_forward_m + true_d * np.cos(true_a), true_d * np.sin(true_a)], axis=1)
-    fix = locate(cfg, actual, rng)
-    ok = fix.valid
-
-    err_x_cm = -(fix.y_left - actual[:, 1]) * 100.0  # the paper's x points right
-    err_y_cm = (fix.x_fwd - actual[:, 0]) * 100.0
-    err_d_cm = (fix.distance - true_d) * 100.0
-    err_t_deg = np.rad2deg(_wrap(fix.direction - true_a))
-
-    def rmse(err: np.ndarray, mask: np.ndarray) -> float:
-        return float(np.sqrt(np.mean(err[mask] ** 2))) if mask.any() else float("nan")
-
-    sims = {
-        "rmse_x_cm": rmse(err_x_cm, ok),
-        "rmse_y_cm": rmse(err_y_cm, ok),
-        "rmse_distance_cm": rmse(err_d_cm, ok),
-        "rmse_direction_deg": rmse(err_t_deg, ok),
-    }
-    shape = (point_d.size, samples_per_point)
-    points = [
-        {
-            "distance_cm": float(point_d[p] * 100.0),
-            "angle_deg": float(np.rad2deg(point_a[p])),
-            "rmse_distance_cm": rmse(err_d_cm.reshape(shape)[p], ok.reshape(shape)[p]),
-            "rmse_direction_deg": rmse(err_t_deg.reshape(shape)[p], ok.reshape(shape)[p]),
-            "valid_fraction": float(ok.reshape(shape)[p].mean()),
-        }
-        for p in range(point_d.size)
-    ]
-    out: dict = {key: {"paper": PAPER_RMSE[key], "sim": sims[key]} for key in PAPER_RMSE}
-    out.update(
-        valid_fraction=float(ok.mean()),
-        actual_m=actual,
-        estimated_m=np.stack([fix.x_fwd, fix.y_left], axis=1),
-        valid=ok,
-        distances_m=[float(v) for v in np.asarray(distances_m)],
-        angles_deg=[float(v) for v in np.asarray(angles_deg)],
-        samples_per_point=int(samples_per_point),
-        points=points,
-    )
-    return out

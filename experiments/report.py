@@ -12,20 +12,13 @@ from __future__ import annotations
 
 import math
 
-from petswarm_env.files import write_text_atomic
 from evaluation.html import escape, img, new_figure, now_stamp, page, png_base64, table
-from training.reproduce import ExperimentResult
+from experiments.registry import check_passed
+from experiments.results import ExperimentResult, format_figure
+from petswarm_env.files import write_text_atomic
 
 _PAPER_COLOR = "#7f7f7f"
 _SIM_COLOR = "#1f77b4"
-
-
-def _num(v: float | None, digits: int = 3) -> str:
-    """``digits`` decimals without trailing zeros; n/a for a missing or non-finite value."""
-    if v is None or not math.isfinite(v):
-        return "n/a"
-    text = f"{v:.{digits}f}"
-    return text.rstrip("0").rstrip(".") if "." in text else text
 
 
 def _placeholder(name: str, res: ExperimentResult | None) -> str:
@@ -42,7 +35,7 @@ def _rows_table(results: dict[str, ExperimentResult]) -> str:
             continue
         for i, r in enumerate(res.rows):
             cls = ("grp " if i == 0 else "") + ("" if r.ok else "fail")
-            rows.append(([escape(name) if i == 0 else "", escape(r.metric), _num(r.paper), _num(r.sim), "±" + _num(r.tolerance),
+            rows.append(([escape(name) if i == 0 else "", escape(r.metric), format_figure(r.paper), format_figure(r.sim), "±" + format_figure(r.tolerance),
                           "✓" if r.ok else "✗"], cls.strip()))
     return table(["experiment", "metric", "paper", "sim", "tolerance", "ok"], rows, left_cols=2)
 
@@ -72,7 +65,7 @@ def _section_ir(res: ExperimentResult | None) -> str:
     ax.set_title("relative location of the receiving robot: actual vs estimated", fontsize=10)
     out.append(f"<figure>{img(png_base64(fig), 'IR estimated vs actual positions')}<figcaption>Receiver at 40–200 cm, "
                f"0–180° in 30° steps; RMSEs over {res.data['samples_per_point']} samples a point "
-               f"(valid fraction {_num(res.data['valid_fraction'])}).</figcaption></figure>")
+               f"(valid fraction {format_figure(res.data['valid_fraction'])}).</figcaption></figure>")
     return "".join(out)
 
 
@@ -128,8 +121,8 @@ def _section_organize(res: ExperimentResult | None) -> str:
     rows = []
     for n, p_min, p_pct in zip(counts, pmin, ppct):
         s = summ[str(n)]
-        rows.append(([str(n), _num(p_min, 2), _num(s["min_s"]), _num(s["mean_s"]), _num(s["max_s"]), _num(p_pct, 1),
-                      _num(s["retry_pct"], 1), _num(s["mean_retries"], 2), str(s["failed"])], ""))
+        rows.append(([str(n), format_figure(p_min, 2), format_figure(s["min_s"]), format_figure(s["mean_s"]), format_figure(s["max_s"]), format_figure(p_pct, 1),
+                      format_figure(s["retry_pct"], 1), format_figure(s["mean_retries"], 2), str(s["failed"])], ""))
     out.append(table(["slaves", "paper min (s)", "sim min (s)", "sim mean (s)", "sim max (s)", "paper retry (%)",
                        "sim retry (%)", "sim retries / organization", "failed"], rows))
     return "".join(out)
@@ -208,8 +201,8 @@ def _section_rotation(res: ExperimentResult | None) -> str:
         return "".join(out) + _placeholder("rotation_sync", res)
     rows = []
     for target, t in res.data.get("targets", {}).items():
-        rows.append(([escape(f"{float(target):+.0f}"), _num(t.get("paper_mean_deg"), 2), _num(t.get("sim_mean_deg"), 2),
-                      _num(t.get("sim_sigma_deg"), 2), _num(t.get("sim_accuracy_pct"), 2), str(len(t.get("arcs_deg", [])))], ""))
+        rows.append(([escape(f"{float(target):+.0f}"), format_figure(t.get("paper_mean_deg"), 2), format_figure(t.get("sim_mean_deg"), 2),
+                      format_figure(t.get("sim_sigma_deg"), 2), format_figure(t.get("sim_accuracy_pct"), 2), str(len(t.get("arcs_deg", [])))], ""))
     out.append("<p>Target user turn, the robot's arc angle around its user (paper mean, simulated mean and σ), and "
                "accuracy = 100·(1 − mean|arc − target|/|target|).</p>")
     out.append(table(["target (°)", "paper mean (°)", "sim mean (°)", "sim σ (°)", "sim accuracy (%)", "trials"], rows))
@@ -219,7 +212,7 @@ def _section_rotation(res: ExperimentResult | None) -> str:
 def render_html(results: dict[str, ExperimentResult], command: str = "petswarm reproduce", generated: str | None = None) -> str:
     if generated is None:
         generated = now_stamp()
-    passed = bool(results) and all(r.ok for r in results.values())
+    passed = check_passed(results)
     wall = sum(r.wall_s for r in results.values())
     status = '<span style="color:#2a2">all rows within tolerance</span>' if passed else '<span class="warn">check fails</span>'
     body = [

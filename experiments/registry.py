@@ -1,0 +1,102 @@
+"""The papers' experiments that ``petswarm reproduce`` runs (SPEC §3.7), in the order of the
+issue (names are part of the interface, issue 4):
+
+* ``ir_accuracy``   seed 000 §4.3, Fig. 18–19, Table 4 (:mod:`experiments.ir_accuracy`)
+* ``reaction_time`` seed 000 §4.4, Fig. 20–21 (:mod:`experiments.reaction_time`)
+* ``organize_time`` seed 000 §4.5, Fig. 22, Table 5 (:mod:`experiments.organize_time`)
+* ``lf_accuracy``   seed 002 §4.2, Table 3 (:mod:`experiments.lf_accuracy`)
+* ``rotation_sync`` seed 002 §4.3, Table 4 (:mod:`experiments.rotation_sync`)
+
+Each runs one of the papers' own evaluations through the code the environment uses and returns
+rows of *paper figure vs simulated figure* with the issue's tolerance (:mod:`experiments.results`).
+No experiment computes its answer from a formula of the result.
+
+    results = run_experiments(["ir_accuracy", "organize_time"], load_config(), seed=0, quick=False)
+    data = results_json(results)        # {"experiments": {name: {"rows": [...], ...}}}
+    ok = check_passed(results)
+
+A new experiment is a module with an ``EXPERIMENT`` (:class:`~experiments.results.Experiment`)
+added to :data:`EXPERIMENTS` below.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Iterable
+from typing import Any
+
+from experiments import ir_accuracy, lf_accuracy, organize_time, reaction_time, rotation_sync
+from experiments.results import Experiment, ExperimentResult, NotAvailable, Progress
+from petswarm_env.config import Config
+from petswarm_env.files import jsonable
+
+EXPERIMENTS: dict[str, Experiment] = {
+    m.EXPERIMENT.name: m.EXPERIMENT for m in (ir_accuracy, reaction_time, organize_time, lf_accuracy, rotation_sync)
+}
+
+
+def parse_only(text: str | None) -> list[str]:
+    """``--only a,b``: the named experiments in the given order (all when ``text`` is None).
+    Raises ``ValueError`` naming the unknown ones and listing the valid names."""
+    if text is None:
+        return list(EXPERIMENTS)
+    names = list(dict.fromkeys(s.strip() for s in text.split(",") if s.strip()))
+    valid = ", ".join(EXPERIMENTS)
+    if not names:
+        raise ValueError(f"no experiment named; valid experiments: {valid}")
+    unknown = [n for n in names if n not in EXPERIMENTS]
+    if unknown:
+        raise ValueError(f"unknown experiment{'s' if len(unknown) > 1 else ''} {', '.join(map(repr, unknown))}; valid experiments: {valid}")
+    return names
+
+
+def _no_progress(done: int, total: int) -> None:
+    pass
+
+
+def run_experiments(
+    names: Iterable[str],
+    cfg: Config,
+    seed: int,
+    quick: bool,
+    progress_for: Callable[[str], Progress] | None = None,
+) -> dict[str, ExperimentResult]:
+    """Run the named experiments in order; ``progress_for(name)`` gives each its progress callback."""
+    out: dict[str, ExperimentResult] = {}
+    for name in names:
+        exp = EXPERIMENTS[name]
+        progress = progress_for(name) if progress_for else _no_progress
+        t0 = time.perf_counter()
+        try:
+            res = exp.run(cfg, seed, quick, progress)
+        except NotAvailable as e:
+            res = ExperimentResult(rows=[], available=False, note=f"not available yet: {e}")
+            progress(1, 1)
+        res.wall_s = time.perf_counter() - t0
+        out[name] = res
+    return out
+
+
+def check_passed(results: dict[str, ExperimentResult]) -> bool:
+    """``--check``: every experiment ran (none "not available yet") and every row is within tolerance."""
+    return bool(results) and all(r.ok for r in results.values())
+
+
+def results_json(results: dict[str, ExperimentResult], seed: int | None = None, quick: bool | None = None) -> dict[str, Any]:
+    """``{"experiments": {name: {"rows": [{metric, paper, sim, tolerance, ok}], ...}}}``; beside
+    ``rows`` each experiment has ``title``, ``available``, ``note``, ``ok``, ``wall_s``, ``seed``,
+    ``quick`` and its ``data``. Strict JSON: a value that is not finite is written as null."""
+    exps = {}
+    for name, r in results.items():
+        exps[name] = {
+            "rows": [row.to_json() for row in r.rows],
+            "title": EXPERIMENTS[name].title if name in EXPERIMENTS else name,
+            "available": r.available,
+            "ok": r.ok,
+            "note": r.note,
+            "wall_s": round(r.wall_s, 3),
+            "seed": seed,
+            "quick": quick,
+            "data": r.data,
+        }
+    return jsonable({"experiments": exps})

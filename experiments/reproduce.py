@@ -1,0 +1,116 @@
+"""``petswarm reproduce``: run the registry's experiments, print paper vs simulation, write the
+JSON and the HTML page, and say whether every row is within its tolerance.
+
+    petswarm reproduce [--only NAME,...] [--quick] [--json OUT] [--report OUT.html] [--check] [--seed S]
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from collections.abc import Callable, Iterable
+from typing import Any
+
+from experiments.registry import check_passed, results_json, run_experiments
+from experiments.results import ExperimentResult, Progress, format_figure
+from petswarm_env.config import Config
+from petswarm_env.files import write_json_atomic
+
+
+def reproduce(cfg: Config, names: list[str], seed: int, quick: bool, json_out: str | None = None,
+              report_out: str | None = None, check: bool = False, command: str = "petswarm reproduce") -> int:
+    """Run ``names`` with progress bars, print the table and the verdict, write ``json_out`` and
+    ``report_out`` when given; the exit status: 1 with ``check`` when a row fails, else 0."""
+    t0 = time.perf_counter()
+    with ProgressBars(names) as progress_for:
+        results = run_experiments(names, cfg, seed, quick, progress_for)
+    wall = time.perf_counter() - t0
+    print_table(results)
+    passed = check_passed(results)
+    print(f"{'PASS' if passed else 'FAIL'}: {sum(r.ok for r in results.values())}/{len(results)} experiments within "
+          f"tolerance; wall time {wall:.1f} s")
+    if json_out:
+        write_json_atomic(json_out, results_json(results, seed, quick))
+        print(f"wrote {json_out}")
+    if report_out:
+        from experiments.report import write_reproduce_report
+
+        write_reproduce_report(results, report_out, command)
+        print(f"wrote {report_out}")
+    return 1 if check and not passed else 0
+
+
+def table_lines(results: dict[str, ExperimentResult]) -> list[tuple[str, str, str, str, str, str]]:
+    """The side-by-side table as text cells: experiment, metric, paper, sim, tolerance, ok."""
+    lines = []
+    for name, res in results.items():
+        if not res.available:
+            lines.append((name, res.note or "not available yet", "", "", "", "FAIL"))
+            continue
+        for i, r in enumerate(res.rows):
+            lines.append((name if i == 0 else "", r.metric, format_figure(r.paper), format_figure(r.sim), "±" + format_figure(r.tolerance), "ok" if r.ok else "FAIL"))
+        if res.note:
+            lines.append(("", f"note: {res.note}", "", "", "", ""))
+    return lines
+
+
+def print_table(results: dict[str, ExperimentResult]) -> None:
+    """Print paper vs sim (a rich table when rich is installed, plain columns otherwise)."""
+    lines = table_lines(results)
+    head = ("experiment", "metric", "paper", "sim", "tolerance", "ok")
+    try:
+        from rich.console import Console
+        from rich.table import Table
+    except ImportError:
+        widths = [max(len(row[i]) for row in [head, *lines]) for i in range(len(head))]
+        for row in [head, *lines]:
+            print("  ".join(c.ljust(w) if i < 2 else c.rjust(w) for i, (c, w) in enumerate(zip(row, widths))))
+        return
+    table = Table(title="petswarm reproduce: paper vs simulation")
+    for i, h in enumerate(head):
+        table.add_column(h, justify="left" if i < 2 else "right")
+    for row in lines:
+        style = "red" if row[5] == "FAIL" else None
+        table.add_row(*row, style=style)
+    Console(width=max(120, Console().width)).print(table)
+
+
+class ProgressBars:
+    """Context manager giving ``progress_for(name)`` callbacks that drive one bar per experiment
+    (rich on stderr; without rich, a line per finished experiment)."""
+
+    def __init__(self, names: Iterable[str]):
+        self.names = list(names)
+        self._progress = None
+        self._tasks: dict[str, Any] = {}
+
+    def __enter__(self) -> Callable[[str], Progress]:
+        try:
+            from rich.console import Console
+            from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+        except ImportError:
+            return self._plain
+        self._progress = Progress(TextColumn("{task.description:<14}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+                                  console=Console(stderr=True), transient=False)
+        self._progress.__enter__()
+        self._tasks = {n: self._progress.add_task(n, total=None) for n in self.names}
+        return self._rich
+
+    def _rich(self, name: str) -> Progress:
+        task = self._tasks[name]
+
+        def update(done: int, total: int) -> None:
+            self._progress.update(task, completed=done, total=total)
+
+        return update
+
+    def _plain(self, name: str) -> Progress:
+        def update(done: int, total: int) -> None:
+            if done >= total:
+                print(f"{name}: done", file=sys.stderr)
+
+        return update
+
+    def __exit__(self, *exc) -> None:
+        if self._progress is not None:
+            self._progress.__exit__(*exc)

@@ -1,0 +1,74 @@
+"""What a paper experiment returns: rows of *paper figure vs simulated figure*, each with its
+tolerance, and the data behind the report's plots.
+
+An experiment is a function ``(cfg, seed, quick, progress) -> ExperimentResult`` described by an
+:class:`Experiment` (its name, part of the ``petswarm reproduce --only`` interface, and title);
+``progress(done, total)`` reports how far it got. An experiment whose simulation is not built yet
+raises :class:`NotAvailable`: it shows up as "not available yet", has no rows (never a made-up
+number) and makes the check fail.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+Progress = Callable[[int, int], None]  # progress(done, total)
+
+RMSE_TOLERANCE_REL = 0.20  # issue 4: RMSEs within ±20 % of the paper
+
+
+@dataclass(frozen=True)
+class Row:
+    """One paper figure against the simulated one. ``ok``: ``|sim − paper| <= tolerance``."""
+
+    metric: str
+    paper: float
+    sim: float
+    tolerance: float
+    ok: bool
+
+    @classmethod
+    def within(cls, metric: str, paper: float, sim: float, tolerance: float) -> Row:
+        sim = float(sim)
+        ok = math.isfinite(sim) and abs(sim - paper) <= tolerance + 1e-12
+        return cls(metric, float(paper), sim, float(tolerance), bool(ok))
+
+    def to_json(self) -> dict[str, Any]:
+        return {"metric": self.metric, "paper": self.paper, "sim": self.sim, "tolerance": self.tolerance, "ok": self.ok}
+
+
+@dataclass
+class ExperimentResult:
+    rows: list[Row]
+    data: dict[str, Any] = field(default_factory=dict)  # JSON-ready figures for the report
+    available: bool = True
+    note: str = ""
+    wall_s: float = 0.0
+
+    @property
+    def ok(self) -> bool:
+        """Available, at least one row, and every row within its tolerance."""
+        return self.available and bool(self.rows) and all(r.ok for r in self.rows)
+
+
+class NotAvailable(Exception):
+    """The simulation an experiment needs is not built yet (the message says what is missing)."""
+
+
+@dataclass(frozen=True)
+class Experiment:
+    name: str
+    title: str
+    run: Callable[..., ExperimentResult]
+
+
+def format_figure(v: float | None, digits: int = 3) -> str:
+    """``digits`` decimals without trailing zeros (7.898, 0.6, 30); n/a for a missing or
+    non-finite value."""
+    if v is None or not math.isfinite(v):
+        return "n/a"
+    text = f"{v:.{digits}f}"
+    return text.rstrip("0").rstrip(".") if "." in text else text

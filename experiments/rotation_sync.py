@@ -1,0 +1,82 @@
+"""``rotation_sync``: rotation recognition and synchronization in leading mode (seed 002 §4.3,
+Table 4): a robot leads 100 cm ahead of its standing user, who turns on the spot; the robot's arc
+angle around the user, through ``env.step``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+import petswarm_env
+from experiments.results import Experiment, ExperimentResult, Progress, Row
+from experiments.user_loop import SETTLE_S, TURN_RATE_DPS, scripted_policy, step, turn_on_the_spot
+from petswarm_env.config import Config
+
+PAPER_ROTATION = {-90.0: (-87.4, 3.2, 96.04), -45.0: (-43.8, 3.6, 94.31), 45.0: (45.16, 3.0, 94.67), 90.0: (87.56, 3.5, 95.78)}
+ROTATION_MIN_ACCURACY_PCT = 94.0  # issue 4 / seed 002 §4.3: accuracy over 94 %
+ROTATION_MAX_SIGMA_DEG = 4.0  # standard deviation within 4°
+# The paper's test has one robot; the env needs a slave: it stands in a row 2 m beside the master, out of
+# the way of the master's arc (at the default 1 m a row slave lags into the master's path on 90° turns and
+# stops it with the obstacle exception).
+ROTATION_SETUP = {"swarm.mode": "leading", "swarm.num_slaves": 1, "swarm.formation": "row", "swarm.spacing_m": 2.0,
+                  "user.scenario": "straight"}
+ROTATION_TRIALS = 20  # per target angle (the paper does not say how many)
+ROTATION_SETTLE_S = 4.0  # the arc angle is read this long after the user's turn ends
+
+
+def rotation_trial(cfg: Config, seed: int, target_deg: float) -> float:
+    """One trial of seed 002 §4.3 through the env: a leading robot 100 cm ahead of its standing user
+    (row formation: the master's leading distance is the standard 1 m); the user turns
+    ``target_deg`` on the spot; the robot's arc angle is how far its bearing around the user
+    turned once everything has settled (degrees, CCW +)."""
+    env = petswarm_env.parallel_env(cfg, **ROTATION_SETUP)
+    obs, _ = env.reset(seed=seed)
+    turn_on_the_spot(env, target_deg)
+    pol = scripted_policy(env)
+    m = env.swarm.master.node_id
+
+    def bearing() -> float:
+        ux, uy = env.world.user.position
+        x, y = env.world.robots[m].position
+        return math.atan2(y - uy, x - ux)
+
+    steps_before = int(round(SETTLE_S / cfg.control_period_s)) - 2
+    for _ in range(steps_before):
+        obs = step(env, pol, obs)
+    b0 = bearing()
+    for _ in range(int(round((abs(target_deg) / TURN_RATE_DPS + ROTATION_SETTLE_S) / cfg.control_period_s))):
+        obs = step(env, pol, obs)
+    env.close()
+    return math.degrees(math.remainder(bearing() - b0, 2 * math.pi))
+
+
+def rotation_sync(cfg: Config, seed: int, quick: bool, progress: Progress) -> ExperimentResult:
+    """Seed 002 §4.3, Table 4: leading at 100 cm, the user turns −90/−45/45/90°; the robot's arc
+    angle. Accuracy = 100·(1 − mean|arc − target| / |target|) (reproduces the paper's 96.04 % from
+    its mean −87.4° and σ 3.2°). Rows: accuracy > 94 % and σ ≤ 4° per target (one-sided: the
+    tolerance column is the margin the paper had)."""
+    n = 5 if quick else ROTATION_TRIALS
+    total = n * len(PAPER_ROTATION)
+    rows, data = [], {"targets": {}}
+    done = 0
+    for target, (p_mean, p_sigma, p_acc) in PAPER_ROTATION.items():
+        arcs = []
+        for k in range(n):
+            arcs.append(rotation_trial(cfg, seed + k, target))
+            done += 1
+            progress(done, total)
+        a = np.array(arcs)
+        acc = 100.0 * (1.0 - float(np.mean(np.abs(a - target))) / abs(target))
+        sigma = float(np.std(a, ddof=1)) if len(a) > 1 else math.nan
+        rows.append(Row(f"{target:+.0f}°: accuracy (%) > {ROTATION_MIN_ACCURACY_PCT:.0f}", p_acc, acc,
+                        p_acc - ROTATION_MIN_ACCURACY_PCT, bool(acc > ROTATION_MIN_ACCURACY_PCT)))
+        rows.append(Row(f"{target:+.0f}°: σ (°) ≤ {ROTATION_MAX_SIGMA_DEG:.0f}", p_sigma, sigma,
+                        ROTATION_MAX_SIGMA_DEG - p_sigma, bool(math.isfinite(sigma) and sigma <= ROTATION_MAX_SIGMA_DEG)))
+        data["targets"][str(target)] = {"paper_mean_deg": p_mean, "sim_mean_deg": float(np.mean(a)), "arcs_deg": a.round(2).tolist(),
+                                        "sim_sigma_deg": sigma, "sim_accuracy_pct": acc}
+    return ExperimentResult(rows, data)
+
+
+EXPERIMENT = Experiment("rotation_sync", "Rotation recognition and synchronization in leading mode (seed 002 §4.3, Table 4)", rotation_sync)

@@ -6,12 +6,14 @@ import math
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from baselines.policy import MixedPolicy, PolicySpec
 from baselines.registry import make_policy
-from petswarm_env.config import SCENARIOS, Config, ConfigError, flatten_dotted, load_config
-from petswarm_env.env import PetSwarmEnv
 from evaluation.runner import VideoRecorder, run_episode, summarize
 from evaluation.stats import mean_ci95
+from petswarm_env.config import SCENARIOS, Config, ConfigError, flatten_dotted, load_config
+from petswarm_env.env import PetSwarmEnv
 
 
 def parse_mix(items: list[str]) -> dict[str, str]:
@@ -97,6 +99,16 @@ def evaluate(
         "summary": summarize(all_eps),
         "scenarios": per_scenario,
     }
+
+
+def mean_formation_rmse(config: Config, policy, seeds: list[int]) -> float:
+    """Mean formation RMSE of ``policy`` over one episode per seed (NaN-free episodes; NaN if none).
+    The periodic evaluation of ``petswarm train``."""
+    env = PetSwarmEnv(config)
+    values = [run_episode(env, policy, s)["formation_rmse_m"] for s in seeds]
+    env.close()
+    values = [v for v in values if math.isfinite(v)]
+    return float(np.mean(values)) if values else math.nan
 
 
 def format_table(result: dict[str, Any]) -> str:

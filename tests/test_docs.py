@@ -29,6 +29,10 @@ def test_configs_default_is_the_packaged_default():
     assert (ROOT / "configs" / "default.yaml").read_text() == (ROOT / "petswarm_env" / "default.yaml").read_text()
 
 
+def test_configs_train_ppo_is_the_packaged_training_default():
+    assert (ROOT / "configs" / "train" / "ppo.yaml").read_text() == (ROOT / "training" / "ppo.yaml").read_text()
+
+
 def test_every_default_value_has_a_comment_or_a_commented_section():
     text = (ROOT / "petswarm_env" / "default.yaml").read_text()
     headers: dict[int, str] = {}  # indentation -> the section line above

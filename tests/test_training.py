@@ -16,7 +16,8 @@ from evaluation.evaluate import evaluate
 from petswarm_env import parallel_env
 from petswarm_env.config import ConfigError, load_config
 from petswarm_env.observe import ObservationLayout
-from training.train import load_train_config, train
+from training.config import load_train_config
+from training.train import train
 
 SHORT = {
     "timesteps": 2048,

@@ -796,10 +796,11 @@ def bench_training(s: BenchSettings, verbose: bool = False) -> dict:
     k workers = k env copies in k worker processes (num_envs k, num_cpus k)."""
     try:
         import torch
-        from stable_baselines3 import PPO
         from stable_baselines3.common.utils import set_random_seed
 
-        from training.train import load_train_config, make_vec_env
+        from training.config import load_train_config
+        from training.train import build_model
+        from training.vec_env import make_vec_env
     except ImportError as exc:
         return {"skipped": f"{exc.name or exc} is not installed; set up the training stack with: bash scripts/setup.sh train"}
 
@@ -821,14 +822,7 @@ def bench_training(s: BenchSettings, verbose: bool = False) -> dict:
             warnings.filterwarnings("ignore", message="The `render_mode` attribute is not defined")
             venv = make_vec_env(env_cfg, num_envs, num_cpus, s.seed)
         try:
-            act = torch.nn.Tanh if p.activation == "tanh" else torch.nn.ReLU
-            model = PPO(
-                "MlpPolicy", venv, learning_rate=p.learning_rate, n_steps=n_steps, batch_size=batch,
-                n_epochs=p.n_epochs, gamma=p.gamma, gae_lambda=p.gae_lambda, clip_range=p.clip_range,
-                ent_coef=p.ent_coef, vf_coef=p.vf_coef, max_grad_norm=p.max_grad_norm,
-                policy_kwargs={"net_arch": list(p.net_arch), "activation_fn": act, "log_std_init": p.log_std_init},
-                seed=s.seed, device="cpu", verbose=0,
-            )
+            model = build_model(p, venv, s.seed, n_steps=n_steps, batch_size=batch)
             t0 = time.perf_counter()
             model.learn(total_timesteps=s.training_samples, progress_bar=False)
             wall = time.perf_counter() - t0

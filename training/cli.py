@@ -198,19 +198,10 @@ def _cmd_run(args) -> int:
 
 
 def _cmd_train(args, argv: list[str]) -> int:
-    from training.train import load_train_config, train
+    from training.train import train_command
 
-    overrides = dict(parse_override(item) for item in args.set)
-    if args.timesteps:
-        overrides["timesteps"] = args.timesteps
-    cfg = load_train_config(args.config, overrides)
-    log = train(cfg, args.out, resume=args.resume, progress_bar=not args.no_progress,
-                command="petswarm " + " ".join(argv))
-    last = log["evaluations"][-1] if log["evaluations"] else {}
-    print(f"trained {log['timesteps']} agent-steps in {log['wall_time_s']:.0f} s; "
-          f"eval formation_rmse_m {last.get('formation_rmse_m', float('nan')):.3f} "
-          f"(scripted {log['scripted_eval_rmse_m']:.3f}); policy: {args.out}/policy.npz")
-    return 0
+    return train_command(args.config, args.set, args.timesteps, args.out, args.resume, not args.no_progress,
+                         "petswarm " + " ".join(argv))
 
 
 def _cmd_eval(args) -> int:

@@ -1,0 +1,81 @@
+"""The SB3 callback of ``petswarm train``: atomic checkpoints and periodic evaluation against the
+scripted reference on the same seeds (``checkpoint:`` and ``eval:`` of the training config)."""
+
+from __future__ import annotations
+
+import math
+import time
+from pathlib import Path
+from typing import Any
+
+from stable_baselines3.common.callbacks import BaseCallback
+
+from baselines.policy import PolicySpec
+from evaluation.evaluate import mean_formation_rmse
+from petswarm_env.env import PetSwarmEnv
+from petswarm_env.files import write_atomic, write_json_atomic
+from petswarm_env.observe import ObservationLayout
+from training.config import TrainConfig
+from training.export import export_policy, learned_policy
+
+
+def public_log(log: dict[str, Any]) -> dict[str, Any]:
+    """The train log without its in-memory bookkeeping (keys starting with ``_``)."""
+    return {k: v for k, v in log.items() if not k.startswith("_")}
+
+
+def policy_info(cfg: TrainConfig, log: dict[str, Any]) -> dict[str, Any]:
+    """How an exported policy was trained (stored in the policy file)."""
+    return {
+        "algorithm": "PPO (stable-baselines3), parameter sharing over slaves",
+        "timesteps": log["timesteps"],
+        "wall_time_s": round(log["wall_time_s"], 1),
+        "train_config": cfg.model_dump(mode="json"),
+        "command": log.get("command", ""),
+    }
+
+
+class PeriodicCallback(BaseCallback):
+    """Every ``cfg.checkpoint.every_steps`` agent-steps a checkpoint (``checkpoints/latest.zip``,
+    ``policy.npz`` and ``train_log.json`` in ``out``, each written atomically); every
+    ``cfg.eval.every_steps`` an evaluation of the current actor on the evaluation seeds, logged
+    beside the scripted reference's RMSE (``log["scripted_eval_rmse_m"]``) to ``log["evaluations"]``
+    and TensorBoard ``eval/*``. The schedule continues from ``log["timesteps"]`` (a resumed run).
+
+    ``log`` is the run's train log, updated in place; it holds ``wall_time_before_s`` and ``_start``
+    (the wall time of earlier sessions and this session's start time)."""
+
+    def __init__(self, cfg: TrainConfig, out: Path, layout: ObservationLayout, log: dict[str, Any]):
+        super().__init__()
+        self.cfg, self.out, self.layout, self.train_log = cfg, Path(out), layout, log
+        self.eval_cfg = cfg.eval_env_config()
+        self.seeds = cfg.eval_seeds()
+        self.next_ckpt = (log["timesteps"] // cfg.checkpoint.every_steps + 1) * cfg.checkpoint.every_steps
+        self.next_eval = (log["timesteps"] // cfg.eval.every_steps + 1) * cfg.eval.every_steps
+
+    def _on_step(self) -> bool:
+        n = self.num_timesteps
+        if n >= self.next_eval:
+            self.next_eval += self.cfg.eval.every_steps
+            self.evaluate()
+        if n >= self.next_ckpt:
+            self.next_ckpt += self.cfg.checkpoint.every_steps
+            self.checkpoint()
+        return True
+
+    def checkpoint(self) -> None:
+        log = self.train_log
+        log["timesteps"] = int(self.num_timesteps)
+        log["wall_time_s"] = log["wall_time_before_s"] + time.time() - log["_start"]
+        write_atomic(self.out / "checkpoints" / "latest.zip", self.model.save)
+        export_policy(self.model, self.out / "policy.npz", self.layout, self.cfg.ppo.activation, policy_info(self.cfg, log))
+        write_json_atomic(self.out / "train_log.json", public_log(log))
+
+    def evaluate(self) -> None:
+        spec = PolicySpec.from_env(PetSwarmEnv(self.eval_cfg))
+        rmse = mean_formation_rmse(self.eval_cfg, learned_policy(self.model, spec, self.cfg.ppo.activation), self.seeds)
+        ref = self.train_log["scripted_eval_rmse_m"]
+        self.train_log["evaluations"].append({"timesteps": int(self.num_timesteps), "formation_rmse_m": rmse, "scripted_rmse_m": ref})
+        self.logger.record("eval/formation_rmse_m", rmse)
+        self.logger.record("eval/scripted_rmse_m", ref)
+        self.logger.record("eval/ratio_to_scripted", rmse / ref if ref else math.nan)

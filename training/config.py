@@ -1,0 +1,114 @@
+"""The training configuration: every hyper-parameter of a run, validated (pydantic).
+
+The defaults are ``configs/train/ppo.yaml``, shipped in the package as ``training/ppo.yaml``
+(the two files are equal, a test checks it); ``load_train_config`` merges a user file and dotted
+overrides over them. Keys under ``env.`` are overrides of the environment config
+(``configs/default.yaml``) and are validated against it too.
+"""
+
+from __future__ import annotations
+
+import os
+from importlib import resources
+from pathlib import Path
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from petswarm_env.config import (
+    Config,
+    ConfigError,
+    format_validation_error,
+    load_config,
+    merge_mappings,
+    nest_dotted,
+    read_yaml,
+)
+
+DEFAULT_TRAIN_CONFIG = Path(str(resources.files("training") / "ppo.yaml"))
+
+
+class _Section(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class PPOConfig(_Section):
+    learning_rate: float = Field(gt=0)
+    n_steps: int = Field(ge=8)
+    batch_size: int = Field(ge=8)
+    n_epochs: int = Field(ge=1)
+    gamma: float = Field(gt=0, le=1)
+    gae_lambda: float = Field(gt=0, le=1)
+    clip_range: float = Field(gt=0)
+    ent_coef: float = Field(ge=0)
+    vf_coef: float = Field(ge=0)
+    max_grad_norm: float = Field(gt=0)
+    net_arch: list[int]
+    activation: Literal["tanh", "relu"]
+    log_std_init: float
+
+
+class EvalConfig(_Section):
+    every_steps: int = Field(ge=1)
+    episodes: int = Field(ge=1)
+    seed: int = Field(ge=0)
+    max_cycles: int = Field(ge=1)
+
+
+class CheckpointConfig(_Section):
+    every_steps: int = Field(ge=1)
+
+
+class PretrainConfig(_Section):
+    samples: int = Field(ge=0, description="agent-samples of the scripted reference to imitate; 0 = no warm start")
+    noise_std: float = Field(ge=0, description="action noise while collecting (visits recovery states)")
+    epochs: int = Field(ge=1)
+    batch_size: int = Field(ge=8)
+    learning_rate: float = Field(gt=0)
+
+
+class TrainConfig(_Section):
+    seed: int = Field(ge=0)
+    timesteps: int = Field(ge=1)
+    num_envs: int = Field(ge=1)
+    num_cpus: int = Field(ge=0)
+    env: dict[str, Any]
+    ppo: PPOConfig
+    eval: EvalConfig
+    checkpoint: CheckpointConfig
+    pretrain: PretrainConfig
+
+    def env_config(self) -> Config:
+        """The environment the policy trains on."""
+        return load_config(overrides=self.env)
+
+    def eval_env_config(self) -> Config:
+        """The environment of the periodic evaluation: the training one, ``eval.max_cycles`` long."""
+        return load_config(overrides={**self.env, "max_cycles": self.eval.max_cycles})
+
+    def eval_seeds(self) -> list[int]:
+        """The seeds of the periodic evaluation, the same for the learned and the scripted policy."""
+        return list(range(self.eval.seed, self.eval.seed + self.eval.episodes))
+
+
+def load_train_config(path: str | os.PathLike | None = None, overrides: dict[str, Any] | None = None) -> TrainConfig:
+    """Defaults from configs/train/ppo.yaml, then ``path``, then dotted overrides; validated.
+    Keys under ``env.`` are checked against the environment config too."""
+    data = read_yaml(DEFAULT_TRAIN_CONFIG)
+    if path is not None:
+        user = read_yaml(path)
+        env_user = user.pop("env", None)
+        data = merge_mappings(data, user)
+        if env_user is not None:
+            data["env"] = {**data.get("env", {}), **env_user}
+    for key, value in (overrides or {}).items():
+        if key.startswith("env."):
+            data["env"] = {**data.get("env", {}), key[4:]: value}
+        else:
+            data = merge_mappings(data, nest_dotted({key: value}))
+    try:
+        cfg = TrainConfig.model_validate(data)
+    except ValidationError as exc:
+        raise ConfigError(format_validation_error(exc)) from None
+    cfg.env_config()  # validates the env overrides (unknown key / bad value -> ConfigError)
+    return cfg

@@ -1,13 +1,24 @@
-"""`petswarm bench` with tiny settings: the JSON shape, positive numbers and the markdown report.
+"""`petswarm bench` with tiny settings: the JSON shape, positive numbers and the markdown report;
+the parts of a step's breakdown come from the module a function lives in.
 No timing is asserted (speeds depend on the machine and its load)."""
 
+import importlib
+import importlib.util
+import inspect
 import json
 import math
+import pkgutil
 from collections import Counter
 
 import pytest
 
-from training.bench import CATEGORIES, _category, breakdown_from_samples, format_report, main_bench, tiny_settings
+import petswarm_env
+from bench.console import format_report
+from bench.page import HAND_WRITTEN_BEGIN, HAND_WRITTEN_END, write_benchmarks_md
+from bench.parts import CATEGORIES, MODULE_PARTS, Uncategorised, module_of, module_part, part_of
+from bench.profile import breakdown_from_samples
+from bench.run import main_bench
+from bench.settings import tiny_settings
 
 
 def _positive(x) -> bool:
@@ -95,21 +106,80 @@ def test_report_and_markdown(bench):
 
 def test_profile_attribution_rules():
     site = "/venv/lib/python3.11/site-packages"
-    assert _category((f"{site}/pymunk/space.py", 1, "step")) == "physics"
-    assert _category((f"{site}/pymunk/body.py", 1, "position")) is None  # accessor: counts for its caller
-    assert _category(("~", 0, "<built-in method math.hypot>")) is None
-    assert _category((f"{site}/simpy/core.py", 1, "step")) == "radio_middleware"
-    assert _category(("/repo/petswarm_env/comms/radio.py", 1, "_deliver")) == "radio_middleware"
-    assert _category(("/repo/petswarm_env/env.py", 1, "_formation_errors")) == "reward_metrics"
-    assert _category(("/repo/petswarm_env/sim/world.py", 1, "ultrasonic_ranges")) == "observation"
-    assert _category(("/repo/petswarm_env/sim/robot.py", 1, "apply")) == "physics"
-    assert _category(("/repo/petswarm_env/env.py", 1, "step")) == "other"
+    assert part_of((f"{site}/pymunk/space.py", 1, "step")) == "physics"
+    assert part_of((f"{site}/pymunk/body.py", 1, "position")) is None  # accessor: counts for its caller
+    assert part_of((f"{site}/numpy/_core/fromnumeric.py", 1, "clip")) is None
+    assert part_of(("~", 0, "<built-in method math.hypot>")) is None
+    assert part_of((f"{site}/simpy/core.py", 1, "step")) == "radio_middleware"
+    assert part_of((f"{site}/gymnasium/spaces/box.py", 1, "contains")) == "other"
+    assert part_of(("/repo/petswarm_env/comms/radio.py", 1, "_deliver")) == "radio_middleware"
+    assert part_of(("/repo/petswarm_env/middleware/token_ring.py", 1, "hold")) == "radio_middleware"
+    assert part_of(("/repo/petswarm_env/middleware/user_session.py", 1, "step")) == "user_sensing"
+    assert part_of(("/repo/petswarm_env/metrics.py", 1, "anything")) == "reward_metrics"
+    assert part_of(("/repo/petswarm_env/observe.py", 1, "build_observation")) == "observation"
+    assert part_of(("/repo/petswarm_env/sim/robot.py", 1, "apply")) == "physics"
+    assert part_of(("/repo/petswarm_env/sim/geometry.py", 1, "ring_first_hits")) is None
+    assert part_of(("/repo/petswarm_env/env.py", 1, "step")) == "other"
+    assert part_of(("/repo/petswarm_env/nowhere/new.py", 1, "f")) == "other"  # uncategorised: see the next test
+
+
+def test_a_function_part_comes_from_its_module_not_its_name():
+    for name in ("apply", "renamed_apply", "_observe", "ultrasonic_ranges"):
+        assert part_of(("/repo/petswarm_env/sim/robot.py", 7, name)) == "physics"
+    assert module_of("/repo/petswarm_env/sim/__init__.py") == "petswarm_env.sim.__init__"
+    assert module_part("petswarm_env.sim.__init__") == "physics"
+    with pytest.raises(Uncategorised):
+        module_part("petswarm_env.scenarios.zigzag")  # a package without a row
+
+
+def _environment_modules():
+    yield petswarm_env.__name__ + ".__init__", petswarm_env
+    for info in pkgutil.walk_packages(petswarm_env.__path__, petswarm_env.__name__ + "."):
+        mod = importlib.import_module(info.name)
+        yield info.name + (".__init__" if info.ispkg else ""), mod
+
+
+def test_every_function_of_the_environment_has_a_part():
+    """A new module of petswarm_env must get its row in bench/parts.py MODULE_PARTS."""
+    seen = 0
+    for name, mod in _environment_modules():
+        assert module_of(mod.__file__) == name
+        functions = [f for _, f in inspect.getmembers(mod, inspect.isfunction) if f.__module__ == mod.__name__]
+        for _, cls in inspect.getmembers(mod, inspect.isclass):
+            if cls.__module__ == mod.__name__:
+                functions += [f for f in vars(cls).values() if inspect.isfunction(f)]
+        for f in functions:
+            code = inspect.unwrap(f).__code__
+            if code.co_filename == mod.__file__:  # not generated code (dataclass __init__, ...)
+                module_part(module_of(code.co_filename))  # raises Uncategorised for a module without a part
+                seen += 1
+    assert seen > 100
+
+
+def test_every_row_of_the_parts_table_names_a_module_that_exists():
+    for key, part in MODULE_PARTS.items():
+        assert part is None or part in CATEGORIES, key
+        assert importlib.util.find_spec(key.removesuffix(".__init__")) is not None, f"{key} (a renamed module?)"
+
+
+def test_the_page_keeps_its_hand_written_section_and_generates_only_measured_figures(bench, tmp_path):
+    result = bench[0]
+    page, plot = tmp_path / "benchmarks.md", tmp_path / "benchmarks_steps.png"
+    write_benchmarks_md(result, page, plot)
+    generated = page.read_text()
+    assert HAND_WRITTEN_BEGIN not in generated and "Done for issue 6" not in generated
+    prose = f"{HAND_WRITTEN_BEGIN}\nWhat was optimised, and why.\n{HAND_WRITTEN_END}"
+    page.write_text(generated + "\n" + prose + "\n")
+    write_benchmarks_md(result, page, plot)
+    text = page.read_text()
+    assert text.count(prose) == 1
+    assert text.index("## What bounds the speed") < text.index(prose) < text.index("## Memory")
 
 
 def test_missing_mpe_is_recorded_as_skipped(monkeypatch):
-    import training.bench as bench_mod
+    import bench.run
 
-    monkeypatch.setattr(bench_mod, "mpe_available", lambda: (False, "mpe2 is not installed"))
+    monkeypatch.setattr(bench.run, "mpe_available", lambda: (False, "mpe2 is not installed"))
     result = main_bench(True, None, settings=tiny_settings(slaves=(5,), training_workers=()), verbose=False)
     assert not [r for r in result["results"] if r["kind"] == "mpe"]
     assert result["skipped"] == [{"name": "mpe_simple_spread", "reason": "mpe2 is not installed"}]
@@ -122,13 +192,13 @@ def test_missing_mpe_is_recorded_as_skipped(monkeypatch):
 
 def test_sampled_breakdown_charges_the_innermost_non_neutral_frame_below_env_step():
     site = "/venv/lib/python3.11/site-packages"
-    outside = ("/repo/training/bench.py", 1, "run", "_EnvLoop.run")
+    outside = ("/repo/bench/loops.py", 1, "run", "EnvLoop.run")
     step = ("/repo/petswarm_env/env.py", 1, "step", "PetSwarmEnv.step")
     deliver = ("/repo/petswarm_env/comms/radio.py", 1, "_deliver", "RadioMedium._deliver")
-    rays = ("/repo/petswarm_env/sim/world.py", 1, "ultrasonic_ranges", "World.ultrasonic_ranges")
+    rays = ("/repo/petswarm_env/observe.py", 1, "build_observation", "build_observation")
     clip = (f"{site}/numpy/_core/fromnumeric.py", 1, "clip", "clip")  # neutral: counts for its caller
     stacks = Counter({(outside, step, deliver): 3, (outside, step, rays, clip): 1, (outside,): 5})  # last: not in a step
-    r = breakdown_from_samples(stacks)
+    r = breakdown_from_samples(stacks, step[:3])
     assert r["samples"] == 4
     assert r["shares"]["radio_middleware"] == pytest.approx(0.75)
     assert r["shares"]["observation"] == pytest.approx(0.25)

@@ -9,6 +9,7 @@ import os
 
 import pytest
 
+from cli.main import main
 from experiments import registry
 from experiments.ir_accuracy import IR_QUICK_SAMPLES_PER_POINT
 from experiments.organize_time import PAPER_MIN_ORGANIZE_S, organize_rows, organize_summary, organize_time
@@ -17,7 +18,6 @@ from experiments.report import render_html
 from experiments.results import Experiment, ExperimentResult, NotAvailable, Row
 from experiments.rotation_sync import rotation_trial
 from petswarm_env.config import load_config
-from training.cli import main
 
 ROW_KEYS = {"metric", "paper", "sim", "tolerance", "ok"}
 

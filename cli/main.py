@@ -1,4 +1,5 @@
-"""The ``petswarm`` command line.
+"""The ``petswarm`` command line: parses the arguments and runs the command's function in its room
+(:mod:`evaluation.commands`, :mod:`training.train`, :mod:`bench.run`, :mod:`experiments.reproduce`).
 
     petswarm run    [--config FILE] [--set KEY=VALUE ...] [--policy scripted|random|learned|PATH]
                     [--episodes N] [--seed S] [--json OUT] [--render human] [--video OUT.gif]
@@ -6,7 +7,7 @@
     petswarm eval   --policy scripted|random|learned|PATH [--mix ROBOT=POLICY ...] [--scenarios a,b] [--episodes N] ...
     petswarm report RESULT.json ... --out report.html
     petswarm bench  [--quick] [--json OUT] [--md docs/benchmarks.md]
-    petswarm reproduce [--only NAME,...] [--quick] [--json OUT] [--report OUT.html] [--check]
+    petswarm reproduce [--only NAME,...] [--quick] [--json OUT] [--report OUT.html] [--check] [--seed S]
 """
 
 from __future__ import annotations
@@ -22,24 +23,23 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"petswarm: error: {message}\n")
 
 
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got '{text}'") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {value}")
-    return value
+def _int_at_least(minimum: int, what: str):
+    """An argparse type: an integer of at least ``minimum``, else "expected <what>, got ..."."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected {what}, got '{text}'") from None
+        if value < minimum:
+            raise argparse.ArgumentTypeError(f"expected {what}, got {value}")
+        return value
+
+    return parse
 
 
-def _seed(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a non-negative integer seed, got '{text}'") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"expected a non-negative integer seed, got {value}")
-    return value
+_positive_int = _int_at_least(1, "a positive integer")
+_seed = _int_at_least(0, "a non-negative integer seed")
 
 
 def _policy_name(text: str) -> str:
@@ -72,9 +72,7 @@ def _experiment_names(text: str) -> list[str]:
         raise argparse.ArgumentTypeError(str(e)) from None
 
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = _Parser(prog="petswarm", description="Pet-Bot swarm environment: run, evaluate and measure.")
-    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+def _add_run(sub) -> None:
     run = sub.add_parser(
         "run",
         help="run the swarm with a slave policy and print per-episode metrics",
@@ -92,6 +90,8 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--video", metavar="OUT.gif", help="write the first episode as an animated GIF")
     run.add_argument("--quiet", action="store_true", help="print only the summary line")
 
+
+def _add_train(sub) -> None:
     train = sub.add_parser(
         "train",
         help="train a slave policy with PPO (stable-baselines3 + SuperSuit)",
@@ -107,6 +107,8 @@ def build_parser() -> argparse.ArgumentParser:
     train.add_argument("--resume", action="store_true", help="continue the run in --out from its latest checkpoint")
     train.add_argument("--no-progress", action="store_true", help="no progress bar")
 
+
+def _add_eval(sub) -> None:
     ev = sub.add_parser(
         "eval",
         help="evaluate a slave policy (or a mixed team) on named scenarios",
@@ -124,6 +126,8 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--json", metavar="OUT", help="write the results as JSON (atomically)")
     ev.add_argument("--video-dir", metavar="DIR", help="write a GIF of the first episode of each scenario into DIR")
 
+
+def _add_bench(sub) -> None:
     bench = sub.add_parser(
         "bench",
         help="measure env speed (vs. the physics floor and MPE), a step's cost breakdown, memory and training throughput",
@@ -135,6 +139,8 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--json", metavar="OUT", help="write the results as JSON (atomically)")
     bench.add_argument("--md", metavar="docs/benchmarks.md", help="also write the markdown report, with its plot beside it (*_steps.png)")
 
+
+def _add_reproduce(sub) -> None:
     repro = sub.add_parser(
         "reproduce",
         help="run the papers' evaluations in the simulation and print paper vs sim",
@@ -151,125 +157,77 @@ def build_parser() -> argparse.ArgumentParser:
     repro.add_argument("--seed", type=_seed, metavar="S", help="seed of the experiments (default: config seed)")
     _add_env_config_options(repro)
 
+
+def _add_report(sub) -> None:
     rep = sub.add_parser("report", help="compare evaluation results in one self-contained HTML page",
                          description="Compare the JSON results of `petswarm eval` (one per policy) in one HTML page.")
     rep.add_argument("results", nargs="+", metavar="RESULT.json")
     rep.add_argument("--out", default="report.html", metavar="report.html", help="output HTML file (default report.html)")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog="petswarm", description="Pet-Bot swarm environment: run, evaluate and measure.")
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    for add in (_add_run, _add_train, _add_eval, _add_bench, _add_reproduce, _add_report):
+        add(sub)
     return parser
 
 
-def _print_table(result: dict) -> None:
-    head = f"{'episode':>7} {'seed':>5} {'slaves':>6} {'rmse_m':>7} {'coll r-r':>8} {'r-user':>6} {'r-wall':>6} {'org_s':>6} {'retries':>7} {'tok_rec':>7} {'sent':>6} {'lost':>5} {'collid':>6}"
-    print(head)
-    for i, e in enumerate(result["episodes"]):
-        c, f = e["collisions"], e["frames"]
-        print(
-            f"{i:>7} {e['seed']:>5} {e['slaves']:>6} {e['formation_rmse_m']:>7.3f} {c['robot_robot']:>8} {c['robot_user']:>6} "
-            f"{c['robot_wall']:>6} {e['organize_time_s']:>6.2f} {e['join_retries']:>7} {e['token_recoveries']:>7} "
-            f"{f['sent']:>6} {f['lost']:>5} {f['collided']:>6}"
-        )
-    s = result["summary"]
-    print(
-        f"summary: {s['episodes']} episodes, formation_rmse_m {s['formation_rmse_m']:.3f}, collisions {s['collisions']} "
-        f"(robot-robot {s['robot_robot_collisions']}), organize_time_s {s['organize_time_s']:.2f}, join_retries {s['join_retries']}"
-    )
+def _env_config(args):
+    return load_config(args.config, dict(parse_override(item) for item in args.set))
 
 
-def _cmd_run(args) -> int:
-    from petswarm_env.files import write_json_atomic
-    from evaluation.runner import run
+def _run(args, argv: list[str]) -> int:
+    from evaluation.commands import run_command
 
-    overrides = dict(parse_override(item) for item in args.set)
-    cfg = load_config(args.config, overrides)
-    if args.video and not args.video.lower().endswith(".gif"):
-        raise ConfigError(f"--video must name a .gif file, got '{args.video}'")
-    result = run(cfg, args.policy, args.episodes, args.seed, args.render, args.video)
-    if args.quiet:
-        s = result["summary"]
-        print(f"formation_rmse_m {s['formation_rmse_m']:.3f} collisions {s['collisions']}")
-    else:
-        _print_table(result)
-    if args.json:
-        write_json_atomic(args.json, result)
-        print(f"wrote {args.json}")
-    if args.video:
-        print(f"wrote {args.video}")
-    return 0
+    return run_command(_env_config(args), args.policy, args.episodes, args.seed, args.render, args.video, args.json, args.quiet)
 
 
-def _cmd_train(args, argv: list[str]) -> int:
+def _train(args, argv: list[str]) -> int:
     from training.train import train_command
 
     return train_command(args.config, args.set, args.timesteps, args.out, args.resume, not args.no_progress,
                          "petswarm " + " ".join(argv))
 
 
-def _cmd_eval(args) -> int:
-    from petswarm_env.files import write_json_atomic
-    from evaluation.evaluate import evaluate, format_table, parse_mix
+def _eval(args, argv: list[str]) -> int:
+    from evaluation.commands import eval_command
 
-    cfg = load_config(args.config, dict(parse_override(item) for item in args.set))
-    scenarios = [s.strip() for s in args.scenarios.split(",") if s.strip()] if args.scenarios else None
-    result = evaluate(cfg, args.policy, parse_mix(args.mix), scenarios, args.episodes, args.seed, args.video_dir)
-    print(format_table(result))
-    if args.json:
-        import os
-
-        base = os.path.dirname(os.path.abspath(args.json))
-        for ep in result["episodes"]:  # GIF paths relative to the JSON file, as the report expects
-            if "gif" in ep:
-                ep["gif"] = os.path.relpath(os.path.abspath(ep["gif"]), base)
-        write_json_atomic(args.json, result)
-        print(f"wrote {args.json}")
-    return 0
+    return eval_command(_env_config(args), args.policy, args.mix, args.scenarios, args.episodes, args.seed, args.json,
+                        args.video_dir)
 
 
-def _cmd_bench(args) -> int:
-    from training.bench import default_plot_path, format_report, main_bench
+def _report(args, argv: list[str]) -> int:
+    from evaluation.commands import report_command
 
-    result = main_bench(args.quick, args.json, md_out=args.md)
-    print(format_report(result))
-    if args.json:
-        print(f"wrote {args.json}")
-    if args.md:
-        print(f"wrote {args.md} and {default_plot_path(args.md)}")
-    return 0
+    return report_command(args.results, args.out)
 
 
-def _cmd_reproduce(args, argv: list[str]) -> int:
+def _bench(args, argv: list[str]) -> int:
+    from bench.run import bench_command
+
+    return bench_command(args.quick, args.json, args.md)
+
+
+def _reproduce(args, argv: list[str]) -> int:
     from experiments.registry import EXPERIMENTS
     from experiments.reproduce import reproduce
 
-    cfg = load_config(args.config, dict(parse_override(item) for item in args.set))
+    cfg = _env_config(args)
     seed = cfg.seed if args.seed is None else args.seed
     return reproduce(cfg, args.only or list(EXPERIMENTS), seed, args.quick, args.json, args.report, args.check,
                      "petswarm " + " ".join(argv))
 
 
-def _cmd_report(args) -> int:
-    from evaluation.report import write_report
-
-    write_report(args.results, args.out)
-    print(f"wrote {args.out}")
-    return 0
+# each command runs a function of its room (imported when the command runs: `petswarm run` needs no training stack)
+COMMANDS = {"run": _run, "train": _train, "eval": _eval, "report": _report, "bench": _bench, "reproduce": _reproduce}
 
 
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
     args = build_parser().parse_args(argv)
     try:
-        if args.command == "run":
-            return _cmd_run(args)
-        if args.command == "train":
-            return _cmd_train(args, argv)
-        if args.command == "eval":
-            return _cmd_eval(args)
-        if args.command == "report":
-            return _cmd_report(args)
-        if args.command == "bench":
-            return _cmd_bench(args)
-        if args.command == "reproduce":
-            return _cmd_reproduce(args, argv)
+        return COMMANDS[args.command](args, argv)
     except (ConfigError, ValueError, RuntimeError, OSError) as exc:
         print(f"petswarm: error: {exc}", file=sys.stderr)
         return 2
@@ -279,7 +237,6 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("petswarm: interrupted", file=sys.stderr)
         return 130
-    return 1
 
 
 if __name__ == "__main__":

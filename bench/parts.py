@@ -1,0 +1,129 @@
+"""The parts of a step's cost, and which part a function's time belongs to: the part of the
+module it lives in, never its name.
+
+:data:`MODULE_PARTS` maps dotted module prefixes to a part; the longest prefix of a function's
+module wins (``petswarm_env.middleware.user_session`` before ``petswarm_env.middleware``). A part
+of ``None`` is *neutral*: the time counts for whoever called the function (numpy, the standard
+library, pymunk's property accessors, geometry helpers shared by several parts). A function of
+``petswarm_env`` whose module matches no row is *uncategorised* (:class:`Uncategorised`; the
+profiles count it as "other"): tests/test_bench.py fails on one, so a new module gets its part
+when it is written, and renaming a function can never move its time.
+"""
+
+from __future__ import annotations
+
+import sysconfig
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]  # the repository (or site-packages) holding the packages
+
+CATEGORIES = ("physics", "radio_middleware", "user_sensing", "control", "observation", "reward_metrics", "other")
+
+# part -> its name on the benchmark page
+PART_TITLES = {
+    "physics": "physics",
+    "radio_middleware": "radio and middleware events",
+    "user_sensing": "user sensing",
+    "control": "control",
+    "observation": "observation",
+    "reward_metrics": "reward and metrics",
+    "other": "other",
+}
+
+PROJECT = "petswarm_env"  # the package whose every module must have a part (what env.step runs)
+
+MODULE_PARTS: dict[str, str | None] = {
+    # the environment library
+    "petswarm_env.__init__": "other",
+    "petswarm_env.config": "other",
+    "petswarm_env.env": "other",  # env.step itself: action checks, the env's own bookkeeping
+    "petswarm_env.files": "other",
+    "petswarm_env.render": "other",
+    "petswarm_env.sim": "physics",  # bodies, the world's substep loop, the user, contact callbacks
+    "petswarm_env.sim.events": "radio_middleware",  # bare callbacks on the clock (call_later)
+    "petswarm_env.sim.geometry": None,  # ray casts (observation) and IR occlusion (middleware)
+    "petswarm_env.sim.scenarios": None,  # the user's script, read by User.apply
+    "petswarm_env.comms": "radio_middleware",  # the 802.15.4 medium, IR optics
+    "petswarm_env.middleware": "radio_middleware",  # every robot's managers and messages
+    "petswarm_env.middleware.user_session": "user_sensing",  # the master's wearables chain (LF, belt)
+    "petswarm_env.wearables": "user_sensing",
+    "petswarm_env.control": "control",  # master-role controller, control arbiter
+    "petswarm_env.observe": "observation",
+    "petswarm_env.reward": "reward_metrics",
+    "petswarm_env.metrics": "reward_metrics",
+    # the libraries it runs on
+    "simpy": "radio_middleware",  # the clock's event loop
+    "pymunk.space": "physics",  # Space.step (Chipmunk's cpSpaceStep)
+    "pymunk": None,  # bodies' property accessors: whoever reads or writes them
+    "numpy": None,
+}
+
+
+class Uncategorised(LookupError):
+    """A module of the project that no row of :data:`MODULE_PARTS` covers."""
+
+
+def norm_path(path: str) -> str:
+    return path.replace("\\", "/")
+
+
+_STDLIB = {norm_path(p) for p in (sysconfig.get_paths().get("stdlib"), sysconfig.get_paths().get("platstdlib")) if p}
+_TOP_LEVEL = {key.split(".")[0] for key in MODULE_PARTS}
+
+
+def module_of(filename: str) -> str | None:
+    """The dotted module of a source file (``…/petswarm_env/sim/world.py`` → ``petswarm_env.sim.world``,
+    a package's ``__init__.py`` → ``pkg.__init__``); None for built-ins, frozen modules, the
+    standard library and files of no known package."""
+    path = norm_path(filename)
+    if filename == "~" or path.startswith("<"):
+        return None  # built-ins (C functions, including pymunk's cffi calls) and frozen modules
+    if "site-packages" not in path and any(path.startswith(p + "/") for p in _STDLIB):
+        return None
+    parts = path.removesuffix(".py").split("/")
+    root = norm_path(str(ROOT)) + "/"
+    if path.startswith(root):
+        return ".".join(path[len(root):].removesuffix(".py").split("/"))
+    if "site-packages" in parts:
+        rest = parts[len(parts) - parts[::-1].index("site-packages"):]
+        return ".".join(rest) if rest else None
+    for i, part in enumerate(parts):
+        if part in _TOP_LEVEL:
+            return ".".join(parts[i:])
+    return None
+
+
+def module_part(module: str) -> str | None:
+    """The part of ``module`` (the row of its longest prefix in :data:`MODULE_PARTS`; None =
+    neutral); ``"other"`` for a module of another package. Raises :class:`Uncategorised` for a
+    module of :data:`PROJECT` no row covers."""
+    name = module
+    while True:
+        if name in MODULE_PARTS:
+            return MODULE_PARTS[name]
+        if "." not in name:
+            break
+        name = name.rsplit(".", 1)[0]
+    if module.split(".")[0] == PROJECT:
+        raise Uncategorised(f"{module} has no part in bench/parts.py MODULE_PARTS")
+    return "other"
+
+
+def part_of(func: tuple[str, int, str]) -> str | None:
+    """The part of a profiled function ``(filename, line, name)``'s own time, or None (neutral:
+    its callers'). An uncategorised project module counts as ``"other"``."""
+    module = module_of(func[0])
+    if module is None:
+        return None
+    try:
+        return module_part(module)
+    except Uncategorised:
+        return "other"
+
+
+def part_rules() -> dict[str | None, list[str]]:
+    """The modules of each part (``None``: the neutral ones), as the page lists them."""
+    out: dict[str | None, list[str]] = {}
+    for module, part in MODULE_PARTS.items():
+        out.setdefault(part, []).append(module)
+    return out

@@ -1,0 +1,76 @@
+"""Training throughput: PPO samples/s through the training vector env (:mod:`training`)."""
+
+from __future__ import annotations
+
+import time
+import warnings
+from typing import Any
+
+from bench.settings import BenchSettings, log
+
+
+def bench_training(s: BenchSettings, verbose: bool = False) -> dict:
+    """PPO samples/s (agent-steps per second of ``model.learn``, updates included) through the
+    training vector env: 1 worker = the env copy in this process (num_envs 1, num_cpus 0);
+    k workers = k env copies in k worker processes (num_envs k, num_cpus k)."""
+    try:
+        import torch
+        from stable_baselines3.common.utils import set_random_seed
+
+        from training.config import load_train_config
+        from training.train import build_model
+        from training.vec_env import make_vec_env
+    except ImportError as exc:
+        return {"skipped": f"{exc.name or exc} is not installed; set up the training stack with: bash scripts/setup.sh train"}
+
+    tcfg = load_train_config()
+    env_cfg = tcfg.env_config()
+    slaves = env_cfg.swarm.num_slaves + env_cfg.swarm.extra_robots
+    p = tcfg.ppo
+    torch.set_num_threads(1)  # as `petswarm train`: the cores run the env workers
+    runs = []
+    for workers in s.training_workers:
+        num_envs, num_cpus = (1, 0) if workers <= 1 else (workers, workers)
+        rows = num_envs * slaves
+        n_steps = max(8, s.training_rollout // rows)
+        rollout = n_steps * rows
+        batch = min(p.batch_size, rollout)
+        log(verbose, f"training: {workers} worker(s), {s.training_samples} samples, n_steps {n_steps}")
+        set_random_seed(s.seed)
+        with warnings.catch_warnings():  # SB3 notes SuperSuit's vector env has no render_mode
+            warnings.filterwarnings("ignore", message="The `render_mode` attribute is not defined")
+            venv = make_vec_env(env_cfg, num_envs, num_cpus, s.seed)
+        try:
+            model = build_model(p, venv, s.seed, n_steps=n_steps, batch_size=batch)
+            t0 = time.perf_counter()
+            model.learn(total_timesteps=s.training_samples, progress_bar=False)
+            wall = time.perf_counter() - t0
+            samples = int(model.num_timesteps)
+        finally:
+            venv.close()
+        runs.append({
+            "workers": workers,
+            "num_envs": num_envs,
+            "num_cpus": num_cpus,
+            "vector_rows": rows,
+            "n_steps": n_steps,
+            "rollout_samples": rollout,
+            "batch_size": batch,
+            "n_epochs": p.n_epochs,
+            "samples": samples,
+            "wall_s": wall,
+            "samples_per_s": samples / wall,
+        })
+    out: dict[str, Any] = {
+        "env": f"training env (configs/train/ppo.yaml): {slaves} slaves, max_cycles {env_cfg.max_cycles}",
+        "net_arch": list(p.net_arch),
+        "torch_threads": 1,
+        "runs": runs,
+        "method": "wall time of model.learn(total_timesteps) for a fresh PPO (configs/train/ppo.yaml "
+        "hyper-parameters, n_steps = rollout / vector rows); includes env steps, policy inference and "
+        "the PPO updates; model and env construction are excluded. 1 worker = one env copy in this "
+        "process (num_envs 1, num_cpus 0); k workers = k copies in k processes (num_envs k, num_cpus k).",
+    }
+    if len(runs) >= 2:
+        out["speedup"] = runs[-1]["samples_per_s"] / runs[0]["samples_per_s"]
+    return out

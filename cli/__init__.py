@@ -1,0 +1,1 @@
+"""The `petswarm` command line (cli/main.py)."""

@@ -1,0 +1,77 @@
+"""The evaluation room's commands: ``petswarm run``, ``petswarm eval`` and ``petswarm report``
+(printing and writing; :mod:`cli.main` parses the arguments)."""
+
+from __future__ import annotations
+
+import os
+from typing import Any
+
+from evaluation.evaluate import evaluate, format_table, parse_mix
+from evaluation.report import write_report
+from evaluation.runner import run
+from petswarm_env.config import Config, ConfigError
+from petswarm_env.files import write_json_atomic
+
+
+def format_run_table(result: dict[str, Any]) -> str:
+    """The per-episode table and the summary line of ``petswarm run``."""
+    lines = [f"{'episode':>7} {'seed':>5} {'slaves':>6} {'rmse_m':>7} {'coll r-r':>8} {'r-user':>6} {'r-wall':>6} {'org_s':>6} "
+             f"{'retries':>7} {'tok_rec':>7} {'sent':>6} {'lost':>5} {'collid':>6}"]
+    for i, e in enumerate(result["episodes"]):
+        c, f = e["collisions"], e["frames"]
+        lines.append(
+            f"{i:>7} {e['seed']:>5} {e['slaves']:>6} {e['formation_rmse_m']:>7.3f} {c['robot_robot']:>8} {c['robot_user']:>6} "
+            f"{c['robot_wall']:>6} {e['organize_time_s']:>6.2f} {e['join_retries']:>7} {e['token_recoveries']:>7} "
+            f"{f['sent']:>6} {f['lost']:>5} {f['collided']:>6}"
+        )
+    s = result["summary"]
+    lines.append(
+        f"summary: {s['episodes']} episodes, formation_rmse_m {s['formation_rmse_m']:.3f}, collisions {s['collisions']} "
+        f"(robot-robot {s['robot_robot_collisions']}), organize_time_s {s['organize_time_s']:.2f}, join_retries {s['join_retries']}"
+    )
+    return "\n".join(lines)
+
+
+def run_command(cfg: Config, policy: str, episodes: int, seed: int | None, render: str | None, video: str | None,
+                json_out: str | None, quiet: bool) -> int:
+    """``petswarm run``: the episodes, their table (or with ``quiet`` the summary line), the JSON
+    and the GIF."""
+    if video and not video.lower().endswith(".gif"):
+        raise ConfigError(f"--video must name a .gif file, got '{video}'")
+    result = run(cfg, policy, episodes, seed, render, video)
+    if quiet:
+        s = result["summary"]
+        print(f"formation_rmse_m {s['formation_rmse_m']:.3f} collisions {s['collisions']}")
+    else:
+        print(format_run_table(result))
+    if json_out:
+        write_json_atomic(json_out, result)
+        print(f"wrote {json_out}")
+    if video:
+        print(f"wrote {video}")
+    return 0
+
+
+def eval_command(cfg: Config, policy: str, mix: list[str], scenarios: str | None, episodes: int, seed: int | None,
+                 json_out: str | None, video_dir: str | None) -> int:
+    """``petswarm eval``: ``policy`` (and the ``--mix ROBOT=POLICY`` items) on each of the
+    comma-separated ``scenarios``; the table and the JSON, its GIF paths relative to the JSON file
+    (as the report expects)."""
+    names = [s.strip() for s in scenarios.split(",") if s.strip()] if scenarios else None
+    result = evaluate(cfg, policy, parse_mix(mix), names, episodes, seed, video_dir)
+    print(format_table(result))
+    if json_out:
+        base = os.path.dirname(os.path.abspath(json_out))
+        for ep in result["episodes"]:
+            if "gif" in ep:
+                ep["gif"] = os.path.relpath(os.path.abspath(ep["gif"]), base)
+        write_json_atomic(json_out, result)
+        print(f"wrote {json_out}")
+    return 0
+
+
+def report_command(results: list[str], out: str) -> int:
+    """``petswarm report``: one HTML page comparing the result files."""
+    write_report(results, out)
+    print(f"wrote {out}")
+    return 0

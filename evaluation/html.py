@@ -89,3 +89,7 @@ def img(b64: str, alt: str) -> str:
     """An ``<img>`` of a base64 PNG (from :func:`png_base64`)."""
     return f'<img src="data:image/png;base64,{b64}" alt="{escape(alt)}">'
 
+
+def figure(b64: str, alt: str, caption: str) -> str:
+    """A ``<figure>`` of a base64 PNG with its ``caption`` (HTML)."""
+    return f"<figure>{img(b64, alt)}<figcaption>{caption}</figcaption></figure>"

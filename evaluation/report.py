@@ -23,7 +23,7 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
-from evaluation.html import NA, escape, img, now_stamp, page, table
+from evaluation.html import NA, escape, figure, now_stamp, page, table
 from evaluation.report_plots import COLORS, plot_error_over_time, plot_rmse_bars, plot_trajectories, trace_matrix
 from evaluation.stats import as_number as _num
 from evaluation.stats import mean_ci95
@@ -228,10 +228,10 @@ def _section_rmse(results: list[_Result], scenarios: list[str], colors: dict[str
             stats[(s, r.label)] = mean_ci95(ep.get("formation_rmse_m") for ep in eps)
             counts[(s, r.label)] = (len(eps), stats[(s, r.label)][2])
     ref_label = REFERENCE_LABEL if REFERENCE_LABEL in labels else None
-    parts = ["<h2>2. Formation RMSE per scenario</h2>"]
+    title = "<h2>2. Formation RMSE per scenario</h2>"
     if not scenarios:
-        parts.append(f"<p>No episodes in any result: {NA}.</p>")
-        return "".join(parts)
+        return title + f"<p>No episodes in any result: {NA}.</p>"
+    parts = [title]
     rows = []
     for s in scenarios:
         present = [lab for lab in labels if (s, lab) in stats]
@@ -256,7 +256,8 @@ def _section_rmse(results: list[_Result], scenarios: list[str], colors: dict[str
     parts.append(table(["scenario", "label", "formation RMSE (m), mean ± 95 % CI", "episodes", f"ratio to {escape(REFERENCE_LABEL)}"], rows, left_cols=2))
     bars = plot_rmse_bars(scenarios, labels, stats, colors)
     if bars:
-        parts.append(f"<figure>{img(bars, 'formation RMSE per scenario')}<figcaption>Formation RMSE per scenario and label; error bars: 95 % t confidence interval over episodes.</figcaption></figure>")
+        parts.append(figure(bars, "formation RMSE per scenario",
+                            "Formation RMSE per scenario and label; error bars: 95 % t confidence interval over episodes."))
     return "".join(parts)
 
 
@@ -273,11 +274,11 @@ def _section_error_time(results: list[_Result], scenarios: list[str], colors: di
             parts.append(f"<h3>{escape(s)}</h3><p>{NA}: no error traces recorded.</p>")
             continue
         dts = sorted({dt for _, _, dt in series})
-        parts.append(
-            f"<h3>{escape(s)}</h3><figure>{img(png, f'formation error over time, {s}')}<figcaption>Mean formation error per step "
-            f"(m) across episodes, line = mean over episodes, shaded band = 25–75 percentile (interquartile range) over episodes. "
-            f"Time axis: step index × {', '.join(f'{d:g}' for d in dts)} s, from the first step with a recorded error.</figcaption></figure>"
-        )
+        parts.append(f"<h3>{escape(s)}</h3>" + figure(
+            png, f"formation error over time, {s}",
+            "Mean formation error per step (m) across episodes, line = mean over episodes, shaded band = 25–75 percentile "
+            f"(interquartile range) over episodes. Time axis: step index × {', '.join(f'{d:g}' for d in dts)} s, from the "
+            "first step with a recorded error."))
     if not scenarios:
         parts.append(f"<p>{NA}: no episodes.</p>")
     return "".join(parts)
@@ -297,11 +298,10 @@ def _section_trajectories(results: list[_Result], scenarios: list[str]) -> str:
         if png is None:
             parts.append(f"<h3>{escape(s)}</h3><p>{NA}: no trajectories recorded.</p>")
             continue
-        parts.append(
-            f"<h3>{escape(s)}</h3><figure>{img(png, f'trajectories, {s}')}<figcaption>First episode of each label in this scenario: "
-            "user path (black dashed, ■ start, ★ end), master robot (thick red), slave robots (thin lines), ● = final positions. "
-            "Axes in metres, equal aspect.</figcaption></figure>"
-        )
+        parts.append(f"<h3>{escape(s)}</h3>" + figure(
+            png, f"trajectories, {s}",
+            "First episode of each label in this scenario: user path (black dashed, ■ start, ★ end), master robot (thick red), "
+            "slave robots (thin lines), ● = final positions. Axes in metres, equal aspect."))
     return "".join(parts)
 
 
@@ -337,10 +337,10 @@ def _arbiter_wins(ep: dict) -> dict | None:
 
 
 def _section_collisions_comms(results: list[_Result], scenarios: list[str]) -> str:
-    parts = ["<h2>5. Collisions, arbiter and communication</h2>"]
+    title = "<h2>5. Collisions, arbiter and communication</h2>"
     if not scenarios:
-        parts.append(f"<p>{NA}: no episodes.</p>")
-        return "".join(parts)
+        return title + f"<p>{NA}: no episodes.</p>"
+    parts = [title]
     # collisions
     rows = []
     for s in scenarios:

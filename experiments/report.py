@@ -12,13 +12,22 @@ from __future__ import annotations
 
 import math
 
-from evaluation.html import escape, img, new_figure, now_stamp, page, png_base64, table
+from evaluation.html import escape, figure, new_figure, now_stamp, page, png_base64, table
 from experiments.registry import check_passed
 from experiments.results import ExperimentResult, format_figure
 from petswarm_env.files import write_text_atomic
 
 _PAPER_COLOR = "#7f7f7f"
 _SIM_COLOR = "#1f77b4"
+
+
+def _plane(ax, xlabel: str, ylabel: str, legend_loc: str) -> None:
+    """Axes of a plane in centimetres, as the papers draw positions: equal aspect, grid, legend."""
+    ax.set_aspect("equal")
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8, loc=legend_loc)
 
 
 def _placeholder(name: str, res: ExperimentResult | None) -> str:
@@ -57,15 +66,11 @@ def _section_ir(res: ExperimentResult | None) -> str:
                    alpha=0.5, label=f"estimated ({fig19['samples_per_point']} samples a point)")
     ax.scatter(act[:, 0], act[:, 1], s=36, marker="o", facecolors="none", edgecolors="k", linewidths=1.2, label="actual")
     ax.scatter([0], [0], s=60, marker="*", color="#d62728", label="IR transmitter")
-    ax.set_aspect("equal")
-    ax.set_xlabel("x (cm)")
-    ax.set_ylabel("y (cm)")
-    ax.grid(alpha=0.3)
-    ax.legend(loc="upper left", fontsize=8)
+    _plane(ax, "x (cm)", "y (cm)", "upper left")
     ax.set_title("relative location of the receiving robot: actual vs estimated", fontsize=10)
-    out.append(f"<figure>{img(png_base64(fig), 'IR estimated vs actual positions')}<figcaption>Receiver at 40–200 cm, "
-               f"0–180° in 30° steps; RMSEs over {res.data['samples_per_point']} samples a point "
-               f"(valid fraction {format_figure(res.data['valid_fraction'])}).</figcaption></figure>")
+    out.append(figure(png_base64(fig), "IR estimated vs actual positions",
+                      f"Receiver at 40–200 cm, 0–180° in 30° steps; RMSEs over {res.data['samples_per_point']} samples a "
+                      f"point (valid fraction {format_figure(res.data['valid_fraction'])})."))
     return "".join(out)
 
 
@@ -107,9 +112,9 @@ def _section_organize(res: ExperimentResult | None) -> str:
     ax2.grid(alpha=0.3, axis="y")
     ax2.legend(fontsize=8, loc="upper left")
     ax2.set_title("Table 5: retry probability", fontsize=10)
-    out.append(f"<figure>{img(png_base64(fig), 'organize time and retry probability vs slaves')}<figcaption>"
-               f"{res.data['organizations_per_count']} organizations per slave count through the environment's reset "
-               "(join protocol on the simulated 802.15.4 medium). Error bars: minimum and maximum.</figcaption></figure>")
+    out.append(figure(png_base64(fig), "organize time and retry probability vs slaves",
+                      f"{res.data['organizations_per_count']} organizations per slave count through the environment's "
+                      "reset (join protocol on the simulated 802.15.4 medium). Error bars: minimum and maximum."))
     out.append("<p>Setup: the robots wait around the grid formation's slots, all inside the master's 3 m available "
                "region (Table 1), so a retry means a lost response. Retry probability: the share of organizations "
                "that needed at least one retry; an organization that ended without all its slaves counts as retried "
@@ -145,13 +150,9 @@ def _section_lf(res: ExperimentResult | None) -> str:
             ax.scatter(-est[:, 1], est[:, 0], s=10, color="#d62728", alpha=0.4, label="measured")
         ax.scatter(-act[:, 1], act[:, 0], s=40, facecolors="none", edgecolors="#2ca02c", linewidths=1.2, label="actual")
         ax.scatter([0], [0], s=60, marker="^", color="k", label="robot (LF antennas)")
-        ax.set_aspect("equal")
-        ax.set_xlabel("x, to the right (cm)")
-        ax.set_ylabel("y, forward (cm)")
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=8, loc="lower right")
-        out.append(f"<figure>{img(png_base64(fig), 'LF measured vs actual user positions')}<figcaption>"
-                   f"{res.data.get('samples_per_point')} samples a point; one measured point in five drawn.</figcaption></figure>")
+        _plane(ax, "x, to the right (cm)", "y, forward (cm)", "lower right")
+        out.append(figure(png_base64(fig), "LF measured vs actual user positions",
+                          f"{res.data.get('samples_per_point')} samples a point; one measured point in five drawn."))
     return "".join(out)
 
 
@@ -186,9 +187,9 @@ def _section_reaction(res: ExperimentResult | None) -> str:
     for ax in (ax1, ax2):
         ax.grid(alpha=0.3)
     n = len(res.data.get("trials", []))
-    out.append(f"<figure>{img(png_base64(fig), 'reaction-time CDFs')}<figcaption>{n} trials: a leading swarm stands with its "
-               "user, who starts turning on the spot; time from the rotation start to the start of each robot's motion "
-               "(per trial the slaves' median).</figcaption></figure>")
+    out.append(figure(png_base64(fig), "reaction-time CDFs",
+                      f"{n} trials: a leading swarm stands with its user, who starts turning on the spot; time from the "
+                      "rotation start to the start of each robot's motion (per trial the slaves' median)."))
     if res.note:
         out.append(f'<p class="warn">{escape(res.note)}</p>')
     return "".join(out)

@@ -214,7 +214,9 @@ class JoinManager:
     def _on_notify(self, frame: Frame) -> None:
         node = self.node
         p = frame.payload
-        if node.state == "waiting":  # the member table and the driving mode come in the frame
+        if node.state == "waiting":
+            # the member table and the driving mode come in the frame; the neighbour table is still
+            # the configured shape, laid out for that mode (the frame's shape is not read yet)
             members = {int(m): n for m, n in p["members"].items()}
             node.enter_swarm("slave", p["new_pan"], p["member"], members,
                              formation_for_mode(node.cfg.swarm, len(members), p["mode"]))

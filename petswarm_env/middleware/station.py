@@ -43,21 +43,18 @@ if TYPE_CHECKING:
 
 
 # -- SimPy's and pymunk's internals: read here and nowhere else in the middleware -------------------
-# house-core: switch to the clock/body module's public accessor
+# house-core: switch to the clock/body module's public accessor (now_s, body_handle, body_position)
 def now_s(clock: simpy.Environment) -> float:
     """The clock's time: ``clock.now`` without the property (read for every handled frame)."""
     return clock._now
 
 
-def body_position_reader(robot: Robot) -> Callable[[], tuple[float, float]]:
-    """A reader of the robot body's position (the antenna's), called for every frame on the air."""
-    cbody = robot._cbody  # the Chipmunk body behind robot.body
+def body_handle(robot: Robot) -> Any:
+    """What :func:`body_position` reads the robot's position from (its Chipmunk body)."""
+    return robot._cbody
 
-    def position() -> tuple[float, float]:
-        p = _get_position(cbody)
-        return (p.x, p.y)
 
-    return position
+body_position = _get_position  # body_position(body_handle(robot)) -> the body's position (x, y attributes)
 
 
 class Signal:
@@ -90,7 +87,7 @@ class Station:
         self.draws = Draws(rng)  # scalar draws (MCU processing jitter) taken from rng in blocks
         self._processing = (cfg.radio.processing_s, cfg.radio.processing_jitter_s)
         self._robot = robot  # own body: its AHRS, and the antenna's position
-        self.position = body_position_reader(robot)  # position(): the radio's propagation model needs it
+        self._body = body_handle(robot)
         self.pans: frozenset[int] = frozenset({PAN_WAITING})
         self.state = "waiting"  # sequence manager state, see sequence.py
         self.previous_driving_state = "following"  # a master's driving state before organizing (Fig. 4)
@@ -110,6 +107,11 @@ class Station:
         radio.attach(self)
 
     # -- RF communication and message processing -------------------------------------------------
+    def position(self) -> tuple[float, float]:
+        """Antenna position: the radio's propagation model needs it (not the middleware)."""
+        p = body_position(self._body)
+        return (p.x, p.y)
+
     def send(self, kind: str, dst: int = BROADCAST, pan: int | None = None, **payload: Any) -> None:
         pan = self.swarm_pan if pan is None else pan
         frame = Frame(kind, self.node_id, dst, pan, payload, msg.SIZE_BYTES[kind])

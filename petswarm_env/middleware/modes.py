@@ -137,13 +137,14 @@ class ModeManager:
                     break
                 retries += 1
             result["handover_retries"] = retries
-            node.state = "slave"  # the user goes over to the new master
+            node.state = "slave"  # the user goes over to the new master (Table 3: master change)
             node.connected_user = None
             node.handed_over.emit(new_master)
         result["done_s"] = clock.now
 
     def _commit(self, plan: ModeChangePlan) -> None:
-        """The (old) master commits the plan once every member acknowledged it."""
+        """The (old) master commits the plan once every member acknowledged it (seed 000 §3.5: the
+        new tables, re-rooted at the new master under Table 3's master change)."""
         node = self.node
         previous = node.know.members
         node.know.members = dict(plan.members)

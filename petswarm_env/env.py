@@ -38,7 +38,8 @@ from petswarm_env.config import Config, flatten_dotted, load_config
 from petswarm_env.control.arbiter import SOURCES, ControlArbiter, SafetyStage
 from petswarm_env.metrics import EpisodeMetrics
 from petswarm_env.middleware.formation import Formation, formation_for_mode, user_position_in_formation
-from petswarm_env.middleware.swarm import Fleet, Swarm
+from petswarm_env.middleware.fleet import Fleet
+from petswarm_env.middleware.swarm import Swarm
 from petswarm_env.middleware.user_session import UserSession
 from petswarm_env.observe import OBS_VERSION, ObservationLayout, build_observation
 from petswarm_env.reward import slave_rewards
@@ -182,7 +183,7 @@ class PetSwarmEnv(ParallelEnv):
         observations = self._observe()
         infos = {}
         for a in self.agents:
-            sw = self._node(a).swarm
+            sw = self.fleet.swarm_of(self._agent_index[a])
             org = {"organize_time_s": sw.organize_result.elapsed_s, "join_retries": sw.organize_result.retries,
                    "members": dict(sw.organize_result.members)}
             infos[a] = {"member": self._node(a).know.member, "organize": org}
@@ -470,7 +471,7 @@ class PetSwarmEnv(ParallelEnv):
         centers, _, headings = self.world.truth_arrays()
         xy, th = centers.tolist(), headings.tolist()
         refs = self._reference_points(xy, th)
-        nodes, agent_index = self.fleet.nodes, self._agent_index
+        swarm_of, agent_index = self.fleet.swarm_of, self._agent_index
         errors, heading = {}, {}
         for agent in self.agents:
             idx = agent_index[agent]
@@ -479,7 +480,7 @@ class PetSwarmEnv(ParallelEnv):
                 continue
             x, y = xy[idx]
             errors[agent] = math.hypot(x - ref[0], y - ref[1])
-            heading[agent] = _wrap(th[idx] - th[nodes[idx].swarm.master.node_id])
+            heading[agent] = _wrap(th[idx] - th[swarm_of(idx).master.node_id])
         return errors, heading
 
     # -- reporting -------------------------------------------------------------------------------

@@ -46,7 +46,7 @@ def test_disperse_returns_everyone_to_their_previous_state(seed, steps, mode):
     sw = env.swarm
     slaves = sw.slave_ids()
     assert slaves and sw.master.state == "master"
-    assert sw.master.seq.previous_driving_state == mode
+    assert sw.master.previous_driving_state == mode
     result = sw.start_disperse()
     env.world.advance(2 * SUBSTEPS_PER_S)
     for n in slaves:  # slaves leave as soon as they get the request

@@ -236,3 +236,14 @@ def test_join_is_reproducible_per_seed():
     a = organize(3)[1]
     b = organize(3)[1]
     assert (a.members, a.retries, a.elapsed_s) == (b.members, b.retries, b.elapsed_s)
+
+
+def test_a_joined_robot_is_counted_in_the_swarm_whose_pan_it_joined():
+    """The joining notification's signal moves a robot to the swarm of its new PAN (the fleet keeps
+    which swarm each robot is in; no robot's middleware sees a swarm)."""
+    env = petswarm_env.parallel_env(**{"world.num_users": 2, "swarm.num_slaves": 3})
+    env.reset(seed=0)
+    for sw in env.swarms:
+        assert sw.slave_ids()
+        for n in [sw.master.node_id, *sw.slave_ids()]:
+            assert env.fleet.swarm_of(n) is sw and env.fleet.nodes[n].swarm_pan == sw.pan

@@ -280,3 +280,43 @@ def test_heading_is_not_paired_with_a_measurement_from_an_older_round():
     for _ in range(20):
         env.step({})
     assert node.know.heading[ref].time_s > env.world.now - 1.5  # measuring again: paired again
+
+
+# -- the IR port: the holder's transmission through the IR medium (fleet) --------------------------
+def test_the_ir_medium_stores_every_measurement_before_asking_the_holders_neighbours_in_their_order():
+    """Every member on the holder's PAN measures its IR first; then the holder's neighbours, in the
+    order the holder gives, each decide from their own measurement whether to report (Fig. 9)."""
+    env = run_env(0, steps=20)
+    sw = env.swarm
+    holder = sw.master
+    calls = []
+    for n in sw.slave_ids():
+        node = sw.nodes[n]
+        store, report = node.store_ir, node.ring.report_heading
+        node.store_ir = lambda tx, d, b, n=n, store=store: (calls.append(("store", n)), store(tx, d, b))
+        node.ring.report_heading = lambda tx, n=n, report=report: (calls.append(("report", n)), report(tx))[1]
+    neighbours = sorted(sw.slave_ids(), reverse=True)[:2] + [None]  # any order; a missing member is skipped
+    reporters = env.fleet.ir_slot(holder, neighbours)
+    stores = [n for kind, n in calls if kind == "store"]
+    assert stores and all(kind == "store" for kind, _ in calls[: len(stores)])
+    assert [n for kind, n in calls[len(stores):]] == [n for n in neighbours if n is not None]
+    assert reporters == [n for n in neighbours if n in stores]  # measured now: they report
+
+
+def test_a_robot_built_alone_has_its_own_managers_and_an_unwired_ir_port_says_so():
+    from petswarm_env.comms.radio import RadioMedium
+    from petswarm_env.config import load_config
+    from petswarm_env.middleware.node import Node
+    from petswarm_env.sim.scenarios import ScenarioScript, build_scenario
+    from petswarm_env.sim.world import World
+
+    cfg = load_config()
+    world = World(cfg, ScenarioScript(build_scenario("straight", cfg.user, np.random.default_rng(0))))
+    world.add_robot((-1.0, 0.0), 0.0)
+    node = Node(0, cfg, world.clock, RadioMedium(world.clock, cfg.radio, np.random.default_rng(1)), world.robots[0],
+                np.random.default_rng(2))
+    assert {m.node for m in (node.join, node.ring, node.seq, node.modes)} == {node}
+    assert {msg.SCAN, msg.JOIN_NOTIFY, msg.TOKEN, msg.HEADING, msg.DISPERSE, msg.MODE_CHANGE, msg.STATUS} <= set(node.handlers)
+    assert node.position() == pytest.approx(world.robots[0].position)
+    with pytest.raises(RuntimeError, match="robot 0's IR module is not wired"):
+        node.transmit_ir([])

@@ -16,7 +16,8 @@ from petswarm_env.control.arbiter import ControlArbiter, SafetyStage
 from petswarm_env.middleware import node as node_mod
 from petswarm_env.middleware.formation import formation_for_mode, user_position_in_formation
 from petswarm_env.middleware.modes import plan_mode_change
-from petswarm_env.middleware.swarm import Fleet, Swarm
+from petswarm_env.middleware.fleet import Fleet
+from petswarm_env.middleware.swarm import Swarm
 from petswarm_env.middleware.user_session import UserSession
 from petswarm_env.sim.scenarios import ScenarioScript, build_scenario
 from petswarm_env.sim.world import World

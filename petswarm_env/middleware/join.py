@@ -10,18 +10,21 @@
    lists the robots already heard, which stay silent (chosen), so the answers of the missing
    robots do not collide with theirs again.
 3. The master selects by Table 2 and sends each candidate a *joining notification* (new PAN ID,
-   member number, total number of members) or a *non-participating notification*; each answers
-   with an acknowledgement. Missing acknowledgements → notify again (retry).
+   member number, total number of members; chosen: the whole member table and the user's driving
+   mode, for which the robot lays out its neighbour table) or a *non-participating notification*;
+   each answers with an acknowledgement. Missing acknowledgements → notify again (retry).
 4. Joined robots switch to the new PAN ID.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from petswarm_env.comms.radio import PAN_WAITING, Frame
 from petswarm_env.middleware import messages as msg
-from petswarm_env.middleware.node import Node
+from petswarm_env.middleware.formation import formation_for_mode
+from petswarm_env.middleware.station import Station
 
 
 # Robots on the common PAN that answer a scan: waiting robots, and user-connected robots not in a
@@ -60,7 +63,7 @@ class OrganizeResult:
 class JoinManager:
     """Both roles of the join protocol on one robot."""
 
-    def __init__(self, node: Node):
+    def __init__(self, node: Station):
         self.node = node
         self._expect: set[int] = set()
         self._got: dict[int, Frame] = {}
@@ -89,52 +92,92 @@ class JoinManager:
         yield clock.any_of([self._all_in, clock.timeout(timeout_s)])
         self._expect = set()
 
-    def organize(self, required: int, pan: int, formation_shape: str, result: OrganizeResult):
-        """Master-side organize process (SimPy generator); fills ``result``."""
+    def organize(self, required: int, pan: int, formation_shape: str, result: OrganizeResult,
+                 mode_of: Callable[[], str]):
+        """Master-side organize process (SimPy generator), the steps of seed 000 Fig. 8; fills
+        ``result``. ``mode_of()`` is the user's driving mode when a notification leaves (the
+        joined robots lay their neighbour table out for it)."""
         node = self.node
-        cfg = node.cfg.protocol
-        clock = node.clock
-        t0 = clock.now
+        t0 = node.clock.now
         node.pans = frozenset({PAN_WAITING, pan})
-        # 1.–2. scan, then query the new candidates; scan again (a retry) while fewer robots are
-        # available than the user requires — a scan response may have been lost — until two scans
-        # in a row bring no new robot; while nobody has answered yet, all responses may have
-        # collided (seed 000 §4.5: "simultaneous message reception"), so keep scanning
+        candidates, answers = yield from self._scan_and_query(required, result)  # steps 1-2
+        result.candidates = sorted(candidates)
+        members, n_available = self._select(candidates, answers, required, result)  # step 3, Table 2
+        yield from self._notify(members, pan, formation_shape, mode_of, result)  # step 3
+        # 4. the master drives its swarm on the new PAN ID
+        node.enter_swarm("master", pan, 0, dict(members),
+                         formation_for_mode(node.cfg.swarm, len(members), mode_of()))
+        result.members = members
+        result.elapsed_s = node.clock.now - t0
+        joiners = len(members) - 1
+        result.complete = joiners == min(required, n_available) and joiners > 0
+
+    def _scan_and_query(self, required: int, result: OrganizeResult):
+        """Steps 1-2: scan, then query the new candidates; scan again (a retry) while fewer robots
+        are available than the user requires — a scan response may have been lost — until two
+        scans in a row bring no new robot; while nobody has answered yet, all responses may have
+        collided (seed 000 §4.5: "simultaneous message reception"), so keep scanning. Returns the
+        candidates (robot id -> estimated distance) and their answers (robot id -> frame)."""
+        cfg = self.node.cfg.protocol
         candidates: dict[int, float] = {}
         answers: dict[int, Frame] = {}
         fruitless_scans = 0  # consecutive scans that found no new robot
         while True:
-            self._got = {}
-            node.send(msg.SCAN, pan=PAN_WAITING, known=sorted(candidates))
-            yield clock.timeout(cfg.scan_window_s)
-            new = {rid: f.rx_distance_est_m for rid, f in self._got.items() if rid not in candidates}
+            new = yield from self._scan(candidates)
             candidates.update(new)
-            pending = set(new)
-            self._got = {}
-            while pending:
-                node.send(msg.JOIN_QUERY, pan=PAN_WAITING, candidates=sorted(pending))
-                yield from self._collect(pending, cfg.response_timeout_s)
-                answers.update({rid: self._got[rid] for rid in pending if rid in self._got})
-                pending -= set(answers)
-                if pending:
-                    if result.retries >= cfg.max_retries:
-                        break
-                    result.retries += 1
+            yield from self._query(set(new), answers, result)
             fruitless_scans = 0 if new else fruitless_scans + 1
             n_available = sum(1 for f in answers.values() if f.payload["available"])
             if n_available >= required or (fruitless_scans >= 2 and candidates) or result.retries >= cfg.max_retries:
-                break
+                return candidates, answers
             result.retries += 1
-        result.candidates = sorted(candidates)
-        # 3. selection (Table 2)
+
+    def _scan(self, known: dict[int, float]):
+        """Step 1: broadcast the scan (listing the robots already heard, which stay silent) and
+        take the new responders as candidates: robot id -> estimated distance (RSSI)."""
+        node = self.node
+        self._got = {}
+        node.send(msg.SCAN, pan=PAN_WAITING, known=sorted(known))
+        yield node.clock.timeout(node.cfg.protocol.scan_window_s)
+        return {rid: f.rx_distance_est_m for rid, f in self._got.items() if rid not in known}
+
+    def _query(self, pending: set[int], answers: dict[int, Frame], result: OrganizeResult):
+        """Step 2: the joining query to the ``pending`` candidates until each answered (Table 1
+        is theirs to apply); missing answers → query again (a retry)."""
+        node = self.node
+        cfg = node.cfg.protocol
+        self._got = {}
+        while pending:
+            node.send(msg.JOIN_QUERY, pan=PAN_WAITING, candidates=sorted(pending))
+            yield from self._collect(pending, cfg.response_timeout_s)
+            answers.update({rid: self._got[rid] for rid in pending if rid in self._got})
+            pending -= set(answers)
+            if pending:
+                if result.retries >= cfg.max_retries:
+                    return
+                result.retries += 1
+
+    def _select(self, candidates: dict[int, float], answers: dict[int, Frame], required: int,
+                result: OrganizeResult) -> tuple[dict[int, int], int]:
+        """Step 3, selection by Table 2: the member table (member number -> robot id, the master
+        is member 0) and how many robots could join; fills ``result.unavailable`` and
+        ``result.not_selected``."""
         available = {rid: candidates[rid] for rid, f in answers.items() if f.payload["available"]}
         result.unavailable = sorted(set(answers) - set(available))
         joiners = select_joiners(available, required)
-        members = {0: node.node_id}
-        members.update({i + 1: rid for i, rid in enumerate(joiners)})
         result.not_selected = sorted(set(answers) - set(joiners))
-        # 4. notifications, one robot after another, each acknowledged
-        notify = {rid: msg.JOIN_NOTIFY for rid in joiners}
+        members = {0: self.node.node_id}
+        members.update({i + 1: rid for i, rid in enumerate(joiners)})
+        return members, len(available)
+
+    def _notify(self, members: dict[int, int], pan: int, formation_shape: str, mode_of: Callable[[], str],
+                result: OrganizeResult):
+        """Step 3, the result: a joining notification (new PAN ID, member number, the member table)
+        to each selected robot, a non-participating notification to the others, one robot after
+        another, each acknowledged; a missing acknowledgement → notify again (a retry)."""
+        node = self.node
+        cfg = node.cfg.protocol
+        notify = {rid: msg.JOIN_NOTIFY for m, rid in members.items() if m != 0}
         notify.update({rid: msg.NON_PARTICIPATE for rid in result.not_selected})
         for rid in sorted(notify, key=lambda r: (notify[r] != msg.JOIN_NOTIFY, r)):
             attempt = 0
@@ -144,8 +187,8 @@ class JoinManager:
                 for p in pans:  # a robot whose ack was lost has already moved to the new PAN
                     if notify[rid] == msg.JOIN_NOTIFY:
                         member = next(m for m, n in members.items() if n == rid)
-                        node.send(msg.JOIN_NOTIFY, dst=rid, pan=p, new_pan=pan, member=member,
-                                  total=len(members), members=dict(members), shape=formation_shape)
+                        node.send(msg.JOIN_NOTIFY, dst=rid, pan=p, new_pan=pan, member=member, total=len(members),
+                                  members=dict(members), shape=formation_shape, mode=mode_of())
                     else:
                         node.send(msg.NON_PARTICIPATE, dst=rid, pan=p)
                 yield from self._collect({rid}, cfg.response_timeout_s)
@@ -153,10 +196,6 @@ class JoinManager:
                     break
                 result.retries += 1
                 attempt += 1
-        node.pans = frozenset({pan})
-        result.members = members
-        result.elapsed_s = clock.now - t0
-        result.complete = len(joiners) == min(required, len(available)) and len(joiners) > 0
 
     # -- candidate side -------------------------------------------------------------------------
     def _on_scan(self, frame: Frame) -> None:
@@ -176,7 +215,12 @@ class JoinManager:
         node = self.node
         p = frame.payload
         if node.state == "waiting":
-            node.swarm.become_slave(node, p["new_pan"], p["member"], p["members"], p["shape"])
+            # the member table and the driving mode come in the frame; the neighbour table is still
+            # the configured shape, laid out for that mode (the frame's shape is not read yet)
+            members = {int(m): n for m, n in p["members"].items()}
+            node.enter_swarm("slave", p["new_pan"], p["member"], members,
+                             formation_for_mode(node.cfg.swarm, len(members), p["mode"]))
+            node.became_slave.emit(p["new_pan"])
         if node.swarm_pan == p["new_pan"]:  # (re-)acknowledge, also when the first ack was lost
             node.send(msg.NOTIFY_ACK, dst=frame.src, pan=frame.pan)
 

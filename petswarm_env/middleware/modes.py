@@ -41,7 +41,7 @@ from petswarm_env.comms.radio import Frame
 from petswarm_env.config import SwarmConfig
 from petswarm_env.middleware import messages as msg
 from petswarm_env.middleware.formation import Formation, Link, formation_for_mode, user_position_in_formation
-from petswarm_env.middleware.node import Node
+from petswarm_env.middleware.station import Station
 
 TABLE3_MODES = ("following", "leading")
 
@@ -95,7 +95,7 @@ def _links_from_payload(shape: str, payload: dict) -> Formation:
 class ModeManager:
     """Both ends of a mode change on one robot."""
 
-    def __init__(self, node: Node):
+    def __init__(self, node: Station):
         self.node = node
         self.last_seq = -1
         self._acks: set[int] = set()
@@ -125,21 +125,33 @@ class ModeManager:
             retries += 1
         result["retries"] = retries
         new_master = plan.members[0]
-        swarm = node.swarm
-        swarm.apply_plan(node, plan)
+        self._commit(plan)
         if new_master != node.node_id:
             retries = 0
             self.handover_acked = False
             while True:
                 node.send(msg.HANDOVER, dst=new_master, seq=seq, user=node.connected_user,
-                          previous=swarm.master_previous_state)
+                          previous=node.previous_driving_state)
                 yield clock.timeout(cfg.response_timeout_s)
                 if self.handover_acked or retries >= cfg.max_retries:
                     break
                 retries += 1
             result["handover_retries"] = retries
-            swarm.hand_over(node, node.swarm.nodes[new_master])
+            node.state = "slave"  # the user goes over to the new master (Table 3: master change)
+            node.connected_user = None
+            node.handed_over.emit(new_master)
         result["done_s"] = clock.now
+
+    def _commit(self, plan: ModeChangePlan) -> None:
+        """The (old) master commits the plan once every member acknowledged it (seed 000 §3.5: the
+        new tables, re-rooted at the new master under Table 3's master change)."""
+        node = self.node
+        previous = node.know.members
+        node.know.members = dict(plan.members)
+        node.know.total_members = len(plan.members)
+        node.know.member = next(m for m, n in plan.members.items() if n == node.node_id)
+        node.formation = plan.formation
+        node.plan_applied.emit(plan, previous)
 
     def _on_ack(self, frame: Frame) -> None:
         if frame.dst == self.node.node_id:
@@ -162,10 +174,14 @@ class ModeManager:
         node.know.total_members = len(members)
         node.know.member = next(m for m, n in members.items() if n == node.node_id)
         node.formation = _links_from_payload(p["shape"], p["links"])
-        node.swarm.mode = p["mode"]
+        node.mode_heard.emit(p["mode"])
 
     def _on_handover(self, frame: Frame) -> None:
         node = self.node
         node.send(msg.HANDOVER_ACK, dst=frame.src)
-        if node.state == "slave" and node.know.member == 0:
-            node.swarm.take_over(node, frame.payload["user"], frame.payload["previous"])
+        if node.state == "slave" and node.know.member == 0:  # take the user connection over
+            node.state = "master"
+            node.connected_user = frame.payload["user"]  # its wearables reconnect over BLE
+            node.previous_driving_state = frame.payload["previous"]
+            node.pans = frozenset({node.swarm_pan})
+            node.took_over.emit()

@@ -10,13 +10,13 @@ from __future__ import annotations
 
 from petswarm_env.comms.radio import PAN_WAITING, Frame
 from petswarm_env.middleware import messages as msg
-from petswarm_env.middleware.node import Knowledge, Node
+from petswarm_env.middleware.knowledge import Knowledge
+from petswarm_env.middleware.station import Station
 
 
 class SequenceManager:
-    def __init__(self, node: Node):
+    def __init__(self, node: Station):
         self.node = node
-        self.previous_driving_state = "following"
         node.on(msg.DISPERSE, self._on_disperse)
         node.on(msg.DISPERSE_ACK, self._on_disperse_ack)
         self._acks: set[int] = set()
@@ -66,4 +66,4 @@ class SequenceManager:
         result["acknowledged"] = sorted(self._acks & slaves)
         result["retries"] = retries
         self.leave_swarm()
-        node.state = self.previous_driving_state
+        node.state = node.previous_driving_state

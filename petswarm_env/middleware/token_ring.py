@@ -25,7 +25,8 @@ import math
 
 from petswarm_env.comms.radio import Frame
 from petswarm_env.middleware import messages as msg
-from petswarm_env.middleware.node import HeadingEstimate, Node
+from petswarm_env.middleware.knowledge import HeadingEstimate
+from petswarm_env.middleware.station import Station, now_s
 
 
 def wrap(a: float) -> float:
@@ -38,7 +39,7 @@ def relative_heading(bearing_self_sees_other: float, bearing_other_sees_self: fl
 
 
 class TokenRing:
-    def __init__(self, node: Node):
+    def __init__(self, node: Station):
         self.node = node
         self.token_seq = -1  # highest token sequence number seen
         self.holding = False
@@ -97,8 +98,11 @@ class TokenRing:
         if self.token_seq != seq or node.know is not know:  # superseded, or left the swarm
             self.holding = False
             return
-        reporters = node.swarm.ir_slot(node)  # every other member measures our IR now
-        # the neighbours send us the bearing they saw us at; wait for them before passing on
+        # every other member measures our IR now; our neighbours (by our neighbour table, in its
+        # order) that saw us report the bearing they saw us at (Fig. 9): wait for them before passing on
+        formation = node.formation
+        neighbours = [know.members.get(m) for m in formation.neighbours(know.member)] if formation is not None else []
+        reporters = node.transmit_ir(neighbours)
         self._headings_expected = set(reporters)
         self._headings_event = clock.event()
         if reporters:
@@ -127,6 +131,14 @@ class TokenRing:
         if nxt == member:  # nobody else answered: keep the token
             node.clock.process(self._begin(seq + 1))
 
+    def start_as_master(self) -> None:
+        """The master starts the ring (with a fresh token) and its watchdog."""
+        node = self.node
+        if node.know.total_members > 1:
+            self.token_seq += 1000  # supersede any token still in flight
+            node.clock.process(self.hold(self.token_seq))
+            node.clock.process(self.watchdog())
+
     def _begin(self, seq: int):
         """Become the holder: send the sync message, switch IR to transmit, run the slot."""
         self.node.send(msg.SYNC, seq=seq)
@@ -134,14 +146,14 @@ class TokenRing:
 
     # -- everyone ---------------------------------------------------------------------------------
     def _on_tx_start(self, frame: Frame) -> None:
-        self.last_activity_s = self._slot_start[frame.src] = self.node.clock._now  # (clock.now, per frame)
+        self.last_activity_s = self._slot_start[frame.src] = now_s(self.node.clock)
         seq = frame.payload["seq"]
         self.token_seq = max(seq, self.token_seq)
         self.node.send(msg.TX_START_ACK, dst=frame.src)
 
     def _on_token(self, frame: Frame) -> None:
         node = self.node
-        self.last_activity_s = node.clock._now
+        self.last_activity_s = now_s(node.clock)
         node.send(msg.TOKEN_ACK, dst=frame.src)
         seq = frame.payload["seq"]
         if seq <= self.token_seq or node.know.members.get(frame.payload["next"]) != node.node_id:
@@ -153,8 +165,17 @@ class TokenRing:
         node.clock.process(self._begin(seq))
 
     def _on_sync(self, frame: Frame) -> None:
-        self.last_activity_s = self.node.clock._now
+        self.last_activity_s = now_s(self.node.clock)
         self.token_seq = max(self.token_seq, frame.payload["seq"])
+
+    def report_heading(self, holder: int) -> bool:
+        """The IR medium asks a neighbour of the transmitter ``holder`` at the end of its slot: if
+        we measured it in this slot, we report the bearing we saw it at (Fig. 9)."""
+        seen = self.node.know.ir.get(holder)
+        if seen is None or seen.time_s != now_s(self.node.clock):
+            return False
+        self.send_heading(holder, seen.bearing_rad)
+        return True
 
     def send_heading(self, holder: int, bearing_rad: float) -> None:
         """Neighbour of the transmitter: report the bearing at which we saw it (Fig. 9), after the

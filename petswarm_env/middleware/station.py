@@ -1,0 +1,177 @@
+"""One robot's station: all that its middleware managers see of the robot (seed 000 Fig. 5).
+
+The lower layer of the middleware: the RF communication manager (a station on the shared 802.15.4
+medium: :meth:`Station.send`, and the MCU's processing of every received frame before the frame is
+dispatched to the handler registered with :meth:`Station.on`), the IR module's port, the robot's own
+state (sequence-manager state, PANs, connected user, neighbour table) and what it knows
+(:class:`~.knowledge.Knowledge`).
+
+The managers of the upper layer — join (:mod:`.join`), token ring and heading exchange
+(:mod:`.token_ring`), sequence (:mod:`.sequence`), modes (:mod:`.modes`) — are built by
+:class:`~.node.Node` and see only this station: never the per-user swarm, never another robot.
+What they cannot do on their own robot goes through two kinds of narrow seams that the fleet
+(:mod:`.fleet`) plugs in:
+
+* **ports** (down and out): :attr:`Station.transmit_ir`, the IR module's transmission, wired to the
+  IR optical channel and to the robots that measure it;
+* **signals** (up): what happened to this robot that the user's swarm must learn —
+  :attr:`~Station.became_slave`, :attr:`~Station.mode_heard`, :attr:`~Station.plan_applied`,
+  :attr:`~Station.handed_over`, :attr:`~Station.took_over`. A manager emits a signal after it changed
+  the station's own state.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import simpy
+
+from petswarm_env.comms.radio import BROADCAST, PAN_WAITING, Frame, RadioMedium
+from petswarm_env.config import Config
+from petswarm_env.middleware import messages as msg
+from petswarm_env.middleware.formation import Formation
+from petswarm_env.middleware.knowledge import IRMeasurement, Knowledge
+from petswarm_env.sim.draws import Draws
+from petswarm_env.sim.events import scheduler
+from petswarm_env.sim.robot import _get_position
+
+if TYPE_CHECKING:
+    from petswarm_env.sim.robot import Robot
+
+
+# -- SimPy's and pymunk's internals: read here and nowhere else in the middleware -------------------
+# house-core: switch to the clock/body module's public accessor (now_s, body_handle, body_position)
+def now_s(clock: simpy.Environment) -> float:
+    """The clock's time: ``clock.now`` without the property (read for every handled frame)."""
+    return clock._now
+
+
+def body_handle(robot: Robot) -> Any:
+    """What :func:`body_position` reads the robot's position from (its Chipmunk body)."""
+    return robot._cbody
+
+
+body_position = _get_position  # body_position(body_handle(robot)) -> the body's position (x, y attributes)
+
+
+class Signal:
+    """An upward notification of one robot's middleware: a manager emits it, the fleet subscribes."""
+
+    __slots__ = ("_subscribers",)
+
+    def __init__(self) -> None:
+        self._subscribers: list[Callable[..., None]] = []
+
+    def connect(self, subscriber: Callable[..., None]) -> None:
+        self._subscribers.append(subscriber)
+
+    def emit(self, *args: Any) -> None:
+        for subscriber in self._subscribers:
+            subscriber(*args)
+
+
+class Station:
+    """One robot's lower layer, its state and its knowledge, attached to the radio."""
+
+    def __init__(self, node_id: int, cfg: Config, clock: simpy.Environment, radio: RadioMedium, robot: Robot,
+                 rng: np.random.Generator):
+        self.node_id = node_id
+        self.cfg = cfg
+        self.clock = clock
+        self.later = scheduler(clock)  # later(delay, fn, *args): a call on the clock
+        self.radio = radio
+        self.rng = rng
+        self.draws = Draws(rng)  # scalar draws (MCU processing jitter) taken from rng in blocks
+        self._processing = (cfg.radio.processing_s, cfg.radio.processing_jitter_s)
+        self._robot = robot  # own body: its AHRS, and the antenna's position
+        self._body = body_handle(robot)
+        self.pans: frozenset[int] = frozenset({PAN_WAITING})
+        self.state = "waiting"  # sequence manager state, see sequence.py
+        self.previous_driving_state = "following"  # a master's driving state before organizing (Fig. 4)
+        self.connected_user: int | None = None  # the user this robot is connected to, if any
+        self.know = Knowledge()
+        self.formation: Formation | None = None
+        self.swarm_pan: int | None = None
+        self.counters = {"foreign_pan_frames_processed": 0, "frames_handled": 0}
+        self.handlers: dict[str, Callable[[Frame], None]] = {}
+        # port: transmit_ir(neighbours) -> reporters; the fleet wires it (see fleet.Fleet.ir_slot)
+        self.transmit_ir: Callable[[list[int | None]], list[int]] = self._ir_not_wired
+        self.became_slave = Signal()  # (pan): joined the swarm on PAN ``pan`` (joining notification)
+        self.mode_heard = Signal()  # (mode): a slave applied the master's mode-change frame
+        self.plan_applied = Signal()  # (plan, previous_members): the master committed a mode change
+        self.handed_over = Signal()  # (new_master_id): the master handed its user over, is a slave now
+        self.took_over = Signal()  # (): this robot took its swarm's user over, is the master now
+        radio.attach(self)
+
+    # -- RF communication and message processing -------------------------------------------------
+    def position(self) -> tuple[float, float]:
+        """Antenna position: the radio's propagation model needs it (not the middleware)."""
+        p = body_position(self._body)
+        return (p.x, p.y)
+
+    def send(self, kind: str, dst: int = BROADCAST, pan: int | None = None, **payload: Any) -> None:
+        pan = self.swarm_pan if pan is None else pan
+        frame = Frame(kind, self.node_id, dst, pan, payload, msg.SIZE_BYTES[kind])
+        self.radio.send(self, frame)
+
+    def receive(self, frame: Frame) -> None:
+        """Called by the medium for every frame its MAC accepted; handled after MCU processing."""
+        handler = self.handlers.get(frame.kind)
+        if handler is None:
+            return
+        base, jitter = self._processing  # processing_delay(), inlined: called for every reception
+        self.later(base + jitter * self.draws.uniform(), self._handle, handler, frame)
+
+    def processing_delay(self) -> float:
+        """MCU time to handle a received frame before it can answer (``processing_s`` plus a
+        uniform jitter of up to ``processing_jitter_s``)."""
+        base, jitter = self._processing
+        return base + jitter * self.draws.uniform()
+
+    def _handle(self, handler: Callable[[Frame], None], frame: Frame) -> None:
+        pan = frame.pan
+        if pan not in self.pans:  # the PAN changed while the frame was being processed
+            return
+        if pan != PAN_WAITING and pan != self.swarm_pan:
+            self.counters["foreign_pan_frames_processed"] += 1  # must never happen
+        self.counters["frames_handled"] += 1
+        handler(frame)
+
+    def on(self, kind: str, handler: Callable[[Frame], None]) -> None:
+        self.handlers[kind] = handler
+
+    # -- swarm membership -----------------------------------------------------------------------
+    def enter_swarm(self, state: str, pan: int, member: int, members: dict[int, int], formation: Formation) -> None:
+        """Drive in ``state`` (``slave`` or ``master``) as ``member`` of the swarm on PAN ``pan``
+        (seed 000 Fig. 8, step 4: joined robots switch to the new PAN ID)."""
+        self.state = state
+        self.swarm_pan = pan
+        self.pans = frozenset({pan})
+        self.know.member = member
+        self.know.members = members
+        self.know.total_members = len(members)
+        self.formation = formation
+
+    def member_node(self, member: int) -> int | None:
+        return self.know.members.get(member)
+
+    def reference_links(self):
+        if self.formation is None or self.know.member <= 0:
+            return ()
+        return self.formation.links.get(self.know.member, ())
+
+    # -- own sensors and the IR module ------------------------------------------------------------
+    def ahrs_yaw(self) -> float:
+        """Own AHRS reading (an own sensor: noisy, drifting)."""
+        return self._robot.ahrs_yaw(now_s(self.clock))
+
+    def store_ir(self, other: int, distance_m: float, bearing_rad: float) -> None:
+        """The IR module measured robot ``other``'s transmission (the IR medium calls it)."""
+        if math.isfinite(distance_m):
+            self.know.ir[other] = IRMeasurement(distance_m, bearing_rad, now_s(self.clock), self.ahrs_yaw())
+
+    def _ir_not_wired(self, neighbours: list[int | None]) -> list[int]:
+        raise RuntimeError(f"robot {self.node_id}'s IR module is not wired to an IR medium (Fleet.add_node wires it)")

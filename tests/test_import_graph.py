@@ -21,10 +21,7 @@ ROOT = Path(__file__).resolve().parents[1]
 # list when that branch is merged. Each entry is the exact set of modules of one circle (a strongly
 # connected component of the graph): a circle that grows, shrinks or disappears fails the test too,
 # so an entry can never hide anything but the circle it names.
-EXPECTED_TO_BE_FIXED: list[frozenset[str]] = [
-    # the tools helper of issue 13 (a registry module that policy.py does not import back)
-    frozenset({"baselines.policy", "baselines.leader_follower", "baselines.learned"}),
-]
+EXPECTED_TO_BE_FIXED: list[frozenset[str]] = []
 
 
 def project_modules(root: Path = ROOT) -> dict[str, Path]:

@@ -42,6 +42,7 @@ from petswarm_env.middleware.swarm import Fleet, Swarm
 from petswarm_env.middleware.user_session import UserSession
 from petswarm_env.observe import OBS_VERSION, ObservationLayout, build_observation
 from petswarm_env.reward import slave_rewards
+from petswarm_env.sim.geometry import wrap_angle
 from petswarm_env.sim.scenarios import ScenarioScript, build_scenario
 from petswarm_env.sim.world import World
 
@@ -55,10 +56,6 @@ PAIRING_DISTANCE_M = 0.8  # chosen: each user starts this close to their robot (
 
 _NO_ACTION = np.zeros(3, np.float32)  # the last action of an agent that has not acted yet (read only)
 _NO_ACTION.flags.writeable = False
-
-
-def _wrap(a: float) -> float:
-    return (a + math.pi) % (2 * math.pi) - math.pi
 
 
 class PetSwarmEnv(ParallelEnv):
@@ -479,7 +476,7 @@ class PetSwarmEnv(ParallelEnv):
                 continue
             x, y = xy[idx]
             errors[agent] = math.hypot(x - ref[0], y - ref[1])
-            heading[agent] = _wrap(th[idx] - th[nodes[idx].swarm.master.node_id])
+            heading[agent] = wrap_angle(th[idx] - th[nodes[idx].swarm.master.node_id])
         return errors, heading
 
     # -- reporting -------------------------------------------------------------------------------

@@ -370,7 +370,7 @@ def _build_observation_reference(layout, node, now, odometry, yaw_rad, last_acti
 def _assert_formation_errors_from_the_bodies(env):
     """_formation_errors (read from the truth arrays as lists) equals the same formulas on the
     bodies' own position and heading properties."""
-    from petswarm_env.env import _wrap
+    from petswarm_env.sim.geometry import wrap_angle as _wrap
 
     robots, errors, heads = env.world.robots, {}, {}
     for swarm in env.swarms:

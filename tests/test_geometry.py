@@ -108,3 +108,21 @@ def test_segments_blocked_near_miss_and_beyond_end():
     assert not blocked[0]
     blocked = segments_blocked([[0.0, 0.0]], [[2.6, 0.0]], centers, radii, np.zeros((1, 2), bool))
     assert blocked[0]
+
+
+def test_wrap_angle_on_floats_and_arrays_alike():
+    """The one angle wrap: [−π, π), the same numbers on Python floats and on numpy arrays, and
+    −wrap_angle(−a) is π − (π − a) mod 2π (the IR estimator's (−π, π]) to the bit."""
+    import math
+
+    from petswarm_env.sim.geometry import wrap_angle
+
+    rng = np.random.default_rng(4)
+    a = np.concatenate([rng.uniform(-20.0, 20.0, 20_000), [0.0, math.pi, -math.pi, 3 * math.pi, 1e-300]])
+    got = np.array([wrap_angle(x) for x in a.tolist()])
+    assert np.array_equal(got.view(np.uint64), wrap_angle(a).view(np.uint64))
+    assert ((got >= -math.pi) & (got <= math.pi)).all()
+    np.testing.assert_allclose(np.cos(got), np.cos(a), atol=1e-12)
+    mirrored = [-wrap_angle(-x) for x in a.tolist()]
+    assert mirrored == [math.pi - (math.pi - x) % (2 * math.pi) for x in a.tolist()]
+    assert wrap_angle(math.pi) == -math.pi and -wrap_angle(-math.pi) == math.pi

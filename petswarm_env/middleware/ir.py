@@ -29,6 +29,8 @@ import math
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
+from petswarm_env.sim import geometry
+
 # Distances are clamped to at least this (m) so a degenerate zero distance cannot produce inf·0.
 _MIN_DISTANCE_M = 0.01
 
@@ -254,7 +256,7 @@ def estimate_rows(cfg: IRConfig, strengths: list[list[float]]) -> tuple[list[flo
         if ok:
             distance.append(math.sqrt(s1 / r))
             theta = math.atan2(b, a) + i * delta
-            w = math.pi - (math.pi - theta) % (2.0 * math.pi)  # wrap_angle
+            w = -geometry.wrap_angle(-theta)  # to (−π, π]: π − (π − θ) mod 2π, to the bit
             bearing.append(w + 2.0 * math.pi if w <= -math.pi else w)
         else:
             distance.append(math.nan)

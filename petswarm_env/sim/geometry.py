@@ -1,15 +1,31 @@
-"""Vectorised 2-D geometry helpers (numpy only, no physics engine).
+"""2-D geometry helpers (numpy only, no physics engine): the angle wrap and the ray casts.
 
-All lengths are in metres, all points are world-frame ``(x, y)`` pairs. Every function works on
-whole batches at once (no Python loop over rays or segments) and accepts empty batches (zero rays,
-circles or segments) without special-casing by the caller.
+All lengths are in metres, all points are world-frame ``(x, y)`` pairs, all angles radians. The
+ray casts work on whole batches at once (no Python loop over rays or segments) and accept empty
+batches (zero rays, circles or segments) without special-casing by the caller.
 
-Used for ray-cast style sensors (ultrasonic ring) and for the IR line-of-sight test.
+Used for the ultrasonic ring (:mod:`petswarm_env.sim.sensors`) and, for the wrap, by every module
+that subtracts headings or bearings.
 """
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
+
+_PI = math.pi
+_TWO_PI = 2.0 * math.pi
+
+
+def wrap_angle(angle_rad):
+    """An angle wrapped to [−π, π): ``(a + π) mod 2π − π``, the one angle wrap of the project.
+
+    Works on a Python float and on a numpy array alike (Python's ``%`` and numpy's ``remainder``
+    round the same way). Rounding of ``a + π`` can put a value within an ulp of −π at +π. Where a
+    bearing belongs to (−π, π] (the IR estimator), ``−wrap_angle(−a)`` is ``π − (π − a) mod 2π``
+    to the bit."""
+    return (angle_rad + _PI) % _TWO_PI - _PI
 
 # Denominators smaller than this (in m for cross products of a unit vector with a segment) are
 # treated as "ray parallel to segment": such a segment is never hit.

@@ -52,6 +52,8 @@ from typing import Any, NamedTuple
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
+from petswarm_env.sim.geometry import wrap_angle
+
 # Distances are clamped to at least this (m) so that log10 of a zero distance cannot occur.
 _MIN_DISTANCE_M = 0.01
 
@@ -417,10 +419,6 @@ def wakes_up(cfg: LFConfig, distance_m: float, pattern_sent: Any, pattern_stored
     return bool(distance_m <= cfg.wake_range_m and pattern_sent == pattern_stored)
 
 
-def _wrap(angle_rad: np.ndarray) -> np.ndarray:
-    return (np.asarray(angle_rad) + np.pi) % (2.0 * np.pi) - np.pi
-
-
 def lf_accuracy_experiment(
     cfg: LFConfig,
     rng: np.random.Generator,
@@ -461,7 +459,7 @@ def lf_accuracy_experiment(
     err_x_cm = -(fix.y_left - actual[:, 1]) * 100.0  # the paper's x points right
     err_y_cm = (fix.x_fwd - actual[:, 0]) * 100.0
     err_d_cm = (fix.distance - true_d) * 100.0
-    err_t_deg = np.rad2deg(_wrap(fix.direction - true_a))
+    err_t_deg = np.rad2deg(wrap_angle(fix.direction - true_a))
 
     def rmse(err: np.ndarray, mask: np.ndarray) -> float:
         return float(np.sqrt(np.mean(err[mask] ** 2))) if mask.any() else float("nan")

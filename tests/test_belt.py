@@ -5,10 +5,9 @@ import math
 import numpy as np
 import pytest
 
-from petswarm_env.config import load_config
+from petswarm_env.config import BeltConfig, load_config
 from petswarm_env.wearables.belt import (
     ACTIVITIES,
-    BeltConfig,
     SmartBelt,
     classify,
     count_sign_changes,

@@ -5,14 +5,13 @@ import numpy as np
 import pydantic
 import pytest
 
-from petswarm_env.config import load_config
+from petswarm_env.config import IRConfig, load_config
 from petswarm_env.middleware.ir import (
     PAPER_ANGLES_DEG,
     PAPER_DIRECTION_RMSE_DEG,
     PAPER_DISTANCE_RMSE_CM,
     PAPER_DISTANCES_M,
     PAPER_SAMPLES_PER_POINT,
-    IRConfig,
     accuracy_experiment,
     estimate,
     received_strengths,

@@ -5,10 +5,9 @@ import math
 import numpy as np
 import pytest
 
-from petswarm_env.config import ConfigError, load_config
+from petswarm_env.config import LFConfig, ConfigError, load_config
 from petswarm_env.wearables.lf import (
     PAPER_RMSE,
-    LFConfig,
     LFFix,
     _interp_one,
     _locate_one,

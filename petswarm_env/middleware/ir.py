@@ -27,8 +27,8 @@ import functools
 import math
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
 
+from petswarm_env.config import IRConfig
 from petswarm_env.sim import geometry
 
 # Distances are clamped to at least this (m) so a degenerate zero distance cannot produce inf·0.
@@ -40,52 +40,6 @@ PAPER_ANGLES_DEG = np.arange(0.0, 180.0 + 1e-9, 30.0)
 PAPER_SAMPLES_PER_POINT = 300
 PAPER_DISTANCE_RMSE_CM = 7.898
 PAPER_DIRECTION_RMSE_DEG = 5.8  # Table 4; the running text says 6.52°
-
-
-class IRConfig(BaseModel):
-    """Parameters of the IR module. Values live in the YAML config (calibrated to seed 000 Table 4)."""
-
-    model_config = ConfigDict(extra="forbid", frozen=True)
-
-    num_receivers: int = Field(
-        ...,
-        ge=7,
-        description=(
-            "Phototransistors in the ring, equally spaced, receiver 0 at the robot's front, "
-            "numbered counter-clockwise. At least 7, so that both side neighbours of the strongest "
-            "receiver stay inside the front half of the lobe (spacing < 60°)."
-        ),
-    )
-    strength_at_1m: float = Field(
-        ..., gt=0, description="Received strength on a receiver's axis with the source at 1 m, ADC units."
-    )
-    lobe_exponent: float = Field(
-        ...,
-        gt=0,
-        description=(
-            "Angular response of one receiver, max(0, cos(Δ))**lobe_exponent for a source Δ rad "
-            "off its axis. The estimator assumes 1; the hardware is modelled with a different value."
-        ),
-    )
-    noise_rel: float = Field(
-        ..., ge=0, description="σ of the multiplicative Gaussian noise on each receiver, fraction of the signal."
-    )
-    noise_abs: float = Field(..., ge=0, description="σ of the additive Gaussian noise on each receiver, ADC units.")
-    saturation: float = Field(..., gt=0, description="ADC ceiling, ADC units; readings are clipped to [0, saturation].")
-    detect_threshold: float = Field(
-        ..., gt=0, description="Strongest reading below this (ADC units) means no detection."
-    )
-    occlusion_attenuation: float = Field(
-        ..., ge=0, le=1, description="Factor on the optical signal when a body blocks the line of sight."
-    )
-    max_range_m: float = Field(
-        ..., gt=0, description="Sources farther than this (m) contribute no signal, only receiver noise."
-    )
-
-    @property
-    def spacing_rad(self) -> float:
-        """Angle between neighbouring receivers, rad."""
-        return 2.0 * np.pi / self.num_receivers
 
 
 def wrap_angle(angle_rad: np.ndarray) -> np.ndarray:

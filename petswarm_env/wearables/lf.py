@@ -50,8 +50,8 @@ from bisect import bisect_right
 from typing import Any, NamedTuple
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, model_validator
 
+from petswarm_env.config import LFConfig
 from petswarm_env.sim.geometry import wrap_angle
 
 # Distances are clamped to at least this (m) so that log10 of a zero distance cannot occur.
@@ -73,68 +73,6 @@ PAPER_RMSE = {
     "rmse_distance_cm": 5.10,
     "rmse_direction_deg": 6.52,
 }
-
-
-class LFConfig(BaseModel):
-    """LF wake-up and localisation parameters (seed 002 §3.2–3.3). Values live in the YAML config."""
-
-    model_config = ConfigDict(extra="forbid", frozen=True)
-
-    antenna_spacing_m: float = Field(..., gt=0, description="dw: distance between the two transmit antennas, m.")
-    antenna_forward_m: float = Field(
-        ..., description="Forward offset of the antenna midpoint from the robot's centre (body +x), m."
-    )
-    burst_period_s: float = Field(..., gt=0, description="Localisation bursts while leading/following, s.")
-    wake_period_s: float = Field(..., gt=0, description="Wake-up bursts while waiting for a user, s.")
-    wake_range_m: float = Field(..., gt=0, description="A belt within this distance receives the wake-up burst, m.")
-    reliable_range_m: float = Field(..., gt=0, description="Location is reliable within this distance, m.")
-    reliable_half_angle_deg: float = Field(
-        ..., gt=0, lt=90, description="Location is reliable within ± this angle of the robot's forward axis, deg."
-    )
-    rssi_at_1m_db: float = Field(..., description="Noiseless RSSI at 1 m from an antenna, dB (receiver scale).")
-    falloff_db_per_decade: float = Field(
-        ..., gt=0, description="RSSI fall-off per decade of distance, dB (near-field magnetic dipole: 60)."
-    )
-    sensitivity_db: float = Field(..., description="Carriers weaker than this RSSI level are not received, dB.")
-    noise_common_db: float = Field(
-        ..., ge=0, description="σ of the Gaussian RSSI error shared by both readings of one burst, dB."
-    )
-    noise_antenna_db: float = Field(..., ge=0, description="σ of the independent Gaussian error per reading, dB.")
-    rssi_step_db: float = Field(..., ge=0, description="RSSI register quantisation step, dB (0 = none).")
-    distortion_loss_db_per_deg: float = Field(
-        ...,
-        ge=0,
-        description="Loss on the far-side antenna per degree of bearing beyond the reliable half-angle, dB/deg.",
-    )
-    distortion_noise_db_per_deg: float = Field(
-        ...,
-        ge=0,
-        description="Extra σ per reading per degree of bearing beyond the reliable half-angle, dB/deg.",
-    )
-    table_min_m: float = Field(..., gt=0, description="First distance of the RSSI→distance table, m.")
-    table_max_m: float = Field(..., gt=0, description="Last distance of the RSSI→distance table, m.")
-    table_step_m: float = Field(..., gt=0, description="Distance step of the RSSI→distance table, m.")
-
-    @model_validator(mode="after")
-    def _check_ranges(self) -> LFConfig:
-        if self.table_max_m <= self.table_min_m:
-            raise ValueError("lf.table_max_m must be greater than lf.table_min_m")
-        hearing = self.hearing_range_m
-        if hearing < self.reliable_range_m:
-            raise ValueError(
-                f"lf.sensitivity_db hears only to {hearing:.2f} m on axis; it must reach lf.reliable_range_m "
-                f"({self.reliable_range_m} m): lower lf.sensitivity_db"
-            )
-        if self.table_max_m < hearing:
-            raise ValueError(
-                f"lf.table_max_m ({self.table_max_m} m) must cover the hearing range ({hearing:.2f} m on axis)"
-            )
-        return self
-
-    @property
-    def hearing_range_m(self) -> float:
-        """Distance at which the on-axis carrier falls to the receiver's sensitivity, m."""
-        return float(10.0 ** ((self.rssi_at_1m_db - self.sensitivity_db) / self.falloff_db_per_decade))
 
 
 class LFFix(NamedTuple):

@@ -198,8 +198,6 @@ def test_safety_stage_equals_the_numpy_formulation():
 
 def _trace_of_waits(clock):
     """Processes that wait on "an event or a timeout", as the token ring does; (time, label) trace."""
-    from petswarm_env.sim.events import call_later
-
     trace = []
 
     def waiter(name, ev, timeout):
@@ -209,16 +207,16 @@ def _trace_of_waits(clock):
     evs = [clock.event() for _ in range(4)]
     for k, ev in enumerate(evs):
         clock.process(waiter(f"w{k}", ev, 0.05 + 0.01 * k))
-    call_later(clock, 0.02, evs[0].succeed)  # before its timeout
-    call_later(clock, 0.08, evs[1].succeed)  # after its timeout: too late
+    clock.later(0.02, evs[0].succeed)  # before its timeout
+    clock.later(0.08, evs[1].succeed)  # after its timeout: too late
     evs[2].succeed()  # already triggered when the condition is built? (processed at t=0)
-    call_later(clock, 0.03, lambda: trace.append((clock.now, "tick", None)))
+    clock.later(0.03, lambda: trace.append((clock.now, "tick", None)))
     clock.run_until(0.2)
     return trace
 
 
 def test_first_of_resumes_like_simpy_any_of():
-    from petswarm_env.sim.world import Clock
+    from petswarm_env.sim.clock import Clock
 
     class SimpyClock(Clock):
         def any_of(self, events):
@@ -229,31 +227,48 @@ def test_first_of_resumes_like_simpy_any_of():
     assert [t[1] for t in fast] == ["w2", "w0", "tick", "w1", "w3"]
 
 
-@pytest.mark.parametrize("bound", [False, True], ids=["call_later", "scheduler"])
-def test_bare_callbacks_run_in_clock_order_on_either_loop(bound):
-    """call_later on the env's clock (bare tuples) and on a plain SimPy environment (Call events)
-    run the same callbacks in the same order, with run_until or with SimPy's run; so does the
-    clock-bound form of the radio and the nodes (``scheduler(clock)``)."""
-    from petswarm_env.sim.events import call_later, scheduler
-    from petswarm_env.sim.world import Clock
+def _later_as_simpy_timeouts(clock):
+    """The oracle of ``Clock.later``: ``later(delay, fn, *args)`` is a SimPy timeout of ``delay``
+    with one callback that calls ``fn(*args)`` (same queue key, so the same order)."""
 
-    def trace(clock, run):
+    def later(delay, fn, *args):
+        clock.timeout(delay).callbacks.append(lambda _event: fn(*args))
+
+    return later
+
+
+@pytest.mark.parametrize("loop", ["run_until", "run"])
+def test_bare_callbacks_run_in_clock_order(loop):
+    """``Clock.later`` runs its callbacks at the times and in the order of SimPy timeouts with a
+    callback (a plain SimPy environment, the oracle), among a process's own timeouts, with
+    ``run_until`` and with SimPy's ``run``; ``clock.now`` follows the time."""
+    import simpy
+
+    from petswarm_env.sim.clock import Clock
+
+    def trace(clock, later):
         out = []
-        later = scheduler(clock) if bound else lambda *a: call_later(clock, *a)
         for k, delay in enumerate([0.3, 0.1, 0.2, 0.1, 0.0]):
             later(delay, lambda k=k: out.append((round(clock.now, 9), k)))
+
         def proc():
             yield clock.timeout(0.15)
-            out.append((0.15, "proc"))
+            out.append((round(clock.now, 9), "proc"))
+            later(0.0, lambda: out.append((round(clock.now, 9), "from proc")))
 
         clock.process(proc())
-        run(clock)
+        if loop == "run_until" and isinstance(clock, Clock):
+            clock.run_until(1.0)
+        else:
+            clock.run(until=1.0)
+        assert clock.now == 1.0
         return out
 
-    want = [(0.0, 4), (0.1, 1), (0.1, 3), (0.15, "proc"), (0.2, 2), (0.3, 0)]
-    assert trace(Clock(), lambda c: c.run_until(1.0)) == want
-    assert trace(Clock(), lambda c: c.run(until=1.0)) == want
-    assert trace(simpy.Environment(), lambda c: c.run(until=1.0)) == want
+    want = trace(ref := simpy.Environment(), _later_as_simpy_timeouts(ref))
+    assert want == [(0.0, 4), (0.1, 1), (0.1, 3), (0.15, "proc"), (0.15, "from proc"), (0.2, 2), (0.3, 0)]
+    clock = Clock()
+    assert trace(clock, clock.later) == want
+    assert clock._now == clock.now
 
 
 def test_rewards_of_all_slaves_at_once_equal_one_at_a_time():

@@ -211,10 +211,8 @@ def bench_floor(num_robots: int, s: BenchSettings) -> dict:
     for i in range(num_robots):  # a grid behind the user, spaced like a formation: no contacts
         world.add_robot((-1.0 - spacing * (i // cols), spacing * (i % cols - (cols - 1) / 2)), 0.0)
     space = world.space
-    # written the way Robot.apply writes them: Chipmunk's setters on the body handles
-    from petswarm_env.sim.robot import _set_angular_velocity, _set_velocity
-
-    bodies = [r.body._body for r in world.robots] + [u.body._body for u in world.users]
+    # written through the body module, as Robot.apply and User.apply write them (Chipmunk's setters)
+    bodies = [*world.robots, *world.users]
     substeps, dt = cfg.physics_substeps, world.dt_sub
     speed, turn = 0.8, 0.5  # every body drives the same circle: the group stays in the arena, no contacts
     steps = 0
@@ -227,8 +225,7 @@ def bench_floor(num_robots: int, s: BenchSettings) -> dict:
             vel = (speed * math.cos(a), speed * math.sin(a))
             for _ in range(substeps):
                 for b in bodies:
-                    _set_velocity(b, vel)
-                    _set_angular_velocity(b, 0.0)
+                    b.set_velocity(vel, 0.0)
                 space.step(dt)
             steps += 1
         return time.perf_counter() - t0

@@ -12,22 +12,9 @@ import numpy as np
 import pymunk
 
 from petswarm_env.config import RobotConfig
+from petswarm_env.sim.body import COLLISION_ROBOT, Body
+from petswarm_env.sim.body import _get_position  # noqa: F401  read here by middleware/node.py until it binds Body.read_position
 from petswarm_env.sim.draws import Draws
-
-# Chipmunk's body accessors (``pymunk.cp``, pymunk's low-level handle): the per-substep drive and
-# the radio's position reads call them directly instead of through pymunk's Python properties,
-# which build a Vec2d and go through a typing ``__setattr__`` on every access. Same C calls.
-_get_position = pymunk.cp.cpBodyGetPosition
-_get_angle = pymunk.cp.cpBodyGetAngle
-_get_velocity = pymunk.cp.cpBodyGetVelocity
-_get_angular_velocity = pymunk.cp.cpBodyGetAngularVelocity
-_set_velocity = pymunk.cp.cpBodySetVelocity
-_set_angular_velocity = pymunk.cp.cpBodySetAngularVelocity
-_cos, _sin, _hypot = math.cos, math.sin, math.hypot
-
-COLLISION_ROBOT = 1
-COLLISION_USER = 2
-COLLISION_WALL = 3
 
 # Wheel order: front-left, front-right, rear-left, rear-right. Linear wheel-rim speeds (m/s).
 _INV = np.array(  # body (vx, vy, L*ω) -> wheels
@@ -70,23 +57,16 @@ def saturate_command(vx: float, vy: float, omega: float, cfg: RobotConfig) -> tu
     return vx, vy, omega
 
 
-class Robot:
+class Robot(Body):
     """Physical truth of one robot: a pymunk body driven by velocity commands."""
 
     def __init__(self, index: int, cfg: RobotConfig, space: pymunk.Space, position, heading_rad: float):
+        super().__init__(space, position, heading_rad, cfg.radius_m, COLLISION_ROBOT, mass_kg=cfg.mass_kg,
+                         friction=0.3, elasticity=0.0)
         self.index = index
         self.cfg = cfg
-        moment = pymunk.moment_for_circle(cfg.mass_kg, 0, cfg.radius_m)
-        self.body = pymunk.Body(cfg.mass_kg, moment)
-        self.body.position = tuple(position)
-        self.body.angle = heading_rad
-        self.shape = pymunk.Circle(self.body, cfg.radius_m)
-        self.shape.collision_type = COLLISION_ROBOT
-        self.shape.friction = 0.3
-        self.shape.elasticity = 0.0
         self.shape.robot_index = index  # read by collision callbacks
         space.add(self.body, self.shape)
-        self._cbody = self.body._body  # the Chipmunk body behind self.body
         # commanded (saturated) body-frame velocity, and the achieved one after acceleration limits
         self.command = (0.0, 0.0, 0.0)
         self.velocity_body = (0.0, 0.0, 0.0)
@@ -115,16 +95,7 @@ class Robot:
         if dt > 0:
             self._ahrs_bias += self._ahrs_drift_rad * math.sqrt(dt) * draws.normal()
             self._ahrs_time = now_s
-        return _get_angle(self._cbody) + self._ahrs_bias + self._ahrs_noise_rad * draws.normal()
-
-    @property
-    def position(self) -> tuple[float, float]:
-        p = _get_position(self._cbody)
-        return (p.x, p.y)
-
-    @property
-    def heading(self) -> float:
-        return _get_angle(self._cbody)
+        return self.heading + self._ahrs_bias + self._ahrs_noise_rad * draws.normal()
 
     def set_command(self, vx: float, vy: float, omega: float) -> None:
         """Body-frame command (m/s, m/s, rad/s); wheel saturation applies here. Stored as Python
@@ -139,37 +110,5 @@ class Robot:
             self._limits_dt = dt
             self._max_dv = self.cfg.max_accel_mps2 * dt
             self._max_dw = self.cfg.max_alpha_rps2 * dt
-        cbody = self._cbody
-        th = _get_angle(cbody)
-        c, s = _cos(th), _sin(th)
-        # the body's actual velocity (after last step's collisions) in its own frame
-        wv = _get_velocity(cbody)
-        wx, wy = wv.x, wv.y
-        vx = c * wx + s * wy
-        vy = -s * wx + c * wy
-        w = _get_angular_velocity(cbody)
         cx, cy, cw = self.command
-        dvx, dvy = cx - vx, cy - vy
-        dv = _hypot(dvx, dvy)
-        max_dv = self._max_dv
-        if dv > max_dv:
-            k = max_dv / dv
-            dvx *= k
-            dvy *= k
-        vx += dvx
-        vy += dvy
-        max_dw = self._max_dw
-        dw = cw - w  # clipped to [-max_dw, max_dw]
-        if dw > max_dw:
-            dw = max_dw
-        elif dw < -max_dw:
-            dw = -max_dw
-        w_new = w + dw
-        self.velocity_body = (vx, vy, w_new)
-        # write only what changed (a body turning at its commanded rate, or driving straight at its
-        # commanded speed, keeps its values): the same state as writing it again
-        if w_new != w:
-            _set_angular_velocity(cbody, w_new)
-        vx_w, vy_w = c * vx - s * vy, s * vx + c * vy
-        if vx_w != wx or vy_w != wy:
-            _set_velocity(cbody, (vx_w, vy_w))
+        self.velocity_body = self.accelerate(cx, cy, cw, self._max_dv, self._max_dw)

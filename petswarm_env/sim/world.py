@@ -17,7 +17,8 @@ import pymunk
 from petswarm_env.config import Config
 from petswarm_env.sim import geometry
 from petswarm_env.sim.clock import Clock
-from petswarm_env.sim.robot import COLLISION_ROBOT, COLLISION_USER, COLLISION_WALL, Robot, _get_angle, _get_position
+from petswarm_env.sim.body import COLLISION_ROBOT, COLLISION_USER, COLLISION_WALL, read_poses
+from petswarm_env.sim.robot import Robot
 from petswarm_env.sim.scenarios import ScenarioScript
 from petswarm_env.sim.user import User
 
@@ -146,17 +147,11 @@ class World:
         caller until the next ``Space.step``)."""
         if self._truth_at == self._physics_steps and self._truth is not None:
             return self._truth
-        xy = []
-        for r in self.robots:
-            p = _get_position(r._cbody)
-            xy.append(p.x)
-            xy.append(p.y)
-        for u in self.users:
-            p = _get_position(u.body._body)
-            xy.append(p.x)
-            xy.append(p.y)
+        xy, th = read_poses(self.robots)
+        if self.users:
+            xy += read_poses(self.users)[0]
         centers = np.array(xy, dtype=float).reshape(-1, 2)
-        headings = np.array([_get_angle(r._cbody) for r in self.robots], dtype=float)
+        headings = np.array(th, dtype=float)
         if self._truth is None or len(self._truth[1]) != len(centers):
             radii = np.full(len(centers), self.cfg.robot.radius_m)
             radii[len(self.robots):] = self.cfg.user.radius_m

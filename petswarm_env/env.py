@@ -44,6 +44,7 @@ from petswarm_env.observe import OBS_VERSION, ObservationLayout, build_observati
 from petswarm_env.reward import slave_rewards
 from petswarm_env.sim.geometry import wrap_angle
 from petswarm_env.sim.scenarios import ScenarioScript, build_scenario
+from petswarm_env.sim.sensors import Sensors
 from petswarm_env.sim.world import World
 
 ENV_NAME = "petswarm_v0"
@@ -107,7 +108,6 @@ class PetSwarmEnv(ParallelEnv):
             self._seed_seq = np.random.SeedSequence(self.cfg.seed)
         streams = self._seed_seq.spawn(1)[0].spawn(7)
         rng_world, rng_radio, rng_ir, rng_swarm, rng_sensors, rng_script, rng_users = (np.random.default_rng(s) for s in streams)
-        self._rng_sensors = rng_sensors
         cfg = self.cfg
         pool = cfg.user.scenario_pool
         self.scenario = pool[int(rng_script.integers(len(pool)))] if pool else cfg.user.scenario
@@ -133,12 +133,12 @@ class PetSwarmEnv(ParallelEnv):
             self.sessions.append(session)
         self.swarm, self.session = self.swarms[0], self.sessions[0]
         for robot, ss in zip(world.robots, rng_world.spawn(len(world.robots))):
-            robot.ahrs_rng = ss
+            robot.ahrs.rng = ss
         safety = SafetyStage(cfg.robot.ultrasonic.count, cfg.control.safety_stop_m, cfg.control.safety_backoff_mps,
                              cfg.robot.max_accel_mps2) \
             if cfg.control.safety_layer else None
         self.arbiters = {r.index: ControlArbiter(safety) for r in world.robots}
-        self._ranges = world.ultrasonic_ranges([r.index for r in world.robots], rng_sensors)
+        self.sensors = Sensors(world, cfg.robot, rng_sensors)  # reads every robot's ultrasonic ring
         self._last_action: dict[str, np.ndarray] = {}
         self._formation_cache: dict[int, tuple[Formation, np.ndarray, dict[int, int]]] = {}
 
@@ -146,7 +146,7 @@ class PetSwarmEnv(ParallelEnv):
         for _ in range(limit):
             self._control(None)
             world.advance(cfg.physics_substeps)
-            self._ranges = world.ultrasonic_ranges([r.index for r in world.robots], rng_sensors)
+            self.sensors.read_rings()
             if all(sw.organized for sw in self.swarms):
                 break
         for u, (session, swarm) in enumerate(zip(self.sessions, self.swarms)):
@@ -197,7 +197,7 @@ class PetSwarmEnv(ParallelEnv):
         acts = self._validate(actions)
         self._control(acts)
         world.advance(cfg.physics_substeps)
-        self._ranges = world.ultrasonic_ranges([r.index for r in world.robots], self._rng_sensors)
+        self.sensors.read_rings()
         self.num_cycles += 1
 
         errors, heading_errs = self._formation_errors()
@@ -344,12 +344,13 @@ class PetSwarmEnv(ParallelEnv):
         slaves from the agents' actions; the slaves stop when their master broadcasts an emergency."""
         world = self.world
         lim = self._limits
+        ranges = self.sensors.ranges
         masters = set()
         for session in self.sessions:
             idx = session.swarm.master.node_id
             masters.add(idx)
-            policy, user_cmd, stop = session.step(self._odometry(idx), self._ranges[idx])
-            cmd, _ = self.arbiters[idx].decide(policy, user_cmd, self._ranges[idx], stop)
+            policy, user_cmd, stop = session.step(self.sensors.odometry(world.robots[idx].velocity_body), ranges[idx])
+            cmd, _ = self.arbiters[idx].decide(policy, user_cmd, ranges[idx], stop)
             world.robots[idx].set_command(*cmd)
         if acts is None:
             return
@@ -360,7 +361,7 @@ class PetSwarmEnv(ParallelEnv):
             node = self.fleet.nodes[idx]
             st = node.know.status
             stop = st is not None and st.mode == "emergency"
-            cmd, _ = self.arbiters[idx].decide((a[0] * lim[0], a[1] * lim[1], a[2] * lim[2]), None, self._ranges[idx], stop)
+            cmd, _ = self.arbiters[idx].decide((a[0] * lim[0], a[1] * lim[1], a[2] * lim[2]), None, ranges[idx], stop)
             world.robots[idx].set_command(*cmd)
 
     def _current_slaves(self) -> list[int]:
@@ -368,16 +369,6 @@ class PetSwarmEnv(ParallelEnv):
 
     def _node(self, agent: str):
         return self.fleet.nodes[self._agent_index[agent]]
-
-    def _odometry(self, index: int, noise: list[float] | None = None) -> tuple[float, float, float]:
-        """Wheel odometry: the achieved body velocity with relative noise (``noise``: the three
-        N(0, odometry_noise_rel) draws, when the caller drew them already)."""
-        vx, vy, w = self.world.robots[index].velocity_body
-        k = self.cfg.robot.odometry_noise_rel
-        if k > 0:
-            e = self._rng_sensors.normal(0.0, k, 3).tolist() if noise is None else noise
-            return vx * (1 + e[0]), vy * (1 + e[1]), w * (1 + e[2])
-        return vx, vy, w
 
     def _formation_geometry(self, formation: Formation) -> tuple[list[tuple[float, float]], dict[int, int]]:
         """Slot positions and hierarchy levels of a neighbour table (cached per table)."""
@@ -395,10 +386,9 @@ class PetSwarmEnv(ParallelEnv):
         obs = {}
         agents = self.agents if agents is None else agents
         us_max = self.cfg.robot.ultrasonic.max_range_m
-        # the odometry noise of every agent in one draw (the same numbers as one draw per agent)
-        k = self.cfg.robot.odometry_noise_rel
-        noise = self._rng_sensors.normal(0.0, k, (len(agents), 3)).tolist() if k > 0 else None
-        ranges = self._ranges.tolist()  # every robot's ring as Python floats, in one conversion
+        sensors = self.sensors
+        noise = sensors.odometry_noise(len(agents))  # every agent's odometry noise in one draw
+        ranges = sensors.ranges.tolist()  # every robot's ring as Python floats, in one conversion
         robots, nodes, agent_index = world.robots, self.fleet.nodes, self._agent_index
         layout, limits, last_actions = self.layout, self._limits, self._last_action
         for i, agent in enumerate(agents):
@@ -411,7 +401,7 @@ class PetSwarmEnv(ParallelEnv):
                 slots, levels = self._formation_geometry(node.formation)
                 level, offset = levels.get(member, 0), slots[member]
             last = last_actions.get(agent)
-            odometry = self._odometry(idx, noise[i] if noise is not None else None)
+            odometry = sensors.odometry(robot.velocity_body, noise[i] if noise is not None else None)
             obs[agent] = build_observation(
                 layout,
                 None,  # a new array: what the agent gets is its own

@@ -434,7 +434,7 @@ def test_observation_builder_equals_the_reference_bit_for_bit(overrides):
             args = (node, now, robot.velocity_body, robot.heading + float(rng.normal()), rng.uniform(-1, 1, 3).astype(np.float32))
             rest = (int(rng.integers(0, 4)), (float(rng.normal()), float(rng.normal())), env._limits,
                     float(rng.choice([env.cfg.robot.ultrasonic.max_range_m, 2.7])))
-            ranges = env._ranges[idx] * float(rng.uniform(0.5, 1.5))
+            ranges = env.sensors.ranges[idx] * float(rng.uniform(0.5, 1.5))
             values = _build_observation_reference(env.layout, *args, ranges, *rest)
             want, want32 = np.array(values), np.array(values, dtype=np.float32)
             for ring in (ranges, ranges.tolist()):

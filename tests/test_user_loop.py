@@ -43,7 +43,7 @@ def _pairing_world(robot_distance_m, robot_pattern, user_pattern=0x5A00):
     fleet = Fleet(cfg, world, radio, IRChannel(world, cfg.ir, rng), rng)
     swarm = Swarm(fleet, 0, 0x1001, 0, [])
     for r in world.robots:
-        r.ahrs_rng = np.random.default_rng(2)
+        r.ahrs.rng = np.random.default_rng(2)
     session = UserSession(cfg, world, swarm, world.user, np.random.default_rng(3), user_pattern, robot_pattern)
     for _ in range(int(2 * cfg.lf.wake_period_s / cfg.control_period_s) + 10):  # two burst periods
         session.step((0.0, 0.0, 0.0), np.full(cfg.robot.ultrasonic.count, 2.0))

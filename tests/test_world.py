@@ -8,6 +8,7 @@ import pytest
 from petswarm_env.config import SCENARIOS, load_config
 from petswarm_env.sim.robot import Robot
 from petswarm_env.sim.scenarios import ScenarioScript, build_scenario
+from petswarm_env.sim.sensors import UltrasonicRing
 from petswarm_env.sim.world import World
 
 
@@ -57,9 +58,10 @@ def test_ultrasonic_sees_a_box_ahead_and_a_robot_collides_with_it():
     world.user.body.position = (-10.0, 0.0)
     robot: Robot = world.add_robot((1.0, 0.0), 0.0)
     rng = np.random.default_rng(0)
-    front = world.ultrasonic_ranges([0], rng)[0, 0]
+    ring = UltrasonicRing(cfg.robot, world.wall_a, world.wall_b)
+    front = ring.ranges(world, [0], rng)[0, 0]
     assert front == pytest.approx(3.0 - 0.5 - 1.0 - cfg.robot.radius_m, abs=0.05)
-    back = world.ultrasonic_ranges([0], rng)[0, 4]
+    back = ring.ranges(world, [0], rng)[0, 4]
     assert back == pytest.approx(cfg.robot.ultrasonic.max_range_m)  # nothing behind within range
     robot.set_command(1.0, 0.0, 0.0)
     world.advance(400)  # 4 s at 1 m/s: it reaches the box

@@ -14,7 +14,7 @@ import pymunk
 from petswarm_env.config import RobotConfig
 from petswarm_env.sim.body import COLLISION_ROBOT, Body
 from petswarm_env.sim.body import _get_position  # noqa: F401  read here by middleware/node.py until it binds Body.read_position
-from petswarm_env.sim.draws import Draws
+from petswarm_env.sim.sensors import AHRS
 
 # Wheel order: front-left, front-right, rear-left, rear-right. Linear wheel-rim speeds (m/s).
 _INV = np.array(  # body (vx, vy, L*ω) -> wheels
@@ -72,30 +72,8 @@ class Robot(Body):
         self.velocity_body = (0.0, 0.0, 0.0)
         self._limits_dt = -1.0  # the substep length the acceleration limits below were computed for
         self._max_dv = self._max_dw = 0.0
-        # AHRS: yaw with white noise and a slowly drifting bias (random walk in time)
-        self.ahrs_rng = np.random.default_rng(0)  # (the env gives every robot its own stream)
-        self._ahrs_noise_rad = math.radians(cfg.ahrs_noise_deg)  # σ of the white noise
-        self._ahrs_drift_rad = math.radians(cfg.ahrs_drift_dps)  # σ of the bias walk over one second
-        self._ahrs_bias = 0.0
-        self._ahrs_time = 0.0
-
-    @property
-    def ahrs_rng(self) -> np.random.Generator:
-        """The AHRS noise stream; its normals are drawn in blocks (:class:`~.draws.Draws`)."""
-        return self._ahrs_draws.rng
-
-    @ahrs_rng.setter
-    def ahrs_rng(self, rng: np.random.Generator) -> None:
-        self._ahrs_draws = Draws(rng)
-
-    def ahrs_yaw(self, now_s: float) -> float:
-        """AHRS yaw reading (rad) at clock time ``now_s``: truth + drifting bias + white noise."""
-        draws = self._ahrs_draws
-        dt = now_s - self._ahrs_time
-        if dt > 0:
-            self._ahrs_bias += self._ahrs_drift_rad * math.sqrt(dt) * draws.normal()
-            self._ahrs_time = now_s
-        return self.heading + self._ahrs_bias + self._ahrs_noise_rad * draws.normal()
+        self.ahrs = AHRS(self, cfg)  # own sensor: yaw with white noise and a drifting bias
+        self.ahrs_yaw = self.ahrs.yaw  # ahrs_yaw(now_s): the reading (bound once: read every frame)
 
     def set_command(self, vx: float, vy: float, omega: float) -> None:
         """Body-frame command (m/s, m/s, rad/s); wheel saturation applies here. Stored as Python

@@ -8,14 +8,12 @@ computed from integer counters, so long runs do not accumulate float drift.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
 import pymunk
 
 from petswarm_env.config import Config
-from petswarm_env.sim import geometry
 from petswarm_env.sim.clock import Clock
 from petswarm_env.sim.body import COLLISION_ROBOT, COLLISION_USER, COLLISION_WALL, read_poses
 from petswarm_env.sim.robot import Robot
@@ -59,10 +57,6 @@ class World:
         self.space.on_collision(COLLISION_ROBOT, COLLISION_ROBOT, begin=self._on_robot_robot)
         self.space.on_collision(COLLISION_ROBOT, COLLISION_USER, begin=self._on_robot_user)
         self.space.on_collision(COLLISION_ROBOT, COLLISION_WALL, begin=self._on_robot_wall)
-        n_us = cfg.robot.ultrasonic.count
-        self._us_angles = np.arange(n_us) * (2 * math.pi / max(n_us, 1))
-        reach = cfg.robot.ultrasonic.max_range_m + cfg.robot.radius_m
-        self._us_walls = geometry.SegmentSet(self.wall_a, self.wall_b, reach)
 
     # -- construction -------------------------------------------------------------------------
     def _build_static(self) -> tuple[np.ndarray, np.ndarray]:
@@ -176,24 +170,3 @@ class World:
         """Centres and radii of every round body (robots, then the users); read-only arrays."""
         centers, radii, _ = self.truth_arrays()
         return centers, radii
-
-    def ultrasonic_ranges(self, indices: list[int], rng: np.random.Generator) -> np.ndarray:
-        """Ultrasonic ring readings (m) of the given robots: (len(indices), count), ray casts
-        against bodies and walls from the robot's rim, clipped to [min_range, max_range]."""
-        us = self.cfg.robot.ultrasonic
-        n = us.count
-        if n == 0 or not len(indices):
-            return np.zeros((len(indices), n))
-        centers, radii, headings = self.truth_arrays()
-        if isinstance(indices, list) and indices == list(range(len(self.robots))):
-            pos, th = centers[: len(indices)], headings  # every robot, in order (the env's call): views
-        else:
-            pos, th = centers[indices], headings[indices]
-        reach = us.max_range_m + self.cfg.robot.radius_m
-        d = geometry.ring_first_hits(pos, th, self._us_angles, centers, radii, self._us_walls, reach).reshape(-1)
-        d -= self.cfg.robot.radius_m  # from the sensor on the rim (d is a new array: in place)
-        if us.noise_m > 0:
-            d += rng.normal(0.0, us.noise_m, d.shape)
-        np.maximum(d, us.min_range_m, out=d)  # np.clip
-        np.minimum(d, us.max_range_m, out=d)
-        return d.reshape(len(indices), n)

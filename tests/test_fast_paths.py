@@ -12,6 +12,7 @@ from petswarm_env.middleware import ir
 from petswarm_env.sim import geometry
 from petswarm_env.sim.scenarios import ScenarioScript, build_scenario
 from petswarm_env.sim.world import World
+from tests import oracles
 
 
 def _scene(rng, n_robots, n_other):
@@ -134,7 +135,7 @@ def test_ir_measure_of_a_slot_equals_the_per_receiver_model():
         lobe = np.maximum(0.0, np.cos(b - np.arange(cfg.ir.num_receivers) * cfg.ir.spacing_rad)) ** cfg.ir.lobe_exponent
         on_axis = 0.0 if d > cfg.ir.max_range_m else cfg.ir.strength_at_1m / d**2 * (cfg.ir.occlusion_attenuation if occluded[0] else 1.0)
         s = np.clip(on_axis * lobe * (1 + cfg.ir.noise_rel * z[0, j]) + cfg.ir.noise_abs * z[1, j], 0.0, cfg.ir.saturation)
-        d_one, b_one, ok_one = ir.estimate(cfg.ir, s[None, :])
+        d_one, b_one, ok_one = oracles.ir_estimate(cfg.ir, s[None, :])
         assert valid[j] == ok_one[0]
         if ok_one[0]:
             assert dist[j] == pytest.approx(d_one[0], abs=1e-9)
@@ -286,9 +287,9 @@ def test_rewards_of_all_slaves_at_once_equal_one_at_a_time():
 
 
 @pytest.mark.parametrize("seed", range(5))
-def test_ir_rows_in_plain_python_equal_the_numpy_model_exactly(seed):
-    """received_strengths_rows / estimate_rows (one IR slot, plain Python) give the numbers of
-    received_strengths / estimate, also for saturated, occluded, out-of-range and undetected rows:
+def test_ir_model_equals_the_numpy_oracle(seed):
+    """ir.received_strengths / ir.estimate (plain Python, the env's path) give the numbers of their
+    numpy forms (tests/oracles.py), also for saturated, occluded, out-of-range and undetected rows:
     validity and distance exactly; the readings and the bearing to the last bit of the lobe's pow and
     of atan2 (numpy's SIMD ``power`` and ``arctan2`` on AVX-512 CPUs and the C library's ``pow`` and
     ``atan2`` may round differently)."""
@@ -298,16 +299,17 @@ def test_ir_rows_in_plain_python_equal_the_numpy_model_exactly(seed):
     d = np.concatenate([[0.05, 0.3, cfg.max_range_m + 0.5, 5.0], rng.uniform(0.1, 3.5, m - 4)])
     b = rng.uniform(-4.0, 4.0, m)
     occ = rng.random(m) < 0.3
-    want = ir.received_strengths(cfg, d, b, occ, np.random.default_rng(seed))
-    got = ir.received_strengths_rows(cfg, d.tolist(), b.tolist(), occ.tolist(), np.random.default_rng(seed))
+    want = oracles.ir_received_strengths(cfg, d, b, occ, np.random.default_rng(seed))
+    got = ir.received_strengths(cfg, d.tolist(), b.tolist(), occ.tolist(), np.random.default_rng(seed))
     np.testing.assert_allclose(np.array(got), want, rtol=1e-13, atol=1e-12)
     assert np.array_equal(np.array(got) == 0.0, want == 0.0)  # the same clipped and unlit receivers
     assert (want == cfg.saturation).any() and (want.max(axis=1) < cfg.detect_threshold).any()
-    d1, b1, ok1 = ir.estimate(cfg, np.array(got))
-    d2, b2, ok2 = ir.estimate_rows(cfg, got)
+    d1, b1, ok1 = oracles.ir_estimate(cfg, np.array(got))
+    d2, b2, ok2 = ir.estimate(cfg, got)
     assert np.array_equal(ok1, ok2) and ok1.any() and not ok1.all()
     assert np.array_equal(d1, np.array(d2), equal_nan=True)
     np.testing.assert_allclose(np.array(b2), b1, rtol=0, atol=1e-12)  # nan where invalid, in both
+    assert np.array_equal(ir.estimate(cfg, [[1.0] * cfg.num_receivers])[2], [cfg.detect_threshold <= 1.0])
 
 
 def _build_observation_reference(layout, node, now, odometry, yaw_rad, last_action, ultrasonic_m, hierarchy_level,

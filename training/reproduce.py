@@ -45,8 +45,8 @@ from petswarm_env.middleware.ir import (
     accuracy_experiment,
     estimate,
     received_strengths,
-    wrap_angle,
 )
+from petswarm_env.sim.geometry import wrap_angle
 
 Progress = Callable[[int, int], None]  # progress(done, total)
 
@@ -236,8 +236,8 @@ def fig19_positions(cfg_ir, rng: np.random.Generator, samples_per_point: int) ->
     d, a = d.reshape(-1), a.reshape(-1)
     true_d = np.repeat(d, samples_per_point)
     bearing = wrap_angle(np.repeat(a, samples_per_point) + np.pi)
-    strengths = received_strengths(cfg_ir, true_d, bearing, np.zeros(true_d.size, dtype=bool), rng)
-    est_d, est_b, valid = estimate(cfg_ir, strengths)
+    strengths = received_strengths(cfg_ir, true_d.tolist(), bearing.tolist(), [False] * true_d.size, rng)
+    est_d, est_b, valid = (np.array(v) for v in estimate(cfg_ir, strengths))
     est = np.stack([-est_d * np.cos(est_b), -est_d * np.sin(est_b)], axis=1)[valid]
     actual = np.stack([d * np.cos(a), d * np.sin(a)], axis=1)
     return {

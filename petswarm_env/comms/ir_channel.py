@@ -41,8 +41,8 @@ class IRChannel:
             occluded.append(_blocked(px, py, dx, dy, cl, rl, r, tx_index))
         # numpy's hypot (libm's), not math.hypot: the two differ in the last bit now and then
         distance = np.hypot(np.array(dxs), np.array(dys)).tolist()
-        strengths = ir.received_strengths_rows(self.cfg, distance, bearing, occluded, self.rng)
-        return ir.estimate_rows(self.cfg, strengths)
+        strengths = ir.received_strengths(self.cfg, distance, bearing, occluded, self.rng)
+        return ir.estimate(self.cfg, strengths)
 
 
 def _blocked(px: float, py: float, vx: float, vy: float, centers: list, radii: list, rx: int, tx: int) -> bool:

@@ -82,10 +82,29 @@ class Body:
         if omega != _get_angular_velocity(cb):
             _set_angular_velocity(cb, omega)
 
-    def accelerate(self, cx: float, cy: float, cw: float, max_dv: float, max_dw: float) -> tuple[float, float, float]:
-        """Move the body's own-frame velocity toward ``(cx, cy)`` (m/s) and ``cw`` (rad/s), by at
-        most ``max_dv`` and ``max_dw``, and write it to the body; returns the new own-frame
-        ``(vx, vy, ω)``. Starts from the body's actual velocity (after the last step's contacts)."""
+
+class DrivenBody(Body):
+    """A dynamic body driven by an own-frame velocity command under acceleration limits (a robot's
+    motors): :meth:`apply`, every physics substep, moves the achieved velocity toward
+    :attr:`command` by at most ``max_accel_mps2``·dt and ``max_alpha_rps2``·dt and writes it to the
+    body (contacts may still change it during the substep)."""
+
+    def __init__(self, space: pymunk.Space, position, heading_rad: float, radius_m: float, collision_type: int,
+                 mass_kg: float, max_accel_mps2: float, max_alpha_rps2: float, **shape: float):
+        super().__init__(space, position, heading_rad, radius_m, collision_type, mass_kg=mass_kg, **shape)
+        self.command = (0.0, 0.0, 0.0)  # own-frame (vx m/s, vy m/s, ω rad/s) to reach
+        self.velocity_body = (0.0, 0.0, 0.0)  # the achieved own-frame velocity after the last apply
+        self._accel = (max_accel_mps2, max_alpha_rps2)
+        self._limits_dt = -1.0  # the substep length the limits below were computed for
+        self._max_dv = self._max_dw = 0.0
+
+    def apply(self, dt: float) -> None:
+        """One substep of the drive, from the body's actual velocity (after the last step's
+        contacts); sets :attr:`velocity_body`. Only a changed value is written to the body."""
+        if dt != self._limits_dt:  # the per-substep limits, computed once per substep length
+            self._limits_dt = dt
+            self._max_dv = self._accel[0] * dt
+            self._max_dw = self._accel[1] * dt
         cbody = self._cbody
         th = _get_angle(cbody)
         c, s = _cos(th), _sin(th)
@@ -94,20 +113,24 @@ class Body:
         vx = c * wx + s * wy
         vy = -s * wx + c * wy
         w = _get_angular_velocity(cbody)
+        cx, cy, cw = self.command
         dvx, dvy = cx - vx, cy - vy
         dv = _hypot(dvx, dvy)
+        max_dv = self._max_dv
         if dv > max_dv:
             k = max_dv / dv
             dvx *= k
             dvy *= k
         vx += dvx
         vy += dvy
+        max_dw = self._max_dw
         dw = cw - w  # clipped to [-max_dw, max_dw]
         if dw > max_dw:
             dw = max_dw
         elif dw < -max_dw:
             dw = -max_dw
         w_new = w + dw
+        self.velocity_body = (vx, vy, w_new)
         # write only what changed (a body turning at its commanded rate, or driving straight at its
         # commanded speed, keeps its values): the same state as writing it again
         if w_new != w:
@@ -115,7 +138,6 @@ class Body:
         vx_w, vy_w = c * vx - s * vy, s * vx + c * vy
         if vx_w != wx or vy_w != wy:
             _set_velocity(cbody, (vx_w, vy_w))
-        return (vx, vy, w_new)
 
 
 def read_poses(bodies: list[Body]) -> tuple[list[float], list[float]]:

@@ -6,13 +6,12 @@ left/right speed, ``ω`` angular speed, all in the robot's body frame (x forward
 
 from __future__ import annotations
 
-import math
 
 import numpy as np
 import pymunk
 
 from petswarm_env.config import RobotConfig
-from petswarm_env.sim.body import COLLISION_ROBOT, Body
+from petswarm_env.sim.body import COLLISION_ROBOT, DrivenBody
 from petswarm_env.sim.body import _get_position  # noqa: F401  read here by middleware/node.py until it binds Body.read_position
 from petswarm_env.sim.sensors import AHRS
 
@@ -57,21 +56,18 @@ def saturate_command(vx: float, vy: float, omega: float, cfg: RobotConfig) -> tu
     return vx, vy, omega
 
 
-class Robot(Body):
-    """Physical truth of one robot: a pymunk body driven by velocity commands."""
+class Robot(DrivenBody):
+    """Physical truth of one robot: a pymunk body driven by velocity commands (its motors:
+    :meth:`~.body.DrivenBody.apply`), with its own sensors' models attached (the AHRS here; the
+    ultrasonic ring and the odometry in :class:`~.sensors.Sensors`)."""
 
     def __init__(self, index: int, cfg: RobotConfig, space: pymunk.Space, position, heading_rad: float):
-        super().__init__(space, position, heading_rad, cfg.radius_m, COLLISION_ROBOT, mass_kg=cfg.mass_kg,
-                         friction=0.3, elasticity=0.0)
+        super().__init__(space, position, heading_rad, cfg.radius_m, COLLISION_ROBOT, cfg.mass_kg,
+                         cfg.max_accel_mps2, cfg.max_alpha_rps2, friction=0.3, elasticity=0.0)
         self.index = index
         self.cfg = cfg
         self.shape.robot_index = index  # read by collision callbacks
         space.add(self.body, self.shape)
-        # commanded (saturated) body-frame velocity, and the achieved one after acceleration limits
-        self.command = (0.0, 0.0, 0.0)
-        self.velocity_body = (0.0, 0.0, 0.0)
-        self._limits_dt = -1.0  # the substep length the acceleration limits below were computed for
-        self._max_dv = self._max_dw = 0.0
         self.ahrs = AHRS(self, cfg)  # own sensor: yaw with white noise and a drifting bias
         self.ahrs_yaw = self.ahrs.yaw  # ahrs_yaw(now_s): the reading (bound once: read every frame)
 
@@ -80,13 +76,3 @@ class Robot(Body):
         floats: a float32 action would otherwise carry numpy-scalar arithmetic (slow, and rounded
         to float32) into every substep of the drive."""
         self.command = saturate_command(float(vx), float(vy), float(omega), self.cfg)
-
-    def apply(self, dt: float) -> None:
-        """Move the achieved velocity toward the command within the acceleration limits, then
-        hand it to the physics body (collisions may still change it during the step)."""
-        if dt != self._limits_dt:  # the per-substep limits, computed once per substep length
-            self._limits_dt = dt
-            self._max_dv = self.cfg.max_accel_mps2 * dt
-            self._max_dw = self.cfg.max_alpha_rps2 * dt
-        cx, cy, cw = self.command
-        self.velocity_body = self.accelerate(cx, cy, cw, self._max_dv, self._max_dw)

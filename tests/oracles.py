@@ -13,11 +13,10 @@ Nothing here is imported by the package.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
-from petswarm_env.config import IRConfig, RewardConfig
+from petswarm_env.config import IRConfig, LFConfig
+from petswarm_env.wearables.lf import LFFix
 
 # -- IR module (petswarm_env/middleware/ir.py): seed 000 §3.3 ---------------------------------------
 _IR_MIN_DISTANCE_M = 0.01
@@ -71,3 +70,92 @@ def ir_estimate(cfg: IRConfig, strengths) -> tuple[np.ndarray, np.ndarray, np.nd
     distance = np.where(valid, np.sqrt(cfg.strength_at_1m / safe_r), np.nan)
     bearing = np.where(valid, ir_wrap_angle(np.arctan2(b, a) + i * delta), np.nan)
     return distance, bearing, valid
+
+
+# -- LF localisation (petswarm_env/wearables/lf.py): seed 002 §3.3, Eqs. 1–3 ------------------------
+_LF_MIN_DISTANCE_M = 0.01
+
+
+def lf_antenna_positions(cfg: LFConfig) -> np.ndarray:
+    half = 0.5 * cfg.antenna_spacing_m
+    return np.array([[cfg.antenna_forward_m, half], [cfg.antenna_forward_m, -half]])
+
+
+def lf_calibration_curve(cfg: LFConfig, distance_m) -> np.ndarray:
+    d = np.maximum(np.asarray(distance_m, dtype=float), _LF_MIN_DISTANCE_M)
+    return cfg.rssi_at_1m_db - cfg.falloff_db_per_decade * np.log10(d)
+
+
+def lf_rssi(cfg: LFConfig, rel_pos_body, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`petswarm_env.wearables.lf.lf_rssi` for N belt positions (N, 2): (N,) each."""
+    p = np.asarray(rel_pos_body, dtype=float).reshape(-1, 2)
+    n = p.shape[0]
+    ant = lf_antenna_positions(cfg)
+    d = np.hypot(p[:, None, 0] - ant[None, :, 0], p[:, None, 1] - ant[None, :, 1])  # (N, 2)
+    bearing_deg = np.rad2deg(np.arctan2(p[:, 1], p[:, 0] - cfg.antenna_forward_m))
+    excess_deg = np.maximum(0.0, np.abs(bearing_deg) - cfg.reliable_half_angle_deg)
+    far = np.where(bearing_deg > 0.0, 1, 0)  # user on the left → the right antenna is the far one
+    shadow = np.zeros((n, 2))
+    shadow[np.arange(n), far] = cfg.distortion_loss_db_per_deg * excess_deg
+    carrier = lf_calibration_curve(cfg, d) - shadow
+    received = np.all(carrier >= cfg.sensitivity_db, axis=1)
+    z = rng.standard_normal((n, 5))  # one draw: [common, own left, own right, scatter left, scatter right]
+    common = cfg.noise_common_db * z[:, :1]
+    own = cfg.noise_antenna_db * z[:, 1:3]
+    scatter = (cfg.distortion_noise_db_per_deg * excess_deg)[:, None] * z[:, 3:5]
+    rssi = carrier + common + own + scatter
+    if cfg.rssi_step_db > 0.0:
+        rssi = np.round(rssi / cfg.rssi_step_db) * cfg.rssi_step_db
+    rssi = np.where(received[:, None], rssi, np.nan)
+    return rssi[:, 0], rssi[:, 1], received
+
+
+def lf_rssi_table(cfg: LFConfig) -> tuple[np.ndarray, np.ndarray]:
+    count = int(np.floor((cfg.table_max_m - cfg.table_min_m) / cfg.table_step_m + 1e-9)) + 1
+    dist = cfg.table_min_m + cfg.table_step_m * np.arange(count)
+    rssi = cfg.rssi_at_1m_db - cfg.falloff_db_per_decade * np.log10(dist)
+    return rssi[::-1].copy(), dist[::-1].copy()
+
+
+def lf_rssi_to_distance(cfg: LFConfig, rssi_db) -> np.ndarray:
+    rssi_inc, dist_inc = lf_rssi_table(cfg)
+    return np.interp(rssi_db, rssi_inc, dist_inc)
+
+
+def lf_triangle_formed(dl, dr, dw: float) -> np.ndarray:
+    longest = np.maximum(np.maximum(dl, dr), dw)
+    return (dl + dr + dw) - longest > longest
+
+
+def lf_position_from_distances(cfg: LFConfig, dl, dr, heard=True) -> LFFix:
+    """:func:`petswarm_env.wearables.lf.position_from_distances` on arrays."""
+    dl = np.asarray(dl, dtype=float)
+    dr = np.asarray(dr, dtype=float)
+    dw = cfg.antenna_spacing_m
+    valid = np.asarray(heard, dtype=bool) & lf_triangle_formed(dl, dr, dw)  # seed 002, Eq. 1
+    safe_dl = np.where(valid, dl, 1.0)
+    alpha = np.arccos(np.clip((safe_dl**2 + dw**2 - dr**2) / (2.0 * safe_dl * dw), -1.0, 1.0))  # Eq. 2
+    x_p = safe_dl * np.cos(alpha) - dw / 2.0
+    y_p = safe_dl * np.sin(alpha)
+    d = np.sqrt(x_p**2 + y_p**2)  # Eq. 3
+    theta_p = np.arctan(x_p / np.where(valid, y_p, 1.0))
+    x_fwd, y_left, direction = y_p + cfg.antenna_forward_m, -x_p, -theta_p  # paper frame → body frame
+    reliable = valid & (d <= cfg.reliable_range_m) & (np.abs(direction) <= np.deg2rad(cfg.reliable_half_angle_deg))
+    nan = np.nan
+    return LFFix(np.where(valid, x_fwd, nan), np.where(valid, y_left, nan), np.where(valid, d, nan),
+                 np.where(valid, direction, nan), valid, reliable)
+
+
+def lf_estimate(cfg: LFConfig, rssi_left, rssi_right) -> LFFix:
+    rl = np.asarray(rssi_left, dtype=float)
+    rr = np.asarray(rssi_right, dtype=float)
+    heard = np.isfinite(rl) & np.isfinite(rr)
+    dl = lf_rssi_to_distance(cfg, np.where(heard, rl, cfg.rssi_at_1m_db))
+    dr = lf_rssi_to_distance(cfg, np.where(heard, rr, cfg.rssi_at_1m_db))
+    return lf_position_from_distances(cfg, dl, dr, heard)
+
+
+def lf_locate(cfg: LFConfig, rel_pos_body, rng: np.random.Generator) -> LFFix:
+    """:func:`petswarm_env.wearables.lf.locate` for N belt positions (N, 2): a fix of arrays."""
+    rssi_l, rssi_r, _ = lf_rssi(cfg, rel_pos_body, rng)
+    return lf_estimate(cfg, rssi_l, rssi_r)

@@ -137,9 +137,10 @@ class UserSession:
                     and self.clock.now >= self.link_since_s:
                 tx = self.swarm.master.node_id
                 robot = self.world.robots[tx]
-                dx, dy = np.subtract(self.user.position, robot.position)
+                (ux, uy), (rx, ry) = self.user.position, robot.position
+                dx, dy = ux - rx, uy - ry
                 c, s = math.cos(robot.heading), math.sin(robot.heading)
-                fix = lf.locate(cfg.lf, np.array([c * dx + s * dy, -s * dx + c * dy]), self.rng_lf)
+                fix = lf.locate(cfg.lf, c * dx + s * dy, -s * dx + c * dy, self.rng_lf)
                 if fix.valid:  # the belt heard both antennas; RSSIs go back over BLE
                     t_burst = self.clock.now
                     ev = self.clock.timeout(cfg.ble.latency_s)

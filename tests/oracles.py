@@ -13,9 +13,11 @@ Nothing here is imported by the package.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
-from petswarm_env.config import IRConfig, LFConfig
+from petswarm_env.config import IRConfig, LFConfig, RewardConfig
 from petswarm_env.wearables.lf import LFFix
 
 # -- IR module (petswarm_env/middleware/ir.py): seed 000 §3.3 ---------------------------------------
@@ -159,3 +161,95 @@ def lf_locate(cfg: LFConfig, rel_pos_body, rng: np.random.Generator) -> LFFix:
     """:func:`petswarm_env.wearables.lf.locate` for N belt positions (N, 2): a fix of arrays."""
     rssi_l, rssi_r, _ = lf_rssi(cfg, rel_pos_body, rng)
     return lf_estimate(cfg, rssi_l, rssi_r)
+
+
+# -- geometry (petswarm_env/sim/geometry.py, comms/ir_channel.py) ----------------------------------
+def _as_points(a) -> np.ndarray:
+    return np.asarray(a, dtype=float).reshape(-1, 2)
+
+
+def ray_circle_distances(
+    origins: np.ndarray,
+    dirs: np.ndarray,
+    centers: np.ndarray,
+    radii: np.ndarray,
+    max_range: float,
+) -> np.ndarray:
+    """Distance along each ray to the first intersection with each circle.
+
+    Args:
+        origins: (R, 2) ray start points, m.
+        dirs: (R, 2) unit direction vectors.
+        centers: (C, 2) circle centres, m.
+        radii: (C,) circle radii, m.
+        max_range: hits farther than this (m) are reported as ``inf``.
+
+    Returns:
+        (R, C) distances in m; ``inf`` where the ray misses the circle, the circle lies behind
+        the origin, the hit is beyond ``max_range``, or the ray origin is inside (or on) the
+        circle — a sensor never sees the body it sits in.
+    """
+    o = _as_points(origins)
+    d = _as_points(dirs)
+    c = _as_points(centers)
+    r = np.asarray(radii, dtype=float).reshape(-1)
+    m = o[:, None, :] - c[None, :, :]  # (R, C, 2) centre -> origin
+    b = np.einsum("rk,rck->rc", d, m)  # d·m
+    cc = np.einsum("rck,rck->rc", m, m) - r[None, :] ** 2  # |m|² − r², ≤ 0 when inside
+    disc = b * b - cc
+    with np.errstate(invalid="ignore"):
+        t = -b - np.sqrt(disc)  # nearer root of t² + 2bt + cc = 0
+    hit = (cc > 0.0) & (disc >= 0.0) & (t >= 0.0) & (t <= max_range)
+    return np.where(hit, t, np.inf)
+
+
+def segments_blocked(
+    p_from: np.ndarray,
+    p_to: np.ndarray,
+    centers: np.ndarray,
+    radii: np.ndarray,
+    exclude: np.ndarray,
+) -> np.ndarray:
+    """Line-of-sight test: does any non-excluded circle cut the segment ``p_from → p_to``?
+
+    A circle blocks the segment when its centre is strictly closer than its radius to some point
+    of the segment (a segment that only grazes the circle is not blocked).
+
+    Args:
+        p_from: (M, 2) segment start points, m.
+        p_to: (M, 2) segment end points, m.
+        centers: (C, 2) circle centres, m.
+        radii: (C,) circle radii, m.
+        exclude: (M, C) bool, True where circle c must be ignored for segment m (typically the
+            bodies of the two robots the segment joins).
+
+    Returns:
+        (M,) bool, True where the line of sight is blocked.
+    """
+    p = _as_points(p_from)
+    q = _as_points(p_to)
+    c = _as_points(centers)
+    r = np.asarray(radii, dtype=float).reshape(-1)
+    excl = np.asarray(exclude, dtype=bool).reshape(p.shape[0], c.shape[0])
+    v = q - p  # (M, 2)
+    vv = np.einsum("mk,mk->m", v, v)
+    pc = c[None, :, :] - p[:, None, :]  # (M, C, 2)
+    # Parameter of the closest point on the segment, clipped to [0, 1]; degenerate segments use 0.
+    u = np.einsum("mck,mk->mc", pc, v) / np.where(vv > 0.0, vv, 1.0)[:, None]
+    u = np.clip(u, 0.0, 1.0)
+    closest = p[:, None, :] + u[..., None] * v[:, None, :]
+    dist2 = np.sum((c[None, :, :] - closest) ** 2, axis=-1)
+    return np.any((dist2 < r[None, :] ** 2) & ~excl, axis=1)
+
+
+# -- reward (petswarm_env/reward.py) -----------------------------------------------------------------
+def slave_reward(cfg: RewardConfig, formation_error_m: float, heading_error_rad: float, new_contacts: int,
+                 action: np.ndarray, last_action: np.ndarray) -> float:
+    """:func:`petswarm_env.reward.slave_rewards` for one slave, with numpy's ``@`` for ‖Δa‖²."""
+    da = action - last_action
+    return float(
+        -cfg.formation * formation_error_m
+        - cfg.heading * (1.0 - math.cos(heading_error_rad))
+        - cfg.collision * new_contacts
+        - cfg.smoothness * float(da @ da)
+    )

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import simpy
 
-from petswarm_env.comms.ir_channel import IRChannel, _blocked
+from petswarm_env.comms.ir_channel import IRChannel, line_of_sight_blocked
 from petswarm_env.config import load_config
 from petswarm_env.middleware import ir
 from petswarm_env.sim import geometry
@@ -35,7 +35,7 @@ def test_ring_first_hits_equals_ray_casts_against_circles_and_segments(seed):
     ang = headings[:, None] + angles[None, :]
     dirs = np.stack([np.cos(ang), np.sin(ang)], axis=-1).reshape(-1, 2)
     origins = np.repeat(centers[:n], k, axis=0)
-    want = geometry.ray_circle_distances(origins, dirs, centers, radii, reach).min(axis=1)
+    want = oracles.ray_circle_distances(origins, dirs, centers, radii, reach).min(axis=1)
     if len(seg_a):
         want = np.minimum(want, geometry.ray_segment_distances(origins, dirs, seg_a, seg_b, reach).min(axis=1))
     want = want.reshape(n, k)
@@ -106,9 +106,9 @@ def test_ir_line_of_sight_equals_segments_blocked(seed):
     exclude = np.zeros((len(rx), len(centers)), bool)
     exclude[np.arange(len(rx)), rx] = True
     exclude[:, tx] = True
-    want = geometry.segments_blocked(centers[rx], np.broadcast_to(centers[tx], (len(rx), 2)), centers, radii, exclude)
+    want = oracles.segments_blocked(centers[rx], np.broadcast_to(centers[tx], (len(rx), 2)), centers, radii, exclude)
     cl, rl = centers.tolist(), radii.tolist()
-    got = np.array([_blocked(*centers[r], *(centers[tx] - centers[r]), cl, rl, int(r), tx) for r in rx])
+    got = np.array([line_of_sight_blocked(*centers[r], *(centers[tx] - centers[r]), cl, rl, int(r), tx) for r in rx])
     assert np.array_equal(got, want)
 
 
@@ -128,7 +128,7 @@ def test_ir_measure_of_a_slot_equals_the_per_receiver_model():
     for j, r in enumerate(rxs):
         others = [i for i in range(len(centers)) if i not in (r, tx)]
         delta = centers[tx] - centers[r]
-        occluded = geometry.segments_blocked(centers[r:r + 1], centers[tx:tx + 1], centers[others], radii[others],
+        occluded = oracles.segments_blocked(centers[r:r + 1], centers[tx:tx + 1], centers[others], radii[others],
                                              np.zeros((1, len(others)), bool))
         b = math.atan2(delta[1], delta[0]) - world.robots[r].heading
         d = max(math.hypot(*delta), 0.01)
@@ -273,7 +273,8 @@ def test_bare_callbacks_run_in_clock_order(loop):
 
 
 def test_rewards_of_all_slaves_at_once_equal_one_at_a_time():
-    from petswarm_env.reward import slave_reward, slave_rewards
+    from petswarm_env.reward import slave_rewards
+    from tests.oracles import slave_reward
 
     cfg = load_config().reward
     rng = np.random.default_rng(9)

@@ -14,24 +14,30 @@ import math
 from collections.abc import Mapping
 from importlib import resources
 from pathlib import Path
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic_core import PydanticCustomError
+
+from petswarm_env.scenarios import SCENARIOS  # the registry (the scenarios import nothing of the package)
 
 
-SCENARIOS = (
-    "straight",
-    "turn_left_60",
-    "turn_right_60",
-    "zigzag",
-    "u_turn",
-    "stop_and_go",
-    "random_walk",
-    "mode_change",
-)
 FORMATIONS = ("column", "row", "wedge", "grid", "custom")
 DRIVING_MODES = ("following", "leading")
+
+
+def _registered_scenario(name: str) -> str:
+    """A scenario name must be in the registry at validation time (so a scenario registered after
+    this module was imported is a choice too); the error lists the choices, as a Literal's would."""
+    if name not in SCENARIOS:
+        names = [repr(n) for n in SCENARIOS]
+        choices = f"{', '.join(names[:-1])} or {names[-1]}" if len(names) > 1 else "".join(names)
+        raise PydanticCustomError("literal_error", "Input should be {choices}", {"choices": choices})
+    return name
+
+
+ScenarioName = Annotated[str, AfterValidator(_registered_scenario)]
 
 
 class ConfigError(ValueError):
@@ -125,8 +131,8 @@ class ProtocolConfig(_Section):
 
 
 class UserConfig(_Section):
-    scenario: Literal[SCENARIOS]  # type: ignore[valid-type]
-    scenario_pool: list[Literal[SCENARIOS]]  # type: ignore[valid-type]
+    scenario: ScenarioName
+    scenario_pool: list[ScenarioName]
     radius_m: float = Field(gt=0)
     walk_speed_mps: float = Field(gt=0)
     run_speed_mps: float = Field(gt=0)

@@ -42,8 +42,8 @@ from petswarm_env.middleware.swarm import Fleet, Swarm
 from petswarm_env.middleware.user_session import UserSession
 from petswarm_env.observe import OBS_VERSION, ObservationLayout, build_observation
 from petswarm_env.reward import slave_rewards
+from petswarm_env.scenarios import SCENARIOS
 from petswarm_env.sim.geometry import wrap_angle
-from petswarm_env.sim.scenarios import ScenarioScript, build_scenario
 from petswarm_env.sim.sensors import Sensors
 from petswarm_env.sim.world import World
 
@@ -51,8 +51,6 @@ ENV_NAME = "petswarm_v0"
 OTHER_USER_ID = 99  # the user that "other user" robots are connected to (Table 1)
 SWARM_PAN = 0x1001  # user u's swarm uses PAN SWARM_PAN + u
 WAKE_PATTERN = 0x5A00  # user u's belt and robot share the LF wake-up pattern WAKE_PATTERN + u
-SPAWN_REACH = 0.85  # chosen: waiting robots start within 85 % of the master's available region (Table 1)
-PAIRING_DISTANCE_M = 0.8  # chosen: each user starts this close to their robot (LF wake-up range 1 m)
 
 
 _NO_ACTION = np.zeros(3, np.float32)  # the last action of an agent that has not acted yet (read only)
@@ -80,7 +78,8 @@ class PetSwarmEnv(ParallelEnv):
         self.metadata = dict(self.metadata, render_fps=cfg.render.fps)
         pool = cfg.swarm.num_slaves + cfg.swarm.extra_robots
         per_user = 1 + pool
-        may_change_master = cfg.swarm.master_change and "mode_change" in (*cfg.user.scenario_pool, cfg.user.scenario)
+        may_change_master = cfg.swarm.master_change and any(
+            SCENARIOS[name].changes_master for name in (*cfg.user.scenario_pool, cfg.user.scenario))
         self.possible_agents = [
             f"robot_{u * per_user + k}" for u in range(cfg.world.num_users) for k in range(0 if may_change_master else 1, per_user)
         ]
@@ -111,11 +110,15 @@ class PetSwarmEnv(ParallelEnv):
         cfg = self.cfg
         pool = cfg.user.scenario_pool
         self.scenario = pool[int(rng_script.integers(len(pool)))] if pool else cfg.user.scenario
-        script_rngs = rng_script.spawn(cfg.world.num_users)
-        self.world = world = World(cfg, ScenarioScript(build_scenario(self.scenario, cfg.user, script_rngs[0])))
+        scenario = SCENARIOS[self.scenario]
+        scripts = [scenario.script(cfg.user, r) for r in rng_script.spawn(cfg.world.num_users)]
+        self.world = world = World(cfg, scripts[0])
         for u in range(1, cfg.world.num_users):
-            world.add_user(ScenarioScript(build_scenario(self.scenario, cfg.user, script_rngs[u])), (0.0, u * cfg.world.user_spacing_m), 0.0)
-        pools = self._place_robots(world, rng_world)
+            world.add_user(scripts[u], (0.0, u * cfg.world.user_spacing_m), 0.0)
+        plan = formation_for_mode(cfg.swarm, cfg.swarm.num_slaves + 1, cfg.swarm.mode)
+        placement = scenario.place(world, cfg, plan.slot_positions(), user_position_in_formation(plan, cfg.master.distance_m)[0],
+                                   rng_world)
+        pools, self._other_user_robots = placement.pools, placement.other_user_robots
         self.radio = RadioMedium(world.clock, cfg.radio, rng_radio)
         self.ir_channel = IRChannel(world, cfg.ir, rng_ir)
         self.fleet = fleet = Fleet(cfg, world, self.radio, self.ir_channel, rng_swarm)
@@ -261,53 +264,6 @@ class PetSwarmEnv(ParallelEnv):
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None
-
-    # -- construction ----------------------------------------------------------------------------
-    def _place_robots(self, world: World, rng: np.random.Generator) -> list[tuple[int, list[int]]]:
-        """Per user: the user's own robot close to the user (to pair), facing them — behind the user
-        in following, ahead in leading; waiting robots around their formation slots (jittered; in
-        leading off the master's shifting path); extra candidates farther out; then robots of
-        another user to the side. Returns (master index, pool indices) per user."""
-        cfg = self.cfg
-        d = cfg.master.distance_m
-        n = cfg.swarm.num_slaves
-        leading = cfg.swarm.mode == "leading"
-        formation = formation_for_mode(cfg.swarm, n + 1, cfg.swarm.mode)
-        slots = formation.slot_positions()  # master frame
-        heading = math.pi if leading else 0.0  # every robot faces its user
-        c, s = math.cos(heading), math.sin(heading)
-        world_slots = np.stack([c * slots[:, 0] - s * slots[:, 1], s * slots[:, 0] + c * slots[:, 1]], axis=1)
-        final = np.array([user_position_in_formation(formation, d)[0], 0.0]) * (1 if leading else -1)
-        depth = float(np.abs(world_slots[:, 0]).max())
-        jitter = cfg.swarm.spawn_jitter_m
-        pools = []
-        for u in range(cfg.world.num_users):
-            base = np.array([0.0, u * cfg.world.user_spacing_m])
-            start = base + np.array([PAIRING_DISTANCE_M if leading else -PAIRING_DISTANCE_M, 0.0])
-            master = world.add_robot(start, heading)
-            pool = []
-            reach = SPAWN_REACH * cfg.protocol.join_radius_m
-            for m in range(1, n + 1):
-                rel = world_slots[m] + rng.uniform(-jitter, jitter, 2)
-                if np.hypot(*rel) > reach:  # a far slot (e.g. the 5th of a wedge, 3 m): start inside the region
-                    rel = rel * (reach / np.hypot(*rel))
-                p = base + final + rel
-                if leading and abs(world_slots[m][1]) < 0.9:  # keep the master's shifting path clear
-                    side = np.sign(world_slots[m][1]) or (1.0 if m % 2 else -1.0)
-                    p[1] = base[1] + side * 0.9 + rng.uniform(-jitter, jitter) * 0.3
-                pool.append(world.add_robot(p, heading + float(rng.uniform(-0.3, 0.3))).index)
-            for k in range(cfg.swarm.extra_robots):
-                side = 1.0 if k % 2 == 0 else -1.0
-                far = -1.0 if not leading else 1.0
-                p = base + final + np.array([far * (depth + 0.8 + 0.6 * (k // 2)), side * 1.6])
-                pool.append(world.add_robot(p, heading).index)
-            pools.append((master.index, pool))
-        self._other_user_robots = []
-        base = np.array([0.0, 0.0]) + final
-        for k in range(cfg.swarm.other_user_robots):
-            r = world.add_robot(base + np.array([-0.6 * k, -1.8 - 0.2 * (k % 2)]), heading)
-            self._other_user_robots.append(r.index)
-        return pools
 
     # -- per step --------------------------------------------------------------------------------
     def _validate(self, actions: dict[str, Any]) -> dict[str, np.ndarray]:

@@ -16,7 +16,7 @@ import numpy as np
 
 from petswarm_env.middleware.formation import MAX_LINKS
 from petswarm_env.middleware.node import Node
-from petswarm_env.sim.scenarios import ACTIVITIES
+from petswarm_env.scenarios import ACTIVITIES
 
 OBS_VERSION = 1
 POS_SCALE_M = 3.0

@@ -10,7 +10,7 @@ from petswarm_env.comms.ir_channel import IRChannel, line_of_sight_blocked
 from petswarm_env.config import load_config
 from petswarm_env.middleware import ir
 from petswarm_env.sim import geometry
-from petswarm_env.sim.scenarios import ScenarioScript, build_scenario
+from petswarm_env.scenarios import SCENARIOS
 from petswarm_env.sim.world import World
 from tests import oracles
 
@@ -116,7 +116,7 @@ def test_ir_measure_of_a_slot_equals_the_per_receiver_model():
     """One IR slot measured for all receivers at once equals the optical model run on each
     receiver alone (occlusion, ring, estimator), given the same noise."""
     cfg = load_config()
-    world = World(cfg, ScenarioScript(build_scenario("straight", cfg.user, np.random.default_rng(0))))
+    world = World(cfg, SCENARIOS["straight"].script(cfg.user, np.random.default_rng(0)))
     rng = np.random.default_rng(3)
     for p, th in zip(rng.uniform(-2.0, 2.0, (6, 2)), rng.uniform(-3.0, 3.0, 6)):
         world.add_robot(p, th)
@@ -145,7 +145,7 @@ def test_ir_measure_of_a_slot_equals_the_per_receiver_model():
 
 def test_truth_arrays_follow_the_physics_and_are_read_only():
     cfg = load_config()
-    world = World(cfg, ScenarioScript(build_scenario("straight", cfg.user, np.random.default_rng(0))))
+    world = World(cfg, SCENARIOS["straight"].script(cfg.user, np.random.default_rng(0)))
     robot = world.add_robot((1.0, 2.0), 0.5)
     centers, radii, headings = world.truth_arrays()
     assert centers[0].tolist() == [1.0, 2.0] and headings[0] == 0.5
@@ -318,7 +318,7 @@ def _build_observation_reference(layout, node, now, odometry, yaw_rad, last_acti
     """observe.build_observation as it was before its lookups were resolved once (offsets by
     name, ``min`` for the age clip, numpy for the ultrasonic scaling, ``np.array(v, float32)``)."""
     from petswarm_env.observe import AGE_SCALE_S, POS_SCALE_M
-    from petswarm_env.sim.scenarios import ACTIVITIES
+    from petswarm_env.scenarios import ACTIVITIES
 
     def clip_age(age, scale):
         return min(age / scale, 1.0)

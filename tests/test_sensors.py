@@ -6,13 +6,13 @@ import numpy as np
 import pytest
 
 from petswarm_env.config import load_config
-from petswarm_env.sim.scenarios import ScenarioScript, build_scenario
+from petswarm_env.scenarios import SCENARIOS
 from petswarm_env.sim.sensors import AHRS, Sensors, UltrasonicRing
 from petswarm_env.sim.world import World
 
 
 def _world(cfg, robots):
-    world = World(cfg, ScenarioScript(build_scenario("straight", cfg.user, np.random.default_rng(0))))
+    world = World(cfg, SCENARIOS["straight"].script(cfg.user, np.random.default_rng(0)))
     world.user.body.position = (-20.0, 0.0)
     for p, th in robots:
         world.add_robot(p, th)

@@ -17,7 +17,7 @@ from petswarm_env.middleware.formation import formation_for_mode, user_position_
 from petswarm_env.middleware.modes import plan_mode_change
 from petswarm_env.middleware.swarm import Fleet, Swarm
 from petswarm_env.middleware.user_session import UserSession
-from petswarm_env.sim.scenarios import ScenarioScript, build_scenario
+from petswarm_env.scenarios import SCENARIOS
 from petswarm_env.sim.world import World
 
 
@@ -36,7 +36,7 @@ def run(env, steps, policy=None):
 # -- pairing (seed 002 §3.2) -----------------------------------------------------------------------
 def _pairing_world(robot_distance_m, robot_pattern, user_pattern=0x5A00):
     cfg = load_config()
-    world = World(cfg, ScenarioScript(build_scenario("straight", cfg.user, np.random.default_rng(0))))
+    world = World(cfg, SCENARIOS["straight"].script(cfg.user, np.random.default_rng(0)))
     world.add_robot((-robot_distance_m, 0.0), 0.0)
     rng = np.random.default_rng(1)
     radio = RadioMedium(world.clock, cfg.radio, rng)

@@ -201,11 +201,11 @@ def bench_petswarm(num_slaves: int, policy_name: str, s: BenchSettings) -> dict:
 def bench_floor(num_robots: int, s: BenchSettings) -> dict:
     """The env's pymunk bodies stepped with the env's substeps and nothing else."""
     from petswarm_env.config import load_config
-    from petswarm_env.sim.scenarios import ScenarioScript, build_scenario
+    from petswarm_env.scenarios import SCENARIOS
     from petswarm_env.sim.world import World
 
     cfg = load_config()
-    world = World(cfg, ScenarioScript(build_scenario(cfg.user.scenario, cfg.user, np.random.default_rng(s.seed))))
+    world = World(cfg, SCENARIOS[cfg.user.scenario].script(cfg.user, np.random.default_rng(s.seed)))
     spacing = cfg.swarm.spacing_m
     cols = 4
     for i in range(num_robots):  # a grid behind the user, spaced like a formation: no contacts

@@ -282,7 +282,7 @@ MOTION_BASELINE_STEPS = 15  # the standing velocity: mean and σ over the last 1
 
 def _turn_on_the_spot(env, angle_deg: float, rate_dps: float = TURN_RATE_DPS) -> None:
     """Replace the user's script after ``reset``: stand, then turn ``angle_deg`` on the spot, then stand."""
-    from petswarm_env.sim.scenarios import ScenarioScript, Segment
+    from petswarm_env.scenarios import ScenarioScript, Segment
 
     user = env.world.user
     stand = Segment(SETTLE_S, 0.0, 0.0, "stop")

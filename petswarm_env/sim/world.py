@@ -17,7 +17,7 @@ from petswarm_env.config import Config
 from petswarm_env.sim.clock import Clock
 from petswarm_env.sim.body import COLLISION_ROBOT, COLLISION_USER, COLLISION_WALL, read_poses
 from petswarm_env.sim.robot import Robot
-from petswarm_env.sim.scenarios import ScenarioScript
+from petswarm_env.scenarios import ScenarioScript
 from petswarm_env.sim.user import User
 
 

@@ -54,8 +54,8 @@ import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
 from petswarm_env.config import BeltConfig
+from petswarm_env.scenarios import ACTIVITIES  # seed 002 Table 2; index = activity code below
 
-ACTIVITIES = ("stop", "rest", "walk", "run")  # seed 002 Table 2; index = activity code below
 GRAVITY_MPS2 = 9.80665
 _EPS_S = 1e-9  # sample times are compared with this slack (float accumulation of 0.1 s steps)
 

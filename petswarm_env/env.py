@@ -35,15 +35,14 @@ from pettingzoo import ParallelEnv
 from petswarm_env.comms.ir_channel import IRChannel
 from petswarm_env.comms.radio import RadioMedium
 from petswarm_env.config import Config, flatten_dotted, load_config
-from petswarm_env.control.arbiter import SOURCES, ControlArbiter, SafetyStage
-from petswarm_env.metrics import EpisodeMetrics
+from petswarm_env.control.arbiter import ControlArbiter, SafetyStage
+from petswarm_env.metrics import Experimenter
 from petswarm_env.middleware.formation import Formation, formation_for_mode, user_position_in_formation
 from petswarm_env.middleware.swarm import Fleet, Swarm
 from petswarm_env.middleware.user_session import UserSession
 from petswarm_env.observe import OBS_VERSION, ObservationLayout, build_observation
 from petswarm_env.reward import slave_rewards
 from petswarm_env.scenarios import SCENARIOS
-from petswarm_env.sim.geometry import wrap_angle
 from petswarm_env.sim.sensors import Sensors
 from petswarm_env.sim.world import World
 
@@ -169,13 +168,8 @@ class PetSwarmEnv(ParallelEnv):
         self._agent_index = {f"robot_{i}": i for i in range(len(world.robots))}
         self._last_action = {a: np.zeros(3, np.float32) for a in self.agents}
         self._possible = set(self.possible_agents)
-        self._contacts_seen = dict(world.collisions.per_robot)
-        self._collisions_at_start = (world.collisions.robot_robot, world.collisions.robot_user, world.collisions.robot_wall)
-        self._events_at_start = self._event_counts()
-        self.metrics = EpisodeMetrics(
-            organize_time_s=self.swarm.organize_result.elapsed_s, join_retries=sum(sw.organize_result.retries for sw in self.swarms)
-        )
-        self._radio_at_start = (self.radio.stats.frames_sent, self.radio.stats.frames_lost, self.radio.stats.frames_collided)
+        self.experimenter = Experimenter(world, fleet, self.swarms, self.sessions, self.arbiters, self.radio, self._agent_index)
+        self.metrics = self.experimenter.metrics
         for user in world.users:
             user.walking = True
         self.num_cycles = 0
@@ -203,26 +197,16 @@ class PetSwarmEnv(ParallelEnv):
         self.sensors.read_rings()
         self.num_cycles += 1
 
-        errors, heading_errs = self._formation_errors()
-        per_robot = world.collisions.per_robot
-        infos = {}
-        errs, heads, contacts = [], [], []
-        for agent in self.agents:
-            idx = self._agent_index[agent]
-            new_contacts = per_robot.get(idx, 0) - self._contacts_seen.get(idx, 0)
-            self._contacts_seen[idx] = per_robot.get(idx, 0)
-            err = errors.get(agent, 0.0)
-            errs.append(err)
-            heads.append(heading_errs.get(agent, 0.0))
-            contacts.append(new_contacts)
-            infos[agent] = {"formation_error_m": err, "new_contacts": new_contacts}
+        truth = self.experimenter.step(self.agents)  # formation and heading errors, contacts (metrics.py)
+        infos = {agent: {"formation_error_m": err, "new_contacts": c}
+                 for agent, err, c in zip(self.agents, truth.formation_error_m, truth.new_contacts)}
         # every slave's reward in one pass over the slaves (reward.py)
         now_acts = np.array([acts[a] for a in self.agents], dtype=np.float32).reshape(-1, 3)
         last_acts = np.array([self._last_action[a] for a in self.agents], dtype=np.float32).reshape(-1, 3)
-        rewards = dict(zip(self.agents, slave_rewards(cfg.reward, errs, heads, contacts, now_acts, last_acts)))
+        rewards = dict(zip(self.agents, slave_rewards(cfg.reward, truth.formation_error_m, truth.heading_error_rad,
+                                                      truth.new_contacts, now_acts, last_acts)))
         for agent in self.agents:
             self._last_action[agent] = acts[agent]
-        self.metrics.add_step(list(errors.values()))
         truncated = self.num_cycles >= cfg.max_cycles
         # agents follow the middleware: a robot that left slave-role driving is done, a new slave joins
         slaves = self._current_slaves()
@@ -375,97 +359,13 @@ class PetSwarmEnv(ParallelEnv):
         return obs
 
     def reference_positions(self) -> dict[int, np.ndarray]:
-        """True reference position of every slave (robot index -> (x, y)): the experimenter's view,
-        from each swarm's current neighbour table and its master's true heading."""
-        return {idx: np.array(p) for idx, p in self._reference_points().items()}
-
-    def _reference_points(self, xy: list | None = None, th: list | None = None) -> dict[int, tuple[float, float]]:
-        """:meth:`reference_positions` as Python floats (the mean over a slave's links taken as
-        numpy's mean of so few points is: their sum in order, over their number). Positions and
-        headings are the world's truth arrays as lists (``xy``, ``th``; read here if not given):
-        the values Chipmunk gives each body, read once per physics step."""
-        if xy is None or th is None:
-            centers, _, headings = self.world.truth_arrays()
-            xy, th = centers.tolist(), headings.tolist()
-        out = {}
-        for swarm in self.swarms:
-            if swarm.formation is None or not swarm.organized:
-                continue
-            members = swarm.master.know.members
-            t = th[swarm.master.node_id]
-            c, s = math.cos(t), math.sin(t)
-            for m, links in swarm.formation.links.items():
-                idx = members.get(m)
-                if idx is None or not links:
-                    continue
-                sx = sy = 0.0
-                for link in links:
-                    nx, ny = xy[members[link.neighbour]]
-                    ox, oy = link.offset_m
-                    sx += nx + c * ox - s * oy
-                    sy += ny + s * ox + c * oy
-                out[idx] = (sx / len(links), sy / len(links))
-        return out
-
-    def _formation_errors(self) -> tuple[dict[str, float], dict[str, float]]:
-        """Each slave's distance from its reference point and heading error from its master's
-        heading (truth), from the truth arrays as lists (one conversion for all robots)."""
-        centers, _, headings = self.world.truth_arrays()
-        xy, th = centers.tolist(), headings.tolist()
-        refs = self._reference_points(xy, th)
-        nodes, agent_index = self.fleet.nodes, self._agent_index
-        errors, heading = {}, {}
-        for agent in self.agents:
-            idx = agent_index[agent]
-            ref = refs.get(idx)
-            if ref is None:
-                continue
-            x, y = xy[idx]
-            errors[agent] = math.hypot(x - ref[0], y - ref[1])
-            heading[agent] = wrap_angle(th[idx] - th[nodes[idx].swarm.master.node_id])
-        return errors, heading
-
-    # -- reporting -------------------------------------------------------------------------------
-    def _event_counts(self) -> dict[str, Any]:
-        wins = {s: sum(a.counts.wins[s] for a in self.arbiters.values()) for s in SOURCES}
-        return {
-            "master_changes": sum(sw.events["master_changes"] for sw in self.swarms),
-            "mode_changes": sum(sw.events["mode_changes"] for sw in self.swarms),
-            "token_recoveries": sum(sw.token_recoveries() for sw in self.swarms),
-            "emergencies": sum(se.events["emergencies"] for se in self.sessions),
-            "exceptions": sum(se.events["exceptions"] for se in self.sessions),
-            "arbiter_wins": wins,
-        }
+        """True reference position of every slave (robot index -> (x, y)): the experimenter's view
+        (:meth:`.metrics.Experimenter.reference_positions`)."""
+        return self.experimenter.reference_positions()
 
     def episode_summary(self) -> dict[str, Any]:
-        c = self.world.collisions
-        c0 = self._collisions_at_start
-        st = self.radio.stats
-        r0 = self._radio_at_start
-        m = self.metrics
-        now, start = self._event_counts(), self._events_at_start
-        events = {k: now[k] - start[k] for k in ("master_changes", "mode_changes", "token_recoveries", "emergencies", "exceptions")}
-        events["join_retries"] = m.join_retries
-        events["arbiter_wins"] = now["arbiter_wins"]  # counted from the end of reset
-        events["foreign_pan_frames_processed"] = self.fleet.foreign_pan_frames_processed()
-        return {
-            "scenario": self.scenario,
-            "steps": m.steps,
-            "formation_rmse_m": m.formation_rmse_m,
-            "collisions": {
-                "robot_robot": c.robot_robot - c0[0],
-                "robot_user": c.robot_user - c0[1],
-                "robot_wall": c.robot_wall - c0[2],
-            },
-            "organize_time_s": m.organize_time_s,
-            "join_retries": m.join_retries,
-            "token_recoveries": now["token_recoveries"],
-            "frames": {"sent": st.frames_sent - r0[0], "lost": st.frames_lost - r0[1], "collided": st.frames_collided - r0[2]},
-            "foreign_pan_frames_processed": events["foreign_pan_frames_processed"],
-            "slaves": len(self._slave_ids),
-            "users": self.cfg.world.num_users,
-            "events": events,
-        }
+        """The episode's figures so far (:meth:`.metrics.Experimenter.summary`)."""
+        return self.experimenter.summary(self.scenario, len(self._slave_ids), self.cfg.world.num_users)
 
     def scene(self):
         """A plain description of the current truth for the renderer."""

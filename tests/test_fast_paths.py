@@ -386,7 +386,7 @@ def _build_observation_reference(layout, node, now, odometry, yaw_rad, last_acti
 
 
 def _assert_formation_errors_from_the_bodies(env):
-    """_formation_errors (read from the truth arrays as lists) equals the same formulas on the
+    """Experimenter.formation_errors (read from the truth arrays as lists) equals the same formulas on the
     bodies' own position and heading properties."""
     from petswarm_env.sim.geometry import wrap_angle as _wrap
 
@@ -409,7 +409,7 @@ def _assert_formation_errors_from_the_bodies(env):
             x, y = robots[idx].position
             errors[agent] = math.hypot(x - sx / len(links), y - sy / len(links))
             heads[agent] = _wrap(robots[idx].heading - th)
-    assert env._formation_errors() == (errors, heads)
+    assert env.experimenter.formation_errors(env.agents) == (errors, heads)
 
 
 @pytest.mark.parametrize("overrides", [{"swarm.num_slaves": 9, "swarm.formation": "grid", "user.scenario": "u_turn"}, {"user.scenario": "mode_change"}],

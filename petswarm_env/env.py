@@ -40,7 +40,7 @@ from petswarm_env.metrics import Experimenter
 from petswarm_env.middleware.formation import Formation, formation_for_mode, user_position_in_formation
 from petswarm_env.middleware.swarm import Fleet, Swarm
 from petswarm_env.middleware.user_session import UserSession
-from petswarm_env.observe import OBS_VERSION, ObservationLayout, build_observation
+from petswarm_env.observe import OBS_VERSION, ObservationLayout, Observer
 from petswarm_env.reward import slave_rewards
 from petswarm_env.scenarios import SCENARIOS
 from petswarm_env.sim.sensors import Sensors
@@ -52,8 +52,6 @@ SWARM_PAN = 0x1001  # user u's swarm uses PAN SWARM_PAN + u
 WAKE_PATTERN = 0x5A00  # user u's belt and robot share the LF wake-up pattern WAKE_PATTERN + u
 
 
-_NO_ACTION = np.zeros(3, np.float32)  # the last action of an agent that has not acted yet (read only)
-_NO_ACTION.flags.writeable = False
 
 
 class PetSwarmEnv(ParallelEnv):
@@ -83,10 +81,10 @@ class PetSwarmEnv(ParallelEnv):
             f"robot_{u * per_user + k}" for u in range(cfg.world.num_users) for k in range(0 if may_change_master else 1, per_user)
         ]
         self.agents: list[str] = []
-        self.layout = ObservationLayout(cfg.robot.ultrasonic.count)
+        self._limits = (cfg.robot.max_speed_mps, cfg.robot.max_speed_mps, cfg.robot.max_omega_rps)
+        self.layout = ObservationLayout(cfg.robot.ultrasonic.count, self._limits, cfg.robot.ultrasonic.max_range_m)
         self._obs_space = gymnasium.spaces.Box(-np.inf, np.inf, (self.layout.size,), np.float32)
         self._act_space = gymnasium.spaces.Box(-1.0, 1.0, (3,), np.float32)
-        self._limits = (cfg.robot.max_speed_mps, cfg.robot.max_speed_mps, cfg.robot.max_omega_rps)
         self._seed_seq: np.random.SeedSequence | None = None
         self._renderer = None
         self.world: World | None = None
@@ -142,7 +140,6 @@ class PetSwarmEnv(ParallelEnv):
         self.arbiters = {r.index: ControlArbiter(safety) for r in world.robots}
         self.sensors = Sensors(world, cfg.robot, rng_sensors)  # reads every robot's ultrasonic ring
         self._last_action: dict[str, np.ndarray] = {}
-        self._formation_cache: dict[int, tuple[Formation, np.ndarray, dict[int, int]]] = {}
 
         limit = int(math.ceil((cfg.lf.wake_period_s + cfg.ble.connect_s + cfg.protocol.organize_timeout_s + 10.0) / cfg.control_period_s))
         for _ in range(limit):
@@ -167,13 +164,15 @@ class PetSwarmEnv(ParallelEnv):
         self.agents = [f"robot_{i}" for i in self._slave_ids]
         self._agent_index = {f"robot_{i}": i for i in range(len(world.robots))}
         self._last_action = {a: np.zeros(3, np.float32) for a in self.agents}
+        self.observer = Observer(self.layout, fleet.nodes, self.sensors, [r.ahrs_yaw for r in world.robots], self._agent_index,
+                                 cfg.master.distance_m)
         self._possible = set(self.possible_agents)
         self.experimenter = Experimenter(world, fleet, self.swarms, self.sessions, self.arbiters, self.radio, self._agent_index)
         self.metrics = self.experimenter.metrics
         for user in world.users:
             user.walking = True
         self.num_cycles = 0
-        observations = self._observe()
+        observations = self.observer.observe(self.agents, self._last_action, world.now)
         infos = {}
         for a in self.agents:
             sw = self._node(a).swarm
@@ -219,7 +218,7 @@ class PetSwarmEnv(ParallelEnv):
         self._slave_ids = slaves
         before = list(self.agents)
         self.agents = [a for a in before if a in live and not truncated] + ([] if truncated else joined)
-        observations = self._observe(before + [a for a in joined if a not in before])
+        observations = self.observer.observe(before + [a for a in joined if a not in before], self._last_action, world.now)
         for a in joined:
             rewards[a], terminations[a], truncations[a] = 0.0, False, truncated
             infos[a] = {"formation_error_m": 0.0, "new_contacts": 0, "joined": True}
@@ -289,7 +288,7 @@ class PetSwarmEnv(ParallelEnv):
         for session in self.sessions:
             idx = session.swarm.master.node_id
             masters.add(idx)
-            policy, user_cmd, stop = session.step(self.sensors.odometry(world.robots[idx].velocity_body), ranges[idx])
+            policy, user_cmd, stop = session.step(self.sensors.odometry(idx), ranges[idx])
             cmd, _ = self.arbiters[idx].decide(policy, user_cmd, ranges[idx], stop)
             world.robots[idx].set_command(*cmd)
         if acts is None:
@@ -309,54 +308,6 @@ class PetSwarmEnv(ParallelEnv):
 
     def _node(self, agent: str):
         return self.fleet.nodes[self._agent_index[agent]]
-
-    def _formation_geometry(self, formation: Formation) -> tuple[list[tuple[float, float]], dict[int, int]]:
-        """Slot positions and hierarchy levels of a neighbour table (cached per table)."""
-        hit = self._formation_cache.get(id(formation))
-        if hit is None or hit[0] is not formation:
-            slots = [tuple(p) for p in formation.slot_positions().tolist()]  # Python floats
-            levels = formation.hierarchy_levels(user_position_in_formation(formation, self.cfg.master.distance_m))
-            hit = (formation, slots, levels)
-            self._formation_cache[id(formation)] = hit
-        return hit[1], hit[2]
-
-    def _observe(self, agents: list[str] | None = None) -> dict[str, np.ndarray]:
-        world = self.world
-        now = world.now
-        obs = {}
-        agents = self.agents if agents is None else agents
-        us_max = self.cfg.robot.ultrasonic.max_range_m
-        sensors = self.sensors
-        noise = sensors.odometry_noise(len(agents))  # every agent's odometry noise in one draw
-        ranges = sensors.ranges.tolist()  # every robot's ring as Python floats, in one conversion
-        robots, nodes, agent_index = world.robots, self.fleet.nodes, self._agent_index
-        layout, limits, last_actions = self.layout, self._limits, self._last_action
-        for i, agent in enumerate(agents):
-            idx = agent_index[agent]
-            node = nodes[idx]
-            robot = robots[idx]
-            member = node.know.member
-            level, offset = 0, (0.0, 0.0)
-            if node.formation is not None and 0 <= member < node.formation.size:
-                slots, levels = self._formation_geometry(node.formation)
-                level, offset = levels.get(member, 0), slots[member]
-            last = last_actions.get(agent)
-            odometry = sensors.odometry(robot.velocity_body, noise[i] if noise is not None else None)
-            obs[agent] = build_observation(
-                layout,
-                None,  # a new array: what the agent gets is its own
-                node,
-                now,
-                odometry,
-                robot.ahrs_yaw(now),
-                last if last is not None else _NO_ACTION,
-                ranges[idx],
-                level,
-                offset,
-                limits,
-                us_max,
-            )
-        return obs
 
     def reference_positions(self) -> dict[int, np.ndarray]:
         """True reference position of every slave (robot index -> (x, y)): the experimenter's view

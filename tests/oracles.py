@@ -18,6 +18,9 @@ import math
 import numpy as np
 
 from petswarm_env.config import IRConfig, LFConfig, RewardConfig
+from petswarm_env.observe import AGE_SCALE_S, POS_SCALE_M, ObservationLayout, Readings
+from petswarm_env.scenarios import ACTIVITIES
+from petswarm_env.sim.geometry import ray_segment_distances
 from petswarm_env.wearables.lf import LFFix
 
 # -- IR module (petswarm_env/middleware/ir.py): seed 000 §3.3 ---------------------------------------
@@ -242,6 +245,46 @@ def segments_blocked(
     return np.any((dist2 < r[None, :] ** 2) & ~excl, axis=1)
 
 
+def ring_first_hits_masked(origins, headings, angles, centers, radii, seg_a, seg_b, max_range):
+    """:func:`petswarm_env.sim.geometry.ring_first_hits` as it was written before its calls were cut
+    down: (origin, ray, circle) arrays, boolean hit masks, the range cut on every pair, every segment."""
+    o, c = origins, centers
+    ang = headings[:, None] + angles[None, :]
+    dx, dy = np.cos(ang), np.sin(ang)
+    mx, my = o[:, 0:1] - c[:, 0], o[:, 1:2] - c[:, 1]
+    cc = mx * mx + my * my - radii**2
+    cc = np.where(cc > 0.0, cc, np.inf)[:, None, :]
+    b = dx[:, :, None] * mx[:, None, :] + dy[:, :, None] * my[:, None, :]
+    disc = b * b - cc
+    t = -b - np.sqrt(np.maximum(disc, 0.0))
+    hit = (disc >= 0.0) & (t >= 0.0) & (t <= max_range)
+    d = np.where(hit, t, np.inf).min(axis=2) if len(c) else np.full(ang.shape, np.inf)
+    if len(seg_a):
+        dirs = np.stack([dx, dy], axis=-1).reshape(-1, 2)
+        seg = ray_segment_distances(np.repeat(o, len(angles), axis=0), dirs, seg_a, seg_b, max_range)
+        d = np.minimum(d, seg.min(axis=1).reshape(ang.shape))
+    return d
+
+
+# -- control arbiter (petswarm_env/control/arbiter.py) -----------------------------------------------
+def safety_filter(stage, command, ranges):
+    """``SafetyStage.filter`` (petswarm_env/control/arbiter.py) in numpy, as it was written before the
+    plain-Python version."""
+    v = np.array(command[:2], dtype=float)
+    allowed = np.sqrt(stage.two_a * np.maximum(ranges - stage.stop, 0.0))
+    over = (stage.dirs @ v > allowed + 1e-9) | (ranges < 0.5 * stage.stop)
+    if not over.any():
+        return None
+    for k in np.flatnonzero(over):
+        d = stage.dirs[k]
+        excess = float(v @ d) - allowed[k]
+        if excess > 0.0:
+            v = v - excess * d
+        if ranges[k] < 0.5 * stage.stop:
+            v = v - stage.backoff * (1.0 - ranges[k] / (0.5 * stage.stop)) * d
+    return float(v[0]), float(v[1]), float(command[2])
+
+
 # -- reward (petswarm_env/reward.py) -----------------------------------------------------------------
 def slave_reward(cfg: RewardConfig, formation_error_m: float, heading_error_rad: float, new_contacts: int,
                  action: np.ndarray, last_action: np.ndarray) -> float:
@@ -253,3 +296,76 @@ def slave_reward(cfg: RewardConfig, formation_error_m: float, heading_error_rad:
         - cfg.collision * new_contacts
         - cfg.smoothness * float(da @ da)
     )
+
+
+# -- observation builder (petswarm_env/observe.py) ---------------------------------------------------
+def build_observation(layout: ObservationLayout, r: Readings) -> list[float]:
+    """:func:`petswarm_env.observe.build_observation` as it was before its lookups were resolved
+    once (offsets by name, ``min`` for the age clip, numpy for the ultrasonic scaling); the values
+    as a list of Python floats (float64)."""
+
+    def clip_age(age, scale):
+        return min(age / scale, 1.0)
+
+    now, odometry, yaw_rad, last_action, ultrasonic_m = r.now_s, r.odometry, r.yaw_rad, r.last_action, r.ultrasonic_m
+    hierarchy_level, offset_from_master, us_max_range_m = r.hierarchy_level, r.offset_from_master_m, layout.us_max_range_m
+    v = [0.0] * layout.size
+    o = {name: sl.start for name, sl in layout.slices.items()}
+    vmax, _, wmax = layout.limits
+    know = r.know
+    for base, link in zip([o[f"link{k}.present"] for k in range(len(layout._link_starts))], r.links):
+        v[base] = 1.0
+        nb = know.members.get(link.neighbour)
+        m = know.ir.get(nb)
+        if m is not None:
+            b = m.bearing_rad - (yaw_rad - m.own_yaw_rad)
+            v[base + 1] = 1.0
+            v[base + 2] = m.distance_m * math.cos(b) / POS_SCALE_M
+            v[base + 3] = m.distance_m * math.sin(b) / POS_SCALE_M
+            v[base + 4] = clip_age(now - m.time_s, AGE_SCALE_S)
+        else:
+            v[base + 4] = 1.0
+        v[base + 5] = link.offset_m[0] / POS_SCALE_M
+        v[base + 6] = link.offset_m[1] / POS_SCALE_M
+        h = know.heading.get(nb)
+        if h is not None:
+            rel = h.relative_rad - (yaw_rad - h.own_yaw_rad)
+            v[base + 7] = math.sin(rel)
+            v[base + 8] = math.cos(rel)
+            v[base + 9] = 1.0
+            v[base + 10] = clip_age(now - h.time_s, AGE_SCALE_S)
+        else:
+            v[base + 8] = 1.0
+            v[base + 10] = 1.0
+    st = know.status
+    i = o["master.valid"]
+    if st is not None:
+        v[i] = 1.0
+        v[i + 1] = clip_age(now - st.time_s, 1.0)
+        v[i + 2] = st.velocity[0] / vmax
+        v[i + 3] = st.velocity[1] / vmax
+        v[i + 4] = st.velocity[2] / wmax
+        v[o["master.activity"] + ACTIVITIES.index(st.activity)] = 1.0
+        v[o["master.rotating"]] = 1.0 if st.user_rotating else 0.0
+        v[o["master.turn_rate"]] = st.user_turn_rate_rps / wmax
+        v[o["master.leading"]] = 1.0 if st.mode == "leading" else 0.0
+        j = o["master.user_xy"]
+        v[j] = st.user_position_m[0] / POS_SCALE_M
+        v[j + 1] = st.user_position_m[1] / POS_SCALE_M
+    else:
+        v[i + 1] = 1.0
+    j = o["self.odometry"]
+    v[j], v[j + 1], v[j + 2] = odometry[0] / vmax, odometry[1] / vmax, odometry[2] / wmax
+    j = o["self.yaw_sincos"]
+    v[j], v[j + 1] = math.sin(yaw_rad), math.cos(yaw_rad)
+    j = o["self.last_action"]
+    v[j : j + 3] = last_action.tolist()
+    j = o["self.offset_from_master_xy"]
+    v[j], v[j + 1] = offset_from_master[0] / POS_SCALE_M, offset_from_master[1] / POS_SCALE_M
+    j = o["self.ultrasonic"]
+    v[j : j + len(ultrasonic_m)] = (ultrasonic_m / us_max_range_m).tolist()
+    total = max(know.total_members, 1)
+    v[o["self.hierarchy"]] = hierarchy_level / total
+    v[o["self.members"]] = total / 16.0
+    v[o["self.member"]] = know.member / 16.0
+    return v

@@ -44,27 +44,6 @@ def test_ring_first_hits_equals_ray_casts_against_circles_and_segments(seed):
     np.testing.assert_allclose(got[np.isfinite(got)], want[np.isfinite(want)], rtol=0, atol=1e-9)
 
 
-def _ring_first_hits_masked(origins, headings, angles, centers, radii, seg_a, seg_b, max_range):
-    """ring_first_hits as it was written before its calls were cut down: (origin, ray, circle)
-    arrays, boolean hit masks, the range cut on every pair, every segment."""
-    o, c = origins, centers
-    ang = headings[:, None] + angles[None, :]
-    dx, dy = np.cos(ang), np.sin(ang)
-    mx, my = o[:, 0:1] - c[:, 0], o[:, 1:2] - c[:, 1]
-    cc = mx * mx + my * my - radii**2
-    cc = np.where(cc > 0.0, cc, np.inf)[:, None, :]
-    b = dx[:, :, None] * mx[:, None, :] + dy[:, :, None] * my[:, None, :]
-    disc = b * b - cc
-    t = -b - np.sqrt(np.maximum(disc, 0.0))
-    hit = (disc >= 0.0) & (t >= 0.0) & (t <= max_range)
-    d = np.where(hit, t, np.inf).min(axis=2) if len(c) else np.full(ang.shape, np.inf)
-    if len(seg_a):
-        dirs = np.stack([dx, dy], axis=-1).reshape(-1, 2)
-        seg = geometry.ray_segment_distances(np.repeat(o, len(angles), axis=0), dirs, seg_a, seg_b, max_range)
-        d = np.minimum(d, seg.min(axis=1).reshape(ang.shape))
-    return d
-
-
 @pytest.mark.parametrize("seed", range(10))
 def test_ring_first_hits_equals_the_masked_formulation_bit_for_bit(seed):
     """Crowded scenes (touching and overlapping bodies, walls close by, origins inside other
@@ -80,7 +59,7 @@ def test_ring_first_hits_equals_the_masked_formulation_bit_for_bit(seed):
         seg_b = seg_a + rng.uniform(-3.0, 3.0, seg_a.shape)
         reach = float(rng.uniform(0.3, 2.5))
         angles = np.arange(k) * (2 * math.pi / k)
-        want = _ring_first_hits_masked(centers[:n], headings, angles, centers, radii, seg_a, seg_b, reach)
+        want = oracles.ring_first_hits_masked(centers[:n], headings, angles, centers, radii, seg_a, seg_b, reach)
         got = geometry.ring_first_hits(centers[:n], headings, angles, centers, radii,
                                        geometry.SegmentSet(seg_a, seg_b, reach), reach)
         assert got.shape == want.shape and np.array_equal(got, want)
@@ -163,23 +142,6 @@ def test_truth_arrays_follow_the_physics_and_are_read_only():
     assert world.robot_positions()[0].tolist() == [9.0, 9.0]
 
 
-def _safety_reference(stage, command, ranges):
-    """The ultrasonic safety stage in numpy, as it was written before the plain-Python version."""
-    v = np.array(command[:2], dtype=float)
-    allowed = np.sqrt(stage.two_a * np.maximum(ranges - stage.stop, 0.0))
-    over = (stage.dirs @ v > allowed + 1e-9) | (ranges < 0.5 * stage.stop)
-    if not over.any():
-        return None
-    for k in np.flatnonzero(over):
-        d = stage.dirs[k]
-        excess = float(v @ d) - allowed[k]
-        if excess > 0.0:
-            v = v - excess * d
-        if ranges[k] < 0.5 * stage.stop:
-            v = v - stage.backoff * (1.0 - ranges[k] / (0.5 * stage.stop)) * d
-    return float(v[0]), float(v[1]), float(command[2])
-
-
 def test_safety_stage_equals_the_numpy_formulation():
     from petswarm_env.control.arbiter import SafetyStage
 
@@ -189,7 +151,7 @@ def test_safety_stage_equals_the_numpy_formulation():
     for _ in range(500):
         cmd = tuple(rng.uniform(-1.5, 1.5, 3))
         ranges = rng.uniform(0.05, 2.0, 8) if rng.random() < 0.7 else np.full(8, 2.0)
-        want, got = _safety_reference(stage, cmd, ranges), stage.filter(cmd, ranges)
+        want, got = oracles.safety_filter(stage, cmd, ranges), stage.filter(cmd, ranges)
         assert (want is None) == (got is None)
         if want is not None:
             changed += 1
@@ -313,78 +275,6 @@ def test_ir_model_equals_the_numpy_oracle(seed):
     assert np.array_equal(ir.estimate(cfg, [[1.0] * cfg.num_receivers])[2], [cfg.detect_threshold <= 1.0])
 
 
-def _build_observation_reference(layout, node, now, odometry, yaw_rad, last_action, ultrasonic_m, hierarchy_level,
-                                 offset_from_master, limits, us_max_range_m):
-    """observe.build_observation as it was before its lookups were resolved once (offsets by
-    name, ``min`` for the age clip, numpy for the ultrasonic scaling, ``np.array(v, float32)``)."""
-    from petswarm_env.observe import AGE_SCALE_S, POS_SCALE_M
-    from petswarm_env.scenarios import ACTIVITIES
-
-    def clip_age(age, scale):
-        return min(age / scale, 1.0)
-
-    v = [0.0] * layout.size
-    o = {name: sl.start for name, sl in layout.slices.items()}
-    vmax, _, wmax = limits
-    know = node.know
-    for base, link in zip([o[f"link{k}.present"] for k in range(len(layout._link_starts))], node.reference_links()):
-        v[base] = 1.0
-        nb = know.members.get(link.neighbour)
-        m = know.ir.get(nb)
-        if m is not None:
-            b = m.bearing_rad - (yaw_rad - m.own_yaw_rad)
-            v[base + 1] = 1.0
-            v[base + 2] = m.distance_m * math.cos(b) / POS_SCALE_M
-            v[base + 3] = m.distance_m * math.sin(b) / POS_SCALE_M
-            v[base + 4] = clip_age(now - m.time_s, AGE_SCALE_S)
-        else:
-            v[base + 4] = 1.0
-        v[base + 5] = link.offset_m[0] / POS_SCALE_M
-        v[base + 6] = link.offset_m[1] / POS_SCALE_M
-        h = know.heading.get(nb)
-        if h is not None:
-            rel = h.relative_rad - (yaw_rad - h.own_yaw_rad)
-            v[base + 7] = math.sin(rel)
-            v[base + 8] = math.cos(rel)
-            v[base + 9] = 1.0
-            v[base + 10] = clip_age(now - h.time_s, AGE_SCALE_S)
-        else:
-            v[base + 8] = 1.0
-            v[base + 10] = 1.0
-    st = know.status
-    i = o["master.valid"]
-    if st is not None:
-        v[i] = 1.0
-        v[i + 1] = clip_age(now - st.time_s, 1.0)
-        v[i + 2] = st.velocity[0] / vmax
-        v[i + 3] = st.velocity[1] / vmax
-        v[i + 4] = st.velocity[2] / wmax
-        v[o["master.activity"] + ACTIVITIES.index(st.activity)] = 1.0
-        v[o["master.rotating"]] = 1.0 if st.user_rotating else 0.0
-        v[o["master.turn_rate"]] = st.user_turn_rate_rps / wmax
-        v[o["master.leading"]] = 1.0 if st.mode == "leading" else 0.0
-        j = o["master.user_xy"]
-        v[j] = st.user_position_m[0] / POS_SCALE_M
-        v[j + 1] = st.user_position_m[1] / POS_SCALE_M
-    else:
-        v[i + 1] = 1.0
-    j = o["self.odometry"]
-    v[j], v[j + 1], v[j + 2] = odometry[0] / vmax, odometry[1] / vmax, odometry[2] / wmax
-    j = o["self.yaw_sincos"]
-    v[j], v[j + 1] = math.sin(yaw_rad), math.cos(yaw_rad)
-    j = o["self.last_action"]
-    v[j : j + 3] = last_action.tolist()
-    j = o["self.offset_from_master_xy"]
-    v[j], v[j + 1] = offset_from_master[0] / POS_SCALE_M, offset_from_master[1] / POS_SCALE_M
-    j = o["self.ultrasonic"]
-    v[j : j + len(ultrasonic_m)] = (ultrasonic_m / us_max_range_m).tolist()
-    total = max(know.total_members, 1)
-    v[o["self.hierarchy"]] = hierarchy_level / total
-    v[o["self.members"]] = total / 16.0
-    v[o["self.member"]] = know.member / 16.0
-    return v
-
-
 def _assert_formation_errors_from_the_bodies(env):
     """Experimenter.formation_errors (read from the truth arrays as lists) equals the same formulas on the
     bodies' own position and heading properties."""
@@ -414,14 +304,14 @@ def _assert_formation_errors_from_the_bodies(env):
 
 @pytest.mark.parametrize("overrides", [{"swarm.num_slaves": 9, "swarm.formation": "grid", "user.scenario": "u_turn"}, {"user.scenario": "mode_change"}],
                          ids=["9 slaves grid", "mode_change"])
-def test_observation_builder_equals_the_reference_bit_for_bit(overrides):
+def test_observation_builder_equals_the_oracle_bit_for_bit(overrides):
     """The builder, fed as the env feeds it (the ring as a list of floats) and as an array, gives
-    the values of the reference builder to the bit — in float64 (written into a float64 ``out``)
+    the values of the oracle builder (tests/oracles.py) to the bit — in float64 (written into a float64 ``out``)
     and converted to float32 — on the knowledge of real episodes; ages beyond the clip and both
     link slots occur."""
     import petswarm_env
     from baselines.policy import PolicySpec, make_policy
-    from petswarm_env.observe import build_observation
+    from petswarm_env.observe import ObservationLayout, Readings, build_observation
 
     env = petswarm_env.parallel_env(max_cycles=300, **overrides)
     pol = make_policy("scripted", PolicySpec.from_env(env), 0)
@@ -429,25 +319,28 @@ def test_observation_builder_equals_the_reference_bit_for_bit(overrides):
     pol.reset(1)
     checked, clipped, two_links = 0, 0, 0
     rng = np.random.default_rng(0)
+    layouts = [ObservationLayout(env.cfg.robot.ultrasonic.count, env._limits, r) for r in (env.cfg.robot.ultrasonic.max_range_m, 2.7)]
     while env.agents:
         for agent in env.agents:
             idx = env._agent_index[agent]
             node, robot = env.fleet.nodes[idx], env.world.robots[idx]
             now = env.world.now + float(rng.choice([0.0, 1.5, 30.0]))  # ages beyond the clip too
-            args = (node, now, robot.velocity_body, robot.heading + float(rng.normal()), rng.uniform(-1, 1, 3).astype(np.float32))
-            rest = (int(rng.integers(0, 4)), (float(rng.normal()), float(rng.normal())), env._limits,
-                    float(rng.choice([env.cfg.robot.ultrasonic.max_range_m, 2.7])))
+            args = (node.know, node.reference_links(), now, robot.velocity_body, robot.heading + float(rng.normal()),
+                    rng.uniform(-1, 1, 3).astype(np.float32))
+            rest = (int(rng.integers(0, 4)), (float(rng.normal()), float(rng.normal())))
+            layout = layouts[int(rng.integers(0, 2))]
             ranges = env.sensors.ranges[idx] * float(rng.uniform(0.5, 1.5))
-            values = _build_observation_reference(env.layout, *args, ranges, *rest)
+            values = oracles.build_observation(layout, Readings(*args, ranges, *rest))
             want, want32 = np.array(values), np.array(values, dtype=np.float32)
             for ring in (ranges, ranges.tolist()):
-                got = build_observation(env.layout, np.empty(env.layout.size), *args, ring, *rest)  # float64: every bit
+                readings = Readings(*args, ring, *rest)
+                got = build_observation(layout, readings, np.empty(layout.size))  # float64: every bit
                 assert got.tobytes() == want.tobytes()
-                got = build_observation(env.layout, None, *args, ring, *rest)
+                got = build_observation(layout, readings)
                 assert got.dtype == np.float32 and got.tobytes() == want32.tobytes()
             checked += 1
-            clipped += int(want[env.layout.slices["link0.ir_age"]][0] == 1.0 and bool(node.know.ir))
-            two_links += int(want[env.layout.slices["link1.present"]][0] == 1.0)
+            clipped += int(want[layout.slices["link0.ir_age"]][0] == 1.0 and bool(node.know.ir))
+            two_links += int(want[layout.slices["link1.present"]][0] == 1.0)
         _assert_formation_errors_from_the_bodies(env)
         obs, *_ = env.step(pol.act_all({a: obs[a] for a in env.agents}))
     assert checked > 500 and clipped > 10 and (two_links > 10 or "swarm.formation" not in overrides)

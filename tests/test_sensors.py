@@ -48,13 +48,14 @@ def test_sensors_read_every_ring_and_draw_odometry_in_order():
     k = cfg.robot.odometry_noise_rel
     assert k > 0
     e = rng.normal(0.0, k, 3)
-    assert sensors.odometry(v) == (v[0] * (1 + e[0]), v[1] * (1 + e[1]), v[2] * (1 + e[2]))
+    world.robots[1].velocity_body = v
+    assert sensors.odometry(1) == (v[0] * (1 + e[0]), v[1] * (1 + e[1]), v[2] * (1 + e[2]))
     many = sensors.odometry_noise(4)  # four readings in one draw: the numbers of four draws of 3
     assert many == [rng.normal(0.0, k, 3).tolist() for _ in range(4)]
-    assert sensors.odometry(v, many[2]) == tuple(x * (1 + n) for x, n in zip(v, many[2]))
+    assert sensors.odometry(1, many[2]) == tuple(x * (1 + n) for x, n in zip(v, many[2]))
     assert np.array_equal(sensors.read_rings(), ring.ranges(world, [0, 1], rng)) and sensors.ranges.shape == (2, 8)
     exact = Sensors(world, load_config(overrides={"robot.odometry_noise_rel": 0.0}).robot, np.random.default_rng(0))
-    assert exact.odometry(v) == v and exact.odometry_noise(3) is None
+    assert exact.odometry(1) == v and exact.odometry_noise(3) is None
 
 
 def test_ahrs_is_truth_plus_a_drifting_bias_and_white_noise():

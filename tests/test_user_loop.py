@@ -23,7 +23,7 @@ from petswarm_env.sim.world import World
 
 def run(env, steps, policy=None):
     """Step the env with the scripted policy (or none) for ``steps`` control periods."""
-    obs = env._observe() if env.agents else {}
+    obs = env.observer.observe(env.agents, env._last_action, env.world.now) if env.agents else {}
     pol = policy or make_policy("scripted", PolicySpec.from_env(env))
     infos = {}
     for _ in range(steps):

@@ -112,10 +112,10 @@ class Sensors:
         k = self.odometry_noise_rel
         return self.rng.normal(0.0, k, (n, 3)).tolist() if k > 0 else None
 
-    def odometry(self, velocity_body: tuple[float, float, float], noise: list[float] | None = None) -> tuple[float, float, float]:
-        """Wheel odometry: the achieved body velocity ``(vx, vy, ω)`` with relative noise
-        (``noise``: the three N(0, odometry_noise_rel) errors when drawn already, else drawn here)."""
-        vx, vy, w = velocity_body
+    def odometry(self, index: int, noise: list[float] | None = None) -> tuple[float, float, float]:
+        """Wheel odometry of robot ``index``: its achieved body velocity ``(vx, vy, ω)`` with relative
+        noise (``noise``: the three N(0, odometry_noise_rel) errors when drawn already, else drawn here)."""
+        vx, vy, w = self.world.robots[index].velocity_body
         k = self.odometry_noise_rel
         if k > 0:
             e = self.rng.normal(0.0, k, 3).tolist() if noise is None else noise

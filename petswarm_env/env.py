@@ -37,7 +37,7 @@ from petswarm_env.comms.radio import RadioMedium
 from petswarm_env.config import Config, flatten_dotted, load_config
 from petswarm_env.control.arbiter import ControlArbiter, SafetyStage
 from petswarm_env.metrics import Experimenter
-from petswarm_env.middleware.formation import Formation, formation_for_mode, user_position_in_formation
+from petswarm_env.middleware.formation import formation_for_mode, user_position_in_formation
 from petswarm_env.middleware.swarm import Fleet, Swarm
 from petswarm_env.middleware.user_session import UserSession
 from petswarm_env.observe import OBS_VERSION, ObservationLayout, Observer
@@ -50,8 +50,6 @@ ENV_NAME = "petswarm_v0"
 OTHER_USER_ID = 99  # the user that "other user" robots are connected to (Table 1)
 SWARM_PAN = 0x1001  # user u's swarm uses PAN SWARM_PAN + u
 WAKE_PATTERN = 0x5A00  # user u's belt and robot share the LF wake-up pattern WAKE_PATTERN + u
-
-
 
 
 class PetSwarmEnv(ParallelEnv):
@@ -80,6 +78,7 @@ class PetSwarmEnv(ParallelEnv):
         self.possible_agents = [
             f"robot_{u * per_user + k}" for u in range(cfg.world.num_users) for k in range(0 if may_change_master else 1, per_user)
         ]
+        self._possible = set(self.possible_agents)
         self.agents: list[str] = []
         self._limits = (cfg.robot.max_speed_mps, cfg.robot.max_speed_mps, cfg.robot.max_omega_rps)
         self.layout = ObservationLayout(cfg.robot.ultrasonic.count, self._limits, cfg.robot.ultrasonic.max_range_m)
@@ -103,7 +102,38 @@ class PetSwarmEnv(ParallelEnv):
         elif self._seed_seq is None:
             self._seed_seq = np.random.SeedSequence(self.cfg.seed)
         streams = self._seed_seq.spawn(1)[0].spawn(7)
-        rng_world, rng_radio, rng_ir, rng_swarm, rng_sensors, rng_script, rng_users = (np.random.default_rng(s) for s in streams)
+        self._build(*(np.random.default_rng(s) for s in streams))
+        self._organize()
+        world = self.world
+        for arb in self.arbiters.values():  # the episode's counts start now
+            arb.counts = type(arb.counts)()
+        self._slave_ids = self._current_slaves()
+        self.agents = [f"robot_{i}" for i in self._slave_ids]
+        self._agent_index = {f"robot_{i}": i for i in range(len(world.robots))}
+        self._last_action = {a: np.zeros(3, np.float32) for a in self.agents}
+        self.observer = Observer(self.layout, self.fleet.nodes, self.sensors, [r.ahrs_yaw for r in world.robots],
+                                 self._agent_index, self.cfg.master.distance_m)
+        self.experimenter = Experimenter(self.cfg, world, self.fleet, self.swarms, self.sessions, self.arbiters, self.radio,
+                                         self._agent_index, self._other_user_robots)
+        self.metrics = self.experimenter.metrics
+        for user in world.users:
+            user.walking = True
+        self.num_cycles = 0
+        observations = self.observer.observe(self.agents, self._last_action, world.now)
+        infos = {}
+        for a in self.agents:
+            node = self.fleet.nodes[self._agent_index[a]]
+            result = node.swarm.organize_result
+            org = {"organize_time_s": result.elapsed_s, "join_retries": result.retries, "members": dict(result.members)}
+            infos[a] = {"member": node.know.member, "organize": org}
+        if self.render_mode == "human":
+            self.render()
+        return observations, infos
+
+    def _build(self, rng_world, rng_radio, rng_ir, rng_swarm, rng_sensors, rng_script, rng_users) -> None:
+        """The episode's parts, from its seven streams: the world from the scenario (each user's
+        script, the robots' placement), the radio medium and the IR channel, the fleet and a swarm
+        per user, the user sessions, each robot's arbiter and the sensors."""
         cfg = self.cfg
         pool = cfg.user.scenario_pool
         self.scenario = pool[int(rng_script.integers(len(pool)))] if pool else cfg.user.scenario
@@ -115,18 +145,14 @@ class PetSwarmEnv(ParallelEnv):
         plan = formation_for_mode(cfg.swarm, cfg.swarm.num_slaves + 1, cfg.swarm.mode)
         placement = scenario.place(world, cfg, plan.slot_positions(), user_position_in_formation(plan, cfg.master.distance_m)[0],
                                    rng_world)
-        pools, self._other_user_robots = placement.pools, placement.other_user_robots
+        self._other_user_robots = placement.other_user_robots
         self.radio = RadioMedium(world.clock, cfg.radio, rng_radio)
         self.ir_channel = IRChannel(world, cfg.ir, rng_ir)
         self.fleet = fleet = Fleet(cfg, world, self.radio, self.ir_channel, rng_swarm)
-        self.swarms: list[Swarm] = []
-        self.sessions: list[UserSession] = []
-        for u, (master_idx, pool_idx) in enumerate(pools):
-            swarm = Swarm(fleet, u, SWARM_PAN + u, master_idx, pool_idx)
-            self.swarms.append(swarm)
+        self.swarms = [Swarm(fleet, u, SWARM_PAN + u, master, pool) for u, (master, pool) in enumerate(placement.pools)]
         for idx in self._other_user_robots:
-            node = fleet.add_node(idx, self.swarms[0])
-            node.connected_user = OTHER_USER_ID
+            fleet.add_node(idx, self.swarms[0]).connected_user = OTHER_USER_ID
+        self.sessions = []
         for u, (swarm, user_rng) in enumerate(zip(self.swarms, rng_users.spawn(cfg.world.num_users))):
             session = UserSession(cfg, world, swarm, world.users[u], user_rng, WAKE_PATTERN + u, WAKE_PATTERN + u)
             session.startup = [f"mode:{cfg.swarm.mode}", "organize"]
@@ -135,12 +161,15 @@ class PetSwarmEnv(ParallelEnv):
         for robot, ss in zip(world.robots, rng_world.spawn(len(world.robots))):
             robot.ahrs.rng = ss
         safety = SafetyStage(cfg.robot.ultrasonic.count, cfg.control.safety_stop_m, cfg.control.safety_backoff_mps,
-                             cfg.robot.max_accel_mps2) \
-            if cfg.control.safety_layer else None
+                             cfg.robot.max_accel_mps2) if cfg.control.safety_layer else None
         self.arbiters = {r.index: ControlArbiter(safety) for r in world.robots}
         self.sensors = Sensors(world, cfg.robot, rng_sensors)  # reads every robot's ultrasonic ring
-        self._last_action: dict[str, np.ndarray] = {}
 
+    def _organize(self) -> None:
+        """Run the clock through each user's start-up (pairing, the driving mode, organize; seed
+        002 Fig. 4, seed 000 §3.5) until every swarm is organized; a user that never paired or a
+        swarm that did not organize is an error that says which setting to change."""
+        cfg, world = self.cfg, self.world
         limit = int(math.ceil((cfg.lf.wake_period_s + cfg.ble.connect_s + cfg.protocol.organize_timeout_s + 10.0) / cfg.control_period_s))
         for _ in range(limit):
             self._control(None)
@@ -158,30 +187,6 @@ class PetSwarmEnv(ParallelEnv):
                     f"user {u}'s swarm did not organize within protocol.organize_timeout_s={cfg.protocol.organize_timeout_s} s "
                     f"(radio.loss_prob={cfg.radio.loss_prob}); raise the timeout or protocol.max_retries"
                 )
-        for arb in self.arbiters.values():
-            arb.counts = type(arb.counts)()
-        self._slave_ids = self._current_slaves()
-        self.agents = [f"robot_{i}" for i in self._slave_ids]
-        self._agent_index = {f"robot_{i}": i for i in range(len(world.robots))}
-        self._last_action = {a: np.zeros(3, np.float32) for a in self.agents}
-        self.observer = Observer(self.layout, fleet.nodes, self.sensors, [r.ahrs_yaw for r in world.robots], self._agent_index,
-                                 cfg.master.distance_m)
-        self._possible = set(self.possible_agents)
-        self.experimenter = Experimenter(world, fleet, self.swarms, self.sessions, self.arbiters, self.radio, self._agent_index)
-        self.metrics = self.experimenter.metrics
-        for user in world.users:
-            user.walking = True
-        self.num_cycles = 0
-        observations = self.observer.observe(self.agents, self._last_action, world.now)
-        infos = {}
-        for a in self.agents:
-            sw = self._node(a).swarm
-            org = {"organize_time_s": sw.organize_result.elapsed_s, "join_retries": sw.organize_result.retries,
-                   "members": dict(sw.organize_result.members)}
-            infos[a] = {"member": self._node(a).know.member, "organize": org}
-        if self.render_mode == "human":
-            self.render()
-        return observations, infos
 
     def step(self, actions: dict[str, Any]):
         if self.world is None:
@@ -306,9 +311,6 @@ class PetSwarmEnv(ParallelEnv):
     def _current_slaves(self) -> list[int]:
         return sorted(i for sw in self.swarms for i in sw.slave_ids())
 
-    def _node(self, agent: str):
-        return self.fleet.nodes[self._agent_index[agent]]
-
     def reference_positions(self) -> dict[int, np.ndarray]:
         """True reference position of every slave (robot index -> (x, y)): the experimenter's view
         (:meth:`.metrics.Experimenter.reference_positions`)."""
@@ -316,50 +318,8 @@ class PetSwarmEnv(ParallelEnv):
 
     def episode_summary(self) -> dict[str, Any]:
         """The episode's figures so far (:meth:`.metrics.Experimenter.summary`)."""
-        return self.experimenter.summary(self.scenario, len(self._slave_ids), self.cfg.world.num_users)
+        return self.experimenter.summary(self.scenario, len(self._slave_ids))
 
     def scene(self):
-        """A plain description of the current truth for the renderer."""
-        from petswarm_env.render import RobotView, Scene
-
-        world = self.world
-        masters = {sw.master.node_id for sw in self.swarms}
-        slaves = set(self._current_slaves())
-        robots = []
-        for r in world.robots:
-            node = self.fleet.nodes.get(r.index)
-            role = "master" if r.index in masters else "slave" if r.index in slaves else "waiting"
-            if r.index in self._other_user_robots:
-                role = "other"
-            label = str(node.know.member) if node is not None and node.know.member >= 0 else f"r{r.index}"
-            robots.append(RobotView(r.position, r.heading, self.cfg.robot.radius_m, role, label))
-        links = []
-        for swarm in self.swarms:
-            if swarm.formation is None or not swarm.organized:
-                continue
-            members = swarm.master.know.members
-            for m, lks in swarm.formation.links.items():
-                for lk in lks:
-                    if m in members and lk.neighbour in members:
-                        links.append((world.robots[members[lk.neighbour]].position, world.robots[members[m]].position))
-        refs = [tuple(p) for p in self.reference_positions().values()]
-        err = self.metrics.error_trace[-1] if self.metrics.error_trace else float("nan")
-        states = "  ".join(f"user {u}: {se.state}, master r{se.swarm.master.node_id}" for u, se in enumerate(self.sessions))
-        text = [
-            f"scenario {self.scenario}   formation {self.cfg.swarm.formation}   mode {self.swarm.mode}",
-            f"step {self.num_cycles}/{self.cfg.max_cycles}   mean formation error {err:.2f} m",
-            states,
-        ]
-        return Scene(
-            time_s=world.now,
-            user_position_m=world.user.position,
-            user_heading_rad=world.user.heading,
-            user_radius_m=self.cfg.user.radius_m,
-            robots=robots,
-            links=links,
-            references_m=refs,
-            walls=list(world.wall_segments[:4]) if self.cfg.world.arena_m[0] > 0 else [],
-            boxes=[(tuple(b.center_m), tuple(b.size_m)) for b in self.cfg.world.obstacles],
-            text=text,
-            other_users=[(u.position, u.heading) for u in world.users[1:]],
-        )
+        """A plain description of the current truth for the renderer (:meth:`.metrics.Experimenter.scene`)."""
+        return self.experimenter.scene(self.scenario, self.num_cycles)

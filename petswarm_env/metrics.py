@@ -18,10 +18,12 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 import numpy as np
 
 from petswarm_env.control.arbiter import SOURCES
+from petswarm_env.render import RobotView, Scene
 from petswarm_env.sim.geometry import wrap_angle
 
 if TYPE_CHECKING:
     from petswarm_env.comms.radio import RadioMedium
+    from petswarm_env.config import Config
     from petswarm_env.control.arbiter import ControlArbiter
     from petswarm_env.middleware.swarm import Fleet, Swarm
     from petswarm_env.middleware.user_session import UserSession
@@ -65,10 +67,12 @@ class Experimenter:
     """The experimenter's view of one episode of a world, its swarms and users: built at the end of
     ``reset`` (the episode's counts start there), then asked once per step (:meth:`step`)."""
 
-    def __init__(self, world: World, fleet: Fleet, swarms: list[Swarm], sessions: list[UserSession],
-                 arbiters: dict[int, ControlArbiter], radio: RadioMedium, agent_index: dict[str, int]):
-        self.world, self.fleet, self.swarms, self.sessions = world, fleet, swarms, sessions
+    def __init__(self, cfg: Config, world: World, fleet: Fleet, swarms: list[Swarm], sessions: list[UserSession],
+                 arbiters: dict[int, ControlArbiter], radio: RadioMedium, agent_index: dict[str, int],
+                 other_user_robots: list[int]):
+        self.cfg, self.world, self.fleet, self.swarms, self.sessions = cfg, world, fleet, swarms, sessions
         self.arbiters, self.radio, self.agent_index = arbiters, radio, agent_index
+        self.other_user_robots = other_user_robots
         c, st = world.collisions, radio.stats
         self._contacts_seen = dict(c.per_robot)
         self._collisions_at_start = (c.robot_robot, c.robot_user, c.robot_wall)
@@ -159,7 +163,7 @@ class Experimenter:
             "arbiter_wins": wins,
         }
 
-    def summary(self, scenario: str, slaves: int, users: int) -> dict[str, Any]:
+    def summary(self, scenario: str, slaves: int) -> dict[str, Any]:
         """The episode summary (what ``infos[agent]["episode_summary"]`` carries at the end)."""
         c = self.world.collisions
         c0 = self._collisions_at_start
@@ -186,6 +190,53 @@ class Experimenter:
             "frames": {"sent": st.frames_sent - r0[0], "lost": st.frames_lost - r0[1], "collided": st.frames_collided - r0[2]},
             "foreign_pan_frames_processed": events["foreign_pan_frames_processed"],
             "slaves": slaves,
-            "users": users,
+            "users": self.cfg.world.num_users,
             "events": events,
         }
+
+    # -- what a person watching sees -------------------------------------------------------------
+    def scene(self, scenario: str, step: int) -> Scene:
+        """A plain description of the current truth for the renderer (:mod:`petswarm_env.render`):
+        every body, each robot's role and member number, the formation links and reference points,
+        walls and boxes, and a HUD with the scenario, the step and each user's robot state."""
+        cfg, world = self.cfg, self.world
+        masters = {sw.master.node_id for sw in self.swarms}
+        slaves = {i for sw in self.swarms for i in sw.slave_ids()}
+        robots = []
+        for r in world.robots:
+            node = self.fleet.nodes.get(r.index)
+            role = "master" if r.index in masters else "slave" if r.index in slaves else "waiting"
+            if r.index in self.other_user_robots:
+                role = "other"
+            label = str(node.know.member) if node is not None and node.know.member >= 0 else f"r{r.index}"
+            robots.append(RobotView(r.position, r.heading, cfg.robot.radius_m, role, label))
+        links = []
+        for swarm in self.swarms:
+            if swarm.formation is None or not swarm.organized:
+                continue
+            members = swarm.master.know.members
+            for m, lks in swarm.formation.links.items():
+                for lk in lks:
+                    if m in members and lk.neighbour in members:
+                        links.append((world.robots[members[lk.neighbour]].position, world.robots[members[m]].position))
+        refs = [tuple(p) for p in self.reference_positions().values()]
+        err = self.metrics.error_trace[-1] if self.metrics.error_trace else float("nan")
+        states = "  ".join(f"user {u}: {se.state}, master r{se.swarm.master.node_id}" for u, se in enumerate(self.sessions))
+        text = [
+            f"scenario {scenario}   formation {cfg.swarm.formation}   mode {self.swarms[0].mode}",
+            f"step {step}/{cfg.max_cycles}   mean formation error {err:.2f} m",
+            states,
+        ]
+        return Scene(
+            time_s=world.now,
+            user_position_m=world.user.position,
+            user_heading_rad=world.user.heading,
+            user_radius_m=cfg.user.radius_m,
+            robots=robots,
+            links=links,
+            references_m=refs,
+            walls=list(world.wall_segments[:4]) if cfg.world.arena_m[0] > 0 else [],
+            boxes=[(tuple(b.center_m), tuple(b.size_m)) for b in cfg.world.obstacles],
+            text=text,
+            other_users=[(u.position, u.heading) for u in world.users[1:]],
+        )

@@ -8,21 +8,26 @@ keep a leader–follower formation. Every robot runs the swarm middleware on one
 clock: radio frames on a shared 802.15.4-like medium (one PAN per swarm), the IR token ring with
 heading exchange, the master's status broadcast, mode changes with master change (Table 3).
 
-``reset(seed)`` builds the world and runs, on the clock, the pairing, the user's start-up commands
-(driving mode, then organize — in leading mode after the master shifted to its place) and the join
-protocol (its duration and retries are in ``infos[agent]["organize"]``); the agents are the robots
-that joined. Each ``step(actions)`` passes every robot's command through its control arbiter
-(safety > user > policy, seed 001) and runs the clock for one control period (0.1 s). Agents come
-and go with the middleware: a robot that stops being a slave (it became the master, or the swarm
-dispersed) is terminated; a robot that becomes a slave joins ``agents``. Observations come from each
-slave's middleware only (:mod:`petswarm_env.observe`); rewards and metrics from ground truth
-(:mod:`petswarm_env.reward`).
+This module only wires the parts. ``reset(seed)`` builds the world from the scenario
+(:mod:`petswarm_env.scenarios`: each user's walking script, the robots' placement), the radio
+medium and the IR channel (:mod:`petswarm_env.comms`), the fleet with a swarm per user
+(:mod:`petswarm_env.middleware`), the user sessions, each robot's control arbiter
+(:mod:`petswarm_env.control`) and the sensors (:mod:`petswarm_env.sim.sensors`); then it runs, on
+the clock, the pairing, the user's start-up commands (driving mode, then organize — in leading mode
+after the master shifted to its place) and the join protocol (its duration and retries are in
+``infos[agent]["organize"]``); the agents are the robots that joined. Each ``step(actions)``
+passes every robot's command through its arbiter (safety > user > policy, seed 001), runs the clock
+for one control period (0.1 s), reads the sensors, then asks the experimenter
+(:mod:`petswarm_env.metrics`: ground truth) for errors and contacts, computes the rewards
+(:mod:`petswarm_env.reward`) and builds the observations from each slave's sensors and middleware
+only (:mod:`petswarm_env.observe`). Agents come and go with the middleware: a robot that stops
+being a slave (it became the master, or the swarm dispersed) is terminated; a robot that becomes
+a slave joins ``agents``.
 
 Spaces: observation ``Box(-inf, inf, (N,), float32)`` with values scaled to about [-1, 1]
 (N = 57 with 8 ultrasonic sensors), action ``Box(-1, 1, (3,), float32)`` = (Vx, Vy, ω) scaled by
 ``robot.max_speed_mps`` and ``robot.max_omega_rps``. Episodes truncate after ``max_cycles`` steps.
 """
-
 from __future__ import annotations
 
 import math

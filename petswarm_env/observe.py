@@ -146,7 +146,8 @@ def build_observation(layout: ObservationLayout, readings: Readings, out: np.nda
     dtype=np.float32)`` at a fraction of its cost. The ring may be a list of Python floats (the
     env converts the rings of all robots at once). Field offsets come unpacked from
     ``layout._starts``; ages are clipped to 1 as ``min(age, 1.0)`` would (``1.0 if age > 1.0
-    else age``, nan passing through in both)."""
+    else age``, nan passing through in both). One function on purpose, the fields written in the
+    layout's order: it runs for every slave at every step."""
     if layout.limits is None or layout.us_max_range_m is None:
         raise ValueError("build_observation needs a layout with limits and us_max_range_m (the robot's scales)")
     v = [0.0] * layout.size

@@ -171,27 +171,11 @@ def _as_points(a) -> np.ndarray:
     return np.asarray(a, dtype=float).reshape(-1, 2)
 
 
-def ray_circle_distances(
-    origins: np.ndarray,
-    dirs: np.ndarray,
-    centers: np.ndarray,
-    radii: np.ndarray,
-    max_range: float,
-) -> np.ndarray:
-    """Distance along each ray to the first intersection with each circle.
-
-    Args:
-        origins: (R, 2) ray start points, m.
-        dirs: (R, 2) unit direction vectors.
-        centers: (C, 2) circle centres, m.
-        radii: (C,) circle radii, m.
-        max_range: hits farther than this (m) are reported as ``inf``.
-
-    Returns:
-        (R, C) distances in m; ``inf`` where the ray misses the circle, the circle lies behind
-        the origin, the hit is beyond ``max_range``, or the ray origin is inside (or on) the
-        circle — a sensor never sees the body it sits in.
-    """
+def ray_circle_distances(origins, dirs, centers, radii, max_range: float) -> np.ndarray:
+    """The ray cast that :func:`petswarm_env.sim.geometry.ring_first_hits` does for circles, per
+    circle: (R, C) distances along R rays (origins, unit dirs) to C circles, ``inf`` where the ray
+    misses, the circle is behind, the hit is beyond ``max_range`` or the origin is inside (or on)
+    the circle."""
     o = _as_points(origins)
     d = _as_points(dirs)
     c = _as_points(centers)

@@ -17,7 +17,7 @@ import math
 
 import numpy as np
 
-from petswarm_env.config import IRConfig, LFConfig, RewardConfig
+from petswarm_env.config import BeltConfig, IRConfig, LFConfig, RewardConfig
 from petswarm_env.observe import AGE_SCALE_S, POS_SCALE_M, ObservationLayout, Readings
 from petswarm_env.scenarios import ACTIVITIES
 from petswarm_env.sim.geometry import ray_segment_distances
@@ -267,6 +267,41 @@ def safety_filter(stage, command, ranges):
         if ranges[k] < 0.5 * stage.stop:
             v = v - stage.backoff * (1.0 - ranges[k] / (0.5 * stage.stop)) * d
     return float(v[0]), float(v[1]), float(command[2])
+
+
+# -- smart belt (petswarm_env/wearables/belt.py): seed 002 §3.4 -------------------------------------
+def belt_accel_samples(cfg: BeltConfig, phase: float, n: int, speed_mps: float, posture: str,
+                       rng: np.random.Generator) -> tuple[np.ndarray, float]:
+    """The belt's n vertical-acceleration samples as the array model G + amp·sin(φ0 + cumsum(dφ))
+    + σ·z (one draw of 2n normals: sensor noise, then phase jitter), and the phase after them."""
+    dt = 1.0 / cfg.accel_rate_hz
+    if posture in ("walk", "run"):
+        f = cfg.cadence_hz(posture, speed_mps)
+        amp = (2 * np.pi * f) ** 2 * (cfg.run_bounce_m if posture == "run" else cfg.walk_bounce_m)
+        jitter = cfg.gait_phase_jitter
+    elif posture == "rest":
+        f, amp, jitter = cfg.rest_sway_hz, cfg.rest_sway_mps2, cfg.rest_phase_jitter
+    else:
+        f, amp, jitter = 0.0, 0.0, 0.0
+    z = rng.standard_normal(2 * n)
+    dphi = np.full(n, 2.0 * np.pi * f * dt)
+    if jitter > 0.0 and amp > 0.0:
+        dphi += jitter * np.sqrt(dt) * z[n:]
+    phases = phase + np.cumsum(dphi)
+    return 9.80665 + amp * np.sin(phases) + cfg.accel_noise_mps2 * z[:n], float(phases[-1] % (2 * np.pi))
+
+
+def sign_changes_loop(row: np.ndarray, deadband: float) -> int:
+    """Sign changes of the mean-removed row, the sign held inside the dead band, as a plain loop
+    (the belt counts them on byte strings)."""
+    x = row - row.mean()
+    last, count = 0, 0
+    for v in x:
+        s = 1 if v > deadband else (-1 if v < -deadband else 0)
+        if s:
+            count += last != 0 and s != last
+            last = s
+    return count
 
 
 # -- reward (petswarm_env/reward.py) -----------------------------------------------------------------

@@ -12,6 +12,8 @@ per-substep drive and the radio's antenna positions.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from functools import partial
 
 import pymunk
 
@@ -66,6 +68,12 @@ class Body:
     def heading(self) -> float:
         """True heading (rad, counter-clockwise from +x; not wrapped)."""
         return _get_angle(self._cbody)
+
+    def heading_reader(self) -> Callable[[], float]:
+        """A function of no argument that returns :attr:`heading`: Chipmunk's accessor bound to
+        this body (a C-level partial, no Python frame per call), for a sensor that reads the
+        heading many times a step (the AHRS)."""
+        return partial(_get_angle, self._cbody)
 
     @property
     def turn_rate_rps(self) -> float:

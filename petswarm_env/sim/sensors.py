@@ -27,6 +27,7 @@ class AHRS:
 
     def __init__(self, body: Body, cfg: RobotConfig, rng: np.random.Generator | None = None):
         self.body = body
+        self._heading = body.heading_reader()
         self.noise_rad = math.radians(cfg.ahrs_noise_deg)  # σ of the white noise
         self.drift_rad = math.radians(cfg.ahrs_drift_dps)  # σ of the bias walk over one second
         self.bias_rad = 0.0
@@ -50,7 +51,7 @@ class AHRS:
         if dt > 0:
             self.bias_rad += self.drift_rad * math.sqrt(dt) * draws.normal()
             self.time_s = now_s
-        return self.body.heading + self.bias_rad + self.noise_rad * draws.normal()
+        return self._heading() + self.bias_rad + self.noise_rad * draws.normal()
 
 
 class UltrasonicRing:

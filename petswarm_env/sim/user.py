@@ -15,6 +15,7 @@ class User(Body):
     def __init__(self, cfg: UserConfig, space: pymunk.Space, script: ScenarioScript, position, heading_rad: float):
         super().__init__(space, position, heading_rad, cfg.radius_m, COLLISION_USER)  # kinematic: does not yield
         space.add(self.body, self.shape)
+        self._heading = self.heading_reader()
         self.cfg = cfg
         self.script = script
         self.index = 0  # user number (several users share a world)
@@ -38,5 +39,5 @@ class User(Body):
             self.pending_commands.append(seg.command)
         self.segment = seg
         self.script_time_s += dt
-        th = self.heading
+        th = self._heading()
         self.set_velocity((seg.speed_mps * math.cos(th), seg.speed_mps * math.sin(th)), math.radians(seg.turn_rate_dps))

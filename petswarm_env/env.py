@@ -126,9 +126,10 @@ class PetSwarmEnv(ParallelEnv):
         self.num_cycles = 0
         observations = self.observer.observe(self.agents, self._last_action, world.now)
         infos = {}
+        swarm_of = {i: sw for sw in self.swarms for i in sw.slave_ids()}
         for a in self.agents:
             node = self.fleet.nodes[self._agent_index[a]]
-            result = node.swarm.organize_result
+            result = swarm_of[self._agent_index[a]].organize_result
             org = {"organize_time_s": result.elapsed_s, "join_retries": result.retries, "members": dict(result.members)}
             infos[a] = {"member": node.know.member, "organize": org}
         if self.render_mode == "human":

@@ -95,6 +95,11 @@ class Experimenter:
         if xy is None or th is None:
             centers, _, headings = self.world.truth_arrays()
             xy, th = centers.tolist(), headings.tolist()
+        return {idx: (x, y) for idx, (x, y, _) in self._references(xy, th).items()}
+
+    def _references(self, xy: list, th: list) -> dict[int, tuple[float, float, float]]:
+        """Every slave's reference point and the true heading of the master whose neighbour table
+        defines it: robot index -> (x, y, θ_master)."""
         out = {}
         for swarm in self.swarms:
             if swarm.formation is None or not swarm.organized:
@@ -112,17 +117,17 @@ class Experimenter:
                     ox, oy = link.offset_m
                     sx += nx + c * ox - s * oy
                     sy += ny + s * ox + c * oy
-                out[idx] = (sx / len(links), sy / len(links))
+                out[idx] = (sx / len(links), sy / len(links), t)
         return out
 
     def formation_errors(self, agents: list[str]) -> tuple[dict[str, float], dict[str, float]]:
-        """Each agent's distance from its reference point and heading error from its master's
-        heading (truth), from the truth arrays as lists (one conversion for all robots); agents
+        """Each agent's distance from its reference point and heading error from the heading of the
+        master whose table defines that point (truth), from the truth arrays as lists (one conversion for all robots); agents
         without a reference point are left out."""
         centers, _, headings = self.world.truth_arrays()
         xy, th = centers.tolist(), headings.tolist()
-        refs = self.reference_points(xy, th)
-        nodes, agent_index = self.fleet.nodes, self.agent_index
+        refs = self._references(xy, th)
+        agent_index = self.agent_index
         errors, heading = {}, {}
         for agent in agents:
             idx = agent_index[agent]
@@ -131,7 +136,7 @@ class Experimenter:
                 continue
             x, y = xy[idx]
             errors[agent] = math.hypot(x - ref[0], y - ref[1])
-            heading[agent] = wrap_angle(th[idx] - th[nodes[idx].swarm.master.node_id])
+            heading[agent] = wrap_angle(th[idx] - ref[2])
         return errors, heading
 
     def step(self, agents: list[str]) -> SlaveTruth:

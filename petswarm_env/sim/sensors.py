@@ -9,17 +9,25 @@ stream (:class:`Sensors`), each AHRS from its own stream (:class:`AHRS`, one per
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import numpy as np
 
 from petswarm_env.config import RobotConfig
 from petswarm_env.sim import geometry
+from petswarm_env.sim.body import Body
 from petswarm_env.sim.draws import Draws
 
-if TYPE_CHECKING:
-    from petswarm_env.sim.body import Body
-    from petswarm_env.sim.world import World
+
+class Truth(Protocol):
+    """What the sensor models read of the world (:class:`~.world.World`, which imports this module
+    through the robot: named here, not imported)."""
+
+    robots: list
+    wall_a: np.ndarray
+    wall_b: np.ndarray
+
+    def truth_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]: ...
 
 
 class AHRS:
@@ -68,7 +76,7 @@ class UltrasonicRing:
         self.reach_m = us.max_range_m + cfg.radius_m  # from the centre
         self.walls = geometry.SegmentSet(wall_a, wall_b, self.reach_m)
 
-    def ranges(self, world: World, indices: list[int], rng: np.random.Generator) -> np.ndarray:
+    def ranges(self, world: Truth, indices: list[int], rng: np.random.Generator) -> np.ndarray:
         """Readings (m) of the robots ``indices``: (len(indices), count); one noise draw of that
         shape from ``rng``."""
         n = self.count
@@ -94,7 +102,7 @@ class Sensors:
     draw), :meth:`odometry` for one robot (three draws, or ones drawn already by
     :meth:`odometry_noise` for many robots at once). The AHRS is per robot (``robot.ahrs``)."""
 
-    def __init__(self, world: World, cfg: RobotConfig, rng: np.random.Generator):
+    def __init__(self, world: Truth, cfg: RobotConfig, rng: np.random.Generator):
         self.world = world
         self.rng = rng
         self.ring = UltrasonicRing(cfg, world.wall_a, world.wall_b)

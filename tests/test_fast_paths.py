@@ -9,8 +9,8 @@ import simpy
 from petswarm_env.comms.ir_channel import IRChannel, line_of_sight_blocked
 from petswarm_env.config import load_config
 from petswarm_env.middleware import ir
-from petswarm_env.sim import geometry
 from petswarm_env.scenarios import SCENARIOS
+from petswarm_env.sim import geometry
 from petswarm_env.sim.world import World
 from tests import oracles
 

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from petswarm_env.config import load_config
-from petswarm_env.sim.robot import Robot
 from petswarm_env.scenarios import SCENARIOS
+from petswarm_env.sim.robot import Robot
 from petswarm_env.sim.sensors import UltrasonicRing
 from petswarm_env.sim.world import World
 

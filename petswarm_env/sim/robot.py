@@ -6,7 +6,6 @@ left/right speed, ``ω`` angular speed, all in the robot's body frame (x forward
 
 from __future__ import annotations
 
-
 import numpy as np
 import pymunk
 

@@ -7,8 +7,8 @@ import math
 import pymunk
 
 from petswarm_env.config import UserConfig
-from petswarm_env.sim.body import COLLISION_USER, Body
 from petswarm_env.scenarios import ScenarioScript, Segment
+from petswarm_env.sim.body import COLLISION_USER, Body
 
 
 class User(Body):

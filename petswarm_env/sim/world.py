@@ -14,10 +14,10 @@ import numpy as np
 import pymunk
 
 from petswarm_env.config import Config
-from petswarm_env.sim.clock import Clock
-from petswarm_env.sim.body import COLLISION_ROBOT, COLLISION_USER, COLLISION_WALL, read_poses
-from petswarm_env.sim.robot import Robot
 from petswarm_env.scenarios import ScenarioScript
+from petswarm_env.sim.body import COLLISION_ROBOT, COLLISION_USER, COLLISION_WALL, read_poses
+from petswarm_env.sim.clock import Clock
+from petswarm_env.sim.robot import Robot
 from petswarm_env.sim.user import User
 
 

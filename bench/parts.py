@@ -40,9 +40,11 @@ MODULE_PARTS: dict[str, str | None] = {
     "petswarm_env.files": "other",
     "petswarm_env.render": "other",
     "petswarm_env.sim": "physics",  # bodies, the world's substep loop, the user, contact callbacks
-    "petswarm_env.sim.events": "radio_middleware",  # bare callbacks on the clock (call_later)
+    "petswarm_env.sim.clock": "radio_middleware",  # the event loop: frames, IR slots, token passes, broadcasts
+    "petswarm_env.sim.body": None,  # position/heading/velocity accessors: whoever reads or writes them
+    "petswarm_env.sim.sensors": "observation",  # the slaves' ultrasonic ring, odometry and AHRS readings
     "petswarm_env.sim.geometry": None,  # ray casts (observation) and IR occlusion (middleware)
-    "petswarm_env.sim.scenarios": None,  # the user's script, read by User.apply
+    "petswarm_env.scenarios": None,  # the user's script, read by User.apply
     "petswarm_env.comms": "radio_middleware",  # the 802.15.4 medium, IR optics
     "petswarm_env.middleware": "radio_middleware",  # every robot's managers and messages
     "petswarm_env.middleware.user_session": "user_sensing",  # the master's wearables chain (LF, belt)

@@ -13,7 +13,7 @@ import numpy as np
 from bench.loops import EnvLoop, MPELoop
 from bench.settings import BenchSettings
 from petswarm_env.config import load_config
-from petswarm_env.sim.scenarios import ScenarioScript, build_scenario
+from petswarm_env.scenarios import SCENARIOS
 from petswarm_env.sim.world import World
 
 
@@ -57,7 +57,7 @@ def bench_floor(num_robots: int, s: BenchSettings) -> dict:
     velocity and angular velocity set before each substep (pymunk's public setters), then
     ``Space.step``."""
     cfg = load_config()
-    world = World(cfg, ScenarioScript(build_scenario(cfg.user.scenario, cfg.user, np.random.default_rng(s.seed))))
+    world = World(cfg, SCENARIOS[cfg.user.scenario].script(cfg.user, np.random.default_rng(s.seed)))
     spacing = cfg.swarm.spacing_m
     cols = 4
     for i in range(num_robots):  # a grid behind the user, spaced like a formation: no contacts

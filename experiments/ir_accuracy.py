@@ -14,7 +14,9 @@ import numpy as np
 
 from experiments.results import RMSE_TOLERANCE_REL, Experiment, ExperimentResult, Progress, Row
 from petswarm_env.config import Config
-from petswarm_env.middleware.ir import IRConfig, estimate, received_strengths, wrap_angle
+from petswarm_env.config import IRConfig
+from petswarm_env.middleware.ir import estimate, received_strengths
+from petswarm_env.sim.geometry import wrap_angle
 
 # Seed 000, §4.3 (Fig. 18, Table 4): the accuracy-evaluation grid and the reported RMSEs.
 PAPER_DISTANCES_M = np.round(np.arange(0.40, 2.0 + 1e-9, 0.20), 2)
@@ -65,8 +67,8 @@ def accuracy_experiment(
     n_points = point_d.size
     true_d = np.repeat(point_d, samples_per_point)
     true_bearing = np.repeat(point_bearing, samples_per_point)
-    strengths = received_strengths(cfg, true_d, true_bearing, np.zeros(true_d.size, dtype=bool), rng)
-    est_d, est_bearing, valid = estimate(cfg, strengths)
+    strengths = received_strengths(cfg, true_d.tolist(), true_bearing.tolist(), [False] * true_d.size, rng)
+    est_d, est_bearing, valid = (np.array(v) for v in estimate(cfg, strengths))
 
     err_d_cm = ((est_d - true_d) * 100.0).reshape(n_points, samples_per_point)
     err_b_deg = np.rad2deg(wrap_angle(est_bearing - true_bearing)).reshape(n_points, samples_per_point)
@@ -102,8 +104,8 @@ def fig19_positions(cfg_ir, rng: np.random.Generator, samples_per_point: int) ->
     d, a = d.reshape(-1), a.reshape(-1)
     true_d = np.repeat(d, samples_per_point)
     bearing = wrap_angle(np.repeat(a, samples_per_point) + np.pi)
-    strengths = received_strengths(cfg_ir, true_d, bearing, np.zeros(true_d.size, dtype=bool), rng)
-    est_d, est_b, valid = estimate(cfg_ir, strengths)
+    strengths = received_strengths(cfg_ir, true_d.tolist(), bearing.tolist(), [False] * true_d.size, rng)
+    est_d, est_b, valid = (np.array(v) for v in estimate(cfg_ir, strengths))
     est = np.stack([-est_d * np.cos(est_b), -est_d * np.sin(est_b)], axis=1)[valid]
     actual = np.stack([d * np.cos(a), d * np.sin(a)], axis=1)
     return {

@@ -11,8 +11,9 @@ import numpy as np
 
 from experiments.results import RMSE_TOLERANCE_REL, Experiment, ExperimentResult, Progress, Row
 from petswarm_env.config import Config
-from petswarm_env.middleware.ir import wrap_angle
-from petswarm_env.wearables.lf import LFConfig, locate
+from petswarm_env.config import LFConfig
+from petswarm_env.sim.geometry import wrap_angle
+from petswarm_env.wearables.lf import LFFix, locate
 
 # Seed 002 §4.2 (Fig. 16, Table 3): the location-identification test. The text gives the range
 # (25–200 cm) and 50 RSSI samples a point; Fig. 16 (the positions) is lost in the extraction.
@@ -66,7 +67,8 @@ def lf_accuracy_experiment(
     true_d = np.repeat(point_d, samples_per_point)
     true_a = np.repeat(point_a, samples_per_point)
     actual = np.stack([cfg.antenna_forward_m + true_d * np.cos(true_a), true_d * np.sin(true_a)], axis=1)
-    fix = locate(cfg, actual, rng)
+    fixes = [locate(cfg, x, y, rng) for x, y in actual.tolist()]
+    fix = LFFix(*(np.array(field) for field in zip(*fixes)))
     ok = fix.valid
 
     err_x_cm = -(fix.y_left - actual[:, 1]) * 100.0  # the paper's x points right

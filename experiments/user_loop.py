@@ -7,7 +7,7 @@ import math
 
 from baselines.policy import PolicySpec
 from baselines.registry import make_policy
-from petswarm_env.sim.scenarios import ScenarioScript, Segment
+from petswarm_env.scenarios import ScenarioScript, Segment
 
 TURN_RATE_DPS = 60.0  # seed 002 §4.3: "the angular speed is fixed" (value not given); our user's turn rate
 SETTLE_S = 4.0  # the user stands this long after reset before turning (the swarm settles)

@@ -10,31 +10,34 @@ names the key, what is wrong and what is allowed.
 from __future__ import annotations
 
 import copy
+import math
 from collections.abc import Mapping
 from importlib import resources
 from pathlib import Path
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic_core import PydanticCustomError
 
-from petswarm_env.middleware.ir import IRConfig
-from petswarm_env.wearables.lf import LFConfig
-from petswarm_env.wearables.belt import BeltConfig
-from petswarm_env.wearables.watch import WatchConfig
+from petswarm_env.scenarios import SCENARIOS  # the registry (the scenarios import nothing of the package)
 
-SCENARIOS = (
-    "straight",
-    "turn_left_60",
-    "turn_right_60",
-    "zigzag",
-    "u_turn",
-    "stop_and_go",
-    "random_walk",
-    "mode_change",
-)
+
 FORMATIONS = ("column", "row", "wedge", "grid", "custom")
 DRIVING_MODES = ("following", "leading")
+
+
+def _registered_scenario(name: str) -> str:
+    """A scenario name must be in the registry at validation time (so a scenario registered after
+    this module was imported is a choice too); the error lists the choices, as a Literal's would."""
+    if name not in SCENARIOS:
+        names = [repr(n) for n in SCENARIOS]
+        choices = f"{', '.join(names[:-1])} or {names[-1]}" if len(names) > 1 else "".join(names)
+        raise PydanticCustomError("literal_error", "Input should be {choices}", {"choices": choices})
+    return name
+
+
+ScenarioName = Annotated[str, AfterValidator(_registered_scenario)]
 
 
 class ConfigError(ValueError):
@@ -128,8 +131,8 @@ class ProtocolConfig(_Section):
 
 
 class UserConfig(_Section):
-    scenario: Literal[SCENARIOS]  # type: ignore[valid-type]
-    scenario_pool: list[Literal[SCENARIOS]]  # type: ignore[valid-type]
+    scenario: ScenarioName
+    scenario_pool: list[ScenarioName]
     radius_m: float = Field(gt=0)
     walk_speed_mps: float = Field(gt=0)
     run_speed_mps: float = Field(gt=0)
@@ -180,6 +183,150 @@ class RenderConfig(_Section):
     fps: int = Field(gt=0)
     pixels_per_m: float = Field(gt=0)
     size_px: tuple[int, int]
+
+
+class IRConfig(_Section):
+    """The IR relative-location module (seed 000 §3.3; calibrated to Table 4)."""
+
+    num_receivers: int = Field(ge=7, description=(
+        "Phototransistors in the ring, equally spaced, receiver 0 at the robot's front, numbered counter-clockwise. "
+        "At least 7, so that both side neighbours of the strongest receiver stay inside the front half of the lobe "
+        "(spacing < 60°)."))
+    strength_at_1m: float = Field(gt=0, description="Received strength on a receiver's axis with the source at 1 m, ADC units.")
+    lobe_exponent: float = Field(gt=0, description=(
+        "Angular response of one receiver, max(0, cos(Δ))**lobe_exponent for a source Δ rad off its axis. "
+        "The estimator assumes 1; the hardware is modelled with a different value."))
+    noise_rel: float = Field(ge=0, description="σ of the multiplicative Gaussian noise on each receiver, fraction of the signal.")
+    noise_abs: float = Field(ge=0, description="σ of the additive Gaussian noise on each receiver, ADC units.")
+    saturation: float = Field(gt=0, description="ADC ceiling, ADC units; readings are clipped to [0, saturation].")
+    detect_threshold: float = Field(gt=0, description="Strongest reading below this (ADC units) means no detection.")
+    occlusion_attenuation: float = Field(ge=0, le=1, description="Factor on the optical signal when a body blocks the line of sight.")
+    max_range_m: float = Field(gt=0, description="Sources farther than this (m) contribute no signal, only receiver noise.")
+
+    @property
+    def spacing_rad(self) -> float:
+        """Angle between neighbouring receivers, rad."""
+        return 2.0 * math.pi / self.num_receivers
+
+
+class LFConfig(_Section):
+    """LF wake-up and localisation (seed 002 §3.2–3.3)."""
+
+    antenna_spacing_m: float = Field(gt=0, description="dw: distance between the two transmit antennas, m.")
+    antenna_forward_m: float = Field(description="Forward offset of the antenna midpoint from the robot's centre (body +x), m.")
+    burst_period_s: float = Field(gt=0, description="Localisation bursts while leading/following, s.")
+    wake_period_s: float = Field(gt=0, description="Wake-up bursts while waiting for a user, s.")
+    wake_range_m: float = Field(gt=0, description="A belt within this distance receives the wake-up burst, m.")
+    reliable_range_m: float = Field(gt=0, description="Location is reliable within this distance, m.")
+    reliable_half_angle_deg: float = Field(gt=0, lt=90, description="Location is reliable within ± this angle of the robot's forward axis, deg.")
+    rssi_at_1m_db: float = Field(description="Noiseless RSSI at 1 m from an antenna, dB (receiver scale).")
+    falloff_db_per_decade: float = Field(gt=0, description="RSSI fall-off per decade of distance, dB (near-field magnetic dipole: 60).")
+    sensitivity_db: float = Field(description="Carriers weaker than this RSSI level are not received, dB.")
+    noise_common_db: float = Field(ge=0, description="σ of the Gaussian RSSI error shared by both readings of one burst, dB.")
+    noise_antenna_db: float = Field(ge=0, description="σ of the independent Gaussian error per reading, dB.")
+    rssi_step_db: float = Field(ge=0, description="RSSI register quantisation step, dB (0 = none).")
+    distortion_loss_db_per_deg: float = Field(ge=0, description="Loss on the far-side antenna per degree of bearing beyond the reliable half-angle, dB/deg.")
+    distortion_noise_db_per_deg: float = Field(ge=0, description="Extra σ per reading per degree of bearing beyond the reliable half-angle, dB/deg.")
+    table_min_m: float = Field(gt=0, description="First distance of the RSSI→distance table, m.")
+    table_max_m: float = Field(gt=0, description="Last distance of the RSSI→distance table, m.")
+    table_step_m: float = Field(gt=0, description="Distance step of the RSSI→distance table, m.")
+
+    @model_validator(mode="after")
+    def _check_ranges(self) -> LFConfig:
+        if self.table_max_m <= self.table_min_m:
+            raise ValueError("lf.table_max_m must be greater than lf.table_min_m")
+        hearing = self.hearing_range_m
+        if hearing < self.reliable_range_m:
+            raise ValueError(
+                f"lf.sensitivity_db hears only to {hearing:.2f} m on axis; it must reach lf.reliable_range_m "
+                f"({self.reliable_range_m} m): lower lf.sensitivity_db"
+            )
+        if self.table_max_m < hearing:
+            raise ValueError(f"lf.table_max_m ({self.table_max_m} m) must cover the hearing range ({hearing:.2f} m on axis)")
+        return self
+
+    @property
+    def hearing_range_m(self) -> float:
+        """Distance at which the on-axis carrier falls to the receiver's sensitivity, m."""
+        return float(10.0 ** ((self.rssi_at_1m_db - self.sensitivity_db) / self.falloff_db_per_decade))
+class BeltConfig(_Section):
+    """Smart-belt IMU and recognition parameters (seed 002 §3.4). Values live in ``default.yaml``."""
+
+    # --- accelerometer (z, vertical) ---
+    accel_rate_hz: float = Field(gt=0, description="accelerometer sample rate, Hz")
+    accel_noise_mps2: float = Field(ge=0, description="σ of the white noise on each z sample, m/s²")
+    walk_cadence_hz: tuple[float, float] = Field(description="walking step frequency = c0 + c1·speed: (c0 Hz, c1 Hz per m/s)")
+    run_cadence_hz: tuple[float, float] = Field(description="running step frequency = c0 + c1·speed: (c0 Hz, c1 Hz per m/s)")
+    walk_bounce_m: float = Field(ge=0, description="amplitude of the waist's vertical excursion when walking, m")
+    run_bounce_m: float = Field(ge=0, description="amplitude of the waist's vertical excursion when running, m")
+    gait_phase_jitter: float = Field(ge=0, description="step-to-step irregularity: phase random walk, rad/√s")
+    rest_sway_hz: float = Field(gt=0, description="mean frequency of the resting sway, Hz")
+    rest_sway_mps2: float = Field(ge=0, description="amplitude of the resting sway's vertical acceleration, m/s²")
+    rest_phase_jitter: float = Field(ge=0, description="irregularity of the resting sway: phase random walk, rad/√s")
+    # --- movement recognition (Table 2) ---
+    window_s: float = Field(gt=0, description="valid time period of the periodicity and the SMA, s")
+    sign_deadband_mps2: float = Field(
+        ge=0, description="a sample's sign counts only beyond ±this (mean-removed), m/s²; within it the last sign holds"
+    )
+    min_sign_changes: int = Field(ge=1, description="periodic if the window holds at least this many sign changes")
+    sma_level2_mps2: float = Field(gt=0, description="SMA at or above this is level 2, m/s²")
+    sma_level3_mps2: float = Field(gt=0, description="SMA at or above this is level 3, m/s²")
+    # --- gyro (z, yaw rate) and rotation recognition ---
+    gyro_period_s: float = Field(gt=0, description="gyro sample period, s")
+    gyro_noise_dps: float = Field(ge=0, description="σ of the white noise on each gyro sample, °/s")
+    gyro_bias_dps: float = Field(ge=0, description="σ of the constant bias drawn per belt, °/s")
+    gait_yaw_wobble_deg: float = Field(ge=0, description="amplitude of the pelvis' yaw oscillation at the stride frequency, °")
+    ma_samples: int = Field(ge=1, description="length of the moving-average filter, gyro samples")
+    rotation_on_dps: float = Field(gt=0, description="rotation starts when |filtered rate| exceeds this, °/s")
+    rotation_off_dps: float = Field(gt=0, description="rotation ends when |filtered rate| falls below this, °/s")
+
+    @model_validator(mode="after")
+    def _check(self) -> BeltConfig:
+        if self.sma_level3_mps2 <= self.sma_level2_mps2:
+            raise ValueError("belt.sma_level3_mps2 must be greater than belt.sma_level2_mps2")
+        if self.rotation_off_dps > self.rotation_on_dps:
+            raise ValueError("belt.rotation_off_dps must not exceed belt.rotation_on_dps")
+        if round(self.window_s * self.accel_rate_hz) < 2:
+            raise ValueError("belt.window_s must hold at least 2 accelerometer samples")
+        return self
+
+    @property
+    def window_samples(self) -> int:
+        """Accelerometer samples in one recognition window."""
+        return round(self.window_s * self.accel_rate_hz)
+
+    def cadence_hz(self, posture: str, speed_mps: float) -> float:
+        """Step frequency of the gait (walk or run) at a speed, Hz."""
+        c0, c1 = self.run_cadence_hz if posture == "run" else self.walk_cadence_hz
+        return max(0.0, c0 + c1 * max(0.0, speed_mps))
+
+class WatchConfig(_Section):
+    """Smart-watch gesture and remote-control parameters (seed 002 §3.1, Table 1). Values in ``default.yaml``."""
+
+    accel_rate_hz: float = Field(gt=0, description="wrist accelerometer sample rate, Hz")
+    gesture_duration_s: float = Field(gt=0, description="duration of one hand stroke, s")
+    recognition_delay_s: float = Field(gt=0, description="from the start of a gesture to its recognised command, s")
+    gesture_peak_mps2: float = Field(gt=0, description="peak hand acceleration of a stroke, m/s²")
+    noise_mps2: float = Field(ge=0, description="σ of the accelerometer noise per sample and axis, m/s²")
+    cross_axis_leak: float = Field(ge=0, description="σ of the stroke's off-axis components, fraction of the peak")
+    circle_energy_ratio: float = Field(gt=0, le=1, description="second/first axis energy at or above this is a Circle")
+    combination_window_s: float = Field(ge=0, description="two move gestures recognised within this give a diagonal, s")
+    remote_speed_mps: float = Field(gt=0, description="speed of a remote-control move (diagonals too), m/s")
+    remote_turn_rate_dps: float = Field(gt=0, description="maximum rate of a remote-control rotation, °/s")
+    move_duration_s: float = Field(gt=0, description="a move gesture drives for this long, s")
+    rotate_angle_deg: float = Field(gt=0, description="rotation of one Up / Down gesture, °")
+    rotate_gain: float = Field(gt=0, description="proportional gain of the rotation on the AHRS yaw error, 1/s")
+    rotate_tolerance_deg: float = Field(gt=0, description="a rotation is done within this of its target, °")
+
+    @model_validator(mode="after")
+    def _check(self) -> WatchConfig:
+        if self.recognition_delay_s < self.gesture_duration_s:
+            raise ValueError(
+                "watch.recognition_delay_s must be at least watch.gesture_duration_s (a gesture is recognised after it ends)"
+            )
+        if round(self.gesture_duration_s * self.accel_rate_hz) < 4:
+            raise ValueError("watch.gesture_duration_s must hold at least 4 accelerometer samples")
+        return self
 
 
 class Config(_Section):

@@ -8,21 +8,26 @@ keep a leader–follower formation. Every robot runs the swarm middleware on one
 clock: radio frames on a shared 802.15.4-like medium (one PAN per swarm), the IR token ring with
 heading exchange, the master's status broadcast, mode changes with master change (Table 3).
 
-``reset(seed)`` builds the world and runs, on the clock, the pairing, the user's start-up commands
-(driving mode, then organize — in leading mode after the master shifted to its place) and the join
-protocol (its duration and retries are in ``infos[agent]["organize"]``); the agents are the robots
-that joined. Each ``step(actions)`` passes every robot's command through its control arbiter
-(safety > user > policy, seed 001) and runs the clock for one control period (0.1 s). Agents come
-and go with the middleware: a robot that stops being a slave (it became the master, or the swarm
-dispersed) is terminated; a robot that becomes a slave joins ``agents``. Observations come from each
-slave's middleware only (:mod:`petswarm_env.observe`); rewards and metrics from ground truth
-(:mod:`petswarm_env.reward`).
+This module only wires the parts. ``reset(seed)`` builds the world from the scenario
+(:mod:`petswarm_env.scenarios`: each user's walking script, the robots' placement), the radio
+medium and the IR channel (:mod:`petswarm_env.comms`), the fleet with a swarm per user
+(:mod:`petswarm_env.middleware`), the user sessions, each robot's control arbiter
+(:mod:`petswarm_env.control`) and the sensors (:mod:`petswarm_env.sim.sensors`); then it runs, on
+the clock, the pairing, the user's start-up commands (driving mode, then organize — in leading mode
+after the master shifted to its place) and the join protocol (its duration and retries are in
+``infos[agent]["organize"]``); the agents are the robots that joined. Each ``step(actions)``
+passes every robot's command through its arbiter (safety > user > policy, seed 001), runs the clock
+for one control period (0.1 s), reads the sensors, then asks the experimenter
+(:mod:`petswarm_env.metrics`: ground truth) for errors and contacts, computes the rewards
+(:mod:`petswarm_env.reward`) and builds the observations from each slave's sensors and middleware
+only (:mod:`petswarm_env.observe`). Agents come and go with the middleware: a robot that stops
+being a slave (it became the master, or the swarm dispersed) is terminated; a robot that becomes
+a slave joins ``agents``.
 
 Spaces: observation ``Box(-inf, inf, (N,), float32)`` with values scaled to about [-1, 1]
 (N = 57 with 8 ultrasonic sensors), action ``Box(-1, 1, (3,), float32)`` = (Vx, Vy, ω) scaled by
 ``robot.max_speed_mps`` and ``robot.max_omega_rps``. Episodes truncate after ``max_cycles`` steps.
 """
-
 from __future__ import annotations
 
 import math
@@ -35,31 +40,22 @@ from pettingzoo import ParallelEnv
 from petswarm_env.comms.ir_channel import IRChannel
 from petswarm_env.comms.radio import RadioMedium
 from petswarm_env.config import Config, flatten_dotted, load_config
-from petswarm_env.control.arbiter import SOURCES, ControlArbiter, SafetyStage
-from petswarm_env.metrics import EpisodeMetrics
-from petswarm_env.middleware.formation import Formation, formation_for_mode, user_position_in_formation
+from petswarm_env.control.arbiter import ControlArbiter, SafetyStage
+from petswarm_env.metrics import Experimenter
+from petswarm_env.middleware.formation import formation_for_mode, user_position_in_formation
 from petswarm_env.middleware.fleet import Fleet
 from petswarm_env.middleware.swarm import Swarm
 from petswarm_env.middleware.user_session import UserSession
-from petswarm_env.observe import OBS_VERSION, ObservationLayout, build_observation
+from petswarm_env.observe import OBS_VERSION, ObservationLayout, Observer
 from petswarm_env.reward import slave_rewards
-from petswarm_env.sim.scenarios import ScenarioScript, build_scenario
+from petswarm_env.scenarios import SCENARIOS
+from petswarm_env.sim.sensors import Sensors
 from petswarm_env.sim.world import World
 
 ENV_NAME = "petswarm_v0"
 OTHER_USER_ID = 99  # the user that "other user" robots are connected to (Table 1)
 SWARM_PAN = 0x1001  # user u's swarm uses PAN SWARM_PAN + u
 WAKE_PATTERN = 0x5A00  # user u's belt and robot share the LF wake-up pattern WAKE_PATTERN + u
-SPAWN_REACH = 0.85  # chosen: waiting robots start within 85 % of the master's available region (Table 1)
-PAIRING_DISTANCE_M = 0.8  # chosen: each user starts this close to their robot (LF wake-up range 1 m)
-
-
-_NO_ACTION = np.zeros(3, np.float32)  # the last action of an agent that has not acted yet (read only)
-_NO_ACTION.flags.writeable = False
-
-
-def _wrap(a: float) -> float:
-    return (a + math.pi) % (2 * math.pi) - math.pi
 
 
 class PetSwarmEnv(ParallelEnv):
@@ -83,15 +79,17 @@ class PetSwarmEnv(ParallelEnv):
         self.metadata = dict(self.metadata, render_fps=cfg.render.fps)
         pool = cfg.swarm.num_slaves + cfg.swarm.extra_robots
         per_user = 1 + pool
-        may_change_master = cfg.swarm.master_change and "mode_change" in (*cfg.user.scenario_pool, cfg.user.scenario)
+        may_change_master = cfg.swarm.master_change and any(
+            SCENARIOS[name].changes_master for name in (*cfg.user.scenario_pool, cfg.user.scenario))
         self.possible_agents = [
             f"robot_{u * per_user + k}" for u in range(cfg.world.num_users) for k in range(0 if may_change_master else 1, per_user)
         ]
+        self._possible = set(self.possible_agents)
         self.agents: list[str] = []
-        self.layout = ObservationLayout(cfg.robot.ultrasonic.count)
+        self._limits = (cfg.robot.max_speed_mps, cfg.robot.max_speed_mps, cfg.robot.max_omega_rps)
+        self.layout = ObservationLayout(cfg.robot.ultrasonic.count, self._limits, cfg.robot.ultrasonic.max_range_m)
         self._obs_space = gymnasium.spaces.Box(-np.inf, np.inf, (self.layout.size,), np.float32)
         self._act_space = gymnasium.spaces.Box(-1.0, 1.0, (3,), np.float32)
-        self._limits = (cfg.robot.max_speed_mps, cfg.robot.max_speed_mps, cfg.robot.max_omega_rps)
         self._seed_seq: np.random.SeedSequence | None = None
         self._renderer = None
         self.world: World | None = None
@@ -110,47 +108,80 @@ class PetSwarmEnv(ParallelEnv):
         elif self._seed_seq is None:
             self._seed_seq = np.random.SeedSequence(self.cfg.seed)
         streams = self._seed_seq.spawn(1)[0].spawn(7)
-        rng_world, rng_radio, rng_ir, rng_swarm, rng_sensors, rng_script, rng_users = (np.random.default_rng(s) for s in streams)
-        self._rng_sensors = rng_sensors
+        self._build(*(np.random.default_rng(s) for s in streams))
+        self._organize()
+        world = self.world
+        for arb in self.arbiters.values():  # the episode's counts start now
+            arb.counts = type(arb.counts)()
+        self._slave_ids = self._current_slaves()
+        self.agents = [f"robot_{i}" for i in self._slave_ids]
+        self._agent_index = {f"robot_{i}": i for i in range(len(world.robots))}
+        self._last_action = {a: np.zeros(3, np.float32) for a in self.agents}
+        self.observer = Observer(self.layout, self.fleet.nodes, self.sensors, [r.ahrs_yaw for r in world.robots],
+                                 self._agent_index, self.cfg.master.distance_m)
+        self.experimenter = Experimenter(self.cfg, world, self.fleet, self.swarms, self.sessions, self.arbiters, self.radio,
+                                         self._agent_index, self._other_user_robots)
+        self.metrics = self.experimenter.metrics
+        for user in world.users:
+            user.walking = True
+        self.num_cycles = 0
+        observations = self.observer.observe(self.agents, self._last_action, world.now)
+        infos = {}
+        swarm_of = {i: sw for sw in self.swarms for i in sw.slave_ids()}
+        for a in self.agents:
+            node = self.fleet.nodes[self._agent_index[a]]
+            result = swarm_of[self._agent_index[a]].organize_result
+            org = {"organize_time_s": result.elapsed_s, "join_retries": result.retries, "members": dict(result.members)}
+            infos[a] = {"member": node.know.member, "organize": org}
+        if self.render_mode == "human":
+            self.render()
+        return observations, infos
+
+    def _build(self, rng_world, rng_radio, rng_ir, rng_swarm, rng_sensors, rng_script, rng_users) -> None:
+        """The episode's parts, from its seven streams: the world from the scenario (each user's
+        script, the robots' placement), the radio medium and the IR channel, the fleet and a swarm
+        per user, the user sessions, each robot's arbiter and the sensors."""
         cfg = self.cfg
         pool = cfg.user.scenario_pool
         self.scenario = pool[int(rng_script.integers(len(pool)))] if pool else cfg.user.scenario
-        script_rngs = rng_script.spawn(cfg.world.num_users)
-        self.world = world = World(cfg, ScenarioScript(build_scenario(self.scenario, cfg.user, script_rngs[0])))
+        scenario = SCENARIOS[self.scenario]
+        scripts = [scenario.script(cfg.user, r) for r in rng_script.spawn(cfg.world.num_users)]
+        self.world = world = World(cfg, scripts[0])
         for u in range(1, cfg.world.num_users):
-            world.add_user(ScenarioScript(build_scenario(self.scenario, cfg.user, script_rngs[u])), (0.0, u * cfg.world.user_spacing_m), 0.0)
-        pools = self._place_robots(world, rng_world)
+            world.add_user(scripts[u], (0.0, u * cfg.world.user_spacing_m), 0.0)
+        plan = formation_for_mode(cfg.swarm, cfg.swarm.num_slaves + 1, cfg.swarm.mode)
+        placement = scenario.place(world, cfg, plan.slot_positions(), user_position_in_formation(plan, cfg.master.distance_m)[0],
+                                   rng_world)
+        self._other_user_robots = placement.other_user_robots
         self.radio = RadioMedium(world.clock, cfg.radio, rng_radio)
         self.ir_channel = IRChannel(world, cfg.ir, rng_ir)
         self.fleet = fleet = Fleet(cfg, world, self.radio, self.ir_channel, rng_swarm)
-        self.swarms: list[Swarm] = []
-        self.sessions: list[UserSession] = []
-        for u, (master_idx, pool_idx) in enumerate(pools):
-            swarm = Swarm(fleet, u, SWARM_PAN + u, master_idx, pool_idx)
-            self.swarms.append(swarm)
+        self.swarms = [Swarm(fleet, u, SWARM_PAN + u, master, pool) for u, (master, pool) in enumerate(placement.pools)]
         for idx in self._other_user_robots:
-            node = fleet.add_node(idx, self.swarms[0])
-            node.connected_user = OTHER_USER_ID
+            fleet.add_node(idx, self.swarms[0]).connected_user = OTHER_USER_ID
+        self.sessions = []
         for u, (swarm, user_rng) in enumerate(zip(self.swarms, rng_users.spawn(cfg.world.num_users))):
             session = UserSession(cfg, world, swarm, world.users[u], user_rng, WAKE_PATTERN + u, WAKE_PATTERN + u)
             session.startup = [f"mode:{cfg.swarm.mode}", "organize"]
             self.sessions.append(session)
         self.swarm, self.session = self.swarms[0], self.sessions[0]
         for robot, ss in zip(world.robots, rng_world.spawn(len(world.robots))):
-            robot.ahrs_rng = ss
+            robot.ahrs.rng = ss
         safety = SafetyStage(cfg.robot.ultrasonic.count, cfg.control.safety_stop_m, cfg.control.safety_backoff_mps,
-                             cfg.robot.max_accel_mps2) \
-            if cfg.control.safety_layer else None
+                             cfg.robot.max_accel_mps2) if cfg.control.safety_layer else None
         self.arbiters = {r.index: ControlArbiter(safety) for r in world.robots}
-        self._ranges = world.ultrasonic_ranges([r.index for r in world.robots], rng_sensors)
-        self._last_action: dict[str, np.ndarray] = {}
-        self._formation_cache: dict[int, tuple[Formation, np.ndarray, dict[int, int]]] = {}
+        self.sensors = Sensors(world, cfg.robot, rng_sensors)  # reads every robot's ultrasonic ring
 
+    def _organize(self) -> None:
+        """Run the clock through each user's start-up (pairing, the driving mode, organize; seed
+        002 Fig. 4, seed 000 §3.5) until every swarm is organized; a user that never paired or a
+        swarm that did not organize is an error that says which setting to change."""
+        cfg, world = self.cfg, self.world
         limit = int(math.ceil((cfg.lf.wake_period_s + cfg.ble.connect_s + cfg.protocol.organize_timeout_s + 10.0) / cfg.control_period_s))
         for _ in range(limit):
             self._control(None)
             world.advance(cfg.physics_substeps)
-            self._ranges = world.ultrasonic_ranges([r.index for r in world.robots], rng_sensors)
+            self.sensors.read_rings()
             if all(sw.organized for sw in self.swarms):
                 break
         for u, (session, swarm) in enumerate(zip(self.sessions, self.swarms)):
@@ -163,33 +194,6 @@ class PetSwarmEnv(ParallelEnv):
                     f"user {u}'s swarm did not organize within protocol.organize_timeout_s={cfg.protocol.organize_timeout_s} s "
                     f"(radio.loss_prob={cfg.radio.loss_prob}); raise the timeout or protocol.max_retries"
                 )
-        for arb in self.arbiters.values():
-            arb.counts = type(arb.counts)()
-        self._slave_ids = self._current_slaves()
-        self.agents = [f"robot_{i}" for i in self._slave_ids]
-        self._agent_index = {f"robot_{i}": i for i in range(len(world.robots))}
-        self._last_action = {a: np.zeros(3, np.float32) for a in self.agents}
-        self._possible = set(self.possible_agents)
-        self._contacts_seen = dict(world.collisions.per_robot)
-        self._collisions_at_start = (world.collisions.robot_robot, world.collisions.robot_user, world.collisions.robot_wall)
-        self._events_at_start = self._event_counts()
-        self.metrics = EpisodeMetrics(
-            organize_time_s=self.swarm.organize_result.elapsed_s, join_retries=sum(sw.organize_result.retries for sw in self.swarms)
-        )
-        self._radio_at_start = (self.radio.stats.frames_sent, self.radio.stats.frames_lost, self.radio.stats.frames_collided)
-        for user in world.users:
-            user.walking = True
-        self.num_cycles = 0
-        observations = self._observe()
-        infos = {}
-        for a in self.agents:
-            sw = self.fleet.swarm_of(self._agent_index[a])
-            org = {"organize_time_s": sw.organize_result.elapsed_s, "join_retries": sw.organize_result.retries,
-                   "members": dict(sw.organize_result.members)}
-            infos[a] = {"member": self._node(a).know.member, "organize": org}
-        if self.render_mode == "human":
-            self.render()
-        return observations, infos
 
     def step(self, actions: dict[str, Any]):
         if self.world is None:
@@ -201,29 +205,19 @@ class PetSwarmEnv(ParallelEnv):
         acts = self._validate(actions)
         self._control(acts)
         world.advance(cfg.physics_substeps)
-        self._ranges = world.ultrasonic_ranges([r.index for r in world.robots], self._rng_sensors)
+        self.sensors.read_rings()
         self.num_cycles += 1
 
-        errors, heading_errs = self._formation_errors()
-        per_robot = world.collisions.per_robot
-        infos = {}
-        errs, heads, contacts = [], [], []
-        for agent in self.agents:
-            idx = self._agent_index[agent]
-            new_contacts = per_robot.get(idx, 0) - self._contacts_seen.get(idx, 0)
-            self._contacts_seen[idx] = per_robot.get(idx, 0)
-            err = errors.get(agent, 0.0)
-            errs.append(err)
-            heads.append(heading_errs.get(agent, 0.0))
-            contacts.append(new_contacts)
-            infos[agent] = {"formation_error_m": err, "new_contacts": new_contacts}
+        truth = self.experimenter.step(self.agents)  # formation and heading errors, contacts (metrics.py)
+        infos = {agent: {"formation_error_m": err, "new_contacts": c}
+                 for agent, err, c in zip(self.agents, truth.formation_error_m, truth.new_contacts)}
         # every slave's reward in one pass over the slaves (reward.py)
         now_acts = np.array([acts[a] for a in self.agents], dtype=np.float32).reshape(-1, 3)
         last_acts = np.array([self._last_action[a] for a in self.agents], dtype=np.float32).reshape(-1, 3)
-        rewards = dict(zip(self.agents, slave_rewards(cfg.reward, errs, heads, contacts, now_acts, last_acts)))
+        rewards = dict(zip(self.agents, slave_rewards(cfg.reward, truth.formation_error_m, truth.heading_error_rad,
+                                                      truth.new_contacts, now_acts, last_acts)))
         for agent in self.agents:
             self._last_action[agent] = acts[agent]
-        self.metrics.add_step(list(errors.values()))
         truncated = self.num_cycles >= cfg.max_cycles
         # agents follow the middleware: a robot that left slave-role driving is done, a new slave joins
         slaves = self._current_slaves()
@@ -236,7 +230,7 @@ class PetSwarmEnv(ParallelEnv):
         self._slave_ids = slaves
         before = list(self.agents)
         self.agents = [a for a in before if a in live and not truncated] + ([] if truncated else joined)
-        observations = self._observe(before + [a for a in joined if a not in before])
+        observations = self.observer.observe(before + [a for a in joined if a not in before], self._last_action, world.now)
         for a in joined:
             rewards[a], terminations[a], truncations[a] = 0.0, False, truncated
             infos[a] = {"formation_error_m": 0.0, "new_contacts": 0, "joined": True}
@@ -265,53 +259,6 @@ class PetSwarmEnv(ParallelEnv):
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None
-
-    # -- construction ----------------------------------------------------------------------------
-    def _place_robots(self, world: World, rng: np.random.Generator) -> list[tuple[int, list[int]]]:
-        """Per user: the user's own robot close to the user (to pair), facing them — behind the user
-        in following, ahead in leading; waiting robots around their formation slots (jittered; in
-        leading off the master's shifting path); extra candidates farther out; then robots of
-        another user to the side. Returns (master index, pool indices) per user."""
-        cfg = self.cfg
-        d = cfg.master.distance_m
-        n = cfg.swarm.num_slaves
-        leading = cfg.swarm.mode == "leading"
-        formation = formation_for_mode(cfg.swarm, n + 1, cfg.swarm.mode)
-        slots = formation.slot_positions()  # master frame
-        heading = math.pi if leading else 0.0  # every robot faces its user
-        c, s = math.cos(heading), math.sin(heading)
-        world_slots = np.stack([c * slots[:, 0] - s * slots[:, 1], s * slots[:, 0] + c * slots[:, 1]], axis=1)
-        final = np.array([user_position_in_formation(formation, d)[0], 0.0]) * (1 if leading else -1)
-        depth = float(np.abs(world_slots[:, 0]).max())
-        jitter = cfg.swarm.spawn_jitter_m
-        pools = []
-        for u in range(cfg.world.num_users):
-            base = np.array([0.0, u * cfg.world.user_spacing_m])
-            start = base + np.array([PAIRING_DISTANCE_M if leading else -PAIRING_DISTANCE_M, 0.0])
-            master = world.add_robot(start, heading)
-            pool = []
-            reach = SPAWN_REACH * cfg.protocol.join_radius_m
-            for m in range(1, n + 1):
-                rel = world_slots[m] + rng.uniform(-jitter, jitter, 2)
-                if np.hypot(*rel) > reach:  # a far slot (e.g. the 5th of a wedge, 3 m): start inside the region
-                    rel = rel * (reach / np.hypot(*rel))
-                p = base + final + rel
-                if leading and abs(world_slots[m][1]) < 0.9:  # keep the master's shifting path clear
-                    side = np.sign(world_slots[m][1]) or (1.0 if m % 2 else -1.0)
-                    p[1] = base[1] + side * 0.9 + rng.uniform(-jitter, jitter) * 0.3
-                pool.append(world.add_robot(p, heading + float(rng.uniform(-0.3, 0.3))).index)
-            for k in range(cfg.swarm.extra_robots):
-                side = 1.0 if k % 2 == 0 else -1.0
-                far = -1.0 if not leading else 1.0
-                p = base + final + np.array([far * (depth + 0.8 + 0.6 * (k // 2)), side * 1.6])
-                pool.append(world.add_robot(p, heading).index)
-            pools.append((master.index, pool))
-        self._other_user_robots = []
-        base = np.array([0.0, 0.0]) + final
-        for k in range(cfg.swarm.other_user_robots):
-            r = world.add_robot(base + np.array([-0.6 * k, -1.8 - 0.2 * (k % 2)]), heading)
-            self._other_user_robots.append(r.index)
-        return pools
 
     # -- per step --------------------------------------------------------------------------------
     def _validate(self, actions: dict[str, Any]) -> dict[str, np.ndarray]:
@@ -348,12 +295,13 @@ class PetSwarmEnv(ParallelEnv):
         slaves from the agents' actions; the slaves stop when their master broadcasts an emergency."""
         world = self.world
         lim = self._limits
+        ranges = self.sensors.ranges
         masters = set()
         for session in self.sessions:
             idx = session.swarm.master.node_id
             masters.add(idx)
-            policy, user_cmd, stop = session.step(self._odometry(idx), self._ranges[idx])
-            cmd, _ = self.arbiters[idx].decide(policy, user_cmd, self._ranges[idx], stop)
+            policy, user_cmd, stop = session.step(self.sensors.odometry(idx), ranges[idx])
+            cmd, _ = self.arbiters[idx].decide(policy, user_cmd, ranges[idx], stop)
             world.robots[idx].set_command(*cmd)
         if acts is None:
             return
@@ -364,209 +312,21 @@ class PetSwarmEnv(ParallelEnv):
             node = self.fleet.nodes[idx]
             st = node.know.status
             stop = st is not None and st.mode == "emergency"
-            cmd, _ = self.arbiters[idx].decide((a[0] * lim[0], a[1] * lim[1], a[2] * lim[2]), None, self._ranges[idx], stop)
+            cmd, _ = self.arbiters[idx].decide((a[0] * lim[0], a[1] * lim[1], a[2] * lim[2]), None, ranges[idx], stop)
             world.robots[idx].set_command(*cmd)
 
     def _current_slaves(self) -> list[int]:
         return sorted(i for sw in self.swarms for i in sw.slave_ids())
 
-    def _node(self, agent: str):
-        return self.fleet.nodes[self._agent_index[agent]]
-
-    def _odometry(self, index: int, noise: list[float] | None = None) -> tuple[float, float, float]:
-        """Wheel odometry: the achieved body velocity with relative noise (``noise``: the three
-        N(0, odometry_noise_rel) draws, when the caller drew them already)."""
-        vx, vy, w = self.world.robots[index].velocity_body
-        k = self.cfg.robot.odometry_noise_rel
-        if k > 0:
-            e = self._rng_sensors.normal(0.0, k, 3).tolist() if noise is None else noise
-            return vx * (1 + e[0]), vy * (1 + e[1]), w * (1 + e[2])
-        return vx, vy, w
-
-    def _formation_geometry(self, formation: Formation) -> tuple[list[tuple[float, float]], dict[int, int]]:
-        """Slot positions and hierarchy levels of a neighbour table (cached per table)."""
-        hit = self._formation_cache.get(id(formation))
-        if hit is None or hit[0] is not formation:
-            slots = [tuple(p) for p in formation.slot_positions().tolist()]  # Python floats
-            levels = formation.hierarchy_levels(user_position_in_formation(formation, self.cfg.master.distance_m))
-            hit = (formation, slots, levels)
-            self._formation_cache[id(formation)] = hit
-        return hit[1], hit[2]
-
-    def _observe(self, agents: list[str] | None = None) -> dict[str, np.ndarray]:
-        world = self.world
-        now = world.now
-        obs = {}
-        agents = self.agents if agents is None else agents
-        us_max = self.cfg.robot.ultrasonic.max_range_m
-        # the odometry noise of every agent in one draw (the same numbers as one draw per agent)
-        k = self.cfg.robot.odometry_noise_rel
-        noise = self._rng_sensors.normal(0.0, k, (len(agents), 3)).tolist() if k > 0 else None
-        ranges = self._ranges.tolist()  # every robot's ring as Python floats, in one conversion
-        robots, nodes, agent_index = world.robots, self.fleet.nodes, self._agent_index
-        layout, limits, last_actions = self.layout, self._limits, self._last_action
-        for i, agent in enumerate(agents):
-            idx = agent_index[agent]
-            node = nodes[idx]
-            robot = robots[idx]
-            member = node.know.member
-            level, offset = 0, (0.0, 0.0)
-            if node.formation is not None and 0 <= member < node.formation.size:
-                slots, levels = self._formation_geometry(node.formation)
-                level, offset = levels.get(member, 0), slots[member]
-            last = last_actions.get(agent)
-            odometry = self._odometry(idx, noise[i] if noise is not None else None)
-            obs[agent] = build_observation(
-                layout,
-                None,  # a new array: what the agent gets is its own
-                node,
-                now,
-                odometry,
-                robot.ahrs_yaw(now),
-                last if last is not None else _NO_ACTION,
-                ranges[idx],
-                level,
-                offset,
-                limits,
-                us_max,
-            )
-        return obs
-
     def reference_positions(self) -> dict[int, np.ndarray]:
-        """True reference position of every slave (robot index -> (x, y)): the experimenter's view,
-        from each swarm's current neighbour table and its master's true heading."""
-        return {idx: np.array(p) for idx, p in self._reference_points().items()}
-
-    def _reference_points(self, xy: list | None = None, th: list | None = None) -> dict[int, tuple[float, float]]:
-        """:meth:`reference_positions` as Python floats (the mean over a slave's links taken as
-        numpy's mean of so few points is: their sum in order, over their number). Positions and
-        headings are the world's truth arrays as lists (``xy``, ``th``; read here if not given):
-        the values Chipmunk gives each body, read once per physics step."""
-        if xy is None or th is None:
-            centers, _, headings = self.world.truth_arrays()
-            xy, th = centers.tolist(), headings.tolist()
-        out = {}
-        for swarm in self.swarms:
-            if swarm.formation is None or not swarm.organized:
-                continue
-            members = swarm.master.know.members
-            t = th[swarm.master.node_id]
-            c, s = math.cos(t), math.sin(t)
-            for m, links in swarm.formation.links.items():
-                idx = members.get(m)
-                if idx is None or not links:
-                    continue
-                sx = sy = 0.0
-                for link in links:
-                    nx, ny = xy[members[link.neighbour]]
-                    ox, oy = link.offset_m
-                    sx += nx + c * ox - s * oy
-                    sy += ny + s * ox + c * oy
-                out[idx] = (sx / len(links), sy / len(links))
-        return out
-
-    def _formation_errors(self) -> tuple[dict[str, float], dict[str, float]]:
-        """Each slave's distance from its reference point and heading error from its master's
-        heading (truth), from the truth arrays as lists (one conversion for all robots)."""
-        centers, _, headings = self.world.truth_arrays()
-        xy, th = centers.tolist(), headings.tolist()
-        refs = self._reference_points(xy, th)
-        swarm_of, agent_index = self.fleet.swarm_of, self._agent_index
-        errors, heading = {}, {}
-        for agent in self.agents:
-            idx = agent_index[agent]
-            ref = refs.get(idx)
-            if ref is None:
-                continue
-            x, y = xy[idx]
-            errors[agent] = math.hypot(x - ref[0], y - ref[1])
-            heading[agent] = _wrap(th[idx] - th[swarm_of(idx).master.node_id])
-        return errors, heading
-
-    # -- reporting -------------------------------------------------------------------------------
-    def _event_counts(self) -> dict[str, Any]:
-        wins = {s: sum(a.counts.wins[s] for a in self.arbiters.values()) for s in SOURCES}
-        return {
-            "master_changes": sum(sw.events["master_changes"] for sw in self.swarms),
-            "mode_changes": sum(sw.events["mode_changes"] for sw in self.swarms),
-            "token_recoveries": sum(sw.token_recoveries() for sw in self.swarms),
-            "emergencies": sum(se.events["emergencies"] for se in self.sessions),
-            "exceptions": sum(se.events["exceptions"] for se in self.sessions),
-            "arbiter_wins": wins,
-        }
+        """True reference position of every slave (robot index -> (x, y)): the experimenter's view
+        (:meth:`.metrics.Experimenter.reference_positions`)."""
+        return self.experimenter.reference_positions()
 
     def episode_summary(self) -> dict[str, Any]:
-        c = self.world.collisions
-        c0 = self._collisions_at_start
-        st = self.radio.stats
-        r0 = self._radio_at_start
-        m = self.metrics
-        now, start = self._event_counts(), self._events_at_start
-        events = {k: now[k] - start[k] for k in ("master_changes", "mode_changes", "token_recoveries", "emergencies", "exceptions")}
-        events["join_retries"] = m.join_retries
-        events["arbiter_wins"] = now["arbiter_wins"]  # counted from the end of reset
-        events["foreign_pan_frames_processed"] = self.fleet.foreign_pan_frames_processed()
-        return {
-            "scenario": self.scenario,
-            "steps": m.steps,
-            "formation_rmse_m": m.formation_rmse_m,
-            "collisions": {
-                "robot_robot": c.robot_robot - c0[0],
-                "robot_user": c.robot_user - c0[1],
-                "robot_wall": c.robot_wall - c0[2],
-            },
-            "organize_time_s": m.organize_time_s,
-            "join_retries": m.join_retries,
-            "token_recoveries": now["token_recoveries"],
-            "frames": {"sent": st.frames_sent - r0[0], "lost": st.frames_lost - r0[1], "collided": st.frames_collided - r0[2]},
-            "foreign_pan_frames_processed": events["foreign_pan_frames_processed"],
-            "slaves": len(self._slave_ids),
-            "users": self.cfg.world.num_users,
-            "events": events,
-        }
+        """The episode's figures so far (:meth:`.metrics.Experimenter.summary`)."""
+        return self.experimenter.summary(self.scenario, len(self._slave_ids))
 
     def scene(self):
-        """A plain description of the current truth for the renderer."""
-        from petswarm_env.render import RobotView, Scene
-
-        world = self.world
-        masters = {sw.master.node_id for sw in self.swarms}
-        slaves = set(self._current_slaves())
-        robots = []
-        for r in world.robots:
-            node = self.fleet.nodes.get(r.index)
-            role = "master" if r.index in masters else "slave" if r.index in slaves else "waiting"
-            if r.index in self._other_user_robots:
-                role = "other"
-            label = str(node.know.member) if node is not None and node.know.member >= 0 else f"r{r.index}"
-            robots.append(RobotView(r.position, r.heading, self.cfg.robot.radius_m, role, label))
-        links = []
-        for swarm in self.swarms:
-            if swarm.formation is None or not swarm.organized:
-                continue
-            members = swarm.master.know.members
-            for m, lks in swarm.formation.links.items():
-                for lk in lks:
-                    if m in members and lk.neighbour in members:
-                        links.append((world.robots[members[lk.neighbour]].position, world.robots[members[m]].position))
-        refs = [tuple(p) for p in self.reference_positions().values()]
-        err = self.metrics.error_trace[-1] if self.metrics.error_trace else float("nan")
-        states = "  ".join(f"user {u}: {se.state}, master r{se.swarm.master.node_id}" for u, se in enumerate(self.sessions))
-        text = [
-            f"scenario {self.scenario}   formation {self.cfg.swarm.formation}   mode {self.swarm.mode}",
-            f"step {self.num_cycles}/{self.cfg.max_cycles}   mean formation error {err:.2f} m",
-            states,
-        ]
-        return Scene(
-            time_s=world.now,
-            user_position_m=world.user.position,
-            user_heading_rad=world.user.heading,
-            user_radius_m=self.cfg.user.radius_m,
-            robots=robots,
-            links=links,
-            references_m=refs,
-            walls=list(world.wall_segments[:4]) if self.cfg.world.arena_m[0] > 0 else [],
-            boxes=[(tuple(b.center_m), tuple(b.size_m)) for b in self.cfg.world.obstacles],
-            text=text,
-            other_users=[(u.position, u.heading) for u in world.users[1:]],
-        )
+        """A plain description of the current truth for the renderer (:meth:`.metrics.Experimenter.scene`)."""
+        return self.experimenter.scene(self.scenario, self.num_cycles)

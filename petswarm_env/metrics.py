@@ -1,14 +1,35 @@
-"""Per-episode metrics: the experimenter's view, computed from ground truth (never observed).
+"""The experimenter's view: per-step and per-episode figures from ground truth (never observed).
 
-``formation_rmse_m``: RMS over slaves and steps after organizing of the distance between a
-slave's true position and its reference position (its reference neighbours' true positions plus
-its offset rotated by the formation heading, the master's true heading).
+A slave's *reference point* is the mean over its reference links of its neighbour's true position
+plus its offset rotated by the formation heading (the master's true heading); its *formation
+error* is its true distance from that point and its *heading error* its true heading minus the
+master's. ``formation_rmse_m`` is the RMS over slaves and steps after organizing of the formation
+error. :class:`Experimenter` computes these, counts what began in the episode (contacts, frames,
+middleware events, arbiter wins) and writes the episode summary; rewards (:mod:`.reward`) are
+computed from its figures.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, NamedTuple
+
+import numpy as np
+
+from petswarm_env.control.arbiter import SOURCES
+from petswarm_env.render import RobotView, Scene
+from petswarm_env.sim.geometry import wrap_angle
+
+if TYPE_CHECKING:
+    from petswarm_env.comms.radio import RadioMedium
+    from petswarm_env.config import Config
+    from petswarm_env.control.arbiter import ControlArbiter
+    from petswarm_env.middleware.swarm import Fleet, Swarm
+    from petswarm_env.middleware.user_session import UserSession
+    from petswarm_env.sim.world import World
+
+_EVENTS = ("master_changes", "mode_changes", "token_recoveries", "emergencies", "exceptions")
 
 
 @dataclass
@@ -30,3 +51,197 @@ class EpisodeMetrics:
     @property
     def formation_rmse_m(self) -> float:
         return math.sqrt(self.sq_error_sum / self.error_count) if self.error_count else math.nan
+
+
+class SlaveTruth(NamedTuple):
+    """One step's truth for the live agents, in their order: ``errors`` only for the agents that
+    have a reference point (what the RMSE averages); the lists for every agent (0 without one)."""
+
+    errors: dict[str, float]
+    formation_error_m: list[float]
+    heading_error_rad: list[float]
+    new_contacts: list[int]
+
+
+class Experimenter:
+    """The experimenter's view of one episode of a world, its swarms and users: built at the end of
+    ``reset`` (the episode's counts start there), then asked once per step (:meth:`step`)."""
+
+    def __init__(self, cfg: Config, world: World, fleet: Fleet, swarms: list[Swarm], sessions: list[UserSession],
+                 arbiters: dict[int, ControlArbiter], radio: RadioMedium, agent_index: dict[str, int],
+                 other_user_robots: list[int]):
+        self.cfg, self.world, self.fleet, self.swarms, self.sessions = cfg, world, fleet, swarms, sessions
+        self.arbiters, self.radio, self.agent_index = arbiters, radio, agent_index
+        self.other_user_robots = other_user_robots
+        c, st = world.collisions, radio.stats
+        self._contacts_seen = dict(c.per_robot)
+        self._collisions_at_start = (c.robot_robot, c.robot_user, c.robot_wall)
+        self._events_at_start = self.event_counts()
+        self.metrics = EpisodeMetrics(organize_time_s=swarms[0].organize_result.elapsed_s,
+                                      join_retries=sum(sw.organize_result.retries for sw in swarms))
+        self._radio_at_start = (st.frames_sent, st.frames_lost, st.frames_collided)
+
+    # -- reference points and errors -------------------------------------------------------------
+    def reference_positions(self) -> dict[int, np.ndarray]:
+        """True reference position of every slave (robot index -> (x, y)), from each swarm's
+        current neighbour table and its master's true heading."""
+        return {idx: np.array(p) for idx, p in self.reference_points().items()}
+
+    def reference_points(self, xy: list | None = None, th: list | None = None) -> dict[int, tuple[float, float]]:
+        """:meth:`reference_positions` as Python floats (the mean over a slave's links taken as
+        numpy's mean of so few points is: their sum in order, over their number). Positions and
+        headings are the world's truth arrays as lists (``xy``, ``th``; read here if not given):
+        the values Chipmunk gives each body, read once per physics step."""
+        if xy is None or th is None:
+            centers, _, headings = self.world.truth_arrays()
+            xy, th = centers.tolist(), headings.tolist()
+        return {idx: (x, y) for idx, (x, y, _) in self._references(xy, th).items()}
+
+    def _references(self, xy: list, th: list) -> dict[int, tuple[float, float, float]]:
+        """Every slave's reference point and the true heading of the master whose neighbour table
+        defines it: robot index -> (x, y, θ_master)."""
+        out = {}
+        for swarm in self.swarms:
+            if swarm.formation is None or not swarm.organized:
+                continue
+            members = swarm.master.know.members
+            t = th[swarm.master.node_id]
+            c, s = math.cos(t), math.sin(t)
+            for m, links in swarm.formation.links.items():
+                idx = members.get(m)
+                if idx is None or not links:
+                    continue
+                sx = sy = 0.0
+                for link in links:
+                    nx, ny = xy[members[link.neighbour]]
+                    ox, oy = link.offset_m
+                    sx += nx + c * ox - s * oy
+                    sy += ny + s * ox + c * oy
+                out[idx] = (sx / len(links), sy / len(links), t)
+        return out
+
+    def formation_errors(self, agents: list[str]) -> tuple[dict[str, float], dict[str, float]]:
+        """Each agent's distance from its reference point and heading error from the heading of the
+        master whose table defines that point (truth), from the truth arrays as lists (one conversion for all robots); agents
+        without a reference point are left out."""
+        centers, _, headings = self.world.truth_arrays()
+        xy, th = centers.tolist(), headings.tolist()
+        refs = self._references(xy, th)
+        agent_index = self.agent_index
+        errors, heading = {}, {}
+        for agent in agents:
+            idx = agent_index[agent]
+            ref = refs.get(idx)
+            if ref is None:
+                continue
+            x, y = xy[idx]
+            errors[agent] = math.hypot(x - ref[0], y - ref[1])
+            heading[agent] = wrap_angle(th[idx] - ref[2])
+        return errors, heading
+
+    def step(self, agents: list[str]) -> SlaveTruth:
+        """The step's truth for ``agents`` (formation and heading errors, contacts each robot began
+        since the last step); adds the step to :attr:`metrics`."""
+        errors, heading_errs = self.formation_errors(agents)
+        per_robot, seen, agent_index = self.world.collisions.per_robot, self._contacts_seen, self.agent_index
+        errs, heads, contacts = [], [], []
+        for agent in agents:
+            idx = agent_index[agent]
+            new_contacts = per_robot.get(idx, 0) - seen.get(idx, 0)
+            seen[idx] = per_robot.get(idx, 0)
+            errs.append(errors.get(agent, 0.0))
+            heads.append(heading_errs.get(agent, 0.0))
+            contacts.append(new_contacts)
+        self.metrics.add_step(list(errors.values()))
+        return SlaveTruth(errors, errs, heads, contacts)
+
+    # -- counts and the summary ------------------------------------------------------------------
+    def event_counts(self) -> dict[str, Any]:
+        """Middleware and user events so far (totals over swarms and users) and arbiter wins."""
+        wins = {s: sum(a.counts.wins[s] for a in self.arbiters.values()) for s in SOURCES}
+        return {
+            "master_changes": sum(sw.events["master_changes"] for sw in self.swarms),
+            "mode_changes": sum(sw.events["mode_changes"] for sw in self.swarms),
+            "token_recoveries": sum(sw.token_recoveries() for sw in self.swarms),
+            "emergencies": sum(se.events["emergencies"] for se in self.sessions),
+            "exceptions": sum(se.events["exceptions"] for se in self.sessions),
+            "arbiter_wins": wins,
+        }
+
+    def summary(self, scenario: str, slaves: int) -> dict[str, Any]:
+        """The episode summary (what ``infos[agent]["episode_summary"]`` carries at the end)."""
+        c = self.world.collisions
+        c0 = self._collisions_at_start
+        st = self.radio.stats
+        r0 = self._radio_at_start
+        m = self.metrics
+        now, start = self.event_counts(), self._events_at_start
+        events = {k: now[k] - start[k] for k in _EVENTS}
+        events["join_retries"] = m.join_retries
+        events["arbiter_wins"] = now["arbiter_wins"]  # counted from the end of reset
+        events["foreign_pan_frames_processed"] = self.fleet.foreign_pan_frames_processed()
+        return {
+            "scenario": scenario,
+            "steps": m.steps,
+            "formation_rmse_m": m.formation_rmse_m,
+            "collisions": {
+                "robot_robot": c.robot_robot - c0[0],
+                "robot_user": c.robot_user - c0[1],
+                "robot_wall": c.robot_wall - c0[2],
+            },
+            "organize_time_s": m.organize_time_s,
+            "join_retries": m.join_retries,
+            "token_recoveries": now["token_recoveries"],
+            "frames": {"sent": st.frames_sent - r0[0], "lost": st.frames_lost - r0[1], "collided": st.frames_collided - r0[2]},
+            "foreign_pan_frames_processed": events["foreign_pan_frames_processed"],
+            "slaves": slaves,
+            "users": self.cfg.world.num_users,
+            "events": events,
+        }
+
+    # -- what a person watching sees -------------------------------------------------------------
+    def scene(self, scenario: str, step: int) -> Scene:
+        """A plain description of the current truth for the renderer (:mod:`petswarm_env.render`):
+        every body, each robot's role and member number, the formation links and reference points,
+        walls and boxes, and a HUD with the scenario, the step and each user's robot state."""
+        cfg, world = self.cfg, self.world
+        masters = {sw.master.node_id for sw in self.swarms}
+        slaves = {i for sw in self.swarms for i in sw.slave_ids()}
+        robots = []
+        for r in world.robots:
+            node = self.fleet.nodes.get(r.index)
+            role = "master" if r.index in masters else "slave" if r.index in slaves else "waiting"
+            if r.index in self.other_user_robots:
+                role = "other"
+            label = str(node.know.member) if node is not None and node.know.member >= 0 else f"r{r.index}"
+            robots.append(RobotView(r.position, r.heading, cfg.robot.radius_m, role, label))
+        links = []
+        for swarm in self.swarms:
+            if swarm.formation is None or not swarm.organized:
+                continue
+            members = swarm.master.know.members
+            for m, lks in swarm.formation.links.items():
+                for lk in lks:
+                    if m in members and lk.neighbour in members:
+                        links.append((world.robots[members[lk.neighbour]].position, world.robots[members[m]].position))
+        refs = [tuple(p) for p in self.reference_positions().values()]
+        err = self.metrics.error_trace[-1] if self.metrics.error_trace else float("nan")
+        states = "  ".join(f"user {u}: {se.state}, master r{se.swarm.master.node_id}" for u, se in enumerate(self.sessions))
+        text = [
+            f"scenario {scenario}   formation {cfg.swarm.formation}   mode {self.swarms[0].mode}",
+            f"step {step}/{cfg.max_cycles}   mean formation error {err:.2f} m",
+            states,
+        ]
+        return Scene(
+            time_s=world.now,
+            user_position_m=world.user.position,
+            user_heading_rad=world.user.heading,
+            user_radius_m=cfg.user.radius_m,
+            robots=robots,
+            links=links,
+            references_m=refs,
+            walls=list(world.wall_segments[:4]) if cfg.world.arena_m[0] > 0 else [],
+            boxes=[(tuple(b.center_m), tuple(b.size_m)) for b in cfg.world.obstacles],
+            text=text,
+            other_users=[(u.position, u.heading) for u in world.users[1:]],
+        )

@@ -3,20 +3,27 @@
 The layout is declared once, in :data:`FIELDS`; the builder, the documentation table
 (:func:`markdown_table`) and the policies' accessors (:class:`ObservationLayout`) all read it.
 Every value is scaled to about [-1, 1]; ``scale`` says by what (value_in_obs = value / scale).
-Nothing here reads ground truth: the inputs are a node's :class:`~.middleware.node.Knowledge`,
-its own sensors (odometry, AHRS, ultrasonic ring) and its last action.
+Nothing here reads ground truth: the inputs, one :class:`Readings` per slave and step, are a
+node's :class:`~.middleware.node.Knowledge` and reference links, its own sensors (odometry, AHRS,
+ultrasonic ring; :mod:`petswarm_env.sim.sensors`) and its last action. :class:`Observer` gathers
+them for the env's agents and builds their observations.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from petswarm_env.middleware.formation import MAX_LINKS
-from petswarm_env.middleware.node import Node
-from petswarm_env.sim.scenarios import ACTIVITIES
+from petswarm_env.middleware.formation import MAX_LINKS, Formation, user_position_in_formation
+from petswarm_env.scenarios import ACTIVITIES
+
+if TYPE_CHECKING:
+    from petswarm_env.middleware.node import Knowledge, Node
+    from petswarm_env.sim.sensors import Sensors
 
 OBS_VERSION = 1
 POS_SCALE_M = 3.0
@@ -75,9 +82,16 @@ _cos, _sin = math.cos, math.sin
 
 
 class ObservationLayout:
-    """Offsets of every named field; the same object documents, builds and reads observations."""
+    """Offsets of every named field; the same object documents, builds and reads observations.
 
-    def __init__(self, num_ultrasonic: int):
+    The builder also needs the scales of the robot's own values: ``limits`` (v_max, v_max, ω_max)
+    for velocities and odometry, ``us_max_range_m`` for the ultrasonic ring (the env gives both;
+    a layout made only to read observations needs neither)."""
+
+    def __init__(self, num_ultrasonic: int, limits: tuple[float, float, float] | None = None,
+                 us_max_range_m: float | None = None):
+        self.limits = limits
+        self.us_max_range_m = us_max_range_m
         self.slices: dict[str, slice] = {}
         self.fields: list[Field] = []
         i = 0
@@ -109,31 +123,36 @@ def markdown_table(layout: ObservationLayout) -> str:
     return "\n".join(rows)
 
 
-def build_observation(
-    layout: ObservationLayout,
-    out: np.ndarray | None,
-    node: Node,
-    now: float,
-    odometry: tuple[float, float, float],
-    yaw_rad: float,
-    last_action: np.ndarray,
-    ultrasonic_m: np.ndarray | list[float],
-    hierarchy_level: int,
-    offset_from_master: tuple[float, float],
-    limits: tuple[float, float, float],
-    us_max_range_m: float,
-) -> np.ndarray:
+@dataclass(slots=True)
+class Readings:
+    """What one slave's own sensors and middleware give at one instant: all its observation is
+    built from."""
+
+    know: Knowledge  # its middleware's knowledge (IR, headings, master status, members)
+    links: Sequence[Any]  # its reference links in the neighbour table (formation.Link)
+    now_s: float  # clock time
+    odometry: tuple[float, float, float]  # wheel odometry (Vx, Vy, ω), body frame
+    yaw_rad: float  # AHRS yaw
+    last_action: np.ndarray  # the action applied last step, (3,)
+    ultrasonic_m: Sequence[float]  # the ring, sensor 0 forward (a list of floats or an array)
+    hierarchy_level: int  # its level in the neighbour table (0 if none)
+    offset_from_master_m: tuple[float, float]  # its slot relative to the master, formation frame
+
+
+def build_observation(layout: ObservationLayout, readings: Readings, out: np.ndarray | None = None) -> np.ndarray:
     """The observation of one slave, written into ``out`` (layout.size,) or, with ``out=None``, a
     new float32 array. Built as a Python list and converted once (one numpy conversion instead of
     one per value), with ``np.fromiter``: the same float64 -> float32 rounding as ``np.array(v,
-    dtype=np.float32)`` at a fraction of its cost. ``ultrasonic_m`` may also be a list of Python
-    floats (the env converts the rings of all robots at once). Field offsets come unpacked from
+    dtype=np.float32)`` at a fraction of its cost. The ring may be a list of Python floats (the
+    env converts the rings of all robots at once). Field offsets come unpacked from
     ``layout._starts``; ages are clipped to 1 as ``min(age, 1.0)`` would (``1.0 if age > 1.0
-    else age``, nan passing through in both)."""
+    else age``, nan passing through in both). One function on purpose, the fields written in the
+    layout's order: it runs for every slave at every step."""
+    if layout.limits is None or layout.us_max_range_m is None:
+        raise ValueError("build_observation needs a layout with limits and us_max_range_m (the robot's scales)")
     v = [0.0] * layout.size
-    vmax, _, wmax = limits
-    know = node.know
-    links = node.reference_links()
+    vmax, _, wmax = layout.limits
+    know, links, now, yaw_rad = readings.know, readings.links, readings.now_s, readings.yaw_rad
     if links:
         members, irs, heads = know.members, know.ir, know.heading
         for base, link in zip(layout._link_starts, links):
@@ -183,26 +202,85 @@ def build_observation(
         v[user_xy + 1] = uy / POS_SCALE_M
     else:
         v[i + 1] = 1.0
+    odometry = readings.odometry
     v[odo] = odometry[0] / vmax
     v[odo + 1] = odometry[1] / vmax
     v[odo + 2] = odometry[2] / wmax
     v[yaw] = _sin(yaw_rad)
     v[yaw + 1] = _cos(yaw_rad)
-    v[last : last + 3] = last_action.tolist()
+    v[last : last + 3] = readings.last_action.tolist()
+    offset_from_master = readings.offset_from_master_m
     v[offset] = offset_from_master[0] / POS_SCALE_M
     v[offset + 1] = offset_from_master[1] / POS_SCALE_M
+    ultrasonic_m, us_max_range_m = readings.ultrasonic_m, layout.us_max_range_m
     if isinstance(ultrasonic_m, np.ndarray):
         v[us : us + len(ultrasonic_m)] = (ultrasonic_m / us_max_range_m).tolist()
     else:  # Python floats (the env's call): Python's division rounds as numpy's float64 one
         v[us : us + len(ultrasonic_m)] = [r / us_max_range_m for r in ultrasonic_m]
     total = max(know.total_members, 1)
-    v[hierarchy] = hierarchy_level / total
+    v[hierarchy] = readings.hierarchy_level / total
     v[members_at] = total / 16.0
     v[member_at] = know.member / 16.0
     if out is None:
         return np.fromiter(v, np.float32, len(v))
     out[:] = v
     return out
+
+
+_NO_ACTION = np.zeros(3, np.float32)  # the last action of an agent that has not acted yet (read only)
+_NO_ACTION.flags.writeable = False
+
+
+class Observer:
+    """Every agent's observation, from its own robot's sensors and its node's middleware: the
+    readings gathered per agent, then :func:`build_observation`. Agents are ``robot_<index>``
+    (``agent_index``: name -> robot index)."""
+
+    def __init__(self, layout: ObservationLayout, nodes: dict[int, Node], sensors: Sensors,
+                 ahrs: list[Callable[[float], float]], agent_index: dict[str, int], master_distance_m: float):
+        self.layout = layout
+        self.nodes = nodes
+        self.sensors = sensors
+        self.ahrs = ahrs  # each robot's AHRS reading, ahrs[index](now_s)
+        self.agent_index = agent_index
+        self.master_distance_m = master_distance_m
+        self._formation_cache: dict[int, tuple[Formation, list[tuple[float, float]], dict[int, int]]] = {}
+
+    def formation_geometry(self, formation: Formation) -> tuple[list[tuple[float, float]], dict[int, int]]:
+        """Slot positions and hierarchy levels of a neighbour table (cached per table)."""
+        hit = self._formation_cache.get(id(formation))
+        if hit is None or hit[0] is not formation:
+            slots = [tuple(p) for p in formation.slot_positions().tolist()]  # Python floats
+            levels = formation.hierarchy_levels(user_position_in_formation(formation, self.master_distance_m))
+            hit = (formation, slots, levels)
+            self._formation_cache[id(formation)] = hit
+        return hit[1], hit[2]
+
+    def observe(self, agents: list[str], last_actions: dict[str, np.ndarray], now_s: float) -> dict[str, np.ndarray]:
+        """A new observation array for each of ``agents`` at clock time ``now_s`` (``last_actions``:
+        agent -> the action applied last step; none yet reads as zeros). The odometry noise of all
+        agents is one draw, in the agents' order."""
+        sensors, nodes, agent_index, ahrs, layout = self.sensors, self.nodes, self.agent_index, self.ahrs, self.layout
+        noise = sensors.odometry_noise(len(agents))
+        ranges = sensors.ranges.tolist()  # every robot's ring as Python floats, in one conversion
+        obs = {}
+        for i, agent in enumerate(agents):
+            idx = agent_index[agent]
+            node = nodes[idx]
+            know = node.know
+            member = know.member
+            level, offset = 0, (0.0, 0.0)
+            formation = node.formation
+            if formation is not None and 0 <= member < formation.size:
+                slots, levels = self.formation_geometry(formation)
+                level, offset = levels.get(member, 0), slots[member]
+            last = last_actions.get(agent)
+            odometry = sensors.odometry(idx, noise[i] if noise is not None else None)
+            yaw = ahrs[idx](now_s)
+            readings = Readings(know, node.reference_links(), now_s, odometry, yaw,
+                                last if last is not None else _NO_ACTION, ranges[idx], level, offset)
+            obs[agent] = build_observation(layout, readings)  # a new array: what the agent gets is its own
+        return obs
 
 
 if __name__ == "__main__":  # python -m petswarm_env.observe > docs/observation.md

@@ -1,4 +1,4 @@
-"""Reward of one slave for one step, from ground truth (the experimenter's view).
+"""Reward of each slave for one step, from ground truth (the experimenter's view).
 
     r = − w_formation · e
         − w_heading   · (1 − cos(θ − θ_formation))
@@ -19,23 +19,6 @@ import numpy as np
 from petswarm_env.config import RewardConfig
 
 
-def slave_reward(
-    cfg: RewardConfig,
-    formation_error_m: float,
-    heading_error_rad: float,
-    new_contacts: int,
-    action: np.ndarray,
-    last_action: np.ndarray,
-) -> float:
-    da = action - last_action
-    return float(
-        -cfg.formation * formation_error_m
-        - cfg.heading * (1.0 - math.cos(heading_error_rad))
-        - cfg.collision * new_contacts
-        - cfg.smoothness * float(da @ da)
-    )
-
-
 def slave_rewards(
     cfg: RewardConfig,
     formation_errors_m: list[float],
@@ -44,8 +27,9 @@ def slave_rewards(
     actions: np.ndarray,
     last_actions: np.ndarray,
 ) -> list[float]:
-    """:func:`slave_reward` of n slaves at once (``actions``, ``last_actions``: (n, 3)); the same
-    numbers (the squared action changes by ``np.vecdot``, which sums as ``a @ a`` does)."""
+    """The reward of n slaves at once (module docstring): lists of n errors and contact counts,
+    ``actions`` and ``last_actions`` (n, 3). The squared action changes by ``np.vecdot``, which sums
+    as ``a @ a`` does (``tests/oracles.py`` keeps the one-slave form it equals)."""
     da = np.asarray(actions) - np.asarray(last_actions)
     smooth = np.vecdot(da, da).tolist() if len(da) else []
     return [

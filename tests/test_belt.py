@@ -6,16 +6,16 @@ import numpy as np
 import pytest
 
 from experiments.measure_wearables import recognition_latency_experiment
-from petswarm_env.config import load_config
+from petswarm_env.config import BeltConfig, load_config
 from petswarm_env.wearables.belt import (
     ACTIVITIES,
-    BeltConfig,
     SmartBelt,
     classify,
     count_sign_changes,
     signal_magnitude_area,
     sma_level,
 )
+from tests import oracles
 
 CFG = load_config().belt
 STEP_S = 0.1  # the env's control period
@@ -29,18 +29,6 @@ def run(belt, t0, duration_s, speed, turn_dps, posture, step_s=STEP_S):
         belt.advance(t, speed, math.radians(turn_dps), posture)
         out.append(belt.reading())
     return out, t
-
-
-def _reference_sign_changes(row, deadband):
-    """Plain loop: sign changes of the mean-removed row, the sign held inside the dead band."""
-    x = row - row.mean()
-    last, count = 0, 0
-    for v in x:
-        s = 1 if v > deadband else (-1 if v < -deadband else 0)
-        if s:
-            count += last != 0 and s != last
-            last = s
-    return count
 
 
 def test_table_2_rules():
@@ -59,24 +47,9 @@ def test_accelerometer_samples_equal_the_array_model(posture, speed):
     belt = SmartBelt(CFG, np.random.default_rng(11))
     rng = np.random.default_rng(12)
     belt.rng = np.random.default_rng(12)
-    dt = 1.0 / CFG.accel_rate_hz
-    if posture in ("walk", "run"):
-        f = CFG.cadence_hz(posture, speed)
-        amp = (2 * np.pi * f) ** 2 * (CFG.run_bounce_m if posture == "run" else CFG.walk_bounce_m)
-        jitter = CFG.gait_phase_jitter
-    elif posture == "rest":
-        f, amp, jitter = CFG.rest_sway_hz, CFG.rest_sway_mps2, CFG.rest_phase_jitter
-    else:
-        f, amp, jitter = 0.0, 0.0, 0.0
     phase = belt._gait_phase
     for n in (5, 5, 1, 7):
-        z = rng.standard_normal(2 * n)
-        dphi = np.full(n, 2.0 * np.pi * f * dt)
-        if jitter > 0.0 and amp > 0.0:
-            dphi += jitter * np.sqrt(dt) * z[n:]
-        phases = phase + np.cumsum(dphi)
-        expected = 9.80665 + amp * np.sin(phases) + CFG.accel_noise_mps2 * z[:n]
-        phase = float(phases[-1] % (2 * np.pi))
+        expected, phase = oracles.belt_accel_samples(CFG, phase, n, speed, posture, rng)
         got = belt._synth_accel(n, speed, posture)
         assert got == expected.tolist()
         assert belt._gait_phase == phase
@@ -93,7 +66,7 @@ def test_sign_changes_of_a_sine_and_of_noise():
     rows = rng.standard_normal((4, 5, 60)) * rng.uniform(0.1, 1.0, (4, 5, 1))
     got = count_sign_changes(rows, 0.3)
     assert got.shape == (4, 5)
-    assert all(got[i, j] == _reference_sign_changes(rows[i, j], 0.3) for i in range(4) for j in range(5))
+    assert all(got[i, j] == oracles.sign_changes_loop(rows[i, j], 0.3) for i in range(4) for j in range(5))
     assert signal_magnitude_area(sine) == pytest.approx(2.0 * 2 / np.pi, rel=0.05)  # mean |A sin|
 
 

@@ -129,7 +129,7 @@ def test_a_function_part_comes_from_its_module_not_its_name():
     assert module_of("/repo/petswarm_env/sim/__init__.py") == "petswarm_env.sim.__init__"
     assert module_part("petswarm_env.sim.__init__") == "physics"
     with pytest.raises(Uncategorised):
-        module_part("petswarm_env.scenarios.zigzag")  # a package without a row
+        module_part("petswarm_env.nowhere.zigzag")  # a package without a row
 
 
 def _environment_modules():

@@ -6,12 +6,13 @@ import numpy as np
 import pytest
 import simpy
 
-from petswarm_env.comms.ir_channel import IRChannel, _blocked
+from petswarm_env.comms.ir_channel import IRChannel, line_of_sight_blocked
 from petswarm_env.config import load_config
 from petswarm_env.middleware import ir
+from petswarm_env.scenarios import SCENARIOS
 from petswarm_env.sim import geometry
-from petswarm_env.sim.scenarios import ScenarioScript, build_scenario
 from petswarm_env.sim.world import World
+from tests import oracles
 
 
 def _scene(rng, n_robots, n_other):
@@ -34,34 +35,13 @@ def test_ring_first_hits_equals_ray_casts_against_circles_and_segments(seed):
     ang = headings[:, None] + angles[None, :]
     dirs = np.stack([np.cos(ang), np.sin(ang)], axis=-1).reshape(-1, 2)
     origins = np.repeat(centers[:n], k, axis=0)
-    want = geometry.ray_circle_distances(origins, dirs, centers, radii, reach).min(axis=1)
+    want = oracles.ray_circle_distances(origins, dirs, centers, radii, reach).min(axis=1)
     if len(seg_a):
         want = np.minimum(want, geometry.ray_segment_distances(origins, dirs, seg_a, seg_b, reach).min(axis=1))
     want = want.reshape(n, k)
     assert np.array_equal(np.isinf(got), np.isinf(want))
     assert np.isfinite(want).any() or seed > 0  # the scenes do produce hits
     np.testing.assert_allclose(got[np.isfinite(got)], want[np.isfinite(want)], rtol=0, atol=1e-9)
-
-
-def _ring_first_hits_masked(origins, headings, angles, centers, radii, seg_a, seg_b, max_range):
-    """ring_first_hits as it was written before its calls were cut down: (origin, ray, circle)
-    arrays, boolean hit masks, the range cut on every pair, every segment."""
-    o, c = origins, centers
-    ang = headings[:, None] + angles[None, :]
-    dx, dy = np.cos(ang), np.sin(ang)
-    mx, my = o[:, 0:1] - c[:, 0], o[:, 1:2] - c[:, 1]
-    cc = mx * mx + my * my - radii**2
-    cc = np.where(cc > 0.0, cc, np.inf)[:, None, :]
-    b = dx[:, :, None] * mx[:, None, :] + dy[:, :, None] * my[:, None, :]
-    disc = b * b - cc
-    t = -b - np.sqrt(np.maximum(disc, 0.0))
-    hit = (disc >= 0.0) & (t >= 0.0) & (t <= max_range)
-    d = np.where(hit, t, np.inf).min(axis=2) if len(c) else np.full(ang.shape, np.inf)
-    if len(seg_a):
-        dirs = np.stack([dx, dy], axis=-1).reshape(-1, 2)
-        seg = geometry.ray_segment_distances(np.repeat(o, len(angles), axis=0), dirs, seg_a, seg_b, max_range)
-        d = np.minimum(d, seg.min(axis=1).reshape(ang.shape))
-    return d
 
 
 @pytest.mark.parametrize("seed", range(10))
@@ -79,7 +59,7 @@ def test_ring_first_hits_equals_the_masked_formulation_bit_for_bit(seed):
         seg_b = seg_a + rng.uniform(-3.0, 3.0, seg_a.shape)
         reach = float(rng.uniform(0.3, 2.5))
         angles = np.arange(k) * (2 * math.pi / k)
-        want = _ring_first_hits_masked(centers[:n], headings, angles, centers, radii, seg_a, seg_b, reach)
+        want = oracles.ring_first_hits_masked(centers[:n], headings, angles, centers, radii, seg_a, seg_b, reach)
         got = geometry.ring_first_hits(centers[:n], headings, angles, centers, radii,
                                        geometry.SegmentSet(seg_a, seg_b, reach), reach)
         assert got.shape == want.shape and np.array_equal(got, want)
@@ -105,9 +85,9 @@ def test_ir_line_of_sight_equals_segments_blocked(seed):
     exclude = np.zeros((len(rx), len(centers)), bool)
     exclude[np.arange(len(rx)), rx] = True
     exclude[:, tx] = True
-    want = geometry.segments_blocked(centers[rx], np.broadcast_to(centers[tx], (len(rx), 2)), centers, radii, exclude)
+    want = oracles.segments_blocked(centers[rx], np.broadcast_to(centers[tx], (len(rx), 2)), centers, radii, exclude)
     cl, rl = centers.tolist(), radii.tolist()
-    got = np.array([_blocked(*centers[r], *(centers[tx] - centers[r]), cl, rl, int(r), tx) for r in rx])
+    got = np.array([line_of_sight_blocked(*centers[r], *(centers[tx] - centers[r]), cl, rl, int(r), tx) for r in rx])
     assert np.array_equal(got, want)
 
 
@@ -115,7 +95,7 @@ def test_ir_measure_of_a_slot_equals_the_per_receiver_model():
     """One IR slot measured for all receivers at once equals the optical model run on each
     receiver alone (occlusion, ring, estimator), given the same noise."""
     cfg = load_config()
-    world = World(cfg, ScenarioScript(build_scenario("straight", cfg.user, np.random.default_rng(0))))
+    world = World(cfg, SCENARIOS["straight"].script(cfg.user, np.random.default_rng(0)))
     rng = np.random.default_rng(3)
     for p, th in zip(rng.uniform(-2.0, 2.0, (6, 2)), rng.uniform(-3.0, 3.0, 6)):
         world.add_robot(p, th)
@@ -127,14 +107,14 @@ def test_ir_measure_of_a_slot_equals_the_per_receiver_model():
     for j, r in enumerate(rxs):
         others = [i for i in range(len(centers)) if i not in (r, tx)]
         delta = centers[tx] - centers[r]
-        occluded = geometry.segments_blocked(centers[r:r + 1], centers[tx:tx + 1], centers[others], radii[others],
+        occluded = oracles.segments_blocked(centers[r:r + 1], centers[tx:tx + 1], centers[others], radii[others],
                                              np.zeros((1, len(others)), bool))
         b = math.atan2(delta[1], delta[0]) - world.robots[r].heading
         d = max(math.hypot(*delta), 0.01)
         lobe = np.maximum(0.0, np.cos(b - np.arange(cfg.ir.num_receivers) * cfg.ir.spacing_rad)) ** cfg.ir.lobe_exponent
         on_axis = 0.0 if d > cfg.ir.max_range_m else cfg.ir.strength_at_1m / d**2 * (cfg.ir.occlusion_attenuation if occluded[0] else 1.0)
         s = np.clip(on_axis * lobe * (1 + cfg.ir.noise_rel * z[0, j]) + cfg.ir.noise_abs * z[1, j], 0.0, cfg.ir.saturation)
-        d_one, b_one, ok_one = ir.estimate(cfg.ir, s[None, :])
+        d_one, b_one, ok_one = oracles.ir_estimate(cfg.ir, s[None, :])
         assert valid[j] == ok_one[0]
         if ok_one[0]:
             assert dist[j] == pytest.approx(d_one[0], abs=1e-9)
@@ -144,7 +124,7 @@ def test_ir_measure_of_a_slot_equals_the_per_receiver_model():
 
 def test_truth_arrays_follow_the_physics_and_are_read_only():
     cfg = load_config()
-    world = World(cfg, ScenarioScript(build_scenario("straight", cfg.user, np.random.default_rng(0))))
+    world = World(cfg, SCENARIOS["straight"].script(cfg.user, np.random.default_rng(0)))
     robot = world.add_robot((1.0, 2.0), 0.5)
     centers, radii, headings = world.truth_arrays()
     assert centers[0].tolist() == [1.0, 2.0] and headings[0] == 0.5
@@ -162,23 +142,6 @@ def test_truth_arrays_follow_the_physics_and_are_read_only():
     assert world.robot_positions()[0].tolist() == [9.0, 9.0]
 
 
-def _safety_reference(stage, command, ranges):
-    """The ultrasonic safety stage in numpy, as it was written before the plain-Python version."""
-    v = np.array(command[:2], dtype=float)
-    allowed = np.sqrt(stage.two_a * np.maximum(ranges - stage.stop, 0.0))
-    over = (stage.dirs @ v > allowed + 1e-9) | (ranges < 0.5 * stage.stop)
-    if not over.any():
-        return None
-    for k in np.flatnonzero(over):
-        d = stage.dirs[k]
-        excess = float(v @ d) - allowed[k]
-        if excess > 0.0:
-            v = v - excess * d
-        if ranges[k] < 0.5 * stage.stop:
-            v = v - stage.backoff * (1.0 - ranges[k] / (0.5 * stage.stop)) * d
-    return float(v[0]), float(v[1]), float(command[2])
-
-
 def test_safety_stage_equals_the_numpy_formulation():
     from petswarm_env.control.arbiter import SafetyStage
 
@@ -188,7 +151,7 @@ def test_safety_stage_equals_the_numpy_formulation():
     for _ in range(500):
         cmd = tuple(rng.uniform(-1.5, 1.5, 3))
         ranges = rng.uniform(0.05, 2.0, 8) if rng.random() < 0.7 else np.full(8, 2.0)
-        want, got = _safety_reference(stage, cmd, ranges), stage.filter(cmd, ranges)
+        want, got = oracles.safety_filter(stage, cmd, ranges), stage.filter(cmd, ranges)
         assert (want is None) == (got is None)
         if want is not None:
             changed += 1
@@ -198,8 +161,6 @@ def test_safety_stage_equals_the_numpy_formulation():
 
 def _trace_of_waits(clock):
     """Processes that wait on "an event or a timeout", as the token ring does; (time, label) trace."""
-    from petswarm_env.sim.events import call_later
-
     trace = []
 
     def waiter(name, ev, timeout):
@@ -209,16 +170,16 @@ def _trace_of_waits(clock):
     evs = [clock.event() for _ in range(4)]
     for k, ev in enumerate(evs):
         clock.process(waiter(f"w{k}", ev, 0.05 + 0.01 * k))
-    call_later(clock, 0.02, evs[0].succeed)  # before its timeout
-    call_later(clock, 0.08, evs[1].succeed)  # after its timeout: too late
+    clock.later(0.02, evs[0].succeed)  # before its timeout
+    clock.later(0.08, evs[1].succeed)  # after its timeout: too late
     evs[2].succeed()  # already triggered when the condition is built? (processed at t=0)
-    call_later(clock, 0.03, lambda: trace.append((clock.now, "tick", None)))
+    clock.later(0.03, lambda: trace.append((clock.now, "tick", None)))
     clock.run_until(0.2)
     return trace
 
 
 def test_first_of_resumes_like_simpy_any_of():
-    from petswarm_env.sim.world import Clock
+    from petswarm_env.sim.clock import Clock
 
     class SimpyClock(Clock):
         def any_of(self, events):
@@ -229,35 +190,53 @@ def test_first_of_resumes_like_simpy_any_of():
     assert [t[1] for t in fast] == ["w2", "w0", "tick", "w1", "w3"]
 
 
-@pytest.mark.parametrize("bound", [False, True], ids=["call_later", "scheduler"])
-def test_bare_callbacks_run_in_clock_order_on_either_loop(bound):
-    """call_later on the env's clock (bare tuples) and on a plain SimPy environment (Call events)
-    run the same callbacks in the same order, with run_until or with SimPy's run; so does the
-    clock-bound form of the radio and the nodes (``scheduler(clock)``)."""
-    from petswarm_env.sim.events import call_later, scheduler
-    from petswarm_env.sim.world import Clock
+def _later_as_simpy_timeouts(clock):
+    """The oracle of ``Clock.later``: ``later(delay, fn, *args)`` is a SimPy timeout of ``delay``
+    with one callback that calls ``fn(*args)`` (same queue key, so the same order)."""
 
-    def trace(clock, run):
+    def later(delay, fn, *args):
+        clock.timeout(delay).callbacks.append(lambda _event: fn(*args))
+
+    return later
+
+
+@pytest.mark.parametrize("loop", ["run_until", "run"])
+def test_bare_callbacks_run_in_clock_order(loop):
+    """``Clock.later`` runs its callbacks at the times and in the order of SimPy timeouts with a
+    callback (a plain SimPy environment, the oracle), among a process's own timeouts, with
+    ``run_until`` and with SimPy's ``run``; ``clock.now`` follows the time."""
+    import simpy
+
+    from petswarm_env.sim.clock import Clock
+
+    def trace(clock, later):
         out = []
-        later = scheduler(clock) if bound else lambda *a: call_later(clock, *a)
         for k, delay in enumerate([0.3, 0.1, 0.2, 0.1, 0.0]):
             later(delay, lambda k=k: out.append((round(clock.now, 9), k)))
+
         def proc():
             yield clock.timeout(0.15)
-            out.append((0.15, "proc"))
+            out.append((round(clock.now, 9), "proc"))
+            later(0.0, lambda: out.append((round(clock.now, 9), "from proc")))
 
         clock.process(proc())
-        run(clock)
+        if loop == "run_until" and isinstance(clock, Clock):
+            clock.run_until(1.0)
+        else:
+            clock.run(until=1.0)
+        assert clock.now == 1.0
         return out
 
-    want = [(0.0, 4), (0.1, 1), (0.1, 3), (0.15, "proc"), (0.2, 2), (0.3, 0)]
-    assert trace(Clock(), lambda c: c.run_until(1.0)) == want
-    assert trace(Clock(), lambda c: c.run(until=1.0)) == want
-    assert trace(simpy.Environment(), lambda c: c.run(until=1.0)) == want
+    want = trace(ref := simpy.Environment(), _later_as_simpy_timeouts(ref))
+    assert want == [(0.0, 4), (0.1, 1), (0.1, 3), (0.15, "proc"), (0.15, "from proc"), (0.2, 2), (0.3, 0)]
+    clock = Clock()
+    assert trace(clock, clock.later) == want
+    assert clock._now == clock.now
 
 
 def test_rewards_of_all_slaves_at_once_equal_one_at_a_time():
-    from petswarm_env.reward import slave_reward, slave_rewards
+    from petswarm_env.reward import slave_rewards
+    from tests.oracles import slave_reward
 
     cfg = load_config().reward
     rng = np.random.default_rng(9)
@@ -271,9 +250,9 @@ def test_rewards_of_all_slaves_at_once_equal_one_at_a_time():
 
 
 @pytest.mark.parametrize("seed", range(5))
-def test_ir_rows_in_plain_python_equal_the_numpy_model_exactly(seed):
-    """received_strengths_rows / estimate_rows (one IR slot, plain Python) give the numbers of
-    received_strengths / estimate, also for saturated, occluded, out-of-range and undetected rows:
+def test_ir_model_equals_the_numpy_oracle(seed):
+    """ir.received_strengths / ir.estimate (plain Python, the env's path) give the numbers of their
+    numpy forms (tests/oracles.py), also for saturated, occluded, out-of-range and undetected rows:
     validity and distance exactly; the readings and the bearing to the last bit of the lobe's pow and
     of atan2 (numpy's SIMD ``power`` and ``arctan2`` on AVX-512 CPUs and the C library's ``pow`` and
     ``atan2`` may round differently)."""
@@ -283,94 +262,23 @@ def test_ir_rows_in_plain_python_equal_the_numpy_model_exactly(seed):
     d = np.concatenate([[0.05, 0.3, cfg.max_range_m + 0.5, 5.0], rng.uniform(0.1, 3.5, m - 4)])
     b = rng.uniform(-4.0, 4.0, m)
     occ = rng.random(m) < 0.3
-    want = ir.received_strengths(cfg, d, b, occ, np.random.default_rng(seed))
-    got = ir.received_strengths_rows(cfg, d.tolist(), b.tolist(), occ.tolist(), np.random.default_rng(seed))
+    want = oracles.ir_received_strengths(cfg, d, b, occ, np.random.default_rng(seed))
+    got = ir.received_strengths(cfg, d.tolist(), b.tolist(), occ.tolist(), np.random.default_rng(seed))
     np.testing.assert_allclose(np.array(got), want, rtol=1e-13, atol=1e-12)
     assert np.array_equal(np.array(got) == 0.0, want == 0.0)  # the same clipped and unlit receivers
     assert (want == cfg.saturation).any() and (want.max(axis=1) < cfg.detect_threshold).any()
-    d1, b1, ok1 = ir.estimate(cfg, np.array(got))
-    d2, b2, ok2 = ir.estimate_rows(cfg, got)
+    d1, b1, ok1 = oracles.ir_estimate(cfg, np.array(got))
+    d2, b2, ok2 = ir.estimate(cfg, got)
     assert np.array_equal(ok1, ok2) and ok1.any() and not ok1.all()
     assert np.array_equal(d1, np.array(d2), equal_nan=True)
     np.testing.assert_allclose(np.array(b2), b1, rtol=0, atol=1e-12)  # nan where invalid, in both
-
-
-def _build_observation_reference(layout, node, now, odometry, yaw_rad, last_action, ultrasonic_m, hierarchy_level,
-                                 offset_from_master, limits, us_max_range_m):
-    """observe.build_observation as it was before its lookups were resolved once (offsets by
-    name, ``min`` for the age clip, numpy for the ultrasonic scaling, ``np.array(v, float32)``)."""
-    from petswarm_env.observe import AGE_SCALE_S, POS_SCALE_M
-    from petswarm_env.sim.scenarios import ACTIVITIES
-
-    def clip_age(age, scale):
-        return min(age / scale, 1.0)
-
-    v = [0.0] * layout.size
-    o = {name: sl.start for name, sl in layout.slices.items()}
-    vmax, _, wmax = limits
-    know = node.know
-    for base, link in zip([o[f"link{k}.present"] for k in range(len(layout._link_starts))], node.reference_links()):
-        v[base] = 1.0
-        nb = know.members.get(link.neighbour)
-        m = know.ir.get(nb)
-        if m is not None:
-            b = m.bearing_rad - (yaw_rad - m.own_yaw_rad)
-            v[base + 1] = 1.0
-            v[base + 2] = m.distance_m * math.cos(b) / POS_SCALE_M
-            v[base + 3] = m.distance_m * math.sin(b) / POS_SCALE_M
-            v[base + 4] = clip_age(now - m.time_s, AGE_SCALE_S)
-        else:
-            v[base + 4] = 1.0
-        v[base + 5] = link.offset_m[0] / POS_SCALE_M
-        v[base + 6] = link.offset_m[1] / POS_SCALE_M
-        h = know.heading.get(nb)
-        if h is not None:
-            rel = h.relative_rad - (yaw_rad - h.own_yaw_rad)
-            v[base + 7] = math.sin(rel)
-            v[base + 8] = math.cos(rel)
-            v[base + 9] = 1.0
-            v[base + 10] = clip_age(now - h.time_s, AGE_SCALE_S)
-        else:
-            v[base + 8] = 1.0
-            v[base + 10] = 1.0
-    st = know.status
-    i = o["master.valid"]
-    if st is not None:
-        v[i] = 1.0
-        v[i + 1] = clip_age(now - st.time_s, 1.0)
-        v[i + 2] = st.velocity[0] / vmax
-        v[i + 3] = st.velocity[1] / vmax
-        v[i + 4] = st.velocity[2] / wmax
-        v[o["master.activity"] + ACTIVITIES.index(st.activity)] = 1.0
-        v[o["master.rotating"]] = 1.0 if st.user_rotating else 0.0
-        v[o["master.turn_rate"]] = st.user_turn_rate_rps / wmax
-        v[o["master.leading"]] = 1.0 if st.mode == "leading" else 0.0
-        j = o["master.user_xy"]
-        v[j] = st.user_position_m[0] / POS_SCALE_M
-        v[j + 1] = st.user_position_m[1] / POS_SCALE_M
-    else:
-        v[i + 1] = 1.0
-    j = o["self.odometry"]
-    v[j], v[j + 1], v[j + 2] = odometry[0] / vmax, odometry[1] / vmax, odometry[2] / wmax
-    j = o["self.yaw_sincos"]
-    v[j], v[j + 1] = math.sin(yaw_rad), math.cos(yaw_rad)
-    j = o["self.last_action"]
-    v[j : j + 3] = last_action.tolist()
-    j = o["self.offset_from_master_xy"]
-    v[j], v[j + 1] = offset_from_master[0] / POS_SCALE_M, offset_from_master[1] / POS_SCALE_M
-    j = o["self.ultrasonic"]
-    v[j : j + len(ultrasonic_m)] = (ultrasonic_m / us_max_range_m).tolist()
-    total = max(know.total_members, 1)
-    v[o["self.hierarchy"]] = hierarchy_level / total
-    v[o["self.members"]] = total / 16.0
-    v[o["self.member"]] = know.member / 16.0
-    return v
+    assert np.array_equal(ir.estimate(cfg, [[1.0] * cfg.num_receivers])[2], [cfg.detect_threshold <= 1.0])
 
 
 def _assert_formation_errors_from_the_bodies(env):
-    """_formation_errors (read from the truth arrays as lists) equals the same formulas on the
+    """Experimenter.formation_errors (read from the truth arrays as lists) equals the same formulas on the
     bodies' own position and heading properties."""
-    from petswarm_env.env import _wrap
+    from petswarm_env.sim.geometry import wrap_angle as _wrap
 
     robots, errors, heads = env.world.robots, {}, {}
     for swarm in env.swarms:
@@ -391,20 +299,20 @@ def _assert_formation_errors_from_the_bodies(env):
             x, y = robots[idx].position
             errors[agent] = math.hypot(x - sx / len(links), y - sy / len(links))
             heads[agent] = _wrap(robots[idx].heading - th)
-    assert env._formation_errors() == (errors, heads)
+    assert env.experimenter.formation_errors(env.agents) == (errors, heads)
 
 
 @pytest.mark.parametrize("overrides", [{"swarm.num_slaves": 9, "swarm.formation": "grid", "user.scenario": "u_turn"}, {"user.scenario": "mode_change"}],
                          ids=["9 slaves grid", "mode_change"])
-def test_observation_builder_equals_the_reference_bit_for_bit(overrides):
+def test_observation_builder_equals_the_oracle_bit_for_bit(overrides):
     """The builder, fed as the env feeds it (the ring as a list of floats) and as an array, gives
-    the values of the reference builder to the bit — in float64 (written into a float64 ``out``)
+    the values of the oracle builder (tests/oracles.py) to the bit — in float64 (written into a float64 ``out``)
     and converted to float32 — on the knowledge of real episodes; ages beyond the clip and both
     link slots occur."""
     import petswarm_env
     from baselines.policy import PolicySpec
     from baselines.registry import make_policy
-    from petswarm_env.observe import build_observation
+    from petswarm_env.observe import ObservationLayout, Readings, build_observation
 
     env = petswarm_env.parallel_env(max_cycles=300, **overrides)
     pol = make_policy("scripted", PolicySpec.from_env(env), 0)
@@ -412,25 +320,28 @@ def test_observation_builder_equals_the_reference_bit_for_bit(overrides):
     pol.reset(1)
     checked, clipped, two_links = 0, 0, 0
     rng = np.random.default_rng(0)
+    layouts = [ObservationLayout(env.cfg.robot.ultrasonic.count, env._limits, r) for r in (env.cfg.robot.ultrasonic.max_range_m, 2.7)]
     while env.agents:
         for agent in env.agents:
             idx = env._agent_index[agent]
             node, robot = env.fleet.nodes[idx], env.world.robots[idx]
             now = env.world.now + float(rng.choice([0.0, 1.5, 30.0]))  # ages beyond the clip too
-            args = (node, now, robot.velocity_body, robot.heading + float(rng.normal()), rng.uniform(-1, 1, 3).astype(np.float32))
-            rest = (int(rng.integers(0, 4)), (float(rng.normal()), float(rng.normal())), env._limits,
-                    float(rng.choice([env.cfg.robot.ultrasonic.max_range_m, 2.7])))
-            ranges = env._ranges[idx] * float(rng.uniform(0.5, 1.5))
-            values = _build_observation_reference(env.layout, *args, ranges, *rest)
+            args = (node.know, node.reference_links(), now, robot.velocity_body, robot.heading + float(rng.normal()),
+                    rng.uniform(-1, 1, 3).astype(np.float32))
+            rest = (int(rng.integers(0, 4)), (float(rng.normal()), float(rng.normal())))
+            layout = layouts[int(rng.integers(0, 2))]
+            ranges = env.sensors.ranges[idx] * float(rng.uniform(0.5, 1.5))
+            values = oracles.build_observation(layout, Readings(*args, ranges, *rest))
             want, want32 = np.array(values), np.array(values, dtype=np.float32)
             for ring in (ranges, ranges.tolist()):
-                got = build_observation(env.layout, np.empty(env.layout.size), *args, ring, *rest)  # float64: every bit
+                readings = Readings(*args, ring, *rest)
+                got = build_observation(layout, readings, np.empty(layout.size))  # float64: every bit
                 assert got.tobytes() == want.tobytes()
-                got = build_observation(env.layout, None, *args, ring, *rest)
+                got = build_observation(layout, readings)
                 assert got.dtype == np.float32 and got.tobytes() == want32.tobytes()
             checked += 1
-            clipped += int(want[env.layout.slices["link0.ir_age"]][0] == 1.0 and bool(node.know.ir))
-            two_links += int(want[env.layout.slices["link1.present"]][0] == 1.0)
+            clipped += int(want[layout.slices["link0.ir_age"]][0] == 1.0 and bool(node.know.ir))
+            two_links += int(want[layout.slices["link1.present"]][0] == 1.0)
         _assert_formation_errors_from_the_bodies(env)
         obs, *_ = env.step(pol.act_all({a: obs[a] for a in env.agents}))
     assert checked > 500 and clipped > 10 and (two_links > 10 or "swarm.formation" not in overrides)

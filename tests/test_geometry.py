@@ -1,9 +1,24 @@
-"""Tests for petswarm_env.sim.geometry against hand-computed cases."""
+"""Tests for petswarm_env.sim.geometry and the IR line of sight against hand-computed cases.
+
+The per-circle ray cast (``ray_circle_distances``) and the many-segment line of sight
+(``segments_blocked``) are the oracles of the shipped ``ring_first_hits`` and
+``ir_channel.line_of_sight_blocked`` (tests/oracles.py); the hand cases check both forms."""
+
+import math
 
 import numpy as np
 import pytest
 
-from petswarm_env.sim.geometry import ray_circle_distances, ray_segment_distances, segments_blocked
+from petswarm_env.comms.ir_channel import line_of_sight_blocked
+from petswarm_env.sim.geometry import ray_segment_distances, ring_first_hits
+from tests.oracles import ray_circle_distances, segments_blocked
+
+
+def _ring_one_circle(origin, angle, center, radius, max_range):
+    """ring_first_hits for one ray against one circle (no walls)."""
+    d = ring_first_hits(np.array([origin], float), np.array([0.0]), np.array([angle]), np.array([center], float),
+                        np.array([radius], float), None, max_range)
+    return float(d[0, 0])
 
 
 def test_ray_circle_hand_cases():
@@ -20,6 +35,11 @@ def test_ray_circle_hand_cases():
     assert d[2, 0] == np.inf
     # 45° ray vs circle at (5, 0) r=1: closest approach 5/√2 ≈ 3.54 > 1 → miss
     assert d[3, 0] == np.inf
+    angles = [0.0, math.pi, math.pi / 2, math.pi / 4]  # the same rays in the ring's form
+    for i, a in enumerate(angles):
+        for j in range(2):
+            ring = _ring_one_circle(origins[i], a, centers[j], radii[j], 10.0)
+            assert ring == pytest.approx(d[i, j], abs=1e-12) if np.isfinite(d[i, j]) else ring == np.inf
 
 
 def test_ray_circle_tangent_and_oblique():
@@ -29,6 +49,8 @@ def test_ray_circle_tangent_and_oblique():
     # Ray along y = 0.6 hits the unit circle at x = 5 − 0.8.
     d = ray_circle_distances([[0.0, 0.6]], [[1.0, 0.0]], [[5.0, 0.0]], [1.0], max_range=10.0)
     assert d[0, 0] == pytest.approx(4.2)
+    assert _ring_one_circle((0.0, 1.0), 0.0, (5.0, 0.0), 1.0, 10.0) == pytest.approx(5.0)
+    assert _ring_one_circle((0.0, 0.6), 0.0, (5.0, 0.0), 1.0, 10.0) == pytest.approx(4.2)
 
 
 def test_ray_circle_max_range_and_origin_inside():
@@ -38,6 +60,8 @@ def test_ray_circle_max_range_and_origin_inside():
     d = ray_circle_distances([[0.0, 0.0]], [[1.0, 0.0]], [[0.0, 0.0], [2.0, 0.0]], [0.3, 0.5], max_range=10.0)
     assert d[0, 0] == np.inf
     assert d[0, 1] == pytest.approx(1.5)
+    assert _ring_one_circle((0.0, 0.0), 0.0, (5.0, 0.0), 1.0, 3.9) == np.inf
+    assert _ring_one_circle((0.0, 0.0), 0.0, (0.0, 0.0), 0.3, 10.0) == np.inf
 
 
 def test_ray_segment_hand_cases():
@@ -98,6 +122,11 @@ def test_segments_blocked_with_exclude():
     exclude[0, 1] = True
     exclude[2, 3] = True
     np.testing.assert_array_equal(segments_blocked(p_from, p_to, centers, radii, exclude), [False, False, False])
+    # the IR slot's form: the receiver and the transmitter are the two excluded bodies
+    cl, rl = centers.tolist() + [[2.0, 2.0]], radii.tolist() + [0.2]
+    assert line_of_sight_blocked(0.0, 0.0, 2.0, 0.0, cl, rl, 0, 2)  # A → C: B in between
+    assert not line_of_sight_blocked(0.0, 0.0, 1.0, 0.0, cl, rl, 0, 1)  # A → B
+    assert line_of_sight_blocked(0.0, 0.0, 2.0, 2.0, cl, rl, 0, 4)  # A → (2, 2): through D
 
 
 def test_segments_blocked_near_miss_and_beyond_end():
@@ -108,3 +137,22 @@ def test_segments_blocked_near_miss_and_beyond_end():
     assert not blocked[0]
     blocked = segments_blocked([[0.0, 0.0]], [[2.6, 0.0]], centers, radii, np.zeros((1, 2), bool))
     assert blocked[0]
+    cl, rl = centers.tolist() + [[0.0, 0.0]], radii.tolist() + [0.1]  # the receiver at the origin
+    assert not line_of_sight_blocked(0.0, 0.0, 2.0, 0.0, cl, rl, 2, 2)
+    assert line_of_sight_blocked(0.0, 0.0, 2.6, 0.0, cl, rl, 2, 2)
+
+
+def test_wrap_angle_on_floats_and_arrays_alike():
+    """The one angle wrap: [−π, π), the same numbers on Python floats and on numpy arrays, and
+    −wrap_angle(−a) is π − (π − a) mod 2π (the IR estimator's (−π, π]) to the bit."""
+    from petswarm_env.sim.geometry import wrap_angle
+
+    rng = np.random.default_rng(4)
+    a = np.concatenate([rng.uniform(-20.0, 20.0, 20_000), [0.0, math.pi, -math.pi, 3 * math.pi, 1e-300]])
+    got = np.array([wrap_angle(x) for x in a.tolist()])
+    assert np.array_equal(got.view(np.uint64), wrap_angle(a).view(np.uint64))
+    assert ((got >= -math.pi) & (got <= math.pi)).all()
+    np.testing.assert_allclose(np.cos(got), np.cos(a), atol=1e-12)
+    mirrored = [-wrap_angle(-x) for x in a.tolist()]
+    assert mirrored == [math.pi - (math.pi - x) % (2 * math.pi) for x in a.tolist()]
+    assert wrap_angle(math.pi) == -math.pi and -wrap_angle(-math.pi) == math.pi

@@ -74,7 +74,7 @@ def _arc_in_place(angle_deg: float, seed: int) -> float:
         odo = robot.body_velocity()
         tracker.move(odo, robot.th, dt)
         if t >= next_fix:
-            fix = lf.locate(CFG.lf, robot.to_body((0.0, 0.0)), rng_lf)
+            fix = lf.locate(CFG.lf, *robot.to_body((0.0, 0.0)).tolist(), rng_lf)
             if fix.valid:
                 tracker.fix((fix.x_fwd, fix.y_left), t)
             next_fix += CFG.lf.burst_period_s

@@ -3,11 +3,11 @@
 
 import numpy as np
 import pytest
-import simpy
 
 import petswarm_env
 from petswarm_env.comms.radio import BROADCAST, PAN_WAITING, Frame, RadioMedium
 from petswarm_env.config import load_config
+from petswarm_env.sim.clock import Clock
 
 PAN_A, PAN_B = 0x1001, 0x2002
 
@@ -33,7 +33,7 @@ class FakeStation:
 
 def medium(seed=0, **radio_overrides):
     cfg = load_config(overrides={f"radio.{k}": v for k, v in radio_overrides.items()}).radio
-    clock = simpy.Environment()
+    clock = Clock()
     return clock, RadioMedium(clock, cfg, np.random.default_rng(seed))
 
 

@@ -7,7 +7,8 @@ import pytest
 
 import petswarm_env
 from petswarm_env.middleware import messages as msg
-from petswarm_env.middleware.token_ring import relative_heading, wrap
+from petswarm_env.middleware.token_ring import relative_heading
+from petswarm_env.sim.geometry import wrap_angle as wrap
 
 STILL = {"user.start_delay_s": 100.0}  # the user stands: every robot (nearly) still, truth stable
 
@@ -307,11 +308,11 @@ def test_a_robot_built_alone_has_its_own_managers_and_an_unwired_ir_port_says_so
     from petswarm_env.comms.radio import RadioMedium
     from petswarm_env.config import load_config
     from petswarm_env.middleware.node import Node
-    from petswarm_env.sim.scenarios import ScenarioScript, build_scenario
+    from petswarm_env.scenarios import SCENARIOS
     from petswarm_env.sim.world import World
 
     cfg = load_config()
-    world = World(cfg, ScenarioScript(build_scenario("straight", cfg.user, np.random.default_rng(0))))
+    world = World(cfg, SCENARIOS["straight"].script(cfg.user, np.random.default_rng(0)))
     world.add_robot((-1.0, 0.0), 0.0)
     node = Node(0, cfg, world.clock, RadioMedium(world.clock, cfg.radio, np.random.default_rng(1)), world.robots[0],
                 np.random.default_rng(2))

@@ -19,13 +19,13 @@ from petswarm_env.middleware.modes import plan_mode_change
 from petswarm_env.middleware.fleet import Fleet
 from petswarm_env.middleware.swarm import Swarm
 from petswarm_env.middleware.user_session import UserSession
-from petswarm_env.sim.scenarios import ScenarioScript, build_scenario
+from petswarm_env.scenarios import SCENARIOS
 from petswarm_env.sim.world import World
 
 
 def run(env, steps, policy=None):
     """Step the env with the scripted policy (or none) for ``steps`` control periods."""
-    obs = env._observe() if env.agents else {}
+    obs = env.observer.observe(env.agents, env._last_action, env.world.now) if env.agents else {}
     pol = policy or make_policy("scripted", PolicySpec.from_env(env))
     infos = {}
     for _ in range(steps):
@@ -38,14 +38,14 @@ def run(env, steps, policy=None):
 # -- pairing (seed 002 §3.2) -----------------------------------------------------------------------
 def _pairing_world(robot_distance_m, robot_pattern, user_pattern=0x5A00):
     cfg = load_config()
-    world = World(cfg, ScenarioScript(build_scenario("straight", cfg.user, np.random.default_rng(0))))
+    world = World(cfg, SCENARIOS["straight"].script(cfg.user, np.random.default_rng(0)))
     world.add_robot((-robot_distance_m, 0.0), 0.0)
     rng = np.random.default_rng(1)
     radio = RadioMedium(world.clock, cfg.radio, rng)
     fleet = Fleet(cfg, world, radio, IRChannel(world, cfg.ir, rng), rng)
     swarm = Swarm(fleet, 0, 0x1001, 0, [])
     for r in world.robots:
-        r.ahrs_rng = np.random.default_rng(2)
+        r.ahrs.rng = np.random.default_rng(2)
     session = UserSession(cfg, world, swarm, world.user, np.random.default_rng(3), user_pattern, robot_pattern)
     for _ in range(int(2 * cfg.lf.wake_period_s / cfg.control_period_s) + 10):  # two burst periods
         session.step((0.0, 0.0, 0.0), np.full(cfg.robot.ultrasonic.count, 2.0))

@@ -5,15 +5,16 @@ import math
 import numpy as np
 import pytest
 
-from petswarm_env.config import SCENARIOS, load_config
+from petswarm_env.config import load_config
+from petswarm_env.scenarios import SCENARIOS
 from petswarm_env.sim.robot import Robot
-from petswarm_env.sim.scenarios import ScenarioScript, build_scenario
+from petswarm_env.sim.sensors import UltrasonicRing
 from petswarm_env.sim.world import World
 
 
 def _walk(name, seconds, seed=0, **overrides):
     cfg = load_config(overrides={"user.scenario": name, **overrides})
-    world = World(cfg, ScenarioScript(build_scenario(name, cfg.user, np.random.default_rng(seed))))
+    world = World(cfg, SCENARIOS[name].script(cfg.user, np.random.default_rng(seed)))
     world.user.walking = True
     world.advance(int(seconds / world.dt_sub))
     return world
@@ -46,20 +47,23 @@ def test_random_walk_is_seeded():
 
 
 def test_unknown_scenario_is_refused_with_the_choices():
-    with pytest.raises(ValueError, match="zigzag"):
-        build_scenario("moonwalk", load_config().user, np.random.default_rng(0))
+    from petswarm_env import scenarios
+
+    with pytest.raises(ValueError, match="unknown scenario 'moonwalk'; choose one of: straight, .*zigzag"):
+        scenarios.get("moonwalk")
     assert len(SCENARIOS) == 8
 
 
 def test_ultrasonic_sees_a_box_ahead_and_a_robot_collides_with_it():
     cfg = load_config(overrides={"world.obstacles": [{"center_m": [3.0, 0.0], "size_m": [1.0, 2.0]}]})
-    world = World(cfg, ScenarioScript(build_scenario("straight", cfg.user, np.random.default_rng(0))))
+    world = World(cfg, SCENARIOS["straight"].script(cfg.user, np.random.default_rng(0)))
     world.user.body.position = (-10.0, 0.0)
     robot: Robot = world.add_robot((1.0, 0.0), 0.0)
     rng = np.random.default_rng(0)
-    front = world.ultrasonic_ranges([0], rng)[0, 0]
+    ring = UltrasonicRing(cfg.robot, world.wall_a, world.wall_b)
+    front = ring.ranges(world, [0], rng)[0, 0]
     assert front == pytest.approx(3.0 - 0.5 - 1.0 - cfg.robot.radius_m, abs=0.05)
-    back = world.ultrasonic_ranges([0], rng)[0, 4]
+    back = ring.ranges(world, [0], rng)[0, 4]
     assert back == pytest.approx(cfg.robot.ultrasonic.max_range_m)  # nothing behind within range
     robot.set_command(1.0, 0.0, 0.0)
     world.advance(400)  # 4 s at 1 m/s: it reaches the box
@@ -69,7 +73,7 @@ def test_ultrasonic_sees_a_box_ahead_and_a_robot_collides_with_it():
 
 def test_robots_bump_into_the_user_and_the_user_does_not_yield():
     cfg = load_config()
-    world = World(cfg, ScenarioScript(build_scenario("straight", cfg.user, np.random.default_rng(0))))
+    world = World(cfg, SCENARIOS["straight"].script(cfg.user, np.random.default_rng(0)))
     robot = world.add_robot((-2.0, 0.0), 0.0)
     robot.set_command(1.0, 0.0, 0.0)
     world.advance(300)

@@ -38,17 +38,19 @@ class IRChannel:
             dxs.append(dx)
             dys.append(dy)
             bearing.append(math.atan2(dy, dx) - hl[r])  # in the receiver's frame (its heading only)
-            occluded.append(_blocked(px, py, dx, dy, cl, rl, r, tx_index))
+            occluded.append(line_of_sight_blocked(px, py, dx, dy, cl, rl, r, tx_index))
         # numpy's hypot (libm's), not math.hypot: the two differ in the last bit now and then
         distance = np.hypot(np.array(dxs), np.array(dys)).tolist()
-        strengths = ir.received_strengths_rows(self.cfg, distance, bearing, occluded, self.rng)
-        return ir.estimate_rows(self.cfg, strengths)
+        strengths = ir.received_strengths(self.cfg, distance, bearing, occluded, self.rng)
+        return ir.estimate(self.cfg, strengths)
 
 
-def _blocked(px: float, py: float, vx: float, vy: float, centers: list, radii: list, rx: int, tx: int) -> bool:
+def line_of_sight_blocked(px: float, py: float, vx: float, vy: float, centers: list, radii: list, rx: int, tx: int) -> bool:
     """Does a body other than the receiver ``rx`` and the transmitter ``tx`` cut the line of sight
-    ``p → p + v``? :func:`~petswarm_env.sim.geometry.segments_blocked` for one segment (same
-    formulas, in plain Python: an IR slot has a handful of them)."""
+    ``p → p + v``? A circle (``centers``, ``radii``: every round body, as lists) blocks it when its
+    centre is strictly closer than its radius to some point of the segment (grazing is clear).
+    Plain Python: an IR slot has a handful of segments (``tests/oracles.py`` keeps the numpy form
+    for many segments, ``segments_blocked``)."""
     vv = vx * vx + vy * vy
     den = vv if vv > 0.0 else 1.0
     for j, ((cx, cy), r) in enumerate(zip(centers, radii)):

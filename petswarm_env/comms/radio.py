@@ -32,11 +32,10 @@ from dataclasses import dataclass, field
 from typing import Any, Protocol
 
 import numpy as np
-import simpy
 
 from petswarm_env.config import RadioConfig
+from petswarm_env.sim.clock import Clock
 from petswarm_env.sim.draws import Draws
-from petswarm_env.sim.events import scheduler
 
 __all__ = ["BROADCAST", "PAN_WAITING", "Frame", "RadioMedium", "RadioStats", "Station"]
 
@@ -84,9 +83,9 @@ class _Tx:
 class RadioMedium:
     """One shared channel; stations attach, then send frames."""
 
-    def __init__(self, clock: simpy.Environment, cfg: RadioConfig, rng: np.random.Generator):
+    def __init__(self, clock: Clock, cfg: RadioConfig, rng: np.random.Generator):
         self.clock = clock
-        self._later = scheduler(clock)  # later(delay, fn, *args): a call on the clock
+        self._later = clock.later  # later(delay, fn, *args): a call on the clock
         self.cfg = cfg
         self.rng = rng
         # two independent streams: the MAC's backoffs, and what happens at receivers (loss,
@@ -141,7 +140,7 @@ class RadioMedium:
         return int(self._mac_draws.uniform() * (1 << be)) * self._backoff_slot_s
 
     def _cca(self, station: Station, frame: Frame, nb: int, be: int) -> None:
-        now = self.clock._now
+        now = self.clock.now
         x, y = station.position()
         r2 = self._range2
         for tx in self._air:
@@ -164,7 +163,7 @@ class RadioMedium:
     def _deliver(self, tx: _Tx, sender: Station) -> None:
         """The frame has left the air: every station in range gets it now, unless it collided."""
         self._done(sender)
-        now = self.clock._now  # (the clock's ``now``, read without the property)
+        now = self.clock.now
         frame = tx.frame
         air = self._air
         # one pass: the transmissions that overlap this one, and the start of the oldest one still

@@ -34,10 +34,7 @@ import math
 from dataclasses import dataclass
 
 from petswarm_env.config import MasterConfig
-
-
-def _wrap(a: float) -> float:
-    return (a + math.pi) % (2 * math.pi) - math.pi
+from petswarm_env.sim.geometry import wrap_angle
 
 
 @dataclass
@@ -145,14 +142,14 @@ class MasterController:
         cfg = self.cfg
         speed = math.hypot(*user_vel)
         if self._walk_dir is None:
-            self._walk_dir = _wrap(bearing + math.pi) if mode == "leading" else bearing
+            self._walk_dir = wrap_angle(bearing + math.pi) if mode == "leading" else bearing
             self._trusted = belt.activity in ("stop", "rest") and not belt.rotating
         turn = 0.0
         if belt.rotating:  # the belt's accumulated angle restarts at 0 with every rotation
             turn = belt.accumulated_angle_rad - (self._belt_angle if self._was_rotating else 0.0)
             self._belt_angle = belt.accumulated_angle_rad
         self._was_rotating = belt.rotating
-        self._walk_dir = _wrap(self._walk_dir + turn - own_omega * dt)
+        self._walk_dir = wrap_angle(self._walk_dir + turn - own_omega * dt)
         if belt.activity in ("stop", "rest"):
             c, s = math.cos(bearing), math.sin(bearing)
             radial = user_vel[0] * c + user_vel[1] * s
@@ -162,7 +159,7 @@ class MasterController:
         if speed > cfg.walk_speed_mps and not belt.rotating:
             track = math.atan2(user_vel[1], user_vel[0])
             k = min(1.0, cfg.heading_blend_rps * dt) if self._trusted else 1.0
-            self._walk_dir = _wrap(self._walk_dir + k * _wrap(track - self._walk_dir))
+            self._walk_dir = wrap_angle(self._walk_dir + k * wrap_angle(track - self._walk_dir))
             self._trusted = True
         return (speed * math.cos(self._walk_dir), speed * math.sin(self._walk_dir)), True
 
@@ -234,7 +231,7 @@ class MasterController:
         # 2. per mode: the robot's place about the user turns at ``swing`` (rad/s, CCW)
         arc = swing = 0.0
         if mode == "leading":  # straight ahead of the user
-            off = _wrap(bearing + math.pi - psi)  # the robot's place about the user from straight ahead
+            off = wrap_angle(bearing + math.pi - psi)  # the robot's place about the user from straight ahead
             sync = self._arc_in_place(belt, off, (ux, uy), own_velocity, dt) if self._trusted else None
             if sync is not None:  # the user turns on the spot: the arc closes on the accumulated angle
                 arc = swing = sync
@@ -243,7 +240,7 @@ class MasterController:
                     arc = belt.angular_speed_rps * max(0.0, math.cos(off))  # or behind is met by the turn
                 swing = arc - cfg.arc_gain * math.sin(beyond(off))  # and closes on straight ahead
         elif walking:  # following: drift in behind the walking user
-            swing = -cfg.trail_rps * math.sin(_wrap(bearing - psi))
+            swing = -cfg.trail_rps * math.sin(wrap_angle(bearing - psi))
         vx += swing * uy  # the robot's place relative to the user, −user_pos, turns at ``swing``
         vy += -swing * ux
         if mode == "leading" and not belt.rotating and abs(bearing) > self.half_angle:
@@ -251,7 +248,7 @@ class MasterController:
         # 3. heading: face the user
         if mode == "leading":  # drive backwards along the user's walk, the user kept inside the region
             lim = self.half_angle - band
-            w = arc + cfg.rotate_gain * min(bearing + lim, max(bearing - lim, beyond(_wrap(psi - math.pi))))
+            w = arc + cfg.rotate_gain * min(bearing + lim, max(bearing - lim, beyond(wrap_angle(psi - math.pi))))
         else:  # turn with the line of sight (from the odometry) and correct beyond the deadband
             w = (ux * (wy - own_velocity[1]) - uy * (wx - own_velocity[0])) / (r * r)
             w += cfg.rotate_gain * beyond(bearing)

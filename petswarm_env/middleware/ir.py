@@ -16,10 +16,16 @@ This module keeps the two halves apart on purpose:
   (exponent 1) and no noise. The configured ``lobe_exponent`` differs from 1, so the estimator
   carries a real model error, as the paper's hardware does.
 
+Both run on Python floats, row by row: an IR slot has 1–9 receivers, and numpy's fixed cost per
+call (about 1 µs) outweighs its arithmetic on so few rows. ``tests/oracles.py`` keeps the same two
+functions written with numpy arrays; ``tests/test_fast_paths.py`` holds these to them (validity and
+distance exactly; the readings and the bearing to the last bit of the lobe's ``pow`` and of
+``atan2``, which numpy's SIMD routines on AVX-512 CPUs may round differently from the C library's
+used here — so the env's episodes do not depend on numpy's SIMD dispatch).
+
 Frames and units: bearings are in radians in the receiving robot's body frame, counter-clockwise
 from the robot's front (+x); receiver k points at ``k·2π/K``. Distances are in metres; strengths
-are in arbitrary ADC units.
-"""
+are in arbitrary ADC units."""
 
 from __future__ import annotations
 
@@ -27,175 +33,47 @@ import functools
 import math
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+
+from petswarm_env.config import IRConfig
+from petswarm_env.sim import geometry
 
 # Distances are clamped to at least this (m) so a degenerate zero distance cannot produce inf·0.
 _MIN_DISTANCE_M = 0.01
 
 
-class IRConfig(BaseModel):
-    """Parameters of the IR module. Values live in the YAML config (calibrated to seed 000 Table 4)."""
-
-    model_config = ConfigDict(extra="forbid", frozen=True)
-
-    num_receivers: int = Field(
-        ...,
-        ge=7,
-        description=(
-            "Phototransistors in the ring, equally spaced, receiver 0 at the robot's front, "
-            "numbered counter-clockwise. At least 7, so that both side neighbours of the strongest "
-            "receiver stay inside the front half of the lobe (spacing < 60°)."
-        ),
-    )
-    strength_at_1m: float = Field(
-        ..., gt=0, description="Received strength on a receiver's axis with the source at 1 m, ADC units."
-    )
-    lobe_exponent: float = Field(
-        ...,
-        gt=0,
-        description=(
-            "Angular response of one receiver, max(0, cos(Δ))**lobe_exponent for a source Δ rad "
-            "off its axis. The estimator assumes 1; the hardware is modelled with a different value."
-        ),
-    )
-    noise_rel: float = Field(
-        ..., ge=0, description="σ of the multiplicative Gaussian noise on each receiver, fraction of the signal."
-    )
-    noise_abs: float = Field(..., ge=0, description="σ of the additive Gaussian noise on each receiver, ADC units.")
-    saturation: float = Field(..., gt=0, description="ADC ceiling, ADC units; readings are clipped to [0, saturation].")
-    detect_threshold: float = Field(
-        ..., gt=0, description="Strongest reading below this (ADC units) means no detection."
-    )
-    occlusion_attenuation: float = Field(
-        ..., ge=0, le=1, description="Factor on the optical signal when a body blocks the line of sight."
-    )
-    max_range_m: float = Field(
-        ..., gt=0, description="Sources farther than this (m) contribute no signal, only receiver noise."
-    )
-
-    @property
-    def spacing_rad(self) -> float:
-        """Angle between neighbouring receivers, rad."""
-        return 2.0 * np.pi / self.num_receivers
-
-
-def wrap_angle(angle_rad: np.ndarray) -> np.ndarray:
-    """Wrap angles (rad) to the interval (−π, π]."""
-    wrapped = np.pi - np.mod(np.pi - np.asarray(angle_rad, dtype=float), 2.0 * np.pi)
-    # Rounding can land an angle just above −π exactly on −π; that end of the interval is open.
-    return np.where(wrapped <= -np.pi, wrapped + 2.0 * np.pi, wrapped)
-
-
-def received_strengths(
-    cfg: IRConfig,
-    distance_m: np.ndarray,
-    bearing_rad: np.ndarray,
-    occluded: np.ndarray,
-    rng: np.random.Generator,
-) -> np.ndarray:
-    """Simulate the readings of the receiver ring for M transmitter/receiver pairs.
-
-    Args:
-        cfg: IR module parameters.
-        distance_m: (M,) centre-to-centre distance from transmitter to receiver, m.
-        bearing_rad: (M,) bearing of the transmitter in the *receiving* robot's body frame, rad.
-        occluded: (M,) bool, True where a body blocks the line of sight.
-        rng: random generator for the receiver noise.
-
-    Returns:
-        (M, K) readings in ADC units, within [0, cfg.saturation].
-    """
-    d = np.maximum(np.asarray(distance_m, dtype=float).reshape(-1), _MIN_DISTANCE_M)
-    bearing = np.asarray(bearing_rad, dtype=float).reshape(-1)
-    occ = np.asarray(occluded, dtype=bool).reshape(-1)
-    axes = _ring(cfg.num_receivers)[0]  # (K,)
-    lobe = np.maximum(0.0, np.cos(bearing[:, None] - axes)) ** cfg.lobe_exponent
-    on_axis = cfg.strength_at_1m / d**2  # inverse-square fall-off
-    on_axis = np.where(occ, on_axis * cfg.occlusion_attenuation, on_axis)
-    on_axis = np.where(d > cfg.max_range_m, 0.0, on_axis)
-    signal = on_axis[:, None] * lobe
-    # the multiplicative, then the additive noise of every receiver: one draw of both (the same
-    # numbers as two draws of signal.shape, one after the other)
-    z = rng.standard_normal((2, *signal.shape))
-    noisy = signal * (1.0 + cfg.noise_rel * z[0])
-    noisy = noisy + cfg.noise_abs * z[1]
-    return np.minimum(np.maximum(noisy, 0.0), cfg.saturation)  # np.clip(noisy, 0, saturation)
-
-
 @functools.cache
-def _ring(num_receivers: int) -> tuple[np.ndarray, float, float, float]:
+def _ring(num_receivers: int) -> tuple[tuple[float, ...], float, float, float]:
     """Receiver axes (rad) of a ring of ``num_receivers``, its spacing Δ, cos Δ and sin Δ."""
     delta = 2.0 * np.pi / num_receivers
-    axes = np.arange(num_receivers) * delta
-    axes.flags.writeable = False
+    axes = tuple((np.arange(num_receivers) * delta).tolist())
     return axes, delta, float(np.cos(delta)), float(np.sin(delta))
 
 
-def estimate(cfg: IRConfig, strengths: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The paper's estimator: distance and direction of the source from the ring readings.
-
-    For the strongest receiver i (strength S0) and its neighbours i+1 (S+, counter-clockwise) and
-    i−1 (S−), with ring spacing Δ, the least-squares fit of an ideal cosine lobe
-    ``S_j = r·cos(φ − jΔ)`` to the three readings gives the source-vector components in the frame
-    of receiver i (exact when the lobe really is a cosine and there is no noise):
-
-        a = (S0 + (S+ + S−)·cos Δ) / (1 + 2·cos²Δ)
-        b = (S+ − S−)·sin Δ / (2·sin²Δ)
-
-    Then ``r = hypot(a, b)``, ``d = sqrt(strength_at_1m / r)`` (inverse square) and
-    ``θ = atan2(b, a) + i·Δ`` wrapped to (−π, π].
-
-    Args:
-        cfg: IR module parameters (ring size, strength_at_1m, detect_threshold).
-        strengths: (M, K) readings, ADC units.
-
-    Returns:
-        distance_m (M,), bearing_rad (M,) in the receiving robot's body frame, valid (M,) bool.
-        Rows whose strongest reading is below ``cfg.detect_threshold`` are invalid and get nan.
-    """
-    # seed 000, §3.3, Eqs. 1–3 (text garbled in the extraction; reconstructed as above)
-    s = np.asarray(strengths, dtype=float).reshape(-1, cfg.num_receivers)
-    k = cfg.num_receivers
-    _, delta, cos_d, sin_d = _ring(k)
-    rows = np.arange(s.shape[0])
-    i = np.argmax(s, axis=1)
-    s0 = s[rows, i]
-    s_plus = s[rows, (i + 1) % k]
-    s_minus = s[rows, (i - 1) % k]
-    a = (s0 + (s_plus + s_minus) * cos_d) / (1.0 + 2.0 * cos_d**2)
-    b = (s_plus - s_minus) * sin_d / (2.0 * sin_d**2)
-    r = np.hypot(a, b)
-    valid = (s0 >= cfg.detect_threshold) & (r > 0.0)
-    safe_r = np.where(valid, r, 1.0)
-    distance = np.where(valid, np.sqrt(cfg.strength_at_1m / safe_r), np.nan)
-    bearing = np.where(valid, wrap_angle(np.arctan2(b, a) + i * delta), np.nan)
-    return distance, bearing, valid
-
-
-# -- the same for the few receivers of one IR slot, in plain Python ------------------------------------
-# An IR slot has 1-9 receivers: numpy's fixed cost per call (about 1 µs) outweighs its arithmetic on so
-# few rows, so the channel runs the two functions above row by row with Python floats. Every
-# operation is the one numpy does, in the same order (``a*a`` for ``**2``, numpy's maximum/minimum
-# rules for the clip, one ``np.hypot`` call for r), so the numbers are the same (tests/test_fast_paths.py)
-# but for two operations: the lobe's ``cos**lobe_exponent`` and the bearing's ``atan2`` are the C
-# library's here, and numpy's ``power`` and ``arctan2`` on arrays are SIMD routines on CPUs with AVX-512
-# that can round the last bit differently. The env runs only this path, so its episodes do not depend
-# on numpy's SIMD dispatch for them.
-# The one shortcut: a receiver facing away from the source (lobe 0, about half the ring) reads the
-# additive noise alone, which is what ``on_axis·0·(1 + …) + noise`` gives.
-
-
-def received_strengths_rows(
+def received_strengths(
     cfg: IRConfig,
     distance_m: list[float],
     bearing_rad: list[float],
     occluded: list[bool],
     rng: np.random.Generator,
 ) -> list[list[float]]:
-    """:func:`received_strengths` for a few pairs (lists in, a list of K readings per pair out),
-    drawing the same noise from ``rng``."""
+    """Simulate the readings of the receiver ring for M transmitter/receiver pairs.
+
+    Args:
+        cfg: IR module parameters.
+        distance_m: M centre-to-centre distances from transmitter to receiver, m.
+        bearing_rad: M bearings of the transmitter in the *receiving* robot's body frame, rad.
+        occluded: M flags, True where a body blocks the line of sight.
+        rng: random generator for the receiver noise: one draw of (2, M, K) normals, the
+            multiplicative then the additive noise of every receiver.
+
+    Returns:
+        M rows of K readings in ADC units, within [0, cfg.saturation].
+
+    A receiver facing away from the source (lobe 0, about half the ring) reads the additive noise
+    alone, which is what ``on_axis·0·(1 + …) + noise`` gives.
+    """
     k = cfg.num_receivers
-    axes = _ring(k)[0].tolist()
+    axes = _ring(k)[0]
     z_rel, z_abs = rng.standard_normal((2, len(distance_m), k)).tolist()
     s1, att, far, exponent = cfg.strength_at_1m, cfg.occlusion_attenuation, cfg.max_range_m, cfg.lobe_exponent
     rel, add, sat = cfg.noise_rel, cfg.noise_abs, cfg.saturation
@@ -225,8 +103,29 @@ def received_strengths_rows(
     return out
 
 
-def estimate_rows(cfg: IRConfig, strengths: list[list[float]]) -> tuple[list[float], list[float], list[bool]]:
-    """:func:`estimate` (seed 000 §3.3, Eqs. 1–3) for a few rows of readings, as lists."""
+def estimate(cfg: IRConfig, strengths: list[list[float]]) -> tuple[list[float], list[float], list[bool]]:
+    """The paper's estimator: distance and direction of the source from the ring readings.
+
+    For the strongest receiver i (strength S0; the first of equals) and its neighbours i+1 (S+,
+    counter-clockwise) and i−1 (S−), with ring spacing Δ, the least-squares fit of an ideal cosine
+    lobe ``S_j = r·cos(φ − jΔ)`` to the three readings gives the source-vector components in the
+    frame of receiver i (exact when the lobe really is a cosine and there is no noise):
+
+        a = (S0 + (S+ + S−)·cos Δ) / (1 + 2·cos²Δ)
+        b = (S+ − S−)·sin Δ / (2·sin²Δ)
+
+    Then ``r = hypot(a, b)``, ``d = sqrt(strength_at_1m / r)`` (inverse square) and
+    ``θ = atan2(b, a) + i·Δ`` wrapped to (−π, π].
+
+    Args:
+        cfg: IR module parameters (ring size, strength_at_1m, detect_threshold).
+        strengths: M rows of K readings, ADC units.
+
+    Returns:
+        distance_m, bearing_rad (in the receiving robot's body frame) and valid, M each. Rows
+        whose strongest reading is below ``cfg.detect_threshold`` are invalid and get nan.
+    """
+    # seed 000, §3.3, Eqs. 1–3 (text garbled in the extraction; reconstructed as above)
     k = cfg.num_receivers
     _, delta, cos_d, sin_d = _ring(k)
     den_a, den_b = 1.0 + 2.0 * cos_d**2, 2.0 * sin_d**2
@@ -238,6 +137,7 @@ def estimate_rows(cfg: IRConfig, strengths: list[list[float]]) -> tuple[list[flo
         s0_all.append(s0)
         a_all.append((s0 + (s_plus + s_minus) * cos_d) / den_a)
         b_all.append((s_plus - s_minus) * sin_d / den_b)
+    # numpy's hypot (libm's), not math.hypot: the two differ in the last bit now and then
     r_all = np.hypot(np.array(a_all), np.array(b_all)).tolist()
     threshold, s1 = cfg.detect_threshold, cfg.strength_at_1m
     distance, bearing, valid = [], [], []
@@ -247,7 +147,7 @@ def estimate_rows(cfg: IRConfig, strengths: list[list[float]]) -> tuple[list[flo
         if ok:
             distance.append(math.sqrt(s1 / r))
             theta = math.atan2(b, a) + i * delta
-            w = math.pi - (math.pi - theta) % (2.0 * math.pi)  # wrap_angle
+            w = -geometry.wrap_angle(-theta)  # to (−π, π]: π − (π − θ) mod 2π, to the bit
             bearing.append(w + 2.0 * math.pi if w <= -math.pi else w)
         else:
             distance.append(math.nan)

@@ -16,7 +16,6 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 import numpy as np
-import simpy
 
 from petswarm_env.comms.radio import Frame, RadioMedium
 from petswarm_env.config import Config
@@ -25,8 +24,9 @@ from petswarm_env.middleware.join import JoinManager
 from petswarm_env.middleware.knowledge import MasterStatus
 from petswarm_env.middleware.modes import ModeManager
 from petswarm_env.middleware.sequence import SequenceManager
-from petswarm_env.middleware.station import Station, now_s
+from petswarm_env.middleware.station import Station
 from petswarm_env.middleware.token_ring import TokenRing
+from petswarm_env.sim.clock import Clock
 
 if TYPE_CHECKING:
     from petswarm_env.sim.robot import Robot
@@ -35,7 +35,7 @@ if TYPE_CHECKING:
 class Node(Station):
     """Middleware of one robot, attached to the radio as a station, with its own managers."""
 
-    def __init__(self, node_id: int, cfg: Config, clock: simpy.Environment, radio: RadioMedium, robot: Robot,
+    def __init__(self, node_id: int, cfg: Config, clock: Clock, radio: RadioMedium, robot: Robot,
                  rng: np.random.Generator):
         super().__init__(node_id, cfg, clock, radio, robot, rng)
         self.join = JoinManager(self)
@@ -48,4 +48,4 @@ class Node(Station):
         """The master's periodic broadcast (seed 000 §3.5, Fig. 9): keep the latest."""
         p = frame.payload
         self.know.status = MasterStatus(p["velocity"], p["activity"], p["mode"], p["turn_rate"], p["user"],
-                                        now_s(self.clock), p["rotating"])
+                                        self.clock.now, p["rotating"])

@@ -27,34 +27,17 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import simpy
 
 from petswarm_env.comms.radio import BROADCAST, PAN_WAITING, Frame, RadioMedium
 from petswarm_env.config import Config
 from petswarm_env.middleware import messages as msg
 from petswarm_env.middleware.formation import Formation
 from petswarm_env.middleware.knowledge import IRMeasurement, Knowledge
+from petswarm_env.sim.clock import Clock
 from petswarm_env.sim.draws import Draws
-from petswarm_env.sim.events import scheduler
-from petswarm_env.sim.robot import _get_position
 
 if TYPE_CHECKING:
     from petswarm_env.sim.robot import Robot
-
-
-# -- SimPy's and pymunk's internals: read here and nowhere else in the middleware -------------------
-# house-core: switch to the clock/body module's public accessor (now_s, body_handle, body_position)
-def now_s(clock: simpy.Environment) -> float:
-    """The clock's time: ``clock.now`` without the property (read for every handled frame)."""
-    return clock._now
-
-
-def body_handle(robot: Robot) -> Any:
-    """What :func:`body_position` reads the robot's position from (its Chipmunk body)."""
-    return robot._cbody
-
-
-body_position = _get_position  # body_position(body_handle(robot)) -> the body's position (x, y attributes)
 
 
 class Signal:
@@ -76,18 +59,20 @@ class Signal:
 class Station:
     """One robot's lower layer, its state and its knowledge, attached to the radio."""
 
-    def __init__(self, node_id: int, cfg: Config, clock: simpy.Environment, radio: RadioMedium, robot: Robot,
+    def __init__(self, node_id: int, cfg: Config, clock: Clock, radio: RadioMedium, robot: Robot,
                  rng: np.random.Generator):
         self.node_id = node_id
         self.cfg = cfg
         self.clock = clock
-        self.later = scheduler(clock)  # later(delay, fn, *args): a call on the clock
+        self.later = clock.later  # later(delay, fn, *args): a call on the clock
         self.radio = radio
         self.rng = rng
         self.draws = Draws(rng)  # scalar draws (MCU processing jitter) taken from rng in blocks
         self._processing = (cfg.radio.processing_s, cfg.radio.processing_jitter_s)
         self._robot = robot  # own body: its AHRS, and the antenna's position
-        self._body = body_handle(robot)
+        # the antenna's position, for the radio's propagation model (not the middleware): the body's
+        # reader bound once (a radio station reads it for every frame it sends or receives)
+        self.position: Callable[[], tuple[float, float]] = robot.read_position
         self.pans: frozenset[int] = frozenset({PAN_WAITING})
         self.state = "waiting"  # sequence manager state, see sequence.py
         self.previous_driving_state = "following"  # a master's driving state before organizing (Fig. 4)
@@ -107,11 +92,6 @@ class Station:
         radio.attach(self)
 
     # -- RF communication and message processing -------------------------------------------------
-    def position(self) -> tuple[float, float]:
-        """Antenna position: the radio's propagation model needs it (not the middleware)."""
-        p = body_position(self._body)
-        return (p.x, p.y)
-
     def send(self, kind: str, dst: int = BROADCAST, pan: int | None = None, **payload: Any) -> None:
         pan = self.swarm_pan if pan is None else pan
         frame = Frame(kind, self.node_id, dst, pan, payload, msg.SIZE_BYTES[kind])
@@ -166,12 +146,12 @@ class Station:
     # -- own sensors and the IR module ------------------------------------------------------------
     def ahrs_yaw(self) -> float:
         """Own AHRS reading (an own sensor: noisy, drifting)."""
-        return self._robot.ahrs_yaw(now_s(self.clock))
+        return self._robot.ahrs_yaw(self.clock.now)
 
     def store_ir(self, other: int, distance_m: float, bearing_rad: float) -> None:
         """The IR module measured robot ``other``'s transmission (the IR medium calls it)."""
         if math.isfinite(distance_m):
-            self.know.ir[other] = IRMeasurement(distance_m, bearing_rad, now_s(self.clock), self.ahrs_yaw())
+            self.know.ir[other] = IRMeasurement(distance_m, bearing_rad, self.clock.now, self.ahrs_yaw())
 
     def _ir_not_wired(self, neighbours: list[int | None]) -> list[int]:
         raise RuntimeError(f"robot {self.node_id}'s IR module is not wired to an IR medium (Fleet.add_node wires it)")

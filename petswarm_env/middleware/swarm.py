@@ -13,7 +13,6 @@ from __future__ import annotations
 
 from typing import Protocol
 
-import simpy
 
 from petswarm_env.config import Config
 from petswarm_env.middleware import messages as msg
@@ -22,6 +21,7 @@ from petswarm_env.middleware.join import OrganizeResult
 from petswarm_env.middleware.knowledge import MasterStatus
 from petswarm_env.middleware.modes import ModeChangePlan, plan_mode_change
 from petswarm_env.middleware.node import Node
+from petswarm_env.sim.clock import Clock
 from petswarm_env.sim.world import World
 
 
@@ -30,7 +30,7 @@ class FleetView(Protocol):
 
     cfg: Config
     world: World
-    clock: simpy.Environment
+    clock: Clock
     nodes: dict[int, Node]  # every robot's middleware, by node id
     swarms: dict[int, Swarm]  # every user's swarm, by PAN ID
 

@@ -26,16 +26,13 @@ import math
 from petswarm_env.comms.radio import Frame
 from petswarm_env.middleware import messages as msg
 from petswarm_env.middleware.knowledge import HeadingEstimate
-from petswarm_env.middleware.station import Station, now_s
-
-
-def wrap(a: float) -> float:
-    return (a + math.pi) % (2 * math.pi) - math.pi
+from petswarm_env.middleware.station import Station
+from petswarm_env.sim.geometry import wrap_angle
 
 
 def relative_heading(bearing_self_sees_other: float, bearing_other_sees_self: float) -> float:
     """θ_other − θ_self from the two mutual IR bearings (seed 000 §3.5; SPEC §3.4)."""
-    return wrap(bearing_self_sees_other - bearing_other_sees_self + math.pi)
+    return wrap_angle(bearing_self_sees_other - bearing_other_sees_self + math.pi)
 
 
 class TokenRing:
@@ -146,14 +143,14 @@ class TokenRing:
 
     # -- everyone ---------------------------------------------------------------------------------
     def _on_tx_start(self, frame: Frame) -> None:
-        self.last_activity_s = self._slot_start[frame.src] = now_s(self.node.clock)
+        self.last_activity_s = self._slot_start[frame.src] = self.node.clock.now
         seq = frame.payload["seq"]
         self.token_seq = max(seq, self.token_seq)
         self.node.send(msg.TX_START_ACK, dst=frame.src)
 
     def _on_token(self, frame: Frame) -> None:
         node = self.node
-        self.last_activity_s = now_s(node.clock)
+        self.last_activity_s = node.clock.now
         node.send(msg.TOKEN_ACK, dst=frame.src)
         seq = frame.payload["seq"]
         if seq <= self.token_seq or node.know.members.get(frame.payload["next"]) != node.node_id:
@@ -165,14 +162,14 @@ class TokenRing:
         node.clock.process(self._begin(seq))
 
     def _on_sync(self, frame: Frame) -> None:
-        self.last_activity_s = now_s(self.node.clock)
+        self.last_activity_s = self.node.clock.now
         self.token_seq = max(self.token_seq, frame.payload["seq"])
 
     def report_heading(self, holder: int) -> bool:
         """The IR medium asks a neighbour of the transmitter ``holder`` at the end of its slot: if
         we measured it in this slot, we report the bearing we saw it at (Fig. 9)."""
         seen = self.node.know.ir.get(holder)
-        if seen is None or seen.time_s != now_s(self.node.clock):
+        if seen is None or seen.time_s != self.node.clock.now:
             return False
         self.send_heading(holder, seen.bearing_rad)
         return True

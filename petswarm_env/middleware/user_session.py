@@ -40,7 +40,7 @@ from petswarm_env.config import Config
 from petswarm_env.control.master import BeltView, MasterController, UserTracker
 from petswarm_env.middleware.formation import formation_for_mode, user_position_in_formation
 from petswarm_env.middleware.swarm import Swarm
-from petswarm_env.middleware.token_ring import wrap
+from petswarm_env.sim.geometry import wrap_angle
 from petswarm_env.sim.user import User
 from petswarm_env.sim.world import World
 from petswarm_env.wearables import lf
@@ -137,9 +137,10 @@ class UserSession:
                     and self.clock.now >= self.link_since_s:
                 tx = self.swarm.master.node_id
                 robot = self.world.robots[tx]
-                dx, dy = np.subtract(self.user.position, robot.position)
+                (ux, uy), (rx, ry) = self.user.position, robot.position
+                dx, dy = ux - rx, uy - ry
                 c, s = math.cos(robot.heading), math.sin(robot.heading)
-                fix = lf.locate(cfg.lf, np.array([c * dx + s * dy, -s * dx + c * dy]), self.rng_lf)
+                fix = lf.locate(cfg.lf, c * dx + s * dy, -s * dx + c * dy, self.rng_lf)
                 if fix.valid:  # the belt heard both antennas; RSSIs go back over BLE
                     t_burst = self.clock.now
                     ev = self.clock.timeout(cfg.ble.latency_s)
@@ -317,15 +318,15 @@ class UserSession:
                 if nid == master.node_id:
                     continue
                 if seen is not None and self.clock.now - seen.time_s <= MEMBER_ECHO_AGE_S:
-                    members.append((seen.distance_m, seen.bearing_rad - wrap(yaw - seen.own_yaw_rad)))
+                    members.append((seen.distance_m, seen.bearing_rad - wrap_angle(yaw - seen.own_yaw_rad)))
                 elif slots is not None and m < len(slots):  # occluded from its IR: where its slot is
                     members.append((math.hypot(*slots[m]), math.atan2(slots[m][1], slots[m][0])))
         rim = self.cfg.robot.radius_m
         for k in range(n):
             a = 2 * math.pi * k / n
-            if abs(wrap(a - math.pi)) > math.pi / 4 + 1e-9 or ranges[k] >= self.cfg.master.exception_range_m:
+            if abs(wrap_angle(a - math.pi)) > math.pi / 4 + 1e-9 or ranges[k] >= self.cfg.master.exception_range_m:
                 continue
-            echo_from_member = any(abs(wrap(b - a)) < math.radians(35) and d - 2 * rim < ranges[k] + 0.35 for d, b in members)
+            echo_from_member = any(abs(wrap_angle(b - a)) < math.radians(35) and d - 2 * rim < ranges[k] + 0.35 for d, b in members)
             if not echo_from_member:
                 return True
         return False
@@ -346,7 +347,7 @@ class UserSession:
             return
         yaw = old.ahrs_yaw()
         if seen is not None and now - seen.time_s <= MEMBER_ECHO_AGE_S:
-            b = seen.bearing_rad - wrap(yaw - seen.own_yaw_rad)
+            b = seen.bearing_rad - wrap_angle(yaw - seen.own_yaw_rad)
             px, py = seen.distance_m * math.cos(b), seen.distance_m * math.sin(b)
         else:  # not seen lately (occluded by another member): its slot in the old neighbour table
             formation, members = self.swarm.previous_formation, self.swarm.previous_members
@@ -355,7 +356,7 @@ class UserSession:
                 return
             px, py = (float(v) for v in formation.slot_positions()[member])
         head = old.know.heading.get(new.node_id)
-        phi = head.relative_rad - wrap(yaw - head.own_yaw_rad) if head is not None else 0.0
+        phi = head.relative_rad - wrap_angle(yaw - head.own_yaw_rad) if head is not None else 0.0
         c, s = math.cos(-phi), math.sin(-phi)
         dx, dy = est[0][0] - px, est[0][1] - py
         self.tracker.fix((c * dx - s * dy, s * dx + c * dy), now)

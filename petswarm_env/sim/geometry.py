@@ -1,15 +1,32 @@
-"""Vectorised 2-D geometry helpers (numpy only, no physics engine).
+"""2-D geometry helpers (numpy only, no physics engine): the angle wrap and the ray casts.
 
-All lengths are in metres, all points are world-frame ``(x, y)`` pairs. Every function works on
-whole batches at once (no Python loop over rays or segments) and accepts empty batches (zero rays,
-circles or segments) without special-casing by the caller.
+All lengths are in metres, all points are world-frame ``(x, y)`` pairs, all angles radians. The
+ray casts work on whole batches at once (no Python loop over rays or segments) and accept empty
+batches (zero rays, circles or segments) without special-casing by the caller.
 
-Used for ray-cast style sensors (ultrasonic ring) and for the IR line-of-sight test.
+Used for the ultrasonic ring (:mod:`petswarm_env.sim.sensors`) and, for the wrap, by every module
+that subtracts headings or bearings. (The IR line of sight is a plain-Python loop in
+:mod:`petswarm_env.comms.ir_channel`: an IR slot has a handful of segments.)
 """
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
+
+_PI = math.pi
+_TWO_PI = 2.0 * math.pi
+
+
+def wrap_angle(angle_rad):
+    """An angle wrapped to [−π, π): ``(a + π) mod 2π − π``, the one angle wrap of the project.
+
+    Works on a Python float and on a numpy array alike (Python's ``%`` and numpy's ``remainder``
+    round the same way). Rounding of ``a + π`` can put a value within an ulp of −π at +π. Where a
+    bearing belongs to (−π, π] (the IR estimator), ``−wrap_angle(−a)`` is ``π − (π − a) mod 2π``
+    to the bit."""
+    return (angle_rad + _PI) % _TWO_PI - _PI
 
 # Denominators smaller than this (in m for cross products of a unit vector with a segment) are
 # treated as "ray parallel to segment": such a segment is never hit.
@@ -24,41 +41,6 @@ def _as_points(a: np.ndarray) -> np.ndarray:
 def _cross(u: np.ndarray, v: np.ndarray) -> np.ndarray:
     """z component of the 2-D cross product ``u × v``, broadcast over leading axes."""
     return u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0]
-
-
-def ray_circle_distances(
-    origins: np.ndarray,
-    dirs: np.ndarray,
-    centers: np.ndarray,
-    radii: np.ndarray,
-    max_range: float,
-) -> np.ndarray:
-    """Distance along each ray to the first intersection with each circle.
-
-    Args:
-        origins: (R, 2) ray start points, m.
-        dirs: (R, 2) unit direction vectors.
-        centers: (C, 2) circle centres, m.
-        radii: (C,) circle radii, m.
-        max_range: hits farther than this (m) are reported as ``inf``.
-
-    Returns:
-        (R, C) distances in m; ``inf`` where the ray misses the circle, the circle lies behind
-        the origin, the hit is beyond ``max_range``, or the ray origin is inside (or on) the
-        circle — a sensor never sees the body it sits in.
-    """
-    o = _as_points(origins)
-    d = _as_points(dirs)
-    c = _as_points(centers)
-    r = np.asarray(radii, dtype=float).reshape(-1)
-    m = o[:, None, :] - c[None, :, :]  # (R, C, 2) centre -> origin
-    b = np.einsum("rk,rck->rc", d, m)  # d·m
-    cc = np.einsum("rck,rck->rc", m, m) - r[None, :] ** 2  # |m|² − r², ≤ 0 when inside
-    disc = b * b - cc
-    with np.errstate(invalid="ignore"):
-        t = -b - np.sqrt(disc)  # nearer root of t² + 2bt + cc = 0
-    hit = (cc > 0.0) & (disc >= 0.0) & (t >= 0.0) & (t <= max_range)
-    return np.where(hit, t, np.inf)
 
 
 def ray_segment_distances(
@@ -132,12 +114,12 @@ def ring_first_hits(
 ) -> np.ndarray:
     """A ring of rays from each origin: distance to the first circle or wall each ray meets.
 
-    Ray ``k`` of origin ``i`` points at ``headings[i] + angles[k]``. The result is what
-    :func:`ray_circle_distances` and :func:`ray_segment_distances` give for these rays, reduced
-    by ``min`` over circles and segments (same formulas, same rules: a ray never sees a circle its
-    origin is inside, hits beyond ``max_range`` are ``inf``), computed in one pass: the
-    origin-to-centre vectors are shared by the rays of one origin, and segments out of reach of
-    every origin are left out.
+    Ray ``k`` of origin ``i`` points at ``headings[i] + angles[k]``. The result is the distance to
+    the nearest circle (the nearer root of the ray–circle quadratic; a ray never sees a circle its
+    origin is inside or on) or segment (:func:`ray_segment_distances`), hits beyond ``max_range``
+    are ``inf``, computed in one pass: the origin-to-centre vectors are shared by the rays of one
+    origin, and segments out of reach of every origin are left out. (``tests/oracles.py`` keeps the
+    per-circle ray cast it equals.)
 
     Written for few numpy calls on small arrays (a handful of robots, where a call costs more than
     its arithmetic): the (circle, origin, ray) arrays have the circles first, so the nearest hit is
@@ -184,42 +166,3 @@ def ring_first_hits(
             d = np.minimum(d, seg.min(axis=1).reshape(ang.shape))
     d[d > max_range] = np.inf
     return d
-
-
-def segments_blocked(
-    p_from: np.ndarray,
-    p_to: np.ndarray,
-    centers: np.ndarray,
-    radii: np.ndarray,
-    exclude: np.ndarray,
-) -> np.ndarray:
-    """Line-of-sight test: does any non-excluded circle cut the segment ``p_from → p_to``?
-
-    A circle blocks the segment when its centre is strictly closer than its radius to some point
-    of the segment (a segment that only grazes the circle is not blocked).
-
-    Args:
-        p_from: (M, 2) segment start points, m.
-        p_to: (M, 2) segment end points, m.
-        centers: (C, 2) circle centres, m.
-        radii: (C,) circle radii, m.
-        exclude: (M, C) bool, True where circle c must be ignored for segment m (typically the
-            bodies of the two robots the segment joins).
-
-    Returns:
-        (M,) bool, True where the line of sight is blocked.
-    """
-    p = _as_points(p_from)
-    q = _as_points(p_to)
-    c = _as_points(centers)
-    r = np.asarray(radii, dtype=float).reshape(-1)
-    excl = np.asarray(exclude, dtype=bool).reshape(p.shape[0], c.shape[0])
-    v = q - p  # (M, 2)
-    vv = np.einsum("mk,mk->m", v, v)
-    pc = c[None, :, :] - p[:, None, :]  # (M, C, 2)
-    # Parameter of the closest point on the segment, clipped to [0, 1]; degenerate segments use 0.
-    u = np.einsum("mck,mk->mc", pc, v) / np.where(vv > 0.0, vv, 1.0)[:, None]
-    u = np.clip(u, 0.0, 1.0)
-    closest = p[:, None, :] + u[..., None] * v[:, None, :]
-    dist2 = np.sum((c[None, :, :] - closest) ** 2, axis=-1)
-    return np.any((dist2 < r[None, :] ** 2) & ~excl, axis=1)

@@ -1,26 +1,23 @@
 """Physical truth: the pymunk space, the robots, the user, walls and boxes, and the one clock.
 
-The clock is a SimPy environment: radio frames, IR slots, token passes and master broadcasts are
-events on it. :meth:`World.advance` runs it in physics substeps: at each substep boundary the
+The clock (:mod:`petswarm_env.sim.clock`) carries radio frames, IR slots, token passes and master
+broadcasts. :meth:`World.advance` runs it in physics substeps: at each substep boundary the
 pending events up to that instant run, then pymunk integrates one substep. Substep instants are
 computed from integer counters, so long runs do not accumulate float drift.
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
-from heapq import heappop
 
 import numpy as np
 import pymunk
-import simpy
-from simpy.events import PENDING, ConditionValue
 
 from petswarm_env.config import Config
-from petswarm_env.sim import geometry
-from petswarm_env.sim.robot import COLLISION_ROBOT, COLLISION_USER, COLLISION_WALL, Robot, _get_angle, _get_position
-from petswarm_env.sim.scenarios import ScenarioScript
+from petswarm_env.scenarios import ScenarioScript
+from petswarm_env.sim.body import COLLISION_ROBOT, COLLISION_USER, COLLISION_WALL, read_poses
+from petswarm_env.sim.clock import Clock
+from petswarm_env.sim.robot import Robot
 from petswarm_env.sim.user import User
 
 
@@ -36,72 +33,6 @@ class CollisionCounts:
 
     def total(self) -> int:
         return self.robot_robot + self.robot_user + self.robot_wall
-
-
-class Clock(simpy.Environment):
-    """The one discrete-event clock (SimPy)."""
-
-    fast_calls = True  # call_later may queue bare (fn, args) tuples: run_until and step call them
-
-    def step(self) -> None:
-        """SimPy's ``step`` (used by ``run``), which also runs a bare callback."""
-        queue = self._queue
-        if queue and type(queue[0][3]) is tuple:
-            self._now, _, _, (fn, args) = heappop(queue)
-            fn(*args)
-            return
-        super().step()
-
-    def run_until(self, t: float) -> None:
-        """Process every event before ``t``, then stand at ``t`` — what ``run(until=t)`` does,
-        without scheduling a stop event and raising to leave the loop on every call. The body of
-        ``simpy.Environment.step`` is inlined (no peek/step call per event); a bare callback of
-        :func:`~.events.call_later` is called directly."""
-        queue = self._queue
-        while queue and queue[0][0] < t:
-            self._now, _, _, event = heappop(queue)
-            if type(event) is tuple:  # a bare callback (sim/events.py): no event machinery
-                event[0](*event[1])
-                continue
-            callbacks, event.callbacks = event.callbacks, None
-            for callback in callbacks:
-                callback(event)
-            if not event._ok and not hasattr(event, "_defused"):  # a failed event nobody handled
-                exc = type(event._value)(*event._value.args)
-                exc.__cause__ = event._value
-                raise exc
-        self._now = t
-
-    def any_of(self, events) -> simpy.Event:
-        """An event that succeeds when the first of ``events`` has been processed — what
-        ``simpy.AnyOf`` does for a process that only waits on it (the token ring's "responses or
-        timeout"), without building a condition value. The same events go on the queue in the same
-        order as with ``AnyOf``. Its value is a ``ConditionValue`` holding the first event."""
-        return _FirstOf(self, events)
-
-
-class _FirstOf(simpy.Event):
-
-    def __init__(self, clock: Clock, events):
-        self.env = clock
-        self.callbacks = []
-        self._value = PENDING
-        for event in events:
-            if event.callbacks is None:  # already processed
-                self._check(event)
-            else:
-                event.callbacks.append(self._check)
-
-    def _check(self, event: simpy.Event) -> None:
-        if self._value is not PENDING:
-            return  # an event after the first one (e.g. the timeout after the responses)
-        if not event._ok:
-            event._defused = True
-            self.fail(event._value)
-        else:
-            value = ConditionValue()
-            value.events.append(event)
-            self.succeed(value)
 
 
 class World:
@@ -126,10 +57,6 @@ class World:
         self.space.on_collision(COLLISION_ROBOT, COLLISION_ROBOT, begin=self._on_robot_robot)
         self.space.on_collision(COLLISION_ROBOT, COLLISION_USER, begin=self._on_robot_user)
         self.space.on_collision(COLLISION_ROBOT, COLLISION_WALL, begin=self._on_robot_wall)
-        n_us = cfg.robot.ultrasonic.count
-        self._us_angles = np.arange(n_us) * (2 * math.pi / max(n_us, 1))
-        reach = cfg.robot.ultrasonic.max_range_m + cfg.robot.radius_m
-        self._us_walls = geometry.SegmentSet(self.wall_a, self.wall_b, reach)
 
     # -- construction -------------------------------------------------------------------------
     def _build_static(self) -> tuple[np.ndarray, np.ndarray]:
@@ -184,7 +111,7 @@ class World:
     # -- time -----------------------------------------------------------------------------------
     @property
     def now(self) -> float:
-        return self.clock.now
+        return self.clock.now  # (a plain attribute of the clock)
 
     def advance(self, substeps: int) -> None:
         """Run the clock for ``substeps`` physics substeps (events first, then physics)."""
@@ -214,17 +141,11 @@ class World:
         caller until the next ``Space.step``)."""
         if self._truth_at == self._physics_steps and self._truth is not None:
             return self._truth
-        xy = []
-        for r in self.robots:
-            p = _get_position(r._cbody)
-            xy.append(p.x)
-            xy.append(p.y)
-        for u in self.users:
-            p = _get_position(u.body._body)
-            xy.append(p.x)
-            xy.append(p.y)
+        xy, th = read_poses(self.robots)
+        if self.users:
+            xy += read_poses(self.users)[0]
         centers = np.array(xy, dtype=float).reshape(-1, 2)
-        headings = np.array([_get_angle(r._cbody) for r in self.robots], dtype=float)
+        headings = np.array(th, dtype=float)
         if self._truth is None or len(self._truth[1]) != len(centers):
             radii = np.full(len(centers), self.cfg.robot.radius_m)
             radii[len(self.robots):] = self.cfg.user.radius_m
@@ -249,24 +170,3 @@ class World:
         """Centres and radii of every round body (robots, then the users); read-only arrays."""
         centers, radii, _ = self.truth_arrays()
         return centers, radii
-
-    def ultrasonic_ranges(self, indices: list[int], rng: np.random.Generator) -> np.ndarray:
-        """Ultrasonic ring readings (m) of the given robots: (len(indices), count), ray casts
-        against bodies and walls from the robot's rim, clipped to [min_range, max_range]."""
-        us = self.cfg.robot.ultrasonic
-        n = us.count
-        if n == 0 or not len(indices):
-            return np.zeros((len(indices), n))
-        centers, radii, headings = self.truth_arrays()
-        if isinstance(indices, list) and indices == list(range(len(self.robots))):
-            pos, th = centers[: len(indices)], headings  # every robot, in order (the env's call): views
-        else:
-            pos, th = centers[indices], headings[indices]
-        reach = us.max_range_m + self.cfg.robot.radius_m
-        d = geometry.ring_first_hits(pos, th, self._us_angles, centers, radii, self._us_walls, reach).reshape(-1)
-        d -= self.cfg.robot.radius_m  # from the sensor on the rim (d is a new array: in place)
-        if us.noise_m > 0:
-            d += rng.normal(0.0, us.noise_m, d.shape)
-        np.maximum(d, us.min_range_m, out=d)  # np.clip
-        np.minimum(d, us.max_range_m, out=d)
-        return d.reshape(len(indices), n)

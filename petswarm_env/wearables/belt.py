@@ -52,65 +52,12 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
-from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-ACTIVITIES = ("stop", "rest", "walk", "run")  # seed 002 Table 2; index = activity code below
+from petswarm_env.config import BeltConfig
+from petswarm_env.scenarios import ACTIVITIES  # seed 002 Table 2; index = activity code below
+
 GRAVITY_MPS2 = 9.80665
 _EPS_S = 1e-9  # sample times are compared with this slack (float accumulation of 0.1 s steps)
-
-
-class BeltConfig(BaseModel):
-    """Smart-belt IMU and recognition parameters (seed 002 §3.4). Values live in ``default.yaml``."""
-
-    model_config = ConfigDict(extra="forbid", frozen=True)
-
-    # --- accelerometer (z, vertical) ---
-    accel_rate_hz: float = Field(gt=0, description="accelerometer sample rate, Hz")
-    accel_noise_mps2: float = Field(ge=0, description="σ of the white noise on each z sample, m/s²")
-    walk_cadence_hz: tuple[float, float] = Field(description="walking step frequency = c0 + c1·speed: (c0 Hz, c1 Hz per m/s)")
-    run_cadence_hz: tuple[float, float] = Field(description="running step frequency = c0 + c1·speed: (c0 Hz, c1 Hz per m/s)")
-    walk_bounce_m: float = Field(ge=0, description="amplitude of the waist's vertical excursion when walking, m")
-    run_bounce_m: float = Field(ge=0, description="amplitude of the waist's vertical excursion when running, m")
-    gait_phase_jitter: float = Field(ge=0, description="step-to-step irregularity: phase random walk, rad/√s")
-    rest_sway_hz: float = Field(gt=0, description="mean frequency of the resting sway, Hz")
-    rest_sway_mps2: float = Field(ge=0, description="amplitude of the resting sway's vertical acceleration, m/s²")
-    rest_phase_jitter: float = Field(ge=0, description="irregularity of the resting sway: phase random walk, rad/√s")
-    # --- movement recognition (Table 2) ---
-    window_s: float = Field(gt=0, description="valid time period of the periodicity and the SMA, s")
-    sign_deadband_mps2: float = Field(
-        ge=0, description="a sample's sign counts only beyond ±this (mean-removed), m/s²; within it the last sign holds"
-    )
-    min_sign_changes: int = Field(ge=1, description="periodic if the window holds at least this many sign changes")
-    sma_level2_mps2: float = Field(gt=0, description="SMA at or above this is level 2, m/s²")
-    sma_level3_mps2: float = Field(gt=0, description="SMA at or above this is level 3, m/s²")
-    # --- gyro (z, yaw rate) and rotation recognition ---
-    gyro_period_s: float = Field(gt=0, description="gyro sample period, s")
-    gyro_noise_dps: float = Field(ge=0, description="σ of the white noise on each gyro sample, °/s")
-    gyro_bias_dps: float = Field(ge=0, description="σ of the constant bias drawn per belt, °/s")
-    gait_yaw_wobble_deg: float = Field(ge=0, description="amplitude of the pelvis' yaw oscillation at the stride frequency, °")
-    ma_samples: int = Field(ge=1, description="length of the moving-average filter, gyro samples")
-    rotation_on_dps: float = Field(gt=0, description="rotation starts when |filtered rate| exceeds this, °/s")
-    rotation_off_dps: float = Field(gt=0, description="rotation ends when |filtered rate| falls below this, °/s")
-
-    @model_validator(mode="after")
-    def _check(self) -> BeltConfig:
-        if self.sma_level3_mps2 <= self.sma_level2_mps2:
-            raise ValueError("belt.sma_level3_mps2 must be greater than belt.sma_level2_mps2")
-        if self.rotation_off_dps > self.rotation_on_dps:
-            raise ValueError("belt.rotation_off_dps must not exceed belt.rotation_on_dps")
-        if round(self.window_s * self.accel_rate_hz) < 2:
-            raise ValueError("belt.window_s must hold at least 2 accelerometer samples")
-        return self
-
-    @property
-    def window_samples(self) -> int:
-        """Accelerometer samples in one recognition window."""
-        return round(self.window_s * self.accel_rate_hz)
-
-    def cadence_hz(self, posture: str, speed_mps: float) -> float:
-        """Step frequency of the gait (walk or run) at a speed, Hz."""
-        c0, c1 = self.run_cadence_hz if posture == "run" else self.walk_cadence_hz
-        return max(0.0, c0 + c1 * max(0.0, speed_mps))
 
 
 # --------------------------------------------------------------------------- recognition rules

@@ -25,11 +25,19 @@ The two halves are kept apart, as in :mod:`petswarm_env.middleware.ir`:
   "the RSSI value cannot be calculated"). Detection is decided on the carrier itself, which the
   receiver integrates over the whole wake-up preamble; the per-reading noise acts on the RSSI.
 * :func:`estimate` is the *paper's estimator*: table lookup with linear interpolation
-  (:func:`rssi_to_distance`), then Eq. 1 and Eqs. 2–3 (:func:`position_from_distances`). Its table is the noiseless, undistorted calibration curve, so every noise source and
-  the distortion show up as estimation error, as on the paper's hardware.
-* :func:`locate` with one belt position (the robot's burst every 350 ms) runs :func:`_locate_one`,
-  the same chain written out on Python floats: the same equations, the same fix bit for bit and
-  the same random draws, without the cost of numpy on 1-element arrays.
+  (:func:`rssi_to_distance`), then Eq. 1 and Eqs. 2–3 (:func:`position_from_distances`). Its table
+  is the noiseless, undistorted calibration curve, so every noise source and the distortion show up
+  as estimation error, as on the paper's hardware.
+* :func:`locate` is one burst pair for one belt position (the robot bursts every 350 ms).
+
+The chain runs on Python floats, one belt position at a time (numpy on 1-element arrays costs more
+than the arithmetic). ``tests/oracles.py`` keeps it written with numpy arrays, as it was, and
+``tests/test_lf.py`` holds this one to it bit for bit, draws included. log10, arctan2, arccos,
+arctan, cos, sin and hypot are numpy's, called on floats: numpy may evaluate them with its own
+SIMD code (on AVX-512: SVML), whose results differ from ``math``'s in the last bit, and np.hypot is
+libm's while math.hypot has its own algorithm. ``math`` is used only for the correctly rounded sqrt
+and for degrees/radians (the single products x·(180/π), x·(π/180) of np.rad2deg/np.deg2rad);
+``round`` is half-to-even like np.round.
 
 Frames. The paper's Eqs. 2–3 use a frame centred between the antennas with x along the baseline
 from the left antenna to the right one (the robot's right) and y forward; θ = atan(x/y) is positive
@@ -50,71 +58,13 @@ from bisect import bisect_right
 from typing import Any, NamedTuple
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+from petswarm_env.config import LFConfig
+from petswarm_env.sim.geometry import wrap_angle
 
 # Distances are clamped to at least this (m) so that log10 of a zero distance cannot occur.
 _MIN_DISTANCE_M = 0.01
 
-class LFConfig(BaseModel):
-    """LF wake-up and localisation parameters (seed 002 §3.2–3.3). Values live in the YAML config."""
-
-    model_config = ConfigDict(extra="forbid", frozen=True)
-
-    antenna_spacing_m: float = Field(..., gt=0, description="dw: distance between the two transmit antennas, m.")
-    antenna_forward_m: float = Field(
-        ..., description="Forward offset of the antenna midpoint from the robot's centre (body +x), m."
-    )
-    burst_period_s: float = Field(..., gt=0, description="Localisation bursts while leading/following, s.")
-    wake_period_s: float = Field(..., gt=0, description="Wake-up bursts while waiting for a user, s.")
-    wake_range_m: float = Field(..., gt=0, description="A belt within this distance receives the wake-up burst, m.")
-    reliable_range_m: float = Field(..., gt=0, description="Location is reliable within this distance, m.")
-    reliable_half_angle_deg: float = Field(
-        ..., gt=0, lt=90, description="Location is reliable within ± this angle of the robot's forward axis, deg."
-    )
-    rssi_at_1m_db: float = Field(..., description="Noiseless RSSI at 1 m from an antenna, dB (receiver scale).")
-    falloff_db_per_decade: float = Field(
-        ..., gt=0, description="RSSI fall-off per decade of distance, dB (near-field magnetic dipole: 60)."
-    )
-    sensitivity_db: float = Field(..., description="Carriers weaker than this RSSI level are not received, dB.")
-    noise_common_db: float = Field(
-        ..., ge=0, description="σ of the Gaussian RSSI error shared by both readings of one burst, dB."
-    )
-    noise_antenna_db: float = Field(..., ge=0, description="σ of the independent Gaussian error per reading, dB.")
-    rssi_step_db: float = Field(..., ge=0, description="RSSI register quantisation step, dB (0 = none).")
-    distortion_loss_db_per_deg: float = Field(
-        ...,
-        ge=0,
-        description="Loss on the far-side antenna per degree of bearing beyond the reliable half-angle, dB/deg.",
-    )
-    distortion_noise_db_per_deg: float = Field(
-        ...,
-        ge=0,
-        description="Extra σ per reading per degree of bearing beyond the reliable half-angle, dB/deg.",
-    )
-    table_min_m: float = Field(..., gt=0, description="First distance of the RSSI→distance table, m.")
-    table_max_m: float = Field(..., gt=0, description="Last distance of the RSSI→distance table, m.")
-    table_step_m: float = Field(..., gt=0, description="Distance step of the RSSI→distance table, m.")
-
-    @model_validator(mode="after")
-    def _check_ranges(self) -> LFConfig:
-        if self.table_max_m <= self.table_min_m:
-            raise ValueError("lf.table_max_m must be greater than lf.table_min_m")
-        hearing = self.hearing_range_m
-        if hearing < self.reliable_range_m:
-            raise ValueError(
-                f"lf.sensitivity_db hears only to {hearing:.2f} m on axis; it must reach lf.reliable_range_m "
-                f"({self.reliable_range_m} m): lower lf.sensitivity_db"
-            )
-        if self.table_max_m < hearing:
-            raise ValueError(
-                f"lf.table_max_m ({self.table_max_m} m) must cover the hearing range ({hearing:.2f} m on axis)"
-            )
-        return self
-
-    @property
-    def hearing_range_m(self) -> float:
-        """Distance at which the on-axis carrier falls to the receiver's sensitivity, m."""
-        return float(10.0 ** ((self.rssi_at_1m_db - self.sensitivity_db) / self.falloff_db_per_decade))
 
 
 class LFFix(NamedTuple):
@@ -135,174 +85,78 @@ class LFFix(NamedTuple):
     reliable: Any
 
 
-def antenna_positions(cfg: LFConfig) -> np.ndarray:
-    """(2, 2) body-frame positions of the left and the right antenna, m (seed 002 §3.3, Fig. 6)."""
+def antenna_positions(cfg: LFConfig) -> tuple[tuple[float, float], tuple[float, float]]:
+    """Body-frame positions of the left and the right antenna, m (seed 002 §3.3, Fig. 6)."""
     half = 0.5 * cfg.antenna_spacing_m
-    return np.array([[cfg.antenna_forward_m, half], [cfg.antenna_forward_m, -half]])
+    return (cfg.antenna_forward_m, half), (cfg.antenna_forward_m, -half)
 
 
-def calibration_curve(cfg: LFConfig, distance_m: np.ndarray) -> np.ndarray:
-    """Noiseless RSSI (dB) at ``distance_m`` from one antenna: 1/r³ near field, 60 dB/decade."""
-    d = np.maximum(np.asarray(distance_m, dtype=float), _MIN_DISTANCE_M)
-    return cfg.rssi_at_1m_db - cfg.falloff_db_per_decade * np.log10(d)
+def calibration_curve(cfg: LFConfig, distance_m: float) -> float:
+    """Noiseless RSSI (dB) at ``distance_m`` from one antenna: 1/r³ near field, 60 dB/decade
+    (distances clamped to 1 cm, nan kept)."""
+    d = _MIN_DISTANCE_M if distance_m < _MIN_DISTANCE_M else distance_m
+    return cfg.rssi_at_1m_db - cfg.falloff_db_per_decade * float(np.log10(d))
 
 
-def lf_rssi(
-    cfg: LFConfig, rel_pos_body: np.ndarray, rng: np.random.Generator
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The belt's RSSI readings of one burst from each antenna, for N belt positions.
-
-    Args:
-        cfg: LF parameters.
-        rel_pos_body: (N, 2) or (2,) belt position relative to the robot's centre, body frame, m.
-        rng: random generator; draws 5·N normals per call, whatever is received (reproducible).
-
-    Returns:
-        rssi_left (N,), rssi_right (N,) in dB (nan where not received), received (N,) bool.
-    """
+def lf_rssi(cfg: LFConfig, x: float, y: float, rng: np.random.Generator) -> tuple[float, float, bool]:
+    """The belt's RSSI readings (dB) of one burst from each antenna, the belt at ``(x, y)`` relative
+    to the robot's centre (body frame, m): ``(rssi_left, rssi_right, received)``, nan and False
+    when the carrier is below the sensitivity. Draws 5 normals whatever is received (reproducible):
+    [common, own left, own right, scatter left, scatter right]."""
     # seed 002 §3.3: two antennas 20 cm apart send in turn; the belt measures each RSSI.
-    p = np.asarray(rel_pos_body, dtype=float).reshape(-1, 2)
-    n = p.shape[0]
-    ant = antenna_positions(cfg)
-    d = np.hypot(p[:, None, 0] - ant[None, :, 0], p[:, None, 1] - ant[None, :, 1])  # (N, 2)
+    fwd = cfg.antenna_forward_m
+    half = 0.5 * cfg.antenna_spacing_m  # antenna_positions(): left at +half, right at -half
+    dx = x - fwd
+    d_l = float(np.hypot(dx, y - half))
+    d_r = float(np.hypot(dx, y - -half))
     # Angular distortion beyond the reliable region (seed 002 §3.5, Fig. 11), bearing from the midpoint.
-    bearing_deg = np.rad2deg(np.arctan2(p[:, 1], p[:, 0] - cfg.antenna_forward_m))
-    excess_deg = np.maximum(0.0, np.abs(bearing_deg) - cfg.reliable_half_angle_deg)
-    far = np.where(bearing_deg > 0.0, 1, 0)  # user on the left → the right antenna is the far one
-    shadow = np.zeros((n, 2))
-    shadow[np.arange(n), far] = cfg.distortion_loss_db_per_deg * excess_deg
-    carrier = calibration_curve(cfg, d) - shadow
+    bearing_deg = math.degrees(float(np.arctan2(y, dx)))
+    excess_deg = abs(bearing_deg) - cfg.reliable_half_angle_deg
+    excess_deg = 0.0 if excess_deg <= 0.0 else excess_deg  # max(0, ·), nan kept
+    carrier_l, carrier_r = calibration_curve(cfg, d_l), calibration_curve(cfg, d_r)
+    if bearing_deg > 0.0:  # user on the left → the right antenna is the far one
+        carrier_r = carrier_r - cfg.distortion_loss_db_per_deg * excess_deg
+    else:
+        carrier_l = carrier_l - cfg.distortion_loss_db_per_deg * excess_deg
     # seed 002 §3.3: beyond the receiver's sensitivity the RSSI cannot be calculated.
-    received = np.all(carrier >= cfg.sensitivity_db, axis=1)
-
-    z = rng.standard_normal((n, 5))  # one draw: [common, own left, own right, scatter left, scatter right]
-    common = cfg.noise_common_db * z[:, :1]
-    own = cfg.noise_antenna_db * z[:, 1:3]
-    scatter = (cfg.distortion_noise_db_per_deg * excess_deg)[:, None] * z[:, 3:5]
-    rssi = carrier + common + own + scatter
-    if cfg.rssi_step_db > 0.0:
-        rssi = np.round(rssi / cfg.rssi_step_db) * cfg.rssi_step_db
-    rssi = np.where(received[:, None], rssi, np.nan)
-    return rssi[:, 0], rssi[:, 1], received
+    received = carrier_l >= cfg.sensitivity_db and carrier_r >= cfg.sensitivity_db
+    z_common, z_own_l, z_own_r, z_scat_l, z_scat_r = rng.standard_normal(5).tolist()
+    if not received:
+        return math.nan, math.nan, False
+    common = cfg.noise_common_db * z_common
+    scatter_sigma = cfg.distortion_noise_db_per_deg * excess_deg
+    rssi_l = carrier_l + common + cfg.noise_antenna_db * z_own_l + scatter_sigma * z_scat_l
+    rssi_r = carrier_r + common + cfg.noise_antenna_db * z_own_r + scatter_sigma * z_scat_r
+    step = cfg.rssi_step_db
+    if step > 0.0:  # round() is half-to-even
+        rssi_l = round(rssi_l / step) * step
+        rssi_r = round(rssi_r / step) * step
+    return rssi_l, rssi_r, True
 
 
 @functools.lru_cache(maxsize=16)
-def _table(rssi_at_1m_db: float, falloff: float, dmin: float, dmax: float, step: float) -> tuple[np.ndarray, np.ndarray]:
+def _table(rssi_at_1m_db: float, falloff: float, dmin: float, dmax: float, step: float) -> tuple[tuple, tuple]:
     count = int(np.floor((dmax - dmin) / step + 1e-9)) + 1
     dist = dmin + step * np.arange(count)
     rssi = rssi_at_1m_db - falloff * np.log10(dist)
-    # np.interp needs increasing x: strongest RSSI (shortest distance) last.
-    rssi_inc, dist_inc = rssi[::-1].copy(), dist[::-1].copy()
-    rssi_inc.setflags(write=False)
-    dist_inc.setflags(write=False)
-    return rssi_inc, dist_inc
+    # the lookup needs increasing RSSI: strongest RSSI (shortest distance) last
+    return tuple(rssi[::-1].tolist()), tuple(dist[::-1].tolist())
 
 
-@functools.lru_cache(maxsize=16)
-def _table_lists(rssi_at_1m_db: float, falloff: float, dmin: float, dmax: float, step: float) -> tuple[list, list]:
-    rssi_inc, dist_inc = _table(rssi_at_1m_db, falloff, dmin, dmax, step)
-    return rssi_inc.tolist(), dist_inc.tolist()
-
-
-def rssi_table(cfg: LFConfig) -> tuple[np.ndarray, np.ndarray]:
+def rssi_table(cfg: LFConfig) -> tuple[tuple[float, ...], tuple[float, ...]]:
     """The robot's RSSI→distance table (seed 002 §3.3: "We created an RSSI value table using the
     distance"): the noiseless calibration curve on the configured distance grid, built once per
-    parameter set and cached. Returns (rssi_db increasing, distance_m decreasing), read-only."""
+    parameter set and cached. Returns (rssi_db increasing, distance_m decreasing)."""
     return _table(cfg.rssi_at_1m_db, cfg.falloff_db_per_decade, cfg.table_min_m, cfg.table_max_m, cfg.table_step_m)
 
 
-def rssi_to_distance(cfg: LFConfig, rssi_db: np.ndarray) -> np.ndarray:
-    """Table lookup with linear interpolation; readings beyond the table clamp to its ends."""
-    rssi_inc, dist_inc = rssi_table(cfg)
-    return np.interp(rssi_db, rssi_inc, dist_inc)
-
-
-def triangle_formed(dl: np.ndarray, dr: np.ndarray, dw: float) -> np.ndarray:
-    """Seed 002, Eq. 1: d_B + d_C > d_A, d_A the longest of the three sides (dl, dr, dw)."""
-    longest = np.maximum(np.maximum(dl, dr), dw)
-    return (dl + dr + dw) - longest > longest
-
-
-def _paper_to_body(cfg: LFConfig, x_p, y_p, theta_p):
-    """The paper's frame (x right, y forward, θ clockwise, origin between the antennas) → body frame
-    (x forward, y left, direction counter-clockwise, origin at the robot's centre)."""
-    return y_p + cfg.antenna_forward_m, -x_p, -theta_p
-
-
-def position_from_distances(cfg: LFConfig, dl: np.ndarray, dr: np.ndarray, heard: np.ndarray | bool = True) -> LFFix:
-    """Seed 002 Eqs. 1–3 on the distances to the left and the right antenna (vectorised).
-
-    Triangle check (Eq. 1), failure → no fix; α = acos((dl² + dw² − dr²)/(2·dl·dw)),
-    x = dl·cos α − dw/2, y = dl·sin α (Eq. 2); d = √(x² + y²), θ = atan(x/y) (Eq. 3); then the
-    paper's frame is mapped to the body frame. ``heard`` False also gives no fix.
-    """
-    dl = np.asarray(dl, dtype=float)
-    dr = np.asarray(dr, dtype=float)
-    dw = cfg.antenna_spacing_m
-    valid = np.asarray(heard, dtype=bool) & triangle_formed(dl, dr, dw)  # seed 002, Eq. 1
-    safe_dl = np.where(valid, dl, 1.0)
-    # seed 002, Eq. 2 (the clip only guards the rows that failed Eq. 1)
-    alpha = np.arccos(np.clip((safe_dl**2 + dw**2 - dr**2) / (2.0 * safe_dl * dw), -1.0, 1.0))
-    x_p = safe_dl * np.cos(alpha) - dw / 2.0
-    y_p = safe_dl * np.sin(alpha)
-    # seed 002, Eq. 3 (a formed triangle has sin α > 0, so y > 0)
-    d = np.sqrt(x_p**2 + y_p**2)
-    theta_p = np.arctan(x_p / np.where(valid, y_p, 1.0))
-    x_fwd, y_left, direction = _paper_to_body(cfg, x_p, y_p, theta_p)
-    reliable = valid & (d <= cfg.reliable_range_m) & (np.abs(direction) <= np.deg2rad(cfg.reliable_half_angle_deg))
-    nan = np.nan
-    return LFFix(
-        x_fwd=np.where(valid, x_fwd, nan),
-        y_left=np.where(valid, y_left, nan),
-        distance=np.where(valid, d, nan),
-        direction=np.where(valid, direction, nan),
-        valid=valid,
-        reliable=reliable,
-    )
-
-
-def estimate(cfg: LFConfig, rssi_left: np.ndarray, rssi_right: np.ndarray) -> LFFix:
-    """The paper's estimator on the two RSSI readings (vectorised; nan readings give no fix):
-    RSSI → dl, dr by the table (§3.3), then Eqs. 1–3 (:func:`position_from_distances`)."""
-    rl = np.asarray(rssi_left, dtype=float)
-    rr = np.asarray(rssi_right, dtype=float)
-    heard = np.isfinite(rl) & np.isfinite(rr)
-    dl = rssi_to_distance(cfg, np.where(heard, rl, cfg.rssi_at_1m_db))
-    dr = rssi_to_distance(cfg, np.where(heard, rr, cfg.rssi_at_1m_db))
-    return position_from_distances(cfg, dl, dr, heard)
-
-
-def locate(cfg: LFConfig, rel_pos_body: np.ndarray, rng: np.random.Generator) -> LFFix:
-    """One burst pair and the robot's fix: :func:`lf_rssi` then :func:`estimate`.
-
-    ``rel_pos_body`` (2,) gives a fix of Python scalars (one user per burst), computed by
-    :func:`_locate_one`, the same chain on floats; (N, 2) gives arrays.
-    """
-    pos = np.asarray(rel_pos_body, dtype=float)
-    if pos.shape == (2,):
-        x, y = pos.tolist()
-        return _locate_one(cfg, x, y, rng)
-    rssi_l, rssi_r, _ = lf_rssi(cfg, pos, rng)
-    fix = estimate(cfg, rssi_l, rssi_r)
-    if pos.ndim == 1:
-        return LFFix(
-            float(fix.x_fwd[0]),
-            float(fix.y_left[0]),
-            float(fix.distance[0]),
-            float(fix.direction[0]),
-            bool(fix.valid[0]),
-            bool(fix.reliable[0]),
-        )
-    return fix
-
-
-_NO_FIX = LFFix(math.nan, math.nan, math.nan, math.nan, False, False)
-
-
-def _interp_one(v: float, xp: list, fp: list) -> float:
-    """np.interp for one finite value, its formula as in numpy's C code (arr_interp): clamp to the
-    table's ends, the row j with xp[j] <= v < xp[j+1], fp[j] on an exact hit, else
-    slope·(v − xp[j]) + fp[j] with slope = (fp[j+1] − fp[j]) / (xp[j+1] − xp[j])."""
+def rssi_to_distance(cfg: LFConfig, rssi_db: float) -> float:
+    """Table lookup with linear interpolation; readings beyond the table clamp to its ends. The
+    formula of ``np.interp`` (numpy's arr_interp, its result to the bit): the row j with
+    xp[j] <= v < xp[j+1], fp[j] on an exact hit, else slope·(v − xp[j]) + fp[j] with
+    slope = (fp[j+1] − fp[j]) / (xp[j+1] − xp[j])."""
+    xp, fp = rssi_table(cfg)
+    v = rssi_db
     if v > xp[-1]:
         return fp[-1]
     if v < xp[0]:
@@ -313,83 +167,60 @@ def _interp_one(v: float, xp: list, fp: list) -> float:
     return (fp[j + 1] - fp[j]) / (xp[j + 1] - xp[j]) * (v - xp[j]) + fp[j]
 
 
-def _locate_one(cfg: LFConfig, x: float, y: float, rng: np.random.Generator) -> LFFix:
-    """:func:`locate` for one belt position (x, y) (body frame, m), in plain Python.
-
-    It mirrors the vectorised chain :func:`lf_rssi` → :func:`estimate` →
-    :func:`position_from_distances` step by step, same operations in the same order, and gives
-    bit for bit the same fix and the same rng draws (tests/test_lf.py compares the two on many
-    positions); a change to one must be made to the other. log10, arctan2, arccos, arctan, cos,
-    sin and hypot are numpy's, called on floats: numpy may evaluate them with its own SIMD code
-    (on AVX-512: SVML), whose results differ from ``math``'s in the last bit, and np.hypot is
-    libm's while math.hypot has its own algorithm. ``math`` is used only for the correctly
-    rounded sqrt and for degrees/radians (the single products x·(180/π), x·(π/180) of
-    np.rad2deg/np.deg2rad); ``round`` is half-to-even like np.round.
-    """
-    # --- lf_rssi: seed 002 §3.3, two antennas 20 cm apart send in turn; the belt measures each RSSI.
-    fwd = cfg.antenna_forward_m
-    half = 0.5 * cfg.antenna_spacing_m  # antenna_positions(): left at +half, right at -half
-    dx = x - fwd
-    d_l = float(np.hypot(dx, y - half))
-    d_r = float(np.hypot(dx, y - -half))
-    # Angular distortion beyond the reliable region (seed 002 §3.5, Fig. 11), bearing from the midpoint.
-    bearing_deg = math.degrees(float(np.arctan2(y, dx)))
-    excess_deg = abs(bearing_deg) - cfg.reliable_half_angle_deg
-    excess_deg = 0.0 if excess_deg <= 0.0 else excess_deg  # np.maximum(0.0, ·), nan kept
-    # calibration_curve(): distances clamped to _MIN_DISTANCE_M (np.maximum, nan kept)
-    carrier_l = cfg.rssi_at_1m_db - cfg.falloff_db_per_decade * float(
-        np.log10(_MIN_DISTANCE_M if d_l < _MIN_DISTANCE_M else d_l)
-    )
-    carrier_r = cfg.rssi_at_1m_db - cfg.falloff_db_per_decade * float(
-        np.log10(_MIN_DISTANCE_M if d_r < _MIN_DISTANCE_M else d_r)
-    )
-    if bearing_deg > 0.0:  # user on the left → the right antenna is the far one
-        carrier_r = carrier_r - cfg.distortion_loss_db_per_deg * excess_deg
-    else:
-        carrier_l = carrier_l - cfg.distortion_loss_db_per_deg * excess_deg
-    # seed 002 §3.3: beyond the receiver's sensitivity the RSSI cannot be calculated.
-    received = carrier_l >= cfg.sensitivity_db and carrier_r >= cfg.sensitivity_db
-    # one draw whatever is received: [common, own left, own right, scatter left, scatter right]
-    z_common, z_own_l, z_own_r, z_scat_l, z_scat_r = rng.standard_normal(5).tolist()
-    if not received:  # nan readings → estimate() gives no fix
-        return _NO_FIX
-    common = cfg.noise_common_db * z_common
-    scatter_sigma = cfg.distortion_noise_db_per_deg * excess_deg
-    rssi_l = carrier_l + common + cfg.noise_antenna_db * z_own_l + scatter_sigma * z_scat_l
-    rssi_r = carrier_r + common + cfg.noise_antenna_db * z_own_r + scatter_sigma * z_scat_r
-    step = cfg.rssi_step_db
-    if step > 0.0:  # round() is half-to-even, as np.round
-        rssi_l = round(rssi_l / step) * step
-        rssi_r = round(rssi_r / step) * step
-
-    # --- estimate: RSSI → dl, dr by the table (seed 002 §3.3, rssi_to_distance()).
-    rssi_inc, dist_inc = _table_lists(
-        cfg.rssi_at_1m_db, cfg.falloff_db_per_decade, cfg.table_min_m, cfg.table_max_m, cfg.table_step_m
-    )
-    dl = _interp_one(rssi_l, rssi_inc, dist_inc)
-    dr = _interp_one(rssi_r, rssi_inc, dist_inc)
-
-    # --- position_from_distances (seed 002 Eqs. 1–3), then the paper's frame → body frame.
-    dw = cfg.antenna_spacing_m
-    # seed 002, Eq. 1 (triangle_formed()): d_B + d_C > d_A, d_A the longest of dl, dr, dw; else no fix
+def triangle_formed(dl: float, dr: float, dw: float) -> bool:
+    """Seed 002, Eq. 1: d_B + d_C > d_A, d_A the longest of the three sides (dl, dr, dw)."""
     longest = dl if dl >= dr else dr
     longest = longest if longest >= dw else dw
-    if not (dl + dr + dw) - longest > longest:
+    return (dl + dr + dw) - longest > longest
+
+
+def _paper_to_body(cfg: LFConfig, x_p, y_p, theta_p):
+    """The paper's frame (x right, y forward, θ clockwise, origin between the antennas) → body frame
+    (x forward, y left, direction counter-clockwise, origin at the robot's centre)."""
+    return y_p + cfg.antenna_forward_m, -x_p, -theta_p
+
+
+_NO_FIX = LFFix(math.nan, math.nan, math.nan, math.nan, False, False)
+
+
+def position_from_distances(cfg: LFConfig, dl: float, dr: float) -> LFFix:
+    """Seed 002 Eqs. 1–3 on the distances (m) to the left and the right antenna.
+
+    Triangle check (Eq. 1), failure → no fix; α = acos((dl² + dw² − dr²)/(2·dl·dw)),
+    x = dl·cos α − dw/2, y = dl·sin α (Eq. 2); d = √(x² + y²), θ = atan(x/y) (Eq. 3); then the
+    paper's frame is mapped to the body frame.
+    """
+    dw = cfg.antenna_spacing_m
+    if not triangle_formed(dl, dr, dw):  # seed 002, Eq. 1
         return _NO_FIX
-    # seed 002, Eq. 2: α = acos((dl² + dw² − dr²)/(2·dl·dw)), x = dl·cos α − dw/2, y = dl·sin α.
-    # (dl² is dl*dl as numpy's array**2; dw**2 is Python's pow on a float in both paths; clipped as there.)
+    # seed 002, Eq. 2 (the clip guards rounding)
     cos_alpha = (dl * dl + dw**2 - dr * dr) / (2.0 * dl * dw)
     cos_alpha = -1.0 if cos_alpha < -1.0 else (1.0 if cos_alpha > 1.0 else cos_alpha)
     alpha = float(np.arccos(cos_alpha))
     x_p = dl * float(np.cos(alpha)) - dw / 2.0
     y_p = dl * float(np.sin(alpha))
-    # seed 002, Eq. 3: d = √(x² + y²), θ = atan(x/y) (a formed triangle has sin α > 0, so y > 0;
-    # should rounding give y = 0, x/y is ±inf as in numpy)
+    # seed 002, Eq. 3 (a formed triangle has sin α > 0, so y > 0; should rounding give y = 0,
+    # x/y is ±inf as numpy's division gives it)
     d = math.sqrt(x_p * x_p + y_p * y_p)
     theta_p = float(np.arctan(x_p / y_p if y_p != 0.0 else np.float64(x_p) / y_p))
     x_fwd, y_left, direction = _paper_to_body(cfg, x_p, y_p, theta_p)
     reliable = d <= cfg.reliable_range_m and abs(direction) <= math.radians(cfg.reliable_half_angle_deg)
     return LFFix(x_fwd, y_left, d, direction, True, reliable)
+
+
+def estimate(cfg: LFConfig, rssi_left: float, rssi_right: float) -> LFFix:
+    """The paper's estimator on the two RSSI readings (a nan reading gives no fix): RSSI → dl, dr by
+    the table (§3.3, :func:`rssi_to_distance`), then Eqs. 1–3 (:func:`position_from_distances`)."""
+    if not (math.isfinite(rssi_left) and math.isfinite(rssi_right)):
+        return _NO_FIX
+    return position_from_distances(cfg, rssi_to_distance(cfg, rssi_left), rssi_to_distance(cfg, rssi_right))
+
+
+def locate(cfg: LFConfig, x: float, y: float, rng: np.random.Generator) -> LFFix:
+    """One burst pair and the robot's fix of the belt at ``(x, y)`` (body frame, m):
+    :func:`lf_rssi` then :func:`estimate`."""
+    rssi_l, rssi_r, received = lf_rssi(cfg, x, y, rng)
+    return estimate(cfg, rssi_l, rssi_r) if received else _NO_FIX
 
 
 def wakes_up(cfg: LFConfig, distance_m: float, pattern_sent: Any, pattern_stored: Any) -> bool:

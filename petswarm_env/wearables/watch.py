@@ -39,7 +39,8 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+from petswarm_env.config import WatchConfig
 
 GESTURES = ("circle", "forward", "backward", "up", "down", "left", "right")  # seed 002 Table 1
 MOVE_DIRECTIONS = {  # body-frame unit vectors of the move gestures (Table 1)
@@ -61,37 +62,6 @@ _STROKES = {
 _STROKE_OF = {v: k for k, v in _STROKES.items()}
 _GRAVITY_MPS2 = 9.80665
 _EPS_S = 1e-9
-
-
-class WatchConfig(BaseModel):
-    """Smart-watch gesture and remote-control parameters (seed 002 §3.1, Table 1). Values in ``default.yaml``."""
-
-    model_config = ConfigDict(extra="forbid", frozen=True)
-
-    accel_rate_hz: float = Field(gt=0, description="wrist accelerometer sample rate, Hz")
-    gesture_duration_s: float = Field(gt=0, description="duration of one hand stroke, s")
-    recognition_delay_s: float = Field(gt=0, description="from the start of a gesture to its recognised command, s")
-    gesture_peak_mps2: float = Field(gt=0, description="peak hand acceleration of a stroke, m/s²")
-    noise_mps2: float = Field(ge=0, description="σ of the accelerometer noise per sample and axis, m/s²")
-    cross_axis_leak: float = Field(ge=0, description="σ of the stroke's off-axis components, fraction of the peak")
-    circle_energy_ratio: float = Field(gt=0, le=1, description="second/first axis energy at or above this is a Circle")
-    combination_window_s: float = Field(ge=0, description="two move gestures recognised within this give a diagonal, s")
-    remote_speed_mps: float = Field(gt=0, description="speed of a remote-control move (diagonals too), m/s")
-    remote_turn_rate_dps: float = Field(gt=0, description="maximum rate of a remote-control rotation, °/s")
-    move_duration_s: float = Field(gt=0, description="a move gesture drives for this long, s")
-    rotate_angle_deg: float = Field(gt=0, description="rotation of one Up / Down gesture, °")
-    rotate_gain: float = Field(gt=0, description="proportional gain of the rotation on the AHRS yaw error, 1/s")
-    rotate_tolerance_deg: float = Field(gt=0, description="a rotation is done within this of its target, °")
-
-    @model_validator(mode="after")
-    def _check(self) -> WatchConfig:
-        if self.recognition_delay_s < self.gesture_duration_s:
-            raise ValueError(
-                "watch.recognition_delay_s must be at least watch.gesture_duration_s (a gesture is recognised after it ends)"
-            )
-        if round(self.gesture_duration_s * self.accel_rate_hz) < 4:
-            raise ValueError("watch.gesture_duration_s must hold at least 4 accelerometer samples")
-        return self
 
 
 @dataclass(frozen=True)

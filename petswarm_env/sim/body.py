@@ -1,0 +1,161 @@
+"""Round bodies in the pymunk space: the position/heading base of robots and users.
+
+This is the only module that touches pymunk's Chipmunk objects (``body._body`` and the
+``pymunk.cp`` accessors). Every read of a position, heading or velocity and every velocity write of
+the simulation goes through :class:`Body` (a robot, :mod:`.robot`, and a user, :mod:`.user`, are
+bodies) or :func:`read_poses` (the world's truth arrays). They call Chipmunk's accessors directly
+instead of pymunk's Python properties, which build a ``Vec2d`` and go through a typing
+``__setattr__`` on every access: the same C calls, a fraction of the cost, which matters for the
+per-substep drive and the radio's antenna positions.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from functools import partial
+
+import pymunk
+
+_get_position = pymunk.cp.cpBodyGetPosition
+_get_angle = pymunk.cp.cpBodyGetAngle
+_get_velocity = pymunk.cp.cpBodyGetVelocity
+_get_angular_velocity = pymunk.cp.cpBodyGetAngularVelocity
+_set_velocity = pymunk.cp.cpBodySetVelocity
+_set_angular_velocity = pymunk.cp.cpBodySetAngularVelocity
+_cos, _sin, _hypot = math.cos, math.sin, math.hypot
+
+COLLISION_ROBOT = 1
+COLLISION_USER = 2
+COLLISION_WALL = 3
+
+
+class Body:
+    """A circle in the pymunk space: a dynamic body of ``mass_kg`` (a robot), or a kinematic one
+    (``mass_kg=None``: a user, who bumps robots and does not yield). ``body`` and ``shape`` are the
+    pymunk objects (moving ``body.position`` by hand is allowed; tell the world, see
+    :meth:`~.world.World.invalidate_truth`)."""
+
+    def __init__(self, space: pymunk.Space, position, heading_rad: float, radius_m: float, collision_type: int,
+                 mass_kg: float | None = None, friction: float | None = None, elasticity: float | None = None):
+        if mass_kg is None:
+            self.body = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
+        else:
+            self.body = pymunk.Body(mass_kg, pymunk.moment_for_circle(mass_kg, 0, radius_m))
+        self.body.position = tuple(position)
+        self.body.angle = heading_rad
+        self.shape = pymunk.Circle(self.body, radius_m)
+        self.shape.collision_type = collision_type
+        if friction is not None:
+            self.shape.friction = friction
+        if elasticity is not None:
+            self.shape.elasticity = elasticity
+        self._cbody = self.body._body  # the Chipmunk body behind self.body
+
+    @property
+    def position(self) -> tuple[float, float]:
+        """True position of the centre (m), world frame."""
+        p = _get_position(self._cbody)
+        return (p.x, p.y)
+
+    def read_position(self) -> tuple[float, float]:
+        """:attr:`position` as a method, for a caller that binds it once (a radio station's
+        antenna position, read for every frame it sends or receives)."""
+        p = _get_position(self._cbody)
+        return (p.x, p.y)
+
+    @property
+    def heading(self) -> float:
+        """True heading (rad, counter-clockwise from +x; not wrapped)."""
+        return _get_angle(self._cbody)
+
+    def heading_reader(self) -> Callable[[], float]:
+        """A function of no argument that returns :attr:`heading`: Chipmunk's accessor bound to
+        this body (a C-level partial, no Python frame per call), for a sensor that reads the
+        heading many times a step (the AHRS)."""
+        return partial(_get_angle, self._cbody)
+
+    @property
+    def turn_rate_rps(self) -> float:
+        """True angular velocity (rad/s, counter-clockwise)."""
+        return _get_angular_velocity(self._cbody)
+
+    def set_velocity(self, velocity: tuple[float, float], omega: float) -> None:
+        """Give the body a world-frame velocity (m/s) and angular velocity (rad/s). Only a changed
+        value is written: the same state as writing it again."""
+        cb = self._cbody
+        v = _get_velocity(cb)
+        if velocity[0] != v.x or velocity[1] != v.y:
+            _set_velocity(cb, velocity)
+        if omega != _get_angular_velocity(cb):
+            _set_angular_velocity(cb, omega)
+
+
+class DrivenBody(Body):
+    """A dynamic body driven by an own-frame velocity command under acceleration limits (a robot's
+    motors): :meth:`apply`, every physics substep, moves the achieved velocity toward
+    :attr:`command` by at most ``max_accel_mps2``·dt and ``max_alpha_rps2``·dt and writes it to the
+    body (contacts may still change it during the substep)."""
+
+    def __init__(self, space: pymunk.Space, position, heading_rad: float, radius_m: float, collision_type: int,
+                 mass_kg: float, max_accel_mps2: float, max_alpha_rps2: float, **shape: float):
+        super().__init__(space, position, heading_rad, radius_m, collision_type, mass_kg=mass_kg, **shape)
+        self.command = (0.0, 0.0, 0.0)  # own-frame (vx m/s, vy m/s, ω rad/s) to reach
+        self.velocity_body = (0.0, 0.0, 0.0)  # the achieved own-frame velocity after the last apply
+        self._accel = (max_accel_mps2, max_alpha_rps2)
+        self._limits_dt = -1.0  # the substep length the limits below were computed for
+        self._max_dv = self._max_dw = 0.0
+
+    def apply(self, dt: float) -> None:
+        """One substep of the drive, from the body's actual velocity (after the last step's
+        contacts); sets :attr:`velocity_body`. Only a changed value is written to the body."""
+        if dt != self._limits_dt:  # the per-substep limits, computed once per substep length
+            self._limits_dt = dt
+            self._max_dv = self._accel[0] * dt
+            self._max_dw = self._accel[1] * dt
+        cbody = self._cbody
+        th = _get_angle(cbody)
+        c, s = _cos(th), _sin(th)
+        wv = _get_velocity(cbody)
+        wx, wy = wv.x, wv.y
+        vx = c * wx + s * wy
+        vy = -s * wx + c * wy
+        w = _get_angular_velocity(cbody)
+        cx, cy, cw = self.command
+        dvx, dvy = cx - vx, cy - vy
+        dv = _hypot(dvx, dvy)
+        max_dv = self._max_dv
+        if dv > max_dv:
+            k = max_dv / dv
+            dvx *= k
+            dvy *= k
+        vx += dvx
+        vy += dvy
+        max_dw = self._max_dw
+        dw = cw - w  # clipped to [-max_dw, max_dw]
+        if dw > max_dw:
+            dw = max_dw
+        elif dw < -max_dw:
+            dw = -max_dw
+        w_new = w + dw
+        self.velocity_body = (vx, vy, w_new)
+        # write only what changed (a body turning at its commanded rate, or driving straight at its
+        # commanded speed, keeps its values): the same state as writing it again
+        if w_new != w:
+            _set_angular_velocity(cbody, w_new)
+        vx_w, vy_w = c * vx - s * vy, s * vx + c * vy
+        if vx_w != wx or vy_w != wy:
+            _set_velocity(cbody, (vx_w, vy_w))
+
+
+def read_poses(bodies: list[Body]) -> tuple[list[float], list[float]]:
+    """Centres ``[x0, y0, x1, y1, ...]`` (m) and headings (rad) of ``bodies``, read from Chipmunk
+    in one pass (the world's truth arrays, once per physics step)."""
+    xy, th = [], []
+    for b in bodies:
+        cb = b._cbody
+        p = _get_position(cb)
+        xy.append(p.x)
+        xy.append(p.y)
+        th.append(_get_angle(cb))
+    return xy, th

@@ -1,0 +1,132 @@
+"""A robot's own sensors: wheel odometry, the ultrasonic ring and the AHRS.
+
+Each model reads the physical truth (a sensor model must) and gives only what the hardware would:
+noisy, within its range. Nothing else in the package turns truth into a robot's own readings. The
+noise comes from fixed streams in a fixed order: the ring and the odometry from the env's sensor
+stream (:class:`Sensors`), each AHRS from its own stream (:class:`AHRS`, one per robot).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Protocol
+
+import numpy as np
+
+from petswarm_env.config import RobotConfig
+from petswarm_env.sim import geometry
+from petswarm_env.sim.body import Body
+from petswarm_env.sim.draws import Draws
+
+
+class Truth(Protocol):
+    """What the sensor models read of the world (:class:`~.world.World`, which imports this module
+    through the robot: named here, not imported)."""
+
+    robots: list
+    wall_a: np.ndarray
+    wall_b: np.ndarray
+
+    def truth_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]: ...
+
+
+class AHRS:
+    """Yaw (rad) of one body: truth + a slowly drifting bias (a random walk in time) + white noise."""
+
+    def __init__(self, body: Body, cfg: RobotConfig, rng: np.random.Generator | None = None):
+        self.body = body
+        self._heading = body.heading_reader()
+        self.noise_rad = math.radians(cfg.ahrs_noise_deg)  # σ of the white noise
+        self.drift_rad = math.radians(cfg.ahrs_drift_dps)  # σ of the bias walk over one second
+        self.bias_rad = 0.0
+        self.time_s = 0.0  # clock time of the last bias step
+        self.rng = np.random.default_rng(0) if rng is None else rng  # (the env gives every robot its own stream)
+
+    @property
+    def rng(self) -> np.random.Generator:
+        """The noise stream; its normals are drawn in blocks (:class:`~.draws.Draws`)."""
+        return self._draws.rng
+
+    @rng.setter
+    def rng(self, rng: np.random.Generator) -> None:
+        self._draws = Draws(rng)
+
+    def yaw(self, now_s: float) -> float:
+        """The reading at clock time ``now_s``: the bias walks over the time since the last reading
+        (one normal), then one normal of white noise."""
+        draws = self._draws
+        dt = now_s - self.time_s
+        if dt > 0:
+            self.bias_rad += self.drift_rad * math.sqrt(dt) * draws.normal()
+            self.time_s = now_s
+        return self._heading() + self.bias_rad + self.noise_rad * draws.normal()
+
+
+class UltrasonicRing:
+    """``count`` range sensors on the robot's rim, sensor 0 forward, counter-clockwise: ray casts
+    against every round body and every wall (:func:`~.geometry.ring_first_hits`), from the rim,
+    with Gaussian noise, clipped to [min_range, max_range]."""
+
+    def __init__(self, cfg: RobotConfig, wall_a: np.ndarray, wall_b: np.ndarray):
+        us = cfg.ultrasonic
+        self.count = us.count
+        self.min_range_m, self.max_range_m, self.noise_m = us.min_range_m, us.max_range_m, us.noise_m
+        self.radius_m = cfg.radius_m
+        self.angles = np.arange(us.count) * (2 * math.pi / max(us.count, 1))
+        self.reach_m = us.max_range_m + cfg.radius_m  # from the centre
+        self.walls = geometry.SegmentSet(wall_a, wall_b, self.reach_m)
+
+    def ranges(self, world: Truth, indices: list[int], rng: np.random.Generator) -> np.ndarray:
+        """Readings (m) of the robots ``indices``: (len(indices), count); one noise draw of that
+        shape from ``rng``."""
+        n = self.count
+        if n == 0 or not len(indices):
+            return np.zeros((len(indices), n))
+        centers, radii, headings = world.truth_arrays()
+        if isinstance(indices, list) and indices == list(range(len(world.robots))):
+            pos, th = centers[: len(indices)], headings  # every robot, in order (the env's call): views
+        else:
+            pos, th = centers[indices], headings[indices]
+        d = geometry.ring_first_hits(pos, th, self.angles, centers, radii, self.walls, self.reach_m).reshape(-1)
+        d -= self.radius_m  # from the sensor on the rim (d is a new array: in place)
+        if self.noise_m > 0:
+            d += rng.normal(0.0, self.noise_m, d.shape)
+        np.maximum(d, self.min_range_m, out=d)  # np.clip
+        np.minimum(d, self.max_range_m, out=d)
+        return d.reshape(len(indices), n)
+
+
+class Sensors:
+    """The sensors of every robot of a world as the env reads them, from the env's sensor stream:
+    :meth:`read_rings` after every advance of the world (all robots in one cast and one noise
+    draw), :meth:`odometry` for one robot (three draws, or ones drawn already by
+    :meth:`odometry_noise` for many robots at once). The AHRS is per robot (``robot.ahrs``)."""
+
+    def __init__(self, world: Truth, cfg: RobotConfig, rng: np.random.Generator):
+        self.world = world
+        self.rng = rng
+        self.ring = UltrasonicRing(cfg, world.wall_a, world.wall_b)
+        self.odometry_noise_rel = cfg.odometry_noise_rel
+        self.ranges = np.zeros((0, self.ring.count))  # every robot's last ring, (robots, count) m
+        self.read_rings()
+
+    def read_rings(self) -> np.ndarray:
+        """Read every robot's ultrasonic ring now; also kept as :attr:`ranges`."""
+        self.ranges = self.ring.ranges(self.world, list(range(len(self.world.robots))), self.rng)
+        return self.ranges
+
+    def odometry_noise(self, n: int) -> list[list[float]] | None:
+        """The relative odometry errors of ``n`` readings in one draw, (n, 3) (the same numbers as
+        ``n`` draws of 3); None when the odometry is noiseless."""
+        k = self.odometry_noise_rel
+        return self.rng.normal(0.0, k, (n, 3)).tolist() if k > 0 else None
+
+    def odometry(self, index: int, noise: list[float] | None = None) -> tuple[float, float, float]:
+        """Wheel odometry of robot ``index``: its achieved body velocity ``(vx, vy, ω)`` with relative
+        noise (``noise``: the three N(0, odometry_noise_rel) errors when drawn already, else drawn here)."""
+        vx, vy, w = self.world.robots[index].velocity_body
+        k = self.odometry_noise_rel
+        if k > 0:
+            e = self.rng.normal(0.0, k, 3).tolist() if noise is None else noise
+            return vx * (1 + e[0]), vy * (1 + e[1]), w * (1 + e[2])
+        return vx, vy, w

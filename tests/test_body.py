@@ -1,0 +1,52 @@
+"""The body module (petswarm_env/sim/body.py): the position/heading base of robots and users, the
+only code that reads and writes Chipmunk's body state."""
+
+import math
+
+import numpy as np
+import pymunk
+import pytest
+
+from petswarm_env.config import load_config
+from petswarm_env.scenarios import SCENARIOS
+from petswarm_env.sim.body import COLLISION_USER, Body, DrivenBody, read_poses
+from petswarm_env.sim.world import World
+
+
+def test_a_body_reads_what_pymunk_holds_and_writes_only_changes():
+    space = pymunk.Space()
+    b = Body(space, (1.0, -2.0), 0.4, 0.3, COLLISION_USER)
+    space.add(b.body, b.shape)
+    assert b.body.body_type == pymunk.Body.KINEMATIC and b.shape.collision_type == COLLISION_USER
+    assert b.position == b.read_position() == (1.0, -2.0) and b.heading == 0.4
+    b.set_velocity((0.5, 0.0), 1.0)
+    assert tuple(b.body.velocity) == (0.5, 0.0) and b.turn_rate_rps == b.body.angular_velocity == 1.0
+    space.step(0.1)
+    assert b.position == pytest.approx((1.05, -2.0)) and b.heading == pytest.approx(0.5)
+    assert b.position == tuple(b.body.position) and b.heading == b.body.angle
+
+
+def test_a_driven_body_reaches_its_command_within_its_limits():
+    space = pymunk.Space()
+    b = DrivenBody(space, (0.0, 0.0), math.pi / 2, 0.2, 1, 8.0, 2.0, 4.0, friction=0.3, elasticity=0.0)
+    space.add(b.body, b.shape)
+    assert b.shape.friction == 0.3 and b.body.mass == 8.0
+    b.command = (1.0, 0.0, 1.0)  # forward in its own frame: +y in the world
+    b.apply(0.1)
+    assert b.velocity_body == pytest.approx((0.2, 0.0, 0.4))  # 2 m/s² and 4 rad/s² over 0.1 s
+    assert tuple(b.body.velocity) == pytest.approx((0.0, 0.2))
+    for _ in range(20):
+        space.step(0.1)
+        b.apply(0.1)
+    assert b.velocity_body[0] == pytest.approx(1.0) and b.velocity_body[2] == pytest.approx(1.0)
+
+
+def test_read_poses_is_the_truth_arrays():
+    cfg = load_config()
+    world = World(cfg, SCENARIOS["straight"].script(cfg.user, np.random.default_rng(0)))
+    for i in range(3):
+        world.add_robot((i, 2.0 * i), 0.1 * i)
+    xy, th = read_poses(world.robots)
+    centers, _, headings = world.truth_arrays()
+    assert centers[:3].ravel().tolist() == xy and headings.tolist() == th
+    assert centers[3].tolist() == list(world.user.position)

@@ -1,0 +1,87 @@
+"""The experimenter's view (petswarm_env/metrics.py): reference points, formation and heading
+errors, contacts, event counts and the episode summary, from ground truth."""
+
+import math
+
+import numpy as np
+import pytest
+
+import petswarm_env
+from baselines.policy import PolicySpec
+from baselines.registry import make_policy
+from petswarm_env.metrics import EpisodeMetrics, Experimenter
+
+
+def _run(env, steps, seed=0):
+    pol = make_policy("scripted", PolicySpec.from_env(env))
+    obs, _ = env.reset(seed=seed)
+    pol.reset(seed)
+    out = []
+    for _ in range(steps):
+        obs, rewards, _, _, infos = env.step(pol.act_all(obs))
+        out.append((rewards, infos))
+    return out
+
+
+def test_episode_metrics_rmse_over_slaves_and_steps():
+    m = EpisodeMetrics()
+    assert math.isnan(m.formation_rmse_m)
+    m.add_step([3.0, 4.0])
+    m.add_step([])  # no slave with a reference: a step, no error
+    m.add_step([0.0])
+    assert m.steps == 3 and m.error_trace == [3.5, 0.0]
+    assert m.formation_rmse_m == pytest.approx(math.sqrt(25.0 / 3))
+
+
+def test_reference_point_is_the_neighbour_plus_the_rotated_offset():
+    env = petswarm_env.parallel_env()
+    _run(env, 30)
+    ex = env.experimenter
+    assert isinstance(ex, Experimenter) and env.metrics is ex.metrics
+    swarm = env.swarm
+    th = env.world.robots[swarm.master.node_id].heading
+    c, s = math.cos(th), math.sin(th)
+    refs = ex.reference_positions()
+    members = swarm.master.know.members
+    for m, links in swarm.formation.links.items():
+        want = np.mean([np.array(env.world.robots[members[lk.neighbour]].position)
+                        + [c * lk.offset_m[0] - s * lk.offset_m[1], s * lk.offset_m[0] + c * lk.offset_m[1]] for lk in links], axis=0)
+        np.testing.assert_allclose(refs[members[m]], want, atol=1e-12)
+    assert set(refs) == set(swarm.slave_ids())
+    errors, heading = ex.formation_errors(env.agents)
+    for agent, e in errors.items():
+        idx = env._agent_index[agent]
+        assert e == pytest.approx(math.dist(env.world.robots[idx].position, refs[idx]))
+        assert -math.pi <= heading[agent] < math.pi
+
+
+def test_step_counts_each_contact_once_and_feeds_the_rewards_and_infos():
+    env = petswarm_env.parallel_env(**{"control.safety_layer": False, "max_cycles": 200})
+    pol = make_policy("random", PolicySpec.from_env(env), seed=3)
+    obs, _ = env.reset(seed=3)
+    begun = 0
+    c0 = env.world.collisions.per_robot.copy()
+    while env.agents:
+        agents = list(env.agents)
+        obs, rewards, _, _, infos = env.step(pol.act_all(obs))
+        begun += sum(infos[a]["new_contacts"] for a in agents)
+        for a in agents:
+            assert infos[a]["formation_error_m"] >= 0.0
+    slaves = {env._agent_index[a] for a in env.possible_agents}
+    assert begun == sum(env.world.collisions.per_robot.get(i, 0) - c0.get(i, 0) for i in slaves) > 0
+
+
+def test_summary_counts_from_the_end_of_reset():
+    env = petswarm_env.parallel_env(max_cycles=50)
+    _run(env, 0)
+    s0 = env.episode_summary()
+    assert s0["steps"] == 0 and s0["frames"] == {"sent": 0, "lost": 0, "collided": 0}
+    assert s0["collisions"] == {"robot_robot": 0, "robot_user": 0, "robot_wall": 0}
+    assert sum(s0["events"]["arbiter_wins"].values()) == 0
+    assert s0["organize_time_s"] == env.swarm.organize_result.elapsed_s > 0
+    out = _run(env, 50)
+    s = out[-1][1][next(iter(out[-1][1]))]["episode_summary"]
+    assert s == env.episode_summary()
+    assert s["steps"] == 50 and s["frames"]["sent"] > 0 and s["slaves"] == 4 and s["users"] == 1
+    assert sum(s["events"]["arbiter_wins"].values()) == 50 * 5  # one winner per robot per tick
+    assert s["formation_rmse_m"] == env.metrics.formation_rmse_m and s["scenario"] == "zigzag"

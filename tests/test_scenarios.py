@@ -1,0 +1,100 @@
+"""The scenario registry (petswarm_env/scenarios/): every registered scenario builds its script and
+places its robots; the config takes its names; adding one is registering one object."""
+
+import math
+
+import numpy as np
+import pytest
+
+import petswarm_env
+from petswarm_env import scenarios
+from petswarm_env.config import ConfigError, load_config
+from petswarm_env.middleware.formation import formation_for_mode, user_position_in_formation
+from petswarm_env.scenarios import SCENARIOS, Placement, Scenario, Segment
+from petswarm_env.sim.world import World
+
+PAPER_ORDER = ["straight", "turn_left_60", "turn_right_60", "zigzag", "u_turn", "stop_and_go", "random_walk", "mode_change"]
+
+
+def test_the_registry_holds_the_named_scenarios_in_order():
+    assert list(SCENARIOS) == PAPER_ORDER
+    assert all(SCENARIOS[n].name == n for n in SCENARIOS)
+    assert [n for n in SCENARIOS if SCENARIOS[n].changes_master] == ["mode_change"]
+
+
+@pytest.mark.parametrize("name", list(SCENARIOS))
+@pytest.mark.parametrize("mode", ["following", "leading"])
+def test_every_scenario_builds_its_script_and_places_its_robots(name, mode):
+    cfg = load_config(overrides={"user.scenario": name, "swarm.mode": mode, "swarm.extra_robots": 2,
+                                 "swarm.other_user_robots": 1, "world.num_users": 2})
+    scenario = SCENARIOS[name]
+    segs = scenario.segments(cfg.user, np.random.default_rng(0))
+    assert segs[0] == Segment(cfg.user.start_delay_s, 0.0, 0.0, "stop") and segs[-1].duration_s >= 1e9
+    assert all(s.duration_s > 0 and s.activity in scenarios.ACTIVITIES for s in segs)
+    assert all(not s.command or s.command in scenarios.USER_COMMANDS for s in segs)
+    world = World(cfg, scenario.script(cfg.user, np.random.default_rng(0)))
+    plan = formation_for_mode(cfg.swarm, cfg.swarm.num_slaves + 1, mode)
+    placed = scenario.place(world, cfg, plan.slot_positions(), user_position_in_formation(plan, cfg.master.distance_m)[0],
+                            np.random.default_rng(1))
+    assert isinstance(placed, Placement) and len(placed.pools) == 2
+    n = cfg.swarm.num_slaves + cfg.swarm.extra_robots
+    indices = [i for master, pool in placed.pools for i in (master, *pool)] + placed.other_user_robots
+    assert sorted(indices) == list(range(len(world.robots))) == list(range(2 * (1 + n) + 1))
+    for u, (master, pool) in enumerate(placed.pools):  # the user's own robot starts in LF wake-up range, facing them
+        robot = world.robots[master]
+        assert math.dist(robot.position, (0.0, u * cfg.world.user_spacing_m)) <= cfg.lf.wake_range_m
+        assert robot.heading == (math.pi if mode == "leading" else 0.0)
+        assert len(pool) == n
+        for i in pool[: cfg.swarm.num_slaves]:  # waiting robots inside the master's available region
+            assert math.dist(world.robots[i].position, robot.position) < cfg.protocol.join_radius_m + 2.0
+
+
+def test_the_placement_draws_only_from_its_stream():
+    cfg = load_config()
+    plan = formation_for_mode(cfg.swarm, cfg.swarm.num_slaves + 1, cfg.swarm.mode)
+    worlds = []
+    for _ in range(2):
+        world = World(cfg, SCENARIOS["straight"].script(cfg.user, np.random.default_rng(0)))
+        SCENARIOS["straight"].place(world, cfg, plan.slot_positions(), 1.0, np.random.default_rng(4))
+        worlds.append([r.position for r in world.robots])
+    assert worlds[0] == worlds[1]
+
+
+def test_random_walk_draws_from_the_script_stream_and_mode_change_asks_for_leading():
+    user = load_config().user
+    a, b = (SCENARIOS["random_walk"].segments(user, np.random.default_rng(s)) for s in (1, 2))
+    assert len(a) == 2 + 80 and a != b
+    turn = [s for s in SCENARIOS["mode_change"].segments(user, None) if s.command]
+    assert [s.command for s in turn] == ["mode:leading"] and turn[0].turn_rate_dps * turn[0].duration_s == pytest.approx(180.0)
+
+
+def test_config_validates_scenario_names_against_the_registry():
+    with pytest.raises(ConfigError, match="user.scenario.*'straight'.*'mode_change'"):
+        load_config(overrides={"user.scenario": "moonwalk"})
+    with pytest.raises(ConfigError, match="user.scenario_pool"):
+        load_config(overrides={"user.scenario_pool": ["zigzag", "moonwalk"]})
+    with pytest.raises(ValueError, match="choose one of: straight, turn_left_60"):
+        scenarios.get("moonwalk")
+    assert scenarios.get("zigzag") is SCENARIOS["zigzag"]
+
+
+def test_a_registered_scenario_is_a_config_choice_and_runs(monkeypatch):
+    """Adding a scenario is registering one object: the config and the env take it as it is."""
+
+    class Circle(Scenario):
+        name = "test_circle"
+
+        def walk(self, user, rng):
+            return [Segment(10.0, user.walk_speed_mps, 36.0, "walk")]
+
+    with pytest.raises(ConfigError, match="user.scenario"):
+        load_config(overrides={"user.scenario": "test_circle"})
+    monkeypatch.setitem(SCENARIOS, "test_circle", Circle())
+    with pytest.raises(ValueError, match="needs a new name"):
+        scenarios.register(Circle())
+    env = petswarm_env.parallel_env(**{"user.scenario": "test_circle", "max_cycles": 40})
+    obs, _ = env.reset(seed=0)
+    assert env.scenario == "test_circle" and env.agents
+    while env.agents:
+        obs, *_ = env.step({a: np.zeros(3, np.float32) for a in env.agents})
+    assert env.world.user.segment.turn_rate_dps == 36.0

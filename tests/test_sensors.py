@@ -1,0 +1,74 @@
+"""The robot's own sensors (sim/sensors.py): ultrasonic ring, wheel odometry, AHRS."""
+
+import math
+
+import numpy as np
+import pytest
+
+from petswarm_env.config import load_config
+from petswarm_env.scenarios import SCENARIOS
+from petswarm_env.sim.sensors import AHRS, Sensors, UltrasonicRing
+from petswarm_env.sim.world import World
+
+
+def _world(cfg, robots):
+    world = World(cfg, SCENARIOS["straight"].script(cfg.user, np.random.default_rng(0)))
+    world.user.body.position = (-20.0, 0.0)
+    for p, th in robots:
+        world.add_robot(p, th)
+    return world
+
+
+def test_ring_ranges_from_the_rim_clipped_and_noisy_in_one_draw():
+    cfg = load_config()
+    us = cfg.robot.ultrasonic
+    world = _world(cfg, [((0.0, 0.0), 0.0), ((1.0, 0.0), math.pi), ((0.0, 0.45), 0.0)])
+    ring = UltrasonicRing(cfg.robot, world.wall_a, world.wall_b)
+    quiet = load_config(overrides={"robot.ultrasonic.noise_m": 0.0}).robot
+    exact = UltrasonicRing(quiet, world.wall_a, world.wall_b).ranges(world, [0, 1], np.random.default_rng(0))
+    gap = 1.0 - 2 * cfg.robot.radius_m  # robots 0 and 1 face each other, rim to rim
+    assert exact[0, 0] == pytest.approx(gap) and exact[1, 0] == pytest.approx(gap)
+    assert exact[0, 2] == pytest.approx(max(0.45 - 2 * cfg.robot.radius_m, us.min_range_m))  # robot 2 on the left, clipped
+    assert exact[0, 4] == us.max_range_m  # nothing behind
+    got = ring.ranges(world, [0, 1], np.random.default_rng(5))
+    noise = np.random.default_rng(5).normal(0.0, us.noise_m, exact.shape)  # one draw of the ring's shape
+    want = np.where(exact >= us.max_range_m, us.max_range_m, np.clip(exact + noise, us.min_range_m, us.max_range_m))
+    np.testing.assert_allclose(got, want, atol=1e-12)  # a ray that meets nothing reads max_range, noise or not
+    assert ring.ranges(world, [], np.random.default_rng(0)).shape == (0, us.count)
+
+
+def test_sensors_read_every_ring_and_draw_odometry_in_order():
+    cfg = load_config()
+    world = _world(cfg, [((0.0, 0.0), 0.0), ((1.0, 0.0), math.pi)])
+    sensors = Sensors(world, cfg.robot, np.random.default_rng(7))
+    ring = UltrasonicRing(cfg.robot, world.wall_a, world.wall_b)
+    rng = np.random.default_rng(7)
+    assert np.array_equal(sensors.ranges, ring.ranges(world, [0, 1], rng))  # read at construction
+    v = (0.5, -0.2, 0.3)
+    k = cfg.robot.odometry_noise_rel
+    assert k > 0
+    e = rng.normal(0.0, k, 3)
+    world.robots[1].velocity_body = v
+    assert sensors.odometry(1) == (v[0] * (1 + e[0]), v[1] * (1 + e[1]), v[2] * (1 + e[2]))
+    many = sensors.odometry_noise(4)  # four readings in one draw: the numbers of four draws of 3
+    assert many == [rng.normal(0.0, k, 3).tolist() for _ in range(4)]
+    assert sensors.odometry(1, many[2]) == tuple(x * (1 + n) for x, n in zip(v, many[2]))
+    assert np.array_equal(sensors.read_rings(), ring.ranges(world, [0, 1], rng)) and sensors.ranges.shape == (2, 8)
+    exact = Sensors(world, load_config(overrides={"robot.odometry_noise_rel": 0.0}).robot, np.random.default_rng(0))
+    assert exact.odometry(1) == v and exact.odometry_noise(3) is None
+
+
+def test_ahrs_is_truth_plus_a_drifting_bias_and_white_noise():
+    cfg = load_config()
+    world = _world(cfg, [((0.0, 0.0), 0.7)])
+    robot = world.robots[0]
+    assert robot.ahrs_yaw == robot.ahrs.yaw
+    ahrs = AHRS(robot, cfg.robot, np.random.default_rng(3))
+    z = np.random.default_rng(3).standard_normal(256)[::-1]  # the block the AHRS draws from, handed out last first
+    noise, drift = math.radians(cfg.robot.ahrs_noise_deg), math.radians(cfg.robot.ahrs_drift_dps)
+    assert ahrs.yaw(0.0) == 0.7 + noise * z[0]  # no time passed: no bias step
+    bias = drift * math.sqrt(0.5) * z[1]
+    assert ahrs.yaw(0.5) == 0.7 + bias + noise * z[2]
+    assert ahrs.yaw(0.5) == 0.7 + bias + noise * z[3]  # the same instant: the same bias
+    quiet = load_config(overrides={"robot.ahrs_noise_deg": 0.0, "robot.ahrs_drift_dps": 0.0}).robot
+    assert AHRS(robot, quiet).yaw(10.0) == 0.7

@@ -15,7 +15,9 @@ from petswarm_env.middleware.ruta import (
     capable,
     close_auction,
     deploy_first,
+    centralized_from_reports,
     fittest,
+    must_request_bids,
     own_bid,
     phi_manip,
     phi_nav,
@@ -154,10 +156,6 @@ def test_missing_distance_report_is_refused():
 # ---- Algorithm 1 (centralized) -----------------------------------------------------------------
 
 
-def _u(table):
-    return {(r, s): v for (r, s), v in table.items()}
-
-
 def test_alg1_each_subtask_to_its_best_free_robot_in_schedule_order():
     u = {("A", "s1"): 1.0, ("B", "s1"): 3.0, ("C", "s1"): 2.0,
          ("A", "s2"): 2.0, ("B", "s2"): 5.0, ("C", "s2"): 1.0}
@@ -223,6 +221,12 @@ def test_alg1_on_reported_status_outer_slot_goes_to_a_robot_with_sensors():
     assert u[(1, "slot2")] == 0.0 and u[(2, "slot2")] == pytest.approx(3.125)
 
 
+def test_alg1_from_reports_replaces_a_robot_reporting_a_fault():
+    reports = [_robot(1, faulty=True), _robot(2, d1=9.0), _robot(3, d1=1.0), _robot(4, d1=4.0)]
+    res = centralized_from_reports(reports, [NAV], 100.0, team=[1, 2], params=P, busy={2})
+    assert res.assignment == {"slot1": 3} and res.team == (2, 3)  # 3 is the closest waiting robot
+
+
 # ---- Algorithm 2 (decentralized) ---------------------------------------------------------------
 
 
@@ -232,6 +236,13 @@ def test_own_bid_is_the_robots_utility_or_no_reply():
     assert own_bid(r, NAV, 100.0, P, busy=True) is None  # holds a subtask already
     assert own_bid(_robot(2, rate_sens_ma=None), EDGE, 100.0, P) is None  # cannot sense
     assert own_bid(r, Subtask("later", announced_s=200.0, nav=True, located=False), 100.0, P) is None  # not announced yet
+
+
+def test_a_robot_whose_sensor_fails_requests_bids_for_its_subtask():
+    assert not must_request_bids(_robot(1), EDGE)
+    assert must_request_bids(_robot(1, rate_sens_ma=None), EDGE)  # ultrasonic fault
+    assert not must_request_bids(_robot(1, rate_sens_ma=None), NAV)  # a plain slot needs no sensing
+    assert must_request_bids(_robot(1, p_rem_mah=0.0), NAV)  # battery empty
 
 
 def test_fittest_highest_utility_ties_to_lower_id_whatever_the_order():

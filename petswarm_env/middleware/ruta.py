@@ -36,7 +36,7 @@ here; the tests state the printed value beside the exact one):
   the formula (at most ½) never reaches; :func:`worked_example` passes pri = 1 as printed.
 * R2's grip example uses P_rem 2000 mAh in φ_manip and 2150 mAh in φ_sens (and 2200 mAh in φ_nav
   earlier); the figures are reproduced with the inputs as printed.
-* 0.698 is printed as 0.69 (truncated) while 4.8125 is printed as 4.81 and 1.637 as 1.64.
+* 0.698 is printed as 0.69 (truncated) while 1.637 is printed as 1.64 (rounded).
 """
 
 from __future__ import annotations
@@ -253,7 +253,8 @@ def assign_centralized(open_subtasks: Sequence[str], utilities: Mapping[tuple[Ro
 
     ``open_subtasks``: the unexecuted subtasks in schedule order; ``team``: the current robot
     ordering; ``pool``: the remaining robots that may be added; ``busy``: robots holding a subtask
-    already; ``faulty``: robots found faulty (removed from the team and the pool); ``max_trials``: K.
+    already; ``faulty``: robots found faulty (removed from the team and the pool); ``max_trials``: K
+    (the paper gives no value; 10 is chosen).
 
     The paper's steps: (1) for each unexecuted subtask, (2) for each robot in the ordering,
     (3) compute its utility, (4) "if the current utility of r_i for sub-task v_j is greater than its
@@ -296,6 +297,17 @@ def assign_centralized(open_subtasks: Sequence[str], utilities: Mapping[tuple[Ro
     return CentralizedResult(assignment, tuple(ordering), tuple(open_ids), trials)
 
 
+def centralized_from_reports(reports: Sequence[RobotStatus], open_subtasks: Sequence[Subtask], t_s: float,
+                             team: Sequence[RobotId], params: RutaParams = RutaParams(), *,
+                             busy: Collection[RobotId] = (), max_trials: int = 10) -> CentralizedResult:
+    """Algorithm 1 as the master runs it: utilities from the robots' reported status (faulty
+    reports mark the robot faulty), the team first, every other reporting robot as the pool."""
+    in_team = set(team)
+    return assign_centralized([s.id for s in open_subtasks], utility_table(reports, open_subtasks, t_s, params),
+                              team, [r.id for r in reports if r.id not in in_team], busy=busy,
+                              faulty={r.id for r in reports if r.faulty}, max_trials=max_trials)
+
+
 # --------------------------------------------------------------------------------------------
 # Algorithm 2 (decentralized) decision pieces
 # --------------------------------------------------------------------------------------------
@@ -320,6 +332,13 @@ def own_bid(robot: RobotStatus, subtask: Subtask, t_s: float, params: RutaParams
         return None
     u = robot_utility(robot, subtask, t_s, params)
     return u if u > 0 else None
+
+
+def must_request_bids(robot: RobotStatus, held: Subtask) -> bool:
+    """Algorithm 2 step 5: "if a sensor fails on one robot r_i by which it is prevented from
+    completing task v_j, it sends a request (bid) to the other robots": the robot holding ``held``
+    is no longer :func:`capable` of it (a module failed, faulty, battery empty)."""
+    return not capable(robot, held)
 
 
 def fittest(bids: Iterable[Bid]) -> Bid | None:
@@ -415,7 +434,7 @@ def worked_example() -> dict:
     the navigation utilities (d = 1, pri = 1 as printed), the two robots deployed first, the grip
     priority at t = 110 s for t_j = 20 s, R2's φ's and both grip utilities, who grips first. R4's
     nav utility (1.21) enters only as printed (no inputs), so it has no row of its own."""
-    p = EXAMPLE_PARAMS
+    p, r1 = EXAMPLE_PARAMS, EXAMPLE_NAV["R1"]
     nav = {r: utility(1.0, phi_nav(**EXAMPLE_NAV[r]), 1.0, p.u2) for r in ("R1", "R2")}
     nav["R4"] = utility(1.0, EXAMPLE_NAV["R4"]["phi_printed"], 1.0, p.u2)
     deployed = deploy_first(nav, 2)
@@ -436,7 +455,7 @@ def worked_example() -> dict:
     figures = {"nav_utility": nav, "deployed_first": list(deployed), "grip_pri": pri,
                "R2_phi_manip": r2_manip, "R2_phi_sens": r2_sens, "grip_utility": grip,
                "grips_first": winner.robot if winner else None,
-               "R1_nav_bracket_exact": EXAMPLE_NAV["R1"]["p_rem_mah"] / EXAMPLE_NAV["R1"]["rate_servo_ma"] / EXAMPLE_NAV["R1"]["slip_pct"]}
+               "R1_nav_bracket_exact": r1["p_rem_mah"] / r1["rate_servo_ma"] / r1["slip_pct"]}
     notes = [f"R1 nav: the paper prints 0.7 × 5.58 = 3.90; exact arithmetic on its inputs, 0.7 × (2200/130) × (1/3) = "
              f"0.7 × {figures['R1_nav_bracket_exact']:.3f} = {nav['R1']:.3f} (3.95)",
              "nav utilities use pri = 1 and d = 1 as printed ('Initially, the priorities of all sub-tasks are equal to 1'); "

@@ -87,6 +87,9 @@ class LeaderFollowerPolicy(Policy):
         self._omega32, self._us32 = _r32(spec.max_omega_rps), _r32(spec.us_max_range_m)
 
     def act(self, agent: str, obs: np.ndarray) -> np.ndarray:
+        """The action of one slave: the five steps of the module docstring, in order. One function
+        on purpose: it runs for every slave at every step on Python floats, where a helper call
+        costs more than the arithmetic it would hold (see "Arithmetic" above)."""
         o = np.asarray(obs, dtype=np.float32).tolist()
         i = self._i
         r32, pos32 = _r32, self._pos32

@@ -51,6 +51,7 @@ MODULE_PARTS: dict[str, str | None] = {
     "petswarm_env.wearables": "user_sensing",
     "petswarm_env.control": "control",  # master-role controller, control arbiter
     "petswarm_env.observe": "observation",
+    "petswarm_env.mapping": "observation",  # seed 001's sensor/behaviour mapper between a body and the layout
     "petswarm_env.reward": "reward_metrics",
     "petswarm_env.metrics": "reward_metrics",
     # the libraries it runs on

@@ -26,7 +26,7 @@ Python floats (a numpy call costs more than its arithmetic here). It computes, v
 what its first, numpy form computed, so the scripted figures stay the same: the observation is
 float32, and numpy keeps ``float32 · Python float`` in float32 — the scaled observation fields and
 the products of their offsets with cos/sin of Δθ are float32 there, rounded here with ``_r32``;
-everything mixed with float64 values is float64. tests/test_leader_follower.py holds the two equal,
+everything mixed with float64 values is float64. tests/unit/test_leader_follower.py holds the two equal,
 bit for bit, on recorded and random observations.
 """
 

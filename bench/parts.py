@@ -6,7 +6,7 @@ module wins (``petswarm_env.middleware.user_session`` before ``petswarm_env.midd
 of ``None`` is *neutral*: the time counts for whoever called the function (numpy, the standard
 library, pymunk's property accessors, geometry helpers shared by several parts). A function of
 ``petswarm_env`` whose module matches no row is *uncategorised* (:class:`Uncategorised`; the
-profiles count it as "other"): tests/test_bench.py fails on one, so a new module gets its part
+profiles count it as "other"): tests/e2e/test_bench.py fails on one, so a new module gets its part
 when it is written, and renaming a function can never move its time.
 """
 

@@ -3,8 +3,8 @@
 The library keeps one implementation per idea, the one the environment runs (mostly plain Python
 on the few values of one step, where numpy's fixed cost per call outweighs its arithmetic). The
 forms below are the same models written the other way — numpy on whole arrays, or the general
-routine the fast path specialises — as they stood in the library before; ``tests/test_fast_paths.py``
-and the model tests hold the shipped paths to them, bit for bit where the two forms do the same
+routine the fast path specialises — as they stood in the library before; the tests of each model
+(``tests/unit/``, ``tests/env/test_observation.py``) hold the shipped paths to them, bit for bit where the two forms do the same
 operations, and to the last bit of a transcendental where numpy's SIMD routines and the C
 library's may round differently (said at each test).
 

@@ -18,7 +18,7 @@ This module keeps the two halves apart on purpose:
 
 Both run on Python floats, row by row: an IR slot has 1–9 receivers, and numpy's fixed cost per
 call (about 1 µs) outweighs its arithmetic on so few rows. ``tests/oracles.py`` keeps the same two
-functions written with numpy arrays; ``tests/test_fast_paths.py`` holds these to them (validity and
+functions written with numpy arrays; ``tests/unit/test_ir.py`` holds these to them (validity and
 distance exactly; the readings and the bearing to the last bit of the lobe's ``pow`` and of
 ``atan2``, which numpy's SIMD routines on AVX-512 CPUs may round differently from the C library's
 used here — so the env's episodes do not depend on numpy's SIMD dispatch).

@@ -32,7 +32,7 @@ The two halves are kept apart, as in :mod:`petswarm_env.middleware.ir`:
 
 The chain runs on Python floats, one belt position at a time (numpy on 1-element arrays costs more
 than the arithmetic). ``tests/oracles.py`` keeps it written with numpy arrays, as it was, and
-``tests/test_lf.py`` holds this one to it bit for bit, draws included. log10, arctan2, arccos,
+``tests/unit/test_lf.py`` holds this one to it bit for bit, draws included. log10, arctan2, arccos,
 arctan, cos, sin and hypot are numpy's, called on floats: numpy may evaluate them with its own
 SIMD code (on AVX-512: SVML), whose results differ from ``math``'s in the last bit, and np.hypot is
 libm's while math.hypot has its own algorithm. ``math`` is used only for the correctly rounded sqrt

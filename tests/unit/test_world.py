@@ -79,3 +79,23 @@ def test_robots_bump_into_the_user_and_the_user_does_not_yield():
     world.advance(300)
     assert world.collisions.robot_user >= 1
     assert world.user.position == pytest.approx((0.0, 0.0), abs=1e-6)
+
+
+def test_truth_arrays_follow_the_physics_and_are_read_only():
+    cfg = load_config()
+    world = World(cfg, SCENARIOS["straight"].script(cfg.user, np.random.default_rng(0)))
+    robot = world.add_robot((1.0, 2.0), 0.5)
+    centers, radii, headings = world.truth_arrays()
+    assert centers[0].tolist() == [1.0, 2.0] and headings[0] == 0.5
+    assert radii.tolist() == [cfg.robot.radius_m, cfg.user.radius_m]
+    with pytest.raises(ValueError):
+        centers[0, 0] = 0.0
+    robot.set_command(1.0, 0.0, 1.0)
+    world.advance(5)
+    c2, _, h2 = world.truth_arrays()
+    assert c2[0].tolist() == list(robot.position) and h2[0] == robot.heading and c2[0, 0] > 1.0
+    world.add_robot((-1.0, 0.0), 0.0)  # a new body: new arrays
+    assert world.truth_arrays()[0].shape == (3, 2)
+    robot.body.position = (9.0, 9.0)  # moved by hand: stale until told
+    world.invalidate_truth()
+    assert world.robot_positions()[0].tolist() == [9.0, 9.0]

@@ -6,7 +6,7 @@ from pathlib import Path
 from petswarm_env.config import load_config
 from petswarm_env.observe import ObservationLayout, markdown_table
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def test_observation_doc_matches_the_layout():

@@ -12,6 +12,9 @@ import pytest
 from petswarm_env.comms.ir_channel import line_of_sight_blocked
 from petswarm_env.sim.geometry import ray_segment_distances, ring_first_hits
 from tests.oracles import ray_circle_distances, segments_blocked
+from petswarm_env.comms.ir_channel import IRChannel, line_of_sight_blocked
+from petswarm_env.sim import geometry
+from tests import oracles
 
 
 def _ring_one_circle(origin, angle, center, radius, max_range):
@@ -156,3 +159,79 @@ def test_wrap_angle_on_floats_and_arrays_alike():
     mirrored = [-wrap_angle(-x) for x in a.tolist()]
     assert mirrored == [math.pi - (math.pi - x) % (2 * math.pi) for x in a.tolist()]
     assert wrap_angle(math.pi) == -math.pi and -wrap_angle(-math.pi) == math.pi
+
+
+def _scene(rng, n_robots, n_other):
+    centers = rng.uniform(-3.0, 3.0, (n_robots + n_other, 2))
+    radii = rng.uniform(0.1, 0.4, n_robots + n_other)
+    headings = rng.uniform(-math.pi, math.pi, n_robots)
+    return centers, radii, headings
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_ring_first_hits_equals_ray_casts_against_circles_and_segments(seed):
+    rng = np.random.default_rng(seed)
+    n, k = int(rng.integers(1, 8)), int(rng.integers(1, 13))
+    centers, radii, headings = _scene(rng, n, int(rng.integers(0, 3)))
+    seg_a = rng.uniform(-4.0, 4.0, (int(rng.integers(0, 6)), 2))
+    seg_b = seg_a + rng.uniform(-3.0, 3.0, seg_a.shape)
+    reach = float(rng.uniform(0.5, 3.0))
+    angles = np.arange(k) * (2 * math.pi / k)
+    got = geometry.ring_first_hits(centers[:n], headings, angles, centers, radii, geometry.SegmentSet(seg_a, seg_b, reach), reach)
+    ang = headings[:, None] + angles[None, :]
+    dirs = np.stack([np.cos(ang), np.sin(ang)], axis=-1).reshape(-1, 2)
+    origins = np.repeat(centers[:n], k, axis=0)
+    want = oracles.ray_circle_distances(origins, dirs, centers, radii, reach).min(axis=1)
+    if len(seg_a):
+        want = np.minimum(want, geometry.ray_segment_distances(origins, dirs, seg_a, seg_b, reach).min(axis=1))
+    want = want.reshape(n, k)
+    assert np.array_equal(np.isinf(got), np.isinf(want))
+    assert np.isfinite(want).any() or seed > 0  # the scenes do produce hits
+    np.testing.assert_allclose(got[np.isfinite(got)], want[np.isfinite(want)], rtol=0, atol=1e-9)
+
+
+@pytest.mark.parametrize("seed", range(10))
+def test_ring_first_hits_equals_the_masked_formulation_bit_for_bit(seed):
+    """Crowded scenes (touching and overlapping bodies, walls close by, origins inside other
+    bodies): every distance equal to the bit, misses and the range cut included."""
+    rng = np.random.default_rng(500 + seed)
+    hits = 0
+    for _ in range(200):
+        n, k = int(rng.integers(1, 10)), int(rng.choice([1, 4, 8, 12]))
+        centers = rng.uniform(-1.5, 1.5, (n + int(rng.integers(0, 3)), 2))
+        radii = rng.uniform(0.1, 0.4, len(centers))
+        headings = rng.uniform(-4.0, 4.0, n)
+        seg_a = rng.uniform(-3.0, 3.0, (int(rng.integers(0, 4)), 2))
+        seg_b = seg_a + rng.uniform(-3.0, 3.0, seg_a.shape)
+        reach = float(rng.uniform(0.3, 2.5))
+        angles = np.arange(k) * (2 * math.pi / k)
+        want = oracles.ring_first_hits_masked(centers[:n], headings, angles, centers, radii, seg_a, seg_b, reach)
+        got = geometry.ring_first_hits(centers[:n], headings, angles, centers, radii,
+                                       geometry.SegmentSet(seg_a, seg_b, reach), reach)
+        assert got.shape == want.shape and np.array_equal(got, want)
+        hits += int(np.isfinite(want).sum())
+    assert hits > 1000
+
+
+def test_segments_out_of_reach_are_left_out_but_near_ones_are_hit():
+    walls = geometry.SegmentSet(np.array([[5.0, -1.0], [-50.0, -1.0]]), np.array([[5.0, 1.0], [-50.0, 1.0]]), 2.0)
+    assert walls.near(np.array([[0.0, 0.0]])) == []
+    assert walls.near(np.array([[3.5, 0.0]])) == [0]
+    d = geometry.ring_first_hits(np.array([[3.5, 0.0]]), np.array([0.0]), np.array([0.0, math.pi]), np.zeros((0, 2)),
+                                 np.zeros(0), walls, 2.0)
+    assert d[0, 0] == pytest.approx(1.5) and d[0, 1] == np.inf
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_ir_line_of_sight_equals_segments_blocked(seed):
+    rng = np.random.default_rng(100 + seed)
+    centers, radii, _ = _scene(rng, 8, 2)
+    tx = int(rng.integers(8))
+    rx = np.array([i for i in range(8) if i != tx and rng.random() < 0.8] or [(tx + 1) % 8])
+    exclude = np.zeros((len(rx), len(centers)), bool)
+    exclude[np.arange(len(rx)), rx] = True
+    exclude[:, tx] = True
+    want = oracles.segments_blocked(centers[rx], np.broadcast_to(centers[tx], (len(rx), 2)), centers, radii, exclude)
+    cl, rl = centers.tolist(), radii.tolist()
+    got = np.array([line_of_sight_blocked(*centers[r], *(centers[tx] - centers[r]), cl, rl, int(r), tx) for r in rx])
+    assert np.array_equal(got, want)

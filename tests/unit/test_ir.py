@@ -16,6 +16,12 @@ from experiments.ir_accuracy import (
 from petswarm_env.config import IRConfig, load_config
 from petswarm_env.middleware import ir
 from petswarm_env.sim.geometry import wrap_angle
+import math
+from petswarm_env.comms.ir_channel import IRChannel, line_of_sight_blocked
+from petswarm_env.config import load_config
+from petswarm_env.scenarios import SCENARIOS
+from petswarm_env.sim.world import World
+from tests import oracles
 
 
 def received_strengths(cfg, distance_m, bearing_rad, occluded, rng) -> np.ndarray:
@@ -200,3 +206,60 @@ def test_config_validation():
         IRConfig(**missing)
     with pytest.raises(pydantic.ValidationError):
         ideal_config().num_receivers = 9
+
+
+def test_ir_measure_of_a_slot_equals_the_per_receiver_model():
+    """One IR slot measured for all receivers at once equals the optical model run on each
+    receiver alone (occlusion, ring, estimator), given the same noise."""
+    cfg = load_config()
+    world = World(cfg, SCENARIOS["straight"].script(cfg.user, np.random.default_rng(0)))
+    rng = np.random.default_rng(3)
+    for p, th in zip(rng.uniform(-2.0, 2.0, (6, 2)), rng.uniform(-3.0, 3.0, 6)):
+        world.add_robot(p, th)
+    channel = IRChannel(world, cfg.ir, np.random.default_rng(7))
+    tx, rxs = 2, [0, 1, 3, 4, 5]
+    dist, bearing, valid = channel.measure(tx, rxs)
+    centers, radii = world.body_circles()
+    z = np.random.default_rng(7).standard_normal((2, len(rxs), cfg.ir.num_receivers))  # the slot's noise
+    for j, r in enumerate(rxs):
+        others = [i for i in range(len(centers)) if i not in (r, tx)]
+        delta = centers[tx] - centers[r]
+        occluded = oracles.segments_blocked(centers[r:r + 1], centers[tx:tx + 1], centers[others], radii[others],
+                                             np.zeros((1, len(others)), bool))
+        b = math.atan2(delta[1], delta[0]) - world.robots[r].heading
+        d = max(math.hypot(*delta), 0.01)
+        lobe = np.maximum(0.0, np.cos(b - np.arange(cfg.ir.num_receivers) * cfg.ir.spacing_rad)) ** cfg.ir.lobe_exponent
+        on_axis = 0.0 if d > cfg.ir.max_range_m else cfg.ir.strength_at_1m / d**2 * (cfg.ir.occlusion_attenuation if occluded[0] else 1.0)
+        s = np.clip(on_axis * lobe * (1 + cfg.ir.noise_rel * z[0, j]) + cfg.ir.noise_abs * z[1, j], 0.0, cfg.ir.saturation)
+        d_one, b_one, ok_one = oracles.ir_estimate(cfg.ir, s[None, :])
+        assert valid[j] == ok_one[0]
+        if ok_one[0]:
+            assert dist[j] == pytest.approx(d_one[0], abs=1e-9)
+            assert bearing[j] == pytest.approx(b_one[0], abs=1e-9)
+    assert any(valid)
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_ir_model_equals_the_numpy_oracle(seed):
+    """ir.received_strengths / ir.estimate (plain Python, the env's path) give the numbers of their
+    numpy forms (tests/oracles.py), also for saturated, occluded, out-of-range and undetected rows:
+    validity and distance exactly; the readings and the bearing to the last bit of the lobe's pow and
+    of atan2 (numpy's SIMD ``power`` and ``arctan2`` on AVX-512 CPUs and the C library's ``pow`` and
+    ``atan2`` may round differently)."""
+    cfg = load_config().ir
+    rng = np.random.default_rng(seed)
+    m = 9
+    d = np.concatenate([[0.05, 0.3, cfg.max_range_m + 0.5, 5.0], rng.uniform(0.1, 3.5, m - 4)])
+    b = rng.uniform(-4.0, 4.0, m)
+    occ = rng.random(m) < 0.3
+    want = oracles.ir_received_strengths(cfg, d, b, occ, np.random.default_rng(seed))
+    got = ir.received_strengths(cfg, d.tolist(), b.tolist(), occ.tolist(), np.random.default_rng(seed))
+    np.testing.assert_allclose(np.array(got), want, rtol=1e-13, atol=1e-12)
+    assert np.array_equal(np.array(got) == 0.0, want == 0.0)  # the same clipped and unlit receivers
+    assert (want == cfg.saturation).any() and (want.max(axis=1) < cfg.detect_threshold).any()
+    d1, b1, ok1 = oracles.ir_estimate(cfg, np.array(got))
+    d2, b2, ok2 = ir.estimate(cfg, got)
+    assert np.array_equal(ok1, ok2) and ok1.any() and not ok1.all()
+    assert np.array_equal(d1, np.array(d2), equal_nan=True)
+    np.testing.assert_allclose(np.array(b2), b1, rtol=0, atol=1e-12)  # nan where invalid, in both
+    assert np.array_equal(ir.estimate(cfg, [[1.0] * cfg.num_receivers])[2], [cfg.detect_threshold <= 1.0])

@@ -1,6 +1,6 @@
 """Per-step wall and CPU time of the default environment (the full benchmark: ``petswarm bench``).
 
-    python -m bench.step [--steps N] [--set KEY=VALUE ...]      (or: python scripts/bench_step.py ...)
+    python -m bench.step [--steps N] [--set KEY=VALUE ...]
 
 Prints the mean wall time of ``env.step`` (policy time excluded) with the scripted policy's
 actions, its CPU time (``time.process_time``: less sensitive to other processes on a busy machine,

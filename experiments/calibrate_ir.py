@@ -15,7 +15,7 @@ import yaml
 
 from experiments import ir_accuracy as exp
 from petswarm_env.config import default_config_path
-from petswarm_env.middleware.ir import IRConfig
+from petswarm_env.comms.ir import IRConfig
 
 
 def main() -> None:

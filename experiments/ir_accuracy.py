@@ -1,8 +1,8 @@
 """``ir_accuracy``: the IR module's relative-location accuracy (seed 000 §4.3, Fig. 18–19, Table 4).
 
 The receiving robot is placed on the paper's grid around a transmitter and measures the IR signal
-through the module's physics (:func:`petswarm_env.middleware.ir.received_strengths`) and the
-paper's estimator (:func:`petswarm_env.middleware.ir.estimate`): the distance and direction RMSEs
+through the module's physics (:func:`petswarm_env.comms.ir.received_strengths`) and the
+paper's estimator (:func:`petswarm_env.comms.ir.estimate`): the distance and direction RMSEs
 of Table 4, and the estimated positions of Fig. 19.
 """
 
@@ -15,7 +15,7 @@ import numpy as np
 from experiments.results import RMSE_TOLERANCE_REL, Experiment, ExperimentResult, Progress, Row
 from petswarm_env.config import Config
 from petswarm_env.config import IRConfig
-from petswarm_env.middleware.ir import estimate, received_strengths
+from petswarm_env.comms.ir import estimate, received_strengths
 from petswarm_env.sim.geometry import wrap_angle
 
 # Seed 000, §4.3 (Fig. 18, Table 4): the accuracy-evaluation grid and the reported RMSEs.
@@ -117,7 +117,7 @@ def fig19_positions(cfg_ir, rng: np.random.Generator, samples_per_point: int) ->
 
 def ir_accuracy(cfg: Config, seed: int, quick: bool, progress: Progress, *, samples_per_point: int | None = None) -> ExperimentResult:
     """Seed 000 §4.3: receiver at 40–200 cm (20 cm steps), 0–180° (30° steps), 300 samples a
-    point; the IR module's physics and the paper's estimator (:mod:`petswarm_env.middleware.ir`)."""
+    point; the IR module's physics and the paper's estimator (:mod:`petswarm_env.comms.ir`)."""
     n = samples_per_point or (IR_QUICK_SAMPLES_PER_POINT if quick else PAPER_SAMPLES_PER_POINT)
     rng_rmse, rng_fig = (np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(2))
     progress(0, 2)

@@ -44,16 +44,18 @@ class ConfigError(ValueError):
     """A configuration key or value is wrong; the message says which and how to fix it."""
 
 
-class _Section(BaseModel):
+class Section(BaseModel):
+    """A config section: unknown keys are refused, values are frozen once validated."""
+
     model_config = ConfigDict(extra="forbid", frozen=True)
 
 
-class BoxObstacle(_Section):
+class BoxObstacle(Section):
     center_m: tuple[float, float]
     size_m: tuple[float, float] = Field(description="width (x) and height (y)")
 
 
-class WorldConfig(_Section):
+class WorldConfig(Section):
     arena_m: tuple[float, float] = Field(description="walled arena width, height (m); 0 = no walls")
     obstacles: list[BoxObstacle]
     num_users: int = Field(ge=1, le=8, description="users, each with a master, a robot pool and its own PAN")
@@ -61,14 +63,14 @@ class WorldConfig(_Section):
     collision_slop_m: float = Field(gt=0, description="overlap of two bodies in contact that the physics leaves uncorrected (m; pymunk's collision_slop)")
 
 
-class UltrasonicConfig(_Section):
+class UltrasonicConfig(Section):
     count: int = Field(ge=0, le=32)
     min_range_m: float = Field(ge=0)
     max_range_m: float = Field(gt=0)
     noise_m: float = Field(ge=0)
 
 
-class RobotConfig(_Section):
+class RobotConfig(Section):
     radius_m: float = Field(gt=0)
     mass_kg: float = Field(gt=0)
     max_speed_mps: float = Field(gt=0, description="wheel-limited translation speed")
@@ -82,13 +84,13 @@ class RobotConfig(_Section):
     odometry_noise_rel: float = Field(ge=0)
 
 
-class CustomLink(_Section):
+class CustomLink(Section):
     robot: int = Field(ge=1, description="member number of the slave")
     neighbour: int = Field(ge=0, description="member number of its reference neighbour (0 = master)")
     offset_m: tuple[float, float] = Field(description="reference offset in the formation frame")
 
 
-class SwarmConfig(_Section):
+class SwarmConfig(Section):
     num_slaves: int = Field(ge=1, le=16)
     extra_robots: int = Field(ge=0, le=16, description="waiting robots beyond the required number")
     formation: Literal[FORMATIONS]  # type: ignore[valid-type]
@@ -100,7 +102,7 @@ class SwarmConfig(_Section):
     other_user_robots: int = Field(ge=0, le=16, description="waiting robots already connected to another user")
 
 
-class RadioConfig(_Section):
+class RadioConfig(Section):
     bitrate_bps: float = Field(gt=0)
     frame_overhead_bytes: int = Field(ge=0)
     latency_s: float = Field(ge=0)
@@ -117,7 +119,7 @@ class RadioConfig(_Section):
     path_loss_exponent: float = Field(gt=0)
 
 
-class ProtocolConfig(_Section):
+class ProtocolConfig(Section):
     join_radius_m: float = Field(gt=0, description="master's available region (seed 000 Table 1)")
     scan_window_s: float = Field(gt=0)
     response_timeout_s: float = Field(gt=0)
@@ -130,7 +132,7 @@ class ProtocolConfig(_Section):
     broadcast_period_s: float = Field(gt=0, description="master's speed/activity broadcast")
 
 
-class UserConfig(_Section):
+class UserConfig(Section):
     scenario: ScenarioName
     scenario_pool: list[ScenarioName]
     radius_m: float = Field(gt=0)
@@ -140,7 +142,7 @@ class UserConfig(_Section):
     start_delay_s: float = Field(ge=0)
 
 
-class MasterConfig(_Section):
+class MasterConfig(Section):
     distance_m: float = Field(gt=0, description="standard distance to the user (seed 000 §3.6.2)")
     acc_band_m: float = Field(ge=0, description="ACC: speed matching inside ±band of the distance, distance control outside")
     distance_gain: float = Field(gt=0, description="distance-control gain outside the band (1/s)")
@@ -160,32 +162,32 @@ class MasterConfig(_Section):
     exception_range_m: float = Field(gt=0, description="leading: obstacle closer than this in the travel direction -> exception")
 
 
-class ControlConfig(_Section):
+class ControlConfig(Section):
     safety_layer: bool = Field(description="the ultrasonic safety stage of the control arbiter (seed 001)")
     safety_stop_m: float = Field(gt=0, description="brake before this ultrasonic range: speed toward an obstacle ≤ √(2a(range − this))")
     safety_backoff_mps: float = Field(ge=0, description="back-away speed when closer than half the stop range")
 
 
-class BLEConfig(_Section):
+class BLEConfig(Section):
     latency_s: float = Field(ge=0, description="one BLE message, wearable <-> robot")
     connect_s: float = Field(ge=0, description="BLE connection set-up after the belt woke up or a handover")
     report_period_s: float = Field(gt=0, description="belt -> robot reports (activity, rotation)")
 
 
-class RewardConfig(_Section):
+class RewardConfig(Section):
     formation: float
     heading: float
     collision: float
     smoothness: float
 
 
-class RenderConfig(_Section):
+class RenderConfig(Section):
     fps: int = Field(gt=0)
     pixels_per_m: float = Field(gt=0)
     size_px: tuple[int, int]
 
 
-class IRConfig(_Section):
+class IRConfig(Section):
     """The IR relative-location module (seed 000 §3.3; calibrated to Table 4)."""
 
     num_receivers: int = Field(ge=7, description=(
@@ -209,7 +211,7 @@ class IRConfig(_Section):
         return 2.0 * math.pi / self.num_receivers
 
 
-class LFConfig(_Section):
+class LFConfig(Section):
     """LF wake-up and localisation (seed 002 §3.2–3.3)."""
 
     antenna_spacing_m: float = Field(gt=0, description="dw: distance between the two transmit antennas, m.")
@@ -249,7 +251,7 @@ class LFConfig(_Section):
     def hearing_range_m(self) -> float:
         """Distance at which the on-axis carrier falls to the receiver's sensitivity, m."""
         return float(10.0 ** ((self.rssi_at_1m_db - self.sensitivity_db) / self.falloff_db_per_decade))
-class BeltConfig(_Section):
+class BeltConfig(Section):
     """Smart-belt IMU and recognition parameters (seed 002 §3.4). Values live in ``default.yaml``."""
 
     # --- accelerometer (z, vertical) ---
@@ -300,7 +302,7 @@ class BeltConfig(_Section):
         c0, c1 = self.run_cadence_hz if posture == "run" else self.walk_cadence_hz
         return max(0.0, c0 + c1 * max(0.0, speed_mps))
 
-class WatchConfig(_Section):
+class WatchConfig(Section):
     """Smart-watch gesture and remote-control parameters (seed 002 §3.1, Table 1). Values in ``default.yaml``."""
 
     accel_rate_hz: float = Field(gt=0, description="wrist accelerometer sample rate, Hz")
@@ -329,7 +331,7 @@ class WatchConfig(_Section):
         return self
 
 
-class Config(_Section):
+class Config(Section):
     seed: int = Field(ge=0)
     max_cycles: int = Field(gt=0)
     control_period_s: float = Field(gt=0)

@@ -23,7 +23,7 @@ from petswarm_env.scenarios import ACTIVITIES
 from petswarm_env.sim.geometry import ray_segment_distances
 from petswarm_env.wearables.lf import LFFix
 
-# -- IR module (petswarm_env/middleware/ir.py): seed 000 §3.3 ---------------------------------------
+# -- IR module (petswarm_env/comms/ir.py): seed 000 §3.3 ---------------------------------------
 _IR_MIN_DISTANCE_M = 0.01
 
 
@@ -40,7 +40,7 @@ def _ir_ring(num_receivers: int) -> tuple[np.ndarray, float, float, float]:
 
 
 def ir_received_strengths(cfg: IRConfig, distance_m, bearing_rad, occluded, rng: np.random.Generator) -> np.ndarray:
-    """:func:`petswarm_env.middleware.ir.received_strengths` on arrays: (M,) in, (M, K) out."""
+    """:func:`petswarm_env.comms.ir.received_strengths` on arrays: (M,) in, (M, K) out."""
     d = np.maximum(np.asarray(distance_m, dtype=float).reshape(-1), _IR_MIN_DISTANCE_M)
     bearing = np.asarray(bearing_rad, dtype=float).reshape(-1)
     occ = np.asarray(occluded, dtype=bool).reshape(-1)
@@ -58,7 +58,7 @@ def ir_received_strengths(cfg: IRConfig, distance_m, bearing_rad, occluded, rng:
 
 
 def ir_estimate(cfg: IRConfig, strengths) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """:func:`petswarm_env.middleware.ir.estimate` on arrays: (M, K) in, three (M,) out."""
+    """:func:`petswarm_env.comms.ir.estimate` on arrays: (M, K) in, three (M,) out."""
     s = np.asarray(strengths, dtype=float).reshape(-1, cfg.num_receivers)
     k = cfg.num_receivers
     _, delta, cos_d, sin_d = _ir_ring(k)

@@ -13,9 +13,10 @@ from importlib import resources
 from pathlib import Path
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import Field, ValidationError
 
 from petswarm_env.config import (
+    Section,
     Config,
     ConfigError,
     format_validation_error,
@@ -28,11 +29,7 @@ from petswarm_env.config import (
 DEFAULT_TRAIN_CONFIG = Path(str(resources.files("training") / "ppo.yaml"))
 
 
-class _Section(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
-
-
-class PPOConfig(_Section):
+class PPOConfig(Section):
     learning_rate: float = Field(gt=0)
     n_steps: int = Field(ge=8)
     batch_size: int = Field(ge=8)
@@ -48,18 +45,18 @@ class PPOConfig(_Section):
     log_std_init: float
 
 
-class EvalConfig(_Section):
+class EvalConfig(Section):
     every_steps: int = Field(ge=1)
     episodes: int = Field(ge=1)
     seed: int = Field(ge=0)
     max_cycles: int = Field(ge=1)
 
 
-class CheckpointConfig(_Section):
+class CheckpointConfig(Section):
     every_steps: int = Field(ge=1)
 
 
-class PretrainConfig(_Section):
+class PretrainConfig(Section):
     samples: int = Field(ge=0, description="agent-samples of the scripted reference to imitate; 0 = no warm start")
     noise_std: float = Field(ge=0, description="action noise while collecting (visits recovery states)")
     epochs: int = Field(ge=1)
@@ -67,7 +64,7 @@ class PretrainConfig(_Section):
     learning_rate: float = Field(gt=0)
 
 
-class TrainConfig(_Section):
+class TrainConfig(Section):
     seed: int = Field(ge=0)
     timesteps: int = Field(ge=1)
     num_envs: int = Field(ge=1)

@@ -2,8 +2,8 @@
 
 This is the only place where IR measurements touch the physical truth: it takes the true
 positions and headings, decides occlusion by bodies, simulates the receiver ring
-(:func:`petswarm_env.middleware.ir.received_strengths`) and runs the paper's estimator
-(:func:`petswarm_env.middleware.ir.estimate`). What a robot gets back is only the estimate.
+(:func:`petswarm_env.comms.ir.received_strengths`) and runs the paper's estimator
+(:func:`petswarm_env.comms.ir.estimate`). What a robot gets back is only the estimate.
 """
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 
-from petswarm_env.middleware import ir
+from petswarm_env.comms import ir
 from petswarm_env.sim.world import World
 
 

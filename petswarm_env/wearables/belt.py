@@ -21,7 +21,7 @@ Seed 002 §3.4 (User-Motion Recognition) gives the belt two jobs:
   minimizes the amount of noise by using a moving-average filter. The robot must know the rotation
   state, angular speed, and accumulated angle of the human."
 
-This module keeps the physics and the recognition apart, as ``middleware/ir.py`` does:
+This module keeps the physics and the recognition apart, as ``comms/ir.py`` does:
 
 * *Signals* (``_synth_*``): the waist's vertical acceleration is gravity plus a gait oscillation
   at the step frequency (cadence grows with speed; walk and run differ) whose amplitude is that of

@@ -8,7 +8,7 @@ created beforehand, checks that the two distances and the antenna spacing form a
 and computes the user's position, distance and direction with Eqs. 2–3. The location is reliable
 within 2 m and ±25° of the robot's forward axis (§3.3, §3.5, Figs. 10–11).
 
-The two halves are kept apart, as in :mod:`petswarm_env.middleware.ir`:
+The two halves are kept apart, as in :mod:`petswarm_env.comms.ir`:
 
 * :func:`lf_rssi` is the *physics*. At 125 kHz the wavelength is 2.4 km, so at a few metres the belt
   is deep in the near field (r ≪ λ/2π ≈ 380 m) of each antenna, a small magnetic dipole: the field

@@ -3,7 +3,7 @@
 import math
 import numpy as np
 import pytest
-from petswarm_env.middleware import ir
+from petswarm_env.comms import ir
 from petswarm_env.sim import geometry
 from tests import oracles
 

@@ -14,7 +14,7 @@ from experiments.ir_accuracy import (
     accuracy_experiment,
 )
 from petswarm_env.config import IRConfig, load_config
-from petswarm_env.middleware import ir
+from petswarm_env.comms import ir
 from petswarm_env.sim.geometry import wrap_angle
 import math
 from petswarm_env.comms.ir_channel import IRChannel, line_of_sight_blocked

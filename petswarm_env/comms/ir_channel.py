@@ -1,9 +1,18 @@
 """The optical path of the IR module: from true geometry to ring readings to the paper's estimate.
 
 This is the only place where IR measurements touch the physical truth: it takes the true
-positions and headings, decides occlusion by bodies, simulates the receiver ring
+positions and headings, decides what lies in the line of sight, simulates the receiver ring
 (:func:`petswarm_env.comms.ir.received_strengths`) and runs the paper's estimator
 (:func:`petswarm_env.comms.ir.estimate`). What a robot gets back is only the estimate.
+
+IR needs a line of sight (SPEC §3.2: "bodies in the line of sight block the signal"):
+
+* a wall or a box edge (the world's static segments) crossing the line between the two centres
+  is opaque: no light reaches the receiver, which then reads its noise alone, as from a source
+  beyond range (the reading is invalid but for a noise peak over the detection threshold, ≈ 5.7 σ);
+* a round body (another robot, a user) cutting the line attenuates the signal by
+  ``ir.occlusion_attenuation`` (0.05: below the detection threshold beyond 0.61 m, and no body fits
+  between two robots closer than 0.8 m, so a body blocks too).
 """
 
 from __future__ import annotations
@@ -13,6 +22,7 @@ import math
 import numpy as np
 
 from petswarm_env.comms import ir
+from petswarm_env.sim.geometry import SegmentSet, segment_crosses
 from petswarm_env.sim.world import World
 
 
@@ -21,6 +31,8 @@ class IRChannel:
         self.world = world
         self.cfg = cfg
         self.rng = rng
+        self.walls = SegmentSet(world.wall_a, world.wall_b, 0.0)  # walls and box edges, with their bounding boxes
+        self._wall_ends = [(*a, *b) for a, b in zip(world.wall_a.tolist(), world.wall_b.tolist())]
 
     def measure(self, tx_index: int, rx_indices: list[int]) -> tuple[list[float], list[float], list[bool]]:
         """Receivers ``rx_indices`` measure the IR of robot ``tx_index``.
@@ -31,7 +43,8 @@ class IRChannel:
         centers, radii, headings = self.world.truth_arrays()
         cl, rl, hl = centers.tolist(), radii.tolist(), headings.tolist()
         tx_x, tx_y = cl[tx_index]
-        dxs, dys, bearing, occluded = [], [], [], []
+        walls = self._walls_near(cl, tx_index, rx_indices)
+        dxs, dys, bearing, occluded, opaque = [], [], [], [], []
         for r in rx_indices:
             px, py = cl[r]
             dx, dy = tx_x - px, tx_y - py  # receiver -> transmitter
@@ -39,10 +52,26 @@ class IRChannel:
             dys.append(dy)
             bearing.append(math.atan2(dy, dx) - hl[r])  # in the receiver's frame (its heading only)
             occluded.append(line_of_sight_blocked(px, py, dx, dy, cl, rl, r, tx_index))
+            if walls:
+                opaque.append(any(segment_crosses(px, py, dx, dy, *w) for w in walls))
         # numpy's hypot (libm's), not math.hypot: the two differ in the last bit now and then
         distance = np.hypot(np.array(dxs), np.array(dys)).tolist()
+        if any(opaque):  # no light reaches these receivers: as from a source beyond range
+            distance = [math.inf if o else d for d, o in zip(distance, opaque)]
         strengths = ir.received_strengths(self.cfg, distance, bearing, occluded, self.rng)
         return ir.estimate(self.cfg, strengths)
+
+    def _walls_near(self, cl: list, tx_index: int, rx_indices: list[int]) -> list[tuple[float, float, float, float]]:
+        """The wall and box segments whose bounding box overlaps the slot's (the transmitter's and
+        the receivers' centres): the only ones that can cross a line of sight of this slot. Inside
+        the arena and away from boxes, none (a few comparisons per slot)."""
+        if not self._wall_ends or not rx_indices:
+            return []
+        xs = [cl[i][0] for i in rx_indices]
+        ys = [cl[i][1] for i in rx_indices]
+        tx_x, tx_y = cl[tx_index]
+        near = self.walls.near_box(min(min(xs), tx_x), min(min(ys), tx_y), max(max(xs), tx_x), max(max(ys), tx_y))
+        return [self._wall_ends[i] for i in near]
 
 
 def line_of_sight_blocked(px: float, py: float, vx: float, vy: float, centers: list, radii: list, rx: int, tx: int) -> bool:

@@ -5,8 +5,9 @@ ray casts work on whole batches at once (no Python loop over rays or segments) a
 batches (zero rays, circles or segments) without special-casing by the caller.
 
 Used for the ultrasonic ring (:mod:`petswarm_env.sim.sensors`) and, for the wrap, by every module
-that subtracts headings or bearings. (The IR line of sight is a plain-Python loop in
-:mod:`petswarm_env.comms.ir_channel`: an IR slot has a handful of segments.)
+that subtracts headings or bearings. (The IR line of sight through bodies is a plain-Python loop in
+:mod:`petswarm_env.comms.ir_channel`: an IR slot has a handful of segments; through walls and boxes
+it takes :meth:`SegmentSet.near_box` and :func:`segment_crosses`.)
 """
 
 from __future__ import annotations
@@ -99,8 +100,26 @@ class SegmentSet:
         if not self._boxes or not len(points):
             return []
         xs, ys = np.asarray(points).T.tolist()  # the bounding box in Python (a handful of points)
-        x0, x1, y0, y1 = min(xs), max(xs), min(ys), max(ys)
+        return self.near_box(min(xs), min(ys), max(xs), max(ys))
+
+    def near_box(self, x0: float, y0: float, x1: float, y1: float) -> list[int]:
+        """Indices of the segments whose grown bounding box overlaps the box [x0, x1] × [y0, y1]."""
         return [i for i, lx, ly, hx, hy in self._boxes if lx <= x1 and ly <= y1 and hx >= x0 and hy >= y0]
+
+
+def segment_crosses(px: float, py: float, vx: float, vy: float, ax: float, ay: float, bx: float, by: float) -> bool:
+    """Does the segment ``p → p + v`` cross the segment ``a → b``? Strictly: each segment's end
+    points lie strictly on opposite sides of the other's line (touching an end point, grazing and
+    collinear overlap are clear, as a grazed circle is for the bodies' line of sight). Plain Python
+    floats: called for a handful of segments per IR slot."""
+    ex, ey = bx - ax, by - ay
+    d1 = vx * (ay - py) - vy * (ax - px)  # side of a, of b, relative to the line p → p + v
+    d2 = vx * (by - py) - vy * (bx - px)
+    if (d1 > 0.0) == (d2 > 0.0) or d1 == 0.0 or d2 == 0.0:
+        return False
+    d3 = ex * (py - ay) - ey * (px - ax)  # side of p, of p + v, relative to the line a → b
+    d4 = ex * (py + vy - ay) - ey * (px + vx - ax)
+    return (d3 > 0.0) != (d4 > 0.0) and d3 != 0.0 and d4 != 0.0
 
 
 def ring_first_hits(

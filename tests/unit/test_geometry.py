@@ -235,3 +235,16 @@ def test_ir_line_of_sight_equals_segments_blocked(seed):
     cl, rl = centers.tolist(), radii.tolist()
     got = np.array([line_of_sight_blocked(*centers[r], *(centers[tx] - centers[r]), cl, rl, int(r), tx) for r in rx])
     assert np.array_equal(got, want)
+
+
+def test_segment_crosses_hand_cases():
+    """A proper crossing blocks; touching an end point, grazing, parallel and collinear lines do not."""
+    from petswarm_env.sim.geometry import segment_crosses
+
+    assert segment_crosses(0.0, 0.0, 2.0, 0.0, 1.0, -1.0, 1.0, 1.0)  # a cross
+    assert not segment_crosses(0.0, 0.0, 2.0, 0.0, 3.0, -1.0, 3.0, 1.0)  # beyond the end
+    assert not segment_crosses(0.0, 0.0, 2.0, 0.0, 1.0, 0.0, 1.0, 1.0)  # the wall's end point on the line
+    assert not segment_crosses(0.0, 0.0, 2.0, 0.0, 2.0, -1.0, 2.0, 1.0)  # the line ends on the wall
+    assert not segment_crosses(0.0, 0.0, 2.0, 0.0, 0.0, 1.0, 2.0, 1.0)  # parallel
+    assert not segment_crosses(0.0, 0.0, 2.0, 0.0, 1.0, 0.0, 3.0, 0.0)  # collinear overlap
+    assert segment_crosses(0.0, 0.0, 2.0, 2.0, 0.0, 2.0, 2.0, 0.0)  # diagonals of a square

@@ -39,7 +39,7 @@ from pettingzoo import ParallelEnv
 
 from petswarm_env.comms.ir_channel import IRChannel
 from petswarm_env.comms.radio import RadioMedium
-from petswarm_env.config import Config, flatten_dotted, load_config
+from petswarm_env.config import DRIVING_MODES, Config, ConfigError, flatten_dotted, load_config
 from petswarm_env.control.arbiter import ControlArbiter, SafetyStage
 from petswarm_env.metrics import Experimenter
 from petswarm_env.middleware.formation import formation_for_mode, user_position_in_formation
@@ -56,6 +56,22 @@ ENV_NAME = "petswarm_v0"
 OTHER_USER_ID = 99  # the user that "other user" robots are connected to (Table 1)
 SWARM_PAN = 0x1001  # user u's swarm uses PAN SWARM_PAN + u
 WAKE_PATTERN = 0x5A00  # user u's belt and robot share the LF wake-up pattern WAKE_PATTERN + u
+
+
+def _swarm_reach_m(cfg: Config) -> float | None:
+    """How far from its user a swarm's robots are planned to stand: the farthest slot of the
+    configured formation in either driving mode (seed 000 Fig. 10), plus a robot's radius. None
+    for a neighbour table that cannot be built (reset says why)."""
+    reach = 0.0
+    for mode in DRIVING_MODES:
+        try:
+            plan = formation_for_mode(cfg.swarm, cfg.swarm.num_slaves + 1, mode)
+        except ValueError:
+            return None
+        ux, uy = user_position_in_formation(plan, cfg.master.distance_m)
+        slots = plan.slot_positions()
+        reach = max(reach, float(np.hypot(slots[:, 0] - ux, slots[:, 1] - uy).max()))
+    return reach + cfg.robot.radius_m
 
 
 class PetSwarmEnv(ParallelEnv):
@@ -85,6 +101,11 @@ class PetSwarmEnv(ParallelEnv):
             f"robot_{u * per_user + k}" for u in range(cfg.world.num_users) for k in range(0 if may_change_master else 1, per_user)
         ]
         self._possible = set(self.possible_agents)
+        self._reach_m = _swarm_reach_m(cfg)
+        for name in dict.fromkeys((*cfg.user.scenario_pool, cfg.user.scenario)):  # the user stays in the world
+            problem = SCENARIOS[name].arena_problem(cfg, self._reach_m or 0.0) if self._reach_m is not None else None
+            if problem:
+                raise ConfigError(problem)
         self.agents: list[str] = []
         self._limits = (cfg.robot.max_speed_mps, cfg.robot.max_speed_mps, cfg.robot.max_omega_rps)
         self.layout = ObservationLayout(cfg.robot.ultrasonic.count, self._limits, cfg.robot.ultrasonic.max_range_m)
@@ -145,7 +166,8 @@ class PetSwarmEnv(ParallelEnv):
         pool = cfg.user.scenario_pool
         self.scenario = pool[int(rng_script.integers(len(pool)))] if pool else cfg.user.scenario
         scenario = SCENARIOS[self.scenario]
-        scripts = [scenario.script(cfg.user, r) for r in rng_script.spawn(cfg.world.num_users)]
+        scripts = [scenario.script(cfg.user, r, scenario.arena(cfg, self._reach_m or 0.0, u))
+                   for u, r in enumerate(rng_script.spawn(cfg.world.num_users))]
         self.world = world = World(cfg, scripts[0])
         for u in range(1, cfg.world.num_users):
             world.add_user(scripts[u], (0.0, u * cfg.world.user_spacing_m), 0.0)

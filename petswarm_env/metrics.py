@@ -3,10 +3,20 @@
 A slave's *reference point* is the mean over its reference links of its neighbour's true position
 plus its offset rotated by the formation heading (the master's true heading); its *formation
 error* is its true distance from that point and its *heading error* its true heading minus the
-master's. ``formation_rmse_m`` is the RMS over slaves and steps after organizing of the formation
-error. :class:`Experimenter` computes these, counts what began in the episode (contacts, frames,
+master's. :class:`Experimenter` computes these, counts what began in the episode (contacts, frames,
 middleware events, arbiter wins) and writes the episode summary; rewards (:mod:`.reward`) are
-computed from its figures.
+computed from its figures (every slave, every step).
+
+The summary's formation figures:
+
+* ``formation_rmse_m``: the RMS of the formation error over the slaves and steps after organizing
+  *out of emergency*: a slave's error at a step counts only while its user's session is not in the
+  emergency state (seed 002 Fig. 4: the user lost, the whole swarm stopped), so a swarm parked in
+  emergency cannot look good; NaN if no step counts. ``formation_rmse_steps``: the number of steps
+  it covers (steps with at least one slave's error counted).
+* ``emergency_s``: the time spent in emergency, read from each user session's state after every
+  step, summed over the users (with one user: the time its swarm stood in emergency).
+* ``error_trace`` (every step, emergency included) is the mean formation error of the step's slaves.
 """
 
 from __future__ import annotations
@@ -37,15 +47,24 @@ class EpisodeMetrics:
     sq_error_sum: float = 0.0
     error_count: int = 0
     steps: int = 0
+    rmse_steps: int = 0  # steps whose errors entered the RMSE (some slave out of emergency)
+    emergency_steps: int = 0  # user-steps in the emergency state, summed over the users
     organize_time_s: float = math.nan
     join_retries: int = 0
     error_trace: list[float] = field(default_factory=list)  # mean formation error per step (m)
 
-    def add_step(self, errors_m: list[float]) -> None:
+    def add_step(self, errors_m: list[float], counted_m: list[float] | None = None, emergencies: int = 0) -> None:
+        """One step: the formation errors of its slaves (``errors_m``, for the trace), those that
+        count toward the RMSE (``counted_m``, the slaves out of emergency; all if None) and how many
+        users were in emergency."""
         self.steps += 1
+        self.emergency_steps += emergencies
+        counted = errors_m if counted_m is None else counted_m
+        if counted:
+            self.sq_error_sum += sum(e * e for e in counted)
+            self.error_count += len(counted)
+            self.rmse_steps += 1
         if errors_m:
-            self.sq_error_sum += sum(e * e for e in errors_m)
-            self.error_count += len(errors_m)
             self.error_trace.append(sum(errors_m) / len(errors_m))
 
     @property
@@ -152,7 +171,13 @@ class Experimenter:
             errs.append(errors.get(agent, 0.0))
             heads.append(heading_errs.get(agent, 0.0))
             contacts.append(new_contacts)
-        self.metrics.add_step(list(errors.values()))
+        parked = [se.swarm for se in self.sessions if se.state == "emergency"]
+        if parked:  # the slaves of a swarm in emergency stand still: their errors do not count
+            stopped = {i for sw in parked for i in sw.slave_ids()}
+            counted = [e for agent, e in errors.items() if agent_index[agent] not in stopped]
+            self.metrics.add_step(list(errors.values()), counted, len(parked))
+        else:
+            self.metrics.add_step(list(errors.values()))
         return SlaveTruth(errors, errs, heads, contacts)
 
     # -- counts and the summary ------------------------------------------------------------------
@@ -184,6 +209,8 @@ class Experimenter:
             "scenario": scenario,
             "steps": m.steps,
             "formation_rmse_m": m.formation_rmse_m,
+            "formation_rmse_steps": m.rmse_steps,
+            "emergency_s": m.emergency_steps * self.cfg.control_period_s,
             "collisions": {
                 "robot_robot": c.robot_robot - c0[0],
                 "robot_user": c.robot_user - c0[1],

@@ -5,6 +5,11 @@ A segment is ``(duration_s, speed_mps, turn_rate_dps, activity, command)``; the 
 what the user tells the robots through the watch when the segment starts (see
 :data:`USER_COMMANDS`). The last segment repeats until the episode ends.
 
+The user stays in the world: in a walled arena every script turns back at the walls
+(:func:`turn_back_at_walls`: a 180° walking turn toward the arena's centre once the user comes
+within the swarm's reach plus a turn and a clearance of a wall, walking toward it), and the env
+refuses an arena too small for that (:meth:`Scenario.arena_problem`).
+
 This module and the scenario modules import nothing of ``petswarm_env`` (the config validates
 scenario names against the registry, so the registry sits below it): a scenario gets what it
 needs — the user's config section, the world to place robots in, the formation's slots — as
@@ -14,7 +19,7 @@ arguments.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -27,6 +32,9 @@ USER_COMMANDS = ("mode:following", "mode:leading", "mode:remote", "organize", "d
 
 SPAWN_REACH = 0.85  # chosen: waiting robots start within 85 % of the master's available region (Table 1)
 PAIRING_DISTANCE_M = 0.8  # chosen: each user starts this close to their robot (LF wake-up range 1 m)
+TURN_BACK_SPEED = 0.5  # chosen: the user turns back at a wall at half the walking speed (as in u_turn)
+TURN_BACK_CLEARANCE_M = 1.0  # chosen: a swarm turning back with its user stays this far from the wall
+TURN_BACK_CHECK_S = 0.1  # the script's path is checked against the walls at this step (one control period)
 
 
 @dataclass(frozen=True)
@@ -58,6 +66,80 @@ class ScenarioScript:
             i += 1
         self._i = i
         return self.segments[i]
+
+
+@dataclass(frozen=True)
+class Arena:
+    """The walled arena one user walks in, for :func:`turn_back_at_walls`: its half width and
+    height (m), how close to a wall the user turns back (``margin_m``), where the user starts and
+    facing where, and how long the episode's script runs (``horizon_s``)."""
+
+    half_m: tuple[float, float]
+    margin_m: float
+    start_m: tuple[float, float]
+    heading_rad: float
+    horizon_s: float
+
+
+def turn_back_radius_m(user: Any) -> float:
+    """Radius of the user's turn back at a wall: half the walking speed at ``user.turn_rate_dps``."""
+    return TURN_BACK_SPEED * user.walk_speed_mps / math.radians(user.turn_rate_dps)
+
+
+def _arc(x: float, y: float, th: float, v: float, w: float, t: float) -> tuple[float, float, float]:
+    """Pose after walking ``t`` s at speed ``v`` while turning at ``w`` (rad/s), in closed form."""
+    if abs(w) < 1e-12:
+        return x + v * t * math.cos(th), y + v * t * math.sin(th), th
+    th2 = th + w * t
+    return x + v / w * (math.sin(th2) - math.sin(th)), y - v / w * (math.cos(th2) - math.cos(th)), th2
+
+
+def _toward_wall(x: float, y: float, th: float, hx: float, hy: float, margin: float) -> bool:
+    """Inside the margin of a wall and walking toward it."""
+    c, s = math.cos(th), math.sin(th)
+    return ((x > hx - margin and c > 0.0) or (x < margin - hx and c < 0.0)
+            or (y > hy - margin and s > 0.0) or (y < margin - hy and s < 0.0))
+
+
+def turn_back_at_walls(segments: list[Segment], user: Any, arena: Arena) -> list[Segment]:
+    """The scenario rule that keeps the user in the world: ``segments`` with a turn back inserted
+    wherever the user, walking them from ``arena.start_m``, would come within ``arena.margin_m`` of
+    a wall while walking toward it (checked every ``TURN_BACK_CHECK_S`` of the script, up to
+    ``arena.horizon_s``). A turn back is a 180° walking turn at ``TURN_BACK_SPEED`` times the
+    walking speed and ``user.turn_rate_dps``, toward the arena's centre; then the interrupted
+    segment goes on (its command, given when it started, is not given again) and the script after
+    it, from the new heading. The user is a kinematic body on the script, so its path is known here
+    (in closed form; the physics integrates it in substeps, a few cm apart over a turn)."""
+    hx, hy = arena.half_m
+    x, y = arena.start_m
+    th = arena.heading_rad
+    w_back = math.radians(user.turn_rate_dps)
+    out: list[Segment] = []
+    queue = list(segments)
+    t = 0.0
+    while queue and t < arena.horizon_s:
+        seg = queue.pop(0)
+        w = math.radians(seg.turn_rate_dps)
+        done = 0.0
+        while done < seg.duration_s and t + done < arena.horizon_s:
+            step = min(TURN_BACK_CHECK_S, seg.duration_s - done)
+            x, y, th = _arc(x, y, th, seg.speed_mps, w, step)
+            done += step
+            if seg.speed_mps > 0.0 and _toward_wall(x, y, th, hx, hy, arena.margin_m):
+                break
+        else:
+            out.append(seg)
+            t += done
+            continue
+        left = x * math.sin(th) - y * math.cos(th) >= 0.0  # the arena's centre is on the left
+        back = Segment(math.pi / w_back, TURN_BACK_SPEED * user.walk_speed_mps, user.turn_rate_dps if left else -user.turn_rate_dps,
+                       "walk")
+        out += [replace(seg, duration_s=done), back]
+        x, y, th = _arc(x, y, th, back.speed_mps, math.radians(back.turn_rate_dps), back.duration_s)
+        t += done + back.duration_s
+        if seg.duration_s > done:
+            queue.insert(0, replace(seg, duration_s=seg.duration_s - done, command=""))
+    return out + queue
 
 
 @dataclass(frozen=True)
@@ -93,8 +175,59 @@ class Scenario:
         straight = Segment(1e9, user.walk_speed_mps, 0.0, "walk")
         return [stand, *self.walk(user, rng), straight]
 
-    def script(self, user: Any, rng: np.random.Generator) -> ScenarioScript:
-        return ScenarioScript(self.segments(user, rng))
+    def script(self, user: Any, rng: np.random.Generator, arena: Arena | None = None) -> ScenarioScript:
+        """The user's script: :meth:`segments`, turned back at the walls of ``arena`` if given
+        (:func:`turn_back_at_walls`)."""
+        segments = self.segments(user, rng)
+        return ScenarioScript(turn_back_at_walls(segments, user, arena) if arena is not None else segments)
+
+    def arena_problem(self, cfg: Any, reach_m: float) -> str | None:
+        """Why the arena ``cfg.world.arena_m`` cannot hold this scenario's users and their swarms
+        over ``cfg.max_cycles`` (None if it can). A swarm stands up to ``reach_m`` from its user.
+        It fits when no user can walk within ``reach_m + TURN_BACK_CLEARANCE_M`` of a wall in the
+        episode (the walk's length bounded by its fastest segment), or else when every user starts
+        at least the turn-back margin (:meth:`turn_back_margin_m`) inside every wall, so that the
+        turn back keeps the user and the swarm inside."""
+        w, h = cfg.world.arena_m
+        if w <= 0 or h <= 0:
+            return None  # no walls
+        user = cfg.user
+        speed = max(seg.speed_mps for seg in self.segments(user, np.random.default_rng(0)))
+        walk = speed * cfg.max_cycles * cfg.control_period_s
+        reach_m = max(reach_m, self.start_reach_m(cfg))
+        margin = self.turn_back_margin_m(user, reach_m)
+        for u in range(cfg.world.num_users):
+            room = min(w / 2, h / 2 - abs(u * cfg.world.user_spacing_m))  # start to the nearest wall
+            if room - walk >= reach_m + TURN_BACK_CLEARANCE_M or room >= margin:
+                continue
+            return (f"world.arena_m={[w, h]} cannot hold user.scenario='{self.name}' over max_cycles={cfg.max_cycles}: "
+                    f"user {u} walks up to {walk:.0f} m (user.walk_speed_mps={user.walk_speed_mps}) and starts {room:.1f} m "
+                    f"from a wall, but turns back {margin:.1f} m from one (its swarm reaches {reach_m:.1f} m, a turn at "
+                    f"user.turn_rate_dps={user.turn_rate_dps}); make the arena at least {2 * (margin + abs(u * cfg.world.user_spacing_m)):.1f} m "
+                    "wide and high, lower max_cycles, or set world.arena_m=[0, 0] (no walls)")
+        return None
+
+    def arena(self, cfg: Any, reach_m: float, user_index: int) -> Arena | None:
+        """User ``user_index``'s arena for :func:`turn_back_at_walls` (None without walls): the
+        turn-back margin for a swarm reaching ``reach_m`` (or its robots' start, if farther)."""
+        w, h = cfg.world.arena_m
+        if w <= 0 or h <= 0:
+            return None
+        margin = self.turn_back_margin_m(cfg.user, max(reach_m, self.start_reach_m(cfg)))
+        return Arena((w / 2, h / 2), margin, (0.0, user_index * cfg.world.user_spacing_m), 0.0,
+                     cfg.max_cycles * cfg.control_period_s)
+
+    def start_reach_m(self, cfg: Any) -> float:
+        """How far from its user :meth:`place` may put a robot of the swarm: the master's start-up
+        place (at most the LF range away) plus the waiting robots' spawn radius and a robot's."""
+        master = max(cfg.master.distance_m, cfg.lf.reliable_range_m)
+        return master + SPAWN_REACH * cfg.protocol.join_radius_m + cfg.robot.radius_m
+
+    @staticmethod
+    def turn_back_margin_m(user: Any, reach_m: float) -> float:
+        """How close to a wall the user turns back: the swarm's reach, the turn's diameter and
+        ``TURN_BACK_CLEARANCE_M``."""
+        return reach_m + 2.0 * turn_back_radius_m(user) + TURN_BACK_CLEARANCE_M
 
     def place(self, world: Any, cfg: Any, slots: np.ndarray, user_ahead_m: float, rng: np.random.Generator) -> Placement:
         """Add the robots to ``world`` (``world.add_robot(position, heading)``) for the config

@@ -33,6 +33,40 @@ def test_episode_metrics_rmse_over_slaves_and_steps():
     assert m.formation_rmse_m == pytest.approx(math.sqrt(25.0 / 3))
 
 
+def test_episode_metrics_count_only_the_errors_out_of_emergency():
+    m = EpisodeMetrics()
+    m.add_step([1.0, 1.0])
+    m.add_step([0.0, 0.0], [], emergencies=1)  # a parked swarm: in the trace, not in the RMSE
+    m.add_step([2.0], [2.0], emergencies=0)
+    assert m.steps == 3 and m.rmse_steps == 2 and m.emergency_steps == 1
+    assert m.error_trace == [1.0, 0.0, 2.0]
+    assert m.formation_rmse_m == pytest.approx(math.sqrt(6.0 / 3))
+
+
+def test_a_swarm_parked_in_emergency_does_not_look_good():
+    """Issue 14: a swarm that sat in emergency for 18 600 of 20 000 steps read formation_rmse_m
+    0.126. The user is carried out of LF range: the swarm stops in emergency; its steps there count
+    in ``emergency_s``, not in the RMSE, whose step count says what it covers."""
+    env = petswarm_env.parallel_env(**{"user.scenario": "straight", "user.start_delay_s": 100.0, "max_cycles": 120})
+    pol = make_policy("scripted", PolicySpec.from_env(env))
+    obs, _ = env.reset(seed=0)
+    sq, n, steps_out, parked = 0.0, 0, 0, 0
+    while env.agents:
+        if env.num_cycles == 20:
+            env.world.user.body.position = (env.world.user.position[0] + 4.0, env.world.user.position[1])
+        obs, _, _, _, infos = env.step(pol.act_all(obs))
+        errors = [i["formation_error_m"] for a, i in infos.items() if a in env.experimenter.agent_index]
+        if env.session.state == "emergency":
+            parked += 1
+        else:
+            sq, n, steps_out = sq + sum(e * e for e in errors), n + len(errors), steps_out + 1
+    s = env.episode_summary()
+    assert parked > 50 and s["events"]["emergencies"] == 1
+    assert s["emergency_s"] == pytest.approx(parked * env.cfg.control_period_s)
+    assert s["formation_rmse_steps"] == steps_out == s["steps"] - parked
+    assert s["formation_rmse_m"] == pytest.approx(math.sqrt(sq / n), rel=1e-12)
+
+
 def test_reference_point_is_the_neighbour_plus_the_rotated_offset():
     env = petswarm_env.parallel_env()
     _run(env, 30)

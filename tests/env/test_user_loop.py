@@ -196,6 +196,24 @@ def test_user_beyond_the_reliable_range_is_an_emergency_and_everyone_stops():
     assert se.state == "following"
 
 
+def test_the_user_turns_back_at_the_walls_and_the_swarm_stays_in_the_world():
+    """Issue 14: the zigzag user walked through the arena wall; the master hit it and the swarm sat
+    in emergency. In a 16 m arena (60 m of zigzag in 600 steps) the script turns back at the walls:
+    the user stays inside the turn-back margin, nobody touches a wall, no emergency."""
+    env = petswarm_env.parallel_env(**{"world.arena_m": [16.0, 16.0], "max_cycles": 400})
+    pol = make_policy("scripted", PolicySpec.from_env(env))
+    obs, _ = env.reset(seed=0)
+    margin = SCENARIOS["zigzag"].arena(env.cfg, env._reach_m, 0).margin_m
+    far = 0.0
+    while env.agents:
+        obs, *_ = env.step(pol.act_all(obs))
+        far = max(far, float(np.abs(env.world.user.position).max()))
+    s = env.episode_summary()
+    assert 8.0 - margin < far < 8.0 - margin + 1.0  # it reached the turn-back line, never beyond a turn's radius
+    assert s["collisions"]["robot_wall"] == 0 and s["events"]["emergencies"] == 0 and s["emergency_s"] == 0.0
+    assert s["formation_rmse_steps"] == s["steps"] and s["formation_rmse_m"] < 0.35
+
+
 # -- Table 3 (seed 000 §3.5) --------------------------------------------------------------------------
 CFG = load_config()
 

@@ -98,3 +98,74 @@ def test_a_registered_scenario_is_a_config_choice_and_runs(monkeypatch):
     while env.agents:
         obs, *_ = env.step({a: np.zeros(3, np.float32) for a in env.agents})
     assert env.world.user.segment.turn_rate_dps == 36.0
+
+
+def _walk(segments, start=(0.0, 0.0), heading=0.0, horizon_s=2000.0, dt=0.05):
+    """The user's path along ``segments`` (closed-form arcs, every ``dt``), up to ``horizon_s``."""
+    from petswarm_env.scenarios.base import _arc
+
+    x, y, th, t, path = *start, heading, 0.0, []
+    for seg in segments:
+        done = 0.0
+        while done < seg.duration_s and t < horizon_s:
+            step = min(dt, seg.duration_s - done)
+            x, y, th = _arc(x, y, th, seg.speed_mps, math.radians(seg.turn_rate_dps), step)
+            done, t = done + step, t + step
+            path.append((x, y))
+        if t >= horizon_s:
+            break
+    return np.array(path)
+
+
+@pytest.mark.parametrize("name", list(SCENARIOS))
+def test_the_script_turns_back_at_the_walls(name):
+    """Issue 14: in a 20 000-step zigzag the user walked through the arena wall at step 1 373. With
+    the turn-back rule every named script keeps the user inside the walls minus the swarm's reach
+    and a clearance over 2 000 s in a 20 m arena; without it the same walk leaves the arena."""
+    from petswarm_env.scenarios.base import TURN_BACK_CLEARANCE_M, Arena, turn_back_radius_m
+
+    user = load_config().user
+    reach = 4.8
+    scenario = SCENARIOS[name]
+    margin = scenario.turn_back_margin_m(user, reach)
+    assert margin == pytest.approx(reach + 2 * turn_back_radius_m(user) + TURN_BACK_CLEARANCE_M)
+    arena = Arena((10.0, 10.0), margin, (0.0, 2.0), 0.0, 2000.0)
+    plain = scenario.segments(user, np.random.default_rng(3))
+    turned = scenario.script(user, np.random.default_rng(3), arena).segments
+    path = _walk(turned, arena.start_m)
+    assert np.abs(path).max() <= 10.0 - reach - TURN_BACK_CLEARANCE_M
+    assert np.abs(_walk(plain, arena.start_m)).max() > 10.0  # the leak it closes
+    def is_back(s):  # a 180° walking turn at half the walking speed
+        return s.speed_mps == 0.5 * user.walk_speed_mps and abs(s.turn_rate_dps) == user.turn_rate_dps \
+            and s.duration_s == pytest.approx(180.0 / user.turn_rate_dps) and s.activity == "walk"
+
+    assert sum(map(is_back, turned)) > sum(map(is_back, plain))
+    assert [s.command for s in turned if s.command] == [s.command for s in plain if s.command]  # each given once
+    finite = lambda segs: sum(s.duration_s for s in segs[:-1])  # noqa: E731  (the last one repeats)
+    assert finite(turned) + turned[-1].duration_s - plain[-1].duration_s == pytest.approx(
+        finite(plain) + (sum(map(is_back, turned)) - sum(map(is_back, plain))) * 180.0 / user.turn_rate_dps)
+
+
+def test_without_walls_or_far_from_them_the_script_is_unchanged():
+    cfg = load_config()
+    scenario = SCENARIOS["zigzag"]
+    assert scenario.arena(load_config(overrides={"world.arena_m": [0, 0]}), 3.0, 0) is None
+    arena = scenario.arena(cfg, 3.0, 0)
+    assert arena.half_m == (100.0, 100.0) and arena.horizon_s == pytest.approx(60.0)
+    assert scenario.script(cfg.user, np.random.default_rng(0), arena).segments == scenario.segments(cfg.user, None)
+
+
+def test_an_arena_that_cannot_hold_the_walk_is_refused_naming_the_keys():
+    """A configuration whose users would walk into a wall and cannot turn back inside is refused by
+    the env with one line naming the arena, the speed, max_cycles and the scenario."""
+    with pytest.raises(ConfigError) as exc:
+        petswarm_env.parallel_env(**{"world.arena_m": [10.0, 10.0], "user.scenario": "straight"})
+    text = str(exc.value)
+    assert "\n" not in text
+    for key in ("world.arena_m", "user.walk_speed_mps", "max_cycles=600", "user.scenario='straight'", "[0, 0]"):
+        assert key in text
+    petswarm_env.parallel_env(**{"world.arena_m": [13.0, 13.0], "max_cycles": 5})  # 0.5 m of walk: fits without turning
+    petswarm_env.parallel_env(**{"world.arena_m": [16.0, 16.0], "max_cycles": 20000})  # turns back inside
+    petswarm_env.parallel_env(**{"world.arena_m": [0.0, 0.0], "max_cycles": 20000})  # no walls
+    with pytest.raises(ConfigError, match="user 1"):
+        petswarm_env.parallel_env(**{"world.arena_m": [16.0, 16.0], "world.num_users": 2})

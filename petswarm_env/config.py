@@ -25,6 +25,7 @@ from petswarm_env.scenarios import SCENARIOS  # the registry (the scenarios impo
 
 FORMATIONS = ("column", "row", "wedge", "grid", "custom")
 DRIVING_MODES = ("following", "leading")
+SPAWN_MODES = ("scattered", "at_slots")  # where the waiting robots start (petswarm_env/scenarios/base.py: Scenario.place)
 
 
 def _registered_scenario(name: str) -> str:
@@ -97,6 +98,8 @@ class SwarmConfig(Section):
     spacing_m: float = Field(gt=0)
     custom_links: list[CustomLink]
     mode: Literal[DRIVING_MODES]  # type: ignore[valid-type]
+    spawn: Literal[SPAWN_MODES] = Field(description="scattered: waiting robots start anywhere in the master's available region, "  # type: ignore[valid-type]
+                                        "random headings; at_slots: within spawn_jitter_m of their formation slots")
     spawn_jitter_m: float = Field(ge=0)
     master_change: bool = Field(description="the user's master-change request on a driving-mode change (Table 3)")
     other_user_robots: int = Field(ge=0, le=16, description="waiting robots already connected to another user")

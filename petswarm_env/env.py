@@ -45,7 +45,7 @@ from petswarm_env.metrics import Experimenter
 from petswarm_env.middleware.formation import formation_for_mode, user_position_in_formation
 from petswarm_env.middleware.fleet import Fleet
 from petswarm_env.middleware.swarm import Swarm
-from petswarm_env.middleware.user_session import UserSession
+from petswarm_env.middleware.user_session import UserSession, master_distance_m
 from petswarm_env.observe import OBS_VERSION, ObservationLayout, Observer
 from petswarm_env.reward import slave_rewards
 from petswarm_env.scenarios import SCENARIOS
@@ -173,7 +173,7 @@ class PetSwarmEnv(ParallelEnv):
             world.add_user(scripts[u], (0.0, u * cfg.world.user_spacing_m), 0.0)
         plan = formation_for_mode(cfg.swarm, cfg.swarm.num_slaves + 1, cfg.swarm.mode)
         placement = scenario.place(world, cfg, plan.slot_positions(), user_position_in_formation(plan, cfg.master.distance_m)[0],
-                                   rng_world)
+                                   rng_world, master_distance_m(cfg, None, cfg.swarm.mode))
         self._other_user_robots = placement.other_user_robots
         self.radio = RadioMedium(world.clock, cfg.radio, rng_radio)
         self.ir_channel = IRChannel(world, cfg.ir, rng_ir)

@@ -17,6 +17,9 @@ The summary's formation figures:
 * ``emergency_s``: the time spent in emergency, read from each user session's state after every
   step, summed over the users (with one user: the time its swarm stood in emergency).
 * ``error_trace`` (every step, emergency included) is the mean formation error of the step's slaves.
+* ``building_time_s``: how long after organizing (the end of ``reset``) the swarm built its
+  formation (seed 000 §3.5, Fig. 10): the first step's end at which every slave stood within
+  ``BUILT_WITHIN_M`` of its reference point (truth); NaN if that never happened in the episode.
 """
 
 from __future__ import annotations
@@ -39,6 +42,7 @@ if TYPE_CHECKING:
     from petswarm_env.middleware.user_session import UserSession
     from petswarm_env.sim.world import World
 
+BUILT_WITHIN_M = 0.3  # the formation is built once every slave is this close to its reference point (issue 14)
 _EVENTS = ("master_changes", "mode_changes", "token_recoveries", "emergencies", "exceptions")
 
 
@@ -51,6 +55,7 @@ class EpisodeMetrics:
     emergency_steps: int = 0  # user-steps in the emergency state, summed over the users
     organize_time_s: float = math.nan
     join_retries: int = 0
+    building_time_s: float = math.nan  # from organized to every slave within BUILT_WITHIN_M of its reference
     error_trace: list[float] = field(default_factory=list)  # mean formation error per step (m)
 
     def add_step(self, errors_m: list[float], counted_m: list[float] | None = None, emergencies: int = 0) -> None:
@@ -99,6 +104,7 @@ class Experimenter:
         self.metrics = EpisodeMetrics(organize_time_s=swarms[0].organize_result.elapsed_s,
                                       join_retries=sum(sw.organize_result.retries for sw in swarms))
         self._radio_at_start = (st.frames_sent, st.frames_lost, st.frames_collided)
+        self._organized_at_s = world.now
 
     # -- reference points and errors -------------------------------------------------------------
     def reference_positions(self) -> dict[int, np.ndarray]:
@@ -171,6 +177,9 @@ class Experimenter:
             errs.append(errors.get(agent, 0.0))
             heads.append(heading_errs.get(agent, 0.0))
             contacts.append(new_contacts)
+        m = self.metrics
+        if errors and math.isnan(m.building_time_s) and max(errors.values()) <= BUILT_WITHIN_M:
+            m.building_time_s = self.world.now - self._organized_at_s
         parked = [se.swarm for se in self.sessions if se.state == "emergency"]
         if parked:  # the slaves of a swarm in emergency stand still: their errors do not count
             stopped = {i for sw in parked for i in sw.slave_ids()}
@@ -217,6 +226,7 @@ class Experimenter:
                 "robot_wall": c.robot_wall - c0[2],
             },
             "organize_time_s": m.organize_time_s,
+            "building_time_s": m.building_time_s,
             "join_retries": m.join_retries,
             "token_recoveries": now["token_recoveries"],
             "frames": {"sent": st.frames_sent - r0[0], "lost": st.frames_lost - r0[1], "collided": st.frames_collided - r0[2]},

@@ -25,7 +25,7 @@ if TYPE_CHECKING:
     from petswarm_env.middleware.node import Knowledge, Node
     from petswarm_env.sim.sensors import Sensors
 
-OBS_VERSION = 1
+OBS_VERSION = 2  # 2: the master's IR fix (master.ir_*) and an anchor member's (anchor.*): a slave finds its slot from a scattered start
 POS_SCALE_M = 3.0
 AGE_SCALE_S = 2.0
 
@@ -62,6 +62,13 @@ FIELDS: list[Field] = [
     Field("master.turn_rate", 1, "/ ω_max", "user angular speed from the belt's filtered gyro, as broadcast (rad/s, CCW +)"),
     Field("master.leading", 1, "0/1", "driving mode: 1 = leading, 0 = following"),
     Field("master.user_xy", 2, f"m / {POS_SCALE_M}", "user position relative to the master, master's frame, as broadcast"),
+    Field("master.ir_valid", 1, "0/1", "an IR measurement of the master has been received (every member measures every token holder)"),
+    Field("master.ir_xy", 2, f"m / {POS_SCALE_M}", "IR-estimated position of the master in own body frame (x forward, y left), carried over own rotation since (AHRS)"),
+    Field("master.ir_age", 1, f"s / {AGE_SCALE_S}, clipped to 1", "age of that IR measurement"),
+    Field("anchor.ir_valid", 1, "0/1", f"an IR measurement younger than {AGE_SCALE_S} s of another slave of the swarm (the anchor: the lowest member number with one)"),
+    Field("anchor.ir_xy", 2, f"m / {POS_SCALE_M}", "IR-estimated position of the anchor in own body frame, carried over own rotation since (AHRS)"),
+    Field("anchor.ir_age", 1, f"s / {AGE_SCALE_S}, clipped to 1", "age of that IR measurement"),
+    Field("anchor.slot_xy", 2, f"m / {POS_SCALE_M}", "the anchor's reference position relative to the master, formation frame (from the neighbour table)"),
     Field("self.odometry", 3, "/ (v_max, v_max, ω_max)", "own wheel-odometry (Vx, Vy, ω), body frame"),
     Field("self.yaw_sincos", 2, "-", "own AHRS yaw (noisy, drifting)"),
     Field("self.last_action", 3, "[-1, 1]", "the action applied last step"),
@@ -75,7 +82,7 @@ FIELDS: list[Field] = [
 
 # the fields after the links, in the order build_observation unpacks their start offsets
 _BUILDER_FIELDS = ("master.valid", "master.activity", "master.rotating", "master.turn_rate", "master.leading", "master.user_xy",
-                   "self.odometry", "self.yaw_sincos", "self.last_action", "self.offset_from_master_xy", "self.ultrasonic",
+                   "master.ir_valid", "anchor.ir_valid", "self.odometry", "self.yaw_sincos", "self.last_action", "self.offset_from_master_xy", "self.ultrasonic",
                    "self.hierarchy", "self.members", "self.member")
 _ACTIVITY_INDEX = {a: i for i, a in enumerate(ACTIVITIES)}
 _cos, _sin = math.cos, math.sin
@@ -137,6 +144,7 @@ class Readings:
     ultrasonic_m: Sequence[float]  # the ring, sensor 0 forward (a list of floats or an array)
     hierarchy_level: int  # its level in the neighbour table (0 if none)
     offset_from_master_m: tuple[float, float]  # its slot relative to the master, formation frame
+    member_slots: Sequence[tuple[float, float]] = ()  # every member's slot relative to the master, formation frame
 
 
 def build_observation(layout: ObservationLayout, readings: Readings, out: np.ndarray | None = None) -> np.ndarray:
@@ -182,7 +190,7 @@ def build_observation(layout: ObservationLayout, readings: Readings, out: np.nda
             else:
                 v[base + 8] = 1.0
                 v[base + 10] = 1.0
-    (i, activity, rotating, turn_rate, leading, user_xy, odo, yaw, last, offset, us,
+    (i, activity, rotating, turn_rate, leading, user_xy, master_ir, anchor, odo, yaw, last, offset, us,
      hierarchy, members_at, member_at) = layout._starts
     st = know.status
     if st is not None:
@@ -202,6 +210,32 @@ def build_observation(layout: ObservationLayout, readings: Readings, out: np.nda
         v[user_xy + 1] = uy / POS_SCALE_M
     else:
         v[i + 1] = 1.0
+    m = know.ir.get(know.members.get(0))  # the master's IR fix (member 0), carried over own rotation (AHRS)
+    if m is not None:
+        b = m.bearing_rad - (yaw_rad - m.own_yaw_rad)
+        age = (now - m.time_s) / AGE_SCALE_S
+        v[master_ir] = 1.0
+        v[master_ir + 1] = m.distance_m * _cos(b) / POS_SCALE_M
+        v[master_ir + 2] = m.distance_m * _sin(b) / POS_SCALE_M
+        v[master_ir + 3] = 1.0 if age > 1.0 else age
+    else:
+        v[master_ir + 3] = 1.0
+    v[anchor + 3] = 1.0
+    slots, own = readings.member_slots, know.member
+    for member, nid in know.members.items():  # the anchor: the first other slave with a fresh fix
+        if member == 0 or member == own or member >= len(slots):
+            continue
+        m = know.ir.get(nid)
+        if m is not None and now - m.time_s < AGE_SCALE_S:
+            b = m.bearing_rad - (yaw_rad - m.own_yaw_rad)
+            sx, sy = slots[member]
+            v[anchor] = 1.0
+            v[anchor + 1] = m.distance_m * _cos(b) / POS_SCALE_M
+            v[anchor + 2] = m.distance_m * _sin(b) / POS_SCALE_M
+            v[anchor + 3] = (now - m.time_s) / AGE_SCALE_S
+            v[anchor + 4] = sx / POS_SCALE_M
+            v[anchor + 5] = sy / POS_SCALE_M
+            break
     odometry = readings.odometry
     v[odo] = odometry[0] / vmax
     v[odo + 1] = odometry[1] / vmax
@@ -269,7 +303,7 @@ class Observer:
             node = nodes[idx]
             know = node.know
             member = know.member
-            level, offset = 0, (0.0, 0.0)
+            level, offset, slots = 0, (0.0, 0.0), ()
             formation = node.formation
             if formation is not None and 0 <= member < formation.size:
                 slots, levels = self.formation_geometry(formation)
@@ -278,7 +312,7 @@ class Observer:
             odometry = sensors.odometry(idx, noise[i] if noise is not None else None)
             yaw = ahrs[idx](now_s)
             readings = Readings(know, node.reference_links(), now_s, odometry, yaw,
-                                last if last is not None else _NO_ACTION, ranges[idx], level, offset)
+                                last if last is not None else _NO_ACTION, ranges[idx], level, offset, slots)
             obs[agent] = build_observation(layout, readings)  # a new array: what the agent gets is its own
         return obs
 

@@ -373,6 +373,16 @@ def build_observation(layout: ObservationLayout, r: Readings) -> list[float]:
         v[j + 1] = st.user_position_m[1] / POS_SCALE_M
     else:
         v[i + 1] = 1.0
+    m = know.ir.get(know.members.get(0))
+    j = o["master.ir_valid"]
+    if m is not None:
+        b = m.bearing_rad - (yaw_rad - m.own_yaw_rad)
+        v[j] = 1.0
+        v[j + 1] = m.distance_m * math.cos(b) / POS_SCALE_M
+        v[j + 2] = m.distance_m * math.sin(b) / POS_SCALE_M
+        v[j + 3] = clip_age(now - m.time_s, AGE_SCALE_S)
+    else:
+        v[j + 3] = 1.0
     j = o["self.odometry"]
     v[j], v[j + 1], v[j + 2] = odometry[0] / vmax, odometry[1] / vmax, odometry[2] / wmax
     j = o["self.yaw_sincos"]

@@ -42,11 +42,13 @@ def can_join(connected_user: int | None, distance_m: float, available_radius_m: 
 
 def select_joiners(available: dict[int, float], required: int) -> list[int]:
     """Table 2 (seed 000): ``available`` maps robot id -> estimated distance to the master.
-    If fewer are required than can join, take the closest; otherwise take all."""
+    If fewer are required than can join, take the closest; otherwise take all. The selected
+    robots come closest first (ties by id), the order of their member numbers: the closest is
+    member 1, the next member 2, and so on (chosen: seed 000 says only that each robot identifies
+    its neighbours from its number and the total; the master knows its candidates by their RSSI
+    distance alone, and the low numbers hold the slots nearest the master)."""
     ranked = sorted(available, key=lambda rid: (available[rid], rid))
-    if required < len(ranked):
-        return sorted(ranked[:required])
-    return sorted(ranked)
+    return ranked[:required] if required < len(ranked) else ranked
 
 
 @dataclass
@@ -164,10 +166,10 @@ class JoinManager:
         ``result.not_selected``."""
         available = {rid: candidates[rid] for rid, f in answers.items() if f.payload["available"]}
         result.unavailable = sorted(set(answers) - set(available))
-        joiners = select_joiners(available, required)
+        joiners = select_joiners(available, required)  # closest first
         result.not_selected = sorted(set(answers) - set(joiners))
         members = {0: self.node.node_id}
-        members.update({i + 1: rid for i, rid in enumerate(joiners)})
+        members.update({i + 1: rid for i, rid in enumerate(joiners)})  # member number by estimated distance
         return members, len(available)
 
     def _notify(self, members: dict[int, int], pan: int, formation_shape: str, mode_of: Callable[[], str],

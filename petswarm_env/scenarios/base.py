@@ -32,6 +32,9 @@ USER_COMMANDS = ("mode:following", "mode:leading", "mode:remote", "organize", "d
 
 SPAWN_REACH = 0.85  # chosen: waiting robots start within 85 % of the master's available region (Table 1)
 PAIRING_DISTANCE_M = 0.8  # chosen: each user starts this close to their robot (LF wake-up range 1 m)
+SCATTER_REACH = 0.75  # chosen: scattered robots start within 75 % of the master's available region (Table 1): 2.25 m of 3 m is 3 σ of the RSSI distance estimate inside it (radio.rssi_shadowing_db 1 dB at path loss exponent 2.5: ×1.096 per σ), so no robot declines by Table 1 but once in ~1 000 draws at the rim; and the master's IR is detected there (seed 000 Table 4 calibration: ≈ 2.5 m on axis)
+SPAWN_CLEARANCE_M = 0.2  # chosen: scattered robots start at least this far (rim to rim) from each other, a user, a master's path
+SPAWN_TRIES = 1000  # draws per scattered robot before the region is declared full
 TURN_BACK_SPEED = 0.5  # chosen: the user turns back at a wall at half the walking speed (as in u_turn)
 TURN_BACK_CLEARANCE_M = 1.0  # chosen: a swarm turning back with its user stays this far from the wall
 TURN_BACK_CHECK_S = 0.1  # the script's path is checked against the walls at this step (one control period)
@@ -229,16 +232,20 @@ class Scenario:
         ``TURN_BACK_CLEARANCE_M``."""
         return reach_m + 2.0 * turn_back_radius_m(user) + TURN_BACK_CLEARANCE_M
 
-    def place(self, world: Any, cfg: Any, slots: np.ndarray, user_ahead_m: float, rng: np.random.Generator) -> Placement:
+    def place(self, world: Any, cfg: Any, slots: np.ndarray, user_ahead_m: float, rng: np.random.Generator,
+              master_distance_m: float | None = None) -> Placement:
         """Add the robots to ``world`` (``world.add_robot(position, heading)``) for the config
         ``cfg``, given the planned formation for the configured driving mode: ``slots`` (members,
-        2), the slot positions in the master's frame, and ``user_ahead_m``, where the user stands
-        ahead of the master in that frame.
+        2), the slot positions in the master's frame, ``user_ahead_m``, where the user stands
+        ahead of the master in that frame, and ``master_distance_m``, how far from its user the
+        master organizes the swarm after its start-up shift (default ``user_ahead_m``).
 
         Per user: the user's own robot close to the user (to pair), facing them — behind the user
-        in following, ahead in leading; waiting robots around their formation slots (jittered; in
-        leading off the master's shifting path); extra candidates farther out; then robots of
-        another user to the side. Draws from ``rng`` in that order."""
+        in following, ahead in leading; its waiting robots by ``swarm.spawn``: ``scattered``
+        (:meth:`scatter`) or ``at_slots`` (around their formation slots, jittered by
+        ``swarm.spawn_jitter_m``, facing the user; in leading off the master's shifting path);
+        extra candidates farther out; then robots of another user to the side. Draws from ``rng``
+        in that order (the scattered robots all before the first robot is added)."""
         n = cfg.swarm.num_slaves
         leading = cfg.swarm.mode == "leading"
         heading = math.pi if leading else 0.0  # every robot faces its user
@@ -247,14 +254,26 @@ class Scenario:
         final = np.array([user_ahead_m, 0.0]) * (1 if leading else -1)
         depth = float(np.abs(world_slots[:, 0]).max())
         jitter = cfg.swarm.spawn_jitter_m
+        ahead = 1.0 if leading else -1.0  # where the master stands: ahead of its user (leading) or behind
+        bases = [np.array([0.0, u * cfg.world.user_spacing_m]) for u in range(cfg.world.num_users)]
+        starts = [b + np.array([ahead * PAIRING_DISTANCE_M, 0.0]) for b in bases]
+        extras = [[b + final + np.array([ahead * (depth + 0.8 + 0.6 * (k // 2)), (1.0 if k % 2 == 0 else -1.0) * 1.6])
+                   for k in range(cfg.swarm.extra_robots)] for b in bases]
+        others = [final + np.array([-0.6 * k, -1.8 - 0.2 * (k % 2)]) for k in range(cfg.swarm.other_user_robots)]
+        scattered = None
+        if cfg.swarm.spawn == "scattered":
+            shift = user_ahead_m if master_distance_m is None else master_distance_m
+            centres = [b + np.array([ahead * shift, 0.0]) for b in bases]
+            scattered = self.scatter(cfg, bases, list(zip(starts, centres)), [p for e in extras for p in e] + others, rng)
         pools = []
-        for u in range(cfg.world.num_users):
-            base = np.array([0.0, u * cfg.world.user_spacing_m])
-            start = base + np.array([PAIRING_DISTANCE_M if leading else -PAIRING_DISTANCE_M, 0.0])
-            master = world.add_robot(start, heading)
+        for u, base in enumerate(bases):
+            master = world.add_robot(starts[u], heading)
             pool = []
             reach = SPAWN_REACH * cfg.protocol.join_radius_m
             for m in range(1, n + 1):
+                if scattered is not None:
+                    pool.append(world.add_robot(*scattered[u][m - 1]).index)
+                    continue
                 rel = world_slots[m] + rng.uniform(-jitter, jitter, 2)
                 if np.hypot(*rel) > reach:  # a far slot (e.g. the 5th of a wedge, 3 m): start inside the region
                     rel = rel * (reach / np.hypot(*rel))
@@ -263,18 +282,52 @@ class Scenario:
                     side = np.sign(world_slots[m][1]) or (1.0 if m % 2 else -1.0)
                     p[1] = base[1] + side * 0.9 + rng.uniform(-jitter, jitter) * 0.3
                 pool.append(world.add_robot(p, heading + float(rng.uniform(-0.3, 0.3))).index)
-            for k in range(cfg.swarm.extra_robots):
-                side = 1.0 if k % 2 == 0 else -1.0
-                far = -1.0 if not leading else 1.0
-                p = base + final + np.array([far * (depth + 0.8 + 0.6 * (k // 2)), side * 1.6])
-                pool.append(world.add_robot(p, heading).index)
+            pool += [world.add_robot(p, heading).index for p in extras[u]]
             pools.append((master.index, pool))
-        others = []
-        base = np.array([0.0, 0.0]) + final
-        for k in range(cfg.swarm.other_user_robots):
-            r = world.add_robot(base + np.array([-0.6 * k, -1.8 - 0.2 * (k % 2)]), heading)
-            others.append(r.index)
-        return Placement(pools, others)
+        return Placement(pools, [world.add_robot(p, heading).index for p in others])
+
+    def scatter(self, cfg: Any, users: list[np.ndarray], paths: list[tuple[np.ndarray, np.ndarray]],
+                fixed: list[np.ndarray], rng: np.random.Generator) -> list[list[tuple[np.ndarray, float]]]:
+        """Scattered start (``swarm.spawn: scattered``): for each user, ``swarm.num_slaves`` waiting
+        robots drawn uniformly (by area) in the disc of ``SCATTER_REACH`` × ``protocol.join_radius_m``
+        around its master's organizing place (the end of its path in ``paths``: seed 000 Table 1's
+        available region, entered after the start-up shift of Fig. 10), each with a random heading;
+        a draw is taken again while it lies closer than ``SPAWN_CLEARANCE_M`` (rim to rim) to a
+        robot already placed or ``fixed``, a user (``users``) or a master's path (start to organizing
+        place, so the shift is clear in either mode). Returns (position, heading) per user and robot."""
+        r_robot, reach = cfg.robot.radius_m, SCATTER_REACH * cfg.protocol.join_radius_m
+        gap, user_gap = 2 * r_robot + SPAWN_CLEARANCE_M, r_robot + cfg.user.radius_m + SPAWN_CLEARANCE_M
+        # a leading master shifts away from its user: nothing within its obstacle-exception range (seed 002 §2)
+        path_gap = 2 * r_robot + (max(SPAWN_CLEARANCE_M, cfg.master.exception_range_m + 0.1) if cfg.swarm.mode == "leading"
+                                  else SPAWN_CLEARANCE_M)
+        taken = [tuple(p) for p in fixed]
+        out = []
+        for _, centre in paths:
+            placed = []
+            for _ in range(cfg.swarm.num_slaves):
+                for _try in range(SPAWN_TRIES):
+                    r, phi = reach * math.sqrt(float(rng.random())), float(rng.uniform(-math.pi, math.pi))
+                    x, y = float(centre[0]) + r * math.cos(phi), float(centre[1]) + r * math.sin(phi)
+                    if (all(math.dist((x, y), q) >= gap for q in taken)
+                            and all(math.dist((x, y), u) >= user_gap for u in users)
+                            and all(_segment_distance(x, y, a, b) >= path_gap for a, b in paths)):
+                        break
+                else:
+                    raise ValueError(f"no room for swarm.num_slaves={cfg.swarm.num_slaves} waiting robots {SPAWN_CLEARANCE_M} m "
+                                     f"apart within {reach:.2f} m of the master (protocol.join_radius_m={cfg.protocol.join_radius_m})")
+                taken.append((x, y))
+                placed.append((np.array([x, y]), float(rng.uniform(-math.pi, math.pi))))
+            out.append(placed)
+        return out
+
+
+def _segment_distance(x: float, y: float, a: np.ndarray, b: np.ndarray) -> float:
+    """Distance from the point (x, y) to the segment a → b."""
+    ax, ay, bx, by = float(a[0]), float(a[1]), float(b[0]), float(b[1])
+    vx, vy = bx - ax, by - ay
+    vv = vx * vx + vy * vy
+    u = 0.0 if vv == 0.0 else min(1.0, max(0.0, ((x - ax) * vx + (y - ay) * vy) / vv))
+    return math.hypot(x - ax - u * vx, y - ay - u * vy)
 
 
 SCENARIOS: dict[str, Scenario] = {}  # name -> scenario, in registration order

@@ -63,7 +63,7 @@ FIELDS: list[Field] = [
     Field("master.leading", 1, "0/1", "driving mode: 1 = leading, 0 = following"),
     Field("master.user_xy", 2, f"m / {POS_SCALE_M}", "user position relative to the master, master's frame, as broadcast"),
     Field("self.odometry", 3, "/ (v_max, v_max, ω_max)", "own wheel-odometry (Vx, Vy, ω), body frame"),
-    Field("self.yaw_sincos", 2, "-", "own AHRS yaw (noisy, drifting)"),
+    Field("self.yaw_sincos", 2, "-", "own AHRS yaw (noisy, drifting), counted from its own power-on heading: a random angle per robot and episode, so only its changes (own rotation) mean something, never a direction in the world"),
     Field("self.last_action", 3, "[-1, 1]", "the action applied last step"),
     Field("self.offset_from_master_xy", 2, f"m / {POS_SCALE_M}", "own reference position relative to the master, formation frame (from the neighbour table)"),
     Field("self.ultrasonic", -1, "m / max_range", "ultrasonic ring ranges, sensor 0 forward, counter-clockwise"),

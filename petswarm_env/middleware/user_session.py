@@ -341,7 +341,7 @@ class UserSession:
         seen = old.know.ir.get(new.node_id)
         self.connected_robot = new.node_id
         self.link_since_s = now + self.cfg.ble.connect_s
-        self.tracker.reset()
+        self.tracker.reset(new.ahrs_yaw())  # the new master's own odometry frame
         self.ctrl.reset()
         if est is None:
             return

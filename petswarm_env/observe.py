@@ -56,7 +56,7 @@ FIELDS: list[Field] = [
     *[f for k in range(MAX_LINKS) for f in _link_fields(k)],
     Field("master.valid", 1, "0/1", "a master status broadcast has been received"),
     Field("master.age", 1, "s / 1, clipped to 1", "age of the last master broadcast"),
-    Field("master.velocity", 3, "/ (v_max, v_max, ω_max)", "master's (Vx, Vy, ω) in its body frame, as broadcast"),
+    Field("master.velocity", 3, "/ (v_max, v_max, ω_max)", "master's (Vx, Vy, ω) in its body frame, as broadcast: what its own wheel odometry measured (noisy like self.odometry)"),
     Field("master.activity", len(ACTIVITIES), "one-hot", "user activity broadcast by the master: " + ", ".join(ACTIVITIES)),
     Field("master.rotating", 1, "0/1", "user rotation flag of the smart belt, as broadcast (seed 002 §3.4)"),
     Field("master.turn_rate", 1, "/ ω_max", "user angular speed from the belt's filtered gyro, as broadcast (rad/s, CCW +)"),

@@ -35,6 +35,7 @@ from petswarm_env.middleware.formation import Formation
 from petswarm_env.middleware.knowledge import IRMeasurement, Knowledge
 from petswarm_env.sim.clock import Clock
 from petswarm_env.sim.draws import Draws
+from petswarm_env.sim.sensors import Odometry
 
 if TYPE_CHECKING:
     from petswarm_env.sim.robot import Robot
@@ -70,6 +71,7 @@ class Station:
         self.draws = Draws(rng)  # scalar draws (MCU processing jitter) taken from rng in blocks
         self._processing = (cfg.radio.processing_s, cfg.radio.processing_jitter_s)
         self._robot = robot  # own body: its AHRS, and the antenna's position
+        self.odometry = Odometry(robot, cfg.robot, rng.spawn(1)[0])  # own wheel odometry, own noise stream
         # the antenna's position, for the radio's propagation model (not the middleware): the body's
         # reader bound once (a radio station reads it for every frame it sends or receives)
         self.position: Callable[[], tuple[float, float]] = robot.read_position

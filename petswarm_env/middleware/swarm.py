@@ -102,12 +102,11 @@ class Swarm:
     # -- master broadcast (seed 000 §3.5, Fig. 9) ------------------------------------------------
     def _broadcast_status(self, master: Node):
         period = self.cfg.protocol.broadcast_period_s
-        robot = self.world.robots[master.node_id]
         while master.state == "master" and self.master is master:
             view = self.user_view
             master.send(
                 msg.STATUS,
-                velocity=robot.velocity_body,  # (vx, vy, ω), an immutable tuple
+                velocity=master.odometry.read(),  # (vx, vy, ω): what its own wheels measure, noise and all
                 activity=view.activity if view else "stop",
                 mode=self.broadcast_mode(),
                 turn_rate=view.user_turn_rate_rps if view else 0.0,

@@ -81,6 +81,31 @@ class AHRS:
         return self._heading() - self.power_on_heading_rad + self.bias_rad + self.noise_rad * draws.normal()
 
 
+def noisy_odometry(velocity_body: tuple[float, float, float], errors) -> tuple[float, float, float]:
+    """The wheel-odometry model: the achieved body velocity ``(vx, vy, ω)``, each component with its
+    relative error (``errors``: three draws of N(0, ``odometry_noise_rel``))."""
+    vx, vy, w = velocity_body
+    return vx * (1 + errors[0]), vy * (1 + errors[1]), w * (1 + errors[2])
+
+
+class Odometry:
+    """One robot's wheel odometry read on its own, at any clock time, with its own noise stream: the
+    model of :meth:`Sensors.odometry` (:func:`noisy_odometry`). The master reads it for its status
+    broadcast (seed 000 §3.5, Fig. 9: "its driving speed" is what its wheels measure)."""
+
+    def __init__(self, body, cfg: RobotConfig, rng: np.random.Generator):
+        self.body = body  # a DrivenBody: its achieved velocity_body after the last substep
+        self.noise_rel = cfg.odometry_noise_rel
+        self._draws = Draws(rng)
+
+    def read(self) -> tuple[float, float, float]:
+        k = self.noise_rel
+        if k > 0:
+            normal = self._draws.normal
+            return noisy_odometry(self.body.velocity_body, (k * normal(), k * normal(), k * normal()))
+        return self.body.velocity_body
+
+
 class UltrasonicRing:
     """``count`` range sensors on the robot's rim, sensor 0 forward, counter-clockwise: ray casts
     against every round body and every wall (:func:`~.geometry.ring_first_hits`), from the rim,
@@ -143,9 +168,8 @@ class Sensors:
     def odometry(self, index: int, noise: list[float] | None = None) -> tuple[float, float, float]:
         """Wheel odometry of robot ``index``: its achieved body velocity ``(vx, vy, ω)`` with relative
         noise (``noise``: the three N(0, odometry_noise_rel) errors when drawn already, else drawn here)."""
-        vx, vy, w = self.world.robots[index].velocity_body
+        velocity = self.world.robots[index].velocity_body
         k = self.odometry_noise_rel
         if k > 0:
-            e = self.rng.normal(0.0, k, 3).tolist() if noise is None else noise
-            return vx * (1 + e[0]), vy * (1 + e[1]), w * (1 + e[2])
-        return vx, vy, w
+            return noisy_odometry(velocity, self.rng.normal(0.0, k, 3).tolist() if noise is None else noise)
+        return velocity

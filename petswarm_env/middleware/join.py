@@ -99,6 +99,9 @@ class JoinManager:
         joined robots lay their neighbour table out for it)."""
         node = self.node
         t0 = node.clock.now
+        # the master forms the PAN from now on: it listens there for the acknowledgements of robots
+        # that already moved to it (a retried joining notification), its own PAN's frames
+        node.swarm_pan = pan
         node.pans = frozenset({PAN_WAITING, pan})
         candidates, answers = yield from self._scan_and_query(required, result)  # steps 1-2
         result.candidates = sorted(candidates)

@@ -10,9 +10,11 @@
    lists the robots already heard, which stay silent (chosen), so the answers of the missing
    robots do not collide with theirs again.
 3. The master selects by Table 2 and sends each candidate a *joining notification* (new PAN ID,
-   member number, total number of members; chosen: the whole member table and the user's driving
-   mode, for which the robot lays out its neighbour table) or a *non-participating notification*;
-   each answers with an acknowledgement. Missing acknowledgements → notify again (retry).
+   member number, total number of members, the member table; chosen: the neighbour table with its
+   reference offsets, the formation's shape and the driving mode — a member knows of its swarm only
+   what this frame and the later mode-change frames told it) or a *non-participating
+   notification*; each answers with an acknowledgement. Missing acknowledgements → notify again
+   (retry).
 4. Joined robots switch to the new PAN ID.
 """
 
@@ -23,7 +25,7 @@ from dataclasses import dataclass, field
 
 from petswarm_env.comms.radio import PAN_WAITING, Frame
 from petswarm_env.middleware import messages as msg
-from petswarm_env.middleware.formation import formation_for_mode
+from petswarm_env.middleware.formation import Formation, formation_for_mode
 from petswarm_env.middleware.station import Station
 
 
@@ -92,11 +94,11 @@ class JoinManager:
         yield clock.any_of([self._all_in, clock.timeout(timeout_s)])
         self._expect = set()
 
-    def organize(self, required: int, pan: int, formation_shape: str, result: OrganizeResult,
-                 mode_of: Callable[[], str]):
+    def organize(self, required: int, pan: int, result: OrganizeResult, mode_of: Callable[[], str]):
         """Master-side organize process (SimPy generator), the steps of seed 000 Fig. 8; fills
-        ``result``. ``mode_of()`` is the user's driving mode when a notification leaves (the
-        joined robots lay their neighbour table out for it)."""
+        ``result``. The formation is the master's: the shape its user chose (its own
+        ``swarm`` configuration), laid out for the driving mode ``mode_of()`` once the members are
+        selected; the joining notifications carry it to the members."""
         node = self.node
         t0 = node.clock.now
         # the master forms the PAN from now on: it listens there for the acknowledgements of robots
@@ -106,10 +108,11 @@ class JoinManager:
         candidates, answers = yield from self._scan_and_query(required, result)  # steps 1-2
         result.candidates = sorted(candidates)
         members, n_available = self._select(candidates, answers, required, result)  # step 3, Table 2
-        yield from self._notify(members, pan, formation_shape, mode_of, result)  # step 3
+        mode = mode_of()
+        formation = formation_for_mode(node.cfg.swarm, len(members), mode)
+        yield from self._notify(members, pan, formation, mode, result)  # step 3
         # 4. the master drives its swarm on the new PAN ID
-        node.enter_swarm("master", pan, 0, dict(members),
-                         formation_for_mode(node.cfg.swarm, len(members), mode_of()))
+        node.enter_swarm("master", pan, 0, dict(members), formation, mode)
         result.members = members
         result.elapsed_s = node.clock.now - t0
         joiners = len(members) - 1
@@ -173,13 +176,16 @@ class JoinManager:
         members.update({i + 1: rid for i, rid in enumerate(joiners)})
         return members, len(available)
 
-    def _notify(self, members: dict[int, int], pan: int, formation_shape: str, mode_of: Callable[[], str],
-                result: OrganizeResult):
-        """Step 3, the result: a joining notification (new PAN ID, member number, the member table)
-        to each selected robot, a non-participating notification to the others, one robot after
-        another, each acknowledged; a missing acknowledgement → notify again (a retry)."""
+    def _notify(self, members: dict[int, int], pan: int, formation: Formation, mode: str, result: OrganizeResult):
+        """Step 3, the result: a joining notification to each selected robot — the new PAN ID, its
+        member number, the total number of members and the member table (seed 000 §3.4: "from
+        which each robot identifies its neighbours"), and (chosen) the neighbour table with its
+        reference offsets and the driving mode: all a member knows of the swarm comes in this
+        frame — a non-participating notification to the others, one robot after another, each
+        acknowledged; a missing acknowledgement → notify again (a retry)."""
         node = self.node
         cfg = node.cfg.protocol
+        links = formation.links_payload()
         notify = {rid: msg.JOIN_NOTIFY for m, rid in members.items() if m != 0}
         notify.update({rid: msg.NON_PARTICIPATE for rid in result.not_selected})
         for rid in sorted(notify, key=lambda r: (notify[r] != msg.JOIN_NOTIFY, r)):
@@ -191,7 +197,7 @@ class JoinManager:
                     if notify[rid] == msg.JOIN_NOTIFY:
                         member = next(m for m, n in members.items() if n == rid)
                         node.send(msg.JOIN_NOTIFY, dst=rid, pan=p, new_pan=pan, member=member, total=len(members),
-                                  members=dict(members), shape=formation_shape, mode=mode_of())
+                                  members=dict(members), shape=formation.shape, mode=mode, links=links)
                     else:
                         node.send(msg.NON_PARTICIPATE, dst=rid, pan=p)
                 yield from self._collect({rid}, cfg.response_timeout_s)
@@ -217,12 +223,10 @@ class JoinManager:
     def _on_notify(self, frame: Frame) -> None:
         node = self.node
         p = frame.payload
-        if node.state == "waiting":
-            # the member table and the driving mode come in the frame; the neighbour table is still
-            # the configured shape, laid out for that mode (the frame's shape is not read yet)
+        if node.state == "waiting":  # the member and neighbour tables and the mode: all from the frame
             members = {int(m): n for m, n in p["members"].items()}
             node.enter_swarm("slave", p["new_pan"], p["member"], members,
-                             formation_for_mode(node.cfg.swarm, len(members), p["mode"]))
+                             Formation.from_links_payload(p["shape"], p["links"]), p["mode"])
             node.became_slave.emit(p["new_pan"])
         if node.swarm_pan == p["new_pan"]:  # (re-)acknowledge, also when the first ack was lost
             node.send(msg.NOTIFY_ACK, dst=frame.src, pan=frame.pan)

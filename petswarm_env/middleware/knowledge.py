@@ -42,6 +42,7 @@ class Knowledge:
     member: int = -1  # member number in the swarm (0 = master), -1 = none
     total_members: int = 0
     members: dict[int, int] = field(default_factory=dict)  # member number -> node id
+    mode: str = ""  # the swarm's driving mode, from the joining notification / the last mode change
     ir: dict[int, IRMeasurement] = field(default_factory=dict)  # node id -> latest measurement
     heading: dict[int, HeadingEstimate] = field(default_factory=dict)  # node id -> relative heading
     status: MasterStatus | None = None

@@ -40,7 +40,7 @@ from dataclasses import dataclass
 from petswarm_env.comms.radio import Frame
 from petswarm_env.config import SwarmConfig
 from petswarm_env.middleware import messages as msg
-from petswarm_env.middleware.formation import Formation, Link, formation_for_mode, user_position_in_formation
+from petswarm_env.middleware.formation import Formation, formation_for_mode, user_position_in_formation
 from petswarm_env.middleware.station import Station
 
 TABLE3_MODES = ("following", "leading")
@@ -84,14 +84,6 @@ def plan_mode_change(
     return ModeChangePlan(new_mode, dict(sorted(new_members.items())), new_formation, new_root != 0, False)
 
 
-def _links_payload(formation: Formation) -> dict:
-    return {m: [(lk.neighbour, lk.offset_m) for lk in lks] for m, lks in formation.links.items()}
-
-
-def _links_from_payload(shape: str, payload: dict) -> Formation:
-    return Formation(shape, {int(m): tuple(Link(int(nb), tuple(off)) for nb, off in lks) for m, lks in payload.items()})
-
-
 class ModeManager:
     """Both ends of a mode change on one robot."""
 
@@ -116,7 +108,7 @@ class ModeManager:
         self._acks = set()
         retries = 0
         payload = dict(seq=seq, mode=plan.mode, members=dict(plan.members), shape=plan.formation.shape,
-                       links=_links_payload(plan.formation))
+                       links=plan.formation.links_payload())
         while True:
             node.send(msg.MODE_CHANGE, **payload)
             yield clock.timeout(cfg.response_timeout_s)
@@ -150,6 +142,7 @@ class ModeManager:
         node.know.members = dict(plan.members)
         node.know.total_members = len(plan.members)
         node.know.member = next(m for m, n in plan.members.items() if n == node.node_id)
+        node.know.mode = plan.mode
         node.formation = plan.formation
         node.plan_applied.emit(plan, previous)
 
@@ -173,8 +166,8 @@ class ModeManager:
         node.know.members = members
         node.know.total_members = len(members)
         node.know.member = next(m for m, n in members.items() if n == node.node_id)
-        node.formation = _links_from_payload(p["shape"], p["links"])
-        node.mode_heard.emit(p["mode"])
+        node.formation = Formation.from_links_payload(p["shape"], p["links"])
+        node.know.mode = p["mode"]  # the driving mode as the frame says: the slave's own knowledge
 
     def _on_handover(self, frame: Frame) -> None:
         node = self.node

@@ -79,8 +79,7 @@ class Swarm:
 
     def _organize(self):
         master = self.master
-        yield from master.join.organize(self.cfg.swarm.num_slaves, self.pan, self.cfg.swarm.formation,
-                                        self.organize_result, lambda: self.mode)
+        yield from master.join.organize(self.cfg.swarm.num_slaves, self.pan, self.organize_result, lambda: self.mode)
         self.formation = master.formation  # laid out for the driving mode by the master's join manager
         self._start_master_processes(master)
 
@@ -144,11 +143,6 @@ class Swarm:
         self.mode_changed_s = self.clock.now
         self.previous_formation, self.previous_members = self.formation, dict(previous_members)
         self.formation = plan.formation
-
-    def hear_mode(self, mode: str) -> None:
-        """A slave applied the master's mode-change frame: the swarm drives in ``mode`` from now on
-        (before the master commits the plan, which sets the same mode)."""
-        self.mode = mode
 
     def hand_over(self, old: Node, new: Node) -> None:
         """The old master handed the user over and is a slave now."""

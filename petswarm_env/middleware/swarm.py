@@ -19,7 +19,7 @@ from petswarm_env.middleware import messages as msg
 from petswarm_env.middleware.formation import Formation
 from petswarm_env.middleware.join import OrganizeResult
 from petswarm_env.middleware.knowledge import MasterStatus
-from petswarm_env.middleware.modes import ModeChangePlan, plan_mode_change
+from petswarm_env.middleware.modes import ModeChangePlan, SwarmGeometry, measured_geometry, plan_mode_change
 from petswarm_env.middleware.node import Node
 from petswarm_env.sim.clock import Clock
 from petswarm_env.sim.world import World
@@ -63,6 +63,7 @@ class Swarm:
         self.previous_formation: Formation | None = None  # the tables before the last mode change
         self.previous_members: dict[int, int] = {}
         self.mode_changed_s = -float("inf")
+        self.last_geometry: SwarmGeometry | None = None  # what the master knew at the last Table 3 choice
         self.user_view: MasterStatus | None = None  # the master's view of its user (set by the session)
         self.events = {"master_changes": 0, "mode_changes": 0}
         self.emergency = False  # the user is lost (seed 002 Fig. 4); set by the user session
@@ -119,8 +120,10 @@ class Swarm:
         return "emergency" if self.emergency else self.mode
 
     # -- driving-mode change (seed 000 §3.5, Table 3) --------------------------------------------
-    def change_mode(self, new_mode: str, master_change: bool, user_distance_m: float) -> ModeChangePlan | None:
-        """The user asked for ``new_mode``: plan by Table 3 and run the mode-change protocol."""
+    def change_mode(self, new_mode: str, master_change: bool, user_xy: tuple[float, float] | None) -> ModeChangePlan | None:
+        """The user asked for ``new_mode``: plan by Table 3 from what the master knows (its IR
+        measurements of the members; ``user_xy``: its LF track of the user, body frame, None
+        without one) and run the mode-change protocol."""
         if new_mode == self.mode:
             return None
         master = self.master
@@ -128,8 +131,11 @@ class Swarm:
             self.mode = new_mode
             self.events["mode_changes"] += 1
             return None
+        geometry = measured_geometry(self.formation, master.know, master.ahrs_yaw(), self.clock.now, user_xy,
+                                     self.cfg.master.distance_m)
         plan = plan_mode_change(self.cfg.swarm, self.formation, master.know.members, self.mode, new_mode,
-                                master_change, user_distance_m)
+                                master_change, geometry)
+        self.last_geometry = geometry
         self._mode_seq += 1
         self.mode_change_result: dict = {}
         self.clock.process(master.modes.change(plan, self._mode_seq, self.mode_change_result))

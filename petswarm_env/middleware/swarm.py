@@ -96,6 +96,11 @@ class Swarm:
         """Node ids of the robots in slave-role driving in this swarm."""
         return sorted(n for n, node in self.nodes.items() if node.state == "slave" and node.swarm_pan == self.pan)
 
+    def slaves_missing(self) -> int:
+        """The user-required number of slaves minus the robots in slave-role driving (a swarm that
+        organized short: the join protocol's budget ran out, see :mod:`.join`)."""
+        return max(0, self.cfg.swarm.num_slaves - len(self.slave_ids()))
+
     def member_ids(self) -> list[int]:
         return [self.master.node_id, *self.slave_ids()] if self.organized else []
 

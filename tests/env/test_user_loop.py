@@ -355,9 +355,12 @@ def test_a_robot_connected_to_another_user_declines_to_join():
     declines; it never joins."""
     declined = 0
     for seed in range(4):
-        # 5 m apart: the pools are outside each other's available region (3 m), the other master is
-        # not — it is simply connected, which Table 1 checks first
-        env = petswarm_env.parallel_env(**{"world.num_users": 2, "world.user_spacing_m": 5.0, "swarm.num_slaves": 2})
+        # 3.5 m apart, exact RSSI distances, robots on their slots: the pools are outside each
+        # other's available region (3 m: 3.1 m away), the other master is a joining candidate
+        # (within 1.3 x the region, join.CANDIDATE_REACH) — it is simply connected, which Table 1
+        # checks first
+        env = petswarm_env.parallel_env(**{"world.num_users": 2, "world.user_spacing_m": 3.5, "swarm.num_slaves": 2,
+                                           "radio.rssi_shadowing_db": 0.0, "swarm.spawn_jitter_m": 0.0})
         env.reset(seed=seed)
         for u, sw in enumerate(env.swarms):
             other_master = env.swarms[1 - u].master.node_id

@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import os
+import sys
 from typing import Any
 
 from evaluation.evaluate import evaluate, format_table, parse_mix
@@ -32,6 +33,22 @@ def format_run_table(result: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
+def short_swarm_warnings(episodes: list[dict[str, Any]], required: int) -> list[str]:
+    """A warning line for every episode whose swarm organized short of ``swarm.num_slaves``
+    (``slaves_missing`` in its summary): its figures are not a full swarm's."""
+    return [
+        f"warning: episode with seed {e['seed']}{' (' + e['scenario'] + ')' if e.get('scenario') else ''}: "
+        f"{e['slaves_missing']} of {required} required slave(s) did not join (join retries {e['join_retries']}, "
+        f"organize {e['organize_time_s']:.2f} s); see protocol.max_retries and protocol.organize_timeout_s"
+        for e in episodes if e.get("slaves_missing")
+    ]
+
+
+def _warn_short(result: dict[str, Any], cfg: Config) -> None:
+    for line in short_swarm_warnings(result["episodes"], cfg.swarm.num_slaves):
+        print(line, file=sys.stderr)
+
+
 def run_command(cfg: Config, policy: str, episodes: int, seed: int | None, render: str | None, video: str | None,
                 json_out: str | None, quiet: bool) -> int:
     """``petswarm run``: the episodes, their table (or with ``quiet`` the summary line), the JSON
@@ -39,6 +56,7 @@ def run_command(cfg: Config, policy: str, episodes: int, seed: int | None, rende
     if video and not video.lower().endswith(".gif"):
         raise ConfigError(f"--video must name a .gif file, got '{video}'")
     result = run(cfg, policy, episodes, seed, render, video)
+    _warn_short(result, cfg)
     if quiet:
         s = result["summary"]
         print(f"formation_rmse_m {s['formation_rmse_m']:.3f} collisions {s['collisions']}")
@@ -59,6 +77,7 @@ def eval_command(cfg: Config, policy: str, mix: list[str], scenarios: str | None
     (as the report expects)."""
     names = [s.strip() for s in scenarios.split(",") if s.strip()] if scenarios else None
     result = evaluate(cfg, policy, parse_mix(mix), names, episodes, seed, video_dir)
+    _warn_short(result, cfg)
     print(format_table(result))
     if json_out:
         base = os.path.dirname(os.path.abspath(json_out))

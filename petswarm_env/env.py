@@ -15,7 +15,9 @@ medium and the IR channel (:mod:`petswarm_env.comms`), the fleet with a swarm pe
 (:mod:`petswarm_env.control`) and the sensors (:mod:`petswarm_env.sim.sensors`); then it runs, on
 the clock, the pairing, the user's start-up commands (driving mode, then organize — in leading mode
 after the master shifted to its place) and the join protocol (its duration and retries are in
-``infos[agent]["organize"]``); the agents are the robots that joined. Each ``step(actions)``
+``infos[agent]["organize"]``; a swarm that organized short of ``swarm.num_slaves`` says by how many
+in ``infos[agent]["slaves_missing"]`` and the episode summary's ``slaves_missing``); the agents are
+the robots that joined. Each ``step(actions)``
 passes every robot's command through its arbiter (safety > user > policy, seed 001), runs the clock
 for one control period (0.1 s), reads the sensors, then asks the experimenter
 (:mod:`petswarm_env.metrics`: ground truth) for errors and contacts, computes the rewards
@@ -153,7 +155,8 @@ class PetSwarmEnv(ParallelEnv):
             node = self.fleet.nodes[self._agent_index[a]]
             result = swarm_of[self._agent_index[a]].organize_result
             org = {"organize_time_s": result.elapsed_s, "join_retries": result.retries, "members": dict(result.members)}
-            infos[a] = {"member": node.know.member, "organize": org}
+            infos[a] = {"member": node.know.member, "organize": org,
+                        "slaves_missing": swarm_of[self._agent_index[a]].slaves_missing()}
         if self.render_mode == "human":
             self.render()
         return observations, infos
@@ -188,7 +191,7 @@ class PetSwarmEnv(ParallelEnv):
             self.sessions.append(session)
         self.swarm, self.session = self.swarms[0], self.sessions[0]
         for robot, ss in zip(world.robots, rng_world.spawn(len(world.robots))):
-            robot.ahrs.rng = ss
+            robot.ahrs.power_on(ss, world.now)  # own power-on heading: no shared frame (seed 000 §3.5)
         safety = SafetyStage(cfg.robot.ultrasonic.count, cfg.control.safety_stop_m, cfg.control.safety_backoff_mps,
                              cfg.robot.max_accel_mps2) if cfg.control.safety_layer else None
         self.arbiters = {r.index: ControlArbiter(safety) for r in world.robots}

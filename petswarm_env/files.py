@@ -150,13 +150,16 @@ def jsonl_path(json_path: str | os.PathLike) -> Path:
 class JsonLines:
     """Appends one JSON value a line to ``path``, flushed at once (a process killed with SIGKILL
     keeps every line it finished). The file is created, replacing an older one, at the first
-    :meth:`append`: a command that fails before its first record leaves the old file as it was."""
+    :meth:`append`: a command that fails before its first record leaves the old file as it was.
+    With ``path`` ``None`` the records are dropped (a command run without an output file)."""
 
-    def __init__(self, path: str | os.PathLike):
-        self.path = Path(path)
+    def __init__(self, path: str | os.PathLike | None):
+        self.path = None if path is None else Path(path)
         self._file = None
 
     def append(self, record: Any) -> None:
+        if self.path is None:
+            return
         if self._file is None:
             self.path.parent.mkdir(parents=True, exist_ok=True)
             self._file = open(self.path, "w", encoding="utf-8")  # noqa: SIM115 (kept open across appends)
@@ -205,9 +208,10 @@ def read_npz(path: str | os.PathLike, max_bytes: int) -> dict[str, np.ndarray]:
                         shape, _fortran, dtype = np.lib.format.read_array_header_2_0(f)
                     else:
                         raise ValueError(f"array '{name[:-4]}' has .npy format version {version}; only 1.0 and 2.0 are read")
-                    if dtype.hasobject or dtype.kind not in "biuf":
-                        raise ValueError(f"array '{name[:-4]}' holds {dtype} data, not numbers "
-                                         "(an array of Python objects would be a pickle, which petswarm never loads)")
+                    if dtype.hasobject:
+                        raise ValueError(f"array '{name[:-4]}' holds Python objects (a pickle), which petswarm never loads")
+                    if dtype.kind not in "biuf":
+                        raise ValueError(f"array '{name[:-4]}' holds {dtype} data, not numbers")
                     declared = math.prod(shape) * dtype.itemsize
                     if declared > info.file_size:
                         raise ValueError(f"array '{name[:-4]}' declares shape {shape} ({declared} bytes) "

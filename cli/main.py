@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-import threading
 
 from petswarm_env.config import ConfigError, load_config, parse_override
 from petswarm_env.files import Terminated, exit_cleanly_on_signals
@@ -238,10 +237,9 @@ def main(argv: list[str] | None = None) -> int:
     removed: :func:`petswarm_env.files.exit_cleanly_on_signals`)."""
     argv = sys.argv[1:] if argv is None else argv
     args = build_parser().parse_args(argv)
-    if threading.current_thread() is threading.main_thread():
-        exit_cleanly_on_signals()
     try:
-        return COMMANDS[args.command](args, argv)
+        with exit_cleanly_on_signals():
+            return COMMANDS[args.command](args, argv)
     except (ConfigError, ValueError, RuntimeError, OSError) as exc:
         print(f"petswarm: error: {_one_line(exc)}", file=sys.stderr)
         return 2

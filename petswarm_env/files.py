@@ -17,14 +17,16 @@ the same user (:func:`remove_stale_temps`); no other file is ever touched.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import os
 import re
 import signal
 import tempfile
+import threading
 import zipfile
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -148,8 +150,8 @@ def jsonl_path(json_path: str | os.PathLike) -> Path:
 
 
 class JsonLines:
-    """Appends one JSON value a line to ``path``, flushed at once (a process killed with SIGKILL
-    keeps every line it finished). The file is created, replacing an older one, at the first
+    """Appends one JSON value a line to ``path``, each line in one unbuffered write (a process
+    killed with SIGKILL keeps every line it finished). The file is created, replacing an older one, at the first
     :meth:`append`: a command that fails before its first record leaves the old file as it was.
     With ``path`` ``None`` the records are dropped (a command run without an output file)."""
 
@@ -162,9 +164,8 @@ class JsonLines:
             return
         if self._file is None:
             self.path.parent.mkdir(parents=True, exist_ok=True)
-            self._file = open(self.path, "w", encoding="utf-8")  # noqa: SIM115 (kept open across appends)
-        self._file.write(json.dumps(record, allow_nan=True) + "\n")
-        self._file.flush()
+            self._file = open(self.path, "wb", buffering=0)  # noqa: SIM115 (kept open across appends)
+        self._file.write((json.dumps(record, allow_nan=True) + "\n").encode("utf-8"))  # one write: a whole line or none
 
     def close(self) -> None:
         if self._file is not None:
@@ -227,11 +228,14 @@ def read_npz(path: str | os.PathLike, max_bytes: int) -> dict[str, np.ndarray]:
 class Terminated(SystemExit):
     """Raised in the main thread on SIGTERM or SIGHUP (:func:`exit_cleanly_on_signals`): it
     unwinds like Ctrl-C, so :func:`write_atomic` removes its temporary file, ``finally`` blocks
-    close worker processes and files; its exit status is 128 + the signal's number."""
+    close worker processes and files; its exit status is 128 + the signal's number. (Its only
+    argument is the signal, so that code re-raising it as ``type(exc)(*exc.args)``, as SimPy does
+    for an exception inside a process, raises the same.)"""
 
     def __init__(self, signum: int):
-        super().__init__(128 + signum)
+        super().__init__(signum)
         self.signum = signum
+        self.code = 128 + signum
 
     def __str__(self) -> str:
         return f"terminated by {signal.Signals(self.signum).name}"
@@ -241,8 +245,17 @@ def _raise_terminated(signum, frame) -> None:
     raise Terminated(signum)
 
 
-def exit_cleanly_on_signals() -> None:
-    """Turn SIGTERM and SIGHUP into :class:`Terminated` (the ``petswarm`` command installs it;
-    SIGINT already raises ``KeyboardInterrupt``). Call from the main thread."""
-    for sig in (signal.SIGTERM, signal.SIGHUP):
-        signal.signal(sig, _raise_terminated)
+@contextlib.contextmanager
+def exit_cleanly_on_signals() -> Iterator[None]:
+    """While the block runs, SIGTERM and SIGHUP raise :class:`Terminated` (the ``petswarm``
+    command runs in it; SIGINT already raises ``KeyboardInterrupt``); the previous handlers come
+    back after it. Outside the main thread it changes nothing (Python allows handlers only there)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = {sig: signal.signal(sig, _raise_terminated) for sig in (signal.SIGTERM, signal.SIGHUP)}
+    try:
+        yield
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)

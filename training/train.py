@@ -129,10 +129,7 @@ def train(cfg: TrainConfig | None, out_dir: str | os.PathLike, resume: bool = Fa
     if resume and log["timesteps"] >= cfg.timesteps:
         return {**public_log(log), "finished": True, "budget": cfg.timesteps}
     env_cfg, eval_cfg = cfg.env_config(), cfg.eval_env_config()
-    if not resume or changes:  # a resumed run's files change only with what was asked, recorded
-        write_text_atomic(out / "train_config.yaml", yaml.safe_dump(cfg.model_dump(mode="json"), sort_keys=False))
     if not resume:
-        write_text_atomic(out / "env_config.yaml", yaml.safe_dump(env_cfg.to_dict(), sort_keys=False))
         log["command"] = command
     else:
         log.setdefault("resumes", []).append({"from_timesteps": log["timesteps"], "changes": changes, "command": command})
@@ -155,6 +152,11 @@ def train(cfg: TrainConfig | None, out_dir: str | os.PathLike, resume: bool = Fa
             log["pretrain"] = pretrain_policy(model, cfg, env_cfg)
             imitation = learned_policy(model, eval_spec, cfg.ppo.activation)
             log["pretrain"]["eval_formation_rmse_m"] = mean_formation_rmse(eval_cfg, imitation, cfg.eval_seeds())
+        # the run's files change only once its checkpoint is known good; on resume only with what was asked (recorded)
+        if not resume or changes:
+            write_text_atomic(out / "train_config.yaml", yaml.safe_dump(cfg.model_dump(mode="json"), sort_keys=False))
+        if not resume:
+            write_text_atomic(out / "env_config.yaml", yaml.safe_dump(env_cfg.to_dict(), sort_keys=False))
         callback = PeriodicCallback(cfg, out, layout, log)
         model.learn(cfg.timesteps - model.num_timesteps, callback=callback, reset_num_timesteps=False, tb_log_name="ppo",
                     progress_bar=progress_bar)
@@ -181,7 +183,7 @@ def train_command(config: str | None, settings: list[str], timesteps: int | None
     cfg = load_train_config(config, overrides, base=saved if resume and saved.is_file() else None)
     log = train(cfg, out, resume=resume, progress_bar=progress_bar, command=command)
     if log.get("finished"):
-        print(f"run '{out}' is already finished: {log['timesteps']} of {log['budget']} agent-steps; "
+        print(f"run '{out}' is already finished: {log['timesteps']} agent-steps trained, its budget is {log['budget']}; "
               f"pass --timesteps N with N > {log['timesteps']} to train further")
         return 0
     for key, change in log.get("resumes", [{}])[-1].get("changes", {}).items() if resume else ():

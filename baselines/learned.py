@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from baselines.policy import Policy, PolicySpec
+from petswarm_env.config import describe_value
 from petswarm_env.env import ENV_NAME
 from petswarm_env.files import read_npz, write_atomic
 from petswarm_env.observe import OBS_VERSION, ObservationLayout
@@ -98,30 +99,34 @@ def _read_meta(path: Path, arrays: dict[str, np.ndarray]) -> dict[str, Any]:
         raise PolicyLoadError(f"'{path}' is not a petswarm policy file (field 'format' is {meta.get('format')!r}, "
                               f"a policy file has {FORMAT!r})")
     if meta.get("format_version") != FORMAT_VERSION or not _is_int(meta.get("format_version")):
-        raise PolicyLoadError(f"policy file '{path}': field 'format_version' is {meta.get('format_version')!r}, this petswarm reads "
-                              f"version {FORMAT_VERSION}; {FIX} with this petswarm")
+        raise PolicyLoadError(f"policy file '{path}': field 'format_version' is {meta.get('format_version')!r}, this "
+                              f"petswarm reads version {FORMAT_VERSION}; {FIX} with this petswarm")
     missing = [key for key in REQUIRED if key not in meta]
     if missing:
         raise _field_error(path, missing[0], "is missing")
     if meta.get("env_name") != ENV_NAME:
-        raise PolicyLoadError(f"policy file '{path}' was trained on env {meta.get('env_name')!r} (field 'env_name'), this is '{ENV_NAME}'")
+        raise PolicyLoadError(f"policy file '{path}' was trained on env {meta.get('env_name')!r} (field 'env_name'), "
+                              f"this is '{ENV_NAME}'")
     version = meta.get("observation_version")
     if version != OBS_VERSION or not _is_int(version):
         raise PolicyLoadError(f"policy file '{path}': field 'observation_version' is {version!r}, this environment's observation "
                               f"is version {OBS_VERSION} (its fields may mean other things); re-train the policy on this version")
     layout = meta.get("observation_layout")
     if not isinstance(layout, list) or not layout:
-        raise _field_error(path, "observation_layout", f"must be a non-empty list of [name, size] pairs, got {_short(layout)}")
+        raise _field_error(path, "observation_layout",
+                           f"must be a non-empty list of [name, size] pairs, got {describe_value(layout)}")
     for k, entry in enumerate(layout):
-        if not (isinstance(entry, list) and len(entry) == 2 and isinstance(entry[0], str) and _is_int(entry[1]) and entry[1] >= 1):
-            raise _field_error(path, "observation_layout", f"entry {k} must be [name, size >= 1], got {_short(entry)}")
+        pair = isinstance(entry, list) and len(entry) == 2
+        if not (pair and isinstance(entry[0], str) and _is_int(entry[1]) and entry[1] >= 1):
+            raise _field_error(path, "observation_layout", f"entry {k} must be [name, size >= 1], got {describe_value(entry)}")
     if len({name for name, _ in layout}) != len(layout):
         raise _field_error(path, "observation_layout", "names a field twice")
     if meta.get("activation") not in ACTIVATIONS:
-        raise _field_error(path, "activation", f"must be one of {sorted(ACTIVATIONS)}, got {_short(meta.get('activation'))}")
+        raise _field_error(path, "activation",
+                           f"must be one of {sorted(ACTIVATIONS)}, got {describe_value(meta.get('activation'))}")
     n = meta.get("num_layers")
     if not _is_int(n) or not 1 <= n <= MAX_LAYERS:
-        raise _field_error(path, "num_layers", f"must be a whole number from 1 to {MAX_LAYERS}, got {_short(n)}")
+        raise _field_error(path, "num_layers", f"must be a whole number from 1 to {MAX_LAYERS}, got {describe_value(n)}")
     if not isinstance(meta.get("info", {}), dict):
         raise _field_error(path, "info", f"must be a JSON object, got {type(meta['info']).__name__}")
     return meta
@@ -150,11 +155,6 @@ def _read_layers(path: Path, arrays: dict[str, np.ndarray], meta: dict[str, Any]
     if layers[-1][0].shape[0] != 3:
         raise _field_error(path, f"w{len(layers) - 1}", f"outputs {layers[-1][0].shape[0]} values; a slave action has 3")
     return layers
-
-
-def _short(value: Any) -> str:
-    text = repr(value)
-    return f"{type(value).__name__} {text if len(text) <= 40 else text[:37] + '...'}"
 
 
 def read_policy_file(path: str | os.PathLike) -> tuple[dict[str, Any], list[tuple[np.ndarray, np.ndarray]]]:

@@ -16,7 +16,7 @@ import argparse
 import sys
 
 from petswarm_env.config import ConfigError, load_config, parse_override
-from petswarm_env.files import Terminated, exit_cleanly_on_signals
+from petswarm_env.files import Terminated, check_output_path, exit_cleanly_on_signals
 
 
 class _Parser(argparse.ArgumentParser):
@@ -207,6 +207,8 @@ def _report(args, argv: list[str]) -> int:
 def _bench(args, argv: list[str]) -> int:
     from bench.run import bench_command
 
+    check_output_path(args.json, "--json")
+    check_output_path(args.md, "--md")
     return bench_command(args.quick, args.json, args.md)
 
 
@@ -215,6 +217,8 @@ def _reproduce(args, argv: list[str]) -> int:
     from experiments.reproduce import reproduce
 
     cfg = _env_config(args)
+    check_output_path(args.json, "--json")
+    check_output_path(args.report, "--report")
     seed = cfg.seed if args.seed is None else args.seed
     return reproduce(cfg, args.only or list(EXPERIMENTS), seed, args.quick, args.json, args.report, args.check,
                      "petswarm " + " ".join(argv))

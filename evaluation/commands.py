@@ -4,14 +4,13 @@
 from __future__ import annotations
 
 import os
-from pathlib import Path
 from typing import Any
 
 from evaluation.evaluate import evaluate, format_table, parse_mix
 from evaluation.report import write_report
 from evaluation.runner import run
 from petswarm_env.config import Config, ConfigError
-from petswarm_env.files import JsonLines, jsonl_path, write_json_atomic
+from petswarm_env.files import JsonLines, check_output_path, jsonl_path, write_json_atomic
 
 
 def format_run_table(result: dict[str, Any]) -> str:
@@ -33,23 +32,6 @@ def format_run_table(result: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
-def check_output(path: str | None, flag: str, folder: bool = False) -> None:
-    """Refuse, before any episode runs, an output that cannot be written: a file where a folder
-    is wanted, or a folder where a file is."""
-    if path is None:
-        return
-    p = Path(path)
-    if folder and p.exists() and not p.is_dir():
-        raise ConfigError(f"{flag} '{path}' is a file; name a folder (it is created if missing)")
-    if not folder and (p.is_dir() or path.endswith(os.sep)):
-        raise ConfigError(f"{flag} '{path}' is a folder; name a file, e.g. {os.path.join(path, 'results.json')}")
-    for parent in p.parents if not folder else (p, *p.parents):
-        if parent.exists():
-            if not parent.is_dir():
-                raise ConfigError(f"{flag} '{path}' cannot be written: '{parent}' is a file, not a folder")
-            break
-
-
 def run_command(cfg: Config, policy: str, episodes: int, seed: int | None, render: str | None, video: str | None,
                 json_out: str | None, quiet: bool) -> int:
     """``petswarm run``: the episodes, their table (or with ``quiet`` the summary line), the JSON
@@ -57,8 +39,8 @@ def run_command(cfg: Config, policy: str, episodes: int, seed: int | None, rende
     file beside it (``OUT.jsonl``): a killed run keeps the episodes it finished."""
     if video and not video.lower().endswith(".gif"):
         raise ConfigError(f"--video must name a .gif file, got '{video}'")
-    check_output(json_out, "--json")
-    check_output(video, "--video")
+    check_output_path(json_out, "--json")
+    check_output_path(video, "--video")
     with JsonLines(jsonl_path(json_out) if json_out else None) as lines:
         result = run(cfg, policy, episodes, seed, render, video, progress=lines.append)
     if quiet:
@@ -80,8 +62,8 @@ def eval_command(cfg: Config, policy: str, mix: list[str], scenarios: str | None
     comma-separated ``scenarios``; the table and the JSON, its GIF paths relative to the JSON file
     (as the report expects), each finished episode appended at once to ``OUT.jsonl``."""
     names = [s.strip() for s in scenarios.split(",") if s.strip()] if scenarios else None
-    check_output(json_out, "--json")
-    check_output(video_dir, "--video-dir", folder=True)
+    check_output_path(json_out, "--json")
+    check_output_path(video_dir, "--video-dir", folder=True)
     base = os.path.dirname(os.path.abspath(json_out or "."))
 
     def finished(ep: dict[str, Any]) -> None:
@@ -100,7 +82,7 @@ def eval_command(cfg: Config, policy: str, mix: list[str], scenarios: str | None
 
 def report_command(results: list[str], out: str) -> int:
     """``petswarm report``: one HTML page comparing the result files."""
-    check_output(out, "--out")
+    check_output_path(out, "--out")
     write_report(results, out)
     print(f"wrote {out}")
     return 0

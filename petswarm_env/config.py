@@ -19,7 +19,8 @@ from typing import Annotated, Any, Literal
 
 import numpy as np
 import yaml
-from pydantic import AfterValidator, BaseModel, ConfigDict, Field, ValidationError, ValidationInfo, field_validator, model_validator
+from pydantic import (AfterValidator, BaseModel, ConfigDict, Field, ValidationError, ValidationInfo, field_validator,
+                      model_validator)
 from pydantic_core import PydanticCustomError
 
 from petswarm_env.scenarios import SCENARIOS  # the registry (the scenarios import nothing of the package)
@@ -104,8 +105,8 @@ class WorldConfig(Section):
                 raise ValueError(f"world.obstacles[{i}].size_m must be a width and a height > 0 m, got [{bw:g}, {bh:g}]")
             if w > 0 and (abs(cx) + bw / 2 > w / 2 or abs(cy) + bh / 2 > h / 2):
                 raise ValueError(
-                    f"world.obstacles[{i}] (centre [{cx:g}, {cy:g}], size [{bw:g}, {bh:g}] m) reaches outside the {w:g} x {h:g} m "
-                    "arena (world.arena_m, centred on the origin); move the box or make the arena larger")
+                    f"world.obstacles[{i}] (centre [{cx:g}, {cy:g}], size [{bw:g}, {bh:g}] m) reaches outside the "
+                    f"{w:g} x {h:g} m arena (world.arena_m, centred on the origin); move the box or make the arena larger")
         return self
 
 
@@ -248,8 +249,8 @@ class RenderConfig(Section):
 
     @model_validator(mode="after")
     def _check_size(self) -> RenderConfig:
-        if min(self.size_px) < 1:
-            raise ValueError(f"render.size_px must be a width and a height of at least 1 pixel, got {list(self.size_px)}")
+        if min(self.size_px) < 1 or max(self.size_px) > 8192:
+            raise ValueError(f"render.size_px must be a width and a height from 1 to 8192 pixels, got {list(self.size_px)}")
         return self
 
 
@@ -516,6 +517,12 @@ def nest_dotted(overrides: Mapping[str, Any]) -> dict[str, Any]:
                 raise ConfigError(f"override '{key}' conflicts with another override of '{part}'")
         node[parts[-1]] = value
     return nested
+
+
+def describe_value(value: Any, limit: int = 60) -> str:
+    """A value a user gave, for a one-line error message: its type and a short repr."""
+    text = repr(value)
+    return f"{type(value).__name__} {text if len(text) <= limit else text[:limit - 3] + '...'}"
 
 
 def format_validation_error(exc: ValidationError) -> str:

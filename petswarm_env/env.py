@@ -39,7 +39,7 @@ from pettingzoo import ParallelEnv
 
 from petswarm_env.comms.ir_channel import IRChannel
 from petswarm_env.comms.radio import RadioMedium
-from petswarm_env.config import Config, flatten_dotted, load_config
+from petswarm_env.config import Config, describe_value, flatten_dotted, load_config
 from petswarm_env.control.arbiter import ControlArbiter, SafetyStage
 from petswarm_env.metrics import Experimenter
 from petswarm_env.middleware.formation import formation_for_mode, user_position_in_formation
@@ -316,7 +316,7 @@ class PetSwarmEnv(ParallelEnv):
             except ValueError:  # ragged nested sequences
                 raw = None
             if raw is None or raw.dtype.kind not in "iuf":
-                raise ValueError(f"action of {agent} must be 3 numbers (Vx, Vy, ω) in [-1, 1], got {_describe(a)}")
+                raise ValueError(f"action of {agent} must be 3 numbers (Vx, Vy, ω) in [-1, 1], got {describe_value(a)}")
             arr = raw.astype(np.float32)
             if arr.shape != (3,):
                 raise ValueError(f"action of {agent} must have shape (3,) = (Vx, Vy, ω) in [-1, 1], got shape {arr.shape}")
@@ -370,13 +370,8 @@ class PetSwarmEnv(ParallelEnv):
 def _checked_seed(seed: Any) -> int:
     """``reset``'s seed: an integer ≥ 0 (Python or numpy; a boolean is not a seed)."""
     if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)):
-        raise TypeError(f"reset(seed=...) takes an integer >= 0 or None, got {_describe(seed)}")
+        raise TypeError(f"reset(seed=...) takes an integer >= 0 or None, got {describe_value(seed)}")
     if seed < 0:
         raise ValueError(f"reset(seed=...) takes an integer >= 0 or None, got {int(seed)}")
     return int(seed)
 
-
-def _describe(value: Any) -> str:
-    """A value in an error message: its type and a short repr."""
-    text = repr(value)
-    return f"{type(value).__name__} {text if len(text) <= 60 else text[:57] + '...'}"

@@ -141,6 +141,24 @@ def jsonable(x: Any) -> Any:
     return x
 
 
+def check_output_path(path: str | os.PathLike | None, flag: str, folder: bool = False) -> None:
+    """Refuse, before a command does its work, an output it could not write at the end: a file
+    where a folder is wanted (``folder``), a folder where a file is, or a path under a file.
+    Raises ``ValueError`` naming ``flag``; ``None`` passes."""
+    if path is None:
+        return
+    text, p = os.fspath(path), Path(path)
+    if folder and p.exists() and not p.is_dir():
+        raise ValueError(f"{flag} '{text}' is a file; name a folder (it is created if missing)")
+    if not folder and (p.is_dir() or text.endswith(os.sep)):
+        raise ValueError(f"{flag} '{text}' is a folder; name a file, e.g. {os.path.join(text, 'results.json')}")
+    for parent in (p, *p.parents) if folder else p.parents:
+        if parent.exists():
+            if not parent.is_dir():
+                raise ValueError(f"{flag} '{text}' cannot be written: '{parent}' is a file, not a folder")
+            break
+
+
 # -- JSON Lines: one finished record a line, so a killed run keeps what it finished --------------
 def jsonl_path(json_path: str | os.PathLike) -> Path:
     """The JSON Lines file beside a JSON output: ``OUT.json`` -> ``OUT.jsonl``, ``OUT`` (any

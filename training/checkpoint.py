@@ -89,11 +89,13 @@ def read_checkpoint(out: str | os.PathLike) -> tuple[dict[str, Any], dict[str, n
     try:
         arrays = read_npz(path, MAX_BYTES)
     except (ValueError, OSError) as exc:
-        raise ConfigError(f"checkpoint '{path}' cannot be read: {exc}; it may be corrupt (start a new run with another --out)") from None
+        raise ConfigError(f"checkpoint '{path}' cannot be read: {exc}; it may be corrupt "
+                          "(start a new run with another --out)") from None
     try:
         state = json.loads(arrays.pop("state").tobytes().decode("utf-8"))
     except (KeyError, UnicodeDecodeError, json.JSONDecodeError, RecursionError):
-        raise ConfigError(f"checkpoint '{path}' has no readable 'state' record; it is corrupt or not a petswarm checkpoint") from None
+        raise ConfigError(f"checkpoint '{path}' has no readable 'state' record; it is corrupt or not a petswarm "
+                          "checkpoint") from None
     if not isinstance(state, dict) or state.get("format") != FORMAT:
         raise ConfigError(f"'{path}' is not a petswarm checkpoint (field 'format' must be {FORMAT!r})")
     if state.get("format_version") != FORMAT_VERSION:
@@ -105,7 +107,8 @@ def read_checkpoint(out: str | os.PathLike) -> tuple[dict[str, Any], dict[str, n
     return state, arrays
 
 
-def _tensors(path: Path, arrays: dict[str, np.ndarray], prefix: str, expected: dict[str, torch.Tensor]) -> dict[str, torch.Tensor]:
+def _tensors(path: Path, arrays: dict[str, np.ndarray], prefix: str,
+             expected: dict[str, torch.Tensor]) -> dict[str, torch.Tensor]:
     """The arrays under ``prefix`` as tensors, exactly the names, shapes and dtypes of ``expected``."""
     got = {k[len(prefix):]: v for k, v in arrays.items() if k.startswith(prefix)}
     missing, extra = sorted(set(expected) - set(got)), sorted(set(got) - set(expected))

@@ -35,7 +35,7 @@ from baselines.registry import make_policy
 from evaluation.evaluate import mean_formation_rmse
 from petswarm_env.config import ConfigError, flatten_dotted, parse_override
 from petswarm_env.env import PetSwarmEnv
-from petswarm_env.files import write_json_atomic, write_text_atomic
+from petswarm_env.files import check_output_path, write_json_atomic, write_text_atomic
 from training.callbacks import PeriodicCallback, public_log
 from training.checkpoint import has_checkpoint, read_checkpoint, restore_checkpoint
 from training.config import PPOConfig, TrainConfig, load_train_config, resume_changes
@@ -173,6 +173,7 @@ def train_command(config: str | None, settings: list[str], timesteps: int | None
                   progress_bar: bool, command: str) -> int:
     """``petswarm train``: the config from ``config`` and ``--set KEY=VALUE`` ``settings`` (and
     ``--timesteps``), the run, and one summary line."""
+    check_output_path(out, "--out", folder=True)
     overrides = dict(parse_override(item) for item in settings)
     if timesteps:
         overrides["timesteps"] = timesteps
@@ -187,7 +188,8 @@ def train_command(config: str | None, settings: list[str], timesteps: int | None
               f"pass --timesteps N with N > {log['timesteps']} to train further")
         return 0
     for key, change in log.get("resumes", [{}])[-1].get("changes", {}).items() if resume else ():
-        print(f"resumed with {key} {change['from']!r} -> {change['to']!r} (recorded in {out}/train_config.yaml and train_log.json)")
+        print(f"resumed with {key} {change['from']!r} -> {change['to']!r} "
+              f"(recorded in {out}/train_config.yaml and train_log.json)")
     last = log["evaluations"][-1] if log["evaluations"] else {}
     print(f"trained {log['timesteps']} agent-steps in {log['wall_time_s']:.0f} s; "
           f"eval formation_rmse_m {last.get('formation_rmse_m', float('nan')):.3f} "

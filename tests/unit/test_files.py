@@ -88,7 +88,8 @@ def test_stale_temps_of_a_killed_process_go_at_the_next_write_and_nothing_else(t
              tmp_path / f".ep.gif.petswarm-tmp-{dead}-00000000.gif"]
     alive = tmp_path / f".out.json.petswarm-tmp-{os.getppid()}-abcd1234.json"  # a writer still running
     users = [tmp_path / ".out.json.backup", tmp_path / f"out.json.petswarm-tmp-{dead}-abcd1234.json",  # no leading dot
-             tmp_path / f".out.json.petswarm-tmp-{dead}-abc.json", tmp_path / "notes.txt", tmp_path / f".x.petswarm-tmp-{dead}-abcd1234.json.old"]
+             tmp_path / f".out.json.petswarm-tmp-{dead}-abc.json", tmp_path / "notes.txt",
+             tmp_path / f".x.petswarm-tmp-{dead}-abcd1234.json.old"]
     for p in stale + [alive] + users:
         p.write_text("x")
     (tmp_path / f".d.petswarm-tmp-{dead}-abcd1234").mkdir()  # a folder of that name is not ours

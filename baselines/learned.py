@@ -4,7 +4,8 @@ A saved policy is one ``.npz`` file (numpy's zip of arrays, read by
 :func:`petswarm_env.files.read_npz`: numbers only, never a pickle, so loading never executes
 code from the file; every field is checked and a malformed one refused by name) holding the actor network's layers and a JSON
 metadata record: the format version, the environment name and observation version it was trained
-on, the observation layout (field names and sizes), the activation, and how it was trained.
+on (a newer version than the environment's is refused, an older one loads with a
+:class:`PolicyVersionWarning`), the observation layout (field names and sizes), the activation, and how it was trained.
 
 Loading matches the saved layout against the environment's, field by field (seed 001's mapping
 idea, SPEC §5): fields that match by name and size are wired through (in any order); a field the
@@ -16,6 +17,7 @@ from __future__ import annotations
 
 import json
 import os
+import warnings
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -35,6 +37,10 @@ ACTIVATIONS = {"tanh": np.tanh, "relu": lambda x: np.maximum(x, 0.0)}
 
 class PolicyLoadError(ValueError):
     """A policy file is missing, corrupt, or does not fit the environment."""
+
+
+class PolicyVersionWarning(UserWarning):
+    """A policy trained on an older observation version is loaded (its fields matched by name)."""
 
 
 def shipped_policy_path() -> Path:
@@ -108,9 +114,11 @@ def _read_meta(path: Path, arrays: dict[str, np.ndarray]) -> dict[str, Any]:
         raise PolicyLoadError(f"policy file '{path}' was trained on env {meta.get('env_name')!r} (field 'env_name'), "
                               f"this is '{ENV_NAME}'")
     version = meta.get("observation_version")
-    if version != OBS_VERSION or not _is_int(version):
-        raise PolicyLoadError(f"policy file '{path}': field 'observation_version' is {version!r}, this environment's observation "
-                              f"is version {OBS_VERSION} (its fields may mean other things); re-train the policy on this version")
+    if not _is_int(version) or version < 1:
+        raise _field_error(path, "observation_version", f"must be a whole number >= 1, got {describe_value(version)}")
+    if version > OBS_VERSION:
+        raise PolicyLoadError(f"policy file '{path}': field 'observation_version' is {version}, newer than this environment's "
+                              f"observation (version {OBS_VERSION}); use it with the petswarm it was trained with")
     layout = meta.get("observation_layout")
     if not isinstance(layout, list) or not layout:
         raise _field_error(path, "observation_layout",
@@ -209,6 +217,10 @@ class LearnedPolicy(Policy):
     @classmethod
     def load(cls, path: str | os.PathLike, spec: PolicySpec) -> LearnedPolicy:
         meta, layers = read_policy_file(path)
+        if meta["observation_version"] < OBS_VERSION:
+            warnings.warn(f"policy file '{path}' was trained on observation version {meta['observation_version']}, this "
+                          f"environment's is {OBS_VERSION}: its fields are matched by name and size, but one may mean "
+                          "something else now (docs/observation.md); re-train it to be sure", PolicyVersionWarning, stacklevel=2)
         saved = [(n, s) for n, s in meta["observation_layout"]]
         try:
             index = observation_mapping(saved, spec.layout)

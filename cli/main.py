@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import warnings
 
 from petswarm_env.config import ConfigError, load_config, parse_override
 from petswarm_env.files import Terminated, check_output_path, exit_cleanly_on_signals
@@ -235,6 +236,10 @@ def _one_line(exc: BaseException) -> str:
     return text
 
 
+def _warn_in_one_line(message, category, filename, lineno, file=None, line=None) -> None:
+    print(f"petswarm: warning: {' '.join(str(message).split())}", file=sys.stderr)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Parse, dispatch, and turn every error a user can cause into one line on stderr with exit
     status 2; Ctrl-C exits 130, SIGTERM/SIGHUP 128 + the signal (after every temporary file is
@@ -242,7 +247,8 @@ def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
     args = build_parser().parse_args(argv)
     try:
-        with exit_cleanly_on_signals():
+        with exit_cleanly_on_signals(), warnings.catch_warnings():
+            warnings.showwarning = _warn_in_one_line
             return COMMANDS[args.command](args, argv)
     except (ConfigError, ValueError, RuntimeError, OSError) as exc:
         print(f"petswarm: error: {_one_line(exc)}", file=sys.stderr)

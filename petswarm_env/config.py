@@ -54,7 +54,7 @@ def _wants_number_only(annotation: Any) -> bool:
         return False
     if annotation in (int, float):
         return True
-    args = [a for a in typing.get_args(annotation) if a is not Ellipsis]
+    args = [a for a in typing.get_args(annotation) if a is not Ellipsis and a is not type(None)]  # Optional[int] too
     if typing.get_origin(annotation) is Annotated:
         args = args[:1]
     return bool(args) and all(_wants_number_only(a) for a in args)

@@ -170,6 +170,7 @@ POLICY_CASES = [  # (id, how to damage a good policy file, words)
     ("num_layers_minus_1", dict(meta={"num_layers": -1}), "field 'num_layers'"),
     ("observation_version_999", dict(meta={"observation_version": 999}), "field 'observation_version' is 999"),
     ("observation_version_string", dict(meta={"observation_version": "1"}), "field 'observation_version'"),
+    ("observation_version_0", dict(meta={"observation_version": 0}), "field 'observation_version' must be a whole number"),
     ("num_layers_true", dict(meta={"num_layers": True}), "field 'num_layers'"),
     ("num_layers_1000", dict(meta={"num_layers": 1000}), "field 'num_layers'"),
     ("num_layers_3_of_2", dict(meta={"num_layers": 3}), "field 'w2' is missing"),
@@ -248,6 +249,18 @@ def test_malformed_policy_file_through_the_cli(capsys, outputs, spec, monkeypatc
     before = _snapshot(outputs)
     _fails(capsys, ["run", "--policy", path, "--set", "max_cycles=5", "--json", outputs / "OUT.json"], words)
     assert _snapshot(outputs) == before
+
+
+def test_a_policy_of_an_older_observation_version_loads_with_a_warning(tmp_path, spec, monkeypatch, capsys):
+    import baselines.learned as learned
+
+    _write_policy(tmp_path / "old.npz", spec.layout)  # version 1, its fields all in today's layout
+    monkeypatch.setattr(learned, "OBS_VERSION", 2)
+    with pytest.warns(learned.PolicyVersionWarning, match="observation version 1, this environment's is 2"):
+        LearnedPolicy.load(tmp_path / "old.npz", spec)
+    assert main(["run", "--policy", str(tmp_path / "old.npz"), "--set", "max_cycles=3", "--quiet"]) == 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("petswarm: warning: policy file")
 
 
 def test_a_checkpoint_given_as_a_policy_says_what_it_is(tmp_path, spec):

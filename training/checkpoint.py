@@ -89,7 +89,7 @@ def read_checkpoint(out: str | os.PathLike) -> tuple[dict[str, Any], dict[str, n
     try:
         arrays = read_npz(path, MAX_BYTES)
     except (ValueError, OSError) as exc:
-        raise ConfigError(f"checkpoint '{path}' cannot be read: {exc}; it may be corrupt "
+        raise ConfigError(f"checkpoint '{path}' cannot be read: {exc}; it is damaged or not a petswarm checkpoint "
                           "(start a new run with another --out)") from None
     try:
         state = json.loads(arrays.pop("state").tobytes().decode("utf-8"))

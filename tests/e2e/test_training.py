@@ -168,5 +168,5 @@ def test_corrupt_checkpoint_on_resume_is_refused(tmp_path):
     cfg = load_train_config(overrides={**SHORT, "timesteps": 512, "eval.every_steps": 100000, "checkpoint.every_steps": 100000})
     train(cfg, out, progress_bar=False)
     (out / "checkpoints" / "latest.npz").write_bytes(b"not a zip")
-    with pytest.raises(ConfigError, match="corrupt"):
+    with pytest.raises(ConfigError, match="damaged"):
         train(cfg, out, resume=True, progress_bar=False)

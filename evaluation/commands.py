@@ -33,12 +33,14 @@ def format_run_table(result: dict[str, Any]) -> str:
 
 
 def run_command(cfg: Config, policy: str, episodes: int, seed: int | None, render: str | None, video: str | None,
-                json_out: str | None, quiet: bool) -> int:
-    """``petswarm run``: the episodes, their table (or with ``quiet`` the summary line), the JSON
-    and the GIF."""
+                json_out: str | None, quiet: bool, pcap: str | None = None) -> int:
+    """``petswarm run``: the episodes, their table (or with ``quiet`` the summary line), the JSON,
+    the GIF and the radio trace (pcapng) of the first episode."""
     if video and not video.lower().endswith(".gif"):
         raise ConfigError(f"--video must name a .gif file, got '{video}'")
-    result = run(cfg, policy, episodes, seed, render, video)
+    if pcap and not pcap.lower().endswith(".pcapng"):
+        raise ConfigError(f"--pcap must name a .pcapng file (the trace is pcapng), got '{pcap}'")
+    result = run(cfg, policy, episodes, seed, render, video, pcap=pcap)
     if quiet:
         s = result["summary"]
         print(f"formation_rmse_m {s['formation_rmse_m']:.3f} collisions {s['collisions']}")
@@ -49,29 +51,36 @@ def run_command(cfg: Config, policy: str, episodes: int, seed: int | None, rende
         print(f"wrote {json_out}")
     if video:
         print(f"wrote {video}")
+    if pcap:
+        print(f"wrote {pcap}" + (f" (episode 0 of {episodes}; eval --pcap-dir writes one file per episode)" if episodes > 1 else ""))
     return 0
 
 
 def eval_command(cfg: Config, policy: str, mix: list[str], scenarios: str | None, episodes: int, seed: int | None,
-                 json_out: str | None, video_dir: str | None) -> int:
+                 json_out: str | None, video_dir: str | None, pcap_dir: str | None = None, replay_dir: str | None = None) -> int:
     """``petswarm eval``: ``policy`` (and the ``--mix ROBOT=POLICY`` items) on each of the
-    comma-separated ``scenarios``; the table and the JSON, its GIF paths relative to the JSON file
-    (as the report expects)."""
+    comma-separated ``scenarios``; the table and the JSON, its GIF, pcap and replay paths relative
+    to the JSON file (as the report expects)."""
     names = [s.strip() for s in scenarios.split(",") if s.strip()] if scenarios else None
-    result = evaluate(cfg, policy, parse_mix(mix), names, episodes, seed, video_dir)
+    result = evaluate(cfg, policy, parse_mix(mix), names, episodes, seed, video_dir, pcap_dir, replay_dir)
     print(format_table(result))
+    for what, folder in (("radio traces", pcap_dir), ("replays", replay_dir)):
+        if folder:
+            print(f"wrote {len(result['episodes'])} {what} into {folder}")
     if json_out:
         base = os.path.dirname(os.path.abspath(json_out))
         for ep in result["episodes"]:
-            if "gif" in ep:
-                ep["gif"] = os.path.relpath(os.path.abspath(ep["gif"]), base)
+            for key in ("gif", "pcap", "replay"):
+                if key in ep:
+                    ep[key] = os.path.relpath(os.path.abspath(ep[key]), base)
         write_json_atomic(json_out, result)
         print(f"wrote {json_out}")
     return 0
 
 
-def report_command(results: list[str], out: str) -> int:
-    """``petswarm report``: one HTML page comparing the result files."""
-    write_report(results, out)
+def report_command(results: list[str], out: str, replays: str = "first") -> int:
+    """``petswarm report``: one HTML page comparing the result files, with the episode replays
+    ``replays`` chooses (:mod:`evaluation.replay_viewer`)."""
+    write_report(results, out, replays)
     print(f"wrote {out}")
     return 0

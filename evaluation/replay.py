@@ -27,7 +27,8 @@ quantised integers), ``arena`` (``walls`` as ``[x1, y1, x2, y2]``, ``boxes`` as 
   swarm), ``arbiter`` (the source that won its arbiter on that step: safety/user/policy, "" when
   its arbiter did not decide);
 * ``links``: a run of the formation links as ``[neighbour, member]`` robot-index pairs;
-  ``holder``: a run of the IR token holders (robot indices);
+  ``holder``: a run of the IR token holders (robot indices, one per swarm: the robot holding the
+  newest token — the previous holder still waits for its token's acknowledgement);
 * ``error``: the mean formation error of the step (the env's ``metrics.error_trace``; null on a
   step without one);
 * ``radio``: ``kinds`` (frame types in order of first appearance) and per outcome ``sent``, ``lost``,
@@ -186,11 +187,21 @@ class ReplayRecorder:
             rec["commands"] += [[f, cmd] for _, cmd in new]
             self._commands_seen[u] += len(new)
         self.links.add(f, [list(p) for p in exp.link_pairs()])
-        self.holder.add(f, sorted(i for i, node in env.fleet.nodes.items() if node.ring.holding))
+        self.holder.add(f, self._holders())
         trace = env.metrics.error_trace
         self.error.append(_mm(trace[-1]) if f > 0 and len(trace) > self._errors_seen else None)
         self._errors_seen = len(trace)
         self.frame += 1
+
+    def _holders(self) -> list[int]:
+        """The IR token holder of each swarm: of the robots holding a slot, the one with the newest token
+        (the previous holder still waits for the acknowledgement of the token it passed on)."""
+        best: dict[int | None, Any] = {}
+        for i, node in self.env.fleet.nodes.items():
+            ring = node.ring
+            if ring.holding and (node.swarm_pan not in best or ring.token_seq > best[node.swarm_pan][0]):
+                best[node.swarm_pan] = (ring.token_seq, i)
+        return sorted(i for _, i in best.values())
 
     def _winner(self, robot: int) -> str:
         """The source that won robot ``robot``'s arbiter since the last frame ("" if it did not decide)."""

@@ -300,10 +300,12 @@ class PcapRecorder:
             self.counts["busy"] += 1
 
     def __call__(self) -> None:
+        now = self.env.world.now
         if self.episode_start_s is None:
-            self.episode_start_s = self.env.world.now
+            self.episode_start_s = now
             self.first_episode_record = len(self.records) + 1  # Wireshark's frame.number
-            self._on_air = {k: v for k, v in self._on_air.items() if v[3] >= self.episode_start_s}
+        # forget the frames that left the air (every reception of a frame comes when it ends)
+        self._on_air = {k: v for k, v in self._on_air.items() if v[3] >= now}
 
     def close(self) -> str:
         """Stop recording and write the file (atomically); returns its path."""

@@ -54,8 +54,13 @@ def parse_spec(spec: str) -> str | list[tuple[str, int]]:
 
 
 def _replay_path(result_dir: Path, replay: str) -> Path:
+    """A replay's path: relative to its result file (as ``petswarm eval --json`` writes it), or, if no
+    file is there but one is at the path as given, that one."""
     p = Path(replay)
-    return p if p.is_absolute() else result_dir / p
+    if p.is_absolute():
+        return p
+    beside = result_dir / p
+    return beside if beside.exists() or not p.exists() else p
 
 
 def choose(results: list, spec: str) -> list[tuple[tuple[str, int], list[tuple[str, Path]]]]:

@@ -48,8 +48,9 @@ class Browser:
             os.dup2(a, 3)
             os.dup2(b, 4)
 
+        self._log = open(Path(self.profile) / "stderr.log", "wb")  # a file: a full pipe would block the browser
         self.proc = subprocess.Popen(args, pass_fds=(3, 4), preexec_fn=fds, stdin=subprocess.DEVNULL,
-                                     stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+                                     stdout=subprocess.DEVNULL, stderr=self._log)
         os.close(to_r)
         os.close(from_w)
         self._buf = b""
@@ -78,8 +79,8 @@ class Browser:
                 raise RuntimeError("chromium did not answer in time")
             chunk = os.read(self._from_r, 1 << 16)
             if not chunk:
-                err = self.proc.stderr.read().decode(errors="replace")[-2000:] if self.proc.poll() is not None else ""
-                raise RuntimeError(f"chromium closed its DevTools pipe {err}")
+                log = (Path(self.profile) / "stderr.log").read_bytes().decode(errors="replace")[-2000:]
+                raise RuntimeError(f"chromium closed its DevTools pipe: {log}")
             self._buf += chunk
         raw, self._buf = self._buf.split(b"\0", 1)
         return json.loads(raw)
@@ -166,8 +167,7 @@ class Browser:
                     os.close(fd)
                 except OSError:
                     pass
-            if self.proc.stderr:
-                self.proc.stderr.close()
+            self._log.close()
             shutil.rmtree(self.profile, ignore_errors=True)
 
     def __enter__(self) -> Browser:

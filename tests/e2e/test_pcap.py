@@ -134,3 +134,9 @@ def test_the_trace_reads_back_with_the_organize_in_order_and_the_summarys_counts
               "collided": sum(r["comment"].startswith("collided ") for r in episode_records)}
     assert counts == summary["frames"] and counts["lost"] > 0 and counts["collided"] > 0
     assert first > 1 and any(not r["out"] and r["comment"].startswith("delivered ") for r in episode_records)
+
+
+def test_pcap_must_be_named_pcapng(tmp_path, capsys):
+    assert main(["run", "--set", "max_cycles=1", "--pcap", str(tmp_path / "trace.pcap")]) == 2
+    assert "--pcap must name a .pcapng file" in capsys.readouterr().err
+    assert not (tmp_path / "trace.pcap").exists()

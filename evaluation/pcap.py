@@ -58,7 +58,7 @@ MESSAGES: dict[str, tuple[int, tuple[tuple[str, str], ...]]] = {
     msg.JOIN_QUERY: (3, (("candidates", "ids"),)),
     msg.JOIN_ANSWER: (4, (("available", "bool"),)),
     msg.JOIN_NOTIFY: (5, (("new_pan", "u16"), ("member", "u8"), ("total", "u8"), ("members", "members"),
-                          ("shape", "str"), ("mode", "str"))),
+                          ("shape", "str"), ("mode", "str"), ("links", "links"))),
     msg.NON_PARTICIPATE: (6, ()),
     msg.NOTIFY_ACK: (7, ()),
     msg.TX_START: (8, (("seq", "u32"),)),

@@ -9,7 +9,7 @@ local FIELDS = {
   [2] = {},
   [3] = {{"candidates", "ids"}},
   [4] = {{"available", "bool"}},
-  [5] = {{"new_pan", "u16"}, {"member", "u8"}, {"total", "u8"}, {"members", "members"}, {"shape", "str"}, {"mode", "str"}},
+  [5] = {{"new_pan", "u16"}, {"member", "u8"}, {"total", "u8"}, {"members", "members"}, {"shape", "str"}, {"mode", "str"}, {"links", "links"}},
   [6] = {},
   [7] = {},
   [8] = {{"seq", "u32"}},
@@ -26,7 +26,7 @@ local FIELDS = {
   [19] = {{"seq", "u32"}, {"user", "user"}, {"previous", "str"}},
   [20] = {}
 }
-local NAMES = {"known", "candidates", "available", "new_pan", "member", "total", "members", "shape", "mode", "seq", "next", "bearing", "velocity", "activity", "turn_rate", "rotating", "user", "links", "previous"}
+local NAMES = {"known", "candidates", "available", "new_pan", "member", "total", "members", "shape", "mode", "links", "seq", "next", "bearing", "velocity", "activity", "turn_rate", "rotating", "user", "previous"}
 local SWARM_PANS = "4097-4351"
 -- end of the tables
 

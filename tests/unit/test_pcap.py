@@ -18,7 +18,7 @@ EXAMPLES = {
     msg.JOIN_QUERY: {"candidates": [2, 4, 300]},
     msg.JOIN_ANSWER: {"available": False},
     msg.JOIN_NOTIFY: {"new_pan": 0x1001, "member": 2, "total": 5, "members": {0: 0, 1: 3, 2: 4}, "shape": "wedge",
-                      "mode": "following"},
+                      "mode": "following", "links": {1: [(0, (-1.0, 0.5))], 2: [(0, (-1.0, -0.5))]}},
     msg.TX_START: {"seq": 1999},
     msg.TOKEN: {"seq": 2000, "next": 3},
     msg.SYNC: {"seq": 2000},

@@ -2,10 +2,11 @@
 (:mod:`evaluation.commands`, :mod:`training.train`, :mod:`bench.run`, :mod:`experiments.reproduce`).
 
     petswarm run    [--config FILE] [--set KEY=VALUE ...] [--policy scripted|random|learned|PATH]
-                    [--episodes N] [--seed S] [--json OUT] [--render human] [--video OUT.gif]
+                    [--episodes N] [--seed S] [--json OUT] [--render human] [--video OUT.gif] [--pcap OUT.pcapng]
     petswarm train  [--config configs/train/ppo.yaml] [--set KEY=VALUE ...] [--timesteps N] [--out runs/NAME] [--resume]
-    petswarm eval   --policy scripted|random|learned|PATH [--mix ROBOT=POLICY ...] [--scenarios a,b] [--episodes N] ...
-    petswarm report RESULT.json ... --out report.html
+    petswarm eval   --policy scripted|random|learned|PATH [--mix ROBOT=POLICY ...] [--scenarios a,b] [--episodes N]
+                    [--video-dir DIR] [--pcap-dir DIR] [--replay-dir DIR] ...
+    petswarm report RESULT.json ... --out report.html [--replays first|all|none|SCENARIO:SEED,...]
     petswarm bench  [--quick] [--json OUT] [--md docs/benchmarks.md]
     petswarm reproduce [--only NAME,...] [--quick] [--json OUT] [--report OUT.html] [--check] [--seed S]
 """
@@ -14,8 +15,10 @@ from __future__ import annotations
 
 import argparse
 import sys
+import warnings
 
 from petswarm_env.config import ConfigError, load_config, parse_override
+from petswarm_env.files import Terminated, check_output_path, exit_cleanly_on_signals
 
 
 class _Parser(argparse.ArgumentParser):
@@ -88,6 +91,8 @@ def _add_run(sub) -> None:
     run.add_argument("--json", metavar="OUT", help="write the results as JSON to OUT (atomically)")
     run.add_argument("--render", choices=["human"], help="show a window while running")
     run.add_argument("--video", metavar="OUT.gif", help="write the first episode as an animated GIF")
+    run.add_argument("--pcap", metavar="OUT.pcapng",
+                     help="write every radio frame of the first episode (reset included) for Wireshark (docs/pcap.md)")
     run.add_argument("--quiet", action="store_true", help="print only the summary line")
 
 
@@ -125,6 +130,9 @@ def _add_eval(sub) -> None:
     _add_env_config_options(ev)
     ev.add_argument("--json", metavar="OUT", help="write the results as JSON (atomically)")
     ev.add_argument("--video-dir", metavar="DIR", help="write a GIF of the first episode of each scenario into DIR")
+    ev.add_argument("--pcap-dir", metavar="DIR", help="write every episode's radio frames as pcapng into DIR (docs/pcap.md)")
+    ev.add_argument("--replay-dir", metavar="DIR",
+                    help="write every episode's replay into DIR (LABEL_SCENARIO_seedS.replay.json; `petswarm report` embeds them)")
 
 
 def _add_bench(sub) -> None:
@@ -163,6 +171,9 @@ def _add_report(sub) -> None:
                          description="Compare the JSON results of `petswarm eval` (one per policy) in one HTML page.")
     rep.add_argument("results", nargs="+", metavar="RESULT.json")
     rep.add_argument("--out", default="report.html", metavar="report.html", help="output HTML file (default report.html)")
+    rep.add_argument("--replays", default="first", metavar="first|all|none|SCENARIO:SEED,...",
+                     help="episode replays to embed (recorded by eval --replay-dir): the first seed of each scenario "
+                     "(default), all, none, or the named ones; the results' episodes of one scenario and seed play side by side")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -180,7 +191,8 @@ def _env_config(args):
 def _run(args, argv: list[str]) -> int:
     from evaluation.commands import run_command
 
-    return run_command(_env_config(args), args.policy, args.episodes, args.seed, args.render, args.video, args.json, args.quiet)
+    return run_command(_env_config(args), args.policy, args.episodes, args.seed, args.render, args.video, args.json, args.quiet,
+                       args.pcap)
 
 
 def _train(args, argv: list[str]) -> int:
@@ -194,18 +206,20 @@ def _eval(args, argv: list[str]) -> int:
     from evaluation.commands import eval_command
 
     return eval_command(_env_config(args), args.policy, args.mix, args.scenarios, args.episodes, args.seed, args.json,
-                        args.video_dir)
+                        args.video_dir, args.pcap_dir, args.replay_dir)
 
 
 def _report(args, argv: list[str]) -> int:
     from evaluation.commands import report_command
 
-    return report_command(args.results, args.out)
+    return report_command(args.results, args.out, args.replays)
 
 
 def _bench(args, argv: list[str]) -> int:
     from bench.run import bench_command
 
+    check_output_path(args.json, "--json")
+    check_output_path(args.md, "--md")
     return bench_command(args.quick, args.json, args.md)
 
 
@@ -214,6 +228,8 @@ def _reproduce(args, argv: list[str]) -> int:
     from experiments.reproduce import reproduce
 
     cfg = _env_config(args)
+    check_output_path(args.json, "--json")
+    check_output_path(args.report, "--report")
     seed = cfg.seed if args.seed is None else args.seed
     return reproduce(cfg, args.only or list(EXPERIMENTS), seed, args.quick, args.json, args.report, args.check,
                      "petswarm " + " ".join(argv))
@@ -223,14 +239,33 @@ def _reproduce(args, argv: list[str]) -> int:
 COMMANDS = {"run": _run, "train": _train, "eval": _eval, "report": _report, "bench": _bench, "reproduce": _reproduce}
 
 
+def _one_line(exc: BaseException) -> str:
+    text = " ".join(str(exc).split()) or type(exc).__name__
+    if isinstance(exc, OSError) and exc.filename is not None and str(exc.filename) not in text:
+        text = f"{text} ('{exc.filename}')"
+    return text
+
+
+def _warn_in_one_line(message, category, filename, lineno, file=None, line=None) -> None:
+    print(f"petswarm: warning: {' '.join(str(message).split())}", file=sys.stderr)
+
+
 def main(argv: list[str] | None = None) -> int:
+    """Parse, dispatch, and turn every error a user can cause into one line on stderr with exit
+    status 2; Ctrl-C exits 130, SIGTERM/SIGHUP 128 + the signal (after every temporary file is
+    removed: :func:`petswarm_env.files.exit_cleanly_on_signals`)."""
     argv = sys.argv[1:] if argv is None else argv
     args = build_parser().parse_args(argv)
     try:
-        return COMMANDS[args.command](args, argv)
+        with exit_cleanly_on_signals(), warnings.catch_warnings():
+            warnings.showwarning = _warn_in_one_line
+            return COMMANDS[args.command](args, argv)
     except (ConfigError, ValueError, RuntimeError, OSError) as exc:
-        print(f"petswarm: error: {exc}", file=sys.stderr)
+        print(f"petswarm: error: {_one_line(exc)}", file=sys.stderr)
         return 2
+    except Terminated as exc:
+        print(f"petswarm: {exc}", file=sys.stderr)
+        return exc.code
     except ImportError as exc:
         print(f"petswarm: error: {exc.name or exc} is not installed; set up the training stack with: bash scripts/setup.sh train", file=sys.stderr)
         return 2

@@ -41,7 +41,7 @@ from pettingzoo import ParallelEnv
 
 from petswarm_env.comms.ir_channel import IRChannel
 from petswarm_env.comms.radio import RadioMedium
-from petswarm_env.config import DRIVING_MODES, Config, ConfigError, flatten_dotted, load_config
+from petswarm_env.config import DRIVING_MODES, Config, ConfigError, describe_value, flatten_dotted, load_config
 from petswarm_env.control.arbiter import ControlArbiter, SafetyStage
 from petswarm_env.metrics import Experimenter
 from petswarm_env.middleware.formation import formation_for_mode, user_position_in_formation
@@ -117,21 +117,33 @@ class PetSwarmEnv(ParallelEnv):
         self._renderer = None
         self.world: World | None = None
         self.swarm: Swarm | None = None
+        # the experimenter's radio trace (comms/radio.py RadioTrace; evaluation/pcap.py, evaluation/replay.py):
+        # every frame of each episode's medium from its reset on; None = off
+        self.radio_trace = None
 
     # -- PettingZoo API --------------------------------------------------------------------------
     def observation_space(self, agent: str) -> gymnasium.spaces.Box:
+        if agent not in self._possible:
+            raise KeyError(self._unknown_agent(agent))
         return self._obs_space
 
     def action_space(self, agent: str) -> gymnasium.spaces.Box:
+        if agent not in self._possible:
+            raise KeyError(self._unknown_agent(agent))
         return self._act_space
+
+    def _unknown_agent(self, agent: Any) -> str:
+        return f"{agent!r} is not an agent of this env; the possible agents are {', '.join(self.possible_agents)}"
 
     def reset(self, seed: int | None = None, options: dict | None = None):
         if seed is not None:
+            seed = _checked_seed(seed)
             self._seed_seq = np.random.SeedSequence(seed)
         elif self._seed_seq is None:
             self._seed_seq = np.random.SeedSequence(self.cfg.seed)
         streams = self._seed_seq.spawn(1)[0].spawn(7)
         self._build(*(np.random.default_rng(s) for s in streams))
+        self._check_inside_arena()
         self._organize()
         world = self.world
         for arb in self.arbiters.values():  # the episode's counts start now
@@ -179,6 +191,7 @@ class PetSwarmEnv(ParallelEnv):
                                    rng_world, master_distance_m(cfg, None, cfg.swarm.mode))
         self._other_user_robots = placement.other_user_robots
         self.radio = RadioMedium(world.clock, cfg.radio, rng_radio)
+        self.radio.trace = self.radio_trace
         self.ir_channel = IRChannel(world, cfg.ir, rng_ir)
         self.fleet = fleet = Fleet(cfg, world, self.radio, self.ir_channel, rng_swarm)
         self.swarms = [Swarm(fleet, u, SWARM_PAN + u, master, pool) for u, (master, pool) in enumerate(placement.pools)]
@@ -196,6 +209,23 @@ class PetSwarmEnv(ParallelEnv):
                              cfg.robot.max_accel_mps2) if cfg.control.safety_layer else None
         self.arbiters = {r.index: ControlArbiter(safety) for r in world.robots}
         self.sensors = Sensors(world, cfg.robot, rng_sensors)  # reads every robot's ultrasonic ring
+
+    def _check_inside_arena(self) -> None:
+        """Every robot and user starts inside the arena's walls (world.arena_m; boxes are checked
+        with the config), or the episode would start with bodies outside or inside a wall."""
+        w, h = self.cfg.world.arena_m
+        if w <= 0 or h <= 0:
+            return
+        bodies = [(f"robot_{r.index}", r.position, self.cfg.robot.radius_m) for r in self.world.robots]
+        bodies += [(f"user {u.index}", u.position, self.cfg.user.radius_m) for u in self.world.users]
+        for name, (x, y), r in bodies:
+            if abs(x) + r > w / 2 or abs(y) + r > h / 2:
+                xs = [abs(p[0]) + q for _, p, q in bodies]
+                ys = [abs(p[1]) + q for _, p, q in bodies]
+                raise ValueError(
+                    f"{name} starts at ({x:.2f}, {y:.2f}) m, outside the walls of the {w:g} x {h:g} m arena (world.arena_m, "
+                    f"centred on the origin); this start needs at least {2 * max(xs):.1f} x {2 * max(ys):.1f} m: "
+                    "set a larger world.arena_m, or [0, 0] for no walls")
 
     def _organize(self) -> None:
         """Run the clock through each user's start-up (pairing, the driving mode, organize; seed
@@ -292,12 +322,15 @@ class PetSwarmEnv(ParallelEnv):
         unknown = set(actions) - set(self.agents)
         if unknown:
             raise KeyError(f"actions for agents not in the episode: {sorted(unknown)}; live agents: {self.agents}")
-        # the common case in one numpy pass: an action for every agent, all finite, shape (3,)
+        # the common case in one numpy pass: a float array for every agent, all finite, shape (3,)
         if len(actions) == len(self.agents):
-            try:
-                arr = np.array([actions[a] for a in self.agents], dtype=np.float32)
-            except (ValueError, TypeError):
-                arr = None
+            values = [actions[a] for a in self.agents]
+            arr = None
+            if all(type(v) is np.ndarray and v.dtype.kind == "f" for v in values):
+                try:
+                    arr = np.array(values, dtype=np.float32)
+                except ValueError:  # ragged shapes: the loop below names the agent
+                    arr = None
             if arr is not None and arr.shape == (len(self.agents), 3) and np.isfinite(arr).all():
                 np.clip(arr, -1.0, 1.0, out=arr)
                 return dict(zip(self.agents, arr))
@@ -307,7 +340,13 @@ class PetSwarmEnv(ParallelEnv):
             if a is None:
                 out[agent] = np.zeros(3, np.float32)  # a missing action means "stand still"
                 continue
-            arr = np.asarray(a, dtype=np.float32)
+            try:
+                raw = np.asarray(a)
+            except ValueError:  # ragged nested sequences
+                raw = None
+            if raw is None or raw.dtype.kind not in "iuf":
+                raise ValueError(f"action of {agent} must be 3 numbers (Vx, Vy, ω) in [-1, 1], got {describe_value(a)}")
+            arr = raw.astype(np.float32)
             if arr.shape != (3,):
                 raise ValueError(f"action of {agent} must have shape (3,) = (Vx, Vy, ω) in [-1, 1], got shape {arr.shape}")
             if not np.all(np.isfinite(arr)):
@@ -355,3 +394,13 @@ class PetSwarmEnv(ParallelEnv):
     def scene(self):
         """A plain description of the current truth for the renderer (:meth:`.metrics.Experimenter.scene`)."""
         return self.experimenter.scene(self.scenario, self.num_cycles)
+
+
+def _checked_seed(seed: Any) -> int:
+    """``reset``'s seed: an integer ≥ 0 (Python or numpy; a boolean is not a seed)."""
+    if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)):
+        raise TypeError(f"reset(seed=...) takes an integer >= 0 or None, got {describe_value(seed)}")
+    if seed < 0:
+        raise ValueError(f"reset(seed=...) takes an integer >= 0 or None, got {int(seed)}")
+    return int(seed)
+

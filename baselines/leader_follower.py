@@ -15,7 +15,16 @@ It reads only the observation, like a learned policy. Per step:
    swarm (step 2's feed-forward, step 3's heading) and takes the position correction up again with
    the next fix. It neither stops (the swarm would walk away from it) nor chases the last fix (a
    target that does not recede as it drives would run it off). The episode summary counts that
-   time (``stale_fix_s``), so a slave that lost its neighbour shows;
+   time (``stale_fix_s``), so a slave that lost its neighbour shows. Building the formation
+   (issue 14 item 3, seed 000 Fig. 10: robots start scattered), chosen, when no reference
+   neighbour gives a target: (1b) the master in IR sight — our reference location from the
+   master's fix turned by an anchor member's (the observation's ``anchor.*``: another member seen,
+   standing at its slot's distance from the master), or, with no anchor, orbit the master at our
+   reference's distance (odd members counter-clockwise) until one shows; the correction's speed is
+   capped at ``approach_mps``; (1c) nobody in sight but the master's status heard — back toward the
+   master's last fix at ``rejoin_mps`` relative to the swarm (the swarm walked out of our IR's
+   reach); (1d) nobody ever seen (the user or a robot between us and the swarm) — circle the
+   nearest ultrasonic echo at ``search_mps``;
 2. revise ``Vx, Vy`` with the master's broadcast driving speed (feed-forward that compensates the
    update delay of the sequential IR ring). Chosen reading of "driving speed": the velocity the
    master's motion gives the reference location — the master's translation plus its rotation ω
@@ -70,14 +79,10 @@ class LeaderFollowerPolicy(Policy):
         carry_rotation: bool = True,
         user_keep_out_m: float = 1.1,
         approach_mps: float = 1.0,
-        detour_m: float = 0.8,
-        detour_gain: float = 0.0,
-        search_mps: float = 0.3,
         anchor_tolerance_m: float = 0.4,
         orbit_mps: float = 0.8,
-        robot_clearance_m: float = 0.7,
-        user_clearance_m: float = 0.8,
-        build_tolerance_m: float = 0.4,
+        rejoin_mps: float = 0.5,
+        search_mps: float = 0.5,
     ):
         super().__init__(spec)
         self.kp = position_gain
@@ -87,14 +92,11 @@ class LeaderFollowerPolicy(Policy):
         self.krep = repulsion_gain
         self.carry = carry_rotation
         self.user_keep_out = user_keep_out_m
-        self.approach = approach_mps  # cap of the step-1 correction speed (the feed-forward comes on top)
-        self.detour = detour_m  # echoes this close ahead of the motion are passed on the right
-        self.kside = detour_gain
-        self.search = search_mps  # nothing in IR sight: circle the nearest echo at this speed
+        self.approach = approach_mps  # cap of step 1b's correction speed (the feed-forward comes on top)
         self.anchor_tol = anchor_tolerance_m  # an anchor this close to its slot's distance from the master places ours
-        self.orbit = orbit_mps  # the master seen, no member: orbit it at this speed
-        self.robot_clear, self.user_clear = robot_clearance_m, user_clearance_m  # passing distances (centre to centre)
-        self.build_tol = build_tolerance_m  # neighbours' and master's view of our slot this far apart: aim by the master's
+        self.orbit = orbit_mps  # step 1b: the master seen, no member: orbit it at this speed
+        self.search = search_mps  # step 1d: nothing in IR sight, circle the nearest echo at this speed
+        self.rejoin = rejoin_mps  # step 1c: lost, toward the master's last fix at this speed (relative to the swarm)
         st = {name: sl.start for name, sl in spec.layout.slices.items()}
         self._i = st  # index of each observation field's first value
         self._links = [
@@ -123,7 +125,7 @@ class LeaderFollowerPolicy(Policy):
         j = i["master.velocity"]
         mv0, mv1, mv2 = (o[j] * vmax, o[j + 1] * vmax, o[j + 2] * wmax) if have_status else (0.0, 0.0, 0.0)
 
-        targets, dthetas, ref_dists, seen = [], [], [], []
+        targets, dthetas, ref_dists = [], [], []
         for present, sincos, h_valid, h_age, ir_valid, ir_age, nb_xy, off_xy in self._links:
             if o[present] < 0.5:
                 continue
@@ -141,7 +143,6 @@ class LeaderFollowerPolicy(Policy):
             now_y = nby + (sd * mv0 + cd * mv1 - odo_y) * age
             offx, offy = r32(o[off_xy] * pos32), r32(o[off_xy + 1] * pos32)
             ref_dists.append(math.hypot(offx, offy))
-            seen.append((now_x, now_y))
             cd, sd = r32(cd), r32(sd)
             targets.append((now_x + r32(r32(cd * offx) - r32(sd * offy)), now_y + r32(r32(sd * offx) + r32(cd * offy))))
 
@@ -163,28 +164,13 @@ class LeaderFollowerPolicy(Policy):
         # step 1: toward the reference location — moved out of a keep-out disc around the user (the
         # master's broadcast user position, carried from the formation frame into ours): a formation
         # that lags its user's turn must not place anyone on the user's path
-        see_master = o[i["master.ir_valid"]] > 0.5 and o[i["master.ir_age"]] < 1.0
-        obstacles = [(x, y, self.robot_clear) for x, y in seen]  # what we know stands between us and the target
-        goal = None
-        if see_master:
-            j = i["master.ir_xy"]
-            age = r32(o[i["master.ir_age"]] * self._age32)
-            mx, my = r32(o[j] * pos32) - odo_x * age, r32(o[j + 1] * pos32) - odo_y * age
-            obstacles.append((mx, my, self.robot_clear))
         if targets:
             tx = sum((t[0] for t in targets), 0.0) / len(targets)  # their mean
             ty = sum((t[1] for t in targets), 0.0) / len(targets)
-            if see_master and any(o[link[2]] > 0.5 for link in self._links if o[link[0]] > 0.5):
-                # building: our slot from the master's fix (the formation's root, turned into our frame
-                # by the heading exchange) while the neighbours are not at theirs yet
-                ax_, ay_ = mx + cd * refx - sd * refy, my + sd * refx + cd * refy
-                if math.hypot(ax_ - tx, ay_ - ty) > self.build_tol:
-                    tx, ty = ax_, ay_
             if have_status and self.user_keep_out > 0:
                 dux, duy = r32(user_x - refx), r32(user_y - refy)  # user relative to our reference
                 ux = tx + r32(r32(cd32 * dux) - r32(sd32 * duy))
                 uy = ty + r32(r32(sd32 * dux) + r32(cd32 * duy))
-                obstacles.append((ux, uy, self.user_clear))
                 away_x, away_y = tx - ux, ty - uy
                 gap = float(np.hypot(away_x, away_y))
                 if gap < self.user_keep_out:
@@ -194,64 +180,49 @@ class LeaderFollowerPolicy(Policy):
                         norm = max(float(np.hypot(ux, uy)), 1e-6)
                         dx, dy = -ux / norm, -uy / norm
                     tx, ty = ux + dx * self.user_keep_out, uy + dy * self.user_keep_out
-            goal = (tx, ty)
-        elif see_master:
-            # no neighbour in sight (a scattered start): our reference location from the master's
-            # fix and an anchor's (another member seen, whose slot we know): the two fixes turn the
-            # formation frame into ours; with the master alone, orbit it at our reference's distance
-            # until a member shows up
-            j = i["self.offset_from_master_xy"]
-            sx, sy = r32(o[j] * pos32), r32(o[j + 1] * pos32)
+            vx, vy = vx + self.kp * tx, vy + self.kp * ty
+        elif o[i["master.ir_valid"]] > 0.5 and o[i["master.ir_age"]] < 1.0:
+            # step 1b, building (no reference neighbour in sight: a scattered start): our reference
+            # location from the master's fix and an anchor's (another member seen, standing at its
+            # slot's distance from the master): the two fixes turn the formation frame into ours;
+            # with the master alone, orbit it at our reference's distance until a member shows up
+            j = i["master.ir_xy"]
+            age = r32(o[i["master.ir_age"]] * self._age32)
+            mx, my = r32(o[j] * pos32) - odo_x * age, r32(o[j + 1] * pos32) - odo_y * age
+            goal = None
             j = i["anchor.ir_valid"]
             if o[j] > 0.5 and o[j + 3] < 1.0:
                 age = r32(o[j + 3] * self._age32)
-                kx, ky = r32(o[j + 1] * pos32) - odo_x * age, r32(o[j + 2] * pos32) - odo_y * age
-                obstacles.append((kx, ky, self.robot_clear))
-                ax_, ay_ = kx - mx, ky - my
-                kx, ky = r32(o[j + 4] * pos32), r32(o[j + 5] * pos32)
-                if abs(math.hypot(ax_, ay_) - math.hypot(kx, ky)) < self.anchor_tol:  # the anchor stands at its slot
-                    phi = math.atan2(ay_, ax_) - math.atan2(ky, kx)
+                kx, ky = r32(o[j + 1] * pos32) - odo_x * age - mx, r32(o[j + 2] * pos32) - odo_y * age - my
+                ax_, ay_ = r32(o[j + 4] * pos32), r32(o[j + 5] * pos32)
+                if abs(math.hypot(kx, ky) - math.hypot(ax_, ay_)) < self.anchor_tol:
+                    phi = math.atan2(ky, kx) - math.atan2(ay_, ax_)
                     c_, s_ = math.cos(phi), math.sin(phi)
-                    goal = (mx + c_ * sx - s_ * sy, my + s_ * sx + c_ * sy)
+                    goal = (mx + c_ * refx - s_ * refy, my + s_ * refx + c_ * refy)
             if goal is None:
-                dist, reach = max(math.hypot(mx, my), 1e-9), math.hypot(sx, sy)
+                dist, reach = max(math.hypot(mx, my), 1e-9), math.hypot(refx, refy)
                 goal = (mx * (1.0 - reach / dist), my * (1.0 - reach / dist))
                 turn = self.orbit if o[i["self.member"]] * 16.0 % 2.0 > 0.5 else -self.orbit  # odd members counter-clockwise
                 vx, vy = vx + turn * my / dist, vy - turn * mx / dist
-        if goal is not None:
-            gx, gy = goal
-            g = math.hypot(gx, gy)
-            gain = min(self.kp, self.approach / max(g, 1e-9))
-            if g > 1e-6:  # the nearest of what stands on the way to the goal is passed at its clearance
-                ex, ey = gx / g, gy / g
-                best = g
-                for ox, oy, clear in obstacles:
-                    proj = ox * ex + oy * ey
-                    if 0.0 < proj < best:
-                        px, py = ox - proj * ex, oy - proj * ey
-                        d = math.hypot(px, py)
-                        if d < clear:
-                            nx_, ny_ = (px / d, py / d) if d > 1e-6 else (-ey, ex)
-                            best, wx, wy = proj, ox - clear * nx_, oy - clear * ny_
-                if best < g:
-                    w = max(math.hypot(wx, wy), 1e-9)
-                    ex, ey = wx / w, wy / w  # toward the waypoint, as fast as toward the goal
-                # an echo in the way that we know nothing else of: follow its boundary, to the goal's side
-                us32 = self._us32
-                block = None
-                for k, (ux_k, uy_k) in zip(self._us, self._us_dirs):
-                    rng_k = r32(o[k] * us32)
-                    if rng_k < self.detour and rng_k + 0.4 < g and ux_k * ex + uy_k * ey > 0.5 and (block is None or rng_k < block[0]):
-                        block = (rng_k, ux_k, uy_k)
-                if block is not None:
-                    _, ux_k, uy_k = block
-                    c_ = ux_k * ex + uy_k * ey
-                    tx_, ty_ = ex - c_ * ux_k, ey - c_ * uy_k
-                    t_ = math.hypot(tx_, ty_)
-                    ex, ey = (tx_ / t_, ty_ / t_) if t_ > 1e-3 else (uy_k, -ux_k)
-                gx, gy = ex * g, ey * g
-            vx, vy = vx + gain * gx, vy + gain * gy
-        blind = goal is None
+            gain = min(self.kp, self.approach / max(math.hypot(*goal), 1e-9))
+            vx, vy = vx + gain * goal[0], vy + gain * goal[1]
+        elif have_status and o[i["master.ir_valid"]] > 0.5:
+            # step 1c, lost (no fix of anyone within the age range: the swarm walked out of our IR's
+            # reach): back toward where we last saw the master, relative to the swarm we keep moving
+            # with (the bearing is carried over our rotation, the swarm's motion is step 2's
+            # feed-forward), until its IR reaches us again
+            j = i["master.ir_xy"]
+            mx, my = r32(o[j] * pos32), r32(o[j + 1] * pos32)
+            dist = max(math.hypot(mx, my), 1e-9)
+            vx, vy = vx + self.rejoin * mx / dist, vy + self.rejoin * my / dist
+        else:
+            # step 1d, nothing in IR sight yet (the user or a robot may stand between us and the
+            # swarm): circle the nearest ultrasonic echo, clockwise, until an IR fix comes
+            us32 = self._us32
+            near = min(zip(self._us, self._us_dirs), key=lambda kd: o[kd[0]], default=None)
+            if near is not None and o[near[0]] < 1.0:
+                (ux_k, uy_k) = near[1]
+                vx, vy = vx + self.search * uy_k, vy - self.search * ux_k
         # step 4: leading mode arc driving on user rotation
         if leading_turn:
             turn = r32(o[i["master.turn_rate"]] * self._omega32)
@@ -266,24 +237,14 @@ class LeaderFollowerPolicy(Policy):
         if ref_dists:
             keep_out = min(keep_out, max(0.1, 0.85 * (min(ref_dists) - 0.4)))
         keep32, us32 = r32(keep_out), self._us32
-        push_x = push_y = side_x = side_y = 0.0
+        push_x = push_y = 0.0
         close = False
-        speed = math.hypot(vx, vy)
-        nearest, near_dir = self.spec.us_max_range_m, None
         for k, (ux_k, uy_k) in zip(self._us, self._us_dirs):
             rng_k = r32(o[k] * us32)
             if rng_k < keep32:
                 depth = r32(keep32 - rng_k)
                 push_x, push_y = push_x + depth * ux_k, push_y + depth * uy_k
                 close = True
-            if rng_k < self.detour and speed > 0.05 and ux_k * vx + uy_k * vy > 0.5 * speed:
-                side_x, side_y = side_x + (self.detour - rng_k) * uy_k, side_y - (self.detour - rng_k) * ux_k
-            if rng_k < nearest:
-                nearest, near_dir = rng_k, (ux_k, uy_k)
-        # an echo ahead of the motion: pass it on the right (two robots meeting both do, and pass)
-        vx, vy = vx + self.kside * side_x, vy + self.kside * side_y
-        if blind and near_dir is not None:  # nothing in IR sight: look around the nearest echo (it may hide the swarm)
-            vx, vy = vx + self.search * near_dir[1], vy - self.search * near_dir[0]
         if close:
             vx, vy = vx - self.krep * push_x, vy - self.krep * push_y
         return np.clip(np.array([vx / vmax, vy / vmax, omega / wmax], dtype=np.float32), -1.0, 1.0)

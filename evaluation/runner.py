@@ -96,9 +96,11 @@ def run_episode(
 
 
 def summarize(episodes: list[dict[str, Any]]) -> dict[str, Any]:
-    """Run summary: mean formation RMSE, total collisions, mean organize time, total retries."""
+    """Run summary: mean formation RMSE, total collisions, mean organize time, total retries, missing
+    slaves, mean building time over the episodes that built their formation and how many did."""
     n = len(episodes)
     finite = [e["formation_rmse_m"] for e in episodes if math.isfinite(e["formation_rmse_m"])]
+    built = [e["building_time_s"] for e in episodes if math.isfinite(e.get("building_time_s", math.nan))]
     return {
         "episodes": n,
         "formation_rmse_m": sum(finite) / len(finite) if finite else math.nan,
@@ -107,6 +109,8 @@ def summarize(episodes: list[dict[str, Any]]) -> dict[str, Any]:
         "organize_time_s": sum(e["organize_time_s"] for e in episodes) / n if n else math.nan,
         "join_retries": sum(e["join_retries"] for e in episodes),
         "slaves_missing": sum(e.get("slaves_missing", 0) for e in episodes),
+        "building_time_s": sum(built) / len(built) if built else math.nan,  # over the episodes that built their formation
+        "formations_built": len(built),
     }
 
 

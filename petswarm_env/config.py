@@ -197,6 +197,7 @@ class UserConfig(Section):
     run_speed_mps: float = Field(gt=0)
     turn_rate_dps: float = Field(gt=0)
     start_delay_s: float = Field(ge=0)
+    formation_wait_s: float = Field(ge=0, description="the user stands until the formation is built (every slave within metrics.BUILT_WITHIN_M of its reference), at most this long after organizing; start_delay_s is the least stand")
 
     @model_validator(mode="after")
     def _check_speeds(self) -> UserConfig:

@@ -43,7 +43,7 @@ from petswarm_env.comms.ir_channel import IRChannel
 from petswarm_env.comms.radio import RadioMedium
 from petswarm_env.config import DRIVING_MODES, Config, ConfigError, describe_value, flatten_dotted, load_config
 from petswarm_env.control.arbiter import ControlArbiter, SafetyStage
-from petswarm_env.metrics import Experimenter
+from petswarm_env.metrics import BUILT_WITHIN_M, Experimenter
 from petswarm_env.middleware.formation import formation_for_mode, user_position_in_formation
 from petswarm_env.middleware.fleet import Fleet
 from petswarm_env.middleware.swarm import Swarm
@@ -145,6 +145,8 @@ class PetSwarmEnv(ParallelEnv):
         self._build(*(np.random.default_rng(s) for s in streams))
         self._check_inside_arena()
         self._organize()
+        if self.cfg.swarm.spawn == "at_slots":
+            self._stand_members_at_their_slots()
         world = self.world
         for arb in self.arbiters.values():  # the episode's counts start now
             arb.counts = type(arb.counts)()
@@ -157,8 +159,7 @@ class PetSwarmEnv(ParallelEnv):
         self.experimenter = Experimenter(self.cfg, world, self.fleet, self.swarms, self.sessions, self.arbiters, self.radio,
                                          self._agent_index, self._other_user_robots)
         self.metrics = self.experimenter.metrics
-        for user in world.users:
-            user.walking = True
+        self._start_walks({})
         self.num_cycles = 0
         observations = self.observer.observe(self.agents, self._last_action, world.now)
         infos = {}
@@ -195,6 +196,7 @@ class PetSwarmEnv(ParallelEnv):
         self.ir_channel = IRChannel(world, cfg.ir, rng_ir)
         self.fleet = fleet = Fleet(cfg, world, self.radio, self.ir_channel, rng_swarm)
         self.swarms = [Swarm(fleet, u, SWARM_PAN + u, master, pool) for u, (master, pool) in enumerate(placement.pools)]
+        self._pools = [pool for _, pool in placement.pools]
         for idx in self._other_user_robots:
             fleet.add_node(idx, self.swarms[0]).connected_user = OTHER_USER_ID
         self.sessions = []
@@ -264,6 +266,7 @@ class PetSwarmEnv(ParallelEnv):
         self.num_cycles += 1
 
         truth = self.experimenter.step(self.agents)  # formation and heading errors, contacts (metrics.py)
+        self._start_walks(dict(zip(self.agents, truth.formation_error_m)))
         infos = {agent: {"formation_error_m": err, "new_contacts": c}
                  for agent, err, c in zip(self.agents, truth.formation_error_m, truth.new_contacts)}
         # every slave's reward in one pass over the slaves (reward.py)
@@ -378,6 +381,49 @@ class PetSwarmEnv(ParallelEnv):
             stop = st is not None and st.mode == "emergency"
             cmd, _ = self.arbiters[idx].decide((a[0] * lim[0], a[1] * lim[1], a[2] * lim[2]), None, ranges[idx], stop)
             world.robots[idx].set_command(*cmd)
+
+    def _stand_members_at_their_slots(self) -> None:
+        """``swarm.spawn: at_slots`` (a formation as good as built, for comparisons): member k
+        stands at slot k. The placement put the pool's k-th robot at slot k; the join numbers the
+        members by the master's estimated distances (Table 2), so robots at slots of equal distance
+        (a wedge's two sides) may come out exchanged: their poses are exchanged back before the
+        first step (waiting robots stand still while the swarm organizes), and what the members had
+        measured of each other is forgotten (the ring measures it again). A swarm that took an
+        extra robot keeps its start."""
+        world = self.world
+        for swarm, pool in zip(self.swarms, self._pools):
+            members = swarm.master.know.members
+            joined = [members[k] for k in sorted(members) if k != 0]
+            placed = pool[: len(joined)]
+            if sorted(joined) != sorted(placed) or joined == placed:
+                continue
+            poses = {i: (world.robots[i].position, world.robots[i].heading) for i in placed}
+            for rid, slot_robot in zip(joined, placed):
+                body = world.robots[rid].body
+                body.position, body.angle = poses[slot_robot]
+                world.space.reindex_shapes_for_body(body)
+            for rid in (swarm.master.node_id, *joined):
+                know = self.fleet.nodes[rid].know
+                know.ir.clear()
+                know.heading.clear()
+        world.invalidate_truth()
+
+    def _start_walks(self, errors_m: dict[str, float]) -> None:
+        """Start the script of each user who has stood long enough (chosen): once their swarm is
+        organized, a user stands until they see its formation built — every slave of it within
+        ``metrics.BUILT_WITHIN_M`` of its reference point (``errors_m``, agent -> formation error) —
+        or for ``user.formation_wait_s`` at most; the script's own stand (``user.start_delay_s``)
+        counts from organizing, so the user walks off at the later of the two."""
+        waited = self.world.now - self.experimenter.organized_at_s
+        limit = self.cfg.user.formation_wait_s
+        for session in self.sessions:
+            user = session.user
+            if user.walking:
+                continue
+            slaves = [f"robot_{i}" for i in session.swarm.slave_ids()]
+            if waited >= limit - 1e-9 or all(errors_m.get(a, math.inf) <= BUILT_WITHIN_M for a in slaves):
+                user.walking = True
+                user.script_time_s = min(waited, self.cfg.user.start_delay_s)
 
     def _current_slaves(self) -> list[int]:
         return sorted(i for sw in self.swarms for i in sw.slave_ids())

@@ -109,6 +109,7 @@ class Experimenter:
                                       slaves_missing=sum(sw.slaves_missing() for sw in swarms))
         self._radio_at_start = (st.frames_sent, st.frames_lost, st.frames_collided)
         self._start_s = world.now  # organized: the end of reset
+        self.organized_at_s = world.now
 
     # -- reference points and errors -------------------------------------------------------------
     def reference_positions(self) -> dict[int, np.ndarray]:

@@ -222,7 +222,7 @@ def build_observation(layout: ObservationLayout, readings: Readings, out: np.nda
         v[master_ir + 3] = 1.0
     v[anchor + 3] = 1.0
     slots, own = readings.member_slots, know.member
-    for member, nid in know.members.items():  # the anchor: the first other slave with a fresh fix
+    for member, nid in sorted(know.members.items()):  # the anchor: the lowest other slave's member number with a fresh fix
         if member == 0 or member == own or member >= len(slots):
             continue
         m = know.ir.get(nid)

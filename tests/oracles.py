@@ -383,6 +383,19 @@ def build_observation(layout: ObservationLayout, r: Readings) -> list[float]:
         v[j + 3] = clip_age(now - m.time_s, AGE_SCALE_S)
     else:
         v[j + 3] = 1.0
+    j = o["anchor.ir_valid"]
+    v[j + 3] = 1.0
+    for member in sorted(know.members):  # the lowest other slave's member number with a fix in the age range
+        m = know.ir.get(know.members[member])
+        if member in (0, know.member) or member >= len(r.member_slots) or m is None or now - m.time_s >= AGE_SCALE_S:
+            continue
+        b = m.bearing_rad - (yaw_rad - m.own_yaw_rad)
+        v[j] = 1.0
+        v[j + 1] = m.distance_m * math.cos(b) / POS_SCALE_M
+        v[j + 2] = m.distance_m * math.sin(b) / POS_SCALE_M
+        v[j + 3] = clip_age(now - m.time_s, AGE_SCALE_S)
+        v[j + 4], v[j + 5] = r.member_slots[member][0] / POS_SCALE_M, r.member_slots[member][1] / POS_SCALE_M
+        break
     j = o["self.odometry"]
     v[j], v[j + 1], v[j + 2] = odometry[0] / vmax, odometry[1] / vmax, odometry[2] / wmax
     j = o["self.yaw_sincos"]

@@ -294,13 +294,17 @@ class Scenario:
         available region, entered after the start-up shift of Fig. 10), each with a random heading;
         a draw is taken again while it lies closer than ``SPAWN_CLEARANCE_M`` (rim to rim) to a
         robot already placed or ``fixed``, a user (``users``) or a master's path (start to organizing
-        place, so the shift is clear in either mode). Returns (position, heading) per user and robot."""
+        place, so the shift is clear in either mode), or outside the arena's walls. Returns (position, heading) per user and robot."""
         r_robot, reach = cfg.robot.radius_m, SCATTER_REACH * cfg.protocol.join_radius_m
         gap, user_gap = 2 * r_robot + SPAWN_CLEARANCE_M, r_robot + cfg.user.radius_m + SPAWN_CLEARANCE_M
         # a leading master shifts away from its user: nothing within its obstacle-exception range (seed 002 §2)
         path_gap = 2 * r_robot + (max(SPAWN_CLEARANCE_M, cfg.master.exception_range_m + 0.1) if cfg.swarm.mode == "leading"
                                   else SPAWN_CLEARANCE_M)
         taken = [tuple(p) for p in fixed]
+        half_w, half_h = (0.5 * a for a in cfg.world.arena_m)
+
+        def inside(x: float, y: float) -> bool:  # within the arena's walls (none: [0, 0])
+            return half_w <= 0 or half_h <= 0 or (abs(x) + r_robot <= half_w and abs(y) + r_robot <= half_h)
         out = []
         for _, centre in paths:
             placed = []
@@ -308,13 +312,13 @@ class Scenario:
                 for _try in range(SPAWN_TRIES):
                     r, phi = reach * math.sqrt(float(rng.random())), float(rng.uniform(-math.pi, math.pi))
                     x, y = float(centre[0]) + r * math.cos(phi), float(centre[1]) + r * math.sin(phi)
-                    if (all(math.dist((x, y), q) >= gap for q in taken)
+                    if (inside(x, y) and all(math.dist((x, y), q) >= gap for q in taken)
                             and all(math.dist((x, y), u) >= user_gap for u in users)
                             and all(_segment_distance(x, y, a, b) >= path_gap for a, b in paths)):
                         break
                 else:
                     raise ValueError(f"no room for swarm.num_slaves={cfg.swarm.num_slaves} waiting robots {SPAWN_CLEARANCE_M} m "
-                                     f"apart within {reach:.2f} m of the master (protocol.join_radius_m={cfg.protocol.join_radius_m})")
+                                     f"apart within {reach:.2f} m of the master inside the walls (protocol.join_radius_m={cfg.protocol.join_radius_m}, world.arena_m={list(cfg.world.arena_m)}); use fewer slaves, a larger radius or arena, or swarm.spawn=at_slots")
                 taken.append((x, y))
                 placed.append((np.array([x, y]), float(rng.uniform(-math.pi, math.pi))))
             out.append(placed)

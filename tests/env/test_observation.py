@@ -62,6 +62,7 @@ def test_observation_builder_equals_the_oracle_bit_for_bit(overrides):
             args = (node.know, node.reference_links(), now, robot.velocity_body, robot.heading + float(rng.normal()),
                     rng.uniform(-1, 1, 3).astype(np.float32))
             rest = (int(rng.integers(0, 4)), (float(rng.normal()), float(rng.normal())))
+            rest += ([(float(x), float(y)) for x, y in rng.normal(size=(len(node.know.members), 2))],)  # member slots: the anchor's
             layout = layouts[int(rng.integers(0, 2))]
             ranges = env.sensors.ranges[idx] * float(rng.uniform(0.5, 1.5))
             values = oracles.build_observation(layout, Readings(*args, ranges, *rest))

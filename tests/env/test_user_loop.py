@@ -200,7 +200,8 @@ def test_the_user_turns_back_at_the_walls_and_the_swarm_stays_in_the_world():
     """Issue 14: the zigzag user walked through the arena wall; the master hit it and the swarm sat
     in emergency. In a 16 m arena (60 m of zigzag in 600 steps) the script turns back at the walls:
     the user stays inside the turn-back margin, nobody touches a wall, no emergency."""
-    env = petswarm_env.parallel_env(**{"world.arena_m": [16.0, 16.0], "max_cycles": 400})
+    # at_slots: the formation is built at once, so the RMSE measures how it keeps through the turns
+    env = petswarm_env.parallel_env(**{"world.arena_m": [16.0, 16.0], "max_cycles": 400, "swarm.spawn": "at_slots"})
     pol = make_policy("scripted", PolicySpec.from_env(env))
     obs, _ = env.reset(seed=0)
     margin = SCENARIOS["zigzag"].arena(env.cfg, env._reach_m, 0).margin_m

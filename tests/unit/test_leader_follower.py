@@ -56,6 +56,33 @@ def numpy_act(p: LeaderFollowerPolicy, obs: np.ndarray) -> np.ndarray:
             if gap < p.user_keep_out:
                 target = user + (away / gap if gap > 1e-6 else -user / max(float(np.hypot(*user)), 1e-6)) * p.user_keep_out
         v = v + p.kp * target
+    elif obs[sl["master.ir_valid"]][0] > 0.5 and obs[sl["master.ir_age"]][0] < 1.0:  # step 1b, building
+        age = obs[sl["master.ir_age"]][0] * AGE_SCALE_S
+        m = obs[sl["master.ir_xy"]] * POS_SCALE_M - odo[:2] * age
+        goal = None
+        if obs[sl["anchor.ir_valid"]][0] > 0.5 and obs[sl["anchor.ir_age"]][0] < 1.0:
+            age = obs[sl["anchor.ir_age"]][0] * AGE_SCALE_S
+            k = obs[sl["anchor.ir_xy"]] * POS_SCALE_M - odo[:2] * age - m
+            a = obs[sl["anchor.slot_xy"]] * POS_SCALE_M
+            if abs(math.hypot(*k) - math.hypot(*a)) < p.anchor_tol:
+                phi = math.atan2(k[1], k[0]) - math.atan2(a[1], a[0])
+                c, s = np.float64(math.cos(phi)), np.float64(math.sin(phi))
+                goal = np.array([m[0] + c * ref[0] - s * ref[1], m[1] + s * ref[0] + c * ref[1]])
+        if goal is None:
+            dist, reach = max(math.hypot(*m), 1e-9), math.hypot(*ref)
+            goal = m * (1.0 - reach / dist)
+            turn = p.orbit if obs[sl["self.member"]][0] * 16.0 % 2.0 > 0.5 else -p.orbit
+            v = v + np.array([turn * float(m[1]) / dist, -(turn * float(m[0])) / dist])
+        v = v + min(p.kp, p.approach / max(math.hypot(*goal), 1e-9)) * goal
+    elif have_status and obs[sl["master.ir_valid"]][0] > 0.5:  # step 1c, lost
+        m = [float(x) for x in obs[sl["master.ir_xy"]] * POS_SCALE_M]
+        dist = max(math.hypot(*m), 1e-9)
+        v = v + np.array([p.rejoin * m[0] / dist, p.rejoin * m[1] / dist])
+    else:  # step 1d, nothing in IR sight: circle the nearest echo
+        us = obs[sl["self.ultrasonic"]]
+        if len(us) and us[int(np.argmin(us))] < 1.0:
+            ux, uy = p._us_dirs[int(np.argmin(us))]
+            v = v + np.array([p.search * uy, -(p.search * ux)])
     turn = obs[sl["master.turn_rate"]][0] * wmax
     if leading_turn:
         r = ref - obs[sl["master.user_xy"]] * POS_SCALE_M

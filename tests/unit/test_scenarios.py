@@ -92,7 +92,7 @@ def test_a_registered_scenario_is_a_config_choice_and_runs(monkeypatch):
     monkeypatch.setitem(SCENARIOS, "test_circle", Circle())
     with pytest.raises(ValueError, match="needs a new name"):
         scenarios.register(Circle())
-    env = petswarm_env.parallel_env(**{"user.scenario": "test_circle", "max_cycles": 40})
+    env = petswarm_env.parallel_env(**{"user.scenario": "test_circle", "max_cycles": 40, "user.formation_wait_s": 0.0})
     obs, _ = env.reset(seed=0)
     assert env.scenario == "test_circle" and env.agents
     while env.agents:

@@ -1,0 +1,111 @@
+"""Issue 14, item 3: the swarm builds its formation (seed 000 §3.4 Table 2, §3.5 Fig. 10). Waiting
+robots start scattered in the master's available region with random headings (``swarm.spawn:
+scattered``; ``at_slots`` keeps the old start), member numbers follow the master's estimated
+distances, the slaves drive to their references from where they start, and the summary reports
+how long that took (``building_time_s``)."""
+
+import math
+
+import numpy as np
+import pytest
+
+import petswarm_env
+from baselines.leader_follower import LeaderFollowerPolicy
+from baselines.policy import PolicySpec
+from petswarm_env.config import ConfigError, load_config
+from petswarm_env.metrics import BUILT_WITHIN_M
+from petswarm_env.middleware import join
+from petswarm_env.scenarios import SCENARIOS
+from petswarm_env.scenarios.base import SCATTER_REACH
+
+
+def _run(env, steps=None):
+    policy = LeaderFollowerPolicy(PolicySpec.from_env(env))
+    obs, _ = env.reset(seed=env.cfg.seed)
+    n = 0
+    while env.agents and (steps is None or n < steps):
+        obs, *_ = env.step({a: policy.act(a, obs[a]) for a in env.agents})
+        n += 1
+    return env.episode_summary()
+
+
+@pytest.mark.parametrize("key, value", [("swarm.spawn", "nowhere"), ("swarm.spawn", 1), ("user.formation_wait_s", -1.0)])
+def test_the_spawn_and_the_wait_are_validated(key, value):
+    with pytest.raises(ConfigError, match=key.split(".")[1]):
+        load_config(overrides={key: value})
+
+
+def test_scattered_robots_start_inside_the_available_region_with_random_headings():
+    cfg = load_config()
+    assert cfg.swarm.spawn == "scattered"
+    env = petswarm_env.parallel_env(max_cycles=1)
+    reach = SCATTER_REACH * cfg.protocol.join_radius_m
+    headings = []
+    for seed in range(5):
+        env.reset(seed=seed)
+        w = env.world
+        master = env.swarm.master.node_id
+        # the master organizes after its shift to the standard distance behind its user (following)
+        centre = np.array([-cfg.master.distance_m, 0.0])
+        for i in env.swarm.slave_ids():
+            assert np.hypot(*(np.asarray(w.robots[i].position) - centre)) <= reach + 1e-9  # waiting robots stand while it organizes
+            headings.append(w.robots[i].heading)
+        assert master not in env.swarm.slave_ids()
+    spread = np.std(np.unwrap(headings))
+    assert spread > 1.0  # at_slots: every robot faces its user (±0.3 rad)
+
+
+def test_at_slots_keeps_the_old_start_and_is_built_at_once():
+    env = petswarm_env.parallel_env(**{"swarm.spawn": "at_slots", "max_cycles": 60})
+    s = _run(env)
+    assert s["building_time_s"] <= 3.0
+
+
+def test_member_numbers_follow_the_masters_estimated_distances(monkeypatch):
+    """Table 2 by estimated distance: the closest candidate is member 1, and so on; not robot ids."""
+    seen = []
+    real = join.select_joiners
+
+    def spy(available, required):
+        out = real(available, required)
+        seen.append((dict(available), out))
+        return out
+
+    monkeypatch.setattr(join, "select_joiners", spy)
+    by_id = 0
+    for seed in range(4):
+        env = petswarm_env.parallel_env(max_cycles=1, seed=seed)
+        env.reset(seed=seed)
+        available, out = seen[-1]
+        members = env.swarm.master.know.members
+        slaves = [members[k] for k in sorted(members) if k != 0]
+        assert slaves == out
+        assert [available[r] for r in slaves] == sorted(available[r] for r in slaves)
+        by_id += slaves == sorted(slaves)
+    assert by_id < 4  # the robot ids do not decide
+
+
+def test_the_default_swarm_builds_its_formation_and_says_when():
+    env = petswarm_env.parallel_env(max_cycles=250)
+    s = _run(env, steps=249)
+    assert 0.0 < s["building_time_s"] < 25.0
+    errors, _ = env.experimenter.formation_errors(env.agents)
+    assert max(errors.values()) < 2 * BUILT_WITHIN_M
+
+
+def test_a_swarm_that_never_builds_reports_nan_and_the_user_walks_after_the_wait():
+    env = petswarm_env.parallel_env(**{"max_cycles": 80, "user.formation_wait_s": 4.0})
+    env.reset(seed=0)
+    walked = None
+    while env.agents:
+        env.step({a: np.zeros(3, np.float32) for a in env.agents})  # nobody drives: never built
+        if walked is None and env.world.user.walking:
+            walked = env.world.now - env.experimenter.organized_at_s
+    assert math.isnan(env.episode_summary()["building_time_s"])
+    assert walked == pytest.approx(4.0, abs=0.11)
+
+
+@pytest.mark.parametrize("name", list(SCENARIOS))
+def test_the_scripted_reference_builds_the_formation_in_every_named_scenario(name):
+    s = _run(petswarm_env.parallel_env(**{"user.scenario": name, "max_cycles": 250}))
+    assert math.isfinite(s["building_time_s"]), name

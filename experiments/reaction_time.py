@@ -21,7 +21,8 @@ MOTION_OMEGA_RPS = 0.15  # ... or its angular speed by more than this (truth, ex
 MOTION_NOISE_SIGMAS = 4.0  # ... and by more than 4 σ of its own standing jitter, two steps in a row
 MOTION_BASELINE_STEPS = 15  # the standing velocity: mean and σ over the last 1.5 s before the turn
 
-REACTION_SETUP = {"swarm.mode": "leading", "swarm.num_slaves": 2, "swarm.formation": "row", "user.scenario": "straight"}
+REACTION_SETUP = {"swarm.mode": "leading", "swarm.num_slaves": 2, "swarm.formation": "row", "user.scenario": "straight",
+                  "swarm.spawn": "at_slots"}  # the paper's trials start from a built formation (seed 000 §4.4)
 PAPER_REACTION_P90 = {"master": 1.1, "slave": 1.2, "slave_minus_master": 0.24}  # seed 000 §4.4, Fig. 20–21
 REACTION_TOLERANCE_S = 0.2  # issue 4: 90th-percentile reaction times within ±0.2 s
 PAPER_REACTION_TRIALS = 50

@@ -21,7 +21,7 @@ ROTATION_MAX_SIGMA_DEG = 4.0  # standard deviation within 4°
 # the way of the master's arc (at the default 1 m a row slave lags into the master's path on 90° turns and
 # stops it with the obstacle exception).
 ROTATION_SETUP = {"swarm.mode": "leading", "swarm.num_slaves": 1, "swarm.formation": "row", "swarm.spacing_m": 2.0,
-                  "user.scenario": "straight"}
+                  "user.scenario": "straight", "swarm.spawn": "at_slots"}  # from a built formation (seed 002 §4.3)
 ROTATION_TRIALS = 20  # per target angle (the paper does not say how many)
 ROTATION_SETTLE_S = 4.0  # the arc angle is read this long after the user's turn ends
 

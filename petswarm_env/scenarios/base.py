@@ -204,8 +204,8 @@ class Scenario:
             if room - walk >= reach_m + TURN_BACK_CLEARANCE_M or room >= margin:
                 continue
             return (f"world.arena_m={[w, h]} cannot hold user.scenario='{self.name}' over max_cycles={cfg.max_cycles}: "
-                    f"user {u} walks up to {walk:.0f} m (user.walk_speed_mps={user.walk_speed_mps}) and starts {room:.1f} m "
-                    f"from a wall, but turns back {margin:.1f} m from one (its swarm reaches {reach_m:.1f} m, a turn at "
+                    f"user {u} walks up to {walk:.0f} m (user.walk_speed_mps={user.walk_speed_mps}) and starts "
+                    f"{f'{room:.1f} m from a wall' if room >= 0 else f'outside the walls ({-room:.1f} m beyond one)'}, but turns back {margin:.1f} m from one (its swarm reaches {reach_m:.1f} m, a turn at "
                     f"user.turn_rate_dps={user.turn_rate_dps}); make the arena at least {2 * (margin + abs(u * cfg.world.user_spacing_m)):.1f} m "
                     "wide and high, lower max_cycles, or set world.arena_m=[0, 0] (no walls)")
         return None
@@ -308,11 +308,12 @@ class Scenario:
         out = []
         for _, centre in paths:
             placed = []
+            walled = inside(float(centre[0]), float(centre[1]))  # a master outside the walls: refused at reset, with the start's size
             for _ in range(cfg.swarm.num_slaves):
                 for _try in range(SPAWN_TRIES):
                     r, phi = reach * math.sqrt(float(rng.random())), float(rng.uniform(-math.pi, math.pi))
                     x, y = float(centre[0]) + r * math.cos(phi), float(centre[1]) + r * math.sin(phi)
-                    if (inside(x, y) and all(math.dist((x, y), q) >= gap for q in taken)
+                    if ((inside(x, y) or not walled) and all(math.dist((x, y), q) >= gap for q in taken)
                             and all(math.dist((x, y), u) >= user_gap for u in users)
                             and all(_segment_distance(x, y, a, b) >= path_gap for a, b in paths)):
                         break

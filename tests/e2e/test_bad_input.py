@@ -24,6 +24,9 @@ from baselines.learned import LearnedPolicy, PolicyLoadError, save_policy
 from baselines.policy import PolicySpec
 from cli.main import main
 from petswarm_env.env import PetSwarmEnv
+from petswarm_env.observe import ObservationLayout
+
+OBS_SIZE = ObservationLayout(8).size  # the default layout (8 ultrasonic sensors): one unknown field of its size
 
 
 def _snapshot(folder: Path) -> dict[str, str]:
@@ -184,7 +187,7 @@ POLICY_CASES = [  # (id, how to damage a good policy file, words)
     ("layout_entry_bad", dict(meta={"observation_layout": [["link0.present", 0]]}), "entry 0"),
     ("layout_entry_not_pair", dict(meta={"observation_layout": ["link0.present"]}), "entry 0"),
     ("layout_twice", dict(meta={"observation_layout": [["self.member", 1], ["self.member", 1]]}), "names a field twice"),
-    ("layout_unknown_field", dict(meta={"observation_layout": [["self.compass", 57]]}), "self.compass"),
+    ("layout_unknown_field", dict(meta={"observation_layout": [["self.compass", OBS_SIZE]]}), "self.compass"),
     ("info_a_list", dict(meta={"info": [1]}), "field 'info'"),
     ("missing_b1", dict(drop=("b1",)), "field 'b1' is missing"),
     ("int_weights", dict(arrays={"w1": np.ones((3, 4), np.int32)}), "floating-point"),
@@ -254,9 +257,10 @@ def test_malformed_policy_file_through_the_cli(capsys, outputs, spec, monkeypatc
 def test_a_policy_of_an_older_observation_version_loads_with_a_warning(tmp_path, spec, monkeypatch, capsys):
     import baselines.learned as learned
 
-    _write_policy(tmp_path / "old.npz", spec.layout)  # version 1, its fields all in today's layout
-    monkeypatch.setattr(learned, "OBS_VERSION", 2)
-    with pytest.warns(learned.PolicyVersionWarning, match="observation version 1, this environment's is 2"):
+    v = learned.OBS_VERSION
+    _write_policy(tmp_path / "old.npz", spec.layout)  # today's version, its fields all in today's layout
+    monkeypatch.setattr(learned, "OBS_VERSION", v + 1)
+    with pytest.warns(learned.PolicyVersionWarning, match=f"observation version {v}, this environment's is {v + 1}"):
         LearnedPolicy.load(tmp_path / "old.npz", spec)
     assert main(["run", "--policy", str(tmp_path / "old.npz"), "--set", "max_cycles=3", "--quiet"]) == 0
     err = capsys.readouterr().err.strip().splitlines()

@@ -62,7 +62,7 @@ def test_episode_json_has_the_documented_shape(scripted):
 
 @pytest.mark.parametrize("formation", ["column", "row", "grid"])
 def test_other_formations_hold_on_a_straight_walk(formation):
-    cfg = load_config(overrides={"swarm.formation": formation, "user.scenario": "straight", "max_cycles": 300})
+    cfg = load_config(overrides={"swarm.formation": formation, "user.scenario": "straight", "max_cycles": 300, "swarm.spawn": "at_slots"})
     result = run(cfg, "scripted", episodes=1, seed=0)
     assert result["summary"]["formation_rmse_m"] < 0.3
     assert result["summary"]["robot_robot_collisions"] == 0

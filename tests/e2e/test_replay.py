@@ -14,7 +14,7 @@ def evaluated(tmp_path_factory):
     d = tmp_path_factory.mktemp("replay")
     out = d / "scripted.json"
     assert main(["eval", "--policy", "scripted", "--scenarios", "zigzag", "--episodes", "1", "--set", "max_cycles=50",
-                 "--set", "radio.loss_prob=0.05", "--replay-dir", str(d / "rp"), "--json", str(out)]) == 0
+                 "--set", "radio.loss_prob=0.05", "--set", "swarm.spawn=at_slots", "--replay-dir", str(d / "rp"), "--json", str(out)]) == 0
     return d, json.loads(out.read_text())
 
 

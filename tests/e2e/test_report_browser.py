@@ -21,7 +21,7 @@ STEPS = 150
 def report(tmp_path_factory):
     d = tmp_path_factory.mktemp("browser")
     for policy in ("scripted", "learned"):
-        assert main(["eval", "--policy", policy, "--scenarios", "zigzag", "--episodes", "1", "--set", f"max_cycles={STEPS}",
+        assert main(["eval", "--policy", policy, "--scenarios", "zigzag", "--episodes", "1", "--set", f"max_cycles={STEPS}", "--set", "swarm.spawn=at_slots",
                      "--replay-dir", str(d / "rp"), "--json", str(d / f"{policy}.json")]) == 0
     page = d / "report.html"
     assert main(["report", str(d / "scripted.json"), str(d / "learned.json"), "--out", str(page)]) == 0

@@ -310,7 +310,7 @@ def test_two_swarms_do_not_query_each_others_robots():
     """Two users 6 m apart: each master estimates its joining candidates by the RSSI distance of the
     scan responses (within 1.3 x the available region), so it does not query — and wait for — the
     other user's pool, which joins the other swarm meanwhile."""
-    env = petswarm_env.parallel_env(**{"world.num_users": 2, "max_cycles": 1})
+    env = petswarm_env.parallel_env(**{"world.num_users": 2, "max_cycles": 1, "swarm.spawn": "at_slots"})  # pools 6 m apart
     for seed in range(3):
         env.reset(seed=seed)
         for sw in env.swarms:

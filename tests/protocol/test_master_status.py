@@ -24,7 +24,7 @@ def _broadcasts(monkeypatch, steps=150, **overrides):
         return original(self, kind, dst, pan, **payload)
 
     monkeypatch.setattr(Station, "send", spy)
-    env = petswarm_env.parallel_env(max_cycles=steps, **overrides)
+    env = petswarm_env.parallel_env(max_cycles=steps, **{"user.formation_wait_s": 0.0, **overrides})  # the user walks at once
     env.reset(seed=4)
     for _ in range(steps):
         env.step({a: np.array([0.2, 0.0, 0.0], np.float32) for a in env.agents})

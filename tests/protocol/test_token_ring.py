@@ -10,7 +10,7 @@ from petswarm_env.middleware import messages as msg
 from petswarm_env.middleware.token_ring import relative_heading
 from petswarm_env.sim.geometry import wrap_angle as wrap
 
-STILL = {"user.start_delay_s": 100.0}  # the user stands: every robot (nearly) still, truth stable
+STILL = {"user.start_delay_s": 100.0, "swarm.spawn": "at_slots"}  # the user stands, every member at its slot: every robot (nearly) still, truth stable
 
 
 def bearing(from_pos, from_heading, to_pos):

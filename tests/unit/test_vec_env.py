@@ -9,6 +9,7 @@ from pettingzoo import ParallelEnv
 pytest.importorskip("stable_baselines3")
 pytest.importorskip("supersuit")
 
+import petswarm_env
 from petswarm_env.config import load_config
 from training.vec_env import BlackDeath, SeededVecEnv, make_vec_env
 
@@ -112,7 +113,7 @@ def test_make_vec_env_has_one_row_per_possible_slave_and_is_seeded():
     try:
         obs_a, obs_b = a.reset(), b.reset()
         rows = a.num_envs
-        assert obs_a.shape == (rows, 57) and rows >= cfg.swarm.num_slaves
+        assert obs_a.shape == (rows, petswarm_env.parallel_env(cfg).layout.size) and rows >= cfg.swarm.num_slaves
         assert np.array_equal(obs_a, obs_b)
         for _ in range(5):
             obs, rewards, dones, infos = a.step(np.zeros((rows, 3), np.float32))

@@ -56,14 +56,14 @@ FIELDS: list[Field] = [
     *[f for k in range(MAX_LINKS) for f in _link_fields(k)],
     Field("master.valid", 1, "0/1", "a master status broadcast has been received"),
     Field("master.age", 1, "s / 1, clipped to 1", "age of the last master broadcast"),
-    Field("master.velocity", 3, "/ (v_max, v_max, ω_max)", "master's (Vx, Vy, ω) in its body frame, as broadcast"),
+    Field("master.velocity", 3, "/ (v_max, v_max, ω_max)", "master's (Vx, Vy, ω) in its body frame, as broadcast: what its own wheel odometry measured (noisy like self.odometry)"),
     Field("master.activity", len(ACTIVITIES), "one-hot", "user activity broadcast by the master: " + ", ".join(ACTIVITIES)),
     Field("master.rotating", 1, "0/1", "user rotation flag of the smart belt, as broadcast (seed 002 §3.4)"),
     Field("master.turn_rate", 1, "/ ω_max", "user angular speed from the belt's filtered gyro, as broadcast (rad/s, CCW +)"),
-    Field("master.leading", 1, "0/1", "driving mode: 1 = leading, 0 = following"),
+    Field("master.leading", 1, "0/1", "the swarm's driving mode as the joining notification and the last mode-change frame said: 1 = leading, 0 = following"),
     Field("master.user_xy", 2, f"m / {POS_SCALE_M}", "user position relative to the master, master's frame, as broadcast"),
     Field("self.odometry", 3, "/ (v_max, v_max, ω_max)", "own wheel-odometry (Vx, Vy, ω), body frame"),
-    Field("self.yaw_sincos", 2, "-", "own AHRS yaw (noisy, drifting)"),
+    Field("self.yaw_sincos", 2, "-", "own AHRS yaw (noisy, drifting), counted from its own power-on heading: a random angle per robot and episode, so only its changes (own rotation) mean something, never a direction in the world"),
     Field("self.last_action", 3, "[-1, 1]", "the action applied last step"),
     Field("self.offset_from_master_xy", 2, f"m / {POS_SCALE_M}", "own reference position relative to the master, formation frame (from the neighbour table)"),
     Field("self.ultrasonic", -1, "m / max_range", "ultrasonic ring ranges, sensor 0 forward, counter-clockwise"),
@@ -184,6 +184,7 @@ def build_observation(layout: ObservationLayout, readings: Readings, out: np.nda
                 v[base + 10] = 1.0
     (i, activity, rotating, turn_rate, leading, user_xy, odo, yaw, last, offset, us,
      hierarchy, members_at, member_at) = layout._starts
+    v[leading] = 1.0 if know.mode == "leading" else 0.0  # from the joining / mode-change frames
     st = know.status
     if st is not None:
         age = now - st.time_s  # / 1.0
@@ -197,7 +198,6 @@ def build_observation(layout: ObservationLayout, readings: Readings, out: np.nda
         v[activity + _ACTIVITY_INDEX[st.activity]] = 1.0
         v[rotating] = 1.0 if st.user_rotating else 0.0
         v[turn_rate] = st.user_turn_rate_rps / wmax
-        v[leading] = 1.0 if st.mode == "leading" else 0.0
         v[user_xy] = ux / POS_SCALE_M
         v[user_xy + 1] = uy / POS_SCALE_M
     else:

@@ -88,5 +88,5 @@ def pretrain_policy(model, cfg: TrainConfig, env_cfg: Config) -> dict:
             opt.zero_grad()
             (a_loss + 0.01 * v_loss).backward()
             opt.step()
-            actor_loss, critic_loss = float(a_loss), float(v_loss)
+            actor_loss, critic_loss = float(a_loss.detach()), float(v_loss.detach())
     return {"samples": n, "actor_mse": actor_loss, "critic_mse": critic_loss, "wall_time_s": round(time.time() - t0, 1)}

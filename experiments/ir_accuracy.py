@@ -25,6 +25,14 @@ PAPER_SAMPLES_PER_POINT = 300
 PAPER_DISTANCE_RMSE_CM = 7.898
 PAPER_DIRECTION_RMSE_DEG = 5.8  # Table 4; the running text says 6.52°
 
+# What was fitted: all nine ir.* values of default.yaml (receivers, strength, lobe, noise, saturation,
+# threshold, occlusion, range) to Table 4's two figures on this grid (python -m experiments.calibrate_ir).
+# The paper gives no other IR figure to hold out: Fig. 18–19 (the setup and the per-point positions)
+# are lost from the text, and its running text's 6.52° differs from Table 4's 5.8° (it is seed 002
+# Table 3's LF direction RMSE). So both rows are calibrated: they check that the fit still holds.
+IR_FIT = ("distance", "direction")
+IR_CALIBRATION = "all nine ir.* values to both figures (python -m experiments.calibrate_ir); nothing to hold out (Fig. 18-19 lost)"
+
 IR_QUICK_SAMPLES_PER_POINT = 100  # --quick: 100 samples a point instead of the paper's 300
 FIG19_SAMPLES_PER_POINT = 20  # estimated positions drawn in the Fig. 19 style plot
 
@@ -115,6 +123,14 @@ def fig19_positions(cfg_ir, rng: np.random.Generator, samples_per_point: int) ->
     }
 
 
+def ir_rows(res: dict, fit: tuple[str, ...] = IR_FIT) -> list[Row]:
+    """Table 4's two rows within ±20 %: ``calibrated`` for a figure of ``fit``, else ``validated``."""
+    return [Row.within(f"{key} RMSE ({unit})", paper, res[f"{key}_rmse_{unit_key}"], RMSE_TOLERANCE_REL * paper,
+                       basis="calibrated" if key in fit else "validated")
+            for key, unit, unit_key, paper in (("distance", "cm", "cm", PAPER_DISTANCE_RMSE_CM),
+                                               ("direction", "°", "deg", PAPER_DIRECTION_RMSE_DEG))]
+
+
 def ir_accuracy(cfg: Config, seed: int, quick: bool, progress: Progress, *, samples_per_point: int | None = None) -> ExperimentResult:
     """Seed 000 §4.3: receiver at 40–200 cm (20 cm steps), 0–180° (30° steps), 300 samples a
     point; the IR module's physics and the paper's estimator (:mod:`petswarm_env.comms.ir`)."""
@@ -125,17 +141,14 @@ def ir_accuracy(cfg: Config, seed: int, quick: bool, progress: Progress, *, samp
     progress(1, 2)
     fig = fig19_positions(cfg.ir, rng_fig, FIG19_SAMPLES_PER_POINT)
     progress(2, 2)
-    rows = [
-        Row.within("distance RMSE (cm)", PAPER_DISTANCE_RMSE_CM, res["distance_rmse_cm"], RMSE_TOLERANCE_REL * PAPER_DISTANCE_RMSE_CM),
-        Row.within("direction RMSE (°)", PAPER_DIRECTION_RMSE_DEG, res["direction_rmse_deg"], RMSE_TOLERANCE_REL * PAPER_DIRECTION_RMSE_DEG),
-    ]
+    rows = ir_rows(res)
     data = {
         "samples_per_point": n,
         "valid_fraction": res["valid_fraction"],
         "points": res["points"],
         "fig19": fig,
     }
-    return ExperimentResult(rows, data)
+    return ExperimentResult(rows, data, calibration=IR_CALIBRATION)
 
 
 EXPERIMENT = Experiment("ir_accuracy", "IR relative-location accuracy (seed 000 §4.3, Fig. 19, Table 4)", ir_accuracy)

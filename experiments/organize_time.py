@@ -25,8 +25,21 @@ PAPER_SLAVE_COUNTS = (1, 2, 3, 4, 5)
 PAPER_ORGANIZATIONS = 50  # "organizing each network 50 times"
 PAPER_RETRY_PCT = {1: 0.0, 2: 6.0, 3: 30.0, 4: 67.0, 5: 80.0}  # Table 5
 # Fig. 22: "the minimum required time ... increases slightly from 0.6 s to 0.8 s". The figure is
-# lost from the text, so the counts in between are read as linear between the two end points.
-PAPER_MIN_ORGANIZE_S = {n: 0.6 + (0.8 - 0.6) * (n - 1) / 4 for n in PAPER_SLAVE_COUNTS}
+# lost from the text: only the end points (1 and 5 slaves) are the paper's. The counts in between
+# have no paper figure (a line between the end points would be made up, checked against a model that
+# is about linear): their row is the paper's word, that the minimum rises with the slave count.
+PAPER_MIN_ORGANIZE_S = {1: 0.6, 5: 0.8}
+# What was fitted to which figure. Table 5: radio.processing_jitter_s (the one free parameter of the
+# collisions behind the retries) is fitted on RETRY_FIT_COUNTS only (python -m
+# experiments.calibrate_organize --fit 2,4); 1, 3 and 5 slaves are held out: 3 between the fitted
+# counts, 5 beyond them, 1 (nothing to collide with) the model's structure. Fig. 22's end points:
+# protocol.scan_window_s (0.5 s, most of the 0.6 s with one slave) and radio.processing_s (0.02 s,
+# each slave adds a notify/ack round trip of about twice it: 0.6 -> 0.8 s) were set against them;
+# that the minimum rises at 2-4 slaves is predicted (validated).
+RETRY_FIT_COUNTS = (2, 4)
+ORGANIZE_CALIBRATION = ("radio.processing_jitter_s to the retries at {fit} slaves (python -m experiments.calibrate_organize --fit "
+                        "{fit_arg}); protocol.scan_window_s, radio.processing_s to Fig. 22's 0.6 / 0.8 s at 1 / 5 "
+                        "slaves")
 # Setup of the organize experiment: every waiting robot must be able to join (seed 000 Table 1),
 # so that the retries measure lost responses, not refusals. The robots stand around the grid
 # formation's slots, all within 2.3 m (+ spawn jitter) of the master; the default wedge puts a
@@ -85,23 +98,43 @@ def organize_summary(trials: list[dict[str, Any]]) -> dict[str, Any]:
     }
 
 
-def organize_rows(summary: dict[int, dict[str, Any]]) -> list[Row]:
-    """Rows of Fig. 22 (minimum time) and Table 5 (retry probability, and that it rises)."""
+def _plural(n: int) -> str:
+    return f"{n} slave{'s' if n > 1 else ''}"
+
+
+def organize_rows(summary: dict[int, dict[str, Any]], fit_counts: Iterable[int] = RETRY_FIT_COUNTS) -> list[Row]:
+    """Rows of Fig. 22 (minimum time, and that it rises) and Table 5 (retry probability, and that it
+    rises). A retry row is ``calibrated`` at a count of ``fit_counts`` (the jitter was fitted there),
+    ``validated`` elsewhere; the minimum time is ``calibrated`` at the published end points (1 and 5
+    slaves), and its rise over every count run is ``validated``."""
+    fit = set(fit_counts)
     rows = []
     counts = sorted(summary)
     for n in counts:
         if n in PAPER_MIN_ORGANIZE_S:
-            rows.append(Row.within(f"min organize time, {n} slave{'s' if n > 1 else ''} (s)", PAPER_MIN_ORGANIZE_S[n],
-                                   summary[n]["min_s"], MIN_ORGANIZE_TOLERANCE_S))
+            rows.append(Row.within(f"min organize time, {_plural(n)} (s)", PAPER_MIN_ORGANIZE_S[n], summary[n]["min_s"],
+                                   MIN_ORGANIZE_TOLERANCE_S, basis="calibrated"))
+    if len(counts) > 1:
+        rows.append(_rises("min organize time", [summary[n]["min_s"] for n in counts]))
     for n in counts:
         if n in PAPER_RETRY_PCT:
-            rows.append(Row.within(f"retry probability, {n} slave{'s' if n > 1 else ''} (%)", PAPER_RETRY_PCT[n],
-                                   summary[n]["retry_pct"], RETRY_TOLERANCE_PCT))
+            rows.append(Row.within(f"retry probability, {_plural(n)} (%)", PAPER_RETRY_PCT[n], summary[n]["retry_pct"],
+                                   RETRY_TOLERANCE_PCT, basis="calibrated" if n in fit else "validated"))
     if len(counts) > 1:
-        pct = [summary[n]["retry_pct"] for n in counts]
-        rising = all(b >= a for a, b in itertools.pairwise(pct)) and pct[-1] > pct[0]
-        rows.append(Row.within("retry probability rises with the slave count (1 = yes)", 1.0, 1.0 if rising else 0.0, 0.0))
+        rows.append(_rises("retry probability", [summary[n]["retry_pct"] for n in counts]))
     return rows
+
+
+def _rises(what: str, values: list[float]) -> Row:
+    """``WHAT rises with the slave count (1 = yes)``: never falls from one count to the next and ends
+    above where it started (validated: the paper says so, nothing was fitted to the shape)."""
+    rising = all(b >= a for a, b in itertools.pairwise(values)) and values[-1] > values[0]
+    return Row.within(f"{what} rises with the slave count (1 = yes)", 1.0, 1.0 if rising else 0.0, 0.0, basis="validated")
+
+
+def calibration_text(fit_counts: Iterable[int] = RETRY_FIT_COUNTS) -> str:
+    fit = sorted(fit_counts)
+    return ORGANIZE_CALIBRATION.format(fit=" and ".join(map(str, fit)) or "no", fit_arg=",".join(map(str, fit)))
 
 
 def organize_time(
@@ -133,15 +166,19 @@ def organize_time(
         summary[n] = organize_summary(per_count[n])
     rows = organize_rows(summary)
     failed = sum(s["failed"] for s in summary.values())
-    note = f"{failed} organization(s) did not complete (counted as retried)" if failed else ""
+    notes = [f"{failed} organization(s) did not complete (counted as retried)"] if failed else []
+    missed = [r.metric for r in rows if r.basis == "validated" and not r.ok]
+    if missed:
+        notes.append("held out and outside tolerance (not re-fitted): " + ", ".join(missed))
     data = {
         "organizations_per_count": n_trials,
         "summary": {str(n): summary[n] for n in counts},
-        "paper": {"min_s": {str(n): PAPER_MIN_ORGANIZE_S[n] for n in PAPER_SLAVE_COUNTS},
-                  "retry_pct": {str(n): PAPER_RETRY_PCT[n] for n in PAPER_SLAVE_COUNTS}},
+        "paper": {"min_s": {str(n): v for n, v in PAPER_MIN_ORGANIZE_S.items()},
+                  "retry_pct": {str(n): PAPER_RETRY_PCT[n] for n in PAPER_SLAVE_COUNTS},
+                  "retry_fit_counts": list(RETRY_FIT_COUNTS)},
         "trials": {str(n): per_count[n] for n in counts},
     }
-    return ExperimentResult(rows, data, note=note)
+    return ExperimentResult(rows, data, note="; ".join(notes), calibration=calibration_text())
 
 
 EXPERIMENT = Experiment("organize_time", "Time to organize the swarm network vs slaves (seed 000 §4.5, Fig. 22, Table 5)", organize_time)

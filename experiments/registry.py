@@ -8,12 +8,14 @@ issue (names are part of the interface, issue 4):
 * ``rotation_sync`` seed 002 §4.3, Table 4 (:mod:`experiments.rotation_sync`)
 
 Each runs one of the papers' own evaluations through the code the environment uses and returns
-rows of *paper figure vs simulated figure* with the issue's tolerance (:mod:`experiments.results`).
+rows of *paper figure vs simulated figure* with the issue's tolerance and the row's basis
+(``calibrated`` or ``validated``, :mod:`experiments.results`).
 No experiment computes its answer from a formula of the result.
 
     results = run_experiments(["ir_accuracy", "organize_time"], load_config(), seed=0, quick=False)
-    data = results_json(results)        # {"experiments": {name: {"rows": [...], ...}}}
+    data = results_json(results)        # {"experiments": {name: {"rows": [...], ...}}, "summary": {...}}
     ok = check_passed(results)
+    basis_summary(results)              # {"validated": {"rows": n, "ok": k}, "calibrated": ..., ...}
 
 A new experiment is a module with an ``EXPERIMENT`` (:class:`~experiments.results.Experiment`)
 added to :data:`EXPERIMENTS` below.
@@ -26,7 +28,7 @@ from collections.abc import Callable, Iterable
 from typing import Any
 
 from experiments import ir_accuracy, lf_accuracy, organize_time, reaction_time, rotation_sync
-from experiments.results import Experiment, ExperimentResult, NotAvailable, Progress
+from experiments.results import BASES, Experiment, ExperimentResult, NotAvailable, Progress
 from petswarm_env.config import Config
 from petswarm_env.files import jsonable
 
@@ -78,14 +80,30 @@ def run_experiments(
 
 
 def check_passed(results: dict[str, ExperimentResult]) -> bool:
-    """``--check``: every experiment ran (none "not available yet") and every row is within tolerance."""
+    """``--check``: every experiment ran (none "not available yet") and every row is within
+    tolerance, whatever its basis (a calibrated row that drifts from its fit fails too)."""
     return bool(results) and all(r.ok for r in results.values())
 
 
+def basis_summary(results: dict[str, ExperimentResult]) -> dict[str, dict[str, int]]:
+    """Rows within tolerance per basis: ``{basis: {"rows": n, "ok": k}}`` for every basis of
+    :data:`~experiments.results.BASES` (validated rows are the ones that confirm the simulation)."""
+    out = {b: {"rows": 0, "ok": 0} for b in BASES}
+    for res in results.values():
+        for row in res.rows:
+            out[row.basis]["rows"] += 1
+            out[row.basis]["ok"] += int(row.ok)
+    return out
+
+
 def results_json(results: dict[str, ExperimentResult], seed: int | None = None, quick: bool | None = None) -> dict[str, Any]:
-    """``{"experiments": {name: {"rows": [{metric, paper, sim, tolerance, ok}], ...}}}``; beside
-    ``rows`` each experiment has ``title``, ``available``, ``note``, ``ok``, ``wall_s``, ``seed``,
-    ``quick`` and its ``data``. Strict JSON: a value that is not finite is written as null."""
+    """``{"experiments": {name: {"rows": [{metric, paper, sim, tolerance, ok, basis}], ...}},
+    "summary": {"by_basis": {basis: {"rows", "ok"}}, "passed": bool}}``. A row's ``basis`` is
+    ``calibrated`` (a parameter was fitted to that figure) or ``validated`` (predicted, nothing
+    fitted to it). Beside ``rows`` each experiment has ``title``, ``available``, ``note``,
+    ``calibration`` (what was fitted to which rows, and the command that fits it), ``ok``,
+    ``wall_s``, ``seed``, ``quick`` and its ``data``. Strict JSON: a value that is not finite is
+    written as null."""
     exps = {}
     for name, r in results.items():
         exps[name] = {
@@ -94,9 +112,11 @@ def results_json(results: dict[str, ExperimentResult], seed: int | None = None, 
             "available": r.available,
             "ok": r.ok,
             "note": r.note,
+            "calibration": r.calibration,
             "wall_s": round(r.wall_s, 3),
             "seed": seed,
             "quick": quick,
             "data": r.data,
         }
-    return jsonable({"experiments": exps})
+    summary = {"by_basis": basis_summary(results), "passed": check_passed(results)}
+    return jsonable({"experiments": exps, "summary": summary})

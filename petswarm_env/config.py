@@ -218,6 +218,7 @@ class MasterConfig(Section):
     arc_gain: float = Field(ge=0, description="leading: rate (rad/s) at which the robot's place about the user closes on straight ahead, per unit sine of the gap")
     arc_sync_gain: float = Field(gt=0, description="leading: rate (1/s) at which the arc made since a rotation started closes on the belt's accumulated angle")
     arc_sync_done_deg: float = Field(gt=0, description="leading: the rotation's arc is done within this many degrees of the accumulated angle after the rotation ended, its rate below arc_sync_gain times this")
+    arc_brake_mps2: float = Field(gt=0, description="leading: the deceleration the rotation's arc plans with: never faster than it can stop within the rest of the accumulated angle")
     trail_rps: float = Field(ge=0, description="following: rate (rad/s) at which the robot's place about the walking user drifts in behind them, per unit sine of the gap")
     heading_blend_rps: float = Field(gt=0, description="the user's walking direction is pulled toward the LF track's at this rate (1/s); the belt's rotation turns it at once")
     walk_speed_mps: float = Field(gt=0, description="tracked speed below which the user stands; along the line of sight above it, a walk that the belt has not recognised yet")

@@ -16,7 +16,8 @@ BLE, and its own odometry. The control system of Fig. 13, in order:
    leave a small deadband, keeping them well inside the reliable ±25° region. *Leading*: straight
    ahead of the user. While the belt reports a rotation, a robot ahead of its user moves along the
    arc about the user at the user's angular speed (seed 002 §3.4, Table 4); for a user turning on
-   the spot, the arc it has made is closed on the belt's accumulated angle at ``arc_sync_gain``
+   the spot, the arc it has made is closed on the belt's accumulated angle at ``arc_sync_gain``,
+   never faster than it can stop within the rest of that angle (``arc_brake_mps2``)
    (:meth:`MasterController._arc_in_place`); otherwise a remaining angle between its place and
    straight ahead is closed at ``arc_gain``; when the user leaves ±25° and
    is not rotating, the robot corrects sideways (Vy). The leading robot drives backwards along the
@@ -174,7 +175,11 @@ class MasterController:
         belt reports a rotation the robot's place about the user turns at the user's angular speed,
         and the arc it has made so far (dead-reckoned from its odometry about the tracked user) is
         closed on the belt's accumulated angle at ``arc_sync_gain``; once the rotation ends, the rest
-        of the accumulated angle is closed the same way, until the arc comes to rest. A robot ahead of
+        of the accumulated angle is closed the same way, until the arc comes to rest. The arc is never
+        faster than the robot can stop within the rest of the angle at ``arc_brake_mps2``: the robot
+        arcs at ~1 m/s when the user stops, and the belt's filtered rate keeps feeding the arc for
+        half a second, so unplanned it passed the angle by ~6° on a 90° turn and came back, ending
+        on the far side (the simulated robot over-rotated where the paper's under-rotates). A robot ahead of
         its user turns with them; one beside or behind is met by the turn (its share ``max(0, cos
         off)`` is fixed when the rotation starts). None when there is no such rotation, and as soon as
         the belt says the user walks: the arc about a walking user cannot be dead-reckoned from the
@@ -199,7 +204,10 @@ class MasterController:
         if not belt.rotating and abs(gap) < settle and abs(rate) < cfg.arc_sync_gain * settle:
             self._sync = None  # synchronised: at the accumulated angle, and the arc has come to rest
             return None
-        return share * (belt.angular_speed_rps if belt.rotating else 0.0) + cfg.arc_sync_gain * gap
+        rate_cmd = share * (belt.angular_speed_rps if belt.rotating else 0.0) + cfg.arc_sync_gain * gap
+        # never faster than the arc can still stop within the gap: v² = 2·a·s, s = r·|gap|, rate = v / r
+        brake = math.sqrt(2.0 * cfg.arc_brake_mps2 * abs(gap) / math.hypot(ux, uy))
+        return min(rate_cmd, brake) if gap >= 0.0 else max(rate_cmd, -brake)
 
     def command(
         self,

@@ -52,14 +52,15 @@ class _Robot:
         self.th += self.w * dt
 
 
-def _arc_in_place(angle_deg: float, seed: int) -> float:
+def _arc_in_place(angle_deg: float, seed: int, ctrl: MasterController | None = None, trace: list | None = None) -> float:
     """Seed 002 §4.3 (Fig. 17, Table 4): the robot leads at 100 cm; the user stands and turns by
     ``angle_deg`` at a fixed angular speed. The belt's gyro (SmartBelt: 70 ms samples, moving
     average, rotation flag, accumulated angle) and the LF fixes (every 350 ms, Table 3 noise) feed
-    the tracker and the controller; returns the angle of the robot's arc about the user (°)."""
+    the tracker and the controller; returns the angle of the robot's arc about the user (°).
+    ``trace`` collects (arc, belt's accumulated angle) in degrees at every step."""
     dt = CFG.control_period_s
     rng_belt, rng_lf = np.random.default_rng(seed).spawn(2)
-    ctrl = _controller()
+    ctrl = ctrl or _controller()
     tracker = UserTracker(CFG.master.tracker_alpha, CFG.master.tracker_beta)
     belt = SmartBelt(CFG.belt, rng_belt, t0_s=0.0)
     robot = _Robot((1.0, 0.0), math.pi)  # facing the user, who stands at the origin facing it
@@ -81,6 +82,8 @@ def _arc_in_place(angle_deg: float, seed: int) -> float:
         est = tracker.user_body(t)
         robot.step(ctrl.command(est[0], est[1], view, odo, "leading", 1.0, dt) if est else (0.0, 0.0, 0.0), dt)
         t += dt
+        if trace is not None:
+            trace.append((math.degrees(math.atan2(robot.pos[1], robot.pos[0])), math.degrees(b.accumulated_angle_rad)))
     return math.degrees(math.atan2(robot.pos[1], robot.pos[0]))
 
 
@@ -90,6 +93,24 @@ def test_leading_arc_turns_with_the_user_as_in_table_4(target_deg):
     accuracy = 1.0 - abs(arcs.mean() - target_deg) / abs(target_deg)
     assert accuracy > 0.94, (arcs.mean(), accuracy)  # seed 002 Table 4: "a level of precision of over 94%"
     assert arcs.std() < 5.0, arcs.std()  # Table 4: standard deviations within 4.0°
+
+
+def _overshoot(angle_deg: float, seed: int, **master) -> float:
+    """How far (°) the robot's arc went beyond the belt's final accumulated angle at its peak."""
+    trace: list = []
+    _arc_in_place(angle_deg, seed, _controller(**master), trace)
+    sign = math.copysign(1.0, angle_deg)
+    return max(sign * arc for arc, _ in trace) - sign * trace[-1][1]
+
+
+def test_the_arc_stops_at_the_accumulated_angle_instead_of_passing_it():
+    """The arc runs at ~1 m/s when the user stops, and the belt's filtered rate keeps feeding it for
+    half a second: planned with master.arc_brake_mps2 it stops at the belt's angle; without (a brake
+    no robot has) it passed it by ~6° and came back, ending on the far side (over-rotation)."""
+    braked = [_overshoot(target, seed) for seed in range(6) for target in (90.0, -90.0)]
+    unbraked = [_overshoot(target, seed, arc_brake_mps2=1e6) for seed in range(6) for target in (90.0, -90.0)]
+    assert np.mean(braked) < 1.5 and max(braked) < 4.0, braked  # the LF-tracked arc is not the true one to the degree
+    assert np.mean(unbraked) > 4.0, unbraked
 
 
 def test_walking_direction_turns_with_the_belt_before_the_track_does():

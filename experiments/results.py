@@ -20,24 +20,37 @@ Progress = Callable[[int, int], None]  # progress(done, total)
 RMSE_TOLERANCE_REL = 0.20  # issue 4: RMSEs within ±20 % of the paper
 
 
+BASES = ("calibrated", "validated")  # what a row tests: a parameter was fitted to it, or nothing was
+
+
 @dataclass(frozen=True)
 class Row:
-    """One paper figure against the simulated one. ``ok``: ``|sim − paper| <= tolerance``."""
+    """One paper figure against the simulated one. ``ok``: ``|sim − paper| <= tolerance``;
+    ``basis``: one of :data:`BASES`, or None for a row not marked yet (written to the JSON only
+    when set)."""
 
     metric: str
     paper: float
     sim: float
     tolerance: float
     ok: bool
+    basis: str | None = None
+
+    def __post_init__(self) -> None:
+        if self.basis is not None and self.basis not in BASES:
+            raise ValueError(f"row '{self.metric}': basis '{self.basis}' is not one of {', '.join(BASES)}")
 
     @classmethod
-    def within(cls, metric: str, paper: float, sim: float, tolerance: float) -> Row:
+    def within(cls, metric: str, paper: float, sim: float, tolerance: float, *, basis: str | None = None) -> Row:
         sim = float(sim)
         ok = math.isfinite(sim) and abs(sim - paper) <= tolerance + 1e-12
-        return cls(metric, float(paper), sim, float(tolerance), bool(ok))
+        return cls(metric, float(paper), sim, float(tolerance), bool(ok), basis)
 
     def to_json(self) -> dict[str, Any]:
-        return {"metric": self.metric, "paper": self.paper, "sim": self.sim, "tolerance": self.tolerance, "ok": self.ok}
+        out = {"metric": self.metric, "paper": self.paper, "sim": self.sim, "tolerance": self.tolerance, "ok": self.ok}
+        if self.basis is not None:
+            out["basis"] = self.basis
+        return out
 
 
 @dataclass

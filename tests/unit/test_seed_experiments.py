@@ -102,4 +102,4 @@ def test_ruta_example_decision_rows_fail_on_the_wrong_robot():
 def test_rows_refuse_an_unknown_basis():
     with pytest.raises(ValueError, match="basis 'fitted' is not one of calibrated, validated"):
         Row.within("m", 1.0, 1.0, 0.0, basis="fitted")
-    assert "basis" not in Row.within("m", 1.0, 1.0, 0.0).to_json()  # rows not marked yet keep the old keys
+    assert Row.within("m", 1.0, 1.0, 0.0, basis="validated").to_json()["basis"] == "validated"

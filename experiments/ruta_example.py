@@ -28,7 +28,11 @@ from petswarm_env.middleware import ruta
 
 BASIS = "validated"  # the paper's inputs through the equations; no parameter is fitted
 PRINTED_TOLERANCE = 0.01  # two printed decimals, rounded or truncated
-R1_EXACT_TOLERANCE = 0.05  # the paper's bracket slip 0.7 × (2200/130/3 − 5.58) = 0.043, plus rounding
+# The paper's printed inputs computed exactly, to its two decimals: 0.7 × 2200/130 × 1/3 = 3.949
+# (issue 15 states it as 3.95). The paper prints 3.90 because it writes the bracket as 5.58 (it is
+# 5.641): this row compares with the exact figure at the printed tolerance, the row above with the
+# paper's own 3.90, so neither needs a widened tolerance.
+R1_EXACT = 3.95
 
 
 def example_rows(fig: dict) -> list[Row]:
@@ -44,8 +48,8 @@ def example_rows(fig: dict) -> list[Row]:
     nav, grip = fig["nav_utility"], fig["grip_utility"]
     return [
         row("R1 nav utility, on the printed bracket 0.7 × 5.58", "R1 nav utility", fig["R1_nav_utility_from_printed_bracket"]),
-        row("R1 nav utility, exact on the inputs 0.7 × 2200/130 × 1/3 (the paper's 5.58 is 5.641)",
-            "R1 nav utility", nav["R1"], R1_EXACT_TOLERANCE),
+        Row.within("R1 nav utility, exact on the inputs 0.7 × 2200/130 × 1/3 (paper prints 3.90 from 5.58; exact 3.95)",
+                   R1_EXACT, nav["R1"], PRINTED_TOLERANCE, basis=BASIS),
         row("R2 nav utility", "R2 nav utility", nav["R2"]),
         yes("R1 and R2 deployed first (R4 nav 1.21 as printed)", set(fig["deployed_first"]) == {"R1", "R2"}),
         row("grip pri at t = 110 s, t_j = 20 s", "grip pri", fig["grip_pri"]),

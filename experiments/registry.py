@@ -6,6 +6,8 @@ issue (names are part of the interface, issue 4):
 * ``organize_time`` seed 000 §4.5, Fig. 22, Table 5 (:mod:`experiments.organize_time`)
 * ``lf_accuracy``   seed 002 §4.2, Table 3 (:mod:`experiments.lf_accuracy`)
 * ``rotation_sync`` seed 002 §4.3, Table 4 (:mod:`experiments.rotation_sync`)
+* ``sensor_mapping`` seed 001 §VI.A, Tables III–V (:mod:`experiments.sensor_mapping`)
+* ``ruta_example``  seed 003 §5.2.1 (:mod:`experiments.ruta_example`)
 
 Each runs one of the papers' own evaluations through the code the environment uses and returns
 rows of *paper figure vs simulated figure* with the issue's tolerance and the row's basis
@@ -28,6 +30,7 @@ from collections.abc import Callable, Iterable
 from typing import Any
 
 from experiments import ir_accuracy, lf_accuracy, organize_time, reaction_time, rotation_sync
+from experiments import ruta_example, sensor_mapping
 from experiments.results import BASES, Experiment, ExperimentResult, NotAvailable, Progress
 from petswarm_env.config import Config
 from petswarm_env.files import jsonable
@@ -35,6 +38,7 @@ from petswarm_env.files import jsonable
 EXPERIMENTS: dict[str, Experiment] = {
     m.EXPERIMENT.name: m.EXPERIMENT for m in (ir_accuracy, reaction_time, organize_time, lf_accuracy, rotation_sync)
 }
+EXPERIMENTS.update({m.EXPERIMENT.name: m.EXPERIMENT for m in (sensor_mapping, ruta_example)})  # issue 15
 
 
 def parse_only(text: str | None) -> list[str]:

@@ -429,11 +429,16 @@ TABLE_V = tuple(SensorRow(p, v, True, True) for p, v in ((1, 1), (2, 2), (3, 3),
 TABLE_VII = (BehaviourRow("EMOTION", "EMOTION"),)
 
 
+def seed001_sensor_mapper() -> SensorMapper:
+    """Seed 001 §VI.A's sensor mapper: Rity (virtual, Table IV) onto Mybot (physical, Table III),
+    angles only (§VI.A: "sensor mapper uses only angles for location comparison")."""
+    return SensorMapper(RITY.sensors, MYBOT.sensors, LocationRule())
+
+
 def seed001_sensor_table() -> list[dict[str, int | bool | None]]:
-    """Seed 001 §VI.A through the sensor mapper: Rity (virtual, Table IV) onto Mybot (physical,
-    Table III), angles only. Returns ``[{physical, virtual, valid_type, valid_location}, ...]``;
+    """Seed 001 §VI.A's mapping table, ``[{physical, virtual, valid_type, valid_location}, ...]``;
     the paper's answer is :data:`TABLE_V`."""
-    return SensorMapper(RITY.sensors, MYBOT.sensors, LocationRule()).table_dicts()
+    return seed001_sensor_mapper().table_dicts()
 
 
 def seed001_behaviour_table() -> list[dict[str, object]]:

@@ -7,15 +7,18 @@ Algorithm 2). This module is the pure logic: the equations, the two decision pro
 worked example of §5.2.1 as data. It imports nothing from the rest of the project.
 
 The equations (§4.1.2; the text extraction flattens fractions and exponents, the reconstruction
-of each is checked against the worked example of §5.2.1 and against SPEC §6):
+of each is checked against the worked example of §5.2.1 and against SPEC §6). The paper numbers
+none of its equations; the code cites them as "seed 003 §4.1.2, eq. N", counting the displayed
+equations of §4.1.2 in order (eq. 1 is the plan cost Cost(P_i, T_i) = Σ_j cost(r_i, v_ij), not
+used here):
 
-* φ_manip_ij = 0.7 · (t_sj / t_m) · (P_rem_i / rate_act_j)          ("0.7 × [(t s j t m)[P r e m i r a t e a c t j]]")
-* φ_nav_ij   = 0.7 · (P_rem_i / rate_servo_j) · (1 / w_i)          ("0.7 × [[p r e m i r a t e s e r v o j] × 1 w i]")
-* φ_sens_ij  = 0.9 · (t_sj / t_m) · (P_rem_i / rate_sens_j)          (as φ_manip with 0.9)
-* φ_given_ij = φ_manip_ij + φ_nav_ij + φ_sens_ij, a term being "null if [it is] not taking place
-  in the subtask"
-* pri_ij = ½ · min(u1 · (t − t_j), 1)                                 ("1 2 × min [(u 1 × (t t j)), 1]")
-* utility_ij = max(0, u2 · d_ij^(−1/2) · φ_given_ij · pri_ij)        ("d i j 1 / 2"; the exponent is
+* eq. 2: φ_manip_ij = 0.7 · (t_sj / t_m) · (P_rem_i / rate_act_j)   ("0.7 × [(t s j t m)[P r e m i r a t e a c t j]]")
+* eq. 3: φ_nav_ij   = 0.7 · (P_rem_i / rate_servo_j) · (1 / w_i)   ("0.7 × [[p r e m i r a t e s e r v o j] × 1 w i]")
+* eq. 4: φ_sens_ij  = 0.9 · (t_sj / t_m) · (P_rem_i / rate_sens_j)   (as φ_manip with 0.9)
+* eq. 5: φ_given_ij = φ_manip_ij + φ_nav_ij + φ_sens_ij, a term being "null if [it is] not taking
+  place in the subtask"
+* eq. 6: pri_ij = ½ · min(u1 · (t − t_j), 1)                          ("1 2 × min [(u 1 × (t t j)), 1]")
+* eq. 7: utility_ij = max(0, u2 · d_ij^(−1/2) · φ_given_ij · pri_ij) ("d i j 1 / 2"; the exponent is
   −1/2: "The smaller the distance d i j is, the higher the utility", and §5.2.1 divides by √3 and
   √4.3: 3^(−1/2)·2.69·0.45 = 0.69, 4.3^(−1/2)·5.04·0.45 = 1.09); d_ij = 1 "when no distance is
   involved".
@@ -23,6 +26,11 @@ of each is checked against the worked example of §5.2.1 and against SPEC §6):
 Units: P_rem in mAh, consumption rates in mA (so P_rem / rate is hours of operation at that
 draw), t_s, t_m, t, t_j in s, u1 in 1/s, the wheel slip w in percent as a plain number (w = 3 for
 3 %, §5.2.1: "× 1/3" for R1), d in m; φ and utility are unitless scores.
+
+Algorithms 1 and 2 are here as pure decision functions (:func:`assign_centralized`,
+:func:`own_bid`, :func:`fittest`, :func:`close_auction`, :func:`deploy_first`). **The radio wiring
+is not done yet**: no status report, bid request or bid travels over the simulated 802.15.4 medium,
+and ``swarm.assignment`` does not exist yet (issue 15, a later step).
 
 Where the paper's printed numbers do not follow from its own formulas (they are computed exactly
 here; the tests state the printed value beside the exact one):
@@ -60,44 +68,48 @@ def _check(name: str, x: float, *, positive: bool = False) -> float:
 
 
 def phi_manip(ts_s: float, tm_s: float, p_rem_mah: float, rate_act_ma: float) -> float:
-    """Manipulation quality, seed 003 §4.1.2 eq. φ_manip: 0.7·(t_s/t_m)·(P_rem/rate_act).
+    """Manipulation quality φ_manip: 0.7·(t_s/t_m)·(P_rem/rate_act).
 
     ``ts_s``: time assigned to the subtask (s); ``tm_s``: total time given to the robot for all its
     subtasks (s); ``p_rem_mah``: remaining battery (mAh); ``rate_act_ma``: actuator draw (mA)."""
+    # seed 003 §4.1.2, eq. 2
     return 0.7 * (_check("ts_s", ts_s) / _check("tm_s", tm_s, positive=True)) * (
         _check("p_rem_mah", p_rem_mah) / _check("rate_act_ma", rate_act_ma, positive=True))
 
 
 def phi_nav(p_rem_mah: float, rate_servo_ma: float, slip_pct: float) -> float:
-    """Navigation quality, seed 003 §4.1.2 eq. φ_nav: 0.7·(P_rem/rate_servo)·(1/w).
+    """Navigation quality φ_nav: 0.7·(P_rem/rate_servo)·(1/w).
 
     ``p_rem_mah``: remaining battery (mAh); ``rate_servo_ma``: drive servos' draw (mA);
     ``slip_pct``: wheel slip w in percent (3 for 3 %; 1/w diverges at 0, so w must be > 0)."""
+    # seed 003 §4.1.2, eq. 3
     return 0.7 * (_check("p_rem_mah", p_rem_mah) / _check("rate_servo_ma", rate_servo_ma, positive=True)) * (
         1.0 / _check("slip_pct", slip_pct, positive=True))
 
 
 def phi_sens(ts_s: float, tm_s: float, p_rem_mah: float, rate_sens_ma: float) -> float:
-    """Sensing quality, seed 003 §4.1.2 eq. φ_sens: 0.9·(t_s/t_m)·(P_rem/rate_sens).
+    """Sensing quality φ_sens: 0.9·(t_s/t_m)·(P_rem/rate_sens).
 
     Units as :func:`phi_manip`; ``rate_sens_ma``: the sensors' draw (mA)."""
+    # seed 003 §4.1.2, eq. 4
     return 0.9 * (_check("ts_s", ts_s) / _check("tm_s", tm_s, positive=True)) * (
         _check("p_rem_mah", p_rem_mah) / _check("rate_sens_ma", rate_sens_ma, positive=True))
 
 
 def priority(t_s: float, tj_s: float, u1_per_s: float) -> float:
-    """Subtask priority, seed 003 §4.1.2 eq. pri: ½·min(u1·(t − t_j), 1).
+    """Subtask priority pri: ½·min(u1·(t − t_j), 1).
 
     ``t_s``: time since the task began (s); ``tj_s``: when the subtask was announced (s);
     ``u1_per_s``: how fast the priority grows (1/s). At most ½; negative before t_j."""
     for name, x in (("t_s", t_s), ("tj_s", tj_s), ("u1_per_s", u1_per_s)):
         if not math.isfinite(float(x)):
             raise ValueError(f"{name} must be a finite number, got {x!r}")
+    # seed 003 §4.1.2, eq. 6
     return 0.5 * min(float(u1_per_s) * (float(t_s) - float(tj_s)), 1.0)
 
 
 def utility(d_m: float, phi_given: float, pri: float, u2: float = 1.0) -> float:
-    """Utility, seed 003 §4.1.2 eq. utility: max(0, u2·d^(−1/2)·φ_given·pri).
+    """Utility: max(0, u2·d^(−1/2)·φ_given·pri).
 
     ``d_m``: distance from the robot to the subtask (m; 1 when no distance is involved, > 0);
     ``phi_given``: φ_manip + φ_nav + φ_sens of the parts the subtask has; ``pri``: the priority;
@@ -106,6 +118,7 @@ def utility(d_m: float, phi_given: float, pri: float, u2: float = 1.0) -> float:
     for name, x in (("phi_given", phi_given), ("pri", pri), ("u2", u2)):
         if not math.isfinite(float(x)):
             raise ValueError(f"{name} must be a finite number, got {x!r}")
+    # seed 003 §4.1.2, eq. 7
     return max(0.0, float(u2) * (d ** -0.5 * float(phi_given) * float(pri)))
 
 
@@ -177,7 +190,7 @@ def robot_utility(robot: RobotStatus, subtask: Subtask, t_s: float, params: Ruta
     else φ_given from the parts the subtask has, pri from its announcement, d from the report."""
     if not capable(robot, subtask):
         return 0.0
-    phi = 0.0
+    phi = 0.0  # seed 003 §4.1.2, eq. 5: φ_given, the sum of the parts the subtask has
     if subtask.nav:
         phi += phi_nav(robot.p_rem_mah, robot.rate_servo_ma, robot.slip_pct)
     if subtask.manip_s is not None:
@@ -416,6 +429,7 @@ EXAMPLE_PARAMS = RutaParams(t_m_s=200.0, u1_per_s=0.01, u2=1.0)
 EXAMPLE_NAV = {"R1": {"p_rem_mah": 2200.0, "rate_servo_ma": 130.0, "slip_pct": 3.0},
                "R2": {"p_rem_mah": 2200.0, "rate_servo_ma": 320.0, "slip_pct": 1.0},
                "R4": {"phi_printed": 1.21}}
+EXAMPLE_R1_BRACKET_PRINTED = 5.58  # "0.7 [5.58] = 3.90": the paper's value of (2200/130) × (1/3)
 EXAMPLE_GRIP = {"t_s": 110.0, "tj_s": 20.0,
                 "R2": {"manip": {"ts_s": 9.0, "p_rem_mah": 2000.0, "rate_act_ma": 60.0},
                        "sens": {"ts_s": 11.0, "p_rem_mah": 2150.0, "rate_sens_ma": 65.0}, "d_m": 3.0},
@@ -424,47 +438,32 @@ EXAMPLE_GRIP = {"t_s": 110.0, "tj_s": 20.0,
 EXAMPLE_PRINTED = {"R1 nav utility": 3.90, "R2 nav utility": 4.81, "R4 nav utility": 1.21,
                    "grip pri": 0.45, "R2 φ_manip": 1.05, "R2 φ_sens": 1.64, "R2 φ_given": 2.69,
                    "R2 grip utility": 0.69, "R4 grip utility": 1.09}
-EXAMPLE_TOLERANCE = 0.01  # two printed decimals, rounded (4.8125 -> 4.81) or truncated (0.698 -> 0.69)
 
 
 def worked_example() -> dict:
-    """Seed 003 §5.2.1 through the equations and the Algorithm 2 decisions.
+    """Seed 003 §5.2.1 through the equations and the Algorithm 1 and 2 decisions.
 
-    Returns ``{"figures": {...}, "rows": [{metric, paper, sim, tolerance, ok}], "notes": [...]}``:
-    the navigation utilities (d = 1, pri = 1 as printed), the two robots deployed first, the grip
-    priority at t = 110 s for t_j = 20 s, R2's φ's and both grip utilities, who grips first. R4's
-    nav utility (1.21) enters only as printed (no inputs), so it has no row of its own."""
-    p, r1 = EXAMPLE_PARAMS, EXAMPLE_NAV["R1"]
-    nav = {r: utility(1.0, phi_nav(**EXAMPLE_NAV[r]), 1.0, p.u2) for r in ("R1", "R2")}
+    Returns the figures: the navigation utilities (d = 1, pri = 1 as printed; R1's both exactly on
+    its inputs and from the printed bracket 5.58), the two robots deployed first (Algorithm 2 step
+    2), the grip priority at t = 110 s for t_j = 20 s, R2's φ's and both grip utilities, and who
+    grips first by Algorithm 2 (the fittest bid) and by Algorithm 1 (the master's assignment)."""
+    p, g = EXAMPLE_PARAMS, EXAMPLE_GRIP
+    nav = {r: utility(1.0, phi_nav(**EXAMPLE_NAV[r]), 1.0, p.u2) for r in ("R1", "R2")}  # eq. 3, eq. 7
     nav["R4"] = utility(1.0, EXAMPLE_NAV["R4"]["phi_printed"], 1.0, p.u2)
-    deployed = deploy_first(nav, 2)
-    g = EXAMPLE_GRIP
-    pri = priority(g["t_s"], g["tj_s"], p.u1_per_s)
+    r1_printed = utility(1.0, 0.7 * EXAMPLE_R1_BRACKET_PRINTED, 1.0, p.u2)  # eq. 7 on the printed 0.7 × 5.58
+    pri = priority(g["t_s"], g["tj_s"], p.u1_per_s)  # eq. 6
     m, s = g["R2"]["manip"], g["R2"]["sens"]
-    r2_manip = phi_manip(m["ts_s"], p.t_m_s, m["p_rem_mah"], m["rate_act_ma"])
-    r2_sens = phi_sens(s["ts_s"], p.t_m_s, s["p_rem_mah"], s["rate_sens_ma"])
-    grip = {"R2": utility(g["R2"]["d_m"], r2_manip + r2_sens, pri, p.u2),
+    r2_manip = phi_manip(m["ts_s"], p.t_m_s, m["p_rem_mah"], m["rate_act_ma"])  # eq. 2
+    r2_sens = phi_sens(s["ts_s"], p.t_m_s, s["p_rem_mah"], s["rate_sens_ma"])  # eq. 4
+    grip = {"R2": utility(g["R2"]["d_m"], r2_manip + r2_sens, pri, p.u2),  # eq. 5, eq. 7
             "R4": utility(g["R4"]["d_m"], g["R4"]["phi_printed"], pri, p.u2)}
-    winner = fittest(Bid(r, "grip", u, g["t_s"]) for r, u in grip.items())
-    sim = {"R1 nav utility": nav["R1"], "R2 nav utility": nav["R2"], "grip pri": pri,
-           "R2 φ_manip": r2_manip, "R2 φ_sens": r2_sens, "R2 φ_given": r2_manip + r2_sens,
-           "R2 grip utility": grip["R2"], "R4 grip utility": grip["R4"]}
-    rows = [_row(k, EXAMPLE_PRINTED[k], v, EXAMPLE_TOLERANCE) for k, v in sim.items()]
-    rows.insert(2, _row("R1 and R2 deployed first (1 = yes)", 1.0, float(set(deployed) == {"R1", "R2"}), 0.0))
-    rows.append(_row("R4 grips first (1 = yes)", 1.0, float(winner is not None and winner.robot == "R4"), 0.0))
-    figures = {"nav_utility": nav, "deployed_first": list(deployed), "grip_pri": pri,
-               "R2_phi_manip": r2_manip, "R2_phi_sens": r2_sens, "grip_utility": grip,
-               "grips_first": winner.robot if winner else None,
-               "R1_nav_bracket_exact": r1["p_rem_mah"] / r1["rate_servo_ma"] / r1["slip_pct"]}
-    notes = [f"R1 nav: the paper prints 0.7 × 5.58 = 3.90; exact arithmetic on its inputs, 0.7 × (2200/130) × (1/3) = "
-             f"0.7 × {figures['R1_nav_bracket_exact']:.3f} = {nav['R1']:.3f} (3.95)",
-             "nav utilities use pri = 1 and d = 1 as printed ('Initially, the priorities of all sub-tasks are equal to 1'); "
-             "the formula's priority is at most 0.5",
-             "R4's inputs are not printed: its nav φ 1.21 and grip φ 5.04 enter as printed results"]
-    return {"figures": figures, "rows": rows, "notes": notes}
-
-
-def _row(metric: str, paper: float, sim: float, tolerance: float) -> dict:
-    """A row in reproduce's format: ``{metric, paper, sim, tolerance, ok}``."""
-    return {"metric": metric, "paper": float(paper), "sim": float(sim), "tolerance": float(tolerance),
-            "ok": bool(math.isfinite(sim) and abs(sim - paper) <= tolerance + 1e-12)}
+    bid = fittest(Bid(r, "grip", u, g["t_s"]) for r, u in grip.items())
+    central = assign_centralized(["grip"], {(r, "grip"): u for r, u in grip.items()}, team=["R2", "R4"])
+    r1 = EXAMPLE_NAV["R1"]
+    return {"nav_utility": nav, "R1_nav_utility_from_printed_bracket": r1_printed,
+            "R1_nav_bracket_exact": r1["p_rem_mah"] / r1["rate_servo_ma"] / r1["slip_pct"],
+            "R1_nav_bracket_printed": EXAMPLE_R1_BRACKET_PRINTED,
+            "deployed_first": list(deploy_first(nav, 2)), "grip_pri": pri,
+            "R2_phi_manip": r2_manip, "R2_phi_sens": r2_sens, "R2_phi_given": r2_manip + r2_sens,
+            "grip_utility": grip, "grips_first_decentralized": bid.robot if bid else None,
+            "grips_first_centralized": central.assignment.get("grip")}

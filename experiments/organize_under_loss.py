@@ -42,7 +42,8 @@ def trial(env, policy, seed: int, steps: int) -> dict[str, Any]:
     except RuntimeError as e:
         retries = sum(sw.organize_result.retries for sw in env.swarms) if env.swarms else 0
         return {"seed": seed, "slaves": 0, "required": required, "full": False, "retries": retries,
-                "organize_s": math.nan, "token_recoveries": 0, "rmse_m": math.nan, "error": str(e)}
+                "organize_s": math.nan, "token_recoveries": 0, "rmse_m": math.nan, "building_s": math.nan,
+                "error": str(e)}
     results = [sw.organize_result for sw in env.swarms]
     slaves = sum(len(sw.slave_ids()) for sw in env.swarms)
     policy.reset(seed)
@@ -53,12 +54,14 @@ def trial(env, policy, seed: int, steps: int) -> dict[str, Any]:
     s = env.episode_summary()
     return {"seed": seed, "slaves": slaves, "required": required, "full": slaves == required,
             "retries": sum(r.retries for r in results), "organize_s": max(r.elapsed_s for r in results),
-            "token_recoveries": s["token_recoveries"], "rmse_m": s["formation_rmse_m"]}
+            "token_recoveries": s["token_recoveries"], "rmse_m": s["formation_rmse_m"],
+            "building_s": s["building_time_s"]}
 
 
 def summarize(trials: list[dict[str, Any]]) -> dict[str, Any]:
     times = np.array([t["organize_s"] for t in trials if math.isfinite(t["organize_s"])])
     rmse = [t["rmse_m"] for t in trials if math.isfinite(t["rmse_m"])]
+    building = np.array([t["building_s"] for t in trials if math.isfinite(t["building_s"])])
     return {
         "resets": len(trials),
         "full": sum(t["full"] for t in trials),
@@ -71,6 +74,11 @@ def summarize(trials: list[dict[str, Any]]) -> dict[str, Any]:
         "organize_max_s": float(times.max()) if times.size else math.nan,
         "token_recoveries": sum(t["token_recoveries"] for t in trials),
         "rmse_m": float(np.mean(rmse)) if rmse else math.nan,
+        # building: from organized to every slave within 0.3 m of its reference (issue 14 item 3);
+        # NaN (not built within the trial's steps) counts as not built
+        "built": int(building.size),
+        "building_median_s": float(np.median(building)) if building.size else math.nan,
+        "building_max_s": float(building.max()) if building.size else math.nan,
         "short_seeds": [t["seed"] for t in trials if not t["full"]][:20],
     }
 
@@ -89,7 +97,8 @@ def sweep(losses, resets: int, steps: int, seed: int, overrides: dict[str, Any])
         print(f"loss {p:4.2f}: full {s['full']}/{s['resets']} ({s['full_pct']:.1f} %), slaves missing {s['slaves_missing']}, "
               f"failed resets {s['failed_resets']}, retries mean {s['retries_mean']:.2f} max {s['retries_max']}, "
               f"organize mean {s['organize_mean_s']:.2f} s max {s['organize_max_s']:.2f} s, "
-              f"token recoveries {s['token_recoveries']}, rmse {s['rmse_m']:.3f} m over {steps} steps"
+              f"token recoveries {s['token_recoveries']}, rmse {s['rmse_m']:.3f} m over {steps} steps, "
+              f"built {s['built']}/{s['resets']} (median {s['building_median_s']:.1f} s, max {s['building_max_s']:.1f} s)"
               + (f", short seeds {s['short_seeds']}" if s["short_seeds"] else ""), flush=True)
     return out
 

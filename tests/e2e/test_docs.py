@@ -4,16 +4,24 @@ import re
 from pathlib import Path
 
 from petswarm_env.config import load_config
-from petswarm_env.observe import ObservationLayout, markdown_table
+from petswarm_env import state
+from petswarm_env.observe import ObservationLayout, markdown_table, observation_bounds
 
 ROOT = Path(__file__).resolve().parents[2]
 
 
 def test_observation_doc_matches_the_layout():
-    layout = ObservationLayout(load_config().robot.ultrasonic.count)
+    cfg = load_config()
+    layout = ObservationLayout(cfg.robot.ultrasonic.count)
     doc = (ROOT / "docs" / "observation.md").read_text()
-    assert markdown_table(layout) in doc, "regenerate with: python -m petswarm_env.observe > docs/observation.md"
+    table = markdown_table(layout, observation_bounds(layout, cfg))
+    assert table in doc, "regenerate with: python -m petswarm_env.observe > docs/observation.md"
     assert f"{layout.size} values" in doc
+
+
+def test_state_doc_matches_the_state_layout():
+    doc = (ROOT / "docs" / "state.md").read_text()
+    assert doc == state.markdown(load_config()), "regenerate with: python -m petswarm_env.state > docs/state.md"
 
 
 def test_readme_states_the_observation_size_and_the_ci_command():

@@ -75,17 +75,18 @@ def load_model(ckpt: Path, venv) -> PPO:
         raise ConfigError(f"checkpoint '{ckpt}' cannot be loaded ({type(exc).__name__}: {exc}); it may be corrupt") from None
 
 
-def open_run(cfg: TrainConfig, out: Path, resume: bool) -> tuple[TrainConfig, dict[str, Any]]:
+def open_run(cfg: TrainConfig, out: Path, resume: bool, checkpoint: str = "latest.zip") -> tuple[TrainConfig, dict[str, Any]]:
     """The config and train log of the run in ``out``: a new one (refused if ``out`` holds a
-    run), or with ``resume`` the saved config (with ``cfg``'s timesteps) and log."""
-    ckpt = out / "checkpoints" / "latest.zip"
+    run), or with ``resume`` the saved config (with ``cfg``'s timesteps) and log. ``checkpoint``:
+    the back end's checkpoint file in ``out/checkpoints``."""
+    ckpt = out / "checkpoints" / checkpoint
     if not resume:
         if ckpt.exists():
             raise ConfigError(f"'{out}' already holds a run; pass --resume to continue it or choose another --out")
         return cfg, {"timesteps": 0, "wall_time_s": 0.0, "evaluations": [], "scripted_eval_rmse_m": None}
     saved = out / "train_config.yaml"
     if not saved.is_file() or not ckpt.is_file():
-        raise ConfigError(f"cannot resume: '{out}' has no train_config.yaml and checkpoints/latest.zip; train without --resume first")
+        raise ConfigError(f"cannot resume: '{out}' has no train_config.yaml and checkpoints/{checkpoint}; train without --resume first")
     cfg = load_train_config(saved).model_copy(update={"timesteps": cfg.timesteps})
     return cfg, json.loads((out / "train_log.json").read_text())
 
@@ -133,13 +134,22 @@ def train(cfg: TrainConfig, out_dir: str | os.PathLike, resume: bool = False, pr
 
 
 def train_command(config: str | None, settings: list[str], timesteps: int | None, out: str, resume: bool,
-                  progress_bar: bool, command: str) -> int:
+                  progress_bar: bool, command: str, backend: str = "sb3", address: str | None = None) -> int:
     """``petswarm train``: the config from ``config`` and ``--set KEY=VALUE`` ``settings`` (and
-    ``--timesteps``), the run, and one summary line."""
+    ``--timesteps``), the run on ``backend`` (``sb3`` here, ``rllib`` in :mod:`training.rllib_backend`,
+    which joins the Ray cluster at ``address`` if given), and one summary line."""
     overrides = dict(parse_override(item) for item in settings)
     if timesteps:
         overrides["timesteps"] = timesteps
-    log = train(load_train_config(config, overrides), out, resume=resume, progress_bar=progress_bar, command=command)
+    cfg = load_train_config(config, overrides)
+    if backend == "rllib":
+        from training.rllib_backend import train_rllib
+
+        log = train_rllib(cfg, out, resume=resume, address=address, progress_bar=progress_bar, command=command)
+    elif address:
+        raise ConfigError("--address joins a Ray cluster: it needs --backend rllib")
+    else:
+        log = train(cfg, out, resume=resume, progress_bar=progress_bar, command=command)
     last = log["evaluations"][-1] if log["evaluations"] else {}
     print(f"trained {log['timesteps']} agent-steps in {log['wall_time_s']:.0f} s; "
           f"eval formation_rmse_m {last.get('formation_rmse_m', float('nan')):.3f} "

@@ -5,8 +5,8 @@
 One local Ray (bound to 127.0.0.1, :func:`training.rllib_backend.start_ray`), then for each runner
 count the training config's PPO (``configs/train/ppo.yaml``, warm start off) for ``iterations``
 ``algo.train()`` calls; the first (actor start-up, first sync) is not counted. Reported per count:
-agent-steps/s over whole iterations (sampling + learning) and over sampling alone (RLlib's
-``env_runner_sampling_timer``), the CPU time of the driver and of each runner process, and the
+agent-steps/s over whole iterations (sampling + learning) and over sampling alone (the wall time
+of PPO's ``synchronous_parallel_sample`` calls, timed here), the CPU time of the driver and of each runner process, and the
 machine's load average (the cores are shared: a loaded machine gains nothing from more runners).
 Speed is a ratio here too: the runners' figures are read against the 0-runner one of the same run.
 """
@@ -30,11 +30,25 @@ def _cpu_s(pid: int) -> float:
 def measure(runners: list[int], iterations: int, envs_per_runner: int, overrides: dict | None = None) -> dict:
     """The figures of each runner count, from one local Ray instance."""
     import ray
+    import torch
 
     from training import rllib_backend as rb
     from training.config import load_train_config
 
+    torch.set_num_threads(1)  # as train_rllib: one thread in the driver (more ran the driver's sampler 6x slower, loaded)
     cfg = load_train_config(overrides={"pretrain.samples": 0, **(overrides or {})})
+    import ray.rllib.algorithms.ppo.ppo as ppo_module
+
+    sampled = []  # wall time of each sampling round (RLlib's own timer is a moving average)
+    sample = ppo_module.synchronous_parallel_sample
+
+    def timed_sample(*args, **kwargs):
+        t = time.perf_counter()
+        out = sample(*args, **kwargs)
+        sampled.append(time.perf_counter() - t)
+        return out
+
+    ppo_module.synchronous_parallel_sample = timed_sample
     rb.start_ray(None, max(1, max(runners)))
     rb.register_env(rb.ENV_ID, rb.make_env)
     rows = []
@@ -45,18 +59,18 @@ def measure(runners: list[int], iterations: int, envs_per_runner: int, overrides
             algo = rb.algorithm_config(c, c.env_config(), c.seed).build_algo()
             pids = [os.getpid()] + (algo.env_runner_group.foreach_env_runner(lambda er: os.getpid(), local_env_runner=False) if n else [])
             algo.train()  # warm-up: not counted
-            steps = wall = sample = 0.0
-            cpu0, load0 = [_cpu_s(p) for p in pids], os.getloadavg()[0]
+            steps = wall = 0.0
+            cpu0, load0, first = [_cpu_s(p) for p in pids], os.getloadavg()[0], len(sampled)
             for _ in range(iterations - 1):
                 t = time.perf_counter()
                 result = algo.train()
                 wall += time.perf_counter() - t
                 steps += sum(result["env_runners"]["num_agent_steps_sampled"].values())
-                sample += float(result["timers"].get("env_runner_sampling_timer", float("nan")))
+            sample_s = sum(sampled[first:])
             cpu = [round(_cpu_s(p) - c0, 1) for p, c0 in zip(pids, cpu0)]
             rows.append({"env_runners": n, "envs_per_runner": envs_per_runner, "agent_steps": int(steps),
-                         "agent_steps_per_s": round(steps / wall, 1),
-                         "sampling_agent_steps_per_s": round(steps / sample, 1) if sample == sample and sample > 0 else None,
+                         "agent_steps_per_s": round(float(steps / wall), 1),
+                         "sampling_agent_steps_per_s": round(steps / sample_s, 1) if sample_s > 0 else None,
                          "cpu_s_driver": cpu[0], "cpu_s_runners": cpu[1:], "load_before": round(load0, 2),
                          "load_after": round(os.getloadavg()[0], 2)})
             algo.stop()

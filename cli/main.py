@@ -191,8 +191,15 @@ def _run(args, argv: list[str]) -> int:
 def _train(args, argv: list[str]) -> int:
     from training.train import train_command
 
+    run, options = None, {}
+    if args.backend == "rllib":
+        from training.rllib_backend import train_rllib
+
+        run, options = train_rllib, {"address": args.address}
+    elif args.address:
+        raise ConfigError("--address joins a Ray cluster: it needs --backend rllib")
     return train_command(args.config, args.set, args.timesteps, args.out, args.resume, not args.no_progress,
-                         "petswarm " + " ".join(argv), args.backend, args.address)
+                         "petswarm " + " ".join(argv), run, **options)
 
 
 def _eval(args, argv: list[str]) -> int:

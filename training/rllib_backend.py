@@ -214,6 +214,9 @@ class Progress:
     def iteration(self, algo, result: dict[str, Any], wall_s: float) -> None:
         runners, log = result["env_runners"], self.log
         agent_steps = int(sum(runners.get("num_agent_steps_sampled", {}).values()))
+        if agent_steps == 0:
+            raise RuntimeError(f"an RLlib iteration sampled nothing within rllib.sample_timeout_s={self.cfg.rllib.sample_timeout_s} s; "
+                               "raise it (a loaded machine or slow env runners)")
         log["timesteps"] += agent_steps
         n = log["timesteps"]
         log["samples_per_s"].append(round(agent_steps / wall_s, 1))

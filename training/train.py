@@ -134,22 +134,15 @@ def train(cfg: TrainConfig, out_dir: str | os.PathLike, resume: bool = False, pr
 
 
 def train_command(config: str | None, settings: list[str], timesteps: int | None, out: str, resume: bool,
-                  progress_bar: bool, command: str, backend: str = "sb3", address: str | None = None) -> int:
+                  progress_bar: bool, command: str, run=None, **run_options) -> int:
     """``petswarm train``: the config from ``config`` and ``--set KEY=VALUE`` ``settings`` (and
-    ``--timesteps``), the run on ``backend`` (``sb3`` here, ``rllib`` in :mod:`training.rllib_backend`,
-    which joins the Ray cluster at ``address`` if given), and one summary line."""
+    ``--timesteps``), the run — :func:`train` (SB3), or ``run`` with ``run_options`` (the CLI passes
+    :func:`training.rllib_backend.train_rllib` and its ``address``) — and one summary line."""
     overrides = dict(parse_override(item) for item in settings)
     if timesteps:
         overrides["timesteps"] = timesteps
-    cfg = load_train_config(config, overrides)
-    if backend == "rllib":
-        from training.rllib_backend import train_rllib
-
-        log = train_rllib(cfg, out, resume=resume, address=address, progress_bar=progress_bar, command=command)
-    elif address:
-        raise ConfigError("--address joins a Ray cluster: it needs --backend rllib")
-    else:
-        log = train(cfg, out, resume=resume, progress_bar=progress_bar, command=command)
+    log = (run or train)(load_train_config(config, overrides), out, resume=resume, progress_bar=progress_bar, command=command,
+                         **run_options)
     last = log["evaluations"][-1] if log["evaluations"] else {}
     print(f"trained {log['timesteps']} agent-steps in {log['wall_time_s']:.0f} s; "
           f"eval formation_rmse_m {last.get('formation_rmse_m', float('nan')):.3f} "

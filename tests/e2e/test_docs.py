@@ -53,3 +53,23 @@ def test_every_default_value_has_a_comment_or_a_commented_section():
             continue
         parents = [h for i, h in headers.items() if i < indent]
         assert "#" in line or any("#" in h for h in parents), f"undocumented default: {line.strip()}"
+
+
+def _readme_block(after: str) -> str:
+    text = (ROOT / "README.md").read_text()
+    start = text.index("```python", text.index(after)) + len("```python")
+    return text[start:text.index("```", start)]
+
+
+def test_readme_supersuit_sb3_snippet_runs():
+    """The README's FixedAgents + SuperSuit + SB3 snippet, with a tiny run in place of its numbers."""
+    import pytest
+
+    pytest.importorskip("stable_baselines3")
+    pytest.importorskip("supersuit")
+    code = _readme_block("SuperSuit + Stable-Baselines3 (what")
+    small = (code.replace("max_cycles=300", "max_cycles=10").replace("4, num_cpus=2", "1, num_cpus=0")
+             .replace('PPO("MlpPolicy", vec)', 'PPO("MlpPolicy", vec, n_steps=16, batch_size=32, n_epochs=1)')
+             .replace("learn(100_000)", "learn(16)"))
+    assert small != code
+    exec(compile(small, "README.md", "exec"), {})

@@ -8,7 +8,14 @@ It reads only the observation, like a learned policy. Per step:
    twisted heading Δθ gives where the robot should be, in its own frame. Chosen: a reference
    location closer than ``user_keep_out_m`` to the user (the master's broadcast user position) is
    moved out to that distance — a formation that lags its user's turn must not put a robot on the
-   user's path;
+   user's path. A neighbour whose fix is stale — no measurement, or one at the end of the
+   observation's age range (2 s): occluded, beyond the IR's reach, or the ring lost its slots — gives
+   no target (decided, issue 14): the slave cannot know where that neighbour is now (its last fix is
+   carried over its own rotation only, and the age no longer grows), so it keeps moving with the
+   swarm (step 2's feed-forward, step 3's heading) and takes the position correction up again with
+   the next fix. It neither stops (the swarm would walk away from it) nor chases the last fix (a
+   target that does not recede as it drives would run it off). The episode summary counts that
+   time (``stale_fix_s``), so a slave that lost its neighbour shows;
 2. revise ``Vx, Vy`` with the master's broadcast driving speed (feed-forward that compensates the
    update delay of the sequential IR ring). Chosen reading of "driving speed": the velocity the
    master's motion gives the reference location — the master's translation plus its rotation ω

@@ -1,9 +1,11 @@
 """Learned slave policies: a weights-only file format we control, and a numpy forward pass.
 
-A saved policy is one ``.npz`` file (numpy's zip of arrays, read with ``allow_pickle=False``, so
-loading never executes code from the file) holding the actor network's layers and a JSON
+A saved policy is one ``.npz`` file (numpy's zip of arrays, read by
+:func:`petswarm_env.files.read_npz`: numbers only, never a pickle, so loading never executes
+code from the file; every field is checked and a malformed one refused by name) holding the actor network's layers and a JSON
 metadata record: the format version, the environment name and observation version it was trained
-on, the observation layout (field names and sizes), the activation, and how it was trained.
+on (a newer version than the environment's is refused, an older one loads with a
+:class:`PolicyVersionWarning`), the observation layout (field names and sizes), the activation, and how it was trained.
 
 Loading matches the saved layout against the environment's, field by field (seed 001's mapping
 idea, SPEC §5): fields that match by name and size are wired through (in any order); a field the
@@ -15,7 +17,7 @@ from __future__ import annotations
 
 import json
 import os
-import zipfile
+import warnings
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -23,8 +25,9 @@ from typing import Any
 import numpy as np
 
 from baselines.policy import Policy, PolicySpec
+from petswarm_env.config import describe_value
 from petswarm_env.env import ENV_NAME
-from petswarm_env.files import write_atomic
+from petswarm_env.files import read_npz, write_atomic
 from petswarm_env.observe import OBS_VERSION, ObservationLayout
 
 FORMAT = "petswarm-policy"
@@ -34,6 +37,10 @@ ACTIVATIONS = {"tanh": np.tanh, "relu": lambda x: np.maximum(x, 0.0)}
 
 class PolicyLoadError(ValueError):
     """A policy file is missing, corrupt, or does not fit the environment."""
+
+
+class PolicyVersionWarning(UserWarning):
+    """A policy trained on an older observation version is loaded (its fields matched by name)."""
 
 
 def shipped_policy_path() -> Path:
@@ -63,31 +70,115 @@ def save_policy(path: str | os.PathLike, layers: list[tuple[np.ndarray, np.ndarr
     write_atomic(path, lambda tmp: np.savez(tmp, **arrays), suffix=".npz")
 
 
+MAX_POLICY_BYTES = 256_000_000  # far above any slave MLP (the shipped one is 100 KB); refuses absurd declarations
+MAX_LAYERS = 64
+REQUIRED = ("env_name", "observation_version", "observation_layout", "activation", "num_layers")
+FIX = "re-export the policy from its run or re-train it"
+
+
+def _field_error(path: Path, field: str, problem: str) -> PolicyLoadError:
+    return PolicyLoadError(f"policy file '{path}': field '{field}' {problem}; {FIX}")
+
+
+def _is_int(x: Any) -> bool:
+    return isinstance(x, int) and not isinstance(x, bool)
+
+
+def _read_meta(path: Path, arrays: dict[str, np.ndarray]) -> dict[str, Any]:
+    """The metadata record, every field checked (type, then value)."""
+    if "meta" not in arrays:
+        if "state" in arrays:
+            raise PolicyLoadError(f"'{path}' is a training checkpoint, not a policy; use the run's policy.npz")
+        raise PolicyLoadError(f"policy file '{path}' has no 'meta' record: it is not a petswarm policy file")
+    raw = arrays["meta"]
+    if raw.dtype != np.uint8 or raw.ndim != 1:
+        raise _field_error(path, "meta", f"must be UTF-8 JSON bytes (a 1-D uint8 array), got {raw.dtype} of shape {raw.shape}")
+    try:
+        meta = json.loads(raw.tobytes().decode("utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError, RecursionError) as exc:
+        raise _field_error(path, "meta", f"is not UTF-8 JSON ({type(exc).__name__})") from None
+    if not isinstance(meta, dict):
+        raise _field_error(path, "meta", f"must be a JSON object, got {type(meta).__name__}")
+    if meta.get("format") != FORMAT:
+        if meta.get("format") == "petswarm-checkpoint":
+            raise PolicyLoadError(f"'{path}' is a training checkpoint, not a policy; use the run's policy.npz")
+        raise PolicyLoadError(f"'{path}' is not a petswarm policy file (field 'format' is {meta.get('format')!r}, "
+                              f"a policy file has {FORMAT!r})")
+    if meta.get("format_version") != FORMAT_VERSION or not _is_int(meta.get("format_version")):
+        raise PolicyLoadError(f"policy file '{path}': field 'format_version' is {meta.get('format_version')!r}, this "
+                              f"petswarm reads version {FORMAT_VERSION}; {FIX} with this petswarm")
+    missing = [key for key in REQUIRED if key not in meta]
+    if missing:
+        raise _field_error(path, missing[0], "is missing")
+    if meta.get("env_name") != ENV_NAME:
+        raise PolicyLoadError(f"policy file '{path}' was trained on env {meta.get('env_name')!r} (field 'env_name'), "
+                              f"this is '{ENV_NAME}'")
+    version = meta.get("observation_version")
+    if not _is_int(version) or version < 1:
+        raise _field_error(path, "observation_version", f"must be a whole number >= 1, got {describe_value(version)}")
+    if version > OBS_VERSION:
+        raise PolicyLoadError(f"policy file '{path}': field 'observation_version' is {version}, newer than this environment's "
+                              f"observation (version {OBS_VERSION}); use it with the petswarm it was trained with")
+    layout = meta.get("observation_layout")
+    if not isinstance(layout, list) or not layout:
+        raise _field_error(path, "observation_layout",
+                           f"must be a non-empty list of [name, size] pairs, got {describe_value(layout)}")
+    for k, entry in enumerate(layout):
+        pair = isinstance(entry, list) and len(entry) == 2
+        if not (pair and isinstance(entry[0], str) and _is_int(entry[1]) and entry[1] >= 1):
+            raise _field_error(path, "observation_layout", f"entry {k} must be [name, size >= 1], got {describe_value(entry)}")
+    if len({name for name, _ in layout}) != len(layout):
+        raise _field_error(path, "observation_layout", "names a field twice")
+    if meta.get("activation") not in ACTIVATIONS:
+        raise _field_error(path, "activation",
+                           f"must be one of {sorted(ACTIVATIONS)}, got {describe_value(meta.get('activation'))}")
+    n = meta.get("num_layers")
+    if not _is_int(n) or not 1 <= n <= MAX_LAYERS:
+        raise _field_error(path, "num_layers", f"must be a whole number from 1 to {MAX_LAYERS}, got {describe_value(n)}")
+    if not isinstance(meta.get("info", {}), dict):
+        raise _field_error(path, "info", f"must be a JSON object, got {type(meta['info']).__name__}")
+    return meta
+
+
+def _read_layers(path: Path, arrays: dict[str, np.ndarray], meta: dict[str, Any]) -> list[tuple[np.ndarray, np.ndarray]]:
+    """The layers (weight (out, in), bias (out,)): present, float, chained shapes, finite, the
+    first taking the layout's values and the last giving the 3 action values."""
+    layers = []
+    for i in range(meta["num_layers"]):
+        for name in (f"w{i}", f"b{i}"):
+            if name not in arrays:
+                raise _field_error(path, name, f"is missing (field 'num_layers' says {meta['num_layers']} layers)")
+            if arrays[name].dtype.kind != "f":
+                raise _field_error(path, name, f"must hold floating-point weights, got {arrays[name].dtype}")
+        w, b = arrays[f"w{i}"], arrays[f"b{i}"]
+        if w.ndim != 2 or b.shape != (w.shape[0],) or (i > 0 and w.shape[1] != layers[-1][0].shape[0]):
+            raise _field_error(path, f"w{i}", f"has shape {w.shape} with bias {b.shape}, which does not chain with the "
+                                              "layer before (weights (out, in), bias (out,))")
+        if not (np.all(np.isfinite(w)) and np.all(np.isfinite(b))):
+            raise _field_error(path, f"w{i}", "or its bias holds NaN or infinite weights")
+        layers.append((w, b))
+    inputs = sum(size for _, size in meta["observation_layout"])
+    if layers[0][0].shape[1] != inputs:
+        raise _field_error(path, "w0", f"takes {layers[0][0].shape[1]} inputs but field 'observation_layout' has {inputs} values")
+    if layers[-1][0].shape[0] != 3:
+        raise _field_error(path, f"w{len(layers) - 1}", f"outputs {layers[-1][0].shape[0]} values; a slave action has 3")
+    return layers
+
+
 def read_policy_file(path: str | os.PathLike) -> tuple[dict[str, Any], list[tuple[np.ndarray, np.ndarray]]]:
-    """Metadata and layers of a policy file; :class:`PolicyLoadError` names any problem."""
+    """Metadata and layers of a policy file; :class:`PolicyLoadError` names the file and the
+    field of any problem. Never unpickles (:func:`petswarm_env.files.read_npz`)."""
     path = Path(path)
     if not path.is_file():
-        raise PolicyLoadError(f"policy file '{path}' does not exist")
+        raise PolicyLoadError(f"policy file '{path}' does not exist" + (" (it is a folder)" if path.is_dir() else ""))
     try:
-        with np.load(path, allow_pickle=False) as data:
-            meta = json.loads(bytes(data["meta"]).decode())
-            if meta.get("format") != FORMAT:
-                raise PolicyLoadError(f"'{path}' is not a petswarm policy file (format {meta.get('format')!r})")
-            if meta.get("format_version") != FORMAT_VERSION:
-                raise PolicyLoadError(f"'{path}' has policy format version {meta.get('format_version')}, this petswarm reads {FORMAT_VERSION}")
-            layers = [(data[f"w{i}"], data[f"b{i}"]) for i in range(int(meta["num_layers"]))]
-    except PolicyLoadError:
-        raise
-    except (zipfile.BadZipFile, OSError, EOFError, KeyError, ValueError, json.JSONDecodeError) as exc:
-        raise PolicyLoadError(f"policy file '{path}' is corrupt or truncated ({type(exc).__name__}: {exc}); re-export or re-train it") from None
-    for i, (w, b) in enumerate(layers):
-        if w.ndim != 2 or b.shape != (w.shape[0],) or (i > 0 and w.shape[1] != layers[i - 1][0].shape[0]):
-            raise PolicyLoadError(f"policy file '{path}' has inconsistent layer shapes at layer {i}")
-        if not (np.all(np.isfinite(w)) and np.all(np.isfinite(b))):
-            raise PolicyLoadError(f"policy file '{path}' has non-finite weights in layer {i}")
-    if layers and layers[-1][0].shape[0] != 3:
-        raise PolicyLoadError(f"policy file '{path}' outputs {layers[-1][0].shape[0]} values; a slave action has 3")
-    return meta, layers
+        arrays = read_npz(path, MAX_POLICY_BYTES)
+    except ValueError as exc:
+        raise PolicyLoadError(f"policy file '{path}' cannot be read: {exc}; {FIX}") from None
+    except OSError as exc:
+        raise PolicyLoadError(f"policy file '{path}' cannot be read ({exc.strerror or exc})") from None
+    meta = _read_meta(path, arrays)
+    return meta, _read_layers(path, arrays, meta)
 
 
 def observation_mapping(saved: list[tuple[str, int]], layout: ObservationLayout) -> np.ndarray:
@@ -126,14 +217,15 @@ class LearnedPolicy(Policy):
     @classmethod
     def load(cls, path: str | os.PathLike, spec: PolicySpec) -> LearnedPolicy:
         meta, layers = read_policy_file(path)
-        if meta.get("env_name") != ENV_NAME:
-            raise PolicyLoadError(f"policy '{path}' was trained on env '{meta.get('env_name')}', this is '{ENV_NAME}'")
-        saved = [(str(n), int(s)) for n, s in meta["observation_layout"]]
-        index = observation_mapping(saved, spec.layout)
-        if layers[0][0].shape[1] != len(index):
-            raise PolicyLoadError(f"policy '{path}' expects {layers[0][0].shape[1]} inputs but its layout has {len(index)}")
-        if meta.get("activation") not in ACTIVATIONS:
-            raise PolicyLoadError(f"policy '{path}' uses unknown activation {meta.get('activation')!r}")
+        if meta["observation_version"] < OBS_VERSION:
+            warnings.warn(f"policy file '{path}' was trained on observation version {meta['observation_version']}, this "
+                          f"environment's is {OBS_VERSION}: its fields are matched by name and size, but one may mean "
+                          "something else now (docs/observation.md); re-train it to be sure", PolicyVersionWarning, stacklevel=2)
+        saved = [(n, s) for n, s in meta["observation_layout"]]
+        try:
+            index = observation_mapping(saved, spec.layout)
+        except PolicyLoadError as exc:
+            raise PolicyLoadError(f"policy file '{path}': {exc}") from None
         return cls(spec, layers, meta["activation"], index, meta)
 
     def forward(self, obs: np.ndarray) -> np.ndarray:

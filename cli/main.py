@@ -15,8 +15,10 @@ from __future__ import annotations
 
 import argparse
 import sys
+import warnings
 
 from petswarm_env.config import ConfigError, load_config, parse_override
+from petswarm_env.files import Terminated, check_output_path, exit_cleanly_on_signals
 
 
 class _Parser(argparse.ArgumentParser):
@@ -218,6 +220,8 @@ def _report(args, argv: list[str]) -> int:
 def _bench(args, argv: list[str]) -> int:
     from bench.run import bench_command
 
+    check_output_path(args.json, "--json")
+    check_output_path(args.md, "--md")
     return bench_command(args.quick, args.json, args.md)
 
 
@@ -226,6 +230,8 @@ def _reproduce(args, argv: list[str]) -> int:
     from experiments.reproduce import reproduce
 
     cfg = _env_config(args)
+    check_output_path(args.json, "--json")
+    check_output_path(args.report, "--report")
     seed = cfg.seed if args.seed is None else args.seed
     return reproduce(cfg, args.only or list(EXPERIMENTS), seed, args.quick, args.json, args.report, args.check,
                      "petswarm " + " ".join(argv))
@@ -235,14 +241,33 @@ def _reproduce(args, argv: list[str]) -> int:
 COMMANDS = {"run": _run, "train": _train, "eval": _eval, "report": _report, "bench": _bench, "reproduce": _reproduce}
 
 
+def _one_line(exc: BaseException) -> str:
+    text = " ".join(str(exc).split()) or type(exc).__name__
+    if isinstance(exc, OSError) and exc.filename is not None and str(exc.filename) not in text:
+        text = f"{text} ('{exc.filename}')"
+    return text
+
+
+def _warn_in_one_line(message, category, filename, lineno, file=None, line=None) -> None:
+    print(f"petswarm: warning: {' '.join(str(message).split())}", file=sys.stderr)
+
+
 def main(argv: list[str] | None = None) -> int:
+    """Parse, dispatch, and turn every error a user can cause into one line on stderr with exit
+    status 2; Ctrl-C exits 130, SIGTERM/SIGHUP 128 + the signal (after every temporary file is
+    removed: :func:`petswarm_env.files.exit_cleanly_on_signals`)."""
     argv = sys.argv[1:] if argv is None else argv
     args = build_parser().parse_args(argv)
     try:
-        return COMMANDS[args.command](args, argv)
+        with exit_cleanly_on_signals(), warnings.catch_warnings():
+            warnings.showwarning = _warn_in_one_line
+            return COMMANDS[args.command](args, argv)
     except (ConfigError, ValueError, RuntimeError, OSError) as exc:
-        print(f"petswarm: error: {exc}", file=sys.stderr)
+        print(f"petswarm: error: {_one_line(exc)}", file=sys.stderr)
         return 2
+    except Terminated as exc:
+        print(f"petswarm: {exc}", file=sys.stderr)
+        return exc.code
     except ImportError as exc:
         print(f"petswarm: error: {exc.name or exc} is not installed; set up the training stack with: bash scripts/setup.sh train", file=sys.stderr)
         return 2

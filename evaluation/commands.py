@@ -4,13 +4,14 @@
 from __future__ import annotations
 
 import os
+import sys
 from typing import Any
 
 from evaluation.evaluate import evaluate, format_table, parse_mix
 from evaluation.report import write_report
 from evaluation.runner import run
 from petswarm_env.config import Config, ConfigError
-from petswarm_env.files import write_json_atomic
+from petswarm_env.files import JsonLines, check_output_path, jsonl_path, write_json_atomic
 
 
 def format_run_table(result: dict[str, Any]) -> str:
@@ -32,13 +33,34 @@ def format_run_table(result: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
+def short_swarm_warnings(episodes: list[dict[str, Any]], required: int) -> list[str]:
+    """A warning line for every episode whose swarm organized short of ``swarm.num_slaves``
+    (``slaves_missing`` in its summary): its figures are not a full swarm's."""
+    return [
+        f"warning: episode with seed {e['seed']}{' (' + e['scenario'] + ')' if e.get('scenario') else ''}: "
+        f"{e['slaves_missing']} of {required} required slave(s) did not join (join retries {e['join_retries']}, "
+        f"organize {e['organize_time_s']:.2f} s); see protocol.max_retries and protocol.organize_timeout_s"
+        for e in episodes if e.get("slaves_missing")
+    ]
+
+
+def _warn_short(result: dict[str, Any], cfg: Config) -> None:
+    for line in short_swarm_warnings(result["episodes"], cfg.swarm.num_slaves):
+        print(line, file=sys.stderr)
+
+
 def run_command(cfg: Config, policy: str, episodes: int, seed: int | None, render: str | None, video: str | None,
                 json_out: str | None, quiet: bool) -> int:
     """``petswarm run``: the episodes, their table (or with ``quiet`` the summary line), the JSON
-    and the GIF."""
+    and the GIF. With ``json_out`` every finished episode is appended at once to the JSON Lines
+    file beside it (``OUT.jsonl``): a killed run keeps the episodes it finished."""
     if video and not video.lower().endswith(".gif"):
         raise ConfigError(f"--video must name a .gif file, got '{video}'")
-    result = run(cfg, policy, episodes, seed, render, video)
+    check_output_path(json_out, "--json")
+    check_output_path(video, "--video")
+    with JsonLines(jsonl_path(json_out) if json_out else None) as lines:
+        result = run(cfg, policy, episodes, seed, render, video, progress=lines.append)
+    _warn_short(result, cfg)
     if quiet:
         s = result["summary"]
         print(f"formation_rmse_m {s['formation_rmse_m']:.3f} collisions {s['collisions']}")
@@ -56,15 +78,22 @@ def eval_command(cfg: Config, policy: str, mix: list[str], scenarios: str | None
                  json_out: str | None, video_dir: str | None) -> int:
     """``petswarm eval``: ``policy`` (and the ``--mix ROBOT=POLICY`` items) on each of the
     comma-separated ``scenarios``; the table and the JSON, its GIF paths relative to the JSON file
-    (as the report expects)."""
+    (as the report expects), each finished episode appended at once to ``OUT.jsonl``."""
     names = [s.strip() for s in scenarios.split(",") if s.strip()] if scenarios else None
-    result = evaluate(cfg, policy, parse_mix(mix), names, episodes, seed, video_dir)
+    check_output_path(json_out, "--json")
+    check_output_path(video_dir, "--video-dir", folder=True)
+    base = os.path.dirname(os.path.abspath(json_out or "."))
+
+    def finished(ep: dict[str, Any]) -> None:
+        if "gif" in ep:
+            ep["gif"] = os.path.relpath(os.path.abspath(ep["gif"]), base)
+        lines.append(ep)
+
+    with JsonLines(jsonl_path(json_out) if json_out else None) as lines:
+        result = evaluate(cfg, policy, parse_mix(mix), names, episodes, seed, video_dir, on_episode=finished)
+    _warn_short(result, cfg)
     print(format_table(result))
     if json_out:
-        base = os.path.dirname(os.path.abspath(json_out))
-        for ep in result["episodes"]:
-            if "gif" in ep:
-                ep["gif"] = os.path.relpath(os.path.abspath(ep["gif"]), base)
         write_json_atomic(json_out, result)
         print(f"wrote {json_out}")
     return 0
@@ -72,6 +101,7 @@ def eval_command(cfg: Config, policy: str, mix: list[str], scenarios: str | None
 
 def report_command(results: list[str], out: str) -> int:
     """``petswarm report``: one HTML page comparing the result files."""
+    check_output_path(out, "--out")
     write_report(results, out)
     print(f"wrote {out}")
     return 0

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -52,8 +53,11 @@ def evaluate(
     episodes: int = 5,
     seed: int | None = None,
     video_dir: str | None = None,
+    on_episode: Callable[[dict[str, Any]], None] | None = None,
 ) -> dict[str, Any]:
-    """Run ``episodes`` seeds on each scenario; the same seeds for every policy, so results pair up."""
+    """Run ``episodes`` seeds on each scenario; the same seeds for every policy, so results pair up.
+    ``on_episode`` is called with each finished episode (``petswarm eval`` appends it to its JSON
+    Lines file)."""
     mix = mix or {}
     scenarios = scenarios or [config.user.scenario]
     bad = [s for s in scenarios if s not in SCENARIOS]
@@ -77,6 +81,8 @@ def evaluate(
                 ep["gif"] = recorder.close()
             ep.update({"scenario": scenario, "policy": label})
             eps.append(ep)
+            if on_episode:
+                on_episode(ep)
         env.close()
         mean, half, _ = mean_ci95([e["formation_rmse_m"] for e in eps])
         per_scenario[scenario] = {

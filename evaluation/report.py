@@ -66,7 +66,10 @@ def load_result(path: str | os.PathLike) -> dict[str, Any]:
         raise ValueError(f"{path}: not valid JSON (nested too deeply)") from None
     if not isinstance(data, dict):
         raise ValueError(f"{path}: expected a JSON object with an 'episodes' list, got {type(data).__name__}")  # noqa: TRY004 (bad file content)
-    episodes = data.get("episodes", [])
+    if "episodes" not in data:
+        keys = ", ".join(sorted(map(str, data))[:5]) or "none"
+        raise ValueError(f"{path}: has no 'episodes' list (its keys: {keys}); pass the JSON of petswarm run or petswarm eval")
+    episodes = data["episodes"]
     if episodes is None:
         episodes = []
     if not isinstance(episodes, list):

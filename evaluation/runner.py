@@ -89,6 +89,7 @@ def summarize(episodes: list[dict[str, Any]]) -> dict[str, Any]:
         "robot_robot_collisions": sum(e["collisions"]["robot_robot"] for e in episodes),
         "organize_time_s": sum(e["organize_time_s"] for e in episodes) / n if n else math.nan,
         "join_retries": sum(e["join_retries"] for e in episodes),
+        "slaves_missing": sum(e.get("slaves_missing", 0) for e in episodes),
     }
 
 

@@ -11,13 +11,16 @@ from __future__ import annotations
 
 import copy
 import math
+import typing
 from collections.abc import Mapping
 from importlib import resources
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
+import numpy as np
 import yaml
-from pydantic import AfterValidator, BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import (AfterValidator, BaseModel, ConfigDict, Field, ValidationError, ValidationInfo, field_validator,
+                      model_validator)
 from pydantic_core import PydanticCustomError
 
 from petswarm_env.scenarios import SCENARIOS  # the registry (the scenarios import nothing of the package)
@@ -44,10 +47,39 @@ class ConfigError(ValueError):
     """A configuration key or value is wrong; the message says which and how to fix it."""
 
 
-class Section(BaseModel):
-    """A config section: unknown keys are refused, values are frozen once validated."""
+def _wants_number_only(annotation: Any) -> bool:
+    """Whether a field's type holds numbers (int or float, inside tuples and lists too) and no
+    boolean and nothing of any type: a boolean given there is a mistake, not 0 or 1."""
+    if annotation is bool or annotation is Any:
+        return False
+    if annotation in (int, float):
+        return True
+    args = [a for a in typing.get_args(annotation) if a is not Ellipsis and a is not type(None)]  # Optional[int] too
+    if typing.get_origin(annotation) is Annotated:
+        args = args[:1]
+    return bool(args) and all(_wants_number_only(a) for a in args)
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
+
+def _holds_bool(value: Any) -> bool:
+    if isinstance(value, (list, tuple)):
+        return any(_holds_bool(v) for v in value)
+    return isinstance(value, (bool, np.bool_))
+
+
+class Section(BaseModel):
+    """A config section: unknown keys are refused, values are frozen once validated. A float
+    must be finite (no NaN, no infinity), and a boolean is not a number (pydantic's lax mode
+    would read ``true`` as 1)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+
+    @field_validator("*", mode="before")
+    @classmethod
+    def _no_bool_for_numbers(cls, value: Any, info: ValidationInfo) -> Any:
+        field = cls.model_fields.get(info.field_name or "")
+        if field is not None and _holds_bool(value) and _wants_number_only(field.annotation):
+            raise PydanticCustomError("bool_not_number", "a boolean is not a number here; give a number")
+        return value
 
 
 class BoxObstacle(Section):
@@ -62,12 +94,34 @@ class WorldConfig(Section):
     user_spacing_m: float = Field(gt=0, description="distance between the users' start positions (along y)")
     collision_slop_m: float = Field(gt=0, description="overlap of two bodies in contact that the physics leaves uncorrected (m; pymunk's collision_slop)")
 
+    @model_validator(mode="after")
+    def _check_arena(self) -> WorldConfig:
+        w, h = self.arena_m
+        if w < 0 or h < 0 or (w == 0) != (h == 0):
+            raise ValueError(f"world.arena_m must be [0, 0] (no walls) or a width and a height > 0 m, got [{w:g}, {h:g}]")
+        for i, box in enumerate(self.obstacles):
+            (cx, cy), (bw, bh) = box.center_m, box.size_m
+            if bw <= 0 or bh <= 0:
+                raise ValueError(f"world.obstacles[{i}].size_m must be a width and a height > 0 m, got [{bw:g}, {bh:g}]")
+            if w > 0 and (abs(cx) + bw / 2 > w / 2 or abs(cy) + bh / 2 > h / 2):
+                raise ValueError(
+                    f"world.obstacles[{i}] (centre [{cx:g}, {cy:g}], size [{bw:g}, {bh:g}] m) reaches outside the "
+                    f"{w:g} x {h:g} m arena (world.arena_m, centred on the origin); move the box or make the arena larger")
+        return self
+
 
 class UltrasonicConfig(Section):
     count: int = Field(ge=0, le=32)
     min_range_m: float = Field(ge=0)
     max_range_m: float = Field(gt=0)
     noise_m: float = Field(ge=0)
+
+    @model_validator(mode="after")
+    def _check_ranges(self) -> UltrasonicConfig:
+        if self.min_range_m >= self.max_range_m:
+            raise ValueError(f"robot.ultrasonic.min_range_m ({self.min_range_m:g}) must be less than "
+                             f"robot.ultrasonic.max_range_m ({self.max_range_m:g})")
+        return self
 
 
 class RobotConfig(Section):
@@ -141,6 +195,13 @@ class UserConfig(Section):
     turn_rate_dps: float = Field(gt=0)
     start_delay_s: float = Field(ge=0)
 
+    @model_validator(mode="after")
+    def _check_speeds(self) -> UserConfig:
+        if self.run_speed_mps < self.walk_speed_mps:
+            raise ValueError(f"user.run_speed_mps ({self.run_speed_mps:g}) must be at least user.walk_speed_mps "
+                             f"({self.walk_speed_mps:g})")
+        return self
+
 
 class MasterConfig(Section):
     distance_m: float = Field(gt=0, description="standard distance to the user (seed 000 §3.6.2)")
@@ -186,6 +247,12 @@ class RenderConfig(Section):
     pixels_per_m: float = Field(gt=0)
     size_px: tuple[int, int]
 
+    @model_validator(mode="after")
+    def _check_size(self) -> RenderConfig:
+        if min(self.size_px) < 1 or max(self.size_px) > 8192:
+            raise ValueError(f"render.size_px must be a width and a height from 1 to 8192 pixels, got {list(self.size_px)}")
+        return self
+
 
 class IRConfig(Section):
     """The IR relative-location module (seed 000 §3.3; calibrated to Table 4)."""
@@ -204,6 +271,13 @@ class IRConfig(Section):
     detect_threshold: float = Field(gt=0, description="Strongest reading below this (ADC units) means no detection.")
     occlusion_attenuation: float = Field(ge=0, le=1, description="Factor on the optical signal when a body blocks the line of sight.")
     max_range_m: float = Field(gt=0, description="Sources farther than this (m) contribute no signal, only receiver noise.")
+
+    @model_validator(mode="after")
+    def _check_levels(self) -> IRConfig:
+        if self.detect_threshold >= self.saturation:
+            raise ValueError(f"ir.detect_threshold ({self.detect_threshold:g}) must be below ir.saturation "
+                             f"({self.saturation:g}), the ADC ceiling, or nothing is ever detected")
+        return self
 
     @property
     def spacing_rad(self) -> float:
@@ -237,6 +311,9 @@ class LFConfig(Section):
     def _check_ranges(self) -> LFConfig:
         if self.table_max_m <= self.table_min_m:
             raise ValueError("lf.table_max_m must be greater than lf.table_min_m")
+        if self.table_step_m > self.table_max_m - self.table_min_m:
+            raise ValueError(f"lf.table_step_m ({self.table_step_m:g}) must not exceed the table's span, "
+                             "lf.table_max_m - lf.table_min_m")
         hearing = self.hearing_range_m
         if hearing < self.reliable_range_m:
             raise ValueError(
@@ -355,7 +432,11 @@ class Config(Section):
     @model_validator(mode="after")
     def _check_consistency(self) -> Config:
         if self.radio.max_be < self.radio.min_be:
-            raise ValueError("radio.max_be must be >= radio.min_be")
+            raise ValueError(f"radio.max_be ({self.radio.max_be}) must be at least radio.min_be ({self.radio.min_be})")
+        if self.control.safety_stop_m >= self.robot.ultrasonic.max_range_m:
+            raise ValueError(f"control.safety_stop_m ({self.control.safety_stop_m:g}) must be less than "
+                             f"robot.ultrasonic.max_range_m ({self.robot.ultrasonic.max_range_m:g}): the ring must see "
+                             "an obstacle before the robot has to stop")
         if self.swarm.formation == "custom" and not self.swarm.custom_links:
             raise ValueError("swarm.formation 'custom' needs swarm.custom_links (robot, neighbour, offset_m)")
         return self
@@ -371,11 +452,16 @@ def default_config_path() -> Path:
 def read_yaml(path: str | Path) -> dict[str, Any]:
     path = Path(path)
     if not path.is_file():
-        raise ConfigError(f"config file '{path}' does not exist; pass an existing YAML file")
+        what = "is a folder" if path.is_dir() else "does not exist"
+        raise ConfigError(f"config file '{path}' {what}; pass an existing YAML file")
     try:
-        data = yaml.safe_load(path.read_text())
+        data = yaml.safe_load(path.read_text(encoding="utf-8"))
     except yaml.YAMLError as exc:
-        raise ConfigError(f"config file '{path}' is not valid YAML: {exc}".replace("\n", " ")) from None
+        raise ConfigError(" ".join(f"config file '{path}' is not valid YAML: {exc}".split())) from None
+    except UnicodeDecodeError:
+        raise ConfigError(f"config file '{path}' is not UTF-8 text; pass a YAML file") from None
+    except OSError as exc:
+        raise ConfigError(f"config file '{path}' cannot be read ({exc.strerror or exc})") from None
     if data is None:
         return {}
     if not isinstance(data, dict):
@@ -433,13 +519,22 @@ def nest_dotted(overrides: Mapping[str, Any]) -> dict[str, Any]:
     return nested
 
 
+def describe_value(value: Any, limit: int = 60) -> str:
+    """A value a user gave, for a one-line error message: its type and a short repr."""
+    text = repr(value)
+    return f"{type(value).__name__} {text if len(text) <= limit else text[:limit - 3] + '...'}"
+
+
 def format_validation_error(exc: ValidationError) -> str:
     err = exc.errors()[0]
     loc = ".".join(str(p) for p in err["loc"]) or "(config)"
     msg = err["msg"]
     if err["type"] == "extra_forbidden":
         return f"unknown config key '{loc}'"
-    if not err["loc"]:  # a rule across keys (model validator): the message names the keys
+    if err["type"] == "finite_number":
+        msg = "must be a finite number (NaN and infinity are not allowed)"
+    if not err["loc"] or (err["type"] == "value_error" and isinstance(err.get("input"), Mapping)):
+        # a rule across keys (a model validator of the config or of a section): the message names the keys
         return f"bad config: {msg.removeprefix('Value error, ')}"
     return f"bad config value for '{loc}': {msg} (got {err.get('input')!r})"
 

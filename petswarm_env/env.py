@@ -15,7 +15,9 @@ medium and the IR channel (:mod:`petswarm_env.comms`), the fleet with a swarm pe
 (:mod:`petswarm_env.control`) and the sensors (:mod:`petswarm_env.sim.sensors`); then it runs, on
 the clock, the pairing, the user's start-up commands (driving mode, then organize — in leading mode
 after the master shifted to its place) and the join protocol (its duration and retries are in
-``organize_summary()``); the agents are the robots that joined. Each ``step(actions)``
+``organize_summary()``; a swarm that organized short of ``swarm.num_slaves`` says by how many in
+``infos[agent]["slaves_missing"]`` and the episode summary's ``slaves_missing``); the agents are
+the robots that joined. Each ``step(actions)``
 passes every robot's command through its arbiter (safety > user > policy, seed 001), runs the clock
 for one control period (0.1 s), reads the sensors, then asks the experimenter
 (:mod:`petswarm_env.metrics`: ground truth) for errors and contacts, computes the rewards
@@ -43,7 +45,7 @@ from pettingzoo import ParallelEnv
 
 from petswarm_env.comms.ir_channel import IRChannel
 from petswarm_env.comms.radio import RadioMedium
-from petswarm_env.config import Config, flatten_dotted, load_config
+from petswarm_env.config import Config, describe_value, flatten_dotted, load_config
 from petswarm_env.control.arbiter import ControlArbiter, SafetyStage
 from petswarm_env.metrics import Experimenter
 from petswarm_env.middleware.formation import formation_for_mode, user_position_in_formation
@@ -63,8 +65,10 @@ SWARM_PAN = 0x1001  # user u's swarm uses PAN SWARM_PAN + u
 WAKE_PATTERN = 0x5A00  # user u's belt and robot share the LF wake-up pattern WAKE_PATTERN + u
 # every agent's infos, at reset and at every step: flat, numeric, always these keys (the value of an
 # agent that has no such figure yet): its member number, its true formation error (m), the contacts it
-# began this step, 1 on the step it joined (the old master after a mode change), else 0
-INFO_DEFAULTS: dict[str, float | int] = {"member": -1, "formation_error_m": 0.0, "new_contacts": 0, "joined": 0}
+# began this step, 1 on the step it joined (the old master after a mode change), else 0, and how many of
+# the required slaves its swarm lacked when it organized (Swarm.slaves_missing)
+INFO_DEFAULTS: dict[str, float | int] = {"member": -1, "formation_error_m": 0.0, "new_contacts": 0, "joined": 0,
+                                         "slaves_missing": 0}
 
 
 class PetSwarmEnv(ParallelEnv):
@@ -108,18 +112,27 @@ class PetSwarmEnv(ParallelEnv):
 
     # -- PettingZoo API --------------------------------------------------------------------------
     def observation_space(self, agent: str) -> gymnasium.spaces.Box:
+        if agent not in self._possible:
+            raise KeyError(self._unknown_agent(agent))
         return self._obs_space
 
     def action_space(self, agent: str) -> gymnasium.spaces.Box:
+        if agent not in self._possible:
+            raise KeyError(self._unknown_agent(agent))
         return self._act_space
+
+    def _unknown_agent(self, agent: Any) -> str:
+        return f"{agent!r} is not an agent of this env; the possible agents are {', '.join(self.possible_agents)}"
 
     def reset(self, seed: int | None = None, options: dict | None = None):
         if seed is not None:
+            seed = _checked_seed(seed)
             self._seed_seq = np.random.SeedSequence(seed)
         elif self._seed_seq is None:
             self._seed_seq = np.random.SeedSequence(self.cfg.seed)
         streams = self._seed_seq.spawn(1)[0].spawn(7)
         self._build(*(np.random.default_rng(s) for s in streams))
+        self._check_inside_arena()
         self._organize()
         world = self.world
         for arb in self.arbiters.values():  # the episode's counts start now
@@ -137,6 +150,7 @@ class PetSwarmEnv(ParallelEnv):
             user.walking = True
         self.num_cycles = 0
         observations = self.observer.observe(self.agents, self._last_action, world.now)
+        self._missing_by_pan = {sw.pan: sw.slaves_missing() for sw in self.swarms}  # as organized (metrics.py's figure)
         errors, _ = self.experimenter.formation_errors(self.agents)
         infos = {a: self._info(a, errors.get(a, 0.0), 0, 0) for a in self.agents}
         if self.render_mode == "human":
@@ -172,11 +186,28 @@ class PetSwarmEnv(ParallelEnv):
             self.sessions.append(session)
         self.swarm, self.session = self.swarms[0], self.sessions[0]
         for robot, ss in zip(world.robots, rng_world.spawn(len(world.robots))):
-            robot.ahrs.rng = ss
+            robot.ahrs.power_on(ss, world.now)  # own power-on heading: no shared frame (seed 000 §3.5)
         safety = SafetyStage(cfg.robot.ultrasonic.count, cfg.control.safety_stop_m, cfg.control.safety_backoff_mps,
                              cfg.robot.max_accel_mps2) if cfg.control.safety_layer else None
         self.arbiters = {r.index: ControlArbiter(safety) for r in world.robots}
         self.sensors = Sensors(world, cfg.robot, rng_sensors)  # reads every robot's ultrasonic ring
+
+    def _check_inside_arena(self) -> None:
+        """Every robot and user starts inside the arena's walls (world.arena_m; boxes are checked
+        with the config), or the episode would start with bodies outside or inside a wall."""
+        w, h = self.cfg.world.arena_m
+        if w <= 0 or h <= 0:
+            return
+        bodies = [(f"robot_{r.index}", r.position, self.cfg.robot.radius_m) for r in self.world.robots]
+        bodies += [(f"user {u.index}", u.position, self.cfg.user.radius_m) for u in self.world.users]
+        for name, (x, y), r in bodies:
+            if abs(x) + r > w / 2 or abs(y) + r > h / 2:
+                xs = [abs(p[0]) + q for _, p, q in bodies]
+                ys = [abs(p[1]) + q for _, p, q in bodies]
+                raise ValueError(
+                    f"{name} starts at ({x:.2f}, {y:.2f}) m, outside the walls of the {w:g} x {h:g} m arena (world.arena_m, "
+                    f"centred on the origin); this start needs at least {2 * max(xs):.1f} x {2 * max(ys):.1f} m: "
+                    "set a larger world.arena_m, or [0, 0] for no walls")
 
     def _organize(self) -> None:
         """Run the clock through each user's start-up (pairing, the driving mode, organize; seed
@@ -296,8 +327,9 @@ class PetSwarmEnv(ParallelEnv):
     # -- per step --------------------------------------------------------------------------------
     def _info(self, agent: str, error_m: float, contacts: int, joined: int) -> dict[str, float | int]:
         """One agent's infos (the keys of :data:`INFO_DEFAULTS`)."""
-        return {"member": self.fleet.nodes[self._agent_index[agent]].know.member, "formation_error_m": error_m,
-                "new_contacts": contacts, "joined": joined}
+        node = self.fleet.nodes[self._agent_index[agent]]
+        return {"member": node.know.member, "formation_error_m": error_m, "new_contacts": contacts, "joined": joined,
+                "slaves_missing": self._missing_by_pan.get(node.swarm_pan, 0)}
 
     def _validate(self, actions: dict[str, Any]) -> dict[str, np.ndarray]:
         if not isinstance(actions, dict):
@@ -305,12 +337,15 @@ class PetSwarmEnv(ParallelEnv):
         unknown = set(actions) - set(self.agents)
         if unknown:
             raise KeyError(f"actions for agents not in the episode: {sorted(unknown)}; live agents: {self.agents}")
-        # the common case in one numpy pass: an action for every agent, all finite, shape (3,)
+        # the common case in one numpy pass: a float array for every agent, all finite, shape (3,)
         if len(actions) == len(self.agents):
-            try:
-                arr = np.array([actions[a] for a in self.agents], dtype=np.float32)
-            except (ValueError, TypeError):
-                arr = None
+            values = [actions[a] for a in self.agents]
+            arr = None
+            if all(type(v) is np.ndarray and v.dtype.kind == "f" for v in values):
+                try:
+                    arr = np.array(values, dtype=np.float32)
+                except ValueError:  # ragged shapes: the loop below names the agent
+                    arr = None
             if arr is not None and arr.shape == (len(self.agents), 3) and np.isfinite(arr).all():
                 np.clip(arr, -1.0, 1.0, out=arr)
                 return dict(zip(self.agents, arr))
@@ -320,7 +355,13 @@ class PetSwarmEnv(ParallelEnv):
             if a is None:
                 out[agent] = np.zeros(3, np.float32)  # a missing action means "stand still"
                 continue
-            arr = np.asarray(a, dtype=np.float32)
+            try:
+                raw = np.asarray(a)
+            except ValueError:  # ragged nested sequences
+                raw = None
+            if raw is None or raw.dtype.kind not in "iuf":
+                raise ValueError(f"action of {agent} must be 3 numbers (Vx, Vy, ω) in [-1, 1], got {describe_value(a)}")
+            arr = raw.astype(np.float32)
             if arr.shape != (3,):
                 raise ValueError(f"action of {agent} must have shape (3,) = (Vx, Vy, ω) in [-1, 1], got shape {arr.shape}")
             if not np.all(np.isfinite(arr)):
@@ -370,12 +411,24 @@ class PetSwarmEnv(ParallelEnv):
 
     def organize_summary(self) -> list[dict[str, Any]]:
         """How each user's swarm organized in this episode's reset (the join protocol, seed 000
-        §3.4): ``organize_time_s``, ``join_retries`` and ``members`` (member number -> robot index)."""
+        §3.4): ``organize_time_s``, ``join_retries``, ``members`` (member number -> robot index) and
+        ``slaves_missing`` (the required slaves that did not join)."""
         if self.world is None:
             raise RuntimeError("call reset() before organize_summary()")
         return [{"user": u, "organize_time_s": sw.organize_result.elapsed_s, "join_retries": sw.organize_result.retries,
-                 "members": dict(sw.organize_result.members)} for u, sw in enumerate(self.swarms)]
+                 "members": dict(sw.organize_result.members), "slaves_missing": self._missing_by_pan[sw.pan]}
+                for u, sw in enumerate(self.swarms)]
 
     def scene(self):
         """A plain description of the current truth for the renderer (:meth:`.metrics.Experimenter.scene`)."""
         return self.experimenter.scene(self.scenario, self.num_cycles)
+
+
+def _checked_seed(seed: Any) -> int:
+    """``reset``'s seed: an integer ≥ 0 (Python or numpy; a boolean is not a seed)."""
+    if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)):
+        raise TypeError(f"reset(seed=...) takes an integer >= 0 or None, got {describe_value(seed)}")
+    if seed < 0:
+        raise ValueError(f"reset(seed=...) takes an integer >= 0 or None, got {int(seed)}")
+    return int(seed)
+

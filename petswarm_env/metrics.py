@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 import numpy as np
 
 from petswarm_env.control.arbiter import SOURCES
+from petswarm_env.observe import AGE_SCALE_S
 from petswarm_env.render import RobotView, Scene
 from petswarm_env.sim.geometry import wrap_angle
 
@@ -39,6 +40,8 @@ class EpisodeMetrics:
     steps: int = 0
     organize_time_s: float = math.nan
     join_retries: int = 0
+    slaves_missing: int = 0  # required minus joined when the swarms organized, over every swarm
+    stale_fix_s: float = 0.0  # slave time with no IR fix of any reference neighbour within AGE_SCALE_S
     error_trace: list[float] = field(default_factory=list)  # mean formation error per step (m)
 
     def add_step(self, errors_m: list[float]) -> None:
@@ -78,8 +81,10 @@ class Experimenter:
         self._collisions_at_start = (c.robot_robot, c.robot_user, c.robot_wall)
         self._events_at_start = self.event_counts()
         self.metrics = EpisodeMetrics(organize_time_s=swarms[0].organize_result.elapsed_s,
-                                      join_retries=sum(sw.organize_result.retries for sw in swarms))
+                                      join_retries=sum(sw.organize_result.retries for sw in swarms),
+                                      slaves_missing=sum(sw.slaves_missing() for sw in swarms))
         self._radio_at_start = (st.frames_sent, st.frames_lost, st.frames_collided)
+        self._start_s = world.now
 
     # -- reference points and errors -------------------------------------------------------------
     def reference_positions(self) -> dict[int, np.ndarray]:
@@ -153,7 +158,23 @@ class Experimenter:
             heads.append(heading_errs.get(agent, 0.0))
             contacts.append(new_contacts)
         self.metrics.add_step(list(errors.values()))
+        self.metrics.stale_fix_s += self.cfg.control_period_s * self.stale_fixes(agents)
         return SlaveTruth(errors, errs, heads, contacts)
+
+    def stale_fixes(self, agents: list[str]) -> int:
+        """How many of ``agents`` have no IR fix of any reference neighbour younger than the
+        observation's age range (``observe.AGE_SCALE_S``; none yet counts from the episode's start):
+        a slave that cannot know where its neighbours are (the scripted one then only moves with the
+        swarm, :mod:`baselines.leader_follower`)."""
+        now, nodes, stale = self.world.now, self.fleet.nodes, 0
+        oldest = now - AGE_SCALE_S
+        for agent in agents:
+            node = nodes[self.agent_index[agent]]
+            irs, members = node.know.ir, node.know.members
+            times = [irs[nb].time_s for nb in (members.get(lk.neighbour) for lk in node.reference_links()) if nb in irs]
+            if max(times, default=self._start_s) < oldest:
+                stale += 1
+        return stale
 
     # -- counts and the summary ------------------------------------------------------------------
     def event_counts(self) -> dict[str, Any]:
@@ -191,6 +212,8 @@ class Experimenter:
             },
             "organize_time_s": m.organize_time_s,
             "join_retries": m.join_retries,
+            "slaves_missing": m.slaves_missing,
+            "stale_fix_s": round(m.stale_fix_s, 6),
             "token_recoveries": now["token_recoveries"],
             "frames": {"sent": st.frames_sent - r0[0], "lost": st.frames_lost - r0[1], "collided": st.frames_collided - r0[2]},
             "foreign_pan_frames_processed": events["foreign_pan_frames_processed"],

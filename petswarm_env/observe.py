@@ -70,18 +70,18 @@ FIELDS: list[Field] = [
     *[f for k in range(MAX_LINKS) for f in _link_fields(k)],
     Field("master.valid", 1, "0/1", "a master status broadcast has been received"),
     Field("master.age", 1, "s / 1, clipped to 1", "age of the last master broadcast", (0.0, 1.0), "an age ≥ 0, clipped to 1"),
-    Field("master.velocity", 3, "/ (v_max, v_max, ω_max)", "master's (Vx, Vy, ω) in its body frame, as broadcast",
-          (-CLIP, CLIP), f"clipped to ±{CLIP} (the achieved velocity stays within the wheel limits unless pushed)"),
+    Field("master.velocity", 3, "/ (v_max, v_max, ω_max)", "master's (Vx, Vy, ω) in its body frame, as broadcast: what its own wheel odometry measured (noisy like self.odometry)",
+          (-CLIP, CLIP), f"clipped to ±{CLIP} (the master's achieved velocity times 1 + Gaussian noise)"),
     Field("master.activity", len(ACTIVITIES), "one-hot", "user activity broadcast by the master: " + ", ".join(ACTIVITIES)),
     Field("master.rotating", 1, "0/1", "user rotation flag of the smart belt, as broadcast (seed 002 §3.4)"),
     Field("master.turn_rate", 1, "/ ω_max", "user angular speed from the belt's filtered gyro, as broadcast (rad/s, CCW +)",
           (-CLIP, CLIP), f"clipped to ±{CLIP} (a filtered gyro with noise and bias)"),
-    Field("master.leading", 1, "0/1", "driving mode: 1 = leading, 0 = following"),
+    Field("master.leading", 1, "0/1", "the swarm's driving mode as the joining notification and the last mode-change frame said: 1 = leading, 0 = following"),
     Field("master.user_xy", 2, f"m / {POS_SCALE_M}", "user position relative to the master, master's frame, as broadcast",
           (-USER_CLIP, USER_CLIP), f"clipped to ±{USER_CLIP} ({USER_CLIP * POS_SCALE_M:g} m; the master's track of a user out of LF range drifts)"),
     Field("self.odometry", 3, "/ (v_max, v_max, ω_max)", "own wheel-odometry (Vx, Vy, ω), body frame",
           (-CLIP, CLIP), f"clipped to ±{CLIP} (the achieved velocity times 1 + Gaussian noise)"),
-    Field("self.yaw_sincos", 2, "-", "own AHRS yaw (noisy, drifting)", (-1.0, 1.0), "a unit vector"),
+    Field("self.yaw_sincos", 2, "-", "own AHRS yaw (noisy, drifting), counted from its own power-on heading: a random angle per robot and episode, so only its changes (own rotation) mean something, never a direction in the world", (-1.0, 1.0), "a unit vector"),
     Field("self.last_action", 3, "[-1, 1]", "the action applied last step", (-1.0, 1.0), "actions are clipped to [-1, 1]"),
     Field("self.offset_from_master_xy", 2, f"m / {POS_SCALE_M}", "own reference position relative to the master, formation frame (from the neighbour table)",
           "slot", "± the largest extent along an axis of any neighbour table of the configured shape (2 … num_slaves + 1 members, "
@@ -263,6 +263,7 @@ def build_observation(layout: ObservationLayout, readings: Readings, out: np.nda
                 v[base + 10] = 1.0
     (i, activity, rotating, turn_rate, leading, user_xy, odo, yaw, last, offset, us,
      hierarchy, members_at, member_at) = layout._starts
+    v[leading] = 1.0 if know.mode == "leading" else 0.0  # from the joining / mode-change frames
     st = know.status
     if st is not None:
         age = now - st.time_s  # / 1.0
@@ -276,7 +277,6 @@ def build_observation(layout: ObservationLayout, readings: Readings, out: np.nda
         v[activity + _ACTIVITY_INDEX[st.activity]] = 1.0
         v[rotating] = 1.0 if st.user_rotating else 0.0
         v[turn_rate] = _clip(st.user_turn_rate_rps / wmax, CLIP)
-        v[leading] = 1.0 if st.mode == "leading" else 0.0
         v[user_xy] = _clip(ux / POS_SCALE_M, USER_CLIP)
         v[user_xy + 1] = _clip(uy / POS_SCALE_M, USER_CLIP)
     else:

@@ -358,6 +358,7 @@ def build_observation(layout: ObservationLayout, r: Readings) -> list[float]:
             v[base + 10] = 1.0
     st = know.status
     i = o["master.valid"]
+    v[o["master.leading"]] = 1.0 if know.mode == "leading" else 0.0  # from the joining / mode-change frames
     if st is not None:
         v[i] = 1.0
         v[i + 1] = clip_age(now - st.time_s, 1.0)
@@ -367,7 +368,6 @@ def build_observation(layout: ObservationLayout, r: Readings) -> list[float]:
         v[o["master.activity"] + ACTIVITIES.index(st.activity)] = 1.0
         v[o["master.rotating"]] = 1.0 if st.user_rotating else 0.0
         v[o["master.turn_rate"]] = st.user_turn_rate_rps / wmax
-        v[o["master.leading"]] = 1.0 if st.mode == "leading" else 0.0
         j = o["master.user_xy"]
         v[j] = st.user_position_m[0] / POS_SCALE_M
         v[j + 1] = st.user_position_m[1] / POS_SCALE_M

@@ -13,8 +13,9 @@ from stable_baselines3.common.callbacks import BaseCallback
 from baselines.policy import PolicySpec
 from evaluation.evaluate import mean_formation_rmse
 from petswarm_env.env import PetSwarmEnv
-from petswarm_env.files import write_atomic, write_json_atomic
+from petswarm_env.files import write_json_atomic
 from petswarm_env.observe import ObservationLayout
+from training.checkpoint import checkpoint_path, save_checkpoint
 from training.config import TrainConfig
 from training.export import export_policy, learned_policy
 
@@ -36,7 +37,7 @@ def policy_info(cfg: TrainConfig, log: dict[str, Any], algorithm: str = "PPO (st
 
 
 class PeriodicCallback(BaseCallback):
-    """Every ``cfg.checkpoint.every_steps`` agent-steps a checkpoint (``checkpoints/latest.zip``,
+    """Every ``cfg.checkpoint.every_steps`` agent-steps a checkpoint (``checkpoints/latest.npz``,
     ``policy.npz`` and ``train_log.json`` in ``out``, each written atomically); every
     ``cfg.eval.every_steps`` an evaluation of the current actor on the evaluation seeds, logged
     beside the scripted reference's RMSE (``log["scripted_eval_rmse_m"]``) to ``log["evaluations"]``
@@ -67,7 +68,7 @@ class PeriodicCallback(BaseCallback):
         log = self.train_log
         log["timesteps"] = int(self.num_timesteps)
         log["wall_time_s"] = log["wall_time_before_s"] + time.time() - log["_start"]
-        write_atomic(self.out / "checkpoints" / "latest.zip", self.model.save)
+        save_checkpoint(checkpoint_path(self.out), self.model, self.cfg.ppo.activation, list(self.cfg.ppo.net_arch))
         export_policy(self.model, self.out / "policy.npz", self.layout, self.cfg.ppo.activation, policy_info(self.cfg, log))
         write_json_atomic(self.out / "train_log.json", public_log(log))
 

@@ -19,6 +19,7 @@ from petswarm_env.config import (
     Section,
     Config,
     ConfigError,
+    flatten_dotted,
     format_validation_error,
     load_config,
     merge_mappings,
@@ -98,10 +99,12 @@ class TrainConfig(Section):
         return list(range(self.eval.seed, self.eval.seed + self.eval.episodes))
 
 
-def load_train_config(path: str | os.PathLike | None = None, overrides: dict[str, Any] | None = None) -> TrainConfig:
-    """Defaults from configs/train/ppo.yaml, then ``path``, then dotted overrides; validated.
-    Keys under ``env.`` are checked against the environment config too."""
-    data = read_yaml(DEFAULT_TRAIN_CONFIG)
+def load_train_config(path: str | os.PathLike | None = None, overrides: dict[str, Any] | None = None,
+                      base: str | os.PathLike | None = None) -> TrainConfig:
+    """Defaults from configs/train/ppo.yaml (or the complete config ``base``: a run's
+    train_config.yaml when it resumes), then ``path``, then dotted overrides; validated. Keys
+    under ``env.`` are checked against the environment config too."""
+    data = read_yaml(DEFAULT_TRAIN_CONFIG if base is None else base)
     if path is not None:
         user = read_yaml(path)
         env_user = user.pop("env", None)
@@ -117,5 +120,32 @@ def load_train_config(path: str | os.PathLike | None = None, overrides: dict[str
         cfg = TrainConfig.model_validate(data)
     except ValidationError as exc:
         raise ConfigError(format_validation_error(exc)) from None
-    cfg.env_config()  # validates the env overrides (unknown key / bad value -> ConfigError)
+    try:
+        cfg.env_config()  # validates the env overrides (unknown key / bad value -> ConfigError)
+    except ConfigError as exc:
+        raise ConfigError(f"{exc} (in env: of the training config, e.g. --set env.KEY=VALUE)") from None
     return cfg
+
+
+# keys a resumed run may change (its schedule and its budget); every other key stays the run's own
+# what a resumed run may change: its budget, its schedules, and where it runs (processes, RLlib env runners)
+RESUMABLE = ("timesteps", "checkpoint.every_steps", "eval.every_steps", "num_cpus", "rllib.num_env_runners",
+             "rllib.sample_timeout_s")
+
+
+def resume_changes(saved: TrainConfig, requested: TrainConfig, out: str | os.PathLike) -> dict[str, dict[str, Any]]:
+    """The keys in which ``requested`` differs from the run's ``saved`` config, as ``{key: {"from":
+    old, "to": new}}``; a :class:`ConfigError` naming the key if one of them may not change on
+    resume (:data:`RESUMABLE`)."""
+    old, new = flatten_dotted(saved.model_dump(mode="json")), flatten_dotted(requested.model_dump(mode="json"))
+    changes = {}
+    for key in sorted(set(old) | set(new)):
+        if old.get(key) == new.get(key):
+            continue
+        if key not in RESUMABLE:
+            raise ConfigError(
+                f"cannot resume '{out}' with {key}={new.get(key)!r}: the run was trained with {old.get(key)!r} and a resumed run "
+                f"keeps its config; on --resume only {', '.join(RESUMABLE)} may change (start a new run with another --out "
+                f"to change {key})")
+        changes[key] = {"from": old.get(key), "to": new.get(key)}
+    return changes

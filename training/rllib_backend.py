@@ -10,12 +10,15 @@ clip, epochs, minibatch, the actor/critic layers and activation, the initial log
 evaluations and checkpoints, ``rllib:`` sets the env runners. The run folder is the SB3 one's::
 
     train_config.yaml, env_config.yaml, train_log.json, tb/rllib/ (TensorBoard),
-    policy.npz (baselines/learned.py's format), checkpoints/latest.npz + latest.json
+    policy.npz (baselines/learned.py's format), checkpoints/latest.npz
 
-The checkpoint is weights only: the module's arrays (actor, critic and heads, ``get_state()``) in
-an ``.npz`` read with ``allow_pickle=False`` and a JSON record; RLlib's own checkpoints (which
-unpickle ``class_and_ctor_args.pkl``) are not written. ``--resume`` reloads the weights; the
-optimizer's moments start afresh.
+The checkpoint is training/checkpoint.py's file, weights only: the module's arrays (actor, critic
+and heads, ``get_state()``) as ``policy:<name>`` and the JSON state record with ``backend:
+rllib``, read as numbers only (:func:`training.checkpoint.restore_weights`); RLlib's own
+checkpoints (which unpickle ``class_and_ctor_args.pkl``) are not written. ``--resume`` follows the
+SB3 back end's rules (:func:`training.train.open_run`: the run's own config, only the resumable
+keys changed, a finished run writes nothing) and reloads the weights; the optimizer's moments
+start afresh.
 
 Ray runs locally by default, bound to the loopback interface (:func:`start_ray`: Ray treats the
 machine as a lone node and takes 127.0.0.1 as every address, checked after the start); ``address``
@@ -30,12 +33,10 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
 LOOPBACK = "127.0.0.1"
 POLICY_ID = "shared"
 ENV_ID = "petswarm_fixed_agents"
-CHECKPOINT = "latest.npz"
 os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")  # before ray is imported: no usage reports
 
 import ray  # noqa: E402
@@ -50,14 +51,15 @@ from baselines.learned import LearnedPolicy, save_policy  # noqa: E402
 from baselines.policy import PolicySpec  # noqa: E402
 from baselines.registry import make_policy  # noqa: E402
 from evaluation.evaluate import mean_formation_rmse  # noqa: E402
-from petswarm_env.config import ConfigError, flatten_dotted, load_config  # noqa: E402
+from petswarm_env.config import flatten_dotted, load_config  # noqa: E402
 from petswarm_env.env import PetSwarmEnv  # noqa: E402
-from petswarm_env.files import write_atomic, write_json_atomic, write_text_atomic  # noqa: E402
+from petswarm_env.files import write_json_atomic  # noqa: E402
 from petswarm_env.wrappers import FixedAgents  # noqa: E402
 from training.callbacks import policy_info, public_log  # noqa: E402
+from training.checkpoint import checkpoint_path, restore_weights, save_weights_checkpoint  # noqa: E402
 from training.config import TrainConfig  # noqa: E402
 from training.export import rllib_actor_layers  # noqa: E402
-from training.train import open_run  # noqa: E402
+from training.train import open_run, start_log, write_run_configs  # noqa: E402
 from training.warm_start import fit_actor_critic  # noqa: E402
 
 ALGORITHM = "PPO (Ray RLlib, new API stack)"
@@ -182,20 +184,9 @@ def init_module(algo, cfg: TrainConfig, env_cfg) -> dict | None:
     return figures
 
 
-def save_checkpoint(out: Path, state: dict[str, np.ndarray], record: dict[str, Any]) -> None:
-    """``checkpoints/latest.npz`` (the arrays) and ``latest.json`` (the record), each atomically."""
-    write_atomic(out / "checkpoints" / CHECKPOINT, lambda tmp: np.savez(tmp, **state), suffix=".npz")
-    write_json_atomic(out / "checkpoints" / "latest.json", record)
-
-
-def load_checkpoint(out: Path) -> dict[str, np.ndarray]:
-    """The arrays of ``checkpoints/latest.npz`` (no pickles); a damaged file is a ConfigError."""
-    path = out / "checkpoints" / CHECKPOINT
-    try:
-        with np.load(path, allow_pickle=False) as data:
-            return {k: data[k] for k in data.files}
-    except (OSError, ValueError, EOFError) as exc:
-        raise ConfigError(f"checkpoint '{path}' cannot be loaded ({type(exc).__name__}: {exc}); it may be corrupt") from None
+def restore_module(algo, out: Path) -> None:
+    """The run's checkpoint into the learner's module and every env runner (training/checkpoint.py)."""
+    set_module_state(algo, restore_weights(out, "rllib", module_state(algo)))
 
 
 class Progress:
@@ -250,28 +241,29 @@ class Progress:
     def checkpoint(self, algo) -> None:
         log = self.log
         log["wall_time_s"] = log["wall_time_before_s"] + time.time() - log["_start"]
-        state = module_state(algo)
-        save_checkpoint(self.out, state, {"format": "petswarm-rllib-checkpoint", "format_version": 1, "policy_id": POLICY_ID,
-                                          "timesteps": log["timesteps"], "keys": sorted(state)})
+        state, p = module_state(algo), self.cfg.ppo
+        save_weights_checkpoint(checkpoint_path(self.out), state, log["timesteps"], "rllib",
+                                {"observation_size": self.spec.layout.size, "net_arch": list(p.net_arch),
+                                 "activation": p.activation, "policy_id": POLICY_ID})
         save_policy(self.out / "policy.npz", rllib_actor_layers(state), self.cfg.ppo.activation, self.spec.layout,
                     policy_info(self.cfg, log, ALGORITHM))
         write_json_atomic(self.out / "train_log.json", public_log(log))
         self.writer.flush()
 
 
-def train_rllib(cfg: TrainConfig, out_dir: str | os.PathLike, resume: bool = False, address: str | None = None,
+def train_rllib(cfg: TrainConfig | None, out_dir: str | os.PathLike, resume: bool = False, address: str | None = None,
                 progress_bar: bool = True, command: str = "") -> dict:
     """Train (or resume) a run in ``out_dir`` with RLlib; returns the train log. Read top to
     bottom: the run folder, Ray, the scripted reference's score, the algorithm, the module's start
     or the checkpoint, the iterations, the last checkpoint."""
     out = Path(out_dir)
-    cfg, log = open_run(cfg, out, resume, CHECKPOINT)
+    cfg, log, changes = open_run(cfg, out, resume)
+    if resume and log["timesteps"] >= cfg.timesteps:
+        return {**public_log(log), "finished": True, "budget": cfg.timesteps}
     env_cfg, eval_cfg = cfg.env_config(), cfg.eval_env_config()
-    write_text_atomic(out / "train_config.yaml", yaml.safe_dump(cfg.model_dump(mode="json"), sort_keys=False))
-    write_text_atomic(out / "env_config.yaml", yaml.safe_dump(env_cfg.to_dict(), sort_keys=False))
-    log.update(command=command or log.get("command", ""), backend="rllib", wall_time_before_s=log.get("wall_time_s", 0.0),
-               _start=time.time())
-    log.setdefault("samples_per_s", [])
+    start_log(log, resume, changes, command)
+    log["backend"] = "rllib"
+    log.setdefault("samples_per_s", [])  # agent-steps/s of each iteration
     torch.set_num_threads(1)  # the driver's sampler and learner; the cores run the env runners
     spec = PolicySpec.from_env(PetSwarmEnv(eval_cfg))
     if log["scripted_eval_rmse_m"] is None:
@@ -281,11 +273,12 @@ def train_rllib(cfg: TrainConfig, out_dir: str | os.PathLike, resume: bool = Fal
     algo = algorithm_config(cfg, env_cfg, cfg.seed + log["timesteps"]).build_algo()
     try:
         if resume:
-            set_module_state(algo, load_checkpoint(out))
+            restore_module(algo, out)
         else:
             pre = init_module(algo, cfg, env_cfg)
             if pre is not None:
                 log["pretrain"] = pre
+        write_run_configs(out, cfg, env_cfg, resume, changes)  # once the checkpoint is known good
         progress = Progress(cfg, out, log, spec)
         if "pretrain" in log and not resume:
             log["pretrain"]["eval_formation_rmse_m"] = mean_formation_rmse(eval_cfg, progress.policy(algo), cfg.eval_seeds())

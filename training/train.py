@@ -3,12 +3,15 @@
 Read :func:`train` top to bottom: the run folder, the seeds, the scripted reference's score, the
 vector env (:mod:`training.vec_env`), the PPO model, the warm start (:mod:`training.warm_start`),
 ``model.learn`` with the checkpoint/evaluation callback (:mod:`training.callbacks`), the last
-checkpoint. Every hyper-parameter is in the training config (:mod:`training.config`,
-``configs/train/ppo.yaml``). Everything of a run lives in its folder::
+checkpoint. ``--resume`` rebuilds the model from the run's own config and loads the checkpoint
+into it (:mod:`training.checkpoint`; SB3's ``PPO.load`` unpickles and is never called). Every
+hyper-parameter is in the training config (:mod:`training.config`, ``configs/train/ppo.yaml``).
+Everything of a run lives in its folder::
 
     runs/NAME/train_config.yaml      the resolved training config (hyper-parameters + env overrides)
     runs/NAME/env_config.yaml        the resolved environment config
-    runs/NAME/checkpoints/latest.zip SB3 checkpoint, written atomically (temp file + rename)
+    runs/NAME/checkpoints/latest.npz the checkpoint: weights, optimizer, counters and RNG states as
+                                     arrays and JSON, never a pickle (training/checkpoint.py), atomic
     runs/NAME/policy.npz             the exported actor (weights-only, see baselines/learned.py)
     runs/NAME/train_log.json         timesteps, wall time, evaluations against the scripted reference
     runs/NAME/tb/                    TensorBoard logs
@@ -30,11 +33,12 @@ from stable_baselines3.common.utils import set_random_seed
 from baselines.policy import PolicySpec
 from baselines.registry import make_policy
 from evaluation.evaluate import mean_formation_rmse
-from petswarm_env.config import ConfigError, parse_override
+from petswarm_env.config import ConfigError, flatten_dotted, parse_override
 from petswarm_env.env import PetSwarmEnv
-from petswarm_env.files import write_json_atomic, write_text_atomic
+from petswarm_env.files import check_output_path, write_json_atomic, write_text_atomic
 from training.callbacks import PeriodicCallback, public_log
-from training.config import PPOConfig, TrainConfig, load_train_config
+from training.checkpoint import has_checkpoint, read_checkpoint, restore_checkpoint
+from training.config import PPOConfig, TrainConfig, load_train_config, resume_changes
 from training.export import learned_policy
 from training.vec_env import make_vec_env
 from training.warm_start import pretrain_policy
@@ -67,41 +71,85 @@ def build_model(p: PPOConfig, venv, seed: int, tensorboard_log: str | None = Non
     )
 
 
-def load_model(ckpt: Path, venv) -> PPO:
-    """The checkpoint of a run, attached to ``venv``; a damaged file is a one-line ConfigError."""
+def _fresh_log() -> dict[str, Any]:
+    return {"timesteps": 0, "wall_time_s": 0.0, "evaluations": [], "scripted_eval_rmse_m": None}
+
+
+def _read_run_file(path: Path, what: str) -> Any:
     try:
-        return PPO.load(ckpt, env=venv, device="cpu")
-    except Exception as exc:  # SB3 raises many types for a damaged zip
-        raise ConfigError(f"checkpoint '{ckpt}' cannot be loaded ({type(exc).__name__}: {exc}); it may be corrupt") from None
+        text = path.read_text(encoding="utf-8")
+        return json.loads(text) if path.suffix == ".json" else yaml.safe_load(text)
+    except FileNotFoundError:
+        raise ConfigError(f"cannot resume: the run folder has no {path.name} ({what}); train without --resume first") from None
+    except (OSError, UnicodeDecodeError, ValueError, yaml.YAMLError) as exc:
+        raise ConfigError(f"cannot resume: '{path}' ({what}) cannot be read ({type(exc).__name__}); "
+                          "the run folder is damaged, start a new run with another --out") from None
 
 
-def open_run(cfg: TrainConfig, out: Path, resume: bool, checkpoint: str = "latest.zip") -> tuple[TrainConfig, dict[str, Any]]:
-    """The config and train log of the run in ``out``: a new one (refused if ``out`` holds a
-    run), or with ``resume`` the saved config (with ``cfg``'s timesteps) and log. ``checkpoint``:
-    the back end's checkpoint file in ``out/checkpoints``."""
-    ckpt = out / "checkpoints" / checkpoint
+def open_run(cfg: TrainConfig | None, out: Path, resume: bool) -> tuple[TrainConfig, dict[str, Any], dict[str, Any]]:
+    """The config, the train log and the config changes of the run in ``out``. A new run is
+    refused if ``out`` holds one. A resumed run keeps its own config (train_config.yaml) and
+    environment (env_config.yaml): ``cfg`` (``None``: the run's own) may differ from it only in
+    :data:`training.config.RESUMABLE` keys, anything else is refused by name, never dropped;
+    the log continues train_log.json at the checkpoint's timesteps."""
     if not resume:
-        if ckpt.exists():
+        if has_checkpoint(out):
             raise ConfigError(f"'{out}' already holds a run; pass --resume to continue it or choose another --out")
-        return cfg, {"timesteps": 0, "wall_time_s": 0.0, "evaluations": [], "scripted_eval_rmse_m": None}
-    saved = out / "train_config.yaml"
-    if not saved.is_file() or not ckpt.is_file():
-        raise ConfigError(f"cannot resume: '{out}' has no train_config.yaml and checkpoints/{checkpoint}; train without --resume first")
-    cfg = load_train_config(saved).model_copy(update={"timesteps": cfg.timesteps})
-    return cfg, json.loads((out / "train_log.json").read_text())
+        return cfg, _fresh_log(), {}
+    state, _ = read_checkpoint(out)  # missing, old SB3 format, damaged: refused before anything else
+    saved_path = out / "train_config.yaml"
+    _read_run_file(saved_path, "the run's training config")
+    saved = load_train_config(base=saved_path)
+    changes = resume_changes(saved, cfg or saved, out)
+    cfg = cfg or saved
+    env_saved = _read_run_file(out / "env_config.yaml", "the run's environment config")
+    env_now = flatten_dotted(cfg.env_config().to_dict())
+    env_then = flatten_dotted(env_saved) if isinstance(env_saved, dict) else {}
+    differ = sorted(k for k in set(env_now) | set(env_then) if env_now.get(k) != env_then.get(k))
+    if differ:
+        k = differ[0]
+        raise ConfigError(
+            f"cannot resume '{out}': it trained on {k}={env_then.get(k, '(absent)')!r} (env_config.yaml) but this petswarm's "
+            f"defaults give {env_now.get(k, '(absent)')!r}; resume it with the petswarm that started it, or start a new run")
+    log = _read_run_file(out / "train_log.json", "the run's log")
+    if not isinstance(log, dict) or not isinstance(log.get("evaluations"), list):
+        raise ConfigError(f"cannot resume: '{out / 'train_log.json'}' is not a train log; start a new run with another --out")
+    log["timesteps"] = state["num_timesteps"]
+    return cfg, log, changes
 
 
-def train(cfg: TrainConfig, out_dir: str | os.PathLike, resume: bool = False, progress_bar: bool = True,
-          command: str = "") -> dict:
-    """Train (or resume) a run in ``out_dir``; returns the train log."""
-    out = Path(out_dir)
-    cfg, log = open_run(cfg, out, resume)
-    env_cfg, eval_cfg = cfg.env_config(), cfg.eval_env_config()
-    write_text_atomic(out / "train_config.yaml", yaml.safe_dump(cfg.model_dump(mode="json"), sort_keys=False))
-    write_text_atomic(out / "env_config.yaml", yaml.safe_dump(env_cfg.to_dict(), sort_keys=False))
-    log["command"] = command or log.get("command", "")
+def start_log(log: dict[str, Any], resume: bool, changes: dict[str, Any], command: str) -> None:
+    """The log's record of this start: the command of a new run, or a ``resumes`` entry (from
+    which timesteps, the config changes, the command); the wall-time clock (both back ends)."""
+    if not resume:
+        log["command"] = command
+    else:
+        log.setdefault("resumes", []).append({"from_timesteps": log["timesteps"], "changes": changes, "command": command})
     log["wall_time_before_s"] = log.get("wall_time_s", 0.0)
     log["_start"] = time.time()
+
+
+def write_run_configs(out: Path, cfg: TrainConfig, env_cfg, resume: bool, changes: dict[str, Any]) -> None:
+    """train_config.yaml and env_config.yaml of a new run; on resume train_config.yaml only with
+    what was asked (recorded). Called once the checkpoint is known good (both back ends)."""
+    if not resume or changes:
+        write_text_atomic(out / "train_config.yaml", yaml.safe_dump(cfg.model_dump(mode="json"), sort_keys=False))
+    if not resume:
+        write_text_atomic(out / "env_config.yaml", yaml.safe_dump(env_cfg.to_dict(), sort_keys=False))
+
+
+def train(cfg: TrainConfig | None, out_dir: str | os.PathLike, resume: bool = False, progress_bar: bool = True,
+          command: str = "") -> dict:
+    """Train (or resume) a run in ``out_dir``; returns the train log. ``cfg`` is the config of a
+    new run; on resume the run's own (``None``) or one differing from it only in keys a resumed
+    run may change (:func:`open_run`). A resumed run that has reached its ``timesteps`` returns
+    its log with ``"finished": True`` and writes nothing."""
+    out = Path(out_dir)
+    cfg, log, changes = open_run(cfg, out, resume)
+    if resume and log["timesteps"] >= cfg.timesteps:
+        return {**public_log(log), "finished": True, "budget": cfg.timesteps}
+    env_cfg, eval_cfg = cfg.env_config(), cfg.eval_env_config()
+    start_log(log, resume, changes, command)
 
     torch.set_num_threads(1)  # reproducible CPU math; the cores run the env workers
     set_random_seed(cfg.seed)
@@ -112,18 +160,17 @@ def train(cfg: TrainConfig, out_dir: str | os.PathLike, resume: bool = False, pr
 
     venv = make_vec_env(env_cfg, cfg.num_envs, cfg.num_cpus, cfg.seed + log["timesteps"])
     try:
+        model = build_model(cfg.ppo, venv, cfg.seed, tensorboard_log=str(out / "tb"))
         if resume:
-            model = load_model(out / "checkpoints" / "latest.zip", venv)
-        else:
-            model = build_model(cfg.ppo, venv, cfg.seed, tensorboard_log=str(out / "tb"))
-            if cfg.pretrain.samples > 0:  # warm start: imitate the scripted reference
-                log["pretrain"] = pretrain_policy(model, cfg, env_cfg)
-                imitation = learned_policy(model, eval_spec, cfg.ppo.activation)
-                log["pretrain"]["eval_formation_rmse_m"] = mean_formation_rmse(eval_cfg, imitation, cfg.eval_seeds())
+            restore_checkpoint(out, model)
+        elif cfg.pretrain.samples > 0:  # warm start: imitate the scripted reference
+            log["pretrain"] = pretrain_policy(model, cfg, env_cfg)
+            imitation = learned_policy(model, eval_spec, cfg.ppo.activation)
+            log["pretrain"]["eval_formation_rmse_m"] = mean_formation_rmse(eval_cfg, imitation, cfg.eval_seeds())
+        write_run_configs(out, cfg, env_cfg, resume, changes)  # once the checkpoint is known good
         callback = PeriodicCallback(cfg, out, layout, log)
-        remaining = cfg.timesteps - model.num_timesteps
-        if remaining > 0:
-            model.learn(remaining, callback=callback, reset_num_timesteps=False, tb_log_name="ppo", progress_bar=progress_bar)
+        model.learn(cfg.timesteps - model.num_timesteps, callback=callback, reset_num_timesteps=False, tb_log_name="ppo",
+                    progress_bar=progress_bar)
         callback.checkpoint()
         if not log["evaluations"] or log["evaluations"][-1]["timesteps"] != model.num_timesteps:
             callback.evaluate()
@@ -138,11 +185,23 @@ def train_command(config: str | None, settings: list[str], timesteps: int | None
     """``petswarm train``: the config from ``config`` and ``--set KEY=VALUE`` ``settings`` (and
     ``--timesteps``), the run — :func:`train` (SB3), or ``run`` with ``run_options`` (the CLI passes
     :func:`training.rllib_backend.train_rllib` and its ``address``) — and one summary line."""
+    check_output_path(out, "--out", folder=True)
     overrides = dict(parse_override(item) for item in settings)
     if timesteps:
         overrides["timesteps"] = timesteps
-    log = (run or train)(load_train_config(config, overrides), out, resume=resume, progress_bar=progress_bar, command=command,
-                         **run_options)
+    saved = Path(out) / "train_config.yaml"
+    if resume and not saved.is_file() and has_checkpoint(out):
+        raise ConfigError(f"cannot resume: the run folder '{out}' has no train_config.yaml; start a new run with another --out")
+    # a resumed run starts from its own config: the file and --set change only what they name
+    cfg = load_train_config(config, overrides, base=saved if resume and saved.is_file() else None)
+    log = (run or train)(cfg, out, resume=resume, progress_bar=progress_bar, command=command, **run_options)
+    if log.get("finished"):
+        print(f"run '{out}' is already finished: {log['timesteps']} agent-steps trained, its budget is {log['budget']}; "
+              f"pass --timesteps N with N > {log['timesteps']} to train further")
+        return 0
+    for key, change in log.get("resumes", [{}])[-1].get("changes", {}).items() if resume else ():
+        print(f"resumed with {key} {change['from']!r} -> {change['to']!r} "
+              f"(recorded in {out}/train_config.yaml and train_log.json)")
     last = log["evaluations"][-1] if log["evaluations"] else {}
     print(f"trained {log['timesteps']} agent-steps in {log['wall_time_s']:.0f} s; "
           f"eval formation_rmse_m {last.get('formation_rmse_m', float('nan')):.3f} "

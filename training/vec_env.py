@@ -27,6 +27,11 @@ class SeededVecEnv(SB3VecEnvWrapper):
         super().__init__(venv)
         self._next_seed: int | None = None
 
+    def get_attr(self, attr_name: str, indices=None):
+        if attr_name == "render_mode":  # SB3's wrappers ask for it (and warn on stderr without it); the vector has none
+            return [None] * self.num_envs
+        return super().get_attr(attr_name, indices)
+
     def seed(self, seed: int | None = None):
         self._next_seed = seed
         return [seed]

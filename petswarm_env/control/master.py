@@ -61,8 +61,11 @@ class UserTracker:
         self.alpha, self.beta = alpha, beta
         self.reset()
 
-    def reset(self) -> None:
-        self.pose = [0.0, 0.0, 0.0]  # own x, y (odometry frame) and AHRS yaw
+    def reset(self, yaw_rad: float = 0.0) -> None:
+        """Forget the user; the odometry frame starts here, at the robot's AHRS reading ``yaw_rad``
+        (the AHRS counts from its own power-on heading: a fix taken before the next :meth:`move`
+        must be placed with the robot's current reading, not with 0)."""
+        self.pose = [0.0, 0.0, yaw_rad]  # own x, y (odometry frame) and AHRS yaw
         self.pos: list[float] | None = None
         self.vel = [0.0, 0.0]
         self.t_fix = 0.0

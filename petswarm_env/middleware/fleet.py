@@ -45,7 +45,6 @@ class Fleet:
         self._swarm_of[index] = swarm
         swarm_of = self._swarm_of.__getitem__
         node.became_slave.connect(lambda pan: self._swarm_of.__setitem__(index, self.swarms[pan]))
-        node.mode_heard.connect(lambda mode: swarm_of(index).hear_mode(mode))
         node.plan_applied.connect(lambda plan, previous: swarm_of(index).apply_plan(plan, previous))
         node.handed_over.connect(lambda new_master: swarm_of(index).hand_over(node, self.nodes[new_master]))
         node.took_over.connect(lambda: swarm_of(index).take_over(node))

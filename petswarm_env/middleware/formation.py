@@ -50,6 +50,17 @@ class Formation:
                 raise ValueError(f"formation links do not reach the master from members {sorted(pending)}")
         return np.array([pos[m] for m in range(self.size)])
 
+    def links_payload(self) -> dict[int, list[tuple[int, tuple[float, float]]]]:
+        """The neighbour table as a frame carries it (joining notification, mode change): member ->
+        [(reference neighbour, offset), ...] — plain values, no object shared with the sender."""
+        return {m: [(lk.neighbour, tuple(lk.offset_m)) for lk in lks] for m, lks in self.links.items()}
+
+    @classmethod
+    def from_links_payload(cls, shape: str, payload: dict) -> Formation:
+        """The neighbour table a robot received in a frame (:meth:`links_payload`)."""
+        return cls(shape, {int(m): tuple(Link(int(nb), (float(off[0]), float(off[1]))) for nb, off in lks)
+                           for m, lks in payload.items()})
+
     def neighbours(self, member: int) -> set[int]:
         """Symmetric neighbour set: the robots that exchange headings with ``member`` (Fig. 9)."""
         out = {lk.neighbour for lk in self.links.get(member, ())}

@@ -1,19 +1,28 @@
 """Swarm-network formation: the join protocol (seed 000 §3.4, Fig. 8, Tables 1–2).
 
-1. The master broadcasts a *scan*; waiting robots answer; the master takes the responders as
-   joining candidates.
+1. The master broadcasts a *scan*; waiting robots answer; the master estimates the joining
+   candidates among the responders (by the RSSI distance of their answers).
 2. The master broadcasts the *joining query* to the candidates; each decides by Table 1 and
    answers joining-available / joining-unavailable. Missing answers → query again (retry).
-   Fewer available robots than the user requires → scan again (retry; a scan response may have
-   been lost), until two scans in a row bring no new robot (while no robot at all has answered,
-   every response may have collided: keep scanning within ``protocol.max_retries``). A rescan
-   lists the robots already heard, which stay silent (chosen), so the answers of the missing
-   robots do not collide with theirs again.
+   Fewer available robots than the user requires → scan again (retry: "whenever the master has
+   not received every expected response, it retries that step", §3.4; a response may have been
+   lost or collided, §4.5). A rescan lists the robots already heard, which stay silent (chosen),
+   so the answers of the missing robots do not collide with theirs again.
 3. The master selects by Table 2 and sends each candidate a *joining notification* (new PAN ID,
-   member number, total number of members; chosen: the whole member table and the user's driving
-   mode, for which the robot lays out its neighbour table) or a *non-participating notification*;
-   each answers with an acknowledgement. Missing acknowledgements → notify again (retry).
+   member number, total number of members, the member table; chosen: the neighbour table with its
+   reference offsets, the formation's shape and the driving mode — a member knows of its swarm only
+   what this frame and the later mode-change frames told it) or a *non-participating
+   notification*; each answers with an acknowledgement. Missing acknowledgements → notify again
+   (retry).
 4. Joined robots switch to the new PAN ID.
+
+Budgets (chosen): every step retries at most ``protocol.max_retries`` times (the scans; each round
+of queries; each robot's notification), and the whole protocol ends ``protocol.organize_timeout_s``
+after it started, whatever its state: every wait is cut at that deadline, the scans stop early
+enough to leave the notifications their time (:data:`NOTIFY_RESERVE_TRIES`), and a robot not yet
+notified at the deadline is never notified (it stays waiting; it is in the member table the others
+received, so the ring skips it). A swarm may thus organize short of the required number; the env
+reports it (``slaves_missing``).
 """
 
 from __future__ import annotations
@@ -23,13 +32,19 @@ from dataclasses import dataclass, field
 
 from petswarm_env.comms.radio import PAN_WAITING, Frame
 from petswarm_env.middleware import messages as msg
-from petswarm_env.middleware.formation import formation_for_mode
+from petswarm_env.middleware.formation import Formation, formation_for_mode
 from petswarm_env.middleware.station import Station
 
 
 # Robots on the common PAN that answer a scan: waiting robots, and user-connected robots not in a
 # swarm (command-waiting or driving alone), which then decline by Table 1 (connected to a user).
 SCAN_ANSWERING_STATES = ("waiting", "command_waiting", "following", "leading", "remote")
+# chosen: while fewer robots are available than required, the scan is retried until the organize
+# deadline less this many tries of the notification step (a response timeout each) per robot to notify
+NOTIFY_RESERVE_TRIES = 4
+# chosen: the master takes as joining candidates the scan responders its RSSI estimate puts within
+# this many times the available region (the RSSI distance is off by ~10 % at 1 dB shadowing)
+CANDIDATE_REACH = 1.3
 
 
 def can_join(connected_user: int | None, distance_m: float, available_radius_m: float) -> bool:
@@ -68,6 +83,7 @@ class JoinManager:
         self._expect: set[int] = set()
         self._got: dict[int, Frame] = {}
         self._all_in = None
+        self._deadline = float("inf")  # the organize deadline (protocol.organize_timeout_s after it started)
         node.on(msg.SCAN, self._on_scan)
         node.on(msg.JOIN_QUERY, self._on_query)
         node.on(msg.JOIN_NOTIFY, self._on_notify)
@@ -85,76 +101,101 @@ class JoinManager:
             self._all_in.succeed()
 
     def _collect(self, expect: set[int], timeout_s: float):
-        """Wait until every robot in ``expect`` answered or the timeout passes (SimPy)."""
+        """Wait until every robot in ``expect`` answered, the timeout passes or the organize
+        deadline comes (SimPy)."""
         clock = self.node.clock
         self._expect = set(expect)
         self._all_in = clock.event()
-        yield clock.any_of([self._all_in, clock.timeout(timeout_s)])
+        yield clock.any_of([self._all_in, clock.timeout(self._left(timeout_s))])
         self._expect = set()
 
-    def organize(self, required: int, pan: int, formation_shape: str, result: OrganizeResult,
-                 mode_of: Callable[[], str]):
+    def _left(self, wait_s: float) -> float:
+        """``wait_s``, cut at the organize deadline."""
+        return max(0.0, min(wait_s, self._deadline - self.node.clock.now))
+
+    def _may_retry(self, retries: int, reserve_s: float = 0.0) -> bool:
+        """A step may be tried again: within its ``protocol.max_retries`` and before the deadline,
+        leaving ``reserve_s`` for the steps after it."""
+        return retries < self.node.cfg.protocol.max_retries and self.node.clock.now + reserve_s < self._deadline
+
+    def organize(self, required: int, pan: int, result: OrganizeResult, mode_of: Callable[[], str]):
         """Master-side organize process (SimPy generator), the steps of seed 000 Fig. 8; fills
-        ``result``. ``mode_of()`` is the user's driving mode when a notification leaves (the
-        joined robots lay their neighbour table out for it)."""
+        ``result``. The formation is the master's: the shape its user chose (its own
+        ``swarm`` configuration), laid out for the driving mode ``mode_of()`` once the members are
+        selected; the joining notifications carry it to the members."""
         node = self.node
         t0 = node.clock.now
+        self._deadline = t0 + node.cfg.protocol.organize_timeout_s  # the whole protocol ends by then
+        # the master forms the PAN from now on: it listens there for the acknowledgements of robots
+        # that already moved to it (a retried joining notification), its own PAN's frames
+        node.swarm_pan = pan
         node.pans = frozenset({PAN_WAITING, pan})
         candidates, answers = yield from self._scan_and_query(required, result)  # steps 1-2
         result.candidates = sorted(candidates)
         members, n_available = self._select(candidates, answers, required, result)  # step 3, Table 2
-        yield from self._notify(members, pan, formation_shape, mode_of, result)  # step 3
+        mode = mode_of()
+        formation = formation_for_mode(node.cfg.swarm, len(members), mode)
+        yield from self._notify(members, pan, formation, mode, result)  # step 3
         # 4. the master drives its swarm on the new PAN ID
-        node.enter_swarm("master", pan, 0, dict(members),
-                         formation_for_mode(node.cfg.swarm, len(members), mode_of()))
+        node.enter_swarm("master", pan, 0, dict(members), formation, mode)
         result.members = members
         result.elapsed_s = node.clock.now - t0
         joiners = len(members) - 1
         result.complete = joiners == min(required, n_available) and joiners > 0
 
     def _scan_and_query(self, required: int, result: OrganizeResult):
-        """Steps 1-2: scan, then query the new candidates; scan again (a retry) while fewer robots
-        are available than the user requires — a scan response may have been lost — until two
-        scans in a row bring no new robot; while nobody has answered yet, all responses may have
-        collided (seed 000 §4.5: "simultaneous message reception"), so keep scanning. Returns the
-        candidates (robot id -> estimated distance) and their answers (robot id -> frame)."""
-        cfg = self.node.cfg.protocol
+        """Steps 1-2: scan, then query the new candidates. While fewer robots are available than
+        the user requires, the master has not received every response it expects (a scan response
+        may have been lost, or collided: seed 000 §4.5, "simultaneous message reception or message
+        corruption") and retries the scan (§3.4: "whenever the master has not received every
+        expected response, it retries that step"), within ``protocol.max_retries`` scans and the
+        organize deadline, less the time the notifications need (:data:`NOTIFY_RESERVE_TRIES`
+        tries of each). Returns the candidates (robot id -> estimated distance) and their answers
+        (robot id -> frame)."""
+        timeout = self.node.cfg.protocol.response_timeout_s
         candidates: dict[int, float] = {}
         answers: dict[int, Frame] = {}
-        fruitless_scans = 0  # consecutive scans that found no new robot
+        scans = 0
         while True:
             new = yield from self._scan(candidates)
             candidates.update(new)
             yield from self._query(set(new), answers, result)
-            fruitless_scans = 0 if new else fruitless_scans + 1
             n_available = sum(1 for f in answers.values() if f.payload["available"])
-            if n_available >= required or (fruitless_scans >= 2 and candidates) or result.retries >= cfg.max_retries:
+            reserve = NOTIFY_RESERVE_TRIES * timeout * max(required, len(answers))
+            if n_available >= required or not self._may_retry(scans, reserve):
                 return candidates, answers
+            scans += 1
             result.retries += 1
 
     def _scan(self, known: dict[int, float]):
         """Step 1: broadcast the scan (listing the robots already heard, which stay silent) and
-        take the new responders as candidates: robot id -> estimated distance (RSSI)."""
+        estimate the joining candidates among the new responders (seed 000 §3.4): those whose
+        response's RSSI puts them within :data:`CANDIDATE_REACH` times the available region (each
+        candidate then checks the region itself, Table 1) — robot id -> estimated distance."""
         node = self.node
         self._got = {}
         node.send(msg.SCAN, pan=PAN_WAITING, known=sorted(known))
-        yield node.clock.timeout(node.cfg.protocol.scan_window_s)
-        return {rid: f.rx_distance_est_m for rid, f in self._got.items() if rid not in known}
+        yield node.clock.timeout(self._left(node.cfg.protocol.scan_window_s))
+        reach = CANDIDATE_REACH * node.cfg.protocol.join_radius_m
+        return {rid: f.rx_distance_est_m for rid, f in self._got.items() if rid not in known and f.rx_distance_est_m <= reach}
 
     def _query(self, pending: set[int], answers: dict[int, Frame], result: OrganizeResult):
         """Step 2: the joining query to the ``pending`` candidates until each answered (Table 1
-        is theirs to apply); missing answers → query again (a retry)."""
+        is theirs to apply); missing answers → query again (a retry, within ``max_retries`` of this
+        step and the deadline)."""
         node = self.node
         cfg = node.cfg.protocol
         self._got = {}
+        tries = 0
         while pending:
             node.send(msg.JOIN_QUERY, pan=PAN_WAITING, candidates=sorted(pending))
             yield from self._collect(pending, cfg.response_timeout_s)
             answers.update({rid: self._got[rid] for rid in pending if rid in self._got})
             pending -= set(answers)
             if pending:
-                if result.retries >= cfg.max_retries:
+                if not self._may_retry(tries):
                     return
+                tries += 1
                 result.retries += 1
 
     def _select(self, candidates: dict[int, float], answers: dict[int, Frame], required: int,
@@ -170,16 +211,21 @@ class JoinManager:
         members.update({i + 1: rid for i, rid in enumerate(joiners)})
         return members, len(available)
 
-    def _notify(self, members: dict[int, int], pan: int, formation_shape: str, mode_of: Callable[[], str],
-                result: OrganizeResult):
-        """Step 3, the result: a joining notification (new PAN ID, member number, the member table)
-        to each selected robot, a non-participating notification to the others, one robot after
-        another, each acknowledged; a missing acknowledgement → notify again (a retry)."""
+    def _notify(self, members: dict[int, int], pan: int, formation: Formation, mode: str, result: OrganizeResult):
+        """Step 3, the result: a joining notification to each selected robot — the new PAN ID, its
+        member number, the total number of members and the member table (seed 000 §3.4: "from
+        which each robot identifies its neighbours"), and (chosen) the neighbour table with its
+        reference offsets and the driving mode: all a member knows of the swarm comes in this
+        frame — a non-participating notification to the others, one robot after another, each
+        acknowledged; a missing acknowledgement → notify again (a retry)."""
         node = self.node
         cfg = node.cfg.protocol
+        links = formation.links_payload()
         notify = {rid: msg.JOIN_NOTIFY for m, rid in members.items() if m != 0}
         notify.update({rid: msg.NON_PARTICIPATE for rid in result.not_selected})
         for rid in sorted(notify, key=lambda r: (notify[r] != msg.JOIN_NOTIFY, r)):
+            if not self._may_retry(0):
+                return  # the deadline came: the robots not notified stay waiting
             attempt = 0
             while True:
                 self._got = {}
@@ -188,11 +234,11 @@ class JoinManager:
                     if notify[rid] == msg.JOIN_NOTIFY:
                         member = next(m for m, n in members.items() if n == rid)
                         node.send(msg.JOIN_NOTIFY, dst=rid, pan=p, new_pan=pan, member=member, total=len(members),
-                                  members=dict(members), shape=formation_shape, mode=mode_of())
+                                  members=dict(members), shape=formation.shape, mode=mode, links=links)
                     else:
                         node.send(msg.NON_PARTICIPATE, dst=rid, pan=p)
                 yield from self._collect({rid}, cfg.response_timeout_s)
-                if rid in self._got or result.retries >= cfg.max_retries:
+                if rid in self._got or not self._may_retry(attempt):
                     break
                 result.retries += 1
                 attempt += 1
@@ -214,12 +260,10 @@ class JoinManager:
     def _on_notify(self, frame: Frame) -> None:
         node = self.node
         p = frame.payload
-        if node.state == "waiting":
-            # the member table and the driving mode come in the frame; the neighbour table is still
-            # the configured shape, laid out for that mode (the frame's shape is not read yet)
+        if node.state == "waiting":  # the member and neighbour tables and the mode: all from the frame
             members = {int(m): n for m, n in p["members"].items()}
             node.enter_swarm("slave", p["new_pan"], p["member"], members,
-                             formation_for_mode(node.cfg.swarm, len(members), p["mode"]))
+                             Formation.from_links_payload(p["shape"], p["links"]), p["mode"])
             node.became_slave.emit(p["new_pan"])
         if node.swarm_pan == p["new_pan"]:  # (re-)acknowledge, also when the first ack was lost
             node.send(msg.NOTIFY_ACK, dst=frame.src, pan=frame.pan)

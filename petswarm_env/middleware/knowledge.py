@@ -4,7 +4,10 @@ policy sees a robot through :class:`Knowledge` and nothing else of the middlewar
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
+
+FRESH_IR_S = 2.0  # chosen: an IR measurement this fresh still places the robot (the ring visits a member every ~0.5 s)
 
 
 @dataclass
@@ -13,6 +16,12 @@ class IRMeasurement:
     bearing_rad: float  # bearing of the other robot in this robot's body frame
     time_s: float
     own_yaw_rad: float  # own AHRS yaw when measured (to carry the bearing over own rotation)
+
+    def position_now(self, yaw_rad: float) -> tuple[float, float]:
+        """The other robot in this robot's body frame now, at its AHRS reading ``yaw_rad``: the
+        measured bearing carried over this robot's own rotation since (its translation is not)."""
+        b = self.bearing_rad - (yaw_rad - self.own_yaw_rad)
+        return self.distance_m * math.cos(b), self.distance_m * math.sin(b)
 
 
 @dataclass
@@ -42,6 +51,7 @@ class Knowledge:
     member: int = -1  # member number in the swarm (0 = master), -1 = none
     total_members: int = 0
     members: dict[int, int] = field(default_factory=dict)  # member number -> node id
+    mode: str = ""  # the swarm's driving mode, from the joining notification / the last mode change
     ir: dict[int, IRMeasurement] = field(default_factory=dict)  # node id -> latest measurement
     heading: dict[int, HeadingEstimate] = field(default_factory=dict)  # node id -> relative heading
     status: MasterStatus | None = None

@@ -1,4 +1,4 @@
-"""Frame types of the swarm middleware and their payload sizes (bytes, chosen).
+"""Frame types of the swarm middleware and their payload sizes (bytes, chosen encodings).
 
 Join protocol (seed 000 §3.4, Fig. 8), IR token ring (§3.3, Fig. 7), heading exchange and the
 master's periodic broadcast (§3.5, Fig. 9), disperse (Fig. 4).
@@ -8,7 +8,7 @@ SCAN = "scan"  # master -> waiting robots (broadcast; a rescan lists the robots 
 SCAN_RESPONSE = "scan_response"  # waiting robot -> master
 JOIN_QUERY = "join_query"  # master -> joining candidates (broadcast, lists the candidates)
 JOIN_ANSWER = "join_answer"  # candidate -> master: joining-available / joining-unavailable
-JOIN_NOTIFY = "join_notify"  # master -> robot: new PAN ID, member number, total number of members
+JOIN_NOTIFY = "join_notify"  # master -> robot: new PAN ID, member number, member and neighbour tables, mode
 NON_PARTICIPATE = "non_participate"  # master -> robot: not selected, stay waiting
 NOTIFY_ACK = "notify_ack"  # robot -> master
 
@@ -28,25 +28,61 @@ MODE_CHANGE_ACK = "mode_change_ack"
 HANDOVER = "handover"  # old master -> new master: take over the user connection
 HANDOVER_ACK = "handover_ack"
 
+# Payload sizes (bytes of MAC payload; the PHY and MAC headers and the FCS are
+# ``radio.frame_overhead_bytes``). Encoding (chosen): a frame kind 1 byte; a node id 2 (an 802.15.4
+# short address); a PAN ID 2; a sequence number 2; a member number, a count, a mode, a shape or a
+# state 1; a distance or an offset component 2 (int16 centimetres); a bearing or an angle 2 (int16,
+# 0.001 rad); a speed 2 (int16 mm/s or mrad/s). A frame that carries a list or a table has a fixed
+# part here and a part per entry (:data:`PER_ENTRY_BYTES`, :func:`payload_bytes`).
 SIZE_BYTES = {
-    SCAN: 12,
-    SCAN_RESPONSE: 4,
-    JOIN_QUERY: 20,
-    JOIN_ANSWER: 5,
-    JOIN_NOTIFY: 24,
-    NON_PARTICIPATE: 4,
-    NOTIFY_ACK: 4,
-    TX_START: 4,
-    TX_START_ACK: 4,
-    TOKEN: 6,
-    TOKEN_ACK: 4,
-    SYNC: 4,
-    HEADING: 6,
-    STATUS: 24,
-    DISPERSE: 4,
-    DISPERSE_ACK: 4,
-    MODE_CHANGE: 40,
-    MODE_CHANGE_ACK: 4,
-    HANDOVER: 12,
-    HANDOVER_ACK: 4,
+    SCAN: 4,  # kind, sequence, count of the robots already heard (+ 2 per robot listed)
+    SCAN_RESPONSE: 4,  # kind, the scan's sequence, own state
+    JOIN_QUERY: 4,  # kind, sequence, count of candidates (+ 2 per candidate)
+    JOIN_ANSWER: 5,  # kind, the query's sequence, available (Table 1), own state
+    JOIN_NOTIFY: 7,  # kind, new PAN ID, member number, total members, mode, shape (+ member and neighbour tables)
+    NON_PARTICIPATE: 4,  # kind, sequence, reason
+    NOTIFY_ACK: 4,  # kind, the notification's sequence, status
+    TX_START: 4,  # kind, token sequence, holder's member number
+    TX_START_ACK: 4,  # kind, token sequence, own member number
+    TOKEN: 6,  # kind, token sequence, next member, holder's member, total members
+    TOKEN_ACK: 4,  # kind, token sequence, own member number
+    SYNC: 4,  # kind, token sequence, own member number
+    HEADING: 6,  # kind, slot sequence, bearing, own member number
+    STATUS: 24,  # kind, sequence, time stamp 4, (vx, vy, ω) 6, activity, mode, rotation flag, turn rate 2, user (x, y) 4, 2 spare
+    DISPERSE: 4,  # kind, sequence, reason
+    DISPERSE_ACK: 4,  # kind, sequence, own member number
+    MODE_CHANGE: 6,  # kind, sequence, mode, shape, total members (+ member and neighbour tables)
+    MODE_CHANGE_ACK: 4,  # kind, the change's sequence, own member number
+    HANDOVER: 12,  # kind, sequence, user id 2, previous driving state, the belt's BLE address 6
+    HANDOVER_ACK: 4,  # kind, sequence, status
 }
+
+MEMBER_ENTRY_BYTES = 2  # the member table: the node id of each member, in member-number order
+LINK_ENTRY_BYTES = 6  # the neighbour table: member, its reference neighbour, the offset (x, y)
+LIST_ENTRY_BYTES = 2  # a listed robot (node id)
+
+
+def _table_bytes(payload: dict) -> int:
+    links = sum(len(lks) for lks in payload["links"].values())
+    return MEMBER_ENTRY_BYTES * len(payload["members"]) + LINK_ENTRY_BYTES * links
+
+
+# the variable part of a frame that carries a list or the tables, from its payload
+PER_ENTRY_BYTES = {
+    SCAN: lambda p: LIST_ENTRY_BYTES * len(p["known"]),
+    JOIN_QUERY: lambda p: LIST_ENTRY_BYTES * len(p["candidates"]),
+    JOIN_NOTIFY: _table_bytes,
+    MODE_CHANGE: _table_bytes,
+}
+
+# The largest MAC payload of one 802.15.4 frame (aMaxPHYPacketSize 127 − 11 bytes of MAC header and
+# FCS). The tables of a joining notification fit up to 14 members in a column, row or wedge (8n + 1
+# bytes for n members) and 9 in a grid; a longer frame stands for its fragments: sent as one frame
+# of the total length (their airtime, one loss draw) — a simplification, chosen.
+MAX_PAYLOAD_BYTES = 116
+
+
+def payload_bytes(kind: str, payload: dict) -> int:
+    """The payload size of a frame of ``kind`` carrying ``payload``."""
+    extra = PER_ENTRY_BYTES.get(kind)
+    return SIZE_BYTES[kind] + (extra(payload) if extra is not None else 0)

@@ -19,6 +19,15 @@ Hierarchy levels are numbered from the robot farthest from the user (level 1, se
 farthest from the user, where the leading-mode master belongs (Fig. 10). "The closest robot" is
 the one closest to the user.
 
+Closest and farthest are what the master knows, not where the neighbour table says the robots
+should be (:func:`measured_geometry`): each member where the master's IR module last measured it
+(distance and bearing, the bearing carried over the master's own rotation since, AHRS), the user
+where its LF tracking puts them. Fallbacks (chosen): a member the master has not measured within
+:data:`~.knowledge.FRESH_IR_S` (occluded by another member, or beyond the IR's range) stands at its
+nominal slot of the neighbour table — the best the master knows of it; without an LF track the
+user stands at the standard distance ahead (:func:`~.formation.user_position_in_formation`). Ties
+go to the lower member number.
+
 The following → leading cell with a master change reads, in the text extraction, "select the robot
 with the highest hierarchical level as master, and the neighbor robots' relative-location
 reference"; the paper's running text states the rule for both rows: "if Master-change request is
@@ -35,12 +44,14 @@ acknowledged), which takes the user's wearables over BLE.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from petswarm_env.comms.radio import Frame
 from petswarm_env.config import SwarmConfig
 from petswarm_env.middleware import messages as msg
-from petswarm_env.middleware.formation import Formation, Link, formation_for_mode, user_position_in_formation
+from petswarm_env.middleware.formation import Formation, formation_for_mode, user_position_in_formation
+from petswarm_env.middleware.knowledge import FRESH_IR_S, Knowledge
 from petswarm_env.middleware.station import Station
 
 TABLE3_MODES = ("following", "leading")
@@ -55,6 +66,45 @@ class ModeChangePlan:
     references_changed: bool
 
 
+@dataclass(frozen=True)
+class SwarmGeometry:
+    """Where the master places its members and its user, in its own body frame now (m)."""
+
+    positions: dict[int, tuple[float, float]]  # member number -> position (the master, 0, at the origin)
+    user_xy: tuple[float, float]
+    measured: frozenset[int]  # the members placed by a fresh IR measurement (the others: their nominal slot)
+
+    def user_distance(self, member: int) -> float:
+        x, y = self.positions[member]
+        return math.hypot(x - self.user_xy[0], y - self.user_xy[1])
+
+
+def measured_geometry(formation: Formation, know: Knowledge, yaw_rad: float, now_s: float,
+                      user_xy: tuple[float, float] | None, user_distance_m: float) -> SwarmGeometry:
+    """The master's own view of its swarm for Table 3 (see the module docstring): its IR
+    measurements of the members (``know``, its AHRS reading ``yaw_rad`` now), its LF track of the
+    user (``user_xy``, body frame; None without a track: ``user_distance_m`` ahead), the nominal
+    slots for the members it has not measured within ``FRESH_IR_S``. The formation frame is the
+    master's body frame (every robot faces its user: :func:`~.formation.formation_for_mode`)."""
+    slots = formation.slot_positions().tolist()
+    positions, measured = {0: (0.0, 0.0)}, set()
+    for m in range(1, formation.size):
+        seen = know.ir.get(know.members.get(m))
+        if seen is not None and now_s - seen.time_s <= FRESH_IR_S:
+            positions[m] = seen.position_now(yaw_rad)
+            measured.add(m)
+        else:
+            positions[m] = (float(slots[m][0]), float(slots[m][1]))
+    if user_xy is None:
+        user_xy = user_position_in_formation(formation, user_distance_m)
+    return SwarmGeometry(positions, (float(user_xy[0]), float(user_xy[1])), frozenset(measured))
+
+
+def nominal_geometry(formation: Formation, user_distance_m: float) -> SwarmGeometry:
+    """Every member at its slot, the user at the standard distance ahead: the neighbour table's view."""
+    return measured_geometry(formation, Knowledge(), 0.0, 0.0, None, user_distance_m)
+
+
 def plan_mode_change(
     cfg: SwarmConfig,
     formation: Formation,
@@ -62,9 +112,10 @@ def plan_mode_change(
     old_mode: str,
     new_mode: str,
     master_change: bool,
-    user_distance_m: float,
+    geometry: SwarmGeometry,
 ) -> ModeChangePlan:
-    """Apply Table 3 to the current swarm.
+    """Apply Table 3 to the current swarm, the closest / farthest robot from ``geometry`` (what the
+    master knows: :func:`measured_geometry`).
 
     Changes between a Table 3 mode and remote control keep master and references (the table has no
     row for them).
@@ -72,24 +123,16 @@ def plan_mode_change(
     if old_mode == new_mode or old_mode not in TABLE3_MODES or new_mode not in TABLE3_MODES:
         return ModeChangePlan(new_mode, dict(members), formation, False, False)
     n = formation.size
-    levels = formation.hierarchy_levels(user_position_in_formation(formation, user_distance_m))
     if not master_change:  # keep the master, change the references: the standard layout of the new mode
         return ModeChangePlan(new_mode, dict(members), formation_for_mode(cfg, n, new_mode), False, True)
+    distance = geometry.user_distance
     if new_mode == "following":  # leading → following: the closest robot
-        new_root = max(range(n), key=lambda m: (levels[m], -m))
+        new_root = min(range(n), key=lambda m: (round(distance(m), 9), m))
     else:  # following → leading: the top of the hierarchy, the robot farthest from the user
-        new_root = min(range(n), key=lambda m: (levels[m], m))
+        new_root = min(range(n), key=lambda m: (-round(distance(m), 9), m))
     new_formation, renumber = formation.rerooted(new_root)  # references unchanged
     new_members = {renumber[m]: node for m, node in members.items()}
     return ModeChangePlan(new_mode, dict(sorted(new_members.items())), new_formation, new_root != 0, False)
-
-
-def _links_payload(formation: Formation) -> dict:
-    return {m: [(lk.neighbour, lk.offset_m) for lk in lks] for m, lks in formation.links.items()}
-
-
-def _links_from_payload(shape: str, payload: dict) -> Formation:
-    return Formation(shape, {int(m): tuple(Link(int(nb), tuple(off)) for nb, off in lks) for m, lks in payload.items()})
 
 
 class ModeManager:
@@ -116,7 +159,7 @@ class ModeManager:
         self._acks = set()
         retries = 0
         payload = dict(seq=seq, mode=plan.mode, members=dict(plan.members), shape=plan.formation.shape,
-                       links=_links_payload(plan.formation))
+                       links=plan.formation.links_payload())
         while True:
             node.send(msg.MODE_CHANGE, **payload)
             yield clock.timeout(cfg.response_timeout_s)
@@ -150,6 +193,7 @@ class ModeManager:
         node.know.members = dict(plan.members)
         node.know.total_members = len(plan.members)
         node.know.member = next(m for m, n in plan.members.items() if n == node.node_id)
+        node.know.mode = plan.mode
         node.formation = plan.formation
         node.plan_applied.emit(plan, previous)
 
@@ -173,8 +217,8 @@ class ModeManager:
         node.know.members = members
         node.know.total_members = len(members)
         node.know.member = next(m for m, n in members.items() if n == node.node_id)
-        node.formation = _links_from_payload(p["shape"], p["links"])
-        node.mode_heard.emit(p["mode"])
+        node.formation = Formation.from_links_payload(p["shape"], p["links"])
+        node.know.mode = p["mode"]  # the driving mode as the frame says: the slave's own knowledge
 
     def _on_handover(self, frame: Frame) -> None:
         node = self.node

@@ -15,8 +15,8 @@ What they cannot do on their own robot goes through two kinds of narrow seams th
 * **ports** (down and out): :attr:`Station.transmit_ir`, the IR module's transmission, wired to the
   IR optical channel and to the robots that measure it;
 * **signals** (up): what happened to this robot that the user's swarm must learn —
-  :attr:`~Station.became_slave`, :attr:`~Station.mode_heard`, :attr:`~Station.plan_applied`,
-  :attr:`~Station.handed_over`, :attr:`~Station.took_over`. A manager emits a signal after it changed
+  :attr:`~Station.became_slave`, :attr:`~Station.plan_applied`, :attr:`~Station.handed_over`,
+  :attr:`~Station.took_over`. A manager emits a signal after it changed
   the station's own state.
 """
 
@@ -35,6 +35,7 @@ from petswarm_env.middleware.formation import Formation
 from petswarm_env.middleware.knowledge import IRMeasurement, Knowledge
 from petswarm_env.sim.clock import Clock
 from petswarm_env.sim.draws import Draws
+from petswarm_env.sim.sensors import Odometry
 
 if TYPE_CHECKING:
     from petswarm_env.sim.robot import Robot
@@ -70,6 +71,7 @@ class Station:
         self.draws = Draws(rng)  # scalar draws (MCU processing jitter) taken from rng in blocks
         self._processing = (cfg.radio.processing_s, cfg.radio.processing_jitter_s)
         self._robot = robot  # own body: its AHRS, and the antenna's position
+        self.odometry = Odometry(robot, cfg.robot, rng.spawn(1)[0])  # own wheel odometry, own noise stream
         # the antenna's position, for the radio's propagation model (not the middleware): the body's
         # reader bound once (a radio station reads it for every frame it sends or receives)
         self.position: Callable[[], tuple[float, float]] = robot.read_position
@@ -85,7 +87,6 @@ class Station:
         # port: transmit_ir(neighbours) -> reporters; the fleet wires it (see fleet.Fleet.ir_slot)
         self.transmit_ir: Callable[[list[int | None]], list[int]] = self._ir_not_wired
         self.became_slave = Signal()  # (pan): joined the swarm on PAN ``pan`` (joining notification)
-        self.mode_heard = Signal()  # (mode): a slave applied the master's mode-change frame
         self.plan_applied = Signal()  # (plan, previous_members): the master committed a mode change
         self.handed_over = Signal()  # (new_master_id): the master handed its user over, is a slave now
         self.took_over = Signal()  # (): this robot took its swarm's user over, is the master now
@@ -94,7 +95,7 @@ class Station:
     # -- RF communication and message processing -------------------------------------------------
     def send(self, kind: str, dst: int = BROADCAST, pan: int | None = None, **payload: Any) -> None:
         pan = self.swarm_pan if pan is None else pan
-        frame = Frame(kind, self.node_id, dst, pan, payload, msg.SIZE_BYTES[kind])
+        frame = Frame(kind, self.node_id, dst, pan, payload, msg.payload_bytes(kind, payload))
         self.radio.send(self, frame)
 
     def receive(self, frame: Frame) -> None:
@@ -124,15 +125,18 @@ class Station:
         self.handlers[kind] = handler
 
     # -- swarm membership -----------------------------------------------------------------------
-    def enter_swarm(self, state: str, pan: int, member: int, members: dict[int, int], formation: Formation) -> None:
-        """Drive in ``state`` (``slave`` or ``master``) as ``member`` of the swarm on PAN ``pan``
-        (seed 000 Fig. 8, step 4: joined robots switch to the new PAN ID)."""
+    def enter_swarm(self, state: str, pan: int, member: int, members: dict[int, int], formation: Formation,
+                    mode: str) -> None:
+        """Drive in ``state`` (``slave`` or ``master``) as ``member`` of the swarm on PAN ``pan`` with
+        the member and neighbour tables and the driving ``mode`` it was told (a slave) or chose (the
+        master) (seed 000 Fig. 8, step 4: joined robots switch to the new PAN ID)."""
         self.state = state
         self.swarm_pan = pan
         self.pans = frozenset({pan})
         self.know.member = member
         self.know.members = members
         self.know.total_members = len(members)
+        self.know.mode = mode
         self.formation = formation
 
     def member_node(self, member: int) -> int | None:

@@ -19,7 +19,7 @@ from petswarm_env.middleware import messages as msg
 from petswarm_env.middleware.formation import Formation
 from petswarm_env.middleware.join import OrganizeResult
 from petswarm_env.middleware.knowledge import MasterStatus
-from petswarm_env.middleware.modes import ModeChangePlan, plan_mode_change
+from petswarm_env.middleware.modes import ModeChangePlan, SwarmGeometry, measured_geometry, plan_mode_change
 from petswarm_env.middleware.node import Node
 from petswarm_env.sim.clock import Clock
 from petswarm_env.sim.world import World
@@ -63,6 +63,7 @@ class Swarm:
         self.previous_formation: Formation | None = None  # the tables before the last mode change
         self.previous_members: dict[int, int] = {}
         self.mode_changed_s = -float("inf")
+        self.last_geometry: SwarmGeometry | None = None  # what the master knew at the last Table 3 choice
         self.user_view: MasterStatus | None = None  # the master's view of its user (set by the session)
         self.events = {"master_changes": 0, "mode_changes": 0}
         self.emergency = False  # the user is lost (seed 002 Fig. 4); set by the user session
@@ -79,8 +80,7 @@ class Swarm:
 
     def _organize(self):
         master = self.master
-        yield from master.join.organize(self.cfg.swarm.num_slaves, self.pan, self.cfg.swarm.formation,
-                                        self.organize_result, lambda: self.mode)
+        yield from master.join.organize(self.cfg.swarm.num_slaves, self.pan, self.organize_result, lambda: self.mode)
         self.formation = master.formation  # laid out for the driving mode by the master's join manager
         self._start_master_processes(master)
 
@@ -96,18 +96,22 @@ class Swarm:
         """Node ids of the robots in slave-role driving in this swarm."""
         return sorted(n for n, node in self.nodes.items() if node.state == "slave" and node.swarm_pan == self.pan)
 
+    def slaves_missing(self) -> int:
+        """The user-required number of slaves minus the robots in slave-role driving (a swarm that
+        organized short: the join protocol's budget ran out, see :mod:`.join`)."""
+        return max(0, self.cfg.swarm.num_slaves - len(self.slave_ids()))
+
     def member_ids(self) -> list[int]:
         return [self.master.node_id, *self.slave_ids()] if self.organized else []
 
     # -- master broadcast (seed 000 §3.5, Fig. 9) ------------------------------------------------
     def _broadcast_status(self, master: Node):
         period = self.cfg.protocol.broadcast_period_s
-        robot = self.world.robots[master.node_id]
         while master.state == "master" and self.master is master:
             view = self.user_view
             master.send(
                 msg.STATUS,
-                velocity=robot.velocity_body,  # (vx, vy, ω), an immutable tuple
+                velocity=master.odometry.read(),  # (vx, vy, ω): what its own wheels measure, noise and all
                 activity=view.activity if view else "stop",
                 mode=self.broadcast_mode(),
                 turn_rate=view.user_turn_rate_rps if view else 0.0,
@@ -121,8 +125,10 @@ class Swarm:
         return "emergency" if self.emergency else self.mode
 
     # -- driving-mode change (seed 000 §3.5, Table 3) --------------------------------------------
-    def change_mode(self, new_mode: str, master_change: bool, user_distance_m: float) -> ModeChangePlan | None:
-        """The user asked for ``new_mode``: plan by Table 3 and run the mode-change protocol."""
+    def change_mode(self, new_mode: str, master_change: bool, user_xy: tuple[float, float] | None) -> ModeChangePlan | None:
+        """The user asked for ``new_mode``: plan by Table 3 from what the master knows (its IR
+        measurements of the members; ``user_xy``: its LF track of the user, body frame, None
+        without one) and run the mode-change protocol."""
         if new_mode == self.mode:
             return None
         master = self.master
@@ -130,8 +136,11 @@ class Swarm:
             self.mode = new_mode
             self.events["mode_changes"] += 1
             return None
+        geometry = measured_geometry(self.formation, master.know, master.ahrs_yaw(), self.clock.now, user_xy,
+                                     self.cfg.master.distance_m)
         plan = plan_mode_change(self.cfg.swarm, self.formation, master.know.members, self.mode, new_mode,
-                                master_change, user_distance_m)
+                                master_change, geometry)
+        self.last_geometry = geometry
         self._mode_seq += 1
         self.mode_change_result: dict = {}
         self.clock.process(master.modes.change(plan, self._mode_seq, self.mode_change_result))
@@ -145,11 +154,6 @@ class Swarm:
         self.mode_changed_s = self.clock.now
         self.previous_formation, self.previous_members = self.formation, dict(previous_members)
         self.formation = plan.formation
-
-    def hear_mode(self, mode: str) -> None:
-        """A slave applied the master's mode-change frame: the swarm drives in ``mode`` from now on
-        (before the master commits the plan, which sets the same mode)."""
-        self.mode = mode
 
     def hand_over(self, old: Node, new: Node) -> None:
         """The old master handed the user over and is a slave now."""

@@ -39,6 +39,8 @@ import numpy as np
 from petswarm_env.config import Config
 from petswarm_env.control.master import BeltView, MasterController, UserTracker
 from petswarm_env.middleware.formation import formation_for_mode, user_position_in_formation
+from petswarm_env.middleware.knowledge import FRESH_IR_S
+from petswarm_env.middleware.modes import measured_geometry
 from petswarm_env.middleware.swarm import Swarm
 from petswarm_env.sim.geometry import wrap_angle
 from petswarm_env.sim.user import User
@@ -49,7 +51,6 @@ from petswarm_env.wearables.watch import Command, RemoteDriver, Watch
 
 DRIVING_STATES = ("following", "leading", "remote")
 MODE_SETTLE_S = 5.0  # chosen: after a mode change the re-forming swarm raises no obstacle exception
-MEMBER_ECHO_AGE_S = 2.0  # chosen: IR positions this fresh explain an ultrasonic echo as a swarm member
 LEADING_LF_MARGIN_M = 0.3  # chosen: a leading master stays this far inside its LF range
 
 
@@ -181,7 +182,8 @@ class UserSession:
             if self.state in ("exception", "emergency", "waiting_user"):
                 return
             if mode != "remote" and swarm.organized:
-                swarm.change_mode(mode, self.cfg.swarm.master_change, self.cfg.master.distance_m)
+                est = self.tracker.user_body(self.clock.now)
+                swarm.change_mode(mode, self.cfg.swarm.master_change, est[0] if est is not None else None)
             elif swarm.mode != mode:
                 swarm.mode = mode
                 if swarm.organized:
@@ -304,23 +306,19 @@ class UserSession:
     def _obstacle_behind(self, ranges: np.ndarray) -> bool:
         """Something closer than ``master.exception_range_m`` in the leading master's travel
         direction (its back, ±45°) that is not one of its own swarm's robots — those the master
-        knows from its IR measurements (fresh within ``MEMBER_ECHO_AGE_S``)."""
-        master = self.swarm.master
+        knows from its IR measurements (fresh within ``FRESH_IR_S``; an older one: where its slot is,
+        :func:`~.modes.measured_geometry`)."""
+        swarm = self.swarm
         n = len(ranges)
-        yaw = master.ahrs_yaw()
         members = []
-        if self.swarm.organized:
-            if self.clock.now - self.swarm.mode_changed_s < MODE_SETTLE_S:
+        if swarm.organized:
+            if self.clock.now - swarm.mode_changed_s < MODE_SETTLE_S:
                 return False  # the swarm is re-forming around the master: its echoes are members
-            slots = self.swarm.formation.slot_positions() if self.swarm.formation is not None else None
-            for m, nid in master.know.members.items():
-                seen = master.know.ir.get(nid)
-                if nid == master.node_id:
-                    continue
-                if seen is not None and self.clock.now - seen.time_s <= MEMBER_ECHO_AGE_S:
-                    members.append((seen.distance_m, seen.bearing_rad - wrap_angle(yaw - seen.own_yaw_rad)))
-                elif slots is not None and m < len(slots):  # occluded from its IR: where its slot is
-                    members.append((math.hypot(*slots[m]), math.atan2(slots[m][1], slots[m][0])))
+            if swarm.formation is not None:
+                master = swarm.master
+                geometry = measured_geometry(swarm.formation, master.know, master.ahrs_yaw(), self.clock.now, None,
+                                             self.cfg.master.distance_m)
+                members = [(math.hypot(x, y), math.atan2(y, x)) for m, (x, y) in geometry.positions.items() if m]
         rim = self.cfg.robot.radius_m
         for k in range(n):
             a = 2 * math.pi * k / n
@@ -341,14 +339,13 @@ class UserSession:
         seen = old.know.ir.get(new.node_id)
         self.connected_robot = new.node_id
         self.link_since_s = now + self.cfg.ble.connect_s
-        self.tracker.reset()
+        self.tracker.reset(new.ahrs_yaw())  # the new master's own odometry frame
         self.ctrl.reset()
         if est is None:
             return
         yaw = old.ahrs_yaw()
-        if seen is not None and now - seen.time_s <= MEMBER_ECHO_AGE_S:
-            b = seen.bearing_rad - wrap_angle(yaw - seen.own_yaw_rad)
-            px, py = seen.distance_m * math.cos(b), seen.distance_m * math.sin(b)
+        if seen is not None and now - seen.time_s <= FRESH_IR_S:
+            px, py = seen.position_now(yaw)
         else:  # not seen lately (occluded by another member): its slot in the old neighbour table
             formation, members = self.swarm.previous_formation, self.swarm.previous_members
             member = next((m for m, n in members.items() if n == new.node_id), None)

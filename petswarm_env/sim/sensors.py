@@ -3,7 +3,8 @@
 Each model reads the physical truth (a sensor model must) and gives only what the hardware would:
 noisy, within its range. Nothing else in the package turns truth into a robot's own readings. The
 noise comes from fixed streams in a fixed order: the ring and the odometry from the env's sensor
-stream (:class:`Sensors`), each AHRS from its own stream (:class:`AHRS`, one per robot).
+stream (:class:`Sensors`), each AHRS from its own stream (:class:`AHRS`, one per robot, which also
+gives its power-on heading).
 """
 
 from __future__ import annotations
@@ -31,7 +32,16 @@ class Truth(Protocol):
 
 
 class AHRS:
-    """Yaw (rad) of one body: truth + a slowly drifting bias (a random walk in time) + white noise."""
+    """Yaw (rad) of one body relative to its own power-on heading: truth − the heading at power-on
+    + a slowly drifting bias (a random walk in time) + white noise.
+
+    An AHRS without a magnetometer (seed 000 §3.5: "no magnetic compass is used") knows no
+    absolute direction: it integrates its gyro from wherever the robot faced when it was switched
+    on. :meth:`power_on` switches it on: the robot was switched on somewhere before the episode
+    and moved since, so its power-on heading is its current heading plus a uniform random angle,
+    drawn per robot and episode — no two robots share a frame, and a robot's readings are in no
+    frame of the world; only differences of its own readings (its own rotation) mean something.
+    Before :meth:`power_on` it reads the body's heading (offset 0: a bare sensor, for tests)."""
 
     def __init__(self, body: Body, cfg: RobotConfig, rng: np.random.Generator | None = None):
         self.body = body
@@ -39,8 +49,17 @@ class AHRS:
         self.noise_rad = math.radians(cfg.ahrs_noise_deg)  # σ of the white noise
         self.drift_rad = math.radians(cfg.ahrs_drift_dps)  # σ of the bias walk over one second
         self.bias_rad = 0.0
+        self.power_on_heading_rad = 0.0  # the heading its readings count from
         self.time_s = 0.0  # clock time of the last bias step
         self.rng = np.random.default_rng(0) if rng is None else rng  # (the env gives every robot its own stream)
+
+    def power_on(self, rng: np.random.Generator, now_s: float = 0.0) -> None:
+        """Switch on at clock time ``now_s`` with the noise stream ``rng`` (its first draw is the
+        power-on heading's offset from the current heading, uniform in [−π, π); then the noise)."""
+        self.power_on_heading_rad = self._heading() + float(rng.uniform(-math.pi, math.pi))
+        self.bias_rad = 0.0
+        self.time_s = now_s
+        self.rng = rng
 
     @property
     def rng(self) -> np.random.Generator:
@@ -59,7 +78,32 @@ class AHRS:
         if dt > 0:
             self.bias_rad += self.drift_rad * math.sqrt(dt) * draws.normal()
             self.time_s = now_s
-        return self._heading() + self.bias_rad + self.noise_rad * draws.normal()
+        return self._heading() - self.power_on_heading_rad + self.bias_rad + self.noise_rad * draws.normal()
+
+
+def noisy_odometry(velocity_body: tuple[float, float, float], errors) -> tuple[float, float, float]:
+    """The wheel-odometry model: the achieved body velocity ``(vx, vy, ω)``, each component with its
+    relative error (``errors``: three draws of N(0, ``odometry_noise_rel``))."""
+    vx, vy, w = velocity_body
+    return vx * (1 + errors[0]), vy * (1 + errors[1]), w * (1 + errors[2])
+
+
+class Odometry:
+    """One robot's wheel odometry read on its own, at any clock time, with its own noise stream: the
+    model of :meth:`Sensors.odometry` (:func:`noisy_odometry`). The master reads it for its status
+    broadcast (seed 000 §3.5, Fig. 9: "its driving speed" is what its wheels measure)."""
+
+    def __init__(self, body, cfg: RobotConfig, rng: np.random.Generator):
+        self.body = body  # a DrivenBody: its achieved velocity_body after the last substep
+        self.noise_rel = cfg.odometry_noise_rel
+        self._draws = Draws(rng)
+
+    def read(self) -> tuple[float, float, float]:
+        k = self.noise_rel
+        if k > 0:
+            normal = self._draws.normal
+            return noisy_odometry(self.body.velocity_body, (k * normal(), k * normal(), k * normal()))
+        return self.body.velocity_body
 
 
 class UltrasonicRing:
@@ -124,9 +168,8 @@ class Sensors:
     def odometry(self, index: int, noise: list[float] | None = None) -> tuple[float, float, float]:
         """Wheel odometry of robot ``index``: its achieved body velocity ``(vx, vy, ω)`` with relative
         noise (``noise``: the three N(0, odometry_noise_rel) errors when drawn already, else drawn here)."""
-        vx, vy, w = self.world.robots[index].velocity_body
+        velocity = self.world.robots[index].velocity_body
         k = self.odometry_noise_rel
         if k > 0:
-            e = self.rng.normal(0.0, k, 3).tolist() if noise is None else noise
-            return vx * (1 + e[0]), vy * (1 + e[1]), w * (1 + e[2])
-        return vx, vy, w
+            return noisy_odometry(velocity, self.rng.normal(0.0, k, 3).tolist() if noise is None else noise)
+        return velocity

@@ -29,8 +29,10 @@ from evaluation.evaluate import mean_formation_rmse  # noqa: E402
 from petswarm_env import parallel_env  # noqa: E402
 from petswarm_env.config import ConfigError, load_config  # noqa: E402
 from training import rllib_backend  # noqa: E402
+from training.checkpoint import read_checkpoint  # noqa: E402
 from training.config import load_train_config  # noqa: E402
 from training.export import rllib_actor_layers  # noqa: E402
+from training.train import train  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 TINY = {"timesteps": 400, "num_envs": 1, "ppo.n_steps": 50, "ppo.batch_size": 50, "ppo.n_epochs": 1, "ppo.net_arch": [16, 16],
@@ -49,20 +51,20 @@ def test_a_local_run_binds_ray_to_loopback_and_writes_the_run_folder(run):
     out, log = run
     assert log["ray_node_ip"] == "127.0.0.1"  # every node and the GCS: start_ray refuses anything else
     assert log["backend"] == "rllib" and log["timesteps"] >= 400 and len(log["samples_per_s"]) >= 2
-    for name in ("train_config.yaml", "env_config.yaml", "policy.npz", "train_log.json", "checkpoints/latest.npz",
-                 "checkpoints/latest.json"):
+    for name in ("train_config.yaml", "env_config.yaml", "policy.npz", "train_log.json", "checkpoints/latest.npz"):
         assert (out / name).is_file(), name
     assert list((out / "tb" / "rllib").glob("events.out.tfevents*"))
     assert [e["timesteps"] for e in log["evaluations"]] == [200, 400] and log["pretrain"]["samples"] == 200
     assert not list(out.rglob(".*.npz")) and not list(out.rglob(".*.json")), "no temp files left"
 
 
-def test_the_checkpoint_is_weights_only_and_the_policy_is_evaluated(run):
-    out, _ = run
-    with np.load(out / "checkpoints" / "latest.npz", allow_pickle=False) as data:
-        keys = set(data.files)
-    assert {"encoder.actor_encoder.net.mlp.0.weight", "encoder.critic_encoder.net.mlp.0.weight", "vf.net.mlp.0.weight"} <= keys
-    assert sorted(keys) == json.loads((out / "checkpoints" / "latest.json").read_text())["keys"]
+def test_the_checkpoint_is_the_houses_format_weights_only_and_the_policy_is_evaluated(run):
+    out, log = run
+    state, arrays = read_checkpoint(out)  # training/checkpoint.py: numbers only, the state record checked
+    assert state["backend"] == "rllib" and state["num_timesteps"] == log["timesteps"]
+    assert {"policy:encoder.actor_encoder.net.mlp.0.weight", "policy:encoder.critic_encoder.net.mlp.0.weight",
+            "policy:vf.net.mlp.0.weight"} <= set(arrays)
+    assert all(k.startswith("policy:") for k in arrays), "weights only"
     meta, layers = read_policy_file(out / "policy.npz")
     assert [w.shape for w, _ in layers] == [(16, 57), (16, 16), (3, 16)] and "RLlib" in meta["info"]["algorithm"]
     cfg = load_config(overrides={"max_cycles": 20})
@@ -70,11 +72,18 @@ def test_the_checkpoint_is_weights_only_and_the_policy_is_evaluated(run):
     assert np.isfinite(mean_formation_rmse(cfg, policy, [0]))
 
 
-def test_a_damaged_checkpoint_is_a_one_line_error(tmp_path):
-    (tmp_path / "checkpoints").mkdir()
-    (tmp_path / "checkpoints" / "latest.npz").write_bytes(b"not a zip")
-    with pytest.raises(ConfigError, match="corrupt"):
-        rllib_backend.load_checkpoint(tmp_path)
+def test_a_resume_continues_the_rllib_run_and_the_sb3_back_end_refuses_its_checkpoint(run, tmp_path):
+    out, log = run
+    copy = tmp_path / "copy"
+    shutil.copytree(out, copy)
+    more = load_train_config(overrides={"timesteps": log["timesteps"] + 200, "rllib.num_env_runners": 0}, base=copy / "train_config.yaml")
+    resumed = rllib_backend.train_rllib(more, copy, resume=True, progress_bar=False)  # where it runs may change on resume
+    assert resumed["timesteps"] >= log["timesteps"] + 200 and resumed["resumes"][0]["from_timesteps"] == log["timesteps"]
+    assert resumed["resumes"][0]["changes"]["rllib.num_env_runners"] == {"from": 1, "to": 0}
+    assert read_checkpoint(copy)[0]["num_timesteps"] == resumed["timesteps"]
+    with pytest.raises(ConfigError, match="written by --backend rllib; resume it with --backend rllib"):
+        train(load_train_config(overrides={"timesteps": resumed["timesteps"] + 200, "num_cpus": 0}, base=copy / "train_config.yaml"),
+              copy, resume=True, progress_bar=False)
 
 
 def test_the_exported_actor_is_the_rllib_modules_deterministic_action():

@@ -46,7 +46,7 @@ def trained(tmp_path_factory):
 
 def test_short_run_writes_checkpoint_policy_config_and_log(trained):
     out, log = trained
-    assert (out / "checkpoints" / "latest.zip").is_file()
+    assert (out / "checkpoints" / "latest.npz").is_file()
     assert (out / "policy.npz").is_file()
     assert (out / "train_config.yaml").is_file() and (out / "env_config.yaml").is_file()
     saved_log = json.loads((out / "train_log.json").read_text())
@@ -167,6 +167,6 @@ def test_corrupt_checkpoint_on_resume_is_refused(tmp_path):
     out = tmp_path / "run"
     cfg = load_train_config(overrides={**SHORT, "timesteps": 512, "eval.every_steps": 100000, "checkpoint.every_steps": 100000})
     train(cfg, out, progress_bar=False)
-    (out / "checkpoints" / "latest.zip").write_bytes(b"not a zip")
-    with pytest.raises(ConfigError, match="corrupt"):
+    (out / "checkpoints" / "latest.npz").write_bytes(b"not a zip")
+    with pytest.raises(ConfigError, match="damaged"):
         train(cfg, out, resume=True, progress_bar=False)

@@ -15,7 +15,7 @@ from petswarm_env.config import load_config
 from petswarm_env.control.arbiter import ControlArbiter, SafetyStage
 from petswarm_env.middleware import node as node_mod
 from petswarm_env.middleware.formation import formation_for_mode, user_position_in_formation
-from petswarm_env.middleware.modes import plan_mode_change
+from petswarm_env.middleware.modes import nominal_geometry, plan_mode_change
 from petswarm_env.middleware.fleet import Fleet
 from petswarm_env.middleware.swarm import Swarm
 from petswarm_env.middleware.user_session import UserSession
@@ -219,9 +219,11 @@ def test_table3_leading_to_following_with_change_takes_the_closest_robot_and_kee
     cfg = load_config(overrides={"swarm.formation": shape}).swarm
     f = formation_for_mode(cfg, 5, "leading")
     members = {m: 10 + m for m in range(5)}
-    plan = plan_mode_change(cfg, f, members, "leading", "following", True, 1.0)
+    geometry = nominal_geometry(f, 1.0)
+    plan = plan_mode_change(cfg, f, members, "leading", "following", True, geometry)
     levels = _levels(f)
-    closest = max(range(5), key=lambda m: (levels[m], -m))
+    closest = min(range(5), key=lambda m: (round(geometry.user_distance(m), 9), m))  # ties: the lower member number
+    assert levels[closest] >= max(levels.values()) - 1  # the bottom of the hierarchy (a tie shares it)
     assert plan.members[0] == members[closest] and plan.master_changed == (closest != 0)
     assert not plan.references_changed
     # every robot keeps its neighbours and where it stands relative to them
@@ -236,7 +238,7 @@ def test_table3_following_to_leading_with_change_takes_the_top_of_the_hierarchy_
     cfg = load_config(overrides={"swarm.formation": shape}).swarm
     f = formation_for_mode(cfg, 5, "following")
     members = {m: 10 + m for m in range(5)}
-    plan = plan_mode_change(cfg, f, members, "following", "leading", True, 1.0)
+    plan = plan_mode_change(cfg, f, members, "following", "leading", True, nominal_geometry(f, 1.0))
     levels = _levels(f)
     top = min(range(5), key=lambda m: (levels[m], m))
     assert levels[top] == 1  # the robot farthest from the user
@@ -249,7 +251,7 @@ def test_table3_following_to_leading_with_change_takes_the_top_of_the_hierarchy_
 def test_table3_without_master_change_keeps_the_master_and_changes_references(old, new):
     f = formation_for_mode(CFG.swarm, 5, old)
     members = {m: 10 + m for m in range(5)}
-    plan = plan_mode_change(CFG.swarm, f, members, old, new, False, 1.0)
+    plan = plan_mode_change(CFG.swarm, f, members, old, new, False, nominal_geometry(f, 1.0))
     assert plan.members == members and not plan.master_changed and plan.references_changed
     assert plan.formation.links == formation_for_mode(CFG.swarm, 5, new).links
     assert plan.formation.links != f.links
@@ -353,9 +355,12 @@ def test_a_robot_connected_to_another_user_declines_to_join():
     declines; it never joins."""
     declined = 0
     for seed in range(4):
-        # 5 m apart: the pools are outside each other's available region (3 m), the other master is
-        # not — it is simply connected, which Table 1 checks first
-        env = petswarm_env.parallel_env(**{"world.num_users": 2, "world.user_spacing_m": 5.0, "swarm.num_slaves": 2})
+        # 3.5 m apart, exact RSSI distances, robots on their slots: the pools are outside each
+        # other's available region (3 m: 3.1 m away), the other master is a joining candidate
+        # (within 1.3 x the region, join.CANDIDATE_REACH) — it is simply connected, which Table 1
+        # checks first
+        env = petswarm_env.parallel_env(**{"world.num_users": 2, "world.user_spacing_m": 3.5, "swarm.num_slaves": 2,
+                                           "radio.rssi_shadowing_db": 0.0, "swarm.spawn_jitter_m": 0.0})
         env.reset(seed=seed)
         for u, sw in enumerate(env.swarms):
             other_master = env.swarms[1 - u].master.node_id

@@ -287,3 +287,46 @@ def test_no_foreign_pan_frame_processed_in_an_episode():
     assert sum(n.counters["frames_handled"] for n in env.swarm.nodes.values()) > 1000
     assert env.radio.stats.frames_sent > 1000
     assert env.episode_summary()["foreign_pan_frames_processed"] == 0
+
+
+def test_no_foreign_pan_frame_processed_under_loss_one_user():
+    """Issue 14 item 8: ``foreign_pan_frames_processed`` counts only frames of another PAN that a
+    robot processed. The organizing master listens on the PAN it forms (a retried joining
+    notification is acknowledged there): those frames are its own PAN's, never foreign. Before,
+    the count was non-zero in 7 of 25 such episodes."""
+    env = petswarm_env.parallel_env(**{"radio.loss_prob": 0.2, "max_cycles": 10})
+    counts, handled = [], 0
+    for seed in range(25):
+        env.reset(seed=seed)
+        for _ in range(10):
+            env.step({})
+        counts.append(env.episode_summary()["foreign_pan_frames_processed"])
+        handled += sum(n.counters["frames_handled"] for n in env.fleet.nodes.values())
+    assert counts == [0] * 25
+    assert handled > 25 * 100
+
+
+def test_two_swarms_under_loss_drop_each_others_frames_in_the_mac(monkeypatch):
+    """Two users at loss 0.2: each swarm's frames reach the other's robots, whose MAC drops them;
+    none is processed (the spy sees every frame a robot processes)."""
+    from petswarm_env.middleware.station import Station
+
+    processed = []
+    original = Station._handle
+
+    def spy(self, handler, frame):
+        processed.append((self.node_id, frame.pan))
+        return original(self, handler, frame)
+
+    monkeypatch.setattr(Station, "_handle", spy)
+    env = petswarm_env.parallel_env(**{"world.num_users": 2, "radio.loss_prob": 0.2, "max_cycles": 30})
+    for seed in (0, 3, 6):
+        env.reset(seed=seed)
+        processed.clear()
+        dropped = env.radio.stats.foreign_pan_dropped
+        for _ in range(30):
+            env.step({})
+        pan_of = {i: sw.pan for sw in env.swarms for i in sw.member_ids()}
+        assert processed and all(pan == pan_of[i] for i, pan in processed if i in pan_of and pan != PAN_WAITING)
+        assert env.radio.stats.foreign_pan_dropped > dropped
+        assert env.episode_summary()["foreign_pan_frames_processed"] == 0

@@ -70,7 +70,7 @@ def test_checkpoint_writes_the_run_files_and_evaluate_logs_against_the_reference
     assert math.isfinite(ev[0]["formation_rmse_m"]) and ev[0]["formation_rmse_m"] > 0
     recorded = model.logger.name_to_value
     assert recorded["eval/formation_rmse_m"] == ev[0]["formation_rmse_m"] and recorded["eval/scripted_rmse_m"] == 0.2
-    assert (tmp_path / "checkpoints" / "latest.zip").is_file()
+    assert (tmp_path / "checkpoints" / "latest.npz").is_file()
     saved = json.loads((tmp_path / "train_log.json").read_text())
     assert saved == public_log(log) and "_start" not in saved and saved["timesteps"] == 64
     meta, layers = read_policy_file(tmp_path / "policy.npz")

@@ -59,3 +59,127 @@ def test_jsonable_gives_plain_strict_json():
                    "none": None}
     assert type(out["1"][0]) is int and type(out["flag"]) is bool
     json.dumps(out, allow_nan=False)  # strict JSON
+
+
+# -- temporary files: every exit path, and leftovers of a killed process (issue 14 part 2) -------
+def _dead_pid() -> int:
+    import subprocess
+    import sys
+
+    proc = subprocess.Popen([sys.executable, "-c", "pass"])
+    proc.wait()
+    return proc.pid
+
+
+def test_the_temp_name_says_whose_it_is(tmp_path):
+    from petswarm_env.files import TEMP_PATTERN
+
+    seen = []
+    write_atomic(tmp_path / "out.json", lambda tmp: seen.append(os.path.basename(tmp)) or open(tmp, "w").close())
+    m = TEMP_PATTERN.match(seen[0])
+    assert m and m["target"] == "out.json" and int(m["pid"]) == os.getpid() and seen[0].endswith(".json")
+
+
+def test_stale_temps_of_a_killed_process_go_at_the_next_write_and_nothing_else(tmp_path):
+    import petswarm_env.files as files
+
+    dead = _dead_pid()
+    stale = [tmp_path / f".out.json.petswarm-tmp-{dead}-abcd1234.json", tmp_path / f".policy.npz.petswarm-tmp-{dead}-x_y0z9qq.npz",
+             tmp_path / f".ep.gif.petswarm-tmp-{dead}-00000000.gif"]
+    alive = tmp_path / f".out.json.petswarm-tmp-{os.getppid()}-abcd1234.json"  # a writer still running
+    users = [tmp_path / ".out.json.backup", tmp_path / f"out.json.petswarm-tmp-{dead}-abcd1234.json",  # no leading dot
+             tmp_path / f".out.json.petswarm-tmp-{dead}-abc.json", tmp_path / "notes.txt",
+             tmp_path / f".x.petswarm-tmp-{dead}-abcd1234.json.old"]
+    for p in stale + [alive] + users:
+        p.write_text("x")
+    (tmp_path / f".d.petswarm-tmp-{dead}-abcd1234").mkdir()  # a folder of that name is not ours
+    files._cleaned_folders.discard(os.path.abspath(tmp_path))
+    write_text_atomic(tmp_path / "other.txt", "new")
+    left = {p.name for p in tmp_path.iterdir()}
+    assert not any(p.name in left for p in stale)
+    assert {alive.name, *(p.name for p in users), "other.txt", f".d.petswarm-tmp-{dead}-abcd1234"} == left
+
+
+def test_sigterm_during_a_write_removes_the_temp_and_keeps_the_old_file(tmp_path):
+    import signal
+
+    from petswarm_env.files import Terminated, exit_cleanly_on_signals
+
+    path = tmp_path / "r.json"
+    path.write_text("old")
+
+    def killed(tmp):
+        with open(tmp, "w") as f:
+            f.write("half")
+        os.kill(os.getpid(), signal.SIGTERM)
+
+    before = signal.getsignal(signal.SIGTERM)
+    with pytest.raises(Terminated) as info, exit_cleanly_on_signals():
+        write_atomic(path, killed)
+    assert info.value.code == 128 + signal.SIGTERM and "SIGTERM" in str(info.value)
+    assert path.read_text() == "old" and sorted(p.name for p in tmp_path.iterdir()) == ["r.json"]
+    assert signal.getsignal(signal.SIGTERM) is before  # handlers restored after the command
+
+
+def test_ctrl_c_during_a_write_removes_the_temp(tmp_path):
+    def interrupted(tmp):
+        open(tmp, "w").close()
+        raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        write_atomic(tmp_path / "r.json", interrupted)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_json_lines_open_at_the_first_record_and_flush_each(tmp_path):
+    from petswarm_env.files import JsonLines, jsonl_path
+
+    assert jsonl_path("a/OUT.json") == jsonl_path("a/OUT.json").with_name("OUT.jsonl")
+    assert jsonl_path("res").name == "res.jsonl" and jsonl_path("x.txt").name == "x.txt.jsonl"
+    old = tmp_path / "OUT.jsonl"
+    old.write_text("old run\n")
+    lines = JsonLines(old)
+    assert old.read_text() == "old run\n"  # untouched until a record is finished
+    lines.append({"seed": 0, "rmse": math.nan})
+    assert old.read_text() == '{"seed": 0, "rmse": NaN}\n'  # flushed at once
+    lines.append({"seed": 1})
+    lines.close()
+    assert [json.loads(line)["seed"] for line in old.read_text().splitlines()] == [0, 1]
+    JsonLines(None).append({"dropped": True})
+
+
+@pytest.mark.parametrize("make, words", [
+    (lambda p: p.write_bytes(b"PK\x03\x04 truncated"), "not a zip"),
+    (lambda p: p.write_bytes(b""), "not a zip"),
+    (lambda p: np.savez(p, a=np.array([{"x": 1}], dtype=object)), "Python objects"),
+    (lambda p: np.savez(p, a=np.array(["text"])), "not numbers"),
+    (lambda p: np.savez(p, a=np.array([1 + 2j])), "not numbers"),
+])
+def test_read_npz_refuses_what_is_not_plain_numbers(tmp_path, make, words):
+    from petswarm_env.files import read_npz
+
+    path = tmp_path / "f.npz"
+    make(path)
+    with pytest.raises(ValueError, match=words):
+        read_npz(path, 10**6)
+
+
+def test_read_npz_refuses_declared_sizes_beyond_the_file_and_the_limit(tmp_path):
+    import zipfile
+
+    from petswarm_env.files import read_npz
+
+    huge = tmp_path / "huge.npz"
+    header = np.lib.format.header_data_from_array_1_0(np.zeros(1, np.float32))
+    header["shape"] = (10**12,)
+    with zipfile.ZipFile(huge, "w") as z:
+        with z.open("w0.npy", "w") as f:
+            np.lib.format.write_array_header_1_0(f, header)
+            f.write(b"\x00" * 16)
+    with pytest.raises(ValueError, match=r"declares shape \(1000000000000,\)"):
+        read_npz(huge, 10**6)
+    big = tmp_path / "big.npz"
+    np.savez(big, a=np.zeros(1000))
+    with pytest.raises(ValueError, match="more than"):
+        read_npz(big, 1000)
+    assert read_npz(big, 10**6)["a"].shape == (1000,)

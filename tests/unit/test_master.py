@@ -155,3 +155,16 @@ def test_tracker_follows_a_walking_user_between_fixes():
     pos, vel = tracker.user_body(11 * period + 0.2)  # between fixes: predicted
     assert vel == pytest.approx((1.0, 0.0), abs=0.05)
     assert pos == pytest.approx((1.0 + 11 * period + 0.2, 0.0), abs=0.05)
+
+
+def test_a_tracker_reset_counts_from_the_robots_own_ahrs_reading():
+    """The AHRS reads from each robot's own power-on heading (issue 14 item 1): a handed-over fix
+    (a master change) placed right after a reset stays where it was put once the robot's next
+    reading arrives, whatever that reading is."""
+    for yaw in (0.0, 1.2, -2.9):
+        tracker = UserTracker(0.8, 0.4)
+        tracker.reset(yaw)
+        tracker.fix((1.0, 0.3), 0.0)
+        tracker.move((0.0, 0.0, 0.0), yaw, 0.1)
+        pos, _ = tracker.user_body(0.0)
+        assert pos == pytest.approx((1.0, 0.3), abs=1e-12)

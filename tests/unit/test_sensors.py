@@ -72,3 +72,29 @@ def test_ahrs_is_truth_plus_a_drifting_bias_and_white_noise():
     assert ahrs.yaw(0.5) == 0.7 + bias + noise * z[3]  # the same instant: the same bias
     quiet = load_config(overrides={"robot.ahrs_noise_deg": 0.0, "robot.ahrs_drift_dps": 0.0}).robot
     assert AHRS(robot, quiet).yaw(10.0) == 0.7
+
+
+def test_ahrs_counts_from_its_own_power_on_heading():
+    """No shared frame (issue 14 item 1, seed 000 §3.5: no compass): at power-on each AHRS takes a
+    random power-on heading (its first draw), so robots facing the same way read unrelated yaws,
+    while a robot's own readings still differ by its own rotation; a robot turned before power-on
+    with the same stream reads exactly what the unturned one reads."""
+    cfg = load_config(overrides={"robot.ahrs_noise_deg": 0.0, "robot.ahrs_drift_dps": 0.0})
+    world = _world(cfg, [((0.0, 0.0), 0.7), ((2.0, 0.0), 0.7), ((4.0, 0.0), 0.7 + 1.3)])
+    a, b, turned = (AHRS(r, cfg.robot) for r in world.robots)
+    a.power_on(np.random.default_rng(1))
+    b.power_on(np.random.default_rng(2))
+    turned.power_on(np.random.default_rng(1))
+    offset = np.random.default_rng(1).uniform(-math.pi, math.pi)
+    assert a.yaw(0.0) == pytest.approx(-offset)  # 0.7 − (0.7 + offset)
+    assert abs(math.remainder(a.yaw(0.0) - b.yaw(0.0), 2 * math.pi)) > 0.1  # same heading, other frames
+    assert turned.yaw(0.0) == pytest.approx(a.yaw(0.0), abs=1e-12)  # the scene's rotation is invisible
+    before = a.yaw(1.0)
+    world.robots[0].body.angle += 0.4
+    assert a.yaw(2.0) - before == pytest.approx(0.4)
+    offsets = [AHRS(world.robots[0], cfg.robot) for _ in range(400)]
+    for k, s in enumerate(offsets):
+        s.power_on(np.random.default_rng(100 + k))
+    readings = np.array([s.yaw(0.0) for s in offsets])
+    hist, _ = np.histogram(np.mod(readings, 2 * math.pi), bins=4, range=(0, 2 * math.pi))
+    assert hist.min() > 60  # spread over the whole circle: no preferred direction

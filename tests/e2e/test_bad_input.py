@@ -1,0 +1,513 @@
+"""Every input a user can get wrong (issue 14 part 2), through the command line and the loaders:
+CLI flags, config values, scenario names, policy files, result JSON for the report, and (with the
+training stack) checkpoints and resumes. Each case is one line on stderr naming the problem, exit
+status 2, no traceback, and nothing already written is lost (an existing OUT.json, OUT.jsonl or
+report untouched; a run folder intact after a refused resume)."""
+
+import base64
+import hashlib
+import json
+import os
+import pickle
+import shutil
+import signal
+import subprocess
+import sys
+import time
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from baselines.learned import LearnedPolicy, PolicyLoadError, save_policy
+from baselines.policy import PolicySpec
+from cli.main import main
+from petswarm_env.env import PetSwarmEnv
+
+
+def _snapshot(folder: Path) -> dict[str, str]:
+    return {str(p.relative_to(folder)): hashlib.sha256(p.read_bytes()).hexdigest() for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+def _fails(capsys, argv, words, code=2) -> str:
+    try:
+        got = main([str(a) for a in argv])
+    except SystemExit as exc:  # argparse's errors exit from inside parse_args
+        got = exc.code
+    err = capsys.readouterr().err
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert got == code, err
+    assert "Traceback" not in err and len(lines) == 1, err
+    assert lines[0].startswith("petswarm: error:") and words in lines[0], lines[0]
+    return lines[0]
+
+
+@pytest.fixture
+def outputs(tmp_path):
+    """A folder with the outputs of an earlier run, which a failing command must not touch."""
+    (tmp_path / "OUT.json").write_text('{"episodes": [{"seed": 0}], "old": true}\n')
+    (tmp_path / "OUT.jsonl").write_text('{"seed": 0}\n')
+    (tmp_path / "report.html").write_text("<p>old report</p>")
+    (tmp_path / "r.json").write_text("{}")
+    (tmp_path / "clips").write_text("a file, not a folder")
+    return tmp_path
+
+
+# -- the command line: flags, config, scenarios, outputs --------------------------------------------
+CLI_CASES = [
+    (["run", "--episodes", "0"], "--episodes"),
+    (["run", "--episodes", "many"], "--episodes"),
+    (["run", "--seed", "-1"], "--seed"),
+    (["run", "--seed", "1.5"], "--seed"),
+    (["run", "--policy", "clever"], "--policy"),
+    (["run", "--render", "window"], "--render"),
+    (["run", "--bogus"], "unrecognized arguments"),
+    (["fly"], "invalid choice"),
+    (["eval", "--episodes", "-2"], "--episodes"),
+    (["train", "--timesteps", "0"], "--timesteps"),
+    (["reproduce", "--only", "banana"], "banana"),
+    (["run", "--set", "swarm.num_slaves=true"], "swarm.num_slaves"),
+    (["run", "--set", "world.arena_m=[1,1]", "--set", "max_cycles=5"], "world.arena_m"),
+    (["run", "--set", "robot.ultrasonic.min_range_m=3"], "robot.ultrasonic.min_range_m"),
+    (["run", "--set", "reward.formation=.nan"], "reward.formation"),
+    (["run", "--set", "radio.min_be=7"], "radio.max_be"),
+    (["run", "--set", "swarm.nm_slaves=2"], "swarm.nm_slaves"),
+    (["run", "--set", "noequals"], "KEY=VALUE"),
+    (["run", "--set", "user.scenario=moonwalk"], "user.scenario"),
+    (["run", "--set", "user.scenario_pool=[zigzag, moonwalk]"], "user.scenario_pool"),
+    (["eval", "--scenarios", "zigzag,moonwalk", "--episodes", "1"], "moonwalk"),
+    (["eval", "--mix", "robot_2", "--episodes", "1"], "ROBOT=POLICY"),
+    (["eval", "--mix", "robot_9=learned", "--episodes", "1", "--set", "max_cycles=5"], "robot_9"),
+    (["eval", "--mix", "robot_2=banana", "--episodes", "1", "--set", "max_cycles=5"], "banana"),
+    (["run", "--policy", "missing.npz"], "does not exist"),
+    (["run", "--video", "clip.mp4"], ".gif"),
+    (["run", "--json", "{dir}", "--set", "max_cycles=5"], "is a folder"),
+    (["run", "--json", "{dir}/clips/out.json", "--set", "max_cycles=5"], "is a file, not a folder"),
+    (["run", "--video", "{dir}/clips/ep.gif", "--set", "max_cycles=5"], "is a file, not a folder"),
+    (["eval", "--video-dir", "{dir}/clips", "--episodes", "1", "--set", "max_cycles=5"], "is a file"),
+    (["run", "--config", "{dir}/missing.yaml"], "does not exist"),
+    (["run", "--config", "{dir}"], "is a folder"),
+    (["run", "--config", "{dir}/report.html"], "must hold a mapping"),
+    (["train", "--set", "ppo.gamma=2"], "ppo.gamma"),
+    (["train", "--set", "env.swarm.num_slaves=true"], "swarm.num_slaves"),
+    (["train", "--resume", "--out", "{dir}/no_run"], "no checkpoint"),
+]
+
+
+@pytest.mark.parametrize("argv, words", CLI_CASES, ids=[" ".join(a)[:50] for a, _ in CLI_CASES])
+def test_bad_command_line_is_one_line_exit_2_and_loses_nothing(capsys, outputs, argv, words):
+    if argv[0] == "train":
+        pytest.importorskip("stable_baselines3")
+    before = _snapshot(outputs)
+    argv = [a.replace("{dir}", str(outputs)) for a in argv]
+    if argv[0] in ("run", "eval") and "--json" not in argv:
+        argv += ["--json", str(outputs / "OUT.json")]
+    _fails(capsys, argv, words)
+    assert _snapshot(outputs) == before
+
+
+# -- policy files ----------------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def spec():
+    return PolicySpec.from_env(PetSwarmEnv())
+
+
+def _good_arrays(size: int) -> dict[str, np.ndarray]:
+    rng = np.random.default_rng(0)
+    return {"w0": rng.normal(size=(4, size)).astype(np.float32), "b0": np.zeros(4, np.float32),
+            "w1": rng.normal(size=(3, 4)).astype(np.float32), "b1": np.zeros(3, np.float32)}
+
+
+def _write_policy(path: Path, layout, meta=None, raw_meta=None, arrays=None, drop=()):
+    save_policy(path, list(zip(*[iter(_good_arrays(layout.size).values())] * 2)), "tanh", layout)
+    with np.load(path) as data:
+        items = dict(data)
+    m = json.loads(items["meta"].tobytes())
+    for key, value in (meta or {}).items():
+        if value is _DROP:
+            m.pop(key)
+        else:
+            m[key] = value
+    items["meta"] = np.frombuffer((raw_meta if raw_meta is not None else json.dumps(m)).encode(), np.uint8)
+    items.update(arrays or {})
+    for key in drop:
+        items.pop(key)
+    path.unlink()
+    np.savez(path, **items)
+
+
+def _huge(path: Path, layout) -> None:
+    _write_policy(path, layout)
+    with np.load(path) as data:
+        items = dict(data)
+    header = np.lib.format.header_data_from_array_1_0(np.zeros(1, np.float32))
+    header["shape"] = (4, 10**11)
+    with zipfile.ZipFile(path, "w") as z:
+        for name, arr in items.items():
+            with z.open(f"{name}.npy", "w") as f:
+                if name == "w0":
+                    np.lib.format.write_array_header_1_0(f, header)
+                    f.write(b"\x00" * 64)
+                else:
+                    np.lib.format.write_array(f, arr)
+
+
+class _Evil:
+    """Unpickling this creates the file named by PETSWARM_TEST_MARKER: proof that nothing was unpickled."""
+
+    def __reduce__(self):
+        return (open, (os.environ["PETSWARM_TEST_MARKER"], "w"))
+
+
+_DROP = object()
+POLICY_CASES = [  # (id, how to damage a good policy file, words)
+    ("meta_a_list", dict(raw_meta="[1, 2]"), "field 'meta' must be a JSON object"),
+    ("string_weights", dict(arrays={"w0": np.array(["a", "b"])}), "'w0' holds <U1 data"),
+    ("no_observation_layout", dict(meta={"observation_layout": _DROP}), "field 'observation_layout' is missing"),
+    ("observation_layout_5", dict(meta={"observation_layout": 5}), "field 'observation_layout'"),
+    ("num_layers_0", dict(meta={"num_layers": 0}), "field 'num_layers'"),
+    ("num_layers_minus_1", dict(meta={"num_layers": -1}), "field 'num_layers'"),
+    ("observation_version_999", dict(meta={"observation_version": 999}), "field 'observation_version' is 999"),
+    ("observation_version_string", dict(meta={"observation_version": "1"}), "field 'observation_version'"),
+    ("observation_version_0", dict(meta={"observation_version": 0}), "field 'observation_version' must be a whole number"),
+    ("num_layers_true", dict(meta={"num_layers": True}), "field 'num_layers'"),
+    ("num_layers_1000", dict(meta={"num_layers": 1000}), "field 'num_layers'"),
+    ("num_layers_3_of_2", dict(meta={"num_layers": 3}), "field 'w2' is missing"),
+    ("meta_not_json", dict(raw_meta="{not json"), "field 'meta' is not UTF-8 JSON"),
+    ("meta_not_bytes", dict(arrays={"meta": np.zeros(3, np.float64)}), "field 'meta' must be UTF-8 JSON bytes"),
+    ("no_meta", dict(drop=("meta",)), "no 'meta' record"),
+    ("format_other", dict(meta={"format": "keras"}), "field 'format'"),
+    ("format_version_2", dict(meta={"format_version": 2}), "field 'format_version' is 2"),
+    ("env_name_other", dict(meta={"env_name": "simple_spread_v3"}), "simple_spread_v3"),
+    ("activation_sigmoid", dict(meta={"activation": "sigmoid"}), "field 'activation'"),
+    ("layout_entry_bad", dict(meta={"observation_layout": [["link0.present", 0]]}), "entry 0"),
+    ("layout_entry_not_pair", dict(meta={"observation_layout": ["link0.present"]}), "entry 0"),
+    ("layout_twice", dict(meta={"observation_layout": [["self.member", 1], ["self.member", 1]]}), "names a field twice"),
+    ("layout_unknown_field", dict(meta={"observation_layout": [["self.compass", 57]]}), "self.compass"),
+    ("info_a_list", dict(meta={"info": [1]}), "field 'info'"),
+    ("missing_b1", dict(drop=("b1",)), "field 'b1' is missing"),
+    ("int_weights", dict(arrays={"w1": np.ones((3, 4), np.int32)}), "floating-point"),
+    ("w0_1d", dict(arrays={"w0": np.zeros(4, np.float32)}), "field 'w0' has shape (4,)"),
+    ("bias_wrong", dict(arrays={"b0": np.zeros(5, np.float32)}), "does not chain"),
+    ("layers_do_not_chain", dict(arrays={"w1": np.zeros((3, 5), np.float32)}), "field 'w1'"),
+    ("output_4", dict(arrays={"w1": np.zeros((4, 4), np.float32), "b1": np.zeros(4, np.float32)}), "outputs 4 values"),
+    ("inputs_wrong", dict(arrays={"w0": np.zeros((4, 10), np.float32)}), "takes 10 inputs"),
+    ("nan_weights", dict(arrays={"w1": np.full((3, 4), np.nan, np.float32)}), "NaN or infinite"),
+    ("inf_bias", dict(arrays={"b0": np.array([np.inf, 0, 0, 0], np.float32)}), "NaN or infinite"),
+    ("complex_weights", dict(arrays={"w1": np.zeros((3, 4), np.complex64)}), "not numbers"),
+    ("pickled_object_array", dict(arrays={"w0": np.array([_Evil()], dtype=object)}), "Python objects"),
+]
+FILE_CASES = [  # (id, how to make the file, words)
+    ("truncated", lambda p, lay: (_write_policy(p, lay), p.write_bytes(p.read_bytes()[:300])), "cannot be read"),
+    ("not_a_zip", lambda p, lay: p.write_text("hello"), "not a zip"),
+    ("empty_file", lambda p, lay: p.write_bytes(b""), "not a zip"),
+    ("zip_of_text", lambda p, lay: _zip_of_text(p), "not an array"),
+    ("huge_declared", _huge, "declares shape (4, 100000000000)"),
+    ("a_folder", lambda p, lay: p.mkdir(), "it is a folder"),
+]
+
+
+def _zip_of_text(path: Path) -> None:
+    with zipfile.ZipFile(path, "w") as z:
+        z.writestr("notes.txt", "hi")
+
+
+def _make_bad_policy(tmp_path, layout, case) -> Path:
+    path = tmp_path / "bad_policy.npz"
+    kind, how = case
+    if kind == "file":
+        how(path, layout)
+    else:
+        _write_policy(path, layout, **how)
+    return path
+
+
+ALL_POLICY = [(i, ("meta", h), w) for i, h, w in POLICY_CASES] + [(i, ("file", h), w) for i, h, w in FILE_CASES]
+
+
+@pytest.mark.parametrize("case, words", [(c, w) for _, c, w in ALL_POLICY], ids=[i for i, _, _ in ALL_POLICY])
+def test_malformed_policy_file_is_refused_naming_file_and_field(tmp_path, spec, monkeypatch, case, words):
+    monkeypatch.setenv("PETSWARM_TEST_MARKER", str(tmp_path / "UNPICKLED"))
+    path = _make_bad_policy(tmp_path, spec.layout, case)
+    with pytest.raises(PolicyLoadError) as info:
+        LearnedPolicy.load(path, spec)
+    message = str(info.value)
+    assert "bad_policy.npz" in message and words in message and "\n" not in message
+    assert not (tmp_path / "UNPICKLED").exists()
+
+
+CLI_POLICY = [c for c in ALL_POLICY if c[0] in ("meta_a_list", "string_weights", "no_observation_layout", "observation_layout_5",
+                                                 "num_layers_0", "num_layers_minus_1", "observation_version_999", "truncated",
+                                                 "pickled_object_array", "huge_declared")]
+
+
+@pytest.mark.parametrize("case, words", [(c, w) for _, c, w in CLI_POLICY], ids=[i for i, _, _ in CLI_POLICY])
+def test_malformed_policy_file_through_the_cli(capsys, outputs, spec, monkeypatch, case, words):
+    monkeypatch.setenv("PETSWARM_TEST_MARKER", str(outputs / "UNPICKLED"))
+    path = _make_bad_policy(outputs, spec.layout, case)
+    before = _snapshot(outputs)
+    _fails(capsys, ["run", "--policy", path, "--set", "max_cycles=5", "--json", outputs / "OUT.json"], words)
+    assert _snapshot(outputs) == before
+
+
+def test_a_policy_of_an_older_observation_version_loads_with_a_warning(tmp_path, spec, monkeypatch, capsys):
+    import baselines.learned as learned
+
+    _write_policy(tmp_path / "old.npz", spec.layout)  # version 1, its fields all in today's layout
+    monkeypatch.setattr(learned, "OBS_VERSION", 2)
+    with pytest.warns(learned.PolicyVersionWarning, match="observation version 1, this environment's is 2"):
+        LearnedPolicy.load(tmp_path / "old.npz", spec)
+    assert main(["run", "--policy", str(tmp_path / "old.npz"), "--set", "max_cycles=3", "--quiet"]) == 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("petswarm: warning: policy file")
+
+
+def test_a_checkpoint_given_as_a_policy_says_what_it_is(tmp_path, spec):
+    np.savez(tmp_path / "latest.npz", state=np.frombuffer(b'{"format": "petswarm-checkpoint"}', np.uint8))
+    with pytest.raises(PolicyLoadError, match="training checkpoint"):
+        LearnedPolicy.load(tmp_path / "latest.npz", spec)
+
+
+# -- result JSON for petswarm report ---------------------------------------------------------------
+REPORT_CASES = [
+    ("{not json", "not valid JSON"), ("", "empty"), ("[1, 2]", "expected a JSON object"), ('"text"', "expected a JSON object"),
+    ('{"episodes": 3}', "'episodes' must be a list"), ('{"episodes": [1]}', "episode 0 must be a JSON object"),
+    ('{"timesteps": 2048, "evaluations": []}', "has no 'episodes' list"), (b"\xff\xfe\x00", "not UTF-8"),
+    ("[" * 100000, "not valid JSON"),
+]
+
+
+@pytest.mark.parametrize("content, words", REPORT_CASES, ids=[f"report{i}" for i in range(len(REPORT_CASES))])
+def test_bad_result_file_for_the_report(capsys, outputs, content, words):
+    bad = outputs / "bad_result.json"
+    bad.write_bytes(content if isinstance(content, bytes) else content.encode())
+    before = _snapshot(outputs)
+    line = _fails(capsys, ["report", bad, "--out", outputs / "report.html"], words)
+    assert "bad_result.json" in line and _snapshot(outputs) == before
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["report", "{dir}/none.json", "--out", "{dir}/report.html"], "not found"),
+    (["report", "{dir}", "--out", "{dir}/report.html"], "is a directory"),
+    (["report", "{dir}/OUT.json", "--out", "{dir}"], "is a folder"),
+    (["report", "{dir}/OUT.json", "--out", "{dir}/clips/report.html"], "is a file, not a folder"),
+])
+def test_bad_report_paths(capsys, outputs, argv, words):
+    before = _snapshot(outputs)
+    _fails(capsys, [a.replace("{dir}", str(outputs)) for a in argv], words)
+    assert _snapshot(outputs) == before
+
+
+# -- a killed run keeps its finished episodes ------------------------------------------------------
+def _start_run(tmp_path, *extra):
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[2])}
+    return subprocess.Popen([sys.executable, "-m", "cli.main", "run", "--episodes", "40", "--set", "max_cycles=40", "--quiet",
+                             "--json", str(tmp_path / "OUT.json"), *extra], stderr=subprocess.PIPE, text=True, env=env)
+
+
+def _wait_for_lines(path: Path, n: int, proc) -> None:
+    deadline = time.time() + 240
+    while time.time() < deadline and proc.poll() is None:
+        if path.exists() and len(path.read_text().splitlines()) >= n:
+            return
+        time.sleep(0.2)
+    pytest.fail(f"the run did not write {n} episodes to {path}")
+
+
+@pytest.mark.parametrize("sig, code", [(signal.SIGTERM, 143), (signal.SIGKILL, -9), (signal.SIGINT, 130)])
+def test_a_killed_run_keeps_its_finished_episodes(tmp_path, sig, code):
+    (tmp_path / "OUT.json").write_text('{"old": true}')
+    proc = _start_run(tmp_path)
+    _wait_for_lines(tmp_path / "OUT.jsonl", 2, proc)
+    proc.send_signal(sig)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == code, err
+    if sig != signal.SIGKILL:
+        assert "Traceback" not in err and len(err.strip().splitlines()) == 1
+    episodes = [json.loads(line) for line in (tmp_path / "OUT.jsonl").read_text().splitlines()]
+    assert len(episodes) >= 2 and [e["seed"] for e in episodes] == list(range(len(episodes)))
+    assert all("formation_rmse_m" in e for e in episodes)
+    assert (tmp_path / "OUT.json").read_text() == '{"old": true}'  # the final JSON comes only at the end
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["OUT.json", "OUT.jsonl"]  # no temp file
+
+
+def test_the_json_lines_hold_the_episodes_of_the_final_json(tmp_path, capsys):
+    assert main(["eval", "--scenarios", "straight,zigzag", "--episodes", "2", "--set", "max_cycles=10",
+                 "--json", str(tmp_path / "e.json")]) == 0
+    final = json.loads((tmp_path / "e.json").read_text())
+    lines = [json.loads(line) for line in (tmp_path / "e.jsonl").read_text().splitlines()]
+    assert lines == json.loads(json.dumps(final["episodes"]))
+
+
+# -- checkpoints and resumes (the training stack) --------------------------------------------------
+TINY = ["--set", "num_envs=1", "--set", "num_cpus=0", "--set", "ppo.n_steps=32", "--set", "ppo.batch_size=64",
+        "--set", "ppo.n_epochs=1", "--set", "ppo.net_arch=[8]", "--set", "eval.every_steps=100000", "--set", "eval.episodes=1",
+        "--set", "eval.max_cycles=10", "--set", "checkpoint.every_steps=100000", "--set", "env.max_cycles=20",
+        "--set", "pretrain.samples=0"]
+
+
+@pytest.fixture(scope="module")
+def finished_run(tmp_path_factory):
+    pytest.importorskip("stable_baselines3")
+    pytest.importorskip("supersuit")
+    out = tmp_path_factory.mktemp("runs") / "tiny"
+    assert main(["train", "--out", str(out), "--timesteps", "128", "--no-progress", *TINY]) == 0
+    return out
+
+
+@pytest.fixture
+def run(finished_run, tmp_path, monkeypatch):
+    """A copy of the finished run, and the marker file a crafted pickle would create."""
+    monkeypatch.setenv("PETSWARM_TEST_MARKER", str(tmp_path / "UNPICKLED"))
+    copy = tmp_path / "run"
+    shutil.copytree(finished_run, copy)
+    return copy
+
+
+def _sb3_zip(path: Path) -> None:
+    """An SB3 checkpoint whose 'data' holds a ':serialized:' pickle that creates a file."""
+    data = {"policy_class": {":type:": "<class 'abc.ABCMeta'>", ":serialized:": base64.b64encode(pickle.dumps(_Evil())).decode()}}
+    with zipfile.ZipFile(path, "w") as z:
+        z.writestr("data", json.dumps(data))
+        z.writestr("policy.pth", b"")
+        z.writestr("_stable_baselines3_version", "2.9.2")
+
+
+def test_the_crafted_pickles_would_run_code(tmp_path, monkeypatch):
+    monkeypatch.setenv("PETSWARM_TEST_MARKER", str(tmp_path / "UNPICKLED"))
+    _sb3_zip(tmp_path / "latest.zip")
+    payload = json.loads(zipfile.ZipFile(tmp_path / "latest.zip").read("data"))["policy_class"][":serialized:"]
+    pickle.loads(base64.b64decode(payload))  # what SB3's PPO.load would do
+    assert (tmp_path / "UNPICKLED").exists()
+
+
+def _edit_checkpoint(run: Path, change) -> None:
+    path = run / "checkpoints" / "latest.npz"
+    with np.load(path) as data:
+        items = dict(data)
+    change(items)
+    path.unlink()
+    np.savez(path, **items)
+
+
+def _state(items, **over):
+    state = json.loads(items["state"].tobytes())
+    state.update(over)
+    items["state"] = np.frombuffer(json.dumps(state).encode(), np.uint8)
+
+
+def _first_weight(items):
+    return next(k for k in items if k.startswith("policy:") and k.endswith("weight"))
+
+
+RESUME_CASES = [
+    ("pickle_in_checkpoint", lambda r: _edit_checkpoint(r, lambda a: a.update(evil=np.array([_Evil()], dtype=object))), [],
+     "Python objects"),
+    ("old_sb3_zip", lambda r: ((r / "checkpoints" / "latest.npz").unlink(), _sb3_zip(r / "checkpoints" / "latest.zip")), [],
+     "older petswarm in Stable-Baselines3's pickled format"),
+    ("truncated", lambda r: (r / "checkpoints" / "latest.npz").write_bytes((r / "checkpoints" / "latest.npz").read_bytes()[:500]),
+     [], "cannot be read"),
+    ("not_a_zip", lambda r: (r / "checkpoints" / "latest.npz").write_text("garbage"), [], "not a zip"),
+    ("no_state", lambda r: _edit_checkpoint(r, lambda a: a.pop("state")), [], "'state' record"),
+    ("foreign_format", lambda r: _edit_checkpoint(r, lambda a: _state(a, format="sb3")), [], "field 'format'"),
+    ("format_version_9", lambda r: _edit_checkpoint(r, lambda a: _state(a, format_version=9)), [], "format version 9"),
+    ("timesteps_negative", lambda r: _edit_checkpoint(r, lambda a: _state(a, num_timesteps=-5)), [], "num_timesteps"),
+    ("wrong_shape", lambda r: _edit_checkpoint(r, lambda a: a.update({_first_weight(a): np.zeros((2, 2), np.float32)})), [],
+     "the run's network has"),
+    ("missing_tensor", lambda r: _edit_checkpoint(r, lambda a: a.pop(_first_weight(a))), [], "missing"),
+    ("nan_weights", lambda r: _edit_checkpoint(r, lambda a: a[_first_weight(a)].fill(np.nan)), [], "NaN"),
+    ("no_train_config", lambda r: (r / "train_config.yaml").unlink(), [], "no train_config.yaml"),
+    ("bad_train_log", lambda r: (r / "train_log.json").write_text("{oops"), [], "train_log.json"),
+    ("env_changed", lambda r: (r / "env_config.yaml").write_text((r / "env_config.yaml").read_text().replace(
+        "loss_prob: 0.0", "loss_prob: 0.3")), [], "radio.loss_prob"),
+    ("set_learning_rate", None, ["--set", "ppo.learning_rate=0.5"], "ppo.learning_rate"),
+    ("set_env_key", None, ["--set", "env.max_cycles=99"], "env.max_cycles"),
+    ("set_seed", None, ["--set", "seed=5"], "cannot resume"),
+    ("config_file_changes_net", lambda r: (r.parent / "t.yaml").write_text("ppo:\n  net_arch: [64]\n"),
+     ["--config", "{parent}/t.yaml"], "ppo.net_arch"),
+    ("set_bool_timesteps", None, ["--set", "timesteps=true"], "timesteps"),
+]
+
+
+@pytest.mark.parametrize("damage, extra, words", [c[1:] for c in RESUME_CASES], ids=[c[0] for c in RESUME_CASES])
+def test_refused_resume_leaves_the_run_folder_intact(capsys, run, damage, extra, words):
+    if damage:
+        damage(run)
+    before = _snapshot(run)
+    extra = [a.replace("{parent}", str(run.parent)) for a in extra]
+    budget = [] if any("timesteps" in a for a in extra) else ["--timesteps", "100000"]  # a budget left: only the refusal stops it
+    _fails(capsys, ["train", "--resume", "--out", run, *budget, "--no-progress", *extra], words)
+    assert _snapshot(run) == before
+    assert not (run.parent / "UNPICKLED").exists()
+
+
+def test_a_new_run_into_a_run_folder_is_refused(capsys, run):
+    before = _snapshot(run)
+    _fails(capsys, ["train", "--out", run, "--no-progress", *TINY], "--resume")
+    assert _snapshot(run) == before
+
+
+@pytest.mark.parametrize("extra", [[], ["--timesteps", "64"], ["--set", "timesteps=128"]], ids=["own", "smaller", "same"])
+def test_resuming_a_finished_run_says_so_and_writes_nothing(capsys, run, extra):
+    before = _snapshot(run)
+    assert main(["train", "--resume", "--out", str(run), "--no-progress", *extra]) == 0
+    out = capsys.readouterr()
+    assert "already finished" in out.out and out.err == "" and len(out.out.strip().splitlines()) == 1
+    assert _snapshot(run) == before
+
+
+def test_a_resumed_run_keeps_its_config_and_records_what_changed(capsys, run):
+    import yaml
+
+    saved = yaml.safe_load((run / "train_config.yaml").read_text())
+    assert main(["train", "--resume", "--out", str(run), "--no-progress", "--timesteps", "200", "--set", "eval.every_steps=50000"]) == 0
+    now = yaml.safe_load((run / "train_config.yaml").read_text())
+    assert now == {**saved, "timesteps": 200, "eval": {**saved["eval"], "every_steps": 50000}}  # the run's own, ppo.net_arch [8]
+    log = json.loads((run / "train_log.json").read_text())
+    assert log["timesteps"] >= 200 and log["resumes"][-1]["changes"] == {
+        "eval.every_steps": {"from": 100000, "to": 50000}, "timesteps": {"from": 128, "to": 200}}
+    assert "resumed with timesteps 128 -> 200" in capsys.readouterr().out
+    assert not [p for p in run.rglob(".*") if p.is_file()]
+
+
+def test_a_checkpoint_restores_weights_optimizer_counters_and_rngs(run):
+    import random
+
+    import torch
+
+    from training.checkpoint import read_checkpoint, restore_checkpoint, save_checkpoint
+    from training.config import load_train_config
+    from training.train import build_model
+    from training.vec_env import make_vec_env
+
+    def draws():
+        return torch.rand(3).tolist(), np.random.random(3).tolist(), random.random()
+
+    def same_state(a, b):
+        assert all(torch.equal(x, y) for x, y in zip(a.policy.state_dict().values(), b.policy.state_dict().values()))
+        oa, ob = a.policy.optimizer.state_dict(), b.policy.optimizer.state_dict()
+        assert oa["param_groups"][0]["lr"] == ob["param_groups"][0]["lr"] and oa["state"].keys() == ob["state"].keys()
+        assert all(torch.equal(oa["state"][k][n], ob["state"][k][n]) for k in oa["state"] for n in oa["state"][k])
+        assert a.num_timesteps == b.num_timesteps and a._n_updates == b._n_updates
+
+    cfg = load_train_config(base=run / "train_config.yaml")
+    venv = make_vec_env(cfg.env_config(), 1, 0, 0)
+    try:
+        model = build_model(cfg.ppo, venv, 1)  # other seeds: the checkpoint, not the build, sets the state
+        restore_checkpoint(run, model)
+        state, arrays = read_checkpoint(run)
+        assert model.num_timesteps == state["num_timesteps"] >= 128 and model.policy.optimizer.state_dict()["state"]
+        for name, tensor in model.policy.state_dict().items():
+            assert np.array_equal(tensor.numpy(), arrays[f"policy:{name}"])
+        first = draws()
+        again = build_model(cfg.ppo, venv, 2)
+        restore_checkpoint(run, again)
+        assert draws() == first  # torch's, numpy's and Python's RNGs as they were at the checkpoint
+        same_state(model, again)
+        save_checkpoint(run / "checkpoints" / "latest.npz", model, "tanh", [8])  # a round trip of a restored model
+        third = build_model(cfg.ppo, venv, 3)
+        restore_checkpoint(run, third)
+        same_state(model, third)
+    finally:
+        venv.close()

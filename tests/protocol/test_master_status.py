@@ -1,0 +1,47 @@
+"""The master's status broadcast (seed 000 §3.5, Fig. 9) carries what the master itself measured.
+
+Issue 14 item 2: "its driving speed" is what its own wheel odometry measures, with the slaves'
+odometry noise model (sim/sensors.py), never the body's true velocity.
+"""
+
+import numpy as np
+import pytest
+
+import petswarm_env
+from petswarm_env.comms.radio import BROADCAST
+from petswarm_env.middleware import messages as msg
+from petswarm_env.middleware.station import Station
+
+
+def _broadcasts(monkeypatch, steps=150, **overrides):
+    """(broadcast velocity, true body velocity at that instant) of every STATUS the master sent."""
+    sent = []
+    original = Station.send
+
+    def spy(self, kind, dst=BROADCAST, pan=None, **payload):
+        if kind == msg.STATUS:
+            sent.append((payload["velocity"], self._robot.velocity_body))
+        return original(self, kind, dst, pan, **payload)
+
+    monkeypatch.setattr(Station, "send", spy)
+    env = petswarm_env.parallel_env(max_cycles=steps, **overrides)
+    env.reset(seed=4)
+    for _ in range(steps):
+        env.step({a: np.array([0.2, 0.0, 0.0], np.float32) for a in env.agents})
+    return sent
+
+
+def test_the_broadcast_speed_is_the_masters_own_noisy_odometry(monkeypatch):
+    sent = _broadcasts(monkeypatch)
+    moving = [(np.array(b), np.array(t)) for b, t in sent if abs(t[0]) > 0.2]
+    assert len(moving) > 50, "the master must drive for the test to mean something"
+    rel = np.array([b[0] / t[0] - 1.0 for b, t in moving])
+    assert not np.allclose(rel, 0.0), "the broadcast is the true body velocity"
+    k = petswarm_env.load_config().robot.odometry_noise_rel
+    assert rel.std() == pytest.approx(k, rel=0.3)  # the same relative noise as a slave's odometry
+    assert abs(rel.mean()) < 3 * k / np.sqrt(len(rel)) + 1e-3
+
+
+def test_noiseless_odometry_broadcasts_the_achieved_velocity(monkeypatch):
+    sent = _broadcasts(monkeypatch, steps=60, **{"robot.odometry_noise_rel": 0.0})
+    assert sent and all(tuple(b) == tuple(t) for b, t in sent)

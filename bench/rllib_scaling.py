@@ -65,7 +65,7 @@ def measure(runners: list[int], iterations: int, envs_per_runner: int, overrides
                 t = time.perf_counter()
                 result = algo.train()
                 wall += time.perf_counter() - t
-                steps += sum(result["env_runners"]["num_agent_steps_sampled"].values())
+                steps += float(sum(result["env_runners"]["num_agent_steps_sampled"].values()))
             sample_s = sum(sampled[first:])
             cpu = [round(_cpu_s(p) - c0, 1) for p, c0 in zip(pids, cpu0)]
             rows.append({"env_runners": n, "envs_per_runner": envs_per_runner, "agent_steps": int(steps),
@@ -87,7 +87,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description="RLlib samples/s with 0, 1, 2 … env runners")
     parser.add_argument("--runners", default="0,1,2")
     parser.add_argument("--iterations", type=int, default=4)
-    parser.add_argument("--envs-per-runner", type=int, default=1)
+    parser.add_argument("--envs-per-runner", type=int, default=4, help="rllib.num_envs_per_env_runner (default 4, the config's)")
     parser.add_argument("--json", metavar="OUT")
     args = parser.parse_args(argv)
     result = measure([int(x) for x in args.runners.split(",")], max(2, args.iterations), args.envs_per_runner)

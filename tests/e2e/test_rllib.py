@@ -37,7 +37,8 @@ from training.train import train  # noqa: E402
 ROOT = Path(__file__).resolve().parents[2]
 TINY = {"timesteps": 400, "num_envs": 1, "ppo.n_steps": 50, "ppo.batch_size": 50, "ppo.n_epochs": 1, "ppo.net_arch": [16, 16],
         "eval.every_steps": 200, "eval.episodes": 1, "eval.max_cycles": 20, "checkpoint.every_steps": 200,
-        "env.max_cycles": 50, "pretrain.samples": 200, "pretrain.epochs": 1}
+        "env.max_cycles": 50, "pretrain.samples": 200, "pretrain.epochs": 1,
+        "rllib.num_envs_per_env_runner": 1}  # one env copy: 50 env steps x 4 robots = 200 agent-steps an iteration, exactly
 
 
 @pytest.fixture(scope="module")

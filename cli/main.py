@@ -2,11 +2,12 @@
 (:mod:`evaluation.commands`, :mod:`training.train`, :mod:`bench.run`, :mod:`experiments.reproduce`).
 
     petswarm run    [--config FILE] [--set KEY=VALUE ...] [--policy scripted|random|learned|PATH]
-                    [--episodes N] [--seed S] [--json OUT] [--render human] [--video OUT.gif]
+                    [--episodes N] [--seed S] [--json OUT] [--render human] [--video OUT.gif] [--pcap OUT.pcapng]
     petswarm train  [--config configs/train/ppo.yaml] [--set KEY=VALUE ...] [--timesteps N] [--out runs/NAME] [--resume]
                     [--backend sb3|rllib] [--address HOST:PORT]
-    petswarm eval   --policy scripted|random|learned|PATH [--mix ROBOT=POLICY ...] [--scenarios a,b] [--episodes N] ...
-    petswarm report RESULT.json ... --out report.html
+    petswarm eval   --policy scripted|random|learned|PATH [--mix ROBOT=POLICY ...] [--scenarios a,b] [--episodes N]
+                    [--video-dir DIR] [--pcap-dir DIR] [--replay-dir DIR] ...
+    petswarm report RESULT.json ... --out report.html [--replays first|all|none|SCENARIO:SEED,...]
     petswarm bench  [--quick] [--json OUT] [--md docs/benchmarks.md]
     petswarm reproduce [--only NAME,...] [--quick] [--json OUT] [--report OUT.html] [--check] [--seed S]
 """
@@ -91,6 +92,8 @@ def _add_run(sub) -> None:
     run.add_argument("--json", metavar="OUT", help="write the results as JSON to OUT (atomically)")
     run.add_argument("--render", choices=["human"], help="show a window while running")
     run.add_argument("--video", metavar="OUT.gif", help="write the first episode as an animated GIF")
+    run.add_argument("--pcap", metavar="OUT.pcapng",
+                     help="write every radio frame of the first episode (reset included) for Wireshark (docs/pcap.md)")
     run.add_argument("--quiet", action="store_true", help="print only the summary line")
 
 
@@ -132,6 +135,9 @@ def _add_eval(sub) -> None:
     _add_env_config_options(ev)
     ev.add_argument("--json", metavar="OUT", help="write the results as JSON (atomically)")
     ev.add_argument("--video-dir", metavar="DIR", help="write a GIF of the first episode of each scenario into DIR")
+    ev.add_argument("--pcap-dir", metavar="DIR", help="write every episode's radio frames as pcapng into DIR (docs/pcap.md)")
+    ev.add_argument("--replay-dir", metavar="DIR",
+                    help="write every episode's replay into DIR (LABEL_SCENARIO_seedS.replay.json; `petswarm report` embeds them)")
 
 
 def _add_bench(sub) -> None:
@@ -170,6 +176,9 @@ def _add_report(sub) -> None:
                          description="Compare the JSON results of `petswarm eval` (one per policy) in one HTML page.")
     rep.add_argument("results", nargs="+", metavar="RESULT.json")
     rep.add_argument("--out", default="report.html", metavar="report.html", help="output HTML file (default report.html)")
+    rep.add_argument("--replays", default="first", metavar="first|all|none|SCENARIO:SEED,...",
+                     help="episode replays to embed (recorded by eval --replay-dir): the first seed of each scenario "
+                     "(default), all, none, or the named ones; the results' episodes of one scenario and seed play side by side")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -187,7 +196,8 @@ def _env_config(args):
 def _run(args, argv: list[str]) -> int:
     from evaluation.commands import run_command
 
-    return run_command(_env_config(args), args.policy, args.episodes, args.seed, args.render, args.video, args.json, args.quiet)
+    return run_command(_env_config(args), args.policy, args.episodes, args.seed, args.render, args.video, args.json, args.quiet,
+                       args.pcap)
 
 
 def _train(args, argv: list[str]) -> int:
@@ -208,13 +218,13 @@ def _eval(args, argv: list[str]) -> int:
     from evaluation.commands import eval_command
 
     return eval_command(_env_config(args), args.policy, args.mix, args.scenarios, args.episodes, args.seed, args.json,
-                        args.video_dir)
+                        args.video_dir, args.pcap_dir, args.replay_dir)
 
 
 def _report(args, argv: list[str]) -> int:
     from evaluation.commands import report_command
 
-    return report_command(args.results, args.out)
+    return report_command(args.results, args.out, args.replays)
 
 
 def _bench(args, argv: list[str]) -> int:

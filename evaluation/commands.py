@@ -50,16 +50,20 @@ def _warn_short(result: dict[str, Any], cfg: Config) -> None:
 
 
 def run_command(cfg: Config, policy: str, episodes: int, seed: int | None, render: str | None, video: str | None,
-                json_out: str | None, quiet: bool) -> int:
-    """``petswarm run``: the episodes, their table (or with ``quiet`` the summary line), the JSON
-    and the GIF. With ``json_out`` every finished episode is appended at once to the JSON Lines
-    file beside it (``OUT.jsonl``): a killed run keeps the episodes it finished."""
+                json_out: str | None, quiet: bool, pcap: str | None = None) -> int:
+    """``petswarm run``: the episodes, their table (or with ``quiet`` the summary line), the JSON,
+    the GIF and the radio trace (pcapng) of the first episode. With ``json_out`` every finished
+    episode is appended at once to the JSON Lines file beside it (``OUT.jsonl``): a killed run
+    keeps the episodes it finished."""
     if video and not video.lower().endswith(".gif"):
         raise ConfigError(f"--video must name a .gif file, got '{video}'")
+    if pcap and not pcap.lower().endswith(".pcapng"):
+        raise ConfigError(f"--pcap must name a .pcapng file (the trace is pcapng), got '{pcap}'")
     check_output_path(json_out, "--json")
     check_output_path(video, "--video")
+    check_output_path(pcap, "--pcap")
     with JsonLines(jsonl_path(json_out) if json_out else None) as lines:
-        result = run(cfg, policy, episodes, seed, render, video, progress=lines.append)
+        result = run(cfg, policy, episodes, seed, render, video, pcap=pcap, progress=lines.append)
     _warn_short(result, cfg)
     if quiet:
         s = result["summary"]
@@ -71,37 +75,48 @@ def run_command(cfg: Config, policy: str, episodes: int, seed: int | None, rende
         print(f"wrote {json_out}")
     if video:
         print(f"wrote {video}")
+    if pcap:
+        print(f"wrote {pcap}" + (f" (episode 0 of {episodes}; eval --pcap-dir writes one file per episode)" if episodes > 1 else ""))
     return 0
 
 
 def eval_command(cfg: Config, policy: str, mix: list[str], scenarios: str | None, episodes: int, seed: int | None,
-                 json_out: str | None, video_dir: str | None) -> int:
+                 json_out: str | None, video_dir: str | None, pcap_dir: str | None = None, replay_dir: str | None = None) -> int:
     """``petswarm eval``: ``policy`` (and the ``--mix ROBOT=POLICY`` items) on each of the
-    comma-separated ``scenarios``; the table and the JSON, its GIF paths relative to the JSON file
-    (as the report expects), each finished episode appended at once to ``OUT.jsonl``."""
+    comma-separated ``scenarios``; the table and the JSON, its GIF, pcap and replay paths relative
+    to the JSON file (as the report expects), each finished episode appended at once to
+    ``OUT.jsonl``."""
     names = [s.strip() for s in scenarios.split(",") if s.strip()] if scenarios else None
     check_output_path(json_out, "--json")
     check_output_path(video_dir, "--video-dir", folder=True)
+    check_output_path(pcap_dir, "--pcap-dir", folder=True)
+    check_output_path(replay_dir, "--replay-dir", folder=True)
     base = os.path.dirname(os.path.abspath(json_out or "."))
 
     def finished(ep: dict[str, Any]) -> None:
-        if "gif" in ep:
-            ep["gif"] = os.path.relpath(os.path.abspath(ep["gif"]), base)
+        for key in ("gif", "pcap", "replay"):
+            if key in ep:
+                ep[key] = os.path.relpath(os.path.abspath(ep[key]), base)
         lines.append(ep)
 
     with JsonLines(jsonl_path(json_out) if json_out else None) as lines:
-        result = evaluate(cfg, policy, parse_mix(mix), names, episodes, seed, video_dir, on_episode=finished)
+        result = evaluate(cfg, policy, parse_mix(mix), names, episodes, seed, video_dir, pcap_dir, replay_dir,
+                          on_episode=finished)
     _warn_short(result, cfg)
     print(format_table(result))
+    for what, folder in (("radio traces", pcap_dir), ("replays", replay_dir)):
+        if folder:
+            print(f"wrote {len(result['episodes'])} {what} into {folder}")
     if json_out:
         write_json_atomic(json_out, result)
         print(f"wrote {json_out}")
     return 0
 
 
-def report_command(results: list[str], out: str) -> int:
-    """``petswarm report``: one HTML page comparing the result files."""
+def report_command(results: list[str], out: str, replays: str = "first") -> int:
+    """``petswarm report``: one HTML page comparing the result files, with the episode replays
+    ``replays`` chooses (:mod:`evaluation.replay_viewer`)."""
     check_output_path(out, "--out")
-    write_report(results, out)
+    write_report(results, out, replays)
     print(f"wrote {out}")
     return 0

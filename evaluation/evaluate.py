@@ -11,7 +11,9 @@ import numpy as np
 
 from baselines.policy import MixedPolicy, PolicySpec
 from baselines.registry import make_policy
-from evaluation.runner import VideoRecorder, run_episode, summarize
+from evaluation.pcap import PcapRecorder
+from evaluation.replay import ReplayRecorder, replay_name
+from evaluation.runner import VideoRecorder, chain, run_episode, summarize
 from evaluation.stats import mean_ci95
 from petswarm_env.config import SCENARIOS, Config, ConfigError, flatten_dotted, load_config
 from petswarm_env.env import PetSwarmEnv
@@ -53,11 +55,16 @@ def evaluate(
     episodes: int = 5,
     seed: int | None = None,
     video_dir: str | None = None,
+    pcap_dir: str | None = None,
+    replay_dir: str | None = None,
     on_episode: Callable[[dict[str, Any]], None] | None = None,
 ) -> dict[str, Any]:
     """Run ``episodes`` seeds on each scenario; the same seeds for every policy, so results pair up.
-    ``on_episode`` is called with each finished episode (``petswarm eval`` appends it to its JSON
-    Lines file)."""
+    With ``video_dir`` the first episode of each scenario is a GIF there; with ``pcap_dir`` and
+    ``replay_dir`` every episode's radio trace (:mod:`evaluation.pcap`) and replay
+    (:mod:`evaluation.replay`) are written there, named by label, scenario and seed, and the
+    episode's ``"gif"``, ``"pcap"`` and ``"replay"`` give the paths. ``on_episode`` is called with
+    each finished episode (``petswarm eval`` appends it to its JSON Lines file)."""
     mix = mix or {}
     scenarios = scenarios or [config.user.scenario]
     bad = [s for s in scenarios if s not in SCENARIOS]
@@ -73,12 +80,18 @@ def evaluate(
         team = make_team(env, policy, mix, base_seed)
         eps = []
         for i in range(episodes):
-            recorder = None
+            seed_i = base_seed + i
+            recorders = {}
             if video_dir and i == 0:
-                recorder = VideoRecorder(env, str(Path(video_dir) / f"{scenario}_seed{base_seed}.gif"))
-            ep = run_episode(env, team, base_seed + i, recorder, record=True)
-            if recorder is not None:
-                ep["gif"] = recorder.close()
+                recorders["gif"] = VideoRecorder(env, str(Path(video_dir) / f"{scenario}_seed{base_seed}.gif"))
+            name = replay_name(label, scenario, seed_i)
+            if pcap_dir:
+                recorders["pcap"] = PcapRecorder(env, Path(pcap_dir) / name.replace(".replay.json", ".pcapng"))
+            if replay_dir:
+                recorders["replay"] = ReplayRecorder(env, Path(replay_dir) / name, label, seed_i)
+            ep = run_episode(env, team, seed_i, chain(list(recorders.values())), record=True)
+            for key, recorder in recorders.items():
+                ep[key] = recorder.close()
             ep.update({"scenario": scenario, "policy": label})
             eps.append(ep)
             if on_episode:

@@ -7,8 +7,8 @@ several scenarios and seeds: ``{"label", "config", "episodes": [...], "summary",
 The report holds a header (files, labels, config differences), a per-scenario table of
 formation RMSE (mean ± 95 % t-interval computed here from the episodes, ratio to the
 ``scripted`` label), error-over-time and trajectory plots (PNG, base64-embedded), collision,
-arbiter and communication tables, and relative links to episode GIFs. No external resources:
-the file opens from disk in any browser.
+arbiter and communication tables, relative links to episode GIFs, and the episode replays
+(:mod:`evaluation.replay_viewer`). No external resources: the file opens from disk in any browser.
 
 Older result files may lack fields; whatever is missing shows as "n/a".
 """
@@ -24,6 +24,7 @@ from pathlib import Path
 from typing import Any
 
 from evaluation.html import NA, escape, figure, now_stamp, page, table
+from evaluation.replay_viewer import replay_section
 from evaluation.report_plots import COLORS, plot_error_over_time, plot_rmse_bars, plot_trajectories, trace_matrix
 from evaluation.stats import as_number as _num
 from evaluation.stats import mean_ci95
@@ -422,7 +423,8 @@ def _section_gifs(results: list[_Result], out_dir: Path) -> str:
     return "".join(parts)
 
 
-def _render_html(results: list[_Result], out_path: str | os.PathLike, generated: str | None = None) -> str:
+def _render_html(results: list[_Result], out_path: str | os.PathLike, generated: str | None = None,
+                 replays: str = "first") -> str:
     out_dir = Path(out_path).resolve().parent
     if generated is None:
         generated = now_stamp()
@@ -439,16 +441,18 @@ def _render_html(results: list[_Result], out_path: str | os.PathLike, generated:
         _section_trajectories(results, scenarios),
         _section_collisions_comms(results, scenarios),
         _section_gifs(results, out_dir),
+        replay_section(results, replays, 7),
     ]
     return page("petswarm report: " + " vs ".join(r.label for r in results), body)
 
 
-def write_report(result_paths: list[str], out_path: str) -> None:
+def write_report(result_paths: list[str], out_path: str, replays: str = "first") -> None:
     """Write one self-contained HTML report comparing the results in ``result_paths`` to
-    ``out_path`` (atomically). Raises ``ValueError`` naming the file on a bad result file."""
+    ``out_path`` (atomically), with the episode replays ``replays`` chooses
+    (:mod:`evaluation.replay_viewer`). Raises ``ValueError`` naming the file on a bad result file."""
     if not result_paths:
         raise ValueError("no result files given")
     results = [_Result(str(p), load_result(p)) for p in result_paths]
     _unique_labels(results)
     out = Path(out_path)
-    write_text_atomic(out, _render_html(results, out))
+    write_text_atomic(out, _render_html(results, out, replays=replays))

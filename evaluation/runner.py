@@ -35,6 +35,20 @@ class VideoRecorder:
         return self.writer.close()
 
 
+def chain(calls: list[Callable[[], None]]) -> Callable[[], None] | None:
+    """One ``on_frame`` callback that calls each of ``calls`` in order (None for none)."""
+    if not calls:
+        return None
+    if len(calls) == 1:
+        return calls[0]
+
+    def each() -> None:
+        for call in calls:
+            call()
+
+    return each
+
+
 def _positions(env: PetSwarmEnv) -> tuple[list[float], dict[str, list[float]]]:
     user = [round(v, 3) for v in env.world.user.position]
     robots = {f"robot_{r.index}": [round(v, 3) for v in r.position] for r in env.world.robots}
@@ -101,8 +115,10 @@ def run(
     render_mode: str | None = None,
     video: str | None = None,
     progress: Callable[[dict[str, Any]], None] | None = None,
+    pcap: str | None = None,
 ) -> dict[str, Any]:
-    """Run ``episodes`` episodes (seeds ``seed, seed+1, …``); return the JSON-ready result."""
+    """Run ``episodes`` episodes (seeds ``seed, seed+1, …``); return the JSON-ready result. ``video``
+    (a GIF) and ``pcap`` (the radio trace, :mod:`evaluation.pcap`) record the first episode."""
     base_seed = config.seed if seed is None else seed
     mode = "rgb_array" if video else render_mode
     env = PetSwarmEnv(config, render_mode=mode)
@@ -117,9 +133,17 @@ def run(
     elif render_mode == "human":
         on_frame = env.render
     results = []
+    pcap_recorder = None
+    if pcap:
+        from evaluation.pcap import PcapRecorder
+
+        pcap_recorder = PcapRecorder(env, pcap)
     try:
         for i in range(episodes):
-            ep = run_episode(env, policy, base_seed + i, on_frame if (i == 0 or not video) else None)
+            first = chain([c for c in (on_frame, pcap_recorder) if c is not None])
+            ep = run_episode(env, policy, base_seed + i, first if i == 0 else None if video else on_frame)
+            if pcap_recorder is not None and i == 0:
+                ep["pcap"] = pcap_recorder.close()
             ep["policy"] = policy_name
             results.append(ep)
             if progress:

@@ -109,6 +109,9 @@ class PetSwarmEnv(ParallelEnv):
         self._renderer = None
         self.world: World | None = None
         self.swarm: Swarm | None = None
+        # the experimenter's radio trace (comms/radio.py RadioTrace; evaluation/pcap.py, evaluation/replay.py):
+        # every frame of each episode's medium from its reset on; None = off
+        self.radio_trace = None
 
     # -- PettingZoo API --------------------------------------------------------------------------
     def observation_space(self, agent: str) -> gymnasium.spaces.Box:
@@ -174,6 +177,7 @@ class PetSwarmEnv(ParallelEnv):
                                    rng_world)
         self._other_user_robots = placement.other_user_robots
         self.radio = RadioMedium(world.clock, cfg.radio, rng_radio)
+        self.radio.trace = self.radio_trace
         self.ir_channel = IRChannel(world, cfg.ir, rng_ir)
         self.fleet = fleet = Fleet(cfg, world, self.radio, self.ir_channel, rng_swarm)
         self.swarms = [Swarm(fleet, u, SWARM_PAN + u, master, pool) for u, (master, pool) in enumerate(placement.pools)]

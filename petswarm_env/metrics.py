@@ -223,22 +223,18 @@ class Experimenter:
         }
 
     # -- what a person watching sees -------------------------------------------------------------
-    def scene(self, scenario: str, step: int) -> Scene:
-        """A plain description of the current truth for the renderer (:mod:`petswarm_env.render`):
-        every body, each robot's role and member number, the formation links and reference points,
-        walls and boxes, and a HUD with the scenario, the step and each user's robot state."""
-        cfg, world = self.cfg, self.world
+    def roles(self) -> list[str]:
+        """Every robot's role, by robot index: ``master``, ``slave``, ``waiting`` or ``other`` (connected
+        to another user)."""
         masters = {sw.master.node_id for sw in self.swarms}
         slaves = {i for sw in self.swarms for i in sw.slave_ids()}
-        robots = []
-        for r in world.robots:
-            node = self.fleet.nodes.get(r.index)
-            role = "master" if r.index in masters else "slave" if r.index in slaves else "waiting"
-            if r.index in self.other_user_robots:
-                role = "other"
-            label = str(node.know.member) if node is not None and node.know.member >= 0 else f"r{r.index}"
-            robots.append(RobotView(r.position, r.heading, cfg.robot.radius_m, role, label))
-        links = []
+        other = set(self.other_user_robots)
+        return ["other" if i in other else "master" if i in masters else "slave" if i in slaves else "waiting"
+                for i in range(len(self.world.robots))]
+
+    def link_pairs(self) -> list[tuple[int, int]]:
+        """Every formation link of the organized swarms as (neighbour's robot index, member's robot index)."""
+        pairs = []
         for swarm in self.swarms:
             if swarm.formation is None or not swarm.organized:
                 continue
@@ -246,7 +242,20 @@ class Experimenter:
             for m, lks in swarm.formation.links.items():
                 for lk in lks:
                     if m in members and lk.neighbour in members:
-                        links.append((world.robots[members[lk.neighbour]].position, world.robots[members[m]].position))
+                        pairs.append((members[lk.neighbour], members[m]))
+        return pairs
+
+    def scene(self, scenario: str, step: int) -> Scene:
+        """A plain description of the current truth for the renderer (:mod:`petswarm_env.render`):
+        every body, each robot's role and member number, the formation links and reference points,
+        walls and boxes, and a HUD with the scenario, the step and each user's robot state."""
+        cfg, world = self.cfg, self.world
+        robots = []
+        for r, role in zip(world.robots, self.roles()):
+            node = self.fleet.nodes.get(r.index)
+            label = str(node.know.member) if node is not None and node.know.member >= 0 else f"r{r.index}"
+            robots.append(RobotView(r.position, r.heading, cfg.robot.radius_m, role, label))
+        links = [(world.robots[a].position, world.robots[b].position) for a, b in self.link_pairs()]
         refs = [tuple(p) for p in self.reference_positions().values()]
         err = self.metrics.error_trace[-1] if self.metrics.error_trace else float("nan")
         states = "  ".join(f"user {u}: {se.state}, master r{se.swarm.master.node_id}" for u, se in enumerate(self.sessions))

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Set up a virtual environment in .venv with petswarm installed (editable).
 #   bash scripts/setup.sh          # run + render
-#   bash scripts/setup.sh test     # + training stack (SB3, RLlib) + TorchRL + test tools (torch==2.13.0 CPU first)
+#   bash scripts/setup.sh test     # + training stack (SB3, RLlib) + TorchRL + test tools (torch==2.13.0 CPU first),
+#                                  # and Debian's chromium and tshark when missing (the browser and pcap tests)
 #   bash scripts/setup.sh train    # + training stack: SB3 + SuperSuit and Ray RLlib (pins the CPU build of torch first)
 # torch is installed first and stays pinned in the second pip command: an unpinned torch would pull
 # a multi-GB CUDA build, and ray[rllib]==2.60.0 pins gymnasium==1.2.2 (never pair an unpinned
@@ -23,4 +24,20 @@ case "$what" in
 esac
 [ ${#torch[@]} -eq 0 ] || "$py" -m pip install -q "${torch[@]}"
 "$py" -m pip install -q "${torch[@]}" -e ".[$extras]"
+if [ "$what" = test ]; then
+  # the browser test of the report's replays (Debian's chromium) and the pcap test (Debian's tshark);
+  # without them those tests skip and say so
+  missing=""
+  command -v chromium >/dev/null 2>&1 || missing="$missing chromium"
+  command -v tshark >/dev/null 2>&1 || missing="$missing tshark"
+  if [ -n "$missing" ]; then
+    if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then
+      { DEBIAN_FRONTEND=noninteractive apt-get update -q >/dev/null &&
+        DEBIAN_FRONTEND=noninteractive apt-get install -y -q $missing >/dev/null; } ||
+        echo "setup.sh: could not install$missing; the tests that need them skip" >&2
+    else
+      echo "setup.sh: not installed:$missing (apt-get install$missing as root); the tests that need them skip" >&2
+    fi
+  fi
+fi
 "$py" -c "import petswarm_env" && echo "petswarm installed in .venv ($what)"

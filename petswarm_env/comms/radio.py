@@ -22,6 +22,14 @@ at delivery (``start < end``) still sees it. The sender's antenna position is re
 
 The medium also gives each received frame a received-signal distance estimate (log-distance path
 loss with shadowing), which is what a master uses to rank candidates by closeness (Table 2).
+
+**Trace hook** (the experimenter's tool: the pcap writer and the replay recorder of
+``evaluation/``; never a robot's): :attr:`RadioMedium.trace`, ``None`` unless set, gets every frame
+the medium carried — :meth:`RadioTrace.on_air` when a clear CCA puts it on the air (where
+``frames_sent`` counts it), :meth:`RadioTrace.reception` once per station in range it reached, with
+how the reception ended (where the counters of receptions count it), and :meth:`RadioTrace.busy` for
+a frame CSMA-CA gave up on. The hook only reads; when off it costs one ``is not None`` test per
+frame and per reception.
 """
 
 from __future__ import annotations
@@ -37,10 +45,18 @@ from petswarm_env.config import RadioConfig
 from petswarm_env.sim.clock import Clock
 from petswarm_env.sim.draws import Draws
 
-__all__ = ["BROADCAST", "PAN_WAITING", "Frame", "RadioMedium", "RadioStats", "Station"]
+__all__ = ["BROADCAST", "COLLIDED", "DELIVERED", "FILTERED", "LOST", "OUTCOMES", "PAN_WAITING", "Frame", "RadioMedium",
+           "RadioStats", "RadioTrace", "Station"]
 
 BROADCAST = -1
 PAN_WAITING = 0x0000  # robots not in a swarm listen here (chosen)
+
+# how one reception ended (RadioTrace.reception), in the order the medium decides it
+FILTERED = "filtered"  # another PAN: the receiver's MAC dropped it (RadioStats.foreign_pan_dropped)
+COLLIDED = "collided"  # overlapped by another transmission in range, or the receiver was sending (frames_collided)
+LOST = "lost"  # random loss, radio.loss_prob (frames_lost)
+DELIVERED = "delivered"  # handed to the station's middleware
+OUTCOMES = (DELIVERED, LOST, COLLIDED, FILTERED)
 
 
 @dataclass(slots=True)
@@ -73,6 +89,22 @@ class RadioStats:
     foreign_pan_dropped: int = 0  # filtered by the MAC
 
 
+class RadioTrace(Protocol):
+    """What the medium tells a trace (:attr:`RadioMedium.trace`); ``now`` is the clock's time."""
+
+    def on_air(self, now: float, station: int, frame: Frame, start_s: float, end_s: float) -> None:
+        """At ``now``, ``station``'s clear CCA put ``frame`` on the air from ``start_s`` (one
+        turnaround later) to ``end_s`` (counted in ``frames_sent``)."""
+
+    def reception(self, now: float, frame: Frame, receiver: int, outcome: str, distance_est_m: float) -> None:
+        """At ``now``, ``frame`` left the air and reached station ``receiver`` (in range, not its
+        sender): ``outcome`` is one of :data:`OUTCOMES`; ``distance_est_m`` the RSSI distance
+        estimate of a delivered frame (NaN otherwise)."""
+
+    def busy(self, now: float, station: int, frame: Frame) -> None:
+        """At ``now``, CSMA-CA gave ``frame`` up after ``max_backoffs`` busy channels (never on the air)."""
+
+
 class _Tx:
     __slots__ = ("end", "frame", "start", "x", "y")
 
@@ -98,6 +130,7 @@ class RadioMedium:
         self._air: list[_Tx] = []  # transmissions that may still overlap something
         self._queues: dict[int, list[Frame]] = {}  # per station: frames waiting for the MAC
         self.drop_filter: Callable[[Frame], bool] | None = None  # fault injection (tests)
+        self.trace: RadioTrace | None = None  # the experimenter's trace hook (module docstring)
         self._range2 = cfg.range_m**2
         # RSSI distance estimate d * 10^(σ·z / (10 n)), z ~ N(0, 1)
         self._shadow_k = cfg.rssi_shadowing_db / (10.0 * cfg.path_loss_exponent)
@@ -147,6 +180,8 @@ class RadioMedium:
             if tx.start <= now < tx.end and (tx.x - x) ** 2 + (tx.y - y) ** 2 <= r2:  # busy
                 if nb >= self.cfg.max_backoffs:
                     self.stats.frames_dropped_busy += 1
+                    if self.trace is not None:
+                        self.trace.busy(now, station.node_id, frame)
                     self._done(station)
                     return
                 be = min(be + 1, self.cfg.max_be)
@@ -157,6 +192,8 @@ class RadioMedium:
         tx = _Tx(frame, start, start + self.airtime_s(frame), x, y)
         self._air.append(tx)
         self.stats.frames_sent += 1
+        if self.trace is not None:
+            self.trace.on_air(now, station.node_id, frame, start, tx.end)
         self._later(tx.end - now, self._deliver, tx, station)
 
     # -- receiving ------------------------------------------------------------------------------
@@ -195,6 +232,7 @@ class RadioMedium:
         sqrt = math.sqrt
         kind, src, dst, pan, payload, size = frame.kind, frame.src, frame.dst, frame.pan, frame.payload, frame.size_bytes
         tx_x, tx_y = tx.x, tx.y
+        trace = self.trace
         for st in targets:
             node_id = st.node_id
             if node_id == src:
@@ -205,6 +243,8 @@ class RadioMedium:
                 continue
             if pan not in st.pans:
                 stats.foreign_pan_dropped += 1
+                if trace is not None:
+                    trace.reception(now, frame, node_id, FILTERED, math.nan)
                 continue
             stats.receptions += 1
             collided = False
@@ -214,13 +254,19 @@ class RadioMedium:
                     break
             if collided:
                 stats.frames_collided += 1
+                if trace is not None:
+                    trace.reception(now, frame, node_id, COLLIDED, math.nan)
                 continue
             if loss > 0 and uniform() < loss:
                 stats.frames_lost += 1
+                if trace is not None:
+                    trace.reception(now, frame, node_id, LOST, math.nan)
                 continue
             # RSSI-based distance estimate: log-distance path loss with log-normal shadowing
             d = sqrt(d2)
             if d < 0.1:  # max(d, 0.1)
                 d = 0.1
             est = d * 10.0 ** (shadow_k * normal()) if shadow_k > 0 else d
+            if trace is not None:
+                trace.reception(now, frame, node_id, DELIVERED, est)
             st.receive(Frame(kind, src, dst, pan, payload, size, est))

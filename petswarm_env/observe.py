@@ -174,11 +174,13 @@ def formation_extents(swarm_cfg) -> tuple[float, float]:
     table of the configured shape a swarm can hold: 2 … num_slaves + 1 members (the join and
     the mode change build them so, :func:`~.middleware.formation.formation_for_mode`), both modes,
     rooted at any member (a mode change with master change re-roots the table at the new master,
-    so a slot is bounded by the table's extent along each axis, not by its distance from member 0)."""
+    so a slot is bounded by the table's extent along each axis, not by its distance from member 0).
+    A custom formation has one table: ``swarm.custom_links`` name exactly num_slaves + 1 members."""
     from petswarm_env.middleware.formation import formation_for_mode
 
     link = slot = 0.0
-    for n in range(2, swarm_cfg.num_slaves + 2):
+    full = swarm_cfg.num_slaves + 1
+    for n in [full] if swarm_cfg.formation == "custom" else range(2, full + 1):
         for mode in ("following", "leading"):
             formation = formation_for_mode(swarm_cfg, n, mode)
             offsets = [abs(c) for links in formation.links.values() for lk in links for c in lk.offset_m]

@@ -59,7 +59,7 @@ from training.callbacks import policy_info, public_log  # noqa: E402
 from training.checkpoint import checkpoint_path, restore_weights, save_weights_checkpoint  # noqa: E402
 from training.config import TrainConfig  # noqa: E402
 from training.export import rllib_actor_layers  # noqa: E402
-from training.train import open_run, start_log, write_run_configs  # noqa: E402
+from training.train import begin_run, write_run_configs  # noqa: E402
 from training.warm_start import fit_actor_critic  # noqa: E402
 
 ALGORITHM = "PPO (Ray RLlib, new API stack)"
@@ -260,11 +260,10 @@ def train_rllib(cfg: TrainConfig | None, out_dir: str | os.PathLike, resume: boo
     bottom: the run folder, Ray, the scripted reference's score, the algorithm, the module's start
     or the checkpoint, the iterations, the last checkpoint."""
     out = Path(out_dir)
-    cfg, log, changes = open_run(cfg, out, resume)
-    if resume and log["timesteps"] >= cfg.timesteps:
-        return {**public_log(log), "finished": True, "budget": cfg.timesteps}
+    cfg, log, changes, finished = begin_run(cfg, out, resume, command)
+    if finished:
+        return finished
     env_cfg, eval_cfg = cfg.env_config(), cfg.eval_env_config()
-    start_log(log, resume, changes, command)
     log["backend"] = "rllib"
     log.setdefault("samples_per_s", [])  # agent-steps/s of each iteration
     torch.set_num_threads(1)  # the driver's sampler and learner; the cores run the env runners

@@ -118,9 +118,20 @@ def open_run(cfg: TrainConfig | None, out: Path, resume: bool) -> tuple[TrainCon
     return cfg, log, changes
 
 
-def start_log(log: dict[str, Any], resume: bool, changes: dict[str, Any], command: str) -> None:
+def begin_run(cfg: TrainConfig | None, out: Path, resume: bool, command: str):
+    """:func:`open_run`, then (both back ends) ``(cfg, log, changes, None)`` with this start in the
+    log, or ``(…, finished)`` with the log to return for a resumed run that has reached its
+    ``timesteps`` (it writes nothing)."""
+    cfg, log, changes = open_run(cfg, out, resume)
+    if resume and log["timesteps"] >= cfg.timesteps:
+        return cfg, log, changes, {**public_log(log), "finished": True, "budget": cfg.timesteps}
+    _start_log(log, resume, changes, command)
+    return cfg, log, changes, None
+
+
+def _start_log(log: dict[str, Any], resume: bool, changes: dict[str, Any], command: str) -> None:
     """The log's record of this start: the command of a new run, or a ``resumes`` entry (from
-    which timesteps, the config changes, the command); the wall-time clock (both back ends)."""
+    which timesteps, the config changes, the command); the wall-time clock."""
     if not resume:
         log["command"] = command
     else:
@@ -145,11 +156,10 @@ def train(cfg: TrainConfig | None, out_dir: str | os.PathLike, resume: bool = Fa
     run may change (:func:`open_run`). A resumed run that has reached its ``timesteps`` returns
     its log with ``"finished": True`` and writes nothing."""
     out = Path(out_dir)
-    cfg, log, changes = open_run(cfg, out, resume)
-    if resume and log["timesteps"] >= cfg.timesteps:
-        return {**public_log(log), "finished": True, "budget": cfg.timesteps}
+    cfg, log, changes, finished = begin_run(cfg, out, resume, command)
+    if finished:
+        return finished
     env_cfg, eval_cfg = cfg.env_config(), cfg.eval_env_config()
-    start_log(log, resume, changes, command)
 
     torch.set_num_threads(1)  # reproducible CPU math; the cores run the env workers
     set_random_seed(cfg.seed)

@@ -4,6 +4,7 @@
     petswarm run    [--config FILE] [--set KEY=VALUE ...] [--policy scripted|random|learned|PATH]
                     [--episodes N] [--seed S] [--json OUT] [--render human] [--video OUT.gif] [--pcap OUT.pcapng]
     petswarm train  [--config configs/train/ppo.yaml] [--set KEY=VALUE ...] [--timesteps N] [--out runs/NAME] [--resume]
+                    [--backend sb3|rllib] [--address HOST:PORT]
     petswarm eval   --policy scripted|random|learned|PATH [--mix ROBOT=POLICY ...] [--scenarios a,b] [--episodes N]
                     [--video-dir DIR] [--pcap-dir DIR] [--replay-dir DIR] ...
     petswarm report RESULT.json ... --out report.html [--replays first|all|none|SCENARIO:SEED,...]
@@ -99,7 +100,7 @@ def _add_run(sub) -> None:
 def _add_train(sub) -> None:
     train = sub.add_parser(
         "train",
-        help="train a slave policy with PPO (stable-baselines3 + SuperSuit)",
+        help="train a slave policy with PPO (stable-baselines3 + SuperSuit, or Ray RLlib)",
         description="Train one PPO policy shared by all slaves. Hyper-parameters and env overrides come from "
         "configs/train/ppo.yaml (or --config), copied into the run folder; checkpoints are atomic; "
         "--resume continues a run.",
@@ -111,6 +112,10 @@ def _add_train(sub) -> None:
     train.add_argument("--out", metavar="runs/NAME", default="runs/ppo", help="run folder (default runs/ppo)")
     train.add_argument("--resume", action="store_true", help="continue the run in --out from its latest checkpoint")
     train.add_argument("--no-progress", action="store_true", help="no progress bar")
+    train.add_argument("--backend", choices=["sb3", "rllib"], default="sb3",
+                       help="sb3: Stable-Baselines3 + SuperSuit (default); rllib: Ray RLlib's PPO (the rllib extra), see docs/training.md")
+    train.add_argument("--address", metavar="HOST:PORT",
+                       help="with --backend rllib: join the Ray cluster whose head is at HOST:PORT (default: a local Ray on 127.0.0.1)")
 
 
 def _add_eval(sub) -> None:
@@ -198,8 +203,15 @@ def _run(args, argv: list[str]) -> int:
 def _train(args, argv: list[str]) -> int:
     from training.train import train_command
 
+    run, options = None, {}
+    if args.backend == "rllib":
+        from training.rllib_backend import train_rllib
+
+        run, options = train_rllib, {"address": args.address}
+    elif args.address:
+        raise ConfigError("--address joins a Ray cluster: it needs --backend rllib")
     return train_command(args.config, args.set, args.timesteps, args.out, args.resume, not args.no_progress,
-                         "petswarm " + " ".join(argv))
+                         "petswarm " + " ".join(argv), run, **options)
 
 
 def _eval(args, argv: list[str]) -> int:

@@ -68,7 +68,6 @@ def run_episode(
     policy.reset(seed)
     if on_frame:
         on_frame()
-    summary: dict[str, Any] = {}
     traj_user, traj_robots = [], {}
     while env.agents:
         if record and env.num_cycles % TRAJECTORY_EVERY == 0:
@@ -77,12 +76,10 @@ def run_episode(
             for rid, p in robots.items():
                 traj_robots.setdefault(rid, []).append(p)
         # act for the live agents only (one that just left slave-role driving gets its last observation)
-        observations, _, _, _, infos = env.step(policy.act_all({a: observations[a] for a in env.agents}))
+        observations, _, _, _, _ = env.step(policy.act_all({a: observations[a] for a in env.agents}))
         if on_frame:
             on_frame()
-        for info in infos.values():
-            if "episode_summary" in info:
-                summary = info["episode_summary"]
+    summary = env.episode_summary()  # the episode's, after its last step
     summary["seed"] = seed
     if record:
         summary["error_trace"] = [round(e, 4) for e in env.metrics.error_trace]

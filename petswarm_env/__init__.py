@@ -2,35 +2,36 @@
 
 >>> import petswarm_env
 >>> env = petswarm_env.parallel_env(swarm__num_slaves=3)  # or parallel_env(**{"swarm.num_slaves": 3})
+>>> env = petswarm_env.make("petswarm_v0", **{"swarm.num_slaves": 3})  # the same, by its versioned id
+
+``parallel_env``, ``env`` and ``raw_env`` are :mod:`petswarm_env.petswarm_v0`'s (PettingZoo's
+meanings: the ParallelEnv, the wrapped AEC env, the unwrapped AEC env). For libraries that need
+every possible agent at every step: :class:`petswarm_env.wrappers.FixedAgents`.
 """
 
 from __future__ import annotations
 
 from typing import Any
 
+from petswarm_env import petswarm_v0
 from petswarm_env.config import Config, ConfigError, load_config
 from petswarm_env.env import ENV_NAME, PetSwarmEnv
+from petswarm_env.petswarm_v0 import env, parallel_env, raw_env
 
 __version__ = "0.1.0"
-__all__ = ["ENV_NAME", "Config", "ConfigError", "PetSwarmEnv", "env", "load_config", "parallel_env", "raw_env"]
+__all__ = ["ENV_NAME", "ENVS", "Config", "ConfigError", "PetSwarmEnv", "env", "load_config", "make", "parallel_env",
+           "petswarm_v0", "raw_env"]
+
+ENVS = {ENV_NAME: petswarm_v0}  # versioned id -> module with env / parallel_env / raw_env
 
 
-def _dotted(overrides: dict[str, Any]) -> dict[str, Any]:
-    """Keyword overrides: ``swarm__num_slaves=3`` means ``swarm.num_slaves = 3``."""
-    return {k.replace("__", "."): v for k, v in overrides.items()}
-
-
-def parallel_env(config: Config | str | None = None, render_mode: str | None = None, **overrides: Any) -> PetSwarmEnv:
-    """The PettingZoo ``ParallelEnv``. ``config``: a :class:`Config`, a YAML path or None (defaults);
-    ``overrides``: dotted keys (``**{"radio.loss_prob": 0.1}``) or ``section__key=value``."""
-    return PetSwarmEnv(config, render_mode=render_mode, **_dotted(overrides))
-
-
-raw_env = parallel_env
-
-
-def env(config: Config | str | None = None, render_mode: str | None = None, **overrides: Any):
-    """The AEC version, through PettingZoo's parallel → AEC conversion."""
-    from pettingzoo.utils.conversions import parallel_to_aec
-
-    return parallel_to_aec(parallel_env(config, render_mode=render_mode, **overrides))
+def make(env_id: str = ENV_NAME, *, api: str = "parallel", config: Config | str | None = None, render_mode: str | None = None,
+         **overrides: Any):
+    """The env of a versioned id: ``api="parallel"`` (default, the ParallelEnv), ``"aec"`` (the
+    wrapped AEC env) or ``"raw"`` (the unwrapped AEC env); the other arguments as ``parallel_env``."""
+    if env_id not in ENVS:
+        raise ValueError(f"unknown env id '{env_id}'; registered: {', '.join(ENVS)}")
+    makers = {"parallel": ENVS[env_id].parallel_env, "aec": ENVS[env_id].env, "raw": ENVS[env_id].raw_env}
+    if api not in makers:
+        raise ValueError(f"unknown api '{api}'; choose parallel, aec or raw")
+    return makers[api](config, render_mode=render_mode, **overrides)

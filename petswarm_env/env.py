@@ -15,8 +15,8 @@ medium and the IR channel (:mod:`petswarm_env.comms`), the fleet with a swarm pe
 (:mod:`petswarm_env.control`) and the sensors (:mod:`petswarm_env.sim.sensors`); then it runs, on
 the clock, the pairing, the user's start-up commands (driving mode, then organize — in leading mode
 after the master shifted to its place) and the join protocol (its duration and retries are in
-``infos[agent]["organize"]``; a swarm that organized short of ``swarm.num_slaves`` says by how many
-in ``infos[agent]["slaves_missing"]`` and the episode summary's ``slaves_missing``); the agents are
+``organize_summary()``; a swarm that organized short of ``swarm.num_slaves`` says by how many in
+``infos[agent]["slaves_missing"]`` and the episode summary's ``slaves_missing``); the agents are
 the robots that joined. Each ``step(actions)``
 passes every robot's command through its arbiter (safety > user > policy, seed 001), runs the clock
 for one control period (0.1 s), reads the sensors, then asks the experimenter
@@ -26,9 +26,13 @@ only (:mod:`petswarm_env.observe`). Agents come and go with the middleware: a ro
 being a slave (it became the master, or the swarm dispersed) is terminated; a robot that becomes
 a slave joins ``agents``.
 
-Spaces: observation ``Box(-inf, inf, (N,), float32)`` with values scaled to about [-1, 1]
-(N = 57 with 8 ultrasonic sensors), action ``Box(-1, 1, (3,), float32)`` = (Vx, Vy, ω) scaled by
-``robot.max_speed_mps`` and ``robot.max_omega_rps``. Episodes truncate after ``max_cycles`` steps.
+Spaces: observation ``Box(low, high, (N,), float32)`` with values scaled to about [-1, 1] and each
+field's bounds in docs/observation.md (N = 57 with 8 ultrasonic sensors), action ``Box(-1, 1, (3,),
+float32)`` = (Vx, Vy, ω) scaled by ``robot.max_speed_mps`` and ``robot.max_omega_rps``; the global
+state ``state()`` in ``state_space`` (docs/state.md). Infos are flat and numeric, the keys of
+:data:`INFO_DEFAULTS` for every agent at reset and at every step; the episode's figures come from
+``episode_summary()`` (after the last step too) and ``organize_summary()``. Episodes truncate after
+``max_cycles`` steps. The env pickles between episodes (``__getstate__``).
 """
 from __future__ import annotations
 
@@ -48,9 +52,10 @@ from petswarm_env.middleware.formation import formation_for_mode, user_position_
 from petswarm_env.middleware.fleet import Fleet
 from petswarm_env.middleware.swarm import Swarm
 from petswarm_env.middleware.user_session import UserSession, master_distance_m
-from petswarm_env.observe import OBS_VERSION, ObservationLayout, Observer
+from petswarm_env.observe import OBS_VERSION, ObservationLayout, Observer, observation_bounds
 from petswarm_env.reward import slave_rewards
 from petswarm_env.scenarios import SCENARIOS
+from petswarm_env.state import StateLayout, build_state
 from petswarm_env.sim.sensors import Sensors
 from petswarm_env.sim.world import World
 
@@ -58,6 +63,12 @@ ENV_NAME = "petswarm_v0"
 OTHER_USER_ID = 99  # the user that "other user" robots are connected to (Table 1)
 SWARM_PAN = 0x1001  # user u's swarm uses PAN SWARM_PAN + u
 WAKE_PATTERN = 0x5A00  # user u's belt and robot share the LF wake-up pattern WAKE_PATTERN + u
+# every agent's infos, at reset and at every step: flat, numeric, always these keys (the value of an
+# agent that has no such figure yet): its member number, its true formation error (m), the contacts it
+# began this step, 1 on the step it joined (the old master after a mode change), else 0, and how many of
+# the required slaves its swarm lacked when it organized (Swarm.slaves_missing)
+INFO_DEFAULTS: dict[str, float | int] = {"member": -1, "formation_error_m": 0.0, "new_contacts": 0, "joined": 0,
+                                         "slaves_missing": 0}
 
 
 def _swarm_reach_m(cfg: Config) -> float | None:
@@ -111,8 +122,10 @@ class PetSwarmEnv(ParallelEnv):
         self.agents: list[str] = []
         self._limits = (cfg.robot.max_speed_mps, cfg.robot.max_speed_mps, cfg.robot.max_omega_rps)
         self.layout = ObservationLayout(cfg.robot.ultrasonic.count, self._limits, cfg.robot.ultrasonic.max_range_m)
-        self._obs_space = gymnasium.spaces.Box(-np.inf, np.inf, (self.layout.size,), np.float32)
+        self._obs_space = gymnasium.spaces.Box(*observation_bounds(self.layout, cfg), dtype=np.float32)
         self._act_space = gymnasium.spaces.Box(-1.0, 1.0, (3,), np.float32)
+        self.state_layout = StateLayout(cfg)
+        self.state_space = gymnasium.spaces.Box(self.state_layout.low, self.state_layout.high, dtype=np.float32)
         self._seed_seq: np.random.SeedSequence | None = None
         self._renderer = None
         self.world: World | None = None
@@ -162,14 +175,9 @@ class PetSwarmEnv(ParallelEnv):
         self._start_walks({})
         self.num_cycles = 0
         observations = self.observer.observe(self.agents, self._last_action, world.now)
-        infos = {}
-        swarm_of = {i: sw for sw in self.swarms for i in sw.slave_ids()}
-        for a in self.agents:
-            node = self.fleet.nodes[self._agent_index[a]]
-            result = swarm_of[self._agent_index[a]].organize_result
-            org = {"organize_time_s": result.elapsed_s, "join_retries": result.retries, "members": dict(result.members)}
-            infos[a] = {"member": node.know.member, "organize": org,
-                        "slaves_missing": swarm_of[self._agent_index[a]].slaves_missing()}
+        self._missing_by_pan = {sw.pan: sw.slaves_missing() for sw in self.swarms}  # as organized (metrics.py's figure)
+        errors, _ = self.experimenter.formation_errors(self.agents)
+        infos = {a: self._info(a, errors.get(a, 0.0), 0, 0) for a in self.agents}
         if self.render_mode == "human":
             self.render()
         return observations, infos
@@ -267,8 +275,7 @@ class PetSwarmEnv(ParallelEnv):
 
         truth = self.experimenter.step(self.agents)  # formation and heading errors, contacts (metrics.py)
         self._start_walks(dict(zip(self.agents, truth.formation_error_m)))
-        infos = {agent: {"formation_error_m": err, "new_contacts": c}
-                 for agent, err, c in zip(self.agents, truth.formation_error_m, truth.new_contacts)}
+        infos = {agent: self._info(agent, err, c, 0) for agent, err, c in zip(self.agents, truth.formation_error_m, truth.new_contacts)}
         # every slave's reward in one pass over the slaves (reward.py)
         now_acts = np.array([acts[a] for a in self.agents], dtype=np.float32).reshape(-1, 3)
         last_acts = np.array([self._last_action[a] for a in self.agents], dtype=np.float32).reshape(-1, 3)
@@ -291,16 +298,17 @@ class PetSwarmEnv(ParallelEnv):
         observations = self.observer.observe(before + [a for a in joined if a not in before], self._last_action, world.now)
         for a in joined:
             rewards[a], terminations[a], truncations[a] = 0.0, False, truncated
-            infos[a] = {"formation_error_m": 0.0, "new_contacts": 0, "joined": True}
-        if not self.agents:
-            summary = self.episode_summary()
-            for a in infos:
-                infos[a]["episode_summary"] = summary
+            infos[a] = self._info(a, 0.0, 0, 1)
         if self.render_mode == "human":
             self.render()
         return observations, rewards, terminations, truncations, infos
 
-    def render(self):
+    def render(self, mode: str | None = None):
+        """The current frame (``rgb_array``) or the window (``human``) of the env's ``render_mode``.
+        ``mode``, if given, must be that mode (RLlib's ``ParallelPettingZooEnv`` passes it)."""
+        if mode is not None and mode != self.render_mode:
+            raise ValueError(f"render('{mode}'): this env renders in render_mode={self.render_mode!r}; "
+                             "create it with render_mode='rgb_array' or 'human'")
         if self.render_mode is None:
             gymnasium.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' or 'human'")
             return None
@@ -318,7 +326,40 @@ class PetSwarmEnv(ParallelEnv):
             self._renderer.close()
             self._renderer = None
 
+    def state(self) -> np.ndarray:
+        """The global state: ground truth of every robot, user and the episode's time, fixed size
+        (``state_space``; every field in docs/state.md, :mod:`petswarm_env.state`). For
+        centralized critics: a policy reads only its observation."""
+        if self.world is None:
+            raise RuntimeError("call reset() before state()")
+        return build_state(self.state_layout, self)
+
+    # -- pickling: between episodes --------------------------------------------------------------
+    _EPISODE = ("world", "swarm", "session", "swarms", "sessions", "radio", "ir_channel", "fleet", "arbiters", "sensors",
+                "observer", "experimenter", "metrics", "_renderer", "_other_user_robots", "_slave_ids", "_agent_index",
+                "_last_action", "scenario", "num_cycles")
+
+    def __getstate__(self) -> dict[str, Any]:
+        """The env without its episode (the clock's SimPy processes are generators, which do not
+        pickle): the config, the spaces and the seed sequence. A copy (``pickle``, ``copy.deepcopy``,
+        a worker process) has no episode until its ``reset()``; its next ``reset()`` without a seed
+        gives the episode the original's next ``reset()`` gives. Pickle between episodes: a copy
+        taken mid-episode does not carry the episode on."""
+        state = {k: v for k, v in self.__dict__.items() if k not in self._EPISODE}
+        state["agents"] = []
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        self.world = self.swarm = self._renderer = None
+
     # -- per step --------------------------------------------------------------------------------
+    def _info(self, agent: str, error_m: float, contacts: int, joined: int) -> dict[str, float | int]:
+        """One agent's infos (the keys of :data:`INFO_DEFAULTS`)."""
+        node = self.fleet.nodes[self._agent_index[agent]]
+        return {"member": node.know.member, "formation_error_m": error_m, "new_contacts": contacts, "joined": joined,
+                "slaves_missing": self._missing_by_pan.get(node.swarm_pan, 0)}
+
     def _validate(self, actions: dict[str, Any]) -> dict[str, np.ndarray]:
         if not isinstance(actions, dict):
             raise TypeError(f"actions must be a dict agent -> array of 3 floats, got {type(actions).__name__}")
@@ -434,8 +475,21 @@ class PetSwarmEnv(ParallelEnv):
         return self.experimenter.reference_positions()
 
     def episode_summary(self) -> dict[str, Any]:
-        """The episode's figures so far (:meth:`.metrics.Experimenter.summary`)."""
+        """The episode's figures so far (:meth:`.metrics.Experimenter.summary`); after the last
+        step, the episode's summary (it stays until the next ``reset``)."""
+        if self.world is None:
+            raise RuntimeError("call reset() before episode_summary()")
         return self.experimenter.summary(self.scenario, len(self._slave_ids))
+
+    def organize_summary(self) -> list[dict[str, Any]]:
+        """How each user's swarm organized in this episode's reset (the join protocol, seed 000
+        §3.4): ``organize_time_s``, ``join_retries``, ``members`` (member number -> robot index) and
+        ``slaves_missing`` (the required slaves that did not join)."""
+        if self.world is None:
+            raise RuntimeError("call reset() before organize_summary()")
+        return [{"user": u, "organize_time_s": sw.organize_result.elapsed_s, "join_retries": sw.organize_result.retries,
+                 "members": dict(sw.organize_result.members), "slaves_missing": self._missing_by_pan[sw.pan]}
+                for u, sw in enumerate(self.swarms)]
 
     def scene(self):
         """A plain description of the current truth for the renderer (:meth:`.metrics.Experimenter.scene`)."""

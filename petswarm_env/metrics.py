@@ -224,7 +224,7 @@ class Experimenter:
         }
 
     def summary(self, scenario: str, slaves: int) -> dict[str, Any]:
-        """The episode summary (what ``infos[agent]["episode_summary"]`` carries at the end)."""
+        """The episode summary (``env.episode_summary()``; after the last step, the episode's)."""
         c = self.world.collisions
         c0 = self._collisions_at_start
         st = self.radio.stats

@@ -30,12 +30,22 @@ POS_SCALE_M = 3.0
 AGE_SCALE_S = 2.0
 
 
+CLIP = 1.5  # the bound of the fields clipped at the builder (velocities, turn rate), in scaled units
+USER_CLIP = 3.0  # the bound of master.user_xy (9 m), clipped at the builder
+
+
 @dataclass(frozen=True)
 class Field:
+    """One field of the layout: ``bounds`` is ``(low, high)`` in scaled units, or the name of a
+    bound derived from the config (:func:`observation_bounds`: ``"ir"``, ``"link_offset"``,
+    ``"slot"``); ``why`` says where the bound comes from (the docs' bounds column)."""
+
     name: str
     size: int
     scale: str  # human-readable scale, for the docs
     doc: str
+    bounds: tuple[float, float] | str = (0.0, 1.0)
+    why: str = "a flag / one-hot"
 
 
 def _link_fields(k: int) -> list[Field]:
@@ -43,40 +53,55 @@ def _link_fields(k: int) -> list[Field]:
     return [
         Field(p + "present", 1, "0/1", f"reference link {k} exists (slot 0 = primary neighbour, 1 = second, grid)"),
         Field(p + "ir_valid", 1, "0/1", "an IR measurement of that neighbour has been received"),
-        Field(p + "neighbour_xy", 2, f"m / {POS_SCALE_M}", "IR-estimated position of the neighbour in own body frame (x forward, y left), carried over own rotation since (AHRS)"),
-        Field(p + "ir_age", 1, f"s / {AGE_SCALE_S}, clipped to 1", "age of that IR measurement"),
-        Field(p + "offset_xy", 2, f"m / {POS_SCALE_M}", "own reference offset from the neighbour, formation frame (x = swarm heading)"),
-        Field(p + "heading_sincos", 2, "-", "sin, cos of θ_neighbour − θ_self from the heading exchange, carried over own rotation since (AHRS); (0, 1) if unknown"),
+        Field(p + "neighbour_xy", 2, f"m / {POS_SCALE_M}", "IR-estimated position of the neighbour in own body frame (x forward, y left), carried over own rotation since (AHRS)",
+              "ir", "± the estimator's largest distance: readings in [0, saturation] and the strongest ≥ ir.detect_threshold give "
+              "r ≥ threshold·(1 + 2·min(cos Δ, 0)) / (1 + 2·cos²Δ), d = sqrt(strength_at_1m / r)"),
+        Field(p + "ir_age", 1, f"s / {AGE_SCALE_S}, clipped to 1", "age of that IR measurement", (0.0, 1.0), "an age ≥ 0, clipped to 1"),
+        Field(p + "offset_xy", 2, f"m / {POS_SCALE_M}", "own reference offset from the neighbour, formation frame (x = swarm heading)",
+              "link_offset", "± the largest offset of any neighbour table of the configured shape (2 … num_slaves + 1 members, both modes)"),
+        Field(p + "heading_sincos", 2, "-", "sin, cos of θ_neighbour − θ_self from the heading exchange, carried over own rotation since (AHRS); (0, 1) if unknown",
+              (-1.0, 1.0), "a unit vector"),
         Field(p + "heading_valid", 1, "0/1", "a heading exchange with that neighbour has happened"),
-        Field(p + "heading_age", 1, f"s / {AGE_SCALE_S}, clipped to 1", "age of the heading estimate"),
+        Field(p + "heading_age", 1, f"s / {AGE_SCALE_S}, clipped to 1", "age of the heading estimate", (0.0, 1.0), "an age ≥ 0, clipped to 1"),
     ]
 
 
 FIELDS: list[Field] = [
     *[f for k in range(MAX_LINKS) for f in _link_fields(k)],
     Field("master.valid", 1, "0/1", "a master status broadcast has been received"),
-    Field("master.age", 1, "s / 1, clipped to 1", "age of the last master broadcast"),
-    Field("master.velocity", 3, "/ (v_max, v_max, ω_max)", "master's (Vx, Vy, ω) in its body frame, as broadcast: what its own wheel odometry measured (noisy like self.odometry)"),
+    Field("master.age", 1, "s / 1, clipped to 1", "age of the last master broadcast", (0.0, 1.0), "an age ≥ 0, clipped to 1"),
+    Field("master.velocity", 3, "/ (v_max, v_max, ω_max)", "master's (Vx, Vy, ω) in its body frame, as broadcast: what its own wheel odometry measured (noisy like self.odometry)",
+          (-CLIP, CLIP), f"clipped to ±{CLIP} (the master's achieved velocity times 1 + Gaussian noise)"),
     Field("master.activity", len(ACTIVITIES), "one-hot", "user activity broadcast by the master: " + ", ".join(ACTIVITIES)),
     Field("master.rotating", 1, "0/1", "user rotation flag of the smart belt, as broadcast (seed 002 §3.4)"),
-    Field("master.turn_rate", 1, "/ ω_max", "user angular speed from the belt's filtered gyro, as broadcast (rad/s, CCW +)"),
+    Field("master.turn_rate", 1, "/ ω_max", "user angular speed from the belt's filtered gyro, as broadcast (rad/s, CCW +)",
+          (-CLIP, CLIP), f"clipped to ±{CLIP} (a filtered gyro with noise and bias)"),
     Field("master.leading", 1, "0/1", "the swarm's driving mode as the joining notification and the last mode-change frame said: 1 = leading, 0 = following"),
-    Field("master.user_xy", 2, f"m / {POS_SCALE_M}", "user position relative to the master, master's frame, as broadcast"),
+    Field("master.user_xy", 2, f"m / {POS_SCALE_M}", "user position relative to the master, master's frame, as broadcast",
+          (-USER_CLIP, USER_CLIP), f"clipped to ±{USER_CLIP} ({USER_CLIP * POS_SCALE_M:g} m; the master's track of a user out of LF range drifts)"),
     Field("master.ir_valid", 1, "0/1", "an IR measurement of the master has been received (every member measures every token holder)"),
-    Field("master.ir_xy", 2, f"m / {POS_SCALE_M}", "IR-estimated position of the master in own body frame (x forward, y left), carried over own rotation since (AHRS)"),
-    Field("master.ir_age", 1, f"s / {AGE_SCALE_S}, clipped to 1", "age of that IR measurement"),
+    Field("master.ir_xy", 2, f"m / {POS_SCALE_M}", "IR-estimated position of the master in own body frame (x forward, y left), carried over own rotation since (AHRS)",
+          "ir", "± the estimator's largest distance (as link0.neighbour_xy)"),
+    Field("master.ir_age", 1, f"s / {AGE_SCALE_S}, clipped to 1", "age of that IR measurement", (0.0, 1.0), "an age ≥ 0, clipped to 1"),
     Field("anchor.ir_valid", 1, "0/1", f"an IR measurement younger than {AGE_SCALE_S} s of another slave of the swarm (the anchor: the lowest member number with one)"),
-    Field("anchor.ir_xy", 2, f"m / {POS_SCALE_M}", "IR-estimated position of the anchor in own body frame, carried over own rotation since (AHRS)"),
-    Field("anchor.ir_age", 1, f"s / {AGE_SCALE_S}, clipped to 1", "age of that IR measurement"),
-    Field("anchor.slot_xy", 2, f"m / {POS_SCALE_M}", "the anchor's reference position relative to the master, formation frame (from the neighbour table)"),
-    Field("self.odometry", 3, "/ (v_max, v_max, ω_max)", "own wheel-odometry (Vx, Vy, ω), body frame"),
-    Field("self.yaw_sincos", 2, "-", "own AHRS yaw (noisy, drifting), counted from its own power-on heading: a random angle per robot and episode, so only its changes (own rotation) mean something, never a direction in the world"),
-    Field("self.last_action", 3, "[-1, 1]", "the action applied last step"),
-    Field("self.offset_from_master_xy", 2, f"m / {POS_SCALE_M}", "own reference position relative to the master, formation frame (from the neighbour table)"),
-    Field("self.ultrasonic", -1, "m / max_range", "ultrasonic ring ranges, sensor 0 forward, counter-clockwise"),
-    Field("self.hierarchy", 1, "level / members", "hierarchy level (1 = farthest from the user) over the number of members"),
-    Field("self.members", 1, "/ 16", "number of swarm members (master included)"),
-    Field("self.member", 1, "/ 16", "own member number"),
+    Field("anchor.ir_xy", 2, f"m / {POS_SCALE_M}", "IR-estimated position of the anchor in own body frame, carried over own rotation since (AHRS)",
+          "ir", "± the estimator's largest distance (as link0.neighbour_xy)"),
+    Field("anchor.ir_age", 1, f"s / {AGE_SCALE_S}, clipped to 1", "age of that IR measurement", (0.0, 1.0), "an age in [0, 1): only a fix younger than the age scale is an anchor"),
+    Field("anchor.slot_xy", 2, f"m / {POS_SCALE_M}", "the anchor's reference position relative to the master, formation frame (from the neighbour table)",
+          "slot", "± the largest extent along an axis of any neighbour table of the configured shape (as self.offset_from_master_xy)"),
+    Field("self.odometry", 3, "/ (v_max, v_max, ω_max)", "own wheel-odometry (Vx, Vy, ω), body frame",
+          (-CLIP, CLIP), f"clipped to ±{CLIP} (the achieved velocity times 1 + Gaussian noise)"),
+    Field("self.yaw_sincos", 2, "-", "own AHRS yaw (noisy, drifting), counted from its own power-on heading: a random angle per robot and episode, so only its changes (own rotation) mean something, never a direction in the world", (-1.0, 1.0), "a unit vector"),
+    Field("self.last_action", 3, "[-1, 1]", "the action applied last step", (-1.0, 1.0), "actions are clipped to [-1, 1]"),
+    Field("self.offset_from_master_xy", 2, f"m / {POS_SCALE_M}", "own reference position relative to the master, formation frame (from the neighbour table)",
+          "slot", "± the largest extent along an axis of any neighbour table of the configured shape (2 … num_slaves + 1 members, "
+          "both modes; a mode change re-roots it at any member)"),
+    Field("self.ultrasonic", -1, "m / max_range", "ultrasonic ring ranges, sensor 0 forward, counter-clockwise",
+          (0.0, 1.0), "a range in [0, max_range]"),
+    Field("self.hierarchy", 1, "level / members", "hierarchy level (1 = farthest from the user) over the number of members",
+          (0.0, 1.0), "a level in 0 … members"),
+    Field("self.members", 1, "/ 16", "number of swarm members (master included)", (0.0, 17 / 16), "at most 16 slaves + the master"),
+    Field("self.member", 1, "/ 16", "own member number", (-1 / 16, 1.0), "-1 (none) … 16"),
 ]
 
 
@@ -86,6 +111,11 @@ _BUILDER_FIELDS = ("master.valid", "master.activity", "master.rotating", "master
                    "self.hierarchy", "self.members", "self.member")
 _ACTIVITY_INDEX = {a: i for i, a in enumerate(ACTIVITIES)}
 _cos, _sin = math.cos, math.sin
+
+
+def _clip(x: float, c: float) -> float:
+    """``x`` clipped to [-c, c] (a bound of the layout; nan passes through)."""
+    return -c if x < -c else c if x > c else x
 
 
 class ObservationLayout:
@@ -104,7 +134,7 @@ class ObservationLayout:
         i = 0
         for f in FIELDS:
             size = num_ultrasonic if f.size == -1 else f.size
-            self.fields.append(Field(f.name, size, f.scale, f.doc))
+            self.fields.append(Field(f.name, size, f.scale, f.doc, f.bounds, f.why))
             self.slices[f.name] = slice(i, i + size)
             i += size
         self.size = i
@@ -121,13 +151,67 @@ class ObservationLayout:
         return [(f.name, f.size) for f in self.fields]
 
 
-def markdown_table(layout: ObservationLayout) -> str:
-    rows = ["| index | field | size | scale | meaning |", "|---|---|---|---|---|"]
+def markdown_table(layout: ObservationLayout, bounds: tuple[np.ndarray, np.ndarray] | None = None) -> str:
+    """The layout as a markdown table; with ``bounds`` (:func:`observation_bounds`) a column of
+    each field's bounds (the default config's values for the derived ones) and where they come from."""
+    head = "| index | field | size | scale | meaning |" + (" bounds |" if bounds is not None else "")
+    rows = [head, "|---|---|---|---|---|" + ("---|" if bounds is not None else "")]
     for f in layout.fields:
         s = layout.slices[f.name]
         idx = f"{s.start}" if f.size == 1 else f"{s.start}–{s.stop - 1}"
-        rows.append(f"| {idx} | `{f.name}` | {f.size} | {f.scale} | {f.doc} |")
+        row = f"| {idx} | `{f.name}` | {f.size} | {f.scale} | {f.doc} |"
+        if bounds is not None:
+            lo, hi = float(bounds[0][s.start]), float(bounds[1][s.start])
+            row += f" [{lo:.4g}, {hi:.4g}]: {f.why} |"
+        rows.append(row)
     return "\n".join(rows)
+
+
+def _ir_distance_bound(ir) -> float:
+    """The largest distance the IR estimator returns (:func:`petswarm_env.comms.ir.estimate`):
+    the readings are clipped to [0, saturation] and the strongest S0 is ≥ the threshold, so
+    a = (S0 + (S+ + S−)·cos Δ) / (1 + 2·cos²Δ) ≥ S0·(1 + 2·min(cos Δ, 0)) / (1 + 2·cos²Δ) and
+    r = hypot(a, b) ≥ a; d = sqrt(strength_at_1m / r). (config.IRConfig keeps cos Δ > 0.)"""
+    cos_d = math.cos(2.0 * math.pi / ir.num_receivers)
+    r_min = ir.detect_threshold * (1.0 + 2.0 * min(cos_d, 0.0)) / (1.0 + 2.0 * cos_d**2)
+    if r_min <= 0.0:
+        raise ValueError(f"ir.num_receivers={ir.num_receivers} leaves the IR distance estimate unbounded")
+    return math.sqrt(ir.strength_at_1m / r_min)
+
+
+def formation_extents(swarm_cfg) -> tuple[float, float]:
+    """The largest |component| of a link offset and of a slot position (m) over every neighbour
+    table of the configured shape a swarm can hold: 2 … num_slaves + 1 members (the join and
+    the mode change build them so, :func:`~.middleware.formation.formation_for_mode`), both modes,
+    rooted at any member (a mode change with master change re-roots the table at the new master,
+    so a slot is bounded by the table's extent along each axis, not by its distance from member 0).
+    A custom formation has one table: ``swarm.custom_links`` name exactly num_slaves + 1 members."""
+    from petswarm_env.middleware.formation import formation_for_mode
+
+    link = slot = 0.0
+    full = swarm_cfg.num_slaves + 1
+    for n in [full] if swarm_cfg.formation == "custom" else range(2, full + 1):
+        for mode in ("following", "leading"):
+            formation = formation_for_mode(swarm_cfg, n, mode)
+            offsets = [abs(c) for links in formation.links.values() for lk in links for c in lk.offset_m]
+            link = max(link, *offsets, 0.0)
+            pos = formation.slot_positions()  # a mode change re-roots the table at any member (modes.py)
+            slot = max(slot, float((pos.max(axis=0) - pos.min(axis=0)).max()))
+    return link, slot
+
+
+def observation_bounds(layout: ObservationLayout, cfg) -> tuple[np.ndarray, np.ndarray]:
+    """(low, high) of every observation value, float32, from each field's declared bounds; the
+    derived ones from ``cfg`` (a :class:`~.config.Config`): the IR estimator's largest distance
+    and the configured formation's extents, over :data:`POS_SCALE_M`."""
+    link, slot = formation_extents(cfg.swarm)
+    derived = {"ir": _ir_distance_bound(cfg.ir) / POS_SCALE_M, "link_offset": link / POS_SCALE_M, "slot": slot / POS_SCALE_M}
+    low, high = np.zeros(layout.size, np.float64), np.zeros(layout.size, np.float64)
+    for f in layout.fields:
+        s = layout.slices[f.name]
+        lo, hi = (-derived[f.bounds], derived[f.bounds]) if isinstance(f.bounds, str) else f.bounds
+        low[s], high[s] = lo, hi
+    return low.astype(np.float32), high.astype(np.float32)
 
 
 @dataclass(slots=True)
@@ -200,14 +284,14 @@ def build_observation(layout: ObservationLayout, readings: Readings, out: np.nda
         ux, uy = st.user_position_m
         v[i] = 1.0
         v[i + 1] = 1.0 if age > 1.0 else age
-        v[i + 2] = svx / vmax
-        v[i + 3] = svy / vmax
-        v[i + 4] = sw / wmax
+        v[i + 2] = _clip(svx / vmax, CLIP)
+        v[i + 3] = _clip(svy / vmax, CLIP)
+        v[i + 4] = _clip(sw / wmax, CLIP)
         v[activity + _ACTIVITY_INDEX[st.activity]] = 1.0
         v[rotating] = 1.0 if st.user_rotating else 0.0
-        v[turn_rate] = st.user_turn_rate_rps / wmax
-        v[user_xy] = ux / POS_SCALE_M
-        v[user_xy + 1] = uy / POS_SCALE_M
+        v[turn_rate] = _clip(st.user_turn_rate_rps / wmax, CLIP)
+        v[user_xy] = _clip(ux / POS_SCALE_M, USER_CLIP)
+        v[user_xy + 1] = _clip(uy / POS_SCALE_M, USER_CLIP)
     else:
         v[i + 1] = 1.0
     m = know.ir.get(know.members.get(0))  # the master's IR fix (member 0), carried over own rotation (AHRS)
@@ -237,9 +321,9 @@ def build_observation(layout: ObservationLayout, readings: Readings, out: np.nda
             v[anchor + 5] = sy / POS_SCALE_M
             break
     odometry = readings.odometry
-    v[odo] = odometry[0] / vmax
-    v[odo + 1] = odometry[1] / vmax
-    v[odo + 2] = odometry[2] / wmax
+    v[odo] = _clip(odometry[0] / vmax, CLIP)
+    v[odo + 1] = _clip(odometry[1] / vmax, CLIP)
+    v[odo + 2] = _clip(odometry[2] / wmax, CLIP)
     v[yaw] = _sin(yaw_rad)
     v[yaw + 1] = _cos(yaw_rad)
     v[last : last + 3] = readings.last_action.tolist()
@@ -320,7 +404,11 @@ class Observer:
 if __name__ == "__main__":  # python -m petswarm_env.observe > docs/observation.md
     from petswarm_env.config import load_config
 
-    _layout = ObservationLayout(load_config().robot.ultrasonic.count)
+    _cfg = load_config()
+    _layout = ObservationLayout(_cfg.robot.ultrasonic.count)
     print(f"# Observation of a slave (petswarm_v0, layout version {OBS_VERSION}, {_layout.size} values)\n")
     print("Generated by `python -m petswarm_env.observe`; built only from the slave's middleware and own sensors.\n")
-    print(markdown_table(_layout))
+    print("The observation space is `Box(low, high)` with the bounds of the last column; the derived ones are shown for the "
+          "default config (`observe.observation_bounds(layout, cfg)` computes them for any config). Fields marked "
+          "*clipped* are clipped to their bounds when the observation is built; every other bound holds by construction.\n")
+    print(markdown_table(_layout, observation_bounds(_layout, _cfg)))

@@ -1,24 +1,29 @@
 #!/usr/bin/env bash
 # Set up a virtual environment in .venv with petswarm installed (editable).
 #   bash scripts/setup.sh          # run + render
-#   bash scripts/setup.sh test     # + training stack + test tools (torch==2.13.0 CPU first), and Debian's
-#                                  # chromium and tshark when missing (the browser and pcap tests)
-#   bash scripts/setup.sh train    # + training stack (pins the CPU build of torch first)
+#   bash scripts/setup.sh test     # + training stack (SB3, RLlib) + TorchRL + test tools (torch==2.13.0 CPU first),
+#                                  # and Debian's chromium and tshark when missing (the browser and pcap tests)
+#   bash scripts/setup.sh train    # + training stack: SB3 + SuperSuit and Ray RLlib (pins the CPU build of torch first)
+# torch is installed first and stays pinned in the second pip command: an unpinned torch would pull
+# a multi-GB CUDA build, and ray[rllib]==2.60.0 pins gymnasium==1.2.2 (never pair an unpinned
+# ray[rllib] with gymnasium>=1.4: pip would backtrack through old Ray releases).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 what="${1:-run}"
 [ -x .venv/bin/python ] || python3 -m venv .venv
 py=.venv/bin/python
 "$py" -m pip install -q --upgrade pip
+torch=()
 case "$what" in
   run)   extras="render" ;;
-  test)  "$py" -m pip install -q torch==2.13.0  # the CPU build on this machine's disk; never an unpinned torch
-         extras="render,train,test" ;;
-  train) "$py" -m pip install -q torch==2.13.0
-         extras="render,train" ;;
+  test)  torch=(torch==2.13.0)  # the CPU build on this machine's disk; never an unpinned torch
+         extras="render,train,rllib,torchrl,test" ;;
+  train) torch=(torch==2.13.0)
+         extras="render,train,rllib" ;;
   *) echo "setup.sh: unknown target '$what' (run | test | train)" >&2; exit 2 ;;
 esac
-"$py" -m pip install -q -e ".[$extras]"
+[ ${#torch[@]} -eq 0 ] || "$py" -m pip install -q "${torch[@]}"
+"$py" -m pip install -q "${torch[@]}" -e ".[$extras]"
 if [ "$what" = test ]; then
   # the browser test of the report's replays (Debian's chromium) and the pcap test (Debian's tshark);
   # without them those tests skip and say so

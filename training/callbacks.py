@@ -25,10 +25,10 @@ def public_log(log: dict[str, Any]) -> dict[str, Any]:
     return {k: v for k, v in log.items() if not k.startswith("_")}
 
 
-def policy_info(cfg: TrainConfig, log: dict[str, Any]) -> dict[str, Any]:
+def policy_info(cfg: TrainConfig, log: dict[str, Any], algorithm: str = "PPO (stable-baselines3)") -> dict[str, Any]:
     """How an exported policy was trained (stored in the policy file)."""
     return {
-        "algorithm": "PPO (stable-baselines3), parameter sharing over slaves",
+        "algorithm": f"{algorithm}, parameter sharing over slaves",
         "timesteps": log["timesteps"],
         "wall_time_s": round(log["wall_time_s"], 1),
         "train_config": cfg.model_dump(mode="json"),

@@ -13,7 +13,11 @@ Its checkpoint is one ``.npz`` file (numpy's zip of arrays, read by
     rng:torch, rng:numpy       torch's CPU RNG state (bytes), numpy's MT19937 key
 
 :func:`restore_checkpoint` puts them into a freshly built model of the run's config (the same
-network), after checking that every tensor is there with its shape and finite. A run folder that
+network), after checking that every tensor is there with its shape and finite. The RLlib back end
+(``--backend rllib``) writes the same file with ``backend: rllib`` in the state record and its
+module's weights (actor, critic, heads) as ``policy:<name>`` (:func:`save_weights_checkpoint`,
+:func:`restore_weights`); RLlib's optimizer state is not in it (its moments start afresh on
+resume). Each back end refuses the other's checkpoint by name. A run folder that
 holds only SB3's old ``latest.zip`` is refused with :data:`OLD_FORMAT_MESSAGE`'s advice; that
 file is never opened.
 """
@@ -59,6 +63,7 @@ def save_checkpoint(path: str | os.PathLike, model, activation: str, net_arch: l
     state = {
         "format": FORMAT,
         "format_version": FORMAT_VERSION,
+        "backend": "sb3",
         "num_timesteps": int(model.num_timesteps),
         "n_updates": int(model._n_updates),
         "network": {"observation_size": int(model.observation_space.shape[0]), "net_arch": list(net_arch),
@@ -107,8 +112,34 @@ def read_checkpoint(out: str | os.PathLike) -> tuple[dict[str, Any], dict[str, n
     return state, arrays
 
 
+def save_weights_checkpoint(path: str | os.PathLike, weights: dict[str, np.ndarray], num_timesteps: int, backend: str,
+                            network: dict[str, Any]) -> None:
+    """Write a weights-only checkpoint (the RLlib back end's) to ``path`` atomically: the state
+    record (format, ``backend``, ``num_timesteps``, ``network``) and ``policy:<name>`` arrays."""
+    state = {"format": FORMAT, "format_version": FORMAT_VERSION, "backend": backend, "num_timesteps": int(num_timesteps),
+             "network": network}
+    arrays = {"state": np.frombuffer(json.dumps(state).encode(), dtype=np.uint8),
+              **{f"policy:{name}": np.asarray(value) for name, value in weights.items()}}
+    write_atomic(path, lambda tmp: np.savez(tmp, **arrays), suffix=".npz")
+
+
+def _check_backend(path: Path, state: dict[str, Any], backend: str) -> None:
+    wrote = state.get("backend", "sb3")  # petswarm's first npz checkpoints (SB3 only) had no field
+    if wrote != backend:
+        raise ConfigError(f"checkpoint '{path}' was written by --backend {wrote}; resume it with --backend {wrote}")
+
+
+def restore_weights(out: str | os.PathLike, backend: str, expected: dict[str, np.ndarray]) -> dict[str, torch.Tensor]:
+    """The ``policy:`` tensors of a weights-only checkpoint of ``backend``, exactly the names,
+    shapes and dtypes of ``expected`` (the freshly built module's weights); :class:`ConfigError`."""
+    path = checkpoint_path(out)
+    state, arrays = read_checkpoint(out)
+    _check_backend(path, state, backend)
+    return _tensors(path, arrays, "policy:", expected)
+
+
 def _tensors(path: Path, arrays: dict[str, np.ndarray], prefix: str,
-             expected: dict[str, torch.Tensor]) -> dict[str, torch.Tensor]:
+             expected: dict[str, torch.Tensor | np.ndarray]) -> dict[str, torch.Tensor]:
     """The arrays under ``prefix`` as tensors, exactly the names, shapes and dtypes of ``expected``."""
     got = {k[len(prefix):]: v for k, v in arrays.items() if k.startswith(prefix)}
     missing, extra = sorted(set(expected) - set(got)), sorted(set(got) - set(expected))
@@ -133,6 +164,7 @@ def restore_checkpoint(out: str | os.PathLike, model) -> None:
     weights, optimizer, counters and the global RNG states. Raises :class:`ConfigError`."""
     path = checkpoint_path(out)
     state, arrays = read_checkpoint(out)
+    _check_backend(path, state, "sb3")
     model.policy.load_state_dict(_tensors(path, arrays, "policy:", model.policy.state_dict()))
     optimizer = model.policy.optimizer
     fresh = optimizer.state_dict()

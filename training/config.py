@@ -65,6 +65,15 @@ class PretrainConfig(Section):
     learning_rate: float = Field(gt=0)
 
 
+class RLlibConfig(Section):
+    """``petswarm train --backend rllib`` (training/rllib_backend.py): the ``ppo:`` values map onto
+    RLlib's PPO; a rollout is ``ppo.n_steps × num_envs`` env steps, as with SB3."""
+
+    num_env_runners: int = Field(ge=0, description="Ray actors sampling the env (0 = in the driver)")
+    num_envs_per_env_runner: int = Field(ge=1, description="env copies each runner steps together")
+    sample_timeout_s: float = Field(gt=0, description="how long RLlib waits for a runner's samples")
+
+
 class TrainConfig(Section):
     seed: int = Field(ge=0)
     timesteps: int = Field(ge=1)
@@ -75,6 +84,7 @@ class TrainConfig(Section):
     eval: EvalConfig
     checkpoint: CheckpointConfig
     pretrain: PretrainConfig
+    rllib: RLlibConfig
 
     def env_config(self) -> Config:
         """The environment the policy trains on."""
@@ -118,7 +128,9 @@ def load_train_config(path: str | os.PathLike | None = None, overrides: dict[str
 
 
 # keys a resumed run may change (its schedule and its budget); every other key stays the run's own
-RESUMABLE = ("timesteps", "checkpoint.every_steps", "eval.every_steps", "num_cpus")
+# what a resumed run may change: its budget, its schedules, and where it runs (processes, RLlib env runners)
+RESUMABLE = ("timesteps", "checkpoint.every_steps", "eval.every_steps", "num_cpus", "rllib.num_env_runners",
+             "rllib.sample_timeout_s")
 
 
 def resume_changes(saved: TrainConfig, requested: TrainConfig, out: str | os.PathLike) -> dict[str, dict[str, Any]]:

@@ -118,6 +118,37 @@ def open_run(cfg: TrainConfig | None, out: Path, resume: bool) -> tuple[TrainCon
     return cfg, log, changes
 
 
+def begin_run(cfg: TrainConfig | None, out: Path, resume: bool, command: str):
+    """:func:`open_run`, then (both back ends) ``(cfg, log, changes, None)`` with this start in the
+    log, or ``(…, finished)`` with the log to return for a resumed run that has reached its
+    ``timesteps`` (it writes nothing)."""
+    cfg, log, changes = open_run(cfg, out, resume)
+    if resume and log["timesteps"] >= cfg.timesteps:
+        return cfg, log, changes, {**public_log(log), "finished": True, "budget": cfg.timesteps}
+    _start_log(log, resume, changes, command)
+    return cfg, log, changes, None
+
+
+def _start_log(log: dict[str, Any], resume: bool, changes: dict[str, Any], command: str) -> None:
+    """The log's record of this start: the command of a new run, or a ``resumes`` entry (from
+    which timesteps, the config changes, the command); the wall-time clock."""
+    if not resume:
+        log["command"] = command
+    else:
+        log.setdefault("resumes", []).append({"from_timesteps": log["timesteps"], "changes": changes, "command": command})
+    log["wall_time_before_s"] = log.get("wall_time_s", 0.0)
+    log["_start"] = time.time()
+
+
+def write_run_configs(out: Path, cfg: TrainConfig, env_cfg, resume: bool, changes: dict[str, Any]) -> None:
+    """train_config.yaml and env_config.yaml of a new run; on resume train_config.yaml only with
+    what was asked (recorded). Called once the checkpoint is known good (both back ends)."""
+    if not resume or changes:
+        write_text_atomic(out / "train_config.yaml", yaml.safe_dump(cfg.model_dump(mode="json"), sort_keys=False))
+    if not resume:
+        write_text_atomic(out / "env_config.yaml", yaml.safe_dump(env_cfg.to_dict(), sort_keys=False))
+
+
 def train(cfg: TrainConfig | None, out_dir: str | os.PathLike, resume: bool = False, progress_bar: bool = True,
           command: str = "") -> dict:
     """Train (or resume) a run in ``out_dir``; returns the train log. ``cfg`` is the config of a
@@ -125,16 +156,10 @@ def train(cfg: TrainConfig | None, out_dir: str | os.PathLike, resume: bool = Fa
     run may change (:func:`open_run`). A resumed run that has reached its ``timesteps`` returns
     its log with ``"finished": True`` and writes nothing."""
     out = Path(out_dir)
-    cfg, log, changes = open_run(cfg, out, resume)
-    if resume and log["timesteps"] >= cfg.timesteps:
-        return {**public_log(log), "finished": True, "budget": cfg.timesteps}
+    cfg, log, changes, finished = begin_run(cfg, out, resume, command)
+    if finished:
+        return finished
     env_cfg, eval_cfg = cfg.env_config(), cfg.eval_env_config()
-    if not resume:
-        log["command"] = command
-    else:
-        log.setdefault("resumes", []).append({"from_timesteps": log["timesteps"], "changes": changes, "command": command})
-    log["wall_time_before_s"] = log.get("wall_time_s", 0.0)
-    log["_start"] = time.time()
 
     torch.set_num_threads(1)  # reproducible CPU math; the cores run the env workers
     set_random_seed(cfg.seed)
@@ -152,11 +177,7 @@ def train(cfg: TrainConfig | None, out_dir: str | os.PathLike, resume: bool = Fa
             log["pretrain"] = pretrain_policy(model, cfg, env_cfg)
             imitation = learned_policy(model, eval_spec, cfg.ppo.activation)
             log["pretrain"]["eval_formation_rmse_m"] = mean_formation_rmse(eval_cfg, imitation, cfg.eval_seeds())
-        # the run's files change only once its checkpoint is known good; on resume only with what was asked (recorded)
-        if not resume or changes:
-            write_text_atomic(out / "train_config.yaml", yaml.safe_dump(cfg.model_dump(mode="json"), sort_keys=False))
-        if not resume:
-            write_text_atomic(out / "env_config.yaml", yaml.safe_dump(env_cfg.to_dict(), sort_keys=False))
+        write_run_configs(out, cfg, env_cfg, resume, changes)  # once the checkpoint is known good
         callback = PeriodicCallback(cfg, out, layout, log)
         model.learn(cfg.timesteps - model.num_timesteps, callback=callback, reset_num_timesteps=False, tb_log_name="ppo",
                     progress_bar=progress_bar)
@@ -170,9 +191,10 @@ def train(cfg: TrainConfig | None, out_dir: str | os.PathLike, resume: bool = Fa
 
 
 def train_command(config: str | None, settings: list[str], timesteps: int | None, out: str, resume: bool,
-                  progress_bar: bool, command: str) -> int:
+                  progress_bar: bool, command: str, run=None, **run_options) -> int:
     """``petswarm train``: the config from ``config`` and ``--set KEY=VALUE`` ``settings`` (and
-    ``--timesteps``), the run, and one summary line."""
+    ``--timesteps``), the run — :func:`train` (SB3), or ``run`` with ``run_options`` (the CLI passes
+    :func:`training.rllib_backend.train_rllib` and its ``address``) — and one summary line."""
     check_output_path(out, "--out", folder=True)
     overrides = dict(parse_override(item) for item in settings)
     if timesteps:
@@ -182,7 +204,7 @@ def train_command(config: str | None, settings: list[str], timesteps: int | None
         raise ConfigError(f"cannot resume: the run folder '{out}' has no train_config.yaml; start a new run with another --out")
     # a resumed run starts from its own config: the file and --set change only what they name
     cfg = load_train_config(config, overrides, base=saved if resume and saved.is_file() else None)
-    log = train(cfg, out, resume=resume, progress_bar=progress_bar, command=command)
+    log = (run or train)(cfg, out, resume=resume, progress_bar=progress_bar, command=command, **run_options)
     if log.get("finished"):
         print(f"run '{out}' is already finished: {log['timesteps']} agent-steps trained, its budget is {log['budget']}; "
               f"pass --timesteps N with N > {log['timesteps']} to train further")

@@ -61,18 +61,16 @@ def collect_demonstrations(env_cfg: Config, samples: int, noise_std: float, seed
     return np.array(obs_l[:samples]), np.array(act_l[:samples]), np.array(ret_l[:samples], dtype=np.float32)
 
 
-def pretrain_policy(model, cfg: TrainConfig, env_cfg: Config) -> dict:
-    """Behaviour cloning of the scripted reference into the actor (MSE on the mean action) and a
-    regression of the critic on the demonstrations' returns, before PPO takes over."""
+def fit_actor_critic(actor, critic, params: list, cfg: TrainConfig, env_cfg: Config) -> dict:
+    """Behaviour cloning of the scripted reference into ``actor`` (a function of an observation
+    batch to mean actions; MSE) and a regression of ``critic`` (observations -> values) on the
+    demonstrations' returns, optimising ``params`` with Adam: the warm start of every back end."""
     p = cfg.pretrain
     t0 = time.time()
     obs, act, ret = collect_demonstrations(env_cfg, p.samples, p.noise_std, cfg.seed + 100_000, cfg.ppo.gamma)
     x = torch.as_tensor(obs, dtype=torch.float32)
     y = torch.as_tensor(act, dtype=torch.float32)
     g = torch.as_tensor(ret, dtype=torch.float32)[:, None]
-    policy = model.policy
-    params = [*policy.mlp_extractor.parameters(), *policy.action_net.parameters(), *policy.value_net.parameters(),
-              *policy.features_extractor.parameters()]
     opt = torch.optim.Adam(params, lr=p.learning_rate)
     gen = torch.Generator().manual_seed(cfg.seed)
     n = len(x)
@@ -81,12 +79,20 @@ def pretrain_policy(model, cfg: TrainConfig, env_cfg: Config) -> dict:
         perm = torch.randperm(n, generator=gen)
         for i in range(0, n, p.batch_size):
             idx = perm[i:i + p.batch_size]
-            features = policy.extract_features(x[idx])
-            latent_pi, latent_vf = policy.mlp_extractor(features)
-            a_loss = ((policy.action_net(latent_pi) - y[idx]) ** 2).mean()
-            v_loss = ((policy.value_net(latent_vf) - g[idx]) ** 2).mean()
+            a_loss = ((actor(x[idx]) - y[idx]) ** 2).mean()
+            v_loss = ((critic(x[idx]) - g[idx]) ** 2).mean()
             opt.zero_grad()
             (a_loss + 0.01 * v_loss).backward()
             opt.step()
             actor_loss, critic_loss = float(a_loss.detach()), float(v_loss.detach())
     return {"samples": n, "actor_mse": actor_loss, "critic_mse": critic_loss, "wall_time_s": round(time.time() - t0, 1)}
+
+
+def pretrain_policy(model, cfg: TrainConfig, env_cfg: Config) -> dict:
+    """The warm start of an SB3 PPO model: its actor MLP and action head, its critic MLP and value
+    head (:func:`fit_actor_critic`)."""
+    policy = model.policy
+    params = [*policy.mlp_extractor.parameters(), *policy.action_net.parameters(), *policy.value_net.parameters(),
+              *policy.features_extractor.parameters()]
+    return fit_actor_critic(lambda x: policy.action_net(policy.mlp_extractor(policy.extract_features(x))[0]),
+                            lambda x: policy.value_net(policy.mlp_extractor(policy.extract_features(x))[1]), params, cfg, env_cfg)

@@ -71,6 +71,14 @@ def test_eval_writes_per_scenario_summaries_and_gifs_relative_to_the_json(tmp_pa
     assert len(data["episodes"][0]["error_trace"]) == 12
 
 
+@pytest.mark.parametrize("args, words", [(["--address", "127.0.0.1:6379"], "--backend rllib"), (["--backend", "jax"], "--backend")])
+def test_train_backend_options_are_checked_with_one_line(args, words, tmp_path):
+    out = _run("train", "--out", str(tmp_path / "r"), *args)
+    assert out.returncode == 2 and "Traceback" not in out.stderr
+    lines = [ln for ln in out.stderr.splitlines() if ln.strip()]
+    assert words in lines[-1] and lines[-1].startswith("petswarm")
+
+
 @pytest.mark.parametrize("command", [["run", "--episodes", "2"], ["eval", "--scenarios", "straight", "--episodes", "1"]])
 def test_a_swarm_that_organized_short_is_reported(monkeypatch, capsys, command):
     """Issue 14 item 9: a swarm short of swarm.num_slaves gives a warning line per episode from

@@ -4,16 +4,24 @@ import re
 from pathlib import Path
 
 from petswarm_env.config import load_config
-from petswarm_env.observe import ObservationLayout, markdown_table
+from petswarm_env import state
+from petswarm_env.observe import ObservationLayout, markdown_table, observation_bounds
 
 ROOT = Path(__file__).resolve().parents[2]
 
 
 def test_observation_doc_matches_the_layout():
-    layout = ObservationLayout(load_config().robot.ultrasonic.count)
+    cfg = load_config()
+    layout = ObservationLayout(cfg.robot.ultrasonic.count)
     doc = (ROOT / "docs" / "observation.md").read_text()
-    assert markdown_table(layout) in doc, "regenerate with: python -m petswarm_env.observe > docs/observation.md"
+    table = markdown_table(layout, observation_bounds(layout, cfg))
+    assert table in doc, "regenerate with: python -m petswarm_env.observe > docs/observation.md"
     assert f"{layout.size} values" in doc
+
+
+def test_state_doc_matches_the_state_layout():
+    doc = (ROOT / "docs" / "state.md").read_text()
+    assert doc == state.markdown(load_config()), "regenerate with: python -m petswarm_env.state > docs/state.md"
 
 
 def test_readme_states_the_observation_size_and_the_ci_command():
@@ -45,3 +53,121 @@ def test_every_default_value_has_a_comment_or_a_commented_section():
             continue
         parents = [h for i, h in headers.items() if i < indent]
         assert "#" in line or any("#" in h for h in parents), f"undocumented default: {line.strip()}"
+
+
+def _readme_block(after: str) -> str:
+    text = (ROOT / "README.md").read_text()
+    start = text.index("```python", text.index(after)) + len("```python")
+    return text[start:text.index("```", start)]
+
+
+def test_readme_supersuit_sb3_snippet_runs():
+    """The README's FixedAgents + SuperSuit + SB3 snippet, with a tiny run in place of its numbers."""
+    import pytest
+
+    pytest.importorskip("stable_baselines3")
+    pytest.importorskip("supersuit")
+    code = _readme_block("SuperSuit + Stable-Baselines3 (what")
+    small = (code.replace("max_cycles=300", "max_cycles=10").replace("4, num_cpus=2", "1, num_cpus=0")
+             .replace('PPO("MlpPolicy", vec)', 'PPO("MlpPolicy", vec, n_steps=16, batch_size=32, n_epochs=1)')
+             .replace("learn(100_000)", "learn(16)"))
+    assert small != code
+    exec(compile(small, "README.md", "exec"), {})
+
+
+# -- docs/training.md: every command, flag, key, extra and file it names exists ---------------------
+
+TRAINING_DOC = ROOT / "docs" / "training.md"
+
+
+def _doc_commands(text: str, program: str) -> list[list[str]]:
+    """Each ``program …`` command of a markdown text, from its code blocks (one a line) and its
+    inline code spans (which may wrap over lines), as shell words."""
+    import shlex
+
+    blocks = re.findall(r"```(?:bash)?\n(.*?)```", text, re.S)
+    lines = [ln.split(" # ")[0] for b in blocks for ln in b.splitlines()]
+    spans = [" ".join(s.split()) for s in re.findall(r"(?<!`)`([^`]+)`(?!`)", re.sub(r"```.*?```", "", text, flags=re.S))]
+    out = []
+    for line in [*lines, *spans]:
+        for part in re.split(r"&&|;", line):
+            words = shlex.split(part.replace("<", "").replace(">", ""), posix=True)
+            for i, w in enumerate(words):
+                if w.endswith(program) and i + 1 < len(words):
+                    out.append(words[i + 1:])
+    return out
+
+
+def _flags_of(parser) -> set[str]:
+    return {s for action in parser._actions for s in action.option_strings}
+
+
+def test_training_doc_petswarm_commands_use_real_subcommands_flags_and_config_keys():
+    from cli.main import build_parser
+    from training.config import load_train_config
+
+    import argparse
+
+    sub = next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction)).choices
+    train_keys = set(_flatten(load_train_config().model_dump(mode="json")))
+    env_keys = set(_flatten(load_config().to_dict()))
+    commands = _doc_commands(TRAINING_DOC.read_text(), "petswarm")
+    assert len(commands) >= 8 and {c[0] for c in commands} >= {"train", "eval"}
+    for words in commands:
+        assert words[0] in sub, f"no subcommand petswarm {words[0]}"
+        flags = _flags_of(sub[words[0]])
+        for i, w in enumerate(words):
+            if w.startswith("--"):
+                assert w.split("=")[0] in flags, f"petswarm {words[0]} has no flag {w}"
+            if i and words[i - 1] == "--set":
+                key = w.split("=")[0]
+                ok = key in train_keys or (key.startswith("env.") and key[4:] in env_keys)
+                assert ok, f"--set {key}: not a key of the training config"
+            if i and words[i - 1] == "--backend":
+                assert w in sub["train"]._option_string_actions["--backend"].choices
+    spans = re.findall(r"`(--[\w-]+)[^`]*`", TRAINING_DOC.read_text())  # a flag on its own: petswarm train's
+    assert len(spans) >= 5 and all(f in _flags_of(sub["train"]) for f in spans), set(spans) - _flags_of(sub["train"])
+
+
+def _flatten(d: dict, prefix: str = "") -> dict:
+    out = {}
+    for k, v in d.items():
+        if isinstance(v, dict) and v:
+            out.update(_flatten(v, f"{prefix}{k}."))
+        else:
+            out[f"{prefix}{k}"] = v
+    return out
+
+
+def test_training_doc_scripts_extras_files_and_config_keys_exist():
+    import tomllib
+
+    from training.config import RESUMABLE, load_train_config
+
+    text = TRAINING_DOC.read_text()
+    flat = " ".join(text.split())
+    setup = (ROOT / "scripts" / "setup.sh").read_text()
+    targets = set(re.findall(r"^\s+(\w+)\)", setup, re.M))
+    for target in re.findall(r"scripts/setup\.sh (\w+)", text):
+        assert target in targets, f"scripts/setup.sh has no target {target}"
+    extras = set(tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["optional-dependencies"])
+    named = [e for group in re.findall(r"(?:petswarm|\.)\[([a-z0-9_,]+)\]", text) for e in group.split(",")]
+    assert {"train", "rllib", "torchrl", "benchmarl"} <= set(named)
+    assert set(named) <= extras, f"extras the doc names but pyproject lacks: {set(named) - extras}"
+    for path in set(re.findall(r"\b((?:training|examples|tests|bench|configs|baselines)/[\w/]+\.(?:py|yaml))", text)):
+        assert (ROOT / path).is_file(), f"{path} does not exist"
+    for path, test in re.findall(r"(tests/[\w/]+\.py)::(\w+)", text):
+        assert f"def {test}(" in (ROOT / path).read_text(), f"{path} has no {test}"
+    for module, script, args in re.findall(r"python (?:-m ([\w.]+)|([\w/]+\.py))((?: --[\w-]+(?: [^\s`-]\S*)?)*)", flat):
+        path = ROOT / (script or module.replace(".", "/") + ".py")
+        if module and not path.is_file() and module.split(".")[0] not in ("bench", "experiments", "petswarm_env", "tests"):
+            continue  # another program's module (python -m venv)
+        source = path.read_text()
+        for flag in re.findall(r"--[\w-]+", args):
+            assert f'"{flag}"' in source, f"{script or module} has no flag {flag}"
+    keys = set(_flatten(load_train_config().model_dump(mode="json")))
+    for key in re.findall(r"`((?:ppo|rllib|eval|checkpoint|pretrain)\.[a-z_]+)`", text):
+        assert key in keys, f"{key} is not a training config key"
+    resume = flat[flat.index("`--resume` continues"):]
+    resume = resume[:resume.index("RESUMABLE")]
+    assert all(f"`{k}`" in resume for k in RESUMABLE), "the resume paragraph lists training.config.RESUMABLE"

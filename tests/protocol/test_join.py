@@ -287,7 +287,8 @@ def test_a_swarm_short_of_robots_stops_at_the_timeout_and_says_so(monkeypatch, t
     assert {i["slaves_missing"] for i in infos.values()} == {1}
     for _ in range(5):
         _, _, _, _, infos = env.step({})
-    assert next(iter(infos.values()))["episode_summary"]["slaves_missing"] == 1
+    assert {i["slaves_missing"] for i in infos.values()} == {1}  # the same key at every step (flat infos)
+    assert env.episode_summary()["slaves_missing"] == 1 and env.organize_summary()[0]["slaves_missing"] == 1
 
 
 @pytest.mark.parametrize("loss", [0.5, 0.7])

@@ -210,10 +210,10 @@ def test_bad_custom_links_raise_clear_value_error(links, n, match):
     assert "swarm.custom_links" in str(exc.value) or "formation links" in str(exc.value)
 
 
-def test_bad_custom_links_refused_by_env_reset():
-    env = petswarm_env.parallel_env(**{"swarm.formation": "custom", "swarm.custom_links": CUSTOM[:2], "swarm.num_slaves": 3})
+def test_bad_custom_links_refused_by_the_env():
+    """Refused when the env is made (its observation bounds read the formation's table), before any reset."""
     with pytest.raises(ValueError, match="swarm.custom_links"):
-        env.reset(seed=0)
+        petswarm_env.parallel_env(**{"swarm.formation": "custom", "swarm.custom_links": CUSTOM[:2], "swarm.num_slaves": 3})
 
 
 def test_custom_link_member_numbers_validated_by_config():

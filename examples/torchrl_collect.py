@@ -1,0 +1,86 @@
+"""TorchRL over petswarm: ``PettingZooWrapper`` around the fixed-agents env, collected with TorchRL's
+``Collector`` and the shipped learned policy as a TensorDict actor (the ``torchrl`` extra)::
+
+    pip install -e '.[torchrl]'          # torchrl 0.14.1, tensordict 0.14.3 (with torch==2.13.0)
+    python examples/torchrl_collect.py --frames 400
+
+What it shows:
+
+- ``FixedAgents`` (petswarm_env/wrappers.py) gives TorchRL what it needs: every possible agent at
+  reset and at every step (TorchRL builds its specs from the reset), flat numeric infos with the
+  same keys at reset and step, ``state()`` for ``return_state=True`` (a MAPPO critic's input);
+- the agents form one group, ``"robot"``: observations ``("robot", "observation")`` of shape
+  (robots, 57), actions ``("robot", "action")`` (robots, 3), infos ``("robot", "info", key)``;
+- ``done_on_any=False``: the episode ends when every robot is done, which FixedAgents makes one step.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+import torch
+from tensordict.nn import TensorDictModule
+from torchrl.collectors import Collector
+from torchrl.envs import PettingZooWrapper
+
+from baselines.learned import read_policy_file, shipped_policy_path
+from petswarm_env import petswarm_v0
+from petswarm_env.wrappers import FixedAgents
+
+
+def make_env(max_cycles: int = 100, **overrides) -> PettingZooWrapper:
+    """petswarm_v0's ParallelEnv behind FixedAgents, as a TorchRL env with the global state."""
+    return PettingZooWrapper(env=FixedAgents(petswarm_v0.parallel_env(max_cycles=max_cycles, **overrides)),
+                             return_state=True, use_mask=False, done_on_any=False)
+
+
+def actor_from_policy_file(path=None) -> TensorDictModule:
+    """A TensorDict actor from a petswarm policy file (default: the shipped one): the same layers
+    as baselines/learned.py's numpy forward, in torch, with the action clipped to [-1, 1]. (The
+    file's observation layout must be this env's: the example uses the default config.)"""
+    meta, layers = read_policy_file(path or shipped_policy_path())
+    act = torch.nn.Tanh if meta["activation"] == "tanh" else torch.nn.ReLU
+    modules: list[torch.nn.Module] = []
+    for i, (w, b) in enumerate(layers):
+        linear = torch.nn.Linear(w.shape[1], w.shape[0])
+        with torch.no_grad():
+            linear.weight.copy_(torch.from_numpy(np.asarray(w, np.float32)))
+            linear.bias.copy_(torch.from_numpy(np.asarray(b, np.float32)))
+        modules += [linear] if i == len(layers) - 1 else [linear, act()]
+    net = torch.nn.Sequential(*modules, torch.nn.Hardtanh(-1.0, 1.0))
+    return TensorDictModule(net, in_keys=[("robot", "observation")], out_keys=[("robot", "action")])
+
+
+def collect(frames: int = 400, frames_per_batch: int = 200, max_cycles: int = 100, seed: int = 0) -> dict:
+    """Collect ``frames`` env steps with the shipped policy; returns what was collected."""
+    torch.manual_seed(seed)
+    env = make_env(max_cycles)
+    env.set_seed(seed)
+    collector = Collector(env, policy=actor_from_policy_file(), frames_per_batch=frames_per_batch, total_frames=frames)
+    batches = list(collector)
+    collector.shutdown()
+    env.close()
+    last = batches[-1]
+    return {
+        "frames": sum(b.numel() for b in batches),
+        "observation_shape": tuple(last["robot", "observation"].shape),
+        "state_shape": tuple(last["state"].shape),
+        "episodes_ended": int(sum(int(b["next", "done"].sum()) for b in batches)),
+        "mean_reward": float(torch.cat([b["next", "robot", "reward"].flatten() for b in batches]).mean()),
+        "batches": batches,
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--frames", type=int, default=400)
+    parser.add_argument("--max-cycles", type=int, default=100)
+    args = parser.parse_args()
+    out = collect(args.frames, max_cycles=args.max_cycles)
+    out.pop("batches")
+    print(out)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,82 @@
+"""Wrappers for MARL libraries that need a fixed set of agents.
+
+The env's agents follow the middleware (:mod:`petswarm_env.env`): in a mode change with master
+change the farthest slave becomes the master (*terminated*) and the old master joins as a slave a
+few steps later; a dispersed swarm's slaves all leave. Most adapters assume that every possible
+agent is present from reset to the episode's end: SuperSuit's vector env, RLlib's
+``ParallelPettingZooEnv`` (its spaces come from the first reset's agents), TorchRL's
+``PettingZooWrapper`` and BenchMARL over it. :class:`FixedAgents` gives them that.
+
+Do not use SuperSuit's ``black_death_v3`` instead: in SuperSuit 3.11 it ends an episode only when
+its agents are terminated *and* truncated, so an episode that ends by truncation (every petswarm
+episode reaching ``max_cycles``) never resets.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from pettingzoo.utils.wrappers import BaseParallelWrapper
+
+from petswarm_env.env import INFO_DEFAULTS
+
+
+class FixedAgents(BaseParallelWrapper):
+    """Every possible agent (``env.possible_agents``, in that order) at every step.
+
+    - *Observations*: a robot's own observation while it is in slave-role driving (and on the step
+      it leaves it: its last one); zeros otherwise. A zero observation is never a real one (a real
+      observation has its ``self.yaw_sincos`` on the unit circle), so it needs no flag of its own;
+      the observation layout stays the env's, and a policy trained here runs on the env unchanged.
+    - *Infos*: the env's flat infos (:data:`~petswarm_env.env.INFO_DEFAULTS`, their defaults for a
+      robot the env has none for) plus ``active``: 1 when the observation is the robot's own, 0 for
+      padding.
+    - *Actions*: passed on only for the env's live agents; the others are ignored (missing ones too).
+    - *Rewards*: the env's, as Python floats; 0.0 for an inactive robot.
+    - *Episode end*: for every agent at once when the env's episode ends (no live agent left:
+      truncation at ``max_cycles``, or a dispersed swarm). A robot the env terminated on that step is
+      terminated, every other one truncated; a robot that left mid-episode (it became the master)
+      stays in, inactive, until then.
+    - ``state()``/``state_space``, ``render()`` (with RLlib's positional mode), ``episode_summary()``,
+      ``organize_summary()`` and every other public attribute are the env's.
+    """
+
+    def __init__(self, env):
+        super().__init__(env)
+        self.possible_agents = list(env.possible_agents)
+        self.agents: list[str] = []
+        self.state_space = getattr(env, "state_space", None)
+        space = env.observation_space(self.possible_agents[0])
+        self._zero = np.zeros(space.shape, space.dtype)
+
+    def reset(self, seed: int | None = None, options: dict | None = None):
+        obs, infos = self.env.reset(seed=seed, options=options)
+        self.agents = list(self.possible_agents)
+        return self._fill(obs), self._infos(infos, obs)
+
+    def step(self, actions: dict[str, Any]):
+        live = self.env.agents
+        obs, rewards, terms, truncs, infos = self.env.step({a: actions[a] for a in live if a in actions})
+        done = not self.env.agents
+        term = {a: done and bool(terms.get(a, False)) for a in self.agents}
+        trunc = {a: done and not term[a] for a in self.agents}
+        out = (self._fill(obs), {a: float(rewards.get(a, 0.0)) for a in self.agents}, term, trunc, self._infos(infos, obs))
+        if done:
+            self.agents = []
+        return out
+
+    def _fill(self, obs: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        zero = self._zero
+        return {a: obs[a] if a in obs else zero.copy() for a in self.possible_agents}
+
+    def _infos(self, infos: dict[str, dict], obs: dict[str, np.ndarray]) -> dict[str, dict[str, float | int]]:
+        out = {}
+        for a in self.possible_agents:
+            info = {**INFO_DEFAULTS, **infos[a]} if a in infos else dict(INFO_DEFAULTS)
+            info["active"] = int(a in obs)
+            out[a] = info
+        return out
+
+    def render(self, mode: str | None = None):
+        return self.env.render() if mode is None else self.env.render(mode)

@@ -10,7 +10,7 @@ What it shows:
   reset and at every step (TorchRL builds its specs from the reset), flat numeric infos with the
   same keys at reset and step, ``state()`` for ``return_state=True`` (a MAPPO critic's input);
 - the agents form one group, ``"robot"``: observations ``("robot", "observation")`` of shape
-  (robots, 57), actions ``("robot", "action")`` (robots, 3), infos ``("robot", "info", key)``;
+  (robots, the layout's size: 67 for layout 2), actions ``("robot", "action")`` (robots, 3), infos ``("robot", "info", key)``;
 - ``done_on_any=False``: the episode ends when every robot is done, which FixedAgents makes one step.
 """
 
@@ -24,7 +24,8 @@ from tensordict.nn import TensorDictModule
 from torchrl.collectors import Collector
 from torchrl.envs import PettingZooWrapper
 
-from baselines.learned import read_policy_file, shipped_policy_path
+from baselines.learned import observation_mapping, read_policy_file, shipped_policy_path
+from baselines.policy import PolicySpec
 from petswarm_env import petswarm_v0
 from petswarm_env.wrappers import FixedAgents
 
@@ -35,13 +36,27 @@ def make_env(max_cycles: int = 100, **overrides) -> PettingZooWrapper:
                              return_state=True, use_mask=False, done_on_any=False)
 
 
+class _Select(torch.nn.Module):
+    """The env observation's columns the policy file was trained on, in its order
+    (baselines.learned.observation_mapping: fields matched by name and size)."""
+
+    def __init__(self, index: np.ndarray):
+        super().__init__()
+        self.register_buffer("index", torch.as_tensor(index, dtype=torch.long))
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        return x.index_select(-1, self.index)
+
+
 def actor_from_policy_file(path=None) -> TensorDictModule:
     """A TensorDict actor from a petswarm policy file (default: the shipped one): the same layers
-    as baselines/learned.py's numpy forward, in torch, with the action clipped to [-1, 1]. (The
-    file's observation layout must be this env's: the example uses the default config.)"""
+    as baselines/learned.py's numpy forward, in torch, after the same field mapping onto this env's
+    observation (the default config's), with the action clipped to [-1, 1]."""
     meta, layers = read_policy_file(path or shipped_policy_path())
+    layout = PolicySpec.from_env(petswarm_v0.parallel_env()).layout
+    index = observation_mapping([(n, s) for n, s in meta["observation_layout"]], layout)
     act = torch.nn.Tanh if meta["activation"] == "tanh" else torch.nn.ReLU
-    modules: list[torch.nn.Module] = []
+    modules: list[torch.nn.Module] = [_Select(index)]
     for i, (w, b) in enumerate(layers):
         linear = torch.nn.Linear(w.shape[1], w.shape[0])
         with torch.no_grad():

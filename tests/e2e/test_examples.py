@@ -28,7 +28,8 @@ def _example(name):
 def test_torchrl_collector_gathers_every_robot_with_the_state_and_the_shipped_policy():
     example = _example("torchrl_collect")
     out = example.collect(frames=100, frames_per_batch=50, max_cycles=30)
-    assert out["frames"] == 100 and out["observation_shape"] == (50, 4, 57) and out["state_shape"] == (50, 116)
+    size = PolicySpec.from_env(parallel_env()).layout.size
+    assert out["frames"] == 100 and out["observation_shape"] == (50, 4, size) and out["state_shape"] == (50, 116)
     assert out["episodes_ended"] == 3  # 30-step episodes: done for every robot at once, then reset
     batch = out["batches"][0]
     info = batch["next", "robot", "info"]
@@ -36,7 +37,7 @@ def test_torchrl_collector_gathers_every_robot_with_the_state_and_the_shipped_po
     assert bool(info["active"].all())  # the default scenario: every robot a slave all along
     env = parallel_env()
     policy = LearnedPolicy.load(shipped_policy_path(), PolicySpec.from_env(env))
-    obs = batch["robot", "observation"].numpy().reshape(-1, 57)
+    obs = batch["robot", "observation"].numpy().reshape(-1, size)
     expected = np.clip(policy.forward(obs), -1, 1)
     assert np.abs(batch["robot", "action"].numpy().reshape(-1, 3) - expected).max() < 1e-4
 

@@ -67,8 +67,9 @@ def test_the_checkpoint_is_the_houses_format_weights_only_and_the_policy_is_eval
             "policy:vf.net.mlp.0.weight"} <= set(arrays)
     assert all(k.startswith("policy:") for k in arrays), "weights only"
     meta, layers = read_policy_file(out / "policy.npz")
-    assert [w.shape for w, _ in layers] == [(16, 57), (16, 16), (3, 16)] and "RLlib" in meta["info"]["algorithm"]
     cfg = load_config(overrides={"max_cycles": 20})
+    size = PolicySpec.from_env(parallel_env(cfg)).layout.size
+    assert [w.shape for w, _ in layers] == [(16, size), (16, 16), (3, 16)] and "RLlib" in meta["info"]["algorithm"]
     policy = LearnedPolicy.load(out / "policy.npz", PolicySpec.from_env(parallel_env(cfg)))
     assert np.isfinite(mean_formation_rmse(cfg, policy, [0]))
 
@@ -108,7 +109,7 @@ def test_the_exported_actor_is_the_rllib_modules_deterministic_action():
 
 
 def test_rllibs_pettingzoo_adapter_runs_the_fixed_agents_env_through_a_master_change():
-    cfg = load_config(overrides={"user.scenario": "mode_change", "max_cycles": 140, "render.size_px": [64, 48]})
+    cfg = load_config(overrides={"user.scenario": "mode_change", "max_cycles": 420, "render.size_px": [64, 48]})  # zero actions never build: the user waits user.formation_wait_s (30 s)
     env = rllib_backend.make_env({"config": cfg.to_dict()})
     obs, _ = env.reset(seed=42, options={})  # RLlib's own env check: reset(seed=42, options={}) and one step
     assert set(obs) == set(env.get_agent_ids()) == set(env.observation_space.keys())

@@ -274,7 +274,8 @@ class PetSwarmEnv(ParallelEnv):
         self.num_cycles += 1
 
         truth = self.experimenter.step(self.agents)  # formation and heading errors, contacts (metrics.py)
-        self._start_walks(dict(zip(self.agents, truth.formation_error_m)))
+        if not all(session.user.walking for session in self.sessions):  # only while a user still stands
+            self._start_walks(dict(zip(self.agents, truth.formation_error_m)))
         infos = {agent: self._info(agent, err, c, 0) for agent, err, c in zip(self.agents, truth.formation_error_m, truth.new_contacts)}
         # every slave's reward in one pass over the slaves (reward.py)
         now_acts = np.array([acts[a] for a in self.agents], dtype=np.float32).reshape(-1, 3)

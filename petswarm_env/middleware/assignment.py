@@ -29,8 +29,8 @@ one open slot run the same code):
   Example, wedge of 4 slaves: slots 1, 2 (first pair) have 1 exposed side each, slots 3, 4 (the
   arms' ends) 2 each; a column: every slave 2 (left and right), the last 3.
 * *priority*: t − t_j is the slot's age, from when it opened (the organize started, or the member
-  was lost: ``JoinManager.opened_s``) to when the utility is computed; the same for every robot, so
-  it scales a slot's utilities without reordering them.
+  was lost: ``JoinManager.opened_s``) to when the utility is computed (at least :data:`MIN_AGE_S`);
+  the same for every robot, so it scales a slot's utilities without reordering them.
 
 **d without ground truth (chosen).** Nobody knows a true position: the master knows a candidate
 only by RSSI distance estimates (:attr:`Frame.rx_distance_est_m`, no bearing: waiting robots are
@@ -71,6 +71,9 @@ if TYPE_CHECKING:
     from petswarm_env.middleware.station import Station
 
 SIDES = ((1.0, 0.0), (-1.0, 0.0), (0.0, 1.0), (0.0, -1.0))  # ahead, behind, left, right (formation frame)
+# chosen: a slot is at least this old (s) when utilities are computed; at age 0 the priority ½·min(u1·(t − t_j), 1)
+# is 0, every utility with it, and no robot could take the slot
+MIN_AGE_S = 1e-3
 NO_MODULE = -1.0  # a status answer's draw for a module the robot does not have (or that failed)
 _CONE_COS = math.cos(math.radians(45.0))  # a slot within 45° of a side's direction covers it
 
@@ -186,14 +189,15 @@ def select_centralized(reports: Mapping[int, ruta.RobotStatus], ranges_m: Mappin
     order = sorted(reports, key=lambda rid: (ranges_m[rid], rid))
     located = [_located(reports[rid], ranges_m[rid], geometry) for rid in order]
     subtasks = [slot_subtask(m, geometry[m][1], rc) for m in sorted(open_members)]
-    res = ruta.centralized_from_reports(located, subtasks, age_s, team=[], params=params(rc), max_trials=rc.max_trials)
+    res = ruta.centralized_from_reports(located, subtasks, max(age_s, MIN_AGE_S), team=[], params=params(rc),
+                                        max_trials=rc.max_trials)
     return {int(sid): rid for sid, rid in sorted(res.assignment.items(), key=lambda kv: int(kv[0]))}
 
 
 # -- ruta_decentralized (seed 003 Algorithm 2) -------------------------------------------------------
 def announce_slots(geometry: Mapping[int, tuple[float, int]], open_members: Iterable[int], age_s: float) -> list:
     """The slot announcement's entries: (member, distance from the master, exposed sides, age)."""
-    return [(m, geometry[m][0], geometry[m][1], age_s) for m in sorted(open_members)]
+    return [(m, geometry[m][0], geometry[m][1], max(age_s, MIN_AGE_S)) for m in sorted(open_members)]
 
 
 def own_utilities(status: ruta.RobotStatus, r_m: float, slots: Iterable, cfg: RutaConfig) -> list[tuple[int, float]]:

@@ -48,3 +48,14 @@ def test_slaves_without_a_swarm_section_take_their_ruta_slot_from_the_frames(mon
     for nid in sw.slave_ids():
         assert env.fleet.nodes[nid].formation.links == sw.formation.links
     assert np.isfinite(env.organize_summary()[0]["organize_time_s"])
+
+
+@pytest.mark.parametrize("mode", MODES)
+def test_ruta_organizes_the_same_way_for_the_same_seed(mode):
+    got = []
+    for _ in range(2):
+        env = petswarm_env.parallel_env(**{"swarm.assignment": mode, "radio.loss_prob": 0.1})
+        env.reset(seed=3)
+        (s,) = env.organize_summary()
+        got.append((s["organize_time_s"], s["members"], s["join_retries"], env.radio.stats.frames_sent))
+    assert got[0] == got[1]

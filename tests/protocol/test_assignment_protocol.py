@@ -198,3 +198,36 @@ def test_both_organize_under_frame_loss(mode):
         env, res = organize(seed, **{"swarm.assignment": mode, "radio.loss_prob": 0.2, "swarm.num_slaves": 3})
         assert res.complete and len(res.members) == 4, (seed, res)
         slaves_consistent(env)
+
+
+# -- the refill seam (the faults branch refills a lost member's slot through the same pipeline) -----------
+
+
+@pytest.mark.parametrize("mode", ["closest", "ruta_centralized", "ruta_decentralized"])
+def test_a_refill_of_one_open_slot_runs_the_same_pipeline_on_an_organized_master(mode):
+    from petswarm_env.comms.radio import PAN_WAITING
+    from petswarm_env.middleware.join import OrganizeResult
+
+    env = petswarm_env.parallel_env(**{"swarm.assignment": mode, "swarm.extra_robots": 1, "protocol.join_radius_m": 4.0})
+    env.reset(seed=0)
+    sw = env.swarm
+    spare = sorted(set(sw.organize_result.candidates) - set(sw.organize_result.members.values()))
+    assert len(spare) == 1
+    out = {}
+
+    def refill():  # what a refill does before its notification: scan, query, choose for slot 3
+        jm, node = sw.master.join, sw.master
+        node.pans = frozenset({PAN_WAITING, sw.pan})
+        jm.opened_s = node.clock.now
+        jm._deadline = node.clock.now + node.cfg.protocol.organize_timeout_s
+        res = OrganizeResult()
+        candidates, answers = yield from jm._scan_and_query(1, res)
+        out["chosen"] = yield from jm._choose(candidates, answers, [3], res)
+        node.pans = frozenset({sw.pan})
+
+    env.world.clock.process(refill())
+    for _ in range(100):
+        env.step({a: [0.0, 0.0, 0.0] for a in env.agents})
+        if out:
+            break
+    assert out["chosen"] == ({3: spare[0]}, 1)  # only the waiting robot answers; it takes slot 3

@@ -256,10 +256,13 @@ class JoinManager:
 
     def _slot_geometry(self, open_members: list[int]) -> dict[int, tuple[float, int]]:
         """The open slots' geometry (:func:`assignment.slot_geometry`): the master's own formation
-        once it drives one (a refill), else the configured shape."""
+        once it drives one that has every open slot (a refill of a lost member's slot), else the
+        configured shape with members up to the highest open number (a refill may open a slot the
+        current, shrunk table no longer has)."""
         node = self.node
-        formation = node.formation if node.state == "master" and node.formation is not None else \
-            assignment.slots_formation(node.cfg.swarm, open_members)
+        formation = node.formation
+        if node.state != "master" or formation is None or not set(open_members) <= set(formation.links):
+            formation = assignment.slots_formation(node.cfg.swarm, open_members)
         geometry = assignment.slot_geometry(formation)
         return {m: geometry[m] for m in open_members}
 

@@ -16,8 +16,8 @@ def test_without_faults_it_is_not_available_and_not_registered():
     assert "reassignment" not in EXPERIMENTS
 
 
-def test_its_trials_are_a_four_slave_swarm_with_a_spare_and_a_dead_slave_at_20_s():
+def test_its_trials_are_the_dropout_scenario_in_a_four_slave_swarm():
     o = reassignment.overrides("ruta_centralized")
-    assert o["swarm.num_slaves"] == 4 and o["swarm.extra_robots"] == 1
-    assert o["faults"] == [{"at_s": 20.0, "robot": "random_slave", "kind": "dead"}]
+    assert o["swarm.num_slaves"] == 4 and o["user.scenario"] == "dropout"
+    assert reassignment.FAULT == {"at_s": 20.0, "robot": "random_slave", "kind": "dead"}
     assert o["max_cycles"] * 0.1 >= 30.0

@@ -85,22 +85,48 @@ PETBOT_PROVISIONAL = {"type": "petbot", "battery_mah": 2500.0, "slip_pct": 1.0, 
                       "rate_act_ma": None, "rate_sens_ma": 65.0}
 
 
+# chosen: a wheel slip below this counts as this (%): φ_nav's 1/w diverges at w = 0 (a type may give
+# 0, "does not slip"); seed 003's smallest printed slip (R2, §5.2.1)
+MIN_SLIP_PCT = 1.0
+
+
 def own_status(station: Station) -> ruta.RobotStatus:
     """This robot's own status for RUTA (seed 003 β_i = <id, w_i, P_rem_i> and its draws): the ONE
-    place a robot reads it. For now the petbot's (:data:`PETBOT_PROVISIONAL`; its body, radius and
-    limits are ``cfg.robot``, which seed 003's φ do not use); the lead replaces the body of this
-    function with the bodies branch's per-type status (type, battery left, slip, draws).
+    place a robot reads it. From its own body's report when the body gives one
+    (``Station.own_body_status``, the bodies branch's ``Robot.own_status()``: type, battery left,
+    slip, draws, registered sensors; :func:`status_from_body`), else the petbot's provisional
+    figures (:data:`PETBOT_PROVISIONAL`; its body, radius and limits are ``cfg.robot``, which seed
+    003's φ do not use).
 
-    Hook for sensor faults (faults branch): a robot whose ultrasonic ring failed reports no sensing
-    draw (``rate_sens_ma`` None), so it is not capable of the slots with a sensing part; read here
-    from ``station.failed_sensors`` when the station has it (a set of sensor names, e.g.
+    Hook for sensor faults (faults branch): a robot whose ultrasonic sensors failed reports no
+    sensing draw (``rate_sens_ma`` None), so it is not capable of the slots with a sensing part;
+    read here from ``station.failed_sensors`` when the station has it (a set of sensor names, e.g.
     ``{"ultrasonic"}``), else none failed."""
-    p = PETBOT_PROVISIONAL
     failed = getattr(station, "failed_sensors", frozenset())  # HOOK: sensor faults lower φ_sens
+    body = station.own_body_status() if hasattr(station, "own_body_status") else None
+    if body is not None:
+        return status_from_body(body, failed)
+    p = PETBOT_PROVISIONAL
     has_ring = station.cfg.robot.ultrasonic.count > 0 and "ultrasonic" not in failed
     return ruta.RobotStatus(id=station.node_id, p_rem_mah=p["battery_mah"], slip_pct=p["slip_pct"],
                             rate_servo_ma=p["rate_servo_ma"], rate_act_ma=p["rate_act_ma"],
                             rate_sens_ma=p["rate_sens_ma"] if has_ring else None, robot_type=p["type"])
+
+
+def status_from_body(body: Mapping, failed: Iterable[str] = ()) -> ruta.RobotStatus:
+    """A body's own report (the bodies branch's ``Robot.own_status()`` dict: ``id``, ``type``,
+    ``battery_mah`` left, ``battery_empty``, ``wheel_slip_pct``, ``servo_ma``, ``actuator_ma``,
+    ``sensing_ma``, ``sensors`` [{type, ...}]) as RUTA's status: a draw of 0 is no such module, no
+    working ``DISTANCE`` sensor (none registered, or ``"ultrasonic"`` in ``failed``) no sensing, an
+    empty battery a faulty robot, the slip at least :data:`MIN_SLIP_PCT`."""
+    def rate(x: float | None) -> float | None:
+        return float(x) if x is not None and x > 0 else None
+    sensing = any(sn["type"] == "DISTANCE" for sn in body.get("sensors", ())) and "ultrasonic" not in set(failed)
+    return ruta.RobotStatus(id=body["id"], p_rem_mah=max(0.0, float(body["battery_mah"])),
+                            slip_pct=max(float(body["wheel_slip_pct"]), MIN_SLIP_PCT),
+                            rate_servo_ma=rate(body["servo_ma"]), rate_act_ma=rate(body.get("actuator_ma")),
+                            rate_sens_ma=rate(body.get("sensing_ma")) if sensing else None,
+                            faulty=bool(body.get("battery_empty", False)), robot_type=str(body["type"]))
 
 
 def params(cfg: RutaConfig) -> ruta.RutaParams:

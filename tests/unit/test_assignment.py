@@ -150,3 +150,25 @@ def test_round_a_bid_outside_the_window_does_not_count_and_an_unbid_slot_stays_o
     bids = [bid(5, 1, 0.5, t=1.3), bid(6, 1, 0.1, t=1.1)]  # robot 5's arrived after t_out
     assert A.close_round(bids, [1, 2], 1.0, 0.2, 1, 3) == {1: 6}
     assert A.close_round([], [1, 2], 1.0, 0.2, 3, 3) == {}
+
+
+def test_a_body_report_becomes_ruta_status_slip_floor_no_module_no_sensor_empty_battery():
+    body = {"id": 4, "type": "r1", "battery_mah": 1800.0, "battery_empty": False, "wheel_slip_pct": 0.0,
+            "servo_ma": 130.0, "actuator_ma": 0.0, "sensing_ma": 65.0,
+            "sensors": [{"id": 1, "type": "DISTANCE", "radius_m": 0.1, "angle_deg": 0}]}
+    s = A.status_from_body(body)
+    assert (s.id, s.robot_type, s.p_rem_mah, s.slip_pct, s.rate_servo_ma, s.rate_act_ma, s.rate_sens_ma, s.faulty) == \
+        (4, "r1", 1800.0, A.MIN_SLIP_PCT, 130.0, None, 65.0, False)
+    assert A.status_from_body(body, failed={"ultrasonic"}).rate_sens_ma is None
+    assert A.status_from_body({**body, "sensors": [{"id": 9, "type": "IR"}]}).rate_sens_ma is None
+    empty = A.status_from_body({**body, "battery_mah": 0.0, "battery_empty": True})
+    assert empty.faulty and not ruta.capable(empty, A.slot_subtask(1, 0, CFG.ruta))
+
+
+def test_own_status_reads_the_body_report_when_the_station_has_one():
+    body = {"id": 2, "type": "mybot", "battery_mah": 2000.0, "wheel_slip_pct": 2.0, "servo_ma": 300.0,
+            "actuator_ma": 0.0, "sensing_ma": 65.0, "sensors": [{"type": "DISTANCE"}]}
+    station = SimpleNamespace(node_id=2, cfg=CFG, own_body_status=lambda: body)
+    assert A.own_status(station) == A.status_from_body(body)
+    station.own_body_status = lambda: None  # today's body: no report -> the provisional petbot
+    assert A.own_status(station).robot_type == "petbot"

@@ -52,7 +52,9 @@ earlier announcement's sequence number) is ignored. A slot left without a winner
 (to the robots still free) while a listed bidder's bid was missing, up to ``ruta.max_announcements``
 announcements and the organize deadline; a slot nobody free can take stays open (the swarm
 organizes short, as with too few robots). A lost status answer is a missing joining answer: the
-master queries again (the join protocol's retry).
+master queries again (the join protocol's retry). At an organize, the filled slots are then numbered
+1..n without a gap (the formation table has no holes): when a slot stays open, the members after
+it move up one number (chosen; a refill keeps the numbers it fills).
 """
 
 from __future__ import annotations

@@ -77,7 +77,7 @@ MESSAGES: dict[str, tuple[int, tuple[tuple[str, str], ...]]] = {
     msg.HANDOVER_ACK: (20, ()),
     msg.STATUS_ANSWER: (21, (("available", "bool"), ("type", "str"), ("battery_mah", "f32"), ("slip_pct", "f32"),
                              ("rate_servo_ma", "f32"), ("rate_act_ma", "f32"), ("rate_sens_ma", "f32"),
-                             ("distance_m", "f32"))),
+                             ("sensors", "u8"), ("distance_m", "f32"))),
     msg.STATUS_QUERY: (24, (("candidates", "ids"),)),
     msg.SLOT_ANNOUNCE: (22, (("seq", "u32"), ("attempt", "u8"), ("slots", "slots"), ("bidders", "ids"))),
     msg.BID: (23, (("seq", "u32"), ("utilities", "bids"))),

@@ -25,12 +25,12 @@ local FIELDS = {
   [18] = {},
   [19] = {{"seq", "u32"}, {"user", "user"}, {"previous", "str"}},
   [20] = {},
-  [21] = {{"available", "bool"}, {"type", "str"}, {"battery_mah", "f32"}, {"slip_pct", "f32"}, {"rate_servo_ma", "f32"}, {"rate_act_ma", "f32"}, {"rate_sens_ma", "f32"}, {"distance_m", "f32"}},
+  [21] = {{"available", "bool"}, {"type", "str"}, {"battery_mah", "f32"}, {"slip_pct", "f32"}, {"rate_servo_ma", "f32"}, {"rate_act_ma", "f32"}, {"rate_sens_ma", "f32"}, {"sensors", "u8"}, {"distance_m", "f32"}},
   [24] = {{"candidates", "ids"}},
   [22] = {{"seq", "u32"}, {"attempt", "u8"}, {"slots", "slots"}, {"bidders", "ids"}},
   [23] = {{"seq", "u32"}, {"utilities", "bids"}}
 }
-local NAMES = {"known", "candidates", "available", "new_pan", "member", "total", "members", "shape", "mode", "links", "seq", "next", "bearing", "velocity", "activity", "turn_rate", "rotating", "user", "previous", "type", "battery_mah", "slip_pct", "rate_servo_ma", "rate_act_ma", "rate_sens_ma", "distance_m", "attempt", "slots", "bidders", "utilities"}
+local NAMES = {"known", "candidates", "available", "new_pan", "member", "total", "members", "shape", "mode", "links", "seq", "next", "bearing", "velocity", "activity", "turn_rate", "rotating", "user", "previous", "type", "battery_mah", "slip_pct", "rate_servo_ma", "rate_act_ma", "rate_sens_ma", "sensors", "distance_m", "attempt", "slots", "bidders", "utilities"}
 local SWARM_PANS = "4097-4351"
 -- end of the tables
 

@@ -84,7 +84,10 @@ _CONE_COS = math.cos(math.radians(45.0))  # a slot within 45° of a side's direc
 # (seed 003 §4.2); servo draw 320 mA and wheel slip 1 % (R2, seed 003 §5.2.1); sensing draw 65 mA
 # (R2's sensing, §5.2.1); no manipulator (the petbot has no arm, so no actuator draw).
 PETBOT_PROVISIONAL = {"type": "petbot", "battery_mah": 2500.0, "slip_pct": 1.0, "rate_servo_ma": 320.0,
-                      "rate_act_ma": None, "rate_sens_ma": 65.0}
+                      "rate_act_ma": None, "rate_sens_ma": 65.0, "sensors": ("DISTANCE", "IR", "LF")}
+# the status answer's sensor bit mask (seed 001's sensor types): DISTANCE (the ultrasonic sensors), the IR
+# ring, the LF antennas
+SENSOR_BITS = {"DISTANCE": 1, "IR": 2, "LF": 4}
 
 
 # chosen: a wheel slip below this counts as this (%): φ_nav's 1/w diverges at w = 0 (a type may give
@@ -110,9 +113,11 @@ def own_status(station: Station) -> ruta.RobotStatus:
         return status_from_body(body, failed)
     p = PETBOT_PROVISIONAL
     has_ring = station.cfg.robot.ultrasonic.count > 0 and "ultrasonic" not in failed
+    sensors = frozenset(k for k in p["sensors"] if k != "DISTANCE" or has_ring)
     return ruta.RobotStatus(id=station.node_id, p_rem_mah=p["battery_mah"], slip_pct=p["slip_pct"],
                             rate_servo_ma=p["rate_servo_ma"], rate_act_ma=p["rate_act_ma"],
-                            rate_sens_ma=p["rate_sens_ma"] if has_ring else None, robot_type=p["type"])
+                            rate_sens_ma=p["rate_sens_ma"] if has_ring else None, robot_type=p["type"],
+                            sensors=sensors)
 
 
 def status_from_body(body: Mapping, failed: Iterable[str] = ()) -> ruta.RobotStatus:
@@ -124,11 +129,12 @@ def status_from_body(body: Mapping, failed: Iterable[str] = ()) -> ruta.RobotSta
     def rate(x: float | None) -> float | None:
         return float(x) if x is not None and x > 0 else None
     sensing = any(sn["type"] == "DISTANCE" for sn in body.get("sensors", ())) and "ultrasonic" not in set(failed)
+    kinds = frozenset(sn["type"] for sn in body.get("sensors", ()) if sn["type"] != "DISTANCE" or sensing)
     return ruta.RobotStatus(id=body["id"], p_rem_mah=max(0.0, float(body["battery_mah"])),
                             slip_pct=max(float(body["wheel_slip_pct"]), MIN_SLIP_PCT),
                             rate_servo_ma=rate(body["servo_ma"]), rate_act_ma=rate(body.get("actuator_ma")),
                             rate_sens_ma=rate(body.get("sensing_ma")) if sensing else None,
-                            faulty=bool(body.get("battery_empty", False)), robot_type=str(body["type"]))
+                            faulty=bool(body.get("battery_empty", False)), robot_type=str(body["type"]), sensors=kinds)
 
 
 def params(cfg: RutaConfig) -> ruta.RutaParams:
@@ -178,7 +184,7 @@ def mean_range(*estimates: float | None) -> float:
 def _located(status: ruta.RobotStatus, r_m: float, geometry: Mapping[int, tuple[float, int]]) -> ruta.RobotStatus:
     return ruta.RobotStatus(status.id, status.p_rem_mah, status.slip_pct, status.rate_servo_ma, status.rate_act_ma,
                             status.rate_sens_ma, {str(m): slot_distance(r_m, a) for m, (a, _) in geometry.items()},
-                            status.faulty, status.robot_type)
+                            status.faulty, status.robot_type, status.sensors)
 
 
 # -- closest (seed 000 Table 2) ---------------------------------------------------------------------
@@ -196,14 +202,17 @@ def status_payload(status: ruta.RobotStatus, available: bool, distance_est_m: fl
     return {"available": available, "type": status.robot_type, "battery_mah": float(status.p_rem_mah),
             "slip_pct": float(status.slip_pct), "rate_servo_ma": rate(status.rate_servo_ma),
             "rate_act_ma": rate(status.rate_act_ma), "rate_sens_ma": rate(status.rate_sens_ma),
+            "sensors": sum(bit for kind, bit in SENSOR_BITS.items() if kind in status.sensors),
             "distance_m": float(distance_est_m)}
 
 
 def status_from_payload(robot: int, p: Mapping) -> ruta.RobotStatus:
     def rate(x: float) -> float | None:
         return None if x < 0 else x
+    sensors = frozenset(kind for kind, bit in SENSOR_BITS.items() if p["sensors"] & bit)
+    sens = rate(p["rate_sens_ma"]) if "DISTANCE" in sensors else None  # no working ultrasonic sensor: no sensing
     return ruta.RobotStatus(robot, p["battery_mah"], p["slip_pct"], rate(p["rate_servo_ma"]), rate(p["rate_act_ma"]),
-                            rate(p["rate_sens_ma"]), robot_type=p["type"])
+                            sens, robot_type=p["type"], sensors=sensors)
 
 
 def select_centralized(reports: Mapping[int, ruta.RobotStatus], ranges_m: Mapping[int, float],
@@ -236,7 +245,7 @@ def own_utilities(status: ruta.RobotStatus, r_m: float, slots: Iterable, cfg: Ru
         sub = slot_subtask(int(m), int(exposed), cfg)
         located = ruta.RobotStatus(status.id, status.p_rem_mah, status.slip_pct, status.rate_servo_ma,
                                    status.rate_act_ma, status.rate_sens_ma, {sub.id: slot_distance(r_m, a_m)},
-                                   status.faulty, status.robot_type)
+                                   status.faulty, status.robot_type, status.sensors)
         u = ruta.own_bid(located, sub, float(age_s), params(cfg))
         if u is not None:
             out.append((int(m), float(np.float32(u))))

@@ -164,7 +164,8 @@ class RobotStatus:
     ``p_rem_mah`` (mAh), ``slip_pct`` (w, %), the draws in mA of its drive servos, actuator and
     sensors — None when it has no such module or it has failed (it cannot do subtasks needing it) —
     ``distance_m``: its distance estimate to each subtask id (m); ``faulty``: a robot found faulty;
-    ``robot_type``: its type's name (reported, not used by the equations)."""
+    ``robot_type``: its type's name and ``sensors`` the kinds of sensor it carries and that work
+    (e.g. ``DISTANCE``, ``IR``, ``LF``; reported, not used by the equations)."""
 
     id: RobotId
     p_rem_mah: float
@@ -175,6 +176,7 @@ class RobotStatus:
     distance_m: Mapping[str, float] = field(default_factory=dict)
     faulty: bool = False
     robot_type: str = ""
+    sensors: frozenset[str] = frozenset()
 
 
 def capable(robot: RobotStatus, subtask: Subtask) -> bool:

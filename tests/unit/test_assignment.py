@@ -66,9 +66,10 @@ def test_own_status_is_the_provisional_petbot_and_the_sensor_fault_hook_removes_
     s = A.own_status(station)
     assert (s.id, s.robot_type, s.p_rem_mah, s.slip_pct, s.rate_servo_ma, s.rate_act_ma, s.rate_sens_ma) == \
         (7, "petbot", 2500.0, 1.0, 320.0, None, 65.0)
+    assert s.sensors == {"DISTANCE", "IR", "LF"}
     station.failed_sensors = {"ultrasonic"}
     broken = A.own_status(station)
-    assert broken.rate_sens_ma is None
+    assert broken.rate_sens_ma is None and broken.sensors == {"IR", "LF"}
     edge, inner = A.slot_subtask(3, 2, CFG.ruta), A.slot_subtask(1, 0, CFG.ruta)
     assert not ruta.capable(broken, edge) and ruta.capable(broken, inner)
 
@@ -76,9 +77,10 @@ def test_own_status_is_the_provisional_petbot_and_the_sensor_fault_hook_removes_
 def test_status_payload_round_trip():
     s = A.own_status(SimpleNamespace(node_id=3, cfg=CFG))
     p = A.status_payload(s, True, 1.25)
-    assert p["rate_act_ma"] == A.NO_MODULE and p["distance_m"] == 1.25 and p["available"] is True
+    assert p["rate_act_ma"] == A.NO_MODULE and p["distance_m"] == 1.25 and p["available"] is True and p["sensors"] == 7
     back = A.status_from_payload(3, p)
     assert back == s
+    assert A.status_from_payload(3, {**p, "sensors": 6}).rate_sens_ma is None  # no DISTANCE bit: no sensing
 
 
 # -- the strategies ---------------------------------------------------------------------------------------
@@ -159,6 +161,7 @@ def test_a_body_report_becomes_ruta_status_slip_floor_no_module_no_sensor_empty_
     s = A.status_from_body(body)
     assert (s.id, s.robot_type, s.p_rem_mah, s.slip_pct, s.rate_servo_ma, s.rate_act_ma, s.rate_sens_ma, s.faulty) == \
         (4, "r1", 1800.0, A.MIN_SLIP_PCT, 130.0, None, 65.0, False)
+    assert s.sensors == {"DISTANCE"}
     assert A.status_from_body(body, failed={"ultrasonic"}).rate_sens_ma is None
     assert A.status_from_body({**body, "sensors": [{"id": 9, "type": "IR"}]}).rate_sens_ma is None
     empty = A.status_from_body({**body, "battery_mah": 0.0, "battery_empty": True})

@@ -19,7 +19,7 @@ EXAMPLES = {
     msg.JOIN_ANSWER: {"available": False},
     msg.STATUS_QUERY: {"candidates": [2, 5]},
     msg.STATUS_ANSWER: {"available": True, "type": "petbot", "battery_mah": 2500.0, "slip_pct": 1.0,
-                        "rate_servo_ma": 320.0, "rate_act_ma": -1.0, "rate_sens_ma": 65.0, "distance_m": 1.5},
+                        "rate_servo_ma": 320.0, "rate_act_ma": -1.0, "rate_sens_ma": 65.0, "sensors": 7, "distance_m": 1.5},
     msg.SLOT_ANNOUNCE: {"seq": 3, "attempt": 1, "slots": [(1, 1.0, 1, 0.5), (3, 2.0, 2, 0.5)], "bidders": [2, 4]},
     msg.BID: {"seq": 3, "utilities": [(1, 0.25), (3, 0.5)]},
     msg.JOIN_NOTIFY: {"new_pan": 0x1001, "member": 2, "total": 5, "members": {0: 0, 1: 3, 2: 4}, "shape": "wedge",

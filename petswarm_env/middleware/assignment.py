@@ -14,7 +14,11 @@ one open slot run the same code):
 * ``ruta_decentralized``: seed 003 Algorithm 2. The master announces the open slots
   (``slot_announce``), each free candidate computes its own utilities (:func:`own_utilities`) and
   bids (``bid``); after t_out (``ruta.bid_timeout_s``, closed early once every listed bidder
-  answered) the fittest bid of each slot wins (:func:`close_round`).
+  answered) the fittest bid of each slot wins (:func:`close_round`). Chosen readings of Algorithm 2:
+  the announcer is the master (it holds the formation and sends the joining notifications); a bid
+  goes to the announcer only (seed 003: "each robot's utility value is shared with the other
+  robots"; here no other robot acts on it); step 2's "the two robots with the highest utility
+  values will begin" (``ruta.deploy_first``) does not apply: every open slot is auctioned at once.
 
 **The slot -> subtask mapping (chosen).** A slot (member number m >= 1) is one subtask v_m:
 

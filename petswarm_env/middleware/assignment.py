@@ -50,8 +50,8 @@ reported in the status answer), or the robot's of the joining query and of the s
 **Conflicts and losses (chosen).** A bid is an offer, never a claim: only the master's joining
 notification gives a robot a slot, so two robots cannot both hold one. Two bids for one slot: the
 higher utility wins, equal utilities the lower robot id (``ruta.fittest``); a robot fittest for
-several slots takes the lowest-numbered one (schedule order), the others go to their next-fittest
-bidder in the same round. A bid lost or collided is a robot missing from that round; a stale bid (an
+several slots takes the first in :func:`schedule` order (the slot fewer robots can take, then the
+lower number), the others go to their next-fittest bidder in the same round. A bid lost or collided is a robot missing from that round; a stale bid (an
 earlier announcement's sequence number) is ignored. A slot left without a winner is announced again
 (to the robots still free) while a listed bidder's bid was missing, up to ``ruta.max_announcements``
 announcements and the organize deadline; a slot nobody free can take stays open (the swarm
@@ -191,6 +191,15 @@ def _located(status: ruta.RobotStatus, r_m: float, geometry: Mapping[int, tuple[
                             status.faulty, status.robot_type, status.sensors)
 
 
+def schedule(open_members: Iterable[int], takers: Mapping[int, int]) -> list[int]:
+    """The open slots in schedule order (Algorithm 1's "each unexecuted sub-task v_j in the schedule",
+    Algorithm 2's slots decided in turn; chosen): the slots fewer robots can take first (``takers``:
+    member -> how many candidates are capable of it, or bid for it), then by member number. With one
+    robot type every robot can take every slot, so this is member order; a robot whose ring failed
+    is then left the slot without a sensing part instead of nothing."""
+    return sorted(open_members, key=lambda m: (takers.get(m, 0), m))
+
+
 # -- closest (seed 000 Table 2) ---------------------------------------------------------------------
 def select_closest(joiners_closest_first: Sequence[int], open_members: Sequence[int]) -> dict[int, int]:
     """Table 2's joiners (closest first) fill the lowest open member numbers."""
@@ -225,11 +234,13 @@ def select_centralized(reports: Mapping[int, ruta.RobotStatus], ranges_m: Mappin
     """Algorithm 1 on the master: every reporting available candidate's utility for every open slot
     (``ranges_m``: the master's range to each, :func:`mean_range`), then
     :func:`ruta.centralized_from_reports` with an empty team and the candidates (closest first) as
-    the remaining robots; returns member number -> robot id."""
+    the remaining robots, the slots in :func:`schedule` order; returns member number -> robot id."""
     rc = cfg.ruta
     order = sorted(reports, key=lambda rid: (ranges_m[rid], rid))
     located = [_located(reports[rid], ranges_m[rid], geometry) for rid in order]
-    subtasks = [slot_subtask(m, geometry[m][1], rc) for m in sorted(open_members)]
+    by_member = {m: slot_subtask(m, geometry[m][1], rc) for m in open_members}
+    takers = {m: sum(1 for r in located if ruta.capable(r, sub)) for m, sub in by_member.items()}
+    subtasks = [by_member[m] for m in schedule(open_members, takers)]
     res = ruta.centralized_from_reports(located, subtasks, max(age_s, MIN_AGE_S), team=[], params=params(rc),
                                         max_trials=rc.max_trials)
     return {int(sid): rid for sid, rid in sorted(res.assignment.items(), key=lambda kv: int(kv[0]))}
@@ -258,12 +269,14 @@ def own_utilities(status: ruta.RobotStatus, r_m: float, slots: Iterable, cfg: Ru
 
 def close_round(bids: Iterable[ruta.Bid], open_members: Sequence[int], announced_s: float, t_out_s: float,
                 attempt: int, max_attempts: int) -> dict[int, int]:
-    """The announcer's decision after one round (Algorithm 2 steps 6-7): each open slot in member
-    order goes to its fittest bid (``ruta.close_auction``) among the robots that have not won a lower
-    slot in this round; returns member number -> robot id (slots without a winner are left out)."""
+    """The announcer's decision after one round (Algorithm 2 steps 6-7): each open slot, in
+    :func:`schedule` order of how many robots bid for it, goes to its fittest bid
+    (``ruta.close_auction``) among the robots that have not won a slot earlier in this round; returns
+    member number -> robot id (slots without a winner are left out)."""
     bids = list(bids)
+    takers = {m: len({b.robot for b in bids if b.subtask == str(m) and b.utility > 0}) for m in open_members}
     won: dict[int, int] = {}
-    for m in sorted(open_members):
+    for m in schedule(open_members, takers):
         free = [b for b in bids if b.robot not in won.values()]
         d = ruta.close_auction(free, str(m), announced_s, t_out_s, attempt, max_attempts)
         if d.kind == "assign":

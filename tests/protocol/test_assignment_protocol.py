@@ -231,3 +231,31 @@ def test_a_refill_of_one_open_slot_runs_the_same_pipeline_on_an_organized_master
         if out:
             break
     assert out["chosen"] == ({3: spare[0]}, 1)  # only the waiting robot answers; it takes slot 3
+
+
+# -- the sensing part of a slot: a robot whose ultrasonic ring failed ---------------------------------------
+
+PLUS = {  # member 1 behind the master, covered on all four sides by 0, 2, 3, 4: its slot needs no sensing
+    "swarm.formation": "custom",
+    "swarm.custom_links": [
+        {"robot": 1, "neighbour": 0, "offset_m": [-1.0, 0.0]}, {"robot": 2, "neighbour": 1, "offset_m": [-1.0, 0.0]},
+        {"robot": 3, "neighbour": 1, "offset_m": [0.0, 1.0]}, {"robot": 4, "neighbour": 1, "offset_m": [0.0, -1.0]}],
+}
+
+
+@pytest.mark.parametrize("mode", ["ruta_centralized", "ruta_decentralized"])
+@pytest.mark.parametrize("blind", [1, 2, 3, 4])
+def test_a_robot_without_a_working_ring_takes_the_one_slot_that_needs_no_sensing(monkeypatch, mode, blind):
+    from types import SimpleNamespace
+
+    own = A.own_status
+
+    def status(station):  # the sensor-fault hook of own_status: this robot's ultrasonic ring failed
+        if station.node_id == blind:
+            return own(SimpleNamespace(node_id=station.node_id, cfg=station.cfg, failed_sensors={"ultrasonic"}))
+        return own(station)
+
+    monkeypatch.setattr(A, "own_status", status)
+    env, res = organize(0, **PLUS, **{"swarm.assignment": mode})
+    assert res.complete and member_of(res, blind) == 1
+    slaves_consistent(env)

@@ -175,3 +175,23 @@ def test_own_status_reads_the_body_report_when_the_station_has_one():
     assert A.own_status(station) == A.status_from_body(body)
     station.own_body_status = lambda: None  # today's body: no report -> the provisional petbot
     assert A.own_status(station).robot_type == "petbot"
+
+
+def test_schedule_puts_the_slots_fewer_robots_can_take_first_else_member_order():
+    assert A.schedule([1, 2, 3, 4], {1: 4, 2: 4, 3: 4, 4: 4}) == [1, 2, 3, 4]
+    assert A.schedule([1, 2, 3, 4], {1: 4, 2: 3, 3: 3, 4: 3}) == [2, 3, 4, 1]
+
+
+def test_centralized_leaves_the_blind_robot_the_inner_slot_even_when_it_is_closest():
+    g = {1: (1.0, 0), 2: (2.0, 1), 3: (1.4, 1)}  # slot 1 needs no sensing
+    blind = ruta.RobotStatus(4, 2500.0, 1.0, 320.0, None, None)
+    reports = {4: blind, 5: petbot(5), 6: petbot(6)}
+    got = A.select_centralized(reports, {4: 0.5, 5: 1.0, 6: 1.5}, g, [1, 2, 3], 1.0, CFG)
+    assert got[1] == 4 and set(got) == {1, 2, 3}
+
+
+def test_round_leaves_the_blind_robot_the_slot_only_it_and_others_bid_for():
+    bids = [bid(4, 1, 0.9), bid(5, 1, 0.5), bid(5, 2, 0.6), bid(6, 1, 0.4), bid(6, 2, 0.3)]
+    assert A.close_round(bids, [1, 2], 1.0, 0.2, 1, 3) == {2: 5, 1: 4}
+    bids = [bid(5, 1, 0.9), bid(4, 1, 0.5), bid(5, 2, 0.6)]  # robot 4 bids only for slot 1
+    assert A.close_round(bids, [1, 2], 1.0, 0.2, 1, 3) == {2: 5, 1: 4}

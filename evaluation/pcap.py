@@ -75,6 +75,12 @@ MESSAGES: dict[str, tuple[int, tuple[tuple[str, str], ...]]] = {
     msg.MODE_CHANGE_ACK: (18, ()),
     msg.HANDOVER: (19, (("seq", "u32"), ("user", "user"), ("previous", "str"))),
     msg.HANDOVER_ACK: (20, ()),
+    msg.STATUS_ANSWER: (21, (("available", "bool"), ("type", "str"), ("battery_mah", "f32"), ("slip_pct", "f32"),
+                             ("rate_servo_ma", "f32"), ("rate_act_ma", "f32"), ("rate_sens_ma", "f32"),
+                             ("sensors", "u8"), ("distance_m", "f32"))),
+    msg.STATUS_QUERY: (24, (("candidates", "ids"),)),
+    msg.SLOT_ANNOUNCE: (22, (("seq", "u32"), ("attempt", "u8"), ("slots", "slots"), ("bidders", "ids"))),
+    msg.BID: (23, (("seq", "u32"), ("utilities", "bids"))),
 }
 KIND_OF_CODE = {code: kind for kind, (code, _) in MESSAGES.items()}
 
@@ -91,6 +97,8 @@ FIELD_TYPES = {  # type: what it is on the wire (little-endian), for docs/pcap.m
     "user": "signed 16-bit user id, -1 for none",
     "members": "u8 count, then per member: u8 member number, u16 node id",
     "links": "u8 count, then per member: u8 member number, u8 link count, then per link: u8 neighbour member, f32 x, f32 y (offset, m)",
+    "slots": "u8 count, then per open slot: u8 member number, f32 distance from the master (m), u8 exposed sides (of 4), f32 age (s)",
+    "bids": "u8 count, then per entry: u8 member number, f32 utility",
 }
 _SCALARS = {"u8": "B", "u16": "H", "u32": "I", "bool": "?", "f32": "f", "f32x2": "2f", "f32x3": "3f", "user": "h"}
 
@@ -111,6 +119,14 @@ def _encode_field(ftype: str, value: Any, out: bytearray) -> None:
         out += struct.pack("<B", len(value))
         for m, node in sorted((int(m), n) for m, n in value.items()):
             out += struct.pack("<BH", m, node)
+    elif ftype == "slots":
+        out += struct.pack("<B", len(value))
+        for m, dist, sides, age in value:
+            out += struct.pack("<BfBf", m, dist, sides, age)
+    elif ftype == "bids":
+        out += struct.pack("<B", len(value))
+        for m, u in value:
+            out += struct.pack("<Bf", m, u)
     elif ftype == "links":
         out += struct.pack("<B", len(value))
         for m, links in sorted((int(m), lks) for m, lks in value.items()):
@@ -151,6 +167,10 @@ def _decode_field(ftype: str, data: bytes, i: int) -> tuple[Any, int]:
         return data[i:i + n].decode("utf-8"), i + n
     if ftype == "ids":
         return list(struct.unpack_from(f"<{n}H", data, i)), i + 2 * n
+    if ftype in ("slots", "bids"):
+        fmt = "<BfBf" if ftype == "slots" else "<Bf"
+        size = struct.calcsize(fmt)
+        return [struct.unpack_from(fmt, data, i + k * size) for k in range(n)], i + n * size
     out: dict[int, Any] = {}
     for _ in range(n):
         if ftype == "members":

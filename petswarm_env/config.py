@@ -28,6 +28,7 @@ from petswarm_env.scenarios import SCENARIOS  # the registry (the scenarios impo
 
 FORMATIONS = ("column", "row", "wedge", "grid", "custom")
 DRIVING_MODES = ("following", "leading")
+ASSIGNMENTS = ("closest", "ruta_centralized", "ruta_decentralized")  # swarm.assignment (middleware/assignment.py)
 SPAWN_MODES = ("scattered", "at_slots")  # where the waiting robots start (petswarm_env/scenarios/base.py: Scenario.place)
 
 
@@ -157,6 +158,8 @@ class SwarmConfig(Section):
     spawn_jitter_m: float = Field(ge=0)
     master_change: bool = Field(description="the user's master-change request on a driving-mode change (Table 3)")
     other_user_robots: int = Field(ge=0, le=16, description="waiting robots already connected to another user")
+    assignment: Literal[ASSIGNMENTS] = Field(description="who joins and which slot each member takes: closest (seed 000 "  # type: ignore[valid-type]
+                                             "Table 2), ruta_centralized (seed 003 Algorithm 1), ruta_decentralized (Algorithm 2)")
 
 
 class RadioConfig(Section):
@@ -187,6 +190,19 @@ class ProtocolConfig(Section):
     token_timeout_s: float = Field(gt=0, description="master regenerates the token after this silence")
     token_retries: int = Field(ge=0)
     broadcast_period_s: float = Field(gt=0, description="master's speed/activity broadcast")
+
+
+class RutaConfig(Section):
+    """Seed 003 RUTA on the swarm (middleware/assignment.py); used only with swarm.assignment ruta_*."""
+
+    t_m_s: float = Field(gt=0, description="t_m: total time given to a robot for its subtasks (seed 003 §5.2.1: 200 s)")
+    u1_per_s: float = Field(gt=0, description="u1 of the priority (seed 003 §5.2.1: 0.01)")
+    u2: float = Field(gt=0, description="u2 of the utility (seed 003 §5.2.1: 1)")
+    min_distance_m: float = Field(gt=0, description="distances below count as this (d^(-1/2) diverges at 0)")
+    max_trials: int = Field(ge=1, le=100, description="Algorithm 1's K (passes of steps 1-9)")
+    bid_timeout_s: float = Field(gt=0, description="Algorithm 2's t_out: the announcer waits this long for bids")
+    bid_slot_s: float = Field(ge=0, description="the k-th listed bidder bids k x this after the announcement (fewer collisions)")
+    max_announcements: int = Field(ge=1, le=20, description="announcements of one open slot before it stays unfilled")
 
 
 class UserConfig(Section):
@@ -423,6 +439,7 @@ class Config(Section):
     swarm: SwarmConfig
     radio: RadioConfig
     protocol: ProtocolConfig
+    ruta: RutaConfig
     ir: IRConfig
     lf: LFConfig
     user: UserConfig

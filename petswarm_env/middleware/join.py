@@ -16,6 +16,14 @@
    (retry).
 4. Joined robots switch to the new PAN ID.
 
+Who joins and which slot each member takes is ``swarm.assignment`` (:mod:`.assignment`): Table 2's
+closest (the default), or seed 003's RUTA — ``ruta_centralized`` (the candidates' joining answers
+carry their status; Algorithm 1 on the master) or ``ruta_decentralized`` (an auction of the open
+slots between step 2 and step 3; Algorithm 2). The pipeline for any set of open member numbers:
+:meth:`JoinManager._scan_and_query`, then :meth:`JoinManager._choose` (the auction, then
+:meth:`JoinManager._select`), then :meth:`JoinManager._notify`; an organize opens members
+1..required, a refill after a lost member (faults) the lost ones.
+
 Budgets (chosen): every step retries at most ``protocol.max_retries`` times (the scans; each round
 of queries; each robot's notification), and the whole protocol ends ``protocol.organize_timeout_s``
 after it started, whatever its state: every wait is cut at that deadline, the scans stop early
@@ -31,8 +39,10 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from petswarm_env.comms.radio import PAN_WAITING, Frame
+from petswarm_env.middleware import assignment
 from petswarm_env.middleware import messages as msg
 from petswarm_env.middleware.formation import Formation, formation_for_mode
+from petswarm_env.middleware.ruta import Bid
 from petswarm_env.middleware.station import Station
 
 
@@ -86,11 +96,19 @@ class JoinManager:
         self._got: dict[int, Frame] = {}
         self._all_in = None
         self._deadline = float("inf")  # the organize deadline (protocol.organize_timeout_s after it started)
+        self.opened_s = 0.0  # when the open slots opened (RUTA's t_j): the organize's start; a refill sets it
+        self._bid_seq = 0  # the current slot announcement (ruta_decentralized): bids of other ones are stale
+        self._bid_at: dict[int, float] = {}  # bidder -> when its bid for the current announcement arrived
+        self._auction_won: dict[int, int] = {}  # the last auction's outcome: member number -> robot id
+        self._query_range_m: float | None = None  # candidate side: its RSSI range estimate of the joining query
         node.on(msg.SCAN, self._on_scan)
         node.on(msg.JOIN_QUERY, self._on_query)
+        node.on(msg.STATUS_QUERY, self._on_query)
         node.on(msg.JOIN_NOTIFY, self._on_notify)
         node.on(msg.NON_PARTICIPATE, self._on_non_participate)
-        for kind in (msg.SCAN_RESPONSE, msg.JOIN_ANSWER, msg.NOTIFY_ACK):
+        node.on(msg.SLOT_ANNOUNCE, self._on_announce)
+        node.on(msg.BID, self._on_bid)
+        for kind in (msg.SCAN_RESPONSE, msg.JOIN_ANSWER, msg.STATUS_ANSWER, msg.NOTIFY_ACK):
             node.on(kind, self._on_response)
 
     # -- master side ----------------------------------------------------------------------------
@@ -127,6 +145,7 @@ class JoinManager:
         selected; the joining notifications carry it to the members."""
         node = self.node
         t0 = node.clock.now
+        self.opened_s = t0
         self._deadline = t0 + node.cfg.protocol.organize_timeout_s  # the whole protocol ends by then
         # the master forms the PAN from now on: it listens there for the acknowledgements of robots
         # that already moved to it (a retried joining notification), its own PAN's frames
@@ -134,7 +153,9 @@ class JoinManager:
         node.pans = frozenset({PAN_WAITING, pan})
         candidates, answers = yield from self._scan_and_query(required, result)  # steps 1-2
         result.candidates = sorted(candidates)
-        members, n_available = self._select(candidates, answers, required, result)  # step 3, Table 2
+        chosen, n_available = yield from self._choose(candidates, answers, list(range(1, required + 1)), result)
+        members = {0: node.node_id}  # step 3: the member table, the master is member 0; the filled slots
+        members.update({i + 1: chosen[m] for i, m in enumerate(sorted(chosen))})  # numbered 1..n (no gap)
         mode = mode_of()
         formation = formation_for_mode(node.cfg.swarm, len(members), mode)
         yield from self._notify(members, pan, formation, mode, result)  # step 3
@@ -189,8 +210,10 @@ class JoinManager:
         cfg = node.cfg.protocol
         self._got = {}
         tries = 0
+        # ruta_centralized: the query asks for the candidates' status (seed 003 Algorithm 1's input)
+        kind = msg.STATUS_QUERY if node.cfg.swarm.assignment == "ruta_centralized" else msg.JOIN_QUERY
         while pending:
-            node.send(msg.JOIN_QUERY, pan=PAN_WAITING, candidates=sorted(pending))
+            node.send(kind, pan=PAN_WAITING, candidates=sorted(pending))
             yield from self._collect(pending, cfg.response_timeout_s)
             answers.update({rid: self._got[rid] for rid in pending if rid in self._got})
             pending -= set(answers)
@@ -200,18 +223,84 @@ class JoinManager:
                 tries += 1
                 result.retries += 1
 
-    def _select(self, candidates: dict[int, float], answers: dict[int, Frame], required: int,
+    def _choose(self, candidates: dict[int, float], answers: dict[int, Frame], open_members: list[int],
+                result: OrganizeResult):
+        """Step 3's selection for the ``open_members`` (SimPy generator): the auction
+        (``ruta_decentralized``), then :meth:`_select`; returns what :meth:`_select` returns."""
+        yield from self._auction(candidates, answers, open_members)
+        return self._select(candidates, answers, open_members, result)
+
+    def _select(self, candidates: dict[int, float], answers: dict[int, Frame], open_members: list[int],
                 result: OrganizeResult) -> tuple[dict[int, int], int]:
-        """Step 3, selection by Table 2: the member table (member number -> robot id, the master
-        is member 0) and how many robots could join; fills ``result.unavailable`` and
-        ``result.not_selected``."""
+        """Step 3, the selection by ``swarm.assignment`` (:mod:`.assignment`) for the open member
+        numbers: ``(member number -> robot id for the open members filled, how many robots could
+        join)``; fills ``result.unavailable`` and ``result.not_selected``. ``closest``: Table 2, the
+        closest available robots fill the lowest open numbers; ``ruta_centralized``: Algorithm 1 on
+        the status answers; ``ruta_decentralized``: the auction's winners (:meth:`_auction`)."""
+        node = self.node
         available = {rid: candidates[rid] for rid, f in answers.items() if f.payload["available"]}
         result.unavailable = sorted(set(answers) - set(available))
-        joiners = select_joiners(available, required)  # closest first
-        result.not_selected = sorted(set(answers) - set(joiners))
-        members = {0: self.node.node_id}
-        members.update({i + 1: rid for i, rid in enumerate(joiners)})  # member number by estimated distance
-        return members, len(available)
+        strategy = node.cfg.swarm.assignment
+        if strategy == "closest":
+            chosen = assignment.select_closest(select_joiners(available, len(open_members)), open_members)
+        elif strategy == "ruta_centralized":
+            reports = {rid: assignment.status_from_payload(rid, answers[rid].payload) for rid in available
+                       if answers[rid].kind == msg.STATUS_ANSWER}
+            ranges = {rid: assignment.mean_range(available[rid], answers[rid].payload["distance_m"]) for rid in reports}
+            chosen = assignment.select_centralized(reports, ranges, self._slot_geometry(open_members), open_members,
+                                                   node.clock.now - self.opened_s, node.cfg)
+        else:
+            chosen = {m: rid for m, rid in self._auction_won.items() if m in open_members and rid in available}
+        result.not_selected = sorted(set(answers) - set(chosen.values()))
+        return chosen, len(available)
+
+    def _slot_geometry(self, open_members: list[int]) -> dict[int, tuple[float, int]]:
+        """The open slots' geometry (:func:`assignment.slot_geometry`): the master's own formation
+        once it drives one that has every open slot (a refill of a lost member's slot), else the
+        configured shape with members up to the highest open number (a refill may open a slot the
+        current, shrunk table no longer has)."""
+        node = self.node
+        formation = node.formation
+        if node.state != "master" or formation is None or not set(open_members) <= set(formation.links):
+            formation = assignment.slots_formation(node.cfg.swarm, open_members)
+        geometry = assignment.slot_geometry(formation)
+        return {m: geometry[m] for m in open_members}
+
+    def _auction(self, candidates: dict[int, float], answers: dict[int, Frame], open_members: list[int]):
+        """``ruta_decentralized``: seed 003 Algorithm 2 for the open slots (SimPy generator; nothing,
+        and no event, with the other assignments). The master announces the open slots to the free
+        available candidates; each bids its own utilities; the round closes after t_out
+        (``ruta.bid_timeout_s``) or once every listed bidder answered; the fittest bid of each slot
+        wins (:func:`assignment.close_round`). Slots left open are announced again to the robots
+        still free while a listed bidder's bid was missing, up to ``ruta.max_announcements`` and the
+        organize deadline. Fills ``self._auction_won``."""
+        node = self.node
+        self._auction_won = {}
+        if node.cfg.swarm.assignment != "ruta_decentralized":
+            return
+        rc = node.cfg.ruta
+        free = sorted(rid for rid, f in answers.items() if f.payload["available"])
+        open_ = sorted(open_members)
+        geometry = self._slot_geometry(open_)
+        attempt = 0
+        while open_ and free and attempt < rc.max_announcements and self._may_retry(0):
+            attempt += 1
+            self._bid_seq += 1
+            self._bid_at = {}
+            announced = node.clock.now
+            node.send(msg.SLOT_ANNOUNCE, pan=PAN_WAITING, seq=self._bid_seq, attempt=attempt,
+                      slots=assignment.announce_slots(geometry, open_, announced - self.opened_s), bidders=list(free))
+            self._got = {}
+            yield from self._collect(set(free), rc.bid_timeout_s)
+            bids = [Bid(rid, str(m), u, self._bid_at[rid]) for rid, f in self._got.items()
+                    for m, u in f.payload["utilities"]]
+            won = assignment.close_round(bids, open_, announced, rc.bid_timeout_s, attempt, rc.max_announcements)
+            self._auction_won.update(won)
+            missing = set(free) - set(self._got)
+            open_ = [m for m in open_ if m not in won]
+            free = [rid for rid in free if rid not in won.values()]
+            if not missing:
+                return  # every free robot bid: a slot still open has no robot able to take it
 
     def _notify(self, members: dict[int, int], pan: int, formation: Formation, mode: str, result: OrganizeResult):
         """Step 3, the result: a joining notification to each selected robot — the new PAN ID, its
@@ -257,7 +346,35 @@ class JoinManager:
         if node.state not in SCAN_ANSWERING_STATES and node.connected_user is None:
             return  # joined another swarm meanwhile: it no longer hears the common PAN anyway
         ok = can_join(node.connected_user, frame.rx_distance_est_m, node.cfg.protocol.join_radius_m)
-        node.send(msg.JOIN_ANSWER, dst=frame.src, pan=PAN_WAITING, available=ok)
+        self._query_range_m = frame.rx_distance_est_m
+        if frame.kind == msg.STATUS_QUERY:  # the master asks for the status (ruta_centralized)
+            node.send(msg.STATUS_ANSWER, dst=frame.src, pan=PAN_WAITING,
+                      **assignment.status_payload(assignment.own_status(node), ok, frame.rx_distance_est_m))
+        else:
+            node.send(msg.JOIN_ANSWER, dst=frame.src, pan=PAN_WAITING, available=ok)
+
+    def _on_announce(self, frame: Frame) -> None:
+        """Algorithm 2 on a free candidate: its own utility for each announced slot, bid back to the
+        announcer (an empty bid: it can take none), ``ruta.bid_slot_s`` times its place in the
+        announcement's bidder list after it processed the announcement. The range is the mean of its RSSI estimates of the
+        joining query and of this announcement (:func:`assignment.mean_range`)."""
+        node = self.node
+        p = frame.payload
+        if node.state != "waiting" or node.node_id not in p["bidders"]:
+            return
+        r = assignment.mean_range(self._query_range_m, frame.rx_distance_est_m)
+        utilities = assignment.own_utilities(assignment.own_status(node), r, p["slots"], node.cfg.ruta)
+        delay = p["bidders"].index(node.node_id) * node.cfg.ruta.bid_slot_s  # its turn in the listed order
+        node.later(delay, self._send_bid, frame.src, p["seq"], utilities)
+
+    def _send_bid(self, master: int, seq: int, utilities: list) -> None:
+        self.node.send(msg.BID, dst=master, pan=PAN_WAITING, seq=seq, utilities=utilities)
+
+    def _on_bid(self, frame: Frame) -> None:
+        if frame.dst != self.node.node_id or frame.payload["seq"] != self._bid_seq or frame.src not in self._expect:
+            return  # another master's, a stale announcement's, or after the round closed
+        self._bid_at.setdefault(frame.src, self.node.clock.now)
+        self._on_response(frame)
 
     def _on_notify(self, frame: Frame) -> None:
         node = self.node

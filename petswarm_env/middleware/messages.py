@@ -1,16 +1,22 @@
 """Frame types of the swarm middleware and their payload sizes (bytes, chosen encodings).
 
 Join protocol (seed 000 §3.4, Fig. 8), IR token ring (§3.3, Fig. 7), heading exchange and the
-master's periodic broadcast (§3.5, Fig. 9), disperse (Fig. 4).
+master's periodic broadcast (§3.5, Fig. 9), disperse (Fig. 4); seed 003's RUTA in the join protocol
+(middleware/assignment.py): the joining answer with the candidate's status report
+(``ruta_centralized``), the slot announcement and the bids (``ruta_decentralized``).
 """
 
 SCAN = "scan"  # master -> waiting robots (broadcast; a rescan lists the robots already heard)
 SCAN_RESPONSE = "scan_response"  # waiting robot -> master
 JOIN_QUERY = "join_query"  # master -> joining candidates (broadcast, lists the candidates)
 JOIN_ANSWER = "join_answer"  # candidate -> master: joining-available / joining-unavailable
+STATUS_QUERY = "status_query"  # master -> joining candidates: the joining query asking for status (ruta_centralized)
+STATUS_ANSWER = "status_answer"  # candidate -> master: the joining answer with its status report (ruta_centralized)
 JOIN_NOTIFY = "join_notify"  # master -> robot: new PAN ID, member number, member and neighbour tables, mode
 NON_PARTICIPATE = "non_participate"  # master -> robot: not selected, stay waiting
 NOTIFY_ACK = "notify_ack"  # robot -> master
+SLOT_ANNOUNCE = "slot_announce"  # master -> free candidates (broadcast): the open slots as subtasks (seed 003 Algorithm 2)
+BID = "bid"  # candidate -> master: its own utility for each open slot it can take (empty: none)
 
 TX_START = "tx_start"  # token holder -> swarm: transmission-start sign
 TX_START_ACK = "tx_start_ack"
@@ -39,9 +45,17 @@ SIZE_BYTES = {
     SCAN_RESPONSE: 4,  # kind, the scan's sequence, own state
     JOIN_QUERY: 4,  # kind, sequence, count of candidates (+ 2 per candidate)
     JOIN_ANSWER: 5,  # kind, the query's sequence, available (Table 1), own state
+    STATUS_QUERY: 4,  # as the joining query: kind, sequence, count of candidates (+ 2 per candidate)
+    # the joining answer (5) and seed 003's β_i = <id, w_i, P_rem_i> with the draws and the distance:
+    # robot type 1, remaining battery 2 (mAh), wheel slip 1 (0.1 %), the servo, actuator and sensing
+    # draws 2 each (mA; 0xFFFF = no such module), the sensors carried 1 (bit mask), the distance
+    # estimate of the query 2 (int16 cm) — 13 bytes of status
+    STATUS_ANSWER: 18,
     JOIN_NOTIFY: 7,  # kind, new PAN ID, member number, total members, mode, shape (+ member and neighbour tables)
     NON_PARTICIPATE: 4,  # kind, sequence, reason
     NOTIFY_ACK: 4,  # kind, the notification's sequence, status
+    SLOT_ANNOUNCE: 5,  # kind, sequence 2, attempt, count of slots (+ per slot and per listed bidder)
+    BID: 4,  # kind, the announcement's sequence 2, count of entries (+ per entry)
     TX_START: 4,  # kind, token sequence, holder's member number
     TX_START_ACK: 4,  # kind, token sequence, own member number
     TOKEN: 6,  # kind, token sequence, next member, holder's member, total members
@@ -60,6 +74,10 @@ SIZE_BYTES = {
 MEMBER_ENTRY_BYTES = 2  # the member table: the node id of each member, in member-number order
 LINK_ENTRY_BYTES = 6  # the neighbour table: member, its reference neighbour, the offset (x, y)
 LIST_ENTRY_BYTES = 2  # a listed robot (node id)
+# a slot of a slot announcement: member number 1, its distance from the master 2 (int16 cm), its
+# sensing share 1 (exposed sides of 4), the slot's age 2 (0.01 s: t − t_j for the priority)
+SLOT_ENTRY_BYTES = 6
+BID_ENTRY_BYTES = 5  # member number 1, the utility 4 (float32)
 
 
 def _table_bytes(payload: dict) -> int:
@@ -71,7 +89,10 @@ def _table_bytes(payload: dict) -> int:
 PER_ENTRY_BYTES = {
     SCAN: lambda p: LIST_ENTRY_BYTES * len(p["known"]),
     JOIN_QUERY: lambda p: LIST_ENTRY_BYTES * len(p["candidates"]),
+    STATUS_QUERY: lambda p: LIST_ENTRY_BYTES * len(p["candidates"]),
     JOIN_NOTIFY: _table_bytes,
+    SLOT_ANNOUNCE: lambda p: SLOT_ENTRY_BYTES * len(p["slots"]) + LIST_ENTRY_BYTES * len(p["bidders"]),
+    BID: lambda p: BID_ENTRY_BYTES * len(p["utilities"]),
     MODE_CHANGE: _table_bytes,
 }
 

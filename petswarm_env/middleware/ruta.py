@@ -28,9 +28,9 @@ draw), t_s, t_m, t, t_j in s, u1 in 1/s, the wheel slip w in percent as a plain 
 3 %, §5.2.1: "× 1/3" for R1), d in m; φ and utility are unitless scores.
 
 Algorithms 1 and 2 are here as pure decision functions (:func:`assign_centralized`,
-:func:`own_bid`, :func:`fittest`, :func:`close_auction`, :func:`deploy_first`). **The radio wiring
-is not done yet**: no status report, bid request or bid travels over the simulated 802.15.4 medium,
-and ``swarm.assignment`` does not exist yet (issue 15, a later step).
+:func:`own_bid`, :func:`fittest`, :func:`close_auction`, :func:`deploy_first`). Their radio wiring
+on the swarm (``swarm.assignment``: the status reports, slot announcements and bids over the
+simulated 802.15.4 medium, the formation slots as subtasks) is :mod:`.assignment` and :mod:`.join`.
 
 Where the paper's printed numbers do not follow from its own formulas (they are computed exactly
 here; the tests state the printed value beside the exact one):
@@ -163,7 +163,9 @@ class RobotStatus:
 
     ``p_rem_mah`` (mAh), ``slip_pct`` (w, %), the draws in mA of its drive servos, actuator and
     sensors — None when it has no such module or it has failed (it cannot do subtasks needing it) —
-    ``distance_m``: its distance estimate to each subtask id (m); ``faulty``: a robot found faulty."""
+    ``distance_m``: its distance estimate to each subtask id (m); ``faulty``: a robot found faulty;
+    ``robot_type``: its type's name and ``sensors`` the kinds of sensor it carries and that work
+    (e.g. ``DISTANCE``, ``IR``, ``LF``; reported, not used by the equations)."""
 
     id: RobotId
     p_rem_mah: float
@@ -173,6 +175,8 @@ class RobotStatus:
     rate_sens_ma: float | None = None
     distance_m: Mapping[str, float] = field(default_factory=dict)
     faulty: bool = False
+    robot_type: str = ""
+    sensors: frozenset[str] = frozenset()
 
 
 def capable(robot: RobotStatus, subtask: Subtask) -> bool:

@@ -152,6 +152,12 @@ class Station:
         """Own AHRS reading (an own sensor: noisy, drifting)."""
         return self._robot.ahrs_yaw(self.clock.now)
 
+    def own_body_status(self) -> dict | None:
+        """Own body's status report for RUTA (type, battery, slip, draws, sensors), when the body
+        gives one (``Robot.own_status``, robot types); None for a body without it."""
+        report = getattr(self._robot, "own_status", None)
+        return report() if report is not None else None
+
     def store_ir(self, other: int, distance_m: float, bearing_rad: float) -> None:
         """The IR module measured robot ``other``'s transmission (the IR medium calls it)."""
         if math.isfinite(distance_m):

@@ -180,7 +180,8 @@ def _add_reproduce(sub) -> None:
 
 def _add_report(sub) -> None:
     rep = sub.add_parser("report", help="compare evaluation results in one self-contained HTML page",
-                         description="Compare the JSON results of `petswarm eval` (one per policy) in one HTML page.")
+                         description="Compare the JSON results of `petswarm eval` (one per policy) in one HTML page; a result of "
+                         "`petswarm eval --grid` adds the comparison grid's heatmap of ratios and collisions.")
     rep.add_argument("results", nargs="+", metavar="RESULT.json")
     rep.add_argument("--out", default="report.html", metavar="report.html", help="output HTML file (default report.html)")
     rep.add_argument("--replays", default="first", metavar="first|all|none|SCENARIO:SEED,...",

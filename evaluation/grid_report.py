@@ -90,9 +90,12 @@ def plot_grid_heatmap(cells: list[dict[str, Any]], target: float) -> str | None:
             cand, ref = (c.get(side) or {} for side in ("candidate", "reference"))
             nc, nr = as_number(cand.get("collisions")), as_number(ref.get("collisions"))
             more = math.isfinite(nc) and math.isfinite(nr) and nc > nr
-            ax.text(j, i - 0.12, f"{r:.2f}" if math.isfinite(r) else NA, ha="center", va="center", fontsize=9, weight="bold")
-            ax.text(j, i + 0.22, f"c {_count(nc)}/{_count(nr)}", ha="center", va="center", fontsize=7,
-                    color="#b00000" if more else "#222222")
+            dark = math.isfinite(r) and not 0.45 <= r <= 2.2  # the scale's dark ends: white numbers
+            ax.text(j, i - 0.14, f"{r:.2f}" if math.isfinite(r) else NA, ha="center", va="center", fontsize=9, weight="bold",
+                    color="white" if dark else "black")
+            ax.text(j, i + 0.24, f"c {_count(nc)}/{_count(nr)}", ha="center", va="center", fontsize=7,
+                    color="#b00000" if more else "#222222", weight="bold" if more else "normal",
+                    bbox={"boxstyle": "round,pad=0.15", "facecolor": "white", "edgecolor": "none", "alpha": 0.85})
             if c.get("meets_target"):
                 ax.add_patch(_frame(j, i))
         ax.set_xticks(range(len(cols)))

@@ -125,3 +125,38 @@ def test_the_committed_grid_has_40_cells_over_every_value_of_issue_16():
     assert seen["loss"] >= {0.0, 0.15, 0.3} and seen["slaves"] >= {2, 4, 6} and 2 in seen["users"]
     mixes = [(c.policy, tuple(c.mix.values())) for c in grid.cells if c.mix]
     assert ("scripted", ("learned",)) in mixes and ("learned", ("scripted",)) in mixes
+
+
+def test_a_killed_grid_keeps_its_finished_cells_and_resume_runs_only_the_rest(tmp_path):
+    from evaluation.grid import run_grid
+    from petswarm_env.config import load_config
+
+    grid, out = load_grid(_grid(tmp_path), episodes=1), tmp_path / "grid.json"
+    lines = []
+
+    def stop_after_first(line):
+        lines.append(line)
+        raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        run_grid(grid, load_config(), str(out), progress=stop_after_first)
+    partial = json.loads(out.read_text())
+    assert not partial["complete"] and len(partial["cells"]) == 1
+    resumed = run_grid(grid, load_config(), str(out), resume=True, progress=lines.append)
+    assert resumed["complete"] and len(resumed["cells"]) == 3
+    assert "kept from --resume" in lines[1] and all("kept" not in line for line in lines[2:])
+    assert resumed["cells"][0] == partial["cells"][0]
+    # another seed is another cell: nothing is kept
+    other = load_grid(_grid(tmp_path), episodes=1, seed=900000005)
+    lines.clear()
+    run_grid(other, load_config(), str(out), resume=True, progress=lines.append)
+    assert not any("kept" in line for line in lines)
+
+
+def test_the_report_shows_eval_results_and_the_grid_side_by_side(tmp_path):
+    grid, out, ev, html = _grid(tmp_path), tmp_path / "grid.json", tmp_path / "scripted.json", tmp_path / "r.html"
+    assert main(["eval", "--grid", grid, "--episodes", "1", "--json", str(out)]) == 0
+    assert main(["eval", "--policy", "scripted", "--episodes", "1", "--set", "max_cycles=25", "--json", str(ev)]) == 0
+    assert main(["report", str(ev), str(out), "--out", str(html), "--replays", "none"]) == 0
+    page = html.read_text()
+    assert "2. Formation RMSE per scenario" in page and "8. Comparison grid" in page and "3 cells × 1" in page

@@ -8,14 +8,15 @@ The result (``petswarm eval --grid FILE --json OUT``), in the style of ``petswar
     {"kind": "grid", "grid": FILE, "label", "candidate", "reference", "policy_sha256",
      "seed", "episodes_per_cell", "target_ratio", "complete", "config", "set",
      "cells": [{"index", "name", "group", "axes", "overrides", "team", "seeds", "key",
-                "candidate": RUN, "reference": RUN, "ratio", "mix_robots_ratio",
-                "collisions_not_more", "meets_target", "wall_s"}],
+                "candidate": RUN, "reference": RUN, "ratio", "median_ratio", "episodes_better",
+                "mix_robots_ratio", "collisions_not_more", "meets_target", "wall_s"}],
      "summary": {...}, "episodes": []}
 
 where a RUN is ``{"label", "episodes", "formation_rmse_m", "formation_rmse_ci95", "collisions",
 "robot_robot", "robot_user", "robot_wall", "emergencies", "slaves_missing", "mix_robots_rmse_m",
 "per_episode": [{"seed", "formation_rmse_m", "collisions", "slaves_missing"}]}``. ``ratio`` is the
-candidate's mean formation RMSE over the reference's; a cell *meets the target* when the ratio is
+candidate's mean formation RMSE over the reference's (``median_ratio`` the medians', ``episodes_better``
+the seeds on which the candidate did better); a cell *meets the target* when the ratio is
 at most ``target_ratio`` and the candidate collided no more often than the reference (issue 16).
 ``episodes`` is empty: the per-episode figures are inside the cells (so ``petswarm report`` tells
 the file from an ``eval`` result and draws the grid's heatmap).
@@ -35,7 +36,7 @@ from baselines.policy import PolicySpec
 from evaluation.evaluate import make_team, team_label
 from evaluation.grid_spec import Cell, Grid
 from evaluation.runner import run_episode
-from evaluation.stats import mean_ci95
+from evaluation.stats import as_number, mean_ci95
 from petswarm_env.config import Config, load_config
 from petswarm_env.env import PetSwarmEnv
 from petswarm_env.files import write_json_atomic
@@ -117,16 +118,35 @@ def run_cell(grid: Grid, cell: Cell, key: str) -> dict[str, Any]:
     ref = run_team(cell.config, grid.reference, {}, seeds, watch=set(cell.mix))
     ratio = _ratio(cand["formation_rmse_m"], ref["formation_rmse_m"])
     not_more = cand["collisions"] <= ref["collisions"]
-    return {
-        "index": cell.index, "name": cell.name, "group": cell.group, "axes": cell.axes, "overrides": cell.overrides,
-        "team": cell.team, "seeds": seeds, "key": key,
-        "candidate": cand, "reference": ref,
+    return {**_cell_fields(grid, cell, seeds, key, cand, ref), **paired(cand, ref),
         "ratio": ratio,
         "mix_robots_ratio": _ratio(cand["mix_robots_rmse_m"], ref["mix_robots_rmse_m"]),
         "collisions_not_more": not_more,
         "meets_target": bool(math.isfinite(ratio) and ratio <= grid.target_ratio and not_more),
         "wall_s": round(time.perf_counter() - start, 2),
     }
+
+
+def _cell_fields(grid: Grid, cell: Cell, seeds: list[int], key: str, cand: dict[str, Any], ref: dict[str, Any]) -> dict[str, Any]:
+    return {"index": cell.index, "name": cell.name, "group": cell.group, "axes": cell.axes, "overrides": cell.overrides,
+            "team": cell.team, "seeds": seeds, "key": key, "candidate": cand, "reference": ref}
+
+
+def _median(xs: list[float]) -> float:
+    xs = sorted(x for x in xs if math.isfinite(x))
+    if not xs:
+        return math.nan
+    return xs[len(xs) // 2] if len(xs) % 2 else (xs[len(xs) // 2 - 1] + xs[len(xs) // 2]) / 2
+
+
+def paired(cand: dict[str, Any], ref: dict[str, Any]) -> dict[str, Any]:
+    """Seed by seed: ``episodes_better`` (seeds on which the candidate's RMSE is below the
+    reference's) and ``median_ratio`` (median over median): the mean ratio alone follows the one
+    episode in which either team lost its formation."""
+    a = [e["formation_rmse_m"] for e in cand["per_episode"]]
+    b = [e["formation_rmse_m"] for e in ref["per_episode"]]
+    return {"episodes_better": sum(x < y for x, y in zip(a, b) if math.isfinite(x) and math.isfinite(y)),
+            "median_ratio": _ratio(_median(a), _median(b))}
 
 
 def summarize_grid(cells: list[dict[str, Any]], target: float, worst: int = 5) -> dict[str, Any]:
@@ -139,10 +159,13 @@ def summarize_grid(cells: list[dict[str, Any]], target: float, worst: int = 5) -
         "cells": len(cells),
         "cells_with_ratio": len(ratios),
         "ratio_at_or_below_target": sum(r <= target for r in ratios),
+        "median_ratio_at_or_below_target": sum(as_number(c.get("median_ratio")) <= target for c in cells),
+        "episodes_better": sum(c.get("episodes_better", 0) for c in cells),
+        "episodes": sum(c["candidate"]["episodes"] for c in cells),
         "meets_target": sum(c["meets_target"] for c in cells),
         "collisions_not_more": sum(c["collisions_not_more"] for c in cells),
         "ratio_min": srt[0] if srt else math.nan,
-        "ratio_median": (srt[len(srt) // 2] if len(srt) % 2 else (srt[len(srt) // 2 - 1] + srt[len(srt) // 2]) / 2) if srt else math.nan,
+        "ratio_median": _median(srt),
         "ratio_max": srt[-1] if srt else math.nan,
         "collisions_candidate": sum(c["candidate"]["collisions"] for c in cells),
         "collisions_reference": sum(c["reference"]["collisions"] for c in cells),
@@ -185,7 +208,12 @@ def run_grid(grid: Grid, base_config: Config, json_out: str | None = None, resum
     for cell in grid.cells:
         key = cell_key(cell, seeds, grid.reference, identities)
         reused = key in done
-        record = dict(done[key], index=cell.index, name=cell.name, group=cell.group, axes=cell.axes) if reused else run_cell(grid, cell, key)
+        if reused:  # its figures as recorded; where it stands in this grid and the seed-by-seed figures from them
+            old = done[key]
+            record = {**old, "index": cell.index, "name": cell.name, "group": cell.group, "axes": cell.axes,
+                      **paired(old["candidate"], old["reference"])}
+        else:
+            record = run_cell(grid, cell, key)
         result["cells"].append(record)
         result["summary"] = summarize_grid(result["cells"], grid.target_ratio)
         if json_out:
@@ -225,6 +253,8 @@ def format_grid_summary(result: dict[str, Any]) -> str:
         f"ratio <= {t:.2f}: {s['ratio_at_or_below_target']} of {s['cells_with_ratio']} cells; target met (and no more collisions): "
         f"{s['meets_target']} of {s['cells']}; ratio min {_f(s['ratio_min'], 2)} median {_f(s['ratio_median'], 2)} max {_f(s['ratio_max'], 2)}; "
         f"collisions {s['collisions_candidate']} vs {s['collisions_reference']}",
+        f"seed by seed: the candidate's RMSE is lower in {s['episodes_better']} of {s['episodes']} episodes; median ratio <= {t:.2f} in "
+        f"{s['median_ratio_at_or_below_target']} cells",
         "worst cells: " + "; ".join(f"{w['name']} {_f(w['ratio'], 2)} ({w['collisions'][0]} vs {w['collisions'][1]} collisions)"
                                     for w in s["worst"]),
     ]

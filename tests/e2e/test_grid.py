@@ -46,6 +46,7 @@ def test_tiny_grid_end_to_end_json_resume_and_report_heatmap(tmp_path, capsys):
         assert c["seeds"] == [900000000, 900000001]
         assert c["ratio"] == pytest.approx(c["candidate"]["formation_rmse_m"] / c["reference"]["formation_rmse_m"])
         assert {"collisions", "robot_robot", "robot_user", "robot_wall", "per_episode"} <= set(c["candidate"])
+        assert 0 <= c["episodes_better"] <= 2 and c["median_ratio"] > 0
         assert c["meets_target"] == (c["ratio"] <= 0.8 and c["candidate"]["collisions"] <= c["reference"]["collisions"])
     mixed = data["cells"][2]
     assert mixed["team"] == {"policy": "scripted", "mix": {"robot_2": "learned"}}

@@ -176,13 +176,14 @@ def grid_section(data: dict[str, Any], label: str, number: int) -> str:
         cand, ref = (c.get(side) if isinstance(c.get(side), dict) else {} for side in ("candidate", "reference"))
         rows.append(([escape(c.get("name", NA)), _team(c), _fmt(c.get("ratio"), 2), _ci(cand), _ci(ref),
                       f"{escape(cand.get('collisions', NA))} / {escape(ref.get('collisions', NA))}",
+                      f"{escape(cand.get('emergencies', NA))} / {escape(ref.get('emergencies', NA))}",
                       _fmt(c.get("median_ratio"), 2), f"{escape(c.get('episodes_better', NA))} of {escape(cand.get('episodes', NA))}",
                       _fmt(c.get("mix_robots_ratio"), 2), "yes" if c.get("meets_target") else "no"],
                      "best" if c.get("meets_target") else ""))
     parts.append(table(["cell", "candidate team", "ratio", "candidate RMSE (m) ± 95 % CI", "reference RMSE (m) ± 95 % CI",
-                        "collisions cand. / ref.", "median ratio", "episodes better", "mix robots' ratio", "target met"], rows, left_cols=2))
+                        "collisions cand. / ref.", "emergencies cand. / ref.", "median ratio", "episodes better", "mix robots' ratio", "target met"], rows, left_cols=2))
     parts.append("<p class=\"muted\">Median ratio: the candidate's median episode RMSE over the reference's; episodes better: the "
                  "seeds on which the candidate's RMSE is lower (the mean ratio follows the one episode in which either team lost its "
-                 "formation). Mix robots' ratio: in a mixed-team cell, the RMSE of the robots named in the team's mix "
+                 "formation). Emergencies: the user-lost stops (seed 002 Fig. 4), whose steps the RMSE leaves out. Mix robots' ratio: in a mixed-team cell, the RMSE of the robots named in the team's mix "
                  "over the same robots' RMSE in the reference run (the team ratio mixes both policies).</p>")
     return "".join(parts)

@@ -7,6 +7,7 @@
                     [--backend sb3|rllib] [--address HOST:PORT]
     petswarm eval   --policy scripted|random|learned|PATH [--mix ROBOT=POLICY ...] [--scenarios a,b] [--episodes N]
                     [--video-dir DIR] [--pcap-dir DIR] [--replay-dir DIR] ...
+    petswarm eval   --grid configs/eval/grid.yaml [--policy PATH] [--episodes N] [--seed S] [--json OUT] [--resume]
     petswarm report RESULT.json ... --out report.html [--replays first|all|none|SCENARIO:SEED,...]
     petswarm bench  [--quick] [--json OUT] [--md docs/benchmarks.md]
     petswarm reproduce [--only NAME,...] [--quick] [--json OUT] [--report OUT.html] [--check] [--seed S]
@@ -125,13 +126,19 @@ def _add_eval(sub) -> None:
         description="Evaluate a slave policy on each scenario over the same seeds; JSON as `petswarm run` plus "
         "per-scenario summaries, error traces and trajectories (input of `petswarm report`).",
     )
-    ev.add_argument("--policy", type=_policy_name, default="scripted", metavar="scripted|random|learned|PATH",
-                    help="policy of every slave not named in --mix (learned = the model shipped in the package)")
+    ev.add_argument("--policy", type=_policy_name, default=None, metavar="scripted|random|learned|PATH",
+                    help="policy of every slave not named in --mix (default scripted; learned = the model shipped in the package); "
+                    "with --grid: the grid's candidate (default: the grid file's)")
     ev.add_argument("--mix", metavar="ROBOT=POLICY", action="append", default=[],
                     help="give one robot another policy, e.g. --mix robot_2=learned (repeatable)")
     ev.add_argument("--scenarios", metavar="a,b,...", help="comma-separated scenarios (default: the config's scenario)")
-    ev.add_argument("--episodes", type=_positive_int, default=5, metavar="N", help="episodes (seeds) per scenario (default 5)")
-    ev.add_argument("--seed", type=_seed, metavar="S", help="first seed (default: config seed)")
+    ev.add_argument("--episodes", type=_positive_int, default=None, metavar="N",
+                    help="episodes (seeds) per scenario (default 5); with --grid per cell (default: the grid file's)")
+    ev.add_argument("--seed", type=_seed, metavar="S", help="first seed (default: config seed; with --grid the grid file's)")
+    ev.add_argument("--grid", metavar="FILE",
+                    help="run the comparison grid of FILE (configs/eval/grid.yaml): each cell's candidate vs the reference, "
+                    "ratios and collisions; JSON input of `petswarm report` (its heatmap)")
+    ev.add_argument("--resume", action="store_true", help="with --grid: keep the finished cells of the --json file, run the rest")
     _add_env_config_options(ev)
     ev.add_argument("--json", metavar="OUT", help="write the results as JSON (atomically)")
     ev.add_argument("--video-dir", metavar="DIR", help="write a GIF of the first episode of each scenario into DIR")
@@ -173,7 +180,8 @@ def _add_reproduce(sub) -> None:
 
 def _add_report(sub) -> None:
     rep = sub.add_parser("report", help="compare evaluation results in one self-contained HTML page",
-                         description="Compare the JSON results of `petswarm eval` (one per policy) in one HTML page.")
+                         description="Compare the JSON results of `petswarm eval` (one per policy) in one HTML page; a result of "
+                         "`petswarm eval --grid` adds the comparison grid's heatmap of ratios and collisions.")
     rep.add_argument("results", nargs="+", metavar="RESULT.json")
     rep.add_argument("--out", default="report.html", metavar="report.html", help="output HTML file (default report.html)")
     rep.add_argument("--replays", default="first", metavar="first|all|none|SCENARIO:SEED,...",
@@ -215,10 +223,18 @@ def _train(args, argv: list[str]) -> int:
 
 
 def _eval(args, argv: list[str]) -> int:
-    from evaluation.commands import eval_command
+    from evaluation.commands import eval_command, grid_command
 
-    return eval_command(_env_config(args), args.policy, args.mix, args.scenarios, args.episodes, args.seed, args.json,
-                        args.video_dir, args.pcap_dir, args.replay_dir)
+    if args.grid:
+        extra = [flag for flag, on in (("--mix", args.mix), ("--scenarios", args.scenarios), ("--video-dir", args.video_dir),
+                                       ("--pcap-dir", args.pcap_dir), ("--replay-dir", args.replay_dir)) if on]
+        if extra:
+            raise ConfigError(f"--grid runs the cells of its file: drop {', '.join(extra)} (a cell's team and scenario are in the grid file)")
+        return grid_command(_env_config(args), args.grid, args.policy, args.episodes, args.seed, args.json, args.resume)
+    if args.resume:
+        raise ConfigError("--resume belongs to --grid; give --grid FILE or drop --resume")
+    return eval_command(_env_config(args), args.policy or "scripted", args.mix, args.scenarios, args.episodes or 5, args.seed,
+                        args.json, args.video_dir, args.pcap_dir, args.replay_dir)
 
 
 def _report(args, argv: list[str]) -> int:

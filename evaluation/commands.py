@@ -114,6 +114,27 @@ def eval_command(cfg: Config, policy: str, mix: list[str], scenarios: str | None
     return 0
 
 
+def grid_command(cfg: Config, grid_path: str, policy: str | None, episodes: int | None, seed: int | None,
+                 json_out: str | None, resume: bool) -> int:
+    """``petswarm eval --grid FILE``: validate the grid (every cell, before anything runs), run
+    each cell's candidate team and its reference on the same seeds with a progress line per cell,
+    write the result after every cell (atomically) and print the summary (:mod:`evaluation.grid`)."""
+    from evaluation.grid import format_grid_summary, run_grid
+    from evaluation.grid_spec import load_grid
+
+    check_output_path(json_out, "--json")
+    if resume and not json_out:
+        raise ConfigError("--resume reuses the finished cells of the --json file: give --json OUT")
+    grid = load_grid(grid_path, cfg, candidate=policy, episodes=episodes, seed=seed)
+    print(f"grid {grid_path}: {len(grid.cells)} cells, {grid.episodes} episodes each, seeds {grid.seed}..{grid.seed + grid.episodes - 1}, "
+          f"{grid.candidate} vs {grid.reference}", flush=True)
+    result = run_grid(grid, cfg, json_out, resume, progress=lambda line: print(line, flush=True))
+    print(format_grid_summary(result))
+    if json_out:
+        print(f"wrote {json_out}")
+    return 0
+
+
 def report_command(results: list[str], out: str, replays: str = "first") -> int:
     """``petswarm report``: one HTML page comparing the result files, with the episode replays
     ``replays`` chooses (:mod:`evaluation.replay_viewer`)."""

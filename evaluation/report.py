@@ -23,6 +23,7 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
+from evaluation.grid_report import grid_section, is_grid
 from evaluation.html import NA, escape, figure, now_stamp, page, table
 from evaluation.replay_viewer import replay_section
 from evaluation.report_plots import COLORS, plot_error_over_time, plot_rmse_bars, plot_trajectories, trace_matrix
@@ -199,6 +200,10 @@ def _section_header(results: list[_Result], generated: str) -> str:
     rows = []
     for r in results:
         scns = list(r.by_scenario())
+        if is_grid(r.data):
+            n = f"{len(r.data['cells'])} cells × {escape(r.data.get('episodes_per_cell', NA))}"
+            rows.append(([escape(r.label), f"<code>{escape(r.path)}</code>", n, "comparison grid (section below)"], ""))
+            continue
         rows.append(([escape(r.label), f"<code>{escape(r.path)}</code>", str(len(r.episodes)), escape(", ".join(scns)) if scns else NA], ""))
     parts.append("<h2>1. Results compared</h2>")
     parts.append(table(["label", "file", "episodes", "scenarios"], rows, left_cols=2))
@@ -439,15 +444,19 @@ def _render_html(results: list[_Result], out_path: str | os.PathLike, generated:
             if s not in scenarios:
                 scenarios.append(s)
     colors = {r.label: COLORS[i % len(COLORS)] for i, r in enumerate(results)}
-    body = [
-        _section_header(results, generated),
-        _section_rmse(results, scenarios, colors),
-        _section_error_time(results, scenarios, colors),
-        _section_trajectories(results, scenarios),
-        _section_collisions_comms(results, scenarios),
-        _section_gifs(results, out_dir),
-        replay_section(results, replays, 7),
-    ]
+    grids = [r for r in results if is_grid(r.data)]
+    evals = [r for r in results if not is_grid(r.data)]
+    body = [_section_header(results, generated)]
+    if evals:  # the grid results hold no episodes: their section is the heatmap (evaluation.grid_report)
+        body += [
+            _section_rmse(evals, scenarios, colors),
+            _section_error_time(evals, scenarios, colors),
+            _section_trajectories(evals, scenarios),
+            _section_collisions_comms(evals, scenarios),
+            _section_gifs(evals, out_dir),
+            replay_section(evals, replays, 7),
+        ]
+    body += [grid_section(r.data, r.label, (8 if evals else 2) + k) for k, r in enumerate(grids)]
     return page("petswarm report: " + " vs ".join(r.label for r in results), body)
 
 

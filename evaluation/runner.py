@@ -61,9 +61,11 @@ def run_episode(
     seed: int,
     on_frame: Callable[[], None] | None = None,
     record: bool = False,
+    on_step: Callable[[dict[str, dict[str, Any]]], None] | None = None,
 ) -> dict[str, Any]:
     """One episode with ``policy`` driving every slave; returns ``env.episode_summary()`` plus the
-    seed, and with ``record`` the per-step mean formation error and the trajectories (truth)."""
+    seed, and with ``record`` the per-step mean formation error and the trajectories (truth).
+    ``on_step`` is called with each step's infos (the comparison grid's per-robot errors)."""
     observations, _ = env.reset(seed=seed)
     policy.reset(seed)
     if on_frame:
@@ -76,7 +78,9 @@ def run_episode(
             for rid, p in robots.items():
                 traj_robots.setdefault(rid, []).append(p)
         # act for the live agents only (one that just left slave-role driving gets its last observation)
-        observations, _, _, _, _ = env.step(policy.act_all({a: observations[a] for a in env.agents}))
+        observations, _, _, _, infos = env.step(policy.act_all({a: observations[a] for a in env.agents}))
+        if on_step:
+            on_step(infos)
         if on_frame:
             on_frame()
     summary = env.episode_summary()  # the episode's, after its last step

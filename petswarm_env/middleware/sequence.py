@@ -8,6 +8,8 @@ request, slaves return to *waiting* and the master to its previous driving state
 
 from __future__ import annotations
 
+import math
+
 from petswarm_env.comms.radio import PAN_WAITING, Frame
 from petswarm_env.middleware import messages as msg
 from petswarm_env.middleware.knowledge import Knowledge
@@ -21,6 +23,7 @@ class SequenceManager:
         node.on(msg.DISPERSE_ACK, self._on_disperse_ack)
         self._acks: set[int] = set()
         self.last_master: int | None = None  # to re-acknowledge a repeated disperse request
+        self.master_lost_at: list[tuple[float, int | None]] = []  # (time, the master's node id) of each status timeout
 
     def leave_swarm(self) -> None:
         """Back to waiting on the common PAN, forgetting the swarm."""
@@ -30,6 +33,35 @@ class SequenceManager:
         node.swarm_pan = None
         node.formation = None
         node.know = Knowledge()
+
+    def master_lost(self, now_s: float) -> bool:
+        """A slave that heard no status broadcast of its master for ``protocol.status_timeout_s``
+        (since it joined, if none yet) has lost its master (issue 15): it stops — the caller's
+        emergency stop — and returns to waiting. True when that happened now."""
+        node = self.node
+        if node.state != "slave":
+            return False
+        status = node.know.status
+        last = max(status.time_s if status is not None else -math.inf, node.joined_s)
+        if now_s - last <= node.cfg.protocol.status_timeout_s:
+            return False
+        self.master_lost_at.append((now_s, node.member_node(0)))
+        self.leave_swarm()
+        return True
+
+    def power_off(self) -> None:
+        """The robot is off (a ``dead`` or ``battery`` fault, sim/faults.py): its middleware stops,
+        forgetting everything; it hears no PAN."""
+        self.leave_swarm()
+        node = self.node
+        node.state = "off"
+        node.pans = frozenset()
+        node.connected_user = None
+
+    def power_on(self) -> None:
+        """The robot was switched on again (a transient fault cleared, or an arrival): it boots
+        into waiting on the common PAN, knowing nothing."""
+        self.leave_swarm()
 
     def _on_disperse(self, frame: Frame) -> None:
         node = self.node

@@ -312,7 +312,7 @@ class Experimenter:
     def _detected_at(self, fault) -> float | None:
         """When the middleware noticed ``fault`` (a FaultRecord), or None."""
         if fault.role == "master":
-            times = [t for n in self.fleet.nodes.values() for t, m in n.seq.master_lost_at
+            times = [t for n in self.fleet.nodes.values() for t, m, _ in n.seq.master_lost_at
                      if m == fault.robot and t >= fault.time_s]
             return min(times, default=None)
         times = [t for sw in self.swarms for t, event, ids in sw.member_log
@@ -363,10 +363,13 @@ class Experimenter:
         walls and boxes, and a HUD with the scenario, the step and each user's robot state."""
         cfg, world = self.cfg, self.world
         robots = []
+        parked = set(self.runtime.parked()) if self.runtime is not None else set()
         for r, role in zip(world.robots, self.roles()):
+            if r.index in parked:
+                continue  # an arrival not switched on yet: not in the scene
             node = self.fleet.nodes.get(r.index)
             label = str(node.know.member) if node is not None and node.know.member >= 0 else f"r{r.index}"
-            robots.append(RobotView(r.position, r.heading, cfg.robot.radius_m, role, label))
+            robots.append(RobotView(r.position, r.heading, cfg.robot.radius_m, role, label, tuple(sorted(r.health.active))))
         links = [(world.robots[a].position, world.robots[b].position) for a, b in self.link_pairs()]
         refs = [tuple(p) for p in self.reference_positions().values()]
         err = self.metrics.error_trace[-1] if self.metrics.error_trace else float("nan")

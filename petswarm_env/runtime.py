@@ -41,8 +41,9 @@ if TYPE_CHECKING:
 PARK_M = (-1000.0, -1000.0)  # chosen: where arrival robots wait switched off (no walls) — 2 m apart along x
 PARK_IN_ARENA = 0.45  # with walls: parked this fraction of the half size toward the (-, -) corner
 # chosen: where an arrival is put, in user 0's master's frame (x toward its user), tried in order
-ARRIVAL_SPOTS_M = ((0.0, 2.0), (0.0, -2.0), (-1.0, 2.0), (-1.0, -2.0), (1.0, 2.0), (1.0, -2.0), (0.0, 2.5), (0.0, -2.5),
-                   (-2.0, 2.0), (-2.0, -2.0))
+# (right of the master first: the open slot is the last member's, and the last of a row or wedge is on the right)
+ARRIVAL_SPOTS_M = ((0.0, -2.0), (-1.0, -2.0), (0.0, 2.0), (-1.0, 2.0), (1.0, -2.0), (1.0, 2.0), (0.0, -2.5), (0.0, 2.5),
+                   (-2.0, -2.0), (-2.0, 2.0))
 ARRIVAL_LEAD_S = 3.0  # chosen: the spot is beside where the master will be this much later (recruiting takes ~1-3 s)
 ARRIVAL_CLEARANCE_M = 0.4  # chosen: rim-to-rim clearance of an arrival from every body at its switch-on
 
@@ -80,6 +81,7 @@ class Runtime:
         self.specs = fault_specs(cfg, scenario)
         arrivals = arrival_specs(cfg, scenario)
         self.arrivals = list(zip(arrivals, arrival_robots))  # (spec, robot index), the rest stay parked
+        self._spare = arrival_robots[len(arrivals):]  # room for another scenario's arrivals: parked all episode
         self.arrived: list[tuple[float, int]] = []  # (time, robot) switched on
         for idx in arrival_robots:  # off until switched on (not a fault: not in the log)
             self.faults._set(idx, "dead", True)
@@ -99,6 +101,11 @@ class Runtime:
                 if t >= horizon:
                     break
                 later(t, self._inject, "random_slave", fr.kinds[int(self.rng.integers(len(fr.kinds)))], None)
+
+    def parked(self) -> list[int]:
+        """The arrival robots not switched on yet."""
+        on = {idx for _, idx in self.arrived}
+        return [idx for _, idx in self.arrivals if idx not in on] + self._spare
 
     # -- faults -----------------------------------------------------------------------------------
     def _role(self, idx: int) -> str:

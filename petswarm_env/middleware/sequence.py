@@ -23,7 +23,8 @@ class SequenceManager:
         node.on(msg.DISPERSE_ACK, self._on_disperse_ack)
         self._acks: set[int] = set()
         self.last_master: int | None = None  # to re-acknowledge a repeated disperse request
-        self.master_lost_at: list[tuple[float, int | None]] = []  # (time, the master's node id) of each status timeout
+        # (time noticed, the master's node id, the timeout instant: last status heard + protocol.status_timeout_s)
+        self.master_lost_at: list[tuple[float, int | None, float]] = []
 
     def leave_swarm(self) -> None:
         """Back to waiting on the common PAN, forgetting the swarm."""
@@ -45,7 +46,7 @@ class SequenceManager:
         last = max(status.time_s if status is not None else -math.inf, node.joined_s)
         if now_s - last <= node.cfg.protocol.status_timeout_s:
             return False
-        self.master_lost_at.append((now_s, node.member_node(0)))
+        self.master_lost_at.append((now_s, node.member_node(0), last + node.cfg.protocol.status_timeout_s))
         self.leave_swarm()
         return True
 

@@ -75,6 +75,8 @@ MESSAGES: dict[str, tuple[int, tuple[tuple[str, str], ...]]] = {
     msg.MODE_CHANGE_ACK: (18, ()),
     msg.HANDOVER: (19, (("seq", "u32"), ("user", "user"), ("previous", "str"))),
     msg.HANDOVER_ACK: (20, ()),
+    msg.MEMBER_UPDATE: (21, (("seq", "u32"), ("members", "members"), ("shape", "str"), ("links", "links"), ("mode", "str"))),
+    msg.MEMBER_UPDATE_ACK: (22, (("seq", "u32"),)),
 }
 KIND_OF_CODE = {code: kind for kind, (code, _) in MESSAGES.items()}
 

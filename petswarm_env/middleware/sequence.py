@@ -8,8 +8,6 @@ request, slaves return to *waiting* and the master to its previous driving state
 
 from __future__ import annotations
 
-import math
-
 from petswarm_env.comms.radio import PAN_WAITING, Frame
 from petswarm_env.middleware import messages as msg
 from petswarm_env.middleware.knowledge import Knowledge
@@ -42,8 +40,9 @@ class SequenceManager:
         node = self.node
         if node.state != "slave":
             return False
-        status = node.know.status
-        last = max(status.time_s if status is not None else -math.inf, node.joined_s)
+        status, last = node.know.status, node.joined_s
+        if status is not None and status.time_s > last:
+            last = status.time_s
         if now_s - last <= node.cfg.protocol.status_timeout_s:
             return False
         self.master_lost_at.append((now_s, node.member_node(0), last + node.cfg.protocol.status_timeout_s))

@@ -166,3 +166,31 @@ def test_master_loss_every_slave_stops_and_waits(seed):
         assert node.state == "waiting" and len(node.seq.master_lost_at) == 1
     s = env.episode_summary()
     assert s["faults_detected"] == 1 and 0.9 <= s["detection_time_s"] <= 1.2
+
+
+def test_after_a_master_loss_the_user_pairs_again_with_a_waiting_robot_and_organizes():
+    env = make(faults=[{"at_s": 1.0, "robot": "master", "kind": "dead"}])
+    run(env, 4.0)  # every slave stopped and waits: no agent is left, the episode is over
+    session, world = env.sessions[0], env.world
+    assert session.state == "waiting_user" and not world.user.walking
+    robot = world.robots[1]  # the user walks up to robot 1 (by hand: the script cannot) ...
+    x, y = robot.position
+    body = world.user.body
+    body.position = (x + 0.7 * np.cos(robot.heading), y + 0.7 * np.sin(robot.heading))
+    world.space.reindex_shapes_for_body(body)
+    world.invalidate_truth()
+    for _ in range(200):  # ... and the world runs on (no agent acts)
+        env._control(None)
+        world.advance(env.cfg.physics_substeps)
+        env.sensors.read_rings()
+    assert session.connected_robot == 1 and env.swarm.master.node_id == 1 and env.swarm.organized
+    assert env.swarm.slave_ids() == [2, 3, 4]  # the dead master is not recruited
+
+
+def test_a_radio_silent_slave_that_recovers_is_recruited_again_into_the_open_slot():
+    env = make(faults=[{"at_s": 1.0, "robot": 3, "kind": "radio_silent", "duration_s": 4.0}])
+    run(env, 12.0)
+    log = env.swarm.member_log
+    assert [(e, ids) for _, e, ids in log] == [("lost", [3]), ("joined", [3])]
+    assert "robot_3" in env.agents and len(env.swarm.master.know.members) == 5
+    assert_tables_agree(env)

@@ -320,7 +320,8 @@ class Experimenter:
         return min(times, default=None)
 
     def _refilled_at(self, robot: int, fault_s: float) -> float | None:
-        """When the swarm that lost ``robot`` held as many members again as just before ``fault_s``."""
+        """When the swarm that lost ``robot`` (after ``fault_s``) held as many members again as just
+        before ``fault_s``."""
         for sw in self.swarms:
             size = len(sw.organize_result.members)
             lost_at, before = None, None
@@ -328,7 +329,7 @@ class Experimenter:
                 if before is None and t >= fault_s:
                     before = size
                 size += len(ids) if event == "joined" else -len(ids)
-                if event == "lost" and robot in ids:
+                if event == "lost" and robot in ids and before is not None:
                     lost_at = t
                 if lost_at is not None and size >= before:
                     return t

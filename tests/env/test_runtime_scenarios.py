@@ -82,3 +82,24 @@ def test_config_faults_take_precedence_over_the_scenarios():
     log = env.runtime.faults.log
     assert [(f.kind, f.role) for f in log] == [("ir", "master")]
     assert math.isnan(env.episode_summary()["detection_time_s"])  # a sensor fault is not detected
+
+
+def test_the_renderer_shows_each_robots_fault_state():
+    from petswarm_env.render import FAULT_MARK
+
+    env = petswarm_env.parallel_env(render_mode="rgb_array", **{"user.scenario": "dropout", "max_cycles": 260,
+                                                                 "faults": [{"at_s": 3.0, "robot": 2, "kind": "dead"},
+                                                                            {"at_s": 3.0, "robot": 1, "kind": "ir"}]})
+    env.reset(seed=0)
+    scene = env.scene()
+    assert all(not r.faults for r in scene.robots)
+    assert len(scene.robots) == len(env.world.robots) - 1  # the parked arrival robot is not in the scene
+    frame0 = env.render()
+    for _ in range(40):
+        env.step({a: np.zeros(3, np.float32) for a in env.agents})
+    faults = {r.label: r.faults for r in env.scene().robots if r.faults}
+    assert sorted(faults.values()) == [("dead",), ("ir",)]
+    frame = env.render()
+    red = np.all(frame == np.array(FAULT_MARK, np.uint8), axis=-1).sum()
+    assert red > 20 and np.all(frame0 == np.array(FAULT_MARK, np.uint8), axis=-1).sum() == 0
+    env.close()

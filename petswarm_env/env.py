@@ -26,6 +26,12 @@ only (:mod:`petswarm_env.observe`). Agents come and go with the middleware: a ro
 being a slave (it became the master, or the swarm dispersed) is terminated; a robot that becomes
 a slave joins ``agents``.
 
+Runtime changes (issue 15, docs/faults.md; none by default): ``faults`` break parts of robots and
+``arrivals`` switch robots on mid-episode (:mod:`petswarm_env.runtime`); a dead slave is
+terminated, a slave that lost its master (no status broadcast for ``protocol.status_timeout_s``)
+stops and is terminated, an arrival that joins is a new agent (``possible_agents`` ends with the
+arrival robots).
+
 Spaces: observation ``Box(low, high, (N,), float32)`` with values scaled to about [-1, 1] and each
 field's bounds in docs/observation.md (N = 57 with 8 ultrasonic sensors), action ``Box(-1, 1, (3,),
 float32)`` = (Vx, Vy, ω) scaled by ``robot.max_speed_mps`` and ``robot.max_omega_rps``; the global
@@ -301,7 +307,7 @@ class PetSwarmEnv(ParallelEnv):
         live = {f"robot_{i}" for i in slaves}
         terminations = {a: a not in live for a in self.agents}
         for a, done in terminations.items():  # a robot that left slave-role driving and drives no user stands still
-            if done and not self.fleet.nodes[self._agent_index[a]].state == "master":
+            if done and self.fleet.nodes[self._agent_index[a]].state != "master":
                 world.robots[self._agent_index[a]].set_command(0.0, 0.0, 0.0)
         truncations = {a: truncated for a in self.agents}
         joined = [f"robot_{i}" for i in slaves if f"robot_{i}" not in self.agents and f"robot_{i}" in self._possible]
@@ -427,7 +433,10 @@ class PetSwarmEnv(ParallelEnv):
             policy, user_cmd, stop = session.step(self.sensors.odometry(idx), ranges[idx])
             cmd, _ = self.arbiters[idx].decide(policy, user_cmd, ranges[idx], stop)
             robot = world.robots[idx]
-            robot.set_command(*cmd) if robot.health.powered else robot.set_command(0.0, 0.0, 0.0)
+            if robot.health.powered:
+                robot.set_command(*cmd)
+            else:  # a master that is off (a fault): motors off
+                robot.set_command(0.0, 0.0, 0.0)
         if acts is None:
             return
         for agent, a in acts.items():

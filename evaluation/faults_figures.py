@@ -10,7 +10,7 @@
   is left; the world runs on without actions for the measurement): the largest;
 * ``arrival``: whether the arrival joined and when.
 
-    python -m evaluation.faults_figures [--seeds 0-4] [--json out.json]
+    python -m evaluation.faults_figures [--seeds 0-4] [--scenarios dropout,master_loss,arrival] [--set KEY=VALUE ...] [--json out.json]
 
 Prints one line per scenario and seed, then the medians.
 """
@@ -63,8 +63,11 @@ def _run(scenario: str, seed: int, overrides: dict | None = None) -> dict:
     if scenario == "master_loss":
         timeout = env.cfg.protocol.status_timeout_s
         moved = []
+        fault_s = env.runtime.faults.log[0].time_s
         for idx, node in env.fleet.nodes.items():
-            for _, _, t_timeout in node.seq.master_lost_at:
+            for _, master, t_timeout in node.seq.master_lost_at:
+                if t_timeout < fault_s:
+                    continue  # an earlier timeout (under loss): not the master's loss
                 # from the last step at or before the timeout instant (the slave notices at the next control step)
                 before = [p for t, p in track if t <= t_timeout]
                 start = before[-1][idx] if before else track[0][1][idx]
@@ -85,7 +88,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seeds", default="0-4", help="a range a-b or a comma list")
     parser.add_argument("--scenarios", default="dropout,master_loss,arrival")
     parser.add_argument("--json", default=None, help="write the rows here")
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="a config override (repeatable)")
     args = parser.parse_args(argv)
+    from petswarm_env.config import parse_override
+
+    overrides = dict(parse_override(item) for item in args.set)
     if "-" in args.seeds:
         a, b = args.seeds.split("-")
         seeds = list(range(int(a), int(b) + 1))
@@ -95,7 +102,7 @@ def main(argv: list[str] | None = None) -> int:
     for scenario in args.scenarios.split(","):
         rows[scenario] = []
         for seed in seeds:
-            row = _run(scenario, seed)
+            row = _run(scenario, seed, overrides)
             rows[scenario].append(row)
             print(scenario, seed, json.dumps({k: (round(v, 3) if isinstance(v, float) else v) for k, v in row.items()}))
         keys = sorted({k for r in rows[scenario] for k in r if isinstance(r[k], (int, float))})

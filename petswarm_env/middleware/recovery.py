@@ -13,7 +13,8 @@ Both sides run on one robot's station, like the other managers:
   mode (:mod:`.messages`) — until every remaining member acknowledged it (a lost update or a lost
   acknowledgement → broadcast again, within ``protocol.max_retries``; a member that never heard
   it keeps its old tables until the next update, and if it was the one renumbered, the ring does
-  not reach it and it is declared lost in turn).
+  not reach it and it is declared lost in turn). The refill starts at once, beside the update's
+  retries (under loss they may take a second or more; the refill's own update supersedes it).
 * **refill** (master): right after a removal, and every ``protocol.rescan_period_s`` while a slot
   is open (the tables hold fewer than ``swarm.num_slaves`` slaves: a member lost, or organized
   short), the master recruits waiting robots through the join pipeline of seed 000 Fig. 8 —
@@ -118,7 +119,10 @@ class RecoveryManager:
         self._commit(members, formation)
         self._forget(node_id)
         node.members_changed.emit("lost", [node_id])
-        yield from self._announce(members, formation)
+        # announced beside the refill that follows (chosen: the refill's scan does not wait for every
+        # acknowledgement; its own update, once a robot joined, supersedes this one)
+        node.clock.process(self._announce(members, formation))
+        yield node.clock.timeout(0.0)
 
     def _refill(self):
         node = self.node
@@ -154,11 +158,11 @@ class RecoveryManager:
                        mode=node.know.mode)
         self._acks = set()
         retries = 0
-        while others:
+        while others and self._seq == seq:  # a newer update supersedes this one
             node.send(msg.MEMBER_UPDATE, **payload)
             self._needed, self._event = others, clock.event()
             yield clock.any_of([self._event, clock.timeout(cfg.response_timeout_s)])
-            if others <= self._acks or retries >= cfg.max_retries or node.state != "master":
+            if self._seq != seq or others <= self._acks or retries >= cfg.max_retries or node.state != "master":
                 break
             retries += 1
         self.update_retries += retries

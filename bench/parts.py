@@ -36,6 +36,9 @@ MODULE_PARTS: dict[str, str | None] = {
     # the environment library
     "petswarm_env.__init__": "other",
     "petswarm_env.config": "other",
+    "petswarm_env.config_base": "other",
+    "petswarm_env.config_runtime": "other",
+    "petswarm_env.runtime": "other",  # the episode's faults and arrivals, scheduled on the clock (issue 15)
     "petswarm_env.env": "other",  # env.step itself: action checks, the env's own bookkeeping
     "petswarm_env.files": "other",
     "petswarm_env.render": "other",

@@ -81,6 +81,8 @@ MESSAGES: dict[str, tuple[int, tuple[tuple[str, str], ...]]] = {
     msg.STATUS_QUERY: (24, (("candidates", "ids"),)),
     msg.SLOT_ANNOUNCE: (22, (("seq", "u32"), ("attempt", "u8"), ("slots", "slots"), ("bidders", "ids"))),
     msg.BID: (23, (("seq", "u32"), ("utilities", "bids"))),
+    msg.MEMBER_UPDATE: (25, (("seq", "u32"), ("members", "members"), ("shape", "str"), ("links", "links"), ("mode", "str"))),
+    msg.MEMBER_UPDATE_ACK: (26, (("seq", "u32"),)),
 }
 KIND_OF_CODE = {code: kind for kind, (code, _) in MESSAGES.items()}
 

@@ -23,7 +23,11 @@ from pydantic import (AfterValidator, BaseModel, ConfigDict, Field, ValidationEr
                       model_validator)
 from pydantic_core import PydanticCustomError
 
+from petswarm_env.config_base import Section  # noqa: F401
+from petswarm_env.config_runtime import ARRIVAL_TYPES, FAULT_KINDS, ArrivalSpec, FaultSpec, FaultsRandomConfig  # noqa: F401
 from petswarm_env.scenarios import SCENARIOS  # the registry (the scenarios import nothing of the package)
+
+# (Section and the runtime-change types are imported here for the modules that import them from this one)
 
 
 FORMATIONS = ("column", "row", "wedge", "grid", "custom")
@@ -47,41 +51,6 @@ ScenarioName = Annotated[str, AfterValidator(_registered_scenario)]
 
 class ConfigError(ValueError):
     """A configuration key or value is wrong; the message says which and how to fix it."""
-
-
-def _wants_number_only(annotation: Any) -> bool:
-    """Whether a field's type holds numbers (int or float, inside tuples and lists too) and no
-    boolean and nothing of any type: a boolean given there is a mistake, not 0 or 1."""
-    if annotation is bool or annotation is Any:
-        return False
-    if annotation in (int, float):
-        return True
-    args = [a for a in typing.get_args(annotation) if a is not Ellipsis and a is not type(None)]  # Optional[int] too
-    if typing.get_origin(annotation) is Annotated:
-        args = args[:1]
-    return bool(args) and all(_wants_number_only(a) for a in args)
-
-
-def _holds_bool(value: Any) -> bool:
-    if isinstance(value, (list, tuple)):
-        return any(_holds_bool(v) for v in value)
-    return isinstance(value, (bool, np.bool_))
-
-
-class Section(BaseModel):
-    """A config section: unknown keys are refused, values are frozen once validated. A float
-    must be finite (no NaN, no infinity), and a boolean is not a number (pydantic's lax mode
-    would read ``true`` as 1)."""
-
-    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
-
-    @field_validator("*", mode="before")
-    @classmethod
-    def _no_bool_for_numbers(cls, value: Any, info: ValidationInfo) -> Any:
-        field = cls.model_fields.get(info.field_name or "")
-        if field is not None and _holds_bool(value) and _wants_number_only(field.annotation):
-            raise PydanticCustomError("bool_not_number", "a boolean is not a number here; give a number")
-        return value
 
 
 class BoxObstacle(Section):
@@ -190,6 +159,9 @@ class ProtocolConfig(Section):
     token_timeout_s: float = Field(gt=0, description="master regenerates the token after this silence")
     token_retries: int = Field(ge=0)
     broadcast_period_s: float = Field(gt=0, description="master's speed/activity broadcast")
+    lost_after_rounds: int = Field(ge=1, description="a member the master heard nothing from in this many ring rounds is lost")
+    status_timeout_s: float = Field(gt=0, description="a slave that heard no status broadcast this long stops and returns to waiting")
+    rescan_period_s: float = Field(gt=0, description="the organized master scans for waiting robots this often while a slot is open")
 
 
 class RutaConfig(Section):
@@ -450,9 +422,24 @@ class Config(Section):
     ble: BLEConfig
     reward: RewardConfig
     render: RenderConfig
+    faults: list[FaultSpec]
+    faults_random: FaultsRandomConfig
+    arrivals: list[ArrivalSpec]
+
+    def robot_count(self, arrivals: int | None = None) -> int:
+        """Robots in the world: every user's master and pool, the other user's robots, the arrivals
+        (``arrivals``: how many; the config's by default)."""
+        per_user = 1 + self.swarm.num_slaves + self.swarm.extra_robots
+        extra = len(self.arrivals) if arrivals is None else arrivals
+        return self.world.num_users * per_user + self.swarm.other_user_robots + extra
 
     @model_validator(mode="after")
     def _check_consistency(self) -> Config:
+        n = self.robot_count()
+        for i, f in enumerate(self.faults):
+            if isinstance(f.robot, int) and f.robot >= n:
+                raise ValueError(f"faults[{i}].robot {f.robot} is not a robot index (this config has robots 0..{n - 1}); "
+                                 "give an index below it, 'master' or 'random_slave'")
         if self.radio.max_be < self.radio.min_be:
             raise ValueError(f"radio.max_be ({self.radio.max_be}) must be at least radio.min_be ({self.radio.min_be})")
         if self.control.safety_stop_m >= self.robot.ultrasonic.max_range_m:
@@ -465,6 +452,15 @@ class Config(Section):
 
     def to_dict(self) -> dict[str, Any]:
         return self.model_dump(mode="json")
+
+
+def arrival_slots(cfg: Config) -> int:
+    """How many arrival robots a world of ``cfg`` holds (petswarm_env/runtime.py): the config's
+    arrivals, or, when it lists none, the most any of its scenarios brings."""
+    if cfg.arrivals:
+        return len(cfg.arrivals)
+    names = dict.fromkeys((*cfg.user.scenario_pool, cfg.user.scenario))
+    return max((len(SCENARIOS[n].arrivals) for n in names), default=0)
 
 
 def default_config_path() -> Path:

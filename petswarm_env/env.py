@@ -26,6 +26,12 @@ only (:mod:`petswarm_env.observe`). Agents come and go with the middleware: a ro
 being a slave (it became the master, or the swarm dispersed) is terminated; a robot that becomes
 a slave joins ``agents``.
 
+Runtime changes (issue 15, docs/faults.md; none by default): ``faults`` break parts of robots and
+``arrivals`` switch robots on mid-episode (:mod:`petswarm_env.runtime`); a dead slave is
+terminated, a slave that lost its master (no status broadcast for ``protocol.status_timeout_s``)
+stops and is terminated, an arrival that joins is a new agent (``possible_agents`` ends with the
+arrival robots).
+
 Spaces: observation ``Box(low, high, (N,), float32)`` with values scaled to about [-1, 1] and each
 field's bounds in docs/observation.md (N = 57 with 8 ultrasonic sensors), action ``Box(-1, 1, (3,),
 float32)`` = (Vx, Vy, ω) scaled by ``robot.max_speed_mps`` and ``robot.max_omega_rps``; the global
@@ -45,7 +51,7 @@ from pettingzoo import ParallelEnv
 
 from petswarm_env.comms.ir_channel import IRChannel
 from petswarm_env.comms.radio import RadioMedium
-from petswarm_env.config import DRIVING_MODES, Config, ConfigError, describe_value, flatten_dotted, load_config
+from petswarm_env.config import DRIVING_MODES, Config, ConfigError, arrival_slots, describe_value, flatten_dotted, load_config
 from petswarm_env.control.arbiter import ControlArbiter, SafetyStage
 from petswarm_env.metrics import BUILT_WITHIN_M, Experimenter
 from petswarm_env.middleware.formation import formation_for_mode, user_position_in_formation
@@ -54,6 +60,7 @@ from petswarm_env.middleware.swarm import Swarm
 from petswarm_env.middleware.user_session import UserSession, master_distance_m
 from petswarm_env.observe import OBS_VERSION, ObservationLayout, Observer, observation_bounds
 from petswarm_env.reward import slave_rewards
+from petswarm_env.runtime import Runtime, park_positions
 from petswarm_env.scenarios import SCENARIOS
 from petswarm_env.state import StateLayout, build_state
 from petswarm_env.sim.sensors import Sensors
@@ -110,9 +117,11 @@ class PetSwarmEnv(ParallelEnv):
         per_user = 1 + pool
         may_change_master = cfg.swarm.master_change and any(
             SCENARIOS[name].changes_master for name in (*cfg.user.scenario_pool, cfg.user.scenario))
+        self._arrival_slots = arrival_slots(cfg)  # robots switched on mid-episode (runtime.py), after every other robot
+        first_arrival = cfg.robot_count(0)
         self.possible_agents = [
             f"robot_{u * per_user + k}" for u in range(cfg.world.num_users) for k in range(0 if may_change_master else 1, per_user)
-        ]
+        ] + [f"robot_{first_arrival + j}" for j in range(self._arrival_slots)]
         self._possible = set(self.possible_agents)
         self._reach_m = _swarm_reach_m(cfg)
         for name in dict.fromkeys((*cfg.user.scenario_pool, cfg.user.scenario)):  # the user stays in the world
@@ -154,8 +163,10 @@ class PetSwarmEnv(ParallelEnv):
             self._seed_seq = np.random.SeedSequence(seed)
         elif self._seed_seq is None:
             self._seed_seq = np.random.SeedSequence(self.cfg.seed)
-        streams = self._seed_seq.spawn(1)[0].spawn(7)
-        self._build(*(np.random.default_rng(s) for s in streams))
+        streams = self._seed_seq.spawn(1)[0].spawn(8)  # the 8th (faults) leaves the first seven as they were
+        self._build(*(np.random.default_rng(s) for s in streams[:7]))
+        self.runtime = Runtime(self.cfg, self.world, self.fleet, self.swarms, SCENARIOS[self.scenario], self._arrivals,
+                               np.random.default_rng(streams[7]))
         self._check_inside_arena()
         self._organize()
         if self.cfg.swarm.spawn == "at_slots":
@@ -172,7 +183,9 @@ class PetSwarmEnv(ParallelEnv):
         self.experimenter = Experimenter(self.cfg, world, self.fleet, self.swarms, self.sessions, self.arbiters, self.radio,
                                          self._agent_index, self._other_user_robots)
         self.metrics = self.experimenter.metrics
+        self.experimenter.runtime = self.runtime
         self._start_walks({})
+        self.runtime.start()  # faults and arrivals, in episode time from now
         self.num_cycles = 0
         observations = self.observer.observe(self.agents, self._last_action, world.now)
         self._missing_by_pan = {sw.pan: sw.slaves_missing() for sw in self.swarms}  # as organized (metrics.py's figure)
@@ -207,6 +220,10 @@ class PetSwarmEnv(ParallelEnv):
         self._pools = [pool for _, pool in placement.pools]
         for idx in self._other_user_robots:
             fleet.add_node(idx, self.swarms[0]).connected_user = OTHER_USER_ID
+        # arrival robots (runtime.py): parked switched off, in user 0's pool
+        self._arrivals = [world.add_robot(p, 0.0).index for p in park_positions(cfg, self._arrival_slots)]
+        for idx in self._arrivals:
+            fleet.add_node(idx, self.swarms[0])
         self.sessions = []
         for u, (swarm, user_rng) in enumerate(zip(self.swarms, rng_users.spawn(cfg.world.num_users))):
             session = UserSession(cfg, world, swarm, world.users[u], user_rng, WAKE_PATTERN + u, WAKE_PATTERN + u)
@@ -289,6 +306,9 @@ class PetSwarmEnv(ParallelEnv):
         slaves = self._current_slaves()
         live = {f"robot_{i}" for i in slaves}
         terminations = {a: a not in live for a in self.agents}
+        for a, done in terminations.items():  # a robot that left slave-role driving and drives no user stands still
+            if done and self.fleet.nodes[self._agent_index[a]].state != "master":
+                world.robots[self._agent_index[a]].set_command(0.0, 0.0, 0.0)
         truncations = {a: truncated for a in self.agents}
         joined = [f"robot_{i}" for i in slaves if f"robot_{i}" not in self.agents and f"robot_{i}" in self._possible]
         for a in joined:
@@ -336,7 +356,8 @@ class PetSwarmEnv(ParallelEnv):
         return build_state(self.state_layout, self)
 
     # -- pickling: between episodes --------------------------------------------------------------
-    _EPISODE = ("world", "swarm", "session", "swarms", "sessions", "radio", "ir_channel", "fleet", "arbiters", "sensors",
+    _EPISODE = ("world", "swarm", "session", "swarms", "sessions", "radio", "ir_channel", "fleet", "arbiters", "sensors", "runtime",
+                "_arrivals",
                 "observer", "experimenter", "metrics", "_renderer", "_other_user_robots", "_slave_ids", "_agent_index",
                 "_last_action", "scenario", "num_cycles")
 
@@ -411,7 +432,11 @@ class PetSwarmEnv(ParallelEnv):
             masters.add(idx)
             policy, user_cmd, stop = session.step(self.sensors.odometry(idx), ranges[idx])
             cmd, _ = self.arbiters[idx].decide(policy, user_cmd, ranges[idx], stop)
-            world.robots[idx].set_command(*cmd)
+            robot = world.robots[idx]
+            if robot.health.powered:
+                robot.set_command(*cmd)
+            else:  # a master that is off (a fault): motors off
+                robot.set_command(0.0, 0.0, 0.0)
         if acts is None:
             return
         for agent, a in acts.items():
@@ -419,6 +444,9 @@ class PetSwarmEnv(ParallelEnv):
             if idx in masters:
                 continue
             node = self.fleet.nodes[idx]
+            if node.seq.master_lost(world.now):  # no status broadcast for protocol.status_timeout_s: emergency stop, waiting
+                world.robots[idx].set_command(0.0, 0.0, 0.0)
+                continue
             st = node.know.status
             stop = st is not None and st.mode == "emergency"
             cmd, _ = self.arbiters[idx].decide((a[0] * lim[0], a[1] * lim[1], a[2] * lim[2]), None, ranges[idx], stop)
@@ -460,7 +488,7 @@ class PetSwarmEnv(ParallelEnv):
         limit = self.cfg.user.formation_wait_s
         for session in self.sessions:
             user = session.user
-            if user.walking:
+            if user.walking or session.paused:
                 continue
             slaves = [f"robot_{i}" for i in session.swarm.slave_ids()]
             if waited >= limit - 1e-9 or all(errors_m.get(a, math.inf) <= BUILT_WITHIN_M for a in slaves):

@@ -17,6 +17,15 @@ The summary's formation figures:
 * ``emergency_s``: the time spent in emergency, read from each user session's state after every
   step, summed over the users (with one user: the time its swarm stood in emergency).
 * ``error_trace`` (every step, emergency included) is the mean formation error of the step's slaves.
+* runtime changes (issue 15; :mod:`petswarm_env.runtime`): ``faults_injected``; ``faults_detected``,
+  the faults the middleware noticed — the robot declared lost by its master's ring, or, for a
+  master, its loss noticed by a slave's status timeout (sensor faults are not detected: the robot
+  still answers); ``detection_time_s``, the mean time from a fault to its detection (NaN if
+  none); ``reassignments``, robots recruited into a slot opened by a lost member;
+  ``reassignment_time_s``, the mean time from a detected slave fault until its swarm held as many
+  members as before the fault again (NaN if never); ``slots_unfilled_s``, slot-seconds with fewer
+  live slaves (agents) than required, summed over the users; ``arrivals_joined``, arrival robots
+  that joined a swarm.
 * ``building_time_s``: how long after organizing (the end of ``reset``) the swarm built its
   formation (seed 000 §3.5, Fig. 10): the first step's end at which every slave stood within
   ``BUILT_WITHIN_M`` of its reference point (truth); NaN if that never happened in the episode.
@@ -60,6 +69,7 @@ class EpisodeMetrics:
     slaves_missing: int = 0  # required minus joined when the swarms organized, over every swarm
     stale_fix_s: float = 0.0  # slave time with no IR fix of any reference neighbour within AGE_SCALE_S
     error_trace: list[float] = field(default_factory=list)  # mean formation error per step (m)
+    slots_unfilled_s: float = 0.0  # slot-seconds with fewer live slaves than required (issue 15)
 
     def add_step(self, errors_m: list[float], counted_m: list[float] | None = None, emergencies: int = 0) -> None:
         """One step: the formation errors of its slaves (``errors_m``, for the trace), those that
@@ -109,6 +119,7 @@ class Experimenter:
                                       slaves_missing=sum(sw.slaves_missing() for sw in swarms))
         self._radio_at_start = (st.frames_sent, st.frames_lost, st.frames_collided)
         self._start_s = world.now  # organized: the end of reset
+        self.runtime = None  # the episode's faults and arrivals (petswarm_env/runtime.py), set by the env
         self.organized_at_s = world.now
 
     # -- reference points and errors -------------------------------------------------------------
@@ -193,6 +204,9 @@ class Experimenter:
         else:
             m.add_step(list(errors.values()))
         m.stale_fix_s += self.cfg.control_period_s * self.stale_fixes(agents)
+        missing = self.cfg.world.num_users * self.cfg.swarm.num_slaves - len(agents)
+        if missing > 0:
+            m.slots_unfilled_s += missing * self.cfg.control_period_s
         return SlaveTruth(errors, errs, heads, contacts)
 
     def stale_fixes(self, agents: list[str]) -> int:
@@ -257,7 +271,69 @@ class Experimenter:
             "slaves": slaves,
             "users": self.cfg.world.num_users,
             "events": events,
+            **self.runtime_summary(),
         }
+
+    def runtime_summary(self) -> dict[str, Any]:
+        """The runtime-change figures of the summary (module docstring), from the fault log
+        (:mod:`petswarm_env.runtime`), the masters' member logs and the slaves' status timeouts."""
+        runtime = self.runtime
+        log = runtime.faults.log if runtime is not None else []
+        arrivals = {idx for _, idx in runtime.arrived} if runtime is not None else set()
+        detections, refills, reassigned = [], [], 0
+        for f in log:
+            t = self._detected_at(f)
+            if t is None:
+                continue
+            detections.append(t - f.time_s)
+            if f.role != "master":
+                filled = self._refilled_at(f.robot, f.time_s)
+                if filled is not None:
+                    refills.append(filled - f.time_s)
+        joined = set()
+        for sw in self.swarms:
+            lost_seen = False
+            for _, event, ids in sw.member_log:
+                lost_seen |= event == "lost"
+                if event == "joined":
+                    joined.update(ids)
+                    reassigned += len(ids) if lost_seen else 0
+        nan = math.nan
+        return {
+            "faults_injected": len(log),
+            "faults_detected": len(detections),
+            "detection_time_s": sum(detections) / len(detections) if detections else nan,
+            "reassignments": reassigned,
+            "reassignment_time_s": sum(refills) / len(refills) if refills else nan,
+            "slots_unfilled_s": round(self.metrics.slots_unfilled_s, 6),
+            "arrivals_joined": len(arrivals & joined),
+        }
+
+    def _detected_at(self, fault) -> float | None:
+        """When the middleware noticed ``fault`` (a FaultRecord), or None."""
+        if fault.role == "master":
+            times = [t for n in self.fleet.nodes.values() for t, m, _ in n.seq.master_lost_at
+                     if m == fault.robot and t >= fault.time_s]
+            return min(times, default=None)
+        times = [t for sw in self.swarms for t, event, ids in sw.member_log
+                 if event == "lost" and fault.robot in ids and t >= fault.time_s]
+        return min(times, default=None)
+
+    def _refilled_at(self, robot: int, fault_s: float) -> float | None:
+        """When the swarm that lost ``robot`` (after ``fault_s``) held as many members again as just
+        before ``fault_s``."""
+        for sw in self.swarms:
+            size = len(sw.organize_result.members)
+            lost_at, before = None, None
+            for t, event, ids in sw.member_log:
+                if before is None and t >= fault_s:
+                    before = size
+                size += len(ids) if event == "joined" else -len(ids)
+                if event == "lost" and robot in ids and before is not None:
+                    lost_at = t
+                if lost_at is not None and size >= before:
+                    return t
+        return None
 
     # -- what a person watching sees -------------------------------------------------------------
     def roles(self) -> list[str]:
@@ -288,10 +364,13 @@ class Experimenter:
         walls and boxes, and a HUD with the scenario, the step and each user's robot state."""
         cfg, world = self.cfg, self.world
         robots = []
+        parked = set(self.runtime.parked()) if self.runtime is not None else set()
         for r, role in zip(world.robots, self.roles()):
+            if r.index in parked:
+                continue  # an arrival not switched on yet: not in the scene
             node = self.fleet.nodes.get(r.index)
             label = str(node.know.member) if node is not None and node.know.member >= 0 else f"r{r.index}"
-            robots.append(RobotView(r.position, r.heading, cfg.robot.radius_m, role, label))
+            robots.append(RobotView(r.position, r.heading, cfg.robot.radius_m, role, label, tuple(sorted(r.health.active))))
         links = [(world.robots[a].position, world.robots[b].position) for a, b in self.link_pairs()]
         refs = [tuple(p) for p in self.reference_positions().values()]
         err = self.metrics.error_trace[-1] if self.metrics.error_trace else float("nan")

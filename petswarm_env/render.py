@@ -52,6 +52,8 @@ ROLE_COLOURS = {
     "waiting": (150, 150, 150),  # grey
     "other": (145, 60, 190),  # purple (another user's swarm)
 }
+FAULT_MARK = (235, 20, 20)  # a robot's fault state (issue 15): a red cross when off, a red rim for a broken part
+FAULT_SHORT = {"dead": "X", "battery": "B0", "radio_silent": "RF", "ir": "IR", "ultrasonic": "US", "ahrs": "AHRS"}
 
 _MAX_PX = 1_000_000  # clamp for far-off coordinates so pygame never sees absurd integers
 
@@ -65,6 +67,7 @@ class RobotView:
     radius_m: float
     role: str  # "master" | "slave" | "waiting" | "other"
     label: str = ""  # e.g. member number "0" or a robot id
+    faults: tuple[str, ...] = ()  # the robot's active fault kinds (petswarm_env/sim/faults.py), drawn over it
 
     def __post_init__(self) -> None:
         if self.role not in ROLES:
@@ -358,6 +361,23 @@ class Renderer:
                 img = font.render(str(robot.label), True, LABEL)
                 off = rad + (6 if robot.role == "master" else 2)
                 surf.blit(img, (c + off, r - off - img.get_height() // 2))
+        if robot.faults:
+            self._draw_faults(surf, robot.faults, c, r, rad)
+
+    def _draw_faults(self, surf: Any, faults: tuple[str, ...], c: int, r: int, rad: int) -> None:
+        """A robot's fault state: a red cross over a robot that is off (dead, battery empty), a red
+        rim for a broken part, and the faults' short names below it."""
+        pg = self._pygame()
+        if {"dead", "battery"} & set(faults):
+            d = round(rad * 0.75)
+            pg.draw.line(surf, FAULT_MARK, (c - d, r - d), (c + d, r + d), 3)
+            pg.draw.line(surf, FAULT_MARK, (c - d, r + d), (c + d, r - d), 3)
+        else:
+            pg.draw.circle(surf, FAULT_MARK, (c, r), rad + 2, width=2)
+        font = self._font(14)
+        if font is not None:
+            img = font.render(" ".join(FAULT_SHORT.get(k, k) for k in sorted(faults)), True, FAULT_MARK)
+            surf.blit(img, (c - img.get_width() // 2, r + rad + 2))
 
     def _draw_user(self, surf: Any, position: Point, heading: float, radius_m: float) -> None:
         pg = self._pygame()

@@ -10,7 +10,7 @@ it may. The layout is declared once in :data:`ROBOT_FIELDS`, :data:`USER_FIELDS`
 bounds); ``python -m petswarm_env.state > docs/state.md`` documents it.
 
 Its size is fixed by the config: ``robots = world.num_users · (1 + swarm.num_slaves +
-swarm.extra_robots) + swarm.other_user_robots`` blocks of :data:`ROBOT_FIELDS`, then
+swarm.extra_robots) + swarm.other_user_robots`` (+ the arrival robots, ``arrivals``) blocks of :data:`ROBOT_FIELDS`, then
 ``world.num_users`` blocks of :data:`USER_FIELDS`, then :data:`GLOBAL_FIELDS`. Positions are
 relative to user 0 (the world frame's axes), so the state does not grow with the distance walked.
 
@@ -26,6 +26,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from petswarm_env.config import arrival_slots
 from petswarm_env.observe import CLIP, Field, markdown_table
 from petswarm_env.scenarios import ACTIVITIES
 
@@ -98,9 +99,9 @@ ROBOT_BLOCK, USER_BLOCK, GLOBAL_BLOCK = _Block(ROBOT_FIELDS), _Block(USER_FIELDS
 
 
 def num_robots(cfg: Config) -> int:
-    """The robots a world of ``cfg`` holds (each user's master and pool, then another user's robots)."""
-    sw = cfg.swarm
-    return cfg.world.num_users * (1 + sw.num_slaves + sw.extra_robots) + sw.other_user_robots
+    """The robots a world of ``cfg`` holds (each user's master and pool, then another user's robots,
+    then the arrival robots, petswarm_env/runtime.py)."""
+    return cfg.robot_count(arrival_slots(cfg))
 
 
 class StateLayout:

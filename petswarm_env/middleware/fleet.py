@@ -48,6 +48,7 @@ class Fleet:
         node.plan_applied.connect(lambda plan, previous: swarm_of(index).apply_plan(plan, previous))
         node.handed_over.connect(lambda new_master: swarm_of(index).hand_over(node, self.nodes[new_master]))
         node.took_over.connect(lambda: swarm_of(index).take_over(node))
+        node.members_changed.connect(lambda event, ids: swarm_of(index).members_changed(node, event, ids))
         return node
 
     def swarm_of(self, node_id: int) -> Swarm:
@@ -62,7 +63,10 @@ class Fleet:
         Returns the reporters' ids, for which the holder waits."""
         nodes = self.nodes
         own, pan = holder.node_id, holder.swarm_pan
-        receivers = [n for n in holder.know.members.values() if n != own and nodes[n].swarm_pan == pan]
+        if not holder.health.ir_ok:  # the IR module is off (a fault): no transmission, nothing measured
+            return []
+        receivers = [n for n in holder.know.members.values()
+                     if n != own and nodes[n].swarm_pan == pan and nodes[n].health.ir_ok]
         if not receivers:
             return []
         dist, bearing, valid = self.ir_channel.measure(own, receivers)

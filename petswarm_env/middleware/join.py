@@ -55,6 +55,9 @@ NOTIFY_RESERVE_TRIES = 4
 # chosen: the master takes as joining candidates the scan responders its RSSI estimate puts within
 # this many times the available region (the RSSI distance is off by ~10 % at 1 dB shadowing)
 CANDIDATE_REACH = 1.3
+# chosen: a refill (issue 15) scans at most this many times; the master's periodic scan
+# (protocol.rescan_period_s) tries again later while a slot stays open
+REFILL_SCANS = 3
 
 
 def can_join(connected_user: int | None, distance_m: float, available_radius_m: float) -> bool:
@@ -166,7 +169,7 @@ class JoinManager:
         joiners = len(members) - 1
         result.complete = joiners == min(required, n_available) and joiners > 0
 
-    def _scan_and_query(self, required: int, result: OrganizeResult):
+    def _scan_and_query(self, required: int, result: OrganizeResult, max_scans: int | None = None):
         """Steps 1-2: scan, then query the new candidates. While fewer robots are available than
         the user requires, the master has not received every response it expects (a scan response
         may have been lost, or collided: seed 000 §4.5, "simultaneous message reception or message
@@ -185,7 +188,7 @@ class JoinManager:
             yield from self._query(set(new), answers, result)
             n_available = sum(1 for f in answers.values() if f.payload["available"])
             reserve = NOTIFY_RESERVE_TRIES * timeout * max(required, len(answers))
-            if n_available >= required or not self._may_retry(scans, reserve):
+            if n_available >= required or not self._may_retry(scans, reserve) or (max_scans is not None and scans + 1 >= max_scans):
                 return candidates, answers
             scans += 1
             result.retries += 1
@@ -302,17 +305,49 @@ class JoinManager:
             if not missing:
                 return  # every free robot bid: a slot still open has no robot able to take it
 
-    def _notify(self, members: dict[int, int], pan: int, formation: Formation, mode: str, result: OrganizeResult):
+    def refill(self, open_members: list[int], pan: int, members: dict[int, int], mode: str, result: OrganizeResult):
+        """Recruit waiting robots into the ``open_members`` of an organized swarm (SimPy generator;
+        issue 15): the same pipeline as organizing — scan, query, :meth:`_select`, notify — on the
+        common PAN, within ``protocol.organize_timeout_s``. ``members`` is the master's member
+        table now. Returns the new member table (the joiners notified in it), or None when no robot
+        was recruited. The formation for the new size is the standard one of the master's shape and
+        ``mode`` (:func:`~.formation.formation_for_mode`), which the joining notification carries."""
+        node = self.node
+        t0 = node.clock.now
+        self._deadline = t0 + node.cfg.protocol.organize_timeout_s
+        node.pans = frozenset({PAN_WAITING, pan})  # hear the waiting robots' answers beside the swarm's frames
+        try:
+            candidates, answers = yield from self._scan_and_query(len(open_members), result, REFILL_SCANS)
+            result.candidates = sorted(candidates)
+            self.opened_s = t0  # the open slots' subtasks were announced now (RUTA's priority counts from here)
+            picked, _ = yield from self._choose(candidates, answers, open_members, result)
+            if not picked:
+                return None
+            new = dict(members)
+            new.update(picked)
+            new = dict(sorted(new.items()))
+            formation = formation_for_mode(node.cfg.swarm, len(new), mode)
+            yield from self._notify(new, pan, formation, mode, result, joiners=set(picked.values()))
+            result.members = new
+            result.elapsed_s = node.clock.now - t0
+            return new
+        finally:
+            if node.state == "master":
+                node.pans = frozenset({pan})
+
+    def _notify(self, members: dict[int, int], pan: int, formation: Formation, mode: str, result: OrganizeResult,
+                joiners: set[int] | None = None):
         """Step 3, the result: a joining notification to each selected robot — the new PAN ID, its
         member number, the total number of members and the member table (seed 000 §3.4: "from
         which each robot identifies its neighbours"), and (chosen) the neighbour table with its
         reference offsets and the driving mode: all a member knows of the swarm comes in this
         frame — a non-participating notification to the others, one robot after another, each
-        acknowledged; a missing acknowledgement → notify again (a retry)."""
+        acknowledged; a missing acknowledgement → notify again (a retry). ``joiners``: only these
+        members are notified (a refill; the others are members already)."""
         node = self.node
         cfg = node.cfg.protocol
         links = formation.links_payload()
-        notify = {rid: msg.JOIN_NOTIFY for m, rid in members.items() if m != 0}
+        notify = {rid: msg.JOIN_NOTIFY for m, rid in members.items() if m != 0 and (joiners is None or rid in joiners)}
         notify.update({rid: msg.NON_PARTICIPATE for rid in result.not_selected})
         for rid in sorted(notify, key=lambda r: (notify[r] != msg.JOIN_NOTIFY, r)):
             if not self._may_retry(0):

@@ -34,6 +34,9 @@ MODE_CHANGE_ACK = "mode_change_ack"
 HANDOVER = "handover"  # old master -> new master: take over the user connection
 HANDOVER_ACK = "handover_ack"
 
+MEMBER_UPDATE = "member_update"  # master -> swarm: a member removed or recruited: new total, member and neighbour tables (issue 15)
+MEMBER_UPDATE_ACK = "member_update_ack"
+
 # Payload sizes (bytes of MAC payload; the PHY and MAC headers and the FCS are
 # ``radio.frame_overhead_bytes``). Encoding (chosen): a frame kind 1 byte; a node id 2 (an 802.15.4
 # short address); a PAN ID 2; a sequence number 2; a member number, a count, a mode, a shape or a
@@ -69,6 +72,8 @@ SIZE_BYTES = {
     MODE_CHANGE_ACK: 4,  # kind, the change's sequence, own member number
     HANDOVER: 12,  # kind, sequence, user id 2, previous driving state, the belt's BLE address 6
     HANDOVER_ACK: 4,  # kind, sequence, status
+    MEMBER_UPDATE: 8,  # kind, sequence 2, total members, mode, shape, removed count, added count (+ member and neighbour tables)
+    MEMBER_UPDATE_ACK: 4,  # kind, the update's sequence, own member number
 }
 
 MEMBER_ENTRY_BYTES = 2  # the member table: the node id of each member, in member-number order
@@ -94,6 +99,7 @@ PER_ENTRY_BYTES = {
     SLOT_ANNOUNCE: lambda p: SLOT_ENTRY_BYTES * len(p["slots"]) + LIST_ENTRY_BYTES * len(p["bidders"]),
     BID: lambda p: BID_ENTRY_BYTES * len(p["utilities"]),
     MODE_CHANGE: _table_bytes,
+    MEMBER_UPDATE: _table_bytes,
 }
 
 # The largest MAC payload of one 802.15.4 frame (aMaxPHYPacketSize 127 − 11 bytes of MAC header and

@@ -181,6 +181,7 @@ class ModeManager:
                 retries += 1
             result["handover_retries"] = retries
             node.state = "slave"  # the user goes over to the new master (Table 3: master change)
+            node.joined_s = clock.now  # a slave now: its status timeout counts from here
             node.connected_user = None
             node.handed_over.emit(new_master)
         result["done_s"] = clock.now

@@ -23,6 +23,7 @@ from petswarm_env.middleware import messages as msg
 from petswarm_env.middleware.join import JoinManager
 from petswarm_env.middleware.knowledge import MasterStatus
 from petswarm_env.middleware.modes import ModeManager
+from petswarm_env.middleware.recovery import RecoveryManager
 from petswarm_env.middleware.sequence import SequenceManager
 from petswarm_env.middleware.station import Station
 from petswarm_env.middleware.token_ring import TokenRing
@@ -42,6 +43,8 @@ class Node(Station):
         self.ring = TokenRing(self)
         self.seq = SequenceManager(self)
         self.modes = ModeManager(self)
+        self.recovery = RecoveryManager(self, self.join, self.ring.forget, self.seq.leave_swarm)
+        self.ring.lost_handler = self.recovery.member_lost
         self.on(msg.STATUS, self._on_status)
 
     def _on_status(self, frame: Frame) -> None:

@@ -21,6 +21,8 @@ class SequenceManager:
         node.on(msg.DISPERSE_ACK, self._on_disperse_ack)
         self._acks: set[int] = set()
         self.last_master: int | None = None  # to re-acknowledge a repeated disperse request
+        # (time noticed, the master's node id, the timeout instant: last status heard + protocol.status_timeout_s)
+        self.master_lost_at: list[tuple[float, int | None, float]] = []
 
     def leave_swarm(self) -> None:
         """Back to waiting on the common PAN, forgetting the swarm."""
@@ -30,6 +32,36 @@ class SequenceManager:
         node.swarm_pan = None
         node.formation = None
         node.know = Knowledge()
+
+    def master_lost(self, now_s: float) -> bool:
+        """A slave that heard no status broadcast of its master for ``protocol.status_timeout_s``
+        (since it joined, if none yet) has lost its master (issue 15): it stops — the caller's
+        emergency stop — and returns to waiting. True when that happened now."""
+        node = self.node
+        if node.state != "slave":
+            return False
+        status, last = node.know.status, node.joined_s
+        if status is not None and status.time_s > last:
+            last = status.time_s
+        if now_s - last <= node.cfg.protocol.status_timeout_s:
+            return False
+        self.master_lost_at.append((now_s, node.member_node(0), last + node.cfg.protocol.status_timeout_s))
+        self.leave_swarm()
+        return True
+
+    def power_off(self) -> None:
+        """The robot is off (a ``dead`` or ``battery`` fault, sim/faults.py): its middleware stops,
+        forgetting everything; it hears no PAN."""
+        self.leave_swarm()
+        node = self.node
+        node.state = "off"
+        node.pans = frozenset()
+        node.connected_user = None
+
+    def power_on(self) -> None:
+        """The robot was switched on again (a transient fault cleared, or an arrival): it boots
+        into waiting on the common PAN, knowing nothing."""
+        self.leave_swarm()
 
     def _on_disperse(self, frame: Frame) -> None:
         node = self.node

@@ -90,10 +90,16 @@ class Station:
         self.plan_applied = Signal()  # (plan, previous_members): the master committed a mode change
         self.handed_over = Signal()  # (new_master_id): the master handed its user over, is a slave now
         self.took_over = Signal()  # (): this robot took its swarm's user over, is the master now
+        self.members_changed = Signal()  # (event, node_ids): the master removed ("lost") or recruited ("joined") members
+        # the robot's hardware health (petswarm_env/sim/faults.py): a radio that is off sends and hears nothing
+        self.health = robot.health
+        self.joined_s = -math.inf  # when this robot last entered a swarm (the status timeout counts from here)
         radio.attach(self)
 
     # -- RF communication and message processing -------------------------------------------------
     def send(self, kind: str, dst: int = BROADCAST, pan: int | None = None, **payload: Any) -> None:
+        if not self.health.radio_ok:  # radio off (a fault): nothing leaves
+            return
         pan = self.swarm_pan if pan is None else pan
         frame = Frame(kind, self.node_id, dst, pan, payload, msg.payload_bytes(kind, payload))
         self.radio.send(self, frame)
@@ -101,7 +107,7 @@ class Station:
     def receive(self, frame: Frame) -> None:
         """Called by the medium for every frame its MAC accepted; handled after MCU processing."""
         handler = self.handlers.get(frame.kind)
-        if handler is None:
+        if handler is None or not self.health.radio_ok:
             return
         base, jitter = self._processing  # processing_delay(), inlined: called for every reception
         self.later(base + jitter * self.draws.uniform(), self._handle, handler, frame)
@@ -131,6 +137,7 @@ class Station:
         the member and neighbour tables and the driving ``mode`` it was told (a slave) or chose (the
         master) (seed 000 Fig. 8, step 4: joined robots switch to the new PAN ID)."""
         self.state = state
+        self.joined_s = self.clock.now
         self.swarm_pan = pan
         self.pans = frozenset({pan})
         self.know.member = member

@@ -69,6 +69,8 @@ class Swarm:
         self.emergency = False  # the user is lost (seed 002 Fig. 4); set by the user session
         self._mode_seq = 0
         self.on_master_change = None  # callback(old_node, new_node), set by the user session
+        # members lost and recruited while organized (middleware/recovery.py): (time, "lost" | "joined", node ids)
+        self.member_log: list[tuple[float, str, list[int]]] = []
 
     # -- organize (seed 000 §3.4) --------------------------------------------------------------
     def start_organize(self) -> None:
@@ -87,6 +89,13 @@ class Swarm:
     def _start_master_processes(self, master: Node) -> None:
         master.ring.start_as_master()
         self.clock.process(self._broadcast_status(master))
+        self.clock.process(master.recovery.maintain(self.pan))  # the periodic scan while a slot is open
+
+    def members_changed(self, node: Node, event: str, node_ids: list[int]) -> None:
+        """The master removed (``lost``) or recruited (``joined``) members (middleware/recovery.py)."""
+        if node is self.master:
+            self.formation = node.formation
+            self.member_log.append((self.clock.now, event, list(node_ids)))
 
     @property
     def organized(self) -> bool:

@@ -12,6 +12,15 @@ Robots have independent clocks, so IR transmission is sequenced by a token:
 A lost token must not stall the ring (SPEC §3.3, chosen): the master watches the ring and, after
 ``token_timeout_s`` of silence, regenerates the token and transmits itself.
 
+A member that stops answering (issue 15; chosen): the holder before it retries the token
+``token_retries`` times, then skips it, every round. The master counts, at the start of each of
+its own slots (one round of the ring), the members it heard no ring frame from since the start of
+its previous slot — their acknowledgements of its start sign and token, their own start signs,
+tokens and sync messages (a live member sends several each round, so loss alone rarely silences
+one: at ``radio.loss_prob`` 0.3, five frames all lost is 0.2 %) — and declares a member *lost*
+after ``protocol.lost_after_rounds`` such rounds in a row: ``lost_handler(node_id)``, the
+recovery manager (:mod:`.recovery`), removes it from the tables.
+
 Heading exchange: robot j saw robot i at bearing φ_ji (in j's frame); i saw j at φ_ij. Then
 θ_j − θ_i = φ_ij − φ_ji + π (SPEC §3.4), with no compass. The two bearings must come from the same
 round of the ring: i pairs j's report with its own measurement of j's latest slot, and drops the
@@ -49,6 +58,11 @@ class TokenRing:
         self._headings_expected: set[int] = set()
         self._headings_event = None
         self._slot_start: dict[int, float] = {}  # robot -> start of its latest IR slot (its TX_START)
+        self.heard: dict[int, float] = {}  # robot -> when we last received one of its ring frames
+        self.silent_rounds: dict[int, int] = {}  # master: member -> rounds in a row it was not heard in
+        self.round_start_s = 0.0  # master: start of its previous slot
+        self.lost_handler = None  # master: called with the node id of a member declared lost (Node wires it)
+        self._declared: set[int] = set()
         node.on(msg.TX_START, self._on_tx_start)
         node.on(msg.TOKEN, self._on_token)
         node.on(msg.SYNC, self._on_sync)
@@ -58,7 +72,8 @@ class TokenRing:
 
     # -- ring order -----------------------------------------------------------------------------
     def _next_member(self, member: int) -> int:
-        return (member + 1) % self.node.know.total_members
+        total = self.node.know.total_members
+        return (member + 1) % total if total else 0
 
     def _ring_peers(self) -> set[int]:
         return {n for n in self.node.know.members.values() if n != self.node.node_id}
@@ -75,6 +90,7 @@ class TokenRing:
         if frame.dst != self.node.node_id:
             return
         self._acks.add(frame.src)
+        self.heard[frame.src] = self.node.clock.now
         ev = self._acks_event
         if ev is not None and not ev.triggered and self._acks_needed <= self._acks:
             ev.succeed()
@@ -89,8 +105,11 @@ class TokenRing:
         self.token_seq = seq
         self.last_activity_s = clock.now
         peers = self._ring_peers()
+        slot_start = clock.now
         node.send(msg.TX_START, seq=seq)
         yield from self._wait_acks(peers)
+        if node.state == "master" and node.know is know:
+            self._count_silent(peers, slot_start)
         yield clock.timeout(cfg.ir_tx_s)
         if self.token_seq != seq or node.know is not know:  # superseded, or left the swarm
             self.holding = False
@@ -111,7 +130,10 @@ class TokenRing:
         member = node.know.member
         nxt = self._next_member(member)
         for _skip in range(node.know.total_members):
-            target = node.know.members[nxt]
+            target = node.know.members.get(nxt)
+            if target is None:  # the tables shrank meanwhile (a member removed)
+                nxt = self._next_member(nxt)
+                continue
             for _attempt in range(cfg.token_retries + 1):
                 node.send(msg.TOKEN, seq=seq + 1, next=nxt)
                 yield from self._wait_acks({target})
@@ -128,9 +150,33 @@ class TokenRing:
         if nxt == member:  # nobody else answered: keep the token
             node.clock.process(self._begin(seq + 1))
 
+    def _count_silent(self, peers: set[int], slot_start: float) -> None:
+        """Master, at the start of its slot: a round has passed since its previous slot; count the
+        members not heard in it, and declare lost those silent ``protocol.lost_after_rounds`` rounds
+        in a row (module docstring)."""
+        since, heard, silent = self.round_start_s, self.heard, self.silent_rounds
+        need = self.node.cfg.protocol.lost_after_rounds
+        for peer in peers:
+            if heard.get(peer, -math.inf) >= since:
+                silent[peer] = 0
+                continue
+            silent[peer] = silent.get(peer, 0) + 1
+            if silent[peer] >= need and peer not in self._declared and self.lost_handler is not None:
+                self._declared.add(peer)
+                self.lost_handler(peer)
+        self.round_start_s = slot_start
+
+    def forget(self, node_id: int) -> None:
+        """Master: ``node_id`` left the tables (or joined them anew): its count starts over."""
+        self.silent_rounds.pop(node_id, None)
+        self._declared.discard(node_id)
+        self.heard.pop(node_id, None)
+
     def start_as_master(self) -> None:
         """The master starts the ring (with a fresh token) and its watchdog."""
         node = self.node
+        self.round_start_s = node.clock.now  # every member's first round counts from now
+        self.silent_rounds = {}
         if node.know.total_members > 1:
             self.token_seq += 1000  # supersede any token still in flight
             node.clock.process(self.hold(self.token_seq))
@@ -143,14 +189,14 @@ class TokenRing:
 
     # -- everyone ---------------------------------------------------------------------------------
     def _on_tx_start(self, frame: Frame) -> None:
-        self.last_activity_s = self._slot_start[frame.src] = self.node.clock.now
+        self.last_activity_s = self._slot_start[frame.src] = self.heard[frame.src] = self.node.clock.now
         seq = frame.payload["seq"]
         self.token_seq = max(seq, self.token_seq)
         self.node.send(msg.TX_START_ACK, dst=frame.src)
 
     def _on_token(self, frame: Frame) -> None:
         node = self.node
-        self.last_activity_s = node.clock.now
+        self.last_activity_s = self.heard[frame.src] = node.clock.now
         node.send(msg.TOKEN_ACK, dst=frame.src)
         seq = frame.payload["seq"]
         if seq <= self.token_seq or node.know.members.get(frame.payload["next"]) != node.node_id:
@@ -162,7 +208,7 @@ class TokenRing:
         node.clock.process(self._begin(seq))
 
     def _on_sync(self, frame: Frame) -> None:
-        self.last_activity_s = self.node.clock.now
+        self.last_activity_s = self.heard[frame.src] = self.node.clock.now
         self.token_seq = max(self.token_seq, frame.payload["seq"])
 
     def report_heading(self, holder: int) -> bool:

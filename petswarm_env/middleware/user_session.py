@@ -99,12 +99,13 @@ class UserSession:
         self.connected_robot: int | None = None  # node id the belt is connected to over BLE
         self.paired_at_s: float | None = None
         self.link_since_s = math.inf  # the current BLE connection carries data from this time
-        self.events = {"emergencies": 0, "exceptions": 0, "alerts_to_belt": 0}
+        self.events = {"emergencies": 0, "exceptions": 0, "alerts_to_belt": 0, "masters_lost": 0}
         self.commands_received: list[tuple[float, str]] = []
         self.startup: list[str] = []  # commands the user gives right after pairing (set by the env)
         self._emergency_since = 0.0
         self._gestures: list[str] = []  # gestures the user is about to perform, one stroke at a time
         self._watch_free_s = -math.inf
+        self.paused = False  # the user stopped after losing their master (issue 15), until a swarm is organized again
         swarm.on_master_change = self._on_master_change
         self.clock.process(self._wakeup_bursts())
         self.clock.process(self._lf_bursts())
@@ -127,6 +128,49 @@ class UserSession:
                 self.state = "command_waiting"
                 return
             yield self.clock.timeout(cfg.lf.wake_period_s)
+
+    # -- master loss (issue 15) ---------------------------------------------------------------------
+    def _master_lost(self) -> None:
+        """The robot the wearables are connected to is off (a ``dead`` or ``battery`` fault): the
+        BLE link drops, the belt alerts the user, who stops and waits (chosen); the session goes
+        back to waiting-user (seed 002 Fig. 4) and pairs again with a robot of the pool in the
+        waiting state whose LF wake-up burst the belt hears (:meth:`_repair`), then the user's
+        start-up commands organize a swarm again. Its former slaves stop by their status timeout
+        and wait (middleware/sequence.py). Chosen: every waiting robot of a user's pool carries
+        the user's wake-up pattern; the papers pair the user with one robot."""
+        self.state = "waiting_user"
+        self.connected_robot = None
+        self.events["masters_lost"] += 1
+        self.events["alerts_to_belt"] += 1
+        self.user.walking = False  # the user stops at the alert
+        self.paused = True
+        self.ctrl.reset()
+        self.clock.process(self._repair())
+
+    def _repair(self):
+        """Wake-up bursts of the pool's waiting robots until the belt pairs with one (seed 002 §3.2)."""
+        cfg = self.cfg
+        swarm = self.swarm
+        fleet = swarm.fleet
+        while self.connected_robot is None:
+            yield self.clock.timeout(cfg.lf.wake_period_s)
+            for idx in sorted(swarm.nodes):
+                node = swarm.nodes[idx]
+                if node.state != "waiting" or not node.health.powered or fleet.swarm_of(idx) is not swarm:
+                    continue
+                d = math.dist(self.world.robots[idx].position, self.user.position)
+                if lf.wakes_up(cfg.lf, d, self.robot_pattern, self.user_pattern):
+                    yield self.clock.timeout(cfg.ble.connect_s)
+                    if node.state != "waiting":
+                        break
+                    swarm.master = node
+                    self.connected_robot = idx
+                    self.paired_at_s = self.link_since_s = self.clock.now
+                    node.connected_user = swarm.user_id
+                    node.state = self.state = "command_waiting"
+                    self.tracker.reset(node.ahrs_yaw())
+                    self.startup = [f"mode:{swarm.mode}", "organize"]
+                    return
 
     # -- localisation (seed 002 §3.3) -------------------------------------------------------------
     def _lf_bursts(self):
@@ -261,6 +305,11 @@ class UserSession:
         cfg = self.cfg
         now = self.clock.now
         user = self.user
+        if self.connected_robot is not None and not self.world.robots[self.connected_robot].health.powered:
+            self._master_lost()
+        elif self.paused and self.swarm.organized:
+            self.paused = False
+            user.walking = True  # organized again: the user walks on
         seg = user.segment
         moving = user.walking
         t_fed, heading_fed = self._belt_fed  # the waist's mean yaw rate over the period (the gyro integrates

@@ -166,6 +166,10 @@ class Scenario:
 
     name: str = ""
     changes_master: bool = False
+    # runtime changes the scenario brings when the config lists none (issue 15; plain mappings of the
+    # config's keys: faults [{at_s, robot, kind, duration_s}], arrivals [{at_s, type}]; petswarm_env/runtime.py)
+    faults: tuple[dict[str, Any], ...] = ()
+    arrivals: tuple[dict[str, Any], ...] = ()
 
     def walk(self, user: Any, rng: np.random.Generator) -> list[Segment]:
         """The segments between the start-up stand and the final straight walk (``user``: the

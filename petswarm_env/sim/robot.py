@@ -12,6 +12,7 @@ import pymunk
 from petswarm_env.config import RobotConfig
 from petswarm_env.sim.body import COLLISION_ROBOT, DrivenBody
 from petswarm_env.sim.body import _get_position  # noqa: F401  read here by middleware/node.py until it binds Body.read_position
+from petswarm_env.sim.faults import FaultState
 from petswarm_env.sim.sensors import AHRS
 
 # Wheel order: front-left, front-right, rear-left, rear-right. Linear wheel-rim speeds (m/s).
@@ -67,6 +68,7 @@ class Robot(DrivenBody):
         self.cfg = cfg
         self.shape.robot_index = index  # read by collision callbacks
         space.add(self.body, self.shape)
+        self.health = FaultState()  # the parts that work (petswarm_env/sim/faults.py)
         self.ahrs = AHRS(self, cfg)  # own sensor: yaw with white noise and a drifting bias
         self.ahrs_yaw = self.ahrs.yaw  # ahrs_yaw(now_s): the reading (bound once: read every frame)
 

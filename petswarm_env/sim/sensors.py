@@ -52,6 +52,8 @@ class AHRS:
         self.power_on_heading_rad = 0.0  # the heading its readings count from
         self.time_s = 0.0  # clock time of the last bias step
         self.rng = np.random.default_rng(0) if rng is None else rng  # (the env gives every robot its own stream)
+        self._health = getattr(body, "health", None)  # an AHRS fault freezes the output (sim/faults.py)
+        self._last_yaw = 0.0
 
     def power_on(self, rng: np.random.Generator, now_s: float = 0.0) -> None:
         """Switch on at clock time ``now_s`` with the noise stream ``rng`` (its first draw is the
@@ -73,12 +75,16 @@ class AHRS:
     def yaw(self, now_s: float) -> float:
         """The reading at clock time ``now_s``: the bias walks over the time since the last reading
         (one normal), then one normal of white noise."""
+        health = self._health
+        if health is not None and not health.ahrs_ok:
+            return self._last_yaw  # no new yaw: the last reading repeats
         draws = self._draws
         dt = now_s - self.time_s
         if dt > 0:
             self.bias_rad += self.drift_rad * math.sqrt(dt) * draws.normal()
             self.time_s = now_s
-        return self._heading() - self.power_on_heading_rad + self.bias_rad + self.noise_rad * draws.normal()
+        yaw = self._last_yaw = self._heading() - self.power_on_heading_rad + self.bias_rad + self.noise_rad * draws.normal()
+        return yaw
 
 
 def noisy_odometry(velocity_body: tuple[float, float, float], errors) -> tuple[float, float, float]:
@@ -156,8 +162,12 @@ class Sensors:
 
     def read_rings(self) -> np.ndarray:
         """Read every robot's ultrasonic ring now; also kept as :attr:`ranges`."""
-        self.ranges = self.ring.ranges(self.world, list(range(len(self.world.robots))), self.rng)
-        return self.ranges
+        ranges = self.ring.ranges(self.world, list(range(len(self.world.robots))), self.rng)
+        for i, robot in enumerate(self.world.robots):
+            if not robot.health.ultrasonic_ok:  # a ring that gives no readings: no echo, max range (sim/faults.py)
+                ranges[i] = self.ring.max_range_m
+        self.ranges = ranges
+        return ranges
 
     def odometry_noise(self, n: int) -> list[list[float]] | None:
         """The relative odometry errors of ``n`` readings in one draw, (n, 3) (the same numbers as

@@ -94,6 +94,16 @@ CASES = [
     ({"physics": {"g": 9.81}}, "physics"),
     ({"swarm": 5}, "swarm"),
     ({"swarm.num_slaves.x": 1}, "swarm.num_slaves"),
+    ({"protocol.lost_after_rounds": 0}, "protocol.lost_after_rounds"),
+    ({"protocol.status_timeout_s": 0}, "protocol.status_timeout_s"),
+    ({"faults": [{"at_s": 1, "robot": 1, "kind": "zap"}]}, "faults[].kind"),
+    ({"faults": [{"at_s": 1, "robot": 99, "kind": "dead"}]}, "faults[0].robot"),
+    ({"faults": [{"at_s": 1, "robot": "boss", "kind": "dead"}]}, "faults[].robot"),
+    ({"faults": [{"at_s": 1, "robot": 1, "kind": "dead", "duration_s": 0}]}, "duration_s"),
+    ({"faults_random.kinds": ["zap"]}, "faults_random.kinds"),
+    ({"faults_random.rate_per_min": -1}, "faults_random.rate_per_min"),
+    ({"arrivals": [{"at_s": 1, "type": "tank"}]}, "arrivals[].type"),
+    ({"arrivals": [{"at_s": -1, "type": "petbot"}]}, "arrivals.0.at_s"),
 ]
 
 

@@ -33,6 +33,9 @@ EXAMPLES = {
     msg.MODE_CHANGE: {"seq": 3, "mode": "leading", "members": {0: 4, 1: 0}, "shape": "wedge",
                       "links": {1: [(0, (-1.0, 0.5))], 2: [(0, (-1.0, -0.5)), (1, (0.0, -1.0))]}},
     msg.HANDOVER: {"seq": 3, "user": None, "previous": "following"},
+    msg.MEMBER_UPDATE: {"seq": 21500, "members": {0: 0, 1: 4, 2: 2}, "shape": "wedge", "links": {1: [(0, (-1.0, 0.5))],
+                        2: [(0, (-1.0, -0.5))]}, "mode": "following"},
+    msg.MEMBER_UPDATE_ACK: {"seq": 21500},
 }
 
 

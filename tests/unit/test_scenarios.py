@@ -13,7 +13,8 @@ from petswarm_env.middleware.formation import formation_for_mode, user_position_
 from petswarm_env.scenarios import SCENARIOS, Placement, Scenario, Segment
 from petswarm_env.sim.world import World
 
-PAPER_ORDER = ["straight", "turn_left_60", "turn_right_60", "zigzag", "u_turn", "stop_and_go", "random_walk", "mode_change"]
+PAPER_ORDER = ["straight", "turn_left_60", "turn_right_60", "zigzag", "u_turn", "stop_and_go", "random_walk", "mode_change",
+               "dropout", "master_loss", "arrival"]  # then the runtime-change scenarios (issue 15, scenarios/runtime_changes.py)
 
 
 def test_the_registry_holds_the_named_scenarios_in_order():

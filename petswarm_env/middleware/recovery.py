@@ -1,0 +1,197 @@
+"""Losing and recruiting members while organized (issue 15; seed 003: a failing robot's task is
+taken over, robots are added at runtime).
+
+Both sides run on one robot's station, like the other managers:
+
+* **removal** (master): the token ring declares a member lost (:mod:`.token_ring`: silent for
+  ``protocol.lost_after_rounds`` rounds). The master removes it from its tables: the member with
+  the highest number takes the lost one's number (it drives to that slot; nobody else moves) and
+  the formation is the standard one of the master's shape for one member less
+  (:func:`~.formation.formation_for_mode`; chosen: every member number stays in 1..n, so every
+  rule that numbers the members — the ring order, the neighbour tables, Table 3 — works as
+  before). It broadcasts the *member update* frame — new total, member table, neighbour table,
+  mode (:mod:`.messages`) — until every remaining member acknowledged it (a lost update or a lost
+  acknowledgement → broadcast again, within ``protocol.max_retries``; a member that never heard
+  it keeps its old tables until the next update, and if it was the one renumbered, the ring does
+  not reach it and it is declared lost in turn). The refill starts at once, beside the update's
+  retries (under loss they may take a second or more; the refill's own update supersedes it).
+* **refill** (master): right after a removal, and every ``protocol.rescan_period_s`` while a slot
+  is open (the tables hold fewer than ``swarm.num_slaves`` slaves: a member lost, or organized
+  short), the master recruits waiting robots through the join pipeline of seed 000 Fig. 8 —
+  scan, query, :meth:`~.join.JoinManager._select` (the assignment's one seam: Table 2's closest
+  fills the lowest open numbers), notify (:meth:`~.join.JoinManager.refill`) — into the open
+  member numbers, then broadcasts the member update with the new tables. Robots switched on
+  mid-episode (``arrivals``) are found by the same periodic scan.
+* **no robot to recruit**: the formation stays at the smaller size the removal planned (the
+  remaining members re-planned, its tables sent), and the periodic scan keeps looking.
+* **members** apply an update they hear (acknowledging every copy); a robot that finds itself
+  out of the member table leaves the swarm (back to waiting).
+
+The master reports what changed upward (``members_changed``: ``lost`` or ``joined`` and the
+robots), for the user's swarm and the experimenter.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+from petswarm_env.comms.radio import Frame
+from petswarm_env.middleware import messages as msg
+from petswarm_env.middleware.formation import Formation, formation_for_mode
+from petswarm_env.middleware.join import JoinManager, OrganizeResult
+from petswarm_env.middleware.station import Station
+
+
+class RecoveryManager:
+    """Both sides of member removal and refill on one robot."""
+
+    def __init__(self, node: Station, join: JoinManager, forget: Callable[[int], None], leave: Callable[[], None]):
+        self.node = node
+        self.join = join
+        self._forget = forget  # the ring's count of a robot starts over (TokenRing.forget)
+        self._leave = leave  # back to waiting (SequenceManager.leave_swarm)
+        self.last_seq = -1
+        self._sent_seq = -1
+        self._seq = -1
+        self._acks: set[int] = set()
+        self._needed: set[int] = set()
+        self._event = None
+        self._lost: list[int] = []
+        self.busy = False
+        self.update_retries = 0  # master: member-update broadcasts repeated for a missing acknowledgement
+        self.refills: list[OrganizeResult] = []
+        node.on(msg.MEMBER_UPDATE, self._on_update)
+        node.on(msg.MEMBER_UPDATE_ACK, self._on_ack)
+
+    # -- master side ----------------------------------------------------------------------------
+    def member_lost(self, node_id: int) -> None:
+        """The ring declared ``node_id`` lost: remove it (then refill), one loss after another."""
+        node = self.node
+        if node.state != "master" or node_id in self._lost:
+            return
+        self._lost.append(node_id)
+        if not self.busy:
+            node.clock.process(self._recover())
+
+    def open_members(self) -> list[int]:
+        """The member numbers the user's required count leaves open: after the last member, up to
+        ``swarm.num_slaves`` (the master's own configuration: its user's request)."""
+        return list(range(self.node.know.total_members, self.node.cfg.swarm.num_slaves + 1))
+
+    def maintain(self, pan: int):
+        """Master process: the periodic scan while organized on ``pan`` and a slot is open."""
+        node = self.node
+        clock = node.clock
+        period = node.cfg.protocol.rescan_period_s
+        while True:
+            yield clock.timeout(period)
+            if node.state != "master" or node.swarm_pan != pan:
+                return
+            if not self.busy and self.open_members():
+                self.busy = True
+                yield from self._refill()
+                self.busy = False
+                if self._lost:
+                    clock.process(self._recover())
+
+    def _recover(self):
+        self.busy = True
+        while self._lost and self.node.state == "master":
+            yield from self._remove(self._lost.pop(0))
+            if not self._lost and self.open_members():
+                yield from self._refill()
+        self.busy = False
+
+    def _remove(self, node_id: int):
+        node = self.node
+        know = node.know
+        members = dict(know.members)
+        lost = next((m for m, n in members.items() if n == node_id), None)
+        if lost is None or lost == 0:
+            return
+        last = max(members)
+        members[lost] = members[last]  # the last member takes the lost one's number (and slot)
+        del members[last]
+        try:
+            formation = formation_for_mode(node.cfg.swarm, len(members), know.mode)
+        except ValueError:  # a custom table fixes its size: the loss is detected, the tables stay
+            return
+        self._commit(members, formation)
+        self._forget(node_id)
+        node.members_changed.emit("lost", [node_id])
+        # announced beside the refill that follows (chosen: the refill's scan does not wait for every
+        # acknowledgement; its own update, once a robot joined, supersedes this one)
+        node.clock.process(self._announce(members, formation))
+        yield node.clock.timeout(0.0)
+
+    def _refill(self):
+        node = self.node
+        know = node.know
+        result = OrganizeResult()
+        self.refills.append(result)
+        new = yield from self.join.refill(self.open_members(), node.swarm_pan, dict(know.members), know.mode, result)
+        if new is None or node.state != "master":
+            return
+        added = [n for m, n in new.items() if know.members.get(m) != n]
+        formation = formation_for_mode(node.cfg.swarm, len(new), know.mode)
+        self._commit(new, formation)
+        for n in added:
+            self._forget(n)
+        node.members_changed.emit("joined", added)
+        yield from self._announce(new, formation)
+
+    def _commit(self, members: dict[int, int], formation: Formation) -> None:
+        know = self.node.know
+        know.members = dict(members)
+        know.total_members = len(members)
+        self.node.formation = formation
+
+    def _announce(self, members: dict[int, int], formation: Formation):
+        """Broadcast the member update until every other member acknowledged it."""
+        node = self.node
+        clock = node.clock
+        cfg = node.cfg.protocol
+        seq = max(self._sent_seq + 1, int(round(clock.now * 1000)))  # increasing across masters (ms of the clock)
+        self._sent_seq = self._seq = seq
+        others = {n for m, n in members.items() if m != 0}
+        payload = dict(seq=seq, members=dict(members), shape=formation.shape, links=formation.links_payload(),
+                       mode=node.know.mode)
+        self._acks = set()
+        retries = 0
+        while others and self._seq == seq:  # a newer update supersedes this one
+            node.send(msg.MEMBER_UPDATE, **payload)
+            self._needed, self._event = others, clock.event()
+            yield clock.any_of([self._event, clock.timeout(cfg.response_timeout_s)])
+            if self._seq != seq or others <= self._acks or retries >= cfg.max_retries or node.state != "master":
+                break
+            retries += 1
+        self.update_retries += retries
+
+    def _on_ack(self, frame: Frame) -> None:
+        if frame.dst != self.node.node_id or frame.payload["seq"] != self._seq:
+            return
+        self._acks.add(frame.src)
+        ev = self._event
+        if ev is not None and not ev.triggered and self._needed <= self._acks:
+            ev.succeed()
+
+    # -- members --------------------------------------------------------------------------------
+    def _on_update(self, frame: Frame) -> None:
+        node = self.node
+        if node.state != "slave":
+            return
+        p = frame.payload
+        node.send(msg.MEMBER_UPDATE_ACK, dst=frame.src, seq=p["seq"])
+        if p["seq"] <= self.last_seq:
+            return
+        self.last_seq = p["seq"]
+        members = {int(m): n for m, n in p["members"].items()}
+        if node.node_id not in members.values():  # removed: not a member any more
+            self._leave()
+            return
+        know = node.know
+        know.members = members
+        know.total_members = len(members)
+        know.member = next(m for m, n in members.items() if n == node.node_id)
+        know.mode = p["mode"]
+        node.formation = Formation.from_links_payload(p["shape"], p["links"])

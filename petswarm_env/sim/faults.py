@@ -1,0 +1,114 @@
+"""Every robot's fault state, in one place (issue 15 part 4; seed 003: robots fail and are replaced).
+
+A fault is hardware truth: the robot's software does not read it. Each kind switches off a part of
+the robot, and each part's model asks :class:`Health` whether it works:
+
+* ``dead`` — the robot is off: the motors stop (the body stays where it is, an obstacle), the radio
+  sends and hears nothing, the IR module neither transmits nor receives, the middleware is off;
+* ``battery`` — the battery is drained to 0: the same as ``dead``, through the same entry point
+  (:meth:`FaultState.set` with ``battery``); the bodies branch's battery model calls
+  ``faults.inject(robot, "battery")`` when its charge reaches 0;
+* ``radio_silent`` — the 802.15.4 radio sends and receives no frame (the robot drives on);
+* ``ir`` — the IR module is off: no transmission in its token slot, no reception of the others';
+* ``ultrasonic`` — the ring gives no readings: every sensor reads ``robot.ultrasonic.max_range_m``
+  (an echo-less ping: "nothing in range"; chosen, the value the ring gives in the open, so the
+  safety stage sees no obstacle). :meth:`Faults.ultrasonic_ok` is the per-robot flag the
+  observation's presence field maps to 0 (the bodies branch's presence flags);
+* ``ahrs`` — the AHRS gives no new yaw: it repeats its last reading from the fault on (a frozen
+  output; chosen — the robot's software cannot tell, like a stuck sensor bus).
+
+A transient fault (``duration_s``) clears after its duration: the part works again; a robot that
+was ``dead`` (or whose battery was swapped) reboots — its middleware starts again in the waiting
+state with nothing known (it may be recruited again). ``duration_s`` null = permanent.
+
+:class:`Faults` holds every robot's :class:`FaultState` and the episode's fault log (what was
+injected when: the experimenter's record, :mod:`petswarm_env.metrics`). The env schedules the
+config's faults on the clock and resolves ``master`` / ``random_slave`` at the fault's time
+(:mod:`petswarm_env.runtime`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+KINDS = ("dead", "radio_silent", "ir", "ultrasonic", "ahrs", "battery")  # = config.FAULT_KINDS
+POWER_KINDS = ("dead", "battery")  # the robot is off
+
+
+@dataclass
+class FaultState:
+    """One robot's active faults and the health of each part."""
+
+    active: set[str] = field(default_factory=set)
+    # cached health flags (read per frame and per step): recomputed by set/clear
+    powered: bool = True
+    radio_ok: bool = True
+    ir_ok: bool = True
+    ultrasonic_ok: bool = True
+    ahrs_ok: bool = True
+
+    def set(self, kind: str, on: bool) -> None:
+        """The one entry point: fault ``kind`` starts (``on``) or clears."""
+        if kind not in KINDS:
+            raise ValueError(f"unknown fault kind {kind!r}; one of {', '.join(KINDS)}")
+        (self.active.add if on else self.active.discard)(kind)
+        a = self.active
+        self.powered = not (a & set(POWER_KINDS))
+        self.radio_ok = self.powered and "radio_silent" not in a
+        self.ir_ok = self.powered and "ir" not in a
+        self.ultrasonic_ok = self.powered and "ultrasonic" not in a
+        self.ahrs_ok = self.powered and "ahrs" not in a
+
+
+@dataclass(frozen=True)
+class FaultRecord:
+    time_s: float  # clock time the fault started
+    robot: int
+    kind: str
+    role: str  # what the robot was when it failed: master | slave | waiting | off
+    duration_s: float | None
+
+
+class Faults:
+    """Every robot's fault state and the episode's log. ``on_change(robot, kind, on)`` callbacks
+    (set by the env) apply a change to the parts that are not asked each time (the motors, the
+    middleware's power, the AHRS)."""
+
+    def __init__(self, states: list[FaultState]):
+        self.states = states  # each robot's own (Robot.health), in robot order
+        self.log: list[FaultRecord] = []
+        self.on_change: list[Callable[[int, str, bool], None]] = []
+
+    def of(self, robot: int) -> FaultState:
+        return self.states[robot]
+
+    def inject(self, robot: int, kind: str, now_s: float, role: str = "", duration_s: float | None = None) -> None:
+        """Fault ``kind`` starts on ``robot`` now (logged)."""
+        self.log.append(FaultRecord(now_s, robot, kind, role, duration_s))
+        self._set(robot, kind, True)
+
+    def clear(self, robot: int, kind: str) -> None:
+        """A transient fault ends."""
+        self._set(robot, kind, False)
+
+    def _set(self, robot: int, kind: str, on: bool) -> None:
+        state = self.states[robot]
+        was = set(state.active)
+        state.set(kind, on)
+        if state.active != was:
+            for callback in self.on_change:
+                callback(robot, kind, on)
+
+    def powered(self, robot: int) -> bool:
+        return self.states[robot].powered
+
+    def ultrasonic_ok(self, robot: int) -> bool:
+        """Whether robot ``robot``'s ultrasonic ring delivers readings (the observation's presence flag)."""
+        return self.states[robot].ultrasonic_ok
+
+    def sensing_health(self, robot: int) -> dict[str, bool]:
+        """The sensing parts that work, for the RUTA sensing utility (seed 003 §4.1.2, φ_sens): a
+        hook for the ruta branch — a sensor fault lowers what the robot can deliver."""
+        s = self.states[robot]
+        return {"ultrasonic": s.ultrasonic_ok, "ir": s.ir_ok, "ahrs": s.ahrs_ok}

@@ -23,11 +23,8 @@ difference of tens of milliseconds); the time from the fault is reported beside 
 003's robots bid over XBee with seconds of reasoning, ours over the simulated 802.15.4 medium in
 tens of milliseconds, and our time to reassign is mostly the token ring's detection of the loss.
 
-**Not registered yet**: it needs the faults branch (config ``faults: [{at_s, robot, kind}]`` with
-``kind: dead``, the token ring's loss detection, the slot refill through ``JoinManager._choose``
-the ``dropout`` scenario and the summary keys ``reassignments`` and ``reassignment_time_s``). Without them :func:`run` raises
-:class:`NotAvailable` naming what is missing. Once they are merged, add ``EXPERIMENT`` to
-``experiments/registry.py`` (``petswarm reproduce --only reassignment``).
+``petswarm reproduce --only reassignment`` runs it (experiments/registry.py); without the faults
+machinery :func:`run` raises :class:`NotAvailable` naming what is missing.
 
 Standalone: ``python -m experiments.reassignment [--trials N] [--json OUT]``.
 """

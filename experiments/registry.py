@@ -30,7 +30,7 @@ from collections.abc import Callable, Iterable
 from typing import Any
 
 from experiments import ir_accuracy, lf_accuracy, organize_time, reaction_time, rotation_sync
-from experiments import ruta_example, sensor_mapping
+from experiments import reassignment, ruta_example, sensor_mapping
 from experiments.results import BASES, Experiment, ExperimentResult, NotAvailable, Progress
 from petswarm_env.config import Config
 from petswarm_env.files import jsonable
@@ -38,7 +38,7 @@ from petswarm_env.files import jsonable
 EXPERIMENTS: dict[str, Experiment] = {
     m.EXPERIMENT.name: m.EXPERIMENT for m in (ir_accuracy, reaction_time, organize_time, lf_accuracy, rotation_sync)
 }
-EXPERIMENTS.update({m.EXPERIMENT.name: m.EXPERIMENT for m in (sensor_mapping, ruta_example)})  # issue 15
+EXPERIMENTS.update({m.EXPERIMENT.name: m.EXPERIMENT for m in (sensor_mapping, ruta_example, reassignment)})  # issue 15
 
 
 def parse_only(text: str | None) -> list[str]:

@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from petswarm_env.mapping import MOVE_HOLONOMIC, Behaviour
 from baselines.policy import Policy, PolicySpec
 from petswarm_env.config import describe_value
 from petswarm_env.env import ENV_NAME
@@ -206,6 +207,9 @@ class LearnedPolicy(Policy):
 
     def __init__(self, spec: PolicySpec, layers: list[tuple[np.ndarray, np.ndarray]], activation: str,
                  index: np.ndarray, meta: dict[str, Any] | None = None):
+        # the behaviours its file declares (optional "behaviours": names; default MOVE, the action it was trained on)
+        names = (meta or {}).get("behaviours", ["MOVE"])
+        self.behaviours = tuple(MOVE_HOLONOMIC if n == "MOVE" else Behaviour(str(n)) for n in names)
         super().__init__(spec)
         self.layers = [(w.astype(np.float64), b.astype(np.float64)) for w, b in layers]
         self.act_fn = ACTIVATIONS[activation]

@@ -11,18 +11,17 @@ from __future__ import annotations
 
 import copy
 import math
-import typing
 from collections.abc import Mapping
 from importlib import resources
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
-import numpy as np
 import yaml
-from pydantic import (AfterValidator, BaseModel, ConfigDict, Field, ValidationError, ValidationInfo, field_validator,
-                      model_validator)
+from pydantic import AfterValidator, Field, ValidationError, model_validator
 from pydantic_core import PydanticCustomError
 
+from petswarm_env.config_base import Section  # noqa: F401  (the base of every section; re-exported here)
+from petswarm_env.robot_types import PoolEntry, RobotTypeConfig, robot_types_problem
 from petswarm_env.scenarios import SCENARIOS  # the registry (the scenarios import nothing of the package)
 
 
@@ -46,41 +45,6 @@ ScenarioName = Annotated[str, AfterValidator(_registered_scenario)]
 
 class ConfigError(ValueError):
     """A configuration key or value is wrong; the message says which and how to fix it."""
-
-
-def _wants_number_only(annotation: Any) -> bool:
-    """Whether a field's type holds numbers (int or float, inside tuples and lists too) and no
-    boolean and nothing of any type: a boolean given there is a mistake, not 0 or 1."""
-    if annotation is bool or annotation is Any:
-        return False
-    if annotation in (int, float):
-        return True
-    args = [a for a in typing.get_args(annotation) if a is not Ellipsis and a is not type(None)]  # Optional[int] too
-    if typing.get_origin(annotation) is Annotated:
-        args = args[:1]
-    return bool(args) and all(_wants_number_only(a) for a in args)
-
-
-def _holds_bool(value: Any) -> bool:
-    if isinstance(value, (list, tuple)):
-        return any(_holds_bool(v) for v in value)
-    return isinstance(value, (bool, np.bool_))
-
-
-class Section(BaseModel):
-    """A config section: unknown keys are refused, values are frozen once validated. A float
-    must be finite (no NaN, no infinity), and a boolean is not a number (pydantic's lax mode
-    would read ``true`` as 1)."""
-
-    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
-
-    @field_validator("*", mode="before")
-    @classmethod
-    def _no_bool_for_numbers(cls, value: Any, info: ValidationInfo) -> Any:
-        field = cls.model_fields.get(info.field_name or "")
-        if field is not None and _holds_bool(value) and _wants_number_only(field.annotation):
-            raise PydanticCustomError("bool_not_number", "a boolean is not a number here; give a number")
-        return value
 
 
 class BoxObstacle(Section):
@@ -157,6 +121,7 @@ class SwarmConfig(Section):
     spawn_jitter_m: float = Field(ge=0)
     master_change: bool = Field(description="the user's master-change request on a driving-mode change (Table 3)")
     other_user_robots: int = Field(ge=0, le=16, description="waiting robots already connected to another user")
+    pool: list[PoolEntry] = Field(description="each user's waiting robots by type; empty = num_slaves + extra_robots petbots")
 
 
 class RadioConfig(Section):
@@ -420,6 +385,7 @@ class Config(Section):
     physics_substeps: int = Field(ge=1, le=100)
     world: WorldConfig
     robot: RobotConfig
+    robot_types: dict[str, RobotTypeConfig]
     swarm: SwarmConfig
     radio: RadioConfig
     protocol: ProtocolConfig
@@ -444,6 +410,9 @@ class Config(Section):
                              "an obstacle before the robot has to stop")
         if self.swarm.formation == "custom" and not self.swarm.custom_links:
             raise ValueError("swarm.formation 'custom' needs swarm.custom_links (robot, neighbour, offset_m)")
+        problem = robot_types_problem(self)
+        if problem:
+            raise ValueError(problem)
         return self
 
     def to_dict(self) -> dict[str, Any]:
@@ -478,6 +447,9 @@ def merge_mappings(base: dict[str, Any], over: Mapping[str, Any], prefix: str = 
     out = copy.deepcopy(base)
     for key, value in over.items():
         dotted = f"{prefix}{key}"
+        if key not in out and prefix.startswith("robot_types."):  # a user may add a type, or a key to one (pydantic checks it)
+            out[key] = copy.deepcopy(value)
+            continue
         if key not in out:
             allowed = ", ".join(sorted(out)) if out else "(none)"
             raise ConfigError(f"unknown config key '{dotted}'; allowed keys here: {allowed}")

@@ -54,6 +54,9 @@ from petswarm_env.middleware.swarm import Swarm
 from petswarm_env.middleware.user_session import UserSession, master_distance_m
 from petswarm_env.observe import OBS_VERSION, ObservationLayout, Observer, observation_bounds
 from petswarm_env.reward import slave_rewards
+from petswarm_env.robot_types import (DEFAULT_TYPE, body_plan, episode_scenarios, max_pool_size, placement_config, pool_problem,
+                                      pool_types)
+from petswarm_env.robot_types import resolve as resolve_type
 from petswarm_env.scenarios import SCENARIOS
 from petswarm_env.state import StateLayout, build_state
 from petswarm_env.sim.sensors import Sensors
@@ -106,8 +109,15 @@ class PetSwarmEnv(ParallelEnv):
         self.cfg = cfg
         self.render_mode = render_mode
         self.metadata = dict(self.metadata, render_fps=cfg.render.fps)
-        pool = cfg.swarm.num_slaves + cfg.swarm.extra_robots
-        per_user = 1 + pool
+        self._bodies = {name: resolve_type(cfg, name) for name in cfg.robot_types}  # each robot type, resolved once
+        for name in episode_scenarios(cfg):  # a scenario's own pool (robot_types.pool_types) must fit the config
+            problem = pool_problem(cfg, list(SCENARIOS[name].robot_pool), f"scenario '{name}' robot_pool")
+            if problem and not cfg.swarm.pool:
+                raise ConfigError(problem)
+        per_user = 1 + max_pool_size(cfg)
+        # the bodies this env's robots may have (every master is a petbot): what a policy attaches to
+        self.body_types = tuple(self._bodies[n] for n in sorted({DEFAULT_TYPE}.union(
+            *(pool_types(cfg, SCENARIOS[name]) for name in episode_scenarios(cfg)))))
         may_change_master = cfg.swarm.master_change and any(
             SCENARIOS[name].changes_master for name in (*cfg.user.scenario_pool, cfg.user.scenario))
         self.possible_agents = [
@@ -193,10 +203,12 @@ class PetSwarmEnv(ParallelEnv):
         scripts = [scenario.script(cfg.user, r, scenario.arena(cfg, self._reach_m or 0.0, u))
                    for u, r in enumerate(rng_script.spawn(cfg.world.num_users))]
         self.world = world = World(cfg, scripts[0])
+        world.body_plan = body_plan(cfg, scenario, self._bodies)  # each robot's type, in placement order
+        place_cfg = placement_config(cfg, scenario)
         for u in range(1, cfg.world.num_users):
             world.add_user(scripts[u], (0.0, u * cfg.world.user_spacing_m), 0.0)
         plan = formation_for_mode(cfg.swarm, cfg.swarm.num_slaves + 1, cfg.swarm.mode)
-        placement = scenario.place(world, cfg, plan.slot_positions(), user_position_in_formation(plan, cfg.master.distance_m)[0],
+        placement = scenario.place(world, place_cfg, plan.slot_positions(), user_position_in_formation(plan, cfg.master.distance_m)[0],
                                    rng_world, master_distance_m(cfg, None, cfg.swarm.mode))
         self._other_user_robots = placement.other_user_robots
         self.radio = RadioMedium(world.clock, cfg.radio, rng_radio)
@@ -226,7 +238,7 @@ class PetSwarmEnv(ParallelEnv):
         w, h = self.cfg.world.arena_m
         if w <= 0 or h <= 0:
             return
-        bodies = [(f"robot_{r.index}", r.position, self.cfg.robot.radius_m) for r in self.world.robots]
+        bodies = [(f"robot_{r.index}", r.position, r.radius_m) for r in self.world.robots]
         bodies += [(f"user {u.index}", u.position, self.cfg.user.radius_m) for u in self.world.users]
         for name, (x, y), r in bodies:
             if abs(x) + r > w / 2 or abs(y) + r > h / 2:

@@ -291,7 +291,7 @@ class Experimenter:
         for r, role in zip(world.robots, self.roles()):
             node = self.fleet.nodes.get(r.index)
             label = str(node.know.member) if node is not None and node.know.member >= 0 else f"r{r.index}"
-            robots.append(RobotView(r.position, r.heading, cfg.robot.radius_m, role, label))
+            robots.append(RobotView(r.position, r.heading, r.radius_m, role, label, r.type_name, r.battery.empty))
         links = [(world.robots[a].position, world.robots[b].position) for a, b in self.link_pairs()]
         refs = [tuple(p) for p in self.reference_positions().values()]
         err = self.metrics.error_trace[-1] if self.metrics.error_trace else float("nan")

@@ -65,6 +65,8 @@ class RobotView:
     radius_m: float
     role: str  # "master" | "slave" | "waiting" | "other"
     label: str = ""  # e.g. member number "0" or a robot id
+    kind: str = ""  # its robot type (robot_types), drawn under the label; "" = not drawn
+    battery_empty: bool = False  # drawn as a cross over the body (the battery-empty fault)
 
     def __post_init__(self) -> None:
         if self.role not in ROLES:
@@ -358,6 +360,14 @@ class Renderer:
                 img = font.render(str(robot.label), True, LABEL)
                 off = rad + (6 if robot.role == "master" else 2)
                 surf.blit(img, (c + off, r - off - img.get_height() // 2))
+        if robot.kind:
+            font = self._font(14)
+            if font is not None:
+                img = font.render(str(robot.kind), True, LABEL)
+                surf.blit(img, (c + rad + 2, r + 2))
+        if robot.battery_empty:
+            pg.draw.line(surf, OUTLINE, (c - rad, r - rad), (c + rad, r + rad), 2)
+            pg.draw.line(surf, OUTLINE, (c - rad, r + rad), (c + rad, r - rad), 2)
 
     def _draw_user(self, surf: Any, position: Point, heading: float, radius_m: float) -> None:
         pg = self._pygame()

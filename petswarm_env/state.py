@@ -27,6 +27,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from petswarm_env.observe import CLIP, Field, markdown_table
+from petswarm_env.robot_types import max_pool_size
 from petswarm_env.scenarios import ACTIVITIES
 
 if TYPE_CHECKING:
@@ -100,7 +101,7 @@ ROBOT_BLOCK, USER_BLOCK, GLOBAL_BLOCK = _Block(ROBOT_FIELDS), _Block(USER_FIELDS
 def num_robots(cfg: Config) -> int:
     """The robots a world of ``cfg`` holds (each user's master and pool, then another user's robots)."""
     sw = cfg.swarm
-    return cfg.world.num_users * (1 + sw.num_slaves + sw.extra_robots) + sw.other_user_robots
+    return cfg.world.num_users * (1 + max_pool_size(cfg)) + sw.other_user_robots  # a pool: robot_types.pool_types
 
 
 class StateLayout:

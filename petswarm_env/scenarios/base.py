@@ -166,6 +166,9 @@ class Scenario:
 
     name: str = ""
     changes_master: bool = False
+    # the waiting robots of each user's pool by type, ((type, count), ...), used when swarm.pool is
+    # empty (issue 15; robot_types.pool_types); () = swarm.num_slaves + swarm.extra_robots petbots
+    robot_pool: tuple[tuple[str, int], ...] = ()
 
     def walk(self, user: Any, rng: np.random.Generator) -> list[Segment]:
         """The segments between the start-up stand and the final straight walk (``user``: the

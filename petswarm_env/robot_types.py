@@ -52,6 +52,7 @@ class RobotTypeConfig(Section):
     max_accel_mps2: float | None = Field(None, gt=0)
     max_alpha_rps2: float | None = Field(None, gt=0)
     lookahead_m: float | None = Field(None, gt=0, description="differential MOVE: the point ahead of the axle that follows (Vx, Vy)")
+    heading_yield_mps: float | None = Field(None, ge=0, description="differential MOVE: the policy's ω fades out as the asked speed reaches this (0: never)")
     wheel_slip_pct: float | None = Field(None, ge=0, lt=100, description="seed 003's w, % of the wheels' motion lost")
     sensors: list[SensorEntry] | None = None
     behaviours: list[str] | None = Field(None, description="behaviour modules besides MOVE (seed 001 §IV)")
@@ -66,7 +67,7 @@ class PoolEntry(Section):
     count: int = Field(ge=1, le=16)
 
 
-_OWN_KEYS = ("drive", "lookahead_m", "wheel_slip_pct", "sensors", "behaviours", "battery_mah", "servo_ma", "actuator_ma",
+_OWN_KEYS = ("drive", "lookahead_m", "heading_yield_mps", "wheel_slip_pct", "sensors", "behaviours", "battery_mah", "servo_ma", "actuator_ma",
              "sensing_ma")
 
 
@@ -89,6 +90,7 @@ class BodySpec:
     drive: str
     robot: Any  # config.RobotConfig
     lookahead_m: float
+    heading_yield_mps: float
     slip: float  # fraction (seed 003's w / 100)
     sensors: tuple[Sensor, ...]
     behaviours: tuple[Behaviour, ...]
@@ -104,7 +106,7 @@ class BodySpec:
         return sum(s.type == LF for s in self.sensors) >= 2
 
     def differential_limits(self) -> DifferentialLimits:
-        return DifferentialLimits(self.robot.max_speed_mps, self.robot.max_omega_rps, self.lookahead_m)
+        return DifferentialLimits(self.robot.max_speed_mps, self.robot.max_omega_rps, self.lookahead_m, self.heading_yield_mps)
 
 
 def robot_types_problem(cfg: Any) -> str | None:
@@ -166,7 +168,7 @@ def resolve(cfg: Any, name: str) -> BodySpec:
     move = MOVE_HOLONOMIC if drive == "mecanum" else MOVE_DIFFERENTIAL
     behaviours = (move, *(Behaviour(b) for b in pick("behaviours")))
     battery = Battery(pick("battery_mah"), pick("servo_ma"), pick("actuator_ma"), pick("sensing_ma"))
-    return BodySpec(name, drive, robot, pick("lookahead_m"), pick("wheel_slip_pct") / 100.0, sensors, behaviours, battery)
+    return BodySpec(name, drive, robot, pick("lookahead_m"), pick("heading_yield_mps"), pick("wheel_slip_pct") / 100.0, sensors, behaviours, battery)
 
 
 def pool_types(cfg: Any, scenario: Any = None) -> list[str]:

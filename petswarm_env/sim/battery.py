@@ -48,10 +48,16 @@ class Battery:
         return self._sens + self._servo * (load if load < 1.0 else 1.0) + (self._act if self.actuating else 0.0)
 
     def drain(self, dt: float, velocity_body: tuple[float, float, float]) -> bool:
-        """One substep of ``dt`` s at ``velocity_body``; True when the battery has just emptied."""
+        """One substep of ``dt`` s at ``velocity_body``; True when the battery has just emptied.
+        (:meth:`current_ma`'s formula written out: it runs for every robot at every substep.)"""
         if self.empty:
             return False
-        self.remaining_mah -= self.current_ma(velocity_body) * dt / _MS_PER_H
+        vx, vy, w = velocity_body
+        load = _hypot(vx, vy) * self._inv_v + (w if w >= 0.0 else -w) * self._inv_w
+        ma = self._sens + self._servo * (load if load < 1.0 else 1.0)
+        if self.actuating:
+            ma += self._act
+        self.remaining_mah -= ma * dt / _MS_PER_H
         if self.remaining_mah <= 0.0:
             self.remaining_mah = 0.0
             self.empty = True

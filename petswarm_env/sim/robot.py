@@ -92,6 +92,8 @@ class Robot(DrivenBody):
         self.ahrs_yaw = self.ahrs.yaw  # ahrs_yaw(now_s): the reading (bound once: read every frame)
         battery = body.battery if body is not None else _PETBOT_BATTERY
         self.battery = Battery(battery, rc.max_speed_mps, rc.max_omega_rps)
+        self._drain = self.battery.drain  # bound once: it runs every substep
+        self.sensors_off: set[int] = set()  # ids of its sensors that are faulty (Sensors.sensor_off sets it)
         slip = body.slip if body is not None else 0.0
         self._keep = 1.0 - slip  # the body's share of the wheels' motion
         self.wheel_gain = 1.0 / self._keep
@@ -116,7 +118,7 @@ class Robot(DrivenBody):
     def apply(self, dt: float) -> None:
         """One substep of the drive, then the battery's drain over it (an empty battery stops the robot)."""
         DrivenBody.apply(self, dt)
-        if self.battery.drain(dt, self.velocity_body):
+        if self._drain(dt, self.velocity_body):
             self.command = (0.0, 0.0, 0.0)
 
     @property
@@ -137,5 +139,5 @@ class Robot(DrivenBody):
                 "battery_mah": b.remaining_mah, "battery_capacity_mah": b.capacity_mah, "battery_fraction": b.fraction,
                 "battery_empty": b.empty, "wheel_slip_pct": 100.0 * (1.0 - self._keep),
                 "servo_ma": rates.servo_ma, "actuator_ma": rates.actuator_ma, "sensing_ma": rates.sensing_ma,
-                "sensors": [{"id": s.id, "type": s.type, "radius_m": s.location.radius_m, "angle_deg": s.location.angle_deg}
-                            for s in sensors]}
+                "sensors": [{"id": s.id, "type": s.type, "radius_m": s.location.radius_m, "angle_deg": s.location.angle_deg,
+                             "working": s.id not in self.sensors_off} for s in sensors]}

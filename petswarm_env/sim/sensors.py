@@ -213,14 +213,17 @@ class Sensors:
 
     def sensor_off(self, index: int, physical_ids: set[int]) -> None:
         """Robot ``index``'s DISTANCE sensors of ids ``physical_ids`` deliver nothing from now on
-        (presence 0, the slot reads max_range); an empty set switches them back on."""
-        if physical_ids:
-            self._off[index] = set(physical_ids)
+        (presence 0, the slot reads max_range); an empty set switches them back on. The fault's
+        state lives on the robot (``robot.sensors_off``, which its own status reports)."""
+        off = set(physical_ids)
+        self.world.robots[index].sensors_off = off
+        if off:
+            self._off[index] = off
         else:
             self._off.pop(index, None)
         body_map = self.layer.maps[index] if self.layer else None
-        self.flags[index] = body_map.flags(physical_ids) if body_map else \
-            [0.0 if (k % self.ring.count) + 1 in physical_ids else 1.0 for k in range(2 * self.ring.count)]
+        self.flags[index] = body_map.flags(off) if body_map else \
+            [0.0 if (k % self.ring.count) + 1 in off else 1.0 for k in range(2 * self.ring.count)]
 
     def odometry_noise(self, n: int) -> list[list[float]] | None:
         """The relative odometry errors of ``n`` readings in one draw, (n, 3) (the same numbers as

@@ -82,6 +82,8 @@ def test_a_sensor_fault_lowers_presence():
     obs, *_ = env.step({a: np.zeros(3, np.float32) for a in env.agents})
     pres = obs[agent][env.layout.slices["self.ultrasonic_present"]]
     assert pres.sum() == env.sensors.flags[idx][:8].count(1.0) and 0.0 in pres.tolist()
+    status = env.world.robots[idx].own_status()
+    assert [s["working"] for s in status["sensors"] if s["id"] == 1] == [False]
 
 
 def test_the_shipped_learned_policy_runs_on_the_mixed_swarm():

@@ -128,6 +128,10 @@ def test_battery_drain_model():
     assert b.current_ma((0.0, 0.0, 0.0)) == spec.sensing_ma
     assert b.current_ma((0.9, 0.0, 0.0)) == pytest.approx(spec.sensing_ma + 0.5 * spec.servo_ma)
     assert b.current_ma((1.8, 0.0, 2.5)) == pytest.approx(spec.sensing_ma + spec.servo_ma)  # load capped at 1
+    for v in ((0.3, -0.2, 0.7), (1.0, 1.0, -3.0)):  # drain is current_ma written out
+        c = Battery(spec, 1.8, 2.5)
+        c.drain(36.0, v)
+        assert c.remaining_mah == pytest.approx(spec.capacity_mah - c.current_ma(v) / 100.0)
     b.drain(3600.0, (0.0, 0.0, 0.0))  # one hour at rest
     assert b.remaining_mah == pytest.approx(spec.capacity_mah - spec.sensing_ma)
     assert not b.empty
@@ -222,3 +226,17 @@ def test_odometry_counts_the_wheels_of_a_slipping_body():
     odo = Odometry(robot, cfg.robot, np.random.default_rng(0))
     assert odo.read()[0] == pytest.approx(0.4, rel=1e-6)
     assert math.isclose(robot.velocity_body[0], 0.4 * 0.97, rel_tol=1e-6)
+
+
+def test_the_heading_yield_lets_a_differential_body_move_first():
+    from petswarm_env.mapping import DifferentialLimits, differential_move
+
+    off = DifferentialLimits(1.0, 2.0, 0.5)
+    on = DifferentialLimits(1.0, 2.0, 0.5, heading_yield_mps=0.4)
+    # a policy holding its heading while asking to move right: the two turns cancel without the yield
+    assert differential_move(0.0, -0.5, 1.0, off) == (0.0, pytest.approx(0.0))
+    assert differential_move(0.0, -0.5, 1.0, on) == (0.0, pytest.approx(-1.0))  # |V| >= 0.4: ω yields whole
+    assert differential_move(0.0, 0.0, 1.0, on) == (0.0, 1.0)  # standing: the policy's ω whole
+    assert differential_move(0.2, 0.0, 1.0, on) == (0.2, pytest.approx(0.5))
+    with pytest.raises(ValueError, match="heading_yield_mps"):
+        DifferentialLimits(1.0, 2.0, 0.5, heading_yield_mps=-1.0)

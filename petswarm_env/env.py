@@ -27,7 +27,7 @@ being a slave (it became the master, or the swarm dispersed) is terminated; a ro
 a slave joins ``agents``.
 
 Spaces: observation ``Box(low, high, (N,), float32)`` with values scaled to about [-1, 1] and each
-field's bounds in docs/observation.md (N = 57 with 8 ultrasonic sensors), action ``Box(-1, 1, (3,),
+field's bounds in docs/observation.md (N = 83 with 8 ultrasonic sensors), action ``Box(-1, 1, (3,),
 float32)`` = (Vx, Vy, ω) scaled by ``robot.max_speed_mps`` and ``robot.max_omega_rps``; the global
 state ``state()`` in ``state_space`` (docs/state.md). Infos are flat and numeric, the keys of
 :data:`INFO_DEFAULTS` for every agent at reset and at every step; the episode's figures come from
@@ -227,9 +227,13 @@ class PetSwarmEnv(ParallelEnv):
         self.swarm, self.session = self.swarms[0], self.sessions[0]
         for robot, ss in zip(world.robots, rng_world.spawn(len(world.robots))):
             robot.ahrs.power_on(ss, world.now)  # own power-on heading: no shared frame (seed 000 §3.5)
-        safety = SafetyStage(cfg.robot.ultrasonic.count, cfg.control.safety_stop_m, cfg.control.safety_backoff_mps,
-                             cfg.robot.max_accel_mps2) if cfg.control.safety_layer else None
-        self.arbiters = {r.index: ControlArbiter(safety) for r in world.robots}
+        stages: dict[float, SafetyStage | None] = {}  # one safety stage per braking limit (each body type's own)
+        for r in world.robots:
+            a = r.cfg.max_accel_mps2
+            if a not in stages:
+                stages[a] = SafetyStage(cfg.robot.ultrasonic.count, cfg.control.safety_stop_m, cfg.control.safety_backoff_mps,
+                                        a) if cfg.control.safety_layer else None
+        self.arbiters = {r.index: ControlArbiter(stages[r.cfg.max_accel_mps2]) for r in world.robots}
         self.sensors = Sensors(world, cfg.robot, rng_sensors)  # reads every robot's ultrasonic ring
 
     def _check_inside_arena(self) -> None:

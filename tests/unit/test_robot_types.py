@@ -240,3 +240,18 @@ def test_the_heading_yield_lets_a_differential_body_move_first():
     assert differential_move(0.2, 0.0, 1.0, on) == (0.2, pytest.approx(0.5))
     with pytest.raises(ValueError, match="heading_yield_mps"):
         DifferentialLimits(1.0, 2.0, 0.5, heading_yield_mps=-1.0)
+
+
+def test_a_learned_policy_file_declaring_a_behaviour_no_body_has_is_refused(tmp_path):
+    from baselines.learned import LearnedPolicy, save_policy
+    from baselines.policy import PolicySpec
+    from petswarm_env.observe import ObservationLayout
+
+    layout = ObservationLayout(8)
+    layers = [(np.zeros((3, layout.size)), np.zeros(3))]
+    spec = PolicySpec(layout, 1.5, 2.0, 2.0, (resolve(CFG, "petbot"), resolve(CFG, "mybot")))
+    save_policy(tmp_path / "p.npz", layers, "tanh", layout, behaviours=["MOVE", "EMOTION"])
+    with pytest.raises(BehaviourRefused, match="'EMOTION' has no module on robot type 'petbot'"):
+        LearnedPolicy.load(tmp_path / "p.npz", spec)
+    save_policy(tmp_path / "q.npz", layers, "tanh", layout)  # MOVE: attached to both bodies
+    assert [b.name for b in LearnedPolicy.load(tmp_path / "q.npz", spec).behaviours] == ["MOVE"]

@@ -169,15 +169,21 @@ class Sensors:
         self.rng = rng
         self.ring = UltrasonicRing(cfg, world.wall_a, world.wall_b)
         self.odometry_noise_rel = cfg.odometry_noise_rel
+        self._cfg = cfg
+        self._off: dict[int, set[int]] = {}
+        self.refresh()
+        self.ranges = np.zeros((0, self.ring.count))  # every robot's last ring, (robots, count) m
+        self.read_rings()
+
+    def refresh(self) -> None:
+        """(Re)build the middle layer for the world's robots now: call after adding a robot (an
+        arrival) before the next :meth:`read_rings`. Sensor faults set so far stay."""
+        world, cfg, count = self.world, self._cfg, self.ring.count
         specs = [getattr(r, "spec", None) for r in world.robots]
         self.layer = MiddleLayer(specs, cfg) if specs and None not in specs else None  # None: bare bodies (tests)
-        count = self.ring.count
-        self._off: dict[int, set[int]] = {}
-        self.flags = [self.layer.maps[i].flags() for i in range(len(world.robots))] if self.layer else \
-            [[1.0] * (2 * count) for _ in world.robots]
+        self.flags = [self.layer.maps[i].flags(self._off.get(i, ())) for i in range(len(world.robots))] if self.layer \
+            else [[1.0] * (2 * count) for _ in world.robots]
         self._groups = [] if self.layer is None or self.layer.identity else self._type_groups(cfg, world)
-        self.ranges = np.zeros((0, count))  # every robot's last ring, (robots, count) m
-        self.read_rings()
 
     def _type_groups(self, cfg: RobotConfig, world: Truth) -> list:
         """Per body type (first robot's order): its robots, its ring of own sensors, its routes."""

@@ -37,3 +37,10 @@ def test_the_scattered_mixed_swarm_builds_and_runs():
     result = run(load_config(overrides={"user.scenario": "heterogeneous"}), "scripted", episodes=1, seed=0)
     ep = result["episodes"][0]
     assert ep["slaves"] == 4 and ep["steps"] == load_config().max_cycles and ep["formation_rmse_m"] < 2.0
+
+
+def test_the_mixed_swarm_builds_from_the_slots(hetero):
+    # seeds 2-4 within 3 s; seeds 0-1 once the user walks off (user.formation_wait_s = 30 s): a
+    # differential slave holds 0.3-0.4 m off its slot while standing (README, "A heterogeneous swarm")
+    times = [ep["building_time_s"] for ep in hetero["episodes"]]
+    assert all(t < 40.0 for t in times) and sum(t < 3.0 for t in times) >= 3, times

@@ -107,3 +107,16 @@ def test_an_unknown_scenario_pool_type_is_refused(monkeypatch):
     monkeypatch.setattr(type(SCENARIOS["heterogeneous"]), "robot_pool", (("tank", 4),))
     with pytest.raises(ConfigError, match="scenario 'heterogeneous' robot_pool\\[0\\].type 'tank' is not a robot type"):
         petswarm_env.parallel_env(**HET)
+
+
+def test_sensors_refresh_after_a_robot_is_added():
+    from petswarm_env.robot_types import resolve
+
+    env, _ = _run(0, 2)
+    world = env.world
+    world.body_plan = world.body_plan + [resolve(env.cfg, "r1")] * (len(world.robots) - len(world.body_plan) + 1)
+    robot = world.add_robot((8.0, 8.0), 0.0)  # an arrival (the faults branch wires the agent)
+    env.sensors.refresh()
+    ranges = env.sensors.read_rings()
+    assert ranges.shape == (len(world.robots), 8) and robot.type_name == "r1"
+    assert sum(env.sensors.flags[robot.index][:8]) == 3.0

@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from petswarm_env.mapping import MOVE_HOLONOMIC, Behaviour
 from baselines.policy import Policy, PolicySpec
 from petswarm_env.config import describe_value
 from petswarm_env.env import ENV_NAME
@@ -49,8 +50,9 @@ def shipped_policy_path() -> Path:
 
 
 def save_policy(path: str | os.PathLike, layers: list[tuple[np.ndarray, np.ndarray]], activation: str,
-                layout: ObservationLayout, info: dict[str, Any] | None = None) -> None:
-    """Write ``layers`` ((weight (out, in), bias (out,)) each; the last one is linear) atomically."""
+                layout: ObservationLayout, info: dict[str, Any] | None = None, behaviours: list[str] | None = None) -> None:
+    """Write ``layers`` ((weight (out, in), bias (out,)) each; the last one is linear) atomically.
+    ``behaviours``: the behaviours the policy commands (seed 001 §IV; default MOVE, the env's action)."""
     if activation not in ACTIVATIONS:
         raise ValueError(f"activation must be one of {sorted(ACTIVATIONS)}, got '{activation}'")
     meta = {
@@ -62,6 +64,7 @@ def save_policy(path: str | os.PathLike, layers: list[tuple[np.ndarray, np.ndarr
         "activation": activation,
         "num_layers": len(layers),
         "info": info or {},
+        "behaviours": list(behaviours or ["MOVE"]),
     }
     arrays = {"meta": np.frombuffer(json.dumps(meta).encode(), dtype=np.uint8)}
     for i, (w, b) in enumerate(layers):
@@ -206,6 +209,11 @@ class LearnedPolicy(Policy):
 
     def __init__(self, spec: PolicySpec, layers: list[tuple[np.ndarray, np.ndarray]], activation: str,
                  index: np.ndarray, meta: dict[str, Any] | None = None):
+        # the behaviours its file declares (optional "behaviours": names; default MOVE, the action it was trained on)
+        names = (meta or {}).get("behaviours", ["MOVE"])
+        if not isinstance(names, list) or not all(isinstance(n, str) and n for n in names):
+            raise PolicyLoadError(f"policy field 'behaviours' must be a list of behaviour names such as ['MOVE'], got {describe_value(names)}")
+        self.behaviours = tuple(MOVE_HOLONOMIC if n == "MOVE" else Behaviour(str(n)) for n in names)
         super().__init__(spec)
         self.layers = [(w.astype(np.float64), b.astype(np.float64)) for w, b in layers]
         self.act_fn = ACTIVATIONS[activation]

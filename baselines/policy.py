@@ -14,6 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from petswarm_env.mapping import Behaviour
+from petswarm_env.middle_layer import VIRTUAL_BEHAVIOURS, attach_check
 from petswarm_env.observe import ObservationLayout
 
 
@@ -25,20 +27,24 @@ class PolicySpec:
     max_speed_mps: float
     max_omega_rps: float
     us_max_range_m: float
+    bodies: tuple = ()  # the robot types it may drive (robot_types.BodySpec): the behaviour mapper checks them
 
     @classmethod
     def from_env(cls, env) -> PolicySpec:
         r = env.cfg.robot
-        return cls(env.layout, r.max_speed_mps, r.max_omega_rps, r.ultrasonic.max_range_m)
+        return cls(env.layout, r.max_speed_mps, r.max_omega_rps, r.ultrasonic.max_range_m, getattr(env, "body_types", ()))
 
 
 class Policy(ABC):
     """Slave policy. ``act`` is called once per agent per step."""
 
     name: str = "policy"
+    behaviours: tuple[Behaviour, ...] = VIRTUAL_BEHAVIOURS  # what it commands: MOVE (Vx, Vy, ω)
 
     def __init__(self, spec: PolicySpec):
         self.spec = spec
+        # seed 001 §IV.B: a behaviour no module of a body serves is refused here, naming it and the body
+        attach_check(self.behaviours, spec.bodies, f"policy '{self.name}'")
 
     def reset(self, seed: int | None = None) -> None:
         """Start of an episode (clear any per-episode state, reseed)."""

@@ -39,12 +39,14 @@ MODULE_PARTS: dict[str, str | None] = {
     "petswarm_env.config_base": "other",
     "petswarm_env.config_runtime": "other",
     "petswarm_env.runtime": "other",  # the episode's faults and arrivals, scheduled on the clock (issue 15)
+    "petswarm_env.robot_types": "other",  # the robot types resolved at the env's construction
     "petswarm_env.env": "other",  # env.step itself: action checks, the env's own bookkeeping
     "petswarm_env.files": "other",
     "petswarm_env.render": "other",
     "petswarm_env.sim": "physics",  # bodies, the world's substep loop, the user, contact callbacks
     "petswarm_env.sim.clock": "radio_middleware",  # the event loop: frames, IR slots, token passes, broadcasts
     "petswarm_env.sim.body": None,  # position/heading/velocity accessors: whoever reads or writes them
+    "petswarm_env.sim.battery": "physics",  # each robot's battery drain, every substep
     "petswarm_env.sim.sensors": "observation",  # the slaves' ultrasonic ring, odometry and AHRS readings
     "petswarm_env.sim.geometry": None,  # ray casts (observation) and IR occlusion (middleware)
     "petswarm_env.scenarios": None,  # the user's script, read by User.apply
@@ -55,6 +57,7 @@ MODULE_PARTS: dict[str, str | None] = {
     "petswarm_env.control": "control",  # master-role controller, control arbiter
     "petswarm_env.observe": "observation",
     "petswarm_env.mapping": "observation",  # seed 001's sensor/behaviour mapper between a body and the layout
+    "petswarm_env.middle_layer": "observation",  # the mapper wired: each body type's table onto the virtual ring
     "petswarm_env.reward": "reward_metrics",
     "petswarm_env.metrics": "reward_metrics",
     "petswarm_env.state": "reward_metrics",  # the global state for critics: truth, like the metrics (not in step)

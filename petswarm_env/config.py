@@ -11,20 +11,19 @@ from __future__ import annotations
 
 import copy
 import math
-import typing
 from collections.abc import Mapping
 from importlib import resources
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
-import numpy as np
 import yaml
-from pydantic import (AfterValidator, BaseModel, ConfigDict, Field, ValidationError, ValidationInfo, field_validator,
-                      model_validator)
+from pydantic import AfterValidator, Field, ValidationError, model_validator
 from pydantic_core import PydanticCustomError
 
 from petswarm_env.config_base import Section  # noqa: F401
-from petswarm_env.config_runtime import ARRIVAL_TYPES, FAULT_KINDS, ArrivalSpec, FaultSpec, FaultsRandomConfig  # noqa: F401
+from petswarm_env.config_runtime import FAULT_KINDS, ArrivalSpec, FaultSpec, FaultsRandomConfig  # noqa: F401
+from petswarm_env.config_base import Section  # noqa: F401  (the base of every section; re-exported here)
+from petswarm_env.robot_types import PoolEntry, RobotTypeConfig, max_pool_size, robot_types_problem
 from petswarm_env.scenarios import SCENARIOS  # the registry (the scenarios import nothing of the package)
 
 # (Section and the runtime-change types are imported here for the modules that import them from this one)
@@ -129,6 +128,7 @@ class SwarmConfig(Section):
     other_user_robots: int = Field(ge=0, le=16, description="waiting robots already connected to another user")
     assignment: Literal[ASSIGNMENTS] = Field(description="who joins and which slot each member takes: closest (seed 000 "  # type: ignore[valid-type]
                                              "Table 2), ruta_centralized (seed 003 Algorithm 1), ruta_decentralized (Algorithm 2)")
+    pool: list[PoolEntry] = Field(description="each user's waiting robots by type; empty = num_slaves + extra_robots petbots")
 
 
 class RadioConfig(Section):
@@ -408,6 +408,7 @@ class Config(Section):
     physics_substeps: int = Field(ge=1, le=100)
     world: WorldConfig
     robot: RobotConfig
+    robot_types: dict[str, RobotTypeConfig]
     swarm: SwarmConfig
     radio: RadioConfig
     protocol: ProtocolConfig
@@ -429,7 +430,7 @@ class Config(Section):
     def robot_count(self, arrivals: int | None = None) -> int:
         """Robots in the world: every user's master and pool, the other user's robots, the arrivals
         (``arrivals``: how many; the config's by default)."""
-        per_user = 1 + self.swarm.num_slaves + self.swarm.extra_robots
+        per_user = 1 + max_pool_size(self)  # the master and its pool (swarm.pool, a scenario's, or num_slaves + extra_robots)
         extra = len(self.arrivals) if arrivals is None else arrivals
         return self.world.num_users * per_user + self.swarm.other_user_robots + extra
 
@@ -448,6 +449,13 @@ class Config(Section):
                              "an obstacle before the robot has to stop")
         if self.swarm.formation == "custom" and not self.swarm.custom_links:
             raise ValueError("swarm.formation 'custom' needs swarm.custom_links (robot, neighbour, offset_m)")
+        problem = robot_types_problem(self)
+        if problem:
+            raise ValueError(problem)
+        for i, a in enumerate(self.arrivals):
+            if a.type not in self.robot_types:
+                raise ValueError(f"arrivals[{i}].type {a.type!r} is not a robot type; use one of {', '.join(self.robot_types)} "
+                                 "(robot_types)")
         return self
 
     def to_dict(self) -> dict[str, Any]:
@@ -491,6 +499,9 @@ def merge_mappings(base: dict[str, Any], over: Mapping[str, Any], prefix: str = 
     out = copy.deepcopy(base)
     for key, value in over.items():
         dotted = f"{prefix}{key}"
+        if key not in out and prefix.startswith("robot_types."):  # a user may add a type, or a key to one (pydantic checks it)
+            out[key] = copy.deepcopy(value)
+            continue
         if key not in out:
             allowed = ", ".join(sorted(out)) if out else "(none)"
             raise ConfigError(f"unknown config key '{dotted}'; allowed keys here: {allowed}")

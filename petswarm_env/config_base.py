@@ -1,5 +1,6 @@
-"""The base of every config section (petswarm_env/config.py): unknown keys refused, values frozen,
-finite floats, no boolean for a number."""
+"""The base of every config section (:class:`Section`): unknown keys refused, values frozen,
+floats finite, no boolean for a number. Its own module so that sections defined outside
+:mod:`petswarm_env.config` (:mod:`petswarm_env.robot_types`, :mod:`petswarm_env.config_runtime`) share it without an import circle."""
 
 from __future__ import annotations
 

@@ -8,11 +8,10 @@ from pydantic import Field, model_validator
 
 from petswarm_env.config_base import Section
 
-# runtime changes (issue 15 part 4; petswarm_env/sim/faults.py): the fault kinds, and the robot types an
-# arrival may name — the one list of types (the bodies branch's robot_types extends it)
+# runtime changes (issue 15 part 4; petswarm_env/sim/faults.py): the fault kinds; an arrival's type is one
+# of the config's robot_types (checked by Config, which holds both)
 FAULT_KINDS = ("dead", "radio_silent", "ir", "ultrasonic", "ahrs", "battery")
 FAULT_TARGETS = ("master", "random_slave")
-ARRIVAL_TYPES = ("petbot",)
 
 
 class FaultSpec(Section):
@@ -46,10 +45,4 @@ class FaultsRandomConfig(Section):
 
 class ArrivalSpec(Section):
     at_s: float = Field(ge=0, description="episode time the robot is switched on (s after reset ended)")
-    type: str = Field(description="the robot's type")
-
-    @model_validator(mode="after")
-    def _check(self) -> ArrivalSpec:
-        if self.type not in ARRIVAL_TYPES:
-            raise ValueError(f"arrivals[].type {self.type!r} is not a robot type; use one of {', '.join(ARRIVAL_TYPES)}")
-        return self
+    type: str = Field(description="the robot's type, a name of robot_types (checked by Config)")

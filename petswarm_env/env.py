@@ -33,7 +33,7 @@ stops and is terminated, an arrival that joins is a new agent (``possible_agents
 arrival robots).
 
 Spaces: observation ``Box(low, high, (N,), float32)`` with values scaled to about [-1, 1] and each
-field's bounds in docs/observation.md (N = 57 with 8 ultrasonic sensors), action ``Box(-1, 1, (3,),
+field's bounds in docs/observation.md (N = 83 with 8 ultrasonic sensors), action ``Box(-1, 1, (3,),
 float32)`` = (Vx, Vy, ω) scaled by ``robot.max_speed_mps`` and ``robot.max_omega_rps``; the global
 state ``state()`` in ``state_space`` (docs/state.md). Infos are flat and numeric, the keys of
 :data:`INFO_DEFAULTS` for every agent at reset and at every step; the episode's figures come from
@@ -60,7 +60,10 @@ from petswarm_env.middleware.swarm import Swarm
 from petswarm_env.middleware.user_session import UserSession, master_distance_m
 from petswarm_env.observe import OBS_VERSION, ObservationLayout, Observer, observation_bounds
 from petswarm_env.reward import slave_rewards
-from petswarm_env.runtime import Runtime, park_positions
+from petswarm_env.runtime import Runtime, arrival_specs, park_positions
+from petswarm_env.robot_types import (DEFAULT_TYPE, body_plan, episode_scenarios, max_pool_size, placement_config, pool_problem,
+                                      pool_types)
+from petswarm_env.robot_types import resolve as resolve_type
 from petswarm_env.scenarios import SCENARIOS
 from petswarm_env.state import StateLayout, build_state
 from petswarm_env.sim.sensors import Sensors
@@ -113,8 +116,15 @@ class PetSwarmEnv(ParallelEnv):
         self.cfg = cfg
         self.render_mode = render_mode
         self.metadata = dict(self.metadata, render_fps=cfg.render.fps)
-        pool = cfg.swarm.num_slaves + cfg.swarm.extra_robots
-        per_user = 1 + pool
+        self._bodies = {name: resolve_type(cfg, name) for name in cfg.robot_types}  # each robot type, resolved once
+        for name in episode_scenarios(cfg):  # a scenario's own pool (robot_types.pool_types) must fit the config
+            problem = pool_problem(cfg, list(SCENARIOS[name].robot_pool), f"scenario '{name}' robot_pool")
+            if problem and not cfg.swarm.pool:
+                raise ConfigError(problem)
+        per_user = 1 + max_pool_size(cfg)
+        # the bodies this env's robots may have (every master is a petbot): what a policy attaches to
+        self.body_types = tuple(self._bodies[n] for n in sorted({DEFAULT_TYPE}.union(
+            *(pool_types(cfg, SCENARIOS[name]) for name in episode_scenarios(cfg)))))
         may_change_master = cfg.swarm.master_change and any(
             SCENARIOS[name].changes_master for name in (*cfg.user.scenario_pool, cfg.user.scenario))
         self._arrival_slots = arrival_slots(cfg)  # robots switched on mid-episode (runtime.py), after every other robot
@@ -206,10 +216,12 @@ class PetSwarmEnv(ParallelEnv):
         scripts = [scenario.script(cfg.user, r, scenario.arena(cfg, self._reach_m or 0.0, u))
                    for u, r in enumerate(rng_script.spawn(cfg.world.num_users))]
         self.world = world = World(cfg, scripts[0])
+        world.body_plan = body_plan(cfg, scenario, self._bodies)  # each robot's type, in placement order
+        place_cfg = placement_config(cfg, scenario)
         for u in range(1, cfg.world.num_users):
             world.add_user(scripts[u], (0.0, u * cfg.world.user_spacing_m), 0.0)
         plan = formation_for_mode(cfg.swarm, cfg.swarm.num_slaves + 1, cfg.swarm.mode)
-        placement = scenario.place(world, cfg, plan.slot_positions(), user_position_in_formation(plan, cfg.master.distance_m)[0],
+        placement = scenario.place(world, place_cfg, plan.slot_positions(), user_position_in_formation(plan, cfg.master.distance_m)[0],
                                    rng_world, master_distance_m(cfg, None, cfg.swarm.mode))
         self._other_user_robots = placement.other_user_robots
         self.radio = RadioMedium(world.clock, cfg.radio, rng_radio)
@@ -220,7 +232,9 @@ class PetSwarmEnv(ParallelEnv):
         self._pools = [pool for _, pool in placement.pools]
         for idx in self._other_user_robots:
             fleet.add_node(idx, self.swarms[0]).connected_user = OTHER_USER_ID
-        # arrival robots (runtime.py): parked switched off, in user 0's pool
+        # arrival robots (runtime.py): parked switched off, in user 0's pool; each of its type (robot_types)
+        arriving = [self._bodies[a.type] for a in arrival_specs(cfg, scenario)]
+        world.body_plan = world.body_plan[:len(world.robots)] + arriving
         self._arrivals = [world.add_robot(p, 0.0).index for p in park_positions(cfg, self._arrival_slots)]
         for idx in self._arrivals:
             fleet.add_node(idx, self.swarms[0])
@@ -232,9 +246,13 @@ class PetSwarmEnv(ParallelEnv):
         self.swarm, self.session = self.swarms[0], self.sessions[0]
         for robot, ss in zip(world.robots, rng_world.spawn(len(world.robots))):
             robot.ahrs.power_on(ss, world.now)  # own power-on heading: no shared frame (seed 000 §3.5)
-        safety = SafetyStage(cfg.robot.ultrasonic.count, cfg.control.safety_stop_m, cfg.control.safety_backoff_mps,
-                             cfg.robot.max_accel_mps2) if cfg.control.safety_layer else None
-        self.arbiters = {r.index: ControlArbiter(safety) for r in world.robots}
+        stages: dict[float, SafetyStage | None] = {}  # one safety stage per braking limit (each body type's own)
+        for r in world.robots:
+            a = r.cfg.max_accel_mps2
+            if a not in stages:
+                stages[a] = SafetyStage(cfg.robot.ultrasonic.count, cfg.control.safety_stop_m, cfg.control.safety_backoff_mps,
+                                        a) if cfg.control.safety_layer else None
+        self.arbiters = {r.index: ControlArbiter(stages[r.cfg.max_accel_mps2]) for r in world.robots}
         self.sensors = Sensors(world, cfg.robot, rng_sensors)  # reads every robot's ultrasonic ring
 
     def _check_inside_arena(self) -> None:
@@ -243,7 +261,7 @@ class PetSwarmEnv(ParallelEnv):
         w, h = self.cfg.world.arena_m
         if w <= 0 or h <= 0:
             return
-        bodies = [(f"robot_{r.index}", r.position, self.cfg.robot.radius_m) for r in self.world.robots]
+        bodies = [(f"robot_{r.index}", r.position, r.radius_m) for r in self.world.robots]
         bodies += [(f"user {u.index}", u.position, self.cfg.user.radius_m) for u in self.world.users]
         for name, (x, y), r in bodies:
             if abs(x) + r > w / 2 or abs(y) + r > h / 2:
@@ -287,6 +305,7 @@ class PetSwarmEnv(ParallelEnv):
         acts = self._validate(actions)
         self._control(acts)
         world.advance(cfg.physics_substeps)
+        self.runtime.check_batteries()  # a drained battery is a fault (runtime.py)
         self.sensors.read_rings()
         self.num_cycles += 1
 

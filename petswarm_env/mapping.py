@@ -355,16 +355,21 @@ MOVE_DIFFERENTIAL = Behaviour("MOVE", ("vx", "omega"))  # a differential body: n
 @dataclass(frozen=True)
 class DifferentialLimits:
     """A differential body's MOVE module: ``max_speed_mps`` (|v|), ``max_omega_rad_s`` (|ω|) and
-    ``lookahead_m``, the distance ahead of the wheel axle of the point that follows (Vx, Vy)."""
+    ``lookahead_m``, the distance ahead of the wheel axle of the point that follows (Vx, Vy);
+    ``heading_yield_mps`` > 0: the policy's own ω yields to the translation, scaled by
+    max(0, 1 − |(Vx, Vy)| / heading_yield_mps) (0: always added whole)."""
 
     max_speed_mps: float
     max_omega_rad_s: float
     lookahead_m: float
+    heading_yield_mps: float = 0.0
 
     def __post_init__(self) -> None:
         for name in ("max_speed_mps", "max_omega_rad_s", "lookahead_m"):
             if _finite(name, getattr(self, name)) <= 0:
                 raise ValueError(f"differential {name} must be > 0, got {getattr(self, name)}")
+        if _finite("heading_yield_mps", self.heading_yield_mps) < 0:
+            raise ValueError(f"differential heading_yield_mps must be >= 0, got {self.heading_yield_mps}")
 
 
 def differential_move(vx_mps: float, vy_mps: float, omega_rad_s: float,
@@ -386,12 +391,19 @@ def differential_move(vx_mps: float, vy_mps: float, omega_rad_s: float,
     reversing (Vx < 0) with Vy ≠ 0 it is P, not the centre, that moves toward +y; the centre first
     swings the other way, as any differential robot backing and turning does.
 
+    The policy's ω and the turn toward (Vx, Vy) may cancel (a policy holding its heading while it
+    asks to move sideways): with ``limits.heading_yield_mps`` > 0 the policy's ω is scaled by
+    max(0, 1 − |(Vx, Vy)| / heading_yield_mps), so the body moves first and turns to the asked
+    heading once it (nearly) stands.
+
     Limits: when |v| or |ω_body| exceeds its limit, both are scaled by the same factor, so the body
     keeps the commanded path curvature ω_body / v and slows down along it.
     """
     vx = _finite("vx", vx_mps)
     vy = _finite("vy", vy_mps)
     w_cmd = _finite("omega", omega_rad_s)
+    if limits.heading_yield_mps > 0.0:
+        w_cmd *= max(0.0, 1.0 - math.hypot(vx, vy) / limits.heading_yield_mps)
     v = vx
     w = w_cmd + vy / limits.lookahead_m
     scale = 1.0

@@ -370,7 +370,8 @@ class Experimenter:
                 continue  # an arrival not switched on yet: not in the scene
             node = self.fleet.nodes.get(r.index)
             label = str(node.know.member) if node is not None and node.know.member >= 0 else f"r{r.index}"
-            robots.append(RobotView(r.position, r.heading, cfg.robot.radius_m, role, label, tuple(sorted(r.health.active))))
+            robots.append(RobotView(r.position, r.heading, r.radius_m, role, label, tuple(sorted(r.health.active)),
+                                    r.type_name))
         links = [(world.robots[a].position, world.robots[b].position) for a, b in self.link_pairs()]
         refs = [tuple(p) for p in self.reference_positions().values()]
         err = self.metrics.error_trace[-1] if self.metrics.error_trace else float("nan")

@@ -25,7 +25,7 @@ if TYPE_CHECKING:
     from petswarm_env.middleware.node import Knowledge, Node
     from petswarm_env.sim.sensors import Sensors
 
-OBS_VERSION = 2  # 2: the master's IR fix (master.ir_*) and an anchor member's (anchor.*): a slave finds its slot from a scattered start
+OBS_VERSION = 3  # 3: the ring's presence and location-known flags (seed 001's middle layer: heterogeneous bodies); 2: the master's IR fix (master.ir_*) and an anchor member's (anchor.*): a slave finds its slot from a scattered start
 POS_SCALE_M = 3.0
 AGE_SCALE_S = 2.0
 
@@ -102,13 +102,17 @@ FIELDS: list[Field] = [
           (0.0, 1.0), "a level in 0 … members"),
     Field("self.members", 1, "/ 16", "number of swarm members (master included)", (0.0, 17 / 16), "at most 16 slaves + the master"),
     Field("self.member", 1, "/ 16", "own member number", (-1 / 16, 1.0), "-1 (none) … 16"),
+    Field("self.ultrasonic_present", -1, "0/1", "seed 001's presence flag of each virtual ring sensor: 1 = a sensor of the body's type "
+          "DISTANCE feeds it (its mapping table, built once); 0 = none does, or it is faulty: its self.ultrasonic value then reads max_range"),
+    Field("self.ultrasonic_location_known", -1, "0/1", "1 = the feeding sensor sits at the virtual sensor's angle (seed 001's location comparator); "
+          "0 = type match only, the value comes with a NULL location (or nothing is delivered)"),
 ]
 
 
 # the fields after the links, in the order build_observation unpacks their start offsets
 _BUILDER_FIELDS = ("master.valid", "master.activity", "master.rotating", "master.turn_rate", "master.leading", "master.user_xy",
                    "master.ir_valid", "anchor.ir_valid", "self.odometry", "self.yaw_sincos", "self.last_action", "self.offset_from_master_xy", "self.ultrasonic",
-                   "self.hierarchy", "self.members", "self.member")
+                   "self.hierarchy", "self.members", "self.member", "self.ultrasonic_present")
 _ACTIVITY_INDEX = {a: i for i, a in enumerate(ACTIVITIES)}
 _cos, _sin = math.cos, math.sin
 
@@ -229,6 +233,7 @@ class Readings:
     hierarchy_level: int  # its level in the neighbour table (0 if none)
     offset_from_master_m: tuple[float, float]  # its slot relative to the master, formation frame
     member_slots: Sequence[tuple[float, float]] = ()  # every member's slot relative to the master, formation frame
+    ultrasonic_flags: Sequence[float] = ()  # the ring's presence then location-known flags (middle_layer.py); () = a full ring
 
 
 def build_observation(layout: ObservationLayout, readings: Readings, out: np.ndarray | None = None) -> np.ndarray:
@@ -275,7 +280,7 @@ def build_observation(layout: ObservationLayout, readings: Readings, out: np.nda
                 v[base + 8] = 1.0
                 v[base + 10] = 1.0
     (i, activity, rotating, turn_rate, leading, user_xy, master_ir, anchor, odo, yaw, last, offset, us,
-     hierarchy, members_at, member_at) = layout._starts
+     hierarchy, members_at, member_at, flags_at) = layout._starts
     v[leading] = 1.0 if know.mode == "leading" else 0.0  # from the joining / mode-change frames
     st = know.status
     if st is not None:
@@ -339,6 +344,12 @@ def build_observation(layout: ObservationLayout, readings: Readings, out: np.nda
     v[hierarchy] = readings.hierarchy_level / total
     v[members_at] = total / 16.0
     v[member_at] = know.member / 16.0
+    flags = readings.ultrasonic_flags
+    if flags:
+        v[flags_at : flags_at + len(flags)] = flags
+    else:
+        n = layout.size - flags_at
+        v[flags_at:] = [1.0] * n
     if out is None:
         return np.fromiter(v, np.float32, len(v))
     out[:] = v
@@ -381,6 +392,7 @@ class Observer:
         sensors, nodes, agent_index, ahrs, layout = self.sensors, self.nodes, self.agent_index, self.ahrs, self.layout
         noise = sensors.odometry_noise(len(agents))
         ranges = sensors.ranges.tolist()  # every robot's ring as Python floats, in one conversion
+        flags = sensors.flags  # every robot's ring flags (the middle layer's presence and location-known)
         obs = {}
         for i, agent in enumerate(agents):
             idx = agent_index[agent]
@@ -396,7 +408,7 @@ class Observer:
             odometry = sensors.odometry(idx, noise[i] if noise is not None else None)
             yaw = ahrs[idx](now_s)
             readings = Readings(know, node.reference_links(), now_s, odometry, yaw,
-                                last if last is not None else _NO_ACTION, ranges[idx], level, offset, slots)
+                                last if last is not None else _NO_ACTION, ranges[idx], level, offset, slots, flags[idx])
             obs[agent] = build_observation(layout, readings)  # a new array: what the agent gets is its own
         return obs
 

@@ -68,6 +68,7 @@ class RobotView:
     role: str  # "master" | "slave" | "waiting" | "other"
     label: str = ""  # e.g. member number "0" or a robot id
     faults: tuple[str, ...] = ()  # the robot's active fault kinds (petswarm_env/sim/faults.py), drawn over it
+    kind: str = ""  # its robot type (robot_types), drawn beside the body; "" = not drawn
 
     def __post_init__(self) -> None:
         if self.role not in ROLES:
@@ -361,6 +362,11 @@ class Renderer:
                 img = font.render(str(robot.label), True, LABEL)
                 off = rad + (6 if robot.role == "master" else 2)
                 surf.blit(img, (c + off, r - off - img.get_height() // 2))
+        if robot.kind:
+            font = self._font(14)
+            if font is not None:
+                img = font.render(str(robot.kind), True, LABEL)
+                surf.blit(img, (c + rad + 2, r + 2))
         if robot.faults:
             self._draw_faults(surf, robot.faults, c, r, rad)
 

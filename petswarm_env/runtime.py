@@ -129,11 +129,21 @@ class Runtime:
         if duration_s is not None:
             self.clock.later(duration_s, self.faults.clear, idx, kind)
 
+    def check_batteries(self) -> None:
+        """A battery the robot's motion and sensing drained to 0 (sim/battery.py) is the ``battery``
+        fault (issue 15 part 1): logged and applied like an injected one. Called after every step."""
+        for robot in self.world.robots:
+            if robot.battery.empty and "battery" not in robot.health.active:
+                self.faults.inject(robot.index, "battery", self.clock.now, self._role(robot.index))
+
     def _apply(self, idx: int, kind: str, on: bool) -> None:
-        """A part changed: the motors and the middleware follow the robot's power."""
+        """A part changed: the motors and the middleware follow the robot's power. An injected
+        ``battery`` fault drains the battery to 0; its end (a transient fault) is a full battery."""
         if kind not in POWER_KINDS:
             return
         robot, node = self.world.robots[idx], self.fleet.nodes.get(idx)
+        if kind == "battery":
+            robot.battery.set_remaining(0.0 if on else robot.battery.capacity_mah)
         if not robot.health.powered:
             robot.set_command(0.0, 0.0, 0.0)  # motors off: the body coasts to a stop and stays, an obstacle
             if node is not None and node.state != "off":

@@ -10,7 +10,7 @@ it may. The layout is declared once in :data:`ROBOT_FIELDS`, :data:`USER_FIELDS`
 bounds); ``python -m petswarm_env.state > docs/state.md`` documents it.
 
 Its size is fixed by the config: ``robots = world.num_users · (1 + swarm.num_slaves +
-swarm.extra_robots) + swarm.other_user_robots`` (+ the arrival robots, ``arrivals``) blocks of :data:`ROBOT_FIELDS`, then
+swarm.extra_robots, or the pool's robots with a swarm.pool or a scenario's pool) + swarm.other_user_robots`` (+ the arrival robots, ``arrivals``) blocks of :data:`ROBOT_FIELDS`, then
 ``world.num_users`` blocks of :data:`USER_FIELDS`, then :data:`GLOBAL_FIELDS`. Positions are
 relative to user 0 (the world frame's axes), so the state does not grow with the distance walked.
 
@@ -206,7 +206,7 @@ def markdown(cfg: Config) -> str:
            f"then its pool, then robots of another user), at offsets 0, {ROBOT_BLOCK.size}, …; then {layout.num_users} user "
            f"block(s) of {USER_BLOCK.size} from offset {layout.users_at}; then the global block at {layout.global_at}. "
            "The number of robot blocks is `world.num_users · (1 + swarm.num_slaves + swarm.extra_robots) + "
-           "swarm.other_user_robots`. `state_space` is `Box(low, high)` with the bounds below; *clipped* values are "
+           "swarm.other_user_robots` (with a `swarm.pool`, or a scenario's pool, its robots instead of `num_slaves + extra_robots`). `state_space` is `Box(low, high)` with the bounds below; *clipped* values are "
            "clipped when the state is built.\n"]
     for title, block in (("Per robot", ROBOT_BLOCK), ("Per user", USER_BLOCK), ("Global", GLOBAL_BLOCK)):
         out.append(f"## {title} ({block.size} values; index relative to the block)\n")

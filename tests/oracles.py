@@ -410,4 +410,10 @@ def build_observation(layout: ObservationLayout, r: Readings) -> list[float]:
     v[o["self.hierarchy"]] = hierarchy_level / total
     v[o["self.members"]] = total / 16.0
     v[o["self.member"]] = know.member / 16.0
+    n = len(ultrasonic_m)  # the ring's presence then location-known flags (a full ring: ones)
+    flags = list(r.ultrasonic_flags) or [1.0] * (2 * n)
+    j = o["self.ultrasonic_present"]
+    v[j : j + n] = flags[:n]
+    j = o["self.ultrasonic_location_known"]
+    v[j : j + n] = flags[n:]
     return v

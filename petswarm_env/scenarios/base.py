@@ -170,6 +170,9 @@ class Scenario:
     # config's keys: faults [{at_s, robot, kind, duration_s}], arrivals [{at_s, type}]; petswarm_env/runtime.py)
     faults: tuple[dict[str, Any], ...] = ()
     arrivals: tuple[dict[str, Any], ...] = ()
+    # the waiting robots of each user's pool by type, ((type, count), ...), used when swarm.pool is
+    # empty (issue 15; robot_types.pool_types); () = swarm.num_slaves + swarm.extra_robots petbots
+    robot_pool: tuple[tuple[str, int], ...] = ()
 
     def walk(self, user: Any, rng: np.random.Generator) -> list[Segment]:
         """The segments between the start-up stand and the final straight walk (``user``: the

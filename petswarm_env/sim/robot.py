@@ -6,10 +6,15 @@ left/right speed, ``ω`` angular speed, all in the robot's body frame (x forward
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pymunk
 
 from petswarm_env.config import RobotConfig
+from petswarm_env.mapping import differential_move
+from petswarm_env.robot_types import Battery as BatterySpec
+from petswarm_env.sim.battery import Battery
 from petswarm_env.sim.body import COLLISION_ROBOT, DrivenBody
 from petswarm_env.sim.body import _get_position  # noqa: F401  read here by middleware/node.py until it binds Body.read_position
 from petswarm_env.sim.faults import FaultState
@@ -56,24 +61,85 @@ def saturate_command(vx: float, vy: float, omega: float, cfg: RobotConfig) -> tu
     return vx, vy, omega
 
 
+# a bare Robot without a type (tests; the world always gives one): a battery that never empties
+_PETBOT_BATTERY = BatterySpec(math.inf, 0.0, 0.0, 0.0)
+
+
 class Robot(DrivenBody):
     """Physical truth of one robot: a pymunk body driven by velocity commands (its motors:
     :meth:`~.body.DrivenBody.apply`), with its own sensors' models attached (the AHRS here; the
-    ultrasonic ring and the odometry in :class:`~.sensors.Sensors`)."""
+    ultrasonic ring and the odometry in :class:`~.sensors.Sensors`) and its battery.
 
-    def __init__(self, index: int, cfg: RobotConfig, space: pymunk.Space, position, heading_rad: float):
-        super().__init__(space, position, heading_rad, cfg.radius_m, COLLISION_ROBOT, cfg.mass_kg,
-                         cfg.max_accel_mps2, cfg.max_alpha_rps2, friction=0.3, elasticity=0.0)
+    ``body`` is its robot type (:class:`~petswarm_env.robot_types.BodySpec`; None: ``cfg``, the
+    petbot, as before robot types). A mecanum body saturates its wheels (:func:`saturate_command`);
+    a differential body runs the move through its own MOVE module (seed 001 §IV.C,
+    :func:`~petswarm_env.mapping.differential_move`: no Vy, it turns toward the commanded
+    direction). Wheel slip (seed 003's w): the body moves (1 − w) of what its wheels turn
+    (:attr:`wheel_gain` = 1 / (1 − w) gives the wheels' view, what the odometry counts). A robot
+    whose battery is empty ignores its commands and stops (:attr:`battery` ``.empty``)."""
+
+    def __init__(self, index: int, cfg: RobotConfig, space: pymunk.Space, position, heading_rad: float, body=None):
+        rc = cfg if body is None else body.robot
+        super().__init__(space, position, heading_rad, rc.radius_m, COLLISION_ROBOT, rc.mass_kg,
+                         rc.max_accel_mps2, rc.max_alpha_rps2, friction=0.3, elasticity=0.0)
         self.index = index
-        self.cfg = cfg
+        self.cfg = rc
+        self.spec = body
+        self.type_name = "petbot" if body is None else body.name
+        self.radius_m = rc.radius_m
         self.shape.robot_index = index  # read by collision callbacks
         space.add(self.body, self.shape)
         self.health = FaultState()  # the parts that work (petswarm_env/sim/faults.py)
-        self.ahrs = AHRS(self, cfg)  # own sensor: yaw with white noise and a drifting bias
+        self.ahrs = AHRS(self, rc)  # own sensor: yaw with white noise and a drifting bias
         self.ahrs_yaw = self.ahrs.yaw  # ahrs_yaw(now_s): the reading (bound once: read every frame)
+        battery = body.battery if body is not None else _PETBOT_BATTERY
+        self.battery = Battery(battery, rc.max_speed_mps, rc.max_omega_rps)
+        self._drain = self.battery.drain  # bound once: it runs every substep
+        self.sensors_off: set[int] = set()  # ids of its sensors that are faulty (Sensors.sensor_off sets it)
+        slip = body.slip if body is not None else 0.0
+        self._keep = 1.0 - slip  # the body's share of the wheels' motion
+        self.wheel_gain = 1.0 / self._keep
+        self._differential = body.differential_limits() if body is not None and body.drive == "differential" else None
 
     def set_command(self, vx: float, vy: float, omega: float) -> None:
-        """Body-frame command (m/s, m/s, rad/s); wheel saturation applies here. Stored as Python
-        floats: a float32 action would otherwise carry numpy-scalar arithmetic (slow, and rounded
-        to float32) into every substep of the drive."""
-        self.command = saturate_command(float(vx), float(vy), float(omega), self.cfg)
+        """Body-frame command (m/s, m/s, rad/s) through the body's MOVE module; wheel saturation
+        applies here. Stored as Python floats: a float32 action would otherwise carry numpy-scalar
+        arithmetic (slow, and rounded to float32) into every substep of the drive. An empty
+        battery ignores it (the robot stops)."""
+        if self.battery.empty:
+            self.command = (0.0, 0.0, 0.0)
+            return
+        if self._differential is not None:
+            v, w = differential_move(float(vx), float(vy), float(omega), self._differential)
+            cmd = (v, 0.0, w)
+        else:
+            cmd = saturate_command(float(vx), float(vy), float(omega), self.cfg)
+        keep = self._keep
+        self.command = cmd if keep == 1.0 else (cmd[0] * keep, cmd[1] * keep, cmd[2] * keep)
+
+    def apply(self, dt: float) -> None:
+        """One substep of the drive, then the battery's drain over it (an empty battery stops the robot)."""
+        DrivenBody.apply(self, dt)
+        if self._drain(dt, self.velocity_body):
+            self.command = (0.0, 0.0, 0.0)
+
+    @property
+    def wheel_velocity(self) -> tuple[float, float, float]:
+        """What the wheels turn (the odometry's view): the achieved velocity over (1 − slip)."""
+        v = self.velocity_body
+        g = self.wheel_gain
+        return v if g == 1.0 else (v[0] * g, v[1] * g, v[2] * g)
+
+    def own_status(self) -> dict:
+        """This robot's own status from its own body only (seed 003's β_i = <id, w_i, P_rem_i> and
+        the rates of §4.1.2), what its middleware may report (RUTA): type, drive, battery, slip,
+        consumption rates and the registered sensors. No other robot's truth."""
+        spec, b = self.spec, self.battery
+        sensors = spec.sensors if spec is not None else ()
+        rates = spec.battery if spec is not None else _PETBOT_BATTERY
+        return {"id": self.index, "type": self.type_name, "drive": spec.drive if spec is not None else "mecanum",
+                "battery_mah": b.remaining_mah, "battery_capacity_mah": b.capacity_mah, "battery_fraction": b.fraction,
+                "battery_empty": b.empty, "wheel_slip_pct": 100.0 * (1.0 - self._keep),
+                "servo_ma": rates.servo_ma, "actuator_ma": rates.actuator_ma, "sensing_ma": rates.sensing_ma,
+                "sensors": [{"id": s.id, "type": s.type, "radius_m": s.location.radius_m, "angle_deg": s.location.angle_deg,
+                             "working": s.id not in self.sensors_off} for s in sensors]}

@@ -15,6 +15,7 @@ from typing import Protocol
 import numpy as np
 
 from petswarm_env.config import RobotConfig
+from petswarm_env.middle_layer import BodyMap, MiddleLayer
 from petswarm_env.sim import geometry
 from petswarm_env.sim.body import Body
 from petswarm_env.sim.draws import Draws
@@ -108,8 +109,13 @@ class Odometry:
         k = self.noise_rel
         if k > 0:
             normal = self._draws.normal
-            return noisy_odometry(self.body.velocity_body, (k * normal(), k * normal(), k * normal()))
-        return self.body.velocity_body
+            return noisy_odometry(self._velocity(), (k * normal(), k * normal(), k * normal()))
+        return self._velocity()
+
+    def _velocity(self) -> tuple[float, float, float]:
+        """What the wheels turn: the achieved velocity, over (1 − slip) on a slipping body."""
+        body = self.body
+        return body.velocity_body if getattr(body, "wheel_gain", 1.0) == 1.0 else body.wheel_velocity
 
 
 class UltrasonicRing:
@@ -117,13 +123,15 @@ class UltrasonicRing:
     against every round body and every wall (:func:`~.geometry.ring_first_hits`), from the rim,
     with Gaussian noise, clipped to [min_range, max_range]."""
 
-    def __init__(self, cfg: RobotConfig, wall_a: np.ndarray, wall_b: np.ndarray):
+    def __init__(self, cfg: RobotConfig, wall_a: np.ndarray, wall_b: np.ndarray,
+                 angles_rad: list[float] | None = None, radii_m: list[float] | None = None):
         us = cfg.ultrasonic
-        self.count = us.count
+        self.count = us.count if angles_rad is None else len(angles_rad)
         self.min_range_m, self.max_range_m, self.noise_m = us.min_range_m, us.max_range_m, us.noise_m
-        self.radius_m = cfg.radius_m
-        self.angles = np.arange(us.count) * (2 * math.pi / max(us.count, 1))
-        self.reach_m = us.max_range_m + cfg.radius_m  # from the centre
+        self.radius_m = cfg.radius_m if radii_m is None else np.asarray(radii_m, float)
+        self.angles = np.arange(us.count) * (2 * math.pi / max(us.count, 1)) if angles_rad is None else np.asarray(angles_rad)
+        rim = cfg.radius_m if radii_m is None else max(radii_m, default=0.0)
+        self.reach_m = us.max_range_m + rim  # from the centre
         self.walls = geometry.SegmentSet(wall_a, wall_b, self.reach_m)
 
     def ranges(self, world: Truth, indices: list[int], rng: np.random.Generator) -> np.ndarray:
@@ -137,8 +145,10 @@ class UltrasonicRing:
             pos, th = centers[: len(indices)], headings  # every robot, in order (the env's call): views
         else:
             pos, th = centers[indices], headings[indices]
-        d = geometry.ring_first_hits(pos, th, self.angles, centers, radii, self.walls, self.reach_m).reshape(-1)
-        d -= self.radius_m  # from the sensor on the rim (d is a new array: in place)
+        d = geometry.ring_first_hits(pos, th, self.angles, centers, radii, self.walls, self.reach_m)
+        d = d.reshape(-1) if isinstance(self.radius_m, float) else (d.reshape(len(indices), n) - self.radius_m).reshape(-1)
+        if isinstance(self.radius_m, float):
+            d -= self.radius_m  # from the sensor on the rim (d is a new array: in place)
         if self.noise_m > 0:
             d += rng.normal(0.0, self.noise_m, d.shape)
         np.maximum(d, self.min_range_m, out=d)  # np.clip
@@ -150,24 +160,99 @@ class Sensors:
     """The sensors of every robot of a world as the env reads them, from the env's sensor stream:
     :meth:`read_rings` after every advance of the world (all robots in one cast and one noise
     draw), :meth:`odometry` for one robot (three draws, or ones drawn already by
-    :meth:`odometry_noise` for many robots at once). The AHRS is per robot (``robot.ahrs``)."""
+    :meth:`odometry_noise` for many robots at once). The AHRS is per robot (``robot.ahrs``).
+
+    Heterogeneous bodies (seed 001's middle layer, :mod:`petswarm_env.middle_layer`): each robot
+    reads its own DISTANCE sensors (its type's angles and radii; one cast and one noise draw per
+    type, in the order of each type's first robot), and :attr:`ranges` is every robot's reading
+    mapped onto the virtual ring (an absent sensor reads ``max_range``); :attr:`flags` holds, per
+    robot, the ring's presence and location-known flags. When every body carries the virtual
+    ring itself (the petbot-only default) the one cast of the whole ring is all there is.
+    :meth:`sensor_off` is a sensor fault's seam: the sensors it names deliver nothing."""
 
     def __init__(self, world: Truth, cfg: RobotConfig, rng: np.random.Generator):
         self.world = world
         self.rng = rng
         self.ring = UltrasonicRing(cfg, world.wall_a, world.wall_b)
         self.odometry_noise_rel = cfg.odometry_noise_rel
+        self._cfg = cfg
+        self._off: dict[int, set[int]] = {}
+        self._ring_faulted: set[int] = set()  # robots whose whole ring an ultrasonic fault switched off
+        self.refresh()
         self.ranges = np.zeros((0, self.ring.count))  # every robot's last ring, (robots, count) m
         self.read_rings()
 
+    def refresh(self) -> None:
+        """(Re)build the middle layer for the world's robots now: call after adding a robot (an
+        arrival) before the next :meth:`read_rings`. Sensor faults set so far stay."""
+        world, cfg, count = self.world, self._cfg, self.ring.count
+        specs = [getattr(r, "spec", None) for r in world.robots]
+        self.layer = MiddleLayer(specs, cfg) if specs and None not in specs else None  # None: bare bodies (tests)
+        self.flags = [self.layer.maps[i].flags(self._off.get(i, ())) for i in range(len(world.robots))] if self.layer \
+            else [[1.0] * (2 * count) for _ in world.robots]
+        self._groups = [] if self.layer is None or self.layer.identity else self._type_groups(cfg, world)
+
+    def _type_groups(self, cfg: RobotConfig, world: Truth) -> list:
+        """Per body type (first robot's order): its robots, its ring of own sensors, its routes."""
+        groups: dict[str, tuple[list[int], BodyMap]] = {}
+        for i, m in enumerate(self.layer.maps):
+            groups.setdefault(m.body, ([], m))[0].append(i)
+        out = []
+        for indices, m in groups.values():
+            angles = [math.radians(s.location.angle_deg) for s in m.physical]
+            radii = [s.location.radius_m for s in m.physical]
+            ring = UltrasonicRing(cfg, world.wall_a, world.wall_b, angles, radii)
+            pairs = [(k, j) for k, j in enumerate(m.route) if j is not None]
+            out.append((indices, ring, [k for k, _ in pairs], [j for _, j in pairs]))
+        return out
+
     def read_rings(self) -> np.ndarray:
         """Read every robot's ultrasonic ring now; also kept as :attr:`ranges`."""
-        ranges = self.ring.ranges(self.world, list(range(len(self.world.robots))), self.rng)
+        self._follow_faults()
+        if not self._groups:
+            self.ranges = self.ring.ranges(self.world, list(range(len(self.world.robots))), self.rng)
+        else:
+            ranges = np.full((len(self.world.robots), self.ring.count), self.ring.max_range_m)
+            for indices, ring, virt, cols in self._groups:
+                own = ring.ranges(self.world, indices, self.rng)
+                if virt:
+                    ranges[np.ix_(indices, virt)] = own[:, cols]
+            self.ranges = ranges
+        if self._off:
+            for i, off in self._off.items():
+                for k, f in enumerate(self.flags[i][: self.ring.count]):
+                    if f == 0.0:
+                        self.ranges[i, k] = self.ring.max_range_m
+        return self.ranges
+
+    def _follow_faults(self) -> None:
+        """An ``ultrasonic`` fault (``robot.health``, petswarm_env/sim/faults.py) switches every
+        DISTANCE sensor of its robot off through :meth:`sensor_off` (presence 0, max range), and its
+        end switches them back on."""
         for i, robot in enumerate(self.world.robots):
-            if not robot.health.ultrasonic_ok:  # a ring that gives no readings: no echo, max range (sim/faults.py)
-                ranges[i] = self.ring.max_range_m
-        self.ranges = ranges
-        return ranges
+            failed = not robot.health.ultrasonic_ok
+            if failed != (i in self._ring_faulted):
+                if failed:
+                    self._ring_faulted.add(i)
+                    ids = [sn.id for sn in self.layer.maps[i].physical] if self.layer else range(1, self.ring.count + 1)
+                    self.sensor_off(i, set(ids))
+                else:
+                    self._ring_faulted.discard(i)
+                    self.sensor_off(i, set())
+
+    def sensor_off(self, index: int, physical_ids: set[int]) -> None:
+        """Robot ``index``'s DISTANCE sensors of ids ``physical_ids`` deliver nothing from now on
+        (presence 0, the slot reads max_range); an empty set switches them back on. The fault's
+        state lives on the robot (``robot.sensors_off``, which its own status reports)."""
+        off = set(physical_ids)
+        self.world.robots[index].sensors_off = off
+        if off:
+            self._off[index] = off
+        else:
+            self._off.pop(index, None)
+        body_map = self.layer.maps[index] if self.layer else None
+        self.flags[index] = body_map.flags(off) if body_map else \
+            [0.0 if (k % self.ring.count) + 1 in off else 1.0 for k in range(2 * self.ring.count)]
 
     def odometry_noise(self, n: int) -> list[list[float]] | None:
         """The relative odometry errors of ``n`` readings in one draw, (n, 3) (the same numbers as
@@ -178,7 +263,8 @@ class Sensors:
     def odometry(self, index: int, noise: list[float] | None = None) -> tuple[float, float, float]:
         """Wheel odometry of robot ``index``: its achieved body velocity ``(vx, vy, ω)`` with relative
         noise (``noise``: the three N(0, odometry_noise_rel) errors when drawn already, else drawn here)."""
-        velocity = self.world.robots[index].velocity_body
+        robot = self.world.robots[index]
+        velocity = robot.velocity_body if robot.wheel_gain == 1.0 else robot.wheel_velocity  # the wheels' view (slip)
         k = self.odometry_noise_rel
         if k > 0:
             return noisy_odometry(velocity, self.rng.normal(0.0, k, 3).tolist() if noise is None else noise)

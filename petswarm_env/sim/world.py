@@ -14,6 +14,8 @@ import numpy as np
 import pymunk
 
 from petswarm_env.config import Config
+from petswarm_env.robot_types import DEFAULT_TYPE
+from petswarm_env.robot_types import resolve as resolve_type
 from petswarm_env.scenarios import ScenarioScript
 from petswarm_env.sim.body import COLLISION_ROBOT, COLLISION_USER, COLLISION_WALL, read_poses
 from petswarm_env.sim.clock import Clock
@@ -50,6 +52,10 @@ class World:
         self._truth_at = -1  # _physics_steps when the truth arrays were read (-1: stale)
         self._truth: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         self.robots: list[Robot] = []
+        # each robot's type, by index in the order add_robot is called (the env sets it before the
+        # scenario places the robots); beyond it, and by default, the petbot (robot_types.py)
+        self.body_plan: list = []
+        self.default_body = resolve_type(cfg, DEFAULT_TYPE)
         self.users: list[User] = []
         self.user = self.add_user(script, (0.0, 0.0), 0.0)  # the first user (user 0)
         self.collisions = CollisionCounts()
@@ -88,7 +94,9 @@ class World:
         return user
 
     def add_robot(self, position, heading_rad: float) -> Robot:
-        robot = Robot(len(self.robots), self.cfg.robot, self.space, position, heading_rad)
+        i = len(self.robots)
+        body = self.body_plan[i] if i < len(self.body_plan) else self.default_body
+        robot = Robot(i, self.cfg.robot, self.space, position, heading_rad, body)
         self.robots.append(robot)
         self._truth_at = -1
         return robot
@@ -147,8 +155,8 @@ class World:
         centers = np.array(xy, dtype=float).reshape(-1, 2)
         headings = np.array(th, dtype=float)
         if self._truth is None or len(self._truth[1]) != len(centers):
-            radii = np.full(len(centers), self.cfg.robot.radius_m)
-            radii[len(self.robots):] = self.cfg.user.radius_m
+            radii = np.full(len(centers), self.cfg.user.radius_m)
+            radii[: len(self.robots)] = [r.radius_m for r in self.robots]
             radii.flags.writeable = False
         else:
             radii = self._truth[1]

@@ -35,6 +35,15 @@ import numpy as np
 
 GOLDEN_PATH = Path(__file__).with_name("episodes.json")
 
+# Issue 15 added 16 observation fields after layout 2's 67 (the ring's presence and location-known
+# flags, layout 3) and 7 summary keys (faults, reassignments, arrivals). ``layout2_sha256`` hashes a
+# case as it was hashed before: each observation cut to its first 67 values, the summary without
+# those keys; it equals the hash recorded at 64567ef, before issue 15 — so a petbot-only pool gives
+# the same episodes as before the heterogeneous swarm, bit for bit.
+LAYOUT2_SIZE = 67
+ISSUE15_SUMMARY_KEYS = frozenset({"faults_injected", "faults_detected", "detection_time_s", "reassignments",
+                                  "reassignment_time_s", "slots_unfilled_s", "arrivals_joined"})
+
 # name -> (config overrides, policy, seed, steps)
 CASES: dict[str, tuple[dict[str, Any], str, int, int]] = {
     "default_seed0": ({}, "scripted", 0, 600),
@@ -67,17 +76,21 @@ def run_case(name: str) -> dict[str, Any]:
     overrides, policy_name, seed, steps = CASES[name]
     env = petswarm_env.parallel_env(**{**overrides, "max_cycles": steps})
     policy = _policy(policy_name, env, seed)
-    h = hashlib.sha256()
+    h, h2 = hashlib.sha256(), hashlib.sha256()  # the whole case; as layout 2 hashed it (LAYOUT2_SIZE)
 
     def add_obs(obs: dict[str, np.ndarray]) -> None:
         for agent in sorted(obs):
-            h.update(agent.encode())
-            h.update(np.ascontiguousarray(obs[agent], dtype=np.float32).tobytes())
+            o = np.ascontiguousarray(obs[agent], dtype=np.float32)
+            for x in (h, h2):
+                x.update(agent.encode())
+            h.update(o.tobytes())
+            h2.update(o[:LAYOUT2_SIZE].tobytes())
 
     def add_truth() -> None:
         centers, headings = _truth(env)
-        h.update(centers.tobytes())
-        h.update(headings.tobytes())
+        for x in (h, h2):
+            x.update(centers.tobytes())
+            x.update(headings.tobytes())
 
     obs, _ = env.reset(seed=seed)
     policy.reset(seed)
@@ -89,13 +102,17 @@ def run_case(name: str) -> dict[str, Any]:
         obs, rewards, terms, truncs, _ = env.step(actions)
         add_obs(obs)
         for agent in sorted(rewards):
-            h.update(agent.encode())
-            h.update(struct.pack("<d??", float(rewards[agent]), bool(terms[agent]), bool(truncs[agent])))
+            for x in (h, h2):
+                x.update(agent.encode())
+                x.update(struct.pack("<d??", float(rewards[agent]), bool(terms[agent]), bool(truncs[agent])))
         add_truth()
         n += 1
     summary = env.episode_summary()
     h.update(json.dumps(summary, sort_keys=True, default=float).encode())
-    return {"sha256": h.hexdigest(), "steps": n, "formation_rmse_m": summary["formation_rmse_m"]}
+    before = {k: v for k, v in summary.items() if k not in ISSUE15_SUMMARY_KEYS}
+    h2.update(json.dumps(before, sort_keys=True, default=float).encode())
+    return {"sha256": h.hexdigest(), "layout2_sha256": h2.hexdigest(), "steps": n,
+            "formation_rmse_m": summary["formation_rmse_m"]}
 
 
 def run_all() -> dict[str, dict[str, Any]]:

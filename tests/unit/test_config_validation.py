@@ -55,6 +55,8 @@ CASES = [
     ({"swarm.mode": "sideways"}, "swarm.mode"),
     ({"swarm.master_change": "maybe"}, "swarm.master_change"),
     ({"swarm.spawn_jitter_m": -0.1}, "swarm.spawn_jitter_m"),
+    ({"swarm.pool": [{"type": "tank", "count": 4}]}, "swarm.pool[0].type"),
+    ({"robot_types.mybot.max_speed_mps": -1.0}, "robot_types.mybot.max_speed_mps"),
     ({"radio.loss_prob": 1.5}, "radio.loss_prob"),
     ({"radio.min_be": 6}, "radio.max_be"),
     ({"radio.max_be": 9}, "radio.max_be"),

@@ -1,0 +1,70 @@
+"""A robot's battery: capacity in mAh, drained by the drive and the sensors (seed 003 §4.1.2).
+
+Seed 003 models a robot's remaining power P_rem (mAh) and the consumption rates of its subtasks
+(rate_servo for navigation, rate_act for manipulation, rate_sens for sensing, in mA); it gives no
+discharge model over time. Ours (chosen): every physics substep of length dt,
+
+    drained_mAh += (sensing_mA + servo_mA · load + actuator_mA · actuating) · dt / 3600,
+    load = min(1, |v| / v_max + |ω| / ω_max)
+
+with (v, ω) the body's achieved velocity and its own limits: the servos draw their full-load
+current at full speed (or full turn) and proportionally less below (chosen); the sensors and the
+electronics draw all the time; the actuator (a manipulator) only while ``actuating`` (no swarm task
+uses one yet). At 0 mAh the battery is :attr:`Battery.empty` — the one place that state lives —
+and the robot stops (:meth:`~.robot.Robot.set_command` ignores its commands): a fault for the
+fault machinery to pick up.
+"""
+
+from __future__ import annotations
+
+import math
+
+_hypot = math.hypot
+_MS_PER_H = 3600.0
+
+
+class Battery:
+    """One robot's battery (``spec``: a :class:`~petswarm_env.robot_types.Battery`)."""
+
+    __slots__ = ("capacity_mah", "remaining_mah", "empty", "actuating", "_servo", "_act", "_sens", "_inv_v", "_inv_w")
+
+    def __init__(self, spec, max_speed_mps: float, max_omega_rps: float):
+        self.capacity_mah = float(spec.capacity_mah)
+        self.remaining_mah = self.capacity_mah
+        self.empty = False  # the battery-empty fault flag (the robot stops; faults wire it)
+        self.actuating = False  # a manipulator in use (drains actuator_mA)
+        self._servo, self._act, self._sens = float(spec.servo_ma), float(spec.actuator_ma), float(spec.sensing_ma)
+        self._inv_v, self._inv_w = 1.0 / max_speed_mps, 1.0 / max_omega_rps
+
+    @property
+    def fraction(self) -> float:
+        """Remaining charge, 0 … 1 (1 for a battery of infinite capacity)."""
+        return self.remaining_mah / self.capacity_mah if math.isfinite(self.capacity_mah) else 1.0
+
+    def current_ma(self, velocity_body: tuple[float, float, float]) -> float:
+        """The current drawn at this body velocity (mA)."""
+        vx, vy, w = velocity_body
+        load = _hypot(vx, vy) * self._inv_v + abs(w) * self._inv_w
+        return self._sens + self._servo * (load if load < 1.0 else 1.0) + (self._act if self.actuating else 0.0)
+
+    def drain(self, dt: float, velocity_body: tuple[float, float, float]) -> bool:
+        """One substep of ``dt`` s at ``velocity_body``; True when the battery has just emptied.
+        (:meth:`current_ma`'s formula written out: it runs for every robot at every substep.)"""
+        if self.empty:
+            return False
+        vx, vy, w = velocity_body
+        load = _hypot(vx, vy) * self._inv_v + (w if w >= 0.0 else -w) * self._inv_w
+        ma = self._sens + self._servo * (load if load < 1.0 else 1.0)
+        if self.actuating:
+            ma += self._act
+        self.remaining_mah -= ma * dt / _MS_PER_H
+        if self.remaining_mah <= 0.0:
+            self.remaining_mah = 0.0
+            self.empty = True
+            return True
+        return False
+
+    def set_remaining(self, mah: float) -> None:
+        """Set the charge (a scenario's or a fault's start state); 0 empties it."""
+        self.remaining_mah = max(0.0, min(float(mah), self.capacity_mah))
+        self.empty = self.remaining_mah <= 0.0

@@ -157,7 +157,8 @@ def test_centralized_every_candidate_reports_its_status_in_its_answer(radio_filt
     reports = frames.kinds(msg.STATUS_ANSWER)
     assert sorted({f.src for f in reports}) == sorted(n for m, n in res.members.items() if m)
     p = reports[0].payload
-    assert p["type"] == "petbot" and p["battery_mah"] == 2500.0 and p["rate_act_ma"] == A.NO_MODULE
+    assert p["type"] == "petbot" and p["rate_act_ma"] == A.NO_MODULE
+    assert 2490.0 < p["battery_mah"] < 2500.0  # the petbot's 2500 mAh, drained a little while it waited (sim/battery.py)
     assert reports[0].size_bytes == msg.SIZE_BYTES[msg.STATUS_ANSWER]
     slaves_consistent(env)
 

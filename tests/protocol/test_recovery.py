@@ -134,7 +134,13 @@ def test_selection_is_one_method_filling_the_lowest_open_numbers_with_the_closes
         unavailable: list = []
         not_selected: list = []
 
+    class S:  # the station's config: the closest rule (swarm.assignment's default)
+        class cfg:
+            class swarm:
+                assignment = "closest"
+
     jm = JoinManager.__new__(JoinManager)
+    jm.node = S()
     picked, n = jm._select({7: 2.0, 8: 1.0, 9: 0.5}, {7: F(True), 8: F(True), 9: F(False)}, [3, 4], R())
     assert picked == {3: 8, 4: 7} and n == 2
     picked, _ = jm._select({7: 2.0, 8: 1.0}, {7: F(True), 8: F(True)}, [4], R())

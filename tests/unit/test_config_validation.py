@@ -104,7 +104,7 @@ CASES = [
     ({"faults": [{"at_s": 1, "robot": 1, "kind": "dead", "duration_s": 0}]}, "duration_s"),
     ({"faults_random.kinds": ["zap"]}, "faults_random.kinds"),
     ({"faults_random.rate_per_min": -1}, "faults_random.rate_per_min"),
-    ({"arrivals": [{"at_s": 1, "type": "tank"}]}, "arrivals[].type"),
+    ({"arrivals": [{"at_s": 1, "type": "tank"}]}, "arrivals[0].type"),
     ({"arrivals": [{"at_s": -1, "type": "petbot"}]}, "arrivals.0.at_s"),
 ]
 

@@ -10,6 +10,7 @@ from baselines.policy import Policy, PolicySpec
 from baselines.registry import make_policy
 from petswarm_env import PetSwarmEnv
 from petswarm_env.config import Config
+from petswarm_env.files import raise_pending_signal
 
 TRAJECTORY_EVERY = 5  # record positions every 5 steps (0.5 s)
 VIDEO_EVERY = 2  # a GIF frame every 2 steps (5 frames/s of simulated time at the default 0.1 s step)
@@ -78,6 +79,7 @@ def run_episode(
             for rid, p in robots.items():
                 traj_robots.setdefault(rid, []).append(p)
         # act for the live agents only (one that just left slave-role driving gets its last observation)
+        raise_pending_signal()  # a Ctrl-C or SIGTERM that a C callback swallowed (petswarm_env/files.py)
         observations, _, _, _, infos = env.step(policy.act_all({a: observations[a] for a in env.agents}))
         if on_step:
             on_step(infos)

@@ -259,21 +259,44 @@ class Terminated(SystemExit):
         return f"terminated by {signal.Signals(self.signum).name}"
 
 
+# the exception of the last signal (exit_cleanly_on_signals): a signal that arrives while a C
+# library runs Python code for it (pymunk frees a space through a cffi callback when an episode's
+# world is dropped) has its exception printed and swallowed there ("Exception ignored from callback"),
+# so the loops that run episodes raise it again at their next step (raise_pending_signal)
+_PENDING: list[BaseException] = []
+
+
 def _raise_terminated(signum, frame) -> None:
+    _PENDING[:] = [Terminated(signum)]
     raise Terminated(signum)
+
+
+def _raise_interrupt(signum, frame) -> None:
+    _PENDING[:] = [KeyboardInterrupt()]
+    raise KeyboardInterrupt
+
+
+def raise_pending_signal() -> None:
+    """Raise again the exception of a signal that arrived inside the command
+    (:func:`exit_cleanly_on_signals`): a no-op unless one did; a signal swallowed by a C callback
+    ends the command here instead of being lost. Called once per step by the episode loops."""
+    if _PENDING:
+        raise _PENDING[0]
 
 
 @contextlib.contextmanager
 def exit_cleanly_on_signals() -> Iterator[None]:
-    """While the block runs, SIGTERM and SIGHUP raise :class:`Terminated` (the ``petswarm``
-    command runs in it; SIGINT already raises ``KeyboardInterrupt``); the previous handlers come
-    back after it. Outside the main thread it changes nothing (Python allows handlers only there)."""
+    """While the block runs, SIGTERM and SIGHUP raise :class:`Terminated` and SIGINT
+    ``KeyboardInterrupt`` (the ``petswarm`` command runs in it), each also kept for
+    :func:`raise_pending_signal`; the previous handlers come back after it. Outside the main thread it changes nothing (Python allows handlers only there)."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
     previous = {sig: signal.signal(sig, _raise_terminated) for sig in (signal.SIGTERM, signal.SIGHUP)}
+    previous[signal.SIGINT] = signal.signal(signal.SIGINT, _raise_interrupt)
     try:
         yield
     finally:
+        _PENDING.clear()
         for sig, handler in previous.items():
             signal.signal(sig, handler)

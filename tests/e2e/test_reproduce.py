@@ -49,7 +49,7 @@ def fakes(monkeypatch):
 # -- registry and arguments -----------------------------------------------------------------------------
 def test_registry_has_the_issue_names_in_order():
     assert list(registry.EXPERIMENTS) == ["ir_accuracy", "reaction_time", "organize_time", "lf_accuracy", "rotation_sync",
-                                          "sensor_mapping", "ruta_example"]
+                                          "sensor_mapping", "ruta_example", "reassignment"]
 
 
 def test_parse_only():

@@ -183,3 +183,25 @@ def test_read_npz_refuses_declared_sizes_beyond_the_file_and_the_limit(tmp_path)
     with pytest.raises(ValueError, match="more than"):
         read_npz(big, 1000)
     assert read_npz(big, 10**6)["a"].shape == (1000,)
+
+
+def test_a_signal_swallowed_by_a_callback_is_raised_again_at_the_next_step():
+    """pymunk frees a space through a cffi callback, which prints and drops an exception raised in
+    it: a SIGTERM or Ctrl-C that lands there must still end the command (files.raise_pending_signal)."""
+    import os
+    import signal
+
+    from petswarm_env.files import Terminated, exit_cleanly_on_signals, raise_pending_signal
+
+    with exit_cleanly_on_signals():
+        raise_pending_signal()  # nothing pending: a no-op
+        try:  # the callback: the handler's exception is swallowed
+            os.kill(os.getpid(), signal.SIGTERM)
+            for _ in range(1000):
+                pass
+        except Terminated:
+            pass
+        with pytest.raises(Terminated) as info:
+            raise_pending_signal()
+        assert info.value.code == 128 + signal.SIGTERM
+    raise_pending_signal()  # the block's end forgets it

@@ -19,6 +19,7 @@ from baselines.policy import PolicySpec
 from baselines.registry import make_policy
 from petswarm_env.config import Config
 from petswarm_env.env import PetSwarmEnv
+from petswarm_env.wrappers import FixedAgents
 from training.config import TrainConfig
 
 
@@ -32,42 +33,47 @@ def discounted_returns(rewards: list[float], gamma: float) -> list[float]:
     return returns[::-1]
 
 
-def collect_demonstrations(env_cfg: Config, samples: int, noise_std: float, seed: int, gamma: float):
+def collect_demonstrations(env_cfg: Config, samples: int, noise_std: float, seed: int, gamma: float, env=None):
     """Run the scripted reference with action noise over episodes ``seed, seed + 1, …`` until
-    ``samples`` agent-steps; return observations, the reference's (noise-free) actions and the
-    discounted returns of the executed trajectories (for the critic)."""
-    env = PetSwarmEnv(env_cfg)
-    teacher = make_policy("scripted", PolicySpec.from_env(env))
+    ``samples`` agent-steps; return the inputs (each live agent's row), the reference's
+    (noise-free) actions and the discounted returns of the executed trajectories (for the critic).
+    ``env`` is the run's fixed-agents env (:func:`training.vec_env.training_env`: its draws, its
+    rows with the state); by default ``FixedAgents(PetSwarmEnv(env_cfg))``. The reference reads
+    only the observation (a row's first ``layout.size`` values) of the robots that are slaves."""
+    env = env if env is not None else FixedAgents(PetSwarmEnv(env_cfg))
     rng = np.random.default_rng(seed)
     obs_l, act_l, ret_l = [], [], []
     episode = 0
     while len(obs_l) < samples:
-        obs, _ = env.reset(seed=seed + episode)
+        rows, infos = env.reset(seed=seed + episode)
         episode += 1
-        traj: dict[str, list[tuple[np.ndarray, np.ndarray, float]]] = {a: [] for a in env.agents}
+        teacher = make_policy("scripted", PolicySpec.from_env(env))
+        n = env.layout.size
+        traj: dict[str, list[tuple[np.ndarray, np.ndarray, float]]] = {}
         while env.agents:
-            target = teacher.act_all({a: obs[a] for a in env.agents})
+            live = [a for a in env.agents if infos[a]["active"]]
+            target = teacher.act_all({a: rows[a][:n] for a in live})
             noisy = {a: np.clip(v + rng.normal(0.0, noise_std, 3), -1.0, 1.0).astype(np.float32) for a, v in target.items()}
-            next_obs, rewards, _, _, _ = env.step(noisy)
+            next_rows, rewards, _, _, infos = env.step(noisy)
             for a in target:
-                traj.setdefault(a, []).append((obs[a], target[a], rewards[a]))
-            obs = next_obs
+                traj.setdefault(a, []).append((rows[a], target[a], rewards[a]))
+            rows = next_rows
         for steps in traj.values():
             for (o, t, _), g in zip(steps, discounted_returns([r for _, _, r in steps], gamma)):
                 obs_l.append(o)
                 act_l.append(t)
                 ret_l.append(g)
-    env.close()
     return np.array(obs_l[:samples]), np.array(act_l[:samples]), np.array(ret_l[:samples], dtype=np.float32)
 
 
-def fit_actor_critic(actor, critic, params: list, cfg: TrainConfig, env_cfg: Config) -> dict:
-    """Behaviour cloning of the scripted reference into ``actor`` (a function of an observation
-    batch to mean actions; MSE) and a regression of ``critic`` (observations -> values) on the
-    demonstrations' returns, optimising ``params`` with Adam: the warm start of every back end."""
+def fit_actor_critic(actor, critic, params: list, cfg: TrainConfig, env_cfg: Config, env=None) -> dict:
+    """Behaviour cloning of the scripted reference into ``actor`` (a function of an input batch
+    to mean actions; MSE) and a regression of ``critic`` (inputs -> values) on the
+    demonstrations' returns, optimising ``params`` with Adam: the warm start of every back end
+    (``env``: :func:`collect_demonstrations`)."""
     p = cfg.pretrain
     t0 = time.time()
-    obs, act, ret = collect_demonstrations(env_cfg, p.samples, p.noise_std, cfg.seed + 100_000, cfg.ppo.gamma)
+    obs, act, ret = collect_demonstrations(env_cfg, p.samples, p.noise_std, cfg.seed + 100_000, cfg.ppo.gamma, env)
     x = torch.as_tensor(obs, dtype=torch.float32)
     y = torch.as_tensor(act, dtype=torch.float32)
     g = torch.as_tensor(ret, dtype=torch.float32)[:, None]
@@ -88,11 +94,11 @@ def fit_actor_critic(actor, critic, params: list, cfg: TrainConfig, env_cfg: Con
     return {"samples": n, "actor_mse": actor_loss, "critic_mse": critic_loss, "wall_time_s": round(time.time() - t0, 1)}
 
 
-def pretrain_policy(model, cfg: TrainConfig, env_cfg: Config) -> dict:
+def pretrain_policy(model, cfg: TrainConfig, env_cfg: Config, env=None) -> dict:
     """The warm start of an SB3 PPO model: its actor MLP and action head, its critic MLP and value
-    head (:func:`fit_actor_critic`)."""
+    head (:func:`fit_actor_critic`; ``env``: the run's fixed-agents env, whose rows the model reads)."""
     policy = model.policy
     params = [*policy.mlp_extractor.parameters(), *policy.action_net.parameters(), *policy.value_net.parameters(),
               *policy.features_extractor.parameters()]
     return fit_actor_critic(lambda x: policy.action_net(policy.mlp_extractor(policy.extract_features(x))[0]),
-                            lambda x: policy.value_net(policy.mlp_extractor(policy.extract_features(x))[1]), params, cfg, env_cfg)
+                            lambda x: policy.value_net(policy.mlp_extractor(policy.extract_features(x))[1]), params, cfg, env_cfg, env)

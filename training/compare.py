@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import itertools
+import json
 import math
 import time
 from typing import Any
@@ -42,13 +43,17 @@ def label(cell: dict[str, Any]) -> str:
 
 
 def compare(policies: list[str], grid: list[dict[str, Any]], scenarios: list[str], episodes: int, seed: int,
-            max_cycles: int, progress=print) -> list[dict[str, Any]]:
-    """One row per cell: each policy's mean RMSE over the cell's scenarios x seeds and its collisions."""
+            max_cycles: int, progress=print, reuse: dict[str, dict[str, Any]] | None = None) -> list[dict[str, Any]]:
+    """One row per cell: each policy's mean RMSE over the cell's scenarios x seeds and its collisions
+    (``reuse``: figures of an earlier run with the same settings, by cell label, taken instead of re-running)."""
     rows = []
     for cell in grid:
         cfg = load_config(overrides={**cell, "max_cycles": max_cycles})
         row: dict[str, Any] = {"cell": label(cell), "overrides": cell, "policies": {}}
         for policy in policies:
+            if reuse and policy in reuse.get(label(cell), {}):
+                row["policies"][policy] = reuse[label(cell)][policy]
+                continue
             t0 = time.time()
             result = evaluate(cfg, policy, scenarios=scenarios, episodes=episodes, seed=seed)
             eps = result["episodes"]
@@ -91,6 +96,11 @@ def summary(rows: list[dict[str, Any]], policies: list[str]) -> str:
     return "\n".join(lines)
 
 
+def read_json(path: str) -> dict[str, Any]:
+    with open(path, encoding="utf-8") as f:
+        return json.load(f)
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m training.compare", description=__doc__.split("\n\n")[0])
     ap.add_argument("--policies", default="scripted,learned", help="comma-separated: scripted, learned, a policy.npz path")
@@ -99,11 +109,20 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seed", type=int, default=5000, help="first seed (one training never used)")
     ap.add_argument("--max-cycles", type=int, default=400)
     ap.add_argument("--json", help="write every cell's figures here")
+    ap.add_argument("--reuse", help="a --json of an earlier run with the same settings: its policies' figures are taken from it")
     args = ap.parse_args(argv)
     policies = [p.strip() for p in args.policies.split(",") if p.strip()]
+    reuse = None
+    if args.reuse:
+        old = read_json(args.reuse)
+        same = all(old[k] == getattr(args, k) for k in ("scenarios", "episodes", "seed", "max_cycles"))
+        if not same:
+            raise SystemExit(f"--reuse {args.reuse}: it was run with other --scenarios/--episodes/--seed/--max-cycles")
+        reuse = {r["cell"]: r["policies"] for r in old["rows"]}
     print("| cell " + "".join(f"| {p} " for p in policies) + "|")
     print("|---" * (len(policies) + 1) + "|")
-    rows = compare(policies, cells(), [s.strip() for s in args.scenarios.split(",")], args.episodes, args.seed, args.max_cycles)
+    rows = compare(policies, cells(), [s.strip() for s in args.scenarios.split(",")], args.episodes, args.seed, args.max_cycles,
+                   reuse=reuse)
     print(summary(rows, policies))
     if args.json:
         write_json_atomic(args.json, {"policies": policies, "scenarios": args.scenarios, "episodes": args.episodes,

@@ -66,6 +66,8 @@ class PretrainConfig(Section):
     epochs: int = Field(ge=1)
     batch_size: int = Field(ge=8)
     learning_rate: float = Field(gt=0)
+    dagger_rounds: int = Field(0, ge=0, description="DAgger rounds after the cloning: the actor drives, the reference labels")
+    dagger_samples: int = Field(0, ge=0, description="agent-samples the actor collects in each DAgger round")
 
 
 class RLlibConfig(Section):

@@ -46,7 +46,7 @@ class PolicyVersionWarning(UserWarning):
 
 def shipped_policy_path() -> Path:
     """The learned policy shipped with the package (``petswarm run/eval --policy learned``)."""
-    return Path(str(resources.files("baselines") / "models" / "ppo_wedge.npz"))
+    return Path(str(resources.files("baselines") / "models" / "mappo_generalize.npz"))
 
 
 def save_policy(path: str | os.PathLike, layers: list[tuple[np.ndarray, np.ndarray]], activation: str,

@@ -25,6 +25,20 @@ def public_log(log: dict[str, Any]) -> dict[str, Any]:
     return {k: v for k, v in log.items() if not k.startswith("_")}
 
 
+ALGORITHMS = {"local": "PPO (stable-baselines3)", "state": "MAPPO (stable-baselines3 PPO, centralized critic on env.state())"}
+
+
+def pool_formation_rmse(cfg: TrainConfig, policy_for) -> float:
+    """Mean formation RMSE over the periodic evaluation's episodes (:meth:`TrainConfig.eval_episodes`:
+    with pools, each seed's drawn config) of ``policy_for(spec)``, the policy for an env's spec;
+    NaN episodes left out (NaN if none). The same seeds and configs for every policy."""
+    values = []
+    for env_cfg, seed in cfg.eval_episodes():
+        values.append(mean_formation_rmse(env_cfg, policy_for(PolicySpec.from_env(PetSwarmEnv(env_cfg))), [seed]))
+    values = [v for v in values if math.isfinite(v)]
+    return float(sum(values) / len(values)) if values else math.nan
+
+
 def policy_info(cfg: TrainConfig, log: dict[str, Any], algorithm: str = "PPO (stable-baselines3)") -> dict[str, Any]:
     """How an exported policy was trained (stored in the policy file)."""
     return {
@@ -56,6 +70,9 @@ class PeriodicCallback(BaseCallback):
 
     def _on_step(self) -> bool:
         n = self.num_timesteps
+        # rows of robots in slave-role driving (FixedAgents' "active"): the agent-steps that were not padding
+        self.train_log["active_agent_steps"] = self.train_log.get("active_agent_steps", 0) + sum(
+            int(i.get("active", 1)) for i in self.locals.get("infos", ()))
         if n >= self.next_eval:
             self.next_eval += self.cfg.eval.every_steps
             self.evaluate()
@@ -69,14 +86,16 @@ class PeriodicCallback(BaseCallback):
         log["timesteps"] = int(self.num_timesteps)
         log["wall_time_s"] = log["wall_time_before_s"] + time.time() - log["_start"]
         save_checkpoint(checkpoint_path(self.out), self.model, self.cfg.ppo.activation, list(self.cfg.ppo.net_arch))
-        export_policy(self.model, self.out / "policy.npz", self.layout, self.cfg.ppo.activation, policy_info(self.cfg, log))
+        export_policy(self.model, self.out / "policy.npz", self.layout, self.cfg.ppo.activation, policy_info(self.cfg, log, ALGORITHMS[self.cfg.ppo.critic]))
         write_json_atomic(self.out / "train_log.json", public_log(log))
 
     def evaluate(self) -> None:
-        spec = PolicySpec.from_env(PetSwarmEnv(self.eval_cfg))
-        rmse = mean_formation_rmse(self.eval_cfg, learned_policy(self.model, spec, self.cfg.ppo.activation), self.seeds)
+        rmse = pool_formation_rmse(self.cfg, lambda spec: learned_policy(self.model, spec, self.cfg.ppo.activation))
         ref = self.train_log["scripted_eval_rmse_m"]
-        self.train_log["evaluations"].append({"timesteps": int(self.num_timesteps), "formation_rmse_m": rmse, "scripted_rmse_m": ref})
+        log = self.train_log
+        wall = log.get("wall_time_before_s", 0.0) + time.time() - log["_start"] if "_start" in log else None
+        log["evaluations"].append({"timesteps": int(self.num_timesteps), "formation_rmse_m": rmse, "scripted_rmse_m": ref,
+                                   "wall_time_s": None if wall is None else round(wall, 1)})
         self.logger.record("eval/formation_rmse_m", rmse)
         self.logger.record("eval/scripted_rmse_m", ref)
         self.logger.record("eval/ratio_to_scripted", rmse / ref if ref else math.nan)

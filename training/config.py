@@ -26,6 +26,7 @@ from petswarm_env.config import (
     nest_dotted,
     read_yaml,
 )
+from training.randomize import check_pools, draw_config
 
 DEFAULT_TRAIN_CONFIG = Path(str(resources.files("training") / "ppo.yaml"))
 
@@ -44,6 +45,8 @@ class PPOConfig(Section):
     net_arch: list[int]
     activation: Literal["tanh", "relu"]
     log_std_init: float
+    critic: Literal["local", "state"] = Field(
+        "local", description="local: the critic reads the observation (PPO); state: the observation and env.state() (MAPPO)")
 
 
 class EvalConfig(Section):
@@ -63,6 +66,8 @@ class PretrainConfig(Section):
     epochs: int = Field(ge=1)
     batch_size: int = Field(ge=8)
     learning_rate: float = Field(gt=0)
+    dagger_rounds: int = Field(0, ge=0, description="DAgger rounds after the cloning: the actor drives, the reference labels")
+    dagger_samples: int = Field(0, ge=0, description="agent-samples the actor collects in each DAgger round")
 
 
 class RLlibConfig(Section):
@@ -85,9 +90,12 @@ class TrainConfig(Section):
     checkpoint: CheckpointConfig
     pretrain: PretrainConfig
     rllib: RLlibConfig
+    randomize: dict[str, list[Any]] = Field(
+        default_factory=dict, description="domain randomization: dotted env key -> pool of values, one drawn per episode "
+                                          "(training/randomize.py)")
 
     def env_config(self) -> Config:
-        """The environment the policy trains on."""
+        """The environment the policy trains on (without the pools' draws)."""
         return load_config(overrides=self.env)
 
     def eval_env_config(self) -> Config:
@@ -98,6 +106,12 @@ class TrainConfig(Section):
         """The seeds of the periodic evaluation, the same for the learned and the scripted policy."""
         return list(range(self.eval.seed, self.eval.seed + self.eval.episodes))
 
+    def eval_episodes(self) -> list[tuple[Config, int]]:
+        """(config, seed) of each periodic evaluation episode: with pools, the config drawn with
+        that seed (:func:`training.randomize.draw_config`), ``eval.max_cycles`` long."""
+        env = {**self.env, "max_cycles": self.eval.max_cycles}
+        return [(draw_config(env, self.randomize, s), s) for s in self.eval_seeds()]
+
 
 def load_train_config(path: str | os.PathLike | None = None, overrides: dict[str, Any] | None = None,
                       base: str | os.PathLike | None = None) -> TrainConfig:
@@ -107,15 +121,21 @@ def load_train_config(path: str | os.PathLike | None = None, overrides: dict[str
     data = read_yaml(DEFAULT_TRAIN_CONFIG if base is None else base)
     if path is not None:
         user = read_yaml(path)
-        env_user = user.pop("env", None)
+        env_user, pools_user = user.pop("env", None), user.pop("randomize", None)
         data = merge_mappings(data, user)
         if env_user is not None:
             data["env"] = {**data.get("env", {}), **env_user}
+        if pools_user is not None:  # pool by pool, as env: key by key
+            data["randomize"] = {**(data.get("randomize") or {}), **pools_user}
     for key, value in (overrides or {}).items():
         if key.startswith("env."):
             data["env"] = {**data.get("env", {}), key[4:]: value}
+        elif key.startswith("randomize."):  # a pool's key is dotted itself: randomize.swarm.num_slaves=[2, 4]
+            data["randomize"] = {**(data.get("randomize") or {}), key[len("randomize."):]: value}
         else:
             data = merge_mappings(data, nest_dotted({key: value}))
+    # a pool set to null (--set randomize.KEY=null, or KEY: null in a file) is dropped
+    data["randomize"] = {k: v for k, v in (data.get("randomize") or {}).items() if v is not None}
     try:
         cfg = TrainConfig.model_validate(data)
     except ValidationError as exc:
@@ -124,6 +144,8 @@ def load_train_config(path: str | os.PathLike | None = None, overrides: dict[str
         cfg.env_config()  # validates the env overrides (unknown key / bad value -> ConfigError)
     except ConfigError as exc:
         raise ConfigError(f"{exc} (in env: of the training config, e.g. --set env.KEY=VALUE)") from None
+    if cfg.randomize:
+        check_pools(cfg.env, cfg.randomize)
     return cfg
 
 

@@ -51,7 +51,7 @@ from baselines.learned import LearnedPolicy, save_policy  # noqa: E402
 from baselines.policy import PolicySpec  # noqa: E402
 from baselines.registry import make_policy  # noqa: E402
 from evaluation.evaluate import mean_formation_rmse  # noqa: E402
-from petswarm_env.config import flatten_dotted, load_config  # noqa: E402
+from petswarm_env.config import ConfigError, flatten_dotted, load_config  # noqa: E402
 from petswarm_env.env import PetSwarmEnv  # noqa: E402
 from petswarm_env.files import write_json_atomic  # noqa: E402
 from petswarm_env.wrappers import FixedAgents  # noqa: E402
@@ -260,6 +260,9 @@ def train_rllib(cfg: TrainConfig | None, out_dir: str | os.PathLike, resume: boo
     bottom: the run folder, Ray, the scripted reference's score, the algorithm, the module's start
     or the checkpoint, the iterations, the last checkpoint."""
     out = Path(out_dir)
+    if cfg is not None and (cfg.randomize or cfg.ppo.critic != "local"):
+        raise ConfigError("--backend rllib trains without randomize: pools and with ppo.critic: local; use --backend sb3 "
+                          "for domain randomization and the centralized critic (docs/training.md)")
     cfg, log, changes, finished = begin_run(cfg, out, resume, command)
     if finished:
         return finished

@@ -30,27 +30,34 @@ import yaml
 from stable_baselines3 import PPO
 from stable_baselines3.common.utils import set_random_seed
 
-from baselines.policy import PolicySpec
 from baselines.registry import make_policy
-from evaluation.evaluate import mean_formation_rmse
 from petswarm_env.config import ConfigError, flatten_dotted, parse_override
 from petswarm_env.env import PetSwarmEnv
 from petswarm_env.files import check_output_path, write_json_atomic, write_text_atomic
-from training.callbacks import PeriodicCallback, public_log
+from training.callbacks import PeriodicCallback, pool_formation_rmse, public_log
 from training.checkpoint import has_checkpoint, read_checkpoint, restore_checkpoint
 from training.config import PPOConfig, TrainConfig, load_train_config, resume_changes
 from training.export import learned_policy
-from training.vec_env import make_vec_env
+from training.state_critic import StateCriticPolicy
+from training.vec_env import make_vec_env, training_env
 from training.warm_start import pretrain_policy
 
 
 def build_model(p: PPOConfig, venv, seed: int, tensorboard_log: str | None = None, n_steps: int | None = None,
-                batch_size: int | None = None) -> PPO:
-    """A fresh SB3 PPO ``MlpPolicy`` with the hyper-parameters of ``p`` (``n_steps`` and
-    ``batch_size`` may be overridden: the benchmark sizes its rollouts itself)."""
+                batch_size: int | None = None, obs_size: int | None = None) -> PPO:
+    """A fresh SB3 PPO with the hyper-parameters of ``p`` (``n_steps`` and ``batch_size`` may be
+    overridden: the benchmark sizes its rollouts itself): an ``MlpPolicy``, or with ``p.critic ==
+    "state"`` a :class:`~training.state_critic.StateCriticPolicy` whose actor reads the first
+    ``obs_size`` values of a row (the observation) and whose critic reads the row (observation + state)."""
     act = torch.nn.Tanh if p.activation == "tanh" else torch.nn.ReLU
+    policy_kwargs = {"net_arch": {"pi": list(p.net_arch), "vf": list(p.net_arch)}, "activation_fn": act,
+                     "log_std_init": p.log_std_init}
+    if p.critic == "state":
+        if obs_size is None:
+            raise ValueError("ppo.critic: state needs the observation's size (obs_size) to split the rows")
+        policy_kwargs["obs_size"] = obs_size
     return PPO(
-        "MlpPolicy",
+        StateCriticPolicy if p.critic == "state" else "MlpPolicy",
         venv,
         learning_rate=p.learning_rate,
         n_steps=p.n_steps if n_steps is None else n_steps,
@@ -62,8 +69,7 @@ def build_model(p: PPOConfig, venv, seed: int, tensorboard_log: str | None = Non
         ent_coef=p.ent_coef,
         vf_coef=p.vf_coef,
         max_grad_norm=p.max_grad_norm,
-        policy_kwargs={"net_arch": {"pi": list(p.net_arch), "vf": list(p.net_arch)}, "activation_fn": act,
-                       "log_std_init": p.log_std_init},
+        policy_kwargs=policy_kwargs,
         tensorboard_log=tensorboard_log,
         seed=seed,
         device="cpu",
@@ -159,24 +165,26 @@ def train(cfg: TrainConfig | None, out_dir: str | os.PathLike, resume: bool = Fa
     cfg, log, changes, finished = begin_run(cfg, out, resume, command)
     if finished:
         return finished
-    env_cfg, eval_cfg = cfg.env_config(), cfg.eval_env_config()
+    env_cfg = cfg.env_config()
 
     torch.set_num_threads(1)  # reproducible CPU math; the cores run the env workers
     set_random_seed(cfg.seed)
     layout = PetSwarmEnv(env_cfg).layout
-    eval_spec = PolicySpec.from_env(PetSwarmEnv(eval_cfg))
     if log["scripted_eval_rmse_m"] is None:  # the reference every evaluation is compared with
-        log["scripted_eval_rmse_m"] = mean_formation_rmse(eval_cfg, make_policy("scripted", eval_spec), cfg.eval_seeds())
+        log["scripted_eval_rmse_m"] = pool_formation_rmse(cfg, lambda spec: make_policy("scripted", spec))
 
-    venv = make_vec_env(env_cfg, cfg.num_envs, cfg.num_cpus, cfg.seed + log["timesteps"])
+    with_state = cfg.ppo.critic == "state"
+    venv = make_vec_env(env_cfg, cfg.num_envs, cfg.num_cpus, cfg.seed + log["timesteps"], cfg.randomize, cfg.env, with_state)
     try:
-        model = build_model(cfg.ppo, venv, cfg.seed, tensorboard_log=str(out / "tb"))
+        model = build_model(cfg.ppo, venv, cfg.seed, tensorboard_log=str(out / "tb"), obs_size=layout.size)
         if resume:
             restore_checkpoint(out, model)
-        elif cfg.pretrain.samples > 0:  # warm start: imitate the scripted reference
-            log["pretrain"] = pretrain_policy(model, cfg, env_cfg)
-            imitation = learned_policy(model, eval_spec, cfg.ppo.activation)
-            log["pretrain"]["eval_formation_rmse_m"] = mean_formation_rmse(eval_cfg, imitation, cfg.eval_seeds())
+        elif cfg.pretrain.samples > 0:  # warm start: imitate the scripted reference, in the run's own env (draws, rows)
+            demo_env = training_env(env_cfg, cfg.randomize, cfg.env, with_state)
+            log["pretrain"] = pretrain_policy(model, cfg, env_cfg, demo_env)
+            demo_env.close()
+            log["pretrain"]["eval_formation_rmse_m"] = pool_formation_rmse(
+                cfg, lambda spec: learned_policy(model, spec, cfg.ppo.activation))
         write_run_configs(out, cfg, env_cfg, resume, changes)  # once the checkpoint is known good
         callback = PeriodicCallback(cfg, out, layout, log)
         model.learn(cfg.timesteps - model.num_timesteps, callback=callback, reset_num_timesteps=False, tb_log_name="ppo",

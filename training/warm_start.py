@@ -19,6 +19,7 @@ from baselines.policy import PolicySpec
 from baselines.registry import make_policy
 from petswarm_env.config import Config
 from petswarm_env.env import PetSwarmEnv
+from petswarm_env.wrappers import FixedAgents
 from training.config import TrainConfig
 
 
@@ -32,67 +33,98 @@ def discounted_returns(rewards: list[float], gamma: float) -> list[float]:
     return returns[::-1]
 
 
-def collect_demonstrations(env_cfg: Config, samples: int, noise_std: float, seed: int, gamma: float):
+def collect_demonstrations(env_cfg: Config, samples: int, noise_std: float, seed: int, gamma: float, env=None,
+                           driver=None):
     """Run the scripted reference with action noise over episodes ``seed, seed + 1, …`` until
-    ``samples`` agent-steps; return observations, the reference's (noise-free) actions and the
-    discounted returns of the executed trajectories (for the critic)."""
-    env = PetSwarmEnv(env_cfg)
-    teacher = make_policy("scripted", PolicySpec.from_env(env))
+    ``samples`` agent-steps; return the inputs (each live agent's row), the reference's
+    (noise-free) actions and the discounted returns of the executed trajectories (for the critic).
+    ``env`` is the run's fixed-agents env (:func:`training.vec_env.training_env`: its draws, its
+    rows with the state); by default ``FixedAgents(PetSwarmEnv(env_cfg))``. The reference reads
+    only the observation (a row's first ``layout.size`` values) of the robots that are slaves. With
+    ``driver`` (a function of a batch of rows to actions: DAgger) the driver's actions are executed
+    (with the noise) and the reference's recorded."""
+    env = env if env is not None else FixedAgents(PetSwarmEnv(env_cfg))
     rng = np.random.default_rng(seed)
     obs_l, act_l, ret_l = [], [], []
     episode = 0
     while len(obs_l) < samples:
-        obs, _ = env.reset(seed=seed + episode)
+        rows, infos = env.reset(seed=seed + episode)
         episode += 1
-        traj: dict[str, list[tuple[np.ndarray, np.ndarray, float]]] = {a: [] for a in env.agents}
+        teacher = make_policy("scripted", PolicySpec.from_env(env))
+        n = env.layout.size
+        traj: dict[str, list[tuple[np.ndarray, np.ndarray, float]]] = {}
         while env.agents:
-            target = teacher.act_all({a: obs[a] for a in env.agents})
-            noisy = {a: np.clip(v + rng.normal(0.0, noise_std, 3), -1.0, 1.0).astype(np.float32) for a, v in target.items()}
-            next_obs, rewards, _, _, _ = env.step(noisy)
+            live = [a for a in env.agents if infos[a]["active"]]
+            target = teacher.act_all({a: rows[a][:n] for a in live})
+            executed = target if driver is None or not live else dict(zip(live, driver(np.stack([rows[a] for a in live]))))
+            noisy = {a: np.clip(v + rng.normal(0.0, noise_std, 3), -1.0, 1.0).astype(np.float32) for a, v in executed.items()}
+            next_rows, rewards, _, _, infos = env.step(noisy)
             for a in target:
-                traj.setdefault(a, []).append((obs[a], target[a], rewards[a]))
-            obs = next_obs
+                traj.setdefault(a, []).append((rows[a], target[a], rewards[a]))
+            rows = next_rows
         for steps in traj.values():
             for (o, t, _), g in zip(steps, discounted_returns([r for _, _, r in steps], gamma)):
                 obs_l.append(o)
                 act_l.append(t)
                 ret_l.append(g)
-    env.close()
     return np.array(obs_l[:samples]), np.array(act_l[:samples]), np.array(ret_l[:samples], dtype=np.float32)
 
 
-def fit_actor_critic(actor, critic, params: list, cfg: TrainConfig, env_cfg: Config) -> dict:
-    """Behaviour cloning of the scripted reference into ``actor`` (a function of an observation
-    batch to mean actions; MSE) and a regression of ``critic`` (observations -> values) on the
-    demonstrations' returns, optimising ``params`` with Adam: the warm start of every back end."""
-    p = cfg.pretrain
-    t0 = time.time()
-    obs, act, ret = collect_demonstrations(env_cfg, p.samples, p.noise_std, cfg.seed + 100_000, cfg.ppo.gamma)
-    x = torch.as_tensor(obs, dtype=torch.float32)
-    y = torch.as_tensor(act, dtype=torch.float32)
-    g = torch.as_tensor(ret, dtype=torch.float32)[:, None]
-    opt = torch.optim.Adam(params, lr=p.learning_rate)
-    gen = torch.Generator().manual_seed(cfg.seed)
+def _fit(actor, critic, opt, data, epochs: int, batch_size: int, gen) -> tuple[float, float]:
+    """Epochs of MSE on the actions (actor) and 0.01 × MSE on the returns (critic); the last losses."""
+    x, y, g = data
     n = len(x)
     actor_loss = critic_loss = math.nan
-    for _ in range(p.epochs):
+    for _ in range(epochs):
         perm = torch.randperm(n, generator=gen)
-        for i in range(0, n, p.batch_size):
-            idx = perm[i:i + p.batch_size]
+        for i in range(0, n, batch_size):
+            idx = perm[i:i + batch_size]
             a_loss = ((actor(x[idx]) - y[idx]) ** 2).mean()
             v_loss = ((critic(x[idx]) - g[idx]) ** 2).mean()
             opt.zero_grad()
             (a_loss + 0.01 * v_loss).backward()
             opt.step()
             actor_loss, critic_loss = float(a_loss.detach()), float(v_loss.detach())
-    return {"samples": n, "actor_mse": actor_loss, "critic_mse": critic_loss, "wall_time_s": round(time.time() - t0, 1)}
+    return actor_loss, critic_loss
 
 
-def pretrain_policy(model, cfg: TrainConfig, env_cfg: Config) -> dict:
+def _tensors(obs, act, ret):
+    return (torch.as_tensor(obs, dtype=torch.float32), torch.as_tensor(act, dtype=torch.float32),
+            torch.as_tensor(ret, dtype=torch.float32)[:, None])
+
+
+def fit_actor_critic(actor, critic, params: list, cfg: TrainConfig, env_cfg: Config, env=None) -> dict:
+    """Behaviour cloning of the scripted reference into ``actor`` (a function of an input batch
+    to mean actions; MSE) and a regression of ``critic`` (inputs -> values) on the
+    demonstrations' returns, optimising ``params`` with Adam: the warm start of every back end
+    (``env``: :func:`collect_demonstrations`). Then ``pretrain.dagger_rounds`` rounds of DAgger:
+    the actor drives (with the same action noise), the reference labels the states it visits,
+    ``pretrain.dagger_samples`` more each round, and the actor is refitted on everything so far."""
+    p = cfg.pretrain
+    t0 = time.time()
+    parts = [collect_demonstrations(env_cfg, p.samples, p.noise_std, cfg.seed + 100_000, cfg.ppo.gamma, env)]
+    opt = torch.optim.Adam(params, lr=p.learning_rate)
+    gen = torch.Generator().manual_seed(cfg.seed)
+    actor_loss, critic_loss = _fit(actor, critic, opt, _tensors(*parts[0]), p.epochs, p.batch_size, gen)
+
+    def drive(rows: np.ndarray) -> np.ndarray:
+        with torch.no_grad():
+            return np.clip(actor(torch.as_tensor(rows, dtype=torch.float32)).numpy(), -1.0, 1.0)
+
+    for k in range(p.dagger_rounds):
+        parts.append(collect_demonstrations(env_cfg, p.dagger_samples, p.noise_std, cfg.seed + 200_000 + 10_000 * k,
+                                            cfg.ppo.gamma, env, driver=drive))
+        data = _tensors(*(np.concatenate([q[i] for q in parts]) for i in range(3)))
+        actor_loss, critic_loss = _fit(actor, critic, opt, data, p.epochs, p.batch_size, gen)
+    return {"samples": sum(len(q[0]) for q in parts), "dagger_rounds": p.dagger_rounds, "actor_mse": actor_loss,
+            "critic_mse": critic_loss, "wall_time_s": round(time.time() - t0, 1)}
+
+
+def pretrain_policy(model, cfg: TrainConfig, env_cfg: Config, env=None) -> dict:
     """The warm start of an SB3 PPO model: its actor MLP and action head, its critic MLP and value
-    head (:func:`fit_actor_critic`)."""
+    head (:func:`fit_actor_critic`; ``env``: the run's fixed-agents env, whose rows the model reads)."""
     policy = model.policy
     params = [*policy.mlp_extractor.parameters(), *policy.action_net.parameters(), *policy.value_net.parameters(),
               *policy.features_extractor.parameters()]
     return fit_actor_critic(lambda x: policy.action_net(policy.mlp_extractor(policy.extract_features(x))[0]),
-                            lambda x: policy.value_net(policy.mlp_extractor(policy.extract_features(x))[1]), params, cfg, env_cfg)
+                            lambda x: policy.value_net(policy.mlp_extractor(policy.extract_features(x))[1]), params, cfg, env_cfg, env)

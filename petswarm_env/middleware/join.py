@@ -97,6 +97,7 @@ class JoinManager:
         self.node = node
         self._expect: set[int] = set()
         self._got: dict[int, Frame] = {}
+        self._kinds: frozenset[str] = frozenset()  # the answers the current step waits for (_on_response)
         self._all_in = None
         self._deadline = float("inf")  # the organize deadline (protocol.organize_timeout_s after it started)
         self.opened_s = 0.0  # when the open slots opened (RUTA's t_j): the organize's start; a refill sets it
@@ -116,17 +117,21 @@ class JoinManager:
 
     # -- master side ----------------------------------------------------------------------------
     def _on_response(self, frame: Frame) -> None:
-        if frame.dst != self.node.node_id:
+        """An answer to this master: kept only when it is of the kind the current step waits for
+        (``self._kinds``) — a scan response that arrives late, during the queries, is not a joining
+        answer, nor an acknowledgement — from a robot it waits for (any robot, in the scan window)."""
+        if frame.dst != self.node.node_id or frame.kind not in self._kinds:
             return
         if frame.kind == msg.SCAN_RESPONSE or frame.src in self._expect:
             self._got[frame.src] = frame
         if self._expect and self._expect <= set(self._got) and self._all_in is not None and not self._all_in.triggered:
             self._all_in.succeed()
 
-    def _collect(self, expect: set[int], timeout_s: float):
-        """Wait until every robot in ``expect`` answered, the timeout passes or the organize
-        deadline comes (SimPy)."""
+    def _collect(self, expect: set[int], timeout_s: float, kinds: tuple[str, ...]):
+        """Wait until every robot in ``expect`` answered with a frame of one of ``kinds``, the
+        timeout passes or the organize deadline comes (SimPy)."""
         clock = self.node.clock
+        self._kinds = frozenset(kinds)
         self._expect = set(expect)
         self._all_in = clock.event()
         yield clock.any_of([self._all_in, clock.timeout(self._left(timeout_s))])
@@ -200,6 +205,7 @@ class JoinManager:
         candidate then checks the region itself, Table 1) — robot id -> estimated distance."""
         node = self.node
         self._got = {}
+        self._kinds = frozenset({msg.SCAN_RESPONSE})
         node.send(msg.SCAN, pan=PAN_WAITING, known=sorted(known))
         yield node.clock.timeout(self._left(node.cfg.protocol.scan_window_s))
         reach = CANDIDATE_REACH * node.cfg.protocol.join_radius_m
@@ -217,7 +223,7 @@ class JoinManager:
         kind = msg.STATUS_QUERY if node.cfg.swarm.assignment == "ruta_centralized" else msg.JOIN_QUERY
         while pending:
             node.send(kind, pan=PAN_WAITING, candidates=sorted(pending))
-            yield from self._collect(pending, cfg.response_timeout_s)
+            yield from self._collect(pending, cfg.response_timeout_s, (msg.JOIN_ANSWER, msg.STATUS_ANSWER))
             answers.update({rid: self._got[rid] for rid in pending if rid in self._got})
             pending -= set(answers)
             if pending:
@@ -294,7 +300,7 @@ class JoinManager:
             node.send(msg.SLOT_ANNOUNCE, pan=PAN_WAITING, seq=self._bid_seq, attempt=attempt,
                       slots=assignment.announce_slots(geometry, open_, announced - self.opened_s), bidders=list(free))
             self._got = {}
-            yield from self._collect(set(free), rc.bid_timeout_s)
+            yield from self._collect(set(free), rc.bid_timeout_s, (msg.BID,))
             bids = [Bid(rid, str(m), u, self._bid_at[rid]) for rid, f in self._got.items()
                     for m, u in f.payload["utilities"]]
             won = assignment.close_round(bids, open_, announced, rc.bid_timeout_s, attempt, rc.max_announcements)
@@ -363,7 +369,7 @@ class JoinManager:
                                   members=dict(members), shape=formation.shape, mode=mode, links=links)
                     else:
                         node.send(msg.NON_PARTICIPATE, dst=rid, pan=p)
-                yield from self._collect({rid}, cfg.response_timeout_s)
+                yield from self._collect({rid}, cfg.response_timeout_s, (msg.NOTIFY_ACK,))
                 if rid in self._got or not self._may_retry(attempt):
                     break
                 result.retries += 1

@@ -70,7 +70,8 @@ class RecoveryManager:
         if node.state != "master" or node_id in self._lost:
             return
         self._lost.append(node_id)
-        if not self.busy:
+        if not self.busy:  # busy from now on, not from when the process first runs: one recovery at a time
+            self.busy = True
             node.clock.process(self._recover())
 
     def open_members(self) -> list[int]:
@@ -92,9 +93,13 @@ class RecoveryManager:
                 yield from self._refill()
                 self.busy = False
                 if self._lost:
+                    self.busy = True
                     clock.process(self._recover())
 
     def _recover(self):
+        """Remove the lost members one after another, then refill (SimPy process; ``busy`` was set
+        when it was started, so no refill of the periodic scan or second recovery runs beside it:
+        they would share the join manager's answers)."""
         self.busy = True
         while self._lost and self.node.state == "master":
             yield from self._remove(self._lost.pop(0))

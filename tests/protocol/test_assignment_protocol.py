@@ -139,6 +139,7 @@ def test_the_master_ignores_a_bid_of_another_announcement():
     jm = join_mod.JoinManager.__new__(join_mod.JoinManager)
     jm.node = type("N", (), {"node_id": 0, "clock": type("C", (), {"now": 1.0})()})()
     jm._bid_seq, jm._expect, jm._got, jm._bid_at, jm._all_in = 2, {5}, {}, {}, None
+    jm._kinds = frozenset({msg.BID})  # the round waits for bids (JoinManager._collect)
     from petswarm_env.comms.radio import Frame
     jm._on_bid(Frame(msg.BID, 5, 0, 0, {"seq": 1, "utilities": [(1, 9.0)]}, 10))
     assert jm._got == {}

@@ -319,3 +319,24 @@ def test_two_swarms_do_not_query_each_others_robots():
             assert set(sw.organize_result.candidates) <= pool | {m.master.node_id for m in env.swarms}
             assert len(sw.slave_ids()) == env.cfg.swarm.num_slaves
             assert sw.organize_result.elapsed_s < 3.0
+
+
+def test_a_late_scan_response_is_not_a_joining_answer_nor_an_acknowledgement():
+    """The master keeps an answer only of the kind the current step waits for
+    (JoinManager._collect's kinds): a scan response that arrives during the queries or the
+    notifications does not count as the robot's joining answer or acknowledgement."""
+    from petswarm_env.comms.radio import Frame
+    from petswarm_env.middleware import messages as msg
+    from petswarm_env.middleware.join import JoinManager
+
+    jm = JoinManager.__new__(JoinManager)
+    jm.node = type("N", (), {"node_id": 0})()
+    jm._got, jm._all_in, jm._expect = {}, None, {7}
+    jm._kinds = frozenset({msg.JOIN_ANSWER, msg.STATUS_ANSWER})  # the queries
+    jm._on_response(Frame(msg.SCAN_RESPONSE, 7, 0, PAN_WAITING, {}, 10))
+    assert jm._got == {}
+    jm._on_response(Frame(msg.JOIN_ANSWER, 7, 0, PAN_WAITING, {"available": True}, 10))
+    assert jm._got[7].kind == msg.JOIN_ANSWER
+    jm._got, jm._kinds = {}, frozenset({msg.NOTIFY_ACK})  # the notifications
+    jm._on_response(Frame(msg.SCAN_RESPONSE, 7, 0, PAN_WAITING, {}, 10))
+    assert jm._got == {}

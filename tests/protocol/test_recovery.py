@@ -7,6 +7,8 @@ pipeline, under loss too; slaves that stop hearing the status broadcast stop and
 import numpy as np
 import pytest
 
+import math
+
 import petswarm_env
 from petswarm_env.middleware import messages as msg
 from petswarm_env.middleware.join import JoinManager
@@ -200,3 +202,20 @@ def test_a_radio_silent_slave_that_recovers_is_recruited_again_into_the_open_slo
     assert [(e, ids) for _, e, ids in log] == [("lost", [3]), ("joined", [3])]
     assert "robot_3" in env.agents and len(env.swarm.master.know.members) == 5
     assert_tables_agree(env)
+
+
+def test_one_recovery_at_a_time_on_a_master_with_two_users():
+    """Two members lost in one instant (a 2-user world, random walk, seed 900000003 of the eval
+    grid) used to start two recoveries whose refills shared the join manager's answers: a late
+    scan response was read as a joining answer (KeyError 'available'). One runs at a time now, and
+    an answer counts only when it is of the kind the step waits for."""
+    from baselines.policy import PolicySpec
+    from baselines.registry import make_policy
+    from evaluation.runner import run_episode
+
+    env = petswarm_env.parallel_env(**{"world.num_users": 2, "user.scenario": "random_walk"})
+    seed = 900000003
+    ep = run_episode(env, make_policy("scripted", PolicySpec.from_env(env), seed=seed), seed)
+    assert env.num_cycles == env.cfg.max_cycles  # ran to its truncation
+    refills = [r for sw in env.swarms for r in sw.master.recovery.refills]
+    assert refills and math.isfinite(ep["formation_rmse_m"])

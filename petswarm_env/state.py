@@ -33,7 +33,7 @@ from petswarm_env.scenarios import ACTIVITIES
 if TYPE_CHECKING:
     from petswarm_env.config import Config
 
-STATE_VERSION = 1
+STATE_VERSION = 2  # 2: the type and fault fields carry the robot types and faults of issue 15
 STATE_POS_SCALE_M = 10.0  # positions relative to user 0, m / 10
 STATE_POS_CLIP = 2.0  # … clipped to ±2 (20 m)
 ERROR_SCALE_M = 3.0  # reference errors, m / 3 (the observation's POS_SCALE_M)
@@ -57,9 +57,10 @@ ROBOT_FIELDS: list[Field] = [
           _POS, _POS_WHY),
     Field("reference.error_xy", 2, f"m / {ERROR_SCALE_M:g}", "reference point minus true position, world frame (0 if none)",
           (-STATE_POS_CLIP, STATE_POS_CLIP), f"clipped to ±{STATE_POS_CLIP}"),
-    Field("type", 1, f"index / {NUM_TYPES}", "robot type; 0 = the Pet-Bot (reserved: 0 until robot types exist)",
-          (0.0, 1.0), f"a type index in 0 … {NUM_TYPES}"),
-    Field("fault", 1, "0/1", "a fault is active on the robot (reserved: 0 until faults exist)"),
+    Field("type", 1, f"index / {NUM_TYPES}", "robot type: its index in the config's robot_types (0 = petbot, then "
+          "mybot, r1, r2 by default)", (0.0, 1.0), f"a type index in 0 … {NUM_TYPES} (a later one reads 1)"),
+    Field("fault", 1, "0/1", "a fault is active on the robot (robot.health, docs/faults.md; an arrival robot "
+          "parked switched off is not faulty)"),
 ]
 USER_FIELDS: list[Field] = [
     Field("xy", 2, f"m / {STATE_POS_SCALE_M:g}", "true position relative to user 0 (user 0: 0, 0)", _POS, _POS_WHY),
@@ -153,6 +154,8 @@ def build_state(layout: StateLayout, env: Any) -> np.ndarray:
     for i in env._other_user_robots:
         role[i] = 3
     refs = env.experimenter.reference_points(centers.tolist(), headings.tolist())
+    type_index = {name: k for k, name in enumerate(cfg.robot_types)}
+    parked = set(env.runtime.parked())  # arrival robots not switched on yet
     r = ROBOT_BLOCK.slices
     for i, robot in enumerate(world.robots):
         b = layout.robot(i)
@@ -167,6 +170,8 @@ def build_state(layout: StateLayout, env: Any) -> np.ndarray:
         v[b + r["heading_sincos"].start:b + r["heading_sincos"].stop] = [math.sin(headings[i]), math.cos(headings[i])]
         bvx, bvy, bw = robot.velocity_body
         v[b + r["velocity"].start:b + r["velocity"].stop] = [_clip(bvx / vmax, CLIP), _clip(bvy / vmax, CLIP), _clip(bw / wmax, CLIP)]
+        v[b + r["type"].start] = min(type_index.get(robot.type_name, 0), NUM_TYPES) / NUM_TYPES
+        v[b + r["fault"].start] = float(bool(robot.health.active) and i not in parked)
         ref = refs.get(i)
         if ref is not None:
             v[b + r["reference.valid"].start] = 1.0

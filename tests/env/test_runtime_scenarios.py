@@ -103,3 +103,29 @@ def test_the_renderer_shows_each_robots_fault_state():
     red = np.all(frame == np.array(FAULT_MARK, np.uint8), axis=-1).sum()
     assert red > 20 and np.all(frame0 == np.array(FAULT_MARK, np.uint8), axis=-1).sum() == 0
     env.close()
+
+
+def test_the_state_carries_each_robots_type_and_fault():
+    """env.state(): the robot block's ``type`` (its index in robot_types / 8) and ``fault`` fields
+    (docs/state.md) — a mybot reads 1/8, a dead slave 1, a parked arrival 0."""
+    from petswarm_env.state import NUM_TYPES, ROBOT_BLOCK
+
+    env = petswarm_env.parallel_env(**{"swarm.pool": [{"type": "petbot", "count": 3}, {"type": "mybot", "count": 1}],
+                                       "faults": [{"at_s": 0.5, "robot": 1, "kind": "dead"}],
+                                       "arrivals": [{"at_s": 50.0, "type": "r1"}]})
+    env.reset(seed=0)
+    r = ROBOT_BLOCK.slices
+    layout = env.state_layout
+
+    def field(state, i, name):
+        return float(state[layout.robot(i) + r[name].start])
+
+    s = env.state()
+    types = [field(s, i, "type") * NUM_TYPES for i in range(len(env.world.robots))]
+    assert types == [list(env.cfg.robot_types).index(rb.type_name) for rb in env.world.robots]
+    assert 1.0 in types  # the mybot
+    assert all(field(s, i, "fault") == 0.0 for i in range(len(env.world.robots)))  # the arrival is parked, not faulty
+    for _ in range(10):
+        env.step({a: np.zeros(3, np.float32) for a in env.agents})
+    s = env.state()
+    assert field(s, 1, "fault") == 1.0 and sum(field(s, i, "fault") for i in range(len(env.world.robots))) == 1.0

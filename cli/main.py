@@ -18,9 +18,12 @@ from __future__ import annotations
 import argparse
 import sys
 import warnings
+from importlib import resources
 
 from petswarm_env.config import ConfigError, load_config, parse_override
 from petswarm_env.files import Terminated, check_output_path, exit_cleanly_on_signals
+
+SHIPPED_GRID = resources.files("evaluation") / "grid.yaml"  # = configs/eval/grid.yaml, in the package
 
 
 class _Parser(argparse.ArgumentParser):
@@ -135,8 +138,9 @@ def _add_eval(sub) -> None:
     ev.add_argument("--episodes", type=_positive_int, default=None, metavar="N",
                     help="episodes (seeds) per scenario (default 5); with --grid per cell (default: the grid file's)")
     ev.add_argument("--seed", type=_seed, metavar="S", help="first seed (default: config seed; with --grid the grid file's)")
-    ev.add_argument("--grid", metavar="FILE",
-                    help="run the comparison grid of FILE (configs/eval/grid.yaml): each cell's candidate vs the reference, "
+    ev.add_argument("--grid", metavar="FILE", nargs="?", const=str(SHIPPED_GRID),
+                    help="run the comparison grid of FILE (without FILE: the committed configs/eval/grid.yaml, shipped in the "
+                    "package as evaluation/grid.yaml): each cell's candidate vs the reference, "
                     "ratios and collisions; JSON input of `petswarm report` (its heatmap)")
     ev.add_argument("--resume", action="store_true", help="with --grid: keep the finished cells of the --json file, run the rest")
     _add_env_config_options(ev)

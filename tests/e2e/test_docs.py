@@ -37,6 +37,10 @@ def test_configs_default_is_the_packaged_default():
     assert (ROOT / "configs" / "default.yaml").read_text() == (ROOT / "petswarm_env" / "default.yaml").read_text()
 
 
+def test_configs_eval_grid_is_the_packaged_grid():
+    assert (ROOT / "configs" / "eval" / "grid.yaml").read_text() == (ROOT / "evaluation" / "grid.yaml").read_text()
+
+
 def test_configs_train_ppo_is_the_packaged_training_default():
     assert (ROOT / "configs" / "train" / "ppo.yaml").read_text() == (ROOT / "training" / "ppo.yaml").read_text()
 

@@ -161,3 +161,12 @@ def test_the_report_shows_eval_results_and_the_grid_side_by_side(tmp_path):
     assert main(["report", str(ev), str(out), "--out", str(html), "--replays", "none"]) == 0
     page = html.read_text()
     assert "2. Formation RMSE per scenario" in page and "8. Comparison grid" in page and "3 cells × 1" in page
+
+
+def test_grid_without_a_file_is_the_committed_grid_shipped_in_the_package():
+    from cli.main import SHIPPED_GRID, build_parser
+    from evaluation.grid_spec import load_grid
+
+    args = build_parser().parse_args(["eval", "--grid"])
+    assert args.grid == str(SHIPPED_GRID) and SHIPPED_GRID.is_file()
+    assert len(load_grid(args.grid).cells) >= 40  # the packaged copy of configs/eval/grid.yaml (tests/e2e/test_docs.py)

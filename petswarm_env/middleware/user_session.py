@@ -158,6 +158,9 @@ class UserSession:
                 node = swarm.nodes[idx]
                 if node.state != "waiting" or not node.health.powered or fleet.swarm_of(idx) is not swarm:
                     continue
+                body = self.world.robots[idx].spec
+                if body is not None and not body.can_be_master:
+                    continue  # no LF antennas (robot_types): it bursts no wake-up pattern, the belt cannot pair with it
                 d = math.dist(self.world.robots[idx].position, self.user.position)
                 if lf.wakes_up(cfg.lf, d, self.robot_pattern, self.user_pattern):
                     yield self.clock.timeout(cfg.ble.connect_s)

@@ -195,6 +195,26 @@ def test_after_a_master_loss_the_user_pairs_again_with_a_waiting_robot_and_organ
     assert env.swarm.slave_ids() == [2, 3, 4]  # the dead master is not recruited
 
 
+def test_after_a_master_loss_a_robot_without_lf_antennas_never_pairs():
+    """A mybot (no LF antennas, robot_types) bursts no wake-up pattern: the user standing at it
+    stays unpaired (seed 002 §3.2: the belt pairs with the robot whose LF burst it hears)."""
+    env = make(faults=[{"at_s": 1.0, "robot": "master", "kind": "dead"}], **{"swarm.pool": [{"type": "mybot", "count": 4}]})
+    run(env, 4.0)
+    session, world = env.sessions[0], env.world
+    assert session.state == "waiting_user" and world.robots[1].type_name == "mybot"
+    robot = world.robots[1]
+    x, y = robot.position
+    body = world.user.body
+    body.position = (x + 0.7 * np.cos(robot.heading), y + 0.7 * np.sin(robot.heading))
+    world.space.reindex_shapes_for_body(body)
+    world.invalidate_truth()
+    for _ in range(200):
+        env._control(None)
+        world.advance(env.cfg.physics_substeps)
+        env.sensors.read_rings()
+    assert session.connected_robot is None and session.state == "waiting_user"
+
+
 def test_a_radio_silent_slave_that_recovers_is_recruited_again_into_the_open_slot():
     env = make(faults=[{"at_s": 1.0, "robot": 3, "kind": "radio_silent", "duration_s": 4.0}])
     run(env, 12.0)

@@ -176,7 +176,7 @@ class PetSwarmEnv(ParallelEnv):
         streams = self._seed_seq.spawn(1)[0].spawn(8)  # the 8th (faults) leaves the first seven as they were
         self._build(*(np.random.default_rng(s) for s in streams[:7]))
         self.runtime = Runtime(self.cfg, self.world, self.fleet, self.swarms, SCENARIOS[self.scenario], self._arrivals,
-                               np.random.default_rng(streams[7]))
+                               np.random.default_rng(streams[7]), on_change=self.sensors.fault_changed)
         self._check_inside_arena()
         self._organize()
         if self.cfg.swarm.spawn == "at_slots":

@@ -26,6 +26,7 @@ module and sensors stop or start delivering (:mod:`petswarm_env.sim.faults`,
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -72,12 +73,15 @@ class Runtime:
     """One episode's faults and arrivals on the world's clock."""
 
     def __init__(self, cfg: Config, world: World, fleet: Fleet, swarms: list[Swarm], scenario, arrival_robots: list[int],
-                 rng: np.random.Generator):
+                 rng: np.random.Generator, on_change: Callable[[int, str, bool], None] | None = None):
+        """``on_change``: a further ``Faults.on_change`` callback (the env's sensors follow the faults)."""
         self.cfg, self.world, self.fleet, self.swarms = cfg, world, fleet, swarms
         self.clock = world.clock
         self.rng = rng
         self.faults = Faults([r.health for r in world.robots])
         self.faults.on_change.append(self._apply)
+        if on_change is not None:
+            self.faults.on_change.append(on_change)
         self.specs = fault_specs(cfg, scenario)
         arrivals = arrival_specs(cfg, scenario)
         self.arrivals = list(zip(arrivals, arrival_robots))  # (spec, robot index), the rest stay parked

@@ -178,6 +178,7 @@ class Sensors:
         self._cfg = cfg
         self._off: dict[int, set[int]] = {}
         self._ring_faulted: set[int] = set()  # robots whose whole ring an ultrasonic fault switched off
+        self._changed: set[int] = set()  # robots whose health changed since the last reading (fault_changed)
         self.refresh()
         self.ranges = np.zeros((0, self.ring.count))  # every robot's last ring, (robots, count) m
         self.read_rings()
@@ -225,12 +226,19 @@ class Sensors:
                         self.ranges[i, k] = self.ring.max_range_m
         return self.ranges
 
+    def fault_changed(self, robot: int, kind: str, on: bool) -> None:
+        """A ``Faults.on_change`` callback (petswarm_env/runtime.py registers it): the robot's
+        ring follows its health at the next :meth:`read_rings`."""
+        self._changed.add(robot)
+
     def _follow_faults(self) -> None:
         """An ``ultrasonic`` fault (``robot.health``, petswarm_env/sim/faults.py) switches every
         DISTANCE sensor of its robot off through :meth:`sensor_off` (presence 0, max range), and its
-        end switches them back on."""
-        for i, robot in enumerate(self.world.robots):
-            failed = not robot.health.ultrasonic_ok
+        end switches them back on: for the robots whose health changed since the last reading."""
+        if not self._changed:
+            return
+        for i in sorted(self._changed):
+            failed = not self.world.robots[i].health.ultrasonic_ok
             if failed != (i in self._ring_faulted):
                 if failed:
                     self._ring_faulted.add(i)
@@ -239,6 +247,7 @@ class Sensors:
                 else:
                     self._ring_faulted.discard(i)
                     self.sensor_off(i, set())
+        self._changed.clear()
 
     def sensor_off(self, index: int, physical_ids: set[int]) -> None:
         """Robot ``index``'s DISTANCE sensors of ids ``physical_ids`` deliver nothing from now on

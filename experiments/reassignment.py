@@ -8,7 +8,7 @@ slave is terminated as an agent, the recruit appears as a new one; the episode s
 queries and answers, RUTA's status answers, slot announcements and bids, notifications — put on the
 air from the fault on, counted by the medium's trace hook), the formation RMSE over the 10 s after
 the fault (the live slaves' ``formation_error_m``), and success (the slot filled again within those
-10 s). The trials run the faults branch's ``dropout`` scenario: the user walks straight on, a slave
+10 s). The trials run the ``dropout`` scenario: the user walks straight on, a slave
 dies at 20 s (``faults: [{at_s: 20, robot: random_slave, kind: dead}]``, episode time) and a spare
 waiting robot is switched on beside the master at 19 s (a spare placed at the start would be left
 behind, out of the master's 3 m region, by the walking swarm).
@@ -23,10 +23,9 @@ difference of tens of milliseconds); the time from the fault is reported beside 
 003's robots bid over XBee with seconds of reasoning, ours over the simulated 802.15.4 medium in
 tens of milliseconds, and our time to reassign is mostly the token ring's detection of the loss.
 
-``petswarm reproduce --only reassignment`` runs it (experiments/registry.py); without the faults
-machinery :func:`run` raises :class:`NotAvailable` naming what is missing.
+``petswarm reproduce --only reassignment`` runs it (experiments/registry.py).
 
-Standalone: ``python -m experiments.reassignment [--trials N] [--json OUT]``.
+Standalone: ``python -m experiments.reassignment [--quick] [--seed S] [--json OUT]``.
 """
 
 from __future__ import annotations
@@ -41,7 +40,7 @@ import petswarm_env
 from baselines.policy import PolicySpec
 from baselines.registry import make_policy
 from experiments.assignment_compare import ORGANIZE_KINDS
-from experiments.results import Experiment, ExperimentResult, NotAvailable, Progress, Row
+from experiments.results import Experiment, ExperimentResult, Progress, Row
 from petswarm_env.config import Config
 from petswarm_env.middleware import messages as msg
 
@@ -49,7 +48,6 @@ FAULT_AT_S = 20.0  # issue 15 part 5
 WINDOW_S = 10.0  # the formation RMSE over the 10 s after the fault
 MODES = ("ruta_centralized", "ruta_decentralized")
 TRIALS, QUICK_TRIALS = 50, 10
-NEEDED_SUMMARY = ("reassignments", "reassignment_time_s")
 
 
 class _AfterFault:
@@ -88,8 +86,8 @@ def overrides(mode: str) -> dict[str, Any]:
 
 
 def fault_time_s(reset_end_s: float) -> float:
-    """The fault's instant on the env's clock (``env.world.now``): the faults branch's ``at_s`` is
-    episode time, seconds after reset ended (its default.yaml says so)."""
+    """The fault's instant on the env's clock (``env.world.now``): ``faults[].at_s`` is
+    episode time, seconds after reset ended (default.yaml)."""
     return reset_end_s + FAULT_AT_S
 
 
@@ -116,9 +114,6 @@ def trial(mode: str, seed: int) -> dict[str, Any]:
             sq += sum(e * e for e in errs)
             n += len(errs)
     summary = env.episode_summary()
-    missing = [k for k in NEEDED_SUMMARY if k not in summary]
-    if missing:
-        raise NotAvailable(f"the episode summary has no {', '.join(missing)} (the faults branch adds them)")
     t = back_s - t_fault
     return {"mode": mode, "seed": seed, "reassign_s": t, "frames": count.frames,
             "refill_s": count.last_ack_s - count.first_scan_s,
@@ -128,18 +123,9 @@ def trial(mode: str, seed: int) -> dict[str, Any]:
             "success": bool(summary["reassignments"] >= 1 and math.isfinite(t) and t <= WINDOW_S)}
 
 
-def _check_available(cfg: Config) -> None:
-    from petswarm_env.scenarios import SCENARIOS
-
-    if "faults" not in type(cfg).model_fields or "dropout" not in SCENARIOS:
-        raise NotAvailable("needs the faults branch: config key faults [{at_s, robot, kind: dead}], the dropout "
-                           "scenario, loss detection and the slot refill (issue 15 parts 4, 6)")
-
-
 def run(cfg: Config, seed: int, quick: bool, progress: Progress) -> ExperimentResult:
-    """Both modes, ``TRIALS`` seeds each (``seed``, ``seed + 1``, ...); ``cfg`` is not used beyond
-    checking that faults exist (the trials are the default configuration with :func:`overrides`)."""
-    _check_available(cfg)
+    """Both modes, ``TRIALS`` seeds each (``seed``, ``seed + 1``, ...); ``cfg`` is not used (the
+    trials are the default configuration with :func:`overrides`)."""
     n = QUICK_TRIALS if quick else TRIALS
     rows_data: list[dict[str, Any]] = []
     for k, mode in enumerate(MODES):
@@ -186,11 +172,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--json", metavar="OUT")
     args = ap.parse_args(argv)
-    try:
-        res = run(load_config(), args.seed, args.quick, lambda done, total: None)
-    except NotAvailable as e:
-        print(f"reassignment: not available yet: {e}")
-        return 2
+    res = run(load_config(), args.seed, args.quick, lambda done, total: None)
     for r in res.rows:
         print(f"{r.metric}: {r.sim:g} (paper {r.paper:g}) {'ok' if r.ok else 'FAILS'}")
     print(res.note)

@@ -83,8 +83,8 @@ MIN_AGE_S = 1e-3
 NO_MODULE = -1.0  # a status answer's draw for a module the robot does not have (or that failed)
 _CONE_COS = math.cos(math.radians(45.0))  # a slot within 45° of a side's direction covers it
 
-# PROVISIONAL petbot status, until the bodies branch's per-type status replaces own_status's body
-# (issue 15 part 1): seed 003's robot figures. Battery: "six packs of 6 V 2500 mAh Ni-MH batteries"
+# The petbot's status for a station without a body report (a bare station, as in the unit tests;
+# every robot of the env reports its own body): seed 003's robot figures. Battery: "six packs of 6 V 2500 mAh Ni-MH batteries"
 # (seed 003 §4.2); servo draw 320 mA and wheel slip 1 % (R2, seed 003 §5.2.1); sensing draw 65 mA
 # (R2's sensing, §5.2.1); no manipulator (the petbot has no arm, so no actuator draw).
 PETBOT_PROVISIONAL = {"type": "petbot", "battery_mah": 2500.0, "slip_pct": 1.0, "rate_servo_ma": 320.0,
@@ -102,14 +102,14 @@ MIN_SLIP_PCT = 1.0
 def own_status(station: Station) -> ruta.RobotStatus:
     """This robot's own status for RUTA (seed 003 β_i = <id, w_i, P_rem_i> and its draws): the ONE
     place a robot reads it. From its own body's report when the body gives one
-    (``Station.own_body_status``, the bodies branch's ``Robot.own_status()``: type, battery left,
-    slip, draws, registered sensors; :func:`status_from_body`), else the petbot's provisional
+    (``Station.own_body_status``, ``Robot.own_status()``: type, battery left,
+    slip, draws, registered sensors; :func:`status_from_body`), else (a bare station) the petbot's
     figures (:data:`PETBOT_PROVISIONAL`; its body, radius and limits are ``cfg.robot``, which seed
     003's φ do not use).
 
-    Hook for sensor faults (faults branch): a robot whose ultrasonic sensors failed reports no
-    sensing draw (``rate_sens_ma`` None), so it is not capable of the slots with a sensing part;
-    read here from ``station.failed_sensors`` when the station has it (a set of sensor names, e.g.
+    Sensor faults: a robot whose ultrasonic sensors failed reports no sensing draw (``rate_sens_ma``
+    None), so it is not capable of the slots with a sensing part; the body report says which of its
+    sensors work (``Sensors.sensor_off``), a bare station's ``failed_sensors`` when it has it (a set of sensor names, e.g.
     ``{"ultrasonic"}``), else none failed."""
     failed = getattr(station, "failed_sensors", frozenset())  # HOOK: sensor faults lower φ_sens
     body = station.own_body_status() if hasattr(station, "own_body_status") else None
@@ -125,7 +125,7 @@ def own_status(station: Station) -> ruta.RobotStatus:
 
 
 def status_from_body(body: Mapping, failed: Iterable[str] = ()) -> ruta.RobotStatus:
-    """A body's own report (the bodies branch's ``Robot.own_status()`` dict: ``id``, ``type``,
+    """A body's own report (``Robot.own_status()``'s dict: ``id``, ``type``,
     ``battery_mah`` left, ``battery_empty``, ``wheel_slip_pct``, ``servo_ma``, ``actuator_ma``,
     ``sensing_ma``, ``sensors`` [{type, ...}]) as RUTA's status: a draw of 0 is no such module, no
     working ``DISTANCE`` sensor (none registered, or ``"ultrasonic"`` in ``failed``) no sensing, an

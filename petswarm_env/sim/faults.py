@@ -6,14 +6,14 @@ the robot, and each part's model asks :class:`Health` whether it works:
 * ``dead`` — the robot is off: the motors stop (the body stays where it is, an obstacle), the radio
   sends and hears nothing, the IR module neither transmits nor receives, the middleware is off;
 * ``battery`` — the battery is drained to 0: the same as ``dead``, through the same entry point
-  (:meth:`FaultState.set` with ``battery``); the bodies branch's battery model calls
-  ``faults.inject(robot, "battery")`` when its charge reaches 0;
+  (:meth:`FaultState.set` with ``battery``); a battery that its robot's motion and sensing drain to 0
+  (sim/battery.py) is this fault too (``Runtime.check_batteries``);
 * ``radio_silent`` — the 802.15.4 radio sends and receives no frame (the robot drives on);
 * ``ir`` — the IR module is off: no transmission in its token slot, no reception of the others';
 * ``ultrasonic`` — the ring gives no readings: every sensor reads ``robot.ultrasonic.max_range_m``
   (an echo-less ping: "nothing in range"; chosen, the value the ring gives in the open, so the
   safety stage sees no obstacle). :meth:`Faults.ultrasonic_ok` is the per-robot flag the
-  observation's presence field maps to 0 (the bodies branch's presence flags);
+  sensors follow (``Sensors.sensor_off``: the observation's presence flags read 0);
 * ``ahrs`` — the AHRS gives no new yaw: it repeats its last reading from the fault on (a frozen
   output; chosen — the robot's software cannot tell, like a stuck sensor bus).
 
@@ -109,6 +109,6 @@ class Faults:
 
     def sensing_health(self, robot: int) -> dict[str, bool]:
         """The sensing parts that work, for the RUTA sensing utility (seed 003 §4.1.2, φ_sens): a
-        hook for the ruta branch — a sensor fault lowers what the robot can deliver."""
+        experimenter's view: a sensor fault lowers what the robot can deliver."""
         s = self.states[robot]
         return {"ultrasonic": s.ultrasonic_ok, "ir": s.ir_ok, "ahrs": s.ahrs_ok}

@@ -1,6 +1,6 @@
 """RLlib's sampling throughput with 0, 1, 2, … env runners on this machine (needs the rllib extra)::
 
-    python -m bench.rllib_scaling --runners 0,1,2 --iterations 4 [--envs-per-runner 1] [--json OUT]
+    python -m bench.rllib_scaling --runners 0,1,2 --iterations 4 [--repeat 3] [--envs-per-runner 1] [--json OUT]
 
 One local Ray (bound to 127.0.0.1, :func:`training.rllib_backend.start_ray`), then for each runner
 count the training config's PPO (``configs/train/ppo.yaml``, warm start off) for ``iterations``
@@ -9,6 +9,9 @@ agent-steps/s over whole iterations (sampling + learning) and over sampling alon
 of PPO's ``synchronous_parallel_sample`` calls, timed here), the CPU time of the driver and of each runner process, and the
 machine's load average (the cores are shared: a loaded machine gains nothing from more runners).
 Speed is a ratio here too: the runners' figures are read against the 0-runner one of the same run.
+With ``--repeat K`` the runner counts are measured K times in turn (0, 1, 2, 0, 1, 2, …), so a drift
+of the machine's speed touches every count alike, and each count's figure is the median of its K
+rows (``summary``); the ratios are those of the medians.
 """
 
 from __future__ import annotations
@@ -17,6 +20,8 @@ import argparse
 import json
 import os
 import time
+
+import numpy as np
 
 from petswarm_env.files import write_json_atomic
 
@@ -27,8 +32,8 @@ def _cpu_s(pid: int) -> float:
     return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
-def measure(runners: list[int], iterations: int, envs_per_runner: int, overrides: dict | None = None) -> dict:
-    """The figures of each runner count, from one local Ray instance."""
+def measure(runners: list[int], iterations: int, envs_per_runner: int, overrides: dict | None = None, repeat: int = 1) -> dict:
+    """The figures of each runner count (``runners`` measured ``repeat`` times in turn), from one local Ray instance."""
     import ray
     import torch
 
@@ -53,7 +58,7 @@ def measure(runners: list[int], iterations: int, envs_per_runner: int, overrides
     rb.register_env(rb.ENV_ID, rb.make_env)
     rows = []
     try:
-        for n in runners:
+        for n in runners * repeat:
             c = cfg.model_copy(update={"rllib": cfg.rllib.model_copy(update={"num_env_runners": n,
                                                                              "num_envs_per_env_runner": envs_per_runner})})
             algo = rb.algorithm_config(c, c.env_config(), c.seed).build_algo()
@@ -77,21 +82,49 @@ def measure(runners: list[int], iterations: int, envs_per_runner: int, overrides
             print(rows[-1], flush=True)
     finally:
         ray.shutdown()
-    base = rows[0]["agent_steps_per_s"] if rows and rows[0]["env_runners"] == 0 else None
+    summary = summarize(rows)
+    return {"cpus": os.cpu_count(), "repeat": repeat, "rows": rows, "summary": summary,
+            "train_batch_env_steps": cfg.ppo.n_steps * cfg.num_envs}
+
+
+def summarize(rows: list[dict]) -> list[dict]:
+    """Per runner count (in first-seen order): the median agent-steps/s over its rows, whole
+    iterations and sampling alone, and their ratios to the 0-runner medians (None without a
+    0-runner row). Each row also gets its ratio to the 0-runner row measured just before it."""
+    counts = list(dict.fromkeys(row["env_runners"] for row in rows))
+    median = {key: {n: float(np.median([r[key] for r in rows if r["env_runners"] == n and r[key] is not None] or [np.nan]))
+                    for n in counts} for key in ("agent_steps_per_s", "sampling_agent_steps_per_s")}
+    base = None
     for row in rows:
+        base = row["agent_steps_per_s"] if row["env_runners"] == 0 else base
         row["ratio_to_0_runners"] = round(row["agent_steps_per_s"] / base, 2) if base else None
-    return {"cpus": os.cpu_count(), "rows": rows, "train_batch_env_steps": cfg.ppo.n_steps * cfg.num_envs}
+    out = []
+    for n in counts:
+        whole, sampling = median["agent_steps_per_s"][n], median["sampling_agent_steps_per_s"][n]
+        b0, s0 = median["agent_steps_per_s"].get(0), median["sampling_agent_steps_per_s"].get(0)
+        out.append({"env_runners": n, "rows": sum(r["env_runners"] == n for r in rows),
+                    "agent_steps_per_s": round(whole, 1), "sampling_agent_steps_per_s": round(sampling, 1),
+                    "ratio_to_0_runners": round(whole / b0, 2) if b0 else None,
+                    "sampling_ratio_to_0_runners": round(sampling / s0, 2) if s0 else None})
+    return out
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description="RLlib samples/s with 0, 1, 2 … env runners")
     parser.add_argument("--runners", default="0,1,2")
     parser.add_argument("--iterations", type=int, default=4)
+    parser.add_argument("--repeat", type=int, default=1, help="measure the runner counts this many times in turn; medians (default 1)")
     parser.add_argument("--envs-per-runner", type=int, default=4, help="rllib.num_envs_per_env_runner (default 4, the config's)")
     parser.add_argument("--json", metavar="OUT")
     args = parser.parse_args(argv)
-    result = measure([int(x) for x in args.runners.split(",")], max(2, args.iterations), args.envs_per_runner)
+    if args.repeat < 1:
+        parser.error(f"--repeat must be at least 1, got {args.repeat}")
+    result = measure([int(x) for x in args.runners.split(",")], max(2, args.iterations), args.envs_per_runner, repeat=args.repeat)
     print(json.dumps(result, indent=1))
+    for row in result["summary"]:
+        print(f"{row['env_runners']} env runners ({row['rows']} rows): {row['agent_steps_per_s']:.0f} agent-steps/s "
+              f"({row['ratio_to_0_runners']} x 0 runners), sampling alone {row['sampling_agent_steps_per_s']:.0f} "
+              f"({row['sampling_ratio_to_0_runners']} x)")
     if args.json:
         write_json_atomic(args.json, result)
     return 0

@@ -207,3 +207,18 @@ def test_sampled_breakdown_charges_the_innermost_non_neutral_frame_below_env_ste
     assert inclusive["env.py:PetSwarmEnv.step"] == pytest.approx(1.0)
     assert inclusive["radio.py:RadioMedium._deliver"] == pytest.approx(0.75)
     assert {f["function"].rsplit("/", 1)[-1] for f in r["self"]} == {"radio.py:RadioMedium._deliver", "fromnumeric.py:clip"}
+
+
+def test_rllib_scaling_summary_takes_medians_of_interleaved_rounds():
+    from bench.rllib_scaling import summarize
+
+    rows = [{"env_runners": n, "agent_steps_per_s": whole, "sampling_agent_steps_per_s": sampling}
+            for n, whole, sampling in [(0, 100.0, 120.0), (2, 150.0, 200.0), (0, 80.0, 100.0), (2, 130.0, 170.0),
+                                       (0, 90.0, 110.0), (2, 140.0, None)]]
+    summary = summarize(rows)
+    assert [s["env_runners"] for s in summary] == [0, 2] and [s["rows"] for s in summary] == [3, 3]
+    two = summary[1]
+    assert two["agent_steps_per_s"] == 140.0 and two["ratio_to_0_runners"] == round(140 / 90, 2)
+    assert two["sampling_agent_steps_per_s"] == 185.0 and two["sampling_ratio_to_0_runners"] == round(185 / 110, 2)  # a missing timing left out
+    assert [r["ratio_to_0_runners"] for r in rows] == [1.0, 1.5, 1.0, round(130 / 80, 2), 1.0, round(140 / 90, 2)]  # each round's own
+    assert summarize([{"env_runners": 2, "agent_steps_per_s": 5.0, "sampling_agent_steps_per_s": 6.0}])[0]["ratio_to_0_runners"] is None

@@ -11,6 +11,12 @@ Loading matches the saved layout against the environment's, field by field (seed
 idea, SPEC §5): fields that match by name and size are wired through (in any order); a field the
 policy needs that the environment lacks, or has with another size, is refused with a message that
 names it. Extra environment fields the policy never saw are ignored.
+
+A *residual* policy (metadata ``residual_of: scripted``, issue 16) is a learned correction on top
+of the scripted reference (residual policy learning): its action is
+``clip(scripted(obs) + clip(mlp(obs), -1, 1), -1, 1)``, both parts reading the same observation of
+the same robot; with a zero last layer it is the scripted reference, bit for bit. A file without
+the field is a plain MLP policy (every file written before the field existed).
 """
 
 from __future__ import annotations
@@ -25,6 +31,7 @@ from typing import Any
 import numpy as np
 
 from petswarm_env.mapping import MOVE_HOLONOMIC, Behaviour
+from baselines.leader_follower import LeaderFollowerPolicy
 from baselines.policy import Policy, PolicySpec
 from petswarm_env.config import describe_value
 from petswarm_env.env import ENV_NAME
@@ -34,6 +41,7 @@ from petswarm_env.observe import OBS_VERSION, ObservationLayout
 FORMAT = "petswarm-policy"
 FORMAT_VERSION = 1
 ACTIVATIONS = {"tanh": np.tanh, "relu": lambda x: np.maximum(x, 0.0)}
+RESIDUAL_BASES = {"scripted": LeaderFollowerPolicy}  # what a residual policy corrects (a policy of the observation alone)
 
 
 class PolicyLoadError(ValueError):
@@ -50,11 +58,15 @@ def shipped_policy_path() -> Path:
 
 
 def save_policy(path: str | os.PathLike, layers: list[tuple[np.ndarray, np.ndarray]], activation: str,
-                layout: ObservationLayout, info: dict[str, Any] | None = None, behaviours: list[str] | None = None) -> None:
+                layout: ObservationLayout, info: dict[str, Any] | None = None, behaviours: list[str] | None = None,
+                residual_of: str | None = None) -> None:
     """Write ``layers`` ((weight (out, in), bias (out,)) each; the last one is linear) atomically.
-    ``behaviours``: the behaviours the policy commands (seed 001 §IV; default MOVE, the env's action)."""
+    ``behaviours``: the behaviours the policy commands (seed 001 §IV; default MOVE, the env's action);
+    ``residual_of``: the policy the layers correct (module docstring; None: a plain MLP policy)."""
     if activation not in ACTIVATIONS:
         raise ValueError(f"activation must be one of {sorted(ACTIVATIONS)}, got '{activation}'")
+    if residual_of is not None and residual_of not in RESIDUAL_BASES:
+        raise ValueError(f"residual_of must be one of {sorted(RESIDUAL_BASES)} or None, got {residual_of!r}")
     meta = {
         "format": FORMAT,
         "format_version": FORMAT_VERSION,
@@ -66,6 +78,8 @@ def save_policy(path: str | os.PathLike, layers: list[tuple[np.ndarray, np.ndarr
         "info": info or {},
         "behaviours": list(behaviours or ["MOVE"]),
     }
+    if residual_of is not None:
+        meta["residual_of"] = residual_of
     arrays = {"meta": np.frombuffer(json.dumps(meta).encode(), dtype=np.uint8)}
     for i, (w, b) in enumerate(layers):
         arrays[f"w{i}"] = np.asarray(w, dtype=np.float32)
@@ -138,6 +152,9 @@ def _read_meta(path: Path, arrays: dict[str, np.ndarray]) -> dict[str, Any]:
     n = meta.get("num_layers")
     if not _is_int(n) or not 1 <= n <= MAX_LAYERS:
         raise _field_error(path, "num_layers", f"must be a whole number from 1 to {MAX_LAYERS}, got {describe_value(n)}")
+    if "residual_of" in meta and meta["residual_of"] not in RESIDUAL_BASES:
+        raise _field_error(path, "residual_of", f"must be one of {sorted(RESIDUAL_BASES)} (the policy a residual policy "
+                                                f"corrects), got {describe_value(meta['residual_of'])}")
     if not isinstance(meta.get("info", {}), dict):
         raise _field_error(path, "info", f"must be a JSON object, got {type(meta['info']).__name__}")
     return meta
@@ -203,7 +220,8 @@ def observation_mapping(saved: list[tuple[str, int]], layout: ObservationLayout)
 
 
 class LearnedPolicy(Policy):
-    """A saved MLP actor evaluated with numpy (deterministic: the mean action, clipped)."""
+    """A saved MLP actor evaluated with numpy (deterministic: the mean action, clipped); with
+    ``meta["residual_of"]`` that action corrects the named base policy's (module docstring)."""
 
     name = "learned"
 
@@ -221,6 +239,10 @@ class LearnedPolicy(Policy):
         self.meta = meta or {}
         identity = len(index) == spec.layout.size and np.array_equal(index, np.arange(spec.layout.size))
         self._identity = identity
+        residual_of = self.meta.get("residual_of")
+        if residual_of is not None and residual_of not in RESIDUAL_BASES:
+            raise PolicyLoadError(f"policy field 'residual_of' must be one of {sorted(RESIDUAL_BASES)}, got {describe_value(residual_of)}")
+        self.base = RESIDUAL_BASES[residual_of](spec) if residual_of else None  # reads the env's observation, as the MLP does
 
     @classmethod
     def load(cls, path: str | os.PathLike, spec: PolicySpec) -> LearnedPolicy:
@@ -245,11 +267,14 @@ class LearnedPolicy(Policy):
         return x @ w.T + b
 
     def act(self, agent: str, observation: np.ndarray) -> np.ndarray:
-        return np.clip(self.forward(observation), -1.0, 1.0).astype(np.float32)
+        out = np.clip(self.forward(observation), -1.0, 1.0).astype(np.float32)
+        return out if self.base is None else np.clip(self.base.act(agent, observation) + out, -1.0, 1.0)
 
     def act_all(self, observations: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         if not observations:
             return {}
         agents = list(observations)
         out = np.clip(self.forward(np.stack([observations[a] for a in agents])), -1.0, 1.0).astype(np.float32)
-        return {a: out[i] for i, a in enumerate(agents)}
+        if self.base is None:
+            return {a: out[i] for i, a in enumerate(agents)}
+        return {a: np.clip(self.base.act(a, observations[a]) + out[i], -1.0, 1.0) for i, a in enumerate(agents)}

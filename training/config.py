@@ -93,6 +93,9 @@ class TrainConfig(Section):
     randomize: dict[str, list[Any]] = Field(
         default_factory=dict, description="domain randomization: dotted env key -> pool of values, one drawn per episode "
                                           "(training/randomize.py)")
+    residual_of: Literal["scripted"] | None = Field(
+        None, description="scripted: the policy learns a correction added to the scripted reference's action "
+                          "(training/residual.py); null: the policy is the action")
 
     def env_config(self) -> Config:
         """The environment the policy trains on (without the pools' draws)."""
@@ -146,6 +149,10 @@ def load_train_config(path: str | os.PathLike | None = None, overrides: dict[str
         raise ConfigError(f"{exc} (in env: of the training config, e.g. --set env.KEY=VALUE)") from None
     if cfg.randomize:
         check_pools(cfg.env, cfg.randomize)
+    if cfg.residual_of and cfg.pretrain.samples > 0:
+        raise ConfigError(f"residual_of: {cfg.residual_of} starts training at the {cfg.residual_of} reference itself (a zero "
+                          f"correction), so the warm start that imitates it has nothing to learn; set pretrain.samples: 0 "
+                          f"(got {cfg.pretrain.samples}) or residual_of: null")
     return cfg
 
 

@@ -21,14 +21,17 @@ def actor_layers(model) -> list[tuple[np.ndarray, np.ndarray]]:
     return [(m.weight.detach().cpu().numpy().copy(), m.bias.detach().cpu().numpy().copy()) for m in linears]
 
 
-def learned_policy(model, spec: PolicySpec, activation: str) -> LearnedPolicy:
-    """The model's current actor as a policy for an env of the layout it trains on."""
-    return LearnedPolicy(spec, actor_layers(model), activation, np.arange(spec.layout.size))
+def learned_policy(model, spec: PolicySpec, activation: str, residual_of: str | None = None) -> LearnedPolicy:
+    """The model's current actor as a policy for an env of the layout it trains on (correcting
+    ``residual_of``'s actions, if given: training/residual.py)."""
+    meta = {"residual_of": residual_of} if residual_of else None
+    return LearnedPolicy(spec, actor_layers(model), activation, np.arange(spec.layout.size), meta)
 
 
-def export_policy(model, path: str | os.PathLike, layout: ObservationLayout, activation: str, info: dict) -> None:
+def export_policy(model, path: str | os.PathLike, layout: ObservationLayout, activation: str, info: dict,
+                  residual_of: str | None = None) -> None:
     """Write the model's actor to ``path`` (atomically) with ``info`` on how it was trained."""
-    save_policy(path, actor_layers(model), activation, layout, info)
+    save_policy(path, actor_layers(model), activation, layout, info, residual_of=residual_of)
 
 
 RLLIB_ACTOR = "encoder.actor_encoder.net.mlp.{}"  # RLlib's DefaultPPOTorchRLModule: Linear at 0, 2, 4, … (activations between)

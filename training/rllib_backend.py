@@ -260,9 +260,9 @@ def train_rllib(cfg: TrainConfig | None, out_dir: str | os.PathLike, resume: boo
     bottom: the run folder, Ray, the scripted reference's score, the algorithm, the module's start
     or the checkpoint, the iterations, the last checkpoint."""
     out = Path(out_dir)
-    if cfg is not None and (cfg.randomize or cfg.ppo.critic != "local"):
-        raise ConfigError("--backend rllib trains without randomize: pools and with ppo.critic: local; use --backend sb3 "
-                          "for domain randomization and the centralized critic (docs/training.md)")
+    if cfg is not None and (cfg.randomize or cfg.ppo.critic != "local" or cfg.residual_of):
+        raise ConfigError("--backend rllib trains without randomize: pools, with ppo.critic: local and residual_of: null; use "
+                          "--backend sb3 for domain randomization, the centralized critic and residual policies (docs/training.md)")
     cfg, log, changes, finished = begin_run(cfg, out, resume, command)
     if finished:
         return finished

@@ -38,6 +38,7 @@ from training.callbacks import PeriodicCallback, pool_formation_rmse, public_log
 from training.checkpoint import has_checkpoint, read_checkpoint, restore_checkpoint
 from training.config import PPOConfig, TrainConfig, load_train_config, resume_changes
 from training.export import learned_policy
+from training.residual import zero_action_head
 from training.state_critic import StateCriticPolicy
 from training.vec_env import make_vec_env, training_env
 from training.warm_start import pretrain_policy
@@ -174,11 +175,14 @@ def train(cfg: TrainConfig | None, out_dir: str | os.PathLike, resume: bool = Fa
         log["scripted_eval_rmse_m"] = pool_formation_rmse(cfg, lambda spec: make_policy("scripted", spec))
 
     with_state = cfg.ppo.critic == "state"
-    venv = make_vec_env(env_cfg, cfg.num_envs, cfg.num_cpus, cfg.seed + log["timesteps"], cfg.randomize, cfg.env, with_state)
+    venv = make_vec_env(env_cfg, cfg.num_envs, cfg.num_cpus, cfg.seed + log["timesteps"], cfg.randomize, cfg.env, with_state,
+                        cfg.residual_of)
     try:
         model = build_model(cfg.ppo, venv, cfg.seed, tensorboard_log=str(out / "tb"), obs_size=layout.size)
         if resume:
             restore_checkpoint(out, model)
+        elif cfg.residual_of:  # the first policy is the reference itself (training/residual.py)
+            zero_action_head(model.policy.action_net.weight, model.policy.action_net.bias)
         elif cfg.pretrain.samples > 0:  # warm start: imitate the scripted reference, in the run's own env (draws, rows)
             demo_env = training_env(env_cfg, cfg.randomize, cfg.env, with_state)
             log["pretrain"] = pretrain_policy(model, cfg, env_cfg, demo_env)

@@ -9,9 +9,10 @@ return and length, for ``rollout/ep_rew_mean``).
 
 ``training_env`` is the PettingZoo env under the vector: ``PetSwarmEnv`` of the training config, or
 with ``randomize:`` pools a :class:`training.randomize.RandomizedEnv` (each episode its drawn
-config; ``FixedAgents`` over it is sized for the largest draw), and with ``ppo.critic: state``
-every row followed by the global state (:class:`training.randomize.WithState`, MAPPO's critic
-input).
+config; ``FixedAgents`` over it is sized for the largest draw), with ``residual_of: scripted``
+each action a correction of the scripted reference's (:class:`training.residual.ResidualActions`),
+and with ``ppo.critic: state`` every row followed by the global state
+(:class:`training.randomize.WithState`, MAPPO's critic input).
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ from petswarm_env.config import Config
 from petswarm_env.env import PetSwarmEnv
 from petswarm_env.wrappers import FixedAgents
 from training.randomize import PoolSpaces, RandomizedEnv, WithState
+from training.residual import ResidualActions
 
 
 class SeededVecEnv(SB3VecEnvWrapper):
@@ -51,21 +53,23 @@ class SeededVecEnv(SB3VecEnvWrapper):
 
 
 def training_env(env_cfg: Config, pools: dict | None = None, overrides: dict | None = None, with_state: bool = False,
-                 spaces: PoolSpaces | None = None):
+                 spaces: PoolSpaces | None = None, residual_of: str | None = None):
     """The fixed-agents ParallelEnv of a run (module docstring): ``env_cfg``, or with ``pools`` a
     :class:`RandomizedEnv` over the ``overrides`` (the training config's ``env:``; ``spaces``
-    computed once if given); with ``with_state`` its rows carry the state after the observation."""
+    computed once if given); with ``residual_of`` its actions correct that policy's; with
+    ``with_state`` its rows carry the state after the observation."""
     base = RandomizedEnv(overrides or {}, pools, spaces) if pools else PetSwarmEnv(env_cfg)
     env = FixedAgents(base)
+    env = ResidualActions(env, residual_of) if residual_of else env
     return WithState(env) if with_state else env
 
 
 def make_vec_env(env_cfg: Config, num_envs: int, num_cpus: int, seed: int, pools: dict | None = None,
-                 overrides: dict | None = None, with_state: bool = False) -> VecMonitor:
+                 overrides: dict | None = None, with_state: bool = False, residual_of: str | None = None) -> VecMonitor:
     """SuperSuit pipeline to an SB3 VecEnv (one row per slave per copy), seeded with ``seed``
-    (``pools``, ``overrides``, ``with_state``: :func:`training_env`)."""
+    (``pools``, ``overrides``, ``with_state``, ``residual_of``: :func:`training_env`)."""
     spaces = PoolSpaces.of(overrides or {}, pools) if pools else None
-    vec = pettingzoo_env_to_vec_env_v1(training_env(env_cfg, pools, overrides, with_state, spaces))
+    vec = pettingzoo_env_to_vec_env_v1(training_env(env_cfg, pools, overrides, with_state, spaces, residual_of))
     vec = concat_vec_envs_v1(vec, num_envs, num_cpus=num_cpus, base_class="gymnasium")
     venv = SeededVecEnv(vec)
     venv.seed(seed)

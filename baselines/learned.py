@@ -12,11 +12,12 @@ idea, SPEC §5): fields that match by name and size are wired through (in any or
 policy needs that the environment lacks, or has with another size, is refused with a message that
 names it. Extra environment fields the policy never saw are ignored.
 
-A *residual* policy (metadata ``residual_of: scripted``, issue 16) is a learned correction on top
-of the scripted reference (residual policy learning): its action is
-``clip(scripted(obs) + clip(mlp(obs), -1, 1), -1, 1)``, both parts reading the same observation of
-the same robot; with a zero last layer it is the scripted reference, bit for bit. A file without
-the field is a plain MLP policy (every file written before the field existed).
+A *residual* policy (metadata ``residual_of: scripted`` and ``residual_scale: s``, issue 16) is a
+learned correction on top of the scripted reference (residual policy learning): its action is
+``clip(scripted(obs) + s · clip(mlp(obs), -1, 1), -1, 1)``, both parts reading the same
+observation of the same robot (:class:`Residual`); with a zero last layer it is the scripted
+reference, bit for bit. A file without ``residual_of`` is a plain MLP policy (every file written
+before the field existed).
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ from __future__ import annotations
 import json
 import os
 import warnings
+from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -44,6 +46,35 @@ ACTIVATIONS = {"tanh": np.tanh, "relu": lambda x: np.maximum(x, 0.0)}
 RESIDUAL_BASES = {"scripted": LeaderFollowerPolicy}  # what a residual policy corrects (a policy of the observation alone)
 
 
+@dataclass(frozen=True)
+class Residual:
+    """A residual policy's base (``of``, a name of :data:`RESIDUAL_BASES`) and the bound of its
+    correction (``scale``, in action units: 0 < scale <= 1): the action sent is
+    ``clip(base + scale · clip(correction, -1, 1), -1, 1)``."""
+
+    of: str
+    scale: float = 1.0
+
+    def __post_init__(self):
+        if self.of not in RESIDUAL_BASES:
+            raise ValueError(f"residual_of must be one of {sorted(RESIDUAL_BASES)}, got {self.of!r}")
+        if isinstance(self.scale, bool) or not isinstance(self.scale, (int, float)) or not 0.0 < self.scale <= 1.0:
+            raise ValueError(f"residual_scale must be a number in (0, 1], got {self.scale!r}")
+
+    def base_policy(self, spec: PolicySpec) -> Policy:
+        return RESIDUAL_BASES[self.of](spec)
+
+    def apply(self, base_action: np.ndarray, correction: np.ndarray) -> np.ndarray:
+        """The action sent: the base's plus the bounded correction, clipped (float32)."""
+        c = np.clip(np.asarray(correction, dtype=np.float32), -1.0, 1.0)
+        if self.scale != 1.0:
+            c = c * np.float32(self.scale)
+        return np.clip(base_action + c, -1.0, 1.0)
+
+    def meta(self) -> dict[str, Any]:
+        return {"residual_of": self.of, "residual_scale": float(self.scale)}
+
+
 class PolicyLoadError(ValueError):
     """A policy file is missing, corrupt, or does not fit the environment."""
 
@@ -59,14 +90,13 @@ def shipped_policy_path() -> Path:
 
 def save_policy(path: str | os.PathLike, layers: list[tuple[np.ndarray, np.ndarray]], activation: str,
                 layout: ObservationLayout, info: dict[str, Any] | None = None, behaviours: list[str] | None = None,
-                residual_of: str | None = None) -> None:
+                residual: Residual | None = None) -> None:
     """Write ``layers`` ((weight (out, in), bias (out,)) each; the last one is linear) atomically.
     ``behaviours``: the behaviours the policy commands (seed 001 §IV; default MOVE, the env's action);
-    ``residual_of``: the policy the layers correct (module docstring; None: a plain MLP policy)."""
+    ``residual``: the policy the layers correct and the correction's bound (module docstring; None:
+    a plain MLP policy)."""
     if activation not in ACTIVATIONS:
         raise ValueError(f"activation must be one of {sorted(ACTIVATIONS)}, got '{activation}'")
-    if residual_of is not None and residual_of not in RESIDUAL_BASES:
-        raise ValueError(f"residual_of must be one of {sorted(RESIDUAL_BASES)} or None, got {residual_of!r}")
     meta = {
         "format": FORMAT,
         "format_version": FORMAT_VERSION,
@@ -78,8 +108,8 @@ def save_policy(path: str | os.PathLike, layers: list[tuple[np.ndarray, np.ndarr
         "info": info or {},
         "behaviours": list(behaviours or ["MOVE"]),
     }
-    if residual_of is not None:
-        meta["residual_of"] = residual_of
+    if residual is not None:
+        meta.update(residual.meta())
     arrays = {"meta": np.frombuffer(json.dumps(meta).encode(), dtype=np.uint8)}
     for i, (w, b) in enumerate(layers):
         arrays[f"w{i}"] = np.asarray(w, dtype=np.float32)
@@ -155,6 +185,10 @@ def _read_meta(path: Path, arrays: dict[str, np.ndarray]) -> dict[str, Any]:
     if "residual_of" in meta and meta["residual_of"] not in RESIDUAL_BASES:
         raise _field_error(path, "residual_of", f"must be one of {sorted(RESIDUAL_BASES)} (the policy a residual policy "
                                                 f"corrects), got {describe_value(meta['residual_of'])}")
+    scale = meta.get("residual_scale", 1.0)
+    if isinstance(scale, bool) or not isinstance(scale, (int, float)) or not 0.0 < scale <= 1.0:
+        raise _field_error(path, "residual_scale", f"must be a number in (0, 1] (the bound of a residual policy's "
+                                                   f"correction), got {describe_value(scale)}")
     if not isinstance(meta.get("info", {}), dict):
         raise _field_error(path, "info", f"must be a JSON object, got {type(meta['info']).__name__}")
     return meta
@@ -219,9 +253,20 @@ def observation_mapping(saved: list[tuple[str, int]], layout: ObservationLayout)
     return np.array(idx, dtype=np.intp)
 
 
+def residual_of_meta(meta: dict[str, Any]) -> Residual | None:
+    """The :class:`Residual` a policy's metadata declares (None for a plain MLP policy)."""
+    if meta.get("residual_of") is None:
+        return None
+    try:
+        return Residual(meta["residual_of"], meta.get("residual_scale", 1.0))
+    except ValueError as exc:
+        raise PolicyLoadError(f"policy metadata: {exc}") from None
+
+
 class LearnedPolicy(Policy):
     """A saved MLP actor evaluated with numpy (deterministic: the mean action, clipped); with
-    ``meta["residual_of"]`` that action corrects the named base policy's (module docstring)."""
+    ``meta["residual_of"]`` that action, times ``meta["residual_scale"]``, corrects the named base
+    policy's (module docstring, :class:`Residual`)."""
 
     name = "learned"
 
@@ -239,10 +284,8 @@ class LearnedPolicy(Policy):
         self.meta = meta or {}
         identity = len(index) == spec.layout.size and np.array_equal(index, np.arange(spec.layout.size))
         self._identity = identity
-        residual_of = self.meta.get("residual_of")
-        if residual_of is not None and residual_of not in RESIDUAL_BASES:
-            raise PolicyLoadError(f"policy field 'residual_of' must be one of {sorted(RESIDUAL_BASES)}, got {describe_value(residual_of)}")
-        self.base = RESIDUAL_BASES[residual_of](spec) if residual_of else None  # reads the env's observation, as the MLP does
+        self.residual = residual_of_meta(self.meta)
+        self.base = self.residual.base_policy(spec) if self.residual else None  # reads the env's observation, as the MLP does
 
     @classmethod
     def load(cls, path: str | os.PathLike, spec: PolicySpec) -> LearnedPolicy:
@@ -268,7 +311,7 @@ class LearnedPolicy(Policy):
 
     def act(self, agent: str, observation: np.ndarray) -> np.ndarray:
         out = np.clip(self.forward(observation), -1.0, 1.0).astype(np.float32)
-        return out if self.base is None else np.clip(self.base.act(agent, observation) + out, -1.0, 1.0)
+        return out if self.base is None else self.residual.apply(self.base.act(agent, observation), out)
 
     def act_all(self, observations: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         if not observations:
@@ -277,4 +320,4 @@ class LearnedPolicy(Policy):
         out = np.clip(self.forward(np.stack([observations[a] for a in agents])), -1.0, 1.0).astype(np.float32)
         if self.base is None:
             return {a: out[i] for i, a in enumerate(agents)}
-        return {a: np.clip(self.base.act(a, observations[a]) + out[i], -1.0, 1.0) for i, a in enumerate(agents)}
+        return {a: self.residual.apply(self.base.act(a, observations[a]), out[i]) for i, a in enumerate(agents)}

@@ -87,11 +87,11 @@ class PeriodicCallback(BaseCallback):
         log["wall_time_s"] = log["wall_time_before_s"] + time.time() - log["_start"]
         save_checkpoint(checkpoint_path(self.out), self.model, self.cfg.ppo.activation, list(self.cfg.ppo.net_arch))
         export_policy(self.model, self.out / "policy.npz", self.layout, self.cfg.ppo.activation,
-                      policy_info(self.cfg, log, ALGORITHMS[self.cfg.ppo.critic]), self.cfg.residual_of)
+                      policy_info(self.cfg, log, ALGORITHMS[self.cfg.ppo.critic]), self.cfg.residual())
         write_json_atomic(self.out / "train_log.json", public_log(log))
 
     def evaluate(self) -> None:
-        rmse = pool_formation_rmse(self.cfg, lambda spec: learned_policy(self.model, spec, self.cfg.ppo.activation, self.cfg.residual_of))
+        rmse = pool_formation_rmse(self.cfg, lambda spec: learned_policy(self.model, spec, self.cfg.ppo.activation, self.cfg.residual()))
         ref = self.train_log["scripted_eval_rmse_m"]
         log = self.train_log
         wall = log.get("wall_time_before_s", 0.0) + time.time() - log["_start"] if "_start" in log else None

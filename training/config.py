@@ -26,6 +26,7 @@ from petswarm_env.config import (
     nest_dotted,
     read_yaml,
 )
+from baselines.learned import Residual
 from training.randomize import check_pools, draw_config
 
 DEFAULT_TRAIN_CONFIG = Path(str(resources.files("training") / "ppo.yaml"))
@@ -96,6 +97,11 @@ class TrainConfig(Section):
     residual_of: Literal["scripted"] | None = Field(
         None, description="scripted: the policy learns a correction added to the scripted reference's action "
                           "(training/residual.py); null: the policy is the action")
+    residual_scale: float = Field(1.0, gt=0, le=1, description="with residual_of: the correction's bound in action units")
+
+    def residual(self) -> Residual | None:
+        """The residual the policy learns (:class:`baselines.learned.Residual`), or None."""
+        return Residual(self.residual_of, self.residual_scale) if self.residual_of else None
 
     def env_config(self) -> Config:
         """The environment the policy trains on (without the pools' draws)."""

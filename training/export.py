@@ -9,7 +9,7 @@ import os
 import numpy as np
 import torch
 
-from baselines.learned import LearnedPolicy, save_policy
+from baselines.learned import LearnedPolicy, Residual, save_policy
 from baselines.policy import PolicySpec
 from petswarm_env.observe import ObservationLayout
 
@@ -21,17 +21,16 @@ def actor_layers(model) -> list[tuple[np.ndarray, np.ndarray]]:
     return [(m.weight.detach().cpu().numpy().copy(), m.bias.detach().cpu().numpy().copy()) for m in linears]
 
 
-def learned_policy(model, spec: PolicySpec, activation: str, residual_of: str | None = None) -> LearnedPolicy:
+def learned_policy(model, spec: PolicySpec, activation: str, residual: Residual | None = None) -> LearnedPolicy:
     """The model's current actor as a policy for an env of the layout it trains on (correcting
-    ``residual_of``'s actions, if given: training/residual.py)."""
-    meta = {"residual_of": residual_of} if residual_of else None
-    return LearnedPolicy(spec, actor_layers(model), activation, np.arange(spec.layout.size), meta)
+    ``residual``'s base, if given: training/residual.py)."""
+    return LearnedPolicy(spec, actor_layers(model), activation, np.arange(spec.layout.size), residual.meta() if residual else None)
 
 
 def export_policy(model, path: str | os.PathLike, layout: ObservationLayout, activation: str, info: dict,
-                  residual_of: str | None = None) -> None:
+                  residual: Residual | None = None) -> None:
     """Write the model's actor to ``path`` (atomically) with ``info`` on how it was trained."""
-    save_policy(path, actor_layers(model), activation, layout, info, residual_of=residual_of)
+    save_policy(path, actor_layers(model), activation, layout, info, residual=residual)
 
 
 RLLIB_ACTOR = "encoder.actor_encoder.net.mlp.{}"  # RLlib's DefaultPPOTorchRLModule: Linear at 0, 2, 4, … (activations between)

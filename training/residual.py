@@ -1,12 +1,15 @@
 """Residual policy learning (issue 16): the trained network corrects the scripted reference.
 
 With ``residual_of: scripted`` in the training config, PPO's action for a robot is not the robot's
-command but a correction: :class:`ResidualActions` sends ``clip(scripted(obs) + clip(a, -1, 1),
--1, 1)`` to the env, where ``obs`` is the observation the robot received with the last reset or
+command but a correction: :class:`ResidualActions` sends ``clip(scripted(obs) + s · clip(a, -1,
+1), -1, 1)`` to the env (``s`` = ``residual_scale``, :class:`baselines.learned.Residual`), where ``obs`` is the observation the robot received with the last reset or
 step (the one the network read to choose ``a``) and ``scripted`` the leader–follower reference
 (:class:`baselines.leader_follower.LeaderFollowerPolicy`, a function of the observation alone).
-The exported file says ``residual_of: scripted`` and :class:`baselines.learned.LearnedPolicy`
-adds the same reference at run time, so training and evaluation act alike.
+The exported file says ``residual_of: scripted`` and ``residual_scale: s``, and
+:class:`baselines.learned.LearnedPolicy` adds the same reference at run time, so training and
+evaluation act alike. A bound below the reference's recovery speeds (its rejoin and search speeds,
+0.5 m/s = 0.33 of the petbot's 1.5 m/s) keeps a correction from overpowering the reference's way
+back to a swarm it lost (configs/train/residual.yaml).
 
 The training starts at the reference: the action head's weights and bias are zero
 (:func:`zero_action_head`), so the first policy is the scripted one, and PPO explores around it
@@ -21,7 +24,7 @@ from typing import Any
 import numpy as np
 from pettingzoo.utils.wrappers import BaseParallelWrapper
 
-from baselines.learned import RESIDUAL_BASES
+from baselines.learned import Residual
 from baselines.policy import PolicySpec
 
 
@@ -36,11 +39,9 @@ class ResidualActions(BaseParallelWrapper):
     the base policy's action for the robot's last observation (module docstring). Padding rows
     (``active`` 0) pass through; FixedAgents ignores them."""
 
-    def __init__(self, env, base: str = "scripted"):
+    def __init__(self, env, residual: Residual = Residual("scripted")):
         super().__init__(env)
-        if base not in RESIDUAL_BASES:
-            raise ValueError(f"residual_of must be one of {sorted(RESIDUAL_BASES)}, got {base!r}")
-        self.base_name = base
+        self.residual = residual
         self.possible_agents = list(env.possible_agents)
         self.state_space = getattr(env, "state_space", None)
         self._obs: dict[str, np.ndarray] = {}
@@ -49,7 +50,7 @@ class ResidualActions(BaseParallelWrapper):
 
     def reset(self, seed: int | None = None, options: dict | None = None):
         obs, infos = self.env.reset(seed=seed, options=options)
-        self.base = RESIDUAL_BASES[self.base_name](PolicySpec.from_env(_episode_env(self.env)))  # the draw's limits
+        self.base = self.residual.base_policy(PolicySpec.from_env(_episode_env(self.env)))  # the draw's limits
         self._remember(obs, infos)
         self.agents = list(self.env.agents)
         return obs, infos
@@ -58,8 +59,7 @@ class ResidualActions(BaseParallelWrapper):
         sent = {}
         for agent, action in actions.items():
             if agent in self._live:
-                correction = np.clip(np.asarray(action, dtype=np.float32), -1.0, 1.0)
-                sent[agent] = np.clip(self.base.act(agent, self._obs[agent]) + correction, -1.0, 1.0)
+                sent[agent] = self.residual.apply(self.base.act(agent, self._obs[agent]), action)
             else:
                 sent[agent] = action
         obs, rewards, terms, truncs, infos = self.env.step(sent)

@@ -176,7 +176,7 @@ def train(cfg: TrainConfig | None, out_dir: str | os.PathLike, resume: bool = Fa
 
     with_state = cfg.ppo.critic == "state"
     venv = make_vec_env(env_cfg, cfg.num_envs, cfg.num_cpus, cfg.seed + log["timesteps"], cfg.randomize, cfg.env, with_state,
-                        cfg.residual_of)
+                        cfg.residual())
     try:
         model = build_model(cfg.ppo, venv, cfg.seed, tensorboard_log=str(out / "tb"), obs_size=layout.size)
         if resume:

@@ -25,6 +25,7 @@ from petswarm_env.config import Config
 from petswarm_env.env import PetSwarmEnv
 from petswarm_env.wrappers import FixedAgents
 from training.randomize import PoolSpaces, RandomizedEnv, WithState
+from baselines.learned import Residual
 from training.residual import ResidualActions
 
 
@@ -53,23 +54,23 @@ class SeededVecEnv(SB3VecEnvWrapper):
 
 
 def training_env(env_cfg: Config, pools: dict | None = None, overrides: dict | None = None, with_state: bool = False,
-                 spaces: PoolSpaces | None = None, residual_of: str | None = None):
+                 spaces: PoolSpaces | None = None, residual: Residual | None = None):
     """The fixed-agents ParallelEnv of a run (module docstring): ``env_cfg``, or with ``pools`` a
     :class:`RandomizedEnv` over the ``overrides`` (the training config's ``env:``; ``spaces``
-    computed once if given); with ``residual_of`` its actions correct that policy's; with
+    computed once if given); with ``residual`` its actions correct that policy's; with
     ``with_state`` its rows carry the state after the observation."""
     base = RandomizedEnv(overrides or {}, pools, spaces) if pools else PetSwarmEnv(env_cfg)
     env = FixedAgents(base)
-    env = ResidualActions(env, residual_of) if residual_of else env
+    env = ResidualActions(env, residual) if residual else env
     return WithState(env) if with_state else env
 
 
 def make_vec_env(env_cfg: Config, num_envs: int, num_cpus: int, seed: int, pools: dict | None = None,
-                 overrides: dict | None = None, with_state: bool = False, residual_of: str | None = None) -> VecMonitor:
+                 overrides: dict | None = None, with_state: bool = False, residual: Residual | None = None) -> VecMonitor:
     """SuperSuit pipeline to an SB3 VecEnv (one row per slave per copy), seeded with ``seed``
-    (``pools``, ``overrides``, ``with_state``, ``residual_of``: :func:`training_env`)."""
+    (``pools``, ``overrides``, ``with_state``, ``residual``: :func:`training_env`)."""
     spaces = PoolSpaces.of(overrides or {}, pools) if pools else None
-    vec = pettingzoo_env_to_vec_env_v1(training_env(env_cfg, pools, overrides, with_state, spaces, residual_of))
+    vec = pettingzoo_env_to_vec_env_v1(training_env(env_cfg, pools, overrides, with_state, spaces, residual))
     vec = concat_vec_envs_v1(vec, num_envs, num_cpus=num_cpus, base_class="gymnasium")
     venv = SeededVecEnv(vec)
     venv.seed(seed)

@@ -190,6 +190,7 @@ POLICY_CASES = [  # (id, how to damage a good policy file, words)
     ("layout_unknown_field", dict(meta={"observation_layout": [["self.compass", OBS_SIZE]]}), "self.compass"),
     ("info_a_list", dict(meta={"info": [1]}), "field 'info'"),
     ("residual_of_other", dict(meta={"residual_of": "random"}), "field 'residual_of'"),
+    ("residual_scale_2", dict(meta={"residual_of": "scripted", "residual_scale": 2}), "field 'residual_scale'"),
     ("missing_b1", dict(drop=("b1",)), "field 'b1' is missing"),
     ("int_weights", dict(arrays={"w1": np.ones((3, 4), np.int32)}), "floating-point"),
     ("w0_1d", dict(arrays={"w0": np.zeros(4, np.float32)}), "field 'w0' has shape (4,)"),

@@ -11,7 +11,7 @@ pytest.importorskip("stable_baselines3")
 pytest.importorskip("supersuit")
 
 from baselines.leader_follower import LeaderFollowerPolicy
-from baselines.learned import LearnedPolicy, read_policy_file, save_policy
+from baselines.learned import LearnedPolicy, Residual, read_policy_file, save_policy
 from baselines.policy import PolicySpec
 from petswarm_env.config import ConfigError, load_config
 from petswarm_env.env import PetSwarmEnv
@@ -77,20 +77,26 @@ def test_the_wrapper_sends_the_clipped_sum_for_live_robots_only():
 def test_a_residual_policy_file_with_a_zero_last_layer_drives_as_the_scripted_reference(tmp_path):
     env = PetSwarmEnv(load_config(overrides=CFG))
     spec = PolicySpec.from_env(env)
-    save_policy(tmp_path / "res.npz", _layers(spec.layout.size), "tanh", spec.layout, residual_of="scripted")
+    save_policy(tmp_path / "res.npz", _layers(spec.layout.size), "tanh", spec.layout, residual=Residual("scripted"))
     meta, _ = read_policy_file(tmp_path / "res.npz")
-    assert meta["residual_of"] == "scripted"
+    assert meta["residual_of"] == "scripted" and meta["residual_scale"] == 1.0
     policy = LearnedPolicy.load(tmp_path / "res.npz", spec)
     fixed = FixedAgents(PetSwarmEnv(load_config(overrides=CFG)))
     assert _episode_hash(fixed, lambda o, i: policy.act_all({a: o[a] for a in o if i[a]["active"]})) == _scripted_hash()
     # a correction adds to the reference's action, clipped
-    save_policy(tmp_path / "bias.npz", _layers(spec.layout.size, (0.5, -3.0, 0.0)), "tanh", spec.layout, residual_of="scripted")
+    save_policy(tmp_path / "bias.npz", _layers(spec.layout.size, (0.5, -3.0, 0.0)), "tanh", spec.layout, residual=Residual("scripted"))
     shifted = LearnedPolicy.load(tmp_path / "bias.npz", spec)
     ref = LeaderFollowerPolicy(spec)
     obs, _ = env.reset(seed=1)
     for a, o in obs.items():
         assert np.array_equal(shifted.act(a, o), np.clip(ref.act(a, o) + np.float32([0.5, -1.0, 0.0]), -1.0, 1.0))
         assert np.array_equal(shifted.act_all({a: o})[a], shifted.act(a, o))
+    # the scale bounds the correction: 0.2 x clip(0.5, -3, 0)
+    save_policy(tmp_path / "scaled.npz", _layers(spec.layout.size, (0.5, -3.0, 0.0)), "tanh", spec.layout,
+                residual=Residual("scripted", 0.2))
+    scaled = LearnedPolicy.load(tmp_path / "scaled.npz", spec)
+    for a, o in obs.items():
+        assert np.array_equal(scaled.act(a, o), np.clip(ref.act(a, o) + np.float32([0.5, -1.0, 0.0]) * np.float32(0.2), -1.0, 1.0))
     # a file without the field is a plain MLP (every file written before it)
     save_policy(tmp_path / "plain.npz", _layers(spec.layout.size), "tanh", spec.layout)
     assert "residual_of" not in read_policy_file(tmp_path / "plain.npz")[0]
@@ -103,12 +109,17 @@ def test_the_config_refuses_a_warm_start_or_an_unknown_base_for_a_residual_polic
         load_train_config(overrides={"residual_of": "scripted", "pretrain.samples": 400})
     with pytest.raises(ConfigError, match="residual_of"):
         load_train_config(overrides={"residual_of": "random", "pretrain.samples": 0})
-    assert load_train_config("configs/train/residual.yaml").residual_of == "scripted"
+    with pytest.raises(ConfigError, match="residual_scale"):
+        load_train_config(overrides={"residual_of": "scripted", "pretrain.samples": 0, "residual_scale": 1.5})
+    with pytest.raises(ValueError, match="residual_scale"):
+        Residual("scripted", 0.0)
+    assert load_train_config("configs/train/residual.yaml").residual() == Residual("scripted", 0.2)
 
 
 TINY = {"timesteps": 96, "num_envs": 1, "num_cpus": 0, "ppo.n_steps": 16, "ppo.batch_size": 32, "ppo.n_epochs": 2,
         "ppo.net_arch": [8], "env.max_cycles": 20, "eval.episodes": 1, "eval.max_cycles": 10, "eval.every_steps": 1000,
-        "checkpoint.every_steps": 1000, "pretrain.samples": 0, "residual_of": "scripted", "ppo.learning_rate": 0.01}
+        "checkpoint.every_steps": 1000, "pretrain.samples": 0, "residual_of": "scripted", "residual_scale": 0.2,
+        "ppo.learning_rate": 0.01}
 
 
 def test_a_residual_run_starts_at_the_reference_and_exports_a_residual_policy(tmp_path):
@@ -116,16 +127,16 @@ def test_a_residual_run_starts_at_the_reference_and_exports_a_residual_policy(tm
     log = train(cfg, tmp_path / "run", progress_bar=False)
     assert log["timesteps"] >= 96
     meta, layers = read_policy_file(tmp_path / "run" / "policy.npz")
-    assert meta["residual_of"] == "scripted" and np.any(layers[-1][0] != 0)  # PPO moved the head off zero
+    assert meta["residual_of"] == "scripted" and meta["residual_scale"] == 0.2 and np.any(layers[-1][0] != 0)  # PPO moved the head off zero
     # the start: a fresh model with the head zeroed (as train() does) acts as the reference
     env_cfg = cfg.env_config()
-    venv = make_vec_env(env_cfg, 1, 0, cfg.seed, residual_of="scripted")
+    venv = make_vec_env(env_cfg, 1, 0, cfg.seed, residual=Residual("scripted", 0.2))
     try:
         model = build_model(cfg.ppo, venv, cfg.seed)
         zero_action_head(model.policy.action_net.weight, model.policy.action_net.bias)
         env = PetSwarmEnv(env_cfg)
         spec = PolicySpec.from_env(env)
-        start, ref = learned_policy(model, spec, cfg.ppo.activation, "scripted"), LeaderFollowerPolicy(spec)
+        start, ref = learned_policy(model, spec, cfg.ppo.activation, Residual("scripted", 0.2)), LeaderFollowerPolicy(spec)
         obs, _ = env.reset(seed=2)
         assert all(np.array_equal(start.act(a, o), ref.act(a, o)) for a, o in obs.items())
     finally:

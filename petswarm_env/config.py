@@ -449,6 +449,12 @@ class Config(Section):
                              "an obstacle before the robot has to stop")
         if self.swarm.formation == "custom" and not self.swarm.custom_links:
             raise ValueError("swarm.formation 'custom' needs swarm.custom_links (robot, neighbour, offset_m)")
+        if self.swarm.formation == "custom":
+            named, want = sorted({lk.robot for lk in self.swarm.custom_links}), list(range(1, self.swarm.num_slaves + 1))
+            if named != want:
+                raise ValueError(f"swarm.custom_links names members {named} but swarm.num_slaves={self.swarm.num_slaves} "
+                                 f"makes members {want}: give each slave's links (robot 1..{self.swarm.num_slaves}) or "
+                                 f"set swarm.num_slaves={len(named)}")
         problem = robot_types_problem(self)
         if problem:
             raise ValueError(problem)

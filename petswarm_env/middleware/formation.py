@@ -164,13 +164,20 @@ def build_formation(cfg: SwarmConfig, num_members: int) -> Formation:
                 own.append(Link(m - 1, (0.0, -s)))
             links[m] = tuple(own)
     else:  # custom
+        # fewer members than the table names (some robots did not join: radio loss, another swarm
+        # took them): the master keeps the rows of the members that joined and their links to members
+        # that joined, so a table built outward from the master still places everyone it has (chosen)
+        table_size = max((link.robot for link in cfg.custom_links), default=0) + 1
         for link in cfg.custom_links:
+            if n < table_size and (link.robot >= n or link.neighbour >= n):
+                continue
             links.setdefault(link.robot, ())
             links[link.robot] = links[link.robot] + (Link(link.neighbour, tuple(link.offset_m)),)
         expected = set(range(1, n))
         if set(links) != expected:
             raise ValueError(
                 f"swarm.custom_links must give links for members {sorted(expected)}, got {sorted(links)}"
+                + (f" (of a table for {table_size - 1} members, {n - 1} joined)" if n < table_size else "")
             )
         for m, lks in links.items():
             if len(lks) > MAX_LINKS:

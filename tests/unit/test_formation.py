@@ -149,7 +149,8 @@ CUSTOM = [
 
 
 def custom_cfg(links):
-    return load_config(overrides={"swarm.formation": "custom", "swarm.custom_links": links}).swarm
+    slaves = max(lk["robot"] for lk in links)  # the table's own slave count (the config refuses another)
+    return load_config(overrides={"swarm.formation": "custom", "swarm.custom_links": links, "swarm.num_slaves": slaves}).swarm
 
 
 def test_custom_links_from_config():
@@ -171,6 +172,18 @@ def test_custom_formation_through_the_env():
         assert env.swarm.nodes[n].formation.links == env.swarm.formation.links
 
 
+def test_fewer_members_than_the_custom_table_keep_the_rows_of_those_that_joined():
+    # a table for 3 slaves, 2 joined (radio loss, or the other swarm took a robot): rows 1 and 2 stay
+    f = build_formation(custom_cfg(CUSTOM), 3)
+    assert set(f.links) == {1, 2} and f.links[2] == build_formation(custom_cfg(CUSTOM), 4).links[2]
+    np.testing.assert_allclose(f.slot_positions(), [(0, 0), (-1, 0.5), (-2, 0.5)])
+
+
+def test_a_custom_table_for_another_slave_count_is_refused_at_load():
+    with pytest.raises(ConfigError, match=r"names members \[1, 2, 3\] but swarm.num_slaves=4 .* set swarm.num_slaves=3"):
+        load_config(overrides={"swarm.formation": "custom", "swarm.custom_links": CUSTOM, "swarm.num_slaves": 4})
+
+
 def test_custom_without_links_is_refused():
     with pytest.raises(ConfigError, match="swarm.custom_links"):
         load_config(overrides={"swarm.formation": "custom"})
@@ -180,7 +193,9 @@ def test_custom_without_links_is_refused():
     "links, n, match",
     [
         (CUSTOM[:2], 4, r"members \[1, 2, 3\]"),  # member 3 has no link
-        (CUSTOM, 3, r"members \[1, 2\]"),  # a link for a member that does not exist
+        # fewer joined than the table names, and the member that joined is linked only to one that did not
+        ([{"robot": 1, "neighbour": 2, "offset_m": [-1, 0]}, {"robot": 2, "neighbour": 0, "offset_m": [-1, 0]}], 2,
+         r"got \[\] \(of a table for 2 members, 1 joined\)"),
         ([{"robot": 1, "neighbour": 1, "offset_m": [-1, 0]}], 2, "invalid neighbour 1"),  # self link
         ([{"robot": 1, "neighbour": 5, "offset_m": [-1, 0]}], 2, "invalid neighbour 5"),  # out of range
         (

@@ -46,6 +46,11 @@ ACTIVATIONS = {"tanh": np.tanh, "relu": lambda x: np.maximum(x, 0.0)}
 RESIDUAL_BASES = {"scripted": LeaderFollowerPolicy}  # what a residual policy corrects (a policy of the observation alone)
 
 
+def _is_scale(x: Any) -> bool:
+    """A residual's bound: a number in (0, 1]."""
+    return not isinstance(x, bool) and isinstance(x, (int, float)) and 0.0 < x <= 1.0
+
+
 @dataclass(frozen=True)
 class Residual:
     """A residual policy's base (``of``, a name of :data:`RESIDUAL_BASES`) and the bound of its
@@ -58,7 +63,7 @@ class Residual:
     def __post_init__(self):
         if self.of not in RESIDUAL_BASES:
             raise ValueError(f"residual_of must be one of {sorted(RESIDUAL_BASES)}, got {self.of!r}")
-        if isinstance(self.scale, bool) or not isinstance(self.scale, (int, float)) or not 0.0 < self.scale <= 1.0:
+        if not _is_scale(self.scale):
             raise ValueError(f"residual_scale must be a number in (0, 1], got {self.scale!r}")
 
     def base_policy(self, spec: PolicySpec) -> Policy:
@@ -185,10 +190,9 @@ def _read_meta(path: Path, arrays: dict[str, np.ndarray]) -> dict[str, Any]:
     if "residual_of" in meta and meta["residual_of"] not in RESIDUAL_BASES:
         raise _field_error(path, "residual_of", f"must be one of {sorted(RESIDUAL_BASES)} (the policy a residual policy "
                                                 f"corrects), got {describe_value(meta['residual_of'])}")
-    scale = meta.get("residual_scale", 1.0)
-    if isinstance(scale, bool) or not isinstance(scale, (int, float)) or not 0.0 < scale <= 1.0:
+    if not _is_scale(meta.get("residual_scale", 1.0)):
         raise _field_error(path, "residual_scale", f"must be a number in (0, 1] (the bound of a residual policy's "
-                                                   f"correction), got {describe_value(scale)}")
+                                                   f"correction), got {describe_value(meta['residual_scale'])}")
     if not isinstance(meta.get("info", {}), dict):
         raise _field_error(path, "info", f"must be a JSON object, got {type(meta['info']).__name__}")
     return meta
@@ -254,13 +258,9 @@ def observation_mapping(saved: list[tuple[str, int]], layout: ObservationLayout)
 
 
 def residual_of_meta(meta: dict[str, Any]) -> Residual | None:
-    """The :class:`Residual` a policy's metadata declares (None for a plain MLP policy)."""
-    if meta.get("residual_of") is None:
-        return None
-    try:
-        return Residual(meta["residual_of"], meta.get("residual_scale", 1.0))
-    except ValueError as exc:
-        raise PolicyLoadError(f"policy metadata: {exc}") from None
+    """The :class:`Residual` a policy's metadata declares (None for a plain MLP policy; a file's
+    fields are checked by :func:`read_policy_file`, a bad one given in code raises ValueError)."""
+    return Residual(meta["residual_of"], meta.get("residual_scale", 1.0)) if meta.get("residual_of") is not None else None
 
 
 class LearnedPolicy(Policy):

@@ -24,3 +24,20 @@ def test_shipped_policy_holds_the_default_wedge():
     summary = run_episode(env, policy, seed=0)
     assert summary["formation_rmse_m"] < 0.25, summary
     assert summary["collisions"]["robot_robot"] == 0
+
+
+def test_the_shipped_residual_policy_corrects_the_reference_within_its_bound():
+    path = "baselines/models/residual_generalize.npz"
+    meta, _ = read_policy_file(path)
+    assert meta["residual_of"] == "scripted" and meta["residual_scale"] == 0.2  # configs/train/residual.yaml
+    assert meta["info"]["command"].startswith("petswarm train --config configs/train/residual.yaml --out ")
+    env = parallel_env(max_cycles=300, **{"swarm.spawn": "at_slots"})
+    spec = PolicySpec.from_env(env)
+    policy, reference = make_policy(path, spec), make_policy("scripted", spec)
+    assert isinstance(policy, LearnedPolicy) and policy.residual is not None
+    obs, _ = env.reset(seed=0)
+    for agent, o in obs.items():  # the correction is at most 0.2 of each limit (unless the reference is clipped)
+        assert max(abs(policy.act(agent, o) - reference.act(agent, o))) <= 0.2 + 1e-6
+    summary = run_episode(env, policy, seed=0)
+    assert summary["formation_rmse_m"] < 0.25, summary
+    assert summary["collisions"]["robot_robot"] == 0

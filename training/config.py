@@ -155,6 +155,9 @@ def load_train_config(path: str | os.PathLike | None = None, overrides: dict[str
         raise ConfigError(f"{exc} (in env: of the training config, e.g. --set env.KEY=VALUE)") from None
     if cfg.randomize:
         check_pools(cfg.env, cfg.randomize)
+    if not cfg.residual_of and cfg.residual_scale != 1.0:
+        raise ConfigError(f"residual_scale: {cfg.residual_scale} bounds a residual policy's correction, but residual_of is null; "
+                          "set residual_of: scripted, or drop residual_scale")
     if cfg.residual_of and cfg.pretrain.samples > 0:
         raise ConfigError(f"residual_of: {cfg.residual_of} starts training at the {cfg.residual_of} reference itself (a zero "
                           f"correction), so the warm start that imitates it has nothing to learn; set pretrain.samples: 0 "

@@ -2,8 +2,9 @@
 
 With ``residual_of: scripted`` in the training config, PPO's action for a robot is not the robot's
 command but a correction: :class:`ResidualActions` sends ``clip(scripted(obs) + s · clip(a, -1,
-1), -1, 1)`` to the env (``s`` = ``residual_scale``, :class:`baselines.learned.Residual`), where ``obs`` is the observation the robot received with the last reset or
-step (the one the network read to choose ``a``) and ``scripted`` the leader–follower reference
+1), -1, 1)`` to the env (``s`` = ``residual_scale``, :class:`baselines.learned.Residual`), where
+``obs`` is the observation the robot received with the last reset or step (the one the network
+read to choose ``a``) and ``scripted`` the leader–follower reference
 (:class:`baselines.leader_follower.LeaderFollowerPolicy`, a function of the observation alone).
 The exported file says ``residual_of: scripted`` and ``residual_scale: s``, and
 :class:`baselines.learned.LearnedPolicy` adds the same reference at run time, so training and
@@ -22,6 +23,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+import torch
 from pettingzoo.utils.wrappers import BaseParallelWrapper
 
 from baselines.learned import Residual
@@ -78,11 +80,9 @@ class ResidualActions(BaseParallelWrapper):
         return self.env.render(mode)
 
 
-def zero_action_head(weight, bias) -> None:
-    """Zero the rows of an action head that give the action's mean (torch tensors, in place): the
-    residual policy then starts as the base policy."""
-    import torch
-
+def zero_action_head(weight: torch.Tensor, bias: torch.Tensor) -> None:
+    """Zero the layer that gives the action's mean (SB3's ``action_net``; in place): the residual
+    policy then starts as the base policy."""
     with torch.no_grad():
         weight.zero_()
         bias.zero_()

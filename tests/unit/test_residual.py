@@ -111,6 +111,8 @@ def test_the_config_refuses_a_warm_start_or_an_unknown_base_for_a_residual_polic
         load_train_config(overrides={"residual_of": "random", "pretrain.samples": 0})
     with pytest.raises(ConfigError, match="residual_scale"):
         load_train_config(overrides={"residual_of": "scripted", "pretrain.samples": 0, "residual_scale": 1.5})
+    with pytest.raises(ConfigError, match="residual_scale: 0.5 bounds .* residual_of is null"):
+        load_train_config(overrides={"residual_scale": 0.5})
     with pytest.raises(ValueError, match="residual_scale"):
         Residual("scripted", 0.0)
     assert load_train_config("configs/train/residual.yaml").residual() == Residual("scripted", 0.2)

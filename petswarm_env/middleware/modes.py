@@ -213,8 +213,13 @@ class ModeManager:
         node.send(msg.MODE_CHANGE_ACK, dst=frame.src)
         if p["seq"] <= self.last_seq or node.state != "slave":
             return
-        self.last_seq = p["seq"]
         members = {int(m): n for m, n in p["members"].items()}
+        if node.node_id not in members.values():
+            # the new tables leave us out (the master removed us as lost, and its removal notice
+            # never reached us): we are no member of that plan, so we keep what we know and our own
+            # status timeout tells us the swarm is gone (chosen)
+            return
+        self.last_seq = p["seq"]
         node.know.members = members
         node.know.total_members = len(members)
         node.know.member = next(m for m, n in members.items() if n == node.node_id)

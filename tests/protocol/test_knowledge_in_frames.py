@@ -5,6 +5,8 @@ only from the joining notification and the mode-change frames it received — ne
 configuration's formation, never from the shared per-user ``Swarm``.
 """
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -102,6 +104,32 @@ def test_a_slave_hearing_the_mode_change_does_not_change_the_swarms_mode(monkeyp
     assert heard, "the scenario changes the driving mode"
     new, known, swarm_mode = heard[0]
     assert known == new == "leading" and swarm_mode == "following"
+
+
+def test_a_slave_left_out_of_the_new_tables_keeps_what_it_knows(monkeypatch):
+    """A mode change whose tables do not list the slave that hears it (the master removed it as
+    lost and its removal notice was lost) changes nothing the slave knows; before, the slave looked
+    its member number up in the tables and the episode stopped with StopIteration."""
+    seen = []
+    original = ModeManager._on_mode_change
+
+    def left_out(self, frame):
+        if self.node.state == "slave" and not seen:
+            before = (dict(self.node.know.members), self.node.know.member, self.node.know.mode, self.last_seq)
+            members = {m: n for m, n in frame.payload["members"].items() if n != self.node.node_id}
+            original(self, dataclasses.replace(frame, payload={**frame.payload, "members": members}))
+            seen.append((before, (dict(self.node.know.members), self.node.know.member, self.node.know.mode, self.last_seq)))
+            return
+        original(self, frame)
+
+    monkeypatch.setattr(ModeManager, "_on_mode_change", left_out)
+    env = petswarm_env.parallel_env(max_cycles=400, **{"user.scenario": "mode_change"})
+    env.reset(seed=0)
+    while env.agents and not seen:
+        env.step({})
+    assert seen, "the scenario changes the driving mode"
+    before, after = seen[0]
+    assert after == before
 
 
 def test_the_tables_frames_are_sized_by_their_content():

@@ -45,7 +45,6 @@ class ResidualActions(BaseParallelWrapper):
         super().__init__(env)
         self.residual = residual
         self.possible_agents = list(env.possible_agents)
-        self.state_space = getattr(env, "state_space", None)
         self._obs: dict[str, np.ndarray] = {}
         self._live: set[str] = set()
         self.base = None
@@ -73,11 +72,6 @@ class ResidualActions(BaseParallelWrapper):
         self._obs = obs
         self._live = {a for a, info in infos.items() if info.get("active", 1)}
 
-    def state(self) -> np.ndarray:
-        return self.env.state()
-
-    def render(self, mode: str | None = None):
-        return self.env.render(mode)
 
 
 def zero_action_head(weight: torch.Tensor, bias: torch.Tensor) -> None:

@@ -84,24 +84,31 @@ def test_slaves_take_the_slots_of_a_formation_only_the_master_knows(monkeypatch,
     assert np.mean(errors[-50:]) < 0.3  # in their slots of the custom shape (a column's would be ≈ 1.4 m off)
 
 
+def _mode_change_until_heard(monkeypatch, handler, heard: list):
+    """The mode_change scenario (seed 0) with every ModeManager's ``_on_mode_change`` replaced by
+    ``handler(env, original, manager, frame)``, stepped until ``heard`` holds something."""
+    original, built = ModeManager._on_mode_change, []
+    monkeypatch.setattr(ModeManager, "_on_mode_change", lambda self, frame: handler(built[0], original, self, frame))
+    built.append(petswarm_env.parallel_env(max_cycles=400, **{"user.scenario": "mode_change"}))
+    env = built[0]
+    env.reset(seed=0)
+    while env.agents and not heard:
+        env.step({})
+    assert heard, "the scenario changes the driving mode"
+
+
 def test_a_slave_hearing_the_mode_change_does_not_change_the_swarms_mode(monkeypatch):
     """The driving mode is the master's decision: the swarm drives in the new mode once its master
     committed the change, not when the first slave applied the frame (which sets the slave's own
     knowledge only)."""
     heard = []
-    original = ModeManager._on_mode_change
 
-    def spy(self, frame):
+    def spy(env, original, self, frame):
         original(self, frame)
         if self.node.state == "slave":
             heard.append((frame.payload["mode"], self.node.know.mode, env.swarm.mode))
 
-    monkeypatch.setattr(ModeManager, "_on_mode_change", spy)
-    env = petswarm_env.parallel_env(max_cycles=400, **{"user.scenario": "mode_change"})
-    env.reset(seed=0)
-    while env.agents and not heard:
-        env.step({})
-    assert heard, "the scenario changes the driving mode"
+    _mode_change_until_heard(monkeypatch, spy, heard)
     new, known, swarm_mode = heard[0]
     assert known == new == "leading" and swarm_mode == "following"
 
@@ -111,9 +118,8 @@ def test_a_slave_left_out_of_the_new_tables_keeps_what_it_knows(monkeypatch):
     lost and its removal notice was lost) changes nothing the slave knows; before, the slave looked
     its member number up in the tables and the episode stopped with StopIteration."""
     seen = []
-    original = ModeManager._on_mode_change
 
-    def left_out(self, frame):
+    def left_out(env, original, self, frame):
         if self.node.state == "slave" and not seen:
             before = (dict(self.node.know.members), self.node.know.member, self.node.know.mode, self.last_seq)
             members = {m: n for m, n in frame.payload["members"].items() if n != self.node.node_id}
@@ -122,12 +128,7 @@ def test_a_slave_left_out_of_the_new_tables_keeps_what_it_knows(monkeypatch):
             return
         original(self, frame)
 
-    monkeypatch.setattr(ModeManager, "_on_mode_change", left_out)
-    env = petswarm_env.parallel_env(max_cycles=400, **{"user.scenario": "mode_change"})
-    env.reset(seed=0)
-    while env.agents and not seen:
-        env.step({})
-    assert seen, "the scenario changes the driving mode"
+    _mode_change_until_heard(monkeypatch, left_out, seen)
     before, after = seen[0]
     assert after == before
 

@@ -58,6 +58,20 @@ def _policy_name(text: str) -> str:
     raise argparse.ArgumentTypeError(f"expected scripted, random, learned or a .npz policy file, got '{text}'")
 
 
+def _eval_policy_name(text: str) -> str:
+    """``petswarm eval``'s --policy: a slave policy, or the privileged teacher (ground truth: an
+    evaluation ceiling, never a policy; training/teacher.py)."""
+    from training.teacher import TEACHER_NAME
+
+    if text == TEACHER_NAME:
+        return text
+    try:
+        return _policy_name(text)
+    except argparse.ArgumentTypeError:
+        raise argparse.ArgumentTypeError(f"expected scripted, random, learned, {TEACHER_NAME} or a .npz policy file, "
+                                         f"got '{text}'") from None
+
+
 def _add_env_config_options(parser: argparse.ArgumentParser) -> None:
     """--config and --set of the commands that build an environment from configs/default.yaml."""
     parser.add_argument("--config", metavar="FILE", help="YAML file merged over configs/default.yaml")
@@ -129,9 +143,10 @@ def _add_eval(sub) -> None:
         description="Evaluate a slave policy on each scenario over the same seeds; JSON as `petswarm run` plus "
         "per-scenario summaries, error traces and trajectories (input of `petswarm report`).",
     )
-    ev.add_argument("--policy", type=_policy_name, default=None, metavar="scripted|random|learned|PATH",
+    ev.add_argument("--policy", type=_eval_policy_name, default=None, metavar="scripted|random|learned|PATH",
                     help="policy of every slave not named in --mix (default scripted; learned = the model shipped in the package); "
-                    "with --grid: the grid's candidate (default: the grid file's)")
+                    "with --grid: the grid's candidate (default: the grid file's). privileged-teacher drives from ground "
+                    "truth: a ceiling to compare with, not a policy (docs/training.md)")
     ev.add_argument("--mix", metavar="ROBOT=POLICY", action="append", default=[],
                     help="give one robot another policy, e.g. --mix robot_2=learned (repeatable)")
     ev.add_argument("--scenarios", metavar="a,b,...", help="comma-separated scenarios (default: the config's scenario)")

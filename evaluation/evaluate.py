@@ -17,6 +17,7 @@ from evaluation.runner import VideoRecorder, chain, run_episode, summarize
 from evaluation.stats import mean_ci95
 from petswarm_env.config import SCENARIOS, Config, ConfigError, flatten_dotted, load_config
 from petswarm_env.env import PetSwarmEnv
+from training.teacher import TEACHER_NAME, TeacherDriver
 
 
 def parse_mix(items: list[str]) -> dict[str, str]:
@@ -36,15 +37,23 @@ def team_label(policy: str, mix: dict[str, str]) -> str:
     return f"{policy}+" + ",".join(f"{r}={p}" for r, p in sorted(mix.items()))
 
 
+def _driver(env: PetSwarmEnv, name: str, spec: PolicySpec, seed: int):
+    """A slave policy by name, or the privileged teacher (``privileged-teacher``: ground truth,
+    an evaluation ceiling only; :class:`training.teacher.TeacherDriver`)."""
+    if name == TEACHER_NAME:
+        return TeacherDriver(env)
+    return make_policy(name, spec, seed)
+
+
 def make_team(env: PetSwarmEnv, policy: str, mix: dict[str, str], seed: int):
     spec = PolicySpec.from_env(env)
-    default = make_policy(policy, spec, seed)
+    default = _driver(env, policy, spec, seed)
     if not mix:
         return default
     unknown = sorted(set(mix) - set(env.possible_agents))
     if unknown:
         raise ConfigError(f"--mix names {unknown}, which are not slaves of this swarm; slaves: {env.possible_agents}")
-    return MixedPolicy(spec, default, {r: make_policy(p, spec, seed) for r, p in mix.items()})
+    return MixedPolicy(spec, default, {r: _driver(env, p, spec, seed) for r, p in mix.items()})
 
 
 def evaluate(

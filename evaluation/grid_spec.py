@@ -128,14 +128,16 @@ def _policy_of(word: str, grid: GridFile) -> str:
 
 def _check_policy(word: str, what: str) -> None:
     from baselines.registry import POLICY_NAMES
+    from training.teacher import TEACHER_NAME
 
-    if word in ROLES or word in POLICY_NAMES:
+    if word in ROLES or word in POLICY_NAMES or word == TEACHER_NAME:  # the teacher: a ceiling (docs/training.md)
         return
     if word.endswith(".npz"):
         if not Path(word).is_file():
             raise ConfigError(f"{what}: policy file '{word}' does not exist; give an existing .npz policy file")
         return
-    raise ConfigError(f"{what}: unknown policy '{word}'; use candidate, reference, {', '.join(POLICY_NAMES)} or a .npz path")
+    raise ConfigError(f"{what}: unknown policy '{word}'; use candidate, reference, {', '.join(POLICY_NAMES)}, "
+                      f"{TEACHER_NAME} or a .npz path")
 
 
 def _label(value: Any) -> str:

@@ -517,6 +517,10 @@ class PetSwarmEnv(ParallelEnv):
     def _current_slaves(self) -> list[int]:
         return sorted(i for sw in self.swarms for i in sw.slave_ids())
 
+    def agent_robot(self, agent: str) -> int:
+        """The robot index of ``agent`` (``robot_3`` -> 3) in this episode's world."""
+        return self._agent_index[agent]
+
     def reference_positions(self) -> dict[int, np.ndarray]:
         """True reference position of every slave (robot index -> (x, y)): the experimenter's view
         (:meth:`.metrics.Experimenter.reference_positions`)."""

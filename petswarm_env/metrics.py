@@ -138,6 +138,12 @@ class Experimenter:
             xy, th = centers.tolist(), headings.tolist()
         return {idx: (x, y) for idx, (x, y, _) in self._references(xy, th).items()}
 
+    def references(self) -> dict[int, tuple[float, float, float]]:
+        """Every slave's true reference point and the true heading of the master whose table
+        defines it: robot index -> (x, y, θ_master) (a training teacher's view, never a policy's)."""
+        centers, _, headings = self.world.truth_arrays()
+        return self._references(centers.tolist(), headings.tolist())
+
     def _references(self, xy: list, th: list) -> dict[int, tuple[float, float, float]]:
         """Every slave's reference point and the true heading of the master whose neighbour table
         defines it: robot index -> (x, y, θ_master)."""

@@ -69,6 +69,9 @@ class PretrainConfig(Section):
     learning_rate: float = Field(gt=0)
     dagger_rounds: int = Field(0, ge=0, description="DAgger rounds after the cloning: the actor drives, the reference labels")
     dagger_samples: int = Field(0, ge=0, description="agent-samples the actor collects in each DAgger round")
+    teacher: Literal["scripted", "privileged"] = Field(
+        "scripted", description="who labels the demonstrations: scripted (the reference, from the observation) or "
+                                "privileged (training/teacher.py, from ground truth; the student still reads only the observation)")
 
 
 class RLlibConfig(Section):
@@ -82,7 +85,7 @@ class RLlibConfig(Section):
 
 class TrainConfig(Section):
     seed: int = Field(ge=0)
-    timesteps: int = Field(ge=1)
+    timesteps: int = Field(ge=0, description="PPO's budget in agent-steps (rows); 0 = the warm start alone (pretrain:)")
     num_envs: int = Field(ge=1)
     num_cpus: int = Field(ge=0)
     env: dict[str, Any]
@@ -158,6 +161,9 @@ def load_train_config(path: str | os.PathLike | None = None, overrides: dict[str
     if not cfg.residual_of and cfg.residual_scale != 1.0:
         raise ConfigError(f"residual_scale: {cfg.residual_scale} bounds a residual policy's correction, but residual_of is null; "
                           "set residual_of: scripted, or drop residual_scale")
+    if cfg.timesteps == 0 and cfg.pretrain.samples == 0:
+        raise ConfigError("timesteps: 0 trains by the warm start alone, but pretrain.samples is 0 too: nothing would be trained; "
+                          "give timesteps > 0 (PPO) or pretrain.samples > 0 (imitation)")
     if cfg.residual_of and cfg.pretrain.samples > 0:
         raise ConfigError(f"residual_of: {cfg.residual_of} starts training at the {cfg.residual_of} reference itself (a zero "
                           f"correction), so the warm start that imitates it has nothing to learn; set pretrain.samples: 0 "

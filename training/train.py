@@ -225,7 +225,11 @@ def train_command(config: str | None, settings: list[str], timesteps: int | None
         print(f"resumed with {key} {change['from']!r} -> {change['to']!r} "
               f"(recorded in {out}/train_config.yaml and train_log.json)")
     last = log["evaluations"][-1] if log["evaluations"] else {}
-    print(f"trained {log['timesteps']} agent-steps in {log['wall_time_s']:.0f} s; "
+    pre = log.get("pretrain") or {}
+    what = f"{log['timesteps']} agent-steps" + (f" after a warm start of {pre['samples']} samples" if pre else "")
+    if pre and not log["timesteps"]:
+        what = f"by the warm start alone ({pre['samples']} samples, no PPO)"
+    print(f"trained {what} in {log['wall_time_s']:.0f} s; "
           f"eval formation_rmse_m {last.get('formation_rmse_m', float('nan')):.3f} "
           f"(scripted {log['scripted_eval_rmse_m']:.3f}); policy: {out}/policy.npz")
     return 0

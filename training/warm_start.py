@@ -21,6 +21,7 @@ from petswarm_env.config import Config
 from petswarm_env.env import PetSwarmEnv
 from petswarm_env.wrappers import FixedAgents
 from training.config import TrainConfig
+from training.teacher import PrivilegedTeacher
 
 
 def discounted_returns(rewards: list[float], gamma: float) -> list[float]:
@@ -33,8 +34,36 @@ def discounted_returns(rewards: list[float], gamma: float) -> list[float]:
     return returns[::-1]
 
 
+class ScriptedLabels:
+    """The scripted reference as a labeller: its action from each live robot's observation."""
+
+    def __init__(self, env):
+        self.policy = make_policy("scripted", PolicySpec.from_env(env))
+        self.n = env.layout.size
+
+    def __call__(self, rows: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        return self.policy.act_all({a: r[: self.n] for a, r in rows.items()})
+
+
+class TeacherLabels:
+    """The privileged teacher as a labeller (:mod:`training.teacher`): its action from ground
+    truth, for the robots whose rows it is given; of the rows it reads only the ultrasonic ranges
+    (the robot's own sensors, for its keep-out)."""
+
+    def __init__(self, env):
+        self.teacher = PrivilegedTeacher(env)
+        self.sonar = env.layout.slices["self.ultrasonic"]
+        self.max_range = env.cfg.robot.ultrasonic.max_range_m
+
+    def __call__(self, rows: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        return self.teacher.act_all(list(rows), {a: r[self.sonar] * self.max_range for a, r in rows.items()})
+
+
+LABELLERS = {"scripted": ScriptedLabels, "privileged": TeacherLabels}
+
+
 def collect_demonstrations(env_cfg: Config, samples: int, noise_std: float, seed: int, gamma: float, env=None,
-                           driver=None):
+                           driver=None, teacher: str = "scripted"):
     """Run the scripted reference with action noise over episodes ``seed, seed + 1, …`` until
     ``samples`` agent-steps; return the inputs (each live agent's row), the reference's
     (noise-free) actions and the discounted returns of the executed trajectories (for the critic).
@@ -42,7 +71,10 @@ def collect_demonstrations(env_cfg: Config, samples: int, noise_std: float, seed
     rows with the state); by default ``FixedAgents(PetSwarmEnv(env_cfg))``. The reference reads
     only the observation (a row's first ``layout.size`` values) of the robots that are slaves. With
     ``driver`` (a function of a batch of rows to actions: DAgger) the driver's actions are executed
-    (with the noise) and the reference's recorded."""
+    (with the noise) and the reference's recorded. ``teacher`` names the labeller
+    (:data:`LABELLERS`): ``scripted`` (the reference, from the observation) or ``privileged``
+    (:class:`training.teacher.PrivilegedTeacher`, from ground truth); it is called at every step,
+    so the teacher sees the episode's every state."""
     env = env if env is not None else FixedAgents(PetSwarmEnv(env_cfg))
     rng = np.random.default_rng(seed)
     obs_l, act_l, ret_l = [], [], []
@@ -50,12 +82,11 @@ def collect_demonstrations(env_cfg: Config, samples: int, noise_std: float, seed
     while len(obs_l) < samples:
         rows, infos = env.reset(seed=seed + episode)
         episode += 1
-        teacher = make_policy("scripted", PolicySpec.from_env(env))
-        n = env.layout.size
+        label = LABELLERS[teacher](env)  # after the reset: the episode's env
         traj: dict[str, list[tuple[np.ndarray, np.ndarray, float]]] = {}
         while env.agents:
             live = [a for a in env.agents if infos[a]["active"]]
-            target = teacher.act_all({a: rows[a][:n] for a in live})
+            target = label({a: rows[a] for a in live})
             executed = target if driver is None or not live else dict(zip(live, driver(np.stack([rows[a] for a in live]))))
             noisy = {a: np.clip(v + rng.normal(0.0, noise_std, 3), -1.0, 1.0).astype(np.float32) for a, v in executed.items()}
             next_rows, rewards, _, _, infos = env.step(noisy)
@@ -102,7 +133,7 @@ def fit_actor_critic(actor, critic, params: list, cfg: TrainConfig, env_cfg: Con
     ``pretrain.dagger_samples`` more each round, and the actor is refitted on everything so far."""
     p = cfg.pretrain
     t0 = time.time()
-    parts = [collect_demonstrations(env_cfg, p.samples, p.noise_std, cfg.seed + 100_000, cfg.ppo.gamma, env)]
+    parts = [collect_demonstrations(env_cfg, p.samples, p.noise_std, cfg.seed + 100_000, cfg.ppo.gamma, env, teacher=p.teacher)]
     opt = torch.optim.Adam(params, lr=p.learning_rate)
     gen = torch.Generator().manual_seed(cfg.seed)
     actor_loss, critic_loss = _fit(actor, critic, opt, _tensors(*parts[0]), p.epochs, p.batch_size, gen)
@@ -113,7 +144,7 @@ def fit_actor_critic(actor, critic, params: list, cfg: TrainConfig, env_cfg: Con
 
     for k in range(p.dagger_rounds):
         parts.append(collect_demonstrations(env_cfg, p.dagger_samples, p.noise_std, cfg.seed + 200_000 + 10_000 * k,
-                                            cfg.ppo.gamma, env, driver=drive))
+                                            cfg.ppo.gamma, env, driver=drive, teacher=p.teacher))
         data = _tensors(*(np.concatenate([q[i] for q in parts]) for i in range(3)))
         actor_loss, critic_loss = _fit(actor, critic, opt, data, p.epochs, p.batch_size, gen)
     return {"samples": sum(len(q[0]) for q in parts), "dagger_rounds": p.dagger_rounds, "actor_mse": actor_loss,

@@ -170,3 +170,18 @@ def test_grid_without_a_file_is_the_committed_grid_shipped_in_the_package():
     args = build_parser().parse_args(["eval", "--grid"])
     assert args.grid == str(SHIPPED_GRID) and SHIPPED_GRID.is_file()
     assert len(load_grid(args.grid).cells) >= 40  # the packaged copy of configs/eval/grid.yaml (tests/e2e/test_docs.py)
+
+
+def test_the_privileged_teacher_runs_as_a_grid_candidate_and_mixes_in(tmp_path, capsys):
+    """``--policy privileged-teacher``: the ceiling of docs/training.md (ground truth, not a policy)."""
+    grid, out = _grid(tmp_path), tmp_path / "ceiling.json"
+    assert main(["eval", "--grid", grid, "--policy", "privileged-teacher", "--json", str(out)]) == 0
+    data = json.loads(out.read_text())
+    assert data["candidate"] == "privileged-teacher" and data["policy_sha256"] == {}
+    assert data["cells"][2]["team"] == {"policy": "scripted", "mix": {"robot_2": "privileged-teacher"}}
+    assert all(c["ratio"] > 0 for c in data["cells"])
+    capsys.readouterr()
+    # it is an evaluation instrument: `petswarm run` (which runs policies) does not take it
+    with pytest.raises(SystemExit):
+        main(["run", "--policy", "privileged-teacher"])
+    assert "privileged-teacher" not in capsys.readouterr().err.split("got")[0]

@@ -1,0 +1,125 @@
+"""The privileged teacher (training/teacher.py): a training labeller and an evaluation ceiling that
+reads ground truth — never a policy a robot runs."""
+
+import math
+
+import numpy as np
+import pytest
+
+from baselines.registry import make_policy
+from baselines.policy import PolicySpec
+from evaluation.evaluate import make_team
+from petswarm_env import parallel_env
+from petswarm_env.config import ConfigError
+from training.config import load_train_config
+from training.teacher import TEACHER_NAME, PrivilegedTeacher, TeacherDriver, TeacherGains
+from training.warm_start import collect_demonstrations
+
+
+def _world_command(env, agent, action):
+    """The action's translation in the world frame (m/s)."""
+    i = env.agent_robot(agent)
+    robot = env.world.robots[i]
+    vx, vy = float(action[0]) * robot.cfg.max_speed_mps, float(action[1]) * robot.cfg.max_speed_mps
+    c, s = math.cos(robot.heading), math.sin(robot.heading)
+    return c * vx - s * vy, s * vx + c * vy
+
+
+def test_the_teacher_heads_for_each_slaves_true_reference_point():
+    env = parallel_env(**{"swarm.num_slaves": 4})
+    env.reset(seed=3)
+    teacher = PrivilegedTeacher(env, TeacherGains(push=0.0))  # no avoidance: the approach alone
+    acts = teacher.act_all(env.agents)
+    refs = env.experimenter.references()
+    far = 0
+    for agent in env.agents:
+        i = env.agent_robot(agent)
+        px, py = env.world.robots[i].position
+        ex, ey = refs[i][0] - px, refs[i][1] - py
+        d = math.hypot(ex, ey)
+        if d < 0.3:
+            continue
+        far += 1
+        wx, wy = _world_command(env, agent, acts[agent])
+        assert (wx * ex + wy * ey) / (math.hypot(wx, wy) * d) > 0.99, agent  # straight at it (the reference stands)
+        speed = math.hypot(wx, wy)
+        vmax = env.world.robots[i].cfg.max_speed_mps
+        assert speed == pytest.approx(min(vmax, 4.0 * d, math.sqrt(3.0 * d)), rel=1e-4)  # the braking profile
+    assert far >= 1, "the scattered start leaves some slave away from its slot"
+
+
+def test_the_teacher_closes_the_formation_faster_than_the_scripted_reference():
+    def rmse(drive):
+        env = parallel_env(**{"swarm.num_slaves": 4, "max_cycles": 100})
+        obs, _ = env.reset(seed=11)
+        team = drive(env)
+        team.reset(11)
+        while env.agents:
+            obs, *_ = env.step(team.act_all({a: obs[a] for a in env.agents}))
+        return env.episode_summary()["formation_rmse_m"]
+
+    scripted = rmse(lambda env: make_policy("scripted", PolicySpec.from_env(env)))
+    teacher = rmse(TeacherDriver)
+    assert teacher < 0.9 * scripted, (teacher, scripted)
+
+
+def test_asking_one_robot_at_a_time_gives_the_actions_of_asking_all():
+    env = parallel_env(**{"swarm.num_slaves": 3})
+    obs, _ = env.reset(seed=5)
+    together, alone = TeacherDriver(env), TeacherDriver(env)
+    for _ in range(20):
+        a = together.act_all({k: obs[k] for k in env.agents})
+        b = {k: alone.act(k, obs[k]) for k in env.agents}
+        assert all(np.array_equal(a[k], b[k]) for k in env.agents)
+        obs, *_ = env.step(a)
+
+
+def test_a_robot_without_a_reference_point_gets_a_zero_action():
+    env = parallel_env()
+    env.reset(seed=0)
+    teacher = PrivilegedTeacher(env)
+    teacher.act_all(env.agents)
+    agent = env.agents[0]
+    del teacher._refs[env.agent_robot(agent)]  # as for a robot that left the formation
+    assert np.array_equal(teacher._act(agent, None), np.zeros(3, np.float32))
+
+
+def test_the_sonar_keep_out_pushes_away_from_a_close_echo():
+    env = parallel_env()
+    obs, _ = env.reset(seed=0)
+    teacher = PrivilegedTeacher(env, TeacherGains(gain=0.0, push=0.0, heading_gain=0.0))  # only the keep-out moves it
+    agent = env.agents[0]
+    n = env.cfg.robot.ultrasonic.count
+    ranges = np.full(n, 2.0)
+    ranges[0] = 0.2  # something 0.2 m ahead
+    act = teacher.act_all([agent], {agent: ranges})[agent]
+    ref_only = teacher.act_all([agent], {agent: np.full(n, 2.0)})[agent]
+    assert act[0] < ref_only[0] - 0.5  # backs away from it
+    assert act[1] == pytest.approx(ref_only[1], abs=1e-6)
+
+
+def test_the_policy_registry_does_not_know_the_teacher_but_evaluation_does():
+    env = parallel_env()
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match="unknown policy"):
+        make_policy(TEACHER_NAME, PolicySpec.from_env(env))
+    assert isinstance(make_team(env, TEACHER_NAME, {}, 0), TeacherDriver)
+    mixed = make_team(env, "scripted", {"robot_2": TEACHER_NAME}, 0)
+    assert isinstance(mixed.per_agent["robot_2"], TeacherDriver)
+
+
+def test_privileged_labels_are_the_teachers_and_differ_from_the_references():
+    cfg = load_train_config(overrides={"env.max_cycles": 30, "pretrain.teacher": "privileged"})
+    env_cfg = cfg.env_config()
+    obs, act, _ = collect_demonstrations(env_cfg, 60, 0.0, 7, 0.98, teacher="privileged")
+    obs2, act2, _ = collect_demonstrations(env_cfg, 60, 0.0, 7, 0.98, teacher="privileged")
+    _, scripted, _ = collect_demonstrations(env_cfg, 60, 0.0, 7, 0.98)
+    assert np.array_equal(act, act2), "the same seed gives the same labels"
+    assert act.shape == scripted.shape == (60, 3) and np.abs(act - scripted).max() > 0.1
+
+
+def test_a_training_config_that_trains_nothing_is_refused():
+    with pytest.raises(ConfigError, match="nothing would be trained"):
+        load_train_config(overrides={"timesteps": 0, "pretrain.samples": 0})
+    with pytest.raises(ConfigError, match="pretrain.teacher"):
+        load_train_config(overrides={"pretrain.teacher": "oracle"})

@@ -1,0 +1,214 @@
+"""The privileged teacher: a slave controller that reads ground truth, for training only.
+
+Learning by a privileged teacher (teacher–student imitation, as in "learning by cheating"): the
+teacher drives with what no robot has — its true reference point, every body's true position and
+velocity — and the student, the policy that ships, learns to act like it from the observation
+alone (:mod:`training.warm_start`: behaviour cloning, then DAgger rounds in which the student
+drives and the teacher labels the states the student visits). The one rule holds for what ships:
+``policy.npz`` is a function of the observation; the teacher is a training signal like the reward
+and the centralized critic, which read ground truth too. It is never a policy of
+:mod:`baselines.registry`: nothing at run time can pick it.
+
+The teacher's control law, per slave and step (world frame, then into the robot's body frame):
+
+1. *reference point*: the experimenter's (:meth:`.metrics.Experimenter.references`: the
+   neighbours' true positions plus the offsets turned by the master's true heading) and its
+   velocity (its change over the last step);
+2. *keep out of the users' way*: a reference point closer than ``user_keep_out_m`` to a user is
+   moved out to that distance (as the scripted reference does with the broadcast user position);
+3. *time-optimal approach*: the reference point's velocity plus a correction toward it of speed
+   ``min(v_max, gain·d, sqrt(2·decel·d))`` — full speed far away, braking at ``decel`` near it
+   (the scripted reference's linear law, 1.2·d, slows down long before it arrives);
+4. *avoidance*: for every other body (robots, users) the closest approach over the next
+   ``horizon_s`` at the commanded relative velocity; a pass nearer than the two radii plus
+   ``clearance_m`` is pushed out sideways, and a body already closer than that pushes back;
+5. *heading*: the master's true heading, with the master's turn rate as feed-forward.
+
+The figures it reaches (the grid with the teacher as candidate) are in docs/training.md,
+"A privileged teacher".
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from petswarm_env.sim.geometry import wrap_angle
+
+
+@dataclass(frozen=True)
+class TeacherGains:
+    """The teacher's constants (chosen; docs/training.md has how they were picked)."""
+
+    gain: float = 4.0  # 1/s: the correction's linear part near the reference point
+    decel_mps2: float = 1.5  # the braking profile sqrt(2·decel·d) (the petbot brakes at 2.0 m/s²)
+    user_keep_out_m: float = 1.1  # reference points are kept this far from every user (as the scripted slave)
+    horizon_s: float = 1.0  # how far ahead closest approaches are looked for
+    clearance_m: float = 0.15  # rim-to-rim gap a pass must keep
+    push: float = 1.5  # m/s per unit of missing clearance (as a fraction of it)
+    heading_gain: float = 2.0  # 1/s on the heading error from the master's heading
+    sonar_keep_out_m: float = 0.5  # the robot's own ultrasonic ranges push it off anything this close (0 = off)
+    sonar_gain: float = 5.0  # 1/s per metre inside the keep-out (the scripted slave's step 5)
+
+
+class PrivilegedTeacher:
+    """Actions for an env's live slaves from ground truth (module docstring).
+
+    ``env`` is the live :class:`~petswarm_env.env.PetSwarmEnv` or a wrapper that forwards its
+    attributes (``world``, ``experimenter``, ``agent_robot``, ``cfg``; the training wrappers and
+    :class:`training.randomize.RandomizedEnv` do). The truth is read once per instant of the
+    env's clock (the reference points' velocities are their change since the instant before), so
+    asking for one robot at a time gives the same actions as asking for all. Call :meth:`reset`
+    after each ``env.reset``.
+    """
+
+    def __init__(self, env, gains: TeacherGains | None = None):
+        self.env = env
+        self.g = gains or TeacherGains()
+        self.reset()
+
+    def reset(self) -> None:
+        self._at: float | None = None  # the clock time of the truth below
+        self._refs: dict[int, tuple[float, float, float]] = {}
+        self._ref_vel: dict[int, tuple[float, float, float]] = {}
+        self._xy: list[tuple[float, float]] = []
+        self._vel: list[tuple[float, float]] = []
+        self._rad: list[float] = []
+        self._th: list[float] = []
+
+    def _read_truth(self) -> None:
+        """The truth of the env's current instant, with each body's and reference point's velocity
+        over the last instant (zero at the first; a jump faster than the body could move — a new
+        table, a refill — counts as no motion)."""
+        env = self.env
+        now = env.world.now
+        if self._at == now:
+            return
+        centers, radii, headings = env.world.truth_arrays()
+        xy = [tuple(p) for p in centers.tolist()]
+        refs = env.experimenter.references()
+        if self._at is None or len(self._xy) != len(xy):
+            vel = [(0.0, 0.0)] * len(xy)
+            ref_vel = {}
+        else:
+            dt = now - self._at
+            vel = [((x - px) / dt, (y - py) / dt) for (x, y), (px, py) in zip(xy, self._xy)]
+            ref_vel = {}
+            for i, (rx, ry, th_m) in refs.items():
+                last = self._refs.get(i)
+                if last is not None:
+                    v = ((rx - last[0]) / dt, (ry - last[1]) / dt, wrap_angle(th_m - last[2]) / dt)
+                    if math.hypot(v[0], v[1]) <= env.world.robots[i].cfg.max_speed_mps:
+                        ref_vel[i] = v
+        self._at, self._xy, self._vel, self._refs, self._ref_vel = now, xy, vel, refs, ref_vel
+        self._rad, self._th = radii.tolist(), headings.tolist()
+
+    def act_all(self, agents: list[str], sonar: dict[str, np.ndarray] | None = None) -> dict[str, np.ndarray]:
+        """The teacher's action in [-1, 1]³ for each of ``agents`` (zeros for one with no
+        reference point: it is not in a formation). ``sonar``: each agent's ultrasonic ranges in
+        metres (its observation's ``self.ultrasonic``, sensor 0 forward, counter-clockwise) for step
+        4's keep-out from what the robot itself senses."""
+        self._read_truth()
+        return {agent: self._act(agent, None if sonar is None else sonar.get(agent)) for agent in agents}
+
+    def _act(self, agent: str, ranges: np.ndarray | None) -> np.ndarray:
+        env, g = self.env, self.g
+        i = env.agent_robot(agent)
+        ref = self._refs.get(i)
+        if ref is None:
+            return np.zeros(3, np.float32)
+        body = env.world.robots[i].cfg
+        vmax, wmax = body.max_speed_mps, body.max_omega_rps
+        xy, th = self._xy, self._th
+        rx, ry, th_m = ref
+        vrx, vry, w_m = self._ref_vel.get(i, (0.0, 0.0, 0.0))  # 1
+        for ux, uy in xy[len(env.world.robots):]:  # 2: the reference point out of every user's way
+            gap = math.hypot(rx - ux, ry - uy)
+            if 1e-6 < gap < g.user_keep_out_m:
+                rx, ry = ux + (rx - ux) * g.user_keep_out_m / gap, uy + (ry - uy) * g.user_keep_out_m / gap
+        px, py = xy[i]
+        ex, ey = rx - px, ry - py
+        d = math.hypot(ex, ey)
+        speed = min(vmax, g.gain * d, math.sqrt(2.0 * g.decel_mps2 * d))  # 3
+        wx, wy = vrx + (speed * ex / d if d > 1e-9 else 0.0), vry + (speed * ey / d if d > 1e-9 else 0.0)
+        wx, wy = self._avoid(i, wx, wy)  # 4, from the truth
+        c, s = math.cos(th[i]), math.sin(th[i])
+        vx, vy = c * wx + s * wy, -s * wx + c * wy
+        if ranges is not None and g.sonar_keep_out_m > 0:  # 4, from the robot's own ultrasonic ring
+            vx, vy = self._keep_off(vx, vy, ranges)
+        norm = math.hypot(vx, vy)
+        if norm > vmax:
+            vx, vy = vx * vmax / norm, vy * vmax / norm
+        omega = w_m + g.heading_gain * wrap_angle(th_m - th[i])  # 5
+        return np.clip(np.array([vx / vmax, vy / vmax, omega / wmax], dtype=np.float32), -1.0, 1.0)
+
+    def _avoid(self, i: int, ux: float, uy: float) -> tuple[float, float]:
+        """Step 4: the commanded world velocity (ux, uy) pushed off every body it would pass too
+        close to within the horizon, and away from any body already inside the clearance."""
+        g, xy, rad, vel = self.g, self._xy, self._rad, self._vel
+        px, py = xy[i]
+        dux = duy = 0.0
+        for j, (qx, qy) in enumerate(xy):
+            if j == i:
+                continue
+            dx, dy = px - qx, py - qy
+            dist = math.hypot(dx, dy)
+            reach = rad[i] + rad[j] + g.clearance_m
+            if dist > reach + 2.0 * g.horizon_s * 1.5 or dist < 1e-9:
+                continue
+            wx, wy = ux - vel[j][0], uy - vel[j][1]  # our velocity relative to theirs
+            ww = wx * wx + wy * wy
+            t = 0.0 if ww < 1e-12 else min(max(-(dx * wx + dy * wy) / ww, 0.0), g.horizon_s)
+            mx, my = dx + wx * t, dy + wy * t  # where they are from us at the closest approach
+            m = math.hypot(mx, my)
+            if m < reach:
+                if m < 1e-6:
+                    mx, my, m = dx, dy, dist
+                depth = (reach - m) / reach
+                dux += g.push * depth * mx / m
+                duy += g.push * depth * my / m
+        return ux + dux, uy + duy
+
+    def _keep_off(self, vx: float, vy: float, ranges: np.ndarray) -> tuple[float, float]:
+        """Step 4, from the robot's own sensors: every ultrasonic range shorter than the keep-out
+        pushes the body-frame command away from that sensor's direction."""
+        g = self.g
+        n = len(ranges)
+        for k, r in enumerate(np.asarray(ranges, dtype=float).tolist()):
+            if r < g.sonar_keep_out_m:
+                a = 2.0 * math.pi * k / n
+                depth = g.sonar_keep_out_m - r
+                vx -= g.sonar_gain * depth * math.cos(a)
+                vy -= g.sonar_gain * depth * math.sin(a)
+        return vx, vy
+
+
+TEACHER_NAME = "privileged-teacher"  # its name where evaluation takes a policy name (petswarm eval --policy)
+
+
+class TeacherDriver:
+    """The teacher behind the slave-policy interface (``reset``, ``act``, ``act_all``), for
+    evaluation only: ``petswarm eval --policy privileged-teacher`` and the comparison grid's
+    ``--policy privileged-teacher`` measure what a controller that reads ground truth reaches —
+    an empirical ceiling for a learned policy, not a bound and not a policy (it is built from the
+    env, which no policy sees; :func:`evaluation.evaluate.make_team` builds it, the policy registry
+    does not know it). It reads each robot's ultrasonic ranges from its observation."""
+
+    name = TEACHER_NAME
+
+    def __init__(self, env, gains: TeacherGains | None = None):
+        self.teacher = PrivilegedTeacher(env, gains)
+        self._sonar = env.layout.slices["self.ultrasonic"]
+        self._range = env.cfg.robot.ultrasonic.max_range_m
+
+    def reset(self, seed: int | None = None) -> None:
+        self.teacher.reset()
+
+    def act(self, agent: str, observation: np.ndarray) -> np.ndarray:
+        return self.act_all({agent: observation})[agent]
+
+    def act_all(self, observations: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        sonar = {a: np.asarray(o)[self._sonar] * self._range for a, o in observations.items()}
+        return self.teacher.act_all(list(observations), sonar)

@@ -21,7 +21,10 @@ The teacher's control law, per slave and step (world frame, then into the robot'
    (the scripted reference's linear law, 1.2·d, slows down long before it arrives);
 4. *avoidance*: for every other body (robots, users) the closest approach over the next
    ``horizon_s`` at the commanded relative velocity; a pass nearer than the two radii plus
-   ``clearance_m`` is pushed out sideways, and a body already closer than that pushes back;
+   ``clearance_m`` is pushed out sideways, and a body already closer than that pushes back. Then
+   the robot's own ultrasonic ring, as the scripted slave's step 5: a range shorter than
+   ``sonar_keep_out_m`` pushes the command away from that sensor (the one part of the teacher a
+   student can see the reason for);
 5. *heading*: the master's true heading, with the master's turn rate as feed-forward.
 
 The figures it reaches (the grid with the teacher as candidate) are in docs/training.md,
@@ -36,6 +39,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from petswarm_env.sim.geometry import wrap_angle
+
+
+MAX_CLOSING_MPS = 4.3  # two bodies closing head-on: 1.8 m/s (r2, the fastest type) + 2.5 m/s (a running user)
 
 
 @dataclass(frozen=True)
@@ -156,7 +162,7 @@ class PrivilegedTeacher:
             dx, dy = px - qx, py - qy
             dist = math.hypot(dx, dy)
             reach = rad[i] + rad[j] + g.clearance_m
-            if dist > reach + 2.0 * g.horizon_s * 1.5 or dist < 1e-9:
+            if dist > reach + MAX_CLOSING_MPS * g.horizon_s or dist < 1e-9:  # cannot meet within the horizon
                 continue
             wx, wy = ux - vel[j][0], uy - vel[j][1]  # our velocity relative to theirs
             ww = wx * wx + wy * wy

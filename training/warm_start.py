@@ -19,6 +19,7 @@ from baselines.policy import PolicySpec
 from baselines.registry import make_policy
 from petswarm_env.config import Config
 from petswarm_env.env import PetSwarmEnv
+from petswarm_env.observe import MAX_LINKS
 from petswarm_env.wrappers import FixedAgents
 from training.config import TrainConfig
 from training.teacher import PrivilegedTeacher
@@ -47,16 +48,33 @@ class ScriptedLabels:
 
 class TeacherLabels:
     """The privileged teacher as a labeller (:mod:`training.teacher`): its action from ground
-    truth, for the robots whose rows it is given; of the rows it reads only the ultrasonic ranges
-    (the robot's own sensors, for its keep-out)."""
+    truth, for the robots whose rows it is given; of the rows it reads the ultrasonic ranges (the
+    robot's own sensors, for its keep-out) and whether the robot has a fix of anyone. A robot with
+    no IR fix younger than the observation's age range — of a reference neighbour or of the master
+    — cannot know where its swarm is: no action of the student's could follow the teacher's there,
+    so such a row is labelled with the scripted reference's action instead (its rejoin and search,
+    leader_follower.py steps 1c and 1d)."""
 
-    def __init__(self, env):
+    def __init__(self, env, lost_to_reference: bool = True):
         self.teacher = PrivilegedTeacher(env)
-        self.sonar = env.layout.slices["self.ultrasonic"]
+        self.reference = ScriptedLabels(env) if lost_to_reference else None
+        sl = env.layout.slices
+        self.sonar = sl["self.ultrasonic"]
         self.max_range = env.cfg.robot.ultrasonic.max_range_m
+        self.fixes = [(sl[f"{p}.ir_valid"].start, sl[f"{p}.ir_age"].start)
+                      for p in ("master", *(f"link{k}" for k in range(MAX_LINKS)))]
+
+    def lost(self, row: np.ndarray) -> bool:
+        """No fresh IR fix of the master or of any reference neighbour in this observation."""
+        return not any(row[v] > 0.5 and row[age] < 1.0 for v, age in self.fixes)
 
     def __call__(self, rows: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-        return self.teacher.act_all(list(rows), {a: r[self.sonar] * self.max_range for a, r in rows.items()})
+        labels = self.teacher.act_all(list(rows), {a: r[self.sonar] * self.max_range for a, r in rows.items()})
+        if self.reference is not None:
+            lost = {a: r for a, r in rows.items() if self.lost(r)}
+            if lost:
+                labels.update(self.reference(lost))
+        return labels
 
 
 LABELLERS = {"scripted": ScriptedLabels, "privileged": TeacherLabels}

@@ -123,3 +123,26 @@ def test_a_training_config_that_trains_nothing_is_refused():
         load_train_config(overrides={"timesteps": 0, "pretrain.samples": 0})
     with pytest.raises(ConfigError, match="pretrain.teacher"):
         load_train_config(overrides={"pretrain.teacher": "oracle"})
+
+
+def test_a_robot_that_cannot_know_where_its_swarm_is_is_labelled_with_the_reference():
+    from training.warm_start import ScriptedLabels, TeacherLabels
+
+    env = parallel_env(**{"swarm.num_slaves": 3})
+    obs, _ = env.reset(seed=2)
+    for _ in range(15):  # fixes of the master and the neighbours have arrived
+        obs, *_ = env.step({a: np.zeros(3, np.float32) for a in env.agents})
+    sl = env.layout.slices
+    agent = env.agents[0]
+    seen = obs[agent].copy()
+    lost = seen.copy()
+    for p in ("master", "link0", "link1"):
+        lost[sl[f"{p}.ir_age"].start] = 1.0  # every fix at the end of the age range
+    label = TeacherLabels(env)
+    assert not label.lost(seen) and label.lost(lost)
+    out = label({agent: lost})
+    assert np.array_equal(out[agent], ScriptedLabels(env)({agent: lost})[agent])
+    teacher_only = TeacherLabels(env, lost_to_reference=False)
+    assert np.array_equal(teacher_only({agent: lost})[agent], teacher_only.teacher.act_all(
+        [agent], {agent: lost[sl["self.ultrasonic"]] * env.cfg.robot.ultrasonic.max_range_m})[agent])
+    assert not np.array_equal(label({agent: seen})[agent], ScriptedLabels(env)({agent: seen})[agent])

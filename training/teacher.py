@@ -38,10 +38,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from petswarm_env.robot_types import resolve
 from petswarm_env.sim.geometry import wrap_angle
-
-
-MAX_CLOSING_MPS = 4.3  # two bodies closing head-on: 1.8 m/s (r2, the fastest type) + 2.5 m/s (a running user)
 
 
 @dataclass(frozen=True)
@@ -76,6 +74,8 @@ class PrivilegedTeacher:
         self.reset()
 
     def reset(self) -> None:
+        cfg = self.env.cfg  # two bodies closing head-on: the fastest robot type and a running user
+        self._closing_mps = max(resolve(cfg, t).robot.max_speed_mps for t in cfg.robot_types) + cfg.user.run_speed_mps
         self._at: float | None = None  # the clock time of the truth below
         self._refs: dict[int, tuple[float, float, float]] = {}
         self._ref_vel: dict[int, tuple[float, float, float]] = {}
@@ -162,7 +162,7 @@ class PrivilegedTeacher:
             dx, dy = px - qx, py - qy
             dist = math.hypot(dx, dy)
             reach = rad[i] + rad[j] + g.clearance_m
-            if dist > reach + MAX_CLOSING_MPS * g.horizon_s or dist < 1e-9:  # cannot meet within the horizon
+            if dist > reach + self._closing_mps * g.horizon_s or dist < 1e-9:  # cannot meet within the horizon
                 continue
             wx, wy = ux - vel[j][0], uy - vel[j][1]  # our velocity relative to theirs
             ww = wx * wx + wy * wy

@@ -69,12 +69,11 @@ class TeacherLabels:
         return not any(row[v] > 0.5 and row[age] < 1.0 for v, age in self.fixes)
 
     def __call__(self, rows: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-        labels = self.teacher.act_all(list(rows), {a: r[self.sonar] * self.max_range for a, r in rows.items()})
-        if self.reference is not None:
-            lost = {a: r for a, r in rows.items() if self.lost(r)}
-            if lost:
-                labels.update(self.reference(lost))
-        return labels
+        lost = {a: r for a, r in rows.items() if self.lost(r)} if self.reference is not None else {}
+        labels = self.reference(lost) if lost else {}
+        seen = [a for a in rows if a not in lost]  # the teacher's actions do not depend on which robots are asked
+        labels.update(self.teacher.act_all(seen, {a: rows[a][self.sonar] * self.max_range for a in seen}))
+        return {a: labels[a] for a in rows}
 
 
 LABELLERS = {"scripted": ScriptedLabels, "privileged": TeacherLabels}

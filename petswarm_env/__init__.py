@@ -13,10 +13,14 @@ from __future__ import annotations
 
 from typing import Any
 
-from petswarm_env import petswarm_v0
-from petswarm_env.config import Config, ConfigError, load_config
-from petswarm_env.env import ENV_NAME, PetSwarmEnv
-from petswarm_env.petswarm_v0 import env, parallel_env, raw_env
+from petswarm_env import _core
+
+_core.load()  # the compiled core, or one line naming the fix (PETSWARM_PURE_PYTHON=1: the interpreted form)
+
+from petswarm_env import petswarm_v0  # noqa: E402
+from petswarm_env.config import Config, ConfigError, load_config  # noqa: E402
+from petswarm_env.env import ENV_NAME, PetSwarmEnv  # noqa: E402
+from petswarm_env.petswarm_v0 import env, parallel_env, raw_env  # noqa: E402
 
 __version__ = "0.1.0"
 __all__ = ["ENV_NAME", "ENVS", "Config", "ConfigError", "PetSwarmEnv", "env", "load_config", "make", "parallel_env",

@@ -10,6 +10,22 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 what="${1:-run}"
+# the compiled core (setup.py, petswarm_env/_core.py) needs a C compiler and Python's headers: from
+# Debian where missing (as root), else say which to install
+need=""
+command -v cc >/dev/null 2>&1 || need="$need gcc libc6-dev"
+python3 -c 'import os, sysconfig, sys; sys.exit(not os.path.exists(os.path.join(sysconfig.get_paths()["include"], "Python.h")))' ||
+  need="$need python3-dev"
+if [ -n "$need" ]; then
+  if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then
+    { DEBIAN_FRONTEND=noninteractive apt-get update -q >/dev/null &&
+      DEBIAN_FRONTEND=noninteractive apt-get install -y -q $need >/dev/null; } ||
+      { echo "setup.sh: could not install$need (the compiled core needs them)" >&2; exit 1; }
+  else
+    echo "setup.sh: the compiled core needs$need: install them (as root: apt-get install -y$need), then rerun" >&2
+    exit 1
+  fi
+fi
 [ -x .venv/bin/python ] || python3 -m venv .venv
 py=.venv/bin/python
 "$py" -m pip install -q --upgrade pip

@@ -1,89 +1,193 @@
-"""The one discrete-event clock: a SimPy environment with bare callbacks and a plain-attribute time.
+"""The one discrete-event clock: a typed event heap and loop, with SimPy's events and processes.
 
 Radio frames, IR slots, token passes, master broadcasts and the wearables' bursts are events on it;
 :meth:`~petswarm_env.sim.world.World.advance` runs it in physics substeps (:meth:`Clock.run_until`).
 
-This is the only module that touches SimPy's private state (``_queue``, ``_eid``, ``_now``, the
-events' ``_ok``, ``_defused`` and ``_value``); ``pyproject.toml`` bounds simpy to the major version
-this was written against (4). What it adds to ``simpy.Environment``:
+A module of the compiled core (``petswarm_env/_core.py``): Cython's pure-Python mode, so this file
+runs as it is under the interpreter and is compiled to C at install. The clock is SimPy's
+*environment* for SimPy's own events and processes (``simpy.Event``, ``Timeout``, ``Process``:
+the middleware's generators run on it unchanged) — it has what they use of an environment
+(``now``, ``schedule``, ``active_process``) — but its queue and loop are its own, typed:
 
-* ``clock.now`` is a plain attribute, not SimPy's property (a property read costs several times an
-  attribute read, and the radio and the nodes read the time for every frame). SimPy's own ``_now``
-  is kept equal to it: both are written here only, by :meth:`Clock.step` and :meth:`Clock.run_until`.
+* every entry of the queue is ordered by SimPy's key ``(time, priority, insertion id)``, the id
+  counted by the clock for every entry, so events come off it in exactly SimPy's order;
+* ``clock.now`` is a plain (C double) attribute;
 * ``clock.later(delay, fn, *args)`` runs ``fn(*args)`` after ``delay`` seconds of clock time: one
-  entry on SimPy's queue with SimPy's ``(time, priority, id)`` key, so it is ordered among events
-  exactly as a ``clock.timeout(delay)`` with one callback would be, but it is a bare ``(fn, args)``
-  tuple — no event, no callback list, no value — that the clock's loop calls directly. The
-  middleware schedules most of its work this way (a frame's CCA and delivery, the handling of a
-  received frame after the MCU delay).
+  entry with SimPy's key, so it is ordered among events exactly as a ``clock.timeout(delay)`` with
+  one callback would be, but it is a bare callback — no event, no callback list, no value — that the
+  loop calls directly. The middleware schedules most of its work this way (a frame's CCA and
+  delivery, the handling of a received frame after the MCU delay);
 * :meth:`Clock.any_of` — "the first of these events", what ``simpy.AnyOf`` gives a process that
   only waits on it, without building a condition value.
+
+This is the only module that touches SimPy's internals (the events' ``callbacks``, ``_ok``,
+``_defused``, ``_value``, the environment's ``_active_proc``); ``pyproject.toml`` bounds simpy to
+the major version this was written against (4).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from heapq import heappop, heappush
-from typing import Any
+from typing import Any, Optional
 
+import cython
 import simpy
-from simpy.events import NORMAL, PENDING, ConditionValue
+from simpy.events import NORMAL, PENDING, ConditionValue, Event, Process, Timeout
+
+COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
 
 
-class Clock(simpy.Environment):
-    """The simulation's clock (SimPy), see the module docstring."""
+@cython.final
+@cython.cclass
+class _Entry:
+    """One entry of the queue: SimPy's key, and a SimPy event or a bare callback (``args`` not None)."""
 
-    now: float = 0.0  # shadows SimPy's ``now`` property; an instance attribute equal to ``_now``
+    t = cython.declare(cython.double)
+    prio = cython.declare(cython.int)
+    eid = cython.declare(cython.longlong)
+    event = cython.declare(object)  # the event, or the callback's function
+    args = cython.declare(tuple)  # the callback's arguments; None for an event
+
+    def __init__(self, t: cython.double, prio: cython.int, eid: cython.longlong, event: object, args: Optional[tuple]):
+        self.t = t
+        self.prio = prio
+        self.eid = eid
+        self.event = event
+        self.args = args
+
+
+@cython.cfunc
+@cython.inline
+def _before(a: _Entry, b: _Entry) -> cython.bint:
+    """SimPy's order: time, then priority, then insertion id (unique: a total order)."""
+    if a.t != b.t:
+        return a.t < b.t
+    if a.prio != b.prio:
+        return a.prio < b.prio
+    return a.eid < b.eid
+
+
+@cython.cclass
+class Clock:
+    """The simulation's clock, see the module docstring."""
+
+    now = cython.declare(cython.double, visibility="public")
+    _eid = cython.declare(cython.longlong)
+    _heap = cython.declare(list)
+    _active_proc = cython.declare(object, visibility="public")  # SimPy's Process sets it while it runs
 
     def __init__(self, initial_time: float = 0.0):
-        super().__init__(initial_time)
-        self.now = self._now
-        queue, eid, clock = self._queue, self._eid, self  # SimPy never replaces the queue or the counter
+        self.now = initial_time
+        self._eid = 0
+        self._heap = []
+        self._active_proc = None
 
-        def later(delay: float, fn: Callable[..., Any], *args: Any) -> None:
-            heappush(queue, (clock.now + delay, NORMAL, next(eid), (fn, args)))
+    # -- the queue: a binary heap of entries (heapq's algorithm, typed) ----------------------------
+    @cython.cfunc
+    def _push(self, t: cython.double, prio: cython.int, event: object, args: Optional[tuple]) -> cython.void:
+        heap: list = self._heap
+        entry: _Entry = _Entry(t, prio, self._eid, event, args)
+        self._eid += 1
+        heap.append(entry)
+        pos: cython.Py_ssize_t = len(heap) - 1
+        parent: _Entry
+        while pos > 0:
+            up: cython.Py_ssize_t = (pos - 1) >> 1
+            parent = heap[up]
+            if not _before(entry, parent):
+                break
+            heap[pos] = parent
+            pos = up
+        heap[pos] = entry
 
-        self.later: Callable[..., None] = later
+    @cython.cfunc
+    def _pop(self) -> _Entry:
+        heap: list = self._heap
+        last: _Entry = heap.pop()
+        if not heap:
+            return last
+        top: _Entry = heap[0]
+        n: cython.Py_ssize_t = len(heap)
+        pos: cython.Py_ssize_t = 0
+        child: cython.Py_ssize_t = 1
+        while child < n:  # sift ``last`` down from the root
+            right: cython.Py_ssize_t = child + 1
+            if right < n and _before(heap[right], heap[child]):
+                child = right
+            if not _before(heap[child], last):
+                break
+            heap[pos] = heap[child]
+            pos = child
+            child = 2 * pos + 1
+        heap[pos] = last
+        return top
 
-    def step(self) -> None:
-        """SimPy's ``step`` (what ``run`` calls), which also runs a bare callback of :attr:`later`."""
-        queue = self._queue
-        if queue and type(queue[0][3]) is tuple:
-            t, _, _, (fn, args) = heappop(queue)
-            self._now = self.now = t
-            fn(*args)
-            return
-        if queue:
-            self.now = queue[0][0]  # the time SimPy's step is about to set
-        super().step()
+    # -- what SimPy's events and processes use of their environment -------------------------------
+    def schedule(self, event, priority: cython.int = NORMAL, delay: cython.double = 0.0) -> None:
+        """Put ``event`` on the queue at ``now + delay`` (SimPy's ``Environment.schedule``)."""
+        self._push(self.now + delay, priority, event, None)
 
-    def run_until(self, t: float) -> None:
-        """Process every event before ``t``, then stand at ``t`` — what ``run(until=t)`` does,
-        without scheduling a stop event and raising to leave the loop on every call. The body of
-        ``simpy.Environment.step`` is inlined (no peek/step call per event); a bare callback of
-        :attr:`later` is called directly."""
-        queue = self._queue
-        while queue and queue[0][0] < t:
-            now, _, _, event = heappop(queue)
-            self._now = self.now = now
-            if type(event) is tuple:  # a bare callback: no event machinery
-                event[0](*event[1])
-                continue
-            callbacks, event.callbacks = event.callbacks, None
-            for callback in callbacks:
-                callback(event)
-            if not event._ok and not hasattr(event, "_defused"):  # a failed event nobody handled
-                exc = type(event._value)(*event._value.args)
-                exc.__cause__ = event._value
-                raise exc
-        self._now = self.now = t
+    @property
+    def active_process(self):
+        return self._active_proc
 
-    def any_of(self, events) -> simpy.Event:
+    def process(self, generator) -> Process:
+        return Process(self, generator)
+
+    def timeout(self, delay: float = 0, value: Any = None) -> Timeout:
+        return Timeout(self, delay, value)
+
+    def event(self) -> Event:
+        return Event(self)
+
+    def any_of(self, events) -> Event:
         """An event that succeeds when the first of ``events`` has been processed — what
         ``simpy.AnyOf`` does for a process that only waits on it (the token ring's "responses or
         timeout"), without building a condition value. The same events go on the queue in the same
         order as with ``AnyOf``. Its value is a ``ConditionValue`` holding the first event."""
         return _FirstOf(self, events)
+
+    # -- the clock's own ------------------------------------------------------------------------
+    def later(self, delay: cython.double, fn, *args) -> None:
+        """Run ``fn(*args)`` after ``delay`` seconds of clock time (a bare callback, module docstring)."""
+        self._push(self.now + delay, NORMAL, fn, args)
+
+    @cython.ccall
+    def run_until(self, t: cython.double):
+        """Process every entry before ``t``, then stand at ``t`` — what SimPy's ``run(until=t)``
+        does (its stop event at ``t`` comes before the events at ``t``)."""
+        heap: list = self._heap
+        entry: _Entry
+        while heap:
+            entry = heap[0]
+            if not entry.t < t:
+                break
+            entry = self._pop()
+            self.now = entry.t
+            if entry.args is not None:  # a bare callback: no event machinery
+                entry.event(*entry.args)
+            else:
+                self._process(entry.event)
+        self.now = t
+
+    def run(self, until: float) -> None:
+        """SimPy's ``run(until=...)`` (a time): :meth:`run_until`."""
+        self.run_until(until)
+
+    @cython.cfunc
+    def _process(self, event) -> cython.void:
+        """SimPy's processing of a triggered event: its callbacks, then a failure nobody handled."""
+        callbacks = event.callbacks
+        event.callbacks = None
+        for callback in callbacks:
+            callback(event)
+        if not event._ok and not hasattr(event, "_defused"):  # a failed event nobody handled
+            exc = type(event._value)(*event._value.args)
+            exc.__cause__ = event._value
+            raise exc
+
+    def pending(self) -> int:
+        """How many entries wait on the queue."""
+        return len(self._heap)
 
 
 class _FirstOf(simpy.Event):

@@ -1,0 +1,25 @@
+"""Builds the compiled core (petswarm_env/_core.py lists its modules) with Cython; everything else
+is in pyproject.toml. ``pip install .`` / ``pip install -e .`` run it; in a checkout,
+``python setup.py build_ext --inplace`` rebuilds the extensions beside their sources."""
+
+import runpy
+
+from Cython.Build import cythonize
+from setuptools import setup
+
+COMPILED = runpy.run_path("petswarm_env/_core.py")["COMPILED"]
+
+setup(
+    ext_modules=cythonize(
+        [m.replace(".", "/") + ".py" for m in COMPILED],
+        compiler_directives={
+            "language_level": 3,
+            "boundscheck": False,
+            "wraparound": False,
+            "initializedcheck": False,
+            "embedsignature": True,
+            "binding": True,  # compiled functions keep their Python signatures and docstrings
+        },
+        quiet=True,
+    ),
+)

@@ -1,0 +1,59 @@
+"""The compiled core (petswarm_env/_core.py): built and imported as C unless the interpreted form is
+asked for, the interpreted form (the oracle) gives the golden episode bit for bit, and a missing
+build is one line that names the fix."""
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from petswarm_env import _core
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+@pytest.mark.skipif(_core.pure(), reason="PETSWARM_PURE_PYTHON is set: this run tests the interpreted form")
+def test_every_core_module_runs_compiled():
+    assert _core.compiled_modules() == {m: True for m in _core.COMPILED}
+
+
+def test_the_interpreted_form_gives_the_golden_episode_bit_for_bit():
+    """The same golden case in a child process with ``PETSWARM_PURE_PYTHON=1``: every core module is
+    its ``.py``, and the episode's hash is the golden one that the compiled form meets
+    (tests/env/test_golden_episodes.py)."""
+    from tests.golden.episodes import GOLDEN_PATH, portable_environ
+
+    code = ("import json; from petswarm_env import _core; from tests.golden.episodes import run_case; "
+            "print(json.dumps([_core.compiled_modules(), run_case('default_seed0')['sha256']]))")
+    env = dict(portable_environ(), **{_core.PURE_ENV: "1"})
+    env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
+    out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, env=env, capture_output=True, text=True, check=False,
+                         timeout=300)
+    assert out.returncode == 0, out.stderr[-2000:]
+    compiled, sha = json.loads(out.stdout.strip().splitlines()[-1])
+    assert compiled == {m: False for m in _core.COMPILED}
+    assert sha == json.loads(GOLDEN_PATH.read_text())["default_seed0"]["sha256"]
+
+
+def test_a_missing_build_is_one_line_naming_the_fix(tmp_path, monkeypatch):
+    """Without the extensions (here: the package's sources copied without them) the import fails
+    with one line that names the build command and the interpreted form's variable."""
+    import shutil
+
+    dst = tmp_path / "petswarm_env"
+    shutil.copytree(ROOT / "petswarm_env", dst, ignore=shutil.ignore_patterns("*.so", "*.pyd", "*.c", "__pycache__"))
+    environ = {k: v for k, v in os.environ.items() if k != _core.PURE_ENV}
+    environ["PYTHONPATH"] = str(tmp_path)
+    out = subprocess.run([sys.executable, "-c", "import petswarm_env"], cwd=tmp_path, env=environ,
+                         capture_output=True, text=True, check=False, timeout=120)
+    assert out.returncode != 0
+    last = out.stderr.strip().splitlines()[-1]
+    assert last.startswith("ImportError: petswarm: compiled core not built (")
+    assert "pip install -e ." in last and _core.PURE_ENV in last
+    environ[_core.PURE_ENV] = "1"
+    ok = subprocess.run([sys.executable, "-c", "import petswarm_env"], cwd=tmp_path, env=environ,
+                        capture_output=True, text=True, check=False, timeout=120)
+    assert ok.returncode == 0, ok.stderr[-2000:]

@@ -26,6 +26,7 @@ from pathlib import Path
 # the modules compiled to C, in the order they are built
 COMPILED: tuple[str, ...] = (
     "petswarm_env.sim.clock",
+    "petswarm_env.comms.radio",
 )
 
 PURE_ENV = "PETSWARM_PURE_PYTHON"  # "1": run the interpreted form of every module of COMPILED

@@ -30,20 +30,25 @@ the medium carried — :meth:`RadioTrace.on_air` when a clear CCA puts it on the
 how the reception ended (where the counters of receptions count it), and :meth:`RadioTrace.busy` for
 a frame CSMA-CA gave up on. The hook only reads; when off it costs one ``is not None`` test per
 frame and per reception.
+
+A module of the compiled core (``petswarm_env/_core.py``): Cython's pure-Python mode (typed
+classes for frames, transmissions and the medium), the same file runs under the interpreter.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
-from typing import Any, Protocol
+from typing import Any, Optional, Protocol
 
+import cython
 import numpy as np
 
 from petswarm_env.config import RadioConfig
 from petswarm_env.sim.clock import Clock
 from petswarm_env.sim.draws import Draws
+
+COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
 
 __all__ = ["BROADCAST", "COLLIDED", "DELIVERED", "FILTERED", "LOST", "OUTCOMES", "PAN_WAITING", "Frame", "RadioMedium",
            "RadioStats", "RadioTrace", "Station"]
@@ -59,15 +64,16 @@ DELIVERED = "delivered"  # handed to the station's middleware
 OUTCOMES = (DELIVERED, LOST, COLLIDED, FILTERED)
 
 
-@dataclass(slots=True)
+@cython.dataclasses.dataclass
+@cython.cclass
 class Frame:
     kind: str
-    src: int
-    dst: int  # BROADCAST or a node id
-    pan: int
-    payload: dict[str, Any] = field(default_factory=dict)
-    size_bytes: int = 12
-    rx_distance_est_m: float = math.nan  # filled per reception
+    src: cython.long
+    dst: object  # BROADCAST or a node id (None: a node id not known, which no station is)
+    pan: object  # None: a robot's "own swarm" when it is in none (no MAC accepts it)
+    payload: dict = cython.dataclasses.field(default_factory=dict)
+    size_bytes: cython.long = 12
+    rx_distance_est_m: cython.double = math.nan  # filled per reception
 
 
 class Station(Protocol):
@@ -79,14 +85,38 @@ class Station(Protocol):
     def receive(self, frame: Frame) -> None: ...
 
 
-@dataclass
+@cython.cclass
 class RadioStats:
-    frames_sent: int = 0
-    frames_dropped_busy: int = 0  # CSMA gave up
-    receptions: int = 0
-    frames_lost: int = 0  # random loss at a receiver
-    frames_collided: int = 0  # receptions destroyed by overlap
-    foreign_pan_dropped: int = 0  # filtered by the MAC
+    """The medium's counters (typed: the medium adds to them for every frame and reception)."""
+
+    frames_sent = cython.declare(cython.long, visibility="public")
+    frames_dropped_busy = cython.declare(cython.long, visibility="public")  # CSMA gave up
+    receptions = cython.declare(cython.long, visibility="public")
+    frames_lost = cython.declare(cython.long, visibility="public")  # random loss at a receiver
+    frames_collided = cython.declare(cython.long, visibility="public")  # receptions destroyed by overlap
+    foreign_pan_dropped = cython.declare(cython.long, visibility="public")  # filtered by the MAC
+
+    def __init__(self, frames_sent: int = 0, frames_dropped_busy: int = 0, receptions: int = 0, frames_lost: int = 0,
+                 frames_collided: int = 0, foreign_pan_dropped: int = 0):
+        self.frames_sent = frames_sent
+        self.frames_dropped_busy = frames_dropped_busy
+        self.receptions = receptions
+        self.frames_lost = frames_lost
+        self.frames_collided = frames_collided
+        self.foreign_pan_dropped = foreign_pan_dropped
+
+    def as_dict(self) -> dict[str, int]:
+        return {k: getattr(self, k) for k in _STATS_FIELDS}
+
+    def __repr__(self) -> str:
+        return "RadioStats(" + ", ".join(f"{k}={v}" for k, v in self.as_dict().items()) + ")"
+
+    def __eq__(self, other) -> bool:
+        return isinstance(other, RadioStats) and self.as_dict() == other.as_dict()
+
+
+_STATS_FIELDS = ("frames_sent", "frames_dropped_busy", "receptions", "frames_lost", "frames_collided",
+                 "foreign_pan_dropped")
 
 
 class RadioTrace(Protocol):
@@ -105,15 +135,65 @@ class RadioTrace(Protocol):
         """At ``now``, CSMA-CA gave ``frame`` up after ``max_backoffs`` busy channels (never on the air)."""
 
 
+@cython.final
+@cython.cclass
 class _Tx:
-    __slots__ = ("end", "frame", "start", "x", "y")
+    """One transmission: its frame, its time on the air, the sender's antenna position."""
 
-    def __init__(self, frame: Frame, start: float, end: float, x: float, y: float):
+    frame = cython.declare(Frame)
+    start = cython.declare(cython.double)
+    end = cython.declare(cython.double)
+    x = cython.declare(cython.double)
+    y = cython.declare(cython.double)
+
+    def __init__(self, frame: Frame, start: cython.double, end: cython.double, x: cython.double, y: cython.double):
         self.frame, self.start, self.end, self.x, self.y = frame, start, end, x, y
 
 
+@cython.final
+@cython.cclass
+class _Port:
+    """An attached station as the medium reads it: its id, its station, its MAC's queue of frames."""
+
+    node_id = cython.declare(cython.long)
+    station = cython.declare(object)
+    queue = cython.declare(list)
+
+    def __init__(self, node_id: cython.long, station: object):
+        self.node_id = node_id
+        self.station = station
+        self.queue = []
+
+
+@cython.cclass
 class RadioMedium:
     """One shared channel; stations attach, then send frames."""
+
+    clock = cython.declare(object, visibility="public")
+    cfg = cython.declare(object, visibility="public")
+    rng = cython.declare(object, visibility="public")
+    stations = cython.declare(dict, visibility="public")
+    stats = cython.declare(RadioStats, visibility="public")
+    drop_filter = cython.declare(object, visibility="public")  # fault injection (tests)
+    trace = cython.declare(object, visibility="public")  # the experimenter's trace hook (module docstring)
+    _later = cython.declare(object)
+    _mac_uniform = cython.declare(object)
+    _rx_uniform = cython.declare(object)
+    _rx_normal = cython.declare(object)
+    _ports = cython.declare(dict)  # node id -> _Port
+    _port_list = cython.declare(list)  # the _Ports in the order they attached (= stations' order)
+    _air = cython.declare(list)  # transmissions that may still overlap something
+    _range2 = cython.declare(cython.double)
+    _shadow_k = cython.declare(cython.double)
+    _overhead_bytes = cython.declare(cython.double)
+    _bitrate_bps = cython.declare(cython.double)
+    _latency_s = cython.declare(cython.double)
+    _turnaround_s = cython.declare(cython.double)
+    _backoff_slot_s = cython.declare(cython.double)
+    _loss_prob = cython.declare(cython.double)
+    _min_be = cython.declare(cython.int)
+    _max_be = cython.declare(cython.int)
+    _max_backoffs = cython.declare(cython.int)
 
     def __init__(self, clock: Clock, cfg: RadioConfig, rng: np.random.Generator):
         self.clock = clock
@@ -123,91 +203,113 @@ class RadioMedium:
         # two independent streams: the MAC's backoffs, and what happens at receivers (loss,
         # shadowing), so that e.g. injecting loss does not reshuffle the backoffs
         mac_rng, rx_rng = rng.spawn(2)
-        self._mac_draws = Draws(mac_rng)
-        self._rx_draws = Draws(rx_rng)
-        self.stations: dict[int, Station] = {}
+        mac_draws, rx_draws = Draws(mac_rng), Draws(rx_rng)
+        self._mac_uniform = mac_draws.uniform
+        self._rx_uniform, self._rx_normal = rx_draws.uniform, rx_draws.normal
+        self.stations = {}
         self.stats = RadioStats()
-        self._air: list[_Tx] = []  # transmissions that may still overlap something
-        self._queues: dict[int, list[Frame]] = {}  # per station: frames waiting for the MAC
-        self.drop_filter: Callable[[Frame], bool] | None = None  # fault injection (tests)
-        self.trace: RadioTrace | None = None  # the experimenter's trace hook (module docstring)
+        self._air = []
+        self._ports = {}
+        self._port_list = []
+        self.drop_filter = None
+        self.trace = None
         self._range2 = cfg.range_m**2
         # RSSI distance estimate d * 10^(σ·z / (10 n)), z ~ N(0, 1)
         self._shadow_k = cfg.rssi_shadowing_db / (10.0 * cfg.path_loss_exponent)
-        # the values read for every frame, as plain attributes (a field of the pydantic config
-        # costs several times an attribute to read)
+        # the values read for every frame, typed (a field of the pydantic config costs several
+        # times an attribute to read)
         self._overhead_bytes, self._bitrate_bps = cfg.frame_overhead_bytes, cfg.bitrate_bps
         self._latency_s, self._turnaround_s = cfg.latency_s, cfg.turnaround_s
-        self._min_be, self._backoff_slot_s = cfg.min_be, cfg.backoff_slot_s
+        self._min_be, self._max_be, self._max_backoffs = cfg.min_be, cfg.max_be, cfg.max_backoffs
+        self._backoff_slot_s = cfg.backoff_slot_s
         self._loss_prob = cfg.loss_prob
 
     def attach(self, station: Station) -> None:
-        self.stations[station.node_id] = station
-        self._queues[station.node_id] = []
+        node_id = station.node_id
+        if node_id in self._ports:  # attached again: the new station replaces the old one in place
+            port: _Port = self._ports[node_id]
+            port.station = station
+            port.queue = []
+        else:
+            port = _Port(node_id, station)
+            self._ports[node_id] = port
+            self._port_list.append(port)
+        self.stations[node_id] = station
 
-    def airtime_s(self, frame: Frame) -> float:
+    @cython.ccall
+    def airtime_s(self, frame: Frame) -> cython.double:
         return (self._overhead_bytes + frame.size_bytes) * 8.0 / self._bitrate_bps
 
     # -- sending --------------------------------------------------------------------------------
     def send(self, station: Station, frame: Frame) -> None:
         """Queue ``frame`` from ``station``; its MAC sends one frame at a time, in order:
         latency, then CSMA-CA, then airtime."""
-        queue = self._queues[station.node_id]
-        queue.append(frame)
-        if len(queue) == 1:
-            self._start(station, frame)
+        port: _Port = self._ports[station.node_id]
+        port.queue.append(frame)
+        if len(port.queue) == 1:
+            self._start(port, frame)
 
-    def _start(self, station: Station, frame: Frame) -> None:
+    @cython.cfunc
+    def _start(self, port: _Port, frame: Frame) -> cython.void:
         """The MAC takes the first frame of the station's queue: driver latency, first backoff."""
-        be = self._min_be
-        self._later(self._latency_s + self._backoff(be), self._cca, station, frame, 0, be)
+        be: cython.int = self._min_be
+        self._later(self._latency_s + self._backoff(be), self._cca, port, frame, 0, be)
 
-    def _done(self, station: Station) -> None:
-        queue = self._queues[station.node_id]
+    @cython.cfunc
+    def _done(self, port: _Port) -> cython.void:
+        queue: list = port.queue
         queue.pop(0)
         if queue:
-            self._start(station, queue[0])
+            self._start(port, queue[0])
 
-    def _backoff(self, be: int) -> float:
+    @cython.cfunc
+    def _backoff(self, be: cython.int) -> cython.double:
         """Random backoff of 0 … 2^BE − 1 unit periods."""
-        return int(self._mac_draws.uniform() * (1 << be)) * self._backoff_slot_s
+        u: cython.double = self._mac_uniform()
+        return cython.cast(cython.long, u * (1 << be)) * self._backoff_slot_s
 
-    def _cca(self, station: Station, frame: Frame, nb: int, be: int) -> None:
-        now = self.clock.now
+    def _cca(self, port: _Port, frame: Frame, nb: cython.int, be: cython.int) -> None:
+        now: cython.double = self.clock.now
+        station = port.station
+        x: cython.double
+        y: cython.double
         x, y = station.position()
-        r2 = self._range2
+        r2: cython.double = self._range2
+        tx: _Tx
         for tx in self._air:
             if tx.start <= now < tx.end and (tx.x - x) ** 2 + (tx.y - y) ** 2 <= r2:  # busy
-                if nb >= self.cfg.max_backoffs:
+                if nb >= self._max_backoffs:
                     self.stats.frames_dropped_busy += 1
                     if self.trace is not None:
-                        self.trace.busy(now, station.node_id, frame)
-                    self._done(station)
+                        self.trace.busy(now, port.node_id, frame)
+                    self._done(port)
                     return
-                be = min(be + 1, self.cfg.max_be)
-                self._later(self._backoff(be), self._cca, station, frame, nb + 1, be)
+                be = min(be + 1, self._max_be)
+                self._later(self._backoff(be), self._cca, port, frame, nb + 1, be)
                 return
         # clear: on the air after the RX-to-TX turnaround, which the CCA of others cannot sense
-        start = now + self._turnaround_s
+        start: cython.double = now + self._turnaround_s
         tx = _Tx(frame, start, start + self.airtime_s(frame), x, y)
         self._air.append(tx)
         self.stats.frames_sent += 1
         if self.trace is not None:
-            self.trace.on_air(now, station.node_id, frame, start, tx.end)
-        self._later(tx.end - now, self._deliver, tx, station)
+            self.trace.on_air(now, port.node_id, frame, start, tx.end)
+        self._later(tx.end - now, self._deliver, tx, port)
 
     # -- receiving ------------------------------------------------------------------------------
-    def _deliver(self, tx: _Tx, sender: Station) -> None:
+    def _deliver(self, tx: _Tx, sender: _Port) -> None:
         """The frame has left the air: every station in range gets it now, unless it collided."""
         self._done(sender)
-        now = self.clock.now
-        frame = tx.frame
-        air = self._air
+        now: cython.double = self.clock.now
+        frame: Frame = tx.frame
+        air: list = self._air
         # one pass: the transmissions that overlap this one, and the start of the oldest one still
         # on the air (this one included, so never later than now)
-        oldest_live = now
-        overlapping = []
-        start, end = tx.start, tx.end
+        oldest_live: cython.double = now
+        overlapping: list = []
+        start: cython.double = tx.start
+        end: cython.double = tx.end
+        t: _Tx
         for t in air:
             if t.end >= now and t.start < oldest_live:
                 oldest_live = t.start
@@ -215,28 +317,39 @@ class RadioMedium:
                 overlapping.append(t)
         # forget transmissions that can no longer overlap anything still on the air (none of them
         # overlaps this one: they ended before the oldest live start, at most this one's start)
-        if air[0].end < oldest_live:
+        t = air[0]
+        if t.end < oldest_live:
             self._air = [t for t in air if t.end >= oldest_live or t is tx]
         if self.drop_filter is not None and self.drop_filter(frame):
             return
+        targets: list
         if frame.dst == BROADCAST:
-            targets = self.stations.values()
+            targets = self._port_list
         else:
-            st = self.stations.get(frame.dst)
-            targets = () if st is None else (st,)
-        stats = self.stats
-        r2 = self._range2
-        loss = self._loss_prob
-        shadow_k = self._shadow_k
-        uniform, normal = self._rx_draws.uniform, self._rx_draws.normal
-        sqrt = math.sqrt
-        kind, src, dst, pan, payload, size = frame.kind, frame.src, frame.dst, frame.pan, frame.payload, frame.size_bytes
-        tx_x, tx_y = tx.x, tx.y
+            port = self._ports.get(frame.dst)
+            targets = [] if port is None else [port]
+        stats: RadioStats = self.stats
+        r2: cython.double = self._range2
+        loss: cython.double = self._loss_prob
+        shadow_k: cython.double = self._shadow_k
+        src: cython.long = frame.src
+        pan = frame.pan
+        tx_x: cython.double = tx.x
+        tx_y: cython.double = tx.y
         trace = self.trace
-        for st in targets:
-            node_id = st.node_id
+        rx: cython.double
+        ry: cython.double
+        d2: cython.double
+        d: cython.double
+        est: cython.double
+        node_id: cython.long
+        collided: cython.bint
+        p: _Port
+        for p in targets:
+            node_id = p.node_id
             if node_id == src:
                 continue
+            st = p.station
             rx, ry = st.position()
             d2 = (rx - tx_x) ** 2 + (ry - tx_y) ** 2
             if d2 > r2:
@@ -257,16 +370,16 @@ class RadioMedium:
                 if trace is not None:
                     trace.reception(now, frame, node_id, COLLIDED, math.nan)
                 continue
-            if loss > 0 and uniform() < loss:
+            if loss > 0 and self._rx_uniform() < loss:
                 stats.frames_lost += 1
                 if trace is not None:
                     trace.reception(now, frame, node_id, LOST, math.nan)
                 continue
             # RSSI-based distance estimate: log-distance path loss with log-normal shadowing
-            d = sqrt(d2)
+            d = math.sqrt(d2)
             if d < 0.1:  # max(d, 0.1)
                 d = 0.1
-            est = d * 10.0 ** (shadow_k * normal()) if shadow_k > 0 else d
+            est = d * 10.0 ** (shadow_k * self._rx_normal()) if shadow_k > 0 else d
             if trace is not None:
                 trace.reception(now, frame, node_id, DELIVERED, est)
-            st.receive(Frame(kind, src, dst, pan, payload, size, est))
+            st.receive(Frame(frame.kind, src, frame.dst, frame.pan, frame.payload, frame.size_bytes, est))

@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import sys
 
 import numpy as np
 import pytest
@@ -288,21 +289,21 @@ def test_master_rescans_while_every_scan_response_was_lost(monkeypatch):
     import petswarm_env
     from petswarm_env.comms import radio
 
-    init = radio.RadioMedium.__init__
     dropped = []
 
-    def init_with_filter(self, *args, **kwargs):
-        init(self, *args, **kwargs)
+    class WithFilter(radio.RadioMedium):
+        def __init__(self, *args, **kwargs):
+            super().__init__(*args, **kwargs)
 
-        def drop(frame):  # lose the responses to the first two scans (2 robots each)
-            if frame.kind == "scan_response" and len(dropped) < 4:
-                dropped.append(frame.src)
-                return True
-            return False
+            def drop(frame):  # lose the responses to the first two scans (2 robots each)
+                if frame.kind == "scan_response" and len(dropped) < 4:
+                    dropped.append(frame.src)
+                    return True
+                return False
 
-        self.drop_filter = drop
+            self.drop_filter = drop
 
-    monkeypatch.setattr(radio.RadioMedium, "__init__", init_with_filter)
+    monkeypatch.setattr(sys.modules["petswarm_env.env"], "RadioMedium", WithFilter)
     env = petswarm_env.parallel_env(**{"swarm.num_slaves": 2, "swarm.formation": "grid"})
     env.reset(seed=0)
     res = env.swarm.organize_result

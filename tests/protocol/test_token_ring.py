@@ -226,15 +226,15 @@ def test_most_heading_reports_reach_the_transmitter():
     env = petswarm_env.parallel_env(**STILL)
     env.reset(seed=0)
     sent, delivered = [0], [0]
-    send = env.radio.send
-
-    def counting_send(station, frame):
-        if frame.kind == msg.HEADING:
-            sent[0] += 1
-        send(station, frame)
-
-    env.radio.send = counting_send
     for node in env.swarm.nodes.values():
+        send = node.send
+
+        def counting_send(kind, *args, send=send, **kwargs):
+            if kind == msg.HEADING:
+                sent[0] += 1
+            send(kind, *args, **kwargs)
+
+        node.send = counting_send
         receive = node.receive
 
         def counting_receive(frame, receive=receive, me=node.node_id):

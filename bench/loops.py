@@ -101,7 +101,10 @@ class EnvLoop(TimedLoop):
         self.policy.reset(seed)
 
     def _actions(self) -> dict:
-        return self.policy.act_all(self.obs)
+        # only for the agents still in the episode: an agent that has just left (its last
+        # observation is in ``obs``) takes no action, and ``env.step`` rejects one for it
+        acts = self.policy.act_all(self.obs)
+        return {a: acts[a] for a in self.env.agents if a in acts}
 
     def _step(self, actions: dict) -> None:
         self.obs, *_ = self.env.step(actions)

@@ -37,7 +37,8 @@ def main() -> None:
         resets += 1
         seed += 1
         while env.agents and steps < args.steps:
-            actions = policy.act_all(obs)
+            acts = policy.act_all(obs)
+            actions = {a: acts[a] for a in env.agents if a in acts}  # never for an agent that has left
             t0, c0 = time.perf_counter(), time.process_time()
             obs, *_ = env.step(actions)
             step_time += time.perf_counter() - t0

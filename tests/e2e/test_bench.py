@@ -222,3 +222,13 @@ def test_rllib_scaling_summary_takes_medians_of_interleaved_rounds():
     assert two["sampling_agent_steps_per_s"] == 185.0 and two["sampling_ratio_to_0_runners"] == round(185 / 110, 2)  # a missing timing left out
     assert [r["ratio_to_0_runners"] for r in rows] == [1.0, 1.5, 1.0, round(130 / 80, 2), 1.0, round(140 / 90, 2)]  # each round's own
     assert summarize([{"env_runners": 2, "agent_steps_per_s": 5.0, "sampling_agent_steps_per_s": 6.0}])[0]["ratio_to_0_runners"] is None
+
+
+def test_env_loop_acts_only_for_the_agents_in_the_episode():
+    """1+16, seed 0: a slave leaves the episode at step 544 while the policy still has its last
+    observation; the loop must not pass an action for it (env.step raises KeyError for one)."""
+    from bench.loops import EnvLoop
+
+    loop = EnvLoop(16, "scripted", 0)
+    loop.run(steps=560)
+    assert loop.steps == 560

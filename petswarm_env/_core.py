@@ -27,6 +27,7 @@ from pathlib import Path
 COMPILED: tuple[str, ...] = (
     "petswarm_env.sim.clock",
     "petswarm_env.comms.radio",
+    "petswarm_env.middleware.station",
 )
 
 PURE_ENV = "PETSWARM_PURE_PYTHON"  # "1": run the interpreted form of every module of COMPILED

@@ -18,6 +18,11 @@ What they cannot do on their own robot goes through two kinds of narrow seams th
   :attr:`~Station.became_slave`, :attr:`~Station.plan_applied`, :attr:`~Station.handed_over`,
   :attr:`~Station.took_over`. A manager emits a signal after it changed
   the station's own state.
+
+A module of the compiled core (``petswarm_env/_core.py``): the station is a typed class
+(Cython's pure-Python mode) whose attributes read for every frame are typed; the rest live in the
+instance's dictionary (every station is a :class:`~.node.Node`, a Python subclass). Its methods
+are looked up as Python attributes, so a subclass (or a test) may replace them.
 """
 
 from __future__ import annotations
@@ -26,6 +31,7 @@ import math
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
+import cython
 import numpy as np
 
 from petswarm_env.comms.radio import BROADCAST, PAN_WAITING, Frame, RadioMedium
@@ -39,6 +45,8 @@ from petswarm_env.sim.sensors import Odometry
 
 if TYPE_CHECKING:
     from petswarm_env.sim.robot import Robot
+
+COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
 
 
 class Signal:
@@ -57,8 +65,22 @@ class Signal:
             subscriber(*args)
 
 
+@cython.cclass
 class Station:
     """One robot's lower layer, its state and its knowledge, attached to the radio."""
+
+    # read for every frame sent, received or handled: typed
+    node_id = cython.declare(cython.long, visibility="public")
+    pans = cython.declare(frozenset, visibility="public")  # PAN IDs its MAC accepts
+    swarm_pan = cython.declare(object, visibility="public")
+    handlers = cython.declare(dict, visibility="public")
+    counters = cython.declare(dict, visibility="public")
+    health = cython.declare(object, visibility="public")
+    later = cython.declare(object, visibility="public")
+    radio = cython.declare(object, visibility="public")
+    _uniform = cython.declare(object)
+    _processing_s = cython.declare(cython.double)
+    _jitter_s = cython.declare(cython.double)
 
     def __init__(self, node_id: int, cfg: Config, clock: Clock, radio: RadioMedium, robot: Robot,
                  rng: np.random.Generator):
@@ -69,7 +91,8 @@ class Station:
         self.radio = radio
         self.rng = rng
         self.draws = Draws(rng)  # scalar draws (MCU processing jitter) taken from rng in blocks
-        self._processing = (cfg.radio.processing_s, cfg.radio.processing_jitter_s)
+        self._uniform = self.draws.uniform
+        self._processing_s, self._jitter_s = cfg.radio.processing_s, cfg.radio.processing_jitter_s
         self._robot = robot  # own body: its AHRS, and the antenna's position
         self.odometry = Odometry(robot, cfg.robot, rng.spawn(1)[0])  # own wheel odometry, own noise stream
         # the antenna's position, for the radio's propagation model (not the middleware): the body's
@@ -109,22 +132,23 @@ class Station:
         handler = self.handlers.get(frame.kind)
         if handler is None or not self.health.radio_ok:
             return
-        base, jitter = self._processing  # processing_delay(), inlined: called for every reception
-        self.later(base + jitter * self.draws.uniform(), self._handle, handler, frame)
+        u: cython.double = self._uniform()  # processing_delay(), inlined: called for every reception
+        self.later(self._processing_s + self._jitter_s * u, self._handle, handler, frame)
 
     def processing_delay(self) -> float:
         """MCU time to handle a received frame before it can answer (``processing_s`` plus a
         uniform jitter of up to ``processing_jitter_s``)."""
-        base, jitter = self._processing
-        return base + jitter * self.draws.uniform()
+        u: cython.double = self._uniform()
+        return self._processing_s + self._jitter_s * u
 
     def _handle(self, handler: Callable[[Frame], None], frame: Frame) -> None:
         pan = frame.pan
+        counters: dict = self.counters
         if pan not in self.pans:  # the PAN changed while the frame was being processed
             return
         if pan != PAN_WAITING and pan != self.swarm_pan:
-            self.counters["foreign_pan_frames_processed"] += 1  # must never happen
-        self.counters["frames_handled"] += 1
+            counters["foreign_pan_frames_processed"] += 1  # must never happen
+        counters["frames_handled"] += 1
         handler(frame)
 
     def on(self, kind: str, handler: Callable[[Frame], None]) -> None:

@@ -10,20 +10,20 @@ import pytest
 import petswarm_env
 from petswarm_env.comms.radio import BROADCAST
 from petswarm_env.middleware import messages as msg
-from petswarm_env.middleware.station import Station
+from petswarm_env.middleware.node import Node  # every station is a Node (a Python subclass)
 
 
 def _broadcasts(monkeypatch, steps=150, **overrides):
     """(broadcast velocity, true body velocity at that instant) of every STATUS the master sent."""
     sent = []
-    original = Station.send
+    original = Node.send
 
     def spy(self, kind, dst=BROADCAST, pan=None, **payload):
         if kind == msg.STATUS:
             sent.append((payload["velocity"], self._robot.velocity_body))
         return original(self, kind, dst, pan, **payload)
 
-    monkeypatch.setattr(Station, "send", spy)
+    monkeypatch.setattr(Node, "send", spy)
     env = petswarm_env.parallel_env(max_cycles=steps, **{"user.formation_wait_s": 0.0, **overrides})  # the user walks at once
     env.reset(seed=4)
     for _ in range(steps):

@@ -309,16 +309,16 @@ def test_no_foreign_pan_frame_processed_under_loss_one_user():
 def test_two_swarms_under_loss_drop_each_others_frames_in_the_mac(monkeypatch):
     """Two users at loss 0.2: each swarm's frames reach the other's robots, whose MAC drops them;
     none is processed (the spy sees every frame a robot processes)."""
-    from petswarm_env.middleware.station import Station
+    from petswarm_env.middleware.node import Node  # every station is a Node (a Python subclass)
 
     processed = []
-    original = Station._handle
+    original = Node._handle
 
     def spy(self, handler, frame):
         processed.append((self.node_id, frame.pan))
         return original(self, handler, frame)
 
-    monkeypatch.setattr(Station, "_handle", spy)
+    monkeypatch.setattr(Node, "_handle", spy)
     env = petswarm_env.parallel_env(**{"world.num_users": 2, "radio.loss_prob": 0.2, "max_cycles": 30})
     for seed in (0, 3, 6):
         env.reset(seed=seed)

@@ -28,6 +28,8 @@ COMPILED: tuple[str, ...] = (
     "petswarm_env.sim.clock",
     "petswarm_env.comms.radio",
     "petswarm_env.middleware.station",
+    "petswarm_env.sim.battery",
+    "petswarm_env.sim.body",
 )
 
 PURE_ENV = "PETSWARM_PURE_PYTHON"  # "1": run the interpreted form of every module of COMPILED

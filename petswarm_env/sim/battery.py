@@ -13,20 +13,36 @@ electronics draw all the time; the actuator (a manipulator) only while ``actuati
 uses one yet). At 0 mAh the battery is :attr:`Battery.empty` — the one place that state lives —
 and the robot stops (:meth:`~.robot.Robot.set_command` ignores its commands): a fault for the
 fault machinery to pick up.
+
+A module of the compiled core (``petswarm_env/_core.py``, Cython's pure-Python mode): the battery is
+a typed class, drained for every robot at every physics substep.
 """
 
 from __future__ import annotations
 
 import math
 
-_hypot = math.hypot
+import cython
+
+COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
+
+_hypot = math.hypot  # Python's own (CPython's hypot is not the C library's: same value as before, bit for bit)
 _MS_PER_H = 3600.0
 
 
+@cython.cclass
 class Battery:
     """One robot's battery (``spec``: a :class:`~petswarm_env.robot_types.Battery`)."""
 
-    __slots__ = ("capacity_mah", "remaining_mah", "empty", "actuating", "_servo", "_act", "_sens", "_inv_v", "_inv_w")
+    capacity_mah = cython.declare(cython.double, visibility="public")
+    remaining_mah = cython.declare(cython.double, visibility="public")
+    empty = cython.declare(cython.bint, visibility="public")
+    actuating = cython.declare(cython.bint, visibility="public")
+    _servo = cython.declare(cython.double)
+    _act = cython.declare(cython.double)
+    _sens = cython.declare(cython.double)
+    _inv_v = cython.declare(cython.double)
+    _inv_w = cython.declare(cython.double)
 
     def __init__(self, spec, max_speed_mps: float, max_omega_rps: float):
         self.capacity_mah = float(spec.capacity_mah)
@@ -47,14 +63,18 @@ class Battery:
         load = _hypot(vx, vy) * self._inv_v + abs(w) * self._inv_w
         return self._sens + self._servo * (load if load < 1.0 else 1.0) + (self._act if self.actuating else 0.0)
 
-    def drain(self, dt: float, velocity_body: tuple[float, float, float]) -> bool:
+    @cython.ccall
+    def drain(self, dt: cython.double, velocity_body: tuple) -> cython.bint:
         """One substep of ``dt`` s at ``velocity_body``; True when the battery has just emptied.
         (:meth:`current_ma`'s formula written out: it runs for every robot at every substep.)"""
         if self.empty:
             return False
+        vx: cython.double
+        vy: cython.double
+        w: cython.double
         vx, vy, w = velocity_body
-        load = _hypot(vx, vy) * self._inv_v + (w if w >= 0.0 else -w) * self._inv_w
-        ma = self._sens + self._servo * (load if load < 1.0 else 1.0)
+        load: cython.double = _hypot(vx, vy) * self._inv_v + (w if w >= 0.0 else -w) * self._inv_w
+        ma: cython.double = self._sens + self._servo * (load if load < 1.0 else 1.0)
         if self.actuating:
             ma += self._act
         self.remaining_mah -= ma * dt / _MS_PER_H

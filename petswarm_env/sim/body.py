@@ -7,6 +7,10 @@ bodies) or :func:`read_poses` (the world's truth arrays). They call Chipmunk's a
 instead of pymunk's Python properties, which build a ``Vec2d`` and go through a typing
 ``__setattr__`` on every access: the same C calls, a fraction of the cost, which matters for the
 per-substep drive and the radio's antenna positions.
+
+A module of the compiled core (``petswarm_env/_core.py``, Cython's pure-Python mode): :class:`Body`
+and :class:`DrivenBody` are typed classes (a robot and a user are Python subclasses of them), the
+drive's arithmetic per substep runs on C doubles.
 """
 
 from __future__ import annotations
@@ -15,7 +19,12 @@ import math
 from collections.abc import Callable
 from functools import partial
 
+import cython
 import pymunk
+from cython.cimports.libc.math import cos as _c_cos
+from cython.cimports.libc.math import sin as _c_sin
+
+COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
 
 _get_position = pymunk.cp.cpBodyGetPosition
 _get_angle = pymunk.cp.cpBodyGetAngle
@@ -23,18 +32,23 @@ _get_velocity = pymunk.cp.cpBodyGetVelocity
 _get_angular_velocity = pymunk.cp.cpBodyGetAngularVelocity
 _set_velocity = pymunk.cp.cpBodySetVelocity
 _set_angular_velocity = pymunk.cp.cpBodySetAngularVelocity
-_cos, _sin, _hypot = math.cos, math.sin, math.hypot
+_hypot = math.hypot  # Python's own (CPython's hypot is not the C library's: the same value as before, bit for bit)
 
 COLLISION_ROBOT = 1
 COLLISION_USER = 2
 COLLISION_WALL = 3
 
 
+@cython.cclass
 class Body:
     """A circle in the pymunk space: a dynamic body of ``mass_kg`` (a robot), or a kinematic one
     (``mass_kg=None``: a user, who bumps robots and does not yield). ``body`` and ``shape`` are the
     pymunk objects (moving ``body.position`` by hand is allowed; tell the world, see
     :meth:`~.world.World.invalidate_truth`)."""
+
+    body = cython.declare(object, visibility="public")
+    shape = cython.declare(object, visibility="public")
+    _cbody = cython.declare(object, visibility="public")
 
     def __init__(self, space: pymunk.Space, position, heading_rad: float, radius_m: float, collision_type: int,
                  mass_kg: float | None = None, friction: float | None = None, elasticity: float | None = None):
@@ -91,11 +105,19 @@ class Body:
             _set_angular_velocity(cb, omega)
 
 
+@cython.cclass
 class DrivenBody(Body):
     """A dynamic body driven by an own-frame velocity command under acceleration limits (a robot's
     motors): :meth:`apply`, every physics substep, moves the achieved velocity toward
     :attr:`command` by at most ``max_accel_mps2``·dt and ``max_alpha_rps2``·dt and writes it to the
     body (contacts may still change it during the substep)."""
+
+    command = cython.declare(tuple, visibility="public")
+    velocity_body = cython.declare(tuple, visibility="public")
+    _accel = cython.declare(tuple)
+    _limits_dt = cython.declare(cython.double)
+    _max_dv = cython.declare(cython.double)
+    _max_dw = cython.declare(cython.double)
 
     def __init__(self, space: pymunk.Space, position, heading_rad: float, radius_m: float, collision_type: int,
                  mass_kg: float, max_accel_mps2: float, max_alpha_rps2: float, **shape: float):
@@ -106,44 +128,57 @@ class DrivenBody(Body):
         self._limits_dt = -1.0  # the substep length the limits below were computed for
         self._max_dv = self._max_dw = 0.0
 
-    def apply(self, dt: float) -> None:
+    def apply(self, dt: cython.double) -> None:
         """One substep of the drive, from the body's actual velocity (after the last step's
         contacts); sets :attr:`velocity_body`. Only a changed value is written to the body."""
+        self.drive(dt)
+
+    @cython.ccall
+    def drive(self, dt: cython.double) -> cython.void:
+        """:meth:`apply`'s body, callable from C (a subclass's ``apply`` calls it)."""
         if dt != self._limits_dt:  # the per-substep limits, computed once per substep length
             self._limits_dt = dt
             self._max_dv = self._accel[0] * dt
             self._max_dw = self._accel[1] * dt
         cbody = self._cbody
-        th = _get_angle(cbody)
-        c, s = _cos(th), _sin(th)
+        th: cython.double = _get_angle(cbody)
+        c: cython.double = _c_cos(th)  # the C library's, as math.cos
+        s: cython.double = _c_sin(th)
         wv = _get_velocity(cbody)
-        wx, wy = wv.x, wv.y
-        vx = c * wx + s * wy
-        vy = -s * wx + c * wy
-        w = _get_angular_velocity(cbody)
+        wx: cython.double = wv.x
+        wy: cython.double = wv.y
+        vx: cython.double = c * wx + s * wy
+        vy: cython.double = -s * wx + c * wy
+        w: cython.double = _get_angular_velocity(cbody)
+        cx: cython.double
+        cy: cython.double
+        cw: cython.double
         cx, cy, cw = self.command
-        dvx, dvy = cx - vx, cy - vy
-        dv = _hypot(dvx, dvy)
-        max_dv = self._max_dv
+        dvx: cython.double = cx - vx
+        dvy: cython.double = cy - vy
+        dv: cython.double = _hypot(dvx, dvy)
+        max_dv: cython.double = self._max_dv
+        k: cython.double
         if dv > max_dv:
             k = max_dv / dv
             dvx *= k
             dvy *= k
         vx += dvx
         vy += dvy
-        max_dw = self._max_dw
-        dw = cw - w  # clipped to [-max_dw, max_dw]
+        max_dw: cython.double = self._max_dw
+        dw: cython.double = cw - w  # clipped to [-max_dw, max_dw]
         if dw > max_dw:
             dw = max_dw
         elif dw < -max_dw:
             dw = -max_dw
-        w_new = w + dw
+        w_new: cython.double = w + dw
         self.velocity_body = (vx, vy, w_new)
         # write only what changed (a body turning at its commanded rate, or driving straight at its
         # commanded speed, keeps its values): the same state as writing it again
         if w_new != w:
             _set_angular_velocity(cbody, w_new)
-        vx_w, vy_w = c * vx - s * vy, s * vx + c * vy
+        vx_w: cython.double = c * vx - s * vy
+        vy_w: cython.double = s * vx + c * vy
         if vx_w != wx or vy_w != wy:
             _set_velocity(cbody, (vx_w, vy_w))
 

@@ -119,7 +119,7 @@ class Robot(DrivenBody):
 
     def apply(self, dt: float) -> None:
         """One substep of the drive, then the battery's drain over it (an empty battery stops the robot)."""
-        DrivenBody.apply(self, dt)
+        self.drive(dt)  # DrivenBody.apply's drive (compiled)
         if self._drain(dt, self.velocity_body):
             self.command = (0.0, 0.0, 0.0)
 

@@ -12,6 +12,7 @@ when it is written, and renaming a function can never move its time.
 
 from __future__ import annotations
 
+import importlib.machinery
 import sysconfig
 from pathlib import Path
 
@@ -35,6 +36,7 @@ PROJECT = "petswarm_env"  # the package whose every module must have a part (wha
 MODULE_PARTS: dict[str, str | None] = {
     # the environment library
     "petswarm_env.__init__": "other",
+    "petswarm_env._core": "other",  # the compiled core's import check (import time only)
     "petswarm_env.config": "other",
     "petswarm_env.config_base": "other",
     "petswarm_env.config_runtime": "other",
@@ -92,6 +94,10 @@ def module_of(filename: str) -> str | None:
         return None  # built-ins (C functions, including pymunk's cffi calls) and frozen modules
     if "site-packages" not in path and any(path.startswith(p + "/") for p in _STDLIB):
         return None
+    for suffix in importlib.machinery.EXTENSION_SUFFIXES:  # a compiled module (petswarm_env/_core.py): its .py's name
+        if path.endswith(suffix):
+            path = path.removesuffix(suffix) + ".py"
+            break
     parts = path.removesuffix(".py").split("/")
     root = norm_path(str(ROOT)) + "/"
     if path.startswith(root):

@@ -28,6 +28,7 @@ from bench.settings import (
     BenchSettings,
     log,
 )
+from bench.instructions import bench_instructions, valgrind_available
 from bench.speed import bench_floor, bench_mpe, bench_petswarm, bench_side_by_side, mpe_available
 from bench.throughput import bench_training
 from petswarm_env.config import load_config
@@ -138,6 +139,15 @@ def run_bench(s: BenchSettings, mode: str = "custom", verbose: bool = False) -> 
         mark = now
 
     results, skipped, side_by_side = _speeds(s, verbose, phase)
+    instructions = None
+    if s.instructions_steps is not None:
+        ok, reason = valgrind_available()
+        if ok:
+            log(verbose, f"instructions per step (callgrind), 1+5, {s.instructions_steps} replayed steps")
+            instructions = bench_instructions(5, s.seed, s.instructions_steps)
+        else:
+            skipped.append({"name": "instructions", "reason": reason})
+        phase("instructions")
     prof_slaves = 5 if 5 in s.slaves else s.slaves[len(s.slaves) // 2]
     breakdown = _breakdown(s, prof_slaves, results, verbose)
     phase("breakdown")
@@ -156,6 +166,7 @@ def run_bench(s: BenchSettings, mode: str = "custom", verbose: bool = False) -> 
         "skipped": skipped,
         "ratios": ratios,
         "side_by_side": side_by_side,
+        "instructions": instructions,
         "targets": _targets(ratios, memory),
         "memory_mb": memory,
         "breakdown": breakdown,

@@ -47,13 +47,6 @@ class _Entry:
     event = cython.declare(object)  # the event, or the callback's function
     args = cython.declare(tuple)  # the callback's arguments; None for an event
 
-    def __init__(self, t: cython.double, prio: cython.int, eid: cython.longlong, event: object, args: Optional[tuple]):
-        self.t = t
-        self.prio = prio
-        self.eid = eid
-        self.event = event
-        self.args = args
-
 
 @cython.cfunc
 @cython.inline
@@ -85,7 +78,12 @@ class Clock:
     @cython.cfunc
     def _push(self, t: cython.double, prio: cython.int, event: object, args: Optional[tuple]) -> cython.void:
         heap: list = self._heap
-        entry: _Entry = _Entry(t, prio, self._eid, event, args)
+        entry: _Entry = _Entry.__new__(_Entry)  # no __init__: the fields are set here
+        entry.t = t
+        entry.prio = prio
+        entry.eid = self._eid
+        entry.event = event
+        entry.args = args
         self._eid += 1
         heap.append(entry)
         pos: cython.Py_ssize_t = len(heap) - 1

@@ -75,7 +75,8 @@ def problem() -> str | None:
         ext = extension_path(module)
         if ext is None:
             missing.append(module)
-        elif source_path(module).exists() and source_path(module).stat().st_mtime > ext.stat().st_mtime + 1.0:
+        elif any(src.exists() and src.stat().st_mtime > ext.stat().st_mtime + 1.0  # its .py, or its .pxd
+                 for src in (source_path(module), source_path(module).with_suffix(".pxd"))):
             stale.append(module)
     if missing:
         return f"petswarm: compiled core not built ({', '.join(missing)}); {FIX}"

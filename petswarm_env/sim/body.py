@@ -34,6 +34,77 @@ _set_velocity = pymunk.cp.cpBodySetVelocity
 _set_angular_velocity = pymunk.cp.cpBodySetAngularVelocity
 _hypot = math.hypot  # Python's own (CPython's hypot is not the C library's: the same value as before, bit for bit)
 
+if cython.compiled:  # Chipmunk's accessors by their C addresses (declared in body.pxd)
+    def _address(name: str) -> int:
+        return int(pymunk.ffi.cast("uintptr_t", pymunk.ffi.addressof(pymunk.cp, name)))
+
+    _cp_get_position = cython.cast(_GetVec, cython.cast(cython.size_t, _address("cpBodyGetPosition")))
+    _cp_get_angle = cython.cast(_GetDbl, cython.cast(cython.size_t, _address("cpBodyGetAngle")))
+    _cp_get_velocity = cython.cast(_GetVec, cython.cast(cython.size_t, _address("cpBodyGetVelocity")))
+    _cp_get_angular_velocity = cython.cast(_GetDbl, cython.cast(cython.size_t, _address("cpBodyGetAngularVelocity")))
+    _cp_set_velocity = cython.cast(_SetVec, cython.cast(cython.size_t, _address("cpBodySetVelocity")))
+    _cp_set_angular_velocity = cython.cast(_SetDbl, cython.cast(cython.size_t, _address("cpBodySetAngularVelocity")))
+
+
+# One accessor each for what the drive and the radio read and write of a body: Chipmunk's own
+# functions, called directly in the compiled form and through pymunk's cffi module otherwise.
+@cython.cfunc
+@cython.inline
+def _pos(b: Body) -> tuple[cython.double, cython.double]:
+    if cython.compiled:
+        p = _cp_get_position(cython.cast(cython.p_void, b._cp))
+        return (p.x, p.y)
+    q = _get_position(b._cbody)
+    return (q.x, q.y)
+
+
+@cython.cfunc
+@cython.inline
+def _angle(b: Body) -> cython.double:
+    if cython.compiled:
+        return _cp_get_angle(cython.cast(cython.p_void, b._cp))
+    return _get_angle(b._cbody)
+
+
+@cython.cfunc
+@cython.inline
+def _vel(b: Body) -> tuple[cython.double, cython.double]:
+    if cython.compiled:
+        v = _cp_get_velocity(cython.cast(cython.p_void, b._cp))
+        return (v.x, v.y)
+    w = _get_velocity(b._cbody)
+    return (w.x, w.y)
+
+
+@cython.cfunc
+@cython.inline
+def _omega(b: Body) -> cython.double:
+    if cython.compiled:
+        return _cp_get_angular_velocity(cython.cast(cython.p_void, b._cp))
+    return _get_angular_velocity(b._cbody)
+
+
+@cython.cfunc
+@cython.inline
+def _set_vel(b: Body, x: cython.double, y: cython.double) -> cython.void:
+    if cython.compiled:
+        v: cpVect
+        v.x = x
+        v.y = y
+        _cp_set_velocity(cython.cast(cython.p_void, b._cp), v)
+    else:
+        _set_velocity(b._cbody, (x, y))
+
+
+@cython.cfunc
+@cython.inline
+def _set_omega(b: Body, w: cython.double) -> cython.void:
+    if cython.compiled:
+        _cp_set_angular_velocity(cython.cast(cython.p_void, b._cp), w)
+    else:
+        _set_angular_velocity(b._cbody, w)
+
+
 COLLISION_ROBOT = 1
 COLLISION_USER = 2
 COLLISION_WALL = 3
@@ -45,10 +116,6 @@ class Body:
     (``mass_kg=None``: a user, who bumps robots and does not yield). ``body`` and ``shape`` are the
     pymunk objects (moving ``body.position`` by hand is allowed; tell the world, see
     :meth:`~.world.World.invalidate_truth`)."""
-
-    body = cython.declare(object, visibility="public")
-    shape = cython.declare(object, visibility="public")
-    _cbody = cython.declare(object, visibility="public")
 
     def __init__(self, space: pymunk.Space, position, heading_rad: float, radius_m: float, collision_type: int,
                  mass_kg: float | None = None, friction: float | None = None, elasticity: float | None = None):
@@ -65,23 +132,23 @@ class Body:
         if elasticity is not None:
             self.shape.elasticity = elasticity
         self._cbody = self.body._body  # the Chipmunk body behind self.body
+        if cython.compiled:
+            self._cp = int(pymunk.ffi.cast("uintptr_t", self._cbody))  # its address (body.pxd)
 
     @property
     def position(self) -> tuple[float, float]:
         """True position of the centre (m), world frame."""
-        p = _get_position(self._cbody)
-        return (p.x, p.y)
+        return _pos(self)
 
     def read_position(self) -> tuple[float, float]:
         """:attr:`position` as a method, for a caller that binds it once (a radio station's
         antenna position, read for every frame it sends or receives)."""
-        p = _get_position(self._cbody)
-        return (p.x, p.y)
+        return _pos(self)
 
     @property
     def heading(self) -> float:
         """True heading (rad, counter-clockwise from +x; not wrapped)."""
-        return _get_angle(self._cbody)
+        return _angle(self)
 
     def heading_reader(self) -> Callable[[], float]:
         """A function of no argument that returns :attr:`heading`: Chipmunk's accessor bound to
@@ -92,17 +159,21 @@ class Body:
     @property
     def turn_rate_rps(self) -> float:
         """True angular velocity (rad/s, counter-clockwise)."""
-        return _get_angular_velocity(self._cbody)
+        return _omega(self)
 
     def set_velocity(self, velocity: tuple[float, float], omega: float) -> None:
         """Give the body a world-frame velocity (m/s) and angular velocity (rad/s). Only a changed
         value is written: the same state as writing it again."""
-        cb = self._cbody
-        v = _get_velocity(cb)
-        if velocity[0] != v.x or velocity[1] != v.y:
-            _set_velocity(cb, velocity)
-        if omega != _get_angular_velocity(cb):
-            _set_angular_velocity(cb, omega)
+        vx: cython.double
+        vy: cython.double
+        vx, vy = velocity
+        wx: cython.double
+        wy: cython.double
+        wx, wy = _vel(self)
+        if vx != wx or vy != wy:
+            _set_vel(self, vx, vy)
+        if omega != _omega(self):
+            _set_omega(self, omega)
 
 
 @cython.cclass
@@ -111,13 +182,6 @@ class DrivenBody(Body):
     motors): :meth:`apply`, every physics substep, moves the achieved velocity toward
     :attr:`command` by at most ``max_accel_mps2``·dt and ``max_alpha_rps2``·dt and writes it to the
     body (contacts may still change it during the substep)."""
-
-    command = cython.declare(tuple, visibility="public")
-    velocity_body = cython.declare(tuple, visibility="public")
-    _accel = cython.declare(tuple)
-    _limits_dt = cython.declare(cython.double)
-    _max_dv = cython.declare(cython.double)
-    _max_dw = cython.declare(cython.double)
 
     def __init__(self, space: pymunk.Space, position, heading_rad: float, radius_m: float, collision_type: int,
                  mass_kg: float, max_accel_mps2: float, max_alpha_rps2: float, **shape: float):
@@ -134,22 +198,21 @@ class DrivenBody(Body):
         self.drive(dt)
 
     @cython.ccall
-    def drive(self, dt: cython.double) -> cython.void:
+    def drive(self, dt: cython.double) -> None:
         """:meth:`apply`'s body, callable from C (a subclass's ``apply`` calls it)."""
         if dt != self._limits_dt:  # the per-substep limits, computed once per substep length
             self._limits_dt = dt
             self._max_dv = self._accel[0] * dt
             self._max_dw = self._accel[1] * dt
-        cbody = self._cbody
-        th: cython.double = _get_angle(cbody)
+        th: cython.double = _angle(self)
         c: cython.double = _c_cos(th)  # the C library's, as math.cos
         s: cython.double = _c_sin(th)
-        wv = _get_velocity(cbody)
-        wx: cython.double = wv.x
-        wy: cython.double = wv.y
+        wx: cython.double
+        wy: cython.double
+        wx, wy = _vel(self)
         vx: cython.double = c * wx + s * wy
         vy: cython.double = -s * wx + c * wy
-        w: cython.double = _get_angular_velocity(cbody)
+        w: cython.double = _omega(self)
         cx: cython.double
         cy: cython.double
         cw: cython.double
@@ -176,21 +239,24 @@ class DrivenBody(Body):
         # write only what changed (a body turning at its commanded rate, or driving straight at its
         # commanded speed, keeps its values): the same state as writing it again
         if w_new != w:
-            _set_angular_velocity(cbody, w_new)
+            _set_omega(self, w_new)
         vx_w: cython.double = c * vx - s * vy
         vy_w: cython.double = s * vx + c * vy
         if vx_w != wx or vy_w != wy:
-            _set_velocity(cbody, (vx_w, vy_w))
+            _set_vel(self, vx_w, vy_w)
 
 
 def read_poses(bodies: list[Body]) -> tuple[list[float], list[float]]:
     """Centres ``[x0, y0, x1, y1, ...]`` (m) and headings (rad) of ``bodies``, read from Chipmunk
     in one pass (the world's truth arrays, once per physics step)."""
-    xy, th = [], []
+    xy: list = []
+    th: list = []
+    b: Body
+    x: cython.double
+    y: cython.double
     for b in bodies:
-        cb = b._cbody
-        p = _get_position(cb)
-        xy.append(p.x)
-        xy.append(p.y)
-        th.append(_get_angle(cb))
+        x, y = _pos(b)
+        xy.append(x)
+        xy.append(y)
+        th.append(_angle(b))
     return xy, th

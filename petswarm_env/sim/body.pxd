@@ -1,0 +1,37 @@
+# The compiled form's declarations of body.py (Cython's augmenting .pxd: the typed attributes of its
+# classes, and Chipmunk's body accessors called through their C addresses, which pymunk's cffi
+# module gives; body.py reads them only when compiled, the interpreter calls them through cffi).
+
+ctypedef struct cpVect:  # Chipmunk's cpVect (cpFloat is double in pymunk's build)
+    double x
+    double y
+
+ctypedef cpVect (*_GetVec)(void *) noexcept nogil
+ctypedef double (*_GetDbl)(void *) noexcept nogil
+ctypedef void (*_SetVec)(void *, cpVect) noexcept nogil
+ctypedef void (*_SetDbl)(void *, double) noexcept nogil
+
+cdef _GetVec _cp_get_position
+cdef _GetDbl _cp_get_angle
+cdef _GetVec _cp_get_velocity
+cdef _GetDbl _cp_get_angular_velocity
+cdef _SetVec _cp_set_velocity
+cdef _SetDbl _cp_set_angular_velocity
+
+
+cdef class Body:
+    cdef public object body
+    cdef public object shape
+    cdef public object _cbody
+    cdef size_t _cp  # the address of the Chipmunk body (alive as long as ``body``)
+
+
+cdef class DrivenBody(Body):
+    cdef public tuple command
+    cdef public tuple velocity_body
+    cdef tuple _accel
+    cdef double _limits_dt
+    cdef double _max_dv
+    cdef double _max_dw
+
+    cpdef drive(self, double dt)

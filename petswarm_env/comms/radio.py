@@ -76,6 +76,16 @@ class Frame:
     rx_distance_est_m: cython.double = math.nan  # filled per reception
 
 
+@cython.cfunc
+def _received(frame: Frame, est: cython.double) -> Frame:
+    """The copy of ``frame`` a receiver gets, with its RSSI distance estimate (the fields set
+    directly: a frame is copied for every reception)."""
+    out: Frame = Frame.__new__(Frame)
+    out.kind, out.src, out.dst, out.pan = frame.kind, frame.src, frame.dst, frame.pan
+    out.payload, out.size_bytes, out.rx_distance_est_m = frame.payload, frame.size_bytes, est
+    return out
+
+
 class Station(Protocol):
     node_id: int
     pans: frozenset[int]  # PAN IDs its MAC accepts
@@ -383,4 +393,4 @@ class RadioMedium:
             est = d * 10.0 ** (shadow_k * self._rx_normal()) if shadow_k > 0 else d
             if trace is not None:
                 trace.reception(now, frame, node_id, DELIVERED, est)
-            st.receive(Frame(frame.kind, src, frame.dst, frame.pan, frame.payload, frame.size_bytes, est))
+            st.receive(_received(frame, est))

@@ -216,14 +216,18 @@ class PetSwarmEnv(ParallelEnv):
 
     # -- per step --------------------------------------------------------------------------------
     def _validate(self, actions: dict[str, Any]) -> dict[str, np.ndarray]:
+        """Every live agent's action, checked and clipped to [-1, 1]. An id that is not a possible
+        agent is refused; an action for a possible agent that is not live now (it left, or has
+        not joined) is ignored, as PettingZoo's own conversions do (``aec_to_parallel`` steps only
+        the live agents); a live agent without an action stands still."""
         if not isinstance(actions, dict):
             raise TypeError(f"actions must be a dict agent -> array of 3 floats, got {type(actions).__name__}")
-        unknown = set(actions) - set(self.agents)
+        unknown = [a for a in actions if a not in self._possible]
         if unknown:
-            raise KeyError(f"actions for agents not in the episode: {sorted(unknown)}; live agents: {self.agents}")
+            raise KeyError(f"actions for agents not in the episode: {sorted(map(str, unknown))}; live agents: {self.agents}")
         # the common case in one numpy pass: a float array for every agent, all finite, shape (3,)
-        if len(actions) == len(self.agents):
-            values = [actions[a] for a in self.agents]
+        if len(actions) >= len(self.agents):
+            values = [actions.get(a) for a in self.agents]
             arr = None
             if all(type(v) is np.ndarray and v.dtype.kind == "f" for v in values):
                 try:

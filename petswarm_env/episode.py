@@ -179,20 +179,26 @@ class Episode:
         live = {f"robot_{i}" for i in slaves}
         terminations = {a: a not in live for a in self.agents}
         for a, done in terminations.items():  # a robot that left slave-role driving and drives no user stands still
-            if done and fleet.nodes[agent_index[a]].state != "master":
-                world.robots[agent_index[a]].set_command(0.0, 0.0, 0.0)
+            if done:
+                self.left.add(a)
+                if fleet.nodes[agent_index[a]].state != "master":
+                    world.robots[agent_index[a]].set_command(0.0, 0.0, 0.0)
         truncations = {a: truncated for a in self.agents}
         joined = [a for a in (f"robot_{i}" for i in slaves)
-                  if a not in self.agents and a in self.setup.possible]
+                  if a not in self.agents and a in self.setup.possible and a not in self.left]
         for a in joined:
             self.last_action[a] = np.zeros(3, np.float32)
         self.slave_ids = slaves
         before = list(self.agents)
         self.agents = [a for a in before if a in live and not truncated] + ([] if truncated else joined)
-        observations = self.observer.observe(before + [a for a in joined if a not in before], self.last_action, world.now)
+        # observed in the order of before (the odometry noise is one draw over them, observe.py);
+        # an agent terminated now gets no observation (module docstring)
+        observed = self.observer.observe(before + [a for a in joined if a not in before], self.last_action, world.now)
+        observations = {a: o for a, o in observed.items() if not terminations.get(a, False)}
         for a in joined:
             rewards[a], terminations[a], truncations[a] = 0.0, False, truncated
             infos[a] = self._info(a, 0.0, 0, 1)
+        infos = {a: infos[a] for a in observations}
         return observations, rewards, terminations, truncations, infos
 
     def tick(self, acts: dict[str, np.ndarray] | None = None) -> None:
@@ -365,6 +371,10 @@ class Episode:
                 robot.set_command(0.0, 0.0, 0.0)
         if acts is None:
             return
+        if self.left:  # a robot recruited again after it left the agents has no driver (module docstring): held still
+            for idx in self.slave_ids:
+                if f"robot_{idx}" in self.left and idx not in masters:
+                    world.robots[idx].set_command(0.0, 0.0, 0.0)
         for agent, a in acts.items():
             idx = self.agent_index[agent]
             if idx in masters:

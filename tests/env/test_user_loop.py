@@ -397,7 +397,7 @@ def test_user_disperse_request_sends_robots_back_and_ends_their_agency():
     assert env.agents == []  # every slave left slave-role driving: terminated
     for i in slaves:
         assert env.episode.fleet.nodes[i].state == "waiting" and env.episode.fleet.nodes[i].swarm_pan is None
-    assert infos and not env.agents  # no agent left: the episode is over
+    assert infos == {} and not env.agents  # every agent terminated (no observation or info after its last step): the episode is over
     for _ in range(5):  # the master's disperse process ends after its last acknowledgement window
         env.episode.world.advance(env.cfg.physics_substeps)
     assert env.episode.swarm.master.state == "following" and env.episode.session.state == "following"

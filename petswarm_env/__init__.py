@@ -5,7 +5,8 @@
 >>> env = petswarm_env.make("petswarm_v0", **{"swarm.num_slaves": 3})  # the same, by its versioned id
 
 ``parallel_env``, ``env`` and ``raw_env`` are :mod:`petswarm_env.petswarm_v0`'s (PettingZoo's
-meanings: the ParallelEnv, the wrapped AEC env, the unwrapped AEC env). For libraries that need
+meanings: the ParallelEnv, the wrapped AEC env, the unwrapped AEC env); ``vector_env(num_envs,
+...)`` steps ``num_envs`` copies in one process with arrays in and out (:mod:`petswarm_env.vector`). For libraries that need
 every possible agent at every step: :class:`petswarm_env.wrappers.FixedAgents`.
 """
 
@@ -16,11 +17,11 @@ from typing import Any
 from petswarm_env import petswarm_v0
 from petswarm_env.config import Config, ConfigError, load_config
 from petswarm_env.env import ENV_NAME, PetSwarmEnv
-from petswarm_env.petswarm_v0 import env, parallel_env, raw_env
+from petswarm_env.petswarm_v0 import env, parallel_env, raw_env, vector_env
 
 __version__ = "0.1.0"
 __all__ = ["ENV_NAME", "ENVS", "Config", "ConfigError", "PetSwarmEnv", "env", "load_config", "make", "parallel_env",
-           "petswarm_v0", "raw_env"]
+           "petswarm_v0", "raw_env", "vector_env"]
 
 ENVS = {ENV_NAME: petswarm_v0}  # versioned id -> module with env / parallel_env / raw_env
 

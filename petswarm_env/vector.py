@@ -19,8 +19,9 @@
   reached ``max_cycles``.
 - **Auto-reset**: a copy whose episode has no agent left after a step starts its next episode in
   the same call; its row of ``obs`` and ``active`` is then the new episode's first, and
-  ``infos[n]`` holds the finished episode's ``final_observation`` and ``final_active`` (the arrays
-  of its last step), ``episode_summary`` and ``episode_seed``.
+  ``infos[n]`` holds the finished episode's ``final_observation``, ``final_active`` and
+  ``final_state`` (the arrays of its last step), ``episode_summary`` and ``finished_seed``, and the
+  new episode's ``episode_seed``.
 - **Seeds**: ``reset(seed=s)`` draws every episode's seed — each copy's first, then every
   auto-reset's, in copy order — from one generator seeded with ``s`` (``episode_seeds`` holds
   each copy's current one). Episode ``k`` of copy ``n`` is bit for bit the episode of
@@ -134,7 +135,7 @@ class VectorEnv:
             if not episode.agents:  # the episode is over: its last arrays, then the next episode
                 observed = np.zeros(m, bool)
                 observed[[slot[a] for a in observations]] = True
-                info = {"final_observation": obs[n].copy(), "final_active": observed,
+                info = {"final_observation": obs[n].copy(), "final_active": observed, "final_state": episode.state(),
                         "episode_summary": episode.summary(), "finished_seed": int(self.episode_seeds[n])}
                 info.update(self._start(n, obs))
             infos.append(info)

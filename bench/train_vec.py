@@ -10,7 +10,8 @@ took before the vector env) and ``petswarm`` (the ``num_envs`` copies in this pr
 samples/s of ``model.learn`` (env steps, inference and the PPO updates), and CPU samples/s: the
 same samples over the CPU time of this process and its worker processes (``os.times``, the workers
 counted once they are joined at ``close``), which other processes' load on a shared machine
-disturbs less.
+disturbs less; and the env's share of ``learn()``: the wall time the learner waits in the vector
+env's ``step_wait``.
 """
 
 from __future__ import annotations
@@ -43,13 +44,24 @@ def one_run(path: str, samples: int, num_envs: int, num_cpus: int, seed: int = 0
         warnings.filterwarnings("ignore", message="The `render_mode` attribute is not defined")
         venv = make_vec_env(tcfg.env_config(), num_envs, num_cpus, seed, vec_env=path)
     model = build_model(tcfg.ppo, venv, seed)
+    inner, env_s = venv.venv, [0.0]  # under SB3's VecMonitor: the vector env the learner waits on each step
+    step_wait = inner.step_wait
+
+    def timed_step_wait():
+        t = time.perf_counter()
+        try:
+            return step_wait()
+        finally:
+            env_s[0] += time.perf_counter() - t
+
+    inner.step_wait = timed_step_wait
     c0, t0 = _cpu(), time.perf_counter()
     model.learn(total_timesteps=samples, progress_bar=False)
     wall = time.perf_counter() - t0
     venv.close()
     cpu = _cpu() - c0
     n = int(model.num_timesteps)
-    return {"path": path, "samples": n, "rows": venv.num_envs, "wall_s": wall, "cpu_s": cpu,
+    return {"path": path, "samples": n, "rows": venv.num_envs, "wall_s": wall, "cpu_s": cpu, "env_share": env_s[0] / wall,
             "samples_per_s": n / wall, "samples_per_cpu_s": n / cpu}
 
 
@@ -66,11 +78,11 @@ def main(argv: list[str] | None = None) -> dict:
             run = one_run(path, args.samples, args.num_envs, args.num_cpus)
             runs.append(run)
             print(f"round {r}: {path:9s} {run['samples']} samples, {run['samples_per_s']:,.0f} samples/s wall, "
-                  f"{run['samples_per_cpu_s']:,.0f} samples per CPU-s", flush=True)
+                  f"{run['samples_per_cpu_s']:,.0f} samples per CPU-s, env {100 * run['env_share']:.0f} % of learn()", flush=True)
     out = {"args": vars(args), "runs": runs}
     for path in ("supersuit", "petswarm"):
         mine = [x for x in runs if x["path"] == path]
-        out[path] = {k: statistics.median(x[k] for x in mine) for k in ("samples_per_s", "samples_per_cpu_s")}
+        out[path] = {k: statistics.median(x[k] for x in mine) for k in ("samples_per_s", "samples_per_cpu_s", "env_share")}
     out["wall_speedup"] = out["petswarm"]["samples_per_s"] / out["supersuit"]["samples_per_s"]
     out["cpu_speedup"] = out["petswarm"]["samples_per_cpu_s"] / out["supersuit"]["samples_per_cpu_s"]
     print(json.dumps({k: out[k] for k in ("supersuit", "petswarm", "wall_speedup", "cpu_speedup")}, indent=1))

@@ -1,11 +1,14 @@
 """Wrappers for MARL libraries that need a fixed set of agents.
 
-The env's agents follow the middleware (:mod:`petswarm_env.env`): in a mode change with master
-change the farthest slave becomes the master (*terminated*) and the old master joins as a slave a
-few steps later; a dispersed swarm's slaves all leave. Most adapters assume that every possible
-agent is present from reset to the episode's end: SuperSuit's vector env, RLlib's
-``ParallelPettingZooEnv`` (its spaces come from the first reset's agents), TorchRL's
-``PettingZooWrapper`` and BenchMARL over it. :class:`FixedAgents` gives them that.
+The env's agents follow the middleware (:mod:`petswarm_env.env`, the lifecycle of
+:mod:`petswarm_env.episode`): in a mode change with master change the farthest slave becomes the
+master (*terminated*) and the old master joins as a slave a few steps later; a dispersed swarm's
+slaves all leave; an arrival joins. The raw env passes PettingZoo's ``parallel_api_test`` and
+drives RLlib's ``ParallelPettingZooEnv`` with RLlib's own episode bookkeeping on every scenario
+(tests/env/test_lifecycle.py). Adapters that assume every possible agent is present from reset to
+the episode's end need :class:`FixedAgents`: SuperSuit's vector env, TorchRL's ``PettingZooWrapper``
+where an agent joins after reset (it reads every possible agent's observation at reset: a master
+change, an arrival; without one it takes the raw env with ``use_mask=True``) and BenchMARL over it.
 
 Do not use SuperSuit's ``black_death_v3`` instead: in SuperSuit 3.11 it ends an episode only when
 its agents are terminated *and* truncated, so an episode that ends by truncation (every petswarm

@@ -78,3 +78,39 @@ def test_terminated_agents_get_reward_and_termination_but_no_observation():
                 assert a not in obs and isinstance(rewards[a], float)
     assert ended == 1  # the new master
     assert env.episode_summary()["events"]["master_changes"] == 1
+
+
+@pytest.mark.parametrize("scenario, kind", [("mode_change", None), ("dropout", "dead")])
+def test_rllibs_parallel_pettingzoo_env_and_its_episode_bookkeeping_take_the_raw_env(scenario, kind):
+    """RLlib's ParallelPettingZooEnv straight around the env, its steps fed to RLlib's own
+    MultiAgentEpisode (what its env runners do): agents that join, leave or are truncated."""
+    pytest.importorskip("ray")
+    from ray.rllib.env.multi_agent_episode import MultiAgentEpisode
+    from ray.rllib.env.wrappers.pettingzoo_env import ParallelPettingZooEnv
+
+    raw = _env(scenario, kind, max_cycles=400) if kind else petswarm_env.parallel_env(**{"user.scenario": scenario, "max_cycles": 400})
+    env = ParallelPettingZooEnv(raw)
+    policy = make_policy("scripted", PolicySpec.from_env(raw))
+    obs, infos = env.reset(seed=0)
+    episode = MultiAgentEpisode()
+    episode.add_env_reset(observations=obs, infos=infos)
+    done = False
+    while not done:
+        actions = policy.act_all(obs)
+        obs, rewards, terms, truncs, infos = env.step(actions)
+        episode.add_env_step(observations=obs, actions=actions, rewards=rewards, infos=infos, terminateds=terms, truncateds=truncs)
+        done = terms["__all__"] or truncs["__all__"]
+    assert episode.is_done and len(episode.agent_episodes) == 5  # mode_change: robot_0 joins; dropout: the arrival robot_5
+
+
+def test_torchrls_pettingzoo_wrapper_takes_the_raw_env_when_every_agent_is_there_at_reset():
+    """TorchRL's PettingZooWrapper (use_mask=True) reads every possible agent's observation at reset:
+    it takes the raw env where no agent joins later (no master change, no arrival), through
+    transient faults and auto-resets; elsewhere FixedAgents (petswarm_env/wrappers.py)."""
+    pytest.importorskip("torchrl")
+    from torchrl.envs import PettingZooWrapper
+
+    env = PettingZooWrapper(env=_env("straight", "dead", max_cycles=150), use_mask=True, done_on_any=False, return_state=True)
+    td = env.rollout(320, break_when_any_done=False)
+    mask = td["robot", "mask"].sum(-1)
+    assert int(mask.max()) == 4 and int(mask.min()) == 3 and int(td["next", "done"].sum()) == 2

@@ -71,7 +71,9 @@ def test_eval_writes_per_scenario_summaries_and_gifs_relative_to_the_json(tmp_pa
     assert len(data["episodes"][0]["error_trace"]) == 12
 
 
-@pytest.mark.parametrize("args, words", [(["--address", "127.0.0.1:6379"], "--backend rllib"), (["--backend", "jax"], "--backend")])
+@pytest.mark.parametrize("args, words", [(["--address", "127.0.0.1:6379"], "--backend rllib"), (["--backend", "jax"], "--backend"),
+                                         (["--backend", "rllib", "--vec-env", "supersuit"], "--vec-env"),
+                                         (["--vec-env", "gym"], "--vec-env")])
 def test_train_backend_options_are_checked_with_one_line(args, words, tmp_path):
     out = _run("train", "--out", str(tmp_path / "r"), *args)
     assert out.returncode == 2 and "Traceback" not in out.stderr

@@ -114,3 +114,13 @@ def test_torchrls_pettingzoo_wrapper_takes_the_raw_env_when_every_agent_is_there
     td = env.rollout(320, break_when_any_done=False)
     mask = td["robot", "mask"].sum(-1)
     assert int(mask.max()) == 4 and int(mask.min()) == 3 and int(td["next", "done"].sum()) == 2
+
+
+def test_the_benchs_loop_acts_only_for_live_agents_past_a_slave_leaving():
+    """bench/loops.EnvLoop feeds every observation back as actions: 1 + 16 slaves, seed 0, a slave
+    leaves at step 544 (it raised KeyError when the step's observations held the agent that left)."""
+    from bench.loops import EnvLoop
+
+    loop = EnvLoop(16, "scripted", 0)
+    loop.run(steps=560)
+    assert loop.steps == 560

@@ -39,7 +39,7 @@ def bench_training(s: BenchSettings, verbose: bool = False) -> dict:
         set_random_seed(s.seed)
         with warnings.catch_warnings():  # SB3 notes SuperSuit's vector env has no render_mode
             warnings.filterwarnings("ignore", message="The `render_mode` attribute is not defined")
-            venv = make_vec_env(env_cfg, num_envs, num_cpus, s.seed)
+            venv = make_vec_env(env_cfg, num_envs, num_cpus, s.seed, vec_env="supersuit")  # k workers: k processes
         try:
             model = build_model(p, venv, s.seed, n_steps=n_steps, batch_size=batch)
             t0 = time.perf_counter()

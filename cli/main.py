@@ -132,6 +132,9 @@ def _add_train(sub) -> None:
     train.add_argument("--no-progress", action="store_true", help="no progress bar")
     train.add_argument("--backend", choices=["sb3", "rllib"], default="sb3",
                        help="sb3: Stable-Baselines3 + SuperSuit (default); rllib: Ray RLlib's PPO (the rllib extra), see docs/training.md")
+    train.add_argument("--vec-env", choices=["petswarm", "supersuit"], default="petswarm",
+                       help="sb3's vector env: petswarm = the batched vector env in this process (default; a run with randomize "
+                            "pools or residual_of uses supersuit), supersuit = SuperSuit over num_cpus worker processes")
     train.add_argument("--address", metavar="HOST:PORT",
                        help="with --backend rllib: join the Ray cluster whose head is at HOST:PORT (default: a local Ray on 127.0.0.1)")
 
@@ -235,8 +238,12 @@ def _train(args, argv: list[str]) -> int:
         from training.rllib_backend import train_rllib
 
         run, options = train_rllib, {"address": args.address}
+        if args.vec_env != "petswarm":
+            raise ConfigError("--vec-env chooses the SB3 back end's vector env: drop it with --backend rllib")
     elif args.address:
         raise ConfigError("--address joins a Ray cluster: it needs --backend rllib")
+    else:
+        options = {"vec_env": args.vec_env}
     return train_command(args.config, args.set, args.timesteps, args.out, args.resume, not args.no_progress,
                          "petswarm " + " ".join(argv), run, **options)
 

@@ -34,37 +34,35 @@ def _run(scenario: str, seed: int, overrides: dict | None = None) -> dict:
     env = petswarm_env.parallel_env(**{"user.scenario": scenario, **(overrides or {})})
     obs, _ = env.reset(seed=seed)
     policy = make_policy("scripted", PolicySpec.from_env(env), seed=seed)
-    t0 = env.world.now
+    t0 = env.truth.now
     track: list[tuple[float, list[tuple[float, float]]]] = []  # (time, every robot's position)
     errors: list[tuple[float, float]] = []  # (time, the largest slave formation error)
     while env.agents:
         obs, _, _, _, infos = env.step(policy.act_all({a: obs[a] for a in env.agents}))
-        track.append((env.world.now, [r.position for r in env.world.robots]))
+        track.append((env.truth.now, [r.position for r in env.truth.robots]))
         if infos:
-            errors.append((env.world.now, max(i["formation_error_m"] for i in infos.values())))
+            errors.append((env.truth.now, max(i["formation_error_m"] for i in infos.values())))
     if scenario == "master_loss":  # the episode ended with its last slave: watch the robots stop, 3 s more of the world
         for _ in range(int(round(3.0 / env.cfg.control_period_s))):
-            env._control(None)
-            env.world.advance(env.cfg.physics_substeps)
-            env.sensors.read_rings()
-            track.append((env.world.now, [r.position for r in env.world.robots]))
+            env.episode.tick()  # the world goes on: the masters driven by their users, no agent
+            track.append((env.truth.now, [r.position for r in env.truth.robots]))
     summary = env.episode_summary()
     out = {k: summary[k] for k in ("faults_injected", "faults_detected", "detection_time_s", "reassignments",
                                    "reassignment_time_s", "slots_unfilled_s", "arrivals_joined", "formation_rmse_m")}
     out["collisions"] = summary["collisions"]
-    log = env.swarm.member_log
+    log = env.truth.member_log
     joined = [t for t, event, _ in log if event == "joined"]
     if joined:
         since = joined[-1] + SETTLE_S
         out["max_error_after_refill_m"] = max((e for t, e in errors if t >= since), default=math.nan)
         out["refilled_at_s"] = joined[-1] - t0
-    end = env.world.now
+    end = env.truth.now
     out["max_error_last_10s_m"] = max((e for t, e in errors if t >= end - 10.0), default=math.nan)
     if scenario == "master_loss":
         timeout = env.cfg.protocol.status_timeout_s
         moved = []
-        fault_s = env.runtime.faults.log[0].time_s
-        for idx, node in env.fleet.nodes.items():
+        fault_s = env.truth.faults[0].time_s
+        for idx, node in env.truth.nodes.items():
             for _, master, t_timeout in node.seq.master_lost_at:
                 if t_timeout < fault_s:
                     continue  # an earlier timeout (under loss): not the master's loss

@@ -322,7 +322,7 @@ class PcapRecorder:
             self.counts["busy"] += 1
 
     def __call__(self) -> None:
-        now = self.env.world.now
+        now = self.env.truth.now
         if self.episode_start_s is None:
             self.episode_start_s = now
             self.first_episode_record = len(self.records) + 1  # Wireshark's frame.number
@@ -334,9 +334,9 @@ class PcapRecorder:
         detach_trace(self.env, self)
         env = self.env
         t0 = self.episode_start_s if self.episode_start_s is not None else math.nan
-        n_robots = len(env.world.robots) if env.world is not None else 1 + max(self._dsn, default=0)
+        n_robots = len(env.truth.robots) if env.episode is not None else 1 + max(self._dsn, default=0)
         first = getattr(self, "first_episode_record", len(self.records) + 1)
-        comment = (f"petswarm radio trace: scenario {getattr(env, 'scenario', '?')}, {n_robots} robots. The episode starts at "
+        comment = (f"petswarm radio trace: scenario {env.scenario if env.episode is not None else '?'}, {n_robots} robots. The episode starts at "
                    f"t = {t0:.9f} s (the end of reset: pairing and organize come before it), with record {first}: "
                    f"the episode summary's frames count the records from frame.number {first} on: sent = outbound "
                    "records, lost / collided = inbound records whose comment starts with 'lost ' / 'collided '.")

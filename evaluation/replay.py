@@ -141,25 +141,25 @@ class ReplayRecorder:
     # -- one frame per step -----------------------------------------------------------------------
     def _start(self) -> None:
         env = self.env
-        n_robots, n_users = len(env.world.robots), len(env.world.users)
-        self.t0_s = env.world.now
+        n_robots, n_users = len(env.truth.robots), len(env.truth.users)
+        self.t0_s = env.truth.now
         self.robots = [{"x": [], "y": [], "th": [], "ref_x": [], "ref_y": [], **{k: _Run() for k in
                         ("role", "state", "member", "arbiter")}} for _ in range(n_robots)]
         self.users = [{"x": [], "y": [], "th": [], "commands": [], **{k: _Run() for k in ("activity", "state", "master")}}
                       for _ in range(n_users)]
         self.links, self.holder = _Run(), _Run()
         self.error: list[int | None] = []
-        self._wins = {i: dict(a.counts.wins) for i, a in env.arbiters.items()}
+        self._wins = {i: dict(a.counts.wins) for i, a in env.truth.arbiters.items()}
         self._commands_seen = [0] * n_users
-        self._errors_seen = len(env.metrics.error_trace)
+        self._errors_seen = len(env.truth.error_trace)
 
     def __call__(self) -> None:
         """Record the current frame (after the reset, then after every step)."""
         if self.frame == 0:
             self._start()
         env, f = self.env, self.frame
-        exp = env.experimenter
-        centers, _, headings = env.world.truth_arrays()
+        exp = env.truth
+        centers, _, headings = env.truth.truth_arrays()
         xy, th = centers.tolist(), headings.tolist()
         refs = exp.reference_points(xy, th)
         for i, (rec, role) in enumerate(zip(self.robots, exp.roles())):
@@ -169,14 +169,14 @@ class ReplayRecorder:
             ref = refs.get(i)
             rec["ref_x"].append(None if ref is None else _mm(ref[0]))
             rec["ref_y"].append(None if ref is None else _mm(ref[1]))
-            node = env.fleet.nodes.get(i)
+            node = env.truth.nodes.get(i)
             rec["role"].add(f, role)
             rec["state"].add(f, node.state if node is not None else "none")
             rec["member"].add(f, node.know.member if node is not None else -1)
             rec["arbiter"].add(f, self._winner(i))
         n = len(self.robots)
-        for u, (rec, session) in enumerate(zip(self.users, env.sessions)):
-            user = env.world.users[u]
+        for u, (rec, session) in enumerate(zip(self.users, env.truth.sessions)):
+            user = env.truth.users[u]
             rec["x"].append(_mm(xy[n + u][0]))
             rec["y"].append(_mm(xy[n + u][1]))
             rec["th"].append(_mm(user.heading))
@@ -188,7 +188,7 @@ class ReplayRecorder:
             self._commands_seen[u] += len(new)
         self.links.add(f, [list(p) for p in exp.link_pairs()])
         self.holder.add(f, self._holders())
-        trace = env.metrics.error_trace
+        trace = env.truth.error_trace
         self.error.append(_mm(trace[-1]) if f > 0 and len(trace) > self._errors_seen else None)
         self._errors_seen = len(trace)
         self.frame += 1
@@ -197,7 +197,7 @@ class ReplayRecorder:
         """The IR token holder of each swarm: of the robots holding a slot, the one with the newest token
         (the previous holder still waits for the acknowledgement of the token it passed on)."""
         best: dict[int | None, Any] = {}
-        for i, node in self.env.fleet.nodes.items():
+        for i, node in self.env.truth.nodes.items():
             ring = node.ring
             if ring.holding and (node.swarm_pan not in best or ring.token_seq > best[node.swarm_pan][0]):
                 best[node.swarm_pan] = (ring.token_seq, i)
@@ -205,7 +205,7 @@ class ReplayRecorder:
 
     def _winner(self, robot: int) -> str:
         """The source that won robot ``robot``'s arbiter since the last frame ("" if it did not decide)."""
-        arb = self.env.arbiters.get(robot)
+        arb = self.env.truth.arbiters.get(robot)
         if arb is None:
             return ""
         before, now = self._wins[robot], arb.counts.wins
@@ -217,7 +217,7 @@ class ReplayRecorder:
     def to_dict(self) -> dict[str, Any]:
         env, frames = self.env, self.frame
         cfg = env.cfg
-        walls = env.world.wall_segments[:4] if cfg.world.arena_m[0] > 0 else []
+        walls = env.truth.wall_segments[:4] if cfg.world.arena_m[0] > 0 else []
         kinds = list(self.kinds)
 
         def full(row: list[int]) -> list[int]:

@@ -51,8 +51,8 @@ def chain(calls: list[Callable[[], None]]) -> Callable[[], None] | None:
 
 
 def _positions(env: PetSwarmEnv) -> tuple[list[float], dict[str, list[float]]]:
-    user = [round(v, 3) for v in env.world.user.position]
-    robots = {f"robot_{r.index}": [round(v, 3) for v in r.position] for r in env.world.robots}
+    user = [round(v, 3) for v in env.truth.user.position]
+    robots = {f"robot_{r.index}": [round(v, 3) for v in r.position] for r in env.truth.robots}
     return user, robots
 
 
@@ -88,11 +88,11 @@ def run_episode(
     summary = env.episode_summary()  # the episode's, after its last step
     summary["seed"] = seed
     if record:
-        summary["error_trace"] = [round(e, 4) for e in env.metrics.error_trace]
+        summary["error_trace"] = [round(e, 4) for e in env.truth.error_trace]
         summary["trajectory"] = {
             "dt_s": TRAJECTORY_EVERY * env.cfg.control_period_s,
             "user": traj_user,
-            "master": f"robot_{env.swarm.master.node_id}",
+            "master": f"robot_{env.truth.swarms[0].master.node_id}",
             "robots": traj_robots,
         }
     return summary

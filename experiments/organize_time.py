@@ -67,11 +67,11 @@ def organize_trials(cfg: Config, num_slaves: int, seeds: Iterable[int], step: Ca
     for s in seeds:
         try:
             env.reset(seed=int(s))
-            r = env.swarm.organize_result
+            r = env.truth.swarms[0].organize_result
             out.append({"seed": int(s), "elapsed_s": float(r.elapsed_s), "retries": int(r.retries),
                         "complete": bool(r.complete) and len(r.members) - 1 == num_slaves, "slaves": len(r.members) - 1})
         except RuntimeError as e:  # the swarm did not organize (reset says why)
-            r = env.swarm.organize_result if env.swarm is not None else None
+            r = env.truth.swarms[0].organize_result if env.episode is not None else None
             out.append({"seed": int(s), "elapsed_s": math.nan, "retries": int(r.retries) if r else 0,
                         "complete": False, "slaves": 0, "error": str(e)})
         if step:

@@ -40,12 +40,12 @@ def trial(env, policy, seed: int, steps: int) -> dict[str, Any]:
     try:
         obs, infos = env.reset(seed=seed)
     except RuntimeError as e:
-        retries = sum(sw.organize_result.retries for sw in env.swarms) if env.swarms else 0
+        retries = sum(sw.organize_result.retries for sw in env.truth.swarms) if env.truth.swarms else 0
         return {"seed": seed, "slaves": 0, "required": required, "full": False, "retries": retries,
                 "organize_s": math.nan, "token_recoveries": 0, "rmse_m": math.nan, "building_s": math.nan,
                 "error": str(e)}
-    results = [sw.organize_result for sw in env.swarms]
-    slaves = sum(len(sw.slave_ids()) for sw in env.swarms)
+    results = [sw.organize_result for sw in env.truth.swarms]
+    slaves = sum(len(sw.slave_ids()) for sw in env.truth.swarms)
     policy.reset(seed)
     for _ in range(steps):
         if not env.agents:

@@ -40,34 +40,34 @@ def reaction_trial(cfg: Config, seed: int) -> dict[str, float]:
     obs, _ = env.reset(seed=seed)
     turn_on_the_spot(env, 90.0)
     pol = scripted_policy(env)
-    robots = {"master": env.swarm.master.node_id, **{f"slave{i}": n for i, n in enumerate(env.swarm.slave_ids())}}
+    robots = {"master": env.truth.swarms[0].master.node_id, **{f"slave{i}": n for i, n in enumerate(env.truth.swarms[0].slave_ids())}}
     t_turn = None
     standing: dict[str, list[tuple[float, float, float]]] = {k: [] for k in robots}
     started: dict[str, float] = {}
     pending: dict[str, float] = {}
-    while env.agents and (t_turn is None or env.world.now - t_turn < 4.0) and len(started) < len(robots):
+    while env.agents and (t_turn is None or env.truth.now - t_turn < 4.0) and len(started) < len(robots):
         obs = step(env, pol, obs)
-        user = env.world.user
+        user = env.truth.user
         if t_turn is None:
             if user.turn_rate_rps != 0.0:  # the turn began during the step just run
-                t_turn = env.world.now - (user.script_time_s - SETTLE_S)
+                t_turn = env.truth.now - (user.script_time_s - SETTLE_S)
                 base = {k: np.mean(v[-MOTION_BASELINE_STEPS:], axis=0) for k, v in standing.items()}
                 noise = {k: np.std(v[-MOTION_BASELINE_STEPS:], axis=0) for k, v in standing.items()}
             else:
                 for k, i in robots.items():
-                    standing[k].append(env.world.robots[i].velocity_body)
+                    standing[k].append(env.truth.robots[i].velocity_body)
                 continue
         for k, i in robots.items():
             if k in started:
                 continue
-            d = np.abs(np.asarray(env.world.robots[i].velocity_body) - base[k])
+            d = np.abs(np.asarray(env.truth.robots[i].velocity_body) - base[k])
             lin = max(MOTION_SPEED_MPS, MOTION_NOISE_SIGMAS * float(np.hypot(noise[k][0], noise[k][1])))
             ang = max(MOTION_OMEGA_RPS, MOTION_NOISE_SIGMAS * float(noise[k][2]))
             if math.hypot(d[0], d[1]) > lin or d[2] > ang:  # moving: sustained over two steps
                 if k in pending:
                     started[k] = pending[k]
                 else:
-                    pending[k] = env.world.now - t_turn
+                    pending[k] = env.truth.now - t_turn
             else:
                 pending.pop(k, None)
     env.close()

@@ -86,7 +86,7 @@ def overrides(mode: str) -> dict[str, Any]:
 
 
 def fault_time_s(reset_end_s: float) -> float:
-    """The fault's instant on the env's clock (``env.world.now``): ``faults[].at_s`` is
+    """The fault's instant on the env's clock (``env.truth.now``): ``faults[].at_s`` is
     episode time, seconds after reset ended (default.yaml)."""
     return reset_end_s + FAULT_AT_S
 
@@ -98,13 +98,13 @@ def trial(mode: str, seed: int) -> dict[str, Any]:
     policy = make_policy("scripted", PolicySpec.from_env(env), seed)
     obs, _ = env.reset(seed=seed)
     policy.reset(seed)
-    count.fault_s = t_fault = fault_time_s(env.world.now)
+    count.fault_s = t_fault = fault_time_s(env.truth.now)
     required = env.cfg.swarm.num_slaves
     sq, n = 0.0, 0
     dropped_s = back_s = math.nan
     while env.agents:
         obs, _, _, _, infos = env.step(policy.act_all({a: obs[a] for a in env.agents}))
-        now = env.world.now
+        now = env.truth.now
         if now >= t_fault and math.isnan(dropped_s) and len(env.agents) < required:
             dropped_s = now  # the dead slave is no agent any more
         elif not math.isnan(dropped_s) and math.isnan(back_s) and len(env.agents) >= required:

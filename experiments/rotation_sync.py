@@ -38,11 +38,11 @@ def rotation_trial(cfg: Config, seed: int, target_deg: float) -> float:
     obs, _ = env.reset(seed=seed)
     turn_on_the_spot(env, target_deg)
     pol = scripted_policy(env)
-    m = env.swarm.master.node_id
+    m = env.truth.swarms[0].master.node_id
 
     def bearing() -> float:
-        ux, uy = env.world.user.position
-        x, y = env.world.robots[m].position
+        ux, uy = env.truth.user.position
+        x, y = env.truth.robots[m].position
         return math.atan2(y - uy, x - ux)
 
     steps_before = int(round(SETTLE_S / cfg.control_period_s)) - 2

@@ -21,7 +21,7 @@ def turn_on_the_spot(env, angle_deg: float, rate_dps: float = TURN_RATE_DPS) -> 
     the boundaries fall half a substep early and the user turns for a whole number ``n`` of
     substeps at ``|angle| / (n·dt)``, the rate nearest ``rate_dps`` that makes the angle exact
     (60°/s for 90°, 59.2°/s for 45°; seed 002 §4.3 fixes the angular speed but does not give it)."""
-    user = env.world.user
+    user = env.truth.user
     dt = env.cfg.control_period_s / env.cfg.physics_substeps
     n = max(1, round(abs(angle_deg) / rate_dps / dt))
     stand = Segment(SETTLE_S - dt / 2, 0.0, 0.0, "stop")

@@ -5,7 +5,8 @@
 >>> env = petswarm_env.make("petswarm_v0", **{"swarm.num_slaves": 3})  # the same, by its versioned id
 
 ``parallel_env``, ``env`` and ``raw_env`` are :mod:`petswarm_env.petswarm_v0`'s (PettingZoo's
-meanings: the ParallelEnv, the wrapped AEC env, the unwrapped AEC env). For libraries that need
+meanings: the ParallelEnv, the wrapped AEC env, the unwrapped AEC env); ``vector_env(num_envs,
+...)`` steps ``num_envs`` copies in one process with arrays in and out (:mod:`petswarm_env.vector`). For libraries that need
 every possible agent at every step: :class:`petswarm_env.wrappers.FixedAgents`.
 """
 
@@ -20,11 +21,11 @@ _core.load()  # the compiled core, or one line naming the fix (PETSWARM_PURE_PYT
 from petswarm_env import petswarm_v0  # noqa: E402
 from petswarm_env.config import Config, ConfigError, load_config  # noqa: E402
 from petswarm_env.env import ENV_NAME, PetSwarmEnv  # noqa: E402
-from petswarm_env.petswarm_v0 import env, parallel_env, raw_env  # noqa: E402
+from petswarm_env.petswarm_v0 import env, parallel_env, raw_env, vector_env  # noqa: E402
 
 __version__ = "0.1.0"
 __all__ = ["ENV_NAME", "ENVS", "Config", "ConfigError", "PetSwarmEnv", "env", "load_config", "make", "parallel_env",
-           "petswarm_v0", "raw_env"]
+           "petswarm_v0", "raw_env", "vector_env"]
 
 ENVS = {ENV_NAME: petswarm_v0}  # versioned id -> module with env / parallel_env / raw_env
 

@@ -8,23 +8,26 @@ keep a leader–follower formation. Every robot runs the swarm middleware on one
 clock: radio frames on a shared 802.15.4-like medium (one PAN per swarm), the IR token ring with
 heading exchange, the master's status broadcast, mode changes with master change (Table 3).
 
-This module only wires the parts. ``reset(seed)`` builds the world from the scenario
+This module is the PettingZoo face: the config, the spaces, the seeds and the checks of what a
+caller passes. Each ``reset(seed)`` builds a new :class:`~petswarm_env.episode.Episode`
+(``env.episode``), which owns everything of that episode: the world from the scenario
 (:mod:`petswarm_env.scenarios`: each user's walking script, the robots' placement), the radio
 medium and the IR channel (:mod:`petswarm_env.comms`), the fleet with a swarm per user
 (:mod:`petswarm_env.middleware`), the user sessions, each robot's control arbiter
-(:mod:`petswarm_env.control`) and the sensors (:mod:`petswarm_env.sim.sensors`); then it runs, on
-the clock, the pairing, the user's start-up commands (driving mode, then organize — in leading mode
-after the master shifted to its place) and the join protocol (its duration and retries are in
-``organize_summary()``; a swarm that organized short of ``swarm.num_slaves`` says by how many in
-``infos[agent]["slaves_missing"]`` and the episode summary's ``slaves_missing``); the agents are
-the robots that joined. Each ``step(actions)``
-passes every robot's command through its arbiter (safety > user > policy, seed 001), runs the clock
-for one control period (0.1 s), reads the sensors, then asks the experimenter
-(:mod:`petswarm_env.metrics`: ground truth) for errors and contacts, computes the rewards
-(:mod:`petswarm_env.reward`) and builds the observations from each slave's sensors and middleware
-only (:mod:`petswarm_env.observe`). Agents come and go with the middleware: a robot that stops
-being a slave (it became the master, or the swarm dispersed) is terminated; a robot that becomes
-a slave joins ``agents``.
+(:mod:`petswarm_env.control`), the sensors (:mod:`petswarm_env.sim.sensors`), the runtime changes,
+the observer and the experimenter; it runs, on the clock, the pairing, the user's start-up commands
+(driving mode, then organize — in leading mode after the master shifted to its place) and the join
+protocol (its duration and retries are in ``organize_summary()``; a swarm that organized short of
+``swarm.num_slaves`` says by how many in ``infos[agent]["slaves_missing"]`` and the episode
+summary's ``slaves_missing``); the agents are the robots that joined. Each ``step(actions)`` is the
+episode's ``advance``: every robot's command through its arbiter (safety > user > policy, seed 001),
+the clock for one control period (0.1 s), the sensors, then the experimenter's errors and contacts
+(:mod:`petswarm_env.metrics`: ground truth), the rewards (:mod:`petswarm_env.reward`) and the
+observations from each slave's sensors and middleware only (:mod:`petswarm_env.observe`). Agents
+come and go with the middleware, by the lifecycle of :mod:`petswarm_env.episode`: a robot that stops
+being a slave (it became the master, or the swarm dispersed) is terminated; a robot that becomes a
+slave joins ``agents``. The experimenter's tools read the ground truth through ``env.truth``
+(:class:`~petswarm_env.episode.Truth`, read-only); a policy reads only its observation.
 
 Runtime changes (issue 15, docs/faults.md; none by default): ``faults`` break parts of robots and
 ``arrivals`` switch robots on mid-episode (:mod:`petswarm_env.runtime`); a dead slave is
@@ -49,36 +52,16 @@ import gymnasium
 import numpy as np
 from pettingzoo import ParallelEnv
 
-from petswarm_env.comms.ir_channel import IRChannel
-from petswarm_env.comms.radio import RadioMedium
 from petswarm_env.config import DRIVING_MODES, Config, ConfigError, arrival_slots, describe_value, flatten_dotted, load_config
-from petswarm_env.control.arbiter import ControlArbiter, SafetyStage
-from petswarm_env.metrics import BUILT_WITHIN_M, Experimenter
+from petswarm_env.episode import INFO_DEFAULTS, OTHER_USER_ID, SWARM_PAN, WAKE_PATTERN, Episode, Setup  # noqa: F401 (re-exported)
 from petswarm_env.middleware.formation import formation_for_mode, user_position_in_formation
-from petswarm_env.middleware.fleet import Fleet
-from petswarm_env.middleware.swarm import Swarm
-from petswarm_env.middleware.user_session import UserSession, master_distance_m
-from petswarm_env.observe import OBS_VERSION, ObservationLayout, Observer, observation_bounds
-from petswarm_env.reward import slave_rewards
-from petswarm_env.runtime import Runtime, arrival_specs, park_positions
-from petswarm_env.robot_types import (DEFAULT_TYPE, body_plan, episode_scenarios, max_pool_size, placement_config, pool_problem,
-                                      pool_types)
+from petswarm_env.observe import OBS_VERSION, ObservationLayout, observation_bounds
+from petswarm_env.robot_types import DEFAULT_TYPE, episode_scenarios, max_pool_size, pool_problem, pool_types
 from petswarm_env.robot_types import resolve as resolve_type
 from petswarm_env.scenarios import SCENARIOS
-from petswarm_env.state import StateLayout, build_state
-from petswarm_env.sim.sensors import Sensors
-from petswarm_env.sim.world import World
+from petswarm_env.state import StateLayout
 
 ENV_NAME = "petswarm_v0"
-OTHER_USER_ID = 99  # the user that "other user" robots are connected to (Table 1)
-SWARM_PAN = 0x1001  # user u's swarm uses PAN SWARM_PAN + u
-WAKE_PATTERN = 0x5A00  # user u's belt and robot share the LF wake-up pattern WAKE_PATTERN + u
-# every agent's infos, at reset and at every step: flat, numeric, always these keys (the value of an
-# agent that has no such figure yet): its member number, its true formation error (m), the contacts it
-# began this step, 1 on the step it joined (the old master after a mode change), else 0, and how many of
-# the required slaves its swarm lacked when it organized (Swarm.slaves_missing)
-INFO_DEFAULTS: dict[str, float | int] = {"member": -1, "formation_error_m": 0.0, "new_contacts": 0, "joined": 0,
-                                         "slaves_missing": 0}
 
 
 def _swarm_reach_m(cfg: Config) -> float | None:
@@ -145,10 +128,11 @@ class PetSwarmEnv(ParallelEnv):
         self._act_space = gymnasium.spaces.Box(-1.0, 1.0, (3,), np.float32)
         self.state_layout = StateLayout(cfg)
         self.state_space = gymnasium.spaces.Box(self.state_layout.low, self.state_layout.high, dtype=np.float32)
+        self.setup = Setup(cfg, self._bodies, self._reach_m, self._arrival_slots, frozenset(self.possible_agents), self.layout,
+                           self._limits, self.state_layout)
         self._seed_seq: np.random.SeedSequence | None = None
         self._renderer = None
-        self.world: World | None = None
-        self.swarm: Swarm | None = None
+        self.episode: Episode | None = None  # the current episode (petswarm_env/episode.py), from the first reset()
         # the experimenter's radio trace (comms/radio.py RadioTrace; evaluation/pcap.py, evaluation/replay.py):
         # every frame of each episode's medium from its reset on; None = off
         self.radio_trace = None
@@ -174,174 +158,24 @@ class PetSwarmEnv(ParallelEnv):
         elif self._seed_seq is None:
             self._seed_seq = np.random.SeedSequence(self.cfg.seed)
         streams = self._seed_seq.spawn(1)[0].spawn(8)  # the 8th (faults) leaves the first seven as they were
-        self._build(*(np.random.default_rng(s) for s in streams[:7]))
-        self.runtime = Runtime(self.cfg, self.world, self.fleet, self.swarms, SCENARIOS[self.scenario], self._arrivals,
-                               np.random.default_rng(streams[7]), on_change=self.sensors.fault_changed)
-        self._check_inside_arena()
-        self._organize()
-        if self.cfg.swarm.spawn == "at_slots":
-            self._stand_members_at_their_slots()
-        world = self.world
-        for arb in self.arbiters.values():  # the episode's counts start now
-            arb.counts = type(arb.counts)()
-        self._slave_ids = self._current_slaves()
-        self.agents = [f"robot_{i}" for i in self._slave_ids]
-        self._agent_index = {f"robot_{i}": i for i in range(len(world.robots))}
-        self._last_action = {a: np.zeros(3, np.float32) for a in self.agents}
-        self.observer = Observer(self.layout, self.fleet.nodes, self.sensors, [r.ahrs_yaw for r in world.robots],
-                                 self._agent_index, self.cfg.master.distance_m)
-        self.experimenter = Experimenter(self.cfg, world, self.fleet, self.swarms, self.sessions, self.arbiters, self.radio,
-                                         self._agent_index, self._other_user_robots)
-        self.metrics = self.experimenter.metrics
-        self.experimenter.runtime = self.runtime
-        self._start_walks({})
-        self.runtime.start()  # faults and arrivals, in episode time from now
-        self.num_cycles = 0
-        observations = self.observer.observe(self.agents, self._last_action, world.now)
-        self._missing_by_pan = {sw.pan: sw.slaves_missing() for sw in self.swarms}  # as organized (metrics.py's figure)
-        errors, _ = self.experimenter.formation_errors(self.agents)
-        infos = {a: self._info(a, errors.get(a, 0.0), 0, 0) for a in self.agents}
+        self.agents = []
+        self.episode = Episode(self.setup, streams, self.radio_trace)
+        observations, infos = self.episode.start()
+        self.agents = list(self.episode.agents)
         if self.render_mode == "human":
             self.render()
         return observations, infos
 
-    def _build(self, rng_world, rng_radio, rng_ir, rng_swarm, rng_sensors, rng_script, rng_users) -> None:
-        """The episode's parts, from its seven streams: the world from the scenario (each user's
-        script, the robots' placement), the radio medium and the IR channel, the fleet and a swarm
-        per user, the user sessions, each robot's arbiter and the sensors."""
-        cfg = self.cfg
-        pool = cfg.user.scenario_pool
-        self.scenario = pool[int(rng_script.integers(len(pool)))] if pool else cfg.user.scenario
-        scenario = SCENARIOS[self.scenario]
-        scripts = [scenario.script(cfg.user, r, scenario.arena(cfg, self._reach_m or 0.0, u))
-                   for u, r in enumerate(rng_script.spawn(cfg.world.num_users))]
-        self.world = world = World(cfg, scripts[0])
-        world.body_plan = body_plan(cfg, scenario, self._bodies)  # each robot's type, in placement order
-        place_cfg = placement_config(cfg, scenario)
-        for u in range(1, cfg.world.num_users):
-            world.add_user(scripts[u], (0.0, u * cfg.world.user_spacing_m), 0.0)
-        plan = formation_for_mode(cfg.swarm, cfg.swarm.num_slaves + 1, cfg.swarm.mode)
-        placement = scenario.place(world, place_cfg, plan.slot_positions(), user_position_in_formation(plan, cfg.master.distance_m)[0],
-                                   rng_world, master_distance_m(cfg, None, cfg.swarm.mode))
-        self._other_user_robots = placement.other_user_robots
-        self.radio = RadioMedium(world.clock, cfg.radio, rng_radio)
-        self.radio.trace = self.radio_trace
-        self.ir_channel = IRChannel(world, cfg.ir, rng_ir)
-        self.fleet = fleet = Fleet(cfg, world, self.radio, self.ir_channel, rng_swarm)
-        self.swarms = [Swarm(fleet, u, SWARM_PAN + u, master, pool) for u, (master, pool) in enumerate(placement.pools)]
-        self._pools = [pool for _, pool in placement.pools]
-        for idx in self._other_user_robots:
-            fleet.add_node(idx, self.swarms[0]).connected_user = OTHER_USER_ID
-        # arrival robots (runtime.py): parked switched off, in user 0's pool; each of its type (robot_types)
-        arriving = [self._bodies[a.type] for a in arrival_specs(cfg, scenario)]
-        world.body_plan = world.body_plan[:len(world.robots)] + arriving
-        self._arrivals = [world.add_robot(p, 0.0).index for p in park_positions(cfg, self._arrival_slots)]
-        for idx in self._arrivals:
-            fleet.add_node(idx, self.swarms[0])
-        self.sessions = []
-        for u, (swarm, user_rng) in enumerate(zip(self.swarms, rng_users.spawn(cfg.world.num_users))):
-            session = UserSession(cfg, world, swarm, world.users[u], user_rng, WAKE_PATTERN + u, WAKE_PATTERN + u)
-            session.startup = [f"mode:{cfg.swarm.mode}", "organize"]
-            self.sessions.append(session)
-        self.swarm, self.session = self.swarms[0], self.sessions[0]
-        for robot, ss in zip(world.robots, rng_world.spawn(len(world.robots))):
-            robot.ahrs.power_on(ss, world.now)  # own power-on heading: no shared frame (seed 000 §3.5)
-        stages: dict[float, SafetyStage | None] = {}  # one safety stage per braking limit (each body type's own)
-        for r in world.robots:
-            a = r.cfg.max_accel_mps2
-            if a not in stages:
-                stages[a] = SafetyStage(cfg.robot.ultrasonic.count, cfg.control.safety_stop_m, cfg.control.safety_backoff_mps,
-                                        a) if cfg.control.safety_layer else None
-        self.arbiters = {r.index: ControlArbiter(stages[r.cfg.max_accel_mps2]) for r in world.robots}
-        self.sensors = Sensors(world, cfg.robot, rng_sensors)  # reads every robot's ultrasonic ring
-
-    def _check_inside_arena(self) -> None:
-        """Every robot and user starts inside the arena's walls (world.arena_m; boxes are checked
-        with the config), or the episode would start with bodies outside or inside a wall."""
-        w, h = self.cfg.world.arena_m
-        if w <= 0 or h <= 0:
-            return
-        bodies = [(f"robot_{r.index}", r.position, r.radius_m) for r in self.world.robots]
-        bodies += [(f"user {u.index}", u.position, self.cfg.user.radius_m) for u in self.world.users]
-        for name, (x, y), r in bodies:
-            if abs(x) + r > w / 2 or abs(y) + r > h / 2:
-                xs = [abs(p[0]) + q for _, p, q in bodies]
-                ys = [abs(p[1]) + q for _, p, q in bodies]
-                raise ValueError(
-                    f"{name} starts at ({x:.2f}, {y:.2f}) m, outside the walls of the {w:g} x {h:g} m arena (world.arena_m, "
-                    f"centred on the origin); this start needs at least {2 * max(xs):.1f} x {2 * max(ys):.1f} m: "
-                    "set a larger world.arena_m, or [0, 0] for no walls")
-
-    def _organize(self) -> None:
-        """Run the clock through each user's start-up (pairing, the driving mode, organize; seed
-        002 Fig. 4, seed 000 §3.5) until every swarm is organized; a user that never paired or a
-        swarm that did not organize is an error that says which setting to change."""
-        cfg, world = self.cfg, self.world
-        limit = int(math.ceil((cfg.lf.wake_period_s + cfg.ble.connect_s + cfg.protocol.organize_timeout_s + 10.0) / cfg.control_period_s))
-        for _ in range(limit):
-            self._control(None)
-            world.advance(cfg.physics_substeps)
-            self.sensors.read_rings()
-            if all(sw.organized for sw in self.swarms):
-                break
-        for u, (session, swarm) in enumerate(zip(self.sessions, self.swarms)):
-            if session.connected_robot is None:
-                raise RuntimeError(
-                    f"user {u}'s belt never woke up: its robot must start within lf.wake_range_m={cfg.lf.wake_range_m} m "
-                    "and burst the belt's wake-up pattern")
-            if not swarm.organized or not swarm.slave_ids():
-                raise RuntimeError(
-                    f"user {u}'s swarm did not organize within protocol.organize_timeout_s={cfg.protocol.organize_timeout_s} s "
-                    f"(radio.loss_prob={cfg.radio.loss_prob}); raise the timeout or protocol.max_retries"
-                )
-
     def step(self, actions: dict[str, Any]):
-        if self.world is None:
+        if self.episode is None:
             raise RuntimeError("call reset() before step()")
         if not self.agents:
             raise RuntimeError("the episode is over (no live agents); call reset()")
-        cfg = self.cfg
-        world = self.world
-        acts = self._validate(actions)
-        self._control(acts)
-        world.advance(cfg.physics_substeps)
-        self.runtime.check_batteries()  # a drained battery is a fault (runtime.py)
-        self.sensors.read_rings()
-        self.num_cycles += 1
-
-        truth = self.experimenter.step(self.agents)  # formation and heading errors, contacts (metrics.py)
-        if not all(session.user.walking for session in self.sessions):  # only while a user still stands
-            self._start_walks(dict(zip(self.agents, truth.formation_error_m)))
-        infos = {agent: self._info(agent, err, c, 0) for agent, err, c in zip(self.agents, truth.formation_error_m, truth.new_contacts)}
-        # every slave's reward in one pass over the slaves (reward.py)
-        now_acts = np.array([acts[a] for a in self.agents], dtype=np.float32).reshape(-1, 3)
-        last_acts = np.array([self._last_action[a] for a in self.agents], dtype=np.float32).reshape(-1, 3)
-        rewards = dict(zip(self.agents, slave_rewards(cfg.reward, truth.formation_error_m, truth.heading_error_rad,
-                                                      truth.new_contacts, now_acts, last_acts)))
-        for agent in self.agents:
-            self._last_action[agent] = acts[agent]
-        truncated = self.num_cycles >= cfg.max_cycles
-        # agents follow the middleware: a robot that left slave-role driving is done, a new slave joins
-        slaves = self._current_slaves()
-        live = {f"robot_{i}" for i in slaves}
-        terminations = {a: a not in live for a in self.agents}
-        for a, done in terminations.items():  # a robot that left slave-role driving and drives no user stands still
-            if done and self.fleet.nodes[self._agent_index[a]].state != "master":
-                world.robots[self._agent_index[a]].set_command(0.0, 0.0, 0.0)
-        truncations = {a: truncated for a in self.agents}
-        joined = [f"robot_{i}" for i in slaves if f"robot_{i}" not in self.agents and f"robot_{i}" in self._possible]
-        for a in joined:
-            self._last_action[a] = np.zeros(3, np.float32)
-        self._slave_ids = slaves
-        before = list(self.agents)
-        self.agents = [a for a in before if a in live and not truncated] + ([] if truncated else joined)
-        observations = self.observer.observe(before + [a for a in joined if a not in before], self._last_action, world.now)
-        for a in joined:
-            rewards[a], terminations[a], truncations[a] = 0.0, False, truncated
-            infos[a] = self._info(a, 0.0, 0, 1)
+        out = self.episode.advance(self._validate(actions))
+        self.agents = list(self.episode.agents)
         if self.render_mode == "human":
             self.render()
-        return observations, rewards, terminations, truncations, infos
+        return out
 
     def render(self, mode: str | None = None):
         """The current frame (``rgb_array``) or the window (``human``) of the env's ``render_mode``.
@@ -352,8 +186,7 @@ class PetSwarmEnv(ParallelEnv):
         if self.render_mode is None:
             gymnasium.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' or 'human'")
             return None
-        if self.world is None:
-            raise RuntimeError("call reset() before render()")
+        self._episode_or("render()")
         from petswarm_env.render import Renderer
 
         if self._renderer is None:
@@ -370,46 +203,31 @@ class PetSwarmEnv(ParallelEnv):
         """The global state: ground truth of every robot, user and the episode's time, fixed size
         (``state_space``; every field in docs/state.md, :mod:`petswarm_env.state`). For
         centralized critics: a policy reads only its observation."""
-        if self.world is None:
-            raise RuntimeError("call reset() before state()")
-        return build_state(self.state_layout, self)
+        return self._episode_or("state()").state()
 
     # -- pickling: between episodes --------------------------------------------------------------
-    _EPISODE = ("world", "swarm", "session", "swarms", "sessions", "radio", "ir_channel", "fleet", "arbiters", "sensors", "runtime",
-                "_arrivals",
-                "observer", "experimenter", "metrics", "_renderer", "_other_user_robots", "_slave_ids", "_agent_index",
-                "_last_action", "scenario", "num_cycles")
-
     def __getstate__(self) -> dict[str, Any]:
         """The env without its episode (the clock's SimPy processes are generators, which do not
-        pickle): the config, the spaces and the seed sequence. A copy (``pickle``, ``copy.deepcopy``,
-        a worker process) has no episode until its ``reset()``; its next ``reset()`` without a seed
-        gives the episode the original's next ``reset()`` gives. Pickle between episodes: a copy
-        taken mid-episode does not carry the episode on."""
-        state = {k: v for k, v in self.__dict__.items() if k not in self._EPISODE}
-        state["agents"] = []
-        return state
-
-    def __setstate__(self, state: dict[str, Any]) -> None:
-        self.__dict__.update(state)
-        self.world = self.swarm = self._renderer = None
+        pickle) and without its window: the config, the spaces and the seed sequence. A copy
+        (``pickle``, ``copy.deepcopy``, a worker process) has no episode until its ``reset()``; its
+        next ``reset()`` without a seed gives the episode the original's next ``reset()`` gives.
+        Pickle between episodes: a copy taken mid-episode does not carry the episode on."""
+        return {**self.__dict__, "episode": None, "agents": [], "_renderer": None}
 
     # -- per step --------------------------------------------------------------------------------
-    def _info(self, agent: str, error_m: float, contacts: int, joined: int) -> dict[str, float | int]:
-        """One agent's infos (the keys of :data:`INFO_DEFAULTS`)."""
-        node = self.fleet.nodes[self._agent_index[agent]]
-        return {"member": node.know.member, "formation_error_m": error_m, "new_contacts": contacts, "joined": joined,
-                "slaves_missing": self._missing_by_pan.get(node.swarm_pan, 0)}
-
     def _validate(self, actions: dict[str, Any]) -> dict[str, np.ndarray]:
+        """Every live agent's action, checked and clipped to [-1, 1]. An id that is not a possible
+        agent is refused; an action for a possible agent that is not live now (it left, or has
+        not joined) is ignored, as PettingZoo's own conversions do (``aec_to_parallel`` steps only
+        the live agents); a live agent without an action stands still."""
         if not isinstance(actions, dict):
             raise TypeError(f"actions must be a dict agent -> array of 3 floats, got {type(actions).__name__}")
-        unknown = set(actions) - set(self.agents)
+        unknown = [a for a in actions if a not in self._possible]
         if unknown:
-            raise KeyError(f"actions for agents not in the episode: {sorted(unknown)}; live agents: {self.agents}")
+            raise KeyError(f"actions for agents not in the episode: {sorted(map(str, unknown))}; live agents: {self.agents}")
         # the common case in one numpy pass: a float array for every agent, all finite, shape (3,)
-        if len(actions) == len(self.agents):
-            values = [actions[a] for a in self.agents]
+        if len(actions) >= len(self.agents):
+            values = [actions.get(a) for a in self.agents]
             arr = None
             if all(type(v) is np.ndarray and v.dtype.kind == "f" for v in values):
                 try:
@@ -439,113 +257,52 @@ class PetSwarmEnv(ParallelEnv):
             out[agent] = np.clip(arr, -1.0, 1.0)
         return out
 
-    def _control(self, acts: dict[str, np.ndarray] | None) -> None:
-        """One command per robot through its arbiter (seed 001): masters from their user session,
-        slaves from the agents' actions; the slaves stop when their master broadcasts an emergency."""
-        world = self.world
-        lim = self._limits
-        ranges = self.sensors.ranges
-        masters = set()
-        for session in self.sessions:
-            idx = session.swarm.master.node_id
-            masters.add(idx)
-            policy, user_cmd, stop = session.step(self.sensors.odometry(idx), ranges[idx])
-            cmd, _ = self.arbiters[idx].decide(policy, user_cmd, ranges[idx], stop)
-            robot = world.robots[idx]
-            if robot.health.powered:
-                robot.set_command(*cmd)
-            else:  # a master that is off (a fault): motors off
-                robot.set_command(0.0, 0.0, 0.0)
-        if acts is None:
-            return
-        for agent, a in acts.items():
-            idx = self._agent_index[agent]
-            if idx in masters:
-                continue
-            node = self.fleet.nodes[idx]
-            if node.seq.master_lost(world.now):  # no status broadcast for protocol.status_timeout_s: emergency stop, waiting
-                world.robots[idx].set_command(0.0, 0.0, 0.0)
-                continue
-            st = node.know.status
-            stop = st is not None and st.mode == "emergency"
-            cmd, _ = self.arbiters[idx].decide((a[0] * lim[0], a[1] * lim[1], a[2] * lim[2]), None, ranges[idx], stop)
-            world.robots[idx].set_command(*cmd)
+    # -- the episode's views ---------------------------------------------------------------------
+    @property
+    def truth(self):
+        """The current episode's ground truth for the experimenter's tools (evaluation, metrics,
+        render, the privileged teacher): :class:`petswarm_env.episode.Truth`, read-only. A policy
+        never reads it."""
+        return self._episode_or("truth").truth
 
-    def _stand_members_at_their_slots(self) -> None:
-        """``swarm.spawn: at_slots`` (a formation as good as built, for comparisons): member k
-        stands at slot k. The placement put the pool's k-th robot at slot k; the join numbers the
-        members by the master's estimated distances (Table 2), so robots at slots of equal distance
-        (a wedge's two sides) may come out exchanged: their poses are exchanged back before the
-        first step (waiting robots stand still while the swarm organizes), and what the members had
-        measured of each other is forgotten (the ring measures it again). A swarm that took an
-        extra robot keeps its start."""
-        world = self.world
-        for swarm, pool in zip(self.swarms, self._pools):
-            members = swarm.master.know.members
-            joined = [members[k] for k in sorted(members) if k != 0]
-            placed = pool[: len(joined)]
-            if sorted(joined) != sorted(placed) or joined == placed:
-                continue
-            poses = {i: (world.robots[i].position, world.robots[i].heading) for i in placed}
-            for rid, slot_robot in zip(joined, placed):
-                body = world.robots[rid].body
-                body.position, body.angle = poses[slot_robot]
-                world.space.reindex_shapes_for_body(body)
-            for rid in (swarm.master.node_id, *joined):
-                know = self.fleet.nodes[rid].know
-                know.ir.clear()
-                know.heading.clear()
-        world.invalidate_truth()
+    def _episode_or(self, what: str) -> Episode:
+        if self.episode is None:
+            raise RuntimeError(f"call reset() before {what}")
+        return self.episode
 
-    def _start_walks(self, errors_m: dict[str, float]) -> None:
-        """Start the script of each user who has stood long enough (chosen): once their swarm is
-        organized, a user stands until they see its formation built — every slave of it within
-        ``metrics.BUILT_WITHIN_M`` of its reference point (``errors_m``, agent -> formation error) —
-        or for ``user.formation_wait_s`` at most; the script's own stand (``user.start_delay_s``)
-        counts from organizing, so the user walks off at the later of the two."""
-        waited = self.world.now - self.experimenter.organized_at_s
-        limit = self.cfg.user.formation_wait_s
-        for session in self.sessions:
-            user = session.user
-            if user.walking or session.paused:
-                continue
-            slaves = [f"robot_{i}" for i in session.swarm.slave_ids()]
-            if waited >= limit - 1e-9 or all(errors_m.get(a, math.inf) <= BUILT_WITHIN_M for a in slaves):
-                user.walking = True
-                user.script_time_s = min(waited, self.cfg.user.start_delay_s)
+    @property
+    def num_cycles(self) -> int:
+        """The steps of the current episode so far (it truncates at ``max_cycles``)."""
+        return self._episode_or("num_cycles").num_cycles
 
-    def _current_slaves(self) -> list[int]:
-        return sorted(i for sw in self.swarms for i in sw.slave_ids())
+    @property
+    def scenario(self) -> str:
+        """The current episode's scenario (drawn from ``user.scenario_pool`` when it has one)."""
+        return self._episode_or("scenario").scenario
 
     def agent_robot(self, agent: str) -> int:
         """The robot index of ``agent`` (``robot_3`` -> 3) in this episode's world."""
-        return self._agent_index[agent]
+        return self._episode_or("agent_robot()").agent_index[agent]
 
     def reference_positions(self) -> dict[int, np.ndarray]:
         """True reference position of every slave (robot index -> (x, y)): the experimenter's view
         (:meth:`.metrics.Experimenter.reference_positions`)."""
-        return self.experimenter.reference_positions()
+        return self._episode_or("reference_positions()").experimenter.reference_positions()
 
     def episode_summary(self) -> dict[str, Any]:
         """The episode's figures so far (:meth:`.metrics.Experimenter.summary`); after the last
         step, the episode's summary (it stays until the next ``reset``)."""
-        if self.world is None:
-            raise RuntimeError("call reset() before episode_summary()")
-        return self.experimenter.summary(self.scenario, len(self._slave_ids))
+        return self._episode_or("episode_summary()").summary()
 
     def organize_summary(self) -> list[dict[str, Any]]:
         """How each user's swarm organized in this episode's reset (the join protocol, seed 000
         §3.4): ``organize_time_s``, ``join_retries``, ``members`` (member number -> robot index) and
         ``slaves_missing`` (the required slaves that did not join)."""
-        if self.world is None:
-            raise RuntimeError("call reset() before organize_summary()")
-        return [{"user": u, "organize_time_s": sw.organize_result.elapsed_s, "join_retries": sw.organize_result.retries,
-                 "members": dict(sw.organize_result.members), "slaves_missing": self._missing_by_pan[sw.pan]}
-                for u, sw in enumerate(self.swarms)]
+        return self._episode_or("organize_summary()").organize_summary()
 
     def scene(self):
         """A plain description of the current truth for the renderer (:meth:`.metrics.Experimenter.scene`)."""
-        return self.experimenter.scene(self.scenario, self.num_cycles)
+        return self._episode_or("scene()").scene()
 
 
 def _checked_seed(seed: Any) -> int:

@@ -4,6 +4,7 @@
     env = petswarm_v0.parallel_env(**{"swarm.num_slaves": 3})   # the ParallelEnv (PetSwarmEnv)
     aec = petswarm_v0.env()                                      # the AEC env, wrapped (order enforcing, ...)
     raw = petswarm_v0.raw_env()                                  # the unwrapped AEC env
+    venv = petswarm_v0.vector_env(64)                            # 64 copies stepped together, arrays (vector.py)
 
 Every function takes ``config`` (a :class:`~petswarm_env.config.Config`, a YAML path or None),
 ``render_mode`` and dotted overrides (``**{"radio.loss_prob": 0.1}`` or ``radio__loss_prob=0.1``).
@@ -20,8 +21,9 @@ from pettingzoo.utils.conversions import parallel_to_aec_wrapper
 
 from petswarm_env.config import Config
 from petswarm_env.env import ENV_NAME, PetSwarmEnv
+from petswarm_env.vector import VectorEnv
 
-__all__ = ["ENV_NAME", "env", "parallel_env", "raw_env"]
+__all__ = ["ENV_NAME", "env", "parallel_env", "raw_env", "vector_env"]
 
 
 def _dotted(overrides: dict[str, Any]) -> dict[str, Any]:
@@ -44,3 +46,9 @@ def env(config: Config | str | None = None, render_mode: str | None = None, **ov
     """The AEC env with PettingZoo's standard wrapper (``OrderEnforcingWrapper``: no step or
     render before reset), what ``pettingzoo.utils.conversions.parallel_to_aec`` gives."""
     return wrappers.OrderEnforcingWrapper(raw_env(config, render_mode=render_mode, **overrides))
+
+
+def vector_env(num_envs: int, config: Config | str | None = None, **overrides: Any) -> VectorEnv:
+    """``num_envs`` copies of the ParallelEnv stepped together in one process, arrays in and out
+    (:mod:`petswarm_env.vector`)."""
+    return VectorEnv(num_envs, config, **_dotted(overrides))

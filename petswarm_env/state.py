@@ -136,8 +136,8 @@ def _clip(x: float, c: float) -> float:
 
 
 def build_state(layout: StateLayout, env: Any) -> np.ndarray:
-    """The state of ``env`` (a :class:`~.env.PetSwarmEnv` after reset) now: ground truth from its
-    world, swarms, user sessions and experimenter. One function: the fields in the layout's order."""
+    """The state of ``env`` (an :class:`~.episode.Episode`) now: ground truth from its world,
+    swarms, user sessions and experimenter. One function: the fields in the layout's order."""
     cfg, world = env.cfg, env.world
     if len(world.robots) != layout.num_robots:
         raise RuntimeError(f"scenario '{env.scenario}' placed {len(world.robots)} robots; the state has room for "
@@ -151,7 +151,7 @@ def build_state(layout: StateLayout, env: Any) -> np.ndarray:
         role[sw.master.node_id], user_of[sw.master.node_id] = 1, u
         for i in sw.slave_ids():
             role[i], user_of[i] = 2, u
-    for i in env._other_user_robots:
+    for i in env.other_user_robots:
         role[i] = 3
     refs = env.experimenter.reference_points(centers.tolist(), headings.tolist())
     type_index = {name: k for k, name in enumerate(cfg.robot_types)}

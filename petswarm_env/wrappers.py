@@ -1,11 +1,14 @@
 """Wrappers for MARL libraries that need a fixed set of agents.
 
-The env's agents follow the middleware (:mod:`petswarm_env.env`): in a mode change with master
-change the farthest slave becomes the master (*terminated*) and the old master joins as a slave a
-few steps later; a dispersed swarm's slaves all leave. Most adapters assume that every possible
-agent is present from reset to the episode's end: SuperSuit's vector env, RLlib's
-``ParallelPettingZooEnv`` (its spaces come from the first reset's agents), TorchRL's
-``PettingZooWrapper`` and BenchMARL over it. :class:`FixedAgents` gives them that.
+The env's agents follow the middleware (:mod:`petswarm_env.env`, the lifecycle of
+:mod:`petswarm_env.episode`): in a mode change with master change the farthest slave becomes the
+master (*terminated*) and the old master joins as a slave a few steps later; a dispersed swarm's
+slaves all leave; an arrival joins. The raw env passes PettingZoo's ``parallel_api_test`` and
+drives RLlib's ``ParallelPettingZooEnv`` with RLlib's own episode bookkeeping on every scenario
+(tests/env/test_lifecycle.py). Adapters that assume every possible agent is present from reset to
+the episode's end need :class:`FixedAgents`: SuperSuit's vector env, TorchRL's ``PettingZooWrapper``
+where an agent joins after reset (it reads every possible agent's observation at reset: a master
+change, an arrival; without one it takes the raw env with ``use_mask=True``) and BenchMARL over it.
 
 Do not use SuperSuit's ``black_death_v3`` instead: in SuperSuit 3.11 it ends an episode only when
 its agents are terminated *and* truncated, so an episode that ends by truncation (every petswarm
@@ -26,13 +29,15 @@ class FixedAgents(BaseParallelWrapper):
     """Every possible agent (``env.possible_agents``, in that order) at every step.
 
     - *Observations*: a robot's own observation while it is in slave-role driving (and on the step
-      it leaves it: its last one); zeros otherwise. A zero observation is never a real one (a real
+      the episode truncates: its last one); zeros otherwise (the env gives an agent terminated in
+      a step no observation: petswarm_env/episode.py). A zero observation is never a real one (a real
       observation has its ``self.yaw_sincos`` on the unit circle), so it needs no flag of its own;
       the observation layout stays the env's, and a policy trained here runs on the env unchanged.
     - *Infos*: the env's flat infos (:data:`~petswarm_env.env.INFO_DEFAULTS`, their defaults for a
       robot the env has none for) plus ``active``: 1 when the observation is the robot's own, 0 for
       padding.
-    - *Actions*: passed on only for the env's live agents; the others are ignored (missing ones too).
+    - *Actions*: passed on only for the env's live agents; those of the other possible agents are
+      ignored (missing ones too: standing still); an id that is not a possible agent is refused.
     - *Rewards*: the env's, as Python floats; 0.0 for an inactive robot.
     - *Episode end*: for every agent at once when the env's episode ends (no live agent left:
       truncation at ``max_cycles``, or a dispersed swarm). A robot the env terminated on that step is
@@ -45,6 +50,7 @@ class FixedAgents(BaseParallelWrapper):
     def __init__(self, env):
         super().__init__(env)
         self.possible_agents = list(env.possible_agents)
+        self._possible = frozenset(self.possible_agents)
         self.agents: list[str] = []
         self.state_space = getattr(env, "state_space", None)
         space = env.observation_space(self.possible_agents[0])
@@ -56,6 +62,12 @@ class FixedAgents(BaseParallelWrapper):
         return self._fill(obs), self._infos(infos, obs)
 
     def step(self, actions: dict[str, Any]):
+        if not isinstance(actions, dict):
+            raise TypeError(f"actions must be a dict agent -> array of 3 floats, got {type(actions).__name__}")
+        unknown = [a for a in actions if a not in self._possible]
+        if unknown:
+            raise KeyError(f"actions for agents not in the episode: {sorted(map(str, unknown))}; "
+                           f"the possible agents are {', '.join(self.possible_agents)}")
         live = self.env.agents
         obs, rewards, terms, truncs, infos = self.env.step({a: actions[a] for a in live if a in actions})
         done = not self.env.agents

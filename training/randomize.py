@@ -237,7 +237,7 @@ class RandomizedEnv(ParallelEnv):
             e.close()
         self._envs.clear()
 
-    def __getattr__(self, name: str):  # cfg, layout, world, episode_summary(), …: the drawn env's
+    def __getattr__(self, name: str):  # cfg, layout, truth, episode_summary(), …: the drawn env's
         if name.startswith("_") or "current" not in self.__dict__ or self.__dict__["current"] is None:
             raise AttributeError(name)
         return getattr(self.__dict__["current"], name)

@@ -207,7 +207,8 @@ class Progress:
 
     def iteration(self, algo, result: dict[str, Any], wall_s: float) -> None:
         runners, log = result["env_runners"], self.log
-        agent_steps = int(sum(runners.get("num_agent_steps_sampled", {}).values()))
+        # per agent id; an id that never stepped in the iteration (a robot that had not joined yet) reads NaN
+        agent_steps = int(sum(v for v in runners.get("num_agent_steps_sampled", {}).values() if v == v))
         if agent_steps == 0:
             raise RuntimeError(f"an RLlib iteration sampled nothing within rllib.sample_timeout_s={self.cfg.rllib.sample_timeout_s} s; "
                                "raise it (a loaded machine or slow env runners)")

@@ -89,12 +89,12 @@ class PrivilegedTeacher:
         over the last instant (zero at the first; a jump faster than the body could move — a new
         table, a refill — counts as no motion)."""
         env = self.env
-        now = env.world.now
+        now = env.truth.now
         if self._at == now:
             return
-        centers, radii, headings = env.world.truth_arrays()
+        centers, radii, headings = env.truth.truth_arrays()
         xy = [tuple(p) for p in centers.tolist()]
-        refs = env.experimenter.references()
+        refs = env.truth.references()
         if self._at is None or len(self._xy) != len(xy):
             vel = [(0.0, 0.0)] * len(xy)
             ref_vel = {}
@@ -106,7 +106,7 @@ class PrivilegedTeacher:
                 last = self._refs.get(i)
                 if last is not None:
                     v = ((rx - last[0]) / dt, (ry - last[1]) / dt, wrap_angle(th_m - last[2]) / dt)
-                    if math.hypot(v[0], v[1]) <= env.world.robots[i].cfg.max_speed_mps:
+                    if math.hypot(v[0], v[1]) <= env.truth.robots[i].cfg.max_speed_mps:
                         ref_vel[i] = v
         self._at, self._xy, self._vel, self._refs, self._ref_vel = now, xy, vel, refs, ref_vel
         self._rad, self._th = radii.tolist(), headings.tolist()
@@ -125,12 +125,12 @@ class PrivilegedTeacher:
         ref = self._refs.get(i)
         if ref is None:
             return np.zeros(3, np.float32)
-        body = env.world.robots[i].cfg
+        body = env.truth.robots[i].cfg
         vmax, wmax = body.max_speed_mps, body.max_omega_rps
         xy, th = self._xy, self._th
         rx, ry, th_m = ref
         vrx, vry, w_m = self._ref_vel.get(i, (0.0, 0.0, 0.0))  # 1
-        for ux, uy in xy[len(env.world.robots):]:  # 2: the reference point out of every user's way
+        for ux, uy in xy[len(env.truth.robots):]:  # 2: the reference point out of every user's way
             gap = math.hypot(rx - ux, ry - uy)
             if 1e-6 < gap < g.user_keep_out_m:
                 rx, ry = ux + (rx - ux) * g.user_keep_out_m / gap, uy + (ry - uy) * g.user_keep_out_m / gap

@@ -157,11 +157,12 @@ def write_run_configs(out: Path, cfg: TrainConfig, env_cfg, resume: bool, change
 
 
 def train(cfg: TrainConfig | None, out_dir: str | os.PathLike, resume: bool = False, progress_bar: bool = True,
-          command: str = "") -> dict:
+          command: str = "", vec_env: str = "petswarm") -> dict:
     """Train (or resume) a run in ``out_dir``; returns the train log. ``cfg`` is the config of a
     new run; on resume the run's own (``None``) or one differing from it only in keys a resumed
     run may change (:func:`open_run`). A resumed run that has reached its ``timesteps`` returns
-    its log with ``"finished": True`` and writes nothing."""
+    its log with ``"finished": True`` and writes nothing. ``vec_env``: the batched vector env
+    (``petswarm``, default) or SuperSuit's pipeline (``supersuit``), :mod:`training.vec_env`."""
     out = Path(out_dir)
     cfg, log, changes, finished = begin_run(cfg, out, resume, command)
     if finished:
@@ -176,7 +177,7 @@ def train(cfg: TrainConfig | None, out_dir: str | os.PathLike, resume: bool = Fa
 
     with_state = cfg.ppo.critic == "state"
     venv = make_vec_env(env_cfg, cfg.num_envs, cfg.num_cpus, cfg.seed + log["timesteps"], cfg.randomize, cfg.env, with_state,
-                        cfg.residual())
+                        cfg.residual(), vec_env=vec_env)
     try:
         model = build_model(cfg.ppo, venv, cfg.seed, tensorboard_log=str(out / "tb"), obs_size=layout.size)
         if resume:

@@ -71,7 +71,9 @@ def test_eval_writes_per_scenario_summaries_and_gifs_relative_to_the_json(tmp_pa
     assert len(data["episodes"][0]["error_trace"]) == 12
 
 
-@pytest.mark.parametrize("args, words", [(["--address", "127.0.0.1:6379"], "--backend rllib"), (["--backend", "jax"], "--backend")])
+@pytest.mark.parametrize("args, words", [(["--address", "127.0.0.1:6379"], "--backend rllib"), (["--backend", "jax"], "--backend"),
+                                         (["--backend", "rllib", "--vec-env", "supersuit"], "--vec-env"),
+                                         (["--vec-env", "gym"], "--vec-env")])
 def test_train_backend_options_are_checked_with_one_line(args, words, tmp_path):
     out = _run("train", "--out", str(tmp_path / "r"), *args)
     assert out.returncode == 2 and "Traceback" not in out.stderr
@@ -83,16 +85,17 @@ def test_train_backend_options_are_checked_with_one_line(args, words, tmp_path):
 def test_a_swarm_that_organized_short_is_reported(monkeypatch, capsys, command):
     """Issue 14 item 9: a swarm short of swarm.num_slaves gives a warning line per episode from
     petswarm run / eval (and slaves_missing in the JSON); a full one gives none."""
-    from petswarm_env.env import OTHER_USER_ID, PetSwarmEnv
+    from petswarm_env.env import OTHER_USER_ID
+    from petswarm_env.episode import Episode
 
-    original = PetSwarmEnv._organize
+    original = Episode._organize
 
     def organize_with_robot_4_taken(self):
-        if self._seed_seq.entropy == 7:  # only the episode with seed 7 is short
+        if self.streams[0].entropy == 7:  # only the episode with seed 7 is short
             self.fleet.nodes[4].connected_user = OTHER_USER_ID  # Table 1: it declines
         original(self)
 
-    monkeypatch.setattr(PetSwarmEnv, "_organize", organize_with_robot_4_taken)
+    monkeypatch.setattr(Episode, "_organize", organize_with_robot_4_taken)
     assert main([*command, "--seed", "7", "--set", "max_cycles=10"]) == 0
     err = [ln for ln in capsys.readouterr().err.splitlines() if ln.startswith("warning:")]
     assert len(err) == 1 and "seed 7" in err[0] and "1 of 4 required slave(s) did not join" in err[0]

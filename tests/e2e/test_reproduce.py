@@ -306,7 +306,7 @@ def test_master_rescans_while_every_scan_response_was_lost(monkeypatch):
     monkeypatch.setattr(sys.modules["petswarm_env.env"], "RadioMedium", WithFilter)
     env = petswarm_env.parallel_env(**{"swarm.num_slaves": 2, "swarm.formation": "grid"})
     env.reset(seed=0)
-    res = env.swarm.organize_result
+    res = env.episode.swarm.organize_result
     assert len(dropped) == 4
     assert res.retries >= 2 and len(res.members) == 3 and res.complete
 

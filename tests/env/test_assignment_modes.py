@@ -20,7 +20,7 @@ def test_both_modes_organize_the_full_default_swarm(mode):
         env.reset(seed=seed)
         (s,) = env.organize_summary()
         assert s["slaves_missing"] == 0 and len(s["members"]) == 5, (seed, s)
-        assert env.swarm.organize_result.complete
+        assert env.episode.swarm.organize_result.complete
         slaves_consistent(env)
 
 
@@ -43,10 +43,10 @@ def test_slaves_without_a_swarm_section_take_their_ruta_slot_from_the_frames(mon
     _per_robot_configs(monkeypatch, _NoSwarmSection)  # a slave reading cfg.swarm fails the test
     env = petswarm_env.parallel_env(max_cycles=50, **{**CUSTOM, "user.scenario": "straight", "swarm.assignment": mode})
     env.reset(seed=0)
-    sw = env.swarm
+    sw = env.episode.swarm
     assert len(sw.slave_ids()) == 4 and sw.master.node_id == MASTER
     for nid in sw.slave_ids():
-        assert env.fleet.nodes[nid].formation.links == sw.formation.links
+        assert env.episode.fleet.nodes[nid].formation.links == sw.formation.links
     assert np.isfinite(env.organize_summary()[0]["organize_time_s"])
 
 
@@ -57,5 +57,5 @@ def test_ruta_organizes_the_same_way_for_the_same_seed(mode):
         env = petswarm_env.parallel_env(**{"swarm.assignment": mode, "radio.loss_prob": 0.1})
         env.reset(seed=3)
         (s,) = env.organize_summary()
-        got.append((s["organize_time_s"], s["members"], s["join_retries"], env.radio.stats.frames_sent))
+        got.append((s["organize_time_s"], s["members"], s["join_retries"], env.episode.radio.stats.frames_sent))
     assert got[0] == got[1]

@@ -83,7 +83,7 @@ def test_out_of_range_actions_are_clipped_not_amplified():
     env.reset(seed=0)
     env.step({a: np.full(3, 50.0) for a in env.agents})
     for agent in env.agents:
-        vx, vy, w = env.world.robots[env._agent_index[agent]].command
+        vx, vy, w = env.episode.world.robots[env.episode.agent_index[agent]].command
         assert abs(vx) <= env.cfg.robot.max_speed_mps + 1e-9
         assert abs(w) <= env.cfg.robot.max_omega_rps + 1e-9
 

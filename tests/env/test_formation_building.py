@@ -43,14 +43,14 @@ def test_scattered_robots_start_inside_the_available_region_with_random_headings
     headings = []
     for seed in range(5):
         env.reset(seed=seed)
-        w = env.world
-        master = env.swarm.master.node_id
+        w = env.episode.world
+        master = env.episode.swarm.master.node_id
         # the master organizes after its shift to the standard distance behind its user (following)
         centre = np.array([-cfg.master.distance_m, 0.0])
-        for i in env.swarm.slave_ids():
+        for i in env.episode.swarm.slave_ids():
             assert np.hypot(*(np.asarray(w.robots[i].position) - centre)) <= reach + 1e-9  # waiting robots stand while it organizes
             headings.append(w.robots[i].heading)
-        assert master not in env.swarm.slave_ids()
+        assert master not in env.episode.swarm.slave_ids()
     spread = np.std(np.unwrap(headings))
     assert spread > 1.0  # at_slots: every robot faces its user (±0.3 rad)
 
@@ -77,7 +77,7 @@ def test_member_numbers_follow_the_masters_estimated_distances(monkeypatch):
         env = petswarm_env.parallel_env(max_cycles=1, seed=seed)
         env.reset(seed=seed)
         available, out = seen[-1]
-        members = env.swarm.master.know.members
+        members = env.episode.swarm.master.know.members
         slaves = [members[k] for k in sorted(members) if k != 0]
         assert slaves == out
         assert [available[r] for r in slaves] == sorted(available[r] for r in slaves)
@@ -89,7 +89,7 @@ def test_the_default_swarm_builds_its_formation_and_says_when():
     env = petswarm_env.parallel_env(max_cycles=250)
     s = _run(env, steps=249)
     assert 0.0 < s["building_time_s"] < 25.0
-    errors, _ = env.experimenter.formation_errors(env.agents)
+    errors, _ = env.episode.experimenter.formation_errors(env.agents)
     assert max(errors.values()) < 2 * BUILT_WITHIN_M
 
 
@@ -99,8 +99,8 @@ def test_a_swarm_that_never_builds_reports_nan_and_the_user_walks_after_the_wait
     walked = None
     while env.agents:
         env.step({a: np.zeros(3, np.float32) for a in env.agents})  # nobody drives: never built
-        if walked is None and env.world.user.walking:
-            walked = env.world.now - env.experimenter.organized_at_s
+        if walked is None and env.episode.world.user.walking:
+            walked = env.episode.world.now - env.episode.experimenter.organized_at_s
     assert math.isnan(env.episode_summary()["building_time_s"])
     assert walked == pytest.approx(4.0, abs=0.11)
 

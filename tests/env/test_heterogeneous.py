@@ -27,9 +27,9 @@ def _run(seed: int, steps: int = 80, **over):
 
 def test_the_scenario_pool_gives_each_slave_its_type_and_one_space():
     env, trace = _run(0)
-    types = {a: env.world.robots[env._agent_index[a]].type_name for a in env.agents}
+    types = {a: env.episode.world.robots[env.episode.agent_index[a]].type_name for a in env.agents}
     assert sorted(types.values()) == ["mybot", "petbot", "r1", "r2"]
-    assert env.world.robots[env.swarm.master.node_id].type_name == "petbot"
+    assert env.episode.world.robots[env.episode.swarm.master.node_id].type_name == "petbot"
     space = env.observation_space(env.agents[0])
     assert all(env.observation_space(a) is space for a in env.possible_agents)
     for obs in trace:
@@ -49,8 +49,8 @@ def test_possible_agents_cover_the_pool():
     env = petswarm_env.parallel_env(**{"swarm.pool": [{"type": "mybot", "count": 3}, {"type": "r2", "count": 3}]})
     assert len(env.possible_agents) == 6  # the pool's 6 waiting robots (the master is no agent here)
     env.reset(seed=0)
-    assert len(env.world.robots) == 7
-    assert [r.type_name for r in env.world.robots] == ["petbot"] + ["mybot"] * 3 + ["r2"] * 3
+    assert len(env.episode.world.robots) == 7
+    assert [r.type_name for r in env.episode.world.robots] == ["petbot"] + ["mybot"] * 3 + ["r2"] * 3
     assert set(env.agents) <= set(env.possible_agents)
     assert env.state().shape == env.state_space.shape
 
@@ -65,8 +65,8 @@ def test_a_heterogeneous_episode_is_deterministic():
 
 def test_a_slave_with_an_empty_battery_stops():
     env, _ = _run(1, 30)
-    agent = next(a for a in env.agents if env.world.robots[env._agent_index[a]].type_name == "mybot")
-    robot = env.world.robots[env._agent_index[agent]]
+    agent = next(a for a in env.agents if env.episode.world.robots[env.episode.agent_index[a]].type_name == "mybot")
+    robot = env.episode.world.robots[env.episode.agent_index[agent]]
     robot.battery.set_remaining(0.0)
     for _ in range(20):
         env.step({a: np.ones(3, np.float32) for a in env.agents})
@@ -77,12 +77,12 @@ def test_a_slave_with_an_empty_battery_stops():
 def test_a_sensor_fault_lowers_presence():
     env, _ = _run(2, 5)
     agent = env.agents[0]
-    idx = env._agent_index[agent]
-    env.sensors.sensor_off(idx, {1})
+    idx = env.episode.agent_index[agent]
+    env.episode.sensors.sensor_off(idx, {1})
     obs, *_ = env.step({a: np.zeros(3, np.float32) for a in env.agents})
     pres = obs[agent][env.layout.slices["self.ultrasonic_present"]]
-    assert pres.sum() == env.sensors.flags[idx][:8].count(1.0) and 0.0 in pres.tolist()
-    status = env.world.robots[idx].own_status()
+    assert pres.sum() == env.episode.sensors.flags[idx][:8].count(1.0) and 0.0 in pres.tolist()
+    status = env.episode.world.robots[idx].own_status()
     assert [s["working"] for s in status["sensors"] if s["id"] == 1] == [False]
 
 
@@ -113,10 +113,10 @@ def test_sensors_refresh_after_a_robot_is_added():
     from petswarm_env.robot_types import resolve
 
     env, _ = _run(0, 2)
-    world = env.world
+    world = env.episode.world
     world.body_plan = world.body_plan + [resolve(env.cfg, "r1")] * (len(world.robots) - len(world.body_plan) + 1)
     robot = world.add_robot((8.0, 8.0), 0.0)  # an arrival (the faults branch wires the agent)
-    env.sensors.refresh()
-    ranges = env.sensors.read_rings()
+    env.episode.sensors.refresh()
+    ranges = env.episode.sensors.read_rings()
     assert ranges.shape == (len(world.robots), 8) and robot.type_name == "r1"
-    assert sum(env.sensors.flags[robot.index][:8]) == 3.0
+    assert sum(env.episode.sensors.flags[robot.index][:8]) == 3.0

@@ -134,7 +134,7 @@ def test_env_pickles_between_episodes_and_the_copy_continues_the_seed_sequence(c
     env = petswarm_v0.parallel_env(max_cycles=40)
     env.reset(seed=5)
     fresh = copier(env)  # after reset
-    assert fresh.world is None and fresh.agents == []
+    assert fresh.episode is None and fresh.agents == []
     with pytest.raises(RuntimeError, match="reset"):
         fresh.step({})
     _trace(env, 40)  # a whole episode

@@ -53,10 +53,10 @@ def test_a_swarm_parked_in_emergency_does_not_look_good():
     sq, n, steps_out, parked = 0.0, 0, 0, 0
     while env.agents:
         if env.num_cycles == 20:
-            env.world.user.body.position = (env.world.user.position[0] + 4.0, env.world.user.position[1])
+            env.episode.world.user.body.position = (env.episode.world.user.position[0] + 4.0, env.episode.world.user.position[1])
         obs, _, _, _, infos = env.step(pol.act_all(obs))
-        errors = [i["formation_error_m"] for a, i in infos.items() if a in env.experimenter.agent_index]
-        if env.session.state == "emergency":
+        errors = [i["formation_error_m"] for a, i in infos.items() if a in env.episode.experimenter.agent_index]
+        if env.episode.session.state == "emergency":
             parked += 1
         else:
             sq, n, steps_out = sq + sum(e * e for e in errors), n + len(errors), steps_out + 1
@@ -70,22 +70,22 @@ def test_a_swarm_parked_in_emergency_does_not_look_good():
 def test_reference_point_is_the_neighbour_plus_the_rotated_offset():
     env = petswarm_env.parallel_env()
     _run(env, 30)
-    ex = env.experimenter
-    assert isinstance(ex, Experimenter) and env.metrics is ex.metrics
-    swarm = env.swarm
-    th = env.world.robots[swarm.master.node_id].heading
+    ex = env.episode.experimenter
+    assert isinstance(ex, Experimenter) and env.episode.metrics is ex.metrics
+    swarm = env.episode.swarm
+    th = env.episode.world.robots[swarm.master.node_id].heading
     c, s = math.cos(th), math.sin(th)
     refs = ex.reference_positions()
     members = swarm.master.know.members
     for m, links in swarm.formation.links.items():
-        want = np.mean([np.array(env.world.robots[members[lk.neighbour]].position)
+        want = np.mean([np.array(env.episode.world.robots[members[lk.neighbour]].position)
                         + [c * lk.offset_m[0] - s * lk.offset_m[1], s * lk.offset_m[0] + c * lk.offset_m[1]] for lk in links], axis=0)
         np.testing.assert_allclose(refs[members[m]], want, atol=1e-12)
     assert set(refs) == set(swarm.slave_ids())
     errors, heading = ex.formation_errors(env.agents)
     for agent, e in errors.items():
-        idx = env._agent_index[agent]
-        assert e == pytest.approx(math.dist(env.world.robots[idx].position, refs[idx]))
+        idx = env.episode.agent_index[agent]
+        assert e == pytest.approx(math.dist(env.episode.world.robots[idx].position, refs[idx]))
         assert -math.pi <= heading[agent] < math.pi
 
 
@@ -94,15 +94,15 @@ def test_step_counts_each_contact_once_and_feeds_the_rewards_and_infos():
     pol = make_policy("random", PolicySpec.from_env(env), seed=3)
     obs, _ = env.reset(seed=3)
     begun = 0
-    c0 = env.world.collisions.per_robot.copy()
+    c0 = env.episode.world.collisions.per_robot.copy()
     while env.agents:
         agents = list(env.agents)
         obs, rewards, _, _, infos = env.step(pol.act_all(obs))
         begun += sum(infos[a]["new_contacts"] for a in agents)
         for a in agents:
             assert infos[a]["formation_error_m"] >= 0.0
-    slaves = {env._agent_index[a] for a in env.possible_agents}
-    assert begun == sum(env.world.collisions.per_robot.get(i, 0) - c0.get(i, 0) for i in slaves) > 0
+    slaves = {env.episode.agent_index[a] for a in env.possible_agents}
+    assert begun == sum(env.episode.world.collisions.per_robot.get(i, 0) - c0.get(i, 0) for i in slaves) > 0
 
 
 def test_summary_counts_from_the_end_of_reset():
@@ -112,10 +112,10 @@ def test_summary_counts_from_the_end_of_reset():
     assert s0["steps"] == 0 and s0["frames"] == {"sent": 0, "lost": 0, "collided": 0}
     assert s0["collisions"] == {"robot_robot": 0, "robot_user": 0, "robot_wall": 0}
     assert sum(s0["events"]["arbiter_wins"].values()) == 0
-    assert s0["organize_time_s"] == env.swarm.organize_result.elapsed_s > 0
+    assert s0["organize_time_s"] == env.episode.swarm.organize_result.elapsed_s > 0
     _run(env, 50)
     assert env.agents == []  # the episode is over: its summary stays until the next reset
     s = env.episode_summary()
     assert s["steps"] == 50 and s["frames"]["sent"] > 0 and s["slaves"] == 4 and s["users"] == 1
     assert sum(s["events"]["arbiter_wins"].values()) == 50 * 5  # one winner per robot per tick
-    assert s["formation_rmse_m"] == env.metrics.formation_rmse_m and s["scenario"] == "zigzag"
+    assert s["formation_rmse_m"] == env.episode.metrics.formation_rmse_m and s["scenario"] == "zigzag"

@@ -63,7 +63,7 @@ def test_turning_the_whole_scene_leaves_every_observation_the_same(monkeypatch, 
         _rotated_world(m, angle)
         turned, env_turned = _trace(overrides, seed, STEPS)
     # the scene did turn: the first robot's true heading differs by the angle
-    assert math.remainder(env_turned.world.robots[0].heading - env.world.robots[0].heading - angle, 2 * math.pi) == pytest.approx(0.0, abs=1e-3)
+    assert math.remainder(env_turned.episode.world.robots[0].heading - env.episode.world.robots[0].heading - angle, 2 * math.pi) == pytest.approx(0.0, abs=1e-3)
     worst = 0.0
     for step, (a, b) in enumerate(zip(straight, turned)):
         assert sorted(a) == sorted(b), f"step {step}: agents differ"

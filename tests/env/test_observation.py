@@ -13,8 +13,8 @@ def _assert_formation_errors_from_the_bodies(env):
     bodies' own position and heading properties."""
     from petswarm_env.sim.geometry import wrap_angle as _wrap
 
-    robots, errors, heads = env.world.robots, {}, {}
-    for swarm in env.swarms:
+    robots, errors, heads = env.episode.world.robots, {}, {}
+    for swarm in env.episode.swarms:
         if swarm.formation is None or not swarm.organized:
             continue
         members, th = swarm.master.know.members, robots[swarm.master.node_id].heading
@@ -32,7 +32,7 @@ def _assert_formation_errors_from_the_bodies(env):
             x, y = robots[idx].position
             errors[agent] = math.hypot(x - sx / len(links), y - sy / len(links))
             heads[agent] = _wrap(robots[idx].heading - th)
-    assert env.experimenter.formation_errors(env.agents) == (errors, heads)
+    assert env.episode.experimenter.formation_errors(env.agents) == (errors, heads)
 
 
 @pytest.mark.parametrize("overrides", [{"swarm.num_slaves": 9, "swarm.formation": "grid", "user.scenario": "u_turn"}, {"user.scenario": "mode_change"}],
@@ -56,15 +56,15 @@ def test_observation_builder_equals_the_oracle_bit_for_bit(overrides):
     layouts = [ObservationLayout(env.cfg.robot.ultrasonic.count, env._limits, r) for r in (env.cfg.robot.ultrasonic.max_range_m, 2.7)]
     while env.agents:
         for agent in env.agents:
-            idx = env._agent_index[agent]
-            node, robot = env.fleet.nodes[idx], env.world.robots[idx]
-            now = env.world.now + float(rng.choice([0.0, 1.5, 30.0]))  # ages beyond the clip too
+            idx = env.episode.agent_index[agent]
+            node, robot = env.episode.fleet.nodes[idx], env.episode.world.robots[idx]
+            now = env.episode.world.now + float(rng.choice([0.0, 1.5, 30.0]))  # ages beyond the clip too
             args = (node.know, node.reference_links(), now, robot.velocity_body, robot.heading + float(rng.normal()),
                     rng.uniform(-1, 1, 3).astype(np.float32))
             rest = (int(rng.integers(0, 4)), (float(rng.normal()), float(rng.normal())))
             rest += ([(float(x), float(y)) for x, y in rng.normal(size=(len(node.know.members), 2))],)  # member slots: the anchor's
             layout = layouts[int(rng.integers(0, 2))]
-            ranges = env.sensors.ranges[idx] * float(rng.uniform(0.5, 1.5))
+            ranges = env.episode.sensors.ranges[idx] * float(rng.uniform(0.5, 1.5))
             values = oracles.build_observation(layout, Readings(*args, ranges, *rest))
             want, want32 = np.array(values), np.array(values, dtype=np.float32)
             for ring in (ranges, ranges.tolist()):

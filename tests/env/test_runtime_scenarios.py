@@ -30,7 +30,7 @@ def episode(scenario, seed=0, steps=400, **overrides):
         assert all(set(i) == set(INFO_DEFAULTS) for i in infos.values())
         joined += [a for a, i in infos.items() if i["joined"]]
         terminated += [a for a, t in terms.items() if t and not truncs[a]]
-        trace.append((env.world.now, sorted(env.agents)))
+        trace.append((env.episode.world.now, sorted(env.agents)))
         if env.num_cycles % 50 == 0:
             assert env.state_space.contains(env.state())
     return env, joined, terminated, trace
@@ -42,11 +42,11 @@ def test_dropout_detects_removes_and_refills():
     assert set(KEYS) <= set(s)
     assert s["faults_injected"] == 1 and s["faults_detected"] == 1 and s["detection_time_s"] <= 2.5
     assert s["reassignments"] == 1 and s["arrivals_joined"] == 1 and s["reassignment_time_s"] <= 5.0
-    dead = env.runtime.faults.log[0].robot
+    dead = env.episode.runtime.faults.log[0].robot
     assert terminated == [f"robot_{dead}"]
-    spare = env.runtime.arrivals[0][1]
+    spare = env.episode.runtime.arrivals[0][1]
     assert joined == [f"robot_{spare}"] and f"robot_{spare}" in env.possible_agents
-    assert len(env.swarm.master.know.members) == 5
+    assert len(env.episode.swarm.master.know.members) == 5
 
 
 def test_master_loss_stops_every_slave_and_ends_the_episode():
@@ -54,18 +54,18 @@ def test_master_loss_stops_every_slave_and_ends_the_episode():
     s = env.episode_summary()
     assert s["faults_detected"] == 1 and s["detection_time_s"] == pytest.approx(1.0, abs=0.15)
     assert len(terminated) == 4 and not env.agents
-    assert env.sessions[0].state == "waiting_user" and env.sessions[0].events["masters_lost"] == 1
-    assert not env.world.user.walking  # the user stopped at the belt's alert
+    assert env.episode.sessions[0].state == "waiting_user" and env.episode.sessions[0].events["masters_lost"] == 1
+    assert not env.episode.world.user.walking  # the user stopped at the belt's alert
 
 
 def test_arrival_joins_the_open_slot_through_the_periodic_scan():
     env, joined, terminated, _ = episode("arrival")
     s = env.episode_summary()
-    arrival = env.runtime.arrivals[0][1]
+    arrival = env.episode.runtime.arrivals[0][1]
     assert joined == [f"robot_{arrival}"] and len(terminated) == 1
     assert s["arrivals_joined"] == 1 and s["reassignments"] == 1
-    t_on = env.runtime.arrived[0][0]
-    t_join = [t for t, e, _ in env.swarm.member_log if e == "joined"][0]
+    t_on = env.episode.runtime.arrived[0][0]
+    t_join = [t for t, e, _ in env.episode.swarm.member_log if e == "joined"][0]
     assert 0 < t_join - t_on <= env.cfg.protocol.rescan_period_s + 2.0
     assert s["slots_unfilled_s"] > 5.0  # one slot open from the loss (15 s) to the arrival (25 s)
 
@@ -74,12 +74,12 @@ def test_the_same_seed_gives_the_same_runtime_episode():
     a = episode("dropout", seed=3, steps=260)
     b = episode("dropout", seed=3, steps=260)
     assert a[1:] == b[1:]
-    assert np.array_equal(a[0].world.truth_arrays()[0], b[0].world.truth_arrays()[0])
+    assert np.array_equal(a[0].truth.truth_arrays()[0], b[0].truth.truth_arrays()[0])
 
 
 def test_config_faults_take_precedence_over_the_scenarios():
     env, *_ = episode("dropout", steps=60, faults=[{"at_s": 1.0, "robot": "master", "kind": "ir"}])
-    log = env.runtime.faults.log
+    log = env.episode.runtime.faults.log
     assert [(f.kind, f.role) for f in log] == [("ir", "master")]
     assert math.isnan(env.episode_summary()["detection_time_s"])  # a sensor fault is not detected
 
@@ -93,7 +93,7 @@ def test_the_renderer_shows_each_robots_fault_state():
     env.reset(seed=0)
     scene = env.scene()
     assert all(not r.faults for r in scene.robots)
-    assert len(scene.robots) == len(env.world.robots) - 1  # the parked arrival robot is not in the scene
+    assert len(scene.robots) == len(env.episode.world.robots) - 1  # the parked arrival robot is not in the scene
     frame0 = env.render()
     for _ in range(40):
         env.step({a: np.zeros(3, np.float32) for a in env.agents})
@@ -121,11 +121,11 @@ def test_the_state_carries_each_robots_type_and_fault():
         return float(state[layout.robot(i) + r[name].start])
 
     s = env.state()
-    types = [field(s, i, "type") * NUM_TYPES for i in range(len(env.world.robots))]
-    assert types == [list(env.cfg.robot_types).index(rb.type_name) for rb in env.world.robots]
+    types = [field(s, i, "type") * NUM_TYPES for i in range(len(env.episode.world.robots))]
+    assert types == [list(env.cfg.robot_types).index(rb.type_name) for rb in env.episode.world.robots]
     assert 1.0 in types  # the mybot
-    assert all(field(s, i, "fault") == 0.0 for i in range(len(env.world.robots)))  # the arrival is parked, not faulty
+    assert all(field(s, i, "fault") == 0.0 for i in range(len(env.episode.world.robots)))  # the arrival is parked, not faulty
     for _ in range(10):
         env.step({a: np.zeros(3, np.float32) for a in env.agents})
     s = env.state()
-    assert field(s, 1, "fault") == 1.0 and sum(field(s, i, "fault") for i in range(len(env.world.robots))) == 1.0
+    assert field(s, 1, "fault") == 1.0 and sum(field(s, i, "fault") for i in range(len(env.episode.world.robots))) == 1.0

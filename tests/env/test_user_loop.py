@@ -25,7 +25,7 @@ from petswarm_env.sim.world import World
 
 def run(env, steps, policy=None):
     """Step the env with the scripted policy (or none) for ``steps`` control periods."""
-    obs = env.observer.observe(env.agents, env._last_action, env.world.now) if env.agents else {}
+    obs = env.episode.observer.observe(env.agents, env.episode.last_action, env.episode.world.now) if env.agents else {}
     pol = policy or make_policy("scripted", PolicySpec.from_env(env))
     infos = {}
     for _ in range(steps):
@@ -75,24 +75,24 @@ def test_pairing_needs_the_belt_within_one_metre():
 def test_reset_runs_pairing_then_mode_then_organize():
     env = petswarm_env.parallel_env()
     env.reset(seed=0)
-    se = env.session
+    se = env.episode.session
     cmds = [c for _, c in se.commands_received]
     assert cmds[:2] == ["mode:following", "organize"]
     times = [t for t, _ in se.commands_received]
-    assert se.paired_at_s < times[0] < times[1] < env.world.now
-    assert se.state == "following" and env.swarm.organized
+    assert se.paired_at_s < times[0] < times[1] < env.episode.world.now
+    assert se.state == "following" and env.episode.swarm.organized
 
 
 def test_leading_master_shifts_before_the_formation_is_built():
     env = petswarm_env.parallel_env(**{"swarm.mode": "leading"})
     env.reset(seed=0)
-    se = env.session
+    se = env.episode.session
     t_organize = next(t for t, c in se.commands_received if c == "organize")
     # the organize request came only once the master stood at its leading distance
     assert t_organize > next(t for t, c in se.commands_received if c == "mode:leading") + 0.5
-    m = env.world.robots[env.swarm.master.node_id]
-    assert math.dist(m.position, env.world.user.position) > 1.5  # it moved out from the pairing place
-    slots = env.swarm.formation.slot_positions()
+    m = env.episode.world.robots[env.episode.swarm.master.node_id]
+    assert math.dist(m.position, env.episode.world.user.position) > 1.5  # it moved out from the pairing place
+    slots = env.episode.swarm.formation.slot_positions()
     assert slots[:, 0].min() >= -1e-9  # the formation lies between the master and the user
 
 
@@ -100,9 +100,9 @@ def test_leading_master_shifts_before_the_formation_is_built():
 def _remote_env():
     env = petswarm_env.parallel_env(**{"user.scenario": "straight", "user.start_delay_s": 100.0})
     env.reset(seed=0)
-    env.world.user.pending_commands.append("mode:remote")
+    env.episode.world.user.pending_commands.append("mode:remote")
     run(env, 12)
-    assert env.session.state == "remote"
+    assert env.episode.session.state == "remote"
     return env
 
 
@@ -112,14 +112,14 @@ def _remote_env():
 )
 def test_each_gesture_drives_the_master_its_way(gesture, axis, sign):
     env = _remote_env()
-    master = env.swarm.master.node_id
-    yaw0 = env.world.robots[master].heading
-    pos0 = np.array(env.world.robots[master].position)
-    user_wins0 = env.arbiters[master].counts.wins["user"]
-    env.world.user.pending_commands.append("gesture:" + gesture)
+    master = env.episode.swarm.master.node_id
+    yaw0 = env.episode.world.robots[master].heading
+    pos0 = np.array(env.episode.world.robots[master].position)
+    user_wins0 = env.episode.arbiters[master].counts.wins["user"]
+    env.episode.world.user.pending_commands.append("gesture:" + gesture)
     run(env, 35 if axis == 2 else 14)  # recognition delay + BLE, then the move / the 90° rotation
-    r = env.world.robots[master]
-    assert env.arbiters[master].counts.wins["user"] > user_wins0  # the user's source drove the motors
+    r = env.episode.world.robots[master]
+    assert env.episode.arbiters[master].counts.wins["user"] > user_wins0  # the user's source drove the motors
     if axis == 2:
         turned = math.remainder(r.heading - yaw0, 2 * math.pi)
         assert sign * turned == pytest.approx(math.radians(90), abs=math.radians(10))
@@ -132,16 +132,16 @@ def test_each_gesture_drives_the_master_its_way(gesture, axis, sign):
 
 def test_circle_cancels_to_command_waiting():
     env = _remote_env()
-    env.world.user.pending_commands.append("gesture:circle")
+    env.episode.world.user.pending_commands.append("gesture:circle")
     run(env, 12)
-    assert env.session.state == "command_waiting"
+    assert env.episode.session.state == "command_waiting"
 
 
 def test_two_move_gestures_in_a_row_give_a_diagonal():
     env = _remote_env()
-    env.world.user.pending_commands += ["gesture:forward", "gesture:left"]
+    env.episode.world.user.pending_commands += ["gesture:forward", "gesture:left"]
     run(env, 22)
-    got = [c for _, c in env.session.commands_received if c.startswith("gesture:")]
+    got = [c for _, c in env.episode.session.commands_received if c.startswith("gesture:")]
     assert "gesture:forward+left" in got
 
 
@@ -152,8 +152,8 @@ def test_obstacle_ahead_while_leading_raises_the_exception_then_return_resumes()
     env = petswarm_env.parallel_env(**{"swarm.mode": "leading", "user.scenario": "straight", "swarm.num_slaves": 2,
                                        "world.obstacles": [box]})
     env.reset(seed=0)
-    se = env.session
-    master = env.swarm.master.node_id
+    se = env.episode.session
+    master = env.episode.swarm.master.node_id
     states = []
     for _ in range(60):
         run(env, 1)
@@ -161,12 +161,12 @@ def test_obstacle_ahead_while_leading_raises_the_exception_then_return_resumes()
         if se.state == "exception":
             break
     assert se.state == "exception" and se.events["exceptions"] == 1 and se.events["alerts_to_belt"] >= 1
-    wins = env.arbiters[master].counts.wins["user"]
-    env.world.user.pending_commands.append("gesture:left")  # the user steers the robot around it
+    wins = env.episode.arbiters[master].counts.wins["user"]
+    env.episode.world.user.pending_commands.append("gesture:left")  # the user steers the robot around it
     run(env, 15)
-    assert env.arbiters[master].counts.wins["user"] > wins
+    assert env.episode.arbiters[master].counts.wins["user"] > wins
     assert se.state == "exception"  # gestures do not end the exception
-    env.world.user.pending_commands.append("return")
+    env.episode.world.user.pending_commands.append("return")
     seen = []
     for _ in range(12):
         run(env, 1)
@@ -178,20 +178,20 @@ def test_user_beyond_the_reliable_range_is_an_emergency_and_everyone_stops():
     env = petswarm_env.parallel_env(**{"user.scenario": "straight", "user.start_delay_s": 100.0})
     env.reset(seed=0)
     run(env, 5)
-    env.world.user.body.position = (env.world.user.position[0] + 4.0, env.world.user.position[1])
+    env.episode.world.user.body.position = (env.episode.world.user.position[0] + 4.0, env.episode.world.user.position[1])
     cfg = env.cfg
     run(env, int(cfg.master.lost_user_s / cfg.control_period_s) + 8)
-    se = env.session
+    se = env.episode.session
     assert se.state == "emergency" and se.events["emergencies"] == 1 and se.events["alerts_to_belt"] >= 1
     run(env, 10)  # the status broadcast carries the emergency: slaves stop too
-    for idx in [env.swarm.master.node_id, *env.swarm.slave_ids()]:
-        vx, vy, w = env.world.robots[idx].velocity_body
+    for idx in [env.episode.swarm.master.node_id, *env.episode.swarm.slave_ids()]:
+        vx, vy, w = env.episode.world.robots[idx].velocity_body
         assert math.hypot(vx, vy) < 0.05 and abs(w) < 0.05
-        assert env.fleet.nodes[idx].know.status is None or idx == env.swarm.master.node_id or \
-            env.fleet.nodes[idx].know.status.mode == "emergency"
+        assert env.episode.fleet.nodes[idx].know.status is None or idx == env.episode.swarm.master.node_id or \
+            env.episode.fleet.nodes[idx].know.status.mode == "emergency"
     # the user comes back within range: the previous mode resumes
-    m = env.world.robots[env.swarm.master.node_id]
-    env.world.user.body.position = (m.position[0] + math.cos(m.heading), m.position[1] + math.sin(m.heading))
+    m = env.episode.world.robots[env.episode.swarm.master.node_id]
+    env.episode.world.user.body.position = (m.position[0] + math.cos(m.heading), m.position[1] + math.sin(m.heading))
     run(env, 15)
     assert se.state == "following"
 
@@ -208,7 +208,7 @@ def test_the_user_turns_back_at_the_walls_and_the_swarm_stays_in_the_world():
     far = 0.0
     while env.agents:
         obs, *_ = env.step(pol.act_all(obs))
-        far = max(far, float(np.abs(env.world.user.position).max()))
+        far = max(far, float(np.abs(env.episode.world.user.position).max()))
     s = env.episode_summary()
     assert 8.0 - margin < far < 8.0 - margin + 1.0  # it reached the turn-back line, never beyond a turn's radius
     assert s["collisions"]["robot_wall"] == 0 and s["events"]["emergencies"] == 0 and s["emergency_s"] == 0.0
@@ -279,27 +279,27 @@ def test_table3_without_master_change_keeps_the_master_and_changes_references(ol
 def test_mode_change_scenario_changes_master_over_the_radio():
     env = petswarm_env.parallel_env(**{"user.scenario": "mode_change"})
     env.reset(seed=0)
-    old_master = env.swarm.master.node_id
-    f = env.swarm.formation
+    old_master = env.episode.swarm.master.node_id
+    f = env.episode.swarm.formation
     levels = _levels(f)
-    top_node = env.swarm.master.know.members[min(levels, key=lambda m: (levels[m], m))]
+    top_node = env.episode.swarm.master.know.members[min(levels, key=lambda m: (levels[m], m))]
     assert f"robot_{old_master}" in env.possible_agents  # it can become a slave
     infos = run(env, 300)
-    sw = env.swarm
+    sw = env.episode.swarm
     assert sw.mode == "leading" and sw.events["mode_changes"] == 1 and sw.events["master_changes"] == 1
     assert sw.master.node_id == top_node != old_master
-    assert sw.master.state == "master" and sw.master.connected_user == 0 and env.session.connected_robot == top_node
+    assert sw.master.state == "master" and sw.master.connected_user == 0 and env.episode.session.connected_robot == top_node
     # the old master is a slave now (an agent), the new one left the agents
     assert f"robot_{old_master}" in env.agents and f"robot_{top_node}" not in env.agents
     members = sw.master.know.members
     for m, nid in members.items():  # everybody agrees on the new tables
-        assert env.fleet.nodes[nid].know.members == members
-        assert env.fleet.nodes[nid].know.member == m
+        assert env.episode.fleet.nodes[nid].know.members == members
+        assert env.episode.fleet.nodes[nid].know.member == m
     assert infos  # the episode went on
     # the renderer draws the current master, its links and the user
     scene = env.scene()
     masters = [rv for rv in scene.robots if rv.role == "master"]
-    assert len(masters) == 1 and masters[0].position_m == env.world.robots[top_node].position
+    assert len(masters) == 1 and masters[0].position_m == env.episode.world.robots[top_node].position
     assert len(scene.links) >= len(members) - 1 and "master r%d" % top_node in " ".join(scene.text)
 
 
@@ -339,7 +339,7 @@ def test_episode_events_are_reported():
     assert set(ev) >= {"master_changes", "mode_changes", "join_retries", "token_recoveries", "emergencies",
                        "arbiter_wins", "foreign_pan_frames_processed"}
     assert set(ev["arbiter_wins"]) == {"safety", "user", "policy"}
-    assert sum(ev["arbiter_wins"].values()) == 30 * (1 + len(env._slave_ids))  # one winner per robot per tick
+    assert sum(ev["arbiter_wins"].values()) == 30 * (1 + len(env.episode.slave_ids))  # one winner per robot per tick
     assert ev["foreign_pan_frames_processed"] == 0
 
 
@@ -355,17 +355,17 @@ def test_two_users_swarms_never_process_each_others_frames(monkeypatch):
     monkeypatch.setattr(node_mod.Node, "_handle", spy)
     env = petswarm_env.parallel_env(**{"world.num_users": 2, "swarm.num_slaves": 3, "max_cycles": 40})
     env.reset(seed=0)
-    a, b = env.swarms
+    a, b = env.episode.swarms
     assert a.pan != b.pan and a.organized and b.organized
     assert a.slave_ids() and b.slave_ids() and len(env.agents) == len(a.slave_ids()) + len(b.slave_ids())
     seen.clear()
     run(env, 40)
-    members = {sw.pan: set(sw.member_ids()) for sw in env.swarms}
-    for sw in env.swarms:
+    members = {sw.pan: set(sw.member_ids()) for sw in env.episode.swarms}
+    for sw in env.episode.swarms:
         others = members[b.pan if sw is a else a.pan]
         crossed = [s for s in seen if s[0] in members[sw.pan] and s[1] in others]
         assert crossed == []
-    assert env.fleet.foreign_pan_frames_processed() == 0
+    assert env.episode.fleet.foreign_pan_frames_processed() == 0
     assert env.episode_summary()["foreign_pan_frames_processed"] == 0
 
 
@@ -381,8 +381,8 @@ def test_a_robot_connected_to_another_user_declines_to_join():
         env = petswarm_env.parallel_env(**{"world.num_users": 2, "world.user_spacing_m": 3.5, "swarm.num_slaves": 2,
                                            "radio.rssi_shadowing_db": 0.0, "swarm.spawn_jitter_m": 0.0})
         env.reset(seed=seed)
-        for u, sw in enumerate(env.swarms):
-            other_master = env.swarms[1 - u].master.node_id
+        for u, sw in enumerate(env.episode.swarms):
+            other_master = env.episode.swarms[1 - u].master.node_id
             assert other_master not in sw.organize_result.members.values()
             declined += other_master in sw.organize_result.unavailable
     assert declined >= 1
@@ -391,13 +391,13 @@ def test_a_robot_connected_to_another_user_declines_to_join():
 def test_user_disperse_request_sends_robots_back_and_ends_their_agency():
     env = petswarm_env.parallel_env(**{"user.scenario": "straight", "user.start_delay_s": 100.0})
     env.reset(seed=0)
-    slaves = env.swarm.slave_ids()
-    env.world.user.pending_commands.append("disperse")
+    slaves = env.episode.swarm.slave_ids()
+    env.episode.world.user.pending_commands.append("disperse")
     infos = run(env, 30)
     assert env.agents == []  # every slave left slave-role driving: terminated
     for i in slaves:
-        assert env.fleet.nodes[i].state == "waiting" and env.fleet.nodes[i].swarm_pan is None
-    assert infos and not env.agents  # no agent left: the episode is over
+        assert env.episode.fleet.nodes[i].state == "waiting" and env.episode.fleet.nodes[i].swarm_pan is None
+    assert infos == {} and not env.agents  # every agent terminated (no observation or info after its last step): the episode is over
     for _ in range(5):  # the master's disperse process ends after its last acknowledgement window
-        env.world.advance(env.cfg.physics_substeps)
-    assert env.swarm.master.state == "following" and env.session.state == "following"
+        env.episode.world.advance(env.cfg.physics_substeps)
+    assert env.episode.swarm.master.state == "following" and env.episode.session.state == "following"

@@ -65,7 +65,7 @@ def _policy(name: str, env, seed: int):
 
 
 def _truth(env) -> tuple[np.ndarray, np.ndarray]:
-    centers, _, headings = env.world.truth_arrays()
+    centers, _, headings = env.truth.truth_arrays()
     return np.ascontiguousarray(centers, dtype=np.float64), np.ascontiguousarray(headings, dtype=np.float64)
 
 

@@ -43,7 +43,7 @@ def radio_filter(monkeypatch):
                 super().__init__(*args, **kw)
                 self.drop_filter = frames
 
-        monkeypatch.setattr(sys.modules["petswarm_env.env"], "RadioMedium", Filtered)
+        monkeypatch.setattr(sys.modules["petswarm_env.episode"], "RadioMedium", Filtered)
         holder["frames"] = frames
         return frames
 
@@ -53,7 +53,7 @@ def radio_filter(monkeypatch):
 def organize(seed=0, **overrides):
     env = petswarm_env.parallel_env(**overrides)
     env.reset(seed=seed)
-    return env, env.swarm.organize_result
+    return env, env.episode.swarm.organize_result
 
 
 def member_of(res, rid):
@@ -212,7 +212,7 @@ def test_a_refill_of_one_open_slot_runs_the_same_pipeline_on_an_organized_master
 
     env = petswarm_env.parallel_env(**{"swarm.assignment": mode, "swarm.extra_robots": 1, "protocol.join_radius_m": 4.0})
     env.reset(seed=0)
-    sw = env.swarm
+    sw = env.episode.swarm
     spare = sorted(set(sw.organize_result.candidates) - set(sw.organize_result.members.values()))
     assert len(spare) == 1
     out = {}
@@ -227,7 +227,7 @@ def test_a_refill_of_one_open_slot_runs_the_same_pipeline_on_an_organized_master
         out["chosen"] = yield from jm._choose(candidates, answers, [3], res)
         node.pans = frozenset({sw.pan})
 
-    env.world.clock.process(refill())
+    env.episode.world.clock.process(refill())
     for _ in range(100):
         env.step({a: [0.0, 0.0, 0.0] for a in env.agents})
         if out:

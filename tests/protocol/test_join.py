@@ -6,6 +6,7 @@ import pytest
 import petswarm_env
 from petswarm_env.comms.radio import PAN_WAITING
 from petswarm_env.env import OTHER_USER_ID, SWARM_PAN, PetSwarmEnv
+from petswarm_env.episode import Episode
 from petswarm_env.middleware.join import can_join, select_joiners
 
 # -- Table 1: can a robot join? --------------------------------------------------------------------
@@ -63,12 +64,12 @@ def test_selection_ties_are_deterministic():
 def organize(seed, **overrides):
     env = petswarm_env.parallel_env(**overrides)
     env.reset(seed=seed)
-    return env, env.swarm.organize_result
+    return env, env.episode.swarm.organize_result
 
 
 def slaves_consistent(env):
     """Every member is a slave on the swarm PAN and knows the same member table as the master."""
-    sw = env.swarm
+    sw = env.episode.swarm
     res = sw.organize_result
     assert res.members[0] == sw.master.node_id
     assert sw.master.state == "master"
@@ -100,10 +101,10 @@ def test_robot_connected_to_other_user_never_joins():
     seen_unavailable = set()
     for seed in range(6):
         env, res = organize(seed, **OTHER)
-        others = set(env._other_user_robots)
+        others = set(env.episode.other_user_robots)
         assert len(others) == 2
         for i in others:
-            node = env.swarm.nodes[i]
+            node = env.episode.swarm.nodes[i]
             assert node.connected_user == OTHER_USER_ID
             assert node.state == "waiting"
             assert node.pans == frozenset({PAN_WAITING})
@@ -130,19 +131,19 @@ def test_extra_robots_get_non_participating_and_stay_waiting():
     for seed in range(6):
         env, res = organize(seed, **EXTRA)
         n = env.cfg.swarm.num_slaves
-        joined = set(res.members.values()) - {env.swarm.master.node_id}
+        joined = set(res.members.values()) - {env.episode.swarm.master.node_id}
         assert len(joined) <= n
         assert joined <= set(res.candidates)
         # everybody asked but not taken got the non-participating notification: all still waiting
         assert set(res.not_selected) == set(res.candidates) - joined
-        for i in set(env.swarm.nodes) - joined - {env.swarm.master.node_id}:
-            node = env.swarm.nodes[i]
+        for i in set(env.episode.swarm.nodes) - joined - {env.episode.swarm.master.node_id}:
+            node = env.episode.swarm.nodes[i]
             assert node.state == "waiting"
             assert node.pans == frozenset({PAN_WAITING})
             assert node.swarm_pan is None and node.know.member == -1
         # Table 2 with exact RSSI: among the robots that answered, the closest ones were taken
-        robots = env.world.robots
-        master = robots[env.swarm.master.node_id].position
+        robots = env.episode.world.robots
+        master = robots[env.episode.swarm.master.node_id].position
 
         def dist(i):
             return sum((a - b) ** 2 for a, b in zip(robots[i].position, master)) ** 0.5
@@ -161,11 +162,11 @@ def test_extra_robots_exactly_num_slaves_join_and_the_closest_candidates_are_cho
         n = env.cfg.swarm.num_slaves
         joined = set(res.members.values()) - {0}
         assert len(joined) == n, (seed, res)
-        master = np.asarray(env.world.robots[0].position)
-        dist = {i: float(np.hypot(*(np.asarray(env.world.robots[i].position) - master))) for i in res.candidates}
+        master = np.asarray(env.episode.world.robots[0].position)
+        dist = {i: float(np.hypot(*(np.asarray(env.episode.world.robots[i].position) - master))) for i in res.candidates}
         for k in res.not_selected:
             assert all(dist[k] >= dist[j] for j in joined), (seed, res, dist)
-            assert env.swarm.nodes[k].state == "waiting"
+            assert env.episode.swarm.nodes[k].state == "waiting"
         if set(range(1, n + 1)) <= set(res.candidates):  # every formation robot was heard
             assert joined == set(range(1, n + 1)), (seed, res)
 
@@ -178,8 +179,8 @@ def test_join_completes_under_frame_loss():
         assert res.complete
         assert len(res.members) == 4  # every required slave joined
         slaves_consistent(env)
-        lost += env.radio.stats.frames_lost
-        received += env.radio.stats.receptions
+        lost += env.episode.radio.stats.frames_lost
+        received += env.episode.radio.stats.receptions
         retries.append(res.retries)
     # the loss was injected, at about its rate (one organize has ~30 receptions: 0.8^30 ≈ 0.1 %
     # of seeds lose none, so this is checked over all of them)
@@ -192,10 +193,10 @@ def test_retries_emerge_from_collisions_without_loss():
     n_retry = 0
     for seed in range(8):
         env, res = organize(seed, **{"swarm.num_slaves": 3})
-        assert env.radio.stats.frames_lost == 0  # no injected loss
+        assert env.episode.radio.stats.frames_lost == 0  # no injected loss
         if res.retries:
             n_retry += 1
-            assert env.radio.stats.frames_collided > 0
+            assert env.episode.radio.stats.frames_collided > 0
         assert len(res.members) == 4
     assert n_retry >= 1
 
@@ -243,10 +244,10 @@ def test_a_joined_robot_is_counted_in_the_swarm_whose_pan_it_joined():
     which swarm each robot is in; no robot's middleware sees a swarm)."""
     env = petswarm_env.parallel_env(**{"world.num_users": 2, "swarm.num_slaves": 3})
     env.reset(seed=0)
-    for sw in env.swarms:
+    for sw in env.episode.swarms:
         assert sw.slave_ids()
         for n in [sw.master.node_id, *sw.slave_ids()]:
-            assert env.fleet.swarm_of(n) is sw and env.fleet.nodes[n].swarm_pan == sw.pan
+            assert env.episode.fleet.swarm_of(n) is sw and env.episode.fleet.nodes[n].swarm_pan == sw.pan
 
 
 # -- organizing under loss (issue 14 item 9) ----------------------------------------------------------
@@ -258,19 +259,19 @@ def test_the_master_keeps_scanning_while_fewer_robots_are_available_than_require
     stopped after two scans that brought nobody new: 3 of 4 slaves (and robot 1, standing in the
     wedge, blocked a neighbour's IR). Now it scans again until every required robot answered."""
     env, res = organize(100, **{"radio.loss_prob": 0.15})
-    assert len(env.swarm.slave_ids()) == 4 and res.complete and res.retries > 2
+    assert len(env.episode.swarm.slave_ids()) == 4 and res.complete and res.retries > 2
 
 
 def _one_robot_unavailable(monkeypatch):
     """Robot 4 of the pool is connected to another user when the swarm organizes (Table 1: it
     declines): only 3 of the 4 required robots can join."""
-    original = PetSwarmEnv._organize
+    original = Episode._organize
 
     def organize_with_robot_4_taken(self):
         self.fleet.nodes[4].connected_user = OTHER_USER_ID
         original(self)
 
-    monkeypatch.setattr(PetSwarmEnv, "_organize", organize_with_robot_4_taken)
+    monkeypatch.setattr(Episode, "_organize", organize_with_robot_4_taken)
 
 
 @pytest.mark.parametrize("timeout_s", [6.0, 10.0])
@@ -280,8 +281,8 @@ def test_a_swarm_short_of_robots_stops_at_the_timeout_and_says_so(monkeypatch, t
     _one_robot_unavailable(monkeypatch)
     env = petswarm_env.parallel_env(**{"protocol.organize_timeout_s": timeout_s, "max_cycles": 5})
     _, infos = env.reset(seed=0)
-    res = env.swarm.organize_result
-    assert len(env.swarm.slave_ids()) == 3 and 4 in res.unavailable
+    res = env.episode.swarm.organize_result
+    assert len(env.episode.swarm.slave_ids()) == 3 and 4 in res.unavailable
     assert res.retries > 3  # it kept scanning for the fourth
     assert timeout_s - 3.0 < res.elapsed_s <= timeout_s  # up to the deadline less the notifications' reserve
     assert {i["slaves_missing"] for i in infos.values()} == {1}
@@ -302,7 +303,7 @@ def test_organize_timeout_is_the_limit_it_says(loss):
             env.reset(seed=seed)
         except RuntimeError:
             pass  # no slave at all: reset says so (the organize result is still there)
-        times.append(env.swarm.organize_result.elapsed_s)
+        times.append(env.episode.swarm.organize_result.elapsed_s)
     assert max(times) <= 2.5 + 1e-9
     assert max(times) > 2.0  # some organizations did run into the deadline
 
@@ -314,9 +315,9 @@ def test_two_swarms_do_not_query_each_others_robots():
     env = petswarm_env.parallel_env(**{"world.num_users": 2, "max_cycles": 1, "swarm.spawn": "at_slots"})  # pools 6 m apart
     for seed in range(3):
         env.reset(seed=seed)
-        for sw in env.swarms:
+        for sw in env.episode.swarms:
             pool = {sw.master.node_id + k for k in range(1, env.cfg.swarm.num_slaves + 1)}
-            assert set(sw.organize_result.candidates) <= pool | {m.master.node_id for m in env.swarms}
+            assert set(sw.organize_result.candidates) <= pool | {m.master.node_id for m in env.episode.swarms}
             assert len(sw.slave_ids()) == env.cfg.swarm.num_slaves
             assert sw.organize_result.elapsed_s < 3.0
 

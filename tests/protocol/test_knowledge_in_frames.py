@@ -73,12 +73,12 @@ def test_slaves_take_the_slots_of_a_formation_only_the_master_knows(monkeypatch,
     _per_robot_configs(monkeypatch, slave_cfg)
     env = petswarm_env.parallel_env(max_cycles=200, **{**CUSTOM, "user.scenario": "straight"})
     errors = _drive(env, 200)
-    sw = env.swarm
+    sw = env.episode.swarm
     assert len(sw.slave_ids()) == 4 and sw.master.node_id == MASTER
     custom = formation_for_mode(env.cfg.swarm, 5, "following")
     assert sw.formation.links == custom.links
     for nid in sw.slave_ids():
-        node = env.fleet.nodes[nid]
+        node = env.episode.fleet.nodes[nid]
         assert node.formation.links == custom.links and node.formation.shape == "custom"
         assert node.know.mode == "following" and node.know.members == sw.master.know.members
     assert np.mean(errors[-50:]) < 0.3  # in their slots of the custom shape (a column's would be ≈ 1.4 m off)
@@ -106,7 +106,7 @@ def test_a_slave_hearing_the_mode_change_does_not_change_the_swarms_mode(monkeyp
     def spy(env, original, self, frame):
         original(self, frame)
         if self.node.state == "slave":
-            heard.append((frame.payload["mode"], self.node.know.mode, env.swarm.mode))
+            heard.append((frame.payload["mode"], self.node.know.mode, env.episode.swarm.mode))
 
     _mode_change_until_heard(monkeypatch, spy, heard)
     new, known, swarm_mode = heard[0]

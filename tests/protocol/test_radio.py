@@ -283,9 +283,9 @@ def test_no_foreign_pan_frame_processed_in_an_episode():
     for _ in range(200):
         _, _, _, trunc, _ = env.step({})
     assert all(trunc.values())
-    assert env.swarm.foreign_pan_frames_processed() == 0
-    assert sum(n.counters["frames_handled"] for n in env.swarm.nodes.values()) > 1000
-    assert env.radio.stats.frames_sent > 1000
+    assert env.episode.swarm.foreign_pan_frames_processed() == 0
+    assert sum(n.counters["frames_handled"] for n in env.episode.swarm.nodes.values()) > 1000
+    assert env.episode.radio.stats.frames_sent > 1000
     assert env.episode_summary()["foreign_pan_frames_processed"] == 0
 
 
@@ -301,7 +301,7 @@ def test_no_foreign_pan_frame_processed_under_loss_one_user():
         for _ in range(10):
             env.step({})
         counts.append(env.episode_summary()["foreign_pan_frames_processed"])
-        handled += sum(n.counters["frames_handled"] for n in env.fleet.nodes.values())
+        handled += sum(n.counters["frames_handled"] for n in env.episode.fleet.nodes.values())
     assert counts == [0] * 25
     assert handled > 25 * 100
 
@@ -323,10 +323,10 @@ def test_two_swarms_under_loss_drop_each_others_frames_in_the_mac(monkeypatch):
     for seed in (0, 3, 6):
         env.reset(seed=seed)
         processed.clear()
-        dropped = env.radio.stats.foreign_pan_dropped
+        dropped = env.episode.radio.stats.foreign_pan_dropped
         for _ in range(30):
             env.step({})
-        pan_of = {i: sw.pan for sw in env.swarms for i in sw.member_ids()}
+        pan_of = {i: sw.pan for sw in env.episode.swarms for i in sw.member_ids()}
         assert processed and all(pan == pan_of[i] for i, pan in processed if i in pan_of and pan != PAN_WAITING)
-        assert env.radio.stats.foreign_pan_dropped > dropped
+        assert env.episode.radio.stats.foreign_pan_dropped > dropped
         assert env.episode_summary()["foreign_pan_frames_processed"] == 0

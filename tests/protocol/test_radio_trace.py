@@ -41,7 +41,7 @@ def _episode(trace, steps=80):
 def test_the_trace_sees_what_the_medium_counts_and_changes_nothing():
     trace = CountingTrace()
     env, summary = _episode(trace)
-    st = env.radio.stats
+    st = env.episode.radio.stats
     assert trace.counts["sent"] == st.frames_sent and trace.counts["busy"] == st.frames_dropped_busy
     assert trace.counts["lost"] == st.frames_lost > 0
     assert trace.counts["collided"] == st.frames_collided > 0

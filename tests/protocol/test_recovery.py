@@ -31,9 +31,9 @@ def run(env, seconds):
 
 def assert_tables_agree(env):
     """Every slave of the swarm holds the master's member and neighbour tables (learned from frames)."""
-    master = env.swarm.master
-    for idx in env.swarm.slave_ids():
-        node = env.fleet.nodes[idx]
+    master = env.episode.swarm.master
+    for idx in env.episode.swarm.slave_ids():
+        node = env.episode.fleet.nodes[idx]
         assert node.know.members == master.know.members, f"robot {idx} holds other member tables"
         assert node.formation.links == master.formation.links
         assert node.know.total_members == len(master.know.members)
@@ -41,16 +41,16 @@ def assert_tables_agree(env):
 
 def test_silent_member_is_retried_skipped_then_lost_and_removed():
     env = make(faults=[{"at_s": 1.0, "robot": 2, "kind": "dead"}])
-    master = env.swarm.master
+    master = env.episode.swarm.master
     member = next(m for m, n in master.know.members.items() if n == 2)
     tokens = []
-    env.radio.drop_filter = lambda f: (f.kind == msg.TOKEN and f.payload["next"] == member
-                                       and tokens.append(env.world.now)) and False
+    env.episode.radio.drop_filter = lambda f: (f.kind == msg.TOKEN and f.payload["next"] == member
+                                       and tokens.append(env.episode.world.now)) and False
     run(env, 1.0)
     tokens.clear()
-    t_fault = env.world.now
+    t_fault = env.episode.world.now
     run(env, 3.0)
-    lost = [(t, ids) for t, e, ids in env.swarm.member_log if e == "lost"]
+    lost = [(t, ids) for t, e, ids in env.episode.swarm.member_log if e == "lost"]
     assert lost and lost[0][1] == [2]
     assert lost[0][0] - t_fault <= 2.5  # within lost_after_rounds + 1 rounds (dropout's median target is 2 s)
     before = [t for t in tokens if t <= lost[0][0]]
@@ -64,7 +64,7 @@ def test_silent_member_is_retried_skipped_then_lost_and_removed():
 def test_loss_alone_declares_nobody_lost():
     env = make(**{"radio.loss_prob": 0.3})
     run(env, 30.0)
-    assert not [e for _, e, _ in env.swarm.member_log if e == "lost"]
+    assert not [e for _, e, _ in env.episode.swarm.member_log if e == "lost"]
     assert len(env.agents) == 4
 
 
@@ -78,10 +78,10 @@ def test_a_lost_removal_notice_is_broadcast_again_until_acknowledged():
             return True
         return False
 
-    env.radio.drop_filter = drop
+    env.episode.radio.drop_filter = drop
     run(env, 5.0)
     assert len(dropped) == 3 and len(set(dropped)) == 1  # one update, three copies lost
-    master = env.swarm.master
+    master = env.episode.swarm.master
     assert master.recovery.update_retries >= 3
     assert 3 not in master.know.members.values()
     assert_tables_agree(env)
@@ -97,19 +97,19 @@ def test_a_lost_acknowledgement_is_answered_again_and_applied_once():
             return True
         return False
 
-    env.radio.drop_filter = drop
+    env.episode.radio.drop_filter = drop
     run(env, 5.0)
-    assert len(acks) == 2 and env.swarm.master.recovery.update_retries >= 1
+    assert len(acks) == 2 and env.episode.swarm.master.recovery.update_retries >= 1
     assert_tables_agree(env)
 
 
 def test_refill_recruits_a_waiting_robot_into_the_open_number_under_loss():
     env = make(**{"swarm.extra_robots": 1, "radio.loss_prob": 0.2, "faults": [{"at_s": 1.0, "robot": 1, "kind": "dead"}]})
-    spare, = [i for i, n in env.fleet.nodes.items() if n.state == "waiting"]  # Table 2 left the farthest out
+    spare, = [i for i, n in env.episode.fleet.nodes.items() if n.state == "waiting"]  # Table 2 left the farthest out
     run(env, 8.0)
-    log = env.swarm.member_log
+    log = env.episode.swarm.member_log
     assert [e for _, e, _ in log] == ["lost", "joined"] and log[1][2] == [spare]
-    master = env.swarm.master
+    master = env.episode.swarm.master
     assert master.know.members[4] == spare and len(master.know.members) == 5
     assert f"robot_{spare}" in env.agents
     assert_tables_agree(env)
@@ -120,10 +120,10 @@ def test_refill_recruits_a_waiting_robot_into_the_open_number_under_loss():
 def test_without_a_spare_the_master_replans_for_the_remaining_members():
     env = make(faults=[{"at_s": 1.0, "robot": 1, "kind": "dead"}])
     run(env, 6.0)
-    master = env.swarm.master
+    master = env.episode.swarm.master
     assert len(master.know.members) == 4 and master.formation.size == 4  # the standard wedge of 4
     assert_tables_agree(env)
-    assert env.swarm.formation is master.formation
+    assert env.episode.swarm.formation is master.formation
     assert np.isnan(env.episode_summary()["reassignment_time_s"])
 
 
@@ -152,25 +152,25 @@ def test_selection_is_one_method_filling_the_lowest_open_numbers_with_the_closes
 def test_radio_silent_slave_stops_at_its_status_timeout_and_is_removed():
     env = make(faults=[{"at_s": 1.0, "robot": 2, "kind": "radio_silent"}])
     run(env, 1.0)
-    t_fault = env.world.now
+    t_fault = env.episode.world.now
     run(env, 4.0)
-    node = env.fleet.nodes[2]
+    node = env.episode.fleet.nodes[2]
     assert node.state == "waiting" and "robot_2" not in env.agents
     (t_lost, _, t_timeout), = node.seq.master_lost_at
     assert t_timeout - t_fault <= env.cfg.protocol.status_timeout_s + 0.11
     assert 0.0 <= t_lost - t_timeout <= env.cfg.control_period_s + 1e-9
-    assert 2 not in env.swarm.master.know.members.values()
+    assert 2 not in env.episode.swarm.master.know.members.values()
 
 
 @pytest.mark.parametrize("seed", [0, 1])
 def test_master_loss_every_slave_stops_and_waits(seed):
     env = petswarm_env.parallel_env(**{**STILL, "faults": [{"at_s": 1.0, "robot": "master", "kind": "dead"}]})
     env.reset(seed=seed)
-    slaves = env.swarm.slave_ids()
+    slaves = env.episode.swarm.slave_ids()
     run(env, 4.0)
     assert not env.agents  # every slave left slave-role driving: the episode is over
     for idx in slaves:
-        node = env.fleet.nodes[idx]
+        node = env.episode.fleet.nodes[idx]
         assert node.state == "waiting" and len(node.seq.master_lost_at) == 1
     s = env.episode_summary()
     assert s["faults_detected"] == 1 and 0.9 <= s["detection_time_s"] <= 1.2
@@ -179,7 +179,7 @@ def test_master_loss_every_slave_stops_and_waits(seed):
 def test_after_a_master_loss_the_user_pairs_again_with_a_waiting_robot_and_organizes():
     env = make(faults=[{"at_s": 1.0, "robot": "master", "kind": "dead"}])
     run(env, 4.0)  # every slave stopped and waits: no agent is left, the episode is over
-    session, world = env.sessions[0], env.world
+    session, world = env.episode.sessions[0], env.episode.world
     assert session.state == "waiting_user" and not world.user.walking
     robot = world.robots[1]  # the user walks up to robot 1 (by hand: the script cannot) ...
     x, y = robot.position
@@ -188,11 +188,9 @@ def test_after_a_master_loss_the_user_pairs_again_with_a_waiting_robot_and_organ
     world.space.reindex_shapes_for_body(body)
     world.invalidate_truth()
     for _ in range(200):  # ... and the world runs on (no agent acts)
-        env._control(None)
-        world.advance(env.cfg.physics_substeps)
-        env.sensors.read_rings()
-    assert session.connected_robot == 1 and env.swarm.master.node_id == 1 and env.swarm.organized
-    assert env.swarm.slave_ids() == [2, 3, 4]  # the dead master is not recruited
+        env.episode.tick()
+    assert session.connected_robot == 1 and env.episode.swarm.master.node_id == 1 and env.episode.swarm.organized
+    assert env.episode.swarm.slave_ids() == [2, 3, 4]  # the dead master is not recruited
 
 
 def test_after_a_master_loss_a_robot_without_lf_antennas_never_pairs():
@@ -200,7 +198,7 @@ def test_after_a_master_loss_a_robot_without_lf_antennas_never_pairs():
     stays unpaired (seed 002 §3.2: the belt pairs with the robot whose LF burst it hears)."""
     env = make(faults=[{"at_s": 1.0, "robot": "master", "kind": "dead"}], **{"swarm.pool": [{"type": "mybot", "count": 4}]})
     run(env, 4.0)
-    session, world = env.sessions[0], env.world
+    session, world = env.episode.sessions[0], env.episode.world
     assert session.state == "waiting_user" and world.robots[1].type_name == "mybot"
     robot = world.robots[1]
     x, y = robot.position
@@ -209,18 +207,17 @@ def test_after_a_master_loss_a_robot_without_lf_antennas_never_pairs():
     world.space.reindex_shapes_for_body(body)
     world.invalidate_truth()
     for _ in range(200):
-        env._control(None)
-        world.advance(env.cfg.physics_substeps)
-        env.sensors.read_rings()
+        env.episode.tick()
     assert session.connected_robot is None and session.state == "waiting_user"
 
 
 def test_a_radio_silent_slave_that_recovers_is_recruited_again_into_the_open_slot():
     env = make(faults=[{"at_s": 1.0, "robot": 3, "kind": "radio_silent", "duration_s": 4.0}])
     run(env, 12.0)
-    log = env.swarm.member_log
+    log = env.episode.swarm.member_log
     assert [(e, ids) for _, e, ids in log] == [("lost", [3]), ("joined", [3])]
-    assert "robot_3" in env.agents and len(env.swarm.master.know.members) == 5
+    assert len(env.episode.swarm.master.know.members) == 5 and 3 in env.episode.swarm.slave_ids()
+    assert "robot_3" not in env.agents  # the agent lifecycle (petswarm_env/episode.py): a member again, not an agent again
     assert_tables_agree(env)
 
 
@@ -237,5 +234,5 @@ def test_one_recovery_at_a_time_on_a_master_with_two_users():
     seed = 900000003
     ep = run_episode(env, make_policy("scripted", PolicySpec.from_env(env), seed=seed), seed)
     assert env.num_cycles == env.cfg.max_cycles  # ran to its truncation
-    refills = [r for sw in env.swarms for r in sw.master.recovery.refills]
+    refills = [r for sw in env.episode.swarms for r in sw.master.recovery.refills]
     assert refills and math.isfinite(ep["formation_rmse_m"])

@@ -69,7 +69,7 @@ def test_a_master_change_in_the_env_takes_the_robot_the_master_measured_farthest
     the master's IR module saw farthest from its user."""
     env = petswarm_env.parallel_env(max_cycles=200, **{"user.scenario": "straight", "user.start_delay_s": 60.0})
     env.reset(seed=2)
-    sw, world = env.swarm, env.world
+    sw, world = env.episode.swarm, env.episode.world
     members = dict(sw.master.know.members)
     nominal = plan_mode_change(env.cfg.swarm, sw.formation, members, "following", "leading", True,
                                nominal_geometry(sw.formation, 1.0))
@@ -84,7 +84,7 @@ def test_a_master_change_in_the_env_takes_the_robot_the_master_measured_farthest
     world.invalidate_truth()
     for _ in range(15):  # the ring measures everyone again; nobody drives
         env.step({})
-    env.world.user.pending_commands.append("mode:leading")
+    env.episode.world.user.pending_commands.append("mode:leading")
     for _ in range(60):
         env.step({})
         if sw.events["master_changes"]:

@@ -49,7 +49,7 @@ def run_env(seed=0, steps=50, **overrides):
 
 
 def reference_pairs(env):
-    sw = env.swarm
+    sw = env.episode.swarm
     for n in sw.slave_ids():
         node = sw.nodes[n]
         links = node.reference_links()
@@ -61,8 +61,8 @@ def reference_pairs(env):
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_slaves_measure_their_reference_neighbours(seed):
     env = run_env(seed)
-    robots = env.world.robots
-    now = env.world.now
+    robots = env.episode.world.robots
+    now = env.episode.world.now
     for n, node, ref in reference_pairs(env):
         m = node.know.ir.get(ref)
         assert m is not None, f"slave {n} has no IR measurement of its reference neighbour {ref}"
@@ -79,7 +79,7 @@ def test_slaves_measure_their_reference_neighbours(seed):
 
 def test_ring_runs_through_every_member_without_recovery():
     env = run_env(0, steps=30)
-    sw = env.swarm
+    sw = env.episode.swarm
     members = sw.master.know.members
     # every member held the token: each one's IR was measured by the others (a pair may be
     # occluded by a robot in between, so count over all receivers)
@@ -92,7 +92,7 @@ def test_ring_runs_through_every_member_without_recovery():
 
 def ir_times(env):
     """(receiver, transmitter) -> time of the latest measurement."""
-    return {(n, o): m.time_s for n in env.swarm.slave_ids() for o, m in env.swarm.nodes[n].know.ir.items()}
+    return {(n, o): m.time_s for n in env.episode.swarm.slave_ids() for o, m in env.episode.swarm.nodes[n].know.ir.items()}
 
 
 def fresh_measurements(before, after):
@@ -101,7 +101,7 @@ def fresh_measurements(before, after):
 
 def test_dropped_token_is_recovered_by_the_master():
     env = run_env(1, steps=5)
-    sw = env.swarm
+    sw = env.episode.swarm
     slave = sw.nodes[sw.master.know.members[2]]
     slave.ring.drop_next_token = True
     for _ in range(30):
@@ -119,7 +119,7 @@ def test_dropped_token_is_recovered_by_the_master():
 
 def test_tokens_dropped_by_every_slave_are_all_recovered():
     env = run_env(0, steps=2)
-    sw = env.swarm
+    sw = env.episode.swarm
     for n in sw.slave_ids():
         sw.nodes[n].ring.drop_next_token = True
     for _ in range(50):
@@ -134,7 +134,7 @@ def test_tokens_dropped_by_every_slave_are_all_recovered():
 
 def test_silence_before_recovery_is_about_the_timeout():
     env = run_env(2, steps=3)
-    sw = env.swarm
+    sw = env.episode.swarm
     slave = sw.nodes[sw.master.know.members[1]]
     slave.ring.drop_next_token = True
     dt = env.cfg.control_period_s
@@ -142,11 +142,11 @@ def test_silence_before_recovery_is_about_the_timeout():
     for _ in range(30):
         env.step({})
         if t_drop is None and not slave.ring.drop_next_token:
-            t_drop = env.world.now
+            t_drop = env.episode.world.now
         if sw.token_recoveries():
             break
     assert t_drop is not None and sw.token_recoveries() == 1
-    silence = env.world.now - t_drop
+    silence = env.episode.world.now - t_drop
     timeout = env.cfg.protocol.token_timeout_s
     # the watchdog looks every timeout/2, so it fires between timeout and 1.5 timeout of silence
     assert timeout - dt <= silence <= 1.5 * timeout + 2 * dt
@@ -170,10 +170,10 @@ class TokenCounter:
 
 def test_lost_token_frames_are_retried():
     env = run_env(0, steps=3)
-    sw = env.swarm
+    sw = env.episode.swarm
     # every other TOKEN frame is lost on the air; the holder's retries get through
     flt = TokenCounter(lambda f, k: k % 2 == 1)
-    env.radio.drop_filter = flt
+    env.episode.radio.drop_filter = flt
     before = ir_times(env)
     for _ in range(40):
         env.step({})
@@ -185,12 +185,12 @@ def test_lost_token_frames_are_retried():
 
 def test_unreachable_next_robot_is_skipped():
     env = run_env(0, steps=3)
-    sw = env.swarm
+    sw = env.episode.swarm
     members = sw.master.know.members
     deaf = members[2]
     # every token naming member 2 is lost: its predecessor retries, then skips it
     flt = TokenCounter(lambda f, k: f.payload["next"] == 2)
-    env.radio.drop_filter = flt
+    env.episode.radio.drop_filter = flt
     for _ in range(5):
         env.step({})
     before = ir_times(env)
@@ -203,7 +203,7 @@ def test_unreachable_next_robot_is_skipped():
     assert flt.dropped >= 3 * (env.cfg.protocol.token_retries + 1)
     assert sw.token_recoveries() == 0
     # lifting the fault lets it back in
-    env.radio.drop_filter = None
+    env.episode.radio.drop_filter = None
     before = after
     for _ in range(15):
         env.step({})
@@ -212,7 +212,7 @@ def test_unreachable_next_robot_is_skipped():
 
 def test_heading_reports_go_to_the_transmitter_only_from_neighbours():
     env = run_env(0, steps=40)
-    sw = env.swarm
+    sw = env.episode.swarm
     f = sw.formation
     members = sw.master.know.members
     number = {nid: m for m, nid in members.items()}
@@ -226,7 +226,7 @@ def test_most_heading_reports_reach_the_transmitter():
     env = petswarm_env.parallel_env(**STILL)
     env.reset(seed=0)
     sent, delivered = [0], [0]
-    for node in env.swarm.nodes.values():
+    for node in env.episode.swarm.nodes.values():
         send = node.send
 
         def counting_send(kind, *args, send=send, **kwargs):
@@ -268,11 +268,11 @@ def test_heading_is_not_paired_with_a_measurement_from_an_older_round():
 
     def count(frame):
         if frame.dst == n and frame.src == ref:
-            received.append(env.world.now)
+            received.append(env.episode.world.now)
         on_heading(frame)
 
     node.on(msg.HEADING, count)
-    t_blind = env.world.now
+    t_blind = env.episode.world.now
     for _ in range(30):
         env.step({})
     assert received, "the neighbour's heading reports must still arrive"
@@ -280,7 +280,7 @@ def test_heading_is_not_paired_with_a_measurement_from_an_older_round():
     blind[0] = False
     for _ in range(20):
         env.step({})
-    assert node.know.heading[ref].time_s > env.world.now - 1.5  # measuring again: paired again
+    assert node.know.heading[ref].time_s > env.episode.world.now - 1.5  # measuring again: paired again
 
 
 # -- the IR port: the holder's transmission through the IR medium (fleet) --------------------------
@@ -288,7 +288,7 @@ def test_the_ir_medium_stores_every_measurement_before_asking_the_holders_neighb
     """Every member on the holder's PAN measures its IR first; then the holder's neighbours, in the
     order the holder gives, each decide from their own measurement whether to report (Fig. 9)."""
     env = run_env(0, steps=20)
-    sw = env.swarm
+    sw = env.episode.swarm
     holder = sw.master
     calls = []
     for n in sw.slave_ids():
@@ -297,7 +297,7 @@ def test_the_ir_medium_stores_every_measurement_before_asking_the_holders_neighb
         node.store_ir = lambda tx, d, b, n=n, store=store: (calls.append(("store", n)), store(tx, d, b))
         node.ring.report_heading = lambda tx, n=n, report=report: (calls.append(("report", n)), report(tx))[1]
     neighbours = sorted(sw.slave_ids(), reverse=True)[:2] + [None]  # any order; a missing member is skipped
-    reporters = env.fleet.ir_slot(holder, neighbours)
+    reporters = env.episode.fleet.ir_slot(holder, neighbours)
     stores = [n for kind, n in calls if kind == "store"]
     assert stores and all(kind == "store" for kind, _ in calls[: len(stores)])
     assert [n for kind, n in calls[len(stores):]] == [n for n in neighbours if n is not None]

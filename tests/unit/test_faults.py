@@ -73,9 +73,9 @@ def test_no_fault_config_means_no_runtime_change():
 def test_radio_silent_robot_sends_and_hears_nothing():
     env = _env(faults=[{"at_s": 0.5, "robot": 2, "kind": "radio_silent"}])
     sent = []
-    env.radio.drop_filter = lambda f: sent.append(f.src) or False
+    env.episode.radio.drop_filter = lambda f: sent.append(f.src) or False
     _steps(env, 10)
-    node = env.fleet.nodes[2]
+    node = env.episode.fleet.nodes[2]
     heard = node.counters["frames_handled"]
     sent.clear()
     _steps(env, 5)
@@ -87,8 +87,8 @@ def test_radio_silent_robot_sends_and_hears_nothing():
 def test_ir_fault_stops_transmission_and_reception():
     env = _env(faults=[{"at_s": 0.5, "robot": 1, "kind": "ir"}])
     _steps(env, 10)
-    one = env.fleet.nodes[1]
-    others = [env.fleet.nodes[i] for i in env.swarm.slave_ids() if i != 1]
+    one = env.episode.fleet.nodes[1]
+    others = [env.episode.fleet.nodes[i] for i in env.episode.swarm.slave_ids() if i != 1]
     mine = {k: v.time_s for k, v in one.know.ir.items()}
     theirs = [o.know.ir[1].time_s for o in others if 1 in o.know.ir]
     _steps(env, 20)
@@ -99,10 +99,10 @@ def test_ir_fault_stops_transmission_and_reception():
 def test_ultrasonic_fault_reads_max_range_and_ahrs_fault_freezes_the_yaw():
     env = _env(faults=[{"at_s": 0.5, "robot": 1, "kind": "ultrasonic"}, {"at_s": 0.5, "robot": 2, "kind": "ahrs"}])
     _steps(env, 8)
-    assert np.all(env.sensors.ranges[1] == env.cfg.robot.ultrasonic.max_range_m)
-    assert not env.runtime.faults.ultrasonic_ok(1) and env.runtime.faults.ultrasonic_ok(2)
-    robot = env.world.robots[2]
-    yaws = {robot.ahrs_yaw(env.world.now + k) for k in range(5)}
+    assert np.all(env.episode.sensors.ranges[1] == env.cfg.robot.ultrasonic.max_range_m)
+    assert not env.episode.runtime.faults.ultrasonic_ok(1) and env.episode.runtime.faults.ultrasonic_ok(2)
+    robot = env.episode.world.robots[2]
+    yaws = {robot.ahrs_yaw(env.episode.world.now + k) for k in range(5)}
     assert len(yaws) == 1
     assert env.episode_summary()["faults_injected"] == 2
 
@@ -115,19 +115,19 @@ def test_dead_robot_stops_is_silent_stays_and_is_terminated():
         _, _, term, _, _ = env.step({a: np.array([0.5, 0.0, 0.0], np.float32) for a in env.agents})
         terminated += [a for a, t in term.items() if t]
     assert terminated == ["robot_3"] and "robot_3" not in env.agents
-    assert env.fleet.nodes[3].state == "off"
-    p = env.world.robots[3].position
+    assert env.episode.fleet.nodes[3].state == "off"
+    p = env.episode.world.robots[3].position
     _steps(env, 10)
-    assert math.dist(p, env.world.robots[3].position) < 0.05  # stopped, and stays (an obstacle)
-    assert env.world.robots[3].command == (0.0, 0.0, 0.0)
+    assert math.dist(p, env.episode.world.robots[3].position) < 0.05  # stopped, and stays (an obstacle)
+    assert env.episode.world.robots[3].command == (0.0, 0.0, 0.0)
 
 
 def test_transient_dead_fault_reboots_into_waiting():
     env = _env(faults=[{"at_s": 0.5, "robot": 2, "kind": "dead", "duration_s": 1.0}])
     _steps(env, 8)
-    assert env.fleet.nodes[2].state == "off"
+    assert env.episode.fleet.nodes[2].state == "off"
     _steps(env, 10)
-    assert env.fleet.nodes[2].state in ("waiting", "slave")  # rebooted: waiting, maybe recruited again
+    assert env.episode.fleet.nodes[2].state in ("waiting", "slave")  # rebooted: waiting, maybe recruited again
 
 
 def test_random_slave_and_random_faults_are_seeded():
@@ -136,7 +136,7 @@ def test_random_slave_and_random_faults_are_seeded():
                                            "faults": [{"at_s": 0.5, "robot": "random_slave", "kind": "ultrasonic"}]})
         env.reset(seed=seed)
         _steps(env, 80)
-        return [(round(f.time_s, 6), f.robot, f.kind) for f in env.runtime.faults.log]
+        return [(round(f.time_s, 6), f.robot, f.kind) for f in env.episode.runtime.faults.log]
 
     a, b = log(3), log(3)
     assert a == b and len(a) >= 2 and a[0][2] == "ultrasonic"

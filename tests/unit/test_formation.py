@@ -166,10 +166,10 @@ def test_custom_formation_through_the_env():
         **{"swarm.formation": "custom", "swarm.custom_links": CUSTOM[:3], "swarm.num_slaves": 3}
     )
     env.reset(seed=0)
-    assert env.swarm.formation.shape == "custom"
-    np.testing.assert_allclose(env.swarm.formation.slot_positions()[2], (-2.0, 0.5))
-    for n in env.swarm.slave_ids():
-        assert env.swarm.nodes[n].formation.links == env.swarm.formation.links
+    assert env.episode.swarm.formation.shape == "custom"
+    np.testing.assert_allclose(env.episode.swarm.formation.slot_positions()[2], (-2.0, 0.5))
+    for n in env.episode.swarm.slave_ids():
+        assert env.episode.swarm.nodes[n].formation.links == env.episode.swarm.formation.links
 
 
 def test_fewer_members_than_the_custom_table_keep_the_rows_of_those_that_joined():

@@ -98,7 +98,7 @@ def test_a_registered_scenario_is_a_config_choice_and_runs(monkeypatch):
     assert env.scenario == "test_circle" and env.agents
     while env.agents:
         obs, *_ = env.step({a: np.zeros(3, np.float32) for a in env.agents})
-    assert env.world.user.segment.turn_rate_dps == 36.0
+    assert env.episode.world.user.segment.turn_rate_dps == 36.0
 
 
 def _walk(segments, start=(0.0, 0.0), heading=0.0, horizon_s=2000.0, dt=0.05):

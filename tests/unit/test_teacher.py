@@ -19,7 +19,7 @@ from training.warm_start import collect_demonstrations
 def _world_command(env, agent, action):
     """The action's translation in the world frame (m/s)."""
     i = env.agent_robot(agent)
-    robot = env.world.robots[i]
+    robot = env.episode.world.robots[i]
     vx, vy = float(action[0]) * robot.cfg.max_speed_mps, float(action[1]) * robot.cfg.max_speed_mps
     c, s = math.cos(robot.heading), math.sin(robot.heading)
     return c * vx - s * vy, s * vx + c * vy
@@ -30,11 +30,11 @@ def test_the_teacher_heads_for_each_slaves_true_reference_point():
     env.reset(seed=3)
     teacher = PrivilegedTeacher(env, TeacherGains(push=0.0))  # no avoidance: the approach alone
     acts = teacher.act_all(env.agents)
-    refs = env.experimenter.references()
+    refs = env.episode.experimenter.references()
     far = 0
     for agent in env.agents:
         i = env.agent_robot(agent)
-        px, py = env.world.robots[i].position
+        px, py = env.episode.world.robots[i].position
         ex, ey = refs[i][0] - px, refs[i][1] - py
         d = math.hypot(ex, ey)
         if d < 0.3:
@@ -43,7 +43,7 @@ def test_the_teacher_heads_for_each_slaves_true_reference_point():
         wx, wy = _world_command(env, agent, acts[agent])
         assert (wx * ex + wy * ey) / (math.hypot(wx, wy) * d) > 0.99, agent  # straight at it (the reference stands)
         speed = math.hypot(wx, wy)
-        vmax = env.world.robots[i].cfg.max_speed_mps
+        vmax = env.episode.world.robots[i].cfg.max_speed_mps
         assert speed == pytest.approx(min(vmax, 4.0 * d, math.sqrt(3.0 * d)), rel=1e-4)  # the braking profile
     assert far >= 1, "the scattered start leaves some slave away from its slot"
 

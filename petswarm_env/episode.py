@@ -1,0 +1,530 @@
+"""One episode of a Pet-Bot swarm: everything a ``reset`` builds and a ``step`` advances.
+
+An :class:`Episode` owns the episode's parts — the world from the scenario (each user's walking
+script, the robots' placement), the radio medium and the IR channel (:mod:`petswarm_env.comms`),
+the fleet with a swarm per user (:mod:`petswarm_env.middleware`), the user sessions, each robot's
+control arbiter (:mod:`petswarm_env.control`), the sensors (:mod:`petswarm_env.sim.sensors`), the
+runtime changes (:mod:`petswarm_env.runtime`), the observer (:mod:`petswarm_env.observe`) and the
+experimenter (:mod:`petswarm_env.metrics`). Building one runs the clock through the pairing, the
+user's start-up commands and the join protocol (seed 002 Fig. 4, seed 000 §3.4-3.5);
+:meth:`Episode.advance` is one control step. :class:`~petswarm_env.env.PetSwarmEnv` holds one
+episode at a time and the vector env (:mod:`petswarm_env.vector`) holds one per copy: the
+episode's dynamics are in this module only.
+
+**The agent lifecycle** (:meth:`Episode._lifecycle`, the one place that decides who is an agent):
+the agents are the robots in slave-role driving. A robot that leaves it (it became the master, its
+swarm dispersed, it died, its master lost it) is *terminated* and stays out of ``agents`` until the
+next episode: an agent id is one robot's single stay as a slave, never revived in that episode. A
+robot the middleware recruits again later in the episode (a transient fault's end reboots it into
+waiting and the master's scan may take it back; a second master change makes the master a slave
+again) is a member of its swarm that the env holds still (motors commanded to zero), an obstacle
+the agents drive around — it has no driver until the next episode. A robot that becomes a slave
+for the first time (the old master after a master change, an arrival) joins ``agents``.
+
+What a step returns: ``rewards``, ``terminations`` and ``truncations`` for every agent that acted
+in it and every agent that joined in it; ``observations`` and ``infos`` for the agents live after
+it (``agents``) and, on the step that truncates the episode, for the truncated ones (their last
+observation, for bootstrapping). An agent terminated in the step gets its reward and its
+termination, but no observation: nothing comes after it, and a loop that feeds every observation
+back as actions (``env.step(policy.act_all(observations))``) passes actions only for live agents.
+
+**The truth view** (:class:`Truth`, ``episode.truth``): what the experimenter's tools may read of
+the ground truth — the evaluation runner, the metrics, the renderer, the replay and pcap writers,
+the privileged teacher (training/teacher.py) and the figures of experiments/. It reads and never
+writes; no policy ever gets it (a policy reads only its observation).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from types import MappingProxyType
+from typing import Any
+
+import numpy as np
+
+from petswarm_env.comms.ir_channel import IRChannel
+from petswarm_env.comms.radio import RadioMedium
+from petswarm_env.config import Config
+from petswarm_env.control.arbiter import ControlArbiter, SafetyStage
+from petswarm_env.metrics import BUILT_WITHIN_M, Experimenter
+from petswarm_env.middleware.fleet import Fleet
+from petswarm_env.middleware.formation import formation_for_mode, user_position_in_formation
+from petswarm_env.middleware.swarm import Swarm
+from petswarm_env.middleware.user_session import UserSession, master_distance_m
+from petswarm_env.observe import ObservationLayout, Observer
+from petswarm_env.reward import slave_rewards
+from petswarm_env.robot_types import body_plan, placement_config
+from petswarm_env.runtime import Runtime, arrival_specs, park_positions
+from petswarm_env.scenarios import SCENARIOS
+from petswarm_env.sim.sensors import Sensors
+from petswarm_env.sim.world import World
+from petswarm_env.state import StateLayout, build_state
+
+OTHER_USER_ID = 99  # the user that "other user" robots are connected to (Table 1)
+SWARM_PAN = 0x1001  # user u's swarm uses PAN SWARM_PAN + u
+WAKE_PATTERN = 0x5A00  # user u's belt and robot share the LF wake-up pattern WAKE_PATTERN + u
+# every agent's infos, at reset and at every step: flat, numeric, always these keys (the value of an
+# agent that has no such figure yet): its member number, its true formation error (m), the contacts it
+# began this step, 1 on the step it joined (the old master after a mode change), else 0, and how many of
+# the required slaves its swarm lacked when it organized (Swarm.slaves_missing)
+INFO_DEFAULTS: dict[str, float | int] = {"member": -1, "formation_error_m": 0.0, "new_contacts": 0, "joined": 0,
+                                         "slaves_missing": 0}
+
+StepResult = tuple[dict[str, np.ndarray], dict[str, float], dict[str, bool], dict[str, bool], dict[str, dict]]
+
+
+@dataclass(frozen=True)
+class Setup:
+    """What every episode of one env shares, computed once from the config (``PetSwarmEnv.__init__``):
+    each robot type resolved (``bodies``), how far a swarm reaches from its user (``reach_m``), how
+    many arrival robots wait parked (``arrival_slots``), the possible agents, the observation
+    layout, the action scale (``limits``: Vx, Vy, ω at action 1) and the state layout."""
+
+    cfg: Config
+    bodies: dict
+    reach_m: float | None
+    arrival_slots: int
+    possible: frozenset
+    layout: ObservationLayout
+    limits: tuple[float, float, float]
+    state_layout: StateLayout
+
+
+class Episode:
+    """One episode (module docstring). ``streams``: the episode's eight seed sequences (world,
+    radio, IR, swarm, sensors, script, users, faults); ``radio_trace``: the experimenter's radio
+    trace (comms/radio.py ``RadioTrace``) or None. Building it builds the parts; :meth:`start`
+    runs the start-up and gives the first observations and infos; each :meth:`advance` is one step."""
+
+    def __init__(self, setup: Setup, streams: list[np.random.SeedSequence], radio_trace=None):
+        self.setup = setup
+        self.cfg = cfg = setup.cfg
+        self.streams = streams  # the reset's seed sequences (each one's entropy is the reset's seed)
+        rngs = [np.random.default_rng(s) for s in streams]
+        self._build(*rngs[:7], radio_trace)
+        self.runtime = Runtime(cfg, self.world, self.fleet, self.swarms, SCENARIOS[self.scenario], self._arrivals,
+                               rngs[7], on_change=self.sensors.fault_changed)
+        self.truth = Truth(self)
+        self.agents: list[str] = []  # the robots in slave-role driving (module docstring), from start() on
+        self.left: set[str] = set()  # agents terminated in this episode: never agents again in it (module docstring)
+        self.num_cycles = 0
+
+    # -- the start, the first observation and one step -------------------------------------------
+    def start(self) -> tuple[dict[str, np.ndarray], dict[str, dict]]:
+        """Run the start-up (pairing, the driving mode, organize) and start the users' walks, the
+        faults and the arrivals; returns the first observations and infos (``reset``'s return).
+        A start-up that fails raises and leaves the episode as it stood (its swarms say how far
+        they organized)."""
+        cfg = self.cfg
+        self._check_inside_arena()
+        self._organize()
+        if cfg.swarm.spawn == "at_slots":
+            self._stand_members_at_their_slots()
+        world = self.world
+        for arb in self.arbiters.values():  # the episode's counts start now
+            arb.counts = type(arb.counts)()
+        self.slave_ids = self._current_slaves()
+        self.agents = [f"robot_{i}" for i in self.slave_ids]
+        self.agent_index = {f"robot_{i}": i for i in range(len(world.robots))}
+        self.last_action = {a: np.zeros(3, np.float32) for a in self.agents}
+        self.observer = Observer(self.setup.layout, self.fleet.nodes, self.sensors, [r.ahrs_yaw for r in world.robots],
+                                 self.agent_index, cfg.master.distance_m)
+        self.experimenter = Experimenter(cfg, world, self.fleet, self.swarms, self.sessions, self.arbiters, self.radio,
+                                         self.agent_index, self.other_user_robots)
+        self.metrics = self.experimenter.metrics
+        self.experimenter.runtime = self.runtime
+        self._start_walks({})
+        self.runtime.start()  # faults and arrivals, in episode time from now
+        self.num_cycles = 0
+        self.missing_by_pan = {sw.pan: sw.slaves_missing() for sw in self.swarms}  # as organized (metrics.py's figure)
+        return self.first()
+
+    def first(self) -> tuple[dict[str, np.ndarray], dict[str, dict]]:
+        """The observations and infos of the episode's start (``reset``'s return)."""
+        observations = self.observer.observe(self.agents, self.last_action, self.world.now)
+        errors, _ = self.experimenter.formation_errors(self.agents)
+        infos = {a: self._info(a, errors.get(a, 0.0), 0, 0) for a in self.agents}
+        return observations, infos
+
+    def advance(self, acts: dict[str, np.ndarray]) -> StepResult:
+        """One control step with ``acts`` (agent -> a valid action in [-1, 1]^3 for every agent,
+        ``PetSwarmEnv._validate``'s output): every robot's command through its arbiter, the clock
+        for one control period, the sensors; then the truth, the rewards and the agent lifecycle."""
+        cfg = self.cfg
+        self.tick(acts)
+        self.runtime.check_batteries()  # a drained battery is a fault (runtime.py)
+        self.num_cycles += 1
+
+        truth = self.experimenter.step(self.agents)  # formation and heading errors, contacts (metrics.py)
+        if not all(session.user.walking for session in self.sessions):  # only while a user still stands
+            self._start_walks(dict(zip(self.agents, truth.formation_error_m)))
+        infos = {agent: self._info(agent, err, c, 0) for agent, err, c in zip(self.agents, truth.formation_error_m, truth.new_contacts)}
+        # every slave's reward in one pass over the slaves (reward.py)
+        now_acts = np.array([acts[a] for a in self.agents], dtype=np.float32).reshape(-1, 3)
+        last_acts = np.array([self.last_action[a] for a in self.agents], dtype=np.float32).reshape(-1, 3)
+        rewards = dict(zip(self.agents, slave_rewards(cfg.reward, truth.formation_error_m, truth.heading_error_rad,
+                                                      truth.new_contacts, now_acts, last_acts)))
+        for agent in self.agents:
+            self.last_action[agent] = acts[agent]
+        return self._lifecycle(rewards, infos)
+
+    def _lifecycle(self, rewards: dict[str, float], infos: dict[str, dict]) -> StepResult:
+        """Who is an agent after this step (module docstring): agents follow the middleware — a
+        robot that left slave-role driving is terminated (for the rest of the episode), a robot
+        that became a slave for the first time joins; every agent is truncated at ``max_cycles``."""
+        world, fleet, agent_index = self.world, self.fleet, self.agent_index
+        truncated = self.num_cycles >= self.cfg.max_cycles
+        slaves = self._current_slaves()
+        live = {f"robot_{i}" for i in slaves}
+        terminations = {a: a not in live for a in self.agents}
+        for a, done in terminations.items():  # a robot that left slave-role driving and drives no user stands still
+            if done:
+                self.left.add(a)
+                if fleet.nodes[agent_index[a]].state != "master":
+                    world.robots[agent_index[a]].set_command(0.0, 0.0, 0.0)
+        truncations = {a: truncated for a in self.agents}
+        joined = [a for a in (f"robot_{i}" for i in slaves)
+                  if a not in self.agents and a in self.setup.possible and a not in self.left]
+        for a in joined:
+            self.last_action[a] = np.zeros(3, np.float32)
+        self.slave_ids = slaves
+        before = list(self.agents)
+        self.agents = [a for a in before if a in live and not truncated] + ([] if truncated else joined)
+        # observed in the order of before (the odometry noise is one draw over them, observe.py);
+        # an agent terminated now gets no observation (module docstring)
+        observed = self.observer.observe(before + [a for a in joined if a not in before], self.last_action, world.now)
+        observations = {a: o for a, o in observed.items() if not terminations.get(a, False)}
+        for a in joined:
+            rewards[a], terminations[a], truncations[a] = 0.0, False, truncated
+            infos[a] = self._info(a, 0.0, 0, 1)
+        infos = {a: infos[a] for a in observations}
+        return observations, rewards, terminations, truncations, infos
+
+    def tick(self, acts: dict[str, np.ndarray] | None = None) -> None:
+        """The clock for one control period: every robot's command (``acts`` for the agents; with
+        None only the masters are driven, by their users, as while the swarm organizes), the
+        physics substeps with the middleware's events, the ultrasonic rings. No step is counted:
+        :meth:`advance` is the env's step; this alone serves the start-up and tools that watch the
+        world go on after an episode ended (evaluation/faults_figures.py)."""
+        self._control(acts)
+        self.world.advance(self.cfg.physics_substeps)
+        self.sensors.read_rings()
+
+    # -- views -----------------------------------------------------------------------------------
+    def state(self) -> np.ndarray:
+        """The global state (:func:`petswarm_env.state.build_state`; docs/state.md)."""
+        return build_state(self.setup.state_layout, self)
+
+    def summary(self) -> dict[str, Any]:
+        """The episode's figures so far (:meth:`.metrics.Experimenter.summary`)."""
+        return self.experimenter.summary(self.scenario, len(self.slave_ids))
+
+    def organize_summary(self) -> list[dict[str, Any]]:
+        """How each user's swarm organized (the join protocol, seed 000 §3.4)."""
+        return [{"user": u, "organize_time_s": sw.organize_result.elapsed_s, "join_retries": sw.organize_result.retries,
+                 "members": dict(sw.organize_result.members), "slaves_missing": self.missing_by_pan[sw.pan]}
+                for u, sw in enumerate(self.swarms)]
+
+    def scene(self):
+        """A plain description of the current truth for the renderer (:meth:`.metrics.Experimenter.scene`)."""
+        return self.experimenter.scene(self.scenario, self.num_cycles)
+
+    # -- building --------------------------------------------------------------------------------
+    def _build(self, rng_world, rng_radio, rng_ir, rng_swarm, rng_sensors, rng_script, rng_users, radio_trace) -> None:
+        """The episode's parts, from its seven streams: the world from the scenario (each user's
+        script, the robots' placement), the radio medium and the IR channel, the fleet and a swarm
+        per user, the user sessions, each robot's arbiter and the sensors."""
+        cfg, setup = self.cfg, self.setup
+        pool = cfg.user.scenario_pool
+        self.scenario = pool[int(rng_script.integers(len(pool)))] if pool else cfg.user.scenario
+        scenario = SCENARIOS[self.scenario]
+        scripts = [scenario.script(cfg.user, r, scenario.arena(cfg, setup.reach_m or 0.0, u))
+                   for u, r in enumerate(rng_script.spawn(cfg.world.num_users))]
+        self.world = world = World(cfg, scripts[0])
+        world.body_plan = body_plan(cfg, scenario, setup.bodies)  # each robot's type, in placement order
+        place_cfg = placement_config(cfg, scenario)
+        for u in range(1, cfg.world.num_users):
+            world.add_user(scripts[u], (0.0, u * cfg.world.user_spacing_m), 0.0)
+        plan = formation_for_mode(cfg.swarm, cfg.swarm.num_slaves + 1, cfg.swarm.mode)
+        placement = scenario.place(world, place_cfg, plan.slot_positions(), user_position_in_formation(plan, cfg.master.distance_m)[0],
+                                   rng_world, master_distance_m(cfg, None, cfg.swarm.mode))
+        self.other_user_robots = placement.other_user_robots
+        self.radio = RadioMedium(world.clock, cfg.radio, rng_radio)
+        self.radio.trace = radio_trace
+        self.ir_channel = IRChannel(world, cfg.ir, rng_ir)
+        self.fleet = fleet = Fleet(cfg, world, self.radio, self.ir_channel, rng_swarm)
+        self.swarms = [Swarm(fleet, u, SWARM_PAN + u, master, pool) for u, (master, pool) in enumerate(placement.pools)]
+        self._pools = [pool for _, pool in placement.pools]
+        for idx in self.other_user_robots:
+            fleet.add_node(idx, self.swarms[0]).connected_user = OTHER_USER_ID
+        # arrival robots (runtime.py): parked switched off, in user 0's pool; each of its type (robot_types)
+        arriving = [setup.bodies[a.type] for a in arrival_specs(cfg, scenario)]
+        world.body_plan = world.body_plan[:len(world.robots)] + arriving
+        self._arrivals = [world.add_robot(p, 0.0).index for p in park_positions(cfg, setup.arrival_slots)]
+        for idx in self._arrivals:
+            fleet.add_node(idx, self.swarms[0])
+        self.sessions = []
+        for u, (swarm, user_rng) in enumerate(zip(self.swarms, rng_users.spawn(cfg.world.num_users))):
+            session = UserSession(cfg, world, swarm, world.users[u], user_rng, WAKE_PATTERN + u, WAKE_PATTERN + u)
+            session.startup = [f"mode:{cfg.swarm.mode}", "organize"]
+            self.sessions.append(session)
+        self.swarm, self.session = self.swarms[0], self.sessions[0]
+        for robot, ss in zip(world.robots, rng_world.spawn(len(world.robots))):
+            robot.ahrs.power_on(ss, world.now)  # own power-on heading: no shared frame (seed 000 §3.5)
+        stages: dict[float, SafetyStage | None] = {}  # one safety stage per braking limit (each body type's own)
+        for r in world.robots:
+            a = r.cfg.max_accel_mps2
+            if a not in stages:
+                stages[a] = SafetyStage(cfg.robot.ultrasonic.count, cfg.control.safety_stop_m, cfg.control.safety_backoff_mps,
+                                        a) if cfg.control.safety_layer else None
+        self.arbiters = {r.index: ControlArbiter(stages[r.cfg.max_accel_mps2]) for r in world.robots}
+        self.sensors = Sensors(world, cfg.robot, rng_sensors)  # reads every robot's ultrasonic ring
+
+    def _check_inside_arena(self) -> None:
+        """Every robot and user starts inside the arena's walls (world.arena_m; boxes are checked
+        with the config), or the episode would start with bodies outside or inside a wall."""
+        w, h = self.cfg.world.arena_m
+        if w <= 0 or h <= 0:
+            return
+        bodies = [(f"robot_{r.index}", r.position, r.radius_m) for r in self.world.robots]
+        bodies += [(f"user {u.index}", u.position, self.cfg.user.radius_m) for u in self.world.users]
+        for name, (x, y), r in bodies:
+            if abs(x) + r > w / 2 or abs(y) + r > h / 2:
+                xs = [abs(p[0]) + q for _, p, q in bodies]
+                ys = [abs(p[1]) + q for _, p, q in bodies]
+                raise ValueError(
+                    f"{name} starts at ({x:.2f}, {y:.2f}) m, outside the walls of the {w:g} x {h:g} m arena (world.arena_m, "
+                    f"centred on the origin); this start needs at least {2 * max(xs):.1f} x {2 * max(ys):.1f} m: "
+                    "set a larger world.arena_m, or [0, 0] for no walls")
+
+    def _organize(self) -> None:
+        """Run the clock through each user's start-up (pairing, the driving mode, organize; seed
+        002 Fig. 4, seed 000 §3.5) until every swarm is organized; a user that never paired or a
+        swarm that did not organize is an error that says which setting to change."""
+        cfg = self.cfg
+        limit = int(math.ceil((cfg.lf.wake_period_s + cfg.ble.connect_s + cfg.protocol.organize_timeout_s + 10.0) / cfg.control_period_s))
+        for _ in range(limit):
+            self.tick(None)
+            if all(sw.organized for sw in self.swarms):
+                break
+        for u, (session, swarm) in enumerate(zip(self.sessions, self.swarms)):
+            if session.connected_robot is None:
+                raise RuntimeError(
+                    f"user {u}'s belt never woke up: its robot must start within lf.wake_range_m={cfg.lf.wake_range_m} m "
+                    "and burst the belt's wake-up pattern")
+            if not swarm.organized or not swarm.slave_ids():
+                raise RuntimeError(
+                    f"user {u}'s swarm did not organize within protocol.organize_timeout_s={cfg.protocol.organize_timeout_s} s "
+                    f"(radio.loss_prob={cfg.radio.loss_prob}); raise the timeout or protocol.max_retries"
+                )
+
+    def _stand_members_at_their_slots(self) -> None:
+        """``swarm.spawn: at_slots`` (a formation as good as built, for comparisons): member k
+        stands at slot k. The placement put the pool's k-th robot at slot k; the join numbers the
+        members by the master's estimated distances (Table 2), so robots at slots of equal distance
+        (a wedge's two sides) may come out exchanged: their poses are exchanged back before the
+        first step (waiting robots stand still while the swarm organizes), and what the members had
+        measured of each other is forgotten (the ring measures it again). A swarm that took an
+        extra robot keeps its start."""
+        world = self.world
+        for swarm, pool in zip(self.swarms, self._pools):
+            members = swarm.master.know.members
+            joined = [members[k] for k in sorted(members) if k != 0]
+            placed = pool[: len(joined)]
+            if sorted(joined) != sorted(placed) or joined == placed:
+                continue
+            poses = {i: (world.robots[i].position, world.robots[i].heading) for i in placed}
+            for rid, slot_robot in zip(joined, placed):
+                body = world.robots[rid].body
+                body.position, body.angle = poses[slot_robot]
+                world.space.reindex_shapes_for_body(body)
+            for rid in (swarm.master.node_id, *joined):
+                know = self.fleet.nodes[rid].know
+                know.ir.clear()
+                know.heading.clear()
+        world.invalidate_truth()
+
+    # -- per step --------------------------------------------------------------------------------
+    def _info(self, agent: str, error_m: float, contacts: int, joined: int) -> dict[str, float | int]:
+        """One agent's infos (the keys of :data:`INFO_DEFAULTS`)."""
+        node = self.fleet.nodes[self.agent_index[agent]]
+        return {"member": node.know.member, "formation_error_m": error_m, "new_contacts": contacts, "joined": joined,
+                "slaves_missing": self.missing_by_pan.get(node.swarm_pan, 0)}
+
+    def _control(self, acts: dict[str, np.ndarray] | None) -> None:
+        """One command per robot through its arbiter (seed 001): masters from their user session,
+        slaves from the agents' actions; the slaves stop when their master broadcasts an emergency."""
+        world = self.world
+        lim = self.setup.limits
+        ranges = self.sensors.ranges
+        masters = set()
+        for session in self.sessions:
+            idx = session.swarm.master.node_id
+            masters.add(idx)
+            policy, user_cmd, stop = session.step(self.sensors.odometry(idx), ranges[idx])
+            cmd, _ = self.arbiters[idx].decide(policy, user_cmd, ranges[idx], stop)
+            robot = world.robots[idx]
+            if robot.health.powered:
+                robot.set_command(*cmd)
+            else:  # a master that is off (a fault): motors off
+                robot.set_command(0.0, 0.0, 0.0)
+        if acts is None:
+            return
+        if self.left:  # a robot recruited again after it left the agents has no driver (module docstring): held still
+            for idx in self.slave_ids:
+                if f"robot_{idx}" in self.left and idx not in masters:
+                    world.robots[idx].set_command(0.0, 0.0, 0.0)
+        for agent, a in acts.items():
+            idx = self.agent_index[agent]
+            if idx in masters:
+                continue
+            node = self.fleet.nodes[idx]
+            if node.seq.master_lost(world.now):  # no status broadcast for protocol.status_timeout_s: emergency stop, waiting
+                world.robots[idx].set_command(0.0, 0.0, 0.0)
+                continue
+            st = node.know.status
+            stop = st is not None and st.mode == "emergency"
+            cmd, _ = self.arbiters[idx].decide((a[0] * lim[0], a[1] * lim[1], a[2] * lim[2]), None, ranges[idx], stop)
+            world.robots[idx].set_command(*cmd)
+
+    def _start_walks(self, errors_m: dict[str, float]) -> None:
+        """Start the script of each user who has stood long enough (chosen): once their swarm is
+        organized, a user stands until they see its formation built — every slave of it within
+        ``metrics.BUILT_WITHIN_M`` of its reference point (``errors_m``, agent -> formation error) —
+        or for ``user.formation_wait_s`` at most; the script's own stand (``user.start_delay_s``)
+        counts from organizing, so the user walks off at the later of the two."""
+        waited = self.world.now - self.experimenter.organized_at_s
+        limit = self.cfg.user.formation_wait_s
+        for session in self.sessions:
+            user = session.user
+            if user.walking or session.paused:
+                continue
+            slaves = [f"robot_{i}" for i in session.swarm.slave_ids()]
+            if waited >= limit - 1e-9 or all(errors_m.get(a, math.inf) <= BUILT_WITHIN_M for a in slaves):
+                user.walking = True
+                user.script_time_s = min(waited, self.cfg.user.start_delay_s)
+
+    def _current_slaves(self) -> list[int]:
+        return sorted(i for sw in self.swarms for i in sw.slave_ids())
+
+
+class Truth:
+    """The episode's ground truth for the experimenter's tools (module docstring): read, never
+    written, never given to a policy. Every attribute is a view of the live episode (it follows
+    the episode as it advances).
+
+    - ``now`` (s on the episode's clock), ``num_cycles``, ``scenario``;
+    - ``robots`` and ``users`` (the world's bodies: position, heading, velocity, type, health),
+      ``truth_arrays()`` (every body's true centre, radius and every robot's heading, robots then
+      users), ``wall_segments``;
+    - ``references()`` / ``reference_points(xy, th)`` / ``reference_positions()`` / ``error_trace``
+      / ``organized_at_s``: the experimenter's reference points and figures (:mod:`.metrics`);
+    - ``swarms``, ``sessions``, ``nodes`` (robot index -> middleware node), ``arbiters`` (robot
+      index -> its control arbiter and its win counts), ``member_log`` (user 0's swarm);
+    - ``faults`` (the fault log, :mod:`.sim.faults`), ``arrivals`` / ``arrived`` / ``parked()``
+      (:mod:`.runtime`), ``other_user_robots``.
+    """
+
+    __slots__ = ("_episode",)
+
+    def __init__(self, episode: Episode):
+        self._episode = episode
+
+    @property
+    def now(self) -> float:
+        return self._episode.world.now
+
+    @property
+    def num_cycles(self) -> int:
+        return self._episode.num_cycles
+
+    @property
+    def scenario(self) -> str:
+        return self._episode.scenario
+
+    @property
+    def robots(self) -> tuple:
+        return tuple(self._episode.world.robots)
+
+    @property
+    def users(self) -> tuple:
+        return tuple(self._episode.world.users)
+
+    @property
+    def user(self):
+        """User 0."""
+        return self._episode.world.users[0]
+
+    def truth_arrays(self):
+        """(centres, radii, headings) of every body (robots, then users): :meth:`.sim.world.World.truth_arrays`."""
+        return self._episode.world.truth_arrays()
+
+    @property
+    def wall_segments(self) -> list:
+        return list(self._episode.world.wall_segments)
+
+    def references(self) -> dict[int, tuple[float, float, float]]:
+        return self._episode.experimenter.references()
+
+    def reference_points(self, xy: list | None = None, th: list | None = None) -> dict[int, tuple[float, float]]:
+        return self._episode.experimenter.reference_points(xy, th)
+
+    def reference_positions(self) -> dict[int, np.ndarray]:
+        return self._episode.experimenter.reference_positions()
+
+    def roles(self) -> list[str]:
+        """Every robot's role now (:meth:`.metrics.Experimenter.roles`)."""
+        return self._episode.experimenter.roles()
+
+    def link_pairs(self) -> list[tuple[int, int]]:
+        """The formation's reference links as robot pairs (:meth:`.metrics.Experimenter.link_pairs`)."""
+        return self._episode.experimenter.link_pairs()
+
+    @property
+    def error_trace(self) -> list[float]:
+        return self._episode.metrics.error_trace
+
+    @property
+    def organized_at_s(self) -> float:
+        return self._episode.experimenter.organized_at_s
+
+    @property
+    def swarms(self) -> tuple:
+        return tuple(self._episode.swarms)
+
+    @property
+    def sessions(self) -> tuple:
+        return tuple(self._episode.sessions)
+
+    @property
+    def nodes(self):
+        return MappingProxyType(self._episode.fleet.nodes)
+
+    @property
+    def arbiters(self):
+        return MappingProxyType(self._episode.arbiters)
+
+    @property
+    def member_log(self) -> list:
+        return self._episode.swarms[0].member_log
+
+    @property
+    def faults(self) -> list:
+        """The episode's fault log (:class:`.sim.faults.Faults` ``log``): what was injected when."""
+        return self._episode.runtime.faults.log
+
+    @property
+    def arrivals(self) -> list:
+        return list(self._episode.runtime.arrivals)
+
+    @property
+    def arrived(self) -> list:
+        return list(self._episode.runtime.arrived)
+
+    def parked(self) -> list[int]:
+        return self._episode.runtime.parked()
+
+    @property
+    def other_user_robots(self) -> tuple:
+        return tuple(self._episode.other_user_robots)

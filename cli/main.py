@@ -21,7 +21,7 @@ import warnings
 from importlib import resources
 
 from petswarm_env.config import ConfigError, load_config, parse_override
-from petswarm_env.files import Terminated, check_output_path, exit_cleanly_on_signals
+from petswarm_env.files import Terminated, check_distinct_paths, check_output_path, exit_cleanly_on_signals, jsonl_path
 
 SHIPPED_GRID = resources.files("evaluation") / "grid.yaml"  # = configs/eval/grid.yaml, in the package
 
@@ -282,6 +282,29 @@ def _reproduce(args, argv: list[str]) -> int:
                      "petswarm " + " ".join(argv))
 
 
+def _policy_file(word: str | None) -> str | None:
+    return word if word and word.endswith(".npz") else None
+
+
+def _check_paths(args) -> None:
+    """Before any work: no output of the command is one of its inputs or another of its outputs
+    (``run --config c.yaml --json c.yaml`` would destroy the config; ``--json x.gif --video x.gif``
+    one output with the other). The JSON Lines file beside ``--json`` counts as an output."""
+    get = lambda name: getattr(args, name, None)  # noqa: E731
+    inputs = {"--config": get("config"), "--policy": _policy_file(get("policy"))}
+    if args.command == "eval":
+        inputs["--mix"] = [_policy_file(m.split("=", 1)[-1]) for m in args.mix]
+        if args.grid:
+            inputs["--grid"] = args.grid
+    if args.command == "report":
+        inputs["RESULT.json"] = list(args.results)
+    outputs = {"--out": get("out") if args.command == "report" else None, "--json": get("json"), "--video": get("video"),
+               "--pcap": get("pcap"), "--md": get("md"), "--report": get("report")}
+    if get("json") and args.command in ("run", "eval"):
+        outputs["--json's lines file"] = str(jsonl_path(args.json))
+    check_distinct_paths(inputs, outputs)
+
+
 # each command runs a function of its room (imported when the command runs: `petswarm run` needs no training stack)
 COMMANDS = {"run": _run, "train": _train, "eval": _eval, "report": _report, "bench": _bench, "reproduce": _reproduce}
 
@@ -306,6 +329,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         with exit_cleanly_on_signals(), warnings.catch_warnings():
             warnings.showwarning = _warn_in_one_line
+            _check_paths(args)
             return COMMANDS[args.command](args, argv)
     except (ConfigError, ValueError, RuntimeError, OSError) as exc:
         print(f"petswarm: error: {_one_line(exc)}", file=sys.stderr)

@@ -178,7 +178,7 @@ def load_grid(path: str, base_config: Config | None = None, candidate: str | Non
     ``base_config`` (default: configs/default.yaml) and the file's ``set``. ``candidate``,
     ``episodes`` and ``seed`` replace the file's (the command line's ``--policy``, ``--episodes``,
     ``--seed``). Raises :class:`ConfigError` with one line naming the cell and the fix."""
-    raw = read_yaml(path)
+    raw = read_yaml(path, "grid file")
     try:
         grid = GridFile.model_validate(raw)
     except ValidationError as exc:

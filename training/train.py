@@ -31,7 +31,7 @@ from stable_baselines3 import PPO
 from stable_baselines3.common.utils import set_random_seed
 
 from baselines.registry import make_policy
-from petswarm_env.config import ConfigError, flatten_dotted, parse_override
+from petswarm_env.config import ConfigError, flatten_dotted, parse_override, parse_yaml
 from petswarm_env.env import PetSwarmEnv
 from petswarm_env.files import check_output_path, write_json_atomic, write_text_atomic
 from training.callbacks import PeriodicCallback, pool_formation_rmse, public_log
@@ -85,7 +85,7 @@ def _fresh_log() -> dict[str, Any]:
 def _read_run_file(path: Path, what: str) -> Any:
     try:
         text = path.read_text(encoding="utf-8")
-        return json.loads(text) if path.suffix == ".json" else yaml.safe_load(text)
+        return json.loads(text) if path.suffix == ".json" else parse_yaml(text, f"'{path}'")  # bounded: no alias bomb
     except FileNotFoundError:
         raise ConfigError(f"cannot resume: the run folder has no {path.name} ({what}); train without --resume first") from None
     except (OSError, UnicodeDecodeError, ValueError, yaml.YAMLError) as exc:

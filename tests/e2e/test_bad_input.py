@@ -517,3 +517,39 @@ def test_a_checkpoint_restores_weights_optimizer_counters_and_rngs(run):
         same_state(model, third)
     finally:
         venv.close()
+
+
+# -- outputs: an output that is an input, two outputs on one file, an unwritable place ----------
+@pytest.mark.parametrize("argv, words", [
+    (["run", "--config", "{dir}/c.yaml", "--json", "{dir}/c.yaml"], "is also the input --config"),
+    (["run", "--config", "{dir}/c.yaml", "--json", "{dir}/./sub/../c.yaml"], "is also the input --config"),
+    (["run", "--config", "{dir}/c.yaml", "--video", "{dir}/c.yaml"], "is also the input --config"),
+    (["run", "--config", "{dir}/c.gif", "--video", "{dir}/c.gif"], "is also the input --config"),
+    (["run", "--config", "{dir}/c.jsonl", "--json", "{dir}/c.json"], "--json's lines file"),
+    (["run", "--json", "{dir}/x.gif", "--video", "{dir}/x.gif"], "both name"),
+    (["run", "--json", "{dir}/x.pcapng", "--pcap", "{dir}/x.pcapng"], "both name"),
+    (["run", "--json", "{dir}/OUT.json", "--video", "{dir}/OUT.jsonl"], "both name"),
+    (["report", "{dir}/r.json", "--out", "{dir}/r.json"], "is also the input RESULT.json"),
+    (["report", "{dir}/OUT.json", "{dir}/r.json", "--out", "{dir}/link.json"], "is also the input RESULT.json"),
+    (["eval", "--config", "{dir}/c.yaml", "--json", "{dir}/c.yaml", "--episodes", "1"], "is also the input --config"),
+    (["eval", "--grid", "{dir}/c.yaml", "--json", "{dir}/c.yaml"], "is also the input --grid"),
+    (["reproduce", "--config", "{dir}/c.yaml", "--report", "{dir}/c.yaml"], "is also the input --config"),
+    (["bench", "--json", "{dir}/b.json", "--md", "{dir}/b.json"], "both name"),
+    (["bench", "--json", "/proc/petswarm/b.json"], "cannot be written"),
+    (["run", "--video", "/proc/petswarm/v.gif", "--json", "{dir}/OUT.json"], "cannot be written"),
+    (["run", "--json", "/sys/OUT.json"], "cannot be written"),
+    (["report", "{dir}/OUT.json", "--out", "/proc/r.html"], "cannot be written"),
+    (["run", "--json", "/dev/null"], "not a regular file"),
+], ids=lambda a: " ".join(a)[:60] if isinstance(a, list) else None)
+def test_an_output_that_is_an_input_or_unwritable_is_refused_before_any_work(capsys, outputs, argv, words):
+    (outputs / "c.yaml").write_text("seed: 1\nmax_cycles: 5\n")
+    (outputs / "c.gif").write_text("seed: 1\n")
+    (outputs / "c.jsonl").write_text("seed: 1\n")
+    (outputs / "sub").mkdir()
+    (outputs / "link.json").symlink_to(outputs / "r.json")
+    before = _snapshot(outputs)
+    t0 = time.perf_counter()
+    _fails(capsys, [a.replace("{dir}", str(outputs)) for a in argv], words)
+    assert time.perf_counter() - t0 < 10  # refused before the work (bench alone takes a minute)
+    assert _snapshot(outputs) == before
+    assert not [p for p in outputs.rglob(".*")]  # no probe or temporary file left

@@ -192,3 +192,80 @@ def test_training_config_refuses_bad_values_naming_the_key():
         with pytest.raises(ConfigError) as info:
             load_train_config(overrides=overrides)
         assert words in str(info.value) and "\n" not in str(info.value)
+
+
+# -- YAML within bounds: alias bombs, deep nesting, huge numbers (one line, fast, naming the input) --
+def _alias_bomb(levels: int = 9, width: int = 9) -> str:
+    """A "billion laughs": each anchor a list of ``width`` aliases of the previous one."""
+    rows = ["&a0 [" + ", ".join(['"lol"'] * width) + "]"]
+    rows += [f"&a{k} [" + ", ".join([f"*a{k - 1}"] * width) + "]" for k in range(1, levels)]
+    return "[" + ", ".join(rows) + "]"
+
+
+@pytest.mark.parametrize("levels, width", [(9, 9), (12, 5), (30, 2)])
+@pytest.mark.parametrize("key", ["world.obstacles", "reward.formation", "swarm.custom_links", "faults"])
+def test_an_alias_bomb_is_refused_in_a_file_and_in_set(tmp_path, key, levels, width):
+    import time
+
+    section, _, leaf = key.rpartition(".")
+    text = f"{section}:\n  {leaf}: {_alias_bomb(levels, width)}\n" if section else f"{leaf}: {_alias_bomb(levels, width)}\n"
+    (tmp_path / "bomb.yaml").write_text(text)
+    t0 = time.perf_counter()
+    assert "aliases" in _refused(path=tmp_path / "bomb.yaml") and "bomb.yaml" in _refused(path=tmp_path / "bomb.yaml")
+    with pytest.raises(ConfigError, match=f"--set {key} expands"):
+        parse_override(f"{key}={_alias_bomb(levels, width)}")
+    assert time.perf_counter() - t0 < 5
+
+
+def test_a_recursive_alias_is_refused(tmp_path):
+    (tmp_path / "r.yaml").write_text("reward:\n  formation: &x [*x]\n")
+    assert "its own anchor" in _refused(path=tmp_path / "r.yaml")
+
+
+@pytest.mark.parametrize("depth", [60, 20_000, 200_000])
+@pytest.mark.parametrize("kind", ["flow", "block"])
+def test_deep_yaml_is_refused_in_one_line(tmp_path, depth, kind):
+    if kind == "flow":
+        text = "swarm: " + "[" * depth + "]" * depth + "\n"
+    else:
+        text = "".join(" " * k + f"k{k}:\n" for k in range(min(depth, 300))) + " " * min(depth, 300) + "x: 1\n"
+    (tmp_path / "deep.yaml").write_text(text)
+    message = _refused(path=tmp_path / "deep.yaml")
+    assert "deep.yaml" in message and "nested more than" in message
+
+
+@pytest.mark.parametrize("number", ["9" * 5000, "-" + "1" * 4301, "1" * 200 + ".5", "0x" + "f" * 300])
+def test_a_huge_number_names_the_file_or_the_key(tmp_path, number):
+    (tmp_path / "big.yaml").write_text(f"max_cycles: {number}\n")
+    message = _refused(path=tmp_path / "big.yaml")
+    assert "big.yaml" in message and "characters" in message
+    with pytest.raises(ConfigError, match="--set seed has a number of"):
+        parse_override(f"seed={number}")
+
+
+def test_a_key_that_is_not_text_is_refused(tmp_path):
+    (tmp_path / "k.yaml").write_text("1: 2\n")
+    assert "k.yaml" in _refused(path=tmp_path / "k.yaml")
+
+
+def test_a_device_as_a_config_file_is_refused():
+    assert "not a regular file" in _refused(path="/dev/zero")
+
+
+def test_a_grid_and_a_training_file_use_the_same_bounds(tmp_path):
+    from evaluation.grid_spec import load_grid
+
+    (tmp_path / "g.yaml").write_text(f"seed: 0\nepisodes: 1\ncells: {_alias_bomb()}\n")
+    with pytest.raises(ConfigError, match="grid file '.*g.yaml' expands"):
+        load_grid(str(tmp_path / "g.yaml"))
+    pytest.importorskip("stable_baselines3")
+    from training.config import load_train_config
+
+    (tmp_path / "t.yaml").write_text(f"ppo:\n  net_arch: {_alias_bomb()}\n")
+    with pytest.raises(ConfigError, match="t.yaml' expands"):
+        load_train_config(path=tmp_path / "t.yaml")
+
+
+def test_a_long_value_in_a_message_is_cut(tmp_path):
+    message = _refused({"reward.formation": list(range(100_000))})
+    assert len(message) < 300

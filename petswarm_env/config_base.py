@@ -12,6 +12,34 @@ from pydantic import BaseModel, ConfigDict, ValidationInfo, field_validator
 from pydantic_core import PydanticCustomError
 
 
+# -- the physical ranges of the config's numbers ---------------------------------------------------
+# Every number of the config is bounded by what the modelled hardware (or a person) can do, so a
+# value outside is refused when the config loads, before anything is built or allocated: a period
+# below an MCU tick would schedule millions of events per simulated second (a hang), a sample rate
+# of 1e9 Hz or a table step of 1e-9 m would allocate gigabytes, a level of 1e300 dB overflows.
+# The sections use these names; a field's own physical limit (a radio's, the BLE spec's) is beside it.
+TICK_S = 1e-3  # the shortest period, timeout or delay the robots' and wearables' firmware schedules: a 1 ms timer tick (chosen; an 802.15.4 frame alone takes 0.4-4 ms of air at 250 kb/s)
+LONG_S = 600.0  # the longest period, timeout or start-up delay: ten minutes (chosen: far beyond any the papers use, the longest 200 s, seed 003 §5.2.1's t_m)
+EPISODE_S = 86_400.0  # an episode's simulated time, max_cycles x control_period_s, and any episode time (a fault's at_s): one day at most
+MAX_CYCLES = 1_000_000  # control steps in an episode (1e6 x 0.1 s = 28 h)
+SHORT_M = 1e-3  # the smallest length (a body, a spacing, a table step): a millimetre, ten times finer than the ultrasonic's noise
+FAR_M = 1000.0  # the largest distance (an arena, a radio range): a kilometre; an 802.15.4 radio reaches about 100 m outdoors
+NEAR_M = 100.0  # the largest sensing or formation distance (ultrasonic, IR, LF, a formation offset): 100 m, ten times beyond the sensors' reach
+FAST_MPS = 20.0  # the fastest robot, user or remote-control speed: 20 m/s (72 km/h; a sprinter runs 12 m/s)
+SPIN_RPS = 100.0  # the fastest turn rate: 100 rad/s (a wheel, not a body, spins that fast)
+SPIN_DPS = 5_000.0  # the same limit in degrees per second (a MEMS gyro's full scale is at most ±4000 °/s)
+ACCEL_MPS2 = 1_000.0  # the largest acceleration: 100 g (a MEMS accelerometer's full scale is at most ±400 g)
+RATE_HZ = 1_000.0  # the highest sample rate of a wearable's accelerometer: 1 kHz (waist and wrist IMUs sample at 25-200 Hz)
+GAIN = 1_000.0  # the largest controller gain (1/s, or rad/s per rad): 1000, beyond what a 1 ms step can integrate
+LEVEL_DB = 200.0  # the largest level, loss or noise in dB: 200 dB spans every RSSI scale; 1e300 dB overflows 10 ** (dB / 10)
+ADC_MAX = 1e6  # the largest ADC reading (IR strength, saturation): a 20-bit converter
+COUNT = 1_000  # the largest count of retries, rounds, samples or sign changes
+REL = 10.0  # the largest relative noise: σ of 1000 %
+MASS_KG = 1_000.0  # the heaviest body: a tonne
+WEIGHT = 1e6  # the largest reward weight in magnitude (a reward stays finite in float32)
+MAX_LIST = 1_000  # the longest list of faults, arrivals, obstacles or sensors (memory and time stay bounded)
+
+
 def _wants_number_only(annotation: Any) -> bool:
     """Whether a field's type holds numbers (int or float, inside tuples and lists too) and no
     boolean and nothing of any type: a boolean given there is a mistake, not 0 or 1."""

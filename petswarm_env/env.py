@@ -52,6 +52,7 @@ from pettingzoo import ParallelEnv
 from petswarm_env.comms.ir_channel import IRChannel
 from petswarm_env.comms.radio import RadioMedium
 from petswarm_env.config import DRIVING_MODES, Config, ConfigError, arrival_slots, describe_value, flatten_dotted, load_config
+from petswarm_env.inputs import check_reset_options, check_start_clear_of_boxes, checked_action
 from petswarm_env.control.arbiter import ControlArbiter, SafetyStage
 from petswarm_env.metrics import BUILT_WITHIN_M, Experimenter
 from petswarm_env.middleware.formation import formation_for_mode, user_position_in_formation
@@ -168,6 +169,7 @@ class PetSwarmEnv(ParallelEnv):
         return f"{agent!r} is not an agent of this env; the possible agents are {', '.join(self.possible_agents)}"
 
     def reset(self, seed: int | None = None, options: dict | None = None):
+        check_reset_options(options)  # None or known keys only (inputs.py)
         if seed is not None:
             seed = _checked_seed(seed)
             self._seed_seq = np.random.SeedSequence(seed)
@@ -178,6 +180,7 @@ class PetSwarmEnv(ParallelEnv):
         self.runtime = Runtime(self.cfg, self.world, self.fleet, self.swarms, SCENARIOS[self.scenario], self._arrivals,
                                np.random.default_rng(streams[7]), on_change=self.sensors.fault_changed)
         self._check_inside_arena()
+        check_start_clear_of_boxes(self.cfg, self.world)  # no body starts in a box (inputs.py)
         self._organize()
         if self.cfg.swarm.spawn == "at_slots":
             self._stand_members_at_their_slots()
@@ -425,18 +428,7 @@ class PetSwarmEnv(ParallelEnv):
             if a is None:
                 out[agent] = np.zeros(3, np.float32)  # a missing action means "stand still"
                 continue
-            try:
-                raw = np.asarray(a)
-            except ValueError:  # ragged nested sequences
-                raw = None
-            if raw is None or raw.dtype.kind not in "iuf":
-                raise ValueError(f"action of {agent} must be 3 numbers (Vx, Vy, ω) in [-1, 1], got {describe_value(a)}")
-            arr = raw.astype(np.float32)
-            if arr.shape != (3,):
-                raise ValueError(f"action of {agent} must have shape (3,) = (Vx, Vy, ω) in [-1, 1], got shape {arr.shape}")
-            if not np.all(np.isfinite(arr)):
-                raise ValueError(f"action of {agent} contains NaN or inf: {arr.tolist()}; actions must be finite")
-            out[agent] = np.clip(arr, -1.0, 1.0)
+            out[agent] = checked_action(agent, a)  # numbers, no boolean, shape (3,), finite (inputs.py)
         return out
 
     def _control(self, acts: dict[str, np.ndarray] | None) -> None:

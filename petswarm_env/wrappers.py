@@ -20,6 +20,7 @@ import numpy as np
 from pettingzoo.utils.wrappers import BaseParallelWrapper
 
 from petswarm_env.env import INFO_DEFAULTS
+from petswarm_env.inputs import check_actions
 
 
 class FixedAgents(BaseParallelWrapper):
@@ -56,6 +57,7 @@ class FixedAgents(BaseParallelWrapper):
         return self._fill(obs), self._infos(infos, obs)
 
     def step(self, actions: dict[str, Any]):
+        check_actions(actions, self.possible_agents, "this wrapper's agents")  # as strict as the raw env (inputs.py)
         live = self.env.agents
         obs, rewards, terms, truncs, infos = self.env.step({a: actions[a] for a in live if a in actions})
         done = not self.env.agents

@@ -4,6 +4,7 @@ pairs are ordered; YAML that is not a mapping, does not parse or has unknown key
 
 import math
 
+import numpy as np
 import pytest
 import yaml
 
@@ -269,3 +270,147 @@ def test_a_grid_and_a_training_file_use_the_same_bounds(tmp_path):
 def test_a_long_value_in_a_message_is_cut(tmp_path):
     message = _refused({"reward.formation": list(range(100_000))})
     assert len(message) < 300
+
+
+# -- every number of the config has a physical range, and its extremes are refused or run --------
+def _sections():
+    """Every config section class reachable from Config (nested sections, list and dict items)."""
+    import typing
+
+    from petswarm_env.config import Config
+    from petswarm_env.config_base import Section
+
+    seen, todo = [], [Config]
+    while todo:
+        cls = todo.pop()
+        if cls in seen:
+            continue
+        seen.append(cls)
+        for info in cls.model_fields.values():
+            stack = [info.annotation]
+            while stack:
+                t = stack.pop()
+                if isinstance(t, type) and issubclass(t, Section):
+                    todo.append(t)
+                stack.extend(typing.get_args(t))
+    return seen
+
+
+def _bounds(metadata) -> tuple[bool, bool]:
+    low = any(hasattr(m, "gt") or hasattr(m, "ge") for m in metadata)
+    high = any(hasattr(m, "lt") or hasattr(m, "le") for m in metadata)
+    return low, high
+
+
+def _unbounded_numbers(annotation, metadata, where) -> list[str]:
+    """The numbers in a field's type (the field itself, or the items of a tuple) without a lower
+    and an upper bound."""
+    import typing
+
+    if annotation in (int, float):
+        low, high = _bounds(metadata)
+        return [] if low and high else [where]
+    origin, args = typing.get_origin(annotation), typing.get_args(annotation)
+    if origin is typing.Annotated:
+        return _unbounded_numbers(args[0], [*metadata, *args[1:]], where)
+    if origin is tuple:
+        return [w for k, a in enumerate(a for a in args if a is not Ellipsis) for w in _unbounded_numbers(a, [], f"{where}[{k}]")]
+    if origin in (typing.Union, __import__("types").UnionType):
+        return [w for a in args if a is not type(None) for w in _unbounded_numbers(a, metadata, where)]
+    return []
+
+
+SIZE_EXEMPT = {"RenderConfig.size_px[0]", "RenderConfig.size_px[1]"}  # 1..8192 in RenderConfig._check_size
+
+
+def test_every_number_of_the_config_has_a_lower_and_an_upper_bound():
+    missing = [w for cls in _sections() for name, info in cls.model_fields.items()
+               for w in _unbounded_numbers(info.annotation, info.metadata, f"{cls.__name__}.{name}")]
+    assert sorted(set(missing) - SIZE_EXEMPT) == []
+    assert len(_sections()) >= 25
+
+
+WALK_VALUES = [1e-9, 0, -1, 1e300, math.inf, math.nan]
+WALK_KEYS = NUMERIC_KEYS + PAIR_KEYS + [f"robot_types.mybot.{k}" for k in ("radius_m", "max_speed_mps", "lookahead_m",
+                                                                           "battery_mah", "wheel_slip_pct", "servo_ma")]
+
+
+class _Hang(Exception):
+    pass
+
+
+def _alarm(signum, frame):
+    raise _Hang
+
+
+@pytest.mark.parametrize("key", WALK_KEYS)
+def test_the_extremes_of_every_number_are_refused_in_one_line_or_run(key):
+    """1e-9, 0, -1, 1e300, inf and NaN in every number of the config: refused in one line naming
+    the key, or accepted and an episode resets and steps within 20 s with finite observations
+    (a refusal at reset, one line naming its keys, is legitimate: the swarm cannot organize)."""
+    import signal
+
+    from petswarm_env.env import PetSwarmEnv
+
+    previous = signal.signal(signal.SIGALRM, _alarm)
+    try:
+        for v in WALK_VALUES:
+            value = [v, DEFAULTS[key][1]] if key in PAIR_KEYS else v
+            signal.alarm(20)
+            try:
+                try:
+                    cfg = load_config(overrides={key: value})
+                except ConfigError as exc:  # the key itself, or a rule across keys that names them
+                    message = str(exc)
+                    assert "\n" not in message and (key.rsplit(".", 1)[-1] in message or message.startswith("bad config: ")), (
+                        key, v, message)
+                    continue
+                try:
+                    env = PetSwarmEnv(cfg)
+                    obs, _ = env.reset(seed=0)
+                    for _ in range(2):
+                        assert all(np.all(np.isfinite(o)) for o in obs.values()), (key, v)
+                        if not env.agents:
+                            break
+                        obs, *_ = env.step({a: np.zeros(3, np.float32) for a in env.agents})
+                    env.close()
+                except (ConfigError, ValueError, RuntimeError) as exc:  # refused at build or reset
+                    assert "\n" not in str(exc) and "." in str(exc), (key, v, str(exc))
+            except _Hang:
+                pytest.fail(f"{key}={v!r} took more than 20 s")
+            finally:
+                signal.alarm(0)
+    finally:
+        signal.signal(signal.SIGALRM, previous)
+
+
+@pytest.mark.parametrize("overrides, words", [
+    ({"max_cycles": 10**6, "control_period_s": 0.5}, "a day"),
+    ({"max_cycles": 10**6, "control_period_s": 0.01, "world.num_users": 8, "swarm.num_slaves": 16}, "GB budget"),
+    ({"swarm.formation": "custom", "swarm.num_slaves": 2, "swarm.custom_links": [
+        {"robot": 1, "neighbour": 2, "offset_m": [-1, 0]}, {"robot": 2, "neighbour": 1, "offset_m": [-1, 0]}]}, "swarm.custom_links"),
+    ({"swarm.formation": "custom", "swarm.num_slaves": 3, "swarm.custom_links": [
+        {"robot": 1, "neighbour": 0, "offset_m": [-1, 0]}, {"robot": 2, "neighbour": 3, "offset_m": [-1, 0]},
+        {"robot": 3, "neighbour": 2, "offset_m": [-1, 0]}]}, "swarm.custom_links"),
+    ({"robot_types.mybot.sensors": [{"id": 1, "type": "LASER", "radius_m": 0.1, "angle_deg": 0}]}, "robot_types.mybot.sensors.0.type"),
+    ({"robot_types.r2.sensors": [{"id": 1, "type": "distance", "radius_m": 0.1, "angle_deg": 0}]}, "robot_types.r2.sensors.0.type"),
+    ({"faults": [{"at_s": 1, "robot": 1, "kind": "dead"}] * 1001}, "faults"),
+])
+def test_budgets_custom_link_cycles_and_sensor_types(overrides, words):
+    assert words in _refused(overrides)
+
+
+def test_a_bad_value_in_a_file_names_the_file(tmp_path):
+    (tmp_path / "mine.yaml").write_text("lf:\n  burst_period_s: 1.0e-9\n")
+    message = _refused(path=tmp_path / "mine.yaml")
+    assert "lf.burst_period_s" in message and "mine.yaml" in message
+    (tmp_path / "typo.yaml").write_text("lf:\n  burst_period: 1.0\n")
+    assert "typo.yaml" in _refused(path=tmp_path / "typo.yaml")
+
+
+@pytest.mark.parametrize("config", [123, 4.5, [1], {"seed": 1}, b"x.yaml"])
+def test_a_config_that_is_not_a_config_or_a_path_is_a_clear_type_error(config):
+    from petswarm_env import petswarm_v0
+
+    with pytest.raises(TypeError, match="config must be a Config, the path of a YAML file or None"):
+        petswarm_v0.parallel_env(config=config)

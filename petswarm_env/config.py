@@ -9,22 +9,21 @@ names the key, what is wrong and what is allowed.
 
 from __future__ import annotations
 
-import copy
 import math
 import os
-import reprlib
 from collections.abc import Mapping
 from importlib import resources
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
-import yaml
 from pydantic import AfterValidator, Field, ValidationError, model_validator
 from pydantic_core import PydanticCustomError
 
 from petswarm_env.config_base import (ACCEL_MPS2, ADC_MAX, COUNT, EPISODE_S, FAR_M, FAST_MPS, GAIN, LEVEL_DB, LONG_S,
                                       MASS_KG, MAX_CYCLES, MAX_LIST, NEAR_M, RATE_HZ, REL, SHORT_M, SPIN_DPS, SPIN_RPS, TICK_S,
-                                      WEIGHT, Section)
+                                      WEIGHT, ConfigError, Section, describe_value)
+from petswarm_env.config_yaml import (flatten_dotted, merge_mappings, nest_dotted, parse_override, parse_yaml,  # noqa: F401
+                                      read_yaml)  # the bounded YAML reader and the merging of overrides, re-exported
 from petswarm_env.config_runtime import FAULT_KINDS, ArrivalSpec, FaultSpec, FaultsRandomConfig  # noqa: F401
 from petswarm_env.config_base import Section  # noqa: F401  (the base of every section; re-exported here)
 from petswarm_env.robot_types import PoolEntry, RobotTypeConfig, max_pool_size, robot_types_problem
@@ -50,10 +49,6 @@ def _registered_scenario(name: str) -> str:
 
 
 ScenarioName = Annotated[str, AfterValidator(_registered_scenario)]
-
-
-class ConfigError(ValueError):
-    """A configuration key or value is wrong; the message says which and how to fix it."""
 
 
 # the memory an episode may take: its recorded trajectories (evaluation/runner.py: x, y and heading
@@ -485,16 +480,9 @@ class Config(Section):
                 raise ValueError(f"swarm.custom_links names members {named} but swarm.num_slaves={self.swarm.num_slaves} "
                                  f"makes members {want}: give each slave's links (robot 1..{self.swarm.num_slaves}) or "
                                  f"set swarm.num_slaves={len(named)}")
-            from petswarm_env.middleware.formation import build_formation  # the one reader of the table
-
-            try:
-                build_formation(self.swarm, self.swarm.num_slaves + 1)
-            except ValueError as exc:
-                text = str(exc)
-                if "do not reach the master" in text:
-                    text = (f"swarm.custom_links: {text.removeprefix('formation ')} (a cycle, or a neighbour that never "
-                            "leads back to member 0): link one member of it to neighbour 0, the master")
-                raise ValueError(text if text.startswith("swarm.custom_links") else f"swarm.custom_links: {text}") from None
+            problem = _custom_links_problem(self.swarm)
+            if problem:
+                raise ValueError(problem)
         problem = robot_types_problem(self)
         if problem:
             raise ValueError(problem)
@@ -508,6 +496,30 @@ class Config(Section):
         return self.model_dump(mode="json")
 
 
+def _custom_links_problem(swarm: SwarmConfig) -> str | None:
+    """Why the custom formation's links cannot place every member (None if they can): a member is
+    placed once every neighbour it links to is (middleware/formation.py places them so, outward from
+    the master, member 0), so a link to itself, to no member, or a cycle leaves members unplaced."""
+    n = swarm.num_slaves
+    needs: dict[int, set[int]] = {}
+    for i, link in enumerate(swarm.custom_links):
+        if link.neighbour == link.robot or link.neighbour > n:
+            return (f"swarm.custom_links[{i}]: member {link.robot} refers to invalid neighbour {link.neighbour} "
+                    f"({'itself' if link.neighbour == link.robot else 'not a member'}); give a neighbour from 0 (the master) to {n}")
+        needs.setdefault(link.robot, set()).add(link.neighbour)
+    placed = {0}
+    while True:
+        ready = [m for m, ns in needs.items() if m not in placed and ns <= placed]
+        if not ready:
+            break
+        placed.update(ready)
+    unplaced = sorted(set(needs) - placed)
+    if unplaced:
+        return (f"swarm.custom_links: the links do not reach the master (member 0) from members {unplaced}: a cycle, "
+                "or a neighbour that is itself not reached; link one of them to neighbour 0")
+    return None
+
+
 def arrival_slots(cfg: Config) -> int:
     """How many arrival robots a world of ``cfg`` holds (petswarm_env/runtime.py): the config's
     arrivals, or, when it lists none, the most any of its scenarios brings."""
@@ -519,193 +531,6 @@ def arrival_slots(cfg: Config) -> int:
 
 def default_config_path() -> Path:
     return Path(str(resources.files("petswarm_env") / "default.yaml"))
-
-
-# -- reading YAML within bounds: a config, a grid or a training file is a few kB of a few hundred values
-# (configs/default.yaml: about 600 nodes), so a file far beyond these is a mistake or an attack (an
-# alias bomb, "billion laughs", expands 300 bytes into 10^9 values; a 20,000-deep nesting overflows
-# the parser's recursion); both are refused before anything is built from them
-MAX_YAML_BYTES = 4_000_000  # a file (the shipped grid is 6 kB)
-MAX_YAML_DEPTH = 50  # nested mappings and lists (the deepest shipped key, robot_types.NAME.sensors[i].id, is 5)
-MAX_YAML_VALUES = 200_000  # values after the aliases are expanded (each use of an alias counts its whole value)
-MAX_NUMBER_CHARS = 100  # characters of one number (1e308 needs 5; Python refuses ints of more than 4300 digits)
-
-
-class _BoundedLoader(yaml.SafeLoader):
-    """PyYAML's safe loader with a bounded nesting depth (checked while composing, before
-    Python's recursion limit is reached)."""
-
-    def compose_node(self, parent, index):  # noqa: ANN001 (PyYAML's signature)
-        self._depth = getattr(self, "_depth", 0) + 1
-        try:
-            if self._depth > MAX_YAML_DEPTH:
-                mark = self.peek_event().start_mark
-                raise _YamlLimit(f"is nested more than {MAX_YAML_DEPTH} levels deep (line {mark.line + 1}); "
-                                 "a config nests a few levels")
-            return super().compose_node(parent, index)
-        finally:
-            self._depth -= 1
-
-
-class _YamlLimit(Exception):
-    """A YAML document beyond the bounds above (the text says which)."""
-
-
-_NUMBER_TAGS = ("tag:yaml.org,2002:int", "tag:yaml.org,2002:float")
-
-
-def _check_expansion(root: yaml.Node) -> None:
-    """Count the values of the document with every alias expanded, without expanding it (each
-    node's count once, iteratively); refuse a recursive alias, more than :data:`MAX_YAML_VALUES`
-    values, and a number longer than :data:`MAX_NUMBER_CHARS`."""
-    size: dict[int, int] = {}
-    on_path: set[int] = set()
-    stack: list[tuple[yaml.Node, bool]] = [(root, False)]
-    while stack:
-        node, done = stack.pop()
-        key = id(node)
-        if done:
-            on_path.discard(key)
-            if isinstance(node, yaml.MappingNode):
-                children = [c for pair in node.value for c in pair]
-            elif isinstance(node, yaml.SequenceNode):
-                children = node.value
-            else:
-                children = []
-            size[key] = 1 + sum(size[id(c)] for c in children)
-            if size[key] > MAX_YAML_VALUES:
-                raise _YamlLimit(f"expands to more than {MAX_YAML_VALUES} values through its aliases (*name; line "
-                                 f"{node.start_mark.line + 1}); write the values out or use fewer aliases")
-            continue
-        if key in size:
-            continue
-        if key in on_path:
-            raise _YamlLimit(f"has an alias inside its own anchor (line {node.start_mark.line + 1}); a config value cannot contain itself")
-        if isinstance(node, yaml.ScalarNode):
-            if node.tag in _NUMBER_TAGS and len(node.value) > MAX_NUMBER_CHARS:
-                raise _YamlLimit(f"has a number of {len(node.value)} characters (line {node.start_mark.line + 1}); "
-                                 "give a number within the key's range")
-            size[key] = 1
-            continue
-        on_path.add(key)
-        stack.append((node, True))
-        children = [c for pair in node.value for c in pair] if isinstance(node, yaml.MappingNode) else node.value
-        stack.extend((c, False) for c in children if id(c) not in size)
-
-
-def parse_yaml(text: str, where: str) -> Any:
-    """The YAML document in ``text``, within the bounds above. ``where`` names the input for the
-    message ("config file 'x.yaml'", "--set KEY"); raises :class:`ConfigError` in one line, and
-    ``yaml.YAMLError`` for text that is not YAML (the caller words it)."""
-    if len(text) > MAX_YAML_BYTES:
-        raise ConfigError(f"{where} holds {len(text)} characters, more than the {MAX_YAML_BYTES} a config may have")
-    loader = _BoundedLoader(text)
-    try:
-        node = loader.get_single_node()
-        if node is None:
-            return None
-        _check_expansion(node)
-        return loader.construct_document(node)
-    except _YamlLimit as exc:
-        raise ConfigError(f"{where} {exc}") from None
-    except RecursionError:
-        raise ConfigError(f"{where} is nested too deeply to read; a config nests a few levels") from None
-    except ValueError as exc:  # a constructor's number conversion (e.g. an int beyond Python's digit limit)
-        raise ConfigError(f"{where} holds a value that cannot be read ({' '.join(str(exc).split())[:120]}); "
-                          "give a number within the key's range") from None
-    finally:
-        loader.dispose()
-
-
-def read_yaml(path: str | Path, what: str = "config file") -> dict[str, Any]:
-    """The mapping of the YAML file at ``path`` (:func:`parse_yaml`'s bounds); ``what`` names the
-    file's role in the messages ("config file", "grid file", ...)."""
-    path = Path(path)
-    if not path.is_file():
-        what_is = "is a folder" if path.is_dir() else "does not exist" if not path.exists() else "is not a regular file"
-        raise ConfigError(f"{what} '{path}' {what_is}; pass an existing YAML file")
-    try:
-        if path.stat().st_size > MAX_YAML_BYTES:
-            raise ConfigError(f"{what} '{path}' is {path.stat().st_size} bytes, more than the {MAX_YAML_BYTES} a config may have")
-        data = parse_yaml(path.read_text(encoding="utf-8"), f"{what} '{path}'")
-    except yaml.YAMLError as exc:
-        raise ConfigError(" ".join(f"{what} '{path}' is not valid YAML: {exc}".split())) from None
-    except UnicodeDecodeError:
-        raise ConfigError(f"{what} '{path}' is not UTF-8 text; pass a YAML file") from None
-    except OSError as exc:
-        raise ConfigError(f"{what} '{path}' cannot be read ({exc.strerror or exc})") from None
-    if data is None:
-        return {}
-    if not isinstance(data, dict):
-        raise ConfigError(f"{what} '{path}' must hold a mapping of keys, got {type(data).__name__}")
-    bad = next((k for k in data if not isinstance(k, str)), None)
-    if bad is not None:
-        raise ConfigError(f"{what} '{path}' has a key {describe_value(bad)}; keys are names (text)")
-    return data
-
-
-def merge_mappings(base: dict[str, Any], over: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
-    out = copy.deepcopy(base)
-    for key, value in over.items():
-        dotted = f"{prefix}{key}"
-        if key not in out and prefix.startswith("robot_types."):  # a user may add a type, or a key to one (pydantic checks it)
-            out[key] = copy.deepcopy(value)
-            continue
-        if key not in out:
-            allowed = ", ".join(sorted(out)) if out else "(none)"
-            raise ConfigError(f"unknown config key '{dotted}'; allowed keys here: {allowed}")
-        if isinstance(out[key], dict) and isinstance(value, Mapping):
-            out[key] = merge_mappings(out[key], value, prefix=f"{dotted}.")
-        else:
-            out[key] = copy.deepcopy(value)
-    return out
-
-
-def flatten_dotted(d: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
-    """``{"swarm": {"num_slaves": 4}}`` -> ``{"swarm.num_slaves": 4}`` (lists stay values)."""
-    out: dict[str, Any] = {}
-    for key, value in d.items():
-        if isinstance(value, Mapping):
-            out.update(flatten_dotted(value, f"{prefix}{key}."))
-        else:
-            out[f"{prefix}{key}"] = value
-    return out
-
-
-def parse_override(item: str) -> tuple[str, Any]:
-    """Parse ``KEY=VALUE`` (VALUE read as YAML, so ``3``, ``0.1``, ``true``, ``[1, 2]`` work)."""
-    if "=" not in item:
-        raise ConfigError(f"override '{item}' must look like KEY=VALUE, e.g. swarm.num_slaves=3")
-    key, raw = item.split("=", 1)
-    try:
-        value = parse_yaml(raw, f"--set {key.strip()}")
-    except yaml.YAMLError:
-        value = raw
-    return key.strip(), value
-
-
-def nest_dotted(overrides: Mapping[str, Any]) -> dict[str, Any]:
-    nested: dict[str, Any] = {}
-    for key, value in overrides.items():
-        parts = key.split(".")
-        node = nested
-        for part in parts[:-1]:
-            node = node.setdefault(part, {})
-            if not isinstance(node, dict):
-                raise ConfigError(f"override '{key}' conflicts with another override of '{part}'")
-        node[parts[-1]] = value
-    return nested
-
-
-_SHORT = reprlib.Repr()
-_SHORT.maxlevel, _SHORT.maxlist, _SHORT.maxdict, _SHORT.maxtuple, _SHORT.maxstring, _SHORT.maxother, _SHORT.maxlong = 3, 6, 6, 6, 50, 50, 40
-
-
-def describe_value(value: Any, limit: int = 60) -> str:
-    """A value a user gave, for a one-line error message: its type and a short repr (bounded:
-    a huge value costs no more than a small one)."""
-    text = " ".join(_SHORT.repr(value).split())
-    return f"{type(value).__name__} {text if len(text) <= limit else text[:limit - 3] + '...'}"
 
 
 def format_validation_error(exc: ValidationError) -> str:

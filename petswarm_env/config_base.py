@@ -4,12 +4,28 @@ floats finite, no boolean for a number. Its own module so that sections defined 
 
 from __future__ import annotations
 
+import reprlib
 import typing
 from typing import Annotated, Any
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, ValidationInfo, field_validator
 from pydantic_core import PydanticCustomError
+
+
+class ConfigError(ValueError):
+    """A configuration key or value is wrong; the message says which and how to fix it."""
+
+
+_SHORT = reprlib.Repr()
+_SHORT.maxlevel, _SHORT.maxlist, _SHORT.maxdict, _SHORT.maxtuple, _SHORT.maxstring, _SHORT.maxother, _SHORT.maxlong = 3, 6, 6, 6, 50, 50, 40
+
+
+def describe_value(value: Any, limit: int = 60) -> str:
+    """A value a user gave, for a one-line error message: its type and a short repr (bounded:
+    a huge value costs no more than a small one)."""
+    text = " ".join(_SHORT.repr(value).split())
+    return f"{type(value).__name__} {text if len(text) <= limit else text[:limit - 3] + '...'}"
 
 
 # -- the physical ranges of the config's numbers ---------------------------------------------------

@@ -433,7 +433,33 @@ RESUME_CASES = [
     ("config_file_changes_net", lambda r: (r.parent / "t.yaml").write_text("ppo:\n  net_arch: [64]\n"),
      ["--config", "{parent}/t.yaml"], "ppo.net_arch"),
     ("set_bool_timesteps", None, ["--set", "timesteps=true"], "timesteps"),
+    # a damaged train_log.json or checkpoint state: refused field by field before anything is written
+    ("log_evaluation_not_object", lambda r: _edit_log(r, lambda d: d.__setitem__("evaluations", [1])), [], "'evaluations.0'"),
+    ("log_no_reference", lambda r: _edit_log(r, lambda d: d.pop("scripted_eval_rmse_m")), [], "'scripted_eval_rmse_m' is missing"),
+    ("log_reference_text", lambda r: _edit_log(r, lambda d: d.__setitem__("scripted_eval_rmse_m", "2.5")), [], "scripted_eval_rmse_m"),
+    ("log_wall_time_list", lambda r: _edit_log(r, lambda d: d.__setitem__("wall_time_s", [1])), [], "'wall_time_s'"),
+    ("log_resumes_text", lambda r: _edit_log(r, lambda d: d.__setitem__("resumes", "many")), [], "'resumes'"),
+    ("log_eval_timesteps_null", lambda r: _edit_log(r, lambda d: d["evaluations"][0].__setitem__("timesteps", None)), [],
+     "'evaluations.0.timesteps'"),
+    ("n_updates_text", lambda r: _edit_checkpoint(r, lambda a: _state(a, n_updates="7")), [], "'n_updates'"),
+    ("learning_rate_text", lambda r: _edit_checkpoint(r, lambda a: _state(a, optimizer_param_groups=[
+        {**json.loads(a["state"].tobytes())["optimizer_param_groups"][0], "lr": "fast"}])), [], "'optimizer_param_groups.0.lr'"),
+    ("betas_out_of_range", lambda r: _edit_checkpoint(r, lambda a: _state(a, optimizer_param_groups=[
+        {**json.loads(a["state"].tobytes())["optimizer_param_groups"][0], "betas": [1.5, 0.9]}])), [], "betas"),
+    ("no_numpy_rng", lambda r: _edit_checkpoint(r, lambda a: _state(a, numpy_rng=None)), [], "'numpy_rng'"),
+    ("python_rng_short", lambda r: _edit_checkpoint(r, lambda a: _state(a, python_rng=[3, [1, 2], None])), [], "'python_rng'"),
+    ("numpy_rng_array_short", lambda r: _edit_checkpoint(r, lambda a: a.update({"rng:numpy": np.zeros(5, np.uint32)})), [], "'rng:numpy'"),
+    ("torch_rng_floats", lambda r: _edit_checkpoint(r, lambda a: a.update({"rng:torch": np.zeros(9, np.float64)})), [], "'rng:torch'"),
+    ("optimizer_nan", lambda r: _edit_checkpoint(r, lambda a: a[next(k for k in a if k.endswith(":exp_avg"))].fill(np.nan)), [], "NaN"),
+    ("timesteps_401_digits", lambda r: _edit_checkpoint(r, lambda a: _state(a, num_timesteps=10**400)), [], "num_timesteps"),
+    ("backend_number", lambda r: _edit_checkpoint(r, lambda a: _state(a, backend=5)), [], "'backend'"),
 ]
+
+
+def _edit_log(run: Path, change) -> None:
+    data = json.loads((run / "train_log.json").read_text())
+    change(data)
+    (run / "train_log.json").write_text(json.dumps(data))
 
 
 @pytest.mark.parametrize("damage, extra, words", [c[1:] for c in RESUME_CASES], ids=[c[0] for c in RESUME_CASES])

@@ -297,6 +297,7 @@ def _sections():
 
 
 def _bounds(metadata) -> tuple[bool, bool]:
+    metadata = [m for item in metadata for m in (getattr(item, "metadata", None) or [item])]  # a Field() inside Annotated
     low = any(hasattr(m, "gt") or hasattr(m, "ge") for m in metadata)
     high = any(hasattr(m, "lt") or hasattr(m, "le") for m in metadata)
     return low, high

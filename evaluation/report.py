@@ -67,6 +67,8 @@ def load_result(path: str | os.PathLike) -> dict[str, Any]:
         raise ValueError(f"{path}: not valid JSON ({e.msg} at line {e.lineno} column {e.colno})") from None
     except RecursionError:
         raise ValueError(f"{path}: not valid JSON (nested too deeply)") from None
+    except ValueError as e:  # a number beyond Python's 4300-digit limit
+        raise ValueError(f"{path}: not a result file ({' '.join(str(e).split())[:100]})") from None
     if not isinstance(data, dict):
         raise ValueError(f"{path}: expected a JSON object with an 'episodes' list, got {type(data).__name__}")  # noqa: TRY004 (bad file content)
     if "episodes" not in data:

@@ -61,7 +61,8 @@ def checked_action(agent: str, action: Any) -> np.ndarray:
         raw = None
     if raw is None or raw.dtype.kind not in "iuf":
         raise ValueError(f"action of {agent} must be 3 numbers (Vx, Vy, ω) in [-1, 1], got {describe_value(action)}")
-    arr = raw.astype(np.float32)
+    with np.errstate(over="ignore", invalid="ignore"):  # beyond float32: infinite, refused below
+        arr = raw.astype(np.float32)
     if arr.shape != (3,):
         raise ValueError(f"action of {agent} must have shape (3,) = (Vx, Vy, ω) in [-1, 1], got shape {arr.shape}")
     if not np.all(np.isfinite(arr)):

@@ -16,6 +16,7 @@
 from __future__ import annotations
 
 import argparse
+import logging
 import sys
 import warnings
 from importlib import resources
@@ -208,12 +209,42 @@ def _add_report(sub) -> None:
                      "(default), all, none, or the named ones; the results' episodes of one scenario and seed play side by side")
 
 
+LOG_LEVELS = ("debug", "info", "warning", "error")
+
+
+def _add_log_level(parser: argparse.ArgumentParser, default) -> None:
+    parser.add_argument("--log-level", choices=LOG_LEVELS, default=default,
+                        help="messages on stderr from this level up (default info: warnings, and a training run's progress "
+                        "lines when its output is not a terminal)")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="petswarm", description="Pet-Bot swarm environment: run, evaluate and measure.")
+    _add_log_level(parser, "info")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     for add in (_add_run, _add_train, _add_eval, _add_bench, _add_reproduce, _add_report):
         add(sub)
+    for choice in sub.choices.values():  # before or after the command: petswarm --log-level debug run / petswarm run --log-level debug
+        _add_log_level(choice, argparse.SUPPRESS)
     return parser
+
+
+class _OneLine(logging.Formatter):
+    """``petswarm: warning: <the message on one line>`` (the level in lower case, as the errors)."""
+
+    def format(self, record: logging.LogRecord) -> str:
+        return f"petswarm: {record.levelname.lower()}: {' '.join(record.getMessage().split())}"
+
+
+def configure_logging(level: str) -> None:
+    """The ``petswarm`` loggers (stdlib :mod:`logging`) write one line per message to stderr from
+    ``level`` up; Python warnings go through them (logger ``petswarm.warnings``)."""
+    handler = logging.StreamHandler(sys.stderr)
+    handler.setFormatter(_OneLine())
+    root = logging.getLogger("petswarm")
+    root.handlers[:] = [handler]
+    root.setLevel(level.upper())
+    root.propagate = False
 
 
 def _env_config(args):
@@ -317,7 +348,7 @@ def _one_line(exc: BaseException) -> str:
 
 
 def _warn_in_one_line(message, category, filename, lineno, file=None, line=None) -> None:
-    print(f"petswarm: warning: {' '.join(str(message).split())}", file=sys.stderr)
+    logging.getLogger("petswarm.warnings").warning(str(message))
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -326,6 +357,7 @@ def main(argv: list[str] | None = None) -> int:
     removed: :func:`petswarm_env.files.exit_cleanly_on_signals`)."""
     argv = sys.argv[1:] if argv is None else argv
     args = build_parser().parse_args(argv)
+    configure_logging(args.log_level)
     try:
         with exit_cleanly_on_signals(), warnings.catch_warnings():
             warnings.showwarning = _warn_in_one_line

@@ -42,6 +42,7 @@ from training.residual import zero_action_head
 from training.state_critic import StateCriticPolicy
 from training.vec_env import make_vec_env, training_env
 from training.warm_start import pretrain_policy
+from training.progress import LogProgress, wants_bar
 from training.run_folder import check_checkpoint_state, check_train_log
 
 
@@ -192,8 +193,9 @@ def train(cfg: TrainConfig | None, out_dir: str | os.PathLike, resume: bool = Fa
                 cfg, lambda spec: learned_policy(model, spec, cfg.ppo.activation))
         write_run_configs(out, cfg, env_cfg, resume, changes)  # once the checkpoint is known good
         callback = PeriodicCallback(cfg, out, layout, log)
-        model.learn(cfg.timesteps - model.num_timesteps, callback=callback, reset_num_timesteps=False, tb_log_name="ppo",
-                    progress_bar=progress_bar)
+        logged = [LogProgress(cfg.timesteps)] if progress_bar and not wants_bar(progress_bar) else []  # not a terminal: log lines
+        model.learn(cfg.timesteps - model.num_timesteps, callback=[callback, *logged], reset_num_timesteps=False, tb_log_name="ppo",
+                    progress_bar=wants_bar(progress_bar))
         callback.checkpoint()
         if not log["evaluations"] or log["evaluations"][-1]["timesteps"] != model.num_timesteps:
             callback.evaluate()

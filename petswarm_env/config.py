@@ -21,7 +21,7 @@ from pydantic_core import PydanticCustomError
 
 from petswarm_env.config_base import (ACCEL_MPS2, ADC_MAX, COUNT, EPISODE_S, FAR_M, FAST_MPS, GAIN, LEVEL_DB, LONG_S,
                                       MASS_KG, MAX_CYCLES, MAX_LIST, NEAR_M, RATE_HZ, REL, SHORT_M, SPIN_DPS, SPIN_RPS, TICK_S,
-                                      WEIGHT, ConfigError, Section, describe_value)
+                                      WEIGHT, ConfigError, Section, describe_value, format_validation_error)
 from petswarm_env.config_yaml import (flatten_dotted, merge_mappings, nest_dotted, parse_override, parse_yaml,  # noqa: F401
                                       read_yaml)  # the bounded YAML reader and the merging of overrides, re-exported
 from petswarm_env.config_runtime import FAULT_KINDS, ArrivalSpec, FaultSpec, FaultsRandomConfig  # noqa: F401
@@ -533,20 +533,6 @@ def default_config_path() -> Path:
     return Path(str(resources.files("petswarm_env") / "default.yaml"))
 
 
-def format_validation_error(exc: ValidationError) -> str:
-    err = exc.errors()[0]
-    loc = ".".join(str(p) for p in err["loc"]) or "(config)"
-    msg = err["msg"]
-    if err["type"] == "extra_forbidden":
-        return f"unknown config key '{loc}'"
-    if err["type"] == "finite_number":
-        msg = "must be a finite number (NaN and infinity are not allowed)"
-    if not err["loc"] or (err["type"] == "value_error" and isinstance(err.get("input"), Mapping)):
-        # a rule across keys (a model validator of the config or of a section): the message names the keys
-        return f"bad config: {msg.removeprefix('Value error, ')}"
-    return f"bad config value for '{loc}': {msg} (got {describe_value(err.get('input'))})"
-
-
 def load_config(
     path: str | Path | None = None,
     overrides: Mapping[str, Any] | None = None,
@@ -574,7 +560,7 @@ def load_config(
     try:
         return Config.model_validate(data)
     except ValidationError as exc:
-        message = format_validation_error(exc)
+        message = format_validation_error(exc, Config)
         loc = exc.errors()[0]["loc"]
         if path is not None and (_holds_key(user, loc) or not _holds_key(nested, loc)):
             message += f" (in config file '{path}')"

@@ -6,10 +6,11 @@ from __future__ import annotations
 
 import reprlib
 import typing
+from collections.abc import Mapping
 from typing import Annotated, Any
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, ValidationInfo, field_validator
+from pydantic import BaseModel, ConfigDict, ValidationError, ValidationInfo, field_validator
 from pydantic_core import PydanticCustomError
 
 
@@ -89,3 +90,65 @@ class Section(BaseModel):
         if field is not None and _holds_bool(value) and _wants_number_only(field.annotation):
             raise PydanticCustomError("bool_not_number", "a boolean is not a number here; give a number")
         return value
+
+
+def format_validation_error(exc: ValidationError, root: Any = None) -> str:
+    """One line for the first error of a validation: the key, what is wrong, the value given, and
+    for a number out of range the field's range (``root``: the model validated, to look it up)."""
+    err = exc.errors()[0]
+    loc = ".".join(str(p) for p in err["loc"]) or "(config)"
+    msg = err["msg"]
+    if err["type"] == "extra_forbidden":
+        return f"unknown config key '{loc}'"
+    if err["type"] == "finite_number":
+        msg = "must be a finite number (NaN and infinity are not allowed)"
+    if not err["loc"] or (err["type"] == "value_error" and isinstance(err.get("input"), Mapping)):
+        # a rule across keys (a model validator of the config or of a section): the message names the keys
+        return f"bad config: {msg.removeprefix('Value error, ')}"
+    text = f"bad config value for '{loc}': {msg} (got {describe_value(err.get('input'))})"
+    if err["type"] in ("greater_than", "greater_than_equal", "less_than", "less_than_equal", "finite_number"):
+        span = _field_range(root, err["loc"]) if root is not None else None
+        if span:
+            text += f"; its physical range is {span}"
+    return text
+
+
+def _field_range(root: Any, loc: tuple) -> str | None:
+    """``"0.001 to 600"`` for the field at a pydantic location of ``root`` (its bounds), or None.
+    A dict of sections (``robot_types.NAME``) is stepped over by its key."""
+    cls: Any = root
+    info = None
+    dict_of = None
+    for part in loc:
+        if isinstance(part, int) or cls is None:
+            continue
+        fields = getattr(cls, "model_fields", None)
+        if fields is None or part not in fields:
+            if dict_of is not None:
+                cls, dict_of = dict_of, None  # the key of a dict of sections (robot_types.NAME)
+                continue
+            return None
+        info = fields[part]
+        ann, cls = info.annotation, None
+        dict_of = None
+        stack = [ann]
+        while stack:
+            t = stack.pop()
+            if isinstance(t, type) and issubclass(t, Section):
+                cls = t
+                break
+            stack.extend(typing.get_args(t))
+        if cls is not None and typing.get_origin(ann) is dict:
+            cls, dict_of = cls, cls
+    if info is None:
+        return None
+    lo = hi = None
+    above = below = ""
+    for m in info.metadata:
+        if getattr(m, "gt", None) is not None:
+            lo, above = m.gt, "above "
+        lo = getattr(m, "ge", lo)
+        if getattr(m, "lt", None) is not None:
+            hi, below = m.lt, "below "
+        hi = getattr(m, "le", hi)
+    return f"{above}{lo:g} to {below}{hi:g}" if lo is not None and hi is not None else None

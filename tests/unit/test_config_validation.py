@@ -415,3 +415,13 @@ def test_a_config_that_is_not_a_config_or_a_path_is_a_clear_type_error(config):
 
     with pytest.raises(TypeError, match="config must be a Config, the path of a YAML file or None"):
         petswarm_v0.parallel_env(config=config)
+
+
+@pytest.mark.parametrize("key, value, span", [
+    ("lf.burst_period_s", 1e-9, "0.01 to 600"), ("max_cycles", 0, "above 0 to 1e+06"),
+    ("robot_types.mybot.max_speed_mps", 99, "above 0 to 20"), ("faults_random.rate_per_min", 1e9, "0 to 60"),
+    ("lf.reliable_half_angle_deg", 90, "above 0 to below 90"),
+])
+def test_a_number_out_of_range_names_its_physical_range(key, value, span):
+    message = _refused({key: value})
+    assert key in message and f"its physical range is {span}" in message

@@ -18,7 +18,7 @@ from petswarm_env.config_base import ConfigError, describe_value
 # (configs/default.yaml: about 600 nodes), so a file far beyond these is a mistake or an attack (an
 # alias bomb, "billion laughs", expands 300 bytes into 10^9 values; a 20,000-deep nesting overflows
 # the parser's recursion); both are refused before anything is built from them
-MAX_YAML_BYTES = 4_000_000  # a file (the shipped grid is 6 kB)
+MAX_YAML_BYTES = 128_000  # a file: the largest shipped, configs/default.yaml, is 29 kB (PyYAML reads some 100 kB a second)
 MAX_YAML_DEPTH = 50  # nested mappings and lists (the deepest shipped key, robot_types.NAME.sensors[i].id, is 5)
 MAX_YAML_VALUES = 200_000  # values after the aliases are expanded (each use of an alias counts its whole value)
 MAX_NUMBER_CHARS = 100  # characters of one number (1e308 needs 5; Python refuses ints of more than 4300 digits)

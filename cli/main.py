@@ -16,12 +16,13 @@
 from __future__ import annotations
 
 import argparse
+import logging
 import sys
 import warnings
 from importlib import resources
 
 from petswarm_env.config import ConfigError, load_config, parse_override
-from petswarm_env.files import Terminated, check_output_path, exit_cleanly_on_signals
+from petswarm_env.files import Terminated, check_distinct_paths, check_output_path, exit_cleanly_on_signals, jsonl_path
 
 SHIPPED_GRID = resources.files("evaluation") / "grid.yaml"  # = configs/eval/grid.yaml, in the package
 
@@ -211,12 +212,42 @@ def _add_report(sub) -> None:
                      "(default), all, none, or the named ones; the results' episodes of one scenario and seed play side by side")
 
 
+LOG_LEVELS = ("debug", "info", "warning", "error")
+
+
+def _add_log_level(parser: argparse.ArgumentParser, default) -> None:
+    parser.add_argument("--log-level", choices=LOG_LEVELS, default=default,
+                        help="messages on stderr from this level up (default info: warnings, and a training run's progress "
+                        "lines when its output is not a terminal)")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="petswarm", description="Pet-Bot swarm environment: run, evaluate and measure.")
+    _add_log_level(parser, "info")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     for add in (_add_run, _add_train, _add_eval, _add_bench, _add_reproduce, _add_report):
         add(sub)
+    for choice in sub.choices.values():  # before or after the command: petswarm --log-level debug run / petswarm run --log-level debug
+        _add_log_level(choice, argparse.SUPPRESS)
     return parser
+
+
+class _OneLine(logging.Formatter):
+    """``petswarm: warning: <the message on one line>`` (the level in lower case, as the errors)."""
+
+    def format(self, record: logging.LogRecord) -> str:
+        return f"petswarm: {record.levelname.lower()}: {' '.join(record.getMessage().split())}"
+
+
+def configure_logging(level: str) -> None:
+    """The ``petswarm`` loggers (stdlib :mod:`logging`) write one line per message to stderr from
+    ``level`` up; Python warnings go through them (logger ``petswarm.warnings``)."""
+    handler = logging.StreamHandler(sys.stderr)
+    handler.setFormatter(_OneLine())
+    root = logging.getLogger("petswarm")
+    root.handlers[:] = [handler]
+    root.setLevel(level.upper())
+    root.propagate = False
 
 
 def _env_config(args):
@@ -289,6 +320,29 @@ def _reproduce(args, argv: list[str]) -> int:
                      "petswarm " + " ".join(argv))
 
 
+def _policy_file(word: str | None) -> str | None:
+    return word if word and word.endswith(".npz") else None
+
+
+def _check_paths(args) -> None:
+    """Before any work: no output of the command is one of its inputs or another of its outputs
+    (``run --config c.yaml --json c.yaml`` would destroy the config; ``--json x.gif --video x.gif``
+    one output with the other). The JSON Lines file beside ``--json`` counts as an output."""
+    get = lambda name: getattr(args, name, None)  # noqa: E731
+    inputs = {"--config": get("config"), "--policy": _policy_file(get("policy"))}
+    if args.command == "eval":
+        inputs["--mix"] = [_policy_file(m.split("=", 1)[-1]) for m in args.mix]
+        if args.grid:
+            inputs["--grid"] = args.grid
+    if args.command == "report":
+        inputs["RESULT.json"] = list(args.results)
+    outputs = {"--out": get("out") if args.command == "report" else None, "--json": get("json"), "--video": get("video"),
+               "--pcap": get("pcap"), "--md": get("md"), "--report": get("report")}
+    if get("json") and args.command in ("run", "eval"):
+        outputs["--json's lines file"] = str(jsonl_path(args.json))
+    check_distinct_paths(inputs, outputs)
+
+
 # each command runs a function of its room (imported when the command runs: `petswarm run` needs no training stack)
 COMMANDS = {"run": _run, "train": _train, "eval": _eval, "report": _report, "bench": _bench, "reproduce": _reproduce}
 
@@ -301,7 +355,7 @@ def _one_line(exc: BaseException) -> str:
 
 
 def _warn_in_one_line(message, category, filename, lineno, file=None, line=None) -> None:
-    print(f"petswarm: warning: {' '.join(str(message).split())}", file=sys.stderr)
+    logging.getLogger("petswarm.warnings").warning(str(message))
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -310,9 +364,11 @@ def main(argv: list[str] | None = None) -> int:
     removed: :func:`petswarm_env.files.exit_cleanly_on_signals`)."""
     argv = sys.argv[1:] if argv is None else argv
     args = build_parser().parse_args(argv)
+    configure_logging(args.log_level)
     try:
         with exit_cleanly_on_signals(), warnings.catch_warnings():
             warnings.showwarning = _warn_in_one_line
+            _check_paths(args)
             return COMMANDS[args.command](args, argv)
     except (ConfigError, ValueError, RuntimeError, OSError) as exc:
         print(f"petswarm: error: {_one_line(exc)}", file=sys.stderr)

@@ -34,7 +34,7 @@ from typing import Any
 
 from baselines.policy import PolicySpec
 from evaluation.evaluate import make_team, team_label
-from evaluation.grid_spec import Cell, Grid
+from evaluation.grid_spec import Cell, Grid, check_previous_cells
 from evaluation.runner import run_episode
 from evaluation.stats import as_number, mean_ci95
 from petswarm_env.config import Config, load_config
@@ -181,10 +181,12 @@ def previous_cells(path: str | None) -> dict[str, dict[str, Any]]:
         return {}
     try:
         data = json.loads(Path(path).read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise ValueError(f"--resume: '{path}' is not a readable grid result ({exc}); remove it or drop --resume") from None
+    except (OSError, ValueError, RecursionError) as exc:  # not JSON, not UTF-8, nested too deep, a number too long
+        raise ValueError(f"--resume: '{path}' is not a readable grid result ({str(exc)[:120] or type(exc).__name__}); "
+                         "remove it or drop --resume") from None
     if not isinstance(data, dict) or data.get("kind") != GRID_KIND or not isinstance(data.get("cells"), list):
         raise ValueError(f"--resume: '{path}' is not a grid result of petswarm eval --grid; choose another --json")
+    check_previous_cells(path, data["cells"])  # every cell whole, before anything runs or is rewritten (grid_spec.py)
     return {c["key"]: c for c in data["cells"] if isinstance(c, dict) and isinstance(c.get("key"), str)}
 
 

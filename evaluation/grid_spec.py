@@ -18,13 +18,14 @@ and the fix (:class:`~petswarm_env.config.ConfigError`).
 from __future__ import annotations
 
 import itertools
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
-from petswarm_env.config import ConfigError, Config, flatten_dotted, load_config, read_yaml
+from petswarm_env.config import ConfigError, Config, describe_value, flatten_dotted, load_config, read_yaml
 
 ROLES = ("candidate", "reference")  # the team words of a grid file: the grid's two policies
 
@@ -45,14 +46,21 @@ class CellEntry(_Strict):
     team: TeamSpec = Field(default_factory=TeamSpec)
 
 
+# a grid's size: the committed grid has 55 cells of 5 episodes; every cell's config is built before
+# anything runs (about 20 ms each), so a product of 10^8 cells is refused by name, never expanded
+MAX_CELLS = 2_000
+MAX_EPISODES = 10_000  # per cell
+MAX_RUNS = 200_000  # cells x episodes x 2 (candidate and reference): about a week of one core
+
+
 class GridFile(_Strict):
-    seed: int = Field(ge=0)
-    episodes: int = Field(ge=1)
+    seed: int = Field(ge=0, le=2**63 - 1 - MAX_EPISODES)
+    episodes: int = Field(ge=1, le=MAX_EPISODES)
     candidate: str = "learned"
     reference: str = "scripted"
-    target_ratio: float = Field(default=0.8, gt=0)
+    target_ratio: float = Field(default=0.8, gt=0, le=100.0)
     set: dict[str, Any] = Field(default_factory=dict)
-    cells: list[CellEntry] = Field(min_length=1)
+    cells: list[CellEntry] = Field(min_length=1, max_length=MAX_CELLS)
 
 
 _ALLOWED = {
@@ -119,7 +127,7 @@ def _one_line(exc: ValidationError, path: str, raw: dict[str, Any]) -> str:
         return f"{where}: unknown key '{shape[-1]}'; allowed keys: {', '.join(allowed)}"
     if err["type"] == "missing":
         return f"{where}: '{key}' is missing; give it (see configs/eval/grid.yaml)"
-    return f"{where}: bad value for '{key}': {err['msg']} (got {err.get('input')!r})"
+    return f"{where}: bad value for '{key}': {err['msg']} (got {describe_value(err.get('input'))})"
 
 
 def _policy_of(word: str, grid: GridFile) -> str:
@@ -178,7 +186,7 @@ def load_grid(path: str, base_config: Config | None = None, candidate: str | Non
     ``base_config`` (default: configs/default.yaml) and the file's ``set``. ``candidate``,
     ``episodes`` and ``seed`` replace the file's (the command line's ``--policy``, ``--episodes``,
     ``--seed``). Raises :class:`ConfigError` with one line naming the cell and the fix."""
-    raw = read_yaml(path)
+    raw = read_yaml(path, "grid file")
     try:
         grid = GridFile.model_validate(raw)
     except ValidationError as exc:
@@ -194,6 +202,18 @@ def load_grid(path: str, base_config: Config | None = None, candidate: str | Non
         load_config(overrides={**base, **grid.set})
     except ConfigError as exc:
         raise ConfigError(f"{path}: set: {exc}") from None
+    total = 0
+    for k, entry in enumerate(grid.cells):  # the grid's size, before any cell is expanded
+        size = math.prod(len(v) for v in entry.product.values()) if entry.product else 1
+        total += size
+        if total > MAX_CELLS:
+            where = f"{path}: cell entry {k}" + (f" ('{entry.name}')" if entry.name else "")
+            raise ConfigError(f"{where}: the grid reaches {total if size < 10**12 else 'more than 10^12'} cells, more than the "
+                              f"{MAX_CELLS} a grid may have (product: {' x '.join(str(len(v)) for v in entry.product.values()) or 1}); "
+                              "list fewer values or split the grid")
+    if total * grid.episodes * 2 > MAX_RUNS:
+        raise ConfigError(f"{path}: {total} cells x {grid.episodes} episodes x 2 teams is {total * grid.episodes * 2} episodes, "
+                          f"more than the {MAX_RUNS} a grid may run; lower episodes or the number of cells")
     cells: list[Cell] = []
     names: set[str] = set()
     for k, entry in enumerate(grid.cells):
@@ -229,3 +249,63 @@ def _check_robots(cfg: Config, mix: dict[str, str], where: str) -> None:
                               f"choose from {', '.join(env.possible_agents)}")
     finally:
         env.close()
+
+
+# -- an earlier result for --resume: every kept cell checked field by field before anything runs ------
+class _Record(BaseModel):
+    model_config = ConfigDict(extra="allow", strict=True, allow_inf_nan=True)
+
+
+Count = Field(ge=0, le=10**12)
+
+
+class _EpisodeRecord(_Record):
+    seed: int = Field(ge=0)
+    formation_rmse_m: float | None
+
+
+class _RunRecord(_Record):
+    label: str
+    episodes: int = Count
+    formation_rmse_m: float | None
+    collisions: int = Count
+    per_episode: list[_EpisodeRecord]
+
+
+class _CellRecord(_Record):
+    key: str
+    name: str
+    ratio: float | None
+    median_ratio: float | None = None
+    episodes_better: int = Count
+    meets_target: bool
+    collisions_not_more: bool
+    wall_s: float = Field(default=0.0, ge=0, le=10**9)
+    candidate: _RunRecord
+    reference: _RunRecord
+
+
+def check_previous_cells(path: str, cells: list[Any]) -> None:
+    """Every cell of an earlier grid result (``eval --grid --resume``) must be a whole cell record
+    (the fields a kept cell is summarised and reported from, of their types), or the command is
+    refused before it runs or rewrites anything: a damaged file is never replaced by a partial one.
+    Raises :class:`ConfigError` naming the file, the cell and the field."""
+    for k, cell in enumerate(cells):
+        if not isinstance(cell, dict):
+            raise ConfigError(f"--resume: '{path}' cell {k} is {describe_value(cell)}, not a cell record; repair the file "
+                              "or write the grid to another --json without --resume")
+        try:
+            record = _CellRecord.model_validate(cell)
+        except ValidationError as exc:
+            err = exc.errors()[0]
+            field = ".".join(str(p) for p in err["loc"]) or "(cell)"
+            name = cell.get("name") if isinstance(cell.get("name"), str) else None
+            what = ("is missing" if err["type"] == "missing" else "must be a JSON object" if err["type"] in ("model_type", "dict_type")
+                    else f"{err['msg'][0].lower()}{err['msg'][1:]} (got {describe_value(err.get('input'))})")
+            raise ConfigError(f"--resume: '{path}' cell {k}" + (f" ('{name[:60]}')" if name else "") +
+                              f": field '{field}' {what}; repair the file or write the grid to another --json without --resume") from None
+        for run in ("candidate", "reference"):
+            r = getattr(record, run)
+            if len(r.per_episode) != r.episodes:
+                raise ConfigError(f"--resume: '{path}' cell {k}: field '{run}.per_episode' holds {len(r.per_episode)} episodes, "
+                                  f"'{run}.episodes' says {r.episodes}; repair the file or write to another --json")

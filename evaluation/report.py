@@ -18,6 +18,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import re
 import urllib.parse
 from collections.abc import Iterable
 from pathlib import Path
@@ -66,6 +67,8 @@ def load_result(path: str | os.PathLike) -> dict[str, Any]:
         raise ValueError(f"{path}: not valid JSON ({e.msg} at line {e.lineno} column {e.colno})") from None
     except RecursionError:
         raise ValueError(f"{path}: not valid JSON (nested too deeply)") from None
+    except ValueError as e:  # a number beyond Python's 4300-digit limit
+        raise ValueError(f"{path}: not a result file ({' '.join(str(e).split())[:100]})") from None
     if not isinstance(data, dict):
         raise ValueError(f"{path}: expected a JSON object with an 'episodes' list, got {type(data).__name__}")  # noqa: TRY004 (bad file content)
     if "episodes" not in data:
@@ -82,7 +85,62 @@ def load_result(path: str | os.PathLike) -> dict[str, Any]:
     data["episodes"] = episodes
     if not isinstance(data.get("config"), dict):
         data["config"] = {}
+    _check_inputs(path, data)
     return data
+
+
+MAX_REPLAY_BYTES = 500_000_000  # a replay file embedded in the page (a 600-step episode's is about 1 MB)
+MAX_INT_BITS = 64  # no count, seed or figure of a result needs more (a 401-digit number is no result's)
+
+
+def _check_inputs(path: str | os.PathLike, data: dict[str, Any]) -> None:
+    """Refuse, naming the file and the field, what the report would choke on or follow blindly:
+    an integer beyond 64 bits (no float holds it), a grid cell or run that is not an object, a
+    ``gif``/``pcap``/``replay`` that is not text, a replay that is not a regular file (``/dev/zero``
+    would be read forever) or is larger than :data:`MAX_REPLAY_BYTES`."""
+    stack: list[tuple[Any, str]] = [(data, "")]
+    while stack:
+        value, where = stack.pop()
+        if isinstance(value, dict):
+            stack.extend((v, f"{where}.{k}" if where else str(k)) for k, v in value.items())
+        elif isinstance(value, list):
+            stack.extend((v, f"{where}[{i}]") for i, v in enumerate(value))
+        elif isinstance(value, int) and not isinstance(value, bool) and value.bit_length() > MAX_INT_BITS:
+            digits = len(str(value)) if value.bit_length() < 40_000 else "thousands of"
+            raise ValueError(f"{path}: field '{where}' is a number of {digits} digits, beyond any figure of a result; "
+                             "repair the file or evaluate again")
+    if is_grid(data):
+        for k, cell in enumerate(data["cells"]):
+            if not isinstance(cell, dict):
+                raise ValueError(f"{path}: cell {k} must be a JSON object, got {type(cell).__name__}")  # noqa: TRY004
+            for side in ("candidate", "reference"):
+                run = cell.get(side)
+                if run is not None and not isinstance(run, dict):
+                    raise ValueError(f"{path}: cell {k} field '{side}' must be a JSON object (a team's run), got "
+                                     f"{type(run).__name__}; repair the file or run the grid again")
+                per = run.get("per_episode") if isinstance(run, dict) else None
+                if per is not None and not (isinstance(per, list) and all(isinstance(e, dict) for e in per)):
+                    raise ValueError(f"{path}: cell {k} field '{side}.per_episode' must be a list of JSON objects")
+    result_dir = Path(path).resolve().parent
+    for i, ep in enumerate(data["episodes"]):
+        for key in ("gif", "pcap", "replay"):
+            value = ep.get(key)
+            if value is not None and not isinstance(value, str):
+                raise ValueError(f"{path}: episode {i} field '{key}' must be a path (text), got {type(value).__name__}")
+        replay = ep.get("replay")
+        if isinstance(replay, str) and replay:
+            from evaluation.replay_viewer import _replay_path
+
+            target = _replay_path(result_dir, replay)
+            try:
+                if target.exists() and not target.is_file():
+                    raise ValueError(f"{path}: episode {i} field 'replay' '{replay[:80]}' is not a regular file (a device, a pipe "
+                                     "or a folder); name a replay file of petswarm eval --replay-dir")
+                if target.is_file() and target.stat().st_size > MAX_REPLAY_BYTES:
+                    raise ValueError(f"{path}: episode {i} field 'replay' '{replay[:80]}' is {target.stat().st_size / 1e6:.0f} MB, "
+                                     f"more than the {MAX_REPLAY_BYTES / 1e6:.0f} MB a report embeds; pass --replays none")
+            except OSError as exc:
+                raise ValueError(f"{path}: episode {i} field 'replay' '{replay[:80]}' cannot be read ({exc.strerror or exc})") from None
 
 
 class _Result:
@@ -176,12 +234,19 @@ def _env_name(results: list[_Result]) -> str:
         return "petswarm"
 
 
-def _gif_href(result: _Result, gif: str, out_dir: Path) -> tuple[str, bool]:
+_SCHEME = re.compile(r"^\s*([A-Za-z][A-Za-z0-9+.\-]*):")
+
+
+def _gif_href(result: _Result, gif: str, out_dir: Path) -> tuple[str | None, bool]:
     """The href of a GIF, relative to the report's directory, and whether the file exists.
     A relative ``gif`` is taken relative to its result file; if no file is there but one is at
-    that path from the current directory (a path recorded as given on the command line), that one."""
-    if "://" in gif:
-        return gif, True
+    that path from the current directory (a path recorded as given on the command line), that one.
+    Only ``http``/``https`` URLs and paths become links: any other scheme (``javascript:``,
+    ``data:``, ``file:``...) gives ``None``, shown as text, never as a link."""
+    scheme = _SCHEME.match(gif)
+    if scheme and len(scheme.group(1)) > 1:  # (one letter: a Windows drive, a path)
+        ok = scheme.group(1).lower() in ("http", "https") and gif.strip() == gif and not any(c in gif for c in "\"\'<>`")
+        return (gif, True) if ok else (None, False)
     target = Path(gif)
     if not target.is_absolute():
         beside = result.dir / target
@@ -424,6 +489,10 @@ def _section_gifs(results: list[_Result], out_dir: Path) -> str:
                 continue
             href, exists = _gif_href(r, gif, out_dir)
             text = f"{r.label} — {r.scenario_of(ep)}, seed {ep.get('seed', NA)}"
+            if href is None:
+                items.append(f'<li>{escape(text)} <span class="warn">(not a link: <code>{escape(gif[:80])}</code> is neither a path '
+                             'nor an http(s) URL)</span></li>')
+                continue
             missing = "" if exists else ' <span class="warn">(file not found)</span>'
             items.append(f'<li><a href="{escape(href)}">{escape(text)}</a>{missing}</li>')
     if items:

@@ -9,18 +9,21 @@ names the key, what is wrong and what is allowed.
 
 from __future__ import annotations
 
-import copy
 import math
+import os
 from collections.abc import Mapping
 from importlib import resources
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
-import yaml
 from pydantic import AfterValidator, Field, ValidationError, model_validator
 from pydantic_core import PydanticCustomError
 
-from petswarm_env.config_base import Section  # noqa: F401
+from petswarm_env.config_base import (ACCEL_MPS2, ADC_MAX, COUNT, EPISODE_S, FAR_M, FAST_MPS, GAIN, LEVEL_DB, LONG_S,
+                                      MASS_KG, MAX_CYCLES, MAX_LIST, NEAR_M, RATE_HZ, REL, SHORT_M, SPIN_DPS, SPIN_RPS, TICK_S,
+                                      WEIGHT, ConfigError, Section, describe_value, format_validation_error)
+from petswarm_env.config_yaml import (flatten_dotted, merge_mappings, nest_dotted, parse_override, parse_yaml,  # noqa: F401
+                                      read_yaml)  # the bounded YAML reader and the merging of overrides, re-exported
 from petswarm_env.config_runtime import FAULT_KINDS, ArrivalSpec, FaultSpec, FaultsRandomConfig  # noqa: F401
 from petswarm_env.config_base import Section  # noqa: F401  (the base of every section; re-exported here)
 from petswarm_env.robot_types import PoolEntry, RobotTypeConfig, max_pool_size, robot_types_problem
@@ -48,21 +51,28 @@ def _registered_scenario(name: str) -> str:
 ScenarioName = Annotated[str, AfterValidator(_registered_scenario)]
 
 
-class ConfigError(ValueError):
-    """A configuration key or value is wrong; the message says which and how to fix it."""
+# the memory an episode may take: its recorded trajectories (evaluation/runner.py: x, y and heading
+# of every robot and user per step, float64) must fit this budget; every other allocation the config
+# sizes (the LF table, the belt's windows, a rendered frame) is bounded by its fields' ranges alone
+MEMORY_BUDGET_BYTES = 1_000_000_000
+RECORD_BYTES_PER_BODY_STEP = 3 * 8
+
+Distance = Annotated[float, Field(ge=-FAR_M, le=FAR_M)]  # a coordinate or an offset within the largest arena
+Size = Annotated[float, Field(ge=0, le=FAR_M)]  # a width or a height within the largest arena
+Offset = Annotated[float, Field(ge=-NEAR_M, le=NEAR_M)]  # a formation offset within sensing distance
 
 
 class BoxObstacle(Section):
-    center_m: tuple[float, float]
-    size_m: tuple[float, float] = Field(description="width (x) and height (y)")
+    center_m: tuple[Distance, Distance]
+    size_m: tuple[Size, Size] = Field(description="width (x) and height (y)")
 
 
 class WorldConfig(Section):
-    arena_m: tuple[float, float] = Field(description="walled arena width, height (m); 0 = no walls")
-    obstacles: list[BoxObstacle]
+    arena_m: tuple[Size, Size] = Field(description="walled arena width, height (m); 0 = no walls")
+    obstacles: list[BoxObstacle] = Field(max_length=MAX_LIST)
     num_users: int = Field(ge=1, le=8, description="users, each with a master, a robot pool and its own PAN")
-    user_spacing_m: float = Field(gt=0, description="distance between the users' start positions (along y)")
-    collision_slop_m: float = Field(gt=0, description="overlap of two bodies in contact that the physics leaves uncorrected (m; pymunk's collision_slop)")
+    user_spacing_m: float = Field(gt=0, le=FAR_M, description="distance between the users' start positions (along y)")
+    collision_slop_m: float = Field(gt=0, le=1.0, description="overlap of two bodies in contact that the physics leaves uncorrected (m; pymunk's collision_slop)")
 
     @model_validator(mode="after")
     def _check_arena(self) -> WorldConfig:
@@ -82,9 +92,9 @@ class WorldConfig(Section):
 
 class UltrasonicConfig(Section):
     count: int = Field(ge=0, le=32)
-    min_range_m: float = Field(ge=0)
-    max_range_m: float = Field(gt=0)
-    noise_m: float = Field(ge=0)
+    min_range_m: float = Field(ge=0, le=NEAR_M)
+    max_range_m: float = Field(gt=0, le=NEAR_M)
+    noise_m: float = Field(ge=0, le=NEAR_M)
 
     @model_validator(mode="after")
     def _check_ranges(self) -> UltrasonicConfig:
@@ -95,35 +105,35 @@ class UltrasonicConfig(Section):
 
 
 class RobotConfig(Section):
-    radius_m: float = Field(gt=0)
-    mass_kg: float = Field(gt=0)
-    max_speed_mps: float = Field(gt=0, description="wheel-limited translation speed")
-    max_omega_rps: float = Field(gt=0)
-    max_accel_mps2: float = Field(gt=0)
-    max_alpha_rps2: float = Field(gt=0)
-    wheel_lever_m: float = Field(gt=0, description="lx + ly of the mecanum wheel layout")
+    radius_m: float = Field(ge=0.01, le=5.0)
+    mass_kg: float = Field(gt=0, le=MASS_KG)
+    max_speed_mps: float = Field(gt=0, le=FAST_MPS, description="wheel-limited translation speed")
+    max_omega_rps: float = Field(gt=0, le=SPIN_RPS)
+    max_accel_mps2: float = Field(gt=0, le=ACCEL_MPS2)
+    max_alpha_rps2: float = Field(gt=0, le=10 * ACCEL_MPS2)
+    wheel_lever_m: float = Field(ge=SHORT_M, le=10.0, description="lx + ly of the mecanum wheel layout")
     ultrasonic: UltrasonicConfig
-    ahrs_noise_deg: float = Field(ge=0)
-    ahrs_drift_dps: float = Field(ge=0)
-    odometry_noise_rel: float = Field(ge=0)
+    ahrs_noise_deg: float = Field(ge=0, le=180)
+    ahrs_drift_dps: float = Field(ge=0, le=SPIN_DPS)
+    odometry_noise_rel: float = Field(ge=0, le=REL)
 
 
 class CustomLink(Section):
-    robot: int = Field(ge=1, description="member number of the slave")
-    neighbour: int = Field(ge=0, description="member number of its reference neighbour (0 = master)")
-    offset_m: tuple[float, float] = Field(description="reference offset in the formation frame")
+    robot: int = Field(ge=1, le=32, description="member number of the slave")
+    neighbour: int = Field(ge=0, le=32, description="member number of its reference neighbour (0 = master)")
+    offset_m: tuple[Offset, Offset] = Field(description="reference offset in the formation frame")
 
 
 class SwarmConfig(Section):
     num_slaves: int = Field(ge=1, le=16)
     extra_robots: int = Field(ge=0, le=16, description="waiting robots beyond the required number")
     formation: Literal[FORMATIONS]  # type: ignore[valid-type]
-    spacing_m: float = Field(gt=0)
-    custom_links: list[CustomLink]
+    spacing_m: float = Field(ge=0.01, le=NEAR_M)
+    custom_links: list[CustomLink] = Field(max_length=32)
     mode: Literal[DRIVING_MODES]  # type: ignore[valid-type]
     spawn: Literal[SPAWN_MODES] = Field(description="scattered: waiting robots start anywhere in the master's available region, "  # type: ignore[valid-type]
                                         "random headings; at_slots: within spawn_jitter_m of their formation slots")
-    spawn_jitter_m: float = Field(ge=0)
+    spawn_jitter_m: float = Field(ge=0, le=NEAR_M)
     master_change: bool = Field(description="the user's master-change request on a driving-mode change (Table 3)")
     other_user_robots: int = Field(ge=0, le=16, description="waiting robots already connected to another user")
     assignment: Literal[ASSIGNMENTS] = Field(description="who joins and which slot each member takes: closest (seed 000 "  # type: ignore[valid-type]
@@ -132,60 +142,60 @@ class SwarmConfig(Section):
 
 
 class RadioConfig(Section):
-    bitrate_bps: float = Field(gt=0)
-    frame_overhead_bytes: int = Field(ge=0)
-    latency_s: float = Field(ge=0)
+    bitrate_bps: float = Field(ge=1e3, le=1e9)
+    frame_overhead_bytes: int = Field(ge=0, le=127)
+    latency_s: float = Field(ge=0, le=10.0)
     loss_prob: float = Field(ge=0, le=1)
-    processing_s: float = Field(ge=0, description="MCU time to handle a frame before replying")
-    processing_jitter_s: float = Field(ge=0)
-    backoff_slot_s: float = Field(gt=0)
+    processing_s: float = Field(ge=0, le=10.0, description="MCU time to handle a frame before replying")
+    processing_jitter_s: float = Field(ge=0, le=10.0)
+    backoff_slot_s: float = Field(ge=1e-5, le=1.0)
     min_be: int = Field(ge=0, le=8)
     max_be: int = Field(ge=0, le=8)
     max_backoffs: int = Field(ge=0, le=8)
-    turnaround_s: float = Field(ge=0, description="CCA-to-TX turnaround: a frame started inside it is not sensed")
-    range_m: float = Field(gt=0)
-    rssi_shadowing_db: float = Field(ge=0, description="σ of log-normal shadowing on the RSSI")
-    path_loss_exponent: float = Field(gt=0)
+    turnaround_s: float = Field(ge=0, le=1.0, description="CCA-to-TX turnaround: a frame started inside it is not sensed")
+    range_m: float = Field(gt=0, le=FAR_M)
+    rssi_shadowing_db: float = Field(ge=0, le=LEVEL_DB, description="σ of log-normal shadowing on the RSSI")
+    path_loss_exponent: float = Field(ge=1.0, le=10.0)
 
 
 class ProtocolConfig(Section):
-    join_radius_m: float = Field(gt=0, description="master's available region (seed 000 Table 1)")
-    scan_window_s: float = Field(gt=0)
-    response_timeout_s: float = Field(gt=0)
-    max_retries: int = Field(ge=0)
-    organize_timeout_s: float = Field(gt=0)
-    ring_response_timeout_s: float = Field(gt=0, description="token holder waits this long for responses")
-    ir_tx_s: float = Field(gt=0, description="IR transmission time of one token holder")
-    token_timeout_s: float = Field(gt=0, description="master regenerates the token after this silence")
-    token_retries: int = Field(ge=0)
-    broadcast_period_s: float = Field(gt=0, description="master's speed/activity broadcast")
-    lost_after_rounds: int = Field(ge=1, description="a member the master heard nothing from in this many ring rounds is lost")
-    status_timeout_s: float = Field(gt=0, description="a slave that heard no status broadcast this long stops and returns to waiting")
-    rescan_period_s: float = Field(gt=0, description="the organized master scans for waiting robots this often while a slot is open")
+    join_radius_m: float = Field(gt=0, le=NEAR_M, description="master's available region (seed 000 Table 1)")
+    scan_window_s: float = Field(ge=TICK_S, le=LONG_S)
+    response_timeout_s: float = Field(ge=TICK_S, le=LONG_S)
+    max_retries: int = Field(ge=0, le=COUNT)
+    organize_timeout_s: float = Field(ge=TICK_S, le=LONG_S)
+    ring_response_timeout_s: float = Field(ge=TICK_S, le=LONG_S, description="token holder waits this long for responses")
+    ir_tx_s: float = Field(ge=TICK_S, le=LONG_S, description="IR transmission time of one token holder")
+    token_timeout_s: float = Field(ge=TICK_S, le=LONG_S, description="master regenerates the token after this silence")
+    token_retries: int = Field(ge=0, le=COUNT)
+    broadcast_period_s: float = Field(ge=TICK_S, le=LONG_S, description="master's speed/activity broadcast")
+    lost_after_rounds: int = Field(ge=1, le=COUNT, description="a member the master heard nothing from in this many ring rounds is lost")
+    status_timeout_s: float = Field(ge=TICK_S, le=LONG_S, description="a slave that heard no status broadcast this long stops and returns to waiting")
+    rescan_period_s: float = Field(ge=TICK_S, le=LONG_S, description="the organized master scans for waiting robots this often while a slot is open")
 
 
 class RutaConfig(Section):
     """Seed 003 RUTA on the swarm (middleware/assignment.py); used only with swarm.assignment ruta_*."""
 
-    t_m_s: float = Field(gt=0, description="t_m: total time given to a robot for its subtasks (seed 003 §5.2.1: 200 s)")
-    u1_per_s: float = Field(gt=0, description="u1 of the priority (seed 003 §5.2.1: 0.01)")
-    u2: float = Field(gt=0, description="u2 of the utility (seed 003 §5.2.1: 1)")
-    min_distance_m: float = Field(gt=0, description="distances below count as this (d^(-1/2) diverges at 0)")
+    t_m_s: float = Field(ge=TICK_S, le=EPISODE_S, description="t_m: total time given to a robot for its subtasks (seed 003 §5.2.1: 200 s)")
+    u1_per_s: float = Field(gt=0, le=GAIN, description="u1 of the priority (seed 003 §5.2.1: 0.01)")
+    u2: float = Field(gt=0, le=WEIGHT, description="u2 of the utility (seed 003 §5.2.1: 1)")
+    min_distance_m: float = Field(ge=SHORT_M, le=NEAR_M, description="distances below count as this (d^(-1/2) diverges at 0)")
     max_trials: int = Field(ge=1, le=100, description="Algorithm 1's K (passes of steps 1-9)")
-    bid_timeout_s: float = Field(gt=0, description="Algorithm 2's t_out: the announcer waits this long for bids")
-    bid_slot_s: float = Field(ge=0, description="the k-th listed bidder bids k x this after the announcement (fewer collisions)")
+    bid_timeout_s: float = Field(ge=TICK_S, le=LONG_S, description="Algorithm 2's t_out: the announcer waits this long for bids")
+    bid_slot_s: float = Field(ge=0, le=1.0, description="the k-th listed bidder bids k x this after the announcement (fewer collisions)")
     max_announcements: int = Field(ge=1, le=20, description="announcements of one open slot before it stays unfilled")
 
 
 class UserConfig(Section):
     scenario: ScenarioName
-    scenario_pool: list[ScenarioName]
-    radius_m: float = Field(gt=0)
-    walk_speed_mps: float = Field(gt=0)
-    run_speed_mps: float = Field(gt=0)
-    turn_rate_dps: float = Field(gt=0)
-    start_delay_s: float = Field(ge=0)
-    formation_wait_s: float = Field(ge=0, description="the user stands until the formation is built (every slave within metrics.BUILT_WITHIN_M of its reference), at most this long after organizing; start_delay_s is the least stand")
+    scenario_pool: list[ScenarioName] = Field(max_length=MAX_LIST)
+    radius_m: float = Field(ge=0.05, le=2.0)
+    walk_speed_mps: float = Field(gt=0, le=FAST_MPS)
+    run_speed_mps: float = Field(gt=0, le=FAST_MPS)
+    turn_rate_dps: float = Field(gt=0, le=SPIN_DPS)
+    start_delay_s: float = Field(ge=0, le=LONG_S)
+    formation_wait_s: float = Field(ge=0, le=LONG_S, description="the user stands until the formation is built (every slave within metrics.BUILT_WITHIN_M of its reference), at most this long after organizing; start_delay_s is the least stand")
 
     @model_validator(mode="after")
     def _check_speeds(self) -> UserConfig:
@@ -196,49 +206,52 @@ class UserConfig(Section):
 
 
 class MasterConfig(Section):
-    distance_m: float = Field(gt=0, description="standard distance to the user (seed 000 §3.6.2)")
-    acc_band_m: float = Field(ge=0, description="ACC: speed matching inside ±band of the distance, distance control outside")
-    distance_gain: float = Field(gt=0, description="distance-control gain outside the band (1/s)")
-    speed_gain: float = Field(ge=0, description="distance correction while speed matching (1/s)")
-    rotate_gain: float = Field(gt=0, description="ω per rad of heading error beyond the deadband (following: the user's bearing)")
+    distance_m: float = Field(gt=0, le=NEAR_M, description="standard distance to the user (seed 000 §3.6.2)")
+    acc_band_m: float = Field(ge=0, le=NEAR_M, description="ACC: speed matching inside ±band of the distance, distance control outside")
+    distance_gain: float = Field(gt=0, le=GAIN, description="distance-control gain outside the band (1/s)")
+    speed_gain: float = Field(ge=0, le=GAIN, description="distance correction while speed matching (1/s)")
+    rotate_gain: float = Field(gt=0, le=GAIN, description="ω per rad of heading error beyond the deadband (following: the user's bearing)")
     rotate_deadband_deg: float = Field(ge=0, le=25, description="no rotation (and no leading correction) within ±this (inside the reliable ±25°)")
-    sideways_gain: float = Field(gt=0, description="leading: Vy per m of lateral user offset outside ±reliable angle")
-    arc_gain: float = Field(ge=0, description="leading: rate (rad/s) at which the robot's place about the user closes on straight ahead, per unit sine of the gap")
-    arc_sync_gain: float = Field(gt=0, description="leading: rate (1/s) at which the arc made since a rotation started closes on the belt's accumulated angle")
-    arc_sync_done_deg: float = Field(gt=0, description="leading: the rotation's arc is done within this many degrees of the accumulated angle after the rotation ended, its rate below arc_sync_gain times this")
-    arc_brake_mps2: float = Field(gt=0, description="leading: the deceleration the rotation's arc plans with: never faster than it can stop within the rest of the accumulated angle")
-    trail_rps: float = Field(ge=0, description="following: rate (rad/s) at which the robot's place about the walking user drifts in behind them, per unit sine of the gap")
-    heading_blend_rps: float = Field(gt=0, description="the user's walking direction is pulled toward the LF track's at this rate (1/s); the belt's rotation turns it at once")
-    walk_speed_mps: float = Field(gt=0, description="tracked speed below which the user stands; along the line of sight above it, a walk that the belt has not recognised yet")
+    sideways_gain: float = Field(gt=0, le=GAIN, description="leading: Vy per m of lateral user offset outside ±reliable angle")
+    arc_gain: float = Field(ge=0, le=GAIN, description="leading: rate (rad/s) at which the robot's place about the user closes on straight ahead, per unit sine of the gap")
+    arc_sync_gain: float = Field(gt=0, le=GAIN, description="leading: rate (1/s) at which the arc made since a rotation started closes on the belt's accumulated angle")
+    arc_sync_done_deg: float = Field(gt=0, le=180, description="leading: the rotation's arc is done within this many degrees of the accumulated angle after the rotation ended, its rate below arc_sync_gain times this")
+    arc_brake_mps2: float = Field(gt=0, le=ACCEL_MPS2, description="leading: the deceleration the rotation's arc plans with: never faster than it can stop within the rest of the accumulated angle")
+    trail_rps: float = Field(ge=0, le=SPIN_RPS, description="following: rate (rad/s) at which the robot's place about the walking user drifts in behind them, per unit sine of the gap")
+    heading_blend_rps: float = Field(gt=0, le=GAIN, description="the user's walking direction is pulled toward the LF track's at this rate (1/s); the belt's rotation turns it at once")
+    walk_speed_mps: float = Field(gt=0, le=FAST_MPS, description="tracked speed below which the user stands; along the line of sight above it, a walk that the belt has not recognised yet")
     tracker_alpha: float = Field(gt=0, le=1, description="LF-fix tracker position gain")
     tracker_beta: float = Field(ge=0, le=2, description="LF-fix tracker velocity gain")
-    lost_user_s: float = Field(gt=0, description="no LF fix for this long -> emergency (seed 002 Fig. 4)")
-    exception_range_m: float = Field(gt=0, description="leading: obstacle closer than this in the travel direction -> exception")
+    lost_user_s: float = Field(ge=TICK_S, le=LONG_S, description="no LF fix for this long -> emergency (seed 002 Fig. 4)")
+    exception_range_m: float = Field(gt=0, le=NEAR_M, description="leading: obstacle closer than this in the travel direction -> exception")
 
 
 class ControlConfig(Section):
     safety_layer: bool = Field(description="the ultrasonic safety stage of the control arbiter (seed 001)")
-    safety_stop_m: float = Field(gt=0, description="brake before this ultrasonic range: speed toward an obstacle ≤ √(2a(range − this))")
-    safety_backoff_mps: float = Field(ge=0, description="back-away speed when closer than half the stop range")
+    safety_stop_m: float = Field(gt=0, le=NEAR_M, description="brake before this ultrasonic range: speed toward an obstacle ≤ √(2a(range − this))")
+    safety_backoff_mps: float = Field(ge=0, le=FAST_MPS, description="back-away speed when closer than half the stop range")
 
 
 class BLEConfig(Section):
-    latency_s: float = Field(ge=0, description="one BLE message, wearable <-> robot")
-    connect_s: float = Field(ge=0, description="BLE connection set-up after the belt woke up or a handover")
-    report_period_s: float = Field(gt=0, description="belt -> robot reports (activity, rotation)")
+    latency_s: float = Field(ge=0, le=4.0, description="one BLE message, wearable <-> robot")
+    connect_s: float = Field(ge=0, le=LONG_S, description="BLE connection set-up after the belt woke up or a handover")
+    report_period_s: float = Field(ge=7.5e-3, le=LONG_S, description="belt -> robot reports (activity, rotation)")
+
+
+Weight = Annotated[float, Field(ge=-WEIGHT, le=WEIGHT)]  # a reward weight: the reward stays finite in float32
 
 
 class RewardConfig(Section):
-    formation: float
-    heading: float
-    collision: float
-    smoothness: float
+    formation: Weight
+    heading: Weight
+    collision: Weight
+    smoothness: Weight
 
 
 class RenderConfig(Section):
-    fps: int = Field(gt=0)
-    pixels_per_m: float = Field(gt=0)
-    size_px: tuple[int, int]
+    fps: int = Field(ge=1, le=240)
+    pixels_per_m: float = Field(ge=1e-3, le=1e4)
+    size_px: tuple[int, int]  # 1..8192 each (_check_size): a frame is at most 8192 x 8192 x 3 bytes = 201 MB
 
     @model_validator(mode="after")
     def _check_size(self) -> RenderConfig:
@@ -250,20 +263,20 @@ class RenderConfig(Section):
 class IRConfig(Section):
     """The IR relative-location module (seed 000 §3.3; calibrated to Table 4)."""
 
-    num_receivers: int = Field(ge=7, description=(
+    num_receivers: int = Field(ge=7, le=64, description=(
         "Phototransistors in the ring, equally spaced, receiver 0 at the robot's front, numbered counter-clockwise. "
         "At least 7, so that both side neighbours of the strongest receiver stay inside the front half of the lobe "
         "(spacing < 60°)."))
-    strength_at_1m: float = Field(gt=0, description="Received strength on a receiver's axis with the source at 1 m, ADC units.")
-    lobe_exponent: float = Field(gt=0, description=(
+    strength_at_1m: float = Field(gt=0, le=ADC_MAX, description="Received strength on a receiver's axis with the source at 1 m, ADC units.")
+    lobe_exponent: float = Field(gt=0, le=100.0, description=(
         "Angular response of one receiver, max(0, cos(Δ))**lobe_exponent for a source Δ rad off its axis. "
         "The estimator assumes 1; the hardware is modelled with a different value."))
-    noise_rel: float = Field(ge=0, description="σ of the multiplicative Gaussian noise on each receiver, fraction of the signal.")
-    noise_abs: float = Field(ge=0, description="σ of the additive Gaussian noise on each receiver, ADC units.")
-    saturation: float = Field(gt=0, description="ADC ceiling, ADC units; readings are clipped to [0, saturation].")
-    detect_threshold: float = Field(gt=0, description="Strongest reading below this (ADC units) means no detection.")
+    noise_rel: float = Field(ge=0, le=REL, description="σ of the multiplicative Gaussian noise on each receiver, fraction of the signal.")
+    noise_abs: float = Field(ge=0, le=ADC_MAX, description="σ of the additive Gaussian noise on each receiver, ADC units.")
+    saturation: float = Field(gt=0, le=1e12, description="ADC ceiling, ADC units; readings are clipped to [0, saturation]. At most 1e12: a receiver that never saturates (the estimator's ideal); a real ADC has 10-24 bits")
+    detect_threshold: float = Field(gt=0, le=ADC_MAX, description="Strongest reading below this (ADC units) means no detection.")
     occlusion_attenuation: float = Field(ge=0, le=1, description="Factor on the optical signal when a body blocks the line of sight.")
-    max_range_m: float = Field(gt=0, description="Sources farther than this (m) contribute no signal, only receiver noise.")
+    max_range_m: float = Field(gt=0, le=NEAR_M, description="Sources farther than this (m) contribute no signal, only receiver noise.")
 
     @model_validator(mode="after")
     def _check_levels(self) -> IRConfig:
@@ -281,24 +294,24 @@ class IRConfig(Section):
 class LFConfig(Section):
     """LF wake-up and localisation (seed 002 §3.2–3.3)."""
 
-    antenna_spacing_m: float = Field(gt=0, description="dw: distance between the two transmit antennas, m.")
-    antenna_forward_m: float = Field(description="Forward offset of the antenna midpoint from the robot's centre (body +x), m.")
-    burst_period_s: float = Field(gt=0, description="Localisation bursts while leading/following, s.")
-    wake_period_s: float = Field(gt=0, description="Wake-up bursts while waiting for a user, s.")
-    wake_range_m: float = Field(gt=0, description="A belt within this distance receives the wake-up burst, m.")
-    reliable_range_m: float = Field(gt=0, description="Location is reliable within this distance, m.")
+    antenna_spacing_m: float = Field(ge=SHORT_M, le=10.0, description="dw: distance between the two transmit antennas, m.")
+    antenna_forward_m: float = Field(ge=-10.0, le=10.0, description="Forward offset of the antenna midpoint from the robot's centre (body +x), m.")
+    burst_period_s: float = Field(ge=0.01, le=LONG_S, description="Localisation bursts while leading/following, s.")
+    wake_period_s: float = Field(ge=0.01, le=60.0, description="Wake-up bursts while waiting for a user, s.")
+    wake_range_m: float = Field(gt=0, le=NEAR_M, description="A belt within this distance receives the wake-up burst, m.")
+    reliable_range_m: float = Field(gt=0, le=NEAR_M, description="Location is reliable within this distance, m.")
     reliable_half_angle_deg: float = Field(gt=0, lt=90, description="Location is reliable within ± this angle of the robot's forward axis, deg.")
-    rssi_at_1m_db: float = Field(description="Noiseless RSSI at 1 m from an antenna, dB (receiver scale).")
-    falloff_db_per_decade: float = Field(gt=0, description="RSSI fall-off per decade of distance, dB (near-field magnetic dipole: 60).")
-    sensitivity_db: float = Field(description="Carriers weaker than this RSSI level are not received, dB.")
-    noise_common_db: float = Field(ge=0, description="σ of the Gaussian RSSI error shared by both readings of one burst, dB.")
-    noise_antenna_db: float = Field(ge=0, description="σ of the independent Gaussian error per reading, dB.")
-    rssi_step_db: float = Field(ge=0, description="RSSI register quantisation step, dB (0 = none).")
-    distortion_loss_db_per_deg: float = Field(ge=0, description="Loss on the far-side antenna per degree of bearing beyond the reliable half-angle, dB/deg.")
-    distortion_noise_db_per_deg: float = Field(ge=0, description="Extra σ per reading per degree of bearing beyond the reliable half-angle, dB/deg.")
-    table_min_m: float = Field(gt=0, description="First distance of the RSSI→distance table, m.")
-    table_max_m: float = Field(gt=0, description="Last distance of the RSSI→distance table, m.")
-    table_step_m: float = Field(gt=0, description="Distance step of the RSSI→distance table, m.")
+    rssi_at_1m_db: float = Field(ge=-LEVEL_DB, le=LEVEL_DB, description="Noiseless RSSI at 1 m from an antenna, dB (receiver scale).")
+    falloff_db_per_decade: float = Field(ge=1.0, le=LEVEL_DB, description="RSSI fall-off per decade of distance, dB (near-field magnetic dipole: 60).")
+    sensitivity_db: float = Field(ge=-LEVEL_DB, le=LEVEL_DB, description="Carriers weaker than this RSSI level are not received, dB.")
+    noise_common_db: float = Field(ge=0, le=LEVEL_DB, description="σ of the Gaussian RSSI error shared by both readings of one burst, dB.")
+    noise_antenna_db: float = Field(ge=0, le=LEVEL_DB, description="σ of the independent Gaussian error per reading, dB.")
+    rssi_step_db: float = Field(ge=0, le=LEVEL_DB, description="RSSI register quantisation step, dB (0 = none).")
+    distortion_loss_db_per_deg: float = Field(ge=0, le=10.0, description="Loss on the far-side antenna per degree of bearing beyond the reliable half-angle, dB/deg.")
+    distortion_noise_db_per_deg: float = Field(ge=0, le=10.0, description="Extra σ per reading per degree of bearing beyond the reliable half-angle, dB/deg.")
+    table_min_m: float = Field(ge=SHORT_M, le=NEAR_M, description="First distance of the RSSI→distance table, m.")
+    table_max_m: float = Field(ge=SHORT_M, le=NEAR_M, description="Last distance of the RSSI→distance table, m.")
+    table_step_m: float = Field(ge=SHORT_M, le=NEAR_M, description="Distance step of the RSSI→distance table, m.")
 
     @model_validator(mode="after")
     def _check_ranges(self) -> LFConfig:
@@ -321,36 +334,39 @@ class LFConfig(Section):
     def hearing_range_m(self) -> float:
         """Distance at which the on-axis carrier falls to the receiver's sensitivity, m."""
         return float(10.0 ** ((self.rssi_at_1m_db - self.sensitivity_db) / self.falloff_db_per_decade))
+Cadence = Annotated[float, Field(ge=-10.0, le=10.0)]  # a step-frequency coefficient: a person steps at most 5 times a second
+
+
 class BeltConfig(Section):
     """Smart-belt IMU and recognition parameters (seed 002 §3.4). Values live in ``default.yaml``."""
 
     # --- accelerometer (z, vertical) ---
-    accel_rate_hz: float = Field(gt=0, description="accelerometer sample rate, Hz")
-    accel_noise_mps2: float = Field(ge=0, description="σ of the white noise on each z sample, m/s²")
-    walk_cadence_hz: tuple[float, float] = Field(description="walking step frequency = c0 + c1·speed: (c0 Hz, c1 Hz per m/s)")
-    run_cadence_hz: tuple[float, float] = Field(description="running step frequency = c0 + c1·speed: (c0 Hz, c1 Hz per m/s)")
-    walk_bounce_m: float = Field(ge=0, description="amplitude of the waist's vertical excursion when walking, m")
-    run_bounce_m: float = Field(ge=0, description="amplitude of the waist's vertical excursion when running, m")
-    gait_phase_jitter: float = Field(ge=0, description="step-to-step irregularity: phase random walk, rad/√s")
-    rest_sway_hz: float = Field(gt=0, description="mean frequency of the resting sway, Hz")
-    rest_sway_mps2: float = Field(ge=0, description="amplitude of the resting sway's vertical acceleration, m/s²")
-    rest_phase_jitter: float = Field(ge=0, description="irregularity of the resting sway: phase random walk, rad/√s")
+    accel_rate_hz: float = Field(ge=1.0, le=RATE_HZ, description="accelerometer sample rate, Hz")
+    accel_noise_mps2: float = Field(ge=0, le=ACCEL_MPS2, description="σ of the white noise on each z sample, m/s²")
+    walk_cadence_hz: tuple[Cadence, Cadence] = Field(description="walking step frequency = c0 + c1·speed: (c0 Hz, c1 Hz per m/s)")
+    run_cadence_hz: tuple[Cadence, Cadence] = Field(description="running step frequency = c0 + c1·speed: (c0 Hz, c1 Hz per m/s)")
+    walk_bounce_m: float = Field(ge=0, le=1.0, description="amplitude of the waist's vertical excursion when walking, m")
+    run_bounce_m: float = Field(ge=0, le=1.0, description="amplitude of the waist's vertical excursion when running, m")
+    gait_phase_jitter: float = Field(ge=0, le=GAIN, description="step-to-step irregularity: phase random walk, rad/√s")
+    rest_sway_hz: float = Field(gt=0, le=100.0, description="mean frequency of the resting sway, Hz")
+    rest_sway_mps2: float = Field(ge=0, le=ACCEL_MPS2, description="amplitude of the resting sway's vertical acceleration, m/s²")
+    rest_phase_jitter: float = Field(ge=0, le=GAIN, description="irregularity of the resting sway: phase random walk, rad/√s")
     # --- movement recognition (Table 2) ---
-    window_s: float = Field(gt=0, description="valid time period of the periodicity and the SMA, s")
+    window_s: float = Field(gt=0, le=60.0, description="valid time period of the periodicity and the SMA, s")
     sign_deadband_mps2: float = Field(
-        ge=0, description="a sample's sign counts only beyond ±this (mean-removed), m/s²; within it the last sign holds"
+        ge=0, le=ACCEL_MPS2, description="a sample's sign counts only beyond ±this (mean-removed), m/s²; within it the last sign holds"
     )
-    min_sign_changes: int = Field(ge=1, description="periodic if the window holds at least this many sign changes")
-    sma_level2_mps2: float = Field(gt=0, description="SMA at or above this is level 2, m/s²")
-    sma_level3_mps2: float = Field(gt=0, description="SMA at or above this is level 3, m/s²")
+    min_sign_changes: int = Field(ge=1, le=COUNT, description="periodic if the window holds at least this many sign changes")
+    sma_level2_mps2: float = Field(gt=0, le=ACCEL_MPS2, description="SMA at or above this is level 2, m/s²")
+    sma_level3_mps2: float = Field(gt=0, le=ACCEL_MPS2, description="SMA at or above this is level 3, m/s²")
     # --- gyro (z, yaw rate) and rotation recognition ---
-    gyro_period_s: float = Field(gt=0, description="gyro sample period, s")
-    gyro_noise_dps: float = Field(ge=0, description="σ of the white noise on each gyro sample, °/s")
-    gyro_bias_dps: float = Field(ge=0, description="σ of the constant bias drawn per belt, °/s")
-    gait_yaw_wobble_deg: float = Field(ge=0, description="amplitude of the pelvis' yaw oscillation at the stride frequency, °")
-    ma_samples: int = Field(ge=1, description="length of the moving-average filter, gyro samples")
-    rotation_on_dps: float = Field(gt=0, description="rotation starts when |filtered rate| exceeds this, °/s")
-    rotation_off_dps: float = Field(gt=0, description="rotation ends when |filtered rate| falls below this, °/s")
+    gyro_period_s: float = Field(ge=TICK_S, le=10.0, description="gyro sample period, s")
+    gyro_noise_dps: float = Field(ge=0, le=SPIN_DPS, description="σ of the white noise on each gyro sample, °/s")
+    gyro_bias_dps: float = Field(ge=0, le=SPIN_DPS, description="σ of the constant bias drawn per belt, °/s")
+    gait_yaw_wobble_deg: float = Field(ge=0, le=90, description="amplitude of the pelvis' yaw oscillation at the stride frequency, °")
+    ma_samples: int = Field(ge=1, le=COUNT, description="length of the moving-average filter, gyro samples")
+    rotation_on_dps: float = Field(gt=0, le=SPIN_DPS, description="rotation starts when |filtered rate| exceeds this, °/s")
+    rotation_off_dps: float = Field(gt=0, le=SPIN_DPS, description="rotation ends when |filtered rate| falls below this, °/s")
 
     @model_validator(mode="after")
     def _check(self) -> BeltConfig:
@@ -375,20 +391,20 @@ class BeltConfig(Section):
 class WatchConfig(Section):
     """Smart-watch gesture and remote-control parameters (seed 002 §3.1, Table 1). Values in ``default.yaml``."""
 
-    accel_rate_hz: float = Field(gt=0, description="wrist accelerometer sample rate, Hz")
-    gesture_duration_s: float = Field(gt=0, description="duration of one hand stroke, s")
-    recognition_delay_s: float = Field(gt=0, description="from the start of a gesture to its recognised command, s")
-    gesture_peak_mps2: float = Field(gt=0, description="peak hand acceleration of a stroke, m/s²")
-    noise_mps2: float = Field(ge=0, description="σ of the accelerometer noise per sample and axis, m/s²")
-    cross_axis_leak: float = Field(ge=0, description="σ of the stroke's off-axis components, fraction of the peak")
+    accel_rate_hz: float = Field(ge=1.0, le=RATE_HZ, description="wrist accelerometer sample rate, Hz")
+    gesture_duration_s: float = Field(ge=TICK_S, le=60.0, description="duration of one hand stroke, s")
+    recognition_delay_s: float = Field(ge=TICK_S, le=60.0, description="from the start of a gesture to its recognised command, s")
+    gesture_peak_mps2: float = Field(gt=0, le=ACCEL_MPS2, description="peak hand acceleration of a stroke, m/s²")
+    noise_mps2: float = Field(ge=0, le=ACCEL_MPS2, description="σ of the accelerometer noise per sample and axis, m/s²")
+    cross_axis_leak: float = Field(ge=0, le=REL, description="σ of the stroke's off-axis components, fraction of the peak")
     circle_energy_ratio: float = Field(gt=0, le=1, description="second/first axis energy at or above this is a Circle")
-    combination_window_s: float = Field(ge=0, description="two move gestures recognised within this give a diagonal, s")
-    remote_speed_mps: float = Field(gt=0, description="speed of a remote-control move (diagonals too), m/s")
-    remote_turn_rate_dps: float = Field(gt=0, description="maximum rate of a remote-control rotation, °/s")
-    move_duration_s: float = Field(gt=0, description="a move gesture drives for this long, s")
-    rotate_angle_deg: float = Field(gt=0, description="rotation of one Up / Down gesture, °")
-    rotate_gain: float = Field(gt=0, description="proportional gain of the rotation on the AHRS yaw error, 1/s")
-    rotate_tolerance_deg: float = Field(gt=0, description="a rotation is done within this of its target, °")
+    combination_window_s: float = Field(ge=0, le=60.0, description="two move gestures recognised within this give a diagonal, s")
+    remote_speed_mps: float = Field(gt=0, le=FAST_MPS, description="speed of a remote-control move (diagonals too), m/s")
+    remote_turn_rate_dps: float = Field(gt=0, le=SPIN_DPS, description="maximum rate of a remote-control rotation, °/s")
+    move_duration_s: float = Field(ge=TICK_S, le=LONG_S, description="a move gesture drives for this long, s")
+    rotate_angle_deg: float = Field(gt=0, le=3600, description="rotation of one Up / Down gesture, °")
+    rotate_gain: float = Field(gt=0, le=GAIN, description="proportional gain of the rotation on the AHRS yaw error, 1/s")
+    rotate_tolerance_deg: float = Field(gt=0, le=180, description="a rotation is done within this of its target, °")
 
     @model_validator(mode="after")
     def _check(self) -> WatchConfig:
@@ -402,13 +418,13 @@ class WatchConfig(Section):
 
 
 class Config(Section):
-    seed: int = Field(ge=0)
-    max_cycles: int = Field(gt=0)
-    control_period_s: float = Field(gt=0)
+    seed: int = Field(ge=0, le=2**63 - 1)
+    max_cycles: int = Field(gt=0, le=MAX_CYCLES)
+    control_period_s: float = Field(ge=TICK_S, le=1.0)
     physics_substeps: int = Field(ge=1, le=100)
     world: WorldConfig
     robot: RobotConfig
-    robot_types: dict[str, RobotTypeConfig]
+    robot_types: dict[str, RobotTypeConfig] = Field(max_length=64)
     swarm: SwarmConfig
     radio: RadioConfig
     protocol: ProtocolConfig
@@ -423,9 +439,9 @@ class Config(Section):
     ble: BLEConfig
     reward: RewardConfig
     render: RenderConfig
-    faults: list[FaultSpec]
+    faults: list[FaultSpec] = Field(max_length=MAX_LIST)
     faults_random: FaultsRandomConfig
-    arrivals: list[ArrivalSpec]
+    arrivals: list[ArrivalSpec] = Field(max_length=32)  # robot ids beyond the pool; a swarm has at most 16 slaves
 
     def robot_count(self, arrivals: int | None = None) -> int:
         """Robots in the world: every user's master and pool, the other user's robots, the arrivals
@@ -437,6 +453,15 @@ class Config(Section):
     @model_validator(mode="after")
     def _check_consistency(self) -> Config:
         n = self.robot_count()
+        episode_s = self.max_cycles * self.control_period_s
+        if episode_s > EPISODE_S:
+            raise ValueError(f"max_cycles x control_period_s is {episode_s:g} s of simulated time, more than the {EPISODE_S:g} s "
+                             "(a day) an episode may last; lower max_cycles")
+        record = self.max_cycles * (n + self.world.num_users) * RECORD_BYTES_PER_BODY_STEP
+        if record > MEMORY_BUDGET_BYTES:
+            raise ValueError(f"an episode of max_cycles={self.max_cycles} steps with {n} robots would record "
+                             f"{record / 1e9:.1f} GB of trajectories, more than the {MEMORY_BUDGET_BYTES / 1e9:g} GB budget; "
+                             "lower max_cycles or the number of robots")
         for i, f in enumerate(self.faults):
             if isinstance(f.robot, int) and f.robot >= n:
                 raise ValueError(f"faults[{i}].robot {f.robot} is not a robot index (this config has robots 0..{n - 1}); "
@@ -455,6 +480,9 @@ class Config(Section):
                 raise ValueError(f"swarm.custom_links names members {named} but swarm.num_slaves={self.swarm.num_slaves} "
                                  f"makes members {want}: give each slave's links (robot 1..{self.swarm.num_slaves}) or "
                                  f"set swarm.num_slaves={len(named)}")
+            problem = _custom_links_problem(self.swarm)
+            if problem:
+                raise ValueError(problem)
         problem = robot_types_problem(self)
         if problem:
             raise ValueError(problem)
@@ -466,6 +494,30 @@ class Config(Section):
 
     def to_dict(self) -> dict[str, Any]:
         return self.model_dump(mode="json")
+
+
+def _custom_links_problem(swarm: SwarmConfig) -> str | None:
+    """Why the custom formation's links cannot place every member (None if they can): a member is
+    placed once every neighbour it links to is (middleware/formation.py places them so, outward from
+    the master, member 0), so a link to itself, to no member, or a cycle leaves members unplaced."""
+    n = swarm.num_slaves
+    needs: dict[int, set[int]] = {}
+    for i, link in enumerate(swarm.custom_links):
+        if link.neighbour == link.robot or link.neighbour > n:
+            return (f"swarm.custom_links[{i}]: member {link.robot} refers to invalid neighbour {link.neighbour} "
+                    f"({'itself' if link.neighbour == link.robot else 'not a member'}); give a neighbour from 0 (the master) to {n}")
+        needs.setdefault(link.robot, set()).add(link.neighbour)
+    placed = {0}
+    while True:
+        ready = [m for m, ns in needs.items() if m not in placed and ns <= placed]
+        if not ready:
+            break
+        placed.update(ready)
+    unplaced = sorted(set(needs) - placed)
+    if unplaced:
+        return (f"swarm.custom_links: the links do not reach the master (member 0) from members {unplaced}: a cycle, "
+                "or a neighbour that is itself not reached; link one of them to neighbour 0")
+    return None
 
 
 def arrival_slots(cfg: Config) -> int:
@@ -481,99 +533,6 @@ def default_config_path() -> Path:
     return Path(str(resources.files("petswarm_env") / "default.yaml"))
 
 
-def read_yaml(path: str | Path) -> dict[str, Any]:
-    path = Path(path)
-    if not path.is_file():
-        what = "is a folder" if path.is_dir() else "does not exist"
-        raise ConfigError(f"config file '{path}' {what}; pass an existing YAML file")
-    try:
-        data = yaml.safe_load(path.read_text(encoding="utf-8"))
-    except yaml.YAMLError as exc:
-        raise ConfigError(" ".join(f"config file '{path}' is not valid YAML: {exc}".split())) from None
-    except UnicodeDecodeError:
-        raise ConfigError(f"config file '{path}' is not UTF-8 text; pass a YAML file") from None
-    except OSError as exc:
-        raise ConfigError(f"config file '{path}' cannot be read ({exc.strerror or exc})") from None
-    if data is None:
-        return {}
-    if not isinstance(data, dict):
-        raise ConfigError(f"config file '{path}' must hold a mapping of keys, got {type(data).__name__}")
-    return data
-
-
-def merge_mappings(base: dict[str, Any], over: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
-    out = copy.deepcopy(base)
-    for key, value in over.items():
-        dotted = f"{prefix}{key}"
-        if key not in out and prefix.startswith("robot_types."):  # a user may add a type, or a key to one (pydantic checks it)
-            out[key] = copy.deepcopy(value)
-            continue
-        if key not in out:
-            allowed = ", ".join(sorted(out)) if out else "(none)"
-            raise ConfigError(f"unknown config key '{dotted}'; allowed keys here: {allowed}")
-        if isinstance(out[key], dict) and isinstance(value, Mapping):
-            out[key] = merge_mappings(out[key], value, prefix=f"{dotted}.")
-        else:
-            out[key] = copy.deepcopy(value)
-    return out
-
-
-def flatten_dotted(d: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
-    """``{"swarm": {"num_slaves": 4}}`` -> ``{"swarm.num_slaves": 4}`` (lists stay values)."""
-    out: dict[str, Any] = {}
-    for key, value in d.items():
-        if isinstance(value, Mapping):
-            out.update(flatten_dotted(value, f"{prefix}{key}."))
-        else:
-            out[f"{prefix}{key}"] = value
-    return out
-
-
-def parse_override(item: str) -> tuple[str, Any]:
-    """Parse ``KEY=VALUE`` (VALUE read as YAML, so ``3``, ``0.1``, ``true``, ``[1, 2]`` work)."""
-    if "=" not in item:
-        raise ConfigError(f"override '{item}' must look like KEY=VALUE, e.g. swarm.num_slaves=3")
-    key, raw = item.split("=", 1)
-    try:
-        value = yaml.safe_load(raw)
-    except yaml.YAMLError:
-        value = raw
-    return key.strip(), value
-
-
-def nest_dotted(overrides: Mapping[str, Any]) -> dict[str, Any]:
-    nested: dict[str, Any] = {}
-    for key, value in overrides.items():
-        parts = key.split(".")
-        node = nested
-        for part in parts[:-1]:
-            node = node.setdefault(part, {})
-            if not isinstance(node, dict):
-                raise ConfigError(f"override '{key}' conflicts with another override of '{part}'")
-        node[parts[-1]] = value
-    return nested
-
-
-def describe_value(value: Any, limit: int = 60) -> str:
-    """A value a user gave, for a one-line error message: its type and a short repr."""
-    text = repr(value)
-    return f"{type(value).__name__} {text if len(text) <= limit else text[:limit - 3] + '...'}"
-
-
-def format_validation_error(exc: ValidationError) -> str:
-    err = exc.errors()[0]
-    loc = ".".join(str(p) for p in err["loc"]) or "(config)"
-    msg = err["msg"]
-    if err["type"] == "extra_forbidden":
-        return f"unknown config key '{loc}'"
-    if err["type"] == "finite_number":
-        msg = "must be a finite number (NaN and infinity are not allowed)"
-    if not err["loc"] or (err["type"] == "value_error" and isinstance(err.get("input"), Mapping)):
-        # a rule across keys (a model validator of the config or of a section): the message names the keys
-        return f"bad config: {msg.removeprefix('Value error, ')}"
-    return f"bad config value for '{loc}': {msg} (got {err.get('input')!r})"
-
-
 def load_config(
     path: str | Path | None = None,
     overrides: Mapping[str, Any] | None = None,
@@ -583,12 +542,40 @@ def load_config(
     ``overrides`` maps dotted keys (``"swarm.num_slaves"``) or top-level sections (``"swarm":
     {...}``) to values. Raises :class:`ConfigError` with a one-line reason on any problem.
     """
+    if path is not None and not isinstance(path, (str, os.PathLike)):
+        raise TypeError(f"config must be a Config, the path of a YAML file or None, got {describe_value(path)}")
+    if overrides is not None and not isinstance(overrides, Mapping):
+        raise TypeError(f"config overrides must be a mapping of dotted keys to values, got {describe_value(overrides)}")
     data = read_yaml(default_config_path())
+    user: dict[str, Any] = {}
     if path is not None:
-        data = merge_mappings(data, read_yaml(path))
-    if overrides:
-        data = merge_mappings(data, nest_dotted(overrides))
+        user = read_yaml(path)
+        try:
+            data = merge_mappings(data, user)
+        except ConfigError as exc:
+            raise ConfigError(f"{exc} (in config file '{path}')") from None
+    nested = nest_dotted(overrides) if overrides else {}
+    if nested:
+        data = merge_mappings(data, nested)
     try:
         return Config.model_validate(data)
     except ValidationError as exc:
-        raise ConfigError(format_validation_error(exc)) from None
+        message = format_validation_error(exc, Config)
+        loc = exc.errors()[0]["loc"]
+        if path is not None and (_holds_key(user, loc) or not _holds_key(nested, loc)):
+            message += f" (in config file '{path}')"
+        raise ConfigError(message) from None
+
+
+def _holds_key(data: Any, loc: tuple) -> bool:
+    """Whether the nested ``data`` gives the value at ``loc`` (a pydantic location; empty: no)."""
+    if not loc:
+        return False
+    for part in loc:
+        if isinstance(data, Mapping) and part in data:
+            data = data[part]
+        elif isinstance(data, list) and isinstance(part, int) and part < len(data):
+            data = data[part]
+        else:
+            return False
+    return True

@@ -4,9 +4,11 @@
 
 from __future__ import annotations
 
+from typing import Annotated
+
 from pydantic import Field, model_validator
 
-from petswarm_env.config_base import Section
+from petswarm_env.config_base import COUNT, EPISODE_S, Section
 
 # runtime changes (issue 15 part 4; petswarm_env/sim/faults.py): the fault kinds; an arrival's type is one
 # of the config's robot_types (checked by Config, which holds both)
@@ -15,10 +17,10 @@ FAULT_TARGETS = ("master", "random_slave")
 
 
 class FaultSpec(Section):
-    at_s: float = Field(ge=0, description="episode time of the fault (s after reset ended)")
-    robot: int | str = Field(description="robot index, 'master' or 'random_slave' (a seeded draw at the fault's time)")
+    at_s: float = Field(ge=0, le=EPISODE_S, description="episode time of the fault (s after reset ended)")
+    robot: Annotated[int, Field(ge=0, le=COUNT)] | str = Field(description="robot index, 'master' or 'random_slave' (a seeded draw at the fault's time)")
     kind: str = Field(description="dead | radio_silent | ir | ultrasonic | ahrs | battery")
-    duration_s: float | None = Field(default=None, gt=0, description="a transient fault clears after this; null = permanent")
+    duration_s: float | None = Field(gt=0, le=EPISODE_S, default=None, description="a transient fault clears after this; null = permanent")
 
     @model_validator(mode="after")
     def _check(self) -> FaultSpec:
@@ -32,7 +34,7 @@ class FaultSpec(Section):
 
 
 class FaultsRandomConfig(Section):
-    rate_per_min: float = Field(ge=0, description="faults drawn per minute of episode (Poisson, seeded); 0 = none")
+    rate_per_min: float = Field(ge=0, le=60.0, description="faults drawn per minute of episode (Poisson, seeded); 0 = none")
     kinds: list[str] = Field(description="the kinds drawn from, uniformly; each on a random slave, permanent")
 
     @model_validator(mode="after")
@@ -44,5 +46,5 @@ class FaultsRandomConfig(Section):
 
 
 class ArrivalSpec(Section):
-    at_s: float = Field(ge=0, description="episode time the robot is switched on (s after reset ended)")
+    at_s: float = Field(ge=0, le=EPISODE_S, description="episode time the robot is switched on (s after reset ended)")
     type: str = Field(description="the robot's type, a name of robot_types (checked by Config)")

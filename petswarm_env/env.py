@@ -54,6 +54,7 @@ from pettingzoo import ParallelEnv
 
 from petswarm_env.config import DRIVING_MODES, Config, ConfigError, arrival_slots, describe_value, flatten_dotted, load_config
 from petswarm_env.episode import INFO_DEFAULTS, OTHER_USER_ID, SWARM_PAN, WAKE_PATTERN, Episode, Setup  # noqa: F401 (re-exported)
+from petswarm_env.inputs import check_reset_options, checked_action
 from petswarm_env.middleware.formation import formation_for_mode, user_position_in_formation
 from petswarm_env.observe import OBS_VERSION, ObservationLayout, observation_bounds
 from petswarm_env.robot_types import DEFAULT_TYPE, episode_scenarios, max_pool_size, pool_problem, pool_types
@@ -152,6 +153,7 @@ class PetSwarmEnv(ParallelEnv):
         return f"{agent!r} is not an agent of this env; the possible agents are {', '.join(self.possible_agents)}"
 
     def reset(self, seed: int | None = None, options: dict | None = None):
+        check_reset_options(options)  # None or known keys only (inputs.py)
         if seed is not None:
             seed = _checked_seed(seed)
             self._seed_seq = np.random.SeedSequence(seed)
@@ -243,18 +245,7 @@ class PetSwarmEnv(ParallelEnv):
             if a is None:
                 out[agent] = np.zeros(3, np.float32)  # a missing action means "stand still"
                 continue
-            try:
-                raw = np.asarray(a)
-            except ValueError:  # ragged nested sequences
-                raw = None
-            if raw is None or raw.dtype.kind not in "iuf":
-                raise ValueError(f"action of {agent} must be 3 numbers (Vx, Vy, ω) in [-1, 1], got {describe_value(a)}")
-            arr = raw.astype(np.float32)
-            if arr.shape != (3,):
-                raise ValueError(f"action of {agent} must have shape (3,) = (Vx, Vy, ω) in [-1, 1], got shape {arr.shape}")
-            if not np.all(np.isfinite(arr)):
-                raise ValueError(f"action of {agent} contains NaN or inf: {arr.tolist()}; actions must be finite")
-            out[agent] = np.clip(arr, -1.0, 1.0)
+            out[agent] = checked_action(agent, a)  # numbers, no boolean, shape (3,), finite (inputs.py)
         return out
 
     # -- the episode's views ---------------------------------------------------------------------

@@ -43,6 +43,7 @@ from typing import Any
 
 import numpy as np
 
+from petswarm_env.inputs import check_start_clear_of_boxes
 from petswarm_env.comms.ir_channel import IRChannel
 from petswarm_env.comms.radio import RadioMedium
 from petswarm_env.config import Config
@@ -118,6 +119,7 @@ class Episode:
         they organized)."""
         cfg = self.cfg
         self._check_inside_arena()
+        check_start_clear_of_boxes(cfg, self.world)  # no body starts in a box (inputs.py)
         self._organize()
         if cfg.swarm.spawn == "at_slots":
             self._stand_members_at_their_slots()

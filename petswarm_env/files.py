@@ -141,10 +141,33 @@ def jsonable(x: Any) -> Any:
     return x
 
 
+def _nearest_existing(p: Path) -> Path:
+    for parent in (p, *p.parents):
+        if parent.exists():
+            return parent
+    return Path(".")
+
+
+def _can_write_into(folder: Path) -> str | None:
+    """Why no file can be created in the existing folder ``folder`` (None if one can): the
+    permissions, then a real try (a read-only mount passes ``os.access`` for root only on paper)."""
+    if not os.access(folder, os.W_OK | os.X_OK):
+        return "permission denied"
+    try:
+        fd, probe = tempfile.mkstemp(prefix=f".petswarm-probe-{os.getpid()}-", dir=folder)
+    except OSError as exc:
+        return exc.strerror or str(exc)
+    os.close(fd)
+    os.unlink(probe)
+    return None
+
+
 def check_output_path(path: str | os.PathLike | None, flag: str, folder: bool = False) -> None:
     """Refuse, before a command does its work, an output it could not write at the end: a file
-    where a folder is wanted (``folder``), a folder where a file is, or a path under a file.
-    Raises ``ValueError`` naming ``flag``; ``None`` passes."""
+    where a folder is wanted (``folder``), a folder where a file is, a path under a file, or a
+    place where this user cannot create a file (the nearest existing folder is tried: a probe file
+    is created and removed there; nothing else is touched). Raises ``ValueError`` naming
+    ``flag``; ``None`` passes."""
     if path is None:
         return
     text, p = os.fspath(path), Path(path)
@@ -152,11 +175,45 @@ def check_output_path(path: str | os.PathLike | None, flag: str, folder: bool = 
         raise ValueError(f"{flag} '{text}' is a file; name a folder (it is created if missing)")
     if not folder and (p.is_dir() or text.endswith(os.sep)):
         raise ValueError(f"{flag} '{text}' is a folder; name a file, e.g. {os.path.join(text, 'results.json')}")
+    if not folder and p.exists() and not p.is_file():
+        raise ValueError(f"{flag} '{text}' is not a regular file (a device or a pipe); name a file")
     for parent in (p, *p.parents) if folder else p.parents:
         if parent.exists():
             if not parent.is_dir():
                 raise ValueError(f"{flag} '{text}' cannot be written: '{parent}' is a file, not a folder")
             break
+    where = _nearest_existing(p if folder else p.parent)
+    why = _can_write_into(where)
+    if why is None and not folder and p.is_file() and not os.access(p, os.W_OK):
+        why = "the file is read-only"
+    if why is not None:
+        raise ValueError(f"{flag} '{text}' cannot be written ({why} in '{where}'); name a writable place")
+
+
+def _same(a: str | os.PathLike, b: str | os.PathLike) -> bool:
+    try:
+        if os.path.exists(a) and os.path.exists(b):
+            return os.path.samefile(a, b)
+    except OSError:
+        pass
+    return os.path.realpath(a) == os.path.realpath(b)
+
+
+def check_distinct_paths(inputs: dict[str, Any], outputs: dict[str, Any]) -> None:
+    """Refuse an output that is also an input of the command (it would destroy it) or another
+    output (one would overwrite the other). ``inputs`` and ``outputs`` map a flag to a path
+    (``None`` skipped; a list of paths allowed for inputs). Raises ``ValueError`` naming both flags."""
+    ins = [(flag, q) for flag, v in inputs.items() for q in (v if isinstance(v, (list, tuple)) else [v]) if q is not None]
+    outs = [(flag, q) for flag, q in outputs.items() if q is not None]
+    for k, (oflag, out) in enumerate(outs):
+        for iflag, inp in ins:
+            if _same(out, inp):
+                raise ValueError(f"{oflag} '{os.fspath(out)}' is also the input {iflag}: writing it would destroy the input; "
+                                 f"name another {oflag}")
+        for oflag2, out2 in outs[k + 1:]:
+            if _same(out, out2):
+                raise ValueError(f"{oflag} and {oflag2} both name '{os.fspath(out)}': one would overwrite the other; "
+                                 "name two files")
 
 
 # -- JSON Lines: one finished record a line, so a killed run keeps what it finished --------------

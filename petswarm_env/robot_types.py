@@ -10,7 +10,7 @@ give all of it. Every other type lists only what differs from the petbot: a key 
 
 Sensors are registered as seed 001 §III.A does (Fig. 2): an id, a type (``DISTANCE`` for an
 ultrasonic sensor, ``IR`` for the IR relative-location ring, ``LF`` for an LF antenna: the master
-carries two; any other name is a sensor the env does not read) and a location, radius (m) and
+carries two; VISION, seed 001's camera, is registered but not read; any other name is refused) and a location, radius (m) and
 angle (degrees, counter-clockwise, 0 = the body's forward axis: the env's ring frame).
 
 This module imports nothing of the package but the sections' base and the pure mapper.
@@ -23,43 +23,46 @@ from typing import Any, Literal
 
 from pydantic import Field
 
-from petswarm_env.config_base import Section
-from petswarm_env.mapping import (DISTANCE, MOVE_DIFFERENTIAL, MOVE_HOLONOMIC, Behaviour, DifferentialLimits, Sensor,
+from petswarm_env.config_base import ACCEL_MPS2, COUNT, FAST_MPS, MASS_KG, SPIN_RPS, Section
+from petswarm_env.mapping import (DISTANCE, VISION, MOVE_DIFFERENTIAL, MOVE_HOLONOMIC, Behaviour, DifferentialLimits, Sensor,
                                   SensorLocation)
 
 DEFAULT_TYPE = "petbot"  # today's robot: every robot of a config without a pool, and every master
 DRIVES = ("mecanum", "differential")
 IR, LF = "IR", "LF"  # sensor types of the IR relative-location ring and of an LF antenna (seed 002)
+# the sensor types a registration may name: seed 001 §III.A.2's DISTANCE and VISION, the IR ring and an LF
+# antenna; any other name is refused (a typo, LASER for DISTANCE, would silently drop a sensor)
+SENSOR_TYPES = (DISTANCE, VISION, IR, LF)
 # keys of robot: a type may override (the rest of robot: is shared by every type)
 BODY_KEYS = ("radius_m", "mass_kg", "max_speed_mps", "max_omega_rps", "max_accel_mps2", "max_alpha_rps2")
 
 
 class SensorEntry(Section):
-    id: int = Field(ge=1, description="the sensor's id on its body (seed 001 Fig. 2)")
-    type: str = Field(min_length=1, description="DISTANCE (ultrasonic), IR (the IR ring), LF (an LF antenna), ...")
-    radius_m: float = Field(ge=0, description="distance of the sensor from the body's centre, m")
-    angle_deg: float = Field(description="direction, degrees CCW from the body's forward axis")
+    id: int = Field(ge=1, le=COUNT, description="the sensor's id on its body (seed 001 Fig. 2)")
+    type: Literal[SENSOR_TYPES] = Field(description="DISTANCE (ultrasonic), IR (the IR ring), LF (an LF antenna), VISION")  # type: ignore[valid-type]
+    radius_m: float = Field(ge=0, le=5.0, description="distance of the sensor from the body's centre, m")
+    angle_deg: float = Field(ge=-360, le=360, description="direction, degrees CCW from the body's forward axis")
 
 
 class RobotTypeConfig(Section):
     """One body; null = the petbot's value (``robot:`` for the BODY_KEYS)."""
 
     drive: Literal[DRIVES] | None = None  # type: ignore[valid-type]
-    radius_m: float | None = Field(None, gt=0)
-    mass_kg: float | None = Field(None, gt=0)
-    max_speed_mps: float | None = Field(None, gt=0, description="speed limit (m/s)")
-    max_omega_rps: float | None = Field(None, gt=0, description="turn-rate limit (rad/s)")
-    max_accel_mps2: float | None = Field(None, gt=0)
-    max_alpha_rps2: float | None = Field(None, gt=0)
-    lookahead_m: float | None = Field(None, gt=0, description="differential MOVE: the point ahead of the axle that follows (Vx, Vy)")
-    heading_yield_mps: float | None = Field(None, ge=0, description="differential MOVE: the policy's ω fades out as the asked speed reaches this (0: never)")
+    radius_m: float | None = Field(None, ge=0.01, le=5.0)
+    mass_kg: float | None = Field(None, gt=0, le=MASS_KG)
+    max_speed_mps: float | None = Field(None, gt=0, le=FAST_MPS, description="speed limit (m/s)")
+    max_omega_rps: float | None = Field(None, gt=0, le=SPIN_RPS, description="turn-rate limit (rad/s)")
+    max_accel_mps2: float | None = Field(None, gt=0, le=ACCEL_MPS2)
+    max_alpha_rps2: float | None = Field(None, gt=0, le=10 * ACCEL_MPS2)
+    lookahead_m: float | None = Field(None, gt=0, le=10.0, description="differential MOVE: the point ahead of the axle that follows (Vx, Vy)")
+    heading_yield_mps: float | None = Field(None, ge=0, le=FAST_MPS, description="differential MOVE: the policy's ω fades out as the asked speed reaches this (0: never)")
     wheel_slip_pct: float | None = Field(None, ge=0, lt=100, description="seed 003's w, % of the wheels' motion lost")
-    sensors: list[SensorEntry] | None = None
-    behaviours: list[str] | None = Field(None, description="behaviour modules besides MOVE (seed 001 §IV)")
-    battery_mah: float | None = Field(None, gt=0, description="battery capacity, mAh")
-    servo_ma: float | None = Field(None, ge=0, description="drive servos' current at full load, mA (seed 003 rate_servo)")
-    actuator_ma: float | None = Field(None, ge=0, description="manipulator current while in use, mA (seed 003 rate_act)")
-    sensing_ma: float | None = Field(None, ge=0, description="sensors' and electronics' current, always on, mA (seed 003 rate_sens)")
+    sensors: list[SensorEntry] | None = Field(None, max_length=64)
+    behaviours: list[str] | None = Field(None, max_length=64, description="behaviour modules besides MOVE (seed 001 §IV)")
+    battery_mah: float | None = Field(None, gt=0, le=1e6, description="battery capacity, mAh")
+    servo_ma: float | None = Field(None, ge=0, le=1e5, description="drive servos' current at full load, mA (seed 003 rate_servo)")
+    actuator_ma: float | None = Field(None, ge=0, le=1e5, description="manipulator current while in use, mA (seed 003 rate_act)")
+    sensing_ma: float | None = Field(None, ge=0, le=1e5, description="sensors' and electronics' current, always on, mA (seed 003 rate_sens)")
 
 
 class PoolEntry(Section):

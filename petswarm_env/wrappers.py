@@ -23,6 +23,7 @@ import numpy as np
 from pettingzoo.utils.wrappers import BaseParallelWrapper
 
 from petswarm_env.env import INFO_DEFAULTS
+from petswarm_env.inputs import check_actions
 
 
 class FixedAgents(BaseParallelWrapper):
@@ -62,12 +63,7 @@ class FixedAgents(BaseParallelWrapper):
         return self._fill(obs), self._infos(infos, obs)
 
     def step(self, actions: dict[str, Any]):
-        if not isinstance(actions, dict):
-            raise TypeError(f"actions must be a dict agent -> array of 3 floats, got {type(actions).__name__}")
-        unknown = [a for a in actions if a not in self._possible]
-        if unknown:
-            raise KeyError(f"actions for agents not in the episode: {sorted(map(str, unknown))}; "
-                           f"the possible agents are {', '.join(self.possible_agents)}")
+        check_actions(actions, self.possible_agents, "this wrapper's agents")  # as strict as the raw env (inputs.py)
         live = self.env.agents
         obs, rewards, terms, truncs, infos = self.env.step({a: actions[a] for a in live if a in actions})
         done = not self.env.agents

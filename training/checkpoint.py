@@ -98,7 +98,7 @@ def read_checkpoint(out: str | os.PathLike) -> tuple[dict[str, Any], dict[str, n
                           "(start a new run with another --out)") from None
     try:
         state = json.loads(arrays.pop("state").tobytes().decode("utf-8"))
-    except (KeyError, UnicodeDecodeError, json.JSONDecodeError, RecursionError):
+    except (KeyError, ValueError, RecursionError):  # missing, not UTF-8, not JSON, a number beyond 4300 digits
         raise ConfigError(f"checkpoint '{path}' has no readable 'state' record; it is corrupt or not a petswarm "
                           "checkpoint") from None
     if not isinstance(state, dict) or state.get("format") != FORMAT:

@@ -31,17 +31,19 @@ from stable_baselines3 import PPO
 from stable_baselines3.common.utils import set_random_seed
 
 from baselines.registry import make_policy
-from petswarm_env.config import ConfigError, flatten_dotted, parse_override
+from petswarm_env.config import ConfigError, flatten_dotted, parse_override, parse_yaml
 from petswarm_env.env import PetSwarmEnv
 from petswarm_env.files import check_output_path, write_json_atomic, write_text_atomic
 from training.callbacks import PeriodicCallback, pool_formation_rmse, public_log
-from training.checkpoint import has_checkpoint, read_checkpoint, restore_checkpoint
+from training.checkpoint import checkpoint_path, has_checkpoint, read_checkpoint, restore_checkpoint
 from training.config import PPOConfig, TrainConfig, load_train_config, resume_changes
 from training.export import learned_policy
 from training.residual import zero_action_head
 from training.state_critic import StateCriticPolicy
 from training.vec_env import make_vec_env, training_env
 from training.warm_start import pretrain_policy
+from training.progress import LogProgress, wants_bar
+from training.run_folder import check_checkpoint_state, check_train_log
 
 
 def build_model(p: PPOConfig, venv, seed: int, tensorboard_log: str | None = None, n_steps: int | None = None,
@@ -85,7 +87,7 @@ def _fresh_log() -> dict[str, Any]:
 def _read_run_file(path: Path, what: str) -> Any:
     try:
         text = path.read_text(encoding="utf-8")
-        return json.loads(text) if path.suffix == ".json" else yaml.safe_load(text)
+        return json.loads(text) if path.suffix == ".json" else parse_yaml(text, f"'{path}'")  # bounded: no alias bomb
     except FileNotFoundError:
         raise ConfigError(f"cannot resume: the run folder has no {path.name} ({what}); train without --resume first") from None
     except (OSError, UnicodeDecodeError, ValueError, yaml.YAMLError) as exc:
@@ -103,7 +105,8 @@ def open_run(cfg: TrainConfig | None, out: Path, resume: bool) -> tuple[TrainCon
         if has_checkpoint(out):
             raise ConfigError(f"'{out}' already holds a run; pass --resume to continue it or choose another --out")
         return cfg, _fresh_log(), {}
-    state, _ = read_checkpoint(out)  # missing, old SB3 format, damaged: refused before anything else
+    state, arrays = read_checkpoint(out)  # missing, old SB3 format, damaged: refused before anything else
+    check_checkpoint_state(checkpoint_path(out), state, arrays)  # every field of the state record (run_folder.py)
     saved_path = out / "train_config.yaml"
     _read_run_file(saved_path, "the run's training config")
     saved = load_train_config(base=saved_path)
@@ -119,8 +122,7 @@ def open_run(cfg: TrainConfig | None, out: Path, resume: bool) -> tuple[TrainCon
             f"cannot resume '{out}': it trained on {k}={env_then.get(k, '(absent)')!r} (env_config.yaml) but this petswarm's "
             f"defaults give {env_now.get(k, '(absent)')!r}; resume it with the petswarm that started it, or start a new run")
     log = _read_run_file(out / "train_log.json", "the run's log")
-    if not isinstance(log, dict) or not isinstance(log.get("evaluations"), list):
-        raise ConfigError(f"cannot resume: '{out / 'train_log.json'}' is not a train log; start a new run with another --out")
+    check_train_log(out / "train_log.json", log)  # every field the resumed run reads, before anything is written (run_folder.py)
     log["timesteps"] = state["num_timesteps"]
     return cfg, log, changes
 
@@ -192,8 +194,9 @@ def train(cfg: TrainConfig | None, out_dir: str | os.PathLike, resume: bool = Fa
                 cfg, lambda spec: learned_policy(model, spec, cfg.ppo.activation))
         write_run_configs(out, cfg, env_cfg, resume, changes)  # once the checkpoint is known good
         callback = PeriodicCallback(cfg, out, layout, log)
-        model.learn(cfg.timesteps - model.num_timesteps, callback=callback, reset_num_timesteps=False, tb_log_name="ppo",
-                    progress_bar=progress_bar)
+        logged = [LogProgress(cfg.timesteps)] if progress_bar and not wants_bar(progress_bar) else []  # not a terminal: log lines
+        model.learn(cfg.timesteps - model.num_timesteps, callback=[callback, *logged], reset_num_timesteps=False, tb_log_name="ppo",
+                    progress_bar=wants_bar(progress_bar))
         callback.checkpoint()
         if not log["evaluations"] or log["evaluations"][-1]["timesteps"] != model.num_timesteps:
             callback.evaluate()

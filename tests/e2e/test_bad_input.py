@@ -9,6 +9,7 @@ import hashlib
 import json
 import os
 import pickle
+import re
 import shutil
 import signal
 import subprocess
@@ -280,7 +281,7 @@ REPORT_CASES = [
     ("{not json", "not valid JSON"), ("", "empty"), ("[1, 2]", "expected a JSON object"), ('"text"', "expected a JSON object"),
     ('{"episodes": 3}', "'episodes' must be a list"), ('{"episodes": [1]}', "episode 0 must be a JSON object"),
     ('{"timesteps": 2048, "evaluations": []}', "has no 'episodes' list"), (b"\xff\xfe\x00", "not UTF-8"),
-    ("[" * 100000, "not valid JSON"),
+    ("[" * 100000, "not valid JSON"), ('{"episodes": [], "seed": ' + "9" * 5000 + "}", "not a result file"),
 ]
 
 
@@ -433,7 +434,33 @@ RESUME_CASES = [
     ("config_file_changes_net", lambda r: (r.parent / "t.yaml").write_text("ppo:\n  net_arch: [64]\n"),
      ["--config", "{parent}/t.yaml"], "ppo.net_arch"),
     ("set_bool_timesteps", None, ["--set", "timesteps=true"], "timesteps"),
+    # a damaged train_log.json or checkpoint state: refused field by field before anything is written
+    ("log_evaluation_not_object", lambda r: _edit_log(r, lambda d: d.__setitem__("evaluations", [1])), [], "'evaluations.0'"),
+    ("log_no_reference", lambda r: _edit_log(r, lambda d: d.pop("scripted_eval_rmse_m")), [], "'scripted_eval_rmse_m' is missing"),
+    ("log_reference_text", lambda r: _edit_log(r, lambda d: d.__setitem__("scripted_eval_rmse_m", "2.5")), [], "scripted_eval_rmse_m"),
+    ("log_wall_time_list", lambda r: _edit_log(r, lambda d: d.__setitem__("wall_time_s", [1])), [], "'wall_time_s'"),
+    ("log_resumes_text", lambda r: _edit_log(r, lambda d: d.__setitem__("resumes", "many")), [], "'resumes'"),
+    ("log_eval_timesteps_null", lambda r: _edit_log(r, lambda d: d["evaluations"][0].__setitem__("timesteps", None)), [],
+     "'evaluations.0.timesteps'"),
+    ("n_updates_text", lambda r: _edit_checkpoint(r, lambda a: _state(a, n_updates="7")), [], "'n_updates'"),
+    ("learning_rate_text", lambda r: _edit_checkpoint(r, lambda a: _state(a, optimizer_param_groups=[
+        {**json.loads(a["state"].tobytes())["optimizer_param_groups"][0], "lr": "fast"}])), [], "'optimizer_param_groups.0.lr'"),
+    ("betas_out_of_range", lambda r: _edit_checkpoint(r, lambda a: _state(a, optimizer_param_groups=[
+        {**json.loads(a["state"].tobytes())["optimizer_param_groups"][0], "betas": [1.5, 0.9]}])), [], "betas"),
+    ("no_numpy_rng", lambda r: _edit_checkpoint(r, lambda a: _state(a, numpy_rng=None)), [], "'numpy_rng'"),
+    ("python_rng_short", lambda r: _edit_checkpoint(r, lambda a: _state(a, python_rng=[3, [1, 2], None])), [], "'python_rng'"),
+    ("numpy_rng_array_short", lambda r: _edit_checkpoint(r, lambda a: a.update({"rng:numpy": np.zeros(5, np.uint32)})), [], "'rng:numpy'"),
+    ("torch_rng_floats", lambda r: _edit_checkpoint(r, lambda a: a.update({"rng:torch": np.zeros(9, np.float64)})), [], "'rng:torch'"),
+    ("optimizer_nan", lambda r: _edit_checkpoint(r, lambda a: a[next(k for k in a if k.endswith(":exp_avg"))].fill(np.nan)), [], "NaN"),
+    ("timesteps_401_digits", lambda r: _edit_checkpoint(r, lambda a: _state(a, num_timesteps=10**400)), [], "num_timesteps"),
+    ("backend_number", lambda r: _edit_checkpoint(r, lambda a: _state(a, backend=5)), [], "'backend'"),
 ]
+
+
+def _edit_log(run: Path, change) -> None:
+    data = json.loads((run / "train_log.json").read_text())
+    change(data)
+    (run / "train_log.json").write_text(json.dumps(data))
 
 
 @pytest.mark.parametrize("damage, extra, words", [c[1:] for c in RESUME_CASES], ids=[c[0] for c in RESUME_CASES])
@@ -517,3 +544,241 @@ def test_a_checkpoint_restores_weights_optimizer_counters_and_rngs(run):
         same_state(model, third)
     finally:
         venv.close()
+
+
+# -- outputs: an output that is an input, two outputs on one file, an unwritable place ----------
+@pytest.mark.parametrize("argv, words", [
+    (["run", "--config", "{dir}/c.yaml", "--json", "{dir}/c.yaml"], "is also the input --config"),
+    (["run", "--config", "{dir}/c.yaml", "--json", "{dir}/./sub/../c.yaml"], "is also the input --config"),
+    (["run", "--config", "{dir}/c.yaml", "--video", "{dir}/c.yaml"], "is also the input --config"),
+    (["run", "--config", "{dir}/c.gif", "--video", "{dir}/c.gif"], "is also the input --config"),
+    (["run", "--config", "{dir}/c.jsonl", "--json", "{dir}/c.json"], "--json's lines file"),
+    (["run", "--json", "{dir}/x.gif", "--video", "{dir}/x.gif"], "both name"),
+    (["run", "--json", "{dir}/x.pcapng", "--pcap", "{dir}/x.pcapng"], "both name"),
+    (["run", "--json", "{dir}/OUT.json", "--video", "{dir}/OUT.jsonl"], "both name"),
+    (["report", "{dir}/r.json", "--out", "{dir}/r.json"], "is also the input RESULT.json"),
+    (["report", "{dir}/OUT.json", "{dir}/r.json", "--out", "{dir}/link.json"], "is also the input RESULT.json"),
+    (["eval", "--config", "{dir}/c.yaml", "--json", "{dir}/c.yaml", "--episodes", "1"], "is also the input --config"),
+    (["eval", "--grid", "{dir}/c.yaml", "--json", "{dir}/c.yaml"], "is also the input --grid"),
+    (["reproduce", "--config", "{dir}/c.yaml", "--report", "{dir}/c.yaml"], "is also the input --config"),
+    (["bench", "--json", "{dir}/b.json", "--md", "{dir}/b.json"], "both name"),
+    (["bench", "--json", "/proc/petswarm/b.json"], "cannot be written"),
+    (["run", "--video", "/proc/petswarm/v.gif", "--json", "{dir}/OUT.json"], "cannot be written"),
+    (["run", "--json", "/sys/OUT.json"], "cannot be written"),
+    (["report", "{dir}/OUT.json", "--out", "/proc/r.html"], "cannot be written"),
+    (["run", "--json", "/dev/null"], "not a regular file"),
+], ids=lambda a: " ".join(a)[:60] if isinstance(a, list) else None)
+def test_an_output_that_is_an_input_or_unwritable_is_refused_before_any_work(capsys, outputs, argv, words):
+    (outputs / "c.yaml").write_text("seed: 1\nmax_cycles: 5\n")
+    (outputs / "c.gif").write_text("seed: 1\n")
+    (outputs / "c.jsonl").write_text("seed: 1\n")
+    (outputs / "sub").mkdir()
+    (outputs / "link.json").symlink_to(outputs / "r.json")
+    before = _snapshot(outputs)
+    t0 = time.perf_counter()
+    _fails(capsys, [a.replace("{dir}", str(outputs)) for a in argv], words)
+    assert time.perf_counter() - t0 < 10  # refused before the work (bench alone takes a minute)
+    assert _snapshot(outputs) == before
+    assert not [p for p in outputs.rglob(".*")]  # no probe or temporary file left
+
+
+# -- the grid: its size bounded before expansion, a damaged result refused before --resume rewrites it --
+GRID = "seed: 0\nepisodes: 1\nset: {max_cycles: 5, swarm.num_slaves: 2}\ncells:\n  - name: a\n    product: {swarm.formation: [wedge, column]}\n"
+
+
+@pytest.mark.parametrize("product, words", [
+    ("{user.start_delay_s: [%s], user.formation_wait_s: [%s], seed: [%s], swarm.spacing_m: [%s]}"
+     % (",".join(map(str, range(100))), ",".join(map(str, range(100))), ",".join(map(str, range(100))),
+        ",".join(str(1 + k / 100) for k in range(100))), "cells, more than"),  # 10^8 cells
+    ("{seed: [%s]}" % ",".join(map(str, range(3000))), "cells, more than"),
+])
+def test_a_grid_product_beyond_the_limit_is_one_line_and_fast(capsys, outputs, product, words):
+    grid = outputs / "big.yaml"
+    grid.write_text(f"seed: 0\nepisodes: 1\ncells:\n  - name: huge\n    product: {product}\n")
+    before = _snapshot(outputs)
+    t0 = time.perf_counter()
+    line = _fails(capsys, ["eval", "--grid", grid, "--json", outputs / "OUT.json"], words)
+    assert "big.yaml" in line and "2000" in line and time.perf_counter() - t0 < 10
+    assert _snapshot(outputs) == before
+
+
+def test_a_grid_of_too_many_episodes_is_refused(capsys, outputs):
+    grid = outputs / "long.yaml"
+    grid.write_text("seed: 0\nepisodes: 9000\ncells:\n  - name: a\n    product: {seed: [%s]}\n" % ",".join(map(str, range(50))))
+    _fails(capsys, ["eval", "--grid", grid], "episodes")
+
+
+@pytest.fixture(scope="module")
+def grid_result(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("grid")
+    (folder / "g.yaml").write_text(GRID)
+    assert main(["eval", "--grid", str(folder / "g.yaml"), "--json", str(folder / "g.json")]) == 0
+    return folder
+
+
+def _set(path, value):
+    def change(cell):
+        *parents, last = path
+        node = cell
+        for p in parents:
+            node = node[p]
+        if value is _DROP:
+            node.pop(last)
+        else:
+            node[last] = value
+    return change
+
+
+GRID_DAMAGE = [
+    ("candidate_list", _set(["candidate"], [1, 2]), "'candidate' must be a JSON object"),
+    ("candidate_401_digits", _set(["candidate", "collisions"], 10**400), "candidate.collisions"),
+    ("ratio_text", _set(["ratio"], "0.5"), "'ratio'"),
+    ("no_key", _set(["key"], _DROP), "'key' is missing"),
+    ("per_episode_rmse_list", _set(["reference", "per_episode", 0, "formation_rmse_m"], [1]), "reference.per_episode.0.formation_rmse_m"),
+    ("meets_target_number", _set(["meets_target"], 1), "'meets_target'"),
+    ("episodes_mismatch", _set(["candidate", "episodes"], 7), "per_episode"),
+    ("cell_a_string", None, "not a cell record"),
+]
+
+
+@pytest.mark.parametrize("change, words", [c[1:] for c in GRID_DAMAGE], ids=[c[0] for c in GRID_DAMAGE])
+def test_grid_resume_on_a_damaged_cell_is_refused_before_anything_is_rewritten(capsys, grid_result, tmp_path, change, words):
+    data = json.loads((grid_result / "g.json").read_text())
+    if change is None:
+        data["cells"][1] = "cell"
+    else:
+        change(data["cells"][1])
+    (tmp_path / "g.json").write_text(json.dumps(data))
+    shutil.copy(grid_result / "g.yaml", tmp_path / "g.yaml")
+    before = _snapshot(tmp_path)
+    line = _fails(capsys, ["eval", "--grid", tmp_path / "g.yaml", "--json", tmp_path / "g.json", "--resume"], words)
+    assert "g.json" in line and "cell 1" in line
+    assert _snapshot(tmp_path) == before  # the finished cells are all still there
+
+
+@pytest.mark.parametrize("content", ["[" * 100_000, '{"kind": "grid", "cells": [], "x": ' + "9" * 5000 + "}"], ids=["deep", "long_number"])
+def test_grid_resume_on_an_unreadable_result_is_one_line(capsys, grid_result, tmp_path, content):
+    (tmp_path / "g.json").write_text(content)
+    before = _snapshot(tmp_path)
+    _fails(capsys, ["eval", "--grid", grid_result / "g.yaml", "--json", tmp_path / "g.json", "--resume"], "--resume")
+    assert _snapshot(tmp_path) == before
+
+
+# -- report inputs: only http(s) and relative links; numbers, cells and replays checked -----------
+@pytest.fixture(scope="module")
+def eval_result(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("eval")
+    assert main(["eval", "--episodes", "1", "--scenarios", "straight", "--set", "max_cycles=5", "--json", str(folder / "e.json")]) == 0
+    return json.loads((folder / "e.json").read_text())
+
+
+@pytest.mark.parametrize("gif", ["javascript:alert(1)", " JavaScript:alert(1)", "JAVASCRIPT://%0aalert(1)", "data:text/html,<b>x</b>",
+                                 "vbscript:msgbox(1)", "file:///etc/passwd", 'https://x.org/" onclick="alert(1)'])
+def test_report_links_only_http_and_relative(outputs, eval_result, gif, capsys):
+    data = json.loads(json.dumps(eval_result))
+    data["episodes"][0]["gif"] = gif
+    (outputs / "r.json").write_text(json.dumps(data))
+    assert main(["report", str(outputs / "r.json"), "--out", str(outputs / "report.html")]) == 0
+    page = (outputs / "report.html").read_text()
+    hrefs = re.findall(r'href="([^"]*)"', page) + re.findall(r"href='([^']*)'", page)
+    assert not [h for h in hrefs if re.match(r"\s*[a-z][a-z0-9+.-]*:", h, re.I) and not re.match(r"https?://", h, re.I)]
+    assert "not a link" in page
+    for good in ("https://example.org/clip.gif", "clips/ep 0.gif"):
+        data["episodes"][0]["gif"] = good
+        (outputs / "r.json").write_text(json.dumps(data))
+        assert main(["report", str(outputs / "r.json"), "--out", str(outputs / "report.html")]) == 0
+        assert "not a link" not in (outputs / "report.html").read_text()
+
+
+@pytest.mark.parametrize("edit, words", [
+    (lambda d: d["episodes"][0].__setitem__("replay", "/dev/zero"), "not a regular file"),
+    (lambda d: d["episodes"][0].__setitem__("replay", "/dev"), "not a regular file"),
+    (lambda d: d["episodes"][0].__setitem__("replay", 5), "'replay' must be a path"),
+    (lambda d: d["episodes"][0].__setitem__("gif", ["a.gif"]), "'gif' must be a path"),
+    (lambda d: d["episodes"][0].__setitem__("formation_rmse_m", 10**400), "401 digits"),
+    (lambda d: d.update(kind="grid", cells=[{"candidate": [1, 2]}]), "'candidate' must be a JSON object"),
+    (lambda d: d.update(kind="grid", cells=[{"candidate": {"collisions": -10**500}}]), "digits"),
+    (lambda d: d.update(kind="grid", cells=["x"]), "cell 0 must be a JSON object"),
+    (lambda d: d.update(kind="grid", cells=[{"reference": {"per_episode": "x"}}]), "per_episode"),
+], ids=["dev_zero", "a_folder", "replay_number", "gif_list", "huge_rmse", "candidate_list", "huge_collisions", "cell_text", "per_episode_text"])
+def test_report_refuses_what_it_would_choke_on(capsys, outputs, eval_result, edit, words):
+    data = json.loads(json.dumps(eval_result))
+    edit(data)
+    (outputs / "bad.json").write_text(json.dumps(data))
+    before = _snapshot(outputs)
+    t0 = time.perf_counter()
+    line = _fails(capsys, ["report", outputs / "bad.json", "--out", outputs / "report.html"], words)
+    assert "bad.json" in line and time.perf_counter() - t0 < 10
+    assert _snapshot(outputs) == before
+
+
+# -- at run time: reset options, actions, FixedAgents, a box on the start -------------------------
+def test_reset_options_and_actions_are_checked():
+    import warnings
+
+    from petswarm_env.inputs import ResetOptionWarning
+    from petswarm_env.wrappers import FixedAgents
+
+    env = PetSwarmEnv(max_cycles=5)
+    for bad in ("x", 5, [("a", 1)], True):
+        with pytest.raises(TypeError, match="reset\\(options=...\\) takes a dict or None"):
+            env.reset(options=bad)
+    with pytest.warns(ResetOptionWarning, match="ignores str 'bogus'"):
+        env.reset(seed=0, options={"bogus": 1})
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        env.reset(seed=0, options=None)
+        env.reset(seed=0, options={})
+    agent = env.agents[0]
+    for bad in ([np.bool_(True), 0.0, 0.0], [True, 0, 0], np.array([True, False, True]), (0.1, np.False_, 0.0),
+                [[0.1], [0.2], [0.3]], [0.0, 0.0, 1e39], "abc"):
+        with pytest.raises(ValueError, match=f"action of {agent}"):
+            env.step({agent: bad})
+    wrapped = FixedAgents(PetSwarmEnv(max_cycles=5))
+    wrapped.reset(seed=0)
+    for bad, error in (({"robot_99": np.zeros(3, np.float32)}, KeyError), ({7: np.zeros(3)}, KeyError), ([0.0, 0.0, 0.0], TypeError),
+                       ({wrapped.possible_agents[0]: [np.nan, 0, 0]}, ValueError),
+                       ({wrapped.possible_agents[-1]: [np.bool_(True), 0, 0]}, ValueError)):
+        with pytest.raises(error):
+            wrapped.step(bad)
+    wrapped.step({a: np.zeros(3, np.float32) for a in wrapped.possible_agents})  # every fixed agent, live or not
+
+
+@pytest.mark.parametrize("box", [{"center_m": [0.0, 0.0], "size_m": [0.5, 0.5]}, {"center_m": [-0.8, 0.0], "size_m": [0.3, 0.3]},
+                                 {"center_m": [-2.0, 0.0], "size_m": [3.0, 6.0]}], ids=["on_the_user", "on_the_master", "over_the_swarm"])
+def test_a_box_on_the_start_positions_is_refused(capsys, outputs, box):
+    before = _snapshot(outputs)
+    line = _fails(capsys, ["run", "--set", f"world.obstacles=[{json.dumps(box)}]", "--set", "max_cycles=5",
+                           "--json", outputs / "OUT.json"], "world.obstacles[0]")
+    assert "lies on the start of" in line
+    assert _snapshot(outputs) == before
+
+
+def test_a_box_away_from_the_start_runs(capsys):
+    assert main(["run", "--set", 'world.obstacles=[{center_m: [30, 30], size_m: [1, 1]}]', "--set", "max_cycles=5", "--quiet"]) == 0
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["run", "--set", "robot_types.mybot.sensors=[{id: 1, type: LASER, radius_m: 0.1, angle_deg: 0}]"], "robot_types.mybot.sensors.0.type"),
+    (["run", "--set", "lf.burst_period_s=1e-9"], "lf.burst_period_s"),
+    (["run", "--set", "protocol.token_timeout_s=1e-7"], "protocol.token_timeout_s"),
+    (["run", "--set", "ble.report_period_s=0.001"], "ble.report_period_s"),
+    (["run", "--set", "control_period_s=1e300"], "control_period_s"),
+    (["run", "--set", "max_cycles=1e23"], "max_cycles"),
+    (["run", "--set", "faults_random.rate_per_min=1e7"], "faults_random.rate_per_min"),
+    (["run", "--set", "radio.rssi_shadowing_db=1e299"], "radio.rssi_shadowing_db"),
+    (["run", "--set", "lf.table_step_m=1e-8"], "lf.table_step_m"),
+    (["run", "--set", "belt.accel_rate_hz=1e8"], "belt.accel_rate_hz"),
+    (["run", "--set", "belt.gyro_period_s=1e-8"], "belt.gyro_period_s"),
+    (["run", "--set", "ir.strength_at_1m=1e300"], "ir.strength_at_1m"),
+    (["run", "--set", "watch.accel_rate_hz=5e6"], "watch.accel_rate_hz"),
+    (["run", "--set", "ir.num_receivers=100000"], "ir.num_receivers"),
+    (["run", "--set", "max_cycles=900000"], "a day"),
+    (["run", "--set", "swarm.formation=custom", "--set", "swarm.num_slaves=2", "--set",
+      "swarm.custom_links=[{robot: 1, neighbour: 2, offset_m: [-1, 0]}, {robot: 2, neighbour: 1, offset_m: [1, 0]}]"], "swarm.custom_links"),
+], ids=lambda a: " ".join(a)[6:60] if isinstance(a, list) else None)
+def test_numbers_beyond_their_physical_range_through_the_cli(capsys, outputs, argv, words):
+    before = _snapshot(outputs)
+    t0 = time.perf_counter()
+    _fails(capsys, [*argv, "--json", outputs / "OUT.json"], words)
+    assert time.perf_counter() - t0 < 10 and _snapshot(outputs) == before

@@ -112,7 +112,7 @@ def test_unknown_key_inside_a_list_item():
         ("radio.loss_prob", -0.1, ["greater than or equal to 0"]),
         ("swarm.num_slaves", 0, ["greater than or equal to 1"]),
         ("swarm.num_slaves", "three", ["integer"]),
-        ("control_period_s", 0, ["greater than 0"]),
+        ("control_period_s", 0, ["greater than or equal to 0.001"]),
     ],
 )
 def test_bad_value_names_key_and_allowed(key, value, must_contain):

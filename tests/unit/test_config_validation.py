@@ -4,6 +4,7 @@ pairs are ordered; YAML that is not a mapping, does not parse or has unknown key
 
 import math
 
+import numpy as np
 import pytest
 import yaml
 
@@ -192,3 +193,244 @@ def test_training_config_refuses_bad_values_naming_the_key():
         with pytest.raises(ConfigError) as info:
             load_train_config(overrides=overrides)
         assert words in str(info.value) and "\n" not in str(info.value)
+
+
+# -- YAML within bounds: alias bombs, deep nesting, huge numbers (one line, fast, naming the input) --
+def _alias_bomb(levels: int = 9, width: int = 9) -> str:
+    """A "billion laughs": each anchor a list of ``width`` aliases of the previous one."""
+    rows = ["&a0 [" + ", ".join(['"lol"'] * width) + "]"]
+    rows += [f"&a{k} [" + ", ".join([f"*a{k - 1}"] * width) + "]" for k in range(1, levels)]
+    return "[" + ", ".join(rows) + "]"
+
+
+@pytest.mark.parametrize("levels, width", [(9, 9), (12, 5), (30, 2)])
+@pytest.mark.parametrize("key", ["world.obstacles", "reward.formation", "swarm.custom_links", "faults"])
+def test_an_alias_bomb_is_refused_in_a_file_and_in_set(tmp_path, key, levels, width):
+    import time
+
+    section, _, leaf = key.rpartition(".")
+    text = f"{section}:\n  {leaf}: {_alias_bomb(levels, width)}\n" if section else f"{leaf}: {_alias_bomb(levels, width)}\n"
+    (tmp_path / "bomb.yaml").write_text(text)
+    t0 = time.perf_counter()
+    assert "aliases" in _refused(path=tmp_path / "bomb.yaml") and "bomb.yaml" in _refused(path=tmp_path / "bomb.yaml")
+    with pytest.raises(ConfigError, match=f"--set {key} expands"):
+        parse_override(f"{key}={_alias_bomb(levels, width)}")
+    assert time.perf_counter() - t0 < 5
+
+
+def test_a_recursive_alias_is_refused(tmp_path):
+    (tmp_path / "r.yaml").write_text("reward:\n  formation: &x [*x]\n")
+    assert "its own anchor" in _refused(path=tmp_path / "r.yaml")
+
+
+@pytest.mark.parametrize("depth", [60, 20_000, 60_000])
+@pytest.mark.parametrize("kind", ["flow", "block"])
+def test_deep_yaml_is_refused_in_one_line(tmp_path, depth, kind):
+    if kind == "flow":
+        text = "swarm: " + "[" * depth + "]" * depth + "\n"
+    else:
+        text = "".join(" " * k + f"k{k}:\n" for k in range(min(depth, 300))) + " " * min(depth, 300) + "x: 1\n"
+    (tmp_path / "deep.yaml").write_text(text)
+    message = _refused(path=tmp_path / "deep.yaml")
+    assert "deep.yaml" in message and "nested more than" in message
+
+
+@pytest.mark.parametrize("number", ["9" * 5000, "-" + "1" * 4301, "1" * 200 + ".5", "0x" + "f" * 300])
+def test_a_huge_number_names_the_file_or_the_key(tmp_path, number):
+    (tmp_path / "big.yaml").write_text(f"max_cycles: {number}\n")
+    message = _refused(path=tmp_path / "big.yaml")
+    assert "big.yaml" in message and "characters" in message
+    with pytest.raises(ConfigError, match="--set seed has a number of"):
+        parse_override(f"seed={number}")
+
+
+def test_a_key_that_is_not_text_is_refused(tmp_path):
+    (tmp_path / "k.yaml").write_text("1: 2\n")
+    assert "k.yaml" in _refused(path=tmp_path / "k.yaml")
+
+
+def test_a_device_as_a_config_file_is_refused():
+    assert "not a regular file" in _refused(path="/dev/zero")
+
+
+def test_a_grid_and_a_training_file_use_the_same_bounds(tmp_path):
+    from evaluation.grid_spec import load_grid
+
+    (tmp_path / "g.yaml").write_text(f"seed: 0\nepisodes: 1\ncells: {_alias_bomb()}\n")
+    with pytest.raises(ConfigError, match="grid file '.*g.yaml' expands"):
+        load_grid(str(tmp_path / "g.yaml"))
+    pytest.importorskip("stable_baselines3")
+    from training.config import load_train_config
+
+    (tmp_path / "t.yaml").write_text(f"ppo:\n  net_arch: {_alias_bomb()}\n")
+    with pytest.raises(ConfigError, match="t.yaml' expands"):
+        load_train_config(path=tmp_path / "t.yaml")
+
+
+def test_a_long_value_in_a_message_is_cut(tmp_path):
+    message = _refused({"reward.formation": list(range(100_000))})
+    assert len(message) < 300
+
+
+# -- every number of the config has a physical range, and its extremes are refused or run --------
+def _sections():
+    """Every config section class reachable from Config (nested sections, list and dict items)."""
+    import typing
+
+    from petswarm_env.config import Config
+    from petswarm_env.config_base import Section
+
+    seen, todo = [], [Config]
+    while todo:
+        cls = todo.pop()
+        if cls in seen:
+            continue
+        seen.append(cls)
+        for info in cls.model_fields.values():
+            stack = [info.annotation]
+            while stack:
+                t = stack.pop()
+                if isinstance(t, type) and issubclass(t, Section):
+                    todo.append(t)
+                stack.extend(typing.get_args(t))
+    return seen
+
+
+def _bounds(metadata) -> tuple[bool, bool]:
+    metadata = [m for item in metadata for m in (getattr(item, "metadata", None) or [item])]  # a Field() inside Annotated
+    low = any(hasattr(m, "gt") or hasattr(m, "ge") for m in metadata)
+    high = any(hasattr(m, "lt") or hasattr(m, "le") for m in metadata)
+    return low, high
+
+
+def _unbounded_numbers(annotation, metadata, where) -> list[str]:
+    """The numbers in a field's type (the field itself, or the items of a tuple) without a lower
+    and an upper bound."""
+    import typing
+
+    if annotation in (int, float):
+        low, high = _bounds(metadata)
+        return [] if low and high else [where]
+    origin, args = typing.get_origin(annotation), typing.get_args(annotation)
+    if origin is typing.Annotated:
+        return _unbounded_numbers(args[0], [*metadata, *args[1:]], where)
+    if origin is tuple:
+        return [w for k, a in enumerate(a for a in args if a is not Ellipsis) for w in _unbounded_numbers(a, [], f"{where}[{k}]")]
+    if origin in (typing.Union, __import__("types").UnionType):
+        return [w for a in args if a is not type(None) for w in _unbounded_numbers(a, metadata, where)]
+    return []
+
+
+SIZE_EXEMPT = {"RenderConfig.size_px[0]", "RenderConfig.size_px[1]"}  # 1..8192 in RenderConfig._check_size
+
+
+def test_every_number_of_the_config_has_a_lower_and_an_upper_bound():
+    missing = [w for cls in _sections() for name, info in cls.model_fields.items()
+               for w in _unbounded_numbers(info.annotation, info.metadata, f"{cls.__name__}.{name}")]
+    assert sorted(set(missing) - SIZE_EXEMPT) == []
+    assert len(_sections()) >= 25
+
+
+WALK_VALUES = [1e-9, 0, -1, 1e300, math.inf, math.nan]
+WALK_KEYS = NUMERIC_KEYS + PAIR_KEYS + [f"robot_types.mybot.{k}" for k in ("radius_m", "max_speed_mps", "lookahead_m",
+                                                                           "battery_mah", "wheel_slip_pct", "servo_ma")]
+
+
+class _Hang(Exception):
+    pass
+
+
+def _alarm(signum, frame):
+    raise _Hang
+
+
+@pytest.mark.parametrize("key", WALK_KEYS)
+def test_the_extremes_of_every_number_are_refused_in_one_line_or_run(key):
+    """1e-9, 0, -1, 1e300, inf and NaN in every number of the config: refused in one line naming
+    the key, or accepted and an episode resets and steps within 20 s with finite observations
+    (a refusal at reset, one line naming its keys, is legitimate: the swarm cannot organize)."""
+    import signal
+
+    from petswarm_env.env import PetSwarmEnv
+
+    previous = signal.signal(signal.SIGALRM, _alarm)
+    try:
+        for v in WALK_VALUES:
+            value = [v, DEFAULTS[key][1]] if key in PAIR_KEYS else v
+            signal.alarm(20)
+            try:
+                try:
+                    cfg = load_config(overrides={key: value})
+                except ConfigError as exc:  # the key itself, or a rule across keys that names them
+                    message = str(exc)
+                    assert "\n" not in message and (key.rsplit(".", 1)[-1] in message or message.startswith("bad config: ")), (
+                        key, v, message)
+                    continue
+                try:
+                    env = PetSwarmEnv(cfg)
+                    obs, _ = env.reset(seed=0)
+                    for _ in range(2):
+                        assert all(np.all(np.isfinite(o)) for o in obs.values()), (key, v)
+                        if not env.agents:
+                            break
+                        obs, *_ = env.step({a: np.zeros(3, np.float32) for a in env.agents})
+                    env.close()
+                except (ConfigError, ValueError, RuntimeError) as exc:  # refused at build or reset
+                    assert "\n" not in str(exc) and "." in str(exc), (key, v, str(exc))
+            except _Hang:
+                pytest.fail(f"{key}={v!r} took more than 20 s")
+            finally:
+                signal.alarm(0)
+    finally:
+        signal.signal(signal.SIGALRM, previous)
+
+
+@pytest.mark.parametrize("overrides, words", [
+    ({"max_cycles": 10**6, "control_period_s": 0.5}, "a day"),
+    ({"max_cycles": 10**6, "control_period_s": 0.01, "world.num_users": 8, "swarm.num_slaves": 16}, "GB budget"),
+    ({"swarm.formation": "custom", "swarm.num_slaves": 2, "swarm.custom_links": [
+        {"robot": 1, "neighbour": 2, "offset_m": [-1, 0]}, {"robot": 2, "neighbour": 1, "offset_m": [-1, 0]}]}, "swarm.custom_links"),
+    ({"swarm.formation": "custom", "swarm.num_slaves": 3, "swarm.custom_links": [
+        {"robot": 1, "neighbour": 0, "offset_m": [-1, 0]}, {"robot": 2, "neighbour": 3, "offset_m": [-1, 0]},
+        {"robot": 3, "neighbour": 2, "offset_m": [-1, 0]}]}, "swarm.custom_links"),
+    ({"robot_types.mybot.sensors": [{"id": 1, "type": "LASER", "radius_m": 0.1, "angle_deg": 0}]}, "robot_types.mybot.sensors.0.type"),
+    ({"robot_types.r2.sensors": [{"id": 1, "type": "distance", "radius_m": 0.1, "angle_deg": 0}]}, "robot_types.r2.sensors.0.type"),
+    ({"faults": [{"at_s": 1, "robot": 1, "kind": "dead"}] * 1001}, "faults"),
+])
+def test_budgets_custom_link_cycles_and_sensor_types(overrides, words):
+    assert words in _refused(overrides)
+
+
+def test_a_bad_value_in_a_file_names_the_file(tmp_path):
+    (tmp_path / "mine.yaml").write_text("lf:\n  burst_period_s: 1.0e-9\n")
+    message = _refused(path=tmp_path / "mine.yaml")
+    assert "lf.burst_period_s" in message and "mine.yaml" in message
+    (tmp_path / "typo.yaml").write_text("lf:\n  burst_period: 1.0\n")
+    assert "typo.yaml" in _refused(path=tmp_path / "typo.yaml")
+
+
+@pytest.mark.parametrize("config", [123, 4.5, [1], {"seed": 1}, b"x.yaml"])
+def test_a_config_that_is_not_a_config_or_a_path_is_a_clear_type_error(config):
+    from petswarm_env import petswarm_v0
+
+    with pytest.raises(TypeError, match="config must be a Config, the path of a YAML file or None"):
+        petswarm_v0.parallel_env(config=config)
+
+
+@pytest.mark.parametrize("key, value, span", [
+    ("lf.burst_period_s", 1e-9, "0.01 to 600"), ("max_cycles", 0, "above 0 to 1e+06"),
+    ("robot_types.mybot.max_speed_mps", 99, "above 0 to 20"), ("faults_random.rate_per_min", 1e9, "0 to 60"),
+    ("lf.reliable_half_angle_deg", 90, "above 0 to below 90"),
+])
+def test_a_number_out_of_range_names_its_physical_range(key, value, span):
+    message = _refused({key: value})
+    assert key in message and f"its physical range is {span}" in message
+
+
+def test_a_file_beyond_the_size_limit_is_refused_before_parsing(tmp_path):
+    import time
+
+    (tmp_path / "wide.yaml").write_text("reward:\n  formation: [" + ",".join(["1"] * 300_000) + "]\n")
+    t0 = time.perf_counter()
+    message = _refused(path=tmp_path / "wide.yaml")
+    assert "wide.yaml" in message and "bytes, more than the" in message and time.perf_counter() - t0 < 2

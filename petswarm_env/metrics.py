@@ -68,8 +68,8 @@ if TYPE_CHECKING:
     from petswarm_env.sim.world import World
 
 BUILT_WITHIN_M = 0.3  # the formation is built once every slave is this close to its reference point (issue 14)
-# the settle window after a refill: 10 s, the span over which a fault's re-forming is judged
-# (re-formed = every live slave within 0.3 m 10 s after detection; docs/faults.md)
+# the settle window after a refill: 10 s, the settling the fault figures allow (docs/faults.md
+# judges the dropout's largest error from 10 s after the refill on; this scores the 10 s before)
 REFILL_SETTLE_S = 10.0
 _EVENTS = ("master_changes", "mode_changes", "token_recoveries", "emergencies", "exceptions")
 

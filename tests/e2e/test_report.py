@@ -80,8 +80,9 @@ def test_report_compares_labels_with_ci_ratio_plots_and_gif_links(tmp_path):
     assert "0.120 ± 0.050" in text
     assert "0.180 ± 0.025" in text
     assert "ratio to scripted" in text
-    assert re.search(r"<td>0\.180 ± 0\.025</td><td>3</td><td>1\.50</td>", text)
-    assert re.search(r"<td>0\.110 ± 0\.025</td><td>3</td><td>0\.55</td>", text)  # learned straight: 0.11 / 0.20
+    m = re.search(r"<td>0\.180 ± 0\.025</td><td>3</td><td>1\.50 \[([0-9.]+), ([0-9.]+)\]</td>", text)
+    assert m and float(m[1]) <= 1.5 <= float(m[2])  # with its paired bootstrap interval over seeds 0-2
+    assert re.search(r"<td>0\.110 ± 0\.025</td><td>3</td><td>0\.55 \[0\.50, 0\.60\]</td>", text)  # learned straight: 0.11 / 0.20
     # best per scenario highlighted: scripted on zigzag, learned on straight
     assert re.search(r'<tr class="(?:grp )?best"><td class="l">zigzag</td><td class="l">scripted', text)
     assert re.search(r'<tr class="(?:grp )?best"><td class="l">straight</td><td class="l">learned', text)
@@ -209,4 +210,4 @@ def test_building_and_holding_are_reported_apart(tmp_path):
     assert "Building and holding" in text
     # scripted zigzag: 3 of 3 built, hold 0.120 ± 0.050; learned: 2 of 3, hold 0.055, ratio 0.055 / 0.12 = 0.46
     assert re.search(r"<td class=\"l\">zigzag</td><td class=\"l\">scripted</td><td>3 of 3</td><td>8\.0 ± 0\.0</td><td>0\.120 ± 0\.050</td><td>1\.00</td><td>0\.300 ± 0\.000 \(3\)</td>", text)
-    assert re.search(r"<td class=\"l\">zigzag</td><td class=\"l\">learned</td><td>2 of 3</td><td>8\.0 ± 0\.0</td><td>0\.055 ± [0-9.]+</td><td>0\.46</td><td>n/a</td>", text)
+    assert re.search(r"<td class=\"l\">zigzag</td><td class=\"l\">learned</td><td>2 of 3</td><td>8\.0 ± 0\.0</td><td>0\.055 ± [0-9.]+</td><td>0\.46 \[[0-9.]+, [0-9.]+\]</td><td>n/a</td>", text)

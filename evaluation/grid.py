@@ -37,10 +37,12 @@ RMSE, ``others``/``others_hold`` the other robots' (a mixed cell).
 A cell is judged on the grid file's ``metric`` (default ``formation_hold_rmse_m``): ``score_ratio``
 is its ratio, in a mixed cell the candidate robots' own (the team's ratio mixes both policies: one
 robot carries a fraction of the team's error, so even a perfect robot moves the team's ratio
-little); ``p_improvement`` the probability that a candidate episode scores below a reference episode.
-It *meets the target* when ``score_ratio`` is at most ``target_ratio``, the candidate collided no
-more often than the reference, built its formation in no fewer episodes, and in a mixed cell the
-other robots held no worse (their ratio at most 1 + ``others_tolerance``). ``episodes`` is empty: the
+little): the ``mix`` robots' when the candidate drives them, the other slaves' when the candidate
+drives the team and the reference the ``mix`` robots; ``p_improvement`` the probability that a
+candidate episode scores below a reference episode. It *meets the target* when ``score_ratio`` is
+at most ``target_ratio``, the candidate collided no more often than the reference, built its
+formation in no fewer episodes, and in a mixed cell the robots the reference drives held no worse
+than in the reference's own run (``others_no_worse``: their ratio at most 1 + ``others_tolerance``). ``episodes`` is empty: the
 per-episode figures are inside the cells (so ``petswarm report`` tells the file from an ``eval``
 result and draws the grid's heatmap).
 """
@@ -181,15 +183,18 @@ SCORED = {"formation_hold_rmse_m": ("formation_hold_rmse_m", "mix_robots_hold_rm
 
 
 def compare_runs(cand: dict[str, Any], ref: dict[str, Any], mixed: bool, metric: str, target: float,
-                 others_tolerance: float) -> dict[str, Any]:
+                 others_tolerance: float, candidate_in_mix: bool = True) -> dict[str, Any]:
     """A cell's comparison of its two RUNs (the module docstring's fields from ``ratio_ci95`` on):
     every ratio with its CI, the scored ratio (``metric``; in a mixed cell the candidate robots'
-    own), the probability of improvement on it, the guards and the verdict ``meets_target``."""
+    own: the mix robots when the candidate drives them (``candidate_in_mix``), else the other
+    robots), the probability of improvement on it, the guards and the verdict ``meets_target``."""
     out: dict[str, Any] = {"ratio_ci95": paired_ratio(_values(cand, "formation_rmse_m"), _values(ref, "formation_rmse_m"))["ci95"]}
     for name, key in RATIOS.items():
         r = paired_ratio(_values(cand, key), _values(ref, key))
         out[f"{name}_ratio"], out[f"{name}_ratio_ci95"] = r["ratio"], r["ci95"]
     team_key, own_key, others_key = SCORED[metric]
+    if not candidate_in_mix:  # the candidate drives the team, the reference the mix robots: those are guarded
+        own_key, others_key = others_key, own_key
     key = own_key if mixed else team_key
     scored = paired_ratio(_values(cand, key), _values(ref, key))
     not_more = cand["collisions"] <= ref["collisions"]
@@ -209,6 +214,12 @@ def compare_runs(cand: dict[str, Any], ref: dict[str, Any], mixed: bool, metric:
                                  and others_ok)}
 
 
+def _candidate_in_mix(grid: Grid, cell: Cell) -> bool:
+    """Whether a mixed cell's candidate robots are its ``mix`` robots (one candidate among the
+    reference) rather than the others (one reference among the candidate)."""
+    return cell.policy != grid.candidate
+
+
 def run_cell(grid: Grid, cell: Cell, key: str) -> dict[str, Any]:
     """Both runs of one cell and their comparison (the module docstring's cell record)."""
     start = time.perf_counter()
@@ -219,7 +230,7 @@ def run_cell(grid: Grid, cell: Cell, key: str) -> dict[str, Any]:
     return {**_cell_fields(grid, cell, seeds, key, cand, ref), **paired(cand, ref),
         "ratio": _ratio(cand["formation_rmse_m"], ref["formation_rmse_m"]),
         "mix_robots_ratio": _ratio(cand["mix_robots_rmse_m"], ref["mix_robots_rmse_m"]),
-        **compare_runs(cand, ref, bool(cell.mix), grid.metric, grid.target_ratio, grid.others_tolerance),
+        **compare_runs(cand, ref, bool(cell.mix), grid.metric, grid.target_ratio, grid.others_tolerance, _candidate_in_mix(grid, cell)),
         "wall_s": round(time.perf_counter() - start, 2),
     }
 
@@ -341,7 +352,7 @@ def run_grid(grid: Grid, base_config: Config, json_out: str | None = None, resum
             record = {**old, "index": cell.index, "name": cell.name, "group": cell.group, "axes": cell.axes,
                       **paired(old["candidate"], old["reference"]),
                       **compare_runs(old["candidate"], old["reference"], bool(cell.mix), grid.metric, grid.target_ratio,
-                                     grid.others_tolerance)}
+                                     grid.others_tolerance, _candidate_in_mix(grid, cell))}
         else:
             record = run_cell(grid, cell, key)
         result["cells"].append(record)

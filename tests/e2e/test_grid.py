@@ -48,7 +48,7 @@ def test_tiny_grid_end_to_end_json_resume_and_report_heatmap(tmp_path, capsys):
         assert {"collisions", "robot_robot", "robot_user", "robot_wall", "per_episode"} <= set(c["candidate"])
         assert 0 <= c["episodes_better"] <= 2 and c["median_ratio"] > 0
         # judged on the hold RMSE (the committed default), with every guard
-        assert c["score_metric"] == ("mix_robots_hold_rmse_m" if c["team"]["mix"] else "formation_hold_rmse_m")
+        assert c["score_metric"] == ("mix_robots_hold_rmse_m" if c["team"]["mix"] else "formation_hold_rmse_m")  # the mix: learned
         guards = (c["candidate"]["collisions"] <= c["reference"]["collisions"]
                   and c["candidate"]["formations_built"] >= c["reference"]["formations_built"]
                   and c["others_no_worse"] is not False)

@@ -77,3 +77,15 @@ def test_a_mixed_cell_is_judged_on_the_candidates_own_error_with_the_others_guar
     worse = _run([0.09, 0.09], mix_robots_hold_rmse_m=[0.05, 0.05], others_hold_rmse_m=[0.12, 0.12])
     v = compare_runs(worse, ref, True, "formation_hold_rmse_m", 0.8, 0.1)
     assert v["others_no_worse"] is False and not v["meets_target"]
+
+
+def test_with_the_candidate_driving_the_team_its_own_error_is_the_other_robots():
+    """One reference robot among the candidate's: the candidate robots are the others; the
+    reference robot (the mix) is the guarded one."""
+    cand = _run([0.09, 0.09], mix_robots_hold_rmse_m=[0.1, 0.1], others_hold_rmse_m=[0.05, 0.05])
+    ref = _run([0.1, 0.1], mix_robots_hold_rmse_m=[0.1, 0.1], others_hold_rmse_m=[0.1, 0.1])
+    v = compare_runs(cand, ref, True, "formation_hold_rmse_m", 0.8, 0.1, candidate_in_mix=False)
+    assert v["score_metric"] == "others_hold_rmse_m" and v["score_ratio"] == pytest.approx(0.5) and v["meets_target"]
+    dragged = _run([0.09, 0.09], mix_robots_hold_rmse_m=[0.2, 0.2], others_hold_rmse_m=[0.05, 0.05])
+    v = compare_runs(dragged, ref, True, "formation_hold_rmse_m", 0.8, 0.1, candidate_in_mix=False)
+    assert v["others_no_worse"] is False and not v["meets_target"]  # the reference robot held twice as badly

@@ -16,20 +16,24 @@ from petswarm_env.files import JsonLines, check_output_path, jsonl_path, write_j
 
 def format_run_table(result: dict[str, Any]) -> str:
     """The per-episode table and the summary line of ``petswarm run``."""
-    lines = [f"{'episode':>7} {'seed':>5} {'slaves':>6} {'rmse_m':>7} {'coll r-r':>8} {'r-user':>6} {'r-wall':>6} {'org_s':>6} {'build_s':>7} "
-             f"{'retries':>7} {'tok_rec':>7} {'sent':>6} {'lost':>5} {'collid':>6}"]
+    lines = [f"{'episode':>7} {'seed':>5} {'slaves':>6} {'rmse_m':>7} {'build_s':>7} {'hold_m':>7} {'coll r-r':>8} {'r-user':>6} "
+             f"{'r-wall':>6} {'org_s':>6} {'retries':>7} {'tok_rec':>7} {'sent':>6} {'lost':>5} {'collid':>6}"]
     for i, e in enumerate(result["episodes"]):
         c, f = e["collisions"], e["frames"]
+        hold = e.get("formation_hold_rmse_m", float("nan"))
         lines.append(
-            f"{i:>7} {e['seed']:>5} {e['slaves']:>6} {e['formation_rmse_m']:>7.3f} {c['robot_robot']:>8} {c['robot_user']:>6} "
-            f"{c['robot_wall']:>6} {e['organize_time_s']:>6.2f} {e['building_time_s']:>7.1f} {e['join_retries']:>7} {e['token_recoveries']:>7} "
-            f"{f['sent']:>6} {f['lost']:>5} {f['collided']:>6}"
+            f"{i:>7} {e['seed']:>5} {e['slaves']:>6} {e['formation_rmse_m']:>7.3f} {e['building_time_s']:>7.1f} {hold:>7.3f} "
+            f"{c['robot_robot']:>8} {c['robot_user']:>6} {c['robot_wall']:>6} {e['organize_time_s']:>6.2f} {e['join_retries']:>7} "
+            f"{e['token_recoveries']:>7} {f['sent']:>6} {f['lost']:>5} {f['collided']:>6}"
         )
     s = result["summary"]
+    settle = (f", refill_settle_rmse_m {s['refill_settle_rmse_m']:.3f} ({s['refills_settled']} episodes with a refill)"
+              if s.get("refills_settled") else "")
     lines.append(
-        f"summary: {s['episodes']} episodes, formation_rmse_m {s['formation_rmse_m']:.3f}, collisions {s['collisions']} "
-        f"(robot-robot {s['robot_robot_collisions']}), organize_time_s {s['organize_time_s']:.2f}, join_retries {s['join_retries']}, "
-        f"building_time_s {s['building_time_s']:.1f} ({s['formations_built']} of {s['episodes']} built)"
+        f"summary: {s['episodes']} episodes, formation_rmse_m {s['formation_rmse_m']:.3f}, building_time_s {s['building_time_s']:.1f} "
+        f"and formation_hold_rmse_m {s['formation_hold_rmse_m']:.3f} ({s['formations_built']} of {s['episodes']} built; hold: from "
+        f"the moment built){settle}, collisions {s['collisions']} (robot-robot {s['robot_robot_collisions']}), organize_time_s "
+        f"{s['organize_time_s']:.2f}, join_retries {s['join_retries']}"
     )
     return "\n".join(lines)
 
@@ -68,7 +72,9 @@ def run_command(cfg: Config, policy: str, episodes: int, seed: int | None, rende
     _warn_short(result, cfg)
     if quiet:
         s = result["summary"]
-        print(f"formation_rmse_m {s['formation_rmse_m']:.3f} collisions {s['collisions']}")
+        print(f"formation_rmse_m {s['formation_rmse_m']:.3f} building_time_s {s['building_time_s']:.1f} "
+              f"formation_hold_rmse_m {s['formation_hold_rmse_m']:.3f} ({s['formations_built']} of {s['episodes']} built) "
+              f"collisions {s['collisions']}")
     else:
         print(format_run_table(result))
     if json_out:

@@ -107,10 +107,16 @@ def evaluate(
                 on_episode(ep)
         env.close()
         mean, half, _ = mean_ci95([e["formation_rmse_m"] for e in eps])
+        hold, hold_half, built = mean_ci95([e.get("formation_hold_rmse_m") for e in eps])  # over the episodes that built
+        building, _, _ = mean_ci95([e.get("building_time_s") for e in eps])
         per_scenario[scenario] = {
             "episodes": len(eps),
             "formation_rmse_m": mean,
             "formation_rmse_ci95": half,
+            "building_time_s": building,
+            "formation_hold_rmse_m": hold,
+            "formation_hold_rmse_ci95": hold_half,
+            "formations_built": built,
             "collisions": sum(sum(e["collisions"].values()) for e in eps),
             "robot_robot": sum(e["collisions"]["robot_robot"] for e in eps),
             "robot_user": sum(e["collisions"]["robot_user"] for e in eps),
@@ -140,11 +146,17 @@ def mean_formation_rmse(config: Config, policy, seeds: list[int]) -> float:
 
 
 def format_table(result: dict[str, Any]) -> str:
+    nan = float("nan")
     lines = [f"policy: {result['label']}",
-             f"{'scenario':<15} {'episodes':>8} {'rmse_m':>8} {'±95%':>7} {'collisions':>10} {'r-r':>5} {'r-user':>6} {'emerg':>5} {'m-chg':>5}"]
+             f"{'scenario':<15} {'episodes':>8} {'rmse_m':>8} {'±95%':>7} {'build_s':>7} {'hold_m':>7} {'±95%':>7} {'built':>5} "
+             f"{'collisions':>10} {'r-r':>5} {'r-user':>6} {'emerg':>5} {'m-chg':>5}"]
     for name, s in result["scenarios"].items():
         half = s["formation_rmse_ci95"]
-        lines.append(f"{name:<15} {s['episodes']:>8} {s['formation_rmse_m']:>8.3f} {half if math.isfinite(half) else float('nan'):>7.3f} "
+        lines.append(f"{name:<15} {s['episodes']:>8} {s['formation_rmse_m']:>8.3f} {half if math.isfinite(half) else nan:>7.3f} "
+                     f"{s.get('building_time_s', nan):>7.1f} {s.get('formation_hold_rmse_m', nan):>7.3f} "
+                     f"{s.get('formation_hold_rmse_ci95', nan):>7.3f} {s.get('formations_built', 0):>5} "
                      f"{s['collisions']:>10} {s.get('robot_robot', 0):>5} {s.get('robot_user', 0):>6} {s.get('emergencies', 0):>5} "
                      f"{s.get('master_changes', 0):>5}")
+    lines.append("build_s: mean time to build the formation, hold_m: mean formation_hold_rmse_m (from the moment built), both "
+                 "over the episodes that built it (built: how many)")
     return "\n".join(lines)

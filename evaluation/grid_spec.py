@@ -21,7 +21,7 @@ import itertools
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
@@ -59,6 +59,8 @@ class GridFile(_Strict):
     candidate: str = "learned"
     reference: str = "scripted"
     target_ratio: float = Field(default=0.8, gt=0, le=100.0)
+    metric: Literal["formation_hold_rmse_m", "formation_rmse_m"] = "formation_hold_rmse_m"
+    others_tolerance: float = Field(default=0.1, ge=0, le=10.0)
     set: dict[str, Any] = Field(default_factory=dict)
     cells: list[CellEntry] = Field(min_length=1, max_length=MAX_CELLS)
 
@@ -99,6 +101,8 @@ class Grid:
     target_ratio: float
     base: dict[str, Any]
     cells: list[Cell]
+    metric: str = "formation_hold_rmse_m"  # what a cell is judged on (evaluation/grid.py, SCORED)
+    others_tolerance: float = 0.1  # a mixed cell: how much worse the other robots may hold (ratio <= 1 + this)
 
     def seeds(self) -> list[int]:
         """Every cell's seeds: ``seed .. seed + episodes - 1`` (the same for both runs of a cell, so they pair up)."""
@@ -232,7 +236,7 @@ def load_grid(path: str, base_config: Config | None = None, candidate: str | Non
             cells.append(Cell(len(cells), name, overrides, _policy_of(entry.team.policy, grid), mix,
                               entry.name or f"entry {k}", axes, cfg))
     return Grid(path, grid.seed, grid.episodes, grid.candidate, grid.reference, grid.target_ratio,
-                dict(grid.set), cells)
+                dict(grid.set), cells, grid.metric, grid.others_tolerance)
 
 
 def _check_robots(cfg: Config, mix: dict[str, str], where: str) -> None:

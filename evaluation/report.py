@@ -29,9 +29,10 @@ from evaluation.html import NA, escape, figure, now_stamp, page, table
 from evaluation.replay_viewer import replay_section
 from evaluation.report_plots import COLORS, plot_error_over_time, plot_rmse_bars, plot_trajectories, trace_matrix
 from evaluation.stats import as_number as _num
-from evaluation.stats import mean_ci95
+from evaluation.stats import mean_ci95, paired_ratio
 from petswarm_env.config import flatten_dotted
 from petswarm_env.files import write_text_atomic
+from petswarm_env.metrics import REFILL_SETTLE_S
 
 REFERENCE_LABEL = "scripted"
 DEFAULT_DT_S = 0.1  # control period of one env step (configs/default.yaml: control_period_s)
@@ -302,6 +303,7 @@ def _section_rmse(results: list[_Result], scenarios: list[str], colors: dict[str
             stats[(s, r.label)] = mean_ci95(ep.get("formation_rmse_m") for ep in eps)
             counts[(s, r.label)] = (len(eps), stats[(s, r.label)][2])
     ref_label = REFERENCE_LABEL if REFERENCE_LABEL in labels else None
+    by_label = {r.label: r for r in results}
     title = "<h2>2. Formation RMSE per scenario</h2>"
     if not scenarios:
         return title + f"<p>No episodes in any result: {NA}.</p>"
@@ -317,6 +319,8 @@ def _section_rmse(results: list[_Result], scenarios: list[str], colors: dict[str
             n_eps, _ = counts[(s, lab)]
             n_txt = str(n_eps) if n_fin == n_eps else f"{n_eps} ({n_eps - n_fin} without a value)"
             ratio = f"{m / ref:.2f}" if math.isfinite(m) and math.isfinite(ref) and ref > 0 else DASH
+            if ratio != DASH and lab != ref_label:
+                ratio += _paired_ci(by_label[lab].by_scenario().get(s, []), by_label[ref_label].by_scenario().get(s, []), "formation_rmse_m")
             is_best = best is not None and math.isfinite(m) and m == best
             cls = " ".join(c for c in ("grp" if lab == present[0] else "", "best" if is_best and len(present) > 1 else "") if c)
             rows.append(([escape(s), escape(lab) + (" ★" if is_best and len(present) > 1 else ""), _fmt_ci(m, h), n_txt, ratio], cls))
@@ -324,7 +328,8 @@ def _section_rmse(results: list[_Result], scenarios: list[str], colors: dict[str
     parts.append(
         "<p>Formation RMSE (m) per scenario: mean over episodes ± half-width of the 95 % confidence interval "
         "(Student's t over the episodes' <code>formation_rmse_m</code>; n/a with a single episode). "
-        f"Ratio: mean ÷ mean of the reference {ref_txt} on the same scenario (lower is better). "
+        f"Ratio: mean ÷ mean of the reference {ref_txt} on the same scenario (lower is better), with the 95 % percentile "
+        "bootstrap interval of the ratio over the seeds both ran, resampled in pairs (none without two such seeds). "
         "The best (lowest mean) label per scenario is highlighted.</p>"
     )
     parts.append(table(["scenario", "label", "formation RMSE (m), mean ± 95 % CI", "episodes", f"ratio to {escape(REFERENCE_LABEL)}"], rows, left_cols=2))
@@ -332,7 +337,56 @@ def _section_rmse(results: list[_Result], scenarios: list[str], colors: dict[str
     if bars:
         parts.append(figure(bars, "formation RMSE per scenario",
                             "Formation RMSE per scenario and label; error bars: 95 % t confidence interval over episodes."))
+    parts.append(_hold_table(results, scenarios, ref_label))
     return "".join(parts)
+
+
+def _paired_ci(eps: list[dict[str, Any]], ref_eps: list[dict[str, Any]], key: str) -> str:
+    """`` [lo, hi]``: the 95 % paired bootstrap interval of the ratio of ``key``'s means over the
+    seeds both lists ran (:func:`evaluation.stats.paired_ratio`); empty without two such seeds."""
+    ref = {ep.get("seed"): ep.get(key) for ep in ref_eps if ep.get("seed") is not None}
+    seeds = [ep.get("seed") for ep in eps if ep.get("seed") in ref]
+    mine = {ep.get("seed"): ep.get(key) for ep in eps}
+    lo, hi = paired_ratio([mine[k] for k in seeds], [ref[k] for k in seeds])["ci95"]
+    return f" [{lo:.2f}, {hi:.2f}]" if math.isfinite(lo) and math.isfinite(hi) else ""
+
+
+def _hold_table(results: list[_Result], scenarios: list[str], ref_label: str | None) -> str:
+    """Building and holding apart (petswarm_env/metrics.py): per scenario and label the building
+    time, the hold RMSE from the moment the formation was built (both over the episodes that built
+    it, and how many did), its ratio to the reference, and the RMSE in the settle window after a refill."""
+    rows = []
+    by_label = {r.label: r for r in results}
+    hold: dict[tuple[str, str], float] = {}
+    for r in results:
+        for s, eps in r.by_scenario().items():
+            hold[(s, r.label)] = mean_ci95(ep.get("formation_hold_rmse_m") for ep in eps)[0]
+    for s in scenarios:
+        for r in results:
+            eps = r.by_scenario().get(s)
+            if not eps:
+                continue
+            b_m, b_h, built = mean_ci95(ep.get("building_time_s") for ep in eps)
+            h_m, h_h, _ = mean_ci95(ep.get("formation_hold_rmse_m") for ep in eps)
+            w_m, w_h, w_n = mean_ci95(ep.get("refill_settle_rmse_m") for ep in eps)
+            ref = hold.get((s, ref_label), math.nan) if ref_label else math.nan
+            ratio = f"{h_m / ref:.2f}" if math.isfinite(h_m) and math.isfinite(ref) and ref > 0 else DASH
+            if ratio != DASH and r.label != ref_label:
+                ratio += _paired_ci(eps, by_label[ref_label].by_scenario().get(s, []), "formation_hold_rmse_m")
+            rows.append(([escape(s), escape(r.label), f"{built} of {len(eps)}", _fmt_ci(b_m, b_h, 1), _fmt_ci(h_m, h_h), ratio,
+                          f"{_fmt_ci(w_m, w_h)} ({w_n})" if w_n else NA], "grp" if r is results[0] else ""))
+    if not rows:
+        return ""
+    return ("<h3>Building and holding</h3><p>From the default scattered start most of the formation error is building: the "
+            "slaves driving to their slots. <b>Building time</b> (s): from organized to every slave within 0.3 m of its "
+            "reference point (<code>building_time_s</code>); <b>hold RMSE</b> (m): the formation RMSE from the step on which "
+            "the formation was built (<code>formation_hold_rmse_m</code>); both mean ± 95 % CI over the episodes that built "
+            "their formation (<i>built</i> says how many: an episode that never built has neither). <b>Settle after refill</b> "
+            f"(m): the RMSE over the {REFILL_SETTLE_S:g} s after a dropped slave's place was refilled (<code>refill_settle_rmse_m</code>), mean ± "
+            "95 % CI over the episodes with a refill (how many). Hold ratio: mean ÷ mean of the reference on the same scenario, "
+            "[95 % paired bootstrap interval over the seeds where both built].</p>"
+            + table(["scenario", "label", "built", "building time (s)", "hold RMSE (m)", f"hold ratio to {escape(REFERENCE_LABEL)}",
+                     "settle after refill (m)"], rows, left_cols=2))
 
 
 def _section_error_time(results: list[_Result], scenarios: list[str], colors: dict[str, str]) -> str:

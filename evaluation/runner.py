@@ -98,22 +98,38 @@ def run_episode(
     return summary
 
 
+def _finite_mean(episodes: list[dict[str, Any]], key: str) -> tuple[float, int]:
+    """The mean of ``key`` over the episodes where it is a finite number, and how many those are."""
+    xs = [e[key] for e in episodes if isinstance(e.get(key), (int, float)) and math.isfinite(e[key])]
+    return (sum(xs) / len(xs) if xs else math.nan), len(xs)
+
+
 def summarize(episodes: list[dict[str, Any]]) -> dict[str, Any]:
     """Run summary: mean formation RMSE, total collisions, mean organize time, total retries, missing
-    slaves, mean building time over the episodes that built their formation and how many did."""
+    slaves, mean building time over the episodes that built their formation and how many did.
+
+    Building and holding apart (:mod:`petswarm_env.metrics`): ``formation_hold_rmse_m`` is the mean
+    of the episodes' hold RMSEs over the episodes that built their formation (the others have none:
+    ``formations_built`` says how many did, so an episode that never built is never hidden), and
+    ``refill_settle_rmse_m`` the mean over the episodes with a refill (``refills_settled`` of them)."""
     n = len(episodes)
-    finite = [e["formation_rmse_m"] for e in episodes if math.isfinite(e["formation_rmse_m"])]
-    built = [e["building_time_s"] for e in episodes if math.isfinite(e.get("building_time_s", math.nan))]
+    rmse, _ = _finite_mean(episodes, "formation_rmse_m")
+    building, built = _finite_mean(episodes, "building_time_s")
+    hold, _ = _finite_mean(episodes, "formation_hold_rmse_m")
+    settle, settled = _finite_mean(episodes, "refill_settle_rmse_m")
     return {
         "episodes": n,
-        "formation_rmse_m": sum(finite) / len(finite) if finite else math.nan,
+        "formation_rmse_m": rmse,
+        "formation_hold_rmse_m": hold,  # over the episodes that built their formation
         "collisions": sum(sum(e["collisions"].values()) for e in episodes),
         "robot_robot_collisions": sum(e["collisions"]["robot_robot"] for e in episodes),
         "organize_time_s": sum(e["organize_time_s"] for e in episodes) / n if n else math.nan,
         "join_retries": sum(e["join_retries"] for e in episodes),
         "slaves_missing": sum(e.get("slaves_missing", 0) for e in episodes),
-        "building_time_s": sum(built) / len(built) if built else math.nan,  # over the episodes that built their formation
-        "formations_built": len(built),
+        "building_time_s": building,  # over the episodes that built their formation
+        "formations_built": built,
+        "refill_settle_rmse_m": settle,  # over the episodes with a refill
+        "refills_settled": settled,
     }
 
 

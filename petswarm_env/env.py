@@ -45,7 +45,6 @@ state ``state()`` in ``state_space`` (docs/state.md). Infos are flat and numeric
 """
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import gymnasium

@@ -29,6 +29,21 @@ The summary's formation figures:
 * ``building_time_s``: how long after organizing (the end of ``reset``) the swarm built its
   formation (seed 000 §3.5, Fig. 10): the first step's end at which every slave stood within
   ``BUILT_WITHIN_M`` of its reference point (truth); NaN if that never happened in the episode.
+
+Building and holding, measured apart (from the default scattered start most of the reference's
+squared error falls in the first seconds, while the slaves drive to their slots):
+
+* ``formation_hold_rmse_m``: ``formation_rmse_m`` from the moment the formation is built: the RMS of
+  the same counted errors (every slave with a reference point, out of emergency) over the step at
+  whose end ``building_time_s`` was reached and every later step; NaN when the formation was never
+  built. Whatever happens after building (a turn, a dropout and its refill, a lost robot) counts.
+  ``formation_hold_steps``: the steps it covers.
+* ``refill_settle_rmse_m``: the RMS of the same counted errors over the ``REFILL_SETTLE_S`` seconds
+  after each refill (a slave fault detected and its swarm back to as many members as before: the
+  end of ``reassignment_time_s``), i.e. the steps ending in ``(t_refill, t_refill + REFILL_SETTLE_S]``,
+  the windows of several refills joined (a step counts once), cut at the episode's end; NaN with no
+  refill. It scores how fast the swarm settles again around its recruit, which the whole episode's
+  figures dilute.
 """
 
 from __future__ import annotations
@@ -53,6 +68,9 @@ if TYPE_CHECKING:
     from petswarm_env.sim.world import World
 
 BUILT_WITHIN_M = 0.3  # the formation is built once every slave is this close to its reference point (issue 14)
+# the settle window after a refill: 10 s, the settling the fault figures allow (docs/faults.md
+# judges the dropout's largest error from 10 s after the refill on; this scores the 10 s before)
+REFILL_SETTLE_S = 10.0
 _EVENTS = ("master_changes", "mode_changes", "token_recoveries", "emergencies", "exceptions")
 
 
@@ -70,24 +88,57 @@ class EpisodeMetrics:
     stale_fix_s: float = 0.0  # slave time with no IR fix of any reference neighbour within AGE_SCALE_S
     error_trace: list[float] = field(default_factory=list)  # mean formation error per step (m)
     slots_unfilled_s: float = 0.0  # slot-seconds with fewer live slaves than required (issue 15)
+    hold_sq_error_sum: float = 0.0  # the counted errors from the step the formation was built on
+    hold_error_count: int = 0
+    hold_steps: int = 0
+    # every step's end time (s, the clock's) and its counted errors' squared sum and number: the
+    # settle windows after refills (REFILL_SETTLE_S) are cut from them once the episode is over
+    step_end_s: list[float] = field(default_factory=list)
+    step_sq: list[float] = field(default_factory=list)
+    step_n: list[int] = field(default_factory=list)
 
-    def add_step(self, errors_m: list[float], counted_m: list[float] | None = None, emergencies: int = 0) -> None:
+    def add_step(self, errors_m: list[float], counted_m: list[float] | None = None, emergencies: int = 0,
+                 end_s: float = math.nan) -> None:
         """One step: the formation errors of its slaves (``errors_m``, for the trace), those that
-        count toward the RMSE (``counted_m``, the slaves out of emergency; all if None) and how many
-        users were in emergency."""
+        count toward the RMSE (``counted_m``, the slaves out of emergency; all if None), how many
+        users were in emergency and the clock time at the step's end (``end_s``). A step added
+        once ``building_time_s`` is set counts toward the hold RMSE too."""
         self.steps += 1
         self.emergency_steps += emergencies
         counted = errors_m if counted_m is None else counted_m
+        sq = sum(e * e for e in counted)
         if counted:
-            self.sq_error_sum += sum(e * e for e in counted)
+            self.sq_error_sum += sq
             self.error_count += len(counted)
             self.rmse_steps += 1
+            if not math.isnan(self.building_time_s):
+                self.hold_sq_error_sum += sq
+                self.hold_error_count += len(counted)
+                self.hold_steps += 1
+        self.step_end_s.append(end_s)
+        self.step_sq.append(sq)
+        self.step_n.append(len(counted))
         if errors_m:
             self.error_trace.append(sum(errors_m) / len(errors_m))
 
     @property
     def formation_rmse_m(self) -> float:
         return math.sqrt(self.sq_error_sum / self.error_count) if self.error_count else math.nan
+
+    @property
+    def formation_hold_rmse_m(self) -> float:
+        """The RMSE from the step on which the formation was built (NaN if it never was)."""
+        return math.sqrt(self.hold_sq_error_sum / self.hold_error_count) if self.hold_error_count else math.nan
+
+    def window_rmse_m(self, starts_s: list[float], length_s: float) -> float:
+        """The RMS of the counted errors of the steps ending in ``(t, t + length_s]`` for any ``t``
+        of ``starts_s`` (each step once); NaN if no such step has a counted error."""
+        sq, n = 0.0, 0
+        eps = 1e-6  # the clock's sums of substeps: a step ending at t + length_s must not fall out by a rounding
+        for end, s, k in zip(self.step_end_s, self.step_sq, self.step_n):
+            if any(t < end <= t + length_s + eps for t in starts_s):
+                sq, n = sq + s, n + k
+        return math.sqrt(sq / n) if n else math.nan
 
 
 class SlaveTruth(NamedTuple):
@@ -206,9 +257,9 @@ class Experimenter:
         if parked:  # the slaves of a swarm in emergency stand still: their errors do not count
             stopped = {i for sw in parked for i in sw.slave_ids()}
             counted = [e for agent, e in errors.items() if agent_index[agent] not in stopped]
-            m.add_step(list(errors.values()), counted, len(parked))
+            m.add_step(list(errors.values()), counted, len(parked), end_s=self.world.now)
         else:
-            m.add_step(list(errors.values()))
+            m.add_step(list(errors.values()), end_s=self.world.now)
         m.stale_fix_s += self.cfg.control_period_s * self.stale_fixes(agents)
         missing = self.cfg.world.num_users * self.cfg.swarm.num_slaves - len(agents)
         if missing > 0:
@@ -268,6 +319,8 @@ class Experimenter:
             },
             "organize_time_s": m.organize_time_s,
             "building_time_s": m.building_time_s,
+            "formation_hold_rmse_m": m.formation_hold_rmse_m,
+            "formation_hold_steps": m.hold_steps,
             "join_retries": m.join_retries,
             "slaves_missing": m.slaves_missing,
             "stale_fix_s": round(m.stale_fix_s, 6),
@@ -286,7 +339,7 @@ class Experimenter:
         runtime = self.runtime
         log = runtime.faults.log if runtime is not None else []
         arrivals = {idx for _, idx in runtime.arrived} if runtime is not None else set()
-        detections, refills, reassigned = [], [], 0
+        detections, refills, refilled_at, reassigned = [], [], [], 0
         for f in log:
             t = self._detected_at(f)
             if t is None:
@@ -296,6 +349,7 @@ class Experimenter:
                 filled = self._refilled_at(f.robot, f.time_s)
                 if filled is not None:
                     refills.append(filled - f.time_s)
+                    refilled_at.append(filled)
         joined = set()
         for sw in self.swarms:
             lost_seen = False
@@ -311,6 +365,7 @@ class Experimenter:
             "detection_time_s": sum(detections) / len(detections) if detections else nan,
             "reassignments": reassigned,
             "reassignment_time_s": sum(refills) / len(refills) if refills else nan,
+            "refill_settle_rmse_m": self.metrics.window_rmse_m(refilled_at, REFILL_SETTLE_S) if refilled_at else nan,
             "slots_unfilled_s": round(self.metrics.slots_unfilled_s, 6),
             "arrivals_joined": len(arrivals & joined),
         }

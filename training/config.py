@@ -55,6 +55,9 @@ class EvalConfig(Section):
     episodes: int = Field(ge=1)
     seed: int = Field(ge=0)
     max_cycles: int = Field(ge=1)
+    metric: Literal["formation_rmse_m", "formation_hold_rmse_m"] = Field(
+        "formation_rmse_m", description="the figure whose median per-seed ratio to scripted picks the best evaluated "
+                                        "policy (policy.npz): the whole episode, or from the moment the formation is built")
 
 
 class CheckpointConfig(Section):

@@ -10,7 +10,8 @@ clip, epochs, minibatch, the actor/critic layers and activation, the initial log
 evaluations and checkpoints, ``rllib:`` sets the env runners. The run folder is the SB3 one's::
 
     train_config.yaml, env_config.yaml, train_log.json, tb/rllib/ (TensorBoard),
-    policy.npz (baselines/learned.py's format), checkpoints/latest.npz
+    policy.npz (the best evaluated actor, baselines/learned.py's format), last.npz (the last
+    checkpoint's actor), checkpoints/latest.npz
 
 The checkpoint is training/checkpoint.py's file, weights only: the module's arrays (actor, critic
 and heads, ``get_state()``) as ``policy:<name>`` and the JSON state record with ``backend:
@@ -49,13 +50,11 @@ from ray.tune.registry import register_env  # noqa: E402
 
 from baselines.learned import LearnedPolicy, save_policy  # noqa: E402
 from baselines.policy import PolicySpec  # noqa: E402
-from baselines.registry import make_policy  # noqa: E402
-from evaluation.evaluate import mean_formation_rmse  # noqa: E402
 from petswarm_env.config import ConfigError, flatten_dotted, load_config  # noqa: E402
 from petswarm_env.env import PetSwarmEnv  # noqa: E402
 from petswarm_env.files import write_json_atomic  # noqa: E402
 from petswarm_env.wrappers import FixedAgents  # noqa: E402
-from training.callbacks import policy_info, public_log  # noqa: E402
+from training.callbacks import LAST_POLICY, evaluate_and_keep, policy_info, public_log, scripted_reference  # noqa: E402
 from training.checkpoint import checkpoint_path, restore_weights, save_weights_checkpoint  # noqa: E402
 from training.config import TrainConfig  # noqa: E402
 from training.export import rllib_actor_layers  # noqa: E402
@@ -234,13 +233,21 @@ class Progress:
         layers = rllib_actor_layers(module_state(algo))
         return LearnedPolicy(self.spec, layers, self.cfg.ppo.activation, np.arange(self.spec.layout.size))
 
-    def evaluate(self, algo) -> None:
-        rmse = mean_formation_rmse(self.eval_cfg, self.policy(algo), self.seeds)
-        ref, n = self.log["scripted_eval_rmse_m"], self.log["timesteps"]
-        self.log["evaluations"].append({"timesteps": n, "formation_rmse_m": rmse, "scripted_rmse_m": ref})
+    def evaluate(self, algo) -> dict[str, Any]:
+        """An evaluation of the module's actor; the best so far is written as policy.npz
+        (:func:`training.callbacks.evaluate_and_keep`)."""
+        layers = rllib_actor_layers(module_state(algo))
+        n = self.log["timesteps"]
+        record = evaluate_and_keep(
+            self.cfg, self.out, self.log,
+            lambda spec: LearnedPolicy(spec, layers, self.cfg.ppo.activation, np.arange(spec.layout.size)), n,
+            lambda path, info: save_policy(path, layers, self.cfg.ppo.activation, self.spec.layout, info), ALGORITHM)
+        rmse, ref = record["formation_rmse_m"], record["scripted_rmse_m"]
         self.writer.add_scalar("eval/formation_rmse_m", rmse, n)
         self.writer.add_scalar("eval/scripted_rmse_m", ref, n)
         self.writer.add_scalar("eval/ratio_to_scripted", rmse / ref if ref else float("nan"), n)
+        self.writer.add_scalar("eval/median_ratio_to_scripted", record["median_ratio"], n)
+        return record
 
     def checkpoint(self, algo) -> None:
         log = self.log
@@ -249,7 +256,7 @@ class Progress:
         save_weights_checkpoint(checkpoint_path(self.out), state, log["timesteps"], "rllib",
                                 {"observation_size": self.spec.layout.size, "net_arch": list(p.net_arch),
                                  "activation": p.activation, "policy_id": POLICY_ID})
-        save_policy(self.out / "policy.npz", rllib_actor_layers(state), self.cfg.ppo.activation, self.spec.layout,
+        save_policy(self.out / LAST_POLICY, rllib_actor_layers(state), self.cfg.ppo.activation, self.spec.layout,
                     policy_info(self.cfg, log, ALGORITHM))
         write_json_atomic(self.out / "train_log.json", public_log(log))
         self.writer.flush()
@@ -272,8 +279,7 @@ def train_rllib(cfg: TrainConfig | None, out_dir: str | os.PathLike, resume: boo
     log.setdefault("samples_per_s", [])  # agent-steps/s of each iteration
     torch.set_num_threads(1)  # the driver's sampler and learner; the cores run the env runners
     spec = PolicySpec.from_env(PetSwarmEnv(eval_cfg))
-    if log["scripted_eval_rmse_m"] is None:
-        log["scripted_eval_rmse_m"] = mean_formation_rmse(eval_cfg, make_policy("scripted", spec), cfg.eval_seeds())
+    scripted_reference(cfg, log)  # the reference every evaluation is compared with, seed by seed
     log["ray_node_ip"] = start_ray(address, max(1, cfg.rllib.num_env_runners))
     register_env(ENV_ID, make_env)
     algo = algorithm_config(cfg, env_cfg, cfg.seed + log["timesteps"]).build_algo()
@@ -286,8 +292,8 @@ def train_rllib(cfg: TrainConfig | None, out_dir: str | os.PathLike, resume: boo
                 log["pretrain"] = pre
         write_run_configs(out, cfg, env_cfg, resume, changes)  # once the checkpoint is known good
         progress = Progress(cfg, out, log, spec)
-        if "pretrain" in log and not resume:
-            log["pretrain"]["eval_formation_rmse_m"] = mean_formation_rmse(eval_cfg, progress.policy(algo), cfg.eval_seeds())
+        if "pretrain" in log and not resume:  # the warm-started actor competes for the best
+            log["pretrain"]["eval_formation_rmse_m"] = progress.evaluate(algo)["formation_rmse_m"]
         while log["timesteps"] < cfg.timesteps:
             t = time.perf_counter()
             result = algo.train()

@@ -12,8 +12,11 @@ Everything of a run lives in its folder::
     runs/NAME/env_config.yaml        the resolved environment config
     runs/NAME/checkpoints/latest.npz the checkpoint: weights, optimizer, counters and RNG states as
                                      arrays and JSON, never a pickle (training/checkpoint.py), atomic
-    runs/NAME/policy.npz             the exported actor (weights-only, see baselines/learned.py)
-    runs/NAME/train_log.json         timesteps, wall time, evaluations against the scripted reference
+    runs/NAME/policy.npz             the best evaluated actor (weights-only, see baselines/learned.py;
+                                     the lowest median ratio to scripted, training/callbacks.py)
+    runs/NAME/last.npz               the last checkpoint's actor, the same format
+    runs/NAME/train_log.json         timesteps, wall time, evaluations against the scripted reference,
+                                     the best one (``best``)
     runs/NAME/tb/                    TensorBoard logs
 """
 
@@ -30,14 +33,12 @@ import yaml
 from stable_baselines3 import PPO
 from stable_baselines3.common.utils import set_random_seed
 
-from baselines.registry import make_policy
 from petswarm_env.config import ConfigError, flatten_dotted, parse_override, parse_yaml
 from petswarm_env.env import PetSwarmEnv
 from petswarm_env.files import check_output_path, write_json_atomic, write_text_atomic
-from training.callbacks import PeriodicCallback, pool_formation_rmse, public_log
+from training.callbacks import PeriodicCallback, evaluate_model, public_log, scripted_reference
 from training.checkpoint import checkpoint_path, has_checkpoint, read_checkpoint, restore_checkpoint
 from training.config import PPOConfig, TrainConfig, load_train_config, resume_changes
-from training.export import learned_policy
 from training.residual import zero_action_head
 from training.state_critic import StateCriticPolicy
 from training.vec_env import make_vec_env, training_env
@@ -174,8 +175,7 @@ def train(cfg: TrainConfig | None, out_dir: str | os.PathLike, resume: bool = Fa
     torch.set_num_threads(1)  # reproducible CPU math; the cores run the env workers
     set_random_seed(cfg.seed)
     layout = PetSwarmEnv(env_cfg).layout
-    if log["scripted_eval_rmse_m"] is None:  # the reference every evaluation is compared with
-        log["scripted_eval_rmse_m"] = pool_formation_rmse(cfg, lambda spec: make_policy("scripted", spec))
+    scripted_reference(cfg, log)  # the reference every evaluation is compared with, seed by seed
 
     with_state = cfg.ppo.critic == "state"
     venv = make_vec_env(env_cfg, cfg.num_envs, cfg.num_cpus, cfg.seed + log["timesteps"], cfg.randomize, cfg.env, with_state,
@@ -190,15 +190,19 @@ def train(cfg: TrainConfig | None, out_dir: str | os.PathLike, resume: bool = Fa
             demo_env = training_env(env_cfg, cfg.randomize, cfg.env, with_state)
             log["pretrain"] = pretrain_policy(model, cfg, env_cfg, demo_env)
             demo_env.close()
-            log["pretrain"]["eval_formation_rmse_m"] = pool_formation_rmse(
-                cfg, lambda spec: learned_policy(model, spec, cfg.ppo.activation))
         write_run_configs(out, cfg, env_cfg, resume, changes)  # once the checkpoint is known good
+        if not resume and (cfg.residual_of or cfg.pretrain.samples > 0):  # the actor PPO starts from competes for the best
+            start = evaluate_model(cfg, out, log, model, layout, 0)
+            if "pretrain" in log:
+                log["pretrain"]["eval_formation_rmse_m"] = start["formation_rmse_m"]
         callback = PeriodicCallback(cfg, out, layout, log)
         logged = [LogProgress(cfg.timesteps)] if progress_bar and not wants_bar(progress_bar) else []  # not a terminal: log lines
         model.learn(cfg.timesteps - model.num_timesteps, callback=[callback, *logged], reset_num_timesteps=False, tb_log_name="ppo",
                     progress_bar=wants_bar(progress_bar))
         callback.checkpoint()
-        if not log["evaluations"] or log["evaluations"][-1]["timesteps"] != model.num_timesteps:
+        last = log["evaluations"][-1] if log["evaluations"] else {}
+        # PPO's last update follows the last rollout, in which the callback evaluated: the final weights compete too
+        if last.get("timesteps") != model.num_timesteps or last.get("n_updates") != model._n_updates:
             callback.evaluate()
         write_json_atomic(out / "train_log.json", public_log(log))
     finally:
@@ -233,7 +237,10 @@ def train_command(config: str | None, settings: list[str], timesteps: int | None
     what = f"{log['timesteps']} agent-steps" + (f" after a warm start of {pre['samples']} samples" if pre else "")
     if pre and not log["timesteps"]:
         what = f"by the warm start alone ({pre['samples']} samples, no PPO)"
+    best = log.get("best")
+    chosen = (f"policy: {out}/policy.npz, the best evaluation (at {best['timesteps']} agent-steps, median {best['metric']} ratio "
+              f"to scripted {best['median_ratio']:.2f}); the last: {out}/last.npz" if best else f"policy: {out}/policy.npz")
     print(f"trained {what} in {log['wall_time_s']:.0f} s; "
           f"eval formation_rmse_m {last.get('formation_rmse_m', float('nan')):.3f} "
-          f"(scripted {log['scripted_eval_rmse_m']:.3f}); policy: {out}/policy.npz")
+          f"(scripted {log['scripted_eval_rmse_m']:.3f}); {chosen}")
     return 0

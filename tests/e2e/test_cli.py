@@ -53,7 +53,10 @@ def test_run_writes_json_and_gif(tmp_path, capsys):
     assert data["config"]["max_cycles"] == 20
     assert gif.stat().st_size > 0
     printed = capsys.readouterr().out
-    assert "summary:" in printed and "rmse_m" in printed
+    assert "summary:" in printed and "rmse_m" in printed and "hold_m" in printed and "formation_hold_rmse_m" in printed
+    for key in ("formation_hold_rmse_m", "building_time_s", "formations_built", "refill_settle_rmse_m"):
+        assert key in data["summary"], key
+    assert all("formation_hold_rmse_m" in e and "building_time_s" in e for e in data["episodes"])
     assert not list(tmp_path.glob(".*"))  # no temp files left behind
 
 

@@ -47,16 +47,28 @@ def test_tiny_grid_end_to_end_json_resume_and_report_heatmap(tmp_path, capsys):
         assert c["ratio"] == pytest.approx(c["candidate"]["formation_rmse_m"] / c["reference"]["formation_rmse_m"])
         assert {"collisions", "robot_robot", "robot_user", "robot_wall", "per_episode"} <= set(c["candidate"])
         assert 0 <= c["episodes_better"] <= 2 and c["median_ratio"] > 0
-        assert c["meets_target"] == (c["ratio"] <= 0.8 and c["candidate"]["collisions"] <= c["reference"]["collisions"])
+        # judged on the hold RMSE (the committed default), with every guard
+        assert c["score_metric"] == ("mix_robots_hold_rmse_m" if c["team"]["mix"] else "formation_hold_rmse_m")  # the mix: learned
+        guards = (c["candidate"]["collisions"] <= c["reference"]["collisions"]
+                  and c["candidate"]["formations_built"] >= c["reference"]["formations_built"]
+                  and c["others_no_worse"] is not False)
+        assert c["meets_target"] == bool(c["score_ratio"] <= 0.8 and guards)
+        assert len(c["ratio_ci95"]) == 2 and len(c["score_ratio_ci95"]) == 2
+        for e in c["candidate"]["per_episode"]:
+            assert {"formation_hold_rmse_m", "building_time_s", "refill_settle_rmse_m"} <= set(e)
     mixed = data["cells"][2]
     assert mixed["team"] == {"policy": "scripted", "mix": {"robot_2": "learned"}}
     assert mixed["reference"]["label"] == "scripted" and mixed["mix_robots_ratio"] > 0
+    assert {"mix_robots_hold_rmse_m", "others_rmse_m", "others_hold_rmse_m"} <= set(mixed["reference"]["per_episode"][0])
+    assert mixed["others_ratio"] > 0 and isinstance(mixed["others_no_worse"], bool)
+    assert data["cells"][0]["others_no_worse"] is None  # not a mixed cell: no guard
     assert data["summary"]["cells"] == 3 and len(data["summary"]["worst"]) == 3
     # --resume keeps every finished cell (nothing is run again) and writes the same figures
     assert main(["eval", "--grid", grid, "--json", str(out), "--resume"]) == 0
     assert capsys.readouterr().out.count("kept from --resume") == 3
     again = json.loads(out.read_text())
     assert [c["ratio"] for c in again["cells"]] == [c["ratio"] for c in data["cells"]]
+    assert [c["score_ratio_ci95"] for c in again["cells"]] == [c["score_ratio_ci95"] for c in data["cells"]]
     # the report: the grid's section with its heatmap (one embedded PNG) and its table
     assert main(["report", str(out), "--out", str(html)]) == 0
     page = html.read_text()
@@ -146,7 +158,7 @@ def test_a_killed_grid_keeps_its_finished_cells_and_resume_runs_only_the_rest(tm
     resumed = run_grid(grid, load_config(), str(out), resume=True, progress=lines.append)
     assert resumed["complete"] and len(resumed["cells"]) == 3
     assert "kept from --resume" in lines[1] and all("kept" not in line for line in lines[2:])
-    assert resumed["cells"][0] == partial["cells"][0]
+    assert json.dumps(resumed["cells"][0], sort_keys=True) == json.dumps(partial["cells"][0], sort_keys=True)  # NaN != NaN
     # another seed is another cell: nothing is kept
     other = load_grid(_grid(tmp_path), episodes=1, seed=900000005)
     lines.clear()

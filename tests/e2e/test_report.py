@@ -80,8 +80,9 @@ def test_report_compares_labels_with_ci_ratio_plots_and_gif_links(tmp_path):
     assert "0.120 ± 0.050" in text
     assert "0.180 ± 0.025" in text
     assert "ratio to scripted" in text
-    assert re.search(r"<td>0\.180 ± 0\.025</td><td>3</td><td>1\.50</td>", text)
-    assert re.search(r"<td>0\.110 ± 0\.025</td><td>3</td><td>0\.55</td>", text)  # learned straight: 0.11 / 0.20
+    m = re.search(r"<td>0\.180 ± 0\.025</td><td>3</td><td>1\.50 \[([0-9.]+), ([0-9.]+)\]</td>", text)
+    assert m and float(m[1]) <= 1.5 <= float(m[2])  # with its paired bootstrap interval over seeds 0-2
+    assert re.search(r"<td>0\.110 ± 0\.025</td><td>3</td><td>0\.55 \[0\.50, 0\.60\]</td>", text)  # learned straight: 0.11 / 0.20
     # best per scenario highlighted: scripted on zigzag, learned on straight
     assert re.search(r'<tr class="(?:grp )?best"><td class="l">zigzag</td><td class="l">scripted', text)
     assert re.search(r'<tr class="(?:grp )?best"><td class="l">straight</td><td class="l">learned', text)
@@ -190,3 +191,23 @@ def test_gif_path_relative_to_the_working_directory_is_found_too(tmp_path, monke
     write_report([res], "report.html")
     text = (tmp_path / "report.html").read_text(encoding="utf-8")
     assert 'href="runs/eval/zigzag_seed0.gif"' in text and "file not found" not in text
+
+
+def test_building_and_holding_are_reported_apart(tmp_path):
+    """Per scenario and label: how many episodes built their formation, building time and hold RMSE
+    over those (mean ± CI), the hold ratio to scripted, and the settle window after a refill."""
+    files = []
+    for label, holds in (("scripted", [0.10, 0.12, 0.14]), ("learned", [0.05, 0.06, float("nan")])):
+        data = _result(label)
+        for ep, hold in zip([e for e in data["episodes"] if e["scenario"] == "zigzag"], holds):
+            ep["formation_hold_rmse_m"] = hold
+            ep["building_time_s"] = 8.0 if math.isfinite(hold) else float("nan")
+            ep["refill_settle_rmse_m"] = 0.3 if label == "scripted" else float("nan")
+        files.append(_write(tmp_path / f"{label}.json", data))
+    out = tmp_path / "r.html"
+    write_report(files, str(out))
+    text = out.read_text(encoding="utf-8")
+    assert "Building and holding" in text
+    # scripted zigzag: 3 of 3 built, hold 0.120 ± 0.050; learned: 2 of 3, hold 0.055, ratio 0.055 / 0.12 = 0.46
+    assert re.search(r"<td class=\"l\">zigzag</td><td class=\"l\">scripted</td><td>3 of 3</td><td>8\.0 ± 0\.0</td><td>0\.120 ± 0\.050</td><td>1\.00</td><td>0\.300 ± 0\.000 \(3\)</td>", text)
+    assert re.search(r"<td class=\"l\">zigzag</td><td class=\"l\">learned</td><td>2 of 3</td><td>8\.0 ± 0\.0</td><td>0\.055 ± [0-9.]+</td><td>0\.46 \[[0-9.]+, [0-9.]+\]</td><td>n/a</td>", text)

@@ -52,10 +52,13 @@ def test_a_local_run_binds_ray_to_loopback_and_writes_the_run_folder(run):
     out, log = run
     assert log["ray_node_ip"] == "127.0.0.1"  # every node and the GCS: start_ray refuses anything else
     assert log["backend"] == "rllib" and log["timesteps"] >= 400 and len(log["samples_per_s"]) >= 2
-    for name in ("train_config.yaml", "env_config.yaml", "policy.npz", "train_log.json", "checkpoints/latest.npz"):
+    for name in ("train_config.yaml", "env_config.yaml", "policy.npz", "last.npz", "train_log.json", "checkpoints/latest.npz"):
         assert (out / name).is_file(), name
     assert list((out / "tb" / "rllib").glob("events.out.tfevents*"))
-    assert [e["timesteps"] for e in log["evaluations"]] == [200, 400] and log["pretrain"]["samples"] == 200
+    # the warm-started actor (agent-step 0) competes for policy.npz with every periodic evaluation
+    assert [e["timesteps"] for e in log["evaluations"]] == [0, 200, 400] and log["pretrain"]["samples"] == 200
+    best = min(log["evaluations"], key=lambda e: (e["median_ratio"], e["timesteps"]))
+    assert read_policy_file(out / "policy.npz")[0]["info"]["selected"]["timesteps"] == best["timesteps"] == log["best"]["timesteps"]
     assert not list(out.rglob(".*.npz")) and not list(out.rglob(".*.json")), "no temp files left"
 
 

@@ -47,13 +47,39 @@ def trained(tmp_path_factory):
 def test_short_run_writes_checkpoint_policy_config_and_log(trained):
     out, log = trained
     assert (out / "checkpoints" / "latest.npz").is_file()
-    assert (out / "policy.npz").is_file()
+    assert (out / "policy.npz").is_file() and (out / "last.npz").is_file()
     assert (out / "train_config.yaml").is_file() and (out / "env_config.yaml").is_file()
     saved_log = json.loads((out / "train_log.json").read_text())
     assert saved_log["timesteps"] >= 2048
     assert saved_log["evaluations"] and saved_log["scripted_eval_rmse_m"] > 0
     assert list((out / "tb").rglob("events.out.tfevents*")), "TensorBoard logs are written"
     assert not list(out.rglob(".*.zip")) and not list(out.rglob(".*.npz")), "no temp files left"
+
+
+def test_the_best_evaluated_actor_is_policy_npz_and_the_last_is_last_npz(trained):
+    """policy.npz is the evaluation with the lowest median ratio to scripted (the warm-started
+    actor at agent-step 0 competes); run again on the evaluation episodes it scores exactly what the
+    log recorded. last.npz is the last checkpoint's actor."""
+    from training.callbacks import median_ratio, pool_episodes
+
+    out, log = trained
+    evals = log["evaluations"]
+    # the warm start, every eval.every_steps (inside a rollout: the weights before its update), the final weights
+    assert [e["timesteps"] for e in evals] == [0, 1024, 2048, 2048]
+    assert evals[-1]["n_updates"] > evals[-2]["n_updates"]
+    best = min(evals, key=lambda e: (e["median_ratio"], e["timesteps"]))  # the first of equals stays
+    assert log["best"]["timesteps"] == best["timesteps"] and log["best"]["median_ratio"] == best["median_ratio"]
+    assert [e["best"] for e in evals] == [e["median_ratio"] < min([x["median_ratio"] for x in evals[:k]], default=float("inf"))
+                                           for k, e in enumerate(evals)]
+    meta, layers = read_policy_file(out / "policy.npz")
+    assert meta["info"]["selected"]["timesteps"] == best["timesteps"] == meta["info"]["timesteps"]
+    cfg = load_train_config(overrides=SHORT)
+    again = pool_episodes(cfg, lambda spec: LearnedPolicy.load(out / "policy.npz", spec))
+    assert median_ratio(again, log["scripted_eval_episodes"], cfg.eval.metric) == best["median_ratio"]
+    last_meta, last_layers = read_policy_file(out / "last.npz")
+    assert last_meta["info"]["timesteps"] == log["timesteps"] >= 2048
+    same = all(np.array_equal(a, b) for (a, _), (b, _) in zip(layers, last_layers))
+    assert same == (best["timesteps"] == log["timesteps"])
 
 
 def test_warm_start_imitates_the_scripted_reference_before_ppo(trained):
@@ -69,7 +95,8 @@ def test_resume_continues_the_run(trained):
     cfg = load_train_config(overrides={**SHORT, "timesteps": 3072})
     log2 = train(cfg, out, resume=True, progress_bar=False)
     assert log2["timesteps"] >= 3072 > log["timesteps"]
-    assert log2["evaluations"][0] == log["evaluations"][0]
+    assert json.dumps(log2["evaluations"][0]) == json.dumps(log["evaluations"][0])  # (NaN != NaN)
+    assert log2["best"]["median_ratio"] <= log["best"]["median_ratio"]  # the best so far is kept across the resume
 
 
 def test_training_into_an_existing_run_without_resume_is_refused(trained):

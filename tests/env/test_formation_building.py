@@ -101,7 +101,10 @@ def test_a_swarm_that_never_builds_reports_nan_and_the_user_walks_after_the_wait
         env.step({a: np.zeros(3, np.float32) for a in env.agents})  # nobody drives: never built
         if walked is None and env.episode.world.user.walking:
             walked = env.episode.world.now - env.episode.experimenter.organized_at_s
-    assert math.isnan(env.episode_summary()["building_time_s"])
+    s = env.episode_summary()
+    assert math.isnan(s["building_time_s"])
+    assert math.isnan(s["formation_hold_rmse_m"]) and s["formation_hold_steps"] == 0  # never built: nothing held
+    assert math.isfinite(s["formation_rmse_m"])
     assert walked == pytest.approx(4.0, abs=0.11)
 
 

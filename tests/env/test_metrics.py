@@ -119,3 +119,72 @@ def test_summary_counts_from_the_end_of_reset():
     assert s["steps"] == 50 and s["frames"]["sent"] > 0 and s["slaves"] == 4 and s["users"] == 1
     assert sum(s["events"]["arbiter_wins"].values()) == 50 * 5  # one winner per robot per tick
     assert s["formation_rmse_m"] == env.episode.metrics.formation_rmse_m and s["scenario"] == "zigzag"
+
+
+def test_the_hold_rmse_counts_from_the_step_the_formation_was_built_on():
+    m = EpisodeMetrics()
+    m.add_step([3.0, 4.0], end_s=0.1)  # building: in the RMSE, not in the hold RMSE
+    assert math.isnan(m.formation_hold_rmse_m)
+    m.building_time_s = 0.2
+    m.add_step([0.1, 0.2], end_s=0.2)
+    m.add_step([1.0], [], emergencies=1, end_s=0.3)  # parked: neither
+    m.add_step([0.3], end_s=0.4)
+    assert m.hold_steps == 2
+    assert m.formation_hold_rmse_m == pytest.approx(math.sqrt((0.01 + 0.04 + 0.09) / 3))
+    assert m.formation_rmse_m == pytest.approx(math.sqrt((9 + 16 + 0.01 + 0.04 + 0.09) / 5))
+
+
+def test_the_settle_window_takes_each_step_once_after_each_start():
+    m = EpisodeMetrics()
+    for k, e in enumerate([5.0, 1.0, 2.0, 3.0, 4.0], start=1):
+        m.add_step([e], end_s=k * 0.1)
+    assert m.window_rmse_m([0.1], 0.2) == pytest.approx(math.sqrt((1 + 4) / 2))  # steps ending in (0.1, 0.3]
+    assert m.window_rmse_m([0.1, 0.2], 0.2) == pytest.approx(math.sqrt((1 + 4 + 9) / 3))  # overlapping windows: once
+    assert math.isnan(m.window_rmse_m([0.5], 1.0))  # after the last step
+
+
+def _errors_by_step(env, pol, seed):
+    """Every step's clock time, whether the formation was built by then, and its slaves' errors (infos)."""
+    obs, _ = env.reset(seed=seed)
+    pol.reset(seed)
+    out = []
+    while env.agents:
+        acting = list(env.agents)  # the step's slaves (a recruit joining in this step gets its first infos, no error yet)
+        obs, _, _, _, infos = env.step(pol.act_all({a: obs[a] for a in acting}))
+        with_ref = env.episode.experimenter.formation_errors(acting)[0]
+        errs = [infos[a]["formation_error_m"] for a in acting if a in infos and a in with_ref]
+        out.append((env.episode.world.now, math.isfinite(env.episode.metrics.building_time_s), errs))
+    return out
+
+
+def test_the_summary_hold_rmse_is_the_rmse_of_the_steps_after_building():
+    """Recomputed from the step infos: every slave's error from the step at whose end all were
+    within BUILT_WITHIN_M on; building is most of the scattered start's error (seed 0: 0.54 m
+    whole episode, 0.14 m held)."""
+    env = petswarm_env.parallel_env(**{"max_cycles": 200})
+    steps = _errors_by_step(env, make_policy("scripted", PolicySpec.from_env(env)), 0)
+    s = env.episode_summary()
+    held = [e for _, built, errs in steps if built for e in errs]
+    first = next(k for k, (_, built, _) in enumerate(steps) if built)
+    assert s["building_time_s"] == pytest.approx((first + 1) * env.cfg.control_period_s)
+    assert s["formation_hold_steps"] == len(steps) - first
+    assert s["formation_hold_rmse_m"] == pytest.approx(math.sqrt(sum(e * e for e in held) / len(held)), rel=1e-12)
+    assert s["formation_hold_rmse_m"] < 0.5 * s["formation_rmse_m"]
+
+
+def test_the_settle_window_after_a_refill():
+    """The dropout scenario: a slave dies at 20 s, the master notices, a spare is recruited. The
+    settle RMSE is the RMSE over the REFILL_SETTLE_S after the refill, recomputed from the step infos."""
+    from petswarm_env.metrics import REFILL_SETTLE_S
+
+    env = petswarm_env.parallel_env(**{"user.scenario": "dropout", "max_cycles": 400})
+    steps = _errors_by_step(env, make_policy("scripted", PolicySpec.from_env(env)), 0)
+    s = env.episode_summary()
+    assert s["faults_detected"] == 1 and math.isfinite(s["reassignment_time_s"])
+    refill = env.episode.runtime.faults.log[0].time_s + s["reassignment_time_s"]
+    window = [e for t, _, errs in steps if refill < t <= refill + REFILL_SETTLE_S + 1e-6 for e in errs]
+    assert len(window) > 50
+    assert s["refill_settle_rmse_m"] == pytest.approx(math.sqrt(sum(e * e for e in window) / len(window)), rel=1e-9)
+    quiet = petswarm_env.parallel_env(**{"max_cycles": 50})
+    _errors_by_step(quiet, make_policy("scripted", PolicySpec.from_env(quiet)), 0)
+    assert math.isnan(quiet.episode_summary()["refill_settle_rmse_m"])  # no refill, no window

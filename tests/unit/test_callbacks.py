@@ -72,8 +72,20 @@ def test_checkpoint_writes_the_run_files_and_evaluate_logs_against_the_reference
     assert recorded["eval/formation_rmse_m"] == ev[0]["formation_rmse_m"] and recorded["eval/scripted_rmse_m"] == 0.2
     assert (tmp_path / "checkpoints" / "latest.npz").is_file()
     saved = json.loads((tmp_path / "train_log.json").read_text())
-    assert saved == public_log(log) and "_start" not in saved and saved["timesteps"] == 64
-    meta, layers = read_policy_file(tmp_path / "policy.npz")
-    assert meta["info"]["timesteps"] == 64 and meta["info"]["train_config"]["ppo"]["net_arch"] == [8]
-    assert layers[-1][0].shape[0] == 3
+    assert json.dumps(saved) == json.dumps(public_log(log)) and "_start" not in saved and saved["timesteps"] == 64  # NaN != NaN
+    assert ev[0]["best"] and log["best"]["timesteps"] == 64  # the first evaluation is the best so far
+    for name in ("policy.npz", "last.npz"):  # the best evaluated actor, the last checkpoint's
+        meta, layers = read_policy_file(tmp_path / name)
+        assert meta["info"]["timesteps"] == 64 and meta["info"]["train_config"]["ppo"]["net_arch"] == [8]
+        assert layers[-1][0].shape[0] == 3
     assert sorted(p.name for p in tmp_path.rglob("*") if p.name.startswith(".")) == []  # no temp files
+
+
+def test_the_median_ratio_counts_a_failed_episode_as_infinitely_worse():
+    from training.callbacks import median_ratio
+
+    ref = [{"seed": s, "m": 0.2} for s in range(5)] + [{"seed": 9, "m": float("nan")}]
+    eps = [{"seed": 0, "m": 0.1}, {"seed": 1, "m": 0.2}, {"seed": 2, "m": float("nan")}, {"seed": 3, "m": 0.3},
+           {"seed": 4, "m": 0.1}, {"seed": 9, "m": 0.1}]  # seed 9: the reference has no figure, left out
+    assert median_ratio(eps, ref, "m") == pytest.approx(1.0)  # ratios 0.5, 1, inf, 1.5, 0.5
+    assert median_ratio([{"seed": 2, "m": float("nan")}], ref, "m") == float("inf")

@@ -128,8 +128,12 @@ def test_a_residual_run_starts_at_the_reference_and_exports_a_residual_policy(tm
     cfg = load_train_config(overrides=TINY)
     log = train(cfg, tmp_path / "run", progress_bar=False)
     assert log["timesteps"] >= 96
-    meta, layers = read_policy_file(tmp_path / "run" / "policy.npz")
+    meta, layers = read_policy_file(tmp_path / "run" / "last.npz")
     assert meta["residual_of"] == "scripted" and meta["residual_scale"] == 0.2 and np.any(layers[-1][0] != 0)  # PPO moved the head off zero
+    # policy.npz is the best evaluation's actor: the start (the reference itself, ratio 1) competes at agent-step 0
+    assert log["evaluations"][0]["timesteps"] == 0 and log["evaluations"][0]["median_ratio"] == 1.0
+    best, _ = read_policy_file(tmp_path / "run" / "policy.npz")
+    assert best["residual_of"] == "scripted" and best["info"]["selected"]["timesteps"] == log["best"]["timesteps"]
     # the start: a fresh model with the head zeroed (as train() does) acts as the reference
     env_cfg = cfg.env_config()
     venv = make_vec_env(env_cfg, 1, 0, cfg.seed, residual=Residual("scripted", 0.2))

@@ -54,12 +54,12 @@ def test_the_state_critic_trains_and_exports_only_its_actor(tmp_path, capsys):
         obs = x[0, :layout.size].numpy()
     finally:
         venv.close()
-    meta, layers = read_policy_file(tmp_path / "policy.npz")
+    meta, layers = read_policy_file(tmp_path / "last.npz")  # the checkpoint's actor (policy.npz: the best evaluated)
     assert [w.shape for w, _ in layers] == [(8, layout.size), (3, 8)]  # the actor only: no critic, no state input
     assert meta["info"]["algorithm"].startswith("MAPPO")
     h = np.tanh(layers[0][0] @ obs + layers[0][1])
     with torch.no_grad():
         mean = model.policy.get_distribution(x).distribution.mean[0].numpy()
     assert np.allclose(layers[1][0] @ h + layers[1][1], mean, atol=1e-5)
-    assert main(["eval", "--policy", str(tmp_path / "policy.npz"), "--episodes", "1", "--set", "max_cycles=10"]) == 0
+    assert main(["eval", "--policy", str(tmp_path / "last.npz"), "--episodes", "1", "--set", "max_cycles=10"]) == 0
     assert "zigzag" in capsys.readouterr().out

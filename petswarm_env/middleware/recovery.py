@@ -36,6 +36,7 @@ from __future__ import annotations
 from collections.abc import Callable
 
 from petswarm_env.comms.radio import Frame
+from petswarm_env.middleware import assignment, ruta
 from petswarm_env.middleware import messages as msg
 from petswarm_env.middleware.formation import Formation, formation_for_mode
 from petswarm_env.middleware.join import JoinManager, OrganizeResult
@@ -60,8 +61,13 @@ class RecoveryManager:
         self.busy = False
         self.update_retries = 0  # master: member-update broadcasts repeated for a missing acknowledgement
         self.refills: list[OrganizeResult] = []
+        self.bid_requests: list[tuple[float, str]] = []  # member: (time, the part that failed) of each bid request started
+        self._request_seq = -1
+        self._request_acked = None
         node.on(msg.MEMBER_UPDATE, self._on_update)
         node.on(msg.MEMBER_UPDATE_ACK, self._on_ack)
+        node.on(msg.BID_REQUEST, self._on_bid_request)
+        node.on(msg.BID_REQUEST_ACK, self._on_bid_request_ack)
 
     # -- master side ----------------------------------------------------------------------------
     def member_lost(self, node_id: int) -> None:
@@ -180,7 +186,60 @@ class RecoveryManager:
         if ev is not None and not ev.triggered and self._needed <= self._acks:
             ev.succeed()
 
+    def _on_bid_request(self, frame: Frame) -> None:
+        """Master: a member cannot hold its slot any more (its sensor failed): acknowledge, then take
+        it out of the tables like a lost member — its slot is open, the members are re-planned and the
+        refill recruits the fittest robot for it by ``swarm.assignment`` (seed 003 Algorithm 2 steps
+        5-7: the slot announcement is the request to the free robots, the fittest bid takes it over;
+        Algorithm 1 on their status reports with ``ruta_centralized``)."""
+        node = self.node
+        if frame.dst != node.node_id or node.state != "master":
+            return
+        node.send(msg.BID_REQUEST_ACK, dst=frame.src, seq=frame.payload["seq"])
+        if frame.src in node.know.members.values():
+            self.member_lost(frame.src)
+
+    def _on_bid_request_ack(self, frame: Frame) -> None:
+        ev = self._request_acked
+        if frame.dst == self.node.node_id and frame.payload["seq"] == self._request_seq and ev is not None \
+                and not ev.triggered:
+            ev.succeed()
+
     # -- members --------------------------------------------------------------------------------
+    def sensor_failed(self, part: str) -> None:
+        """The robot's own diagnosis found ``part`` broken (middleware/diagnosis.py). A slave that its
+        lowered status leaves unable to hold its slot (``ruta.must_request_bids`` on the slot's
+        subtask, :func:`~.assignment.slot_subtask`) sends the bid request to its master (seed 003
+        Algorithm 2 step 5), repeated until acknowledged (``protocol.max_retries``)."""
+        node = self.node
+        if node.state != "slave" or node.formation is None:
+            return
+        member = node.know.member
+        geometry = assignment.slot_geometry(node.formation)
+        if member not in geometry:
+            return
+        held = assignment.slot_subtask(member, geometry[member][1], node.cfg.ruta)
+        status = assignment.own_status(node)
+        if ruta.must_request_bids(status, held):
+            self.bid_requests.append((node.clock.now, part))
+            sensors = sum(bit for kind, bit in assignment.SENSOR_BITS.items() if kind in status.sensors)
+            node.clock.process(self._request_bids(member, sensors))
+
+    def _request_bids(self, member: int, sensors: int):
+        node = self.node
+        clock = node.clock
+        cfg = node.cfg.protocol
+        pan = node.swarm_pan
+        seq = self._request_seq = int(round(clock.now * 1000))
+        for _ in range(cfg.max_retries + 1):
+            if node.state != "slave" or node.swarm_pan != pan or node.member_node(0) is None:
+                return  # removed meanwhile (the member update came): the request was heard
+            self._request_acked = clock.event()
+            node.send(msg.BID_REQUEST, dst=node.member_node(0), seq=seq, member=member, sensors=sensors)
+            yield clock.any_of([self._request_acked, clock.timeout(cfg.response_timeout_s)])
+            if self._request_acked.triggered:
+                return
+
     def _on_update(self, frame: Frame) -> None:
         node = self.node
         if node.state != "slave":

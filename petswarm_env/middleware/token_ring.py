@@ -58,6 +58,9 @@ class TokenRing:
         self._headings_expected: set[int] = set()
         self._headings_event = None
         self._slot_start: dict[int, float] = {}  # robot -> start of its latest IR slot (its TX_START)
+        self.own_slot: tuple[float, frozenset[int]] | None = None  # (start, neighbours that acked) of our latest slot
+        self.report_s = -math.inf  # when a neighbour last reported the bearing it saw us at (heading exchange)
+        self.slot_range_m: dict[int, float] = {}  # robot -> the RSSI range of its latest start sign or ack to us (middleware/diagnosis.py)
         self.heard: dict[int, float] = {}  # robot -> when we last received one of its ring frames
         self.silent_rounds: dict[int, int] = {}  # master: member -> rounds in a row it was not heard in
         self.round_start_s = 0.0  # master: start of its previous slot
@@ -91,6 +94,7 @@ class TokenRing:
             return
         self._acks.add(frame.src)
         self.heard[frame.src] = self.node.clock.now
+        self.slot_range_m[frame.src] = frame.rx_distance_est_m  # its RSSI range, as of its latest ring frame to us
         ev = self._acks_event
         if ev is not None and not ev.triggered and self._acks_needed <= self._acks:
             ev.succeed()
@@ -118,6 +122,8 @@ class TokenRing:
         # order) that saw us report the bearing they saw us at (Fig. 9): wait for them before passing on
         formation = node.formation
         neighbours = [know.members.get(m) for m in formation.neighbours(know.member)] if formation is not None else []
+        # our own slot as our IR self-check sees it: the neighbours that acknowledged our start sign (middleware/diagnosis.py)
+        self.own_slot = (slot_start, frozenset(n for n in neighbours if n in self._acks))
         reporters = node.transmit_ir(neighbours)
         self._headings_expected = set(reporters)
         self._headings_event = clock.event()
@@ -190,6 +196,7 @@ class TokenRing:
     # -- everyone ---------------------------------------------------------------------------------
     def _on_tx_start(self, frame: Frame) -> None:
         self.last_activity_s = self._slot_start[frame.src] = self.heard[frame.src] = self.node.clock.now
+        self.slot_range_m[frame.src] = frame.rx_distance_est_m  # the announcer's RSSI range (the IR self-check)
         seq = frame.payload["seq"]
         self.token_seq = max(seq, self.token_seq)
         self.node.send(msg.TX_START_ACK, dst=frame.src)
@@ -230,6 +237,7 @@ class TokenRing:
         node = self.node
         if frame.dst != node.node_id:
             return
+        self.report_s = node.clock.now
         seen = node.know.ir.get(frame.src)
         if seen is not None and seen.time_s >= self._slot_start.get(frame.src, -math.inf):
             # our bearing of the sender dates from its slot: carry it over our own rotation since (AHRS)

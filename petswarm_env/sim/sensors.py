@@ -94,8 +94,8 @@ class AHRS:
 
 
 def noisy_odometry(velocity_body: tuple[float, float, float], errors) -> tuple[float, float, float]:
-    """The wheel-odometry model: the achieved body velocity ``(vx, vy, ω)``, each component with its
-    relative error (``errors``: three draws of N(0, ``odometry_noise_rel``))."""
+    """The wheel-odometry model: the wheels' velocity ``(vx, vy, ω)`` in the body frame, each
+    component with its relative error (``errors``: three draws of N(0, ``odometry_noise_rel``))."""
     vx, vy, w = velocity_body
     return vx * (1 + errors[0]), vy * (1 + errors[1]), w * (1 + errors[2])
 
@@ -118,9 +118,11 @@ class Odometry:
         return self._velocity()
 
     def _velocity(self) -> tuple[float, float, float]:
-        """What the wheels turn: the achieved velocity, over (1 − slip) on a slipping body."""
+        """What the wheels turn (the wheel encoders): the motors' speed, over (1 − slip) on a slipping
+        body (``Robot.wheel_velocity``; a bare driven body without motors: its achieved velocity)."""
         body = self.body
-        return body.velocity_body if getattr(body, "wheel_gain", 1.0) == 1.0 else body.wheel_velocity
+        wheels = getattr(body, "wheel_velocity", None)
+        return body.velocity_body if wheels is None else wheels
 
 
 class UltrasonicRing:
@@ -289,10 +291,10 @@ class Sensors:
         return self.rng.normal(0.0, k, (n, 3)).tolist() if k > 0 else None
 
     def odometry(self, index: int, noise: list[float] | None = None) -> tuple[float, float, float]:
-        """Wheel odometry of robot ``index``: its achieved body velocity ``(vx, vy, ω)`` with relative
+        """Wheel odometry of robot ``index``: what its wheels turn ``(vx, vy, ω)`` (``Robot.wheel_velocity``) with relative
         noise (``noise``: the three N(0, odometry_noise_rel) errors when drawn already, else drawn here)."""
         robot = self.world.robots[index]
-        velocity = robot.velocity_body if robot.wheel_gain == 1.0 else robot.wheel_velocity  # the wheels' view (slip)
+        velocity = robot.wheel_velocity  # the wheel encoders: the motors' speed, not the body's (a shove turns no wheel)
         k = self.odometry_noise_rel
         if k > 0:
             return noisy_odometry(velocity, self.rng.normal(0.0, k, 3).tolist() if noise is None else noise)

@@ -12,14 +12,19 @@ All three checks run on the robot's MCU, on its own readings:
   slots in a row without a fix, while their radio frames keep arriving, is a broken IR module
   (receiver; the same module transmits). A fix after that clears it (a transient fault's end).
 * **ultrasonic ring**: a neighbour that the robot's own IR fix places on a ring sensor's ray and
-  well within its range must echo: :data:`US_MISSES` such expected echoes in a row that read the
-  maximum range ("nothing there"), with no echo of the ring in between, is a dead ring; any echo
-  afterwards clears it.
+  well within its range must echo: :data:`US_MISSES` such expected echoes that read the maximum
+  range ("nothing there"), with no echo of the ring in between, is a dead ring; so is a full ring
+  (a sensor every 45°) that gave no echo at all for :data:`US_SILENT_S` while IR fixes kept a
+  neighbour near. Any echo afterwards clears it. A ring whose rays all miss its neighbours (they
+  stand between the rays) reads as a dead one does: then nothing tells them apart until one of
+  them comes onto a ray or near.
 * **AHRS**: a working AHRS's yaw carries white noise, so two readings at different times never
   agree to the last bit; :data:`AHRS_FROZEN` readings in a row that repeat the same value are a
-  frozen output (a stuck sensor bus). Beside it (and alone for an AHRS configured without noise):
-  the rotation the robot commanded its wheels over :data:`AHRS_WINDOW_S` against the yaw change
-  the AHRS reported over it. A changing reading clears it.
+  frozen output (a stuck sensor bus). An AHRS configured without noise or drift cannot be judged
+  so: for it, the rotation the robot commanded its wheels over :data:`AHRS_WINDOW_S` against the
+  yaw change the AHRS reported over it (chosen: only then — a robot held by a contact while it
+  turns disagrees too; on the mixed swarm this check alone found two healthy AHRSs broken in 6
+  episodes). A changing reading clears it.
 
 A detection is reported up (:attr:`Diagnosis.on_detect`, the node's seam: its status lowers and
 seed 003 Algorithm 2 step 5 starts) and the robot's own record of its working sensors follows it:
@@ -43,9 +48,17 @@ IR_SOURCES = 3  # chosen: ... of this many holders (our own slot counts as one; 
 # chosen: an IR-placed neighbour this close to a ring sensor's ray (perpendicular, m) must echo: a robot is 0.2 m
 # in radius and the IR bearing is good to ~6° (seed 000 Table 4), 0.1 m at 1 m
 US_RAY_MARGIN_M = 0.1
-US_MARGIN_M = 0.8  # chosen: ... and its rim this much inside the sensor's maximum range
+US_MARGIN_M = 0.8  # chosen: ... and its rim this much inside the sensor's maximum range (1.2 m)
 US_FIX_AGE_S = 0.6  # chosen: an IR fix this fresh places the neighbour well enough for the check
 US_MISSES = 8  # chosen: expected echoes in a row that read nothing -> ring dead
+# chosen: or, on a full ring, no echo at all for this long while an IR fix this fresh places a neighbour's rim this
+# near, within this angle of a sensor's axis (every bearing, for a full ring of 8): healthy petbots' longest such
+# silence, straight and zigzag walks, seeds 0-4 (the ring's rays miss a body between them), was 1.9 s; 3 s without the full-ring condition found
+# healthy rings broken on the mixed swarm
+US_SILENT_S = 3.0
+US_NEAR_AGE_S = 1.5
+US_NEAR_M = 1.0
+US_VIEW_TAN = math.tan(math.radians(30.0))
 AHRS_FROZEN = 6  # chosen: readings in a row, at different times, with the very same value -> frozen output
 AHRS_WINDOW_S = 2.0  # chosen: the commanded rotation is compared with the AHRS over this long ...
 AHRS_TURN_RAD = 0.6  # ... and one over this much with an AHRS change under ...
@@ -73,6 +86,7 @@ class Diagnosis:
         self._us_angles = [2.0 * math.pi * k / us.count for k in range(us.count)]
         self._radius = cfg.robot.radius_m
         self._us_miss = 0
+        self._us_silent_s = 0.0
         p = cfg.protocol
         self._slot_over_s = p.ring_response_timeout_s * 2 + p.ir_tx_s + 0.02  # an IR slot is over by then
         self._ir_seen: dict[int, float] = {}  # announcer -> start of its latest slot evaluated
@@ -92,11 +106,11 @@ class Diagnosis:
         every control period: the ring and IR checks, and the commanded rotation's integral."""
         if not self.robot.health.powered:
             return
-        if self._tick_s is not None:
-            self._turned += self.robot.command[2] * (now_s - self._tick_s)
+        dt = 0.0 if self._tick_s is None else now_s - self._tick_s
+        self._turned += self.robot.command[2] * dt
         self._tick_s = now_s
         self._check_ir(now_s)
-        self._check_ring(ranges, present, now_s)
+        self._check_ring(ranges, present, now_s, dt)
 
     def on_ahrs(self, now_s: float, yaw: float) -> None:
         """Every AHRS reading the robot takes (its MCU's, the observation's)."""
@@ -113,8 +127,9 @@ class Diagnosis:
             while hist and now_s - hist[0][0] > AHRS_WINDOW_S:
                 hist.pop(0)
             if "ahrs" not in self.failed:
-                if self._ahrs_noisy and self._yaw_same >= AHRS_FROZEN - 1:
-                    self._detect("ahrs", now_s)
+                if self._ahrs_noisy:
+                    if self._yaw_same >= AHRS_FROZEN - 1:
+                        self._detect("ahrs", now_s)
                 elif hist and now_s - hist[0][0] >= 0.5 * AHRS_WINDOW_S:
                     turned = self._turned - hist[0][2]
                     seen = abs(wrap_angle(yaw - hist[0][1]))
@@ -162,11 +177,12 @@ class Diagnosis:
         if len(self._ir_missed_from) >= max(2, min(IR_SOURCES, len(near))):
             self._detect("ir", now_s)
 
-    def _check_ring(self, ranges, present, now_s: float) -> None:
+    def _check_ring(self, ranges, present, now_s: float, dt_s: float) -> None:
         top = self._us_max - 1e-9
         echo = any(r < top for r, p in zip(ranges, present) if p)
         if echo:
             self._us_miss = 0
+            self._us_silent_s = 0.0
             if "ultrasonic" in self.failed:
                 self._clear("ultrasonic")
             return
@@ -174,9 +190,11 @@ class Diagnosis:
             return
         know = self._know_of()
         yaw = self.robot.ahrs._last_yaw  # the last AHRS reading the robot took (no new draw)
-        r_own = self._radius
+        r = self._radius
+        on_ray = in_view = False
         for fix in know.ir.values():
-            if now_s - fix.time_s > US_FIX_AGE_S:
+            age = now_s - fix.time_s
+            if age > US_NEAR_AGE_S:
                 continue
             x, y = fix.position_now(yaw)
             for k, a in enumerate(self._us_angles):
@@ -184,14 +202,17 @@ class Diagnosis:
                     continue
                 along = x * math.cos(a) + y * math.sin(a)
                 across = abs(-x * math.sin(a) + y * math.cos(a))
-                # the neighbour (a body of our radius) across the ray and its near rim within reach
-                if across < r_own - US_RAY_MARGIN_M and 0 < along - r_own - r_own < self._us_max - US_MARGIN_M:
-                    self._us_miss += 1
-                    break
-            else:
-                continue
-            break
-        if self._us_miss >= US_MISSES:
+                if not 0 < along - 2 * r < self._us_max - US_MARGIN_M:  # its near rim within reach (a body of our radius)
+                    continue
+                in_view |= across <= along * US_VIEW_TAN and math.hypot(x, y) - 2 * r < US_NEAR_M
+                on_ray |= age <= US_FIX_AGE_S and across < r - US_RAY_MARGIN_M
+        if on_ray:
+            self._us_miss += 1
+        # the silence check needs a full ring (a sensor every 45°): a ring with a gap leaves a neighbour unseen for long
+        # (on the mixed swarm it found healthy r1 and r2 rings broken)
+        full = len(present) >= 8 and all(present)
+        self._us_silent_s = self._us_silent_s + dt_s if in_view and full else 0.0
+        if self._us_miss >= US_MISSES or self._us_silent_s >= US_SILENT_S:
             self._detect("ultrasonic", now_s)
 
     # -- results ------------------------------------------------------------------------------------
@@ -204,7 +225,9 @@ class Diagnosis:
 
     def _clear(self, part: str) -> None:
         self.failed.discard(part)
-        self._us_miss = 0 if part == "ultrasonic" else self._us_miss
+        if part == "ultrasonic":
+            self._us_miss = 0
+            self._us_silent_s = 0.0
         if part == "ir":
             self._ir_miss = 0
             self._ir_missed_from.clear()

@@ -83,6 +83,8 @@ MESSAGES: dict[str, tuple[int, tuple[tuple[str, str], ...]]] = {
     msg.BID: (23, (("seq", "u32"), ("utilities", "bids"))),
     msg.MEMBER_UPDATE: (25, (("seq", "u32"), ("members", "members"), ("shape", "str"), ("links", "links"), ("mode", "str"))),
     msg.MEMBER_UPDATE_ACK: (26, (("seq", "u32"),)),
+    msg.BID_REQUEST: (27, (("seq", "u32"), ("member", "u8"), ("sensors", "u8"))),
+    msg.BID_REQUEST_ACK: (28, (("seq", "u32"),)),
 }
 KIND_OF_CODE = {code: kind for kind, (code, _) in MESSAGES.items()}
 

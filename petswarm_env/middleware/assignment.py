@@ -88,10 +88,19 @@ _CONE_COS = math.cos(math.radians(45.0))  # a slot within 45° of a side's direc
 # (seed 003 §4.2); servo draw 320 mA and wheel slip 1 % (R2, seed 003 §5.2.1); sensing draw 65 mA
 # (R2's sensing, §5.2.1); no manipulator (the petbot has no arm, so no actuator draw).
 PETBOT_PROVISIONAL = {"type": "petbot", "battery_mah": 2500.0, "slip_pct": 1.0, "rate_servo_ma": 320.0,
-                      "rate_act_ma": None, "rate_sens_ma": 65.0, "sensors": ("DISTANCE", "IR", "LF")}
+                      "rate_act_ma": None, "rate_sens_ma": 65.0, "sensors": ("DISTANCE", "IR", "LF", "AHRS")}
 # the status answer's sensor bit mask (seed 001's sensor types): DISTANCE (the ultrasonic sensors), the IR
-# ring, the LF antennas
-SENSOR_BITS = {"DISTANCE": 1, "IR": 2, "LF": 4}
+# ring, the LF antennas, the AHRS (every robot carries one, seed 000 §3.5; a bit of its own so a robot whose
+# AHRS failed can say so)
+SENSOR_BITS = {"DISTANCE": 1, "IR": 2, "LF": 4, "AHRS": 8}
+AHRS = "AHRS"
+# chosen: what holding a formation slot needs working — the IR ring that locates the neighbours (seed 000 §3.3)
+# and the AHRS that carries the IR bearings over the robot's own rotation and gives the heading exchange its
+# turn (§3.5); a robot without either cannot keep its slot (seed 003 Algorithm 2 step 5's "prevented from
+# completing task v_j")
+SLOT_NEEDS = frozenset({"IR", AHRS})
+# the robot's own names of its sensing parts (middleware/diagnosis.py) -> the sensor type they are
+FAILED_KIND = {"ultrasonic": "DISTANCE", "ir": "IR", "ahrs": AHRS}
 
 
 # chosen: a wheel slip below this counts as this (%): φ_nav's 1/w diverges at w = 0 (a type may give
@@ -107,17 +116,19 @@ def own_status(station: Station) -> ruta.RobotStatus:
     figures (:data:`PETBOT_PROVISIONAL`; its body, radius and limits are ``cfg.robot``, which seed
     003's φ do not use).
 
-    Sensor faults: a robot whose ultrasonic sensors failed reports no sensing draw (``rate_sens_ma``
-    None), so it is not capable of the slots with a sensing part; the body report says which of its
-    sensors work (``Sensors.sensor_off``), a bare station's ``failed_sensors`` when it has it (a set of sensor names, e.g.
-    ``{"ultrasonic"}``), else none failed."""
-    failed = getattr(station, "failed_sensors", frozenset())  # HOOK: sensor faults lower φ_sens
+    Sensor faults: the parts the robot has found broken (``failed_sensors``: its own diagnosis,
+    middleware/diagnosis.py, e.g. ``{"ultrasonic"}``) and the sensors its body report says do not
+    work (``working``) are left out of its sensors; a robot whose ultrasonic sensors failed reports
+    no sensing draw (``rate_sens_ma`` None), so it is not capable of the slots with a sensing part;
+    one whose IR ring or AHRS failed of no slot (:data:`SLOT_NEEDS`)."""
+    failed = getattr(station, "failed_sensors", frozenset())
     body = station.own_body_status() if hasattr(station, "own_body_status") else None
     if body is not None:
         return status_from_body(body, failed)
     p = PETBOT_PROVISIONAL
     has_ring = station.cfg.robot.ultrasonic.count > 0 and "ultrasonic" not in failed
-    sensors = frozenset(k for k in p["sensors"] if k != "DISTANCE" or has_ring)
+    broken = {FAILED_KIND[f] for f in failed if f in FAILED_KIND}
+    sensors = frozenset(k for k in p["sensors"] if (k != "DISTANCE" or has_ring) and k not in broken)
     return ruta.RobotStatus(id=station.node_id, p_rem_mah=p["battery_mah"], slip_pct=p["slip_pct"],
                             rate_servo_ma=p["rate_servo_ma"], rate_act_ma=p["rate_act_ma"],
                             rate_sens_ma=p["rate_sens_ma"] if has_ring else None, robot_type=p["type"],
@@ -127,13 +138,17 @@ def own_status(station: Station) -> ruta.RobotStatus:
 def status_from_body(body: Mapping, failed: Iterable[str] = ()) -> ruta.RobotStatus:
     """A body's own report (``Robot.own_status()``'s dict: ``id``, ``type``,
     ``battery_mah`` left, ``battery_empty``, ``wheel_slip_pct``, ``servo_ma``, ``actuator_ma``,
-    ``sensing_ma``, ``sensors`` [{type, ...}]) as RUTA's status: a draw of 0 is no such module, no
-    working ``DISTANCE`` sensor (none registered, or ``"ultrasonic"`` in ``failed``) no sensing, an
-    empty battery a faulty robot, the slip at least :data:`MIN_SLIP_PCT`."""
+    ``sensing_ma``, ``sensors`` [{type, working, ...}]) as RUTA's status: a draw of 0 is no such
+    module, no working ``DISTANCE`` sensor (none registered, none ``working``, or ``"ultrasonic"`` in
+    ``failed``) no sensing, an empty battery a faulty robot, the slip at least :data:`MIN_SLIP_PCT`.
+    The sensors reported are the kinds with a ``working`` sensor, and the AHRS every robot carries,
+    less the parts in ``failed`` (the robot's own diagnosis: :data:`FAILED_KIND`)."""
     def rate(x: float | None) -> float | None:
         return float(x) if x is not None and x > 0 else None
-    sensing = any(sn["type"] == "DISTANCE" for sn in body.get("sensors", ())) and "ultrasonic" not in set(failed)
-    kinds = frozenset(sn["type"] for sn in body.get("sensors", ()) if sn["type"] != "DISTANCE" or sensing)
+    broken = {FAILED_KIND[f] for f in failed if f in FAILED_KIND}
+    working = [sn for sn in body.get("sensors", ()) if sn.get("working", True)]
+    sensing = any(sn["type"] == "DISTANCE" for sn in working) and "DISTANCE" not in broken
+    kinds = frozenset(k for k in {sn["type"] for sn in working} | {AHRS} if k not in broken)
     return ruta.RobotStatus(id=body["id"], p_rem_mah=max(0.0, float(body["battery_mah"])),
                             slip_pct=max(float(body["wheel_slip_pct"]), MIN_SLIP_PCT),
                             rate_servo_ma=rate(body["servo_ma"]), rate_act_ma=rate(body.get("actuator_ma")),
@@ -169,8 +184,10 @@ def slots_formation(swarm: SwarmConfig, open_members: Sequence[int]) -> Formatio
 
 def slot_subtask(member: int, exposed: int, cfg: RutaConfig) -> ruta.Subtask:
     """Slot ``member`` as seed 003's subtask: navigation, plus sensing for (exposed/4)·t_m seconds on
-    the outer edge; announced at 0 (priorities take the slot's age as t)."""
-    return ruta.Subtask(str(member), 0.0, nav=True, sens_s=cfg.t_m_s * exposed / 4.0 if exposed else None)
+    the outer edge; announced at 0 (priorities take the slot's age as t); it needs the IR ring and the
+    AHRS working (:data:`SLOT_NEEDS`)."""
+    return ruta.Subtask(str(member), 0.0, nav=True, sens_s=cfg.t_m_s * exposed / 4.0 if exposed else None,
+                        needs=SLOT_NEEDS)
 
 
 def slot_distance(r_m: float, a_m: float) -> float:

@@ -57,22 +57,28 @@ class Fleet:
 
     # -- the IR medium (seed 000 §3.3 Fig. 7, §3.5 Fig. 9) --------------------------------------------
     def ir_slot(self, holder: Node, neighbours: list[int | None]) -> list[int]:
-        """The token holder's IR transmission (its IR port): every other member of its swarm on its
-        PAN measures it now, and each of the holder's ``neighbours`` (node ids, in the holder's
-        order) that measured it in this slot reports the bearing it saw it at (heading exchange).
-        Returns the reporters' ids, for which the holder waits."""
+        """The token holder's IR transmission (its IR port): every other robot of its swarm (on its
+        PAN, by the robots' own state, not the holder's table) whose IR module works measures it now
+        and credits the reading to the robot its own ring frames announced as the holder
+        (``TokenRing.announced_holder``: a robot that missed the announcement drops it, one that heard
+        another holder named credits it there, as a real one would); each of the holder's
+        ``neighbours`` (node ids, in the holder's order) that measured it in this slot reports the
+        bearing it saw it at (heading exchange). Returns the reporters' ids, for which the holder waits."""
         nodes = self.nodes
         own, pan = holder.node_id, holder.swarm_pan
         if not holder.health.ir_ok:  # the IR module is off (a fault): no transmission, nothing measured
             return []
-        receivers = [n for n in holder.know.members.values()
-                     if n != own and nodes[n].swarm_pan == pan and nodes[n].health.ir_ok]
+        # in the order of the member number each receiver holds (its own table's; the order of the draws)
+        receivers = sorted((n for n, node in nodes.items() if n != own and node.swarm_pan == pan and node.health.ir_ok),
+                           key=lambda n: (nodes[n].know.member, n))
         if not receivers:
             return []
         dist, bearing, valid = self.ir_channel.measure(own, receivers)
         for rid, d, b, ok in zip(receivers, dist, bearing, valid):
             if ok:
-                nodes[rid].store_ir(own, d, b)
+                heard = nodes[rid].ring.announced_holder()
+                if heard is not None and heard != rid:
+                    nodes[rid].store_ir(heard, d, b)
         return [rid for rid in neighbours if rid in receivers and nodes[rid].ring.report_heading(own)]
 
     def foreign_pan_frames_processed(self) -> int:

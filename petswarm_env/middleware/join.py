@@ -387,6 +387,9 @@ class JoinManager:
         if node.state not in SCAN_ANSWERING_STATES and node.connected_user is None:
             return  # joined another swarm meanwhile: it no longer hears the common PAN anyway
         ok = can_join(node.connected_user, frame.rx_distance_est_m, node.cfg.protocol.join_radius_m)
+        if frame.kind == msg.JOIN_QUERY and getattr(node, "failed_sensors", ()):
+            ok = False  # chosen: Table 2 knows no sensors, so a robot that found one of its own broken declines
+            # (ruta_centralized asks for the status instead, which then speaks for it)
         self._query_range_m = frame.rx_distance_est_m
         if frame.kind == msg.STATUS_QUERY:  # the master asks for the status (ruta_centralized)
             node.send(msg.STATUS_ANSWER, dst=frame.src, pan=PAN_WAITING,

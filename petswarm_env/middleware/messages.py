@@ -36,6 +36,10 @@ HANDOVER_ACK = "handover_ack"
 
 MEMBER_UPDATE = "member_update"  # master -> swarm: a member removed or recruited: new total, member and neighbour tables (issue 15)
 MEMBER_UPDATE_ACK = "member_update_ack"
+# a member whose sensor failed so that it cannot hold its slot -> master (seed 003 Algorithm 2 step 5: "it sends a
+# request (bid) to the other robots"; the master, which holds the tables, runs the takeover)
+BID_REQUEST = "bid_request"
+BID_REQUEST_ACK = "bid_request_ack"
 
 # Payload sizes (bytes of MAC payload; the PHY and MAC headers and the FCS are
 # ``radio.frame_overhead_bytes``). Encoding (chosen): a frame kind 1 byte; a node id 2 (an 802.15.4
@@ -74,6 +78,8 @@ SIZE_BYTES = {
     HANDOVER_ACK: 4,  # kind, sequence, status
     MEMBER_UPDATE: 8,  # kind, sequence 2, total members, mode, shape, removed count, added count (+ member and neighbour tables)
     MEMBER_UPDATE_ACK: 4,  # kind, the update's sequence, own member number
+    BID_REQUEST: 6,  # kind, sequence, own member number, the sensors that work (bit mask), 1 spare
+    BID_REQUEST_ACK: 4,  # kind, the request's sequence, status
 }
 
 MEMBER_ENTRY_BYTES = 2  # the member table: the node id of each member, in member-number order

@@ -20,6 +20,7 @@ import numpy as np
 from petswarm_env.comms.radio import Frame, RadioMedium
 from petswarm_env.config import Config
 from petswarm_env.middleware import messages as msg
+from petswarm_env.middleware.diagnosis import Diagnosis
 from petswarm_env.middleware.join import JoinManager
 from petswarm_env.middleware.knowledge import MasterStatus
 from petswarm_env.middleware.modes import ModeManager
@@ -45,7 +46,17 @@ class Node(Station):
         self.modes = ModeManager(self)
         self.recovery = RecoveryManager(self, self.join, self.ring.forget, self.seq.leave_swarm)
         self.ring.lost_handler = self.recovery.member_lost
+        # the robot's own sensor diagnosis (middleware/diagnosis.py), fed by its ring and AHRS readings
+        self.diagnosis = Diagnosis(node_id, cfg, robot, lambda: self.know, self.ring)
+        self.diagnosis.on_detect = self.recovery.sensor_failed
+        robot.on_ring = self.diagnosis.on_ring
+        robot.ahrs.on_reading = self.diagnosis.on_ahrs
         self.on(msg.STATUS, self._on_status)
+
+    @property
+    def failed_sensors(self) -> frozenset[str]:
+        """The parts this robot has found broken itself (its status report leaves them out)."""
+        return frozenset(self.diagnosis.failed)
 
     def _on_status(self, frame: Frame) -> None:
         """The master's periodic broadcast (seed 000 §3.5, Fig. 9): keep the latest."""

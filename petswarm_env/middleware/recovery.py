@@ -4,12 +4,14 @@ taken over, robots are added at runtime).
 Both sides run on one robot's station, like the other managers:
 
 * **removal** (master): the token ring declares a member lost (:mod:`.token_ring`: silent for
-  ``protocol.lost_after_rounds`` rounds). The master removes it from its tables: the member with
-  the highest number takes the lost one's number (it drives to that slot; nobody else moves) and
-  the formation is the standard one of the master's shape for one member less
-  (:func:`~.formation.formation_for_mode`; chosen: every member number stays in 1..n, so every
-  rule that numbers the members — the ring order, the neighbour tables, Table 3 — works as
-  before). It broadcasts the *member update* frame — new total, member table, neighbour table,
+  ``protocol.lost_after_rounds`` rounds), or a member whose sensor failed asks to be replaced (its
+  bid request, seed 003 Algorithm 2 step 5: :meth:`RecoveryManager.sensor_failed`). The master
+  removes it from its tables; the formation is the standard one of the master's shape for one
+  member less (:func:`~.formation.formation_for_mode`; chosen: every member number stays in 1..n,
+  so every rule that numbers the members — the ring order, the neighbour tables, Table 3 — works
+  as before), and the remaining members take its slots by the least total distance the master
+  estimates from its IR fixes and RSSI ranges (:meth:`RecoveryManager.nearest_slots`: the robots
+  near a slot fill it, so the loss moves the fewest metres). It broadcasts the *member update* frame — new total, member table, neighbour table,
   mode (:mod:`.messages`) — until every remaining member acknowledged it (a lost update or a lost
   acknowledgement → broadcast again, within ``protocol.max_retries``; a member that never heard
   it keeps its old tables until the next update, and if it was the one renumbered, the ring does
@@ -33,13 +35,21 @@ robots), for the user's swarm and the experimenter.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 
 from petswarm_env.comms.radio import Frame
+from petswarm_env.middleware import assignment, ruta
 from petswarm_env.middleware import messages as msg
 from petswarm_env.middleware.formation import Formation, formation_for_mode
+from petswarm_env.middleware.knowledge import FRESH_IR_S
 from petswarm_env.middleware.join import JoinManager, OrganizeResult
 from petswarm_env.middleware.station import Station
+
+
+# chosen: a member whose RSSI range differs from its slot's distance from the master by more than this is not at
+# its slot (the RSSI range is off by ~10 % at 1 dB shadowing: 0.2 m at 2 m)
+OFF_SLOT_M = 0.75
 
 
 class RecoveryManager:
@@ -60,8 +70,13 @@ class RecoveryManager:
         self.busy = False
         self.update_retries = 0  # master: member-update broadcasts repeated for a missing acknowledgement
         self.refills: list[OrganizeResult] = []
+        self.bid_requests: list[tuple[float, str]] = []  # member: (time, the part that failed) of each bid request started
+        self._request_seq = -1
+        self._request_acked = None
         node.on(msg.MEMBER_UPDATE, self._on_update)
         node.on(msg.MEMBER_UPDATE_ACK, self._on_ack)
+        node.on(msg.BID_REQUEST, self._on_bid_request)
+        node.on(msg.BID_REQUEST_ACK, self._on_bid_request_ack)
 
     # -- master side ----------------------------------------------------------------------------
     def member_lost(self, node_id: int) -> None:
@@ -114,13 +129,12 @@ class RecoveryManager:
         lost = next((m for m, n in members.items() if n == node_id), None)
         if lost is None or lost == 0:
             return
-        last = max(members)
-        members[lost] = members[last]  # the last member takes the lost one's number (and slot)
-        del members[last]
+        del members[lost]
         try:
             formation = formation_for_mode(node.cfg.swarm, len(members), know.mode)
         except ValueError:  # a custom table fixes its size: the loss is detected, the tables stay
             return
+        members = self.nearest_slots(members, formation)
         self._commit(members, formation)
         self._forget(node_id)
         node.members_changed.emit("lost", [node_id])
@@ -128,6 +142,45 @@ class RecoveryManager:
         # acknowledgement; its own update, once a robot joined, supersedes this one)
         node.clock.process(self._announce(members, formation))
         yield node.clock.timeout(0.0)
+
+    def nearest_slots(self, members: dict[int, int], formation: Formation) -> dict[int, int]:
+        """The remaining slaves (``members``: member number -> node id, the lost one out) on the slots
+        1..n of ``formation`` by the least total distance the master estimates (chosen: the slots fill
+        with the robots already near them, so a loss moves the fewest metres). Where the master
+        places a member, in its own frame (the formation frame: x along its heading): where its IR
+        fix puts it when the fix is fresh (:data:`~.knowledge.FRESH_IR_S`); else at the slot it
+        holds (it drives there) unless the RSSI range of its latest ring frame disagrees with that
+        slot's distance by more than :data:`OFF_SLOT_M` — then r from the master, bearing unknown
+        (:func:`~.assignment.slot_distance`). Equal totals keep the robots in member order."""
+        node = self.node
+        know = node.know
+        slaves = [n for m, n in sorted(members.items()) if m != 0]
+        holds = {n: m for m, n in members.items()}
+        held = node.formation.slot_positions().tolist() if node.formation is not None else []
+        slots = formation.slot_positions().tolist()[1: len(slaves) + 1]
+        yaw = node.ahrs_yaw()
+        now = node.clock.now
+        ranges = node.ring.slot_range_m if hasattr(node, "ring") else {}
+        cost = []
+        for n in slaves:
+            fix = know.ir.get(n)
+            r = ranges.get(n, math.nan)
+            at = held[holds[n]] if holds[n] < len(held) else None
+            if fix is not None and now - fix.time_s <= FRESH_IR_S:
+                at = fix.position_now(yaw)
+            elif at is not None and math.isfinite(r) and abs(r - math.hypot(*at)) > OFF_SLOT_M:
+                at = None  # not at its slot by the RSSI
+            if at is not None:
+                cost.append([math.hypot(at[0] - sx, at[1] - sy) for sx, sy in slots])
+            elif math.isfinite(r):
+                cost.append([assignment.slot_distance(r, math.hypot(sx, sy)) for sx, sy in slots])
+            else:
+                cost.append([0.0] * len(slots))  # nothing known: any slot
+        order = least_total(cost)
+        out = {0: members[0]}
+        for i, n in enumerate(slaves):
+            out[order[i] + 1] = n
+        return dict(sorted(out.items()))
 
     def _refill(self):
         node = self.node
@@ -180,7 +233,60 @@ class RecoveryManager:
         if ev is not None and not ev.triggered and self._needed <= self._acks:
             ev.succeed()
 
+    def _on_bid_request(self, frame: Frame) -> None:
+        """Master: a member cannot hold its slot any more (its sensor failed): acknowledge, then take
+        it out of the tables like a lost member — its slot is open, the members are re-planned and the
+        refill recruits the fittest robot for it by ``swarm.assignment`` (seed 003 Algorithm 2 steps
+        5-7: the slot announcement is the request to the free robots, the fittest bid takes it over;
+        Algorithm 1 on their status reports with ``ruta_centralized``)."""
+        node = self.node
+        if frame.dst != node.node_id or node.state != "master":
+            return
+        node.send(msg.BID_REQUEST_ACK, dst=frame.src, seq=frame.payload["seq"])
+        if frame.src in node.know.members.values():
+            self.member_lost(frame.src)
+
+    def _on_bid_request_ack(self, frame: Frame) -> None:
+        ev = self._request_acked
+        if frame.dst == self.node.node_id and frame.payload["seq"] == self._request_seq and ev is not None \
+                and not ev.triggered:
+            ev.succeed()
+
     # -- members --------------------------------------------------------------------------------
+    def sensor_failed(self, part: str) -> None:
+        """The robot's own diagnosis found ``part`` broken (middleware/diagnosis.py). A slave that its
+        lowered status leaves unable to hold its slot (``ruta.must_request_bids`` on the slot's
+        subtask, :func:`~.assignment.slot_subtask`) sends the bid request to its master (seed 003
+        Algorithm 2 step 5), repeated until acknowledged (``protocol.max_retries``)."""
+        node = self.node
+        if node.state != "slave" or node.formation is None:
+            return
+        member = node.know.member
+        geometry = assignment.slot_geometry(node.formation)
+        if member not in geometry:
+            return
+        held = assignment.slot_subtask(member, geometry[member][1], node.cfg.ruta)
+        status = assignment.own_status(node)
+        if ruta.must_request_bids(status, held):
+            self.bid_requests.append((node.clock.now, part))
+            sensors = sum(bit for kind, bit in assignment.SENSOR_BITS.items() if kind in status.sensors)
+            node.clock.process(self._request_bids(member, sensors))
+
+    def _request_bids(self, member: int, sensors: int):
+        node = self.node
+        clock = node.clock
+        cfg = node.cfg.protocol
+        pan = node.swarm_pan
+        seq = self._request_seq = int(round(clock.now * 1000))
+        for _ in range(cfg.max_retries + 1):
+            if node.state != "slave" or node.swarm_pan != pan or node.member_node(0) is None:
+                return  # removed meanwhile (the member update came): the request was heard
+            self._request_acked = clock.event()
+            node.send(msg.BID_REQUEST, dst=node.member_node(0), seq=seq, member=member, sensors=sensors)
+            yield clock.any_of([self._request_acked, clock.timeout(cfg.response_timeout_s)])
+            if self._request_acked.triggered:
+                return
+
     def _on_update(self, frame: Frame) -> None:
         node = self.node
         if node.state != "slave":
@@ -200,3 +306,47 @@ class RecoveryManager:
         know.member = next(m for m, n in members.items() if n == node.node_id)
         know.mode = p["mode"]
         node.formation = Formation.from_links_payload(p["shape"], p["links"])
+
+
+def least_total(cost: list[list[float]]) -> list[int]:
+    """The assignment of rows to columns of the square ``cost`` matrix with the least total (the
+    Hungarian method, O(n³); row i -> column ``out[i]``). Among equal totals, the one the method
+    reaches first from the diagonal (a robot keeps the column of its own index when nothing is gained)."""
+    n = len(cost)
+    if n == 0:
+        return []
+    inf = math.inf
+    u, v = [0.0] * (n + 1), [0.0] * (n + 1)
+    p, way = [0] * (n + 1), [0] * (n + 1)  # p[j]: the row on column j (1-based, 0 = none)
+    for i in range(1, n + 1):
+        p[0] = i
+        j0 = 0
+        minv = [inf] * (n + 1)
+        used = [False] * (n + 1)
+        while True:
+            used[j0] = True
+            i0, delta, j1 = p[j0], inf, 0
+            for j in range(1, n + 1):
+                if not used[j]:
+                    cur = cost[i0 - 1][j - 1] - u[i0] - v[j]
+                    if cur < minv[j] - 1e-12:
+                        minv[j], way[j] = cur, j0
+                    if minv[j] < delta:
+                        delta, j1 = minv[j], j
+            for j in range(n + 1):
+                if used[j]:
+                    u[p[j]] += delta
+                    v[j] -= delta
+                else:
+                    minv[j] -= delta
+            j0 = j1
+            if p[j0] == 0:
+                break
+        while j0:
+            j1 = way[j0]
+            p[j0] = p[j1]
+            j0 = j1
+    out = [0] * n
+    for j in range(1, n + 1):
+        out[p[j] - 1] = j - 1
+    return out

@@ -143,7 +143,9 @@ class RutaParams:
 class Subtask:
     """One subtask v_j: announced at ``announced_s`` (t_j, s), with the parts it has: ``nav``igation,
     manipulation for ``manip_s`` seconds and sensing for ``sens_s`` seconds (t_s; None = no such
-    part). ``located``: d_ij is the robot's distance to it; False: d_ij = 1 (§4.1.2)."""
+    part). ``located``: d_ij is the robot's distance to it; False: d_ij = 1 (§4.1.2). ``needs``: the
+    kinds of sensor it needs working (seed 003 Algorithm 2 step 5: "a sensor fails on one robot r_i
+    by which it is prevented from completing task v_j"; chosen, the paper names none)."""
 
     id: str
     announced_s: float = 0.0
@@ -151,6 +153,7 @@ class Subtask:
     manip_s: float | None = None
     sens_s: float | None = None
     located: bool = True
+    needs: frozenset[str] = frozenset()  # sensor kinds the subtask cannot be done without (RobotStatus.sensors)
 
     def __post_init__(self) -> None:
         if not self.nav and self.manip_s is None and self.sens_s is None:
@@ -181,8 +184,8 @@ class RobotStatus:
 
 def capable(robot: RobotStatus, subtask: Subtask) -> bool:
     """Seed 003 assigns a subtask "to the specific robot (that is capable of accomplishing it)":
-    not faulty, battery left, and a working module for every part of the subtask."""
-    if robot.faulty or robot.p_rem_mah <= 0:
+    not faulty, battery left, a working module for every part of the subtask and every sensor it needs."""
+    if robot.faulty or robot.p_rem_mah <= 0 or not subtask.needs <= robot.sensors:
         return False
     return ((not subtask.nav or robot.rate_servo_ma is not None)
             and (subtask.manip_s is None or robot.rate_act_ma is not None)

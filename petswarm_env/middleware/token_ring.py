@@ -39,6 +39,11 @@ from petswarm_env.middleware.station import Station
 from petswarm_env.sim.geometry import wrap_angle
 
 
+# chosen: a holder announced this long ago (its start sign, sync or the token to it) still transmits: the slot's
+# acknowledgement wait and its IR transmission (protocol.ring_response_timeout_s 0.05 + ir_tx_s 0.04) with room
+ANNOUNCE_S = 0.12
+
+
 def relative_heading(bearing_self_sees_other: float, bearing_other_sees_self: float) -> float:
     """θ_other − θ_self from the two mutual IR bearings (seed 000 §3.5; SPEC §3.4)."""
     return wrap_angle(bearing_self_sees_other - bearing_other_sees_self + math.pi)
@@ -58,6 +63,11 @@ class TokenRing:
         self._headings_expected: set[int] = set()
         self._headings_event = None
         self._slot_start: dict[int, float] = {}  # robot -> start of its latest IR slot (its TX_START)
+        self.holder_heard: tuple[int | None, float] = (None, -math.inf)  # (sender of the latest start sign or sync, when)
+        self.token_to: tuple[int | None, float] = (None, -math.inf)  # (the robot the latest token heard went to, when)
+        self.own_slot: tuple[float, frozenset[int]] | None = None  # (start, neighbours that acked) of our latest slot
+        self.report_s = -math.inf  # when a neighbour last reported the bearing it saw us at (heading exchange)
+        self.slot_range_m: dict[int, float] = {}  # robot -> the RSSI range of its latest start sign or ack to us (middleware/diagnosis.py)
         self.heard: dict[int, float] = {}  # robot -> when we last received one of its ring frames
         self.silent_rounds: dict[int, int] = {}  # master: member -> rounds in a row it was not heard in
         self.round_start_s = 0.0  # master: start of its previous slot
@@ -91,6 +101,7 @@ class TokenRing:
             return
         self._acks.add(frame.src)
         self.heard[frame.src] = self.node.clock.now
+        self.slot_range_m[frame.src] = frame.rx_distance_est_m  # its RSSI range, as of its latest ring frame to us
         ev = self._acks_event
         if ev is not None and not ev.triggered and self._acks_needed <= self._acks:
             ev.succeed()
@@ -118,6 +129,8 @@ class TokenRing:
         # order) that saw us report the bearing they saw us at (Fig. 9): wait for them before passing on
         formation = node.formation
         neighbours = [know.members.get(m) for m in formation.neighbours(know.member)] if formation is not None else []
+        # our own slot as our IR self-check sees it: the neighbours that acknowledged our start sign (middleware/diagnosis.py)
+        self.own_slot = (slot_start, frozenset(n for n in neighbours if n in self._acks))
         reporters = node.transmit_ir(neighbours)
         self._headings_expected = set(reporters)
         self._headings_event = clock.event()
@@ -190,6 +203,8 @@ class TokenRing:
     # -- everyone ---------------------------------------------------------------------------------
     def _on_tx_start(self, frame: Frame) -> None:
         self.last_activity_s = self._slot_start[frame.src] = self.heard[frame.src] = self.node.clock.now
+        self.holder_heard = (frame.src, self.node.clock.now)
+        self.slot_range_m[frame.src] = frame.rx_distance_est_m  # the announcer's RSSI range (the IR self-check)
         seq = frame.payload["seq"]
         self.token_seq = max(seq, self.token_seq)
         self.node.send(msg.TX_START_ACK, dst=frame.src)
@@ -197,6 +212,9 @@ class TokenRing:
     def _on_token(self, frame: Frame) -> None:
         node = self.node
         self.last_activity_s = self.heard[frame.src] = node.clock.now
+        nxt = node.know.members.get(frame.payload["next"])
+        if nxt is not None:
+            self.token_to = (nxt, node.clock.now)
         node.send(msg.TOKEN_ACK, dst=frame.src)
         seq = frame.payload["seq"]
         if seq <= self.token_seq or node.know.members.get(frame.payload["next"]) != node.node_id:
@@ -209,7 +227,21 @@ class TokenRing:
 
     def _on_sync(self, frame: Frame) -> None:
         self.last_activity_s = self.heard[frame.src] = self.node.clock.now
+        self.holder_heard = (frame.src, self.node.clock.now)
         self.token_seq = max(self.token_seq, frame.payload["seq"])
+
+    def announced_holder(self) -> int | None:
+        """Who transmits the IR we measure now, as this robot knows it: the sender of the latest
+        start sign or sync it heard (the holder's own frames), else the robot the latest token it
+        heard was passed to, if that frame is recent enough to be this slot's (:data:`ANNOUNCE_S`);
+        None: it heard no announcement and cannot say whose IR it measured (the measurement is
+        dropped). Chosen order: a token's "next" names a member by the receiver's own table and a
+        token may be passed on again (its acknowledgement lost) while the first robot holds."""
+        now = self.node.clock.now
+        for holder, t in (self.holder_heard, self.token_to):
+            if now - t <= ANNOUNCE_S:
+                return holder
+        return None
 
     def report_heading(self, holder: int) -> bool:
         """The IR medium asks a neighbour of the transmitter ``holder`` at the end of its slot: if
@@ -230,6 +262,7 @@ class TokenRing:
         node = self.node
         if frame.dst != node.node_id:
             return
+        self.report_s = node.clock.now
         seen = node.know.ir.get(frame.src)
         if seen is not None and seen.time_s >= self._slot_start.get(frame.src, -math.inf):
             # our bearing of the sender dates from its slot: carry it over our own rotation since (AHRS)

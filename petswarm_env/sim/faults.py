@@ -12,8 +12,9 @@ the robot, and each part's model asks :class:`Health` whether it works:
 * ``ir`` — the IR module is off: no transmission in its token slot, no reception of the others';
 * ``ultrasonic`` — the ring gives no readings: every sensor reads ``robot.ultrasonic.max_range_m``
   (an echo-less ping: "nothing in range"; chosen, the value the ring gives in the open, so the
-  safety stage sees no obstacle). :meth:`Faults.ultrasonic_ok` is the per-robot flag the
-  sensors follow (``Sensors.sensor_off``: the observation's presence flags read 0);
+  safety stage sees no obstacle). :meth:`Faults.ultrasonic_ok` is the per-robot flag the ring
+  model follows (``Sensors.read_rings``); the observation's presence flags and the robot's status
+  change only when its own diagnosis has found the ring dead (middleware/diagnosis.py);
 * ``ahrs`` — the AHRS gives no new yaw: it repeats its last reading from the fault on (a frozen
   output; chosen — the robot's software cannot tell, like a stuck sensor bus).
 
@@ -108,7 +109,7 @@ class Faults:
         return self.states[robot].ultrasonic_ok
 
     def sensing_health(self, robot: int) -> dict[str, bool]:
-        """The sensing parts that work, for the RUTA sensing utility (seed 003 §4.1.2, φ_sens): a
-        experimenter's view: a sensor fault lowers what the robot can deliver."""
+        """The sensing parts that work: the experimenter's view (a robot's own status reads what its
+        diagnosis found, middleware/diagnosis.py, never this)."""
         s = self.states[robot]
         return {"ultrasonic": s.ultrasonic_ok, "ir": s.ir_ok, "ahrs": s.ahrs_ok}

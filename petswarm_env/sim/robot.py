@@ -95,6 +95,7 @@ class Robot(DrivenBody):
         battery = body.battery if body is not None else _PETBOT_BATTERY
         self.battery = Battery(battery, rc.max_speed_mps, rc.max_omega_rps)
         self._drain = self.battery.drain  # bound once: it runs every substep
+        self._wheels = (0.0, 0.0, 0.0)  # the motors' own-frame speed, body share (wheel_velocity)
         self.sensors_off: set[int] = set()  # ids of its sensors that are faulty (Sensors.sensor_off sets it)
         slip = body.slip if body is not None else 0.0
         self._keep = 1.0 - slip  # the body's share of the wheels' motion
@@ -118,15 +119,31 @@ class Robot(DrivenBody):
         self.command = cmd if keep == 1.0 else (cmd[0] * keep, cmd[1] * keep, cmd[2] * keep)
 
     def apply(self, dt: float) -> None:
-        """One substep of the drive, then the battery's drain over it (an empty battery stops the robot)."""
+        """One substep of the drive, then the battery's drain over it (an empty battery stops the
+        robot); the motors' own speed follows the command (:attr:`wheel_velocity`)."""
         self.drive(dt)  # DrivenBody.apply's drive (compiled)
+        # the wheels' speed as the motor controllers drive it: toward the command under the same limits,
+        # from its own previous value — a shove or a wall moves the body, not the wheels (they slip)
+        wx, wy, ww = self._wheels
+        cx, cy, cw = self.command
+        dvx, dvy = cx - wx, cy - wy
+        if dvx or dvy or cw != ww:
+            dv = math.hypot(dvx, dvy)
+            if dv > self._max_dv:
+                k = self._max_dv / dv
+                dvx *= k
+                dvy *= k
+            dw = max(-self._max_dw, min(self._max_dw, cw - ww))
+            self._wheels = (wx + dvx, wy + dvy, ww + dw)
         if self._drain(dt, self.velocity_body):
             self.command = (0.0, 0.0, 0.0)
 
     @property
     def wheel_velocity(self) -> tuple[float, float, float]:
-        """What the wheels turn (the odometry's view): the achieved velocity over (1 − slip)."""
-        v = self.velocity_body
+        """What the wheels turn (the odometry's view, the wheel encoders'): the motors' speed, which
+        follows the command under the acceleration limits whatever the body does (contacts, shoves),
+        over (1 − slip) of the body's share."""
+        v = self._wheels
         g = self.wheel_gain
         return v if g == 1.0 else (v[0] * g, v[1] * g, v[2] * g)
 

@@ -55,6 +55,7 @@ class AHRS:
         self.rng = np.random.default_rng(0) if rng is None else rng  # (the env gives every robot its own stream)
         self._health = getattr(body, "health", None)  # an AHRS fault freezes the output (sim/faults.py)
         self._last_yaw = 0.0
+        self.on_reading = None  # the robot's software sees every reading (its self-diagnosis): on_reading(now_s, yaw)
 
     def power_on(self, rng: np.random.Generator, now_s: float = 0.0) -> None:
         """Switch on at clock time ``now_s`` with the noise stream ``rng`` (its first draw is the
@@ -78,6 +79,8 @@ class AHRS:
         (one normal), then one normal of white noise."""
         health = self._health
         if health is not None and not health.ahrs_ok:
+            if self.on_reading is not None:
+                self.on_reading(now_s, self._last_yaw)
             return self._last_yaw  # no new yaw: the last reading repeats
         draws = self._draws
         dt = now_s - self.time_s
@@ -85,12 +88,14 @@ class AHRS:
             self.bias_rad += self.drift_rad * math.sqrt(dt) * draws.normal()
             self.time_s = now_s
         yaw = self._last_yaw = self._heading() - self.power_on_heading_rad + self.bias_rad + self.noise_rad * draws.normal()
+        if self.on_reading is not None:
+            self.on_reading(now_s, yaw)
         return yaw
 
 
 def noisy_odometry(velocity_body: tuple[float, float, float], errors) -> tuple[float, float, float]:
-    """The wheel-odometry model: the achieved body velocity ``(vx, vy, ω)``, each component with its
-    relative error (``errors``: three draws of N(0, ``odometry_noise_rel``))."""
+    """The wheel-odometry model: the wheels' velocity ``(vx, vy, ω)`` in the body frame, each
+    component with its relative error (``errors``: three draws of N(0, ``odometry_noise_rel``))."""
     vx, vy, w = velocity_body
     return vx * (1 + errors[0]), vy * (1 + errors[1]), w * (1 + errors[2])
 
@@ -113,9 +118,11 @@ class Odometry:
         return self._velocity()
 
     def _velocity(self) -> tuple[float, float, float]:
-        """What the wheels turn: the achieved velocity, over (1 − slip) on a slipping body."""
+        """What the wheels turn (the wheel encoders): the motors' speed, over (1 − slip) on a slipping
+        body (``Robot.wheel_velocity``; a bare driven body without motors: its achieved velocity)."""
         body = self.body
-        return body.velocity_body if getattr(body, "wheel_gain", 1.0) == 1.0 else body.wheel_velocity
+        wheels = getattr(body, "wheel_velocity", None)
+        return body.velocity_body if wheels is None else wheels
 
 
 class UltrasonicRing:
@@ -192,6 +199,9 @@ class Sensors:
         self.flags = [self.layer.maps[i].flags(self._off.get(i, ())) for i in range(len(world.robots))] if self.layer \
             else [[1.0] * (2 * count) for _ in world.robots]
         self._groups = [] if self.layer is None or self.layer.identity else self._type_groups(cfg, world)
+        # which virtual-ring slots each body has (the presence flags of a body with every sensor working)
+        self._present = [self.layer.maps[i].flags(())[:count] for i in range(len(world.robots))] if self.layer \
+            else [[1.0] * count for _ in world.robots]
 
     def _type_groups(self, cfg: RobotConfig, world: Truth) -> list:
         """Per body type (first robot's order): its robots, its ring of own sensors, its routes."""
@@ -208,17 +218,32 @@ class Sensors:
         return out
 
     def read_rings(self) -> np.ndarray:
-        """Read every robot's ultrasonic ring now; also kept as :attr:`ranges`."""
+        """Read every robot's ultrasonic ring now; also kept as :attr:`ranges`. A ring with an
+        ``ultrasonic`` fault reads the maximum range on every sensor; each robot's software gets its
+        reading (``robot.on_ring``, its self-diagnosis: middleware/diagnosis.py), then the sensors it
+        knows to be off (``robot.sensors_off``) read ``max_range`` with presence 0 (:meth:`sensor_off`)."""
         self._follow_faults()
+        robots = self.world.robots
         if not self._groups:
-            self.ranges = self.ring.ranges(self.world, list(range(len(self.world.robots))), self.rng)
+            self.ranges = self.ring.ranges(self.world, list(range(len(robots))), self.rng)
         else:
-            ranges = np.full((len(self.world.robots), self.ring.count), self.ring.max_range_m)
+            ranges = np.full((len(robots), self.ring.count), self.ring.max_range_m)
             for indices, ring, virt, cols in self._groups:
                 own = ring.ranges(self.world, indices, self.rng)
                 if virt:
                     ranges[np.ix_(indices, virt)] = own[:, cols]
             self.ranges = ranges
+        for i in self._ring_faulted:  # no echo: "nothing in range" on every sensor (sim/faults.py)
+            self.ranges[i, :] = self.ring.max_range_m
+        now = None
+        for i, robot in enumerate(robots):
+            listener = getattr(robot, "on_ring", None)
+            if listener is not None:
+                if now is None:
+                    now = self.world.clock.now
+                listener(self.ranges[i], self._present[i], now)
+            if robot.sensors_off != self._off.get(i, set()):  # the robot's own record of its broken sensors
+                self.sensor_off(i, set(robot.sensors_off))
         if self._off:
             for i, off in self._off.items():
                 for k, f in enumerate(self.flags[i][: self.ring.count]):
@@ -232,21 +257,17 @@ class Sensors:
         self._changed.add(robot)
 
     def _follow_faults(self) -> None:
-        """An ``ultrasonic`` fault (``robot.health``, petswarm_env/sim/faults.py) switches every
-        DISTANCE sensor of its robot off through :meth:`sensor_off` (presence 0, max range), and its
-        end switches them back on: for the robots whose health changed since the last reading."""
+        """An ``ultrasonic`` fault (``robot.health``, petswarm_env/sim/faults.py) makes every sensor
+        of its robot's ring read the maximum range (no echo) from the next reading on, and its end
+        gives the echoes back: for the robots whose health changed since the last reading. What the
+        robot's software makes of it (presence flags, status) is its own diagnosis's."""
         if not self._changed:
             return
         for i in sorted(self._changed):
-            failed = not self.world.robots[i].health.ultrasonic_ok
-            if failed != (i in self._ring_faulted):
-                if failed:
-                    self._ring_faulted.add(i)
-                    ids = [sn.id for sn in self.layer.maps[i].physical] if self.layer else range(1, self.ring.count + 1)
-                    self.sensor_off(i, set(ids))
-                else:
-                    self._ring_faulted.discard(i)
-                    self.sensor_off(i, set())
+            if not self.world.robots[i].health.ultrasonic_ok:
+                self._ring_faulted.add(i)
+            else:
+                self._ring_faulted.discard(i)
         self._changed.clear()
 
     def sensor_off(self, index: int, physical_ids: set[int]) -> None:
@@ -270,10 +291,10 @@ class Sensors:
         return self.rng.normal(0.0, k, (n, 3)).tolist() if k > 0 else None
 
     def odometry(self, index: int, noise: list[float] | None = None) -> tuple[float, float, float]:
-        """Wheel odometry of robot ``index``: its achieved body velocity ``(vx, vy, ω)`` with relative
+        """Wheel odometry of robot ``index``: what its wheels turn ``(vx, vy, ω)`` (``Robot.wheel_velocity``) with relative
         noise (``noise``: the three N(0, odometry_noise_rel) errors when drawn already, else drawn here)."""
         robot = self.world.robots[index]
-        velocity = robot.velocity_body if robot.wheel_gain == 1.0 else robot.wheel_velocity  # the wheels' view (slip)
+        velocity = robot.wheel_velocity  # the wheel encoders: the motors' speed, not the body's (a shove turns no wheel)
         k = self.odometry_noise_rel
         if k > 0:
             return noisy_odometry(velocity, self.rng.normal(0.0, k, 3).tolist() if noise is None else noise)

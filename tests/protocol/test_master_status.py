@@ -13,14 +13,15 @@ from petswarm_env.middleware import messages as msg
 from petswarm_env.middleware.node import Node  # every station is a Node (a Python subclass)
 
 
-def _broadcasts(monkeypatch, steps=150, **overrides):
-    """(broadcast velocity, true body velocity at that instant) of every STATUS the master sent."""
+def _broadcasts(monkeypatch, steps=150, truth="velocity_body", **overrides):
+    """(broadcast velocity, the robot's ``truth`` at that instant: its true body velocity, or what its
+    wheels turn) of every STATUS the master sent."""
     sent = []
     original = Node.send
 
     def spy(self, kind, dst=BROADCAST, pan=None, **payload):
         if kind == msg.STATUS:
-            sent.append((payload["velocity"], self._robot.velocity_body))
+            sent.append((payload["velocity"], getattr(self._robot, truth)))
         return original(self, kind, dst, pan, **payload)
 
     monkeypatch.setattr(Node, "send", spy)
@@ -42,6 +43,8 @@ def test_the_broadcast_speed_is_the_masters_own_noisy_odometry(monkeypatch):
     assert abs(rel.mean()) < 3 * k / np.sqrt(len(rel)) + 1e-3
 
 
-def test_noiseless_odometry_broadcasts_the_achieved_velocity(monkeypatch):
-    sent = _broadcasts(monkeypatch, steps=60, **{"robot.odometry_noise_rel": 0.0})
+def test_noiseless_odometry_broadcasts_what_the_wheels_turn(monkeypatch):
+    """The wheel encoders count the motors' speed (Robot.wheel_velocity), not the body's: a shove or a
+    contact moves the body, not the wheels."""
+    sent = _broadcasts(monkeypatch, steps=60, truth="wheel_velocity", **{"robot.odometry_noise_rel": 0.0})
     assert sent and all(tuple(b) == tuple(t) for b, t in sent)

@@ -297,6 +297,8 @@ def test_the_ir_medium_stores_every_measurement_before_asking_the_holders_neighb
         node.store_ir = lambda tx, d, b, n=n, store=store: (calls.append(("store", n)), store(tx, d, b))
         node.ring.report_heading = lambda tx, n=n, report=report: (calls.append(("report", n)), report(tx))[1]
     neighbours = sorted(sw.slave_ids(), reverse=True)[:2] + [None]  # any order; a missing member is skipped
+    for n in sw.slave_ids():  # they heard the holder's start sign just now: they credit its IR to it
+        sw.nodes[n].ring.holder_heard = (holder.node_id, env.episode.world.now)
     reporters = env.episode.fleet.ir_slot(holder, neighbours)
     stores = [n for kind, n in calls if kind == "store"]
     assert stores and all(kind == "store" for kind, _ in calls[: len(stores)])

@@ -66,18 +66,21 @@ def test_own_status_is_the_provisional_petbot_and_the_sensor_fault_hook_removes_
     s = A.own_status(station)
     assert (s.id, s.robot_type, s.p_rem_mah, s.slip_pct, s.rate_servo_ma, s.rate_act_ma, s.rate_sens_ma) == \
         (7, "petbot", 2500.0, 1.0, 320.0, None, 65.0)
-    assert s.sensors == {"DISTANCE", "IR", "LF"}
+    assert s.sensors == {"DISTANCE", "IR", "LF", "AHRS"}
     station.failed_sensors = {"ultrasonic"}
     broken = A.own_status(station)
-    assert broken.rate_sens_ma is None and broken.sensors == {"IR", "LF"}
+    assert broken.rate_sens_ma is None and broken.sensors == {"IR", "LF", "AHRS"}
     edge, inner = A.slot_subtask(3, 2, CFG.ruta), A.slot_subtask(1, 0, CFG.ruta)
     assert not ruta.capable(broken, edge) and ruta.capable(broken, inner)
+    for part in ("ir", "ahrs"):  # a slot needs the IR ring and the AHRS (assignment.SLOT_NEEDS)
+        station.failed_sensors = {part}
+        assert not ruta.capable(A.own_status(station), inner) and ruta.must_request_bids(A.own_status(station), inner)
 
 
 def test_status_payload_round_trip():
     s = A.own_status(SimpleNamespace(node_id=3, cfg=CFG))
     p = A.status_payload(s, True, 1.25)
-    assert p["rate_act_ma"] == A.NO_MODULE and p["distance_m"] == 1.25 and p["available"] is True and p["sensors"] == 7
+    assert p["rate_act_ma"] == A.NO_MODULE and p["distance_m"] == 1.25 and p["available"] is True and p["sensors"] == 15
     back = A.status_from_payload(3, p)
     assert back == s
     assert A.status_from_payload(3, {**p, "sensors": 6}).rate_sens_ma is None  # no DISTANCE bit: no sensing
@@ -91,8 +94,11 @@ def test_closest_fills_the_lowest_open_numbers():
     assert A.select_closest([5], [3]) == {3: 5}  # a refill of slot 3
 
 
+SENSORS = frozenset({"DISTANCE", "IR", "LF", "AHRS"})  # a petbot's, every one working
+
+
 def petbot(rid, **kw):
-    return ruta.RobotStatus(rid, 2500.0, 1.0, 320.0, None, 65.0, robot_type="petbot", **kw)
+    return ruta.RobotStatus(rid, 2500.0, 1.0, 320.0, None, 65.0, robot_type="petbot", sensors=SENSORS, **kw)
 
 
 def test_centralized_with_identical_robots_is_closest_first():
@@ -105,22 +111,22 @@ def test_centralized_with_identical_robots_is_closest_first():
 
 def test_centralized_gives_the_outer_slot_to_the_robot_that_can_sense():
     g = {1: (1.0, 2), 2: (1.0, 0)}  # slot 1 on the outer edge, slot 2 inside
-    blind = ruta.RobotStatus(4, 2500.0, 1.0, 320.0, None, None, robot_type="petbot")  # no ultrasonic ring
+    blind = ruta.RobotStatus(4, 2500.0, 1.0, 320.0, None, None, robot_type="petbot", sensors=SENSORS - {"DISTANCE"})  # no ultrasonic ring
     got = A.select_centralized({4: blind, 5: petbot(5)}, {4: 0.5, 5: 2.0}, g, [1, 2], 1.0, CFG)
     assert got == {1: 5, 2: 4}
 
 
 def test_centralized_prefers_the_better_battery_and_slip_at_equal_range():
     g = {1: (1.0, 1)}
-    tired = ruta.RobotStatus(4, 500.0, 1.0, 320.0, None, 65.0)
-    slippy = ruta.RobotStatus(5, 2500.0, 4.0, 320.0, None, 65.0)
+    tired = ruta.RobotStatus(4, 500.0, 1.0, 320.0, None, 65.0, sensors=SENSORS)
+    slippy = ruta.RobotStatus(5, 2500.0, 4.0, 320.0, None, 65.0, sensors=SENSORS)
     got = A.select_centralized({4: tired, 5: slippy, 6: petbot(6)}, {4: 1.0, 5: 1.0, 6: 1.0}, g, [1], 1.0, CFG)
     assert got == {1: 6}
 
 
 def test_own_utilities_leave_out_what_the_robot_cannot_take_and_are_float32():
     slots = [(1, 1.0, 0, 0.5), (3, 2.0, 2, 0.5)]
-    blind = ruta.RobotStatus(4, 2500.0, 1.0, 320.0, None, None)
+    blind = ruta.RobotStatus(4, 2500.0, 1.0, 320.0, None, None, sensors=SENSORS - {"DISTANCE"})
     assert [m for m, _ in A.own_utilities(blind, 1.0, slots, CFG.ruta)] == [1]
     full = A.own_utilities(petbot(5), 1.0, slots, CFG.ruta)
     assert [m for m, _ in full] == [1, 3]
@@ -161,7 +167,7 @@ def test_a_body_report_becomes_ruta_status_slip_floor_no_module_no_sensor_empty_
     s = A.status_from_body(body)
     assert (s.id, s.robot_type, s.p_rem_mah, s.slip_pct, s.rate_servo_ma, s.rate_act_ma, s.rate_sens_ma, s.faulty) == \
         (4, "r1", 1800.0, A.MIN_SLIP_PCT, 130.0, None, 65.0, False)
-    assert s.sensors == {"DISTANCE"}
+    assert s.sensors == {"DISTANCE", "AHRS"}
     assert A.status_from_body(body, failed={"ultrasonic"}).rate_sens_ma is None
     assert A.status_from_body({**body, "sensors": [{"id": 9, "type": "IR"}]}).rate_sens_ma is None
     empty = A.status_from_body({**body, "battery_mah": 0.0, "battery_empty": True})
@@ -184,7 +190,7 @@ def test_schedule_puts_the_slots_fewer_robots_can_take_first_else_member_order()
 
 def test_centralized_leaves_the_blind_robot_the_inner_slot_even_when_it_is_closest():
     g = {1: (1.0, 0), 2: (2.0, 1), 3: (1.4, 1)}  # slot 1 needs no sensing
-    blind = ruta.RobotStatus(4, 2500.0, 1.0, 320.0, None, None)
+    blind = ruta.RobotStatus(4, 2500.0, 1.0, 320.0, None, None, sensors=SENSORS - {"DISTANCE"})
     reports = {4: blind, 5: petbot(5), 6: petbot(6)}
     got = A.select_centralized(reports, {4: 0.5, 5: 1.0, 6: 1.5}, g, [1, 2, 3], 1.0, CFG)
     assert got[1] == 4 and set(got) == {1, 2, 3}
@@ -195,3 +201,17 @@ def test_round_leaves_the_blind_robot_the_slot_only_it_and_others_bid_for():
     assert A.close_round(bids, [1, 2], 1.0, 0.2, 1, 3) == {2: 5, 1: 4}
     bids = [bid(5, 1, 0.9), bid(4, 1, 0.5), bid(5, 2, 0.6)]  # robot 4 bids only for slot 1
     assert A.close_round(bids, [1, 2], 1.0, 0.2, 1, 3) == {2: 5, 1: 4}
+
+
+def test_a_body_report_whose_sensors_do_not_work_reports_no_sensing_and_no_such_sensor():
+    """The robot's own record of its broken sensors (``working``: Robot.sensors_off, set by its diagnosis)
+    lowers the status: a blind robot is ranked as blind."""
+    ring = [{"id": k, "type": "DISTANCE", "working": False} for k in range(1, 9)]
+    body = {"id": 4, "type": "petbot", "battery_mah": 2500.0, "battery_empty": False, "wheel_slip_pct": 1.0,
+            "servo_ma": 320.0, "actuator_ma": 0.0, "sensing_ma": 65.0,
+            "sensors": ring + [{"id": 9, "type": "IR", "working": True}]}
+    s = A.status_from_body(body)
+    assert s.rate_sens_ma is None and s.sensors == {"IR", "AHRS"}
+    assert not ruta.capable(s, A.slot_subtask(3, 2, CFG.ruta)) and ruta.capable(s, A.slot_subtask(1, 0, CFG.ruta))
+    ir_off = A.status_from_body({**body, "sensors": [{"id": 9, "type": "IR", "working": False}]})
+    assert "IR" not in ir_off.sensors and not ruta.capable(ir_off, A.slot_subtask(1, 0, CFG.ruta))

@@ -92,7 +92,8 @@ def test_ir_fault_stops_transmission_and_reception():
     mine = {k: v.time_s for k, v in one.know.ir.items()}
     theirs = [o.know.ir[1].time_s for o in others if 1 in o.know.ir]
     _steps(env, 20)
-    assert {k: v.time_s for k, v in one.know.ir.items()} == mine  # nothing measured any more
+    # nothing measured any more (the robot may have found its IR broken and left the swarm, forgetting it)
+    assert all(mine.get(k) == v.time_s for k, v in one.know.ir.items())
     assert [o.know.ir[1].time_s for o in others if 1 in o.know.ir] == theirs  # nobody measures it
 
 

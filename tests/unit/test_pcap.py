@@ -36,6 +36,8 @@ EXAMPLES = {
     msg.MEMBER_UPDATE: {"seq": 21500, "members": {0: 0, 1: 4, 2: 2}, "shape": "wedge", "links": {1: [(0, (-1.0, 0.5))],
                         2: [(0, (-1.0, -0.5))]}, "mode": "following"},
     msg.MEMBER_UPDATE_ACK: {"seq": 21500},
+    msg.BID_REQUEST: {"seq": 20150, "member": 3, "sensors": 13},
+    msg.BID_REQUEST_ACK: {"seq": 20150},
 }
 
 

@@ -119,7 +119,7 @@ def test_wheel_slip_moves_the_body_less_than_the_wheels_count():
     pet, pspace = _robot("petbot")
     pet.set_command(0.5, 0.0, 0.0)
     _drive(pet, pspace, 2.0)
-    assert pet.wheel_velocity is pet.velocity_body  # no slip: the achieved velocity itself
+    assert pet.wheel_velocity == pet.velocity_body  # no slip, nothing in the way: the wheels and the body agree
 
 
 def test_battery_drain_model():

@@ -48,7 +48,7 @@ def test_sensors_read_every_ring_and_draw_odometry_in_order():
     k = cfg.robot.odometry_noise_rel
     assert k > 0
     e = rng.normal(0.0, k, 3)
-    world.robots[1].velocity_body = v
+    world.robots[1]._wheels = v  # what its motors drive (Robot.wheel_velocity)
     assert sensors.odometry(1) == (v[0] * (1 + e[0]), v[1] * (1 + e[1]), v[2] * (1 + e[2]))
     many = sensors.odometry_noise(4)  # four readings in one draw: the numbers of four draws of 3
     assert many == [rng.normal(0.0, k, 3).tolist() for _ in range(4)]
@@ -98,3 +98,31 @@ def test_ahrs_counts_from_its_own_power_on_heading():
     readings = np.array([s.yaw(0.0) for s in offsets])
     hist, _ = np.histogram(np.mod(readings, 2 * math.pi), bins=4, range=(0, 2 * math.pi))
     assert hist.min() > 60  # spread over the whole circle: no preferred direction
+
+
+def test_odometry_counts_what_the_wheels_turn_not_a_shove():
+    """Wheel encoders: a robot commanded to stop and shoved reads ~0 (its wheels slip); one driving reads
+    its wheels' speed, which follows the command under the acceleration limit."""
+    import pymunk
+
+    from petswarm_env.config import load_config
+    from petswarm_env.sim.robot import Robot
+    from petswarm_env.sim.sensors import Odometry
+
+    cfg = load_config(overrides={"robot.odometry_noise_rel": 0.0}).robot
+    space = pymunk.Space()
+    robot = Robot(0, cfg, space, (0.0, 0.0), 0.0)
+    odo = Odometry(robot, cfg, np.random.default_rng(0))
+    robot.set_command(0.0, 0.0, 0.0)
+    robot.body.velocity = (0.6, 0.0)  # shoved
+    for _ in range(3):
+        robot.apply(0.02)
+        space.step(0.02)
+    assert robot.velocity_body[0] > 0.3  # the body still slides
+    assert odo.read() == (0.0, 0.0, 0.0)  # the wheels did not turn
+    robot.set_command(1.0, 0.0, 0.0)
+    for _ in range(5):
+        robot.apply(0.02)
+        space.step(0.02)
+    vx, vy, w = odo.read()
+    assert math.isclose(vx, 5 * 0.02 * cfg.max_accel_mps2) and vy == 0.0 and w == 0.0  # the motors' ramp

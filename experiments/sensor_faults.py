@@ -1,0 +1,106 @@
+"""Sensor faults detected by the robots themselves, and the swarm after it (docs/faults.md).
+
+Per fault kind (``ir``, ``ultrasonic``, ``ahrs``) and seed: the user walks straight on, the
+scripted reference drives the slaves, the fault starts at ``--at`` s of episode time on one slave
+(``random_slave``) or on the master (``--target master``). Measured per run:
+
+* **detected**: the faulty robot's own diagnosis (``node.diagnosis.detected``, middleware/diagnosis.py)
+  found that part broken, and how long after the fault;
+* **re-formed**: the largest formation error of the slaves still in slave-role driving
+  (``formation_error_m`` of the env's infos) 10 s after the detection is at most 0.3 m;
+* **RMSE**: the formation RMSE of those slaves over the 10 s after the detection.
+
+A run that never detects counts as not re-formed; its RMSE is taken over the 10 s after the fault.
+
+    python -m experiments.sensor_faults [--kinds ir,ultrasonic,ahrs] [--seeds 0-19] [--target slave|master] [--set KEY=VALUE ...]
+
+Prints one line per run, then per kind: detected n/N, median detection time, re-formed n/N, median RMSE.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import statistics
+
+import petswarm_env
+
+REFORM_AFTER_S = 10.0
+REFORM_ERROR_M = 0.3
+
+
+def run(kind: str, seed: int, at_s: float = 20.0, target: str = "random_slave", overrides: dict | None = None) -> dict:
+    from baselines.policy import PolicySpec
+    from baselines.registry import make_policy
+
+    env = petswarm_env.parallel_env(**{"user.scenario": "straight",
+                                       "faults": [{"at_s": at_s, "robot": target, "kind": kind}],
+                                       "max_cycles": int(round((at_s + 25.0) / 0.1)), **(overrides or {})})
+    obs, _ = env.reset(seed=seed)
+    policy = make_policy("scripted", PolicySpec.from_env(env), seed=seed)
+    errors: list[tuple[float, dict[str, float]]] = []  # (time, agent -> formation error)
+    while env.agents:
+        obs, _, _, _, infos = env.step(policy.act_all({a: obs[a] for a in env.agents}))
+        live = set(env.agents)
+        errors.append((env.world.now, {a: i["formation_error_m"] for a, i in infos.items() if a in live}))
+    log = env.runtime.faults.log
+    if not log:
+        return {"kind": kind, "seed": seed, "injected": False}
+    fault = log[0]
+    node = env.fleet.nodes[fault.robot]
+    found = [t for t, part in node.diagnosis.detected if part == kind and t >= fault.time_s]
+    detected_s = found[0] if found else None
+    t0 = detected_s if detected_s is not None else fault.time_s
+    window = [e for t, e in errors if t0 < t <= t0 + REFORM_AFTER_S]
+    sq = [v * v for e in window for v in e.values()]
+    at = [e for t, e in errors if t >= t0 + REFORM_AFTER_S]
+    largest = max(at[0].values(), default=math.nan) if at else math.nan
+    return {"kind": kind, "seed": seed, "injected": True, "robot": fault.robot, "role": fault.role,
+            "detection_s": None if detected_s is None else detected_s - fault.time_s,
+            "bid_request": bool(node.recovery.bid_requests),
+            "left_swarm": node.state != "slave" and fault.role != "master",
+            "largest_error_m": largest, "reformed": detected_s is not None and largest <= REFORM_ERROR_M,
+            "rmse_m": math.sqrt(sum(sq) / len(sq)) if sq else math.nan}
+
+
+def _seeds(text: str) -> list[int]:
+    out: list[int] = []
+    for part in text.split(","):
+        a, _, b = part.partition("-")
+        out += list(range(int(a), int(b or a) + 1))
+    return out
+
+
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--kinds", default="ir,ultrasonic,ahrs")
+    ap.add_argument("--seeds", default="0-19")
+    ap.add_argument("--at", type=float, default=20.0)
+    ap.add_argument("--target", default="slave", choices=("slave", "master"))
+    ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
+    ap.add_argument("--json")
+    args = ap.parse_args(argv)
+    overrides = {k: json.loads(v) if v[:1] in "[{0123456789-" or v in ("true", "false") else v
+                 for k, _, v in (s.partition("=") for s in args.set)}
+    target = "random_slave" if args.target == "slave" else "master"
+    results = []
+    for kind in args.kinds.split(","):
+        rows = [run(kind, s, args.at, target, overrides) for s in _seeds(args.seeds)]
+        for r in rows:
+            print(json.dumps(r))
+        rows = [r for r in rows if r["injected"]]
+        det = [r["detection_s"] for r in rows if r["detection_s"] is not None]
+        rmse = [r["rmse_m"] for r in rows if not math.isnan(r["rmse_m"])]
+        print(f"{kind} on the {args.target}: detected {len(det)}/{len(rows)}, median {statistics.median(det) if det else math.nan:.2f} s "
+              f"(max {max(det, default=math.nan):.2f}); re-formed {sum(r['reformed'] for r in rows)}/{len(rows)}; "
+              f"RMSE 10 s after detection median {statistics.median(rmse) if rmse else math.nan:.2f} m "
+              f"(max {max(rmse, default=math.nan):.2f})")
+        results += rows
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump(results, f, indent=1)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,251 @@
+"""A robot's own sensor diagnosis: which of its sensors it has found broken, from what it can see.
+
+A fault is hardware truth (:mod:`petswarm_env.sim.faults`); the robot's software never reads it. It
+finds a broken part only by what its sensors deliver, compared with what its other sensors and its
+radio tell it (seed 003 §4.1.2: "information about robot status (such as any error readings from
+sensors) is shared between robots"; Algorithm 2 step 5 needs the robot to know a sensor failed).
+All three checks run on the robot's MCU, on its own readings:
+
+* **IR module** (seed 000 §3.3): the token ring announces every IR slot by radio (the holder's
+  transmission-start sign, :mod:`.token_ring`), with its RSSI range. A slot whose announcer the
+  RSSI puts within :data:`IR_EXPECT_RANGE_M` should give an IR fix of it; :data:`IR_MISSES` such
+  slots in a row without a fix, while their radio frames keep arriving, is a broken IR module
+  (receiver; the same module transmits). A fix after that clears it (a transient fault's end).
+* **ultrasonic ring**: a neighbour that the robot's own IR fix places on a ring sensor's ray and
+  well within its range must echo: :data:`US_MISSES` such expected echoes that read the maximum
+  range ("nothing there"), with no echo of the ring in between, is a dead ring; so is a full ring
+  (a sensor every 45°) that gave no echo at all for :data:`US_SILENT_S` while IR fixes kept a
+  neighbour near. Any echo afterwards clears it. A ring whose rays all miss its neighbours (they
+  stand between the rays) reads as a dead one does: then nothing tells them apart until one of
+  them comes onto a ray or near.
+* **AHRS**: a working AHRS's yaw carries white noise, so two readings at different times never
+  agree to the last bit; :data:`AHRS_FROZEN` readings in a row that repeat the same value are a
+  frozen output (a stuck sensor bus). An AHRS configured without noise or drift cannot be judged
+  so: for it, the rotation the robot commanded its wheels over :data:`AHRS_WINDOW_S` against the
+  yaw change the AHRS reported over it (chosen: only then — a robot held by a contact while it
+  turns disagrees too; on the mixed swarm this check alone found two healthy AHRSs broken in 6
+  episodes). A changing reading clears it.
+
+A detection is reported up (:attr:`Diagnosis.on_detect`, the node's seam: its status lowers and
+seed 003 Algorithm 2 step 5 starts) and the robot's own record of its working sensors follows it:
+the ultrasonic ring's and the IR ring's registered sensors read not ``working``
+(``Robot.sensors_off``, which the observation's presence flags and the status report read).
+``detected`` keeps when each part was found broken (the experimenter's figures read it).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+
+from petswarm_env.sim.geometry import wrap_angle
+
+# chosen: an announced IR slot within this RSSI range should give a fix (the IR detection fades out at
+# 2.4-2.8 m, config ir.max_range_m; the RSSI range is off by ~10 % at 1 dB shadowing)
+IR_EXPECT_RANGE_M = 1.6
+IR_MISSES = 5  # chosen: announced slots in a row without a fix -> IR module broken (a live module misses a few by occlusion)
+IR_SOURCES = 3  # chosen: ... of this many holders (our own slot counts as one; fewer if fewer are in range, at least 2): occlusion hides one or two
+# chosen: an IR-placed neighbour this close to a ring sensor's ray (perpendicular, m) must echo: a robot is 0.2 m
+# in radius and the IR bearing is good to ~6° (seed 000 Table 4), 0.1 m at 1 m
+US_RAY_MARGIN_M = 0.1
+US_MARGIN_M = 0.8  # chosen: ... and its rim this much inside the sensor's maximum range (1.2 m)
+US_FIX_AGE_S = 0.6  # chosen: an IR fix this fresh places the neighbour well enough for the check
+US_MISSES = 8  # chosen: expected echoes in a row that read nothing -> ring dead
+# chosen: or, on a full ring, no echo at all for this long while an IR fix this fresh places a neighbour's rim this
+# near, within this angle of a sensor's axis (every bearing, for a full ring of 8): healthy petbots' longest such
+# silence, straight and zigzag walks, seeds 0-4 (the ring's rays miss a body between them), was 1.9 s; 3 s without the full-ring condition found
+# healthy rings broken on the mixed swarm
+US_SILENT_S = 3.0
+US_NEAR_AGE_S = 1.5
+US_NEAR_M = 1.0
+US_VIEW_TAN = math.tan(math.radians(30.0))
+AHRS_FROZEN = 6  # chosen: readings in a row, at different times, with the very same value -> frozen output
+AHRS_WINDOW_S = 2.0  # chosen: the commanded rotation is compared with the AHRS over this long ...
+AHRS_TURN_RAD = 0.6  # ... and one over this much with an AHRS change under ...
+AHRS_STILL_RAD = 0.05  # ... this is a disagreement
+
+KINDS = ("ir", "ultrasonic", "ahrs")
+
+
+class Diagnosis:
+    """One robot's self-diagnosis. The node feeds it: :meth:`on_ring` after every ultrasonic reading
+    (its periodic tick), :meth:`on_ahrs` with every AHRS reading. ``know`` and ``ring`` are the
+    node's knowledge and token ring (the IR fixes it stored, the slots it heard announced)."""
+
+    def __init__(self, node_id: int, cfg, robot, know_of: Callable[[], object], ring) -> None:
+        self.node_id = node_id
+        self.cfg = cfg
+        self.robot = robot
+        self._know_of = know_of  # the node replaces its Knowledge when it leaves a swarm: read it each time
+        self.ring = ring
+        self.failed: set[str] = set()  # the parts found broken (and not found working again)
+        self.detected: list[tuple[float, str]] = []  # (time, part) of every detection
+        self.on_detect: Callable[[str], None] | None = None  # the node's seam (status, bid request)
+        us = cfg.robot.ultrasonic
+        self._us_max = us.max_range_m
+        self._us_angles = [2.0 * math.pi * k / us.count for k in range(us.count)]
+        self._radius = cfg.robot.radius_m
+        self._us_miss = 0
+        self._us_silent_s = 0.0
+        p = cfg.protocol
+        self._slot_over_s = p.ring_response_timeout_s * 2 + p.ir_tx_s + 0.02  # an IR slot is over by then
+        self._ir_seen: dict[int, float] = {}  # announcer -> start of its latest slot evaluated
+        self._ir_miss = 0
+        self._ir_missed_from: set[int] = set()  # the slots' holders of the misses since the last fix
+        self._own_seen = -math.inf  # start of our own latest slot evaluated
+        self._ahrs_noisy = cfg.robot.ahrs_noise_deg > 0 or cfg.robot.ahrs_drift_dps > 0
+        self._yaw_last: tuple[float, float] | None = None  # (time, value) of the last reading
+        self._yaw_same = 0
+        self._yaw_hist: list[tuple[float, float, float]] = []  # (time, AHRS yaw, commanded rotation since start)
+        self._turned = 0.0  # the commanded rotation integrated (rad)
+        self._tick_s: float | None = None
+
+    # -- the checks ---------------------------------------------------------------------------------
+    def on_ring(self, ranges, present, now_s: float) -> None:
+        """The ultrasonic ring's reading (virtual-ring order, ``present``: which slots the body has),
+        every control period: the ring and IR checks, and the commanded rotation's integral."""
+        if not self.robot.health.powered:
+            return
+        dt = 0.0 if self._tick_s is None else now_s - self._tick_s
+        self._turned += self.robot.command[2] * dt
+        self._tick_s = now_s
+        self._check_ir(now_s)
+        self._check_ring(ranges, present, now_s, dt)
+
+    def on_ahrs(self, now_s: float, yaw: float) -> None:
+        """Every AHRS reading the robot takes (its MCU's, the observation's)."""
+        last = self._yaw_last
+        if last is not None and now_s > last[0]:
+            if yaw == last[1]:
+                self._yaw_same += 1
+            else:
+                self._yaw_same = 0
+                if "ahrs" in self.failed:
+                    self._clear("ahrs")
+            hist = self._yaw_hist
+            hist.append((now_s, yaw, self._turned))
+            while hist and now_s - hist[0][0] > AHRS_WINDOW_S:
+                hist.pop(0)
+            if "ahrs" not in self.failed:
+                if self._ahrs_noisy:
+                    if self._yaw_same >= AHRS_FROZEN - 1:
+                        self._detect("ahrs", now_s)
+                elif hist and now_s - hist[0][0] >= 0.5 * AHRS_WINDOW_S:
+                    turned = self._turned - hist[0][2]
+                    seen = abs(wrap_angle(yaw - hist[0][1]))
+                    if abs(turned) > AHRS_TURN_RAD and seen < AHRS_STILL_RAD:
+                        self._detect("ahrs", now_s)
+        if last is None or now_s > last[0]:
+            self._yaw_last = (now_s, yaw)
+
+    def _check_ir(self, now_s: float) -> None:
+        know = self._know_of()
+        ring = self.ring
+        ranges = ring.slot_range_m
+        own = ring.own_slot
+        if own is not None and own[0] > self._own_seen and now_s - own[0] >= self._slot_over_s:
+            self._own_seen = own[0]
+            if ring.report_s >= own[0]:
+                self._ir_hit()
+            elif any(ranges.get(n, math.inf) <= IR_EXPECT_RANGE_M for n in own[1]):
+                self._ir_missed(now_s, self.node_id)  # near neighbours heard our start sign, none reported seeing our IR
+        for src, t0 in ring._slot_start.items():
+            if src == self.node_id or t0 <= self._ir_seen.get(src, -math.inf) or now_s - t0 < self._slot_over_s:
+                continue
+            self._ir_seen[src] = t0
+            fix = know.ir.get(src)
+            if fix is not None and fix.time_s >= t0:
+                self._ir_hit()
+            elif ranges.get(src, math.inf) <= IR_EXPECT_RANGE_M and src in know.members.values():
+                self._ir_missed(now_s, src)
+
+    def _ir_hit(self) -> None:
+        self._ir_miss = 0
+        self._ir_missed_from.clear()
+        if "ir" in self.failed:
+            self._clear("ir")
+
+    def _ir_missed(self, now_s: float, src: int) -> None:
+        """A slot that should have given an IR fix (``src``: its announcer) or a heading report
+        (``src`` = us: our own slot) gave none."""
+        self._ir_miss += 1
+        self._ir_missed_from.add(src)
+        if self._ir_miss < IR_MISSES or "ir" in self.failed:
+            return
+        members = self._know_of().members.values()
+        near = {n for n, r in self.ring.slot_range_m.items() if r <= IR_EXPECT_RANGE_M and n in members} | {self.node_id}
+        if len(self._ir_missed_from) >= max(2, min(IR_SOURCES, len(near))):
+            self._detect("ir", now_s)
+
+    def _check_ring(self, ranges, present, now_s: float, dt_s: float) -> None:
+        top = self._us_max - 1e-9
+        echo = any(r < top for r, p in zip(ranges, present) if p)
+        if echo:
+            self._us_miss = 0
+            self._us_silent_s = 0.0
+            if "ultrasonic" in self.failed:
+                self._clear("ultrasonic")
+            return
+        if "ultrasonic" in self.failed:
+            return
+        know = self._know_of()
+        yaw = self.robot.ahrs._last_yaw  # the last AHRS reading the robot took (no new draw)
+        r = self._radius
+        on_ray = in_view = False
+        for fix in know.ir.values():
+            age = now_s - fix.time_s
+            if age > US_NEAR_AGE_S:
+                continue
+            x, y = fix.position_now(yaw)
+            for k, a in enumerate(self._us_angles):
+                if k >= len(present) or not present[k]:
+                    continue
+                along = x * math.cos(a) + y * math.sin(a)
+                across = abs(-x * math.sin(a) + y * math.cos(a))
+                if not 0 < along - 2 * r < self._us_max - US_MARGIN_M:  # its near rim within reach (a body of our radius)
+                    continue
+                in_view |= across <= along * US_VIEW_TAN and math.hypot(x, y) - 2 * r < US_NEAR_M
+                on_ray |= age <= US_FIX_AGE_S and across < r - US_RAY_MARGIN_M
+        if on_ray:
+            self._us_miss += 1
+        # the silence check needs a full ring (a sensor every 45°): a ring with a gap leaves a neighbour unseen for long
+        # (on the mixed swarm it found healthy r1 and r2 rings broken)
+        full = len(present) >= 8 and all(present)
+        self._us_silent_s = self._us_silent_s + dt_s if in_view and full else 0.0
+        if self._us_miss >= US_MISSES or self._us_silent_s >= US_SILENT_S:
+            self._detect("ultrasonic", now_s)
+
+    # -- results ------------------------------------------------------------------------------------
+    def _detect(self, part: str, now_s: float) -> None:
+        self.failed.add(part)
+        self.detected.append((now_s, part))
+        self._mark(part, False)
+        if self.on_detect is not None:
+            self.on_detect(part)
+
+    def _clear(self, part: str) -> None:
+        self.failed.discard(part)
+        if part == "ultrasonic":
+            self._us_miss = 0
+            self._us_silent_s = 0.0
+        if part == "ir":
+            self._ir_miss = 0
+            self._ir_missed_from.clear()
+        self._yaw_same = 0 if part == "ahrs" else self._yaw_same
+        self._mark(part, True)
+
+    def _mark(self, part: str, working: bool) -> None:
+        """The robot's record of its working sensors (``Robot.sensors_off``: the status report and
+        the observation's presence flags read it) follows a detection of the ring or the IR module."""
+        kind = {"ultrasonic": "DISTANCE", "ir": "IR"}.get(part)
+        if kind is None:
+            return
+        spec = getattr(self.robot, "spec", None)
+        if spec is not None:
+            ids = {s.id for s in spec.sensors if s.type == kind}
+        elif kind == "DISTANCE":
+            ids = set(range(1, self.cfg.robot.ultrasonic.count + 1))
+        else:
+            ids = set()
+        off = set(self.robot.sensors_off)
+        self.robot.sensors_off = (off - ids) if working else (off | ids)

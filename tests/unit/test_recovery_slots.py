@@ -1,0 +1,52 @@
+"""Recovery moves the fewest metres: after a loss the master puts the remaining members on the slots
+by the least total distance it can estimate (middleware/recovery.py, ``RecoveryManager.nearest_slots``)."""
+
+from __future__ import annotations
+
+import itertools
+import math
+import random
+from types import SimpleNamespace
+
+from petswarm_env.config import load_config
+from petswarm_env.middleware.formation import formation_for_mode
+from petswarm_env.middleware.knowledge import IRMeasurement, Knowledge
+from petswarm_env.middleware.recovery import RecoveryManager, least_total
+
+CFG = load_config()  # wedge, spacing 1 m: slots 1 (-0.87, 0.5), 2 (-0.87, -0.5), 3 (-1.73, 1), 4 (-1.73, -1)
+
+
+def _manager(members, fixes, ranges=None, now=10.0):
+    know = Knowledge(member=0, total_members=len(members), members=dict(members))
+    for n, (x, y) in fixes.items():
+        know.ir[n] = IRMeasurement(math.hypot(x, y), math.atan2(y, x), now - 0.2, 0.0)
+    node = SimpleNamespace(cfg=CFG, know=know, state="master", formation=formation_for_mode(CFG.swarm, len(members), "following"),
+                           clock=SimpleNamespace(now=now), ahrs_yaw=lambda: 0.0, on=lambda kind, handler: None,
+                           ring=SimpleNamespace(slot_range_m=ranges or {}))
+    return RecoveryManager(node, join=None, forget=lambda n: None, leave=lambda: None)
+
+
+def test_least_total_is_the_optimum_of_every_permutation():
+    rng = random.Random(3)
+    for n in range(1, 7):
+        for _ in range(50):
+            cost = [[rng.random() for _ in range(n)] for _ in range(n)]
+            best = min(sum(cost[i][p[i]] for i in range(n)) for p in itertools.permutations(range(n)))
+            got = least_total(cost)
+            assert sorted(got) == list(range(n)) and math.isclose(sum(cost[i][got[i]] for i in range(n)), best)
+
+
+def test_the_member_nearest_the_open_slot_takes_it_not_the_highest_number():
+    # member 1 (robot 11) lost; robot 13 (member 3) is still on its way, near slot 1; robot 14 holds slot 4
+    members = {0: 0, 1: 11, 2: 12, 3: 13, 4: 14}
+    rm = _manager(members, {12: (-0.87, -0.5), 13: (-0.95, 0.6), 14: (-1.73, -1.0)})
+    remaining = {m: n for m, n in members.items() if n != 11}
+    got = rm.nearest_slots(remaining, formation_for_mode(CFG.swarm, 4, "following"))
+    assert got == {0: 0, 1: 13, 2: 12, 3: 14}  # the old rule gave robot 14 number 1 (1.7 m) and 13 number 3 (1.0 m)
+
+
+def test_members_at_their_slots_keep_them_and_without_a_fix_the_held_slot_counts():
+    members = {0: 0, 1: 11, 2: 12, 3: 13, 4: 14}
+    rm = _manager(members, {11: (-0.87, 0.5), 12: (-0.87, -0.5)})  # 13 and 14 unseen (occluded): at their slots
+    remaining = {m: n for m, n in members.items() if n != 14}
+    assert rm.nearest_slots(remaining, formation_for_mode(CFG.swarm, 4, "following")) == {0: 0, 1: 11, 2: 12, 3: 13}

@@ -21,7 +21,7 @@ from pydantic import AfterValidator, Field, ValidationError, model_validator
 from pydantic_core import PydanticCustomError
 
 from petswarm_env.config_base import Section  # noqa: F401
-from petswarm_env.config_runtime import FAULT_KINDS, ArrivalSpec, FaultSpec, FaultsRandomConfig  # noqa: F401
+from petswarm_env.config_runtime import FAULT_KINDS, ArrivalSpec, FaultSpec, FaultsRandomConfig, SuccessionConfig  # noqa: F401
 from petswarm_env.config_base import Section  # noqa: F401  (the base of every section; re-exported here)
 from petswarm_env.robot_types import PoolEntry, RobotTypeConfig, max_pool_size, robot_types_problem
 from petswarm_env.scenarios import SCENARIOS  # the registry (the scenarios import nothing of the package)
@@ -226,6 +226,7 @@ class BLEConfig(Section):
     latency_s: float = Field(ge=0, description="one BLE message, wearable <-> robot")
     connect_s: float = Field(ge=0, description="BLE connection set-up after the belt woke up or a handover")
     report_period_s: float = Field(gt=0, description="belt -> robot reports (activity, rotation)")
+    supervision_timeout_s: float = Field(gt=0, description="the belt drops a link that carried no packet of its robot this long")
 
 
 class RewardConfig(Section):
@@ -421,6 +422,7 @@ class Config(Section):
     master: MasterConfig
     control: ControlConfig
     ble: BLEConfig
+    succession: SuccessionConfig
     reward: RewardConfig
     render: RenderConfig
     faults: list[FaultSpec]

@@ -186,6 +186,7 @@ class PetSwarmEnv(ParallelEnv):
             arb.counts = type(arb.counts)()
         self._slave_ids = self._current_slaves()
         self.agents = [f"robot_{i}" for i in self._slave_ids]
+        self._retired: set[str] = set()  # agents that became a master: terminated for good
         self._agent_index = {f"robot_{i}": i for i in range(len(world.robots))}
         self._last_action = {a: np.zeros(3, np.float32) for a in self.agents}
         self.observer = Observer(self.layout, self.fleet.nodes, self.sensors, [r.ahrs_yaw for r in world.robots],
@@ -328,8 +329,11 @@ class PetSwarmEnv(ParallelEnv):
         for a, done in terminations.items():  # a robot that left slave-role driving and drives no user stands still
             if done and self.fleet.nodes[self._agent_index[a]].state != "master":
                 world.robots[self._agent_index[a]].set_command(0.0, 0.0, 0.0)
+            elif done:  # it became a master (a lost master's successor): it never returns as an agent
+                self._retired.add(a)
         truncations = {a: truncated for a in self.agents}
-        joined = [f"robot_{i}" for i in slaves if f"robot_{i}" not in self.agents and f"robot_{i}" in self._possible]
+        joined = [f"robot_{i}" for i in slaves if f"robot_{i}" not in self.agents and f"robot_{i}" in self._possible
+                  and f"robot_{i}" not in self._retired]
         for a in joined:
             self._last_action[a] = np.zeros(3, np.float32)
         self._slave_ids = slaves
@@ -378,7 +382,7 @@ class PetSwarmEnv(ParallelEnv):
     _EPISODE = ("world", "swarm", "session", "swarms", "sessions", "radio", "ir_channel", "fleet", "arbiters", "sensors", "runtime",
                 "_arrivals",
                 "observer", "experimenter", "metrics", "_renderer", "_other_user_robots", "_slave_ids", "_agent_index",
-                "_last_action", "scenario", "num_cycles")
+                "_last_action", "scenario", "num_cycles", "_retired")
 
     def __getstate__(self) -> dict[str, Any]:
         """The env without its episode (the clock's SimPy processes are generators, which do not

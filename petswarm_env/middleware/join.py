@@ -44,6 +44,7 @@ from petswarm_env.middleware import messages as msg
 from petswarm_env.middleware.formation import Formation, formation_for_mode
 from petswarm_env.middleware.ruta import Bid
 from petswarm_env.middleware.station import Station
+from petswarm_env.middleware.succession import body_can_be_master
 
 
 # Robots on the common PAN that answer a scan: waiting robots, and user-connected robots not in a
@@ -166,6 +167,7 @@ class JoinManager:
         members.update({i + 1: chosen[m] for i, m in enumerate(sorted(chosen))})  # numbered 1..n (no gap)
         mode = mode_of()
         formation = formation_for_mode(node.cfg.swarm, len(members), mode)
+        node.know.lf_members = self._lf_members(members, answers)
         yield from self._notify(members, pan, formation, mode, result)  # step 3
         # 4. the master drives its swarm on the new PAN ID
         node.enter_swarm("master", pan, 0, dict(members), formation, mode)
@@ -332,6 +334,7 @@ class JoinManager:
             new = dict(members)
             new.update(picked)
             new = dict(sorted(new.items()))
+            node.know.lf_members = node.know.lf_members | self._lf_members(picked, answers)
             formation = formation_for_mode(node.cfg.swarm, len(new), mode)
             yield from self._notify(new, pan, formation, mode, result, joiners=set(picked.values()))
             result.members = new
@@ -340,6 +343,22 @@ class JoinManager:
         finally:
             if node.state == "master":
                 node.pans = frozenset({pan})
+
+    def _lf_members(self, members: dict[int, int], answers: dict[int, Frame]) -> frozenset[int]:
+        """The robots of ``members`` whose bodies carry LF antennas (may be master), as their joining
+        answers said (the joining answer's flag; a status answer's sensor mask), the master itself
+        by its own body."""
+        out = {self.node.node_id} if body_can_be_master(self.node) else set()
+        for rid in members.values():
+            f = answers.get(rid)
+            if f is None:
+                continue
+            if f.kind == msg.STATUS_ANSWER:
+                if f.payload["sensors"] & assignment.SENSOR_BITS["LF"]:
+                    out.add(rid)
+            elif f.payload.get("lf"):
+                out.add(rid)
+        return frozenset(out)
 
     def _notify(self, members: dict[int, int], pan: int, formation: Formation, mode: str, result: OrganizeResult,
                 joiners: set[int] | None = None):
@@ -366,7 +385,8 @@ class JoinManager:
                     if notify[rid] == msg.JOIN_NOTIFY:
                         member = next(m for m, n in members.items() if n == rid)
                         node.send(msg.JOIN_NOTIFY, dst=rid, pan=p, new_pan=pan, member=member, total=len(members),
-                                  members=dict(members), shape=formation.shape, mode=mode, links=links)
+                                  members=dict(members), shape=formation.shape, mode=mode, links=links,
+                                  lf=sorted(n for n in members.values() if n in node.know.lf_members))
                     else:
                         node.send(msg.NON_PARTICIPATE, dst=rid, pan=p)
                 yield from self._collect({rid}, cfg.response_timeout_s, (msg.NOTIFY_ACK,))
@@ -392,7 +412,7 @@ class JoinManager:
             node.send(msg.STATUS_ANSWER, dst=frame.src, pan=PAN_WAITING,
                       **assignment.status_payload(assignment.own_status(node), ok, frame.rx_distance_est_m))
         else:
-            node.send(msg.JOIN_ANSWER, dst=frame.src, pan=PAN_WAITING, available=ok)
+            node.send(msg.JOIN_ANSWER, dst=frame.src, pan=PAN_WAITING, available=ok, lf=body_can_be_master(node))
 
     def _on_announce(self, frame: Frame) -> None:
         """Algorithm 2 on a free candidate: its own utility for each announced slot, bid back to the
@@ -424,6 +444,7 @@ class JoinManager:
             members = {int(m): n for m, n in p["members"].items()}
             node.enter_swarm("slave", p["new_pan"], p["member"], members,
                              Formation.from_links_payload(p["shape"], p["links"]), p["mode"])
+            node.know.lf_members = frozenset(p["lf"])
             node.became_slave.emit(p["new_pan"])
         if node.swarm_pan == p["new_pan"]:  # (re-)acknowledge, also when the first ack was lost
             node.send(msg.NOTIFY_ACK, dst=frame.src, pan=frame.pan)

@@ -113,9 +113,11 @@ def plan_mode_change(
     new_mode: str,
     master_change: bool,
     geometry: SwarmGeometry,
+    lf_members: frozenset[int] | None = None,
 ) -> ModeChangePlan:
     """Apply Table 3 to the current swarm, the closest / farthest robot from ``geometry`` (what the
-    master knows: :func:`measured_geometry`).
+    master knows: :func:`measured_geometry`), among the robots that may be master (``lf_members``:
+    the node ids whose bodies carry LF antennas, from the joining answers; None = every robot).
 
     Changes between a Table 3 mode and remote control keep master and references (the table has no
     row for them).
@@ -126,10 +128,11 @@ def plan_mode_change(
     if not master_change:  # keep the master, change the references: the standard layout of the new mode
         return ModeChangePlan(new_mode, dict(members), formation_for_mode(cfg, n, new_mode), False, True)
     distance = geometry.user_distance
+    able = [m for m in range(n) if m == 0 or lf_members is None or members.get(m) in lf_members]
     if new_mode == "following":  # leading → following: the closest robot
-        new_root = min(range(n), key=lambda m: (round(distance(m), 9), m))
+        new_root = min(able, key=lambda m: (round(distance(m), 9), m))
     else:  # following → leading: the top of the hierarchy, the robot farthest from the user
-        new_root = min(range(n), key=lambda m: (-round(distance(m), 9), m))
+        new_root = min(able, key=lambda m: (-round(distance(m), 9), m))
     new_formation, renumber = formation.rerooted(new_root)  # references unchanged
     new_members = {renumber[m]: node for m, node in members.items()}
     return ModeChangePlan(new_mode, dict(sorted(new_members.items())), new_formation, new_root != 0, False)
@@ -159,7 +162,8 @@ class ModeManager:
         self._acks = set()
         retries = 0
         payload = dict(seq=seq, mode=plan.mode, members=dict(plan.members), shape=plan.formation.shape,
-                       links=plan.formation.links_payload())
+                       links=plan.formation.links_payload(),
+                       lf=sorted(n for n in plan.members.values() if n in node.know.lf_members))
         while True:
             node.send(msg.MODE_CHANGE, **payload)
             yield clock.timeout(cfg.response_timeout_s)
@@ -225,6 +229,7 @@ class ModeManager:
         node.know.member = next(m for m, n in members.items() if n == node.node_id)
         node.formation = Formation.from_links_payload(p["shape"], p["links"])
         node.know.mode = p["mode"]  # the driving mode as the frame says: the slave's own knowledge
+        node.know.lf_members = frozenset(p["lf"])
 
     def _on_handover(self, frame: Frame) -> None:
         node = self.node

@@ -3,8 +3,9 @@
 Lower layer: the RF communication manager and the IR module (:class:`~.station.Station`, which is
 all a manager sees of its robot). Upper layer, built here for this robot alone: the sequence manager
 (:mod:`.sequence`), the message-processing manager (dispatch of frames to the join protocol
-:mod:`.join`, the mode change :mod:`.modes`, the token ring :mod:`.token_ring` and the master's
-status broadcast) and the relative-location identification manager (:mod:`.token_ring`).
+:mod:`.join`, the mode change :mod:`.modes`, the token ring :mod:`.token_ring`, the master's
+status broadcast and the choice of a new master :mod:`.succession`) and the relative-location
+identification manager (:mod:`.token_ring`).
 Everything a policy may see is in :class:`~.knowledge.Knowledge`.
 
 The managers never see the per-user swarm nor another robot: what they report upward leaves through
@@ -26,6 +27,7 @@ from petswarm_env.middleware.modes import ModeManager
 from petswarm_env.middleware.recovery import RecoveryManager
 from petswarm_env.middleware.sequence import SequenceManager
 from petswarm_env.middleware.station import Station
+from petswarm_env.middleware.succession import SuccessionManager
 from petswarm_env.middleware.token_ring import TokenRing
 from petswarm_env.sim.clock import Clock
 
@@ -45,6 +47,9 @@ class Node(Station):
         self.modes = ModeManager(self)
         self.recovery = RecoveryManager(self, self.join, self.ring.forget, self.seq.leave_swarm)
         self.ring.lost_handler = self.recovery.member_lost
+        self.succession = SuccessionManager(self, self.seq.leave_swarm)
+        self.seq.successor = self.succession
+        self.seq.ring_heard = self.ring.last_heard_s
         self.on(msg.STATUS, self._on_status)
 
     def _on_status(self, frame: Frame) -> None:

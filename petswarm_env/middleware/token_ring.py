@@ -61,6 +61,7 @@ class TokenRing:
         self.heard: dict[int, float] = {}  # robot -> when we last received one of its ring frames
         self.silent_rounds: dict[int, int] = {}  # master: member -> rounds in a row it was not heard in
         self.round_start_s = 0.0  # master: start of its previous slot
+        self.started_s = -math.inf  # master: when it started its ring
         self.lost_handler = None  # master: called with the node id of a member declared lost (Node wires it)
         self._declared: set[int] = set()
         node.on(msg.TX_START, self._on_tx_start)
@@ -166,6 +167,14 @@ class TokenRing:
                 self.lost_handler(peer)
         self.round_start_s = slot_start
 
+    def last_heard_s(self) -> float | None:
+        """Master: when it last heard a ring frame of a member of its tables, or started its ring
+        (None without a member): the sequence manager's cut-off (:meth:`~.sequence.SequenceManager.cut_off`)."""
+        peers = self._ring_peers()
+        if not peers:
+            return None
+        return max(self.started_s, max(self.heard.get(p, -math.inf) for p in peers))
+
     def forget(self, node_id: int) -> None:
         """Master: ``node_id`` left the tables (or joined them anew): its count starts over."""
         self.silent_rounds.pop(node_id, None)
@@ -175,7 +184,7 @@ class TokenRing:
     def start_as_master(self) -> None:
         """The master starts the ring (with a fresh token) and its watchdog."""
         node = self.node
-        self.round_start_s = node.clock.now  # every member's first round counts from now
+        self.round_start_s = self.started_s = node.clock.now  # every member's first round counts from now
         self.silent_rounds = {}
         if node.know.total_members > 1:
             self.token_seq += 1000  # supersede any token still in flight

@@ -44,7 +44,9 @@ BEFORE_ISSUE_15 = {
     "default_seed1": "aa4858766c17122c9aa0924037338b4f75d98d71ab39ff312bb7aebd30991a37",
     "default_seed2": "134a7be862b8b032c0dda53d773895715ef49200b9d407ff42f219bd294a28bc",
     "leading_zigzag": "e94a1cd8ec1e4af7d474642ce5ee3ef2a4345d321d6c57f50d5ac6b6960ce2a7",
-    "mode_change": "114ebbebefd331a6da83a09891d5de957decd5890741ce40db6569bcd6d002c6",
+    # changed on purpose since: the new master of a Table 3 master change starts its user tracker from its
+    # own knowledge (the old master's last status broadcast through its own IR fix), not the old master's track
+    "mode_change": "5c761b8097044650509cbc38d5a5cd06df65ea08d3ab62a024941a33d582ca86",
     "nine_slaves_u_turn": "f91e3e1f1f815f6e877d83379ea83e5a0a5139b3622e1c63d86e65f9b881dbbc",
     "random_1p4": "842809c8b573895ce4cffd6837aeb2937a4f56fd2e32667dc34f56a877f0d11f",
     "two_users": "657d6c1cfeff39882e6ba4cc20eafd83e34d19410a9e3fe3a828a8a28393d342",

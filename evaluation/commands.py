@@ -30,6 +30,7 @@ def format_run_table(result: dict[str, Any]) -> str:
         f"summary: {s['episodes']} episodes, formation_rmse_m {s['formation_rmse_m']:.3f}, collisions {s['collisions']} "
         f"(robot-robot {s['robot_robot_collisions']}), organize_time_s {s['organize_time_s']:.2f}, join_retries {s['join_retries']}, "
         f"building_time_s {s['building_time_s']:.1f} ({s['formations_built']} of {s['episodes']} built)"
+        + (f", {s['unorganized']} not organized (seeds {s['unorganized_seeds']})" if s.get("unorganized") else "")
     )
     return "\n".join(lines)
 
@@ -41,8 +42,9 @@ def short_swarm_warnings(episodes: list[dict[str, Any]], required: int) -> list[
         f"warning: episode with seed {e['seed']}{' (' + e['scenario'] + ')' if e.get('scenario') else ''}: "
         f"{e['slaves_missing']} of {required} required slave(s) did not join (join retries {e['join_retries']}, "
         f"organize {e['organize_time_s']:.2f} s); see protocol.max_retries and protocol.organize_timeout_s"
-        for e in episodes if e.get("slaves_missing")
-    ]
+        for e in episodes if e.get("slaves_missing") and e.get("organized") is not False
+    ] + [f"warning: episode not organized (recorded, the run went on): {e['organize_problem']}"
+         for e in episodes if e.get("organized") is False]
 
 
 def _warn_short(result: dict[str, Any], cfg: Config) -> None:

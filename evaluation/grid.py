@@ -100,6 +100,7 @@ def run_team(cfg: Config, policy: str, mix: dict[str, str], seeds: list[int], wa
         "emergencies": sum(e.get("events", {}).get("emergencies", 0) for e in episodes),
         "slaves_missing": sum(e.get("slaves_missing", 0) for e in episodes),
         "mix_robots_rmse_m": math.sqrt(sq / n) if n else math.nan,
+        "unorganized": [e["organize_problem"] for e in episodes if e.get("organized") is False],
         "per_episode": [{"seed": e["seed"], "formation_rmse_m": e["formation_rmse_m"], "collisions": e["collisions"],
                          "slaves_missing": e.get("slaves_missing", 0)} for e in episodes],
     }
@@ -240,8 +241,10 @@ def progress_line(cell: dict[str, Any], k: int, n: int, reused: bool = False) ->
     c, r = cell["candidate"], cell["reference"]
     mark = "ok" if cell["meets_target"] else "--"
     how = "kept from --resume" if reused else f"{cell.get('wall_s', 0):.1f} s"
+    bad = c.get("unorganized", []) + r.get("unorganized", [])
+    note = f"  {len(bad)} episode(s) not organized, e.g. {bad[0]}" if bad else ""
     return (f"[{k:>3}/{n}] {mark} ratio {_f(cell['ratio'], 2):>5}  rmse {_f(c['formation_rmse_m'])} vs {_f(r['formation_rmse_m'])}  "
-            f"collisions {c['collisions']} vs {r['collisions']}  {cell['name']}  ({how})")
+            f"collisions {c['collisions']} vs {r['collisions']}  {cell['name']}  ({how}){note}")
 
 
 def format_grid_summary(result: dict[str, Any]) -> str:

@@ -11,6 +11,7 @@ from baselines.registry import make_policy
 from petswarm_env import PetSwarmEnv
 from petswarm_env.config import Config
 from petswarm_env.files import raise_pending_signal
+from petswarm_env.middleware.join import OrganizeError
 
 TRAJECTORY_EVERY = 5  # record positions every 5 steps (0.5 s)
 VIDEO_EVERY = 2  # a GIF frame every 2 steps (5 frames/s of simulated time at the default 0.1 s step)
@@ -67,7 +68,10 @@ def run_episode(
     """One episode with ``policy`` driving every slave; returns ``env.episode_summary()`` plus the
     seed, and with ``record`` the per-step mean formation error and the trajectories (truth).
     ``on_step`` is called with each step's infos (the comparison grid's per-robot errors)."""
-    observations, _ = env.reset(seed=seed)
+    try:
+        observations, _ = env.reset(seed=seed)
+    except OrganizeError as exc:  # recorded, and the run goes on
+        return unorganized_episode(env, seed, str(exc))
     policy.reset(seed)
     if on_frame:
         on_frame()
@@ -98,14 +102,28 @@ def run_episode(
     return summary
 
 
+def unorganized_episode(env: PetSwarmEnv, seed: int, problem: str) -> dict[str, Any]:
+    """The record of an episode whose swarm could not organize at reset (``organized: false``, the
+    reason in ``organize_problem``): no figure of a formation, every required slave missing."""
+    return {"seed": seed, "organized": False, "organize_problem": problem, "scenario": getattr(env, "scenario", None),
+            "slaves": 0, "formation_rmse_m": math.nan, "building_time_s": math.nan, "organize_time_s": math.nan,
+            "join_retries": 0, "token_recoveries": 0, "slaves_missing": env.cfg.swarm.num_slaves * env.cfg.world.num_users,
+            "collisions": {"robot_robot": 0, "robot_user": 0, "robot_wall": 0}, "frames": {"sent": 0, "lost": 0, "collided": 0},
+            "events": {}}
+
+
 def summarize(episodes: list[dict[str, Any]]) -> dict[str, Any]:
     """Run summary: mean formation RMSE, total collisions, mean organize time, total retries, missing
-    slaves, mean building time over the episodes that built their formation and how many did."""
+    slaves, mean building time over the episodes that built their formation and how many did; the
+    episodes whose swarm could not organize are counted (``unorganized``) and left out of the means."""
+    unorganized = [e for e in episodes if e.get("organized") is False]
+    total = len(episodes)
+    episodes = [e for e in episodes if e.get("organized") is not False]
     n = len(episodes)
     finite = [e["formation_rmse_m"] for e in episodes if math.isfinite(e["formation_rmse_m"])]
     built = [e["building_time_s"] for e in episodes if math.isfinite(e.get("building_time_s", math.nan))]
     return {
-        "episodes": n,
+        "episodes": total,
         "formation_rmse_m": sum(finite) / len(finite) if finite else math.nan,
         "collisions": sum(sum(e["collisions"].values()) for e in episodes),
         "robot_robot_collisions": sum(e["collisions"]["robot_robot"] for e in episodes),
@@ -114,6 +132,8 @@ def summarize(episodes: list[dict[str, Any]]) -> dict[str, Any]:
         "slaves_missing": sum(e.get("slaves_missing", 0) for e in episodes),
         "building_time_s": sum(built) / len(built) if built else math.nan,  # over the episodes that built their formation
         "formations_built": len(built),
+        "unorganized": len(unorganized),
+        "unorganized_seeds": [e["seed"] for e in unorganized],
     }
 
 

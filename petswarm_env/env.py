@@ -56,6 +56,7 @@ from petswarm_env.control.arbiter import ControlArbiter, SafetyStage
 from petswarm_env.metrics import BUILT_WITHIN_M, Experimenter
 from petswarm_env.middleware.formation import formation_for_mode, user_position_in_formation
 from petswarm_env.middleware.fleet import Fleet
+from petswarm_env.middleware.join import OrganizeError, organize_obstacle
 from petswarm_env.middleware.swarm import Swarm
 from petswarm_env.middleware.user_session import UserSession, master_distance_m
 from petswarm_env.observe import OBS_VERSION, ObservationLayout, Observer, observation_bounds
@@ -168,6 +169,7 @@ class PetSwarmEnv(ParallelEnv):
         return f"{agent!r} is not an agent of this env; the possible agents are {', '.join(self.possible_agents)}"
 
     def reset(self, seed: int | None = None, options: dict | None = None):
+        self._reset_seed = seed  # named when the swarm cannot organize
         if seed is not None:
             seed = _checked_seed(seed)
             self._seed_seq = np.random.SeedSequence(seed)
@@ -291,10 +293,9 @@ class PetSwarmEnv(ParallelEnv):
                     f"user {u}'s belt never woke up: its robot must start within lf.wake_range_m={cfg.lf.wake_range_m} m "
                     "and burst the belt's wake-up pattern")
             if not swarm.organized or not swarm.slave_ids():
-                raise RuntimeError(
-                    f"user {u}'s swarm did not organize within protocol.organize_timeout_s={cfg.protocol.organize_timeout_s} s "
-                    f"(radio.loss_prob={cfg.radio.loss_prob}); raise the timeout or protocol.max_retries"
-                )
+                cause = organize_obstacle(cfg)
+                raise OrganizeError(f"seed {self._reset_seed}: user {u}'s swarm did not organize within protocol.organize_timeout_s="
+                                    f"{cfg.protocol.organize_timeout_s:g} s; likely cause: {cause}", self._reset_seed, cause)
 
     def step(self, actions: dict[str, Any]):
         if self.world is None:

@@ -61,6 +61,50 @@ CANDIDATE_REACH = 1.3
 REFILL_SCANS = 3
 
 
+class OrganizeError(RuntimeError):
+    """A swarm could not organize within ``protocol.organize_timeout_s`` (the env's reset): the
+    message names the seed and the likely cause (:func:`organize_obstacle`). A run records the
+    episode as not organized and goes on (evaluation/runner.py)."""
+
+    def __init__(self, message: str, seed: int | None, cause: str):
+        super().__init__(message)
+        self.seed, self.cause = seed, cause
+
+
+# chosen: more robots than this organizing at once on one medium (several users) is named as the likely
+# cause of a failed organize: their scan answers and acknowledgements collide (4 users x 5 robots organize)
+CROWD_ROBOTS = 24
+
+
+def organize_obstacle(cfg) -> str:
+    """The config value that most likely kept a swarm from organizing, most certain first: a bit
+    rate too low for a query and its answer within ``protocol.response_timeout_s``; a radio range
+    shorter than the master's available region (the waiting robots stand inside it); a crowd of
+    users' robots organizing at once on one medium; frame loss; else the answers' collisions."""
+    radio, proto = cfg.radio, cfg.protocol
+    n = cfg.swarm.num_slaves
+
+    def airtime(nbytes: int) -> float:
+        return 8.0 * (nbytes + radio.frame_overhead_bytes) / radio.bitrate_bps
+
+    exchange = airtime(msg.SIZE_BYTES[msg.JOIN_QUERY] + msg.LIST_ENTRY_BYTES * n) + airtime(msg.SIZE_BYTES[msg.JOIN_ANSWER])
+    if exchange + 2 * radio.processing_s > proto.response_timeout_s:
+        return (f"radio.bitrate_bps={radio.bitrate_bps:g}: a joining query and its answer take {exchange:.3g} s on the air, "
+                f"more than protocol.response_timeout_s={proto.response_timeout_s:g} s; raise the bit rate (802.15.4: 250000)")
+    if radio.range_m < proto.join_radius_m:
+        return (f"radio.range_m={radio.range_m:g} is shorter than the master's available region (protocol.join_radius_m="
+                f"{proto.join_radius_m:g}, where the waiting robots stand): they cannot hear its scan; raise radio.range_m")
+    robots = cfg.world.num_users * (1 + n + cfg.swarm.extra_robots)
+    if cfg.world.num_users > 1 and robots > CROWD_ROBOTS:
+        return (f"size: {cfg.world.num_users} users x {n} slaves ({robots} robots) organize at once on one medium and their "
+                "answers collide; fewer users (world.num_users) or slaves (swarm.num_slaves), or a longer protocol.organize_timeout_s")
+    if radio.loss_prob > 0:
+        return (f"radio.loss_prob={radio.loss_prob:g}: too many frames lost; lower it, or raise protocol.organize_timeout_s="
+                f"{proto.organize_timeout_s:g} or protocol.max_retries={proto.max_retries}")
+    return (f"the answers collided every time; raise protocol.organize_timeout_s={proto.organize_timeout_s:g} "
+            f"or protocol.max_retries={proto.max_retries}")
+
+
 def can_join(connected_user: int | None, distance_m: float, available_radius_m: float) -> bool:
     """Table 1 (seed 000): connection is checked first — a robot connected to another user
     cannot join and never checks distance; otherwise it can join inside the available region."""

@@ -15,8 +15,9 @@ A lost token must not stall the ring (SPEC §3.3, chosen): the master watches th
 A member that stops answering (issue 15; chosen): the holder before it retries the token
 ``token_retries`` times, then skips it, every round. The master counts, at the start of each of
 its own slots (one round of the ring), the members it heard no ring frame from since the start of
-its previous slot — their acknowledgements of its start sign and token, their own start signs,
-tokens and sync messages (a live member sends several each round, so loss alone rarely silences
+its previous slot — their acknowledgements of its start sign and token (and those it overhears,
+addressed to other holders), their own start signs, tokens and sync messages; the ring's first
+slot counts nothing (no round has passed) (a live member sends several each round, so loss alone rarely silences
 one: at ``radio.loss_prob`` 0.3, five frames all lost is 0.2 %) — and declares a member *lost*
 after ``protocol.lost_after_rounds`` such rounds in a row: ``lost_handler(node_id)``, the
 recovery manager (:mod:`.recovery`), removes it from the tables.
@@ -88,10 +89,10 @@ class TokenRing:
         yield clock.any_of([self._acks_event, clock.timeout(self.node.cfg.protocol.ring_response_timeout_s)])
 
     def _on_ack(self, frame: Frame) -> None:
+        self.heard[frame.src] = self.node.clock.now  # an acknowledgement to another holder, overheard, is a sign of life too
         if frame.dst != self.node.node_id:
             return
         self._acks.add(frame.src)
-        self.heard[frame.src] = self.node.clock.now
         ev = self._acks_event
         if ev is not None and not ev.triggered and self._acks_needed <= self._acks:
             ev.succeed()
@@ -157,6 +158,8 @@ class TokenRing:
         in a row (module docstring)."""
         since, heard, silent = self.round_start_s, self.heard, self.silent_rounds
         need = self.node.cfg.protocol.lost_after_rounds
+        if since == self.started_s and slot_start == since:
+            return  # the ring's first slot: no round has passed yet (only the start sign's acknowledgements)
         for peer in peers:
             if heard.get(peer, -math.inf) >= since:
                 silent[peer] = 0

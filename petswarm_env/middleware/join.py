@@ -51,7 +51,8 @@ from petswarm_env.middleware.succession import body_can_be_master
 # swarm (command-waiting or driving alone), which then decline by Table 1 (connected to a user).
 SCAN_ANSWERING_STATES = ("waiting", "command_waiting", "following", "leading", "remote")
 # chosen: while fewer robots are available than required, the scan is retried until the organize
-# deadline less this many tries of the notification step (a response timeout each) per robot to notify
+# deadline less the notification step's time: a response timeout per robot to notify and this many
+# more for retries (a reserve of 4 tries per robot left 16 robots 0.4 s of a 10 s budget to scan in)
 NOTIFY_RESERVE_TRIES = 4
 # chosen: the master takes as joining candidates the scan responders its RSSI estimate puts within
 # this many times the available region (the RSSI distance is off by ~10 % at 1 dB shadowing)
@@ -238,7 +239,7 @@ class JoinManager:
             candidates.update(new)
             yield from self._query(set(new), answers, result)
             n_available = sum(1 for f in answers.values() if f.payload["available"])
-            reserve = NOTIFY_RESERVE_TRIES * timeout * max(required, len(answers))
+            reserve = timeout * (max(required, len(answers)) + NOTIFY_RESERVE_TRIES)
             if n_available >= required or not self._may_retry(scans, reserve) or (max_scans is not None and scans + 1 >= max_scans):
                 return candidates, answers
             scans += 1

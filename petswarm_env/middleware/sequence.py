@@ -51,7 +51,8 @@ class SequenceManager:
         if node.state != "slave":
             return False
         if self.successor is not None and self.successor.electing:
-            return True
+            if not self.successor.master_heard_again():
+                return True
         cfg = node.cfg.protocol
         status, last = node.know.status, node.joined_s
         if status is not None and status.time_s >= last:

@@ -10,7 +10,8 @@ capability travels in the joining answer and in the member tables, :mod:`.messag
 
 1. **Loss.** A slave that heard no status broadcast of its master for ``protocol.status_timeout_s``
    (:meth:`~.sequence.SequenceManager.master_lost`) stops (emergency stop) and starts
-   :meth:`SuccessionManager.start`.
+   :meth:`SuccessionManager.start`. A status broadcast of the master heard after that calls the
+   choice off (:meth:`SuccessionManager.master_heard_again`: its broadcasts were lost, not the master).
 2. **Candidacy.** A slave that may be master works out its claim from what it knows
    (:func:`own_user_estimate`): the user where its master's last status broadcast put them (master
    frame), placed through its own IR fix of the master and its heading-exchange estimate of the
@@ -23,11 +24,14 @@ capability travels in the joining answer and in the member tables, :mod:`.messag
    it computes the new tables (:func:`succession_plan`: itself member 0, the lost master out, the
    others on the slots of the standard table one smaller by the least total move) and broadcasts
    the *takeover* frame (its claim, the tables) until every member acknowledged it, for at most
-   ``succession.takeover_timeout_s`` without a first acknowledgement — then it was alone (its own
-   radio failed) and returns to waiting. With the first acknowledgement it is the master
+   ``succession.takeover_timeout_s`` without the acknowledgements of at least half the other
+   members — then it was alone or with a few (its own radio failed, or a few far members lost a
+   master that the others still hear: chosen, a quorum, so that a minority never takes the
+   swarm from a live master) and returns to waiting. With that quorum it is the master
    (``took_over``): the ring, the status broadcast and the periodic scan start on it.
-4. **Acceptance.** A slave accepts a takeover of its lost master (its own status timeout passed, or
-   about to: it heard no status for longer than the election window) from a claim at least as
+4. **Acceptance.** A slave accepts a takeover of its lost master (its own status timeout passed:
+   a slave that still hears its master does not follow a robot that alone lost it; the takeover is
+   repeated, so a slave whose timeout comes a little later accepts it then) from a claim at least as
    good as any it accepted, applies the tables and acknowledges; a new master that hears a better
    claim's takeover yields (becomes its slave). A slave that accepted nothing within the window and
    the takeover timeout returns to waiting, as before.
@@ -195,6 +199,16 @@ class SuccessionManager:
                     node.later(at, self._send_candidacy, self.lost, key)
         node.clock.process(self._choose(self.lost))
 
+    def master_heard_again(self) -> bool:
+        """A status broadcast of the master came after we noticed its loss (its broadcasts were
+        lost, not the master): the choice is called off, and we drive on as its slave."""
+        status = self.node.know.status
+        if self.electing and status is not None and status.time_s > self._noticed_s and self.node.member_node(0) == self.lost:
+            self.electing = False
+            self.claims = {}
+            return True
+        return False
+
     def _send_candidacy(self, lost: int | None, key: tuple[int, int]) -> None:
         node = self.node
         if self.electing and self.lost == lost and node.state == "slave":
@@ -211,14 +225,14 @@ class SuccessionManager:
         node = self.node
         cfg = node.cfg.succession
         yield node.clock.timeout(cfg.election_window_s)
-        if not self.electing or self.lost != lost or node.state != "slave":
+        if not self.electing or self.lost != lost or node.state != "slave" or self.master_heard_again():
             return
         own = self.claims.get(node.node_id)
         if own is not None and own == min(self.claims.values()):
             yield from self._take_over(lost, own)
             return
         yield node.clock.timeout(cfg.takeover_timeout_s + cfg.election_window_s)
-        if self.electing and self.lost == lost and node.state == "slave":
+        if self.electing and self.lost == lost and node.state == "slave" and not self.master_heard_again():
             self.electing = False
             self._leave()  # nobody took the master's place: back to waiting, as before
 
@@ -247,7 +261,10 @@ class SuccessionManager:
             yield clock.timeout(node.cfg.protocol.response_timeout_s)
             if self.accepted != key or node.state not in ("slave", "master"):
                 return  # a better claim's takeover came: we yielded
-            if self._acks and not committed:
+            if not committed and self.master_heard_again():
+                self.accepted = None
+                return  # the master is alive: its broadcasts were lost
+            if not committed and 2 * len(self._acks & others) >= len(others):
                 committed = True
                 self._commit(table, formation, adopted, lost)
             if others <= self._acks or retries >= node.cfg.protocol.max_retries or (not committed and clock.now >= deadline):
@@ -290,7 +307,7 @@ class SuccessionManager:
             status = node.know.status
             last = status.time_s if status is not None else node.joined_s
             if node.state != "slave" or node.member_node(0) != p["lost"] \
-                    or node.clock.now - last <= node.cfg.succession.election_window_s:
+                    or node.clock.now - last <= node.cfg.protocol.status_timeout_s:
                 return  # our master is alive to us: not its successor's member (no acknowledgement)
             self.lost = p["lost"]
         elif p["lost"] != self.lost or (self.accepted is not None and key > self.accepted):

@@ -195,17 +195,22 @@ def test_a_radio_silent_slave_that_recovers_is_recruited_again_into_the_open_slo
 
 
 def test_one_recovery_at_a_time_on_a_master_with_two_users():
-    """Two members lost in one instant (a 2-user world, random walk, seed 900000003 of the eval
-    grid) used to start two recoveries whose refills shared the join manager's answers: a late
-    scan response was read as a joining answer (KeyError 'available'). One runs at a time now, and
-    an answer counts only when it is of the kind the step waits for."""
+    """Two members lost in one instant (first seen in a 2-user world, random walk, seed 900000003
+    of the eval grid, whose episode no longer loses them) used to start two recoveries whose
+    refills shared the join manager's answers: a late scan response was read as a joining answer
+    (KeyError 'available'). One runs at a time now, and an answer counts only when it is of the
+    kind the step waits for. Here two of user 0's slaves die at the same instant."""
     from baselines.policy import PolicySpec
     from baselines.registry import make_policy
     from evaluation.runner import run_episode
 
-    env = petswarm_env.parallel_env(**{"world.num_users": 2, "user.scenario": "random_walk"})
+    env = petswarm_env.parallel_env(**{"world.num_users": 2, "user.scenario": "random_walk", "max_cycles": 300,
+                                       "faults": [{"at_s": 8.0, "robot": 1, "kind": "dead"},
+                                                  {"at_s": 8.0, "robot": 2, "kind": "dead"}]})
     seed = 900000003
     ep = run_episode(env, make_policy("scripted", PolicySpec.from_env(env), seed=seed), seed)
     assert env.num_cycles == env.cfg.max_cycles  # ran to its truncation
+    lost = [ids for _, e, ids in env.swarms[0].member_log if e == "lost"]
+    assert sorted(i for ids in lost for i in ids) == [1, 2]
     refills = [r for sw in env.swarms for r in sw.master.recovery.refills]
     assert refills and math.isfinite(ep["formation_rmse_m"])

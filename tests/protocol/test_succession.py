@@ -160,3 +160,30 @@ def test_table3_picks_no_robot_without_lf_antennas():
     barred = plan_mode_change(cfg, f, members, "leading", "following", True, nominal_geometry(f, 1.0),
                               frozenset(set(members.values()) - {chosen}))
     assert barred.members[0] != chosen
+
+
+def test_a_minority_that_lost_a_live_master_never_takes_the_swarm():
+    """Two slaves stop hearing the status broadcasts (their radios drop them: congestion) while the
+    others still hear the master: their takeover gets no quorum, the master and its swarm stay."""
+    env = make(0)
+    master = env.swarm.master
+    deaf = env.swarm.slave_ids()[-2:]
+    for idx in deaf:
+        node = env.fleet.nodes[idx]
+        node.handlers["status"] = lambda frame: None  # the broadcasts never reach these two
+    run(env, 5.0)
+    assert env.swarm.master is master and master.state == "master" and not successions(env)
+    assert any(env.fleet.nodes[i].seq.master_lost_at for i in deaf)
+    others = [i for i in env.swarm.slave_ids() if i not in deaf]
+    assert others and all(env.fleet.nodes[i].know.members[0] == master.node_id for i in others)
+
+
+def test_a_status_heard_after_the_timeout_calls_the_choice_off():
+    env = make(0)
+    node = env.fleet.nodes[env.swarm.slave_ids()[0]]
+    now = env.world.now
+    node.know.status.time_s = now - env.cfg.protocol.status_timeout_s - 0.2  # ten broadcasts lost in a row
+    node.joined_s = node.know.status.time_s - 1.0
+    assert node.seq.master_lost(now) and node.succession.electing
+    run(env, 0.2)  # the next broadcast arrives
+    assert not node.succession.electing and node.state == "slave" and not successions(env)

@@ -187,3 +187,16 @@ def test_a_status_heard_after_the_timeout_calls_the_choice_off():
     assert node.seq.master_lost(now) and node.succession.electing
     run(env, 0.2)  # the next broadcast arrives
     assert not node.succession.electing and node.state == "slave" and not successions(env)
+
+
+def test_a_master_body_without_lf_antennas_bursts_no_lf():
+    """user_session asks the body: a master whose body carries no LF antennas gets no LF fix."""
+    env = make(0, **{"swarm.pool": [{"type": "mybot", "count": 4}]})
+    session = env.sessions[0]
+    robot = env.world.robots[env.swarm.master.node_id]
+    run(env, 1.0)
+    assert session.tracker.last_fix_s > env.world.now - 1.0  # the petbot master locates its user
+    robot.spec = env.world.robots[env.swarm.slave_ids()[0]].spec  # the same robot, as a mybot body
+    t = env.world.now
+    run(env, 1.0)
+    assert session.tracker.last_fix_s <= t + env.cfg.ble.latency_s

@@ -200,3 +200,28 @@ def test_a_master_body_without_lf_antennas_bursts_no_lf():
     t = env.world.now
     run(env, 1.0)
     assert session.tracker.last_fix_s <= t + env.cfg.ble.latency_s
+
+
+def test_with_no_slave_able_to_be_master_the_belt_pairs_with_a_waiting_robot_of_the_pool():
+    """Every slave is a mybot (no LF antennas): nobody takes the place, the slaves return to waiting;
+    the pool's spare petbot, waiting, bursts its wake-up pattern and the belt pairs with it once
+    the user stands within lf.wake_range_m of it, and its start-up commands organize a swarm."""
+    pool = [{"type": "mybot", "count": 4}, {"type": "petbot", "count": 1}]
+    env = make(0, faults=[{"at_s": 1.0, "robot": "master", "kind": "dead"}], **{"swarm.pool": pool})
+    spare = 5
+    assert env.fleet.nodes[spare].state == "waiting" and env.world.robots[spare].type_name == "petbot"
+    run(env, 6.0)
+    session, world = env.sessions[0], env.world
+    assert not successions(env) and not env.agents and session.state == "waiting_user"
+    robot = world.robots[spare]  # the user walks up to the spare (by hand: the script cannot) ...
+    x, y = robot.position
+    body = world.user.body
+    body.position = (x + 0.7 * np.cos(robot.heading), y + 0.7 * np.sin(robot.heading))
+    world.space.reindex_shapes_for_body(body)
+    world.invalidate_truth()
+    for _ in range(200):  # ... and the world runs on (no agent acts)
+        env._control(None)
+        world.advance(env.cfg.physics_substeps)
+        env.sensors.read_rings()
+    assert session.connected_robot == spare and env.swarm.master.node_id == spare and env.swarm.organized
+    assert env.swarm.slave_ids()  # the mybots waiting around join it

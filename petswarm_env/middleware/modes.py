@@ -53,6 +53,7 @@ from petswarm_env.middleware import messages as msg
 from petswarm_env.middleware.formation import Formation, formation_for_mode, user_position_in_formation
 from petswarm_env.middleware.knowledge import FRESH_IR_S, Knowledge
 from petswarm_env.middleware.station import Station
+from petswarm_env.middleware.succession import adopted_swarm_config
 
 TABLE3_MODES = ("following", "leading")
 
@@ -235,6 +236,7 @@ class ModeManager:
         node = self.node
         node.send(msg.HANDOVER_ACK, dst=frame.src)
         if node.state == "slave" and node.know.member == 0:  # take the user connection over
+            node.cfg = adopted_swarm_config(node)  # its user's request as its tables tell it (succession.py)
             node.state = "master"
             node.connected_user = frame.payload["user"]  # its wearables reconnect over BLE
             node.previous_driving_state = frame.payload["previous"]

@@ -143,9 +143,10 @@ def succession_plan(formation: Formation, members: dict[int, int], new_root: int
 
 
 def adopted_swarm_config(node: Station):
-    """The swarm section a successor holds: its user's request as the frames told it — the shape of
-    its neighbour table, the spacing of member 1's first link, the slaves it took over; a custom
-    table is its own rows (turned back from the leading layout)."""
+    """The swarm section a robot that became master holds (a successor, or the new master of a Table 3
+    change): its user's request as the frames told it — the shape of its neighbour table, the spacing
+    of member 1's first link, the slaves the swarm had (its tables' members but one); a custom table
+    is its own rows (turned back from the leading layout)."""
     cfg = node.cfg
     formation = node.formation
     update: dict = {"num_slaves": max(1, node.know.total_members - 1)}

@@ -225,3 +225,20 @@ def test_with_no_slave_able_to_be_master_the_belt_pairs_with_a_waiting_robot_of_
         env.sensors.read_rings()
     assert session.connected_robot == spare and env.swarm.master.node_id == spare and env.swarm.organized
     assert env.swarm.slave_ids()  # the mybots waiting around join it
+
+
+def test_the_new_master_of_a_table3_change_knows_its_swarm_only_from_frames():
+    env = petswarm_env.parallel_env(**{"user.scenario": "mode_change", "max_cycles": 400})
+    env.reset(seed=0)
+    first = env.swarm.master
+    for _ in range(400):
+        if not env.agents or env.swarm.events["master_changes"]:
+            break
+        env.step({a: np.zeros(3, np.float32) for a in env.agents})
+    for _ in range(10):  # the handover's frames
+        if env.agents:
+            env.step({a: np.zeros(3, np.float32) for a in env.agents})
+    node = env.swarm.master
+    assert node is not first and node.state == "master"
+    assert node.cfg is not env.cfg and node.cfg.swarm.num_slaves == len(node.know.members) - 1
+    assert node.cfg.swarm.formation == env.cfg.swarm.formation

@@ -67,7 +67,8 @@ def main(argv: list[str] | None = None) -> int:
                   f"cycles {r['cycles']}, formation RMSE 15 s on {r['rmse_after_m']:.2f} m")
         ok = [r for r in rows if r["new_master_s"] <= 5.0 and math.isfinite(r["paired_s"]) and r["full"]]
         finite = [r["paired_s"] for r in rows if math.isfinite(r["paired_s"])]
-        print(f"{kind}: {len(ok)} of {len(rows)} seeds meet the target (new master within 5 s, paired, {args.max_cycles} cycles); "
+        print(f"{kind}: {len(ok)} of {len(rows)} seeds meet the target (new master within 5 s, paired, "
+              f"{args.max_cycles} cycles); "
               f"new master median {statistics.median(r['new_master_s'] for r in rows):.2f} s, "
               f"paired median {statistics.median(finite) if finite else math.nan:.2f} s (max {max(finite) if finite else math.nan:.2f}), "
               f"RMSE 15 s on median {statistics.median(r['rmse_after_m'] for r in rows):.2f} m")

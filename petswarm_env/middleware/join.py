@@ -97,8 +97,9 @@ def organize_obstacle(cfg) -> str:
                 f"{proto.join_radius_m:g}, where the waiting robots stand): they cannot hear its scan; raise radio.range_m")
     robots = cfg.world.num_users * (1 + n + cfg.swarm.extra_robots)
     if cfg.world.num_users > 1 and robots > CROWD_ROBOTS:
-        return (f"size: {cfg.world.num_users} users x {n} slaves ({robots} robots) organize at once on one medium and their "
-                "answers collide; fewer users (world.num_users) or slaves (swarm.num_slaves), or a longer protocol.organize_timeout_s")
+        return (f"size: {cfg.world.num_users} users x {n} slaves ({robots} robots) organize at once on one medium and "
+                "their answers collide; fewer users (world.num_users) or slaves (swarm.num_slaves), or a longer "
+                "protocol.organize_timeout_s")
     if radio.loss_prob > 0:
         return (f"radio.loss_prob={radio.loss_prob:g}: too many frames lost; lower it, or raise protocol.organize_timeout_s="
                 f"{proto.organize_timeout_s:g} or protocol.max_retries={proto.max_retries}")

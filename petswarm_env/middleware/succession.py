@@ -116,7 +116,10 @@ def least_move(current: dict[int, np.ndarray], slots: dict[int, np.ndarray]) -> 
     members, targets = sorted(current), sorted(slots)
     cost = {(m, k): float(np.hypot(*(current[m] - slots[k]))) for m in members for k in targets}
     if len(members) <= EXACT_ASSIGNMENT_UP_TO:
-        best = min(itertools.permutations(targets), key=lambda perm: (round(sum(cost[m, k] for m, k in zip(members, perm)), 9), perm))
+        def total(perm: tuple[int, ...]) -> tuple[float, tuple[int, ...]]:
+            return round(sum(cost[m, k] for m, k in zip(members, perm)), 9), perm
+
+        best = min(itertools.permutations(targets), key=total)
         return {k: m for m, k in zip(members, best)}
     out: dict[int, int] = {}
     for (m, k) in sorted(cost, key=lambda mk: (round(cost[mk], 9), mk)):
@@ -125,7 +128,8 @@ def least_move(current: dict[int, np.ndarray], slots: dict[int, np.ndarray]) -> 
     return out
 
 
-def succession_plan(formation: Formation, members: dict[int, int], new_root: int, mode: str, swarm_cfg) -> tuple[dict[int, int], Formation]:
+def succession_plan(formation: Formation, members: dict[int, int], new_root: int, mode: str,
+                    swarm_cfg) -> tuple[dict[int, int], Formation]:
     """The new tables when member ``new_root`` takes the lost master's (member 0's) place: the
     standard table of the known shape (``swarm_cfg``: :func:`adopted_swarm_config`) for one member
     less, laid out for ``mode``, anchored where the lost master stood; the new master is member 0,

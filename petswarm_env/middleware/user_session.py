@@ -216,7 +216,8 @@ class UserSession:
     def _successor_command(self, node, odometry) -> tuple[float, float, float]:
         """A new master waiting for its user: drive toward where it puts them and burst the wake-up
         pattern (seed 002 §3.2) once it believes it is within ``succession.approach_m`` of them (or
-        stands still within ``lf.wake_range_m`` of where it puts them), and every ``lf.wake_period_s`` after; a belt within ``lf.wake_range_m`` whose pattern matches
+        stands still within ``lf.wake_range_m`` of where it puts them), and every ``lf.wake_period_s``
+        after; a belt within ``lf.wake_range_m`` whose pattern matches
         pairs over BLE (``ble.connect_s``)."""
         cfg, now = self.cfg, self.clock.now
         est = self.tracker.user_body(now)

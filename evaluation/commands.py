@@ -34,6 +34,7 @@ def format_run_table(result: dict[str, Any]) -> str:
         f"and formation_hold_rmse_m {s['formation_hold_rmse_m']:.3f} ({s['formations_built']} of {s['episodes']} built; hold: from "
         f"the moment built){settle}, collisions {s['collisions']} (robot-robot {s['robot_robot_collisions']}), organize_time_s "
         f"{s['organize_time_s']:.2f}, join_retries {s['join_retries']}"
+        + (f", {s['unorganized']} not organized (seeds {s['unorganized_seeds']})" if s.get("unorganized") else "")
     )
     return "\n".join(lines)
 
@@ -45,8 +46,9 @@ def short_swarm_warnings(episodes: list[dict[str, Any]], required: int) -> list[
         f"warning: episode with seed {e['seed']}{' (' + e['scenario'] + ')' if e.get('scenario') else ''}: "
         f"{e['slaves_missing']} of {required} required slave(s) did not join (join retries {e['join_retries']}, "
         f"organize {e['organize_time_s']:.2f} s); see protocol.max_retries and protocol.organize_timeout_s"
-        for e in episodes if e.get("slaves_missing")
-    ]
+        for e in episodes if e.get("slaves_missing") and e.get("organized") is not False
+    ] + [f"warning: episode not organized (recorded, the run went on): {e['organize_problem']}"
+         for e in episodes if e.get("organized") is False]
 
 
 def _warn_short(result: dict[str, Any], cfg: Config) -> None:

@@ -11,7 +11,7 @@ import numpy as np
 
 from baselines.policy import MixedPolicy, PolicySpec
 from baselines.registry import make_policy
-from evaluation.pcap import PcapRecorder
+from evaluation.pcap import PcapRecorder, detach_trace
 from evaluation.replay import ReplayRecorder, replay_name
 from evaluation.runner import VideoRecorder, chain, run_episode, summarize
 from evaluation.stats import mean_ci95
@@ -100,6 +100,9 @@ def evaluate(
                 recorders["replay"] = ReplayRecorder(env, Path(replay_dir) / name, label, seed_i)
             ep = run_episode(env, team, seed_i, chain(list(recorders.values())), record=True)
             for key, recorder in recorders.items():
+                if key == "replay" and ep.get("organized") is False:  # no episode to replay (its reset could not organize)
+                    detach_trace(env, recorder)
+                    continue
                 ep[key] = recorder.close()
             ep.update({"scenario": scenario, "policy": label})
             eps.append(ep)

@@ -115,7 +115,7 @@ def run_team(cfg: Config, policy: str, mix: dict[str, str], seeds: list[int], wa
         acc = {k: [0.0, 0] for k in ("mix", "mix_hold", "others", "others_hold")}
 
         def on_step(infos: dict[str, dict[str, Any]]) -> None:
-            built = math.isfinite(env.metrics.building_time_s)  # set by this step's experimenter once every slave is in place
+            built = math.isfinite(env.episode.metrics.building_time_s)  # set by this step's experimenter once every slave is in place
             for agent, info in infos.items():
                 e = info["formation_error_m"]
                 for key in ("mix", "mix_hold") if agent in watched else ("others", "others_hold"):
@@ -155,6 +155,7 @@ def run_team(cfg: Config, policy: str, mix: dict[str, str], seeds: list[int], wa
         "emergencies": sum(e.get("events", {}).get("emergencies", 0) for e in episodes),
         "slaves_missing": sum(e.get("slaves_missing", 0) for e in episodes),
         "mix_robots_rmse_m": math.sqrt(sq / n) if n else math.nan,
+        "unorganized": [e["organize_problem"] for e in episodes if e.get("organized") is False],
         "per_episode": per_episode,
     }
 
@@ -388,12 +389,14 @@ def progress_line(cell: dict[str, Any], k: int, n: int, reused: bool = False) ->
     c, r = cell["candidate"], cell["reference"]
     mark = "ok" if cell["meets_target"] else "--"
     how = "kept from --resume" if reused else f"{cell.get('wall_s', 0):.1f} s"
+    bad = c.get("unorganized", []) + r.get("unorganized", [])
+    note = f"  {len(bad)} episode(s) not organized, e.g. {bad[0]}" if bad else ""
     own = " (candidates' own)" if cell["team"].get("mix") else ""
     return (f"[{k:>3}/{n}] {mark} {cell['score_metric']} ratio{own} {_f(cell['score_ratio'], 2)} {_ci(cell['score_ratio_ci95'])}  "
             f"rmse {_f(c['formation_rmse_m'])} vs {_f(r['formation_rmse_m'])} (ratio {_f(cell['ratio'], 2)})  "
             f"hold {_f(c['formation_hold_rmse_m'])} vs {_f(r['formation_hold_rmse_m'])}  "
             f"built {c['formations_built']} vs {r['formations_built']}  collisions {c['collisions']} vs {r['collisions']}  "
-            f"{cell['name']}  ({how})")
+            f"{cell['name']}  ({how}){note}")
 
 
 def format_grid_summary(result: dict[str, Any]) -> str:

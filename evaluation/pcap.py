@@ -56,9 +56,9 @@ MESSAGES: dict[str, tuple[int, tuple[tuple[str, str], ...]]] = {
     msg.SCAN: (1, (("known", "ids"),)),
     msg.SCAN_RESPONSE: (2, ()),
     msg.JOIN_QUERY: (3, (("candidates", "ids"),)),
-    msg.JOIN_ANSWER: (4, (("available", "bool"),)),
+    msg.JOIN_ANSWER: (4, (("available", "bool"), ("lf", "bool"))),
     msg.JOIN_NOTIFY: (5, (("new_pan", "u16"), ("member", "u8"), ("total", "u8"), ("members", "members"),
-                          ("shape", "str"), ("mode", "str"), ("links", "links"))),
+                          ("shape", "str"), ("mode", "str"), ("links", "links"), ("lf", "ids"))),
     msg.NON_PARTICIPATE: (6, ()),
     msg.NOTIFY_ACK: (7, ()),
     msg.TX_START: (8, (("seq", "u32"),)),
@@ -71,7 +71,8 @@ MESSAGES: dict[str, tuple[int, tuple[tuple[str, str], ...]]] = {
                       ("rotating", "bool"), ("user", "f32x2"))),
     msg.DISPERSE: (15, ()),
     msg.DISPERSE_ACK: (16, ()),
-    msg.MODE_CHANGE: (17, (("seq", "u32"), ("mode", "str"), ("members", "members"), ("shape", "str"), ("links", "links"))),
+    msg.MODE_CHANGE: (17, (("seq", "u32"), ("mode", "str"), ("members", "members"), ("shape", "str"), ("links", "links"),
+                           ("lf", "ids"))),
     msg.MODE_CHANGE_ACK: (18, ()),
     msg.HANDOVER: (19, (("seq", "u32"), ("user", "user"), ("previous", "str"))),
     msg.HANDOVER_ACK: (20, ()),
@@ -85,6 +86,10 @@ MESSAGES: dict[str, tuple[int, tuple[tuple[str, str], ...]]] = {
     msg.MEMBER_UPDATE_ACK: (26, (("seq", "u32"),)),
     msg.BID_REQUEST: (27, (("seq", "u32"), ("member", "u8"), ("sensors", "u8"))),
     msg.BID_REQUEST_ACK: (28, (("seq", "u32"),)),
+    msg.CANDIDACY: (29, (("lost", "u16"), ("claim", "i16"), ("member", "u8"), ("mode", "str"), ("lf", "bool"))),
+    msg.TAKEOVER: (30, (("seq", "u32"), ("lost", "u16"), ("claim", "i16"), ("member", "u8"), ("members", "members"),
+                        ("shape", "str"), ("links", "links"), ("mode", "str"), ("lf", "ids"))),
+    msg.TAKEOVER_ACK: (31, (("seq", "u32"),)),
 }
 KIND_OF_CODE = {code: kind for kind, (code, _) in MESSAGES.items()}
 
@@ -92,6 +97,7 @@ FIELD_TYPES = {  # type: what it is on the wire (little-endian), for docs/pcap.m
     "u8": "unsigned 8-bit integer",
     "u16": "unsigned 16-bit integer",
     "u32": "unsigned 32-bit integer",
+    "i16": "signed 16-bit integer",
     "bool": "one byte, 0 or 1",
     "f32": "IEEE 754 single-precision float",
     "f32x2": "two f32 (x, y)",
@@ -104,7 +110,7 @@ FIELD_TYPES = {  # type: what it is on the wire (little-endian), for docs/pcap.m
     "slots": "u8 count, then per open slot: u8 member number, f32 distance from the master (m), u8 exposed sides (of 4), f32 age (s)",
     "bids": "u8 count, then per entry: u8 member number, f32 utility",
 }
-_SCALARS = {"u8": "B", "u16": "H", "u32": "I", "bool": "?", "f32": "f", "f32x2": "2f", "f32x3": "3f", "user": "h"}
+_SCALARS = {"u8": "B", "u16": "H", "u32": "I", "i16": "h", "bool": "?", "f32": "f", "f32x2": "2f", "f32x3": "3f", "user": "h"}
 
 
 # -- payload ---------------------------------------------------------------------------------------

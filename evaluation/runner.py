@@ -11,6 +11,7 @@ from baselines.registry import make_policy
 from petswarm_env import PetSwarmEnv
 from petswarm_env.config import Config
 from petswarm_env.files import raise_pending_signal
+from petswarm_env.middleware.join import OrganizeError
 
 TRAJECTORY_EVERY = 5  # record positions every 5 steps (0.5 s)
 VIDEO_EVERY = 2  # a GIF frame every 2 steps (5 frames/s of simulated time at the default 0.1 s step)
@@ -67,7 +68,10 @@ def run_episode(
     """One episode with ``policy`` driving every slave; returns ``env.episode_summary()`` plus the
     seed, and with ``record`` the per-step mean formation error and the trajectories (truth).
     ``on_step`` is called with each step's infos (the comparison grid's per-robot errors)."""
-    observations, _ = env.reset(seed=seed)
+    try:
+        observations, _ = env.reset(seed=seed)
+    except OrganizeError as exc:  # recorded, and the run goes on
+        return unorganized_episode(env, seed, str(exc))
     policy.reset(seed)
     if on_frame:
         on_frame()
@@ -104,6 +108,17 @@ def _finite_mean(episodes: list[dict[str, Any]], key: str) -> tuple[float, int]:
     return (sum(xs) / len(xs) if xs else math.nan), len(xs)
 
 
+def unorganized_episode(env: PetSwarmEnv, seed: int, problem: str) -> dict[str, Any]:
+    """The record of an episode whose swarm could not organize at reset (``organized: false``, the
+    reason in ``organize_problem``): no figure of a formation, every required slave missing."""
+    return {"seed": seed, "organized": False, "organize_problem": problem, "scenario": getattr(env, "scenario", None),
+            "slaves": 0, "formation_rmse_m": math.nan, "building_time_s": math.nan, "organize_time_s": math.nan,
+            "formation_hold_rmse_m": math.nan, "formation_hold_steps": 0, "refill_settle_rmse_m": math.nan,
+            "join_retries": 0, "token_recoveries": 0, "slaves_missing": env.cfg.swarm.num_slaves * env.cfg.world.num_users,
+            "collisions": {"robot_robot": 0, "robot_user": 0, "robot_wall": 0}, "frames": {"sent": 0, "lost": 0, "collided": 0},
+            "events": {}}
+
+
 def summarize(episodes: list[dict[str, Any]]) -> dict[str, Any]:
     """Run summary: mean formation RMSE, total collisions, mean organize time, total retries, missing
     slaves, mean building time over the episodes that built their formation and how many did.
@@ -111,14 +126,19 @@ def summarize(episodes: list[dict[str, Any]]) -> dict[str, Any]:
     Building and holding apart (:mod:`petswarm_env.metrics`): ``formation_hold_rmse_m`` is the mean
     of the episodes' hold RMSEs over the episodes that built their formation (the others have none:
     ``formations_built`` says how many did, so an episode that never built is never hidden), and
-    ``refill_settle_rmse_m`` the mean over the episodes with a refill (``refills_settled`` of them)."""
+    ``refill_settle_rmse_m`` the mean over the episodes with a refill (``refills_settled`` of them).
+    The episodes whose swarm could not organize are counted (``unorganized``, their seeds in
+    ``unorganized_seeds``) and left out of the means."""
+    unorganized = [e for e in episodes if e.get("organized") is False]
+    total = len(episodes)
+    episodes = [e for e in episodes if e.get("organized") is not False]
     n = len(episodes)
     rmse, _ = _finite_mean(episodes, "formation_rmse_m")
     building, built = _finite_mean(episodes, "building_time_s")
     hold, _ = _finite_mean(episodes, "formation_hold_rmse_m")
     settle, settled = _finite_mean(episodes, "refill_settle_rmse_m")
     return {
-        "episodes": n,
+        "episodes": total,
         "formation_rmse_m": rmse,
         "formation_hold_rmse_m": hold,  # over the episodes that built their formation
         "collisions": sum(sum(e["collisions"].values()) for e in episodes),
@@ -130,6 +150,8 @@ def summarize(episodes: list[dict[str, Any]]) -> dict[str, Any]:
         "formations_built": built,
         "refill_settle_rmse_m": settle,  # over the episodes with a refill
         "refills_settled": settled,
+        "unorganized": len(unorganized),
+        "unorganized_seeds": [e["seed"] for e in unorganized],
     }
 
 

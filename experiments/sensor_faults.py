@@ -43,12 +43,12 @@ def run(kind: str, seed: int, at_s: float = 20.0, target: str = "random_slave", 
     while env.agents:
         obs, _, _, _, infos = env.step(policy.act_all({a: obs[a] for a in env.agents}))
         live = set(env.agents)
-        errors.append((env.world.now, {a: i["formation_error_m"] for a, i in infos.items() if a in live}))
-    log = env.runtime.faults.log
+        errors.append((env.episode.world.now, {a: i["formation_error_m"] for a, i in infos.items() if a in live}))
+    log = env.episode.runtime.faults.log
     if not log:
         return {"kind": kind, "seed": seed, "injected": False}
     fault = log[0]
-    node = env.fleet.nodes[fault.robot]
+    node = env.episode.fleet.nodes[fault.robot]
     found = [t for t, part in node.diagnosis.detected if part == kind and t >= fault.time_s]
     detected_s = found[0] if found else None
     t0 = detected_s if detected_s is not None else fault.time_s

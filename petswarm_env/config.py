@@ -24,7 +24,7 @@ from petswarm_env.config_base import (ACCEL_MPS2, ADC_MAX, COUNT, EPISODE_S, FAR
                                       WEIGHT, ConfigError, Section, describe_value, format_validation_error)
 from petswarm_env.config_yaml import (flatten_dotted, merge_mappings, nest_dotted, parse_override, parse_yaml,  # noqa: F401
                                       read_yaml)  # the bounded YAML reader and the merging of overrides, re-exported
-from petswarm_env.config_runtime import FAULT_KINDS, ArrivalSpec, FaultSpec, FaultsRandomConfig  # noqa: F401
+from petswarm_env.config_runtime import FAULT_KINDS, ArrivalSpec, FaultSpec, FaultsRandomConfig, SuccessionConfig  # noqa: F401
 from petswarm_env.config_base import Section  # noqa: F401  (the base of every section; re-exported here)
 from petswarm_env.robot_types import PoolEntry, RobotTypeConfig, max_pool_size, robot_types_problem
 from petswarm_env.scenarios import SCENARIOS  # the registry (the scenarios import nothing of the package)
@@ -236,6 +236,7 @@ class BLEConfig(Section):
     latency_s: float = Field(ge=0, le=4.0, description="one BLE message, wearable <-> robot")
     connect_s: float = Field(ge=0, le=LONG_S, description="BLE connection set-up after the belt woke up or a handover")
     report_period_s: float = Field(ge=7.5e-3, le=LONG_S, description="belt -> robot reports (activity, rotation)")
+    supervision_timeout_s: float = Field(ge=TICK_S, le=LONG_S, description="the belt drops a link that carried no packet of its robot this long")
 
 
 Weight = Annotated[float, Field(ge=-WEIGHT, le=WEIGHT)]  # a reward weight: the reward stays finite in float32
@@ -437,6 +438,7 @@ class Config(Section):
     master: MasterConfig
     control: ControlConfig
     ble: BLEConfig
+    succession: SuccessionConfig
     reward: RewardConfig
     render: RenderConfig
     faults: list[FaultSpec] = Field(max_length=MAX_LIST)

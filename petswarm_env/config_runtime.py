@@ -1,5 +1,6 @@
 """Config types of the runtime changes (issue 15 part 4): ``faults``, ``faults_random``,
-``arrivals`` (petswarm_env/runtime.py, petswarm_env/sim/faults.py). Their defaults live in
+``arrivals`` (petswarm_env/runtime.py, petswarm_env/sim/faults.py), and ``succession`` (a slave
+takes a lost master's place, petswarm_env/middleware/succession.py). Their defaults live in
 ``default.yaml`` like every other value; :class:`~petswarm_env.config.Config` holds them."""
 
 from __future__ import annotations
@@ -8,7 +9,7 @@ from typing import Annotated
 
 from pydantic import Field, model_validator
 
-from petswarm_env.config_base import COUNT, EPISODE_S, Section
+from petswarm_env.config_base import COUNT, EPISODE_S, LONG_S, NEAR_M, SHORT_M, TICK_S, Section
 
 # runtime changes (issue 15 part 4; petswarm_env/sim/faults.py): the fault kinds; an arrival's type is one
 # of the config's robot_types (checked by Config, which holds both)
@@ -48,3 +49,11 @@ class FaultsRandomConfig(Section):
 class ArrivalSpec(Section):
     at_s: float = Field(ge=0, le=EPISODE_S, description="episode time the robot is switched on (s after reset ended)")
     type: str = Field(description="the robot's type, a name of robot_types (checked by Config)")
+
+
+class SuccessionConfig(Section):
+    """A slave takes a lost master's place (Table 3's rules among the slaves, seed 002's wake-up)."""
+
+    election_window_s: float = Field(ge=TICK_S, le=LONG_S, description="a slave collects the others' candidacies this long after it lost its master")
+    takeover_timeout_s: float = Field(ge=TICK_S, le=LONG_S, description="the elected slave announces its tables this long at most for a first acknowledgement")
+    approach_m: float = Field(ge=SHORT_M, le=NEAR_M, description="the new master drives this close to where it puts the user before its wake-up bursts")

@@ -153,6 +153,7 @@ class PetSwarmEnv(ParallelEnv):
 
     def reset(self, seed: int | None = None, options: dict | None = None):
         check_reset_options(options)  # None or known keys only (inputs.py)
+        self._reset_seed = seed  # named when the swarm cannot organize
         if seed is not None:
             seed = _checked_seed(seed)
             self._seed_seq = np.random.SeedSequence(seed)
@@ -160,7 +161,7 @@ class PetSwarmEnv(ParallelEnv):
             self._seed_seq = np.random.SeedSequence(self.cfg.seed)
         streams = self._seed_seq.spawn(1)[0].spawn(8)  # the 8th (faults) leaves the first seven as they were
         self.agents = []
-        self.episode = Episode(self.setup, streams, self.radio_trace)
+        self.episode = Episode(self.setup, streams, self.radio_trace, seed=self._reset_seed)
         observations, infos = self.episode.start()
         self.agents = list(self.episode.agents)
         if self.render_mode == "human":

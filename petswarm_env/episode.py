@@ -49,6 +49,7 @@ from petswarm_env.comms.radio import RadioMedium
 from petswarm_env.config import Config
 from petswarm_env.control.arbiter import ControlArbiter, SafetyStage
 from petswarm_env.metrics import BUILT_WITHIN_M, Experimenter
+from petswarm_env.middleware.join import OrganizeError, organize_obstacle
 from petswarm_env.middleware.fleet import Fleet
 from petswarm_env.middleware.formation import formation_for_mode, user_position_in_formation
 from petswarm_env.middleware.swarm import Swarm
@@ -98,7 +99,8 @@ class Episode:
     trace (comms/radio.py ``RadioTrace``) or None. Building it builds the parts; :meth:`start`
     runs the start-up and gives the first observations and infos; each :meth:`advance` is one step."""
 
-    def __init__(self, setup: Setup, streams: list[np.random.SeedSequence], radio_trace=None):
+    def __init__(self, setup: Setup, streams: list[np.random.SeedSequence], radio_trace=None, seed: int | None = None):
+        self.seed = seed  # the reset's seed, named when the swarm cannot organize
         self.setup = setup
         self.cfg = cfg = setup.cfg
         self.streams = streams  # the reset's seed sequences (each one's entropy is the reset's seed)
@@ -316,10 +318,9 @@ class Episode:
                     f"user {u}'s belt never woke up: its robot must start within lf.wake_range_m={cfg.lf.wake_range_m} m "
                     "and burst the belt's wake-up pattern")
             if not swarm.organized or not swarm.slave_ids():
-                raise RuntimeError(
-                    f"user {u}'s swarm did not organize within protocol.organize_timeout_s={cfg.protocol.organize_timeout_s} s "
-                    f"(radio.loss_prob={cfg.radio.loss_prob}); raise the timeout or protocol.max_retries"
-                )
+                cause = organize_obstacle(cfg)
+                raise OrganizeError(f"seed {self.seed}: user {u}'s swarm did not organize within protocol.organize_timeout_s="
+                                    f"{cfg.protocol.organize_timeout_s:g} s; likely cause: {cause}", self.seed, cause)
 
     def _stand_members_at_their_slots(self) -> None:
         """``swarm.spawn: at_slots`` (a formation as good as built, for comparisons): member k

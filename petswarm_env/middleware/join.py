@@ -44,13 +44,15 @@ from petswarm_env.middleware import messages as msg
 from petswarm_env.middleware.formation import Formation, formation_for_mode
 from petswarm_env.middleware.ruta import Bid
 from petswarm_env.middleware.station import Station
+from petswarm_env.middleware.succession import body_can_be_master
 
 
 # Robots on the common PAN that answer a scan: waiting robots, and user-connected robots not in a
 # swarm (command-waiting or driving alone), which then decline by Table 1 (connected to a user).
 SCAN_ANSWERING_STATES = ("waiting", "command_waiting", "following", "leading", "remote")
 # chosen: while fewer robots are available than required, the scan is retried until the organize
-# deadline less this many tries of the notification step (a response timeout each) per robot to notify
+# deadline less the notification step's time: a response timeout per robot to notify and this many
+# more for retries (a reserve of 4 tries per robot left 16 robots 0.4 s of a 10 s budget to scan in)
 NOTIFY_RESERVE_TRIES = 4
 # chosen: the master takes as joining candidates the scan responders its RSSI estimate puts within
 # this many times the available region (the RSSI distance is off by ~10 % at 1 dB shadowing)
@@ -58,6 +60,51 @@ CANDIDATE_REACH = 1.3
 # chosen: a refill (issue 15) scans at most this many times; the master's periodic scan
 # (protocol.rescan_period_s) tries again later while a slot stays open
 REFILL_SCANS = 3
+
+
+class OrganizeError(RuntimeError):
+    """A swarm could not organize within ``protocol.organize_timeout_s`` (the env's reset): the
+    message names the seed and the likely cause (:func:`organize_obstacle`). A run records the
+    episode as not organized and goes on (evaluation/runner.py)."""
+
+    def __init__(self, message: str, seed: int | None, cause: str):
+        super().__init__(message)
+        self.seed, self.cause = seed, cause
+
+
+# chosen: more robots than this organizing at once on one medium (several users) is named as the likely
+# cause of a failed organize: their scan answers and acknowledgements collide (4 users x 5 robots organize)
+CROWD_ROBOTS = 24
+
+
+def organize_obstacle(cfg) -> str:
+    """The config value that most likely kept a swarm from organizing, most certain first: a bit
+    rate too low for a query and its answer within ``protocol.response_timeout_s``; a radio range
+    shorter than the master's available region (the waiting robots stand inside it); a crowd of
+    users' robots organizing at once on one medium; frame loss; else the answers' collisions."""
+    radio, proto = cfg.radio, cfg.protocol
+    n = cfg.swarm.num_slaves
+
+    def airtime(nbytes: int) -> float:
+        return 8.0 * (nbytes + radio.frame_overhead_bytes) / radio.bitrate_bps
+
+    exchange = airtime(msg.SIZE_BYTES[msg.JOIN_QUERY] + msg.LIST_ENTRY_BYTES * n) + airtime(msg.SIZE_BYTES[msg.JOIN_ANSWER])
+    if exchange + 2 * radio.processing_s > proto.response_timeout_s:
+        return (f"radio.bitrate_bps={radio.bitrate_bps:g}: a joining query and its answer take {exchange:.3g} s on the air, "
+                f"more than protocol.response_timeout_s={proto.response_timeout_s:g} s; raise the bit rate (802.15.4: 250000)")
+    if radio.range_m < proto.join_radius_m:
+        return (f"radio.range_m={radio.range_m:g} is shorter than the master's available region (protocol.join_radius_m="
+                f"{proto.join_radius_m:g}, where the waiting robots stand): they cannot hear its scan; raise radio.range_m")
+    robots = cfg.world.num_users * (1 + n + cfg.swarm.extra_robots)
+    if cfg.world.num_users > 1 and robots > CROWD_ROBOTS:
+        return (f"size: {cfg.world.num_users} users x {n} slaves ({robots} robots) organize at once on one medium and "
+                "their answers collide; fewer users (world.num_users) or slaves (swarm.num_slaves), or a longer "
+                "protocol.organize_timeout_s")
+    if radio.loss_prob > 0:
+        return (f"radio.loss_prob={radio.loss_prob:g}: too many frames lost; lower it, or raise protocol.organize_timeout_s="
+                f"{proto.organize_timeout_s:g} or protocol.max_retries={proto.max_retries}")
+    return (f"the answers collided every time; raise protocol.organize_timeout_s={proto.organize_timeout_s:g} "
+            f"or protocol.max_retries={proto.max_retries}")
 
 
 def can_join(connected_user: int | None, distance_m: float, available_radius_m: float) -> bool:
@@ -166,6 +213,7 @@ class JoinManager:
         members.update({i + 1: chosen[m] for i, m in enumerate(sorted(chosen))})  # numbered 1..n (no gap)
         mode = mode_of()
         formation = formation_for_mode(node.cfg.swarm, len(members), mode)
+        node.know.lf_members = self._lf_members(members, answers)
         yield from self._notify(members, pan, formation, mode, result)  # step 3
         # 4. the master drives its swarm on the new PAN ID
         node.enter_swarm("master", pan, 0, dict(members), formation, mode)
@@ -192,7 +240,7 @@ class JoinManager:
             candidates.update(new)
             yield from self._query(set(new), answers, result)
             n_available = sum(1 for f in answers.values() if f.payload["available"])
-            reserve = NOTIFY_RESERVE_TRIES * timeout * max(required, len(answers))
+            reserve = timeout * (max(required, len(answers)) + NOTIFY_RESERVE_TRIES)
             if n_available >= required or not self._may_retry(scans, reserve) or (max_scans is not None and scans + 1 >= max_scans):
                 return candidates, answers
             scans += 1
@@ -332,6 +380,7 @@ class JoinManager:
             new = dict(members)
             new.update(picked)
             new = dict(sorted(new.items()))
+            node.know.lf_members = node.know.lf_members | self._lf_members(picked, answers)
             formation = formation_for_mode(node.cfg.swarm, len(new), mode)
             yield from self._notify(new, pan, formation, mode, result, joiners=set(picked.values()))
             result.members = new
@@ -340,6 +389,22 @@ class JoinManager:
         finally:
             if node.state == "master":
                 node.pans = frozenset({pan})
+
+    def _lf_members(self, members: dict[int, int], answers: dict[int, Frame]) -> frozenset[int]:
+        """The robots of ``members`` whose bodies carry LF antennas (may be master), as their joining
+        answers said (the joining answer's flag; a status answer's sensor mask), the master itself
+        by its own body."""
+        out = {self.node.node_id} if body_can_be_master(self.node) else set()
+        for rid in members.values():
+            f = answers.get(rid)
+            if f is None:
+                continue
+            if f.kind == msg.STATUS_ANSWER:
+                if f.payload["sensors"] & assignment.SENSOR_BITS["LF"]:
+                    out.add(rid)
+            elif f.payload.get("lf"):
+                out.add(rid)
+        return frozenset(out)
 
     def _notify(self, members: dict[int, int], pan: int, formation: Formation, mode: str, result: OrganizeResult,
                 joiners: set[int] | None = None):
@@ -366,7 +431,8 @@ class JoinManager:
                     if notify[rid] == msg.JOIN_NOTIFY:
                         member = next(m for m, n in members.items() if n == rid)
                         node.send(msg.JOIN_NOTIFY, dst=rid, pan=p, new_pan=pan, member=member, total=len(members),
-                                  members=dict(members), shape=formation.shape, mode=mode, links=links)
+                                  members=dict(members), shape=formation.shape, mode=mode, links=links,
+                                  lf=sorted(n for n in members.values() if n in node.know.lf_members))
                     else:
                         node.send(msg.NON_PARTICIPATE, dst=rid, pan=p)
                 yield from self._collect({rid}, cfg.response_timeout_s, (msg.NOTIFY_ACK,))
@@ -395,7 +461,7 @@ class JoinManager:
             node.send(msg.STATUS_ANSWER, dst=frame.src, pan=PAN_WAITING,
                       **assignment.status_payload(assignment.own_status(node), ok, frame.rx_distance_est_m))
         else:
-            node.send(msg.JOIN_ANSWER, dst=frame.src, pan=PAN_WAITING, available=ok)
+            node.send(msg.JOIN_ANSWER, dst=frame.src, pan=PAN_WAITING, available=ok, lf=body_can_be_master(node))
 
     def _on_announce(self, frame: Frame) -> None:
         """Algorithm 2 on a free candidate: its own utility for each announced slot, bid back to the
@@ -427,6 +493,7 @@ class JoinManager:
             members = {int(m): n for m, n in p["members"].items()}
             node.enter_swarm("slave", p["new_pan"], p["member"], members,
                              Formation.from_links_payload(p["shape"], p["links"]), p["mode"])
+            node.know.lf_members = frozenset(p["lf"])
             node.became_slave.emit(p["new_pan"])
         if node.swarm_pan == p["new_pan"]:  # (re-)acknowledge, also when the first ack was lost
             node.send(msg.NOTIFY_ACK, dst=frame.src, pan=frame.pan)

@@ -55,3 +55,4 @@ class Knowledge:
     ir: dict[int, IRMeasurement] = field(default_factory=dict)  # node id -> latest measurement
     heading: dict[int, HeadingEstimate] = field(default_factory=dict)  # node id -> relative heading
     status: MasterStatus | None = None
+    lf_members: frozenset[int] = frozenset()  # node ids whose bodies carry LF antennas (may be master), from the tables

@@ -34,6 +34,10 @@ MODE_CHANGE_ACK = "mode_change_ack"
 HANDOVER = "handover"  # old master -> new master: take over the user connection
 HANDOVER_ACK = "handover_ack"
 
+CANDIDACY = "candidacy"  # slave -> swarm: its claim to take the lost master's place (Table 3's rule, own measurements)
+TAKEOVER = "takeover"  # elected slave -> swarm: it is the master now: its claim, member and neighbour tables
+TAKEOVER_ACK = "takeover_ack"
+
 MEMBER_UPDATE = "member_update"  # master -> swarm: a member removed or recruited: new total, member and neighbour tables (issue 15)
 MEMBER_UPDATE_ACK = "member_update_ack"
 # a member whose sensor failed so that it cannot hold its slot -> master (seed 003 Algorithm 2 step 5: "it sends a
@@ -76,13 +80,18 @@ SIZE_BYTES = {
     MODE_CHANGE_ACK: 4,  # kind, the change's sequence, own member number
     HANDOVER: 12,  # kind, sequence, user id 2, previous driving state, the belt's BLE address 6
     HANDOVER_ACK: 4,  # kind, sequence, status
+    CANDIDACY: 8,  # kind, the lost master's id 2, own member number, the claim 2 (int16 cm), mode, LF antennas
+    TAKEOVER: 11,  # kind, sequence 2, the lost master's id 2, the claim 2, own old member number, total members, mode, shape (+ tables)
+    TAKEOVER_ACK: 4,  # kind, the takeover's sequence, own member number
     MEMBER_UPDATE: 8,  # kind, sequence 2, total members, mode, shape, removed count, added count (+ member and neighbour tables)
     MEMBER_UPDATE_ACK: 4,  # kind, the update's sequence, own member number
     BID_REQUEST: 6,  # kind, sequence, own member number, the sensors that work (bit mask), 1 spare
     BID_REQUEST_ACK: 4,  # kind, the request's sequence, status
 }
 
-MEMBER_ENTRY_BYTES = 2  # the member table: the node id of each member, in member-number order
+# the member table: the node id of each member, in member-number order (chosen: 15 bits of short address
+# and one bit that says whether the member's body carries the two LF antennas a master needs, robot_types)
+MEMBER_ENTRY_BYTES = 2
 LINK_ENTRY_BYTES = 6  # the neighbour table: member, its reference neighbour, the offset (x, y)
 LIST_ENTRY_BYTES = 2  # a listed robot (node id)
 # a slot of a slot announcement: member number 1, its distance from the master 2 (int16 cm), its
@@ -105,6 +114,7 @@ PER_ENTRY_BYTES = {
     SLOT_ANNOUNCE: lambda p: SLOT_ENTRY_BYTES * len(p["slots"]) + LIST_ENTRY_BYTES * len(p["bidders"]),
     BID: lambda p: BID_ENTRY_BYTES * len(p["utilities"]),
     MODE_CHANGE: _table_bytes,
+    TAKEOVER: _table_bytes,
     MEMBER_UPDATE: _table_bytes,
 }
 

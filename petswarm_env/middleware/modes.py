@@ -53,6 +53,7 @@ from petswarm_env.middleware import messages as msg
 from petswarm_env.middleware.formation import Formation, formation_for_mode, user_position_in_formation
 from petswarm_env.middleware.knowledge import FRESH_IR_S, Knowledge
 from petswarm_env.middleware.station import Station
+from petswarm_env.middleware.succession import adopted_swarm_config
 
 TABLE3_MODES = ("following", "leading")
 
@@ -113,9 +114,11 @@ def plan_mode_change(
     new_mode: str,
     master_change: bool,
     geometry: SwarmGeometry,
+    lf_members: frozenset[int] | None = None,
 ) -> ModeChangePlan:
     """Apply Table 3 to the current swarm, the closest / farthest robot from ``geometry`` (what the
-    master knows: :func:`measured_geometry`).
+    master knows: :func:`measured_geometry`), among the robots that may be master (``lf_members``:
+    the node ids whose bodies carry LF antennas, from the joining answers; None = every robot).
 
     Changes between a Table 3 mode and remote control keep master and references (the table has no
     row for them).
@@ -126,10 +129,11 @@ def plan_mode_change(
     if not master_change:  # keep the master, change the references: the standard layout of the new mode
         return ModeChangePlan(new_mode, dict(members), formation_for_mode(cfg, n, new_mode), False, True)
     distance = geometry.user_distance
+    able = [m for m in range(n) if m == 0 or lf_members is None or members.get(m) in lf_members]
     if new_mode == "following":  # leading → following: the closest robot
-        new_root = min(range(n), key=lambda m: (round(distance(m), 9), m))
+        new_root = min(able, key=lambda m: (round(distance(m), 9), m))
     else:  # following → leading: the top of the hierarchy, the robot farthest from the user
-        new_root = min(range(n), key=lambda m: (-round(distance(m), 9), m))
+        new_root = min(able, key=lambda m: (-round(distance(m), 9), m))
     new_formation, renumber = formation.rerooted(new_root)  # references unchanged
     new_members = {renumber[m]: node for m, node in members.items()}
     return ModeChangePlan(new_mode, dict(sorted(new_members.items())), new_formation, new_root != 0, False)
@@ -159,7 +163,8 @@ class ModeManager:
         self._acks = set()
         retries = 0
         payload = dict(seq=seq, mode=plan.mode, members=dict(plan.members), shape=plan.formation.shape,
-                       links=plan.formation.links_payload())
+                       links=plan.formation.links_payload(),
+                       lf=sorted(n for n in plan.members.values() if n in node.know.lf_members))
         while True:
             node.send(msg.MODE_CHANGE, **payload)
             yield clock.timeout(cfg.response_timeout_s)
@@ -225,11 +230,13 @@ class ModeManager:
         node.know.member = next(m for m, n in members.items() if n == node.node_id)
         node.formation = Formation.from_links_payload(p["shape"], p["links"])
         node.know.mode = p["mode"]  # the driving mode as the frame says: the slave's own knowledge
+        node.know.lf_members = frozenset(p["lf"])
 
     def _on_handover(self, frame: Frame) -> None:
         node = self.node
         node.send(msg.HANDOVER_ACK, dst=frame.src)
         if node.state == "slave" and node.know.member == 0:  # take the user connection over
+            node.cfg = adopted_swarm_config(node)  # its user's request as its tables tell it (succession.py)
             node.state = "master"
             node.connected_user = frame.payload["user"]  # its wearables reconnect over BLE
             node.previous_driving_state = frame.payload["previous"]

@@ -3,8 +3,9 @@
 Lower layer: the RF communication manager and the IR module (:class:`~.station.Station`, which is
 all a manager sees of its robot). Upper layer, built here for this robot alone: the sequence manager
 (:mod:`.sequence`), the message-processing manager (dispatch of frames to the join protocol
-:mod:`.join`, the mode change :mod:`.modes`, the token ring :mod:`.token_ring` and the master's
-status broadcast) and the relative-location identification manager (:mod:`.token_ring`).
+:mod:`.join`, the mode change :mod:`.modes`, the token ring :mod:`.token_ring`, the master's
+status broadcast and the choice of a new master :mod:`.succession`) and the relative-location
+identification manager (:mod:`.token_ring`).
 Everything a policy may see is in :class:`~.knowledge.Knowledge`.
 
 The managers never see the per-user swarm nor another robot: what they report upward leaves through
@@ -27,6 +28,7 @@ from petswarm_env.middleware.modes import ModeManager
 from petswarm_env.middleware.recovery import RecoveryManager
 from petswarm_env.middleware.sequence import SequenceManager
 from petswarm_env.middleware.station import Station
+from petswarm_env.middleware.succession import SuccessionManager
 from petswarm_env.middleware.token_ring import TokenRing
 from petswarm_env.sim.clock import Clock
 
@@ -51,6 +53,9 @@ class Node(Station):
         self.diagnosis.on_detect = self.recovery.sensor_failed
         robot.on_ring = self.diagnosis.on_ring
         robot.ahrs.on_reading = self.diagnosis.on_ahrs
+        self.succession = SuccessionManager(self, self.seq.leave_swarm)
+        self.seq.successor = self.succession
+        self.seq.ring_heard = self.ring.last_heard_s
         self.on(msg.STATUS, self._on_status)
 
     @property

@@ -8,6 +8,8 @@ request, slaves return to *waiting* and the master to its previous driving state
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 from petswarm_env.comms.radio import PAN_WAITING, Frame
 from petswarm_env.middleware import messages as msg
 from petswarm_env.middleware.knowledge import Knowledge
@@ -23,6 +25,9 @@ class SequenceManager:
         self.last_master: int | None = None  # to re-acknowledge a repeated disperse request
         # (time noticed, the master's node id, the timeout instant: last status heard + protocol.status_timeout_s)
         self.master_lost_at: list[tuple[float, int | None, float]] = []
+        self.successor = None  # the succession manager (middleware/succession.py), wired by the node
+        # the master: when it last heard a ring frame of a member (or started its ring); wired by the node
+        self.ring_heard: Callable[[], float | None] = lambda: None
 
     def leave_swarm(self) -> None:
         """Back to waiting on the common PAN, forgetting the swarm."""
@@ -34,20 +39,45 @@ class SequenceManager:
         node.know = Knowledge()
 
     def master_lost(self, now_s: float) -> bool:
-        """A slave that heard no status broadcast of its master for ``protocol.status_timeout_s``
-        (since it joined, if none yet) has lost its master (issue 15): it stops — the caller's
-        emergency stop — and returns to waiting. True when that happened now."""
+        """Whether this slave has no master now (the caller's emergency stop). A slave that heard
+        no status broadcast of its master for ``protocol.status_timeout_s`` has lost it (issue 15):
+        it records the loss and starts choosing a new master among the slaves
+        (:mod:`.succession`); it stays stopped while that runs. The timeout counts from the last
+        status broadcast heard since it joined; before the first one, from its joining plus
+        ``protocol.organize_timeout_s`` (the master broadcasts only once the join protocol ended,
+        which takes that long at most: a robot that joined early in a long organize must not
+        time out before the master's first broadcast)."""
         node = self.node
         if node.state != "slave":
             return False
+        if self.successor is not None and self.successor.electing:
+            if not self.successor.master_heard_again():
+                return True
+        cfg = node.cfg.protocol
         status, last = node.know.status, node.joined_s
-        if status is not None and status.time_s > last:
+        if status is not None and status.time_s >= last:
             last = status.time_s
-        if now_s - last <= node.cfg.protocol.status_timeout_s:
+        else:
+            last += cfg.organize_timeout_s
+        if now_s - last <= cfg.status_timeout_s:
             return False
-        self.master_lost_at.append((now_s, node.member_node(0), last + node.cfg.protocol.status_timeout_s))
-        self.leave_swarm()
+        self.master_lost_at.append((now_s, node.member_node(0), last + cfg.status_timeout_s))
+        if self.successor is None:
+            self.leave_swarm()
+            return True
+        self.successor.start(now_s)
         return True
+
+    def cut_off(self, now_s: float) -> bool:
+        """A master that heard no ring frame of any of its members for ``protocol.status_timeout_s``
+        (its radio failed, or every member did) is cut off from its swarm: the same rule as its
+        slaves' status timeout, from the other end. Its user session then releases the user
+        (an alert to the belt; the slaves choose a new master, :mod:`.succession`)."""
+        node = self.node
+        ring = self.ring_heard()
+        if node.state != "master" or node.know.total_members <= 1 or ring is None:
+            return False
+        return now_s - ring > node.cfg.protocol.status_timeout_s
 
     def power_off(self) -> None:
         """The robot is off (a ``dead`` or ``battery`` fault, sim/faults.py): its middleware stops,

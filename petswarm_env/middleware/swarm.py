@@ -65,10 +65,11 @@ class Swarm:
         self.mode_changed_s = -float("inf")
         self.last_geometry: SwarmGeometry | None = None  # what the master knew at the last Table 3 choice
         self.user_view: MasterStatus | None = None  # the master's view of its user (set by the session)
-        self.events = {"master_changes": 0, "mode_changes": 0}
+        self.events = {"master_changes": 0, "mode_changes": 0, "successions": 0}
         self.emergency = False  # the user is lost (seed 002 Fig. 4); set by the user session
         self._mode_seq = 0
         self.on_master_change = None  # callback(old_node, new_node), set by the user session
+        self.on_succession = None  # callback(new_node): a slave took a lost master's place; set by the user session
         # members lost and recruited while organized (middleware/recovery.py): (time, "lost" | "joined", node ids)
         self.member_log: list[tuple[float, str, list[int]]] = []
 
@@ -148,7 +149,7 @@ class Swarm:
         geometry = measured_geometry(self.formation, master.know, master.ahrs_yaw(), self.clock.now, user_xy,
                                      self.cfg.master.distance_m)
         plan = plan_mode_change(self.cfg.swarm, self.formation, master.know.members, self.mode, new_mode,
-                                master_change, geometry)
+                                master_change, geometry, master.know.lf_members)
         self.last_geometry = geometry
         self._mode_seq += 1
         self.mode_change_result: dict = {}
@@ -172,9 +173,17 @@ class Swarm:
             self.on_master_change(old, new)
 
     def take_over(self, node: Node) -> None:
-        """The new master took the user connection (its wearables reconnect over BLE)."""
+        """The new master took the user connection (its wearables reconnect over BLE), or — when
+        no handover preceded it — a slave took its lost master's place (middleware/succession.py):
+        the user session then pairs the belt with it."""
+        succession = node.connected_user is None  # a handover brought the user's id (modes.py); a succession none
         self.master = node
+        self.formation = node.formation
         self._start_master_processes(node)
+        if succession:
+            self.events["successions"] += 1
+            if self.on_succession is not None:
+                self.on_succession(node)
 
     # -- disperse --------------------------------------------------------------------------------
     def start_disperse(self) -> dict:

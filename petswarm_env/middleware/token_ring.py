@@ -15,8 +15,9 @@ A lost token must not stall the ring (SPEC §3.3, chosen): the master watches th
 A member that stops answering (issue 15; chosen): the holder before it retries the token
 ``token_retries`` times, then skips it, every round. The master counts, at the start of each of
 its own slots (one round of the ring), the members it heard no ring frame from since the start of
-its previous slot — their acknowledgements of its start sign and token, their own start signs,
-tokens and sync messages (a live member sends several each round, so loss alone rarely silences
+its previous slot — their acknowledgements of its start sign and token (and those it overhears,
+addressed to other holders), their own start signs, tokens and sync messages; the ring's first
+slot counts nothing (no round has passed) (a live member sends several each round, so loss alone rarely silences
 one: at ``radio.loss_prob`` 0.3, five frames all lost is 0.2 %) — and declares a member *lost*
 after ``protocol.lost_after_rounds`` such rounds in a row: ``lost_handler(node_id)``, the
 recovery manager (:mod:`.recovery`), removes it from the tables.
@@ -71,6 +72,7 @@ class TokenRing:
         self.heard: dict[int, float] = {}  # robot -> when we last received one of its ring frames
         self.silent_rounds: dict[int, int] = {}  # master: member -> rounds in a row it was not heard in
         self.round_start_s = 0.0  # master: start of its previous slot
+        self.started_s = -math.inf  # master: when it started its ring
         self.lost_handler = None  # master: called with the node id of a member declared lost (Node wires it)
         self._declared: set[int] = set()
         node.on(msg.TX_START, self._on_tx_start)
@@ -97,6 +99,7 @@ class TokenRing:
         yield clock.any_of([self._acks_event, clock.timeout(self.node.cfg.protocol.ring_response_timeout_s)])
 
     def _on_ack(self, frame: Frame) -> None:
+        self.heard[frame.src] = self.node.clock.now  # an acknowledgement to another holder, overheard, is a sign of life too
         if frame.dst != self.node.node_id:
             return
         self._acks.add(frame.src)
@@ -169,6 +172,8 @@ class TokenRing:
         in a row (module docstring)."""
         since, heard, silent = self.round_start_s, self.heard, self.silent_rounds
         need = self.node.cfg.protocol.lost_after_rounds
+        if since == self.started_s and slot_start == since:
+            return  # the ring's first slot: no round has passed yet (only the start sign's acknowledgements)
         for peer in peers:
             if heard.get(peer, -math.inf) >= since:
                 silent[peer] = 0
@@ -179,6 +184,14 @@ class TokenRing:
                 self.lost_handler(peer)
         self.round_start_s = slot_start
 
+    def last_heard_s(self) -> float | None:
+        """Master: when it last heard a ring frame of a member of its tables, or started its ring
+        (None without a member): the sequence manager's cut-off (:meth:`~.sequence.SequenceManager.cut_off`)."""
+        peers = self._ring_peers()
+        if not peers:
+            return None
+        return max(self.started_s, max(self.heard.get(p, -math.inf) for p in peers))
+
     def forget(self, node_id: int) -> None:
         """Master: ``node_id`` left the tables (or joined them anew): its count starts over."""
         self.silent_rounds.pop(node_id, None)
@@ -188,7 +201,7 @@ class TokenRing:
     def start_as_master(self) -> None:
         """The master starts the ring (with a fresh token) and its watchdog."""
         node = self.node
-        self.round_start_s = node.clock.now  # every member's first round counts from now
+        self.round_start_s = self.started_s = node.clock.now  # every member's first round counts from now
         self.silent_rounds = {}
         if node.know.total_members > 1:
             self.token_seq += 1000  # supersede any token still in flight

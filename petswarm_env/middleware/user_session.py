@@ -41,6 +41,7 @@ from petswarm_env.control.master import BeltView, MasterController, UserTracker
 from petswarm_env.middleware.formation import formation_for_mode, user_position_in_formation
 from petswarm_env.middleware.knowledge import FRESH_IR_S
 from petswarm_env.middleware.modes import measured_geometry
+from petswarm_env.middleware.succession import own_user_estimate
 from petswarm_env.middleware.swarm import Swarm
 from petswarm_env.sim.geometry import wrap_angle
 from petswarm_env.sim.user import User
@@ -52,6 +53,13 @@ from petswarm_env.wearables.watch import Command, RemoteDriver, Watch
 DRIVING_STATES = ("following", "leading", "remote")
 MODE_SETTLE_S = 5.0  # chosen: after a mode change the re-forming swarm raises no obstacle exception
 LEADING_LF_MARGIN_M = 0.3  # chosen: a leading master stays this far inside its LF range
+APPROACH_SLACK_M = 0.15  # chosen: a new master bursts its wake-up pattern once this near its approach distance ...
+STALLED_MPS = 0.05  # chosen: ... or once its own odometry says it stands (it can get no closer)
+# chosen: where a new master looks for its user after an unanswered wake-up burst, (along, left) of its
+# first estimate in metres, "along" pointing from where it stood to the user: 0.5 m steps, inside the
+# 1 m wake-up range (seed 002 §3.2), first farther along (the user walked on before the alert)
+SEARCH_OFFSETS_M = ((0.6, 0.0), (1.2, 0.0), (0.0, 0.6), (0.0, -0.6), (-0.6, 0.0), (0.6, 0.6), (0.6, -0.6), (1.8, 0.0),
+                    (1.2, 0.6), (1.2, -0.6), (0.0, 0.0))
 
 
 def master_distance_m(cfg: Config, formation, mode: str) -> float:
@@ -63,6 +71,12 @@ def master_distance_m(cfg: Config, formation, mode: str) -> float:
     if formation is None:
         formation = formation_for_mode(cfg.swarm, cfg.swarm.num_slaves + 1, "leading")
     return min(user_position_in_formation(formation, d)[0], cfg.lf.reliable_range_m - LEADING_LF_MARGIN_M)
+
+
+def can_be_master(robot) -> bool:
+    """Whether a robot's body carries the two LF antennas a master bursts LF with (robot_types; a
+    robot built without a type is a petbot, which does)."""
+    return robot.spec is None or robot.spec.can_be_master
 
 
 @dataclass
@@ -105,8 +119,15 @@ class UserSession:
         self._emergency_since = 0.0
         self._gestures: list[str] = []  # gestures the user is about to perform, one stroke at a time
         self._watch_free_s = -math.inf
-        self.paused = False  # the user stopped after losing their master (issue 15), until a swarm is organized again
+        self.paused = False  # the user stopped after losing their master (issue 15), until paired with an organized swarm
+        self.link_ack_s = -math.inf  # the belt last heard the connected robot's BLE link layer
+        self.released_by: set[int | None] = set()  # robots whose link the belt lost (it does not pair with them again)
+        self.link_losses: list[tuple[float, str]] = []  # (time, supervision_timeout | released)
+        self.pairings: list[tuple[float, int]] = []  # (time, robot) of every pairing after the first
+        self._wake_next_s = -math.inf  # a new master's next wake-up burst
+        self._search: tuple | None = None  # a new master's search: (first estimate, direction along, next offset)
         swarm.on_master_change = self._on_master_change
+        swarm.on_succession = self._on_succession
         self.clock.process(self._wakeup_bursts())
         self.clock.process(self._lf_bursts())
         self.clock.process(self._belt_reports())
@@ -122,57 +143,141 @@ class UserSession:
                 yield self.clock.timeout(cfg.ble.connect_s)
                 self.connected_robot = robot.node_id
                 self.paired_at_s = self.clock.now
-                self.link_since_s = self.clock.now
+                self.link_since_s = self.link_ack_s = self.clock.now
                 robot.connected_user = self.swarm.user_id
                 robot.state = "command_waiting"
                 self.state = "command_waiting"
                 return
             yield self.clock.timeout(cfg.lf.wake_period_s)
 
-    # -- master loss (issue 15) ---------------------------------------------------------------------
-    def _master_lost(self) -> None:
-        """The robot the wearables are connected to is off (a ``dead`` or ``battery`` fault): the
-        BLE link drops, the belt alerts the user, who stops and waits (chosen); the session goes
-        back to waiting-user (seed 002 Fig. 4) and pairs again with a robot of the pool in the
-        waiting state whose LF wake-up burst the belt hears (:meth:`_repair`), then the user's
-        start-up commands organize a swarm again. Its former slaves stop by their status timeout
-        and wait (middleware/sequence.py). Chosen: every waiting robot of a user's pool carries
-        the user's wake-up pattern; the papers pair the user with one robot."""
+    # -- losing the master, pairing with the next (seed 002 §3.2; middleware/succession.py) --------
+    def _link_lost(self, reason: str) -> None:
+        """The belt lost its robot: its BLE supervision timeout passed (the robot is off), or the
+        robot released it (cut off from its swarm: :meth:`~.sequence.SequenceManager.cut_off`).
+        The belt alerts the user, who stops and waits (chosen); the session goes back to
+        waiting-user (seed 002 Fig. 4) until a robot's wake-up burst pairs it again: the slave that
+        takes the lost master's place (:meth:`_on_succession`), or, with none, a robot of the pool
+        in the waiting state (:meth:`_repair`)."""
         self.state = "waiting_user"
+        self.released_by.add(self.connected_robot)
         self.connected_robot = None
         self.events["masters_lost"] += 1
         self.events["alerts_to_belt"] += 1
+        self.link_losses.append((self.clock.now, reason))
         self.user.walking = False  # the user stops at the alert
         self.paused = True
         self.ctrl.reset()
+        self.belt_view = BeltView()  # nothing more from the belt until a link carries it
         self.clock.process(self._repair())
 
+    def _ble_supervision(self) -> None:
+        """Every belt report: the connected robot's link layer acknowledges it while the robot is on
+        (the BLE medium: a robot that is off answers nothing; its 802.15.4 radio is another radio);
+        the belt drops the link after ``ble.supervision_timeout_s`` without an acknowledgement."""
+        idx = self.connected_robot
+        if idx is None:
+            return
+        if self.world.robots[idx].health.powered:
+            self.link_ack_s = self.clock.now
+        elif self.clock.now - self.link_ack_s > self.cfg.ble.supervision_timeout_s:
+            self._link_lost("supervision_timeout")
+
+    def _on_succession(self, node) -> None:
+        """A slave took the lost master's place (middleware/succession.py): the session's robot side
+        is that robot now. Its user tracker starts from what it knows itself (its estimate from the
+        last status broadcast, its IR fix and heading estimate of the lost master), the user standing
+        (they stop at the belt's alert); it drives within ``succession.approach_m`` of that and bursts
+        its wake-up pattern (:meth:`_successor_command`)."""
+        self.tracker.reset(node.ahrs_yaw())
+        self.ctrl.reset()
+        est = node.succession.user_estimate
+        self._search = None
+        if est is not None:
+            self.tracker.fix(est, self.clock.now)
+            d = math.hypot(*est) or 1.0
+            c, s = math.cos(self.tracker.pose[2]), math.sin(self.tracker.pose[2])
+            along = (c * est[0] / d - s * est[1] / d, s * est[0] / d + c * est[1] / d)  # odometry frame
+            self._search = (tuple(self.tracker.pos), along, 0)
+        self._wake_next_s = -math.inf
+
+    def _search_on(self) -> None:
+        """A wake-up burst the belt did not answer: the user is not where the new master put them.
+        It moves the place it drives to by the next of :data:`SEARCH_OFFSETS_M` around its first
+        estimate (along the line from itself to the user first: the user walked on before the
+        alert stopped them, or less far), and bursts again there (chosen; seed 002 has no search)."""
+        if self._search is None or self.tracker.pos is None:
+            return
+        origin, (ax, ay), k = self._search
+        along, side = SEARCH_OFFSETS_M[k % len(SEARCH_OFFSETS_M)]
+        self.tracker.pos = [origin[0] + along * ax - side * ay, origin[1] + along * ay + side * ax]
+        self.tracker.vel = [0.0, 0.0]
+        self._search = (origin, (ax, ay), k + 1)
+
+    def _successor_command(self, node, odometry) -> tuple[float, float, float]:
+        """A new master waiting for its user: drive toward where it puts them and burst the wake-up
+        pattern (seed 002 §3.2) once it believes it is within ``succession.approach_m`` of them (or
+        stands still within ``lf.wake_range_m`` of where it puts them), and every ``lf.wake_period_s``
+        after; a belt within ``lf.wake_range_m`` whose pattern matches
+        pairs over BLE (``ble.connect_s``)."""
+        cfg, now = self.cfg, self.clock.now
+        est = self.tracker.user_body(now)
+        d_est = math.hypot(*est[0]) if est is not None else 0.0
+        stalled = math.hypot(odometry[0], odometry[1]) < STALLED_MPS  # it gets no closer (the ultrasonic safety stage)
+        near = d_est <= cfg.succession.approach_m + APPROACH_SLACK_M or (stalled and d_est <= cfg.lf.wake_range_m)
+        if near and now >= self._wake_next_s and self.world.robots[node.node_id].health.powered:
+            self._wake_next_s = now + cfg.lf.wake_period_s
+            d = math.dist(self.world.robots[node.node_id].position, self.user.position)  # the LF field's reach
+            if lf.wakes_up(cfg.lf, d, self.robot_pattern, self.user_pattern):
+                self.clock.later(cfg.ble.connect_s, self._paired, node, [f"mode:{self.swarm.mode}"])
+                self._wake_next_s = math.inf
+            else:
+                self._search_on()
+        if est is None:
+            return (0.0, 0.0, 0.0)
+        return self.ctrl.command(est[0], (0.0, 0.0), self.belt_view, odometry, "following", cfg.succession.approach_m,
+                                 cfg.control_period_s)
+
+    def _paired(self, node, startup: list[str]) -> None:
+        """The belt connected over BLE to ``node`` (seed 002 §3.2): command-waiting; the user gives
+        ``startup`` (the driving mode of the swarm it masters, or the mode and organize)."""
+        if self.connected_robot is not None or not self.world.robots[node.node_id].health.powered:
+            return
+        self.connected_robot = node.node_id
+        self.paired_at_s = self.link_since_s = self.link_ack_s = self.clock.now
+        node.connected_user = self.swarm.user_id
+        node.previous_driving_state = self.swarm.mode
+        if node.state != "master":
+            node.state = "command_waiting"
+        self.state = "command_waiting"
+        self.pairings.append((self.clock.now, node.node_id))
+        self.startup = list(startup)
+
     def _repair(self):
-        """Wake-up bursts of the pool's waiting robots until the belt pairs with one (seed 002 §3.2)."""
+        """With no slave to take the lost master's place: wake-up bursts of the pool's waiting robots
+        until the belt pairs with one (seed 002 §3.2; chosen: every waiting robot of a user's pool
+        carries the user's wake-up pattern), then the user's start-up commands organize a swarm."""
         cfg = self.cfg
         swarm = self.swarm
         fleet = swarm.fleet
         while self.connected_robot is None:
             yield self.clock.timeout(cfg.lf.wake_period_s)
+            if swarm.master.state == "master" or any(n.succession.electing for n in swarm.nodes.values()
+                                                      if fleet.swarm_of(n.node_id) is swarm):
+                continue  # a slave takes or took the master's place: it calls the belt (_successor_command)
             for idx in sorted(swarm.nodes):
                 node = swarm.nodes[idx]
-                if node.state != "waiting" or not node.health.powered or fleet.swarm_of(idx) is not swarm:
+                if node.state != "waiting" or idx in self.released_by or fleet.swarm_of(idx) is not swarm:
                     continue
-                body = self.world.robots[idx].spec
-                if body is not None and not body.can_be_master:
+                if not can_be_master(self.world.robots[idx]):
                     continue  # no LF antennas (robot_types): it bursts no wake-up pattern, the belt cannot pair with it
                 d = math.dist(self.world.robots[idx].position, self.user.position)
                 if lf.wakes_up(cfg.lf, d, self.robot_pattern, self.user_pattern):
                     yield self.clock.timeout(cfg.ble.connect_s)
-                    if node.state != "waiting":
+                    if node.state != "waiting" or self.connected_robot is not None:
                         break
                     swarm.master = node
-                    self.connected_robot = idx
-                    self.paired_at_s = self.link_since_s = self.clock.now
-                    node.connected_user = swarm.user_id
-                    node.state = self.state = "command_waiting"
                     self.tracker.reset(node.ahrs_yaw())
-                    self.startup = [f"mode:{swarm.mode}", "organize"]
+                    self._paired(node, [f"mode:{swarm.mode}", "organize"])
                     return
 
     # -- localisation (seed 002 §3.3) -------------------------------------------------------------
@@ -185,6 +290,9 @@ class UserSession:
                     and self.clock.now >= self.link_since_s:
                 tx = self.swarm.master.node_id
                 robot = self.world.robots[tx]
+                if not can_be_master(robot):
+                    yield self.clock.timeout(period)
+                    continue  # a body without LF antennas bursts no LF (robot_types)
                 (ux, uy), (rx, ry) = self.user.position, robot.position
                 dx, dy = ux - rx, uy - ry
                 c, s = math.cos(robot.heading), math.sin(robot.heading)
@@ -205,6 +313,7 @@ class UserSession:
         cfg = self.cfg
         while True:
             yield self.clock.timeout(cfg.ble.report_period_s)
+            self._ble_supervision()
             if self.connected_robot is None or self.clock.now < self.link_since_s:
                 continue
             r = self.belt.reading()
@@ -308,11 +417,10 @@ class UserSession:
         cfg = self.cfg
         now = self.clock.now
         user = self.user
-        if self.connected_robot is not None and not self.world.robots[self.connected_robot].health.powered:
-            self._master_lost()
-        elif self.paused and self.swarm.organized:
+        self._check_release(now)
+        if self.paused and self.swarm.organized and self.state in ("following", "leading"):
             self.paused = False
-            user.walking = True  # organized again: the user walks on
+            user.walking = True  # paired again with an organized swarm: the user walks on
         seg = user.segment
         moving = user.walking
         t_fed, heading_fed = self._belt_fed  # the waist's mean yaw rate over the period (the gyro integrates
@@ -353,7 +461,22 @@ class UserSession:
                                      cfg.control_period_s), None, False
         if self.state in ("remote", "exception"):
             return zero, self.remote.command(now, yaw), False
+        if self.state == "waiting_user" and master.state == "master" and master.connected_user is None:
+            return self._successor_command(master, odometry), None, False
         return zero, None, self.state == "emergency"
+
+    def _check_release(self, now: float) -> None:
+        """The connected master cut off from its swarm (:meth:`~.sequence.SequenceManager.cut_off`:
+        no ring frame of any member for ``protocol.status_timeout_s``) alerts the belt over BLE and
+        releases it, and returns to waiting: its slaves choose a new master, which calls the belt."""
+        idx = self.connected_robot
+        if idx is None:
+            return
+        node = self.swarm.nodes[idx]
+        if node.seq.cut_off(now):
+            node.seq.leave_swarm()
+            node.connected_user = None
+            self._link_lost("released")
 
     def _obstacle_behind(self, ranges: np.ndarray) -> bool:
         """Something closer than ``master.exception_range_m`` in the leading master's travel
@@ -383,31 +506,15 @@ class UserSession:
 
     # -- master change (seed 000 Table 3) ---------------------------------------------------------
     def _on_master_change(self, old, new) -> None:
-        """The new master takes over the user: the wearables reconnect to it over BLE, and the old
-        master hands over where it last saw the user, placed through its own IR view of the new
-        master (headings taken as aligned unless a heading exchange says otherwise)."""
+        """The new master takes over the user (seed 000 Table 3): the wearables reconnect to it over
+        BLE. Its user tracker starts from what it knows itself (:func:`~.succession.own_user_estimate`:
+        the old master's last status broadcast placed through its own IR fix and heading estimate of
+        the old master): the handover frame carries no track."""
         now = self.clock.now
-        est = self.tracker.user_body(now)
-        seen = old.know.ir.get(new.node_id)
         self.connected_robot = new.node_id
-        self.link_since_s = now + self.cfg.ble.connect_s
+        self.link_since_s = self.link_ack_s = now + self.cfg.ble.connect_s
         self.tracker.reset(new.ahrs_yaw())  # the new master's own odometry frame
         self.ctrl.reset()
-        if est is None:
-            return
-        yaw = old.ahrs_yaw()
-        if seen is not None and now - seen.time_s <= FRESH_IR_S:
-            px, py = seen.position_now(yaw)
-        else:  # not seen lately (occluded by another member): its slot in the old neighbour table
-            formation, members = self.swarm.previous_formation, self.swarm.previous_members
-            member = next((m for m, n in members.items() if n == new.node_id), None)
-            if formation is None or member is None:
-                return
-            px, py = (float(v) for v in formation.slot_positions()[member])
-        head = old.know.heading.get(new.node_id)
-        phi = head.relative_rad - wrap_angle(yaw - head.own_yaw_rad) if head is not None else 0.0
-        c, s = math.cos(-phi), math.sin(-phi)
-        dx, dy = est[0][0] - px, est[0][1] - py
-        self.tracker.fix((c * dx - s * dy, s * dx + c * dy), now)
-        vx, vy = est[1]
-        self.tracker.vel = [c * vx - s * vy, s * vx + c * vy]
+        est = own_user_estimate(new, now, old.node_id)
+        if est is not None:
+            self.tracker.fix(est, now)

@@ -38,19 +38,18 @@ def test_episode_is_bit_identical_to_its_golden_hash(name, results):
     assert got["sha256"] == want["sha256"], f"{name}: the episode changed (regenerate only for a change on purpose)"
 
 
-# the layout-2 hashes of the episodes recorded at 64567ef, before issue 15, re-recorded when the wheel odometry
-# began to count what the wheels turn (not the body's true velocity) and each IR reading began to be credited
-# to the holder its receiver heard announced (both leaks closed on purpose; every case changed): a petbot pool
-# still gives, in layout 2's fields and summary keys, the episodes of a swarm without robot types
+# the hashes recorded at 64567ef, before issue 15 (tests/golden/episodes.py: layout2_sha256)
 BEFORE_ISSUE_15 = {
-    "default_seed0": "d8418c2f52dacd4e38ab3fbbffea04f4dd61ba50ed12a0f3a0033a82c1011646",
-    "default_seed1": "5d7ff331abe6a8288acbea212e4f53a0f82c825763252a83d8662f84e127ecb5",
-    "default_seed2": "e195d7df1162c8bd1af477eb7362b507dd24d86ed0781a51c866b6199c5c34cf",
-    "leading_zigzag": "9adb53e329e9ea467d97bf22ef614bc6c46329773c33585e8c360334117759a3",
-    "mode_change": "a5e2d4ed8db787a6b5931917c83a9b6315512f0f3c0a61c55131b3564640e125",
-    "nine_slaves_u_turn": "6a5cd23b059f068170013ebaa1e3e72bf227bd973eb4f61e56bf0b70129afded",
-    "random_1p4": "595008360ce8a18fab03ff3e702f2b872ddbf12e8ddc36803e1e9517f8d25766",
-    "two_users": "265086111a09df594d60b86d9c9b66eb6cae0f490c2333b940346da06f656e88",
+    "default_seed0": "1bd9d0d364aebd0224569c183a8f3a226e53e1f55454d235ab26148f5fc66d85",
+    "default_seed1": "aa4858766c17122c9aa0924037338b4f75d98d71ab39ff312bb7aebd30991a37",
+    "default_seed2": "134a7be862b8b032c0dda53d773895715ef49200b9d407ff42f219bd294a28bc",
+    "leading_zigzag": "e94a1cd8ec1e4af7d474642ce5ee3ef2a4345d321d6c57f50d5ac6b6960ce2a7",
+    # changed on purpose since: the new master of a Table 3 master change starts its user tracker from its
+    # own knowledge (the old master's last status broadcast through its own IR fix), not the old master's track
+    "mode_change": "5c761b8097044650509cbc38d5a5cd06df65ea08d3ab62a024941a33d582ca86",
+    "nine_slaves_u_turn": "f91e3e1f1f815f6e877d83379ea83e5a0a5139b3622e1c63d86e65f9b881dbbc",
+    "random_1p4": "842809c8b573895ce4cffd6837aeb2937a4f56fd2e32667dc34f56a877f0d11f",
+    "two_users": "657d6c1cfeff39882e6ba4cc20eafd83e34d19410a9e3fe3a828a8a28393d342",
 }
 
 

@@ -32,10 +32,10 @@ def test_an_ultrasonic_fault_is_found_by_the_robot_and_only_then_lowers_its_flag
     seen = None
     for env, obs in _walk("ultrasonic", 3):
         if not frames:
-            env.radio.drop_filter = lambda f: frames.append((f.kind, f.src, f.dst)) or False
-        node = env.fleet.nodes[3]
+            env.episode.radio.drop_filter = lambda f: frames.append((f.kind, f.src, f.dst)) or False
+        node = env.episode.fleet.nodes[3]
         agent = "robot_3"
-        if env.runtime.faults.log and seen is None and agent in obs:
+        if env.episode.runtime.faults.log and seen is None and agent in obs:
             pres = obs[agent][env.layout.slices["self.ultrasonic_present"]]
             found = [t for t, part in node.diagnosis.detected if part == "ultrasonic"]
             if not found:  # broken but not found yet: the robot believes its ring, and says so
@@ -46,30 +46,30 @@ def test_an_ultrasonic_fault_is_found_by_the_robot_and_only_then_lowers_its_flag
     t, presence, status = seen
     assert presence == 0.0  # the observation of the detection's own step reads the ring absent
     assert status.rate_sens_ma is None and "DISTANCE" not in status.sensors
-    assert (msg.BID_REQUEST, 3, env.fleet.nodes[0].node_id) in frames  # the bid request went to the master
-    assert any(event == "lost" and 3 in ids for _, event, ids in env.swarm.member_log)  # taken out of its slot
-    assert env.fleet.nodes[3].state == "waiting"
+    assert (msg.BID_REQUEST, 3, env.episode.fleet.nodes[0].node_id) in frames  # the bid request went to the master
+    assert any(event == "lost" and 3 in ids for _, event, ids in env.episode.swarm.member_log)  # taken out of its slot
+    assert env.episode.fleet.nodes[3].state == "waiting"
 
 
 @pytest.mark.parametrize("kind", ["ir", "ahrs"])
 def test_an_ir_or_ahrs_fault_is_found_within_3_s_and_the_robot_leaves_its_slot(kind):
     for env, _ in _walk(kind, 2):
         pass
-    node = env.fleet.nodes[2]
-    fault_s = env.runtime.faults.log[0].time_s
+    node = env.episode.fleet.nodes[2]
+    fault_s = env.episode.runtime.faults.log[0].time_s
     found = [t for t, part in node.diagnosis.detected if part == kind]
     assert found and 0 < found[0] - fault_s <= 3.0
     assert node.recovery.bid_requests and node.recovery.bid_requests[0][1] == kind
-    assert 2 not in env.swarm.master.know.members.values() and node.state == "waiting"
+    assert 2 not in env.episode.swarm.master.know.members.values() and node.state == "waiting"
     # a robot that found a sensor broken declines the joining query under Table 2 (it is not recruited back)
-    assert 2 not in env.swarm.slave_ids()
+    assert 2 not in env.episode.swarm.slave_ids()
 
 
 def test_no_robot_finds_a_sensor_fault_that_is_not_there():
     """A radio fault (a member that falls silent and is declared lost) under loss is no sensor fault."""
     for env, _ in _walk("radio_silent", 1, seed=3, **{"radio.loss_prob": 0.2}):
         pass
-    assert [d for n in env.fleet.nodes.values() for d in n.diagnosis.detected] == []
+    assert [d for n in env.episode.fleet.nodes.values() for d in n.diagnosis.detected] == []
 
 
 def test_a_radio_silent_slave_credits_no_ir_reading_it_cannot_attribute():
@@ -77,10 +77,10 @@ def test_a_radio_silent_slave_credits_no_ir_reading_it_cannot_attribute():
     no announcement and stores nothing, although its IR module sees every slot."""
     stored = None
     for env, _ in _walk("radio_silent", 2):
-        log = env.runtime.faults.log
+        log = env.episode.runtime.faults.log
         if log and stored is None:
-            stored = {k: v.time_s for k, v in env.fleet.nodes[2].know.ir.items()}
-        if log and env.world.now > log[0].time_s + 0.9:  # before its status timeout (1 s) makes it leave
+            stored = {k: v.time_s for k, v in env.episode.fleet.nodes[2].know.ir.items()}
+        if log and env.episode.world.now > log[0].time_s + 0.9:  # before its status timeout (1 s) makes it leave
             break
     assert stored is not None
-    assert all(stored.get(k) == v.time_s for k, v in env.fleet.nodes[2].know.ir.items())
+    assert all(stored.get(k) == v.time_s for k, v in env.episode.fleet.nodes[2].know.ir.items())

@@ -90,6 +90,7 @@ CASES = [
     ({"control.safety_stop_m": 2.5}, "control.safety_stop_m"),
     ({"control.safety_layer": "maybe"}, "control.safety_layer"),
     ({"ble.report_period_s": 0}, "ble.report_period_s"),
+    ({"succession.election_window_s": 0}, "succession.election_window_s"),
     ({"reward.formation": "high"}, "reward.formation"),
     ({"render.size_px": [0, 10]}, "render.size_px"),
     ({"render.fps": 0}, "render.fps"),

@@ -16,14 +16,14 @@ ROOT = Path(__file__).resolve().parents[2]
 EXAMPLES = {
     msg.SCAN: {"known": [1, 3]},
     msg.JOIN_QUERY: {"candidates": [2, 4, 300]},
-    msg.JOIN_ANSWER: {"available": False},
+    msg.JOIN_ANSWER: {"available": False, "lf": True},
     msg.STATUS_QUERY: {"candidates": [2, 5]},
     msg.STATUS_ANSWER: {"available": True, "type": "petbot", "battery_mah": 2500.0, "slip_pct": 1.0,
                         "rate_servo_ma": 320.0, "rate_act_ma": -1.0, "rate_sens_ma": 65.0, "sensors": 7, "distance_m": 1.5},
     msg.SLOT_ANNOUNCE: {"seq": 3, "attempt": 1, "slots": [(1, 1.0, 1, 0.5), (3, 2.0, 2, 0.5)], "bidders": [2, 4]},
     msg.BID: {"seq": 3, "utilities": [(1, 0.25), (3, 0.5)]},
     msg.JOIN_NOTIFY: {"new_pan": 0x1001, "member": 2, "total": 5, "members": {0: 0, 1: 3, 2: 4}, "shape": "wedge",
-                      "mode": "following", "links": {1: [(0, (-1.0, 0.5))], 2: [(0, (-1.0, -0.5))]}},
+                      "mode": "following", "links": {1: [(0, (-1.0, 0.5))], 2: [(0, (-1.0, -0.5))]}, "lf": [0, 3]},
     msg.TX_START: {"seq": 1999},
     msg.TOKEN: {"seq": 2000, "next": 3},
     msg.SYNC: {"seq": 2000},
@@ -31,13 +31,17 @@ EXAMPLES = {
     msg.STATUS: {"velocity": (0.5, -0.25, 0.125), "activity": "walk", "mode": "leading", "turn_rate": 0.5,
                  "rotating": True, "user": (1.0, -0.5)},
     msg.MODE_CHANGE: {"seq": 3, "mode": "leading", "members": {0: 4, 1: 0}, "shape": "wedge",
-                      "links": {1: [(0, (-1.0, 0.5))], 2: [(0, (-1.0, -0.5)), (1, (0.0, -1.0))]}},
+                      "links": {1: [(0, (-1.0, 0.5))], 2: [(0, (-1.0, -0.5)), (1, (0.0, -1.0))]}, "lf": [4]},
     msg.HANDOVER: {"seq": 3, "user": None, "previous": "following"},
     msg.MEMBER_UPDATE: {"seq": 21500, "members": {0: 0, 1: 4, 2: 2}, "shape": "wedge", "links": {1: [(0, (-1.0, 0.5))],
                         2: [(0, (-1.0, -0.5))]}, "mode": "following"},
     msg.MEMBER_UPDATE_ACK: {"seq": 21500},
     msg.BID_REQUEST: {"seq": 20150, "member": 3, "sensors": 13},
     msg.BID_REQUEST_ACK: {"seq": 20150},
+    msg.CANDIDACY: {"lost": 0, "claim": -193, "member": 2, "mode": "leading", "lf": True},
+    msg.TAKEOVER: {"seq": 21600, "lost": 0, "claim": 193, "member": 1, "members": {0: 1, 1: 4, 2: 2}, "shape": "wedge",
+                   "links": {1: [(0, (-1.0, 0.5))], 2: [(0, (-1.0, -0.5))]}, "mode": "following", "lf": [1, 2, 4]},
+    msg.TAKEOVER_ACK: {"seq": 21600},
 }
 
 
@@ -77,13 +81,13 @@ def test_fcs_is_the_itu_t_crc16_of_802_15_4():
 
 
 def test_mac_frame_carries_the_radio_models_header():
-    frame = Frame(msg.JOIN_ANSWER, src=3, dst=0, pan=0x0000, payload={"available": True})
+    frame = Frame(msg.JOIN_ANSWER, src=3, dst=0, pan=0x0000, payload={"available": True, "lf": True})
     raw = pcap.mac_frame(frame, dsn=258)
     fc, seq, dpan, dst, span, src = struct.unpack_from("<HBHHHH", raw)
     assert fc & 0x7 == 1 and (fc >> 10) & 3 == 2 and (fc >> 14) & 3 == 2 and (fc >> 12) & 3 == 1  # data, short, 2006
     assert not fc & (1 << 5) and not fc & (1 << 6)  # no ack request, PAN IDs both present
     assert (seq, dpan, dst, span, src) == (2, 0x0000, 0, 0x0000, 3)
-    assert raw[11:-2] == pcap.encode_payload(msg.JOIN_ANSWER, {"available": True})
+    assert raw[11:-2] == pcap.encode_payload(msg.JOIN_ANSWER, {"available": True, "lf": True})
     assert struct.unpack("<H", raw[-2:])[0] == pcap.fcs16(raw[:-2])
     bcast = pcap.mac_frame(Frame(msg.SCAN, src=0, dst=BROADCAST, pan=0x1001, payload={"known": []}), 0)
     assert struct.unpack_from("<HH", bcast, 3) == (0x1001, 0xFFFF)

@@ -1,0 +1,79 @@
+"""The swarm outlives its master (middleware/succession.py): the master dies or goes radio-silent
+at ``--at`` s of a straight walk; per seed, when a slave took its place, when the belt paired with
+it, whether the episode ran to ``max_cycles``, and the formation error afterwards.
+
+    python -m experiments.measure_succession --seeds 0-19 --kinds dead radio_silent
+
+Times are seconds after the fault. Targets: a new master within 5 s, the belt paired again, the
+episode to ``max_cycles``, in every seed. The robots learn of the loss only from their radio (the
+slaves' status timeout, the master's cut-off) and the belt from its BLE supervision timeout.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import statistics
+
+from baselines.policy import PolicySpec
+from baselines.registry import make_policy
+import petswarm_env
+
+
+def parse_seeds(text: str) -> list[int]:
+    if "-" in text:
+        lo, hi = text.split("-")
+        return list(range(int(lo), int(hi) + 1))
+    return [int(x) for x in text.split(",")]
+
+
+def run(kind: str, seed: int, at_s: float, max_cycles: int, overrides: dict) -> dict:
+    env = petswarm_env.parallel_env(**{"user.scenario": "straight", "max_cycles": max_cycles,
+                                       "faults": [{"at_s": at_s, "robot": "master", "kind": kind}], **overrides})
+    obs, _ = env.reset(seed=seed)
+    t0 = env.episode.world.now
+    policy = make_policy("scripted", PolicySpec.from_env(env), seed=seed)
+    errors_after: list[float] = []
+    while env.agents:
+        obs, _, _, _, infos = env.step(policy.act_all({a: obs[a] for a in env.agents}))
+        if env.episode.world.now - t0 >= at_s + 15.0:  # the formation 15 s after the fault
+            errors_after += [i["formation_error_m"] for i in infos.values()]
+    elections = [e for n in env.episode.fleet.nodes.values() for e in n.succession.elections]
+    session = env.episode.sessions[0]
+    t_fault = t0 + at_s
+    new_master = min((t for _, t, _, _ in elections), default=math.inf) - t_fault
+    paired = min((t for t, _ in session.pairings), default=math.inf) - t_fault
+    return {"seed": seed, "new_master_s": new_master, "paired_s": paired, "cycles": env.num_cycles,
+            "full": env.num_cycles == max_cycles, "successions": len(elections),
+            "rmse_after_m": math.sqrt(statistics.fmean(e * e for e in errors_after)) if errors_after else math.nan}
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m experiments.measure_succession", description=__doc__.splitlines()[0])
+    parser.add_argument("--seeds", default="0-19")
+    parser.add_argument("--kinds", nargs="+", default=["dead", "radio_silent"])
+    parser.add_argument("--at", type=float, default=20.0, help="episode time of the fault (s)")
+    parser.add_argument("--max-cycles", type=int, default=600)
+    parser.add_argument("--set", nargs="*", default=[], help="config overrides key=value")
+    args = parser.parse_args(argv)
+    overrides = {}
+    for item in args.set:
+        key, value = item.split("=", 1)
+        overrides[key] = float(value) if value.replace(".", "", 1).isdigit() else value
+    for kind in args.kinds:
+        rows = [run(kind, seed, args.at, args.max_cycles, overrides) for seed in parse_seeds(args.seeds)]
+        for r in rows:
+            print(f"{kind:12s} seed {r['seed']:3d}: new master {r['new_master_s']:5.2f} s, paired {r['paired_s']:5.2f} s, "
+                  f"cycles {r['cycles']}, formation RMSE 15 s on {r['rmse_after_m']:.2f} m")
+        ok = [r for r in rows if r["new_master_s"] <= 5.0 and math.isfinite(r["paired_s"]) and r["full"]]
+        finite = [r["paired_s"] for r in rows if math.isfinite(r["paired_s"])]
+        print(f"{kind}: {len(ok)} of {len(rows)} seeds meet the target (new master within 5 s, paired, "
+              f"{args.max_cycles} cycles); "
+              f"new master median {statistics.median(r['new_master_s'] for r in rows):.2f} s, "
+              f"paired median {statistics.median(finite) if finite else math.nan:.2f} s (max {max(finite) if finite else math.nan:.2f}), "
+              f"RMSE 15 s on median {statistics.median(r['rmse_after_m'] for r in rows):.2f} m")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

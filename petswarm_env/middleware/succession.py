@@ -1,0 +1,335 @@
+"""The swarm outlives its master: the slaves choose a new master among themselves (chosen; seed 000
+Table 3's rules, seed 002 §3.2's wake-up pairing).
+
+Seed 000 names no rule for a master that dies; its Table 3 says which robot should be the master of
+a driving mode, and that is the rule the slaves apply among themselves when theirs is lost:
+*following* → the robot closest to the user, *leading* → the robot with the highest hierarchical
+level (level 1, the robot farthest from the user: :mod:`.modes`). Only a robot whose body carries
+the two LF antennas a master locates its user with may be chosen (``robot_types``; a member's
+capability travels in the joining answer and in the member tables, :mod:`.messages`).
+
+1. **Loss.** A slave that heard no status broadcast of its master for ``protocol.status_timeout_s``
+   (:meth:`~.sequence.SequenceManager.master_lost`) stops (emergency stop) and starts
+   :meth:`SuccessionManager.start`. A status broadcast of the master heard after that calls the
+   choice off (:meth:`SuccessionManager.master_heard_again`: its broadcasts were lost, not the master).
+2. **Candidacy.** A slave that may be master works out its claim from what it knows
+   (:func:`own_user_estimate`): the user where its master's last status broadcast put them (master
+   frame), placed through its own IR fix of the master and its heading-exchange estimate of the
+   master's heading (without a fresh fix: its own slot of the neighbour table; without a heading
+   estimate: headings taken as aligned — every robot faces the user). It broadcasts a *candidacy*
+   (its claim: the distance in centimetres, negated in leading mode, then its member number — a total
+   order every slave computes alike) twice within ``succession.election_window_s``, staggered by its
+   member number.
+3. **Choice.** At the end of its window, a slave whose own claim is the best it heard takes over:
+   it computes the new tables (:func:`succession_plan`: itself member 0, the lost master out, the
+   others on the slots of the standard table one smaller by the least total move) and broadcasts
+   the *takeover* frame (its claim, the tables) until every member acknowledged it, for at most
+   ``succession.takeover_timeout_s`` without the acknowledgements of at least half the other
+   members — then it was alone or with a few (its own radio failed, or a few far members lost a
+   master that the others still hear: chosen, a quorum, so that a minority never takes the
+   swarm from a live master) and returns to waiting. With that quorum it is the master
+   (``took_over``): the ring, the status broadcast and the periodic scan start on it.
+4. **Acceptance.** A slave accepts a takeover of its lost master (its own status timeout passed:
+   a slave that still hears its master does not follow a robot that alone lost it; the takeover is
+   repeated, so a slave whose timeout comes a little later accepts it then) from a claim at least as
+   good as any it accepted, applies the tables and acknowledges; a new master that hears a better
+   claim's takeover yields (becomes its slave). A slave that accepted nothing within the window and
+   the takeover timeout returns to waiting, as before.
+5. **The user.** The new master knows its user only from frames and its own sensors
+   (:func:`own_user_estimate`, kept in :attr:`SuccessionManager.user_estimate`); the user session
+   (:mod:`.user_session`) drives it there and bursts its wake-up pattern (seed 002 §3.2) until the
+   belt, which dropped its old link at its own BLE supervision timeout, pairs with it.
+
+A successor knows its user's request only from frames: the number of slaves is the number it took
+over, the shape and spacing are those of the neighbour table it holds (:func:`adopted_swarm_config`).
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Callable
+
+import numpy as np
+
+from petswarm_env.comms.radio import Frame
+from petswarm_env.config import CustomLink
+from petswarm_env.middleware import messages as msg
+from petswarm_env.middleware.formation import Formation, formation_for_mode
+from petswarm_env.middleware.knowledge import FRESH_IR_S
+from petswarm_env.middleware.station import Station
+from petswarm_env.sim.geometry import wrap_angle
+
+LF_ANTENNAS = 2  # a master locates its user with two LF antennas (seed 002 §3.3)
+EXACT_ASSIGNMENT_UP_TO = 7  # chosen: the least-move assignment is exact up to this many members (7! orders), greedy beyond
+
+
+def body_can_be_master(station: Station) -> bool:
+    """Whether this robot's own body carries the LF antennas a master needs (its own body report;
+    a bare station is a petbot, which does)."""
+    body = station.own_body_status()
+    if body is None:
+        return True
+    return sum(1 for s in body.get("sensors", ()) if s["type"] == "LF") >= LF_ANTENNAS
+
+
+def own_user_estimate(node: Station, now_s: float, master: int | None = None) -> tuple[float, float] | None:
+    """Where this slave puts its user now, in its own body frame, from what it knows (module
+    docstring, step 2): the master's last status broadcast (the user in the master's frame), its own
+    IR fix of the master (fresh within ``FRESH_IR_S``; else its own slot of the neighbour table),
+    its heading-exchange estimate of the master's heading (else aligned). None without a status.
+    ``master``: the robot whose broadcast it was (by default member 0 of its tables)."""
+    know = node.know
+    status = know.status
+    own_slot = know.member
+    if master is None:
+        master = node.member_node(0)
+    if status is None or master is None:
+        return None
+    yaw = node.ahrs_yaw()
+    head = know.heading.get(master)
+    phi = head.relative_rad - wrap_angle(yaw - head.own_yaw_rad) if head is not None else 0.0  # θ_master − θ_self
+    c, s = math.cos(phi), math.sin(phi)
+    seen = know.ir.get(master)
+    if seen is not None and now_s - seen.time_s <= FRESH_IR_S:
+        mx, my = seen.position_now(yaw)
+    elif node.formation is not None and 0 < own_slot < node.formation.size and node.member_node(0) == master:
+        sx, sy = (float(v) for v in node.formation.slot_positions()[own_slot])
+        mx, my = -(c * sx - s * sy), -(s * sx + c * sy)  # the master from its own slot, turned into own frame
+    else:
+        return None
+    ux, uy = status.user_position_m
+    return mx + c * ux - s * uy, my + s * ux + c * uy
+
+
+def claim_key(distance_m: float, mode: str, member: int) -> tuple[int, int]:
+    """Table 3's order (smaller is better): following (or remote) → the closest to the user;
+    leading → the highest hierarchical level, the farthest. Then the lower member number."""
+    cm = int(round(100.0 * distance_m))
+    return (-cm if mode == "leading" else cm), member
+
+
+def least_move(current: dict[int, np.ndarray], slots: dict[int, np.ndarray]) -> dict[int, int]:
+    """Slot -> member: each member of ``current`` (member -> position) to one slot of ``slots``
+    (slot -> position, as many), the least total distance (exact for small swarms, greedy beyond;
+    ties by number)."""
+    members, targets = sorted(current), sorted(slots)
+    cost = {(m, k): float(np.hypot(*(current[m] - slots[k]))) for m in members for k in targets}
+    if len(members) <= EXACT_ASSIGNMENT_UP_TO:
+        def total(perm: tuple[int, ...]) -> tuple[float, tuple[int, ...]]:
+            return round(sum(cost[m, k] for m, k in zip(members, perm)), 9), perm
+
+        best = min(itertools.permutations(targets), key=total)
+        return {k: m for m, k in zip(members, best)}
+    out: dict[int, int] = {}
+    for (m, k) in sorted(cost, key=lambda mk: (round(cost[mk], 9), mk)):
+        if m not in out.values() and k not in out:
+            out[k] = m
+    return out
+
+
+def succession_plan(formation: Formation, members: dict[int, int], new_root: int, mode: str,
+                    swarm_cfg) -> tuple[dict[int, int], Formation]:
+    """The new tables when member ``new_root`` takes the lost master's (member 0's) place: the
+    standard table of the known shape (``swarm_cfg``: :func:`adopted_swarm_config`) for one member
+    less, laid out for ``mode``, anchored where the lost master stood; the new master is member 0,
+    the other members take its slots by the least total move from their slots of the old table.
+    Returns (member number -> node id, formation)."""
+    n = len(members) - 1
+    new = formation_for_mode(swarm_cfg, n, mode)
+    old_slots = formation.slot_positions()
+    new_slots = new.slot_positions()
+    rest = {m: old_slots[m] for m in members if m not in (0, new_root)}
+    chosen = least_move(rest, {k: new_slots[k] for k in range(1, n)})
+    table = {0: members[new_root]}
+    table.update({k: members[m] for k, m in chosen.items()})
+    return dict(sorted(table.items())), new
+
+
+def adopted_swarm_config(node: Station):
+    """The swarm section a robot that became master holds (a successor, or the new master of a Table 3
+    change): its user's request as the frames told it — the shape of its neighbour table, the spacing
+    of member 1's first link, the slaves the swarm had (its tables' members but one); a custom table
+    is its own rows (turned back from the leading layout)."""
+    cfg = node.cfg
+    formation = node.formation
+    update: dict = {"num_slaves": max(1, node.know.total_members - 1)}
+    if formation is not None and formation.links:
+        first = formation.links[min(formation.links)][0]
+        update["formation"] = formation.shape
+        update["spacing_m"] = float(math.hypot(*first.offset_m)) or cfg.swarm.spacing_m
+        if formation.shape == "custom":
+            table = formation.rotated(math.pi) if node.know.mode == "leading" else formation
+            update["custom_links"] = [CustomLink(robot=m, neighbour=lk.neighbour, offset_m=list(lk.offset_m))
+                                      for m, lks in table.links.items() for lk in lks]
+    return cfg.model_copy(update={"swarm": cfg.swarm.model_copy(update=update)})
+
+
+class SuccessionManager:
+    """Both sides of the choice of a new master on one robot (module docstring)."""
+
+    def __init__(self, node: Station, leave: Callable[[], None]):
+        self.node = node
+        self._leave = leave  # back to waiting (SequenceManager.leave_swarm)
+        self.lost: int | None = None  # the node id of the master whose loss is being settled
+        self.electing = False
+        self.claims: dict[int, tuple[int, int]] = {}  # node id -> claim key heard (own included)
+        self.accepted: tuple[int, int] | None = None  # the claim of the takeover accepted (or made)
+        self.user_estimate: tuple[float, float] | None = None  # a new master: its user, own body frame, at its takeover
+        self.elections: list[tuple[float, float, int | None, int]] = []  # a new master: (loss noticed, took over, lost, itself)
+        self._noticed_s = 0.0
+        self._seq = -1
+        self._acks: set[int] = set()
+        node.on(msg.CANDIDACY, self._on_candidacy)
+        node.on(msg.TAKEOVER, self._on_takeover)
+        node.on(msg.TAKEOVER_ACK, self._on_ack)
+
+    # -- a slave that lost its master -------------------------------------------------------------
+    def start(self, now_s: float) -> None:
+        """Our status timeout passed: stop, and claim the master's place if we may (step 2)."""
+        node = self.node
+        self.lost = node.member_node(0)
+        self.electing = True
+        self.accepted = None
+        self._noticed_s = now_s
+        self.claims = {}
+        if body_can_be_master(node):
+            est = own_user_estimate(node, now_s)
+            if est is not None:
+                key = claim_key(math.hypot(*est), node.know.mode, node.know.member)
+                self.claims[node.node_id] = key
+                window = node.cfg.succession.election_window_s
+                stagger = 0.01 * node.know.member  # chosen: one 10 ms step per member number
+                for at in (stagger, stagger + window / 2):
+                    node.later(at, self._send_candidacy, self.lost, key)
+        node.clock.process(self._choose(self.lost))
+
+    def master_heard_again(self) -> bool:
+        """A status broadcast of the master came after we noticed its loss (its broadcasts were
+        lost, not the master): the choice is called off, and we drive on as its slave."""
+        status = self.node.know.status
+        if self.electing and status is not None and status.time_s > self._noticed_s and self.node.member_node(0) == self.lost:
+            self.electing = False
+            self.claims = {}
+            return True
+        return False
+
+    def _send_candidacy(self, lost: int | None, key: tuple[int, int]) -> None:
+        node = self.node
+        if self.electing and self.lost == lost and node.state == "slave":
+            node.send(msg.CANDIDACY, lost=lost, claim=key[0], member=key[1], mode=node.know.mode, lf=True)
+
+    def _on_candidacy(self, frame: Frame) -> None:
+        p = frame.payload
+        if self.electing and p["lost"] == self.lost and p["lf"]:
+            self.claims[frame.src] = (p["claim"], p["member"])
+
+    def _choose(self, lost: int | None):
+        """At the end of the window: take over if our claim is the best heard (step 3); otherwise
+        wait for the takeover, and return to waiting without one."""
+        node = self.node
+        cfg = node.cfg.succession
+        yield node.clock.timeout(cfg.election_window_s)
+        if not self.electing or self.lost != lost or node.state != "slave" or self.master_heard_again():
+            return
+        own = self.claims.get(node.node_id)
+        if own is not None and own == min(self.claims.values()):
+            yield from self._take_over(lost, own)
+            return
+        yield node.clock.timeout(cfg.takeover_timeout_s + cfg.election_window_s)
+        if self.electing and self.lost == lost and node.state == "slave" and not self.master_heard_again():
+            self.electing = False
+            self._leave()  # nobody took the master's place: back to waiting, as before
+
+    # -- the elected slave ------------------------------------------------------------------------
+    def _take_over(self, lost: int | None, key: tuple[int, int]):
+        node = self.node
+        clock = node.clock
+        know = node.know
+        old_member = know.member
+        self.user_estimate = own_user_estimate(node, clock.now)
+        adopted = adopted_swarm_config(node)
+        table, formation = succession_plan(node.formation, know.members, old_member, know.mode, adopted.swarm)
+        self._seq = max(self._seq + 1, int(round(clock.now * 1000)))
+        seq = self._seq
+        self.accepted = key
+        lf = sorted(n for n in table.values() if n in know.lf_members or n == node.node_id)
+        payload = dict(seq=seq, lost=lost, claim=key[0], member=key[1], members=dict(table), shape=formation.shape,
+                       links=formation.links_payload(), mode=know.mode, lf=lf)
+        others = {n for m, n in table.items() if m != 0}
+        self._acks = set()
+        committed = False
+        deadline = clock.now + node.cfg.succession.takeover_timeout_s
+        retries = 0
+        while others:
+            node.send(msg.TAKEOVER, **payload)
+            yield clock.timeout(node.cfg.protocol.response_timeout_s)
+            if self.accepted != key or node.state not in ("slave", "master"):
+                return  # a better claim's takeover came: we yielded
+            if not committed and self.master_heard_again():
+                self.accepted = None
+                return  # the master is alive: its broadcasts were lost
+            if not committed and 2 * len(self._acks & others) >= len(others):
+                committed = True
+                self._commit(table, formation, adopted, lost)
+            if others <= self._acks or retries >= node.cfg.protocol.max_retries or (not committed and clock.now >= deadline):
+                break
+            retries += 1
+        if not committed:
+            self.electing = False
+            self._leave()  # nobody heard us: our own radio is the one that failed
+
+    def _commit(self, table: dict[int, int], formation: Formation, adopted, lost: int | None) -> None:
+        node = self.node
+        self.electing = False
+        node.cfg = adopted  # our user's request as the frames told it (module docstring)
+        know = node.know
+        know.members = dict(table)
+        know.total_members = len(table)
+        know.member = 0
+        know.status = None
+        node.formation = formation
+        node.state = "master"
+        node.connected_user = None  # the user's belt pairs with us by the wake-up procedure (user session)
+        node.pans = frozenset({node.swarm_pan})
+        self.elections.append((self._noticed_s, node.clock.now, lost, node.node_id))
+        node.took_over.emit()
+
+    def _on_ack(self, frame: Frame) -> None:
+        if frame.dst == self.node.node_id and frame.payload["seq"] == self._seq:
+            self._acks.add(frame.src)
+
+    # -- every member -----------------------------------------------------------------------------
+    def _on_takeover(self, frame: Frame) -> None:
+        """A slave took the lost master's place (step 4)."""
+        node = self.node
+        p = frame.payload
+        members = {int(m): n for m, n in p["members"].items()}
+        if node.node_id not in members.values() or node.state not in ("slave", "master"):
+            return
+        key = (p["claim"], p["member"])
+        if not self.electing and self.accepted is None:
+            status = node.know.status
+            last = status.time_s if status is not None else node.joined_s
+            if node.state != "slave" or node.member_node(0) != p["lost"] \
+                    or node.clock.now - last <= node.cfg.protocol.status_timeout_s:
+                return  # our master is alive to us: not its successor's member (no acknowledgement)
+            self.lost = p["lost"]
+        elif p["lost"] != self.lost or (self.accepted is not None and key > self.accepted):
+            return  # another loss, or a worse claim than the one we accepted
+        node.send(msg.TAKEOVER_ACK, dst=frame.src, seq=p["seq"])
+        if self.accepted == key and node.member_node(0) == frame.src:
+            return  # a repeat of the takeover we applied
+        self.accepted = key
+        self.electing = False
+        know = node.know
+        was_master = node.state == "master"
+        know.members = members
+        know.total_members = len(members)
+        know.member = next(m for m, n in members.items() if n == node.node_id)
+        know.mode = p["mode"]
+        know.lf_members = frozenset(p["lf"])
+        node.formation = Formation.from_links_payload(p["shape"], p["links"])
+        node.joined_s = node.clock.now  # the new master's status broadcasts start now
+        if was_master:  # a better claim than ours: we yield and drive as its slave (its first
+            node.state = "slave"  # acknowledgement makes it the swarm's master: took_over)

@@ -1,0 +1,244 @@
+"""The swarm outlives its master (middleware/succession.py, middleware/user_session.py): the slaves
+notice the loss by their status timeout, choose a new master among themselves by Table 3's rule
+(following: the closest to the user by their own measurements) among the robots with LF antennas,
+the belt notices the lost link by its own BLE supervision timeout, the new master pairs with it by
+the wake-up procedure, and the episode goes on with the others as slaves."""
+
+import math
+
+import numpy as np
+import pytest
+
+import petswarm_env
+from petswarm_env.middleware import succession as su
+from petswarm_env.middleware.formation import formation_for_mode
+from petswarm_env.middleware.modes import nominal_geometry, plan_mode_change
+
+STILL = {"user.start_delay_s": 100.0, "swarm.spawn": "at_slots"}  # the user stands, the members at their slots
+
+
+def make(seed=0, **overrides):
+    env = petswarm_env.parallel_env(**{**STILL, **overrides})
+    env.reset(seed=seed)
+    return env
+
+
+def run(env, seconds):
+    for _ in range(int(round(seconds / env.cfg.control_period_s))):
+        if not env.agents:
+            return
+        env.step({a: np.zeros(3, np.float32) for a in env.agents})
+
+
+def successions(env):
+    return [e for n in env.episode.fleet.nodes.values() for e in n.succession.elections]
+
+
+def assert_tables_agree(env):
+    master = env.episode.swarm.master
+    for idx in env.episode.swarm.slave_ids():
+        node = env.episode.fleet.nodes[idx]
+        assert node.know.members == master.know.members, f"robot {idx} holds other member tables"
+        assert node.formation.links == master.formation.links
+
+
+@pytest.mark.parametrize("kind", ["dead", "radio_silent"])
+@pytest.mark.parametrize("seed", [0, 1])
+def test_a_slave_takes_the_lost_masters_place_and_the_episode_goes_on(kind, seed):
+    env = make(seed, faults=[{"at_s": 1.0, "robot": "master", "kind": kind}])
+    old = env.episode.swarm.master.node_id
+    slaves = env.episode.swarm.slave_ids()
+    t_fault = env.episode.world.now + 1.0
+    run(env, 6.0)
+    (noticed, took, lost, new), = successions(env)
+    assert lost == old and new in slaves and took - t_fault <= 5.0
+    assert env.episode.swarm.master.node_id == new and env.episode.swarm.organized
+    assert env.episode.swarm.slave_ids() == sorted(set(slaves) - {new})  # every other slave stays, under the new master
+    assert old not in env.episode.swarm.master.know.members.values()
+    assert_tables_agree(env)
+    assert sorted(env.agents) == sorted(f"robot_{i}" for i in env.episode.swarm.slave_ids())  # the new master left the agents
+    run(env, 10.0)
+    session = env.episode.sessions[0]
+    assert session.connected_robot == new and session.pairings and session.pairings[0][1] == new
+    assert session.state == env.episode.swarm.mode and env.agents
+    assert f"robot_{new}" not in env.agents  # terminated, never back under its id
+
+
+def test_following_chooses_the_slave_closest_to_the_user_by_its_own_measurement():
+    env = make(0, faults=[{"at_s": 1.0, "robot": "master", "kind": "dead"}])
+    user = env.episode.world.user.position
+    slaves = env.episode.swarm.slave_ids()
+    run(env, 3.0)
+    (_, _, _, new), = successions(env)
+    true = {i: math.dist(env.episode.world.robots[i].position, user) for i in slaves}
+    assert true[new] <= min(true.values()) + 0.15  # the claims are measurements: a near tie may go either way
+    claims = env.episode.fleet.nodes[new].succession.claims
+    assert claims[new] == min(claims.values()) and len(claims) >= 2  # it heard the others' candidacies
+
+
+def test_the_belt_notices_a_dead_master_by_its_own_supervision_timeout():
+    env = make(0, faults=[{"at_s": 1.0, "robot": "master", "kind": "dead"}])
+    t_fault = env.episode.world.now + 1.0
+    run(env, 3.0)
+    session = env.episode.sessions[0]
+    (t_lost, reason), = session.link_losses
+    timeout = env.cfg.ble.supervision_timeout_s
+    assert reason == "supervision_timeout"
+    assert timeout <= t_lost - t_fault <= timeout + env.cfg.ble.report_period_s + 1e-9  # not at the death itself
+
+
+def test_a_radio_silent_master_releases_its_user_when_cut_off_from_its_swarm():
+    env = make(0, faults=[{"at_s": 1.0, "robot": "master", "kind": "radio_silent"}])
+    old = env.episode.swarm.master
+    t_fault = env.episode.world.now + 1.0
+    run(env, 3.0)
+    (t_lost, reason), = env.episode.sessions[0].link_losses
+    assert reason == "released" and old.state == "waiting" and old.connected_user is None
+    assert t_lost - t_fault <= env.cfg.protocol.status_timeout_s + 0.3
+
+
+def test_only_a_robot_with_lf_antennas_is_chosen():
+    """The petbot of a mostly-mybot pool takes the place, wherever it stands (mybots carry no LF
+    antennas: robot_types); the master knew it from the joining answers."""
+    pool = [{"type": "mybot", "count": 3}, {"type": "petbot", "count": 1}]
+    env = make(0, faults=[{"at_s": 1.0, "robot": "master", "kind": "dead"}], **{"swarm.pool": pool})
+    master = env.episode.swarm.master
+    petbots = {i for i in env.episode.swarm.slave_ids() if env.episode.world.robots[i].type_name == "petbot"}
+    assert master.know.lf_members == frozenset(petbots | {master.node_id})
+    assert all(env.episode.fleet.nodes[i].know.lf_members == master.know.lf_members for i in env.episode.swarm.slave_ids())
+    run(env, 4.0)
+    (_, _, _, new), = successions(env)
+    assert {new} == petbots
+
+
+def test_no_successor_without_lf_antennas_the_slaves_return_to_waiting():
+    env = make(0, faults=[{"at_s": 1.0, "robot": "master", "kind": "dead"}], **{"swarm.pool": [{"type": "mybot", "count": 4}]})
+    slaves = env.episode.swarm.slave_ids()
+    run(env, 6.0)
+    assert not successions(env) and not env.agents
+    assert all(env.episode.fleet.nodes[i].state == "waiting" for i in slaves)
+
+
+def test_a_successor_knows_its_swarm_only_from_frames():
+    env = make(0, faults=[{"at_s": 1.0, "robot": "master", "kind": "dead"}])
+    run(env, 4.0)
+    node = env.episode.swarm.master
+    assert node.cfg is not env.cfg  # the request as its tables told it
+    assert node.cfg.swarm.num_slaves == 4 and node.cfg.swarm.formation == "wedge"
+    assert node.cfg.swarm.spacing_m == pytest.approx(env.cfg.swarm.spacing_m)
+    assert node.formation.links == formation_for_mode(env.cfg.swarm, 4, "following").links
+
+
+def test_the_new_masters_tracker_starts_from_its_own_estimate():
+    env = make(0, faults=[{"at_s": 1.0, "robot": "master", "kind": "dead"}])
+    run(env, 3.0)
+    node = env.episode.swarm.master
+    est = node.succession.user_estimate
+    assert est is not None
+    true = math.dist(env.episode.world.robots[node.node_id].position, env.episode.world.user.position)
+    assert abs(math.hypot(*est) - true) < 0.6  # from its last status, its IR fix and heading estimate of the old master
+
+
+def test_least_move_assignment_keeps_the_robots_that_need_not_move():
+    f = formation_for_mode(petswarm_env.load_config().swarm, 5, "following")
+    slots = f.slot_positions()
+    members = {0: 10, 1: 11, 2: 12, 3: 13, 4: 14}
+    cfg = petswarm_env.load_config().swarm
+    table, new = su.succession_plan(f, members, 1, "following", cfg)
+    assert table[0] == 11 and new.size == 4
+    assert table[2] == 12 and table[3] == 13 and table[1] == 14  # robot 14 fills the open front slot, 13 keeps its own
+    assert sum(float(np.hypot(*(slots[m] - new.slot_positions()[k]))) for k, m in [(1, 4), (2, 2), (3, 3)]) < 2.0
+
+
+def test_table3_picks_no_robot_without_lf_antennas():
+    cfg = petswarm_env.load_config().swarm
+    f = formation_for_mode(cfg, 5, "leading")
+    members = {0: 0, 1: 1, 2: 2, 3: 3, 4: 4}
+    free = plan_mode_change(cfg, f, members, "leading", "following", True, nominal_geometry(f, 1.0))
+    assert free.master_changed
+    chosen = free.members[0]
+    barred = plan_mode_change(cfg, f, members, "leading", "following", True, nominal_geometry(f, 1.0),
+                              frozenset(set(members.values()) - {chosen}))
+    assert barred.members[0] != chosen
+
+
+def test_a_minority_that_lost_a_live_master_never_takes_the_swarm():
+    """Two slaves stop hearing the status broadcasts (their radios drop them: congestion) while the
+    others still hear the master: their takeover gets no quorum, the master and its swarm stay."""
+    env = make(0)
+    master = env.episode.swarm.master
+    deaf = env.episode.swarm.slave_ids()[-2:]
+    for idx in deaf:
+        node = env.episode.fleet.nodes[idx]
+        node.handlers["status"] = lambda frame: None  # the broadcasts never reach these two
+    run(env, 5.0)
+    assert env.episode.swarm.master is master and master.state == "master" and not successions(env)
+    assert any(env.episode.fleet.nodes[i].seq.master_lost_at for i in deaf)
+    others = [i for i in env.episode.swarm.slave_ids() if i not in deaf]
+    assert others and all(env.episode.fleet.nodes[i].know.members[0] == master.node_id for i in others)
+
+
+def test_a_status_heard_after_the_timeout_calls_the_choice_off():
+    env = make(0)
+    node = env.episode.fleet.nodes[env.episode.swarm.slave_ids()[0]]
+    now = env.episode.world.now
+    node.know.status.time_s = now - env.cfg.protocol.status_timeout_s - 0.2  # ten broadcasts lost in a row
+    node.joined_s = node.know.status.time_s - 1.0
+    assert node.seq.master_lost(now) and node.succession.electing
+    run(env, 0.2)  # the next broadcast arrives
+    assert not node.succession.electing and node.state == "slave" and not successions(env)
+
+
+def test_a_master_body_without_lf_antennas_bursts_no_lf():
+    """user_session asks the body: a master whose body carries no LF antennas gets no LF fix."""
+    env = make(0, **{"swarm.pool": [{"type": "mybot", "count": 4}]})
+    session = env.episode.sessions[0]
+    robot = env.episode.world.robots[env.episode.swarm.master.node_id]
+    run(env, 1.0)
+    assert session.tracker.last_fix_s > env.episode.world.now - 1.0  # the petbot master locates its user
+    robot.spec = env.episode.world.robots[env.episode.swarm.slave_ids()[0]].spec  # the same robot, as a mybot body
+    t = env.episode.world.now
+    run(env, 1.0)
+    assert session.tracker.last_fix_s <= t + env.cfg.ble.latency_s
+
+
+def test_with_no_slave_able_to_be_master_the_belt_pairs_with_a_waiting_robot_of_the_pool():
+    """Every slave is a mybot (no LF antennas): nobody takes the place, the slaves return to waiting;
+    the pool's spare petbot, waiting, bursts its wake-up pattern and the belt pairs with it once
+    the user stands within lf.wake_range_m of it, and its start-up commands organize a swarm."""
+    pool = [{"type": "mybot", "count": 4}, {"type": "petbot", "count": 1}]
+    env = make(0, faults=[{"at_s": 1.0, "robot": "master", "kind": "dead"}], **{"swarm.pool": pool})
+    spare = 5
+    assert env.episode.fleet.nodes[spare].state == "waiting" and env.episode.world.robots[spare].type_name == "petbot"
+    run(env, 6.0)
+    session, world = env.episode.sessions[0], env.episode.world
+    assert not successions(env) and not env.agents and session.state == "waiting_user"
+    robot = world.robots[spare]  # the user walks up to the spare (by hand: the script cannot) ...
+    x, y = robot.position
+    body = world.user.body
+    body.position = (x + 0.7 * np.cos(robot.heading), y + 0.7 * np.sin(robot.heading))
+    world.space.reindex_shapes_for_body(body)
+    world.invalidate_truth()
+    for _ in range(200):  # ... and the world runs on (no agent acts)
+        env._control(None)
+        world.advance(env.cfg.physics_substeps)
+        env.episode.sensors.read_rings()
+    assert session.connected_robot == spare and env.episode.swarm.master.node_id == spare and env.episode.swarm.organized
+    assert env.episode.swarm.slave_ids()  # the mybots waiting around join it
+
+
+def test_the_new_master_of_a_table3_change_knows_its_swarm_only_from_frames():
+    env = petswarm_env.parallel_env(**{"user.scenario": "mode_change", "max_cycles": 400})
+    env.reset(seed=0)
+    first = env.episode.swarm.master
+    for _ in range(400):
+        if not env.agents or env.episode.swarm.events["master_changes"]:
+            break
+        env.step({a: np.zeros(3, np.float32) for a in env.agents})
+    for _ in range(10):  # the handover's frames
+        if env.agents:
+            env.step({a: np.zeros(3, np.float32) for a in env.agents})
+    node = env.episode.swarm.master
+    assert node is not first and node.state == "master"
+    assert node.cfg is not env.cfg and node.cfg.swarm.num_slaves == len(node.know.members) - 1
+    assert node.cfg.swarm.formation == env.cfg.swarm.formation

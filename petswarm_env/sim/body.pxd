@@ -31,7 +31,7 @@ cdef class DrivenBody(Body):
     cdef public tuple velocity_body
     cdef tuple _accel
     cdef double _limits_dt
-    cdef double _max_dv
-    cdef double _max_dw
+    cdef readonly double _max_dv  # read by Robot.apply (the wheels follow the command under the same limits)
+    cdef readonly double _max_dw
 
     cpdef drive(self, double dt)

@@ -14,7 +14,8 @@ A run that never detects counts as not re-formed; its RMSE is taken over the 10 
 
     python -m experiments.sensor_faults [--kinds ir,ultrasonic,ahrs] [--seeds 0-19] [--target slave|master] [--set KEY=VALUE ...]
 
-Prints one line per run, then per kind: detected n/N, median detection time, re-formed n/N, median RMSE.
+Prints one line per run, then per kind: detected n/N, median detection time, re-formed n/N, median RMSE,
+and in how many runs a robot found a part broken that was not the one injected (a false detection).
 """
 
 from __future__ import annotations
@@ -59,6 +60,8 @@ def run(kind: str, seed: int, at_s: float = 20.0, target: str = "random_slave", 
     return {"kind": kind, "seed": seed, "injected": True, "robot": fault.robot, "role": fault.role,
             "detection_s": None if detected_s is None else detected_s - fault.time_s,
             "bid_request": bool(node.recovery.bid_requests),
+            "other_detections": [(i, part) for i, n in env.fleet.nodes.items() for _, part in n.diagnosis.detected
+                                 if (i, part) != (fault.robot, kind)],
             "left_swarm": node.state != "slave" and fault.role != "master",
             "largest_error_m": largest, "reformed": detected_s is not None and largest <= REFORM_ERROR_M,
             "rmse_m": math.sqrt(sum(sq) / len(sq)) if sq else math.nan}
@@ -95,7 +98,8 @@ def main(argv: list[str] | None = None) -> None:
         print(f"{kind} on the {args.target}: detected {len(det)}/{len(rows)}, median {statistics.median(det) if det else math.nan:.2f} s "
               f"(max {max(det, default=math.nan):.2f}); re-formed {sum(r['reformed'] for r in rows)}/{len(rows)}; "
               f"RMSE 10 s after detection median {statistics.median(rmse) if rmse else math.nan:.2f} m "
-              f"(max {max(rmse, default=math.nan):.2f})")
+              f"(max {max(rmse, default=math.nan):.2f}); other parts or robots found broken in "
+              f"{sum(bool(r['other_detections']) for r in rows)}/{len(rows)} runs")
         results += rows
     if args.json:
         with open(args.json, "w") as f:

@@ -13,11 +13,11 @@ All three checks run on the robot's MCU, on its own readings:
   (receiver; the same module transmits). A fix after that clears it (a transient fault's end).
 * **ultrasonic ring**: a neighbour that the robot's own IR fix places on a ring sensor's ray and
   well within its range must echo: :data:`US_MISSES` such expected echoes that read the maximum
-  range ("nothing there"), with no echo of the ring in between, is a dead ring; so is a full ring
-  (a sensor every 45°) that gave no echo at all for :data:`US_SILENT_S` while IR fixes kept a
-  neighbour near. Any echo afterwards clears it. A ring whose rays all miss its neighbours (they
-  stand between the rays) reads as a dead one does: then nothing tells them apart until one of
-  them comes onto a ray or near.
+  range ("nothing there"), with no echo of the ring in between, is a dead ring. Any echo
+  afterwards clears it. A ring whose rays all miss its neighbours (they stand between the rays)
+  reads as a dead one does: then nothing tells them apart until one comes onto a ray (chosen: no
+  check by silence alone — healthy rings of a 1+5 wedge stayed silent with a neighbour 1 m away for
+  over 3 s, the rays passing on either side of it).
 * **AHRS**: a working AHRS's yaw carries white noise, so two readings at different times never
   agree to the last bit; :data:`AHRS_FROZEN` readings in a row that repeat the same value are a
   frozen output (a stuck sensor bus). An AHRS configured without noise or drift cannot be judged
@@ -50,15 +50,7 @@ IR_SOURCES = 3  # chosen: ... of this many holders (our own slot counts as one; 
 US_RAY_MARGIN_M = 0.1
 US_MARGIN_M = 0.8  # chosen: ... and its rim this much inside the sensor's maximum range (1.2 m)
 US_FIX_AGE_S = 0.6  # chosen: an IR fix this fresh places the neighbour well enough for the check
-US_MISSES = 8  # chosen: expected echoes in a row that read nothing -> ring dead
-# chosen: or, on a full ring, no echo at all for this long while an IR fix this fresh places a neighbour's rim this
-# near, within this angle of a sensor's axis (every bearing, for a full ring of 8): healthy petbots' longest such
-# silence, straight and zigzag walks, seeds 0-4 (the ring's rays miss a body between them), was 1.9 s; 3 s without the full-ring condition found
-# healthy rings broken on the mixed swarm
-US_SILENT_S = 3.0
-US_NEAR_AGE_S = 1.5
-US_NEAR_M = 1.0
-US_VIEW_TAN = math.tan(math.radians(30.0))
+US_MISSES = 8  # chosen: expected echoes that read nothing, with no echo in between -> ring dead
 AHRS_FROZEN = 6  # chosen: readings in a row, at different times, with the very same value -> frozen output
 AHRS_WINDOW_S = 2.0  # chosen: the commanded rotation is compared with the AHRS over this long ...
 AHRS_TURN_RAD = 0.6  # ... and one over this much with an AHRS change under ...
@@ -86,7 +78,6 @@ class Diagnosis:
         self._us_angles = [2.0 * math.pi * k / us.count for k in range(us.count)]
         self._radius = cfg.robot.radius_m
         self._us_miss = 0
-        self._us_silent_s = 0.0
         p = cfg.protocol
         self._slot_over_s = p.ring_response_timeout_s * 2 + p.ir_tx_s + 0.02  # an IR slot is over by then
         self._ir_seen: dict[int, float] = {}  # announcer -> start of its latest slot evaluated
@@ -105,12 +96,14 @@ class Diagnosis:
         """The ultrasonic ring's reading (virtual-ring order, ``present``: which slots the body has),
         every control period: the ring and IR checks, and the commanded rotation's integral."""
         if not self.robot.health.powered:
+            if self.failed or self._tick_s is not None:
+                self._reboot()
             return
         dt = 0.0 if self._tick_s is None else now_s - self._tick_s
         self._turned += self.robot.command[2] * dt
         self._tick_s = now_s
         self._check_ir(now_s)
-        self._check_ring(ranges, present, now_s, dt)
+        self._check_ring(ranges, present, now_s)
 
     def on_ahrs(self, now_s: float, yaw: float) -> None:
         """Every AHRS reading the robot takes (its MCU's, the observation's)."""
@@ -149,7 +142,7 @@ class Diagnosis:
                 self._ir_hit()
             elif any(ranges.get(n, math.inf) <= IR_EXPECT_RANGE_M for n in own[1]):
                 self._ir_missed(now_s, self.node_id)  # near neighbours heard our start sign, none reported seeing our IR
-        for src, t0 in ring._slot_start.items():
+        for src, t0 in ring.slot_starts.items():
             if src == self.node_id or t0 <= self._ir_seen.get(src, -math.inf) or now_s - t0 < self._slot_over_s:
                 continue
             self._ir_seen[src] = t0
@@ -177,12 +170,11 @@ class Diagnosis:
         if len(self._ir_missed_from) >= max(2, min(IR_SOURCES, len(near))):
             self._detect("ir", now_s)
 
-    def _check_ring(self, ranges, present, now_s: float, dt_s: float) -> None:
+    def _check_ring(self, ranges, present, now_s: float) -> None:
         top = self._us_max - 1e-9
         echo = any(r < top for r, p in zip(ranges, present) if p)
         if echo:
             self._us_miss = 0
-            self._us_silent_s = 0.0
             if "ultrasonic" in self.failed:
                 self._clear("ultrasonic")
             return
@@ -191,10 +183,9 @@ class Diagnosis:
         know = self._know_of()
         yaw = self.robot.ahrs._last_yaw  # the last AHRS reading the robot took (no new draw)
         r = self._radius
-        on_ray = in_view = False
+        on_ray = False
         for fix in know.ir.values():
-            age = now_s - fix.time_s
-            if age > US_NEAR_AGE_S:
+            if now_s - fix.time_s > US_FIX_AGE_S:
                 continue
             x, y = fix.position_now(yaw)
             for k, a in enumerate(self._us_angles):
@@ -202,18 +193,26 @@ class Diagnosis:
                     continue
                 along = x * math.cos(a) + y * math.sin(a)
                 across = abs(-x * math.sin(a) + y * math.cos(a))
-                if not 0 < along - 2 * r < self._us_max - US_MARGIN_M:  # its near rim within reach (a body of our radius)
-                    continue
-                in_view |= across <= along * US_VIEW_TAN and math.hypot(x, y) - 2 * r < US_NEAR_M
-                on_ray |= age <= US_FIX_AGE_S and across < r - US_RAY_MARGIN_M
+                # the neighbour (a body of our radius) across the ray, its near rim within reach
+                if across < r - US_RAY_MARGIN_M and 0 < along - 2 * r < self._us_max - US_MARGIN_M:
+                    on_ray = True
+                    break
+            if on_ray:
+                break
         if on_ray:
             self._us_miss += 1
-        # the silence check needs a full ring (a sensor every 45°): a ring with a gap leaves a neighbour unseen for long
-        # (on the mixed swarm it found healthy r1 and r2 rings broken)
-        full = len(present) >= 8 and all(present)
-        self._us_silent_s = self._us_silent_s + dt_s if in_view and full else 0.0
-        if self._us_miss >= US_MISSES or self._us_silent_s >= US_SILENT_S:
-            self._detect("ultrasonic", now_s)
+            if self._us_miss >= US_MISSES:
+                self._detect("ultrasonic", now_s)
+
+    def _reboot(self) -> None:
+        """The robot is off: when it is switched on again it knows nothing of its sensors (sim/faults.py)."""
+        for part in sorted(self.failed):
+            self._mark(part, True)
+        self.failed.clear()
+        self._us_miss, self._ir_miss, self._yaw_same = 0, 0, 0
+        self._ir_missed_from.clear()
+        self._yaw_last, self._tick_s = None, None
+        self._yaw_hist.clear()
 
     # -- results ------------------------------------------------------------------------------------
     def _detect(self, part: str, now_s: float) -> None:
@@ -227,7 +226,6 @@ class Diagnosis:
         self.failed.discard(part)
         if part == "ultrasonic":
             self._us_miss = 0
-            self._us_silent_s = 0.0
         if part == "ir":
             self._ir_miss = 0
             self._ir_missed_from.clear()

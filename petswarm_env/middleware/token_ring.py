@@ -82,6 +82,11 @@ class TokenRing:
         node.on(msg.TX_START_ACK, self._on_ack)
         node.on(msg.TOKEN_ACK, self._on_ack)
 
+    @property
+    def slot_starts(self) -> dict[int, float]:
+        """Robot -> when its latest IR slot began (its start sign heard): the IR self-check reads it."""
+        return self._slot_start
+
     # -- ring order -----------------------------------------------------------------------------
     def _next_member(self, member: int) -> int:
         total = self.node.know.total_members

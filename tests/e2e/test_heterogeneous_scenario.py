@@ -40,7 +40,8 @@ def test_the_scattered_mixed_swarm_builds_and_runs():
 
 
 def test_the_mixed_swarm_builds_from_the_slots(hetero):
-    # seeds 2-4 within 3 s; seeds 0-1 once the user walks off (user.formation_wait_s = 30 s): a
-    # differential slave holds 0.3-0.4 m off its slot while standing (README, "A heterogeneous swarm")
+    # seeds 2 and 4 within 3 s; seeds 0, 1 and 3 once the user walks off (user.formation_wait_s = 30 s):
+    # a differential slave holds 0.3-0.4 m off its slot while standing (README, "A heterogeneous swarm";
+    # seed 3 built in 2.9 s while the odometry read the body's true velocity, in 32.6 s with the wheels')
     times = [ep["building_time_s"] for ep in hetero["episodes"]]
-    assert all(t < 40.0 for t in times) and sum(t < 3.0 for t in times) >= 3, times
+    assert all(t < 40.0 for t in times) and sum(t < 3.0 for t in times) >= 2, times

@@ -15,11 +15,11 @@ from petswarm_env.middleware import messages as msg
 FAULT_AT_S = 8.0
 
 
-def _walk(kind: str, robot: int, seed: int = 0, **overrides):
-    """A straight walk with the scripted reference; ``kind`` starts on ``robot`` at FAULT_AT_S. Yields
+def _walk(kind: str, robot: int, seed: int = 0, at_s: float = FAULT_AT_S, **overrides):
+    """A straight walk with the scripted reference; ``kind`` starts on ``robot`` at ``at_s``. Yields
     (env, observations) after every step."""
-    env = petswarm_env.parallel_env(**{"user.scenario": "straight", "max_cycles": 220,
-                                       "faults": [{"at_s": FAULT_AT_S, "robot": robot, "kind": kind}], **overrides})
+    env = petswarm_env.parallel_env(**{"user.scenario": "straight", "max_cycles": int(round((at_s + 14.0) / 0.1)),
+                                       "faults": [{"at_s": at_s, "robot": robot, "kind": kind}], **overrides})
     obs, _ = env.reset(seed=seed)
     policy = make_policy("scripted", PolicySpec.from_env(env), seed=seed)
     while env.agents:
@@ -84,3 +84,16 @@ def test_a_radio_silent_slave_credits_no_ir_reading_it_cannot_attribute():
             break
     assert stored is not None
     assert all(stored.get(k) == v.time_s for k, v in env.episode.fleet.nodes[2].know.ir.items())
+
+
+@pytest.mark.parametrize("assignment", ["closest", "ruta_decentralized"])
+def test_a_spare_takes_the_faulty_robots_slot_and_the_faulty_robot_is_not_recruited_back(assignment):
+    """Seed 003 Algorithm 2 steps 5-7: after the bid request the slot is open, the refill recruits the
+    fittest free robot (a spare switched on beside the swarm), never the robot that found its IR broken."""
+    # the formation built and walking (as in the dropout scenario: the spare switched on 1 s before the fault)
+    for env, _ in _walk("ir", 2, at_s=20.0, **{"swarm.assignment": assignment, "arrivals": [{"at_s": 19.0, "type": "petbot"}]}):
+        pass
+    log = [(event, ids) for _, event, ids in env.episode.swarm.member_log]
+    spare = env.episode.runtime.arrived[0][1]
+    assert log[:2] == [("lost", [2]), ("joined", [spare])]
+    assert spare in env.episode.swarm.slave_ids() and 2 not in env.episode.swarm.slave_ids()

@@ -60,7 +60,7 @@ def run(kind: str, seed: int, at_s: float = 20.0, target: str = "random_slave", 
     return {"kind": kind, "seed": seed, "injected": True, "robot": fault.robot, "role": fault.role,
             "detection_s": None if detected_s is None else detected_s - fault.time_s,
             "bid_request": bool(node.recovery.bid_requests),
-            "other_detections": [(i, part) for i, n in env.fleet.nodes.items() for _, part in n.diagnosis.detected
+            "other_detections": [(i, part) for i, n in env.episode.fleet.nodes.items() for _, part in n.diagnosis.detected
                                  if (i, part) != (fault.robot, kind)],
             "left_swarm": node.state != "slave" and fault.role != "master",
             "largest_error_m": largest, "reformed": detected_s is not None and largest <= REFORM_ERROR_M,

@@ -94,7 +94,7 @@ CLI_CASES = [
     (["run", "--config", "{dir}"], "is a folder"),
     (["run", "--config", "{dir}/report.html"], "must hold a mapping"),
     (["train", "--set", "ppo.gamma=2"], "ppo.gamma"),
-    (["train", "--set", "env.episode.swarm.num_slaves=true"], "swarm.num_slaves"),
+    (["train", "--set", "env.swarm.num_slaves=true"], "swarm.num_slaves"),
     (["train", "--resume", "--out", "{dir}/no_run"], "no checkpoint"),
 ]
 

@@ -190,7 +190,7 @@ def test_training_config_refuses_bad_values_naming_the_key():
 
     for overrides, words in [({"ppo.gamma": 2}, "ppo.gamma"), ({"ppo.net_arch": [True, 8]}, "ppo.net_arch"),
                              ({"ppo.learning_rate": math.nan}, "ppo.learning_rate"), ({"bogus": 1}, "bogus"),
-                             ({"env.episode.swarm.num_slaves": True}, "env.KEY"), ({"timesteps": True}, "timesteps")]:
+                             ({"env.swarm.num_slaves": True}, "env.KEY"), ({"timesteps": True}, "timesteps")]:
         with pytest.raises(ConfigError) as info:
             load_train_config(overrides=overrides)
         assert words in str(info.value) and "\n" not in str(info.value)

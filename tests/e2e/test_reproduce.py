@@ -303,7 +303,7 @@ def test_master_rescans_while_every_scan_response_was_lost(monkeypatch):
 
             self.drop_filter = drop
 
-    monkeypatch.setattr(sys.modules["petswarm_env.env"], "RadioMedium", WithFilter)
+    monkeypatch.setattr(sys.modules["petswarm_env.episode"], "RadioMedium", WithFilter)
     env = petswarm_env.parallel_env(**{"swarm.num_slaves": 2, "swarm.formation": "grid"})
     env.reset(seed=0)
     res = env.episode.swarm.organize_result

@@ -220,9 +220,7 @@ def test_with_no_slave_able_to_be_master_the_belt_pairs_with_a_waiting_robot_of_
     world.space.reindex_shapes_for_body(body)
     world.invalidate_truth()
     for _ in range(200):  # ... and the world runs on (no agent acts)
-        env._control(None)
-        world.advance(env.cfg.physics_substeps)
-        env.episode.sensors.read_rings()
+        env.episode.tick()
     assert session.connected_robot == spare and env.episode.swarm.master.node_id == spare and env.episode.swarm.organized
     assert env.episode.swarm.slave_ids()  # the mybots waiting around join it
 

@@ -42,7 +42,7 @@ def test_at_loss_03_every_slave_that_joined_is_still_a_slave_1_s_after_reset(see
 
 
 @pytest.mark.parametrize("overrides, cause", [
-    ({"radio.bitrate_bps": 1}, "radio.bitrate_bps=1"),
+    ({"radio.bitrate_bps": 1000}, "radio.bitrate_bps=1000"),  # the lowest the config takes (1 kb/s)
     ({"radio.range_m": 0.001}, "radio.range_m=0.001"),
     ({"world.num_users": 8, "swarm.num_slaves": 16}, "size: 8 users x 16 slaves"),
     ({"radio.loss_prob": 0.97}, "radio.loss_prob=0.97"),

@@ -2,9 +2,11 @@
 
 >>> import petswarm_env
 >>> env = petswarm_env.parallel_env(swarm__num_slaves=3)  # or parallel_env(**{"swarm.num_slaves": 3})
->>> env = petswarm_env.make("petswarm_v0", **{"swarm.num_slaves": 3})  # the same, by its versioned id
+>>> env = petswarm_env.make("petswarm_v1", **{"swarm.num_slaves": 3})  # the same, by its versioned id
+>>> import pettingzoo
+>>> env = pettingzoo.make("parallel", "petswarm/petswarm-v1", **{"swarm.num_slaves": 3})  # PettingZoo's registry
 
-``parallel_env``, ``env`` and ``raw_env`` are :mod:`petswarm_env.petswarm_v0`'s (PettingZoo's
+``parallel_env``, ``env`` and ``raw_env`` are :mod:`petswarm_env.petswarm_v1`'s (PettingZoo's
 meanings: the ParallelEnv, the wrapped AEC env, the unwrapped AEC env). For libraries that need
 every possible agent at every step: :class:`petswarm_env.wrappers.FixedAgents`.
 """
@@ -13,16 +15,24 @@ from __future__ import annotations
 
 from typing import Any
 
-from petswarm_env import petswarm_v0
+import pettingzoo
+
+from petswarm_env import petswarm_v1
 from petswarm_env.config import Config, ConfigError, load_config
 from petswarm_env.env import ENV_NAME, PetSwarmEnv
-from petswarm_env.petswarm_v0 import env, parallel_env, raw_env
+from petswarm_env.petswarm_v1 import env, parallel_env, raw_env
 
 __version__ = "0.1.0"
 __all__ = ["ENV_NAME", "ENVS", "Config", "ConfigError", "PetSwarmEnv", "env", "load_config", "make", "parallel_env",
-           "petswarm_v0", "raw_env"]
+           "petswarm_v1", "raw_env"]
 
-ENVS = {ENV_NAME: petswarm_v0}  # versioned id -> module with env / parallel_env / raw_env
+ENVS = {ENV_NAME: petswarm_v1}  # versioned id -> module with env / parallel_env / raw_env
+
+# PettingZoo's registry (``pettingzoo.make("parallel", "petswarm/petswarm-v1")`` after ``import petswarm_env``)
+REGISTRY_ID = "petswarm/petswarm-v1"
+for _api, _maker in (("parallel", "parallel_env"), ("aec", "env")):
+    if REGISTRY_ID not in (pettingzoo.parallel_registry if _api == "parallel" else pettingzoo.aec_registry):
+        pettingzoo.register(_api, REGISTRY_ID, entry_point=f"petswarm_env.petswarm_v1:{_maker}")
 
 
 def make(env_id: str = ENV_NAME, *, api: str = "parallel", config: Config | str | None = None, render_mode: str | None = None,

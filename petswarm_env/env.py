@@ -1,4 +1,4 @@
-"""petswarm_v0 — a PettingZoo ``ParallelEnv`` of a Pet-Bot swarm accompanying a walking user.
+"""petswarm_v1 — a PettingZoo ``ParallelEnv`` of a Pet-Bot swarm accompanying a walking user.
 
 Each user (``world.num_users``) wears a smart belt and a smart watch (seed 002); the robot that
 pairs with the belt becomes the master of the user's swarm and accompanies the user through the
@@ -69,7 +69,7 @@ from petswarm_env.state import StateLayout, build_state
 from petswarm_env.sim.sensors import Sensors
 from petswarm_env.sim.world import World
 
-ENV_NAME = "petswarm_v0"
+ENV_NAME = "petswarm_v1"
 OTHER_USER_ID = 99  # the user that "other user" robots are connected to (Table 1)
 SWARM_PAN = 0x1001  # user u's swarm uses PAN SWARM_PAN + u
 WAKE_PATTERN = 0x5A00  # user u's belt and robot share the LF wake-up pattern WAKE_PATTERN + u

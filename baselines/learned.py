@@ -37,6 +37,10 @@ from baselines.leader_follower import LeaderFollowerPolicy
 from baselines.policy import Policy, PolicySpec
 from petswarm_env.config import describe_value
 from petswarm_env.env import ENV_NAME
+
+# Policy files this env reads: its own and petswarm_v0's. v1 keeps v0's action and observation
+# (fields are matched by name) but changed the swarm's dynamics, so a v0 policy loads with a warning.
+COMPATIBLE_ENVS = ("petswarm_v0", ENV_NAME)
 from petswarm_env.files import read_npz, write_atomic
 from petswarm_env.observe import OBS_VERSION, ObservationLayout
 
@@ -162,9 +166,9 @@ def _read_meta(path: Path, arrays: dict[str, np.ndarray]) -> dict[str, Any]:
     missing = [key for key in REQUIRED if key not in meta]
     if missing:
         raise _field_error(path, missing[0], "is missing")
-    if meta.get("env_name") != ENV_NAME:
+    if meta.get("env_name") not in COMPATIBLE_ENVS:
         raise PolicyLoadError(f"policy file '{path}' was trained on env {meta.get('env_name')!r} (field 'env_name'), "
-                              f"this is '{ENV_NAME}'")
+                              f"this is '{ENV_NAME}' (it reads {', '.join(COMPATIBLE_ENVS)})")
     version = meta.get("observation_version")
     if not _is_int(version) or version < 1:
         raise _field_error(path, "observation_version", f"must be a whole number >= 1, got {describe_value(version)}")
@@ -290,6 +294,10 @@ class LearnedPolicy(Policy):
     @classmethod
     def load(cls, path: str | os.PathLike, spec: PolicySpec) -> LearnedPolicy:
         meta, layers = read_policy_file(path)
+        if meta["env_name"] != ENV_NAME:
+            warnings.warn(f"policy file '{path}' was trained on {meta['env_name']}, this environment is {ENV_NAME} (the same "
+                          "observation and action, other swarm dynamics); its results are not comparable to a "
+                          f"{ENV_NAME} policy's until it is re-trained", PolicyVersionWarning, stacklevel=2)
         if meta["observation_version"] < OBS_VERSION:
             warnings.warn(f"policy file '{path}' was trained on observation version {meta['observation_version']}, this "
                           f"environment's is {OBS_VERSION}: its fields are matched by name and size, but one may mean "

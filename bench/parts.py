@@ -68,7 +68,8 @@ MODULE_PARTS: dict[str, str | None] = {
     "petswarm_env.metrics": "reward_metrics",
     "petswarm_env.state": "reward_metrics",  # the global state for critics: truth, like the metrics (not in step)
     "petswarm_env.wrappers": "other",  # FixedAgents: padding around env.step
-    "petswarm_env.petswarm_v0": "other",  # the versioned module's constructors
+    "petswarm_env.petswarm_v1": "other",  # the versioned module's constructors
+    "petswarm_env.petswarm_v0": "other",
     # the libraries it runs on
     "simpy": "radio_middleware",  # the clock's event loop
     "pymunk.space": "physics",  # Space.step (Chipmunk's cpSpaceStep)

@@ -9,7 +9,7 @@ BenchMARL 1.5.2 keeps torch==2.13.0 but pins torchrl < 0.12 (it installs torchrl
 venv; ``scripts/setup.sh`` does not install it.
 
 ``PetSwarmTask.PETSWARM.get_task({...})`` takes dotted env overrides plus ``max_cycles``; the env is
-``FixedAgents(petswarm_v0.parallel_env(...))`` in TorchRL's ``PettingZooWrapper`` with the state, so
+``FixedAgents(petswarm_v1.parallel_env(...))`` in TorchRL's ``PettingZooWrapper`` with the state, so
 MAPPO's centralized critic reads the global state (docs/state.md) and every actor its observation.
 """
 
@@ -25,7 +25,7 @@ from benchmarl.environments.common import Task
 from benchmarl.environments.pettingzoo.common import PettingZooClass
 from torchrl.envs import PettingZooWrapper
 
-from petswarm_env import petswarm_v0
+from petswarm_env import petswarm_v1
 from petswarm_env.wrappers import FixedAgents
 
 
@@ -35,7 +35,7 @@ class PetSwarmClass(PettingZooClass):
 
     def get_env_fun(self, num_envs, continuous_actions, seed, device):
         overrides = copy.deepcopy(self.config)
-        return lambda: PettingZooWrapper(env=FixedAgents(petswarm_v0.parallel_env(**overrides)), return_state=True,
+        return lambda: PettingZooWrapper(env=FixedAgents(petswarm_v1.parallel_env(**overrides)), return_state=True,
                                          use_mask=False, done_on_any=False, categorical_actions=True, device=device, seed=seed)
 
     def supports_continuous_actions(self) -> bool:

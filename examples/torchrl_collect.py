@@ -26,13 +26,13 @@ from torchrl.envs import PettingZooWrapper
 
 from baselines.learned import observation_mapping, read_policy_file, shipped_policy_path
 from baselines.policy import PolicySpec
-from petswarm_env import petswarm_v0
+from petswarm_env import petswarm_v1
 from petswarm_env.wrappers import FixedAgents
 
 
 def make_env(max_cycles: int = 100, **overrides) -> PettingZooWrapper:
-    """petswarm_v0's ParallelEnv behind FixedAgents, as a TorchRL env with the global state."""
-    return PettingZooWrapper(env=FixedAgents(petswarm_v0.parallel_env(max_cycles=max_cycles, **overrides)),
+    """petswarm_v1's ParallelEnv behind FixedAgents, as a TorchRL env with the global state."""
+    return PettingZooWrapper(env=FixedAgents(petswarm_v1.parallel_env(max_cycles=max_cycles, **overrides)),
                              return_state=True, use_mask=False, done_on_any=False)
 
 
@@ -53,7 +53,7 @@ def actor_from_policy_file(path=None) -> TensorDictModule:
     as baselines/learned.py's numpy forward, in torch, after the same field mapping onto this env's
     observation (the default config's), with the action clipped to [-1, 1]."""
     meta, layers = read_policy_file(path or shipped_policy_path())
-    layout = PolicySpec.from_env(petswarm_v0.parallel_env()).layout
+    layout = PolicySpec.from_env(petswarm_v1.parallel_env()).layout
     index = observation_mapping([(n, s) for n, s in meta["observation_layout"]], layout)
     act = torch.nn.Tanh if meta["activation"] == "tanh" else torch.nn.ReLU
     modules: list[torch.nn.Module] = [_Select(index)]

@@ -1,4 +1,4 @@
-"""petswarm_v0 — a PettingZoo ``ParallelEnv`` of a Pet-Bot swarm accompanying a walking user.
+"""petswarm_v1 — a PettingZoo ``ParallelEnv`` of a Pet-Bot swarm accompanying a walking user.
 
 Each user (``world.num_users``) wears a smart belt and a smart watch (seed 002); the robot that
 pairs with the belt becomes the master of the user's swarm and accompanies the user through the
@@ -61,7 +61,7 @@ from petswarm_env.robot_types import resolve as resolve_type
 from petswarm_env.scenarios import SCENARIOS
 from petswarm_env.state import StateLayout
 
-ENV_NAME = "petswarm_v0"
+ENV_NAME = "petswarm_v1"
 
 
 def _swarm_reach_m(cfg: Config) -> float | None:

@@ -74,7 +74,7 @@ def test_report_compares_labels_with_ci_ratio_plots_and_gif_links(tmp_path):
 
     text = out.read_text(encoding="utf-8")
     assert text.startswith("<!DOCTYPE html>")
-    for needle in ("scripted", "learned", "zigzag", "straight", "petswarm_v0"):
+    for needle in ("scripted", "learned", "zigzag", "straight", "petswarm_v1"):
         assert needle in text
     # CI: scripted zigzag sd 0.02, n 3, t(2) = 4.303 -> ±0.050; learned zigzag sd 0.01 -> ±0.025
     assert "0.120 ± 0.050" in text

@@ -125,7 +125,7 @@ def test_saved_policy_loads_and_drives_the_swarm(trained):
         assert all(a.shape == (3,) and np.all(np.abs(a) <= 1) for a in actions.values())
         obs, *_ = env.step(actions)
     meta, _ = read_policy_file(out / "policy.npz")
-    assert meta["env_name"] == "petswarm_v0" and meta["info"]["timesteps"] > 0
+    assert meta["env_name"] == "petswarm_v1" and meta["info"]["timesteps"] > 0
 
 
 def test_mixed_team_runs_and_evaluation_is_deterministic(trained):

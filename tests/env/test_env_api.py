@@ -15,7 +15,7 @@ def test_parallel_api_test_passes():
 
 def test_metadata_names_versioned_env_and_render_modes():
     env = petswarm_env.parallel_env()
-    assert env.metadata["name"] == "petswarm_v0"
+    assert env.metadata["name"] == "petswarm_v1"
     assert set(env.metadata["render_modes"]) == {"human", "rgb_array"}
 
 

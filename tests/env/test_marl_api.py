@@ -14,35 +14,35 @@ from pettingzoo.utils.wrappers import OrderEnforcingWrapper
 import petswarm_env
 from baselines.policy import PolicySpec
 from baselines.registry import make_policy
-from petswarm_env import petswarm_v0
+from petswarm_env import petswarm_v1
 from petswarm_env.env import INFO_DEFAULTS, PetSwarmEnv
 
 
 def test_versioned_module_follows_pettingzoo_names():
-    assert isinstance(petswarm_v0.parallel_env(), PetSwarmEnv)
-    raw = petswarm_v0.raw_env()
+    assert isinstance(petswarm_v1.parallel_env(), PetSwarmEnv)
+    raw = petswarm_v1.raw_env()
     assert isinstance(raw, parallel_to_aec_wrapper) and isinstance(raw.unwrapped, PetSwarmEnv)
-    assert isinstance(petswarm_v0.env(), OrderEnforcingWrapper)
-    assert petswarm_env.raw_env is petswarm_v0.raw_env and petswarm_env.env is petswarm_v0.env
+    assert isinstance(petswarm_v1.env(), OrderEnforcingWrapper)
+    assert petswarm_env.raw_env is petswarm_v1.raw_env and petswarm_env.env is petswarm_v1.env
 
 
 def test_make_builds_the_env_of_a_versioned_id():
-    env = petswarm_env.make("petswarm_v0", **{"swarm.num_slaves": 2})
+    env = petswarm_env.make("petswarm_v1", **{"swarm.num_slaves": 2})
     assert isinstance(env, PetSwarmEnv) and env.cfg.swarm.num_slaves == 2
-    assert isinstance(petswarm_env.make("petswarm_v0", api="aec"), OrderEnforcingWrapper)
-    with pytest.raises(ValueError, match="petswarm_v0"):
+    assert isinstance(petswarm_env.make("petswarm_v1", api="aec"), OrderEnforcingWrapper)
+    with pytest.raises(ValueError, match="petswarm_v1"):
         petswarm_env.make("petswarm_v9")
 
 
 def test_pettingzoo_api_state_and_seed_tests_pass():
-    api_test(petswarm_v0.env(max_cycles=8), num_cycles=20)
-    state_test(petswarm_v0.env(max_cycles=8), petswarm_v0.parallel_env(max_cycles=8))
-    seed_test(lambda: petswarm_v0.env(max_cycles=8), num_cycles=10)
-    parallel_seed_test(lambda: petswarm_v0.parallel_env(max_cycles=8), num_cycles=10)
+    api_test(petswarm_v1.env(max_cycles=8), num_cycles=20)
+    state_test(petswarm_v1.env(max_cycles=8), petswarm_v1.parallel_env(max_cycles=8))
+    seed_test(lambda: petswarm_v1.env(max_cycles=8), num_cycles=10)
+    parallel_seed_test(lambda: petswarm_v1.parallel_env(max_cycles=8), num_cycles=10)
 
 
 def test_infos_are_flat_numbers_with_the_same_keys_at_reset_and_every_step():
-    env = petswarm_v0.parallel_env(**{"user.scenario": "mode_change", "max_cycles": 420})  # zero actions never build the formation: the user waits user.formation_wait_s (30 s), then walks
+    env = petswarm_v1.parallel_env(**{"user.scenario": "mode_change", "max_cycles": 420})  # zero actions never build the formation: the user waits user.formation_wait_s (30 s), then walks
     _, infos = env.reset(seed=0)
     seen = [infos]
     while env.agents:
@@ -60,7 +60,7 @@ def test_infos_are_flat_numbers_with_the_same_keys_at_reset_and_every_step():
 
 
 def _episode_extremes(overrides, policy_name, seed, steps):
-    env = petswarm_v0.parallel_env(**{**overrides, "max_cycles": steps})
+    env = petswarm_v1.parallel_env(**{**overrides, "max_cycles": steps})
     obs, _ = env.reset(seed=seed)
     policy = make_policy(policy_name, PolicySpec.from_env(env), seed)
     space, state_space = env.observation_space(env.possible_agents[0]), env.state_space
@@ -98,19 +98,19 @@ def test_observations_and_state_stay_inside_their_finite_bounds(overrides, seed,
 
 def test_supersuit_normalize_obs_accepts_the_env():
     supersuit = pytest.importorskip("supersuit")
-    env = supersuit.normalize_obs_v0(petswarm_v0.parallel_env(max_cycles=5))
+    env = supersuit.normalize_obs_v0(petswarm_v1.parallel_env(max_cycles=5))
     obs, _ = env.reset(seed=0)
     assert all(((o >= 0) & (o <= 1)).all() for o in obs.values())
 
 
 def test_render_takes_rllibs_positional_mode():
-    env = petswarm_v0.parallel_env(render_mode="rgb_array", max_cycles=3)
+    env = petswarm_v1.parallel_env(render_mode="rgb_array", max_cycles=3)
     env.reset(seed=0)
     assert env.render("rgb_array").shape[2] == 3 and env.render().shape[2] == 3
     with pytest.raises(ValueError, match="render_mode"):
         env.render("human")
     env.close()
-    assert petswarm_v0.parallel_env().render(None) is None  # no render_mode: a warning, as before
+    assert petswarm_v1.parallel_env().render(None) is None  # no render_mode: a warning, as before
 
 
 def _trace(env, steps=30, seed=None):
@@ -131,7 +131,7 @@ def _same(a, b):
 
 @pytest.mark.parametrize("copier", [lambda e: pickle.loads(pickle.dumps(e)), copy.deepcopy], ids=["pickle", "deepcopy"])
 def test_env_pickles_between_episodes_and_the_copy_continues_the_seed_sequence(copier):
-    env = petswarm_v0.parallel_env(max_cycles=40)
+    env = petswarm_v1.parallel_env(max_cycles=40)
     env.reset(seed=5)
     fresh = copier(env)  # after reset
     assert fresh.episode is None and fresh.agents == []
@@ -140,4 +140,20 @@ def test_env_pickles_between_episodes_and_the_copy_continues_the_seed_sequence(c
     _trace(env, 40)  # a whole episode
     twin = copier(env)
     _same(_trace(env), _trace(twin))  # the next episode (reset without a seed) is the same on both
-    _same(_trace(fresh, seed=9), _trace(petswarm_v0.parallel_env(max_cycles=40), seed=9))
+    _same(_trace(fresh, seed=9), _trace(petswarm_v1.parallel_env(max_cycles=40), seed=9))
+
+
+def test_registered_with_pettingzoo_and_v0_kept_with_a_deprecation_warning():
+    import importlib
+    import sys
+
+    import pettingzoo
+
+    env = pettingzoo.make("parallel", "petswarm/petswarm-v1", max_cycles=3, **{"swarm.num_slaves": 2})
+    assert isinstance(env, PetSwarmEnv) and env.metadata["name"] == "petswarm_v1"
+    assert env.reset(seed=0)[0]
+    assert isinstance(pettingzoo.make("aec", "petswarm/petswarm-v1", max_cycles=3), OrderEnforcingWrapper)
+    sys.modules.pop("petswarm_env.petswarm_v0", None)
+    with pytest.warns(DeprecationWarning, match="petswarm_v1"):
+        v0 = importlib.import_module("petswarm_env.petswarm_v0")
+    assert v0.parallel_env is petswarm_v1.parallel_env

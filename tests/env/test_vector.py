@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import petswarm_env
-from petswarm_env import petswarm_v0
+from petswarm_env import petswarm_v1
 from baselines.policy import PolicySpec
 from baselines.registry import make_policy
 
@@ -56,7 +56,7 @@ def test_each_copy_is_the_parallel_env_with_the_same_seed_across_auto_resets(ove
 
 
 def test_the_seeds_are_drawn_from_the_one_given_and_inactive_slots_are_ignored():
-    a, b = petswarm_env.vector_env(2, max_cycles=20), petswarm_v0.vector_env(2, max_cycles=20)
+    a, b = petswarm_env.vector_env(2, max_cycles=20), petswarm_v1.vector_env(2, max_cycles=20)
     obs_a, infos_a = a.reset(seed=3)
     obs_b, infos_b = b.reset(seed=3)
     assert [i["episode_seed"] for i in infos_a] == [i["episode_seed"] for i in infos_b]

@@ -412,10 +412,10 @@ def test_a_bad_value_in_a_file_names_the_file(tmp_path):
 
 @pytest.mark.parametrize("config", [123, 4.5, [1], {"seed": 1}, b"x.yaml"])
 def test_a_config_that_is_not_a_config_or_a_path_is_a_clear_type_error(config):
-    from petswarm_env import petswarm_v0
+    from petswarm_env import petswarm_v1
 
     with pytest.raises(TypeError, match="config must be a Config, the path of a YAML file or None"):
-        petswarm_v0.parallel_env(config=config)
+        petswarm_v1.parallel_env(config=config)
 
 
 @pytest.mark.parametrize("key, value, span", [

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import math
 
-from bench.settings import TARGET_VS_MPE
+from petswarm.bench.settings import TARGET_VS_MPE
 
 
 def find_result(results: list[dict], kind: str, agents: int, policy: str | None = None) -> dict | None:

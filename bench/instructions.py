@@ -8,7 +8,7 @@ difference of the two totals over the difference of the steps is what a step cos
 the reset and the organize phase cancel out). The episodes are bit for bit the recorded one, so
 the replayed actions are the policy's.
 
-    python -m bench.instructions replay ACTIONS.npz N     # the child (what callgrind runs)
+    python -m petswarm.bench.instructions replay ACTIONS.npz N     # the child (what callgrind runs)
 """
 
 from __future__ import annotations
@@ -35,8 +35,8 @@ def _make_env(num_slaves: int):
 def record_actions(num_slaves: int, seed: int, steps: int, path: Path) -> int:
     """The scripted policy's actions for the first ``steps`` steps of the episode (fewer if it
     ends), into ``path``: ``actions (steps, agents, 3)`` and ``acting (steps, agents)``."""
-    from baselines.policy import PolicySpec
-    from baselines.registry import make_policy
+    from petswarm.baselines.policy import PolicySpec
+    from petswarm.baselines.registry import make_policy
 
     env = _make_env(num_slaves)
     policy = make_policy("scripted", PolicySpec.from_env(env), seed=seed)
@@ -72,7 +72,7 @@ def replay(path: Path, n: int) -> None:
 def _callgrind_total(path: Path, n: int, out_dir: Path) -> int:
     out = subprocess.run(
         ["valgrind", "--tool=callgrind", f"--callgrind-out-file={out_dir / f'cg.{n}'}", sys.executable, "-m",
-         "bench.instructions", "replay", str(path), str(n)],
+         "petswarm.bench.instructions", "replay", str(path), str(n)],
         cwd=ROOT, capture_output=True, text=True, check=False, env=dict(os.environ, PYTHONPATH=str(ROOT)))
     found = re.search(r"Collected : (\d+)", out.stderr)
     if out.returncode != 0 or not found:

@@ -1,12 +1,12 @@
 """SB3 PPO samples/s with the batched vector env against SuperSuit's pipeline, side by side.
 
-    python -m bench.train_vec [--samples 10240] [--rounds 2] [--num-envs 4] [--num-cpus 2]
+    python -m petswarm.bench.train_vec [--samples 10240] [--rounds 2] [--num-envs 4] [--num-cpus 2]
 
 Each round trains a fresh PPO of ``configs/train/ppo.yaml`` (its hyper-parameters, its env, one
 torch thread as ``petswarm train``) for ``--samples`` agent-steps on each path in turn:
 ``supersuit`` (``num_envs`` copies over ``num_cpus`` worker processes, the path ``petswarm train``
 took before the vector env) and ``petswarm`` (the ``num_envs`` copies in this process,
-:class:`training.vec_env.PetswarmVecEnv`). Reported per path, the median over rounds: wall
+:class:`petswarm.training.vec_env.PetswarmVecEnv`). Reported per path, the median over rounds: wall
 samples/s of ``model.learn`` (env steps, inference and the PPO updates), and CPU samples/s: the
 same samples over the CPU time of this process and its worker processes (``os.times``, the workers
 counted once they are joined at ``close``), which other processes' load on a shared machine
@@ -33,9 +33,9 @@ def one_run(path: str, samples: int, num_envs: int, num_cpus: int, seed: int = 0
     import torch
     from stable_baselines3.common.utils import set_random_seed
 
-    from training.config import load_train_config
-    from training.train import build_model
-    from training.vec_env import make_vec_env
+    from petswarm.training.config import load_train_config
+    from petswarm.training.train import build_model
+    from petswarm.training.vec_env import make_vec_env
 
     tcfg = load_train_config()
     torch.set_num_threads(1)

@@ -1,5 +1,5 @@
 """The ``petswarm`` command line: parses the arguments and runs the command's function in its room
-(:mod:`evaluation.commands`, :mod:`training.train`, :mod:`bench.run`, :mod:`experiments.reproduce`).
+(:mod:`petswarm.evaluation.commands`, :mod:`petswarm.training.train`, :mod:`petswarm.bench.run`, :mod:`petswarm.experiments.reproduce`).
 
     petswarm run    [--config FILE] [--set KEY=VALUE ...] [--policy scripted|random|learned|PATH]
                     [--episodes N] [--seed S] [--json OUT] [--render human] [--video OUT.gif] [--pcap OUT.pcapng]
@@ -24,7 +24,7 @@ from importlib import resources
 from petswarm_env.config import ConfigError, load_config, parse_override
 from petswarm_env.files import Terminated, check_distinct_paths, check_output_path, exit_cleanly_on_signals, jsonl_path
 
-SHIPPED_GRID = resources.files("evaluation") / "grid.yaml"  # = configs/eval/grid.yaml, in the package
+SHIPPED_GRID = resources.files("petswarm.evaluation") / "grid.yaml"  # = configs/eval/grid.yaml, in the package
 
 
 class _Parser(argparse.ArgumentParser):
@@ -52,7 +52,7 @@ _seed = _int_at_least(0, "a non-negative integer seed")
 
 
 def _policy_name(text: str) -> str:
-    from baselines.registry import POLICY_NAMES
+    from petswarm.baselines.registry import POLICY_NAMES
 
     if text in POLICY_NAMES or text.endswith(".npz"):
         return text
@@ -62,7 +62,7 @@ def _policy_name(text: str) -> str:
 def _eval_policy_name(text: str) -> str:
     """``petswarm eval``'s --policy: a slave policy, or the privileged teacher (ground truth: an
     evaluation ceiling, never a policy; training/teacher.py)."""
-    from training.teacher import TEACHER_NAME
+    from petswarm.training.teacher import TEACHER_NAME
 
     if text == TEACHER_NAME:
         return text
@@ -81,13 +81,13 @@ def _add_env_config_options(parser: argparse.ArgumentParser) -> None:
 
 
 def _experiment_list() -> list[str]:
-    from experiments.registry import EXPERIMENTS
+    from petswarm.experiments.registry import EXPERIMENTS
 
     return list(EXPERIMENTS)
 
 
 def _experiment_names(text: str) -> list[str]:
-    from experiments.registry import parse_only
+    from petswarm.experiments.registry import parse_only
 
     try:
         return parse_only(text)
@@ -255,18 +255,18 @@ def _env_config(args):
 
 
 def _run(args, argv: list[str]) -> int:
-    from evaluation.commands import run_command
+    from petswarm.evaluation.commands import run_command
 
     return run_command(_env_config(args), args.policy, args.episodes, args.seed, args.render, args.video, args.json, args.quiet,
                        args.pcap)
 
 
 def _train(args, argv: list[str]) -> int:
-    from training.train import train_command
+    from petswarm.training.train import train_command
 
     run, options = None, {}
     if args.backend == "rllib":
-        from training.rllib_backend import train_rllib
+        from petswarm.training.rllib_backend import train_rllib
 
         run, options = train_rllib, {"address": args.address}
         if args.vec_env != "petswarm":
@@ -280,7 +280,7 @@ def _train(args, argv: list[str]) -> int:
 
 
 def _eval(args, argv: list[str]) -> int:
-    from evaluation.commands import eval_command, grid_command
+    from petswarm.evaluation.commands import eval_command, grid_command
 
     if args.grid:
         extra = [flag for flag, on in (("--mix", args.mix), ("--scenarios", args.scenarios), ("--video-dir", args.video_dir),
@@ -295,13 +295,13 @@ def _eval(args, argv: list[str]) -> int:
 
 
 def _report(args, argv: list[str]) -> int:
-    from evaluation.commands import report_command
+    from petswarm.evaluation.commands import report_command
 
     return report_command(args.results, args.out, args.replays)
 
 
 def _bench(args, argv: list[str]) -> int:
-    from bench.run import bench_command
+    from petswarm.bench.run import bench_command
 
     check_output_path(args.json, "--json")
     check_output_path(args.md, "--md")
@@ -309,8 +309,8 @@ def _bench(args, argv: list[str]) -> int:
 
 
 def _reproduce(args, argv: list[str]) -> int:
-    from experiments.registry import EXPERIMENTS
-    from experiments.reproduce import reproduce
+    from petswarm.experiments.registry import EXPERIMENTS
+    from petswarm.experiments.reproduce import reproduce
 
     cfg = _env_config(args)
     check_output_path(args.json, "--json")

@@ -1,4 +1,4 @@
-"""Run the comparison grid (:mod:`evaluation.grid_spec`): every cell's candidate team and its
+"""Run the comparison grid (:mod:`petswarm.evaluation.grid_spec`): every cell's candidate team and its
 reference on the same seeds, their ratios with bootstrap CIs and both collision counts, written as
 JSON after every cell (atomically), so a killed run keeps its finished cells and ``--resume``
 reuses them.
@@ -30,7 +30,7 @@ refill (:mod:`petswarm_env.metrics`).
 medians', ``episodes_better`` the seeds on which the candidate did better). Every other
 ``NAME_ratio`` is the candidate's mean of a per-episode figure over the reference's, on the seeds
 where both have it, with ``NAME_ratio_ci95``, a 95 % percentile bootstrap interval over those seeds
-resampled in pairs (:func:`evaluation.stats.paired_ratio`): ``hold`` the hold RMSE, ``settle`` the
+resampled in pairs (:func:`petswarm.evaluation.stats.paired_ratio`): ``hold`` the hold RMSE, ``settle`` the
 RMSE in the settle window after a refill, ``mix_robots_hold`` the mixed-in candidate robots' own hold
 RMSE, ``others``/``others_hold`` the other robots' (a mixed cell).
 
@@ -57,11 +57,11 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from baselines.policy import PolicySpec
-from evaluation.evaluate import make_team, team_label
-from evaluation.grid_spec import Cell, Grid, check_previous_cells
-from evaluation.runner import run_episode
-from evaluation.stats import as_number, mean_ci95, paired_ratio, probability_of_improvement, stratified_ratio_aggregates
+from petswarm.baselines.policy import PolicySpec
+from petswarm.evaluation.evaluate import make_team, team_label
+from petswarm.evaluation.grid_spec import Cell, Grid, check_previous_cells
+from petswarm.evaluation.runner import run_episode
+from petswarm.evaluation.stats import as_number, mean_ci95, paired_ratio, probability_of_improvement, stratified_ratio_aggregates
 from petswarm_env.config import Config, load_config
 from petswarm_env.env import PetSwarmEnv
 from petswarm_env.files import write_json_atomic
@@ -76,7 +76,7 @@ def policy_identity(name: str) -> str:
     resumed grid never reuses cells of another model."""
     path = None
     if name == "learned":
-        from baselines.learned import shipped_policy_path
+        from petswarm.baselines.learned import shipped_policy_path
 
         path = shipped_policy_path()
     elif name.endswith(".npz"):
@@ -262,7 +262,7 @@ def summarize_grid(cells: list[dict[str, Any]], target: float, worst: int = 5) -
     """How many cells reach the target ratio, meet it with no more collisions, the ratios' spread
     and the ``worst`` cells (highest scored ratio; cells without one first); over the scored ratios
     also their interquartile mean and the mean probability of improvement, each with a stratified
-    bootstrap CI (:func:`evaluation.stats.stratified_ratio_aggregates`)."""
+    bootstrap CI (:func:`petswarm.evaluation.stats.stratified_ratio_aggregates`)."""
     ratios = [c["ratio"] for c in cells if math.isfinite(c["ratio"])]
     scores = [as_number(c.get("score_ratio")) for c in cells]
     finite_scores = sorted(x for x in scores if math.isfinite(x))

@@ -1,13 +1,13 @@
 """The comparison grid in the HTML report (``petswarm report grid.json``): a heatmap of the
 candidate / reference formation-RMSE ratios with both collision counts, one row of panels per
-cell entry of the grid file, and the table of every cell (:mod:`evaluation.grid`'s result).
+cell entry of the grid file, and the table of every cell (:mod:`petswarm.evaluation.grid`'s result).
 
 How to read the heatmap: one square per cell, its colour the scored ratio (the grid's ``metric``,
 by default the hold RMSE from the moment the formation is built; in a mixed cell the candidate
 robots' own) on a log scale (green below 1, the candidate better; red above; the colour bar marks
 the target), its text the ratio and ``c N/M``, the candidate's and the reference's collisions over
 the cell's episodes (red when the candidate collided more). A thick black frame marks a cell that
-meets the target (:mod:`evaluation.grid`). An entry's product keys are its axes: the first one's
+meets the target (:mod:`petswarm.evaluation.grid`). An entry's product keys are its axes: the first one's
 values down, the others' across. Results written before the scored ratio existed show ``ratio``.
 """
 
@@ -16,10 +16,10 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from evaluation.html import NA, escape, figure, new_figure, png_base64, table
+from petswarm.evaluation.html import NA, escape, figure, new_figure, png_base64, table
 
 DASH = "—"
-from evaluation.stats import as_number
+from petswarm.evaluation.stats import as_number
 
 RATIO_RANGE = (0.25, 4.0)  # the colour scale's ends (ratios beyond are drawn at the end colour)
 

@@ -8,7 +8,7 @@ The report holds a header (files, labels, config differences), a per-scenario ta
 formation RMSE (mean ± 95 % t-interval computed here from the episodes, ratio to the
 ``scripted`` label), error-over-time and trajectory plots (PNG, base64-embedded), collision,
 arbiter and communication tables, relative links to episode GIFs, and the episode replays
-(:mod:`evaluation.replay_viewer`). No external resources: the file opens from disk in any browser.
+(:mod:`petswarm.evaluation.replay_viewer`). No external resources: the file opens from disk in any browser.
 
 Older result files may lack fields; whatever is missing shows as "n/a".
 """
@@ -24,12 +24,12 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
-from evaluation.grid_report import grid_section, is_grid
-from evaluation.html import NA, escape, figure, now_stamp, page, table
-from evaluation.replay_viewer import replay_section
-from evaluation.report_plots import COLORS, plot_error_over_time, plot_rmse_bars, plot_trajectories, trace_matrix
-from evaluation.stats import as_number as _num
-from evaluation.stats import mean_ci95, paired_ratio
+from petswarm.evaluation.grid_report import grid_section, is_grid
+from petswarm.evaluation.html import NA, escape, figure, now_stamp, page, table
+from petswarm.evaluation.replay_viewer import replay_section
+from petswarm.evaluation.report_plots import COLORS, plot_error_over_time, plot_rmse_bars, plot_trajectories, trace_matrix
+from petswarm.evaluation.stats import as_number as _num
+from petswarm.evaluation.stats import mean_ci95, paired_ratio
 from petswarm_env.config import flatten_dotted
 from petswarm_env.files import write_text_atomic
 from petswarm_env.metrics import REFILL_SETTLE_S
@@ -130,7 +130,7 @@ def _check_inputs(path: str | os.PathLike, data: dict[str, Any]) -> None:
                 raise ValueError(f"{path}: episode {i} field '{key}' must be a path (text), got {type(value).__name__}")
         replay = ep.get("replay")
         if isinstance(replay, str) and replay:
-            from evaluation.replay_viewer import _replay_path
+            from petswarm.evaluation.replay_viewer import _replay_path
 
             target = _replay_path(result_dir, replay)
             try:
@@ -343,7 +343,7 @@ def _section_rmse(results: list[_Result], scenarios: list[str], colors: dict[str
 
 def _paired_ci(eps: list[dict[str, Any]], ref_eps: list[dict[str, Any]], key: str) -> str:
     """`` [lo, hi]``: the 95 % paired bootstrap interval of the ratio of ``key``'s means over the
-    seeds both lists ran (:func:`evaluation.stats.paired_ratio`); empty without two such seeds."""
+    seeds both lists ran (:func:`petswarm.evaluation.stats.paired_ratio`); empty without two such seeds."""
     ref = {ep.get("seed"): ep.get(key) for ep in ref_eps if ep.get("seed") is not None}
     seeds = [ep.get("seed") for ep in eps if ep.get("seed") in ref]
     mine = {ep.get("seed"): ep.get(key) for ep in eps}
@@ -570,7 +570,7 @@ def _render_html(results: list[_Result], out_path: str | os.PathLike, generated:
     grids = [r for r in results if is_grid(r.data)]
     evals = [r for r in results if not is_grid(r.data)]
     body = [_section_header(results, generated)]
-    if evals:  # the grid results hold no episodes: their section is the heatmap (evaluation.grid_report)
+    if evals:  # the grid results hold no episodes: their section is the heatmap (petswarm.evaluation.grid_report)
         body += [
             _section_rmse(evals, scenarios, colors),
             _section_error_time(evals, scenarios, colors),
@@ -586,7 +586,7 @@ def _render_html(results: list[_Result], out_path: str | os.PathLike, generated:
 def write_report(result_paths: list[str], out_path: str, replays: str = "first") -> None:
     """Write one self-contained HTML report comparing the results in ``result_paths`` to
     ``out_path`` (atomically), with the episode replays ``replays`` chooses
-    (:mod:`evaluation.replay_viewer`). Raises ``ValueError`` naming the file on a bad result file."""
+    (:mod:`petswarm.evaluation.replay_viewer`). Raises ``ValueError`` naming the file on a bad result file."""
     if not result_paths:
         raise ValueError("no result files given")
     results = [_Result(str(p), load_result(p)) for p in result_paths]

@@ -2,7 +2,7 @@
 (every slave that joined still drives as a slave: none fell back to waiting because it had heard no
 status broadcast yet).
 
-    python -m experiments.measure_count --seeds 0-199 --loss 0.3
+    python -m petswarm.experiments.measure_count --seeds 0-199 --loss 0.3
 
 A reset that cannot organize is counted (``organized: false``), not raised.
 """
@@ -14,12 +14,12 @@ import argparse
 import numpy as np
 
 import petswarm_env
-from experiments.measure_succession import parse_seeds
+from petswarm.experiments.measure_succession import parse_seeds
 from petswarm_env.middleware.join import OrganizeError
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m experiments.measure_count", description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="python -m petswarm.experiments.measure_count", description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", default="0-199")
     parser.add_argument("--loss", type=float, nargs="+", default=[0.3])
     parser.add_argument("--after", type=float, default=1.0, help="seconds after reset")

@@ -2,7 +2,7 @@
 at ``--at`` s of a straight walk; per seed, when a slave took its place, when the belt paired with
 it, whether the episode ran to ``max_cycles``, and the formation error afterwards.
 
-    python -m experiments.measure_succession --seeds 0-19 --kinds dead radio_silent
+    python -m petswarm.experiments.measure_succession --seeds 0-19 --kinds dead radio_silent
 
 Times are seconds after the fault. Targets: a new master within 5 s, the belt paired again, the
 episode to ``max_cycles``, in every seed. The robots learn of the loss only from their radio (the
@@ -15,8 +15,8 @@ import argparse
 import math
 import statistics
 
-from baselines.policy import PolicySpec
-from baselines.registry import make_policy
+from petswarm.baselines.policy import PolicySpec
+from petswarm.baselines.registry import make_policy
 import petswarm_env
 
 
@@ -49,7 +49,7 @@ def run(kind: str, seed: int, at_s: float, max_cycles: int, overrides: dict) -> 
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m experiments.measure_succession", description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="python -m petswarm.experiments.measure_succession", description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", default="0-19")
     parser.add_argument("--kinds", nargs="+", default=["dead", "radio_silent"])
     parser.add_argument("--at", type=float, default=20.0, help="episode time of the fault (s)")

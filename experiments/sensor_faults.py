@@ -12,7 +12,7 @@ scripted reference drives the slaves, the fault starts at ``--at`` s of episode 
 
 A run that never detects counts as not re-formed; its RMSE is taken over the 10 s after the fault.
 
-    python -m experiments.sensor_faults [--kinds ir,ultrasonic,ahrs] [--seeds 0-19] [--target slave|master] [--set KEY=VALUE ...]
+    python -m petswarm.experiments.sensor_faults [--kinds ir,ultrasonic,ahrs] [--seeds 0-19] [--target slave|master] [--set KEY=VALUE ...]
 
 Prints one line per run, then per kind: detected n/N, median detection time, re-formed n/N, median RMSE,
 and in how many runs a robot found a part broken that was not the one injected (a false detection).
@@ -32,8 +32,8 @@ REFORM_ERROR_M = 0.3
 
 
 def run(kind: str, seed: int, at_s: float = 20.0, target: str = "random_slave", overrides: dict | None = None) -> dict:
-    from baselines.policy import PolicySpec
-    from baselines.registry import make_policy
+    from petswarm.baselines.policy import PolicySpec
+    from petswarm.baselines.registry import make_policy
 
     env = petswarm_env.parallel_env(**{"user.scenario": "straight",
                                        "faults": [{"at_s": at_s, "robot": target, "kind": kind}],

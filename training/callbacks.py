@@ -25,14 +25,14 @@ from typing import Any
 
 from stable_baselines3.common.callbacks import BaseCallback
 
-from baselines.policy import PolicySpec
-from evaluation.runner import run_episode
+from petswarm.baselines.policy import PolicySpec
+from petswarm.evaluation.runner import run_episode
 from petswarm_env.env import PetSwarmEnv
 from petswarm_env.files import write_json_atomic
 from petswarm_env.observe import ObservationLayout
-from training.checkpoint import checkpoint_path, save_checkpoint
-from training.config import TrainConfig
-from training.export import export_policy, learned_policy
+from petswarm.training.checkpoint import checkpoint_path, save_checkpoint
+from petswarm.training.config import TrainConfig
+from petswarm.training.export import export_policy, learned_policy
 
 
 def public_log(log: dict[str, Any]) -> dict[str, Any]:
@@ -88,7 +88,7 @@ def median_ratio(episodes: list[dict[str, Any]], reference: list[dict[str, Any]]
 def scripted_reference(cfg: TrainConfig, log: dict[str, Any]) -> None:
     """The scripted reference's evaluation episodes and mean RMSE in ``log`` (once per run; a run
     resumed from before the per-episode figures gets them now, on the same seeds and configs)."""
-    from baselines.registry import make_policy
+    from petswarm.baselines.registry import make_policy
 
     if log.get("scripted_eval_episodes") is None:
         log["scripted_eval_episodes"] = pool_episodes(cfg, lambda spec: make_policy("scripted", spec))

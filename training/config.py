@@ -26,10 +26,10 @@ from petswarm_env.config import (
     nest_dotted,
     read_yaml,
 )
-from baselines.learned import Residual
-from training.randomize import check_pools, draw_config
+from petswarm.baselines.learned import Residual
+from petswarm.training.randomize import check_pools, draw_config
 
-DEFAULT_TRAIN_CONFIG = Path(str(resources.files("training") / "ppo.yaml"))
+DEFAULT_TRAIN_CONFIG = Path(str(resources.files("petswarm.training") / "ppo.yaml"))
 
 
 class PPOConfig(Section):
@@ -106,7 +106,7 @@ class TrainConfig(Section):
     residual_scale: float = Field(1.0, gt=0, le=1, description="with residual_of: the correction's bound in action units")
 
     def residual(self) -> Residual | None:
-        """The residual the policy learns (:class:`baselines.learned.Residual`), or None."""
+        """The residual the policy learns (:class:`petswarm.baselines.learned.Residual`), or None."""
         return Residual(self.residual_of, self.residual_scale) if self.residual_of else None
 
     def env_config(self) -> Config:
@@ -123,7 +123,7 @@ class TrainConfig(Section):
 
     def eval_episodes(self) -> list[tuple[Config, int]]:
         """(config, seed) of each periodic evaluation episode: with pools, the config drawn with
-        that seed (:func:`training.randomize.draw_config`), ``eval.max_cycles`` long."""
+        that seed (:func:`petswarm.training.randomize.draw_config`), ``eval.max_cycles`` long."""
         env = {**self.env, "max_cycles": self.eval.max_cycles}
         return [(draw_config(env, self.randomize, s), s) for s in self.eval_seeds()]
 

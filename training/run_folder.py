@@ -1,10 +1,10 @@
 """A run folder checked field by field before ``petswarm train --resume`` writes anything into it:
-the checkpoint's state record and RNG arrays (:mod:`training.checkpoint`) and ``train_log.json``
-(:mod:`training.train`). A damaged field is refused in one line naming the file and the field;
+the checkpoint's state record and RNG arrays (:mod:`petswarm.training.checkpoint`) and ``train_log.json``
+(:mod:`petswarm.training.train`). A damaged field is refused in one line naming the file and the field;
 the folder stays as it was (no train_config.yaml rewritten, no policy or checkpoint replaced).
 
 The weights themselves (names, shapes, dtypes, finite) are checked against the freshly built
-network by :func:`training.checkpoint.restore_checkpoint`, which also runs before anything is written.
+network by :func:`petswarm.training.checkpoint.restore_checkpoint`, which also runs before anything is written.
 """
 
 from __future__ import annotations

@@ -17,11 +17,11 @@ zeros while that robot is not in slave-role driving):
 return and length, for ``rollout/ep_rew_mean``).
 
 ``training_env`` is the PettingZoo env under the vector: ``PetSwarmEnv`` of the training config, or
-with ``randomize:`` pools a :class:`training.randomize.RandomizedEnv` (each episode its drawn
+with ``randomize:`` pools a :class:`petswarm.training.randomize.RandomizedEnv` (each episode its drawn
 config; ``FixedAgents`` over it is sized for the largest draw), with ``residual_of: scripted``
-each action a correction of the scripted reference's (:class:`training.residual.ResidualActions`),
+each action a correction of the scripted reference's (:class:`petswarm.training.residual.ResidualActions`),
 and with ``ppo.critic: state`` every row followed by the global state
-(:class:`training.randomize.WithState`, MAPPO's critic input).
+(:class:`petswarm.training.randomize.WithState`, MAPPO's critic input).
 """
 
 from __future__ import annotations
@@ -38,9 +38,9 @@ from petswarm_env.config import Config
 from petswarm_env.env import PetSwarmEnv
 from petswarm_env.vector import VectorEnv
 from petswarm_env.wrappers import FixedAgents
-from training.randomize import PoolSpaces, RandomizedEnv, WithState
-from baselines.learned import Residual
-from training.residual import ResidualActions
+from petswarm.training.randomize import PoolSpaces, RandomizedEnv, WithState
+from petswarm.baselines.learned import Residual
+from petswarm.training.residual import ResidualActions
 
 
 class SeededVecEnv(SB3VecEnvWrapper):
@@ -87,7 +87,7 @@ class PetswarmVecEnv(VecEnv):
     copy's episode ends (its next episode then starts; ``terminal_observation`` is the last row).
     As on the SuperSuit path, a truncation is a done without ``TimeLimit.truncated``. With
     ``with_state`` every row is followed by its copy's global state (MAPPO's critic input, as
-    :class:`training.randomize.WithState`)."""
+    :class:`petswarm.training.randomize.WithState`)."""
 
     def __init__(self, env_cfg: Config, num_envs: int, with_state: bool = False):
         self.venv = VectorEnv(num_envs, env_cfg)

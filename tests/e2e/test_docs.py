@@ -106,8 +106,8 @@ def _flags_of(parser) -> set[str]:
 
 
 def test_training_doc_petswarm_commands_use_real_subcommands_flags_and_config_keys():
-    from cli.main import build_parser
-    from training.config import load_train_config
+    from petswarm.cli.main import build_parser
+    from petswarm.training.config import load_train_config
 
     import argparse
 
@@ -145,7 +145,7 @@ def _flatten(d: dict, prefix: str = "") -> dict:
 def test_training_doc_scripts_extras_files_and_config_keys_exist():
     import tomllib
 
-    from training.config import RESUMABLE, load_train_config
+    from petswarm.training.config import RESUMABLE, load_train_config
 
     text = TRAINING_DOC.read_text()
     flat = " ".join(text.split())
@@ -173,4 +173,4 @@ def test_training_doc_scripts_extras_files_and_config_keys_exist():
         assert key in keys, f"{key} is not a training config key"
     resume = flat[flat.index("`--resume` continues"):]
     resume = resume[:resume.index("RESUMABLE")]
-    assert all(f"`{k}`" in resume for k in RESUMABLE), "the resume paragraph lists training.config.RESUMABLE"
+    assert all(f"`{k}`" in resume for k in RESUMABLE), "the resume paragraph lists petswarm.training.config.RESUMABLE"

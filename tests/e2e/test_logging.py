@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-import cli.main as cli
+import petswarm.cli.main as cli
 
 
 def _command(args, argv):
@@ -30,13 +30,13 @@ def _command(args, argv):
 ])
 def test_log_level_sets_what_reaches_stderr(monkeypatch, capsys, argv, lines):
     monkeypatch.setitem(cli.COMMANDS, "run", _command)
-    assert cli.main(argv) == 0
+    assert petswarm.cli.main(argv) == 0
     assert capsys.readouterr().err.splitlines() == lines
 
 
 def test_a_bad_log_level_is_one_line(capsys):
     with pytest.raises(SystemExit) as info:
-        cli.main(["run", "--log-level", "loud"])
+        petswarm.cli.main(["run", "--log-level", "loud"])
     assert info.value.code == 2 and "--log-level" in capsys.readouterr().err
 
 
@@ -47,7 +47,7 @@ def test_training_without_a_terminal_logs_progress_lines(tmp_path):
             "ppo.n_epochs=1", "--set", "ppo.net_arch=[8]", "--set", "eval.every_steps=100000", "--set", "eval.episodes=1",
             "--set", "eval.max_cycles=10", "--set", "checkpoint.every_steps=100000", "--set", "env.max_cycles=20",
             "--set", "pretrain.samples=0"]
-    proc = subprocess.run([sys.executable, "-m", "cli.main", "train", "--out", str(tmp_path / "run"), "--timesteps", "128", *tiny],
+    proc = subprocess.run([sys.executable, "-m", "petswarm.cli.main", "train", "--out", str(tmp_path / "run"), "--timesteps", "128", *tiny],
                           capture_output=True, text=True, env=env, timeout=600)  # stderr is a pipe, not a terminal
     assert proc.returncode == 0, proc.stderr
     lines = [ln for ln in proc.stderr.splitlines() if ln.strip()]

@@ -8,8 +8,8 @@ import pytest
 from pettingzoo.test import parallel_api_test
 
 import petswarm_env
-from baselines.policy import PolicySpec
-from baselines.registry import make_policy
+from petswarm.baselines.policy import PolicySpec
+from petswarm.baselines.registry import make_policy
 from petswarm_env.config import FAULT_KINDS
 from petswarm_env.scenarios import SCENARIOS
 
@@ -119,7 +119,7 @@ def test_torchrls_pettingzoo_wrapper_takes_the_raw_env_when_every_agent_is_there
 def test_the_benchs_loop_acts_only_for_live_agents_past_a_slave_leaving():
     """bench/loops.EnvLoop feeds every observation back as actions: 1 + 16 slaves, seed 0, a slave
     leaves at step 544 (it raised KeyError when the step's observations held the agent that left)."""
-    from bench.loops import EnvLoop
+    from petswarm.bench.loops import EnvLoop
 
     loop = EnvLoop(16, "scripted", 0)
     loop.run(steps=560)

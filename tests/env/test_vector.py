@@ -6,8 +6,8 @@ import pytest
 
 import petswarm_env
 from petswarm_env import petswarm_v1
-from baselines.policy import PolicySpec
-from baselines.registry import make_policy
+from petswarm.baselines.policy import PolicySpec
+from petswarm.baselines.registry import make_policy
 
 
 def _slots(venv, obs_dict):

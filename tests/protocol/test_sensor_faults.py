@@ -7,8 +7,8 @@ from __future__ import annotations
 import pytest
 
 import petswarm_env
-from baselines.policy import PolicySpec
-from baselines.registry import make_policy
+from petswarm.baselines.policy import PolicySpec
+from petswarm.baselines.registry import make_policy
 from petswarm_env.middleware import assignment
 from petswarm_env.middleware import messages as msg
 

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import petswarm_env
-from evaluation.runner import run, summarize
+from petswarm.evaluation.runner import run, summarize
 from petswarm_env.middleware.join import OrganizeError, organize_obstacle
 
 

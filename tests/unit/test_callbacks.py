@@ -12,12 +12,12 @@ pytest.importorskip("supersuit")
 
 from stable_baselines3.common.logger import Logger
 
-from baselines.learned import read_policy_file
+from petswarm.baselines.learned import read_policy_file
 from petswarm_env.env import PetSwarmEnv
-from training.callbacks import PeriodicCallback, public_log
-from training.config import load_train_config
-from training.train import build_model
-from training.vec_env import make_vec_env
+from petswarm.training.callbacks import PeriodicCallback, public_log
+from petswarm.training.config import load_train_config
+from petswarm.training.train import build_model
+from petswarm.training.vec_env import make_vec_env
 
 TINY = {"num_envs": 1, "num_cpus": 0, "ppo.n_steps": 16, "ppo.batch_size": 16, "ppo.net_arch": [8], "env.max_cycles": 20,
         "eval.every_steps": 1000, "eval.episodes": 1, "eval.max_cycles": 10, "checkpoint.every_steps": 1500}
@@ -82,7 +82,7 @@ def test_checkpoint_writes_the_run_files_and_evaluate_logs_against_the_reference
 
 
 def test_the_median_ratio_counts_a_failed_episode_as_infinitely_worse():
-    from training.callbacks import median_ratio
+    from petswarm.training.callbacks import median_ratio
 
     ref = [{"seed": s, "m": 0.2} for s in range(5)] + [{"seed": 9, "m": float("nan")}]
     eps = [{"seed": 0, "m": 0.1}, {"seed": 1, "m": 0.2}, {"seed": 2, "m": float("nan")}, {"seed": 3, "m": 0.3},

@@ -186,7 +186,7 @@ def test_override_that_is_not_key_value_or_conflicts():
 
 def test_training_config_refuses_bad_values_naming_the_key():
     pytest.importorskip("stable_baselines3")
-    from training.config import load_train_config
+    from petswarm.training.config import load_train_config
 
     for overrides, words in [({"ppo.gamma": 2}, "ppo.gamma"), ({"ppo.net_arch": [True, 8]}, "ppo.net_arch"),
                              ({"ppo.learning_rate": math.nan}, "ppo.learning_rate"), ({"bogus": 1}, "bogus"),
@@ -255,13 +255,13 @@ def test_a_device_as_a_config_file_is_refused():
 
 
 def test_a_grid_and_a_training_file_use_the_same_bounds(tmp_path):
-    from evaluation.grid_spec import load_grid
+    from petswarm.evaluation.grid_spec import load_grid
 
     (tmp_path / "g.yaml").write_text(f"seed: 0\nepisodes: 1\ncells: {_alias_bomb()}\n")
     with pytest.raises(ConfigError, match="grid file '.*g.yaml' expands"):
         load_grid(str(tmp_path / "g.yaml"))
     pytest.importorskip("stable_baselines3")
-    from training.config import load_train_config
+    from petswarm.training.config import load_train_config
 
     (tmp_path / "t.yaml").write_text(f"ppo:\n  net_arch: {_alias_bomb()}\n")
     with pytest.raises(ConfigError, match="t.yaml' expands"):

@@ -6,8 +6,8 @@ import math
 import numpy as np
 import pytest
 
-from evaluation.grid import compare_runs
-from evaluation.stats import (interquartile_mean, paired_ratio, probability_of_improvement,
+from petswarm.evaluation.grid import compare_runs
+from petswarm.evaluation.stats import (interquartile_mean, paired_ratio, probability_of_improvement,
                               stratified_ratio_aggregates)
 
 

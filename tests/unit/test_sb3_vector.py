@@ -8,7 +8,7 @@ from stable_baselines3 import PPO
 import petswarm_env
 from petswarm_env.config import load_config
 from petswarm_env.wrappers import FixedAgents
-from training.vec_env import PetswarmVecEnv, make_vec_env
+from petswarm.training.vec_env import PetswarmVecEnv, make_vec_env
 
 
 def test_rows_are_fixed_agents_rows_of_each_copy_and_end_together():

@@ -53,7 +53,7 @@ from array import array
 
 import numpy as np
 
-from baselines.policy import Policy, PolicySpec
+from petswarm.baselines.policy import Policy, PolicySpec
 from petswarm_env.observe import AGE_SCALE_S, MAX_LINKS, POS_SCALE_M
 
 _F32 = array("f", [0.0])

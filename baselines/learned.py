@@ -33,8 +33,8 @@ from typing import Any
 import numpy as np
 
 from petswarm_env.mapping import MOVE_HOLONOMIC, Behaviour
-from baselines.leader_follower import LeaderFollowerPolicy
-from baselines.policy import Policy, PolicySpec
+from petswarm.baselines.leader_follower import LeaderFollowerPolicy
+from petswarm.baselines.policy import Policy, PolicySpec
 from petswarm_env.config import describe_value
 from petswarm_env.env import ENV_NAME
 from petswarm_env.files import read_npz, write_atomic
@@ -90,7 +90,7 @@ class PolicyVersionWarning(UserWarning):
 
 def shipped_policy_path() -> Path:
     """The learned policy shipped with the package (``petswarm run/eval --policy learned``)."""
-    return Path(str(resources.files("baselines") / "models" / "mappo_generalize.npz"))
+    return Path(str(resources.files("petswarm.baselines") / "models" / "mappo_generalize.npz"))
 
 
 def save_policy(path: str | os.PathLike, layers: list[tuple[np.ndarray, np.ndarray]], activation: str,

@@ -4,7 +4,7 @@ A policy maps one slave's observation (the documented vector of :mod:`petswarm_e
 its action ``(Vx, Vy, ω)`` in [-1, 1]³. It never sees ground truth. Policies are built for an
 environment's observation layout and action limits (:class:`PolicySpec`), so a scripted and a
 learned slave can be swapped robot by robot. Policies are built by name in
-:mod:`baselines.registry` (``make_policy``), which imports this module, never the other way.
+:mod:`petswarm.baselines.registry` (``make_policy``), which imports this module, never the other way.
 """
 
 from __future__ import annotations

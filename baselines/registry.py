@@ -1,14 +1,14 @@
 """Slave policies by name: ``make_policy("scripted" | "random" | "learned" | PATH, spec)``.
 
-The one place that knows every policy class. It imports :mod:`baselines.policy` (the interface)
+The one place that knows every policy class. It imports :mod:`petswarm.baselines.policy` (the interface)
 and the implementations; none of them imports it back.
 """
 
 from __future__ import annotations
 
-from baselines.leader_follower import LeaderFollowerPolicy
-from baselines.learned import LearnedPolicy, shipped_policy_path
-from baselines.policy import Policy, PolicySpec, RandomPolicy
+from petswarm.baselines.leader_follower import LeaderFollowerPolicy
+from petswarm.baselines.learned import LearnedPolicy, shipped_policy_path
+from petswarm.baselines.policy import Policy, PolicySpec, RandomPolicy
 
 POLICY_NAMES = ("scripted", "random", "learned")
 

@@ -19,10 +19,10 @@ All measurements run in one command on one machine, one after the other:
 * **training throughput**: SB3 PPO samples/s through the training vector env, in-process and with
   two worker processes.
 
-The rooms: :mod:`bench.settings` (how long, the targets), :mod:`bench.loops` (the timed step
-loops), :mod:`bench.speed` (petswarm, the physics floor, MPE, side by side), :mod:`bench.parts`
-and :mod:`bench.profile` (the step's breakdown), :mod:`bench.memory`, :mod:`bench.throughput`
-(training), :mod:`bench.machine`, :mod:`bench.run` (``run_bench``, ``main_bench``: it all, the
-JSON), :mod:`bench.console` (the console text) and :mod:`bench.page` (``docs/benchmarks.md`` and
-its plot). ``python -m bench.step`` times the default env's step alone.
+The rooms: :mod:`petswarm.bench.settings` (how long, the targets), :mod:`petswarm.bench.loops` (the timed step
+loops), :mod:`petswarm.bench.speed` (petswarm, the physics floor, MPE, side by side), :mod:`petswarm.bench.parts`
+and :mod:`petswarm.bench.profile` (the step's breakdown), :mod:`petswarm.bench.memory`, :mod:`petswarm.bench.throughput`
+(training), :mod:`petswarm.bench.machine`, :mod:`petswarm.bench.run` (``run_bench``, ``main_bench``: it all, the
+JSON), :mod:`petswarm.bench.console` (the console text) and :mod:`petswarm.bench.page` (``docs/benchmarks.md`` and
+its plot). ``python -m petswarm.bench.step`` times the default env's step alone.
 """

@@ -11,8 +11,8 @@ from typing import Any
 import numpy as np
 
 import petswarm_env
-from baselines.policy import PolicySpec
-from baselines.registry import make_policy
+from petswarm.baselines.policy import PolicySpec
+from petswarm.baselines.registry import make_policy
 
 
 class TimedLoop:

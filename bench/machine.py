@@ -7,7 +7,7 @@ import platform
 import subprocess
 from typing import Any
 
-from bench.parts import ROOT
+from petswarm.bench.parts import ROOT
 
 
 def _version(pkg: str) -> str | None:

@@ -8,8 +8,8 @@ import os
 import sys
 import time
 
-from bench.loops import EnvLoop
-from bench.settings import MEMORY_BLOCKS_TOLERANCE, MEMORY_GROWTH_TOLERANCE_MB, BenchSettings
+from petswarm.bench.loops import EnvLoop
+from petswarm.bench.settings import MEMORY_BLOCKS_TOLERANCE, MEMORY_GROWTH_TOLERANCE_MB, BenchSettings
 
 
 def _rss_mb() -> float | None:

@@ -8,9 +8,9 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from bench.console import find_result, fmt, target_rows, verdict
-from bench.parts import CATEGORIES, PART_TITLES, part_rules
-from bench.settings import TARGET_VS_MPE
+from petswarm.bench.console import find_result, fmt, target_rows, verdict
+from petswarm.bench.parts import CATEGORIES, PART_TITLES, part_rules
+from petswarm.bench.settings import TARGET_VS_MPE
 from petswarm_env.files import write_atomic, write_text_atomic
 
 HAND_WRITTEN_BEGIN = "<!-- hand-written: `petswarm bench --md` keeps this section as it is; edit it here -->"
@@ -54,7 +54,7 @@ def write_plot(result: dict, plot_path: str | os.PathLike) -> None:
 
 
 def part_description(part: str) -> str:
-    """A part's title and the modules whose functions it counts (from :data:`bench.parts.MODULE_PARTS`)."""
+    """A part's title and the modules whose functions it counts (from :data:`petswarm.bench.parts.MODULE_PARTS`)."""
     modules = part_rules().get(part, [])
     return PART_TITLES.get(part, part) + (f" ({', '.join(f'`{m}`' for m in modules)})" if modules else "")
 

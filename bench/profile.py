@@ -1,4 +1,4 @@
-"""The breakdown of a step's cost by part (:mod:`bench.parts`), two ways: cProfile self times
+"""The breakdown of a step's cost by part (:mod:`petswarm.bench.parts`), two ways: cProfile self times
 (:func:`breakdown_from_stats`) and a statistical stack sampler (:class:`StackSampler`, SIGPROF on
 CPU time), which has no per-call cost and so does not inflate call-heavy Python code."""
 
@@ -12,16 +12,16 @@ import pstats
 import signal
 from typing import Any, Self
 
-from bench.loops import EnvLoop
-from bench.parts import CATEGORIES, ROOT, norm_path, part_of
-from bench.settings import BenchSettings
+from petswarm.bench.loops import EnvLoop
+from petswarm.bench.parts import CATEGORIES, ROOT, norm_path, part_of
+from petswarm.bench.settings import BenchSettings
 
 
 def breakdown_from_stats(stats: pstats.Stats) -> dict[str, Any]:
     """Share of profiled time per category, by *self time attribution*.
 
     Every function's own time (cProfile ``tottime``) goes to the part of the module it lives in
-    (:func:`bench.parts.part_of`). *Neutral* functions — C built-ins (pymunk's cffi calls, math,
+    (:func:`petswarm.bench.parts.part_of`). *Neutral* functions — C built-ins (pymunk's cffi calls, math,
     list methods), numpy, the standard library, pymunk's property accessors, the geometry helpers —
     pass their own time to their callers, in proportion to the time spent in them from each caller
     (cProfile's per-caller statistics), recursively. So ``cpSpaceStep`` and the contact callbacks

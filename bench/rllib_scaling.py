@@ -1,8 +1,8 @@
 """RLlib's sampling throughput with 0, 1, 2, … env runners on this machine (needs the rllib extra)::
 
-    python -m bench.rllib_scaling --runners 0,1,2 --iterations 4 [--repeat 3] [--envs-per-runner 1] [--json OUT]
+    python -m petswarm.bench.rllib_scaling --runners 0,1,2 --iterations 4 [--repeat 3] [--envs-per-runner 1] [--json OUT]
 
-One local Ray (bound to 127.0.0.1, :func:`training.rllib_backend.start_ray`), then for each runner
+One local Ray (bound to 127.0.0.1, :func:`petswarm.training.rllib_backend.start_ray`), then for each runner
 count the training config's PPO (``configs/train/ppo.yaml``, warm start off) for ``iterations``
 ``algo.train()`` calls; the first (actor start-up, first sync) is not counted. Reported per count:
 agent-steps/s over whole iterations (sampling + learning) and over sampling alone (the wall time
@@ -37,8 +37,8 @@ def measure(runners: list[int], iterations: int, envs_per_runner: int, overrides
     import ray
     import torch
 
-    from training import rllib_backend as rb
-    from training.config import load_train_config
+    from petswarm.training import rllib_backend as rb
+    from petswarm.training.config import load_train_config
 
     torch.set_num_threads(1)  # as train_rllib: one thread in the driver (more ran the driver's sampler 6x slower, loaded)
     cfg = load_train_config(overrides={"pretrain.samples": 0, **(overrides or {})})

@@ -13,12 +13,12 @@ from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
-from bench.console import find_result, format_report
-from bench.machine import loadavg, machine_info
-from bench.memory import bench_memory
-from bench.page import write_benchmarks_md
-from bench.profile import bench_breakdown
-from bench.settings import (
+from petswarm.bench.console import find_result, format_report
+from petswarm.bench.machine import loadavg, machine_info
+from petswarm.bench.memory import bench_memory
+from petswarm.bench.page import write_benchmarks_md
+from petswarm.bench.profile import bench_breakdown
+from petswarm.bench.settings import (
     FULL,
     MEMORY_BLOCKS_TOLERANCE,
     MEMORY_GROWTH_TOLERANCE_MB,
@@ -28,8 +28,8 @@ from bench.settings import (
     BenchSettings,
     log,
 )
-from bench.speed import bench_floor, bench_mpe, bench_petswarm, bench_side_by_side, mpe_available
-from bench.throughput import bench_training
+from petswarm.bench.speed import bench_floor, bench_mpe, bench_petswarm, bench_side_by_side, mpe_available
+from petswarm.bench.throughput import bench_training
 from petswarm_env.config import load_config
 from petswarm_env.files import jsonable, write_json_atomic
 

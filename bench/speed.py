@@ -10,8 +10,8 @@ import time
 
 import numpy as np
 
-from bench.loops import EnvLoop, MPELoop
-from bench.settings import BenchSettings
+from petswarm.bench.loops import EnvLoop, MPELoop
+from petswarm.bench.settings import BenchSettings
 from petswarm_env.config import load_config
 from petswarm_env.scenarios import SCENARIOS
 from petswarm_env.sim.world import World

@@ -1,6 +1,6 @@
 """Per-step wall and CPU time of the default environment (the full benchmark: ``petswarm bench``).
 
-    python -m bench.step [--steps N] [--set KEY=VALUE ...]
+    python -m petswarm.bench.step [--steps N] [--set KEY=VALUE ...]
 
 Prints the mean wall time of ``env.step`` (policy time excluded) with the scripted policy's
 actions, its CPU time (``time.process_time``: less sensitive to other processes on a busy machine,
@@ -14,8 +14,8 @@ import argparse
 import time
 
 import petswarm_env
-from baselines.policy import PolicySpec
-from baselines.registry import make_policy
+from petswarm.baselines.policy import PolicySpec
+from petswarm.baselines.registry import make_policy
 from petswarm_env.config import parse_override
 
 

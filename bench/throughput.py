@@ -6,7 +6,7 @@ import time
 import warnings
 from typing import Any
 
-from bench.settings import BenchSettings, log
+from petswarm.bench.settings import BenchSettings, log
 
 
 def bench_training(s: BenchSettings, verbose: bool = False) -> dict:
@@ -17,9 +17,9 @@ def bench_training(s: BenchSettings, verbose: bool = False) -> dict:
         import torch
         from stable_baselines3.common.utils import set_random_seed
 
-        from training.config import load_train_config
-        from training.train import build_model
-        from training.vec_env import make_vec_env
+        from petswarm.training.config import load_train_config
+        from petswarm.training.train import build_model
+        from petswarm.training.vec_env import make_vec_env
     except ImportError as exc:
         return {"skipped": f"{exc.name or exc} is not installed; set up the training stack with: bash scripts/setup.sh train"}
 

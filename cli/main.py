@@ -1,5 +1,5 @@
 """The ``petswarm`` command line: parses the arguments and runs the command's function in its room
-(:mod:`evaluation.commands`, :mod:`training.train`, :mod:`bench.run`, :mod:`experiments.reproduce`).
+(:mod:`petswarm.evaluation.commands`, :mod:`petswarm.training.train`, :mod:`petswarm.bench.run`, :mod:`petswarm.experiments.reproduce`).
 
     petswarm run    [--config FILE] [--set KEY=VALUE ...] [--policy scripted|random|learned|PATH]
                     [--episodes N] [--seed S] [--json OUT] [--render human] [--video OUT.gif] [--pcap OUT.pcapng]
@@ -18,12 +18,12 @@ from __future__ import annotations
 import argparse
 import sys
 import warnings
-from importlib import resources
 
+from petswarm import shipped, shipped_configs
 from petswarm_env.config import ConfigError, load_config, parse_override
 from petswarm_env.files import Terminated, check_output_path, exit_cleanly_on_signals
 
-SHIPPED_GRID = resources.files("evaluation") / "grid.yaml"  # = configs/eval/grid.yaml, in the package
+SHIPPED_GRID = shipped_configs() / "eval" / "grid.yaml"  # configs/eval/grid.yaml, shipped in the package
 
 
 class _Parser(argparse.ArgumentParser):
@@ -50,8 +50,20 @@ _positive_int = _int_at_least(1, "a positive integer")
 _seed = _int_at_least(0, "a non-negative integer seed")
 
 
+def _config_file(text: str) -> str:
+    """A --config or --grid file: the path as given when it exists, else the shipped config of that
+    name (``configs/train/generalize.yaml``, ``train/generalize``, ``generalize``: see
+    :func:`petswarm.shipped`), else the path as given (its loader names what is missing)."""
+    from pathlib import Path
+
+    if Path(text).exists():
+        return text
+    found = shipped(text)
+    return str(found) if found is not None else text
+
+
 def _policy_name(text: str) -> str:
-    from baselines.registry import POLICY_NAMES
+    from petswarm.baselines.registry import POLICY_NAMES
 
     if text in POLICY_NAMES or text.endswith(".npz"):
         return text
@@ -61,7 +73,7 @@ def _policy_name(text: str) -> str:
 def _eval_policy_name(text: str) -> str:
     """``petswarm eval``'s --policy: a slave policy, or the privileged teacher (ground truth: an
     evaluation ceiling, never a policy; training/teacher.py)."""
-    from training.teacher import TEACHER_NAME
+    from petswarm.training.teacher import TEACHER_NAME
 
     if text == TEACHER_NAME:
         return text
@@ -74,19 +86,20 @@ def _eval_policy_name(text: str) -> str:
 
 def _add_env_config_options(parser: argparse.ArgumentParser) -> None:
     """--config and --set of the commands that build an environment from configs/default.yaml."""
-    parser.add_argument("--config", metavar="FILE", help="YAML file merged over configs/default.yaml")
+    parser.add_argument("--config", metavar="FILE", type=_config_file,
+                        help="YAML file merged over configs/default.yaml (a shipped config also by name)")
     parser.add_argument("--set", metavar="KEY=VALUE", action="append", default=[],
                         help="override a config key with a dotted path, e.g. --set swarm.num_slaves=3 (repeatable)")
 
 
 def _experiment_list() -> list[str]:
-    from experiments.registry import EXPERIMENTS
+    from petswarm.experiments.registry import EXPERIMENTS
 
     return list(EXPERIMENTS)
 
 
 def _experiment_names(text: str) -> list[str]:
-    from experiments.registry import parse_only
+    from petswarm.experiments.registry import parse_only
 
     try:
         return parse_only(text)
@@ -123,7 +136,8 @@ def _add_train(sub) -> None:
         "configs/train/ppo.yaml (or --config), copied into the run folder; checkpoints are atomic; "
         "--resume continues a run.",
     )
-    train.add_argument("--config", metavar="FILE", help="training YAML merged over configs/train/ppo.yaml")
+    train.add_argument("--config", metavar="FILE", type=_config_file,
+                       help="training YAML merged over configs/train/ppo.yaml (a shipped one also by name: generalize, teacher, ...)")
     train.add_argument("--set", metavar="KEY=VALUE", action="append", default=[],
                        help="override a training key (ppo.learning_rate=1e-4) or an env key (env.swarm.num_slaves=3)")
     train.add_argument("--timesteps", type=_positive_int, metavar="N", help="total agent-steps (overrides the config)")
@@ -153,9 +167,9 @@ def _add_eval(sub) -> None:
     ev.add_argument("--episodes", type=_positive_int, default=None, metavar="N",
                     help="episodes (seeds) per scenario (default 5); with --grid per cell (default: the grid file's)")
     ev.add_argument("--seed", type=_seed, metavar="S", help="first seed (default: config seed; with --grid the grid file's)")
-    ev.add_argument("--grid", metavar="FILE", nargs="?", const=str(SHIPPED_GRID),
+    ev.add_argument("--grid", metavar="FILE", nargs="?", const=str(SHIPPED_GRID), type=_config_file,
                     help="run the comparison grid of FILE (without FILE: the committed configs/eval/grid.yaml, shipped in the "
-                    "package as evaluation/grid.yaml): each cell's candidate vs the reference, "
+                    "package): each cell's candidate vs the reference, "
                     "ratios and collisions; JSON input of `petswarm report` (its heatmap)")
     ev.add_argument("--resume", action="store_true", help="with --grid: keep the finished cells of the --json file, run the rest")
     _add_env_config_options(ev)
@@ -221,18 +235,18 @@ def _env_config(args):
 
 
 def _run(args, argv: list[str]) -> int:
-    from evaluation.commands import run_command
+    from petswarm.evaluation.commands import run_command
 
     return run_command(_env_config(args), args.policy, args.episodes, args.seed, args.render, args.video, args.json, args.quiet,
                        args.pcap)
 
 
 def _train(args, argv: list[str]) -> int:
-    from training.train import train_command
+    from petswarm.training.train import train_command
 
     run, options = None, {}
     if args.backend == "rllib":
-        from training.rllib_backend import train_rllib
+        from petswarm.training.rllib_backend import train_rllib
 
         run, options = train_rllib, {"address": args.address}
     elif args.address:
@@ -242,7 +256,7 @@ def _train(args, argv: list[str]) -> int:
 
 
 def _eval(args, argv: list[str]) -> int:
-    from evaluation.commands import eval_command, grid_command
+    from petswarm.evaluation.commands import eval_command, grid_command
 
     if args.grid:
         extra = [flag for flag, on in (("--mix", args.mix), ("--scenarios", args.scenarios), ("--video-dir", args.video_dir),
@@ -257,13 +271,13 @@ def _eval(args, argv: list[str]) -> int:
 
 
 def _report(args, argv: list[str]) -> int:
-    from evaluation.commands import report_command
+    from petswarm.evaluation.commands import report_command
 
     return report_command(args.results, args.out, args.replays)
 
 
 def _bench(args, argv: list[str]) -> int:
-    from bench.run import bench_command
+    from petswarm.bench.run import bench_command
 
     check_output_path(args.json, "--json")
     check_output_path(args.md, "--md")
@@ -271,8 +285,8 @@ def _bench(args, argv: list[str]) -> int:
 
 
 def _reproduce(args, argv: list[str]) -> int:
-    from experiments.registry import EXPERIMENTS
-    from experiments.reproduce import reproduce
+    from petswarm.experiments.registry import EXPERIMENTS
+    from petswarm.experiments.reproduce import reproduce
 
     cfg = _env_config(args)
     check_output_path(args.json, "--json")

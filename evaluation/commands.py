@@ -1,5 +1,5 @@
 """The evaluation room's commands: ``petswarm run``, ``petswarm eval`` and ``petswarm report``
-(printing and writing; :mod:`cli.main` parses the arguments)."""
+(printing and writing; :mod:`petswarm.cli.main` parses the arguments)."""
 
 from __future__ import annotations
 
@@ -7,9 +7,9 @@ import os
 import sys
 from typing import Any
 
-from evaluation.evaluate import evaluate, format_table, parse_mix
-from evaluation.report import write_report
-from evaluation.runner import run
+from petswarm.evaluation.evaluate import evaluate, format_table, parse_mix
+from petswarm.evaluation.report import write_report
+from petswarm.evaluation.runner import run
 from petswarm_env.config import Config, ConfigError
 from petswarm_env.files import JsonLines, check_output_path, jsonl_path, write_json_atomic
 
@@ -118,9 +118,9 @@ def grid_command(cfg: Config, grid_path: str, policy: str | None, episodes: int 
                  json_out: str | None, resume: bool) -> int:
     """``petswarm eval --grid FILE``: validate the grid (every cell, before anything runs), run
     each cell's candidate team and its reference on the same seeds with a progress line per cell,
-    write the result after every cell (atomically) and print the summary (:mod:`evaluation.grid`)."""
-    from evaluation.grid import format_grid_summary, run_grid
-    from evaluation.grid_spec import load_grid
+    write the result after every cell (atomically) and print the summary (:mod:`petswarm.evaluation.grid`)."""
+    from petswarm.evaluation.grid import format_grid_summary, run_grid
+    from petswarm.evaluation.grid_spec import load_grid
 
     check_output_path(json_out, "--json")
     if resume and not json_out:
@@ -137,7 +137,7 @@ def grid_command(cfg: Config, grid_path: str, policy: str | None, episodes: int 
 
 def report_command(results: list[str], out: str, replays: str = "first") -> int:
     """``petswarm report``: one HTML page comparing the result files, with the episode replays
-    ``replays`` chooses (:mod:`evaluation.replay_viewer`)."""
+    ``replays`` chooses (:mod:`petswarm.evaluation.replay_viewer`)."""
     check_output_path(out, "--out")
     write_report(results, out, replays)
     print(f"wrote {out}")

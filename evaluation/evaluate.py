@@ -9,15 +9,15 @@ from typing import Any
 
 import numpy as np
 
-from baselines.policy import MixedPolicy, PolicySpec
-from baselines.registry import make_policy
-from evaluation.pcap import PcapRecorder
-from evaluation.replay import ReplayRecorder, replay_name
-from evaluation.runner import VideoRecorder, chain, run_episode, summarize
-from evaluation.stats import mean_ci95
+from petswarm.baselines.policy import MixedPolicy, PolicySpec
+from petswarm.baselines.registry import make_policy
+from petswarm.evaluation.pcap import PcapRecorder
+from petswarm.evaluation.replay import ReplayRecorder, replay_name
+from petswarm.evaluation.runner import VideoRecorder, chain, run_episode, summarize
+from petswarm.evaluation.stats import mean_ci95
 from petswarm_env.config import SCENARIOS, Config, ConfigError, flatten_dotted, load_config
 from petswarm_env.env import PetSwarmEnv
-from training.teacher import TEACHER_NAME, TeacherDriver
+from petswarm.training.teacher import TEACHER_NAME, TeacherDriver
 
 
 def parse_mix(items: list[str]) -> dict[str, str]:
@@ -39,7 +39,7 @@ def team_label(policy: str, mix: dict[str, str]) -> str:
 
 def _driver(env: PetSwarmEnv, name: str, spec: PolicySpec, seed: int):
     """A slave policy by name, or the privileged teacher (``privileged-teacher``: ground truth,
-    an evaluation ceiling only; :class:`training.teacher.TeacherDriver`)."""
+    an evaluation ceiling only; :class:`petswarm.training.teacher.TeacherDriver`)."""
     if name == TEACHER_NAME:
         return TeacherDriver(env)
     return make_policy(name, spec, seed)
@@ -70,8 +70,8 @@ def evaluate(
 ) -> dict[str, Any]:
     """Run ``episodes`` seeds on each scenario; the same seeds for every policy, so results pair up.
     With ``video_dir`` the first episode of each scenario is a GIF there; with ``pcap_dir`` and
-    ``replay_dir`` every episode's radio trace (:mod:`evaluation.pcap`) and replay
-    (:mod:`evaluation.replay`) are written there, named by label, scenario and seed, and the
+    ``replay_dir`` every episode's radio trace (:mod:`petswarm.evaluation.pcap`) and replay
+    (:mod:`petswarm.evaluation.replay`) are written there, named by label, scenario and seed, and the
     episode's ``"gif"``, ``"pcap"`` and ``"replay"`` give the paths. ``on_episode`` is called with
     each finished episode (``petswarm eval`` appends it to its JSON Lines file)."""
     mix = mix or {}

@@ -10,7 +10,7 @@
   is left; the world runs on without actions for the measurement): the largest;
 * ``arrival``: whether the arrival joined and when.
 
-    python -m evaluation.faults_figures [--seeds 0-4] [--scenarios dropout,master_loss,arrival] [--set KEY=VALUE ...] [--json out.json]
+    python -m petswarm.evaluation.faults_figures [--seeds 0-4] [--scenarios dropout,master_loss,arrival] [--set KEY=VALUE ...] [--json out.json]
 
 Prints one line per scenario and seed, then the medians.
 """
@@ -28,8 +28,8 @@ SETTLE_S = 10.0  # chosen: the refilled formation is judged from this long after
 
 
 def _run(scenario: str, seed: int, overrides: dict | None = None) -> dict:
-    from baselines.policy import PolicySpec
-    from baselines.registry import make_policy
+    from petswarm.baselines.policy import PolicySpec
+    from petswarm.baselines.registry import make_policy
 
     env = petswarm_env.parallel_env(**{"user.scenario": scenario, **(overrides or {})})
     obs, _ = env.reset(seed=seed)

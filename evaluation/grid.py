@@ -1,4 +1,4 @@
-"""Run the comparison grid (:mod:`evaluation.grid_spec`): every cell's candidate team and its
+"""Run the comparison grid (:mod:`petswarm.evaluation.grid_spec`): every cell's candidate team and its
 reference on the same seeds, the learned / scripted formation-RMSE ratio and both collision
 counts, written as JSON after every cell (atomically), so a killed run keeps its finished cells
 and ``--resume`` reuses them.
@@ -32,11 +32,11 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from baselines.policy import PolicySpec
-from evaluation.evaluate import make_team, team_label
-from evaluation.grid_spec import Cell, Grid
-from evaluation.runner import run_episode
-from evaluation.stats import as_number, mean_ci95
+from petswarm.baselines.policy import PolicySpec
+from petswarm.evaluation.evaluate import make_team, team_label
+from petswarm.evaluation.grid_spec import Cell, Grid
+from petswarm.evaluation.runner import run_episode
+from petswarm.evaluation.stats import as_number, mean_ci95
 from petswarm_env.config import Config, load_config
 from petswarm_env.env import PetSwarmEnv
 from petswarm_env.files import write_json_atomic
@@ -49,7 +49,7 @@ def policy_identity(name: str) -> str:
     resumed grid never reuses cells of another model."""
     path = None
     if name == "learned":
-        from baselines.learned import shipped_policy_path
+        from petswarm.baselines.learned import shipped_policy_path
 
         path = shipped_policy_path()
     elif name.endswith(".npz"):

@@ -1,6 +1,6 @@
 """The comparison grid in the HTML report (``petswarm report grid.json``): a heatmap of the
 candidate / reference formation-RMSE ratios with both collision counts, one row of panels per
-cell entry of the grid file, and the table of every cell (:mod:`evaluation.grid`'s result).
+cell entry of the grid file, and the table of every cell (:mod:`petswarm.evaluation.grid`'s result).
 
 How to read the heatmap: one square per cell, its colour the ratio on a log scale (green below
 1, the candidate better; red above; the colour bar marks the target), its text the ratio and
@@ -15,8 +15,8 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from evaluation.html import NA, escape, figure, new_figure, png_base64, table
-from evaluation.stats import as_number
+from petswarm.evaluation.html import NA, escape, figure, new_figure, png_base64, table
+from petswarm.evaluation.stats import as_number
 
 RATIO_RANGE = (0.25, 4.0)  # the colour scale's ends (ratios beyond are drawn at the end colour)
 

@@ -127,8 +127,8 @@ def _policy_of(word: str, grid: GridFile) -> str:
 
 
 def _check_policy(word: str, what: str) -> None:
-    from baselines.registry import POLICY_NAMES
-    from training.teacher import TEACHER_NAME
+    from petswarm.baselines.registry import POLICY_NAMES
+    from petswarm.training.teacher import TEACHER_NAME
 
     if word in ROLES or word in POLICY_NAMES or word == TEACHER_NAME:  # the teacher: a ceiling (docs/training.md)
         return

@@ -4,7 +4,7 @@
     petswarm eval --pcap-dir traces/              # one file per episode
 
 The file format is documented in ``docs/pcap.md`` (generated from this module's tables by
-``python -m evaluation.pcap --doc docs/pcap.md``). In short:
+``python -m petswarm.evaluation.pcap --doc docs/pcap.md``). In short:
 
 * **pcapng, one interface per robot** (``robot_0``, ``robot_1``, …; link type
   ``LINKTYPE_IEEE802_15_4_TAP`` = 283, nanosecond timestamps from the simulation clock). Each robot's
@@ -275,7 +275,7 @@ class PcapRecorder:
     """Records every frame of an env's radio medium from the next ``reset`` on (a
     :class:`~petswarm_env.comms.radio.RadioTrace`), and writes them as pcapng (:meth:`close`).
 
-    Use it like :class:`evaluation.runner.VideoRecorder`: build it before the episode's reset (it sets
+    Use it like :class:`petswarm.evaluation.runner.VideoRecorder`: build it before the episode's reset (it sets
     ``env.radio_trace``), call it after the reset and after every step (its first call marks the
     episode's start, where the episode summary's ``frames`` start counting), then :meth:`close`."""
 

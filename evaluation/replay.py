@@ -3,7 +3,7 @@
     petswarm eval --policy scripted --replay-dir replays/ --json scripted.json
     petswarm report scripted.json learned.json --out report.html     # embeds the viewer
 
-:class:`ReplayRecorder` is called like :class:`evaluation.runner.VideoRecorder` — after the reset
+:class:`ReplayRecorder` is called like :class:`petswarm.evaluation.runner.VideoRecorder` — after the reset
 and after every step — and reads the experimenter's view only: the world's truth (bodies), the
 experimenter's reference points, formation links and errors (:mod:`petswarm_env.metrics`), the
 middleware's states, the IR token holders, the arbiters' winners and the radio medium's trace
@@ -48,7 +48,7 @@ import re
 from pathlib import Path
 from typing import Any
 
-from evaluation.pcap import attach_trace, detach_trace
+from petswarm.evaluation.pcap import attach_trace, detach_trace
 from petswarm_env.files import write_text_atomic
 
 FORMAT, VERSION = "petswarm-replay", 1

@@ -25,8 +25,8 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-from evaluation.html import escape
-from evaluation.replay import load_replay
+from petswarm.evaluation.html import escape
+from petswarm.evaluation.replay import load_replay
 
 CSS = """
 div.rp{border:1px solid #ddd;padding:.5em;margin:.8em 0 1.6em;background:#fff}
@@ -100,7 +100,7 @@ def embed(data: dict[str, Any]) -> str:
 
 
 def viewer_js() -> str:
-    return resources.files("evaluation").joinpath("replay_viewer.js").read_text(encoding="utf-8")
+    return resources.files("petswarm.evaluation").joinpath("replay_viewer.js").read_text(encoding="utf-8")
 
 
 def _panel(key: tuple[str, int], items: list[tuple[str, Path]]) -> str:

@@ -8,7 +8,7 @@ The report holds a header (files, labels, config differences), a per-scenario ta
 formation RMSE (mean ± 95 % t-interval computed here from the episodes, ratio to the
 ``scripted`` label), error-over-time and trajectory plots (PNG, base64-embedded), collision,
 arbiter and communication tables, relative links to episode GIFs, and the episode replays
-(:mod:`evaluation.replay_viewer`). No external resources: the file opens from disk in any browser.
+(:mod:`petswarm.evaluation.replay_viewer`). No external resources: the file opens from disk in any browser.
 
 Older result files may lack fields; whatever is missing shows as "n/a".
 """
@@ -23,12 +23,12 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
-from evaluation.grid_report import grid_section, is_grid
-from evaluation.html import NA, escape, figure, now_stamp, page, table
-from evaluation.replay_viewer import replay_section
-from evaluation.report_plots import COLORS, plot_error_over_time, plot_rmse_bars, plot_trajectories, trace_matrix
-from evaluation.stats import as_number as _num
-from evaluation.stats import mean_ci95
+from petswarm.evaluation.grid_report import grid_section, is_grid
+from petswarm.evaluation.html import NA, escape, figure, now_stamp, page, table
+from petswarm.evaluation.replay_viewer import replay_section
+from petswarm.evaluation.report_plots import COLORS, plot_error_over_time, plot_rmse_bars, plot_trajectories, trace_matrix
+from petswarm.evaluation.stats import as_number as _num
+from petswarm.evaluation.stats import mean_ci95
 from petswarm_env.config import flatten_dotted
 from petswarm_env.files import write_text_atomic
 
@@ -447,7 +447,7 @@ def _render_html(results: list[_Result], out_path: str | os.PathLike, generated:
     grids = [r for r in results if is_grid(r.data)]
     evals = [r for r in results if not is_grid(r.data)]
     body = [_section_header(results, generated)]
-    if evals:  # the grid results hold no episodes: their section is the heatmap (evaluation.grid_report)
+    if evals:  # the grid results hold no episodes: their section is the heatmap (petswarm.evaluation.grid_report)
         body += [
             _section_rmse(evals, scenarios, colors),
             _section_error_time(evals, scenarios, colors),
@@ -463,7 +463,7 @@ def _render_html(results: list[_Result], out_path: str | os.PathLike, generated:
 def write_report(result_paths: list[str], out_path: str, replays: str = "first") -> None:
     """Write one self-contained HTML report comparing the results in ``result_paths`` to
     ``out_path`` (atomically), with the episode replays ``replays`` chooses
-    (:mod:`evaluation.replay_viewer`). Raises ``ValueError`` naming the file on a bad result file."""
+    (:mod:`petswarm.evaluation.replay_viewer`). Raises ``ValueError`` naming the file on a bad result file."""
     if not result_paths:
         raise ValueError("no result files given")
     results = [_Result(str(p), load_result(p)) for p in result_paths]

@@ -1,4 +1,4 @@
-"""The plots of the evaluation report (:mod:`evaluation.report`), each a base64 PNG or ``None``
+"""The plots of the evaluation report (:mod:`petswarm.evaluation.report`), each a base64 PNG or ``None``
 when the results hold nothing to draw: formation RMSE per scenario, formation error over time
 (mean and interquartile band), and trajectories (user, master, slaves)."""
 
@@ -7,8 +7,8 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from evaluation.html import NA, new_figure, png_base64
-from evaluation.stats import as_number
+from petswarm.evaluation.html import NA, new_figure, png_base64
+from petswarm.evaluation.stats import as_number
 
 COLORS = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf"]
 

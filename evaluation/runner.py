@@ -6,8 +6,8 @@ import math
 from collections.abc import Callable
 from typing import Any
 
-from baselines.policy import Policy, PolicySpec
-from baselines.registry import make_policy
+from petswarm.baselines.policy import Policy, PolicySpec
+from petswarm.baselines.registry import make_policy
 from petswarm_env import PetSwarmEnv
 from petswarm_env.config import Config
 from petswarm_env.files import raise_pending_signal
@@ -128,7 +128,7 @@ def run(
     pcap: str | None = None,
 ) -> dict[str, Any]:
     """Run ``episodes`` episodes (seeds ``seed, seed+1, …``); return the JSON-ready result. ``video``
-    (a GIF) and ``pcap`` (the radio trace, :mod:`evaluation.pcap`) record the first episode."""
+    (a GIF) and ``pcap`` (the radio trace, :mod:`petswarm.evaluation.pcap`) record the first episode."""
     base_seed = config.seed if seed is None else seed
     mode = "rgb_array" if video else render_mode
     env = PetSwarmEnv(config, render_mode=mode)
@@ -145,7 +145,7 @@ def run(
     results = []
     pcap_recorder = None
     if pcap:
-        from evaluation.pcap import PcapRecorder
+        from petswarm.evaluation.pcap import PcapRecorder
 
         pcap_recorder = PcapRecorder(env, pcap)
     try:

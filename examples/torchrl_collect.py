@@ -24,8 +24,8 @@ from tensordict.nn import TensorDictModule
 from torchrl.collectors import Collector
 from torchrl.envs import PettingZooWrapper
 
-from baselines.learned import observation_mapping, read_policy_file, shipped_policy_path
-from baselines.policy import PolicySpec
+from petswarm.baselines.learned import observation_mapping, read_policy_file, shipped_policy_path
+from petswarm.baselines.policy import PolicySpec
 from petswarm_env import petswarm_v0
 from petswarm_env.wrappers import FixedAgents
 
@@ -38,7 +38,7 @@ def make_env(max_cycles: int = 100, **overrides) -> PettingZooWrapper:
 
 class _Select(torch.nn.Module):
     """The env observation's columns the policy file was trained on, in its order
-    (baselines.learned.observation_mapping: fields matched by name and size)."""
+    (petswarm.baselines.learned.observation_mapping: fields matched by name and size)."""
 
     def __init__(self, index: np.ndarray):
         super().__init__()

@@ -2,7 +2,7 @@
 ``closest``, seed 003 Algorithm 1 (``ruta_centralized``) and Algorithm 2 (``ruta_decentralized``).
 
 Usage:
-    python -m experiments.assignment_compare [--seeds N] [--seed S] [--steps S] [--loss P]
+    python -m petswarm.experiments.assignment_compare [--seeds N] [--seed S] [--steps S] [--loss P]
                                              [--set KEY=VALUE ...] [--json OUT]
 
 For each strategy, ``--seeds`` episodes of the default scenario (seeds ``seed, seed+1, …``) with the
@@ -23,8 +23,8 @@ from typing import Any
 import numpy as np
 
 import petswarm_env
-from baselines.policy import PolicySpec
-from baselines.registry import make_policy
+from petswarm.baselines.policy import PolicySpec
+from petswarm.baselines.registry import make_policy
 from petswarm_env.config import ASSIGNMENTS, parse_override
 from petswarm_env.files import write_json_atomic
 from petswarm_env.middleware import messages as msg
@@ -92,7 +92,7 @@ def table(summary: dict[str, dict[str, float]]) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m experiments.assignment_compare", description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(prog="python -m petswarm.experiments.assignment_compare", description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=5)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--steps", type=int, default=600)

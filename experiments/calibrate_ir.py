@@ -1,7 +1,7 @@
 """Print the IR accuracy (seed 000 §4.3, Table 4) for the IR parameters in a YAML file, the fitted
 figures and the held-out ones apart.
 
-Usage: python -m experiments.calibrate_ir [CONFIG_YAML] [--seeds N] [--fit distance,direction]
+Usage: python -m petswarm.experiments.calibrate_ir [CONFIG_YAML] [--seeds N] [--fit distance,direction]
 (default CONFIG_YAML: the packaged default, petswarm_env/default.yaml = configs/default.yaml; any YAML
 with a top-level ``ir:`` section works).
 
@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from experiments import ir_accuracy as exp
+from petswarm.experiments import ir_accuracy as exp
 from petswarm_env.comms.ir import IRConfig
 from petswarm_env.config import default_config_path
 

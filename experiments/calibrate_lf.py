@@ -1,7 +1,7 @@
 """Fit the LF localisation (seed 002 §4.2, Table 3) on part of Table 3's figures and print paper vs
 simulation on the fitted figures and on the held-out ones.
 
-Usage: python -m experiments.calibrate_lf [CONFIG_YAML] [--fit distance,direction,y] [--seeds N] [--search [--refine-seeds M]] [--angles DEG ...]
+Usage: python -m petswarm.experiments.calibrate_lf [CONFIG_YAML] [--fit distance,direction,y] [--seeds N] [--search [--refine-seeds M]] [--angles DEG ...]
 (default CONFIG_YAML: the packaged default, petswarm_env/default.yaml = configs/default.yaml; any YAML
 with a top-level ``lf:`` section works).
 
@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from experiments.lf_accuracy import DIRECTION_GRIDS_DEG, EVAL_ANGLES_DEG, LF_FIT, PAPER_RMSE, PAPER_SAMPLES_PER_POINT, lf_accuracy_experiment
+from petswarm.experiments.lf_accuracy import DIRECTION_GRIDS_DEG, EVAL_ANGLES_DEG, LF_FIT, PAPER_RMSE, PAPER_SAMPLES_PER_POINT, lf_accuracy_experiment
 from petswarm_env.config import default_config_path
 from petswarm_env.wearables.lf import LFConfig
 

@@ -3,7 +3,7 @@ slave counts and print, for each candidate, paper vs simulation on the fitted co
 held-out ones.
 
 Usage:
-    python -m experiments.calibrate_organize [--fit 2,4] [--set KEY=V1,V2,... ...] [--trials N] [--seed S] [--config FILE]
+    python -m petswarm.experiments.calibrate_organize [--fit 2,4] [--set KEY=V1,V2,... ...] [--trials N] [--seed S] [--config FILE]
 
 ``--fit`` names the slave counts whose retry probabilities the fit may use (default
 ``organize_time.RETRY_FIT_COUNTS``, 2 and 4); the others (1, 3, 5) are held out: the candidate with
@@ -30,7 +30,7 @@ import time
 
 import yaml
 
-from experiments.organize_time import (
+from petswarm.experiments.organize_time import (
     PAPER_MIN_ORGANIZE_S,
     PAPER_RETRY_PCT,
     PAPER_SLAVE_COUNTS,

@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from experiments.results import RMSE_TOLERANCE_REL, Experiment, ExperimentResult, Progress, Row
+from petswarm.experiments.results import RMSE_TOLERANCE_REL, Experiment, ExperimentResult, Progress, Row
 from petswarm_env.config import Config
 from petswarm_env.config import IRConfig
 from petswarm_env.comms.ir import estimate, received_strengths
@@ -26,12 +26,12 @@ PAPER_DISTANCE_RMSE_CM = 7.898
 PAPER_DIRECTION_RMSE_DEG = 5.8  # Table 4; the running text says 6.52°
 
 # What was fitted: all nine ir.* values of default.yaml (receivers, strength, lobe, noise, saturation,
-# threshold, occlusion, range) to Table 4's two figures on this grid (python -m experiments.calibrate_ir).
+# threshold, occlusion, range) to Table 4's two figures on this grid (python -m petswarm.experiments.calibrate_ir).
 # The paper gives no other IR figure to hold out: Fig. 18–19 (the setup and the per-point positions)
 # are lost from the text, and its running text's 6.52° differs from Table 4's 5.8° (it is seed 002
 # Table 3's LF direction RMSE). So both rows are calibrated: they check that the fit still holds.
 IR_FIT = ("distance", "direction")
-IR_CALIBRATION = "all nine ir.* values to both figures (python -m experiments.calibrate_ir); nothing to hold out (Fig. 18-19 lost)"
+IR_CALIBRATION = "all nine ir.* values to both figures (python -m petswarm.experiments.calibrate_ir); nothing to hold out (Fig. 18-19 lost)"
 
 IR_QUICK_SAMPLES_PER_POINT = 100  # --quick: 100 samples a point instead of the paper's 300
 FIG19_SAMPLES_PER_POINT = 20  # estimated positions drawn in the Fig. 19 style plot

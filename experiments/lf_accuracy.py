@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from experiments.results import RMSE_TOLERANCE_REL, Experiment, ExperimentResult, Progress, Row
+from petswarm.experiments.results import RMSE_TOLERANCE_REL, Experiment, ExperimentResult, Progress, Row
 from petswarm_env.config import Config
 from petswarm_env.config import LFConfig
 from petswarm_env.sim.geometry import wrap_angle
@@ -27,7 +27,7 @@ PAPER_RMSE = {
     "rmse_distance_cm": 5.10,
     "rmse_direction_deg": 6.52,
 }
-# What was fitted to which figure of Table 3 (python -m experiments.calibrate_lf --search):
+# What was fitted to which figure of Table 3 (python -m petswarm.experiments.calibrate_lf --search):
 # * the LF noise (lf.noise_common_db, lf.noise_antenna_db, lf.rssi_step_db) to the distance and
 #   direction RMSEs, the two figures the text states ("5.10-cm RMSE and 6.52° RMSE");
 # * the test directions, unknown (Fig. 16 lost), to the Y RMSE, the one figure they move: uniform
@@ -39,7 +39,7 @@ DIRECTION_GRIDS_DEG = {n: np.linspace(-25.0, 25.0, n) for n in (3, 5, 11)}  # th
 EVAL_ANGLES_DEG = DIRECTION_GRIDS_DEG[3]
 LF_FIT = ("rmse_distance_cm", "rmse_direction_deg", "rmse_y_cm")
 LF_CALIBRATION = ("lf.noise_common_db, noise_antenna_db, rssi_step_db to distance and direction; the test directions (Fig. 16 "
-                  "lost: -25°, 0°, 25°, of uniform grids of 3, 5, 11) to Y; X held out (python -m experiments.calibrate_lf --search)")
+                  "lost: -25°, 0°, 25°, of uniform grids of 3, 5, 11) to Y; X held out (python -m petswarm.experiments.calibrate_lf --search)")
 
 
 def lf_accuracy_experiment(

@@ -1,6 +1,6 @@
 """Measure the smart belt (seed 002 §3.4, Table 2) and the smart watch (Table 1) with the default config.
 
-Usage: python -m experiments.measure_wearables [--trials N] [--seed S]
+Usage: python -m petswarm.experiments.measure_wearables [--trials N] [--seed S]
 
 Prints: the belt's steady-state activity recognition per activity, its transition latencies, the
 rotation-flag latency distribution (input to the reaction-time experiment of seed 000 §4.4), the

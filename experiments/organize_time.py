@@ -1,6 +1,6 @@
 """``organize_time``: the time to organize the swarm network and the retry probability against
 the number of slaves (seed 000 §4.5, Fig. 22, Table 5), through ``PetSwarmEnv.reset``, which runs
-the join protocol on the 802.15.4 medium. ``python -m experiments.calibrate_organize`` sweeps the
+the join protocol on the 802.15.4 medium. ``python -m petswarm.experiments.calibrate_organize`` sweeps the
 radio parameters behind the retries with the same trials.
 """
 
@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 import petswarm_env
-from experiments.results import Experiment, ExperimentResult, Progress, Row
+from petswarm.experiments.results import Experiment, ExperimentResult, Progress, Row
 from petswarm_env.config import Config
 
 MIN_ORGANIZE_TOLERANCE_S = 0.1  # issue 4: minimum organize time within ±0.1 s at each slave count
@@ -31,13 +31,13 @@ PAPER_RETRY_PCT = {1: 0.0, 2: 6.0, 3: 30.0, 4: 67.0, 5: 80.0}  # Table 5
 PAPER_MIN_ORGANIZE_S = {1: 0.6, 5: 0.8}
 # What was fitted to which figure. Table 5: radio.processing_jitter_s (the one free parameter of the
 # collisions behind the retries) is fitted on RETRY_FIT_COUNTS only (python -m
-# experiments.calibrate_organize --fit 2,4); 1, 3 and 5 slaves are held out: 3 between the fitted
+# petswarm.experiments.calibrate_organize --fit 2,4); 1, 3 and 5 slaves are held out: 3 between the fitted
 # counts, 5 beyond them, 1 (nothing to collide with) the model's structure. Fig. 22's end points:
 # protocol.scan_window_s (0.5 s, most of the 0.6 s with one slave) and radio.processing_s (0.02 s,
 # each slave adds a notify/ack round trip of about twice it: 0.6 -> 0.8 s) were set against them;
 # that the minimum rises at 2-4 slaves is predicted (validated).
 RETRY_FIT_COUNTS = (2, 4)
-ORGANIZE_CALIBRATION = ("radio.processing_jitter_s to the retries at {fit} slaves (python -m experiments.calibrate_organize --fit "
+ORGANIZE_CALIBRATION = ("radio.processing_jitter_s to the retries at {fit} slaves (python -m petswarm.experiments.calibrate_organize --fit "
                         "{fit_arg}); protocol.scan_window_s, radio.processing_s to Fig. 22's 0.6 / 0.8 s at 1 / 5 "
                         "slaves")
 # Setup of the organize experiment: every waiting robot must be able to join (seed 000 Table 1),

@@ -2,7 +2,7 @@
 retries, the organize time and the token recoveries against ``radio.loss_prob``.
 
 Usage:
-    python -m experiments.organize_under_loss [--resets N] [--steps S] [--loss P1,P2,...] [--seed S]
+    python -m petswarm.experiments.organize_under_loss [--resets N] [--steps S] [--loss P1,P2,...] [--seed S]
                                               [--set KEY=VALUE ...] [--json OUT]
 
 For each loss probability, ``--resets`` resets of the default scenario (seeds ``seed, seed+1, …``)
@@ -26,8 +26,8 @@ from typing import Any
 import numpy as np
 
 import petswarm_env
-from baselines.policy import PolicySpec
-from baselines.registry import make_policy
+from petswarm.baselines.policy import PolicySpec
+from petswarm.baselines.registry import make_policy
 from petswarm_env.config import load_config, parse_override
 from petswarm_env.files import write_json_atomic
 

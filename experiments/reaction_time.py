@@ -12,8 +12,8 @@ import math
 import numpy as np
 
 import petswarm_env
-from experiments.results import Experiment, ExperimentResult, Progress, Row
-from experiments.user_loop import SETTLE_S, scripted_policy, step, turn_on_the_spot
+from petswarm.experiments.results import Experiment, ExperimentResult, Progress, Row
+from petswarm.experiments.user_loop import SETTLE_S, scripted_policy, step, turn_on_the_spot
 from petswarm_env.config import Config
 
 MOTION_SPEED_MPS = 0.08  # a robot "starts moving" when its speed changes by more than this ...

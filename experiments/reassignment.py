@@ -25,7 +25,7 @@ tens of milliseconds, and our time to reassign is mostly the token ring's detect
 
 ``petswarm reproduce --only reassignment`` runs it (experiments/registry.py).
 
-Standalone: ``python -m experiments.reassignment [--quick] [--seed S] [--json OUT]``.
+Standalone: ``python -m petswarm.experiments.reassignment [--quick] [--seed S] [--json OUT]``.
 """
 
 from __future__ import annotations
@@ -37,10 +37,10 @@ from typing import Any
 import numpy as np
 
 import petswarm_env
-from baselines.policy import PolicySpec
-from baselines.registry import make_policy
-from experiments.assignment_compare import ORGANIZE_KINDS
-from experiments.results import Experiment, ExperimentResult, Progress, Row
+from petswarm.baselines.policy import PolicySpec
+from petswarm.baselines.registry import make_policy
+from petswarm.experiments.assignment_compare import ORGANIZE_KINDS
+from petswarm.experiments.results import Experiment, ExperimentResult, Progress, Row
 from petswarm_env.config import Config
 from petswarm_env.middleware import messages as msg
 
@@ -167,7 +167,7 @@ def main(argv: list[str] | None = None) -> int:
     from petswarm_env.config import load_config
     from petswarm_env.files import write_json_atomic
 
-    ap = argparse.ArgumentParser(prog="python -m experiments.reassignment", description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(prog="python -m petswarm.experiments.reassignment", description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--json", metavar="OUT")

@@ -1,18 +1,18 @@
 """After a change of behaviour (another branch merged): re-fit what the env's behaviour moves, re-run
 the papers' experiments and print the README's reproduce table.
 
-Usage: python -m experiments.refit [--skip-fit] [--trials N] [--json reproduce.json] [--report reproduce.html]
+Usage: python -m petswarm.experiments.refit [--skip-fit] [--trials N] [--json reproduce.json] [--report reproduce.html]
 
 1. **Fit** (unless ``--skip-fit``): the one calibration that the swarm's behaviour feeds,
-   ``radio.processing_jitter_s`` on Table 5's fit counts (:data:`~experiments.organize_time.RETRY_FIT_COUNTS`),
+   ``radio.processing_jitter_s`` on Table 5's fit counts (:data:`~petswarm.experiments.organize_time.RETRY_FIT_COUNTS`),
    swept around the current value with ``--trials`` organizations a count, exactly as
-   ``python -m experiments.calibrate_organize`` does (fit vs held out per candidate). When the best
+   ``python -m petswarm.experiments.calibrate_organize`` does (fit vs held out per candidate). When the best
    candidate is not the current value, it says so and stops: set the value in
    ``petswarm_env/default.yaml`` and ``configs/default.yaml``, regenerate the golden episodes
    (``python -m tests.golden.episodes --regenerate``, saying why in the commit) and run this again
    with ``--skip-fit``. The IR and LF fits read only the sensor models (``comms/ir.py``,
    ``wearables/lf.py``) on fixed grids, so a change elsewhere leaves them as they are; after a change
-   there, run ``python -m experiments.calibrate_ir`` / ``calibrate_lf --search``.
+   there, run ``python -m petswarm.experiments.calibrate_ir`` / ``calibrate_lf --search``.
 2. **Reproduce**: every experiment of the registry, the full run (``petswarm reproduce``), with the
    JSON and the HTML page written.
 3. **The README table**: the markdown of *The papers' measurements* with the basis column.
@@ -24,10 +24,10 @@ from __future__ import annotations
 
 import argparse
 
-from experiments.calibrate_organize import sweep
-from experiments.organize_time import RETRY_FIT_COUNTS
-from experiments.registry import EXPERIMENTS
-from experiments.reproduce import markdown_table, reproduce_results
+from petswarm.experiments.calibrate_organize import sweep
+from petswarm.experiments.organize_time import RETRY_FIT_COUNTS
+from petswarm.experiments.registry import EXPERIMENTS
+from petswarm.experiments.reproduce import markdown_table, reproduce_results
 from petswarm_env.config import load_config
 
 JITTER_STEPS = (-0.001, -0.0005, 0.0, 0.0005, 0.001)  # the sweep around the current radio.processing_jitter_s (s)
@@ -35,7 +35,7 @@ JITTER_STEPS = (-0.001, -0.0005, 0.0, 0.0005, 0.001)  # the sweep around the cur
 
 def refit_jitter(trials: int) -> tuple[float, float]:
     """(current, best on the fit counts) of ``radio.processing_jitter_s``, swept around the current
-    value by :func:`experiments.calibrate_organize.sweep` (which prints every candidate)."""
+    value by :func:`petswarm.experiments.calibrate_organize.sweep` (which prints every candidate)."""
     current = load_config().radio.processing_jitter_s
     values = [round(current + step, 6) for step in JITTER_STEPS]
     best = sweep({"radio.processing_jitter_s": values}, RETRY_FIT_COUNTS, trials)
@@ -57,7 +57,7 @@ def main() -> int:
             return 1
         print(f"the fit holds: radio.processing_jitter_s = {current} is still the best on the fit counts")
     cfg = load_config()
-    results = reproduce_results(cfg, list(EXPERIMENTS), cfg.seed, False, args.json, args.report, "python -m experiments.refit")
+    results = reproduce_results(cfg, list(EXPERIMENTS), cfg.seed, False, args.json, args.report, "python -m petswarm.experiments.refit")
     print("\nREADME, 'The papers' measurements':\n")
     print(markdown_table(results))
     return 0

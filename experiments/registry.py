@@ -1,17 +1,17 @@
 """The papers' experiments that ``petswarm reproduce`` runs (SPEC §3.7), in the order of the
 issue (names are part of the interface, issue 4):
 
-* ``ir_accuracy``   seed 000 §4.3, Fig. 18–19, Table 4 (:mod:`experiments.ir_accuracy`)
-* ``reaction_time`` seed 000 §4.4, Fig. 20–21 (:mod:`experiments.reaction_time`)
-* ``organize_time`` seed 000 §4.5, Fig. 22, Table 5 (:mod:`experiments.organize_time`)
-* ``lf_accuracy``   seed 002 §4.2, Table 3 (:mod:`experiments.lf_accuracy`)
-* ``rotation_sync`` seed 002 §4.3, Table 4 (:mod:`experiments.rotation_sync`)
-* ``sensor_mapping`` seed 001 §VI.A, Tables III–V (:mod:`experiments.sensor_mapping`)
-* ``ruta_example``  seed 003 §5.2.1 (:mod:`experiments.ruta_example`)
+* ``ir_accuracy``   seed 000 §4.3, Fig. 18–19, Table 4 (:mod:`petswarm.experiments.ir_accuracy`)
+* ``reaction_time`` seed 000 §4.4, Fig. 20–21 (:mod:`petswarm.experiments.reaction_time`)
+* ``organize_time`` seed 000 §4.5, Fig. 22, Table 5 (:mod:`petswarm.experiments.organize_time`)
+* ``lf_accuracy``   seed 002 §4.2, Table 3 (:mod:`petswarm.experiments.lf_accuracy`)
+* ``rotation_sync`` seed 002 §4.3, Table 4 (:mod:`petswarm.experiments.rotation_sync`)
+* ``sensor_mapping`` seed 001 §VI.A, Tables III–V (:mod:`petswarm.experiments.sensor_mapping`)
+* ``ruta_example``  seed 003 §5.2.1 (:mod:`petswarm.experiments.ruta_example`)
 
 Each runs one of the papers' own evaluations through the code the environment uses and returns
 rows of *paper figure vs simulated figure* with the issue's tolerance and the row's basis
-(``calibrated`` or ``validated``, :mod:`experiments.results`).
+(``calibrated`` or ``validated``, :mod:`petswarm.experiments.results`).
 No experiment computes its answer from a formula of the result.
 
     results = run_experiments(["ir_accuracy", "organize_time"], load_config(), seed=0, quick=False)
@@ -19,7 +19,7 @@ No experiment computes its answer from a formula of the result.
     ok = check_passed(results)
     basis_summary(results)              # {"validated": {"rows": n, "ok": k}, "calibrated": ..., ...}
 
-A new experiment is a module with an ``EXPERIMENT`` (:class:`~experiments.results.Experiment`)
+A new experiment is a module with an ``EXPERIMENT`` (:class:`~petswarm.experiments.results.Experiment`)
 added to :data:`EXPERIMENTS` below.
 """
 
@@ -29,9 +29,9 @@ import time
 from collections.abc import Callable, Iterable
 from typing import Any
 
-from experiments import ir_accuracy, lf_accuracy, organize_time, reaction_time, rotation_sync
-from experiments import reassignment, ruta_example, sensor_mapping
-from experiments.results import BASES, Experiment, ExperimentResult, NotAvailable, Progress
+from petswarm.experiments import ir_accuracy, lf_accuracy, organize_time, reaction_time, rotation_sync
+from petswarm.experiments import reassignment, ruta_example, sensor_mapping
+from petswarm.experiments.results import BASES, Experiment, ExperimentResult, NotAvailable, Progress
 from petswarm_env.config import Config
 from petswarm_env.files import jsonable
 
@@ -91,7 +91,7 @@ def check_passed(results: dict[str, ExperimentResult]) -> bool:
 
 def basis_summary(results: dict[str, ExperimentResult]) -> dict[str, dict[str, int]]:
     """Rows within tolerance per basis: ``{basis: {"rows": n, "ok": k}}`` for every basis of
-    :data:`~experiments.results.BASES` (validated rows are the ones that confirm the simulation)."""
+    :data:`~petswarm.experiments.results.BASES` (validated rows are the ones that confirm the simulation)."""
     out = {b: {"rows": 0, "ok": 0} for b in BASES}
     for res in results.values():
         for row in res.rows:

@@ -12,9 +12,9 @@ from __future__ import annotations
 
 import math
 
-from evaluation.html import escape, figure, new_figure, now_stamp, page, png_base64, table
-from experiments.registry import basis_summary, check_passed
-from experiments.results import ExperimentResult, format_figure
+from petswarm.evaluation.html import escape, figure, new_figure, now_stamp, page, png_base64, table
+from petswarm.experiments.registry import basis_summary, check_passed
+from petswarm.experiments.results import ExperimentResult, format_figure
 from petswarm_env.files import write_text_atomic
 
 _PAPER_COLOR = "#7f7f7f"

@@ -12,8 +12,8 @@ import time
 from collections.abc import Callable, Iterable
 from typing import Any
 
-from experiments.registry import EXPERIMENTS, basis_summary, check_passed, results_json, run_experiments
-from experiments.results import ExperimentResult, Progress, format_figure
+from petswarm.experiments.registry import EXPERIMENTS, basis_summary, check_passed, results_json, run_experiments
+from petswarm.experiments.results import ExperimentResult, Progress, format_figure
 from petswarm_env.config import Config
 from petswarm_env.files import write_json_atomic
 
@@ -41,7 +41,7 @@ def reproduce_results(cfg: Config, names: list[str], seed: int, quick: bool, jso
         write_json_atomic(json_out, results_json(results, seed, quick))
         print(f"wrote {json_out}")
     if report_out:
-        from experiments.report import write_reproduce_report
+        from petswarm.experiments.report import write_reproduce_report
 
         write_reproduce_report(results, report_out, command)
         print(f"wrote {report_out}")

@@ -11,8 +11,8 @@ import math
 import numpy as np
 
 import petswarm_env
-from experiments.results import Experiment, ExperimentResult, Progress, Row
-from experiments.user_loop import SETTLE_S, TURN_RATE_DPS, scripted_policy, step, turn_on_the_spot
+from petswarm.experiments.results import Experiment, ExperimentResult, Progress, Row
+from petswarm.experiments.user_loop import SETTLE_S, TURN_RATE_DPS, scripted_policy, step, turn_on_the_spot
 from petswarm_env.config import Config
 
 # seed 002 Table 4: target (°) -> the robot's mean arc (°), its σ (°) and the accuracy (%)

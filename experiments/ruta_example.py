@@ -22,7 +22,7 @@ has one (the priority and the distance term are computed).
 
 from __future__ import annotations
 
-from experiments.results import Experiment, ExperimentResult, Progress, Row
+from petswarm.experiments.results import Experiment, ExperimentResult, Progress, Row
 from petswarm_env.config import Config
 from petswarm_env.middleware import ruta
 

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import math
 
-from experiments.results import Experiment, ExperimentResult, Progress, Row
+from petswarm.experiments.results import Experiment, ExperimentResult, Progress, Row
 from petswarm_env.config import Config
 from petswarm_env.mapping import MYBOT, RITY, TABLE_V, SensorRow, seed001_sensor_mapper
 

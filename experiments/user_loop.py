@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import math
 
-from baselines.policy import PolicySpec
-from baselines.registry import make_policy
+from petswarm.baselines.policy import PolicySpec
+from petswarm.baselines.registry import make_policy
 from petswarm_env.scenarios import ScenarioScript, Segment
 
 TURN_RATE_DPS = 60.0  # seed 002 §4.3: "the angular speed is fixed" (value not given); our user's turn rate

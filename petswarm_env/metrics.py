@@ -219,7 +219,7 @@ class Experimenter:
         """How many of ``agents`` have no IR fix of any reference neighbour younger than the
         observation's age range (``observe.AGE_SCALE_S``; none yet counts from the episode's start):
         a slave that cannot know where its neighbours are (the scripted one then only moves with the
-        swarm, :mod:`baselines.leader_follower`)."""
+        swarm, :mod:`petswarm.baselines.leader_follower`)."""
         now, nodes, stale = self.world.now, self.fleet.nodes, 0
         oldest = now - AGE_SCALE_S
         for agent in agents:

@@ -10,14 +10,14 @@ from typing import Any
 
 from stable_baselines3.common.callbacks import BaseCallback
 
-from baselines.policy import PolicySpec
-from evaluation.evaluate import mean_formation_rmse
+from petswarm.baselines.policy import PolicySpec
+from petswarm.evaluation.evaluate import mean_formation_rmse
 from petswarm_env.env import PetSwarmEnv
 from petswarm_env.files import write_json_atomic
 from petswarm_env.observe import ObservationLayout
-from training.checkpoint import checkpoint_path, save_checkpoint
-from training.config import TrainConfig
-from training.export import export_policy, learned_policy
+from petswarm.training.checkpoint import checkpoint_path, save_checkpoint
+from petswarm.training.config import TrainConfig
+from petswarm.training.export import export_policy, learned_policy
 
 
 def public_log(log: dict[str, Any]) -> dict[str, Any]:

@@ -1,14 +1,14 @@
 """Is a retrained policy better? ``petswarm eval`` over a grid of settings, for several policies on
-the same seeds, as one table (``python -m training.compare``).
+the same seeds, as one table (``python -m petswarm.training.compare``).
 
 Each cell is the default env config with a few dotted overrides (a formation, a driving mode, a
-slave count, a loss, two users); every policy runs :func:`evaluation.evaluate.evaluate` on the
+slave count, a loss, two users); every policy runs :func:`petswarm.evaluation.evaluate.evaluate` on the
 cell's scenarios with the same seeds (pick seeds training never used: training draws its episode
 seeds from ``seed + copy`` and a stream of 31-bit integers, the periodic evaluation uses 1000 +).
 The table gives each policy's mean formation RMSE per cell, its ratio to the first policy
 (``scripted``), and its collisions; ``--json`` keeps every cell's figures.
 
-    python -m training.compare --policies scripted,learned,runs/mappo/policy.npz --seed 5000 --episodes 2
+    python -m petswarm.training.compare --policies scripted,learned,runs/mappo/policy.npz --seed 5000 --episodes 2
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from evaluation.evaluate import evaluate
+from petswarm.evaluation.evaluate import evaluate
 from petswarm_env.config import load_config
 from petswarm_env.files import write_json_atomic
 
@@ -102,7 +102,7 @@ def read_json(path: str) -> dict[str, Any]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m training.compare", description=__doc__.split("\n\n")[0])
+    ap = argparse.ArgumentParser(prog="python -m petswarm.training.compare", description=__doc__.split("\n\n")[0])
     ap.add_argument("--policies", default="scripted,learned", help="comma-separated: scripted, learned, a policy.npz path")
     ap.add_argument("--scenarios", default="zigzag,u_turn", help="comma-separated scenarios of every cell")
     ap.add_argument("--episodes", type=int, default=2, help="seeds per scenario and cell")

@@ -1,6 +1,6 @@
 """The training configuration: every hyper-parameter of a run, validated (pydantic).
 
-The defaults are ``configs/train/ppo.yaml``, shipped in the package as ``training/ppo.yaml``
+The defaults are ``configs/train/ppo.yaml``, shipped in the package (``petswarm.shipped_configs()``)
 (the two files are equal, a test checks it); ``load_train_config`` merges a user file and dotted
 overrides over them. Keys under ``env.`` are overrides of the environment config
 (``configs/default.yaml``) and are validated against it too.
@@ -9,7 +9,6 @@ overrides over them. Keys under ``env.`` are overrides of the environment config
 from __future__ import annotations
 
 import os
-from importlib import resources
 from pathlib import Path
 from typing import Any, Literal
 
@@ -26,10 +25,11 @@ from petswarm_env.config import (
     nest_dotted,
     read_yaml,
 )
-from baselines.learned import Residual
-from training.randomize import check_pools, draw_config
+from petswarm import shipped_configs
+from petswarm.baselines.learned import Residual
+from petswarm.training.randomize import check_pools, draw_config
 
-DEFAULT_TRAIN_CONFIG = Path(str(resources.files("training") / "ppo.yaml"))
+DEFAULT_TRAIN_CONFIG = shipped_configs() / "train" / "ppo.yaml"
 
 
 class PPOConfig(Section):
@@ -103,7 +103,7 @@ class TrainConfig(Section):
     residual_scale: float = Field(1.0, gt=0, le=1, description="with residual_of: the correction's bound in action units")
 
     def residual(self) -> Residual | None:
-        """The residual the policy learns (:class:`baselines.learned.Residual`), or None."""
+        """The residual the policy learns (:class:`petswarm.baselines.learned.Residual`), or None."""
         return Residual(self.residual_of, self.residual_scale) if self.residual_of else None
 
     def env_config(self) -> Config:
@@ -120,7 +120,7 @@ class TrainConfig(Section):
 
     def eval_episodes(self) -> list[tuple[Config, int]]:
         """(config, seed) of each periodic evaluation episode: with pools, the config drawn with
-        that seed (:func:`training.randomize.draw_config`), ``eval.max_cycles`` long."""
+        that seed (:func:`petswarm.training.randomize.draw_config`), ``eval.max_cycles`` long."""
         env = {**self.env, "max_cycles": self.eval.max_cycles}
         return [(draw_config(env, self.randomize, s), s) for s in self.eval_seeds()]
 

@@ -1,6 +1,6 @@
-"""From a trained actor to petswarm's weights-only policy (:mod:`baselines.learned`): the actor
+"""From a trained actor to petswarm's weights-only policy (:mod:`petswarm.baselines.learned`): the actor
 network's layers of an SB3 PPO model (:func:`actor_layers`) or of an RLlib PPO module's state
-(:func:`rllib_actor_layers`), as a :class:`~baselines.learned.LearnedPolicy` or a saved ``.npz`` file."""
+(:func:`rllib_actor_layers`), as a :class:`~petswarm.baselines.learned.LearnedPolicy` or a saved ``.npz`` file."""
 
 from __future__ import annotations
 
@@ -9,8 +9,8 @@ import os
 import numpy as np
 import torch
 
-from baselines.learned import LearnedPolicy, Residual, save_policy
-from baselines.policy import PolicySpec
+from petswarm.baselines.learned import LearnedPolicy, Residual, save_policy
+from petswarm.baselines.policy import PolicySpec
 from petswarm_env.observe import ObservationLayout
 
 

@@ -253,7 +253,7 @@ class RandomizedEnv(ParallelEnv):
 class WithState(ParallelEnv):
     """Every agent's observation followed by the global state (``state()``): the input of a
     centralized critic (MAPPO's agent-specific global state). The actor reads only the first
-    ``obs_size`` values (:class:`training.state_critic.StateCriticPolicy`)."""
+    ``obs_size`` values (:class:`petswarm.training.state_critic.StateCriticPolicy`)."""
 
     def __init__(self, env):
         self.env = env

@@ -2,12 +2,12 @@
 
 With ``residual_of: scripted`` in the training config, PPO's action for a robot is not the robot's
 command but a correction: :class:`ResidualActions` sends ``clip(scripted(obs) + s · clip(a, -1,
-1), -1, 1)`` to the env (``s`` = ``residual_scale``, :class:`baselines.learned.Residual`), where
+1), -1, 1)`` to the env (``s`` = ``residual_scale``, :class:`petswarm.baselines.learned.Residual`), where
 ``obs`` is the observation the robot received with the last reset or step (the one the network
 read to choose ``a``) and ``scripted`` the leader–follower reference
-(:class:`baselines.leader_follower.LeaderFollowerPolicy`, a function of the observation alone).
+(:class:`petswarm.baselines.leader_follower.LeaderFollowerPolicy`, a function of the observation alone).
 The exported file says ``residual_of: scripted`` and ``residual_scale: s``, and
-:class:`baselines.learned.LearnedPolicy` adds the same reference at run time, so training and
+:class:`petswarm.baselines.learned.LearnedPolicy` adds the same reference at run time, so training and
 evaluation act alike. A bound below the reference's recovery speeds (its rejoin and search speeds,
 0.5 m/s = 0.33 of the petbot's 1.5 m/s) keeps a correction from overpowering the reference's way
 back to a swarm it lost (configs/train/residual.yaml).
@@ -26,8 +26,8 @@ import numpy as np
 import torch
 from pettingzoo.utils.wrappers import BaseParallelWrapper
 
-from baselines.learned import Residual
-from baselines.policy import PolicySpec
+from petswarm.baselines.learned import Residual
+from petswarm.baselines.policy import PolicySpec
 
 
 def _episode_env(env):

@@ -2,11 +2,11 @@
 
 RLlib 2.60's new API stack (RLModule, Learner, EnvRunner): PPO, one policy ``shared`` that every
 robot maps to, over :class:`petswarm_env.wrappers.FixedAgents` in RLlib's
-``ParallelPettingZooEnv``. The same training YAML as the SB3 back end (:mod:`training.train`):
+``ParallelPettingZooEnv``. The same training YAML as the SB3 back end (:mod:`petswarm.training.train`):
 ``ppo:`` maps onto RLlib's PPO (learning rate, γ, λ, clip, entropy and value coefficients, gradient
 clip, epochs, minibatch, the actor/critic layers and activation, the initial log σ), a rollout is
 ``ppo.n_steps × num_envs`` env steps, ``pretrain:`` warm-starts the module's actor and critic
-(:func:`training.warm_start.fit_actor_critic`), ``eval:`` and ``checkpoint:`` schedule the same
+(:func:`petswarm.training.warm_start.fit_actor_critic`), ``eval:`` and ``checkpoint:`` schedule the same
 evaluations and checkpoints, ``rllib:`` sets the env runners. The run folder is the SB3 one's::
 
     train_config.yaml, env_config.yaml, train_log.json, tb/rllib/ (TensorBoard),
@@ -14,9 +14,9 @@ evaluations and checkpoints, ``rllib:`` sets the env runners. The run folder is 
 
 The checkpoint is training/checkpoint.py's file, weights only: the module's arrays (actor, critic
 and heads, ``get_state()``) as ``policy:<name>`` and the JSON state record with ``backend:
-rllib``, read as numbers only (:func:`training.checkpoint.restore_weights`); RLlib's own
+rllib``, read as numbers only (:func:`petswarm.training.checkpoint.restore_weights`); RLlib's own
 checkpoints (which unpickle ``class_and_ctor_args.pkl``) are not written. ``--resume`` follows the
-SB3 back end's rules (:func:`training.train.open_run`: the run's own config, only the resumable
+SB3 back end's rules (:func:`petswarm.training.train.open_run`: the run's own config, only the resumable
 keys changed, a finished run writes nothing) and reloads the weights; the optimizer's moments
 start afresh.
 
@@ -47,20 +47,20 @@ from ray.rllib.core.rl_module.rl_module import RLModuleSpec  # noqa: E402
 from ray.rllib.env.wrappers.pettingzoo_env import ParallelPettingZooEnv  # noqa: E402
 from ray.tune.registry import register_env  # noqa: E402
 
-from baselines.learned import LearnedPolicy, save_policy  # noqa: E402
-from baselines.policy import PolicySpec  # noqa: E402
-from baselines.registry import make_policy  # noqa: E402
-from evaluation.evaluate import mean_formation_rmse  # noqa: E402
+from petswarm.baselines.learned import LearnedPolicy, save_policy  # noqa: E402
+from petswarm.baselines.policy import PolicySpec  # noqa: E402
+from petswarm.baselines.registry import make_policy  # noqa: E402
+from petswarm.evaluation.evaluate import mean_formation_rmse  # noqa: E402
 from petswarm_env.config import ConfigError, flatten_dotted, load_config  # noqa: E402
 from petswarm_env.env import PetSwarmEnv  # noqa: E402
 from petswarm_env.files import write_json_atomic  # noqa: E402
 from petswarm_env.wrappers import FixedAgents  # noqa: E402
-from training.callbacks import policy_info, public_log  # noqa: E402
-from training.checkpoint import checkpoint_path, restore_weights, save_weights_checkpoint  # noqa: E402
-from training.config import TrainConfig  # noqa: E402
-from training.export import rllib_actor_layers  # noqa: E402
-from training.train import begin_run, write_run_configs  # noqa: E402
-from training.warm_start import fit_actor_critic  # noqa: E402
+from petswarm.training.callbacks import policy_info, public_log  # noqa: E402
+from petswarm.training.checkpoint import checkpoint_path, restore_weights, save_weights_checkpoint  # noqa: E402
+from petswarm.training.config import TrainConfig  # noqa: E402
+from petswarm.training.export import rllib_actor_layers  # noqa: E402
+from petswarm.training.train import begin_run, write_run_configs  # noqa: E402
+from petswarm.training.warm_start import fit_actor_critic  # noqa: E402
 
 ALGORITHM = "PPO (Ray RLlib, new API stack)"
 _PACKAGES = ("petswarm_env", "baselines", "training", "evaluation")  # what a cluster's workers import
@@ -194,7 +194,7 @@ def restore_module(algo, out: Path) -> None:
 
 class Progress:
     """The run's bookkeeping between iterations: agent-steps, TensorBoard, the evaluation and
-    checkpoint schedule (as the SB3 back end's :class:`training.callbacks.PeriodicCallback`)."""
+    checkpoint schedule (as the SB3 back end's :class:`petswarm.training.callbacks.PeriodicCallback`)."""
 
     def __init__(self, cfg: TrainConfig, out: Path, log: dict[str, Any], spec: PolicySpec):
         from torch.utils.tensorboard import SummaryWriter

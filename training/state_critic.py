@@ -1,12 +1,12 @@
 """A centralized critic for SB3's PPO (MAPPO, ``ppo.critic: state``): the critic reads the agent's
 observation and the global state, the actor only the observation.
 
-The vector env's rows are ``[observation, state]`` (:class:`training.randomize.WithState` before
+The vector env's rows are ``[observation, state]`` (:class:`petswarm.training.randomize.WithState` before
 SuperSuit's vectorization); :class:`StateCriticPolicy` is SB3's ``ActorCriticPolicy`` whose
 extractor feeds the first ``obs_size`` values to the actor MLP and the whole row to the critic
 MLP. The actor's layers (``mlp_extractor.policy_net`` and ``action_net``) are exactly those of an
-``MlpPolicy`` on the observation, so :func:`training.export.actor_layers` exports the actor alone
-and ``policy.npz`` is read by :mod:`baselines.learned` as any other policy (the critic is not in it).
+``MlpPolicy`` on the observation, so :func:`petswarm.training.export.actor_layers` exports the actor alone
+and ``policy.npz`` is read by :mod:`petswarm.baselines.learned` as any other policy (the critic is not in it).
 """
 
 from __future__ import annotations

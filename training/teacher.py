@@ -3,11 +3,11 @@
 Learning by a privileged teacher (teacher–student imitation, as in "learning by cheating"): the
 teacher drives with what no robot has — its true reference point, every body's true position and
 velocity — and the student, the policy that ships, learns to act like it from the observation
-alone (:mod:`training.warm_start`: behaviour cloning, then DAgger rounds in which the student
+alone (:mod:`petswarm.training.warm_start`: behaviour cloning, then DAgger rounds in which the student
 drives and the teacher labels the states the student visits). The one rule holds for what ships:
 ``policy.npz`` is a function of the observation; the teacher is a training signal like the reward
 and the centralized critic, which read ground truth too. It is never a policy of
-:mod:`baselines.registry`: nothing at run time can pick it.
+:mod:`petswarm.baselines.registry`: nothing at run time can pick it.
 
 The teacher's control law, per slave and step (world frame, then into the robot's body frame):
 
@@ -62,7 +62,7 @@ class PrivilegedTeacher:
 
     ``env`` is the live :class:`~petswarm_env.env.PetSwarmEnv` or a wrapper that forwards its
     attributes (``world``, ``experimenter``, ``agent_robot``, ``cfg``; the training wrappers and
-    :class:`training.randomize.RandomizedEnv` do). The truth is read once per instant of the
+    :class:`petswarm.training.randomize.RandomizedEnv` do). The truth is read once per instant of the
     env's clock (the reference points' velocities are their change since the instant before), so
     asking for one robot at a time gives the same actions as asking for all. Call :meth:`reset`
     after each ``env.reset``.
@@ -199,7 +199,7 @@ class TeacherDriver:
     evaluation only: ``petswarm eval --policy privileged-teacher`` and the comparison grid's
     ``--policy privileged-teacher`` measure what a controller that reads ground truth reaches —
     an empirical ceiling for a learned policy, not a bound and not a policy (it is built from the
-    env, which no policy sees; :func:`evaluation.evaluate.make_team` builds it, the policy registry
+    env, which no policy sees; :func:`petswarm.evaluation.evaluate.make_team` builds it, the policy registry
     does not know it). It reads each robot's ultrasonic ranges from its observation."""
 
     name = TEACHER_NAME

@@ -1,11 +1,11 @@
 """Train one slave policy shared by all slaves with Stable-Baselines3 PPO (``petswarm train``).
 
 Read :func:`train` top to bottom: the run folder, the seeds, the scripted reference's score, the
-vector env (:mod:`training.vec_env`), the PPO model, the warm start (:mod:`training.warm_start`),
-``model.learn`` with the checkpoint/evaluation callback (:mod:`training.callbacks`), the last
+vector env (:mod:`petswarm.training.vec_env`), the PPO model, the warm start (:mod:`petswarm.training.warm_start`),
+``model.learn`` with the checkpoint/evaluation callback (:mod:`petswarm.training.callbacks`), the last
 checkpoint. ``--resume`` rebuilds the model from the run's own config and loads the checkpoint
-into it (:mod:`training.checkpoint`; SB3's ``PPO.load`` unpickles and is never called). Every
-hyper-parameter is in the training config (:mod:`training.config`, ``configs/train/ppo.yaml``).
+into it (:mod:`petswarm.training.checkpoint`; SB3's ``PPO.load`` unpickles and is never called). Every
+hyper-parameter is in the training config (:mod:`petswarm.training.config`, ``configs/train/ppo.yaml``).
 Everything of a run lives in its folder::
 
     runs/NAME/train_config.yaml      the resolved training config (hyper-parameters + env overrides)
@@ -30,25 +30,25 @@ import yaml
 from stable_baselines3 import PPO
 from stable_baselines3.common.utils import set_random_seed
 
-from baselines.registry import make_policy
+from petswarm.baselines.registry import make_policy
 from petswarm_env.config import ConfigError, flatten_dotted, parse_override
 from petswarm_env.env import PetSwarmEnv
 from petswarm_env.files import check_output_path, write_json_atomic, write_text_atomic
-from training.callbacks import PeriodicCallback, pool_formation_rmse, public_log
-from training.checkpoint import has_checkpoint, read_checkpoint, restore_checkpoint
-from training.config import PPOConfig, TrainConfig, load_train_config, resume_changes
-from training.export import learned_policy
-from training.residual import zero_action_head
-from training.state_critic import StateCriticPolicy
-from training.vec_env import make_vec_env, training_env
-from training.warm_start import pretrain_policy
+from petswarm.training.callbacks import PeriodicCallback, pool_formation_rmse, public_log
+from petswarm.training.checkpoint import has_checkpoint, read_checkpoint, restore_checkpoint
+from petswarm.training.config import PPOConfig, TrainConfig, load_train_config, resume_changes
+from petswarm.training.export import learned_policy
+from petswarm.training.residual import zero_action_head
+from petswarm.training.state_critic import StateCriticPolicy
+from petswarm.training.vec_env import make_vec_env, training_env
+from petswarm.training.warm_start import pretrain_policy
 
 
 def build_model(p: PPOConfig, venv, seed: int, tensorboard_log: str | None = None, n_steps: int | None = None,
                 batch_size: int | None = None, obs_size: int | None = None) -> PPO:
     """A fresh SB3 PPO with the hyper-parameters of ``p`` (``n_steps`` and ``batch_size`` may be
     overridden: the benchmark sizes its rollouts itself): an ``MlpPolicy``, or with ``p.critic ==
-    "state"`` a :class:`~training.state_critic.StateCriticPolicy` whose actor reads the first
+    "state"`` a :class:`~petswarm.training.state_critic.StateCriticPolicy` whose actor reads the first
     ``obs_size`` values of a row (the observation) and whose critic reads the row (observation + state)."""
     act = torch.nn.Tanh if p.activation == "tanh" else torch.nn.ReLU
     policy_kwargs = {"net_arch": {"pi": list(p.net_arch), "vf": list(p.net_arch)}, "activation_fn": act,
@@ -97,7 +97,7 @@ def open_run(cfg: TrainConfig | None, out: Path, resume: bool) -> tuple[TrainCon
     """The config, the train log and the config changes of the run in ``out``. A new run is
     refused if ``out`` holds one. A resumed run keeps its own config (train_config.yaml) and
     environment (env_config.yaml): ``cfg`` (``None``: the run's own) may differ from it only in
-    :data:`training.config.RESUMABLE` keys, anything else is refused by name, never dropped;
+    :data:`petswarm.training.config.RESUMABLE` keys, anything else is refused by name, never dropped;
     the log continues train_log.json at the checkpoint's timesteps."""
     if not resume:
         if has_checkpoint(out):
@@ -206,7 +206,7 @@ def train_command(config: str | None, settings: list[str], timesteps: int | None
                   progress_bar: bool, command: str, run=None, **run_options) -> int:
     """``petswarm train``: the config from ``config`` and ``--set KEY=VALUE`` ``settings`` (and
     ``--timesteps``), the run — :func:`train` (SB3), or ``run`` with ``run_options`` (the CLI passes
-    :func:`training.rllib_backend.train_rllib` and its ``address``) — and one summary line."""
+    :func:`petswarm.training.rllib_backend.train_rllib` and its ``address``) — and one summary line."""
     check_output_path(out, "--out", folder=True)
     overrides = dict(parse_override(item) for item in settings)
     if timesteps:

@@ -8,11 +8,11 @@ step), SuperSuit's
 return and length, for ``rollout/ep_rew_mean``).
 
 ``training_env`` is the PettingZoo env under the vector: ``PetSwarmEnv`` of the training config, or
-with ``randomize:`` pools a :class:`training.randomize.RandomizedEnv` (each episode its drawn
+with ``randomize:`` pools a :class:`petswarm.training.randomize.RandomizedEnv` (each episode its drawn
 config; ``FixedAgents`` over it is sized for the largest draw), with ``residual_of: scripted``
-each action a correction of the scripted reference's (:class:`training.residual.ResidualActions`),
+each action a correction of the scripted reference's (:class:`petswarm.training.residual.ResidualActions`),
 and with ``ppo.critic: state`` every row followed by the global state
-(:class:`training.randomize.WithState`, MAPPO's critic input).
+(:class:`petswarm.training.randomize.WithState`, MAPPO's critic input).
 """
 
 from __future__ import annotations
@@ -24,9 +24,9 @@ from supersuit.vector.sb3_vector_wrapper import SB3VecEnvWrapper
 from petswarm_env.config import Config
 from petswarm_env.env import PetSwarmEnv
 from petswarm_env.wrappers import FixedAgents
-from training.randomize import PoolSpaces, RandomizedEnv, WithState
-from baselines.learned import Residual
-from training.residual import ResidualActions
+from petswarm.training.randomize import PoolSpaces, RandomizedEnv, WithState
+from petswarm.baselines.learned import Residual
+from petswarm.training.residual import ResidualActions
 
 
 class SeededVecEnv(SB3VecEnvWrapper):

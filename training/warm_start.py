@@ -15,14 +15,14 @@ import time
 import numpy as np
 import torch
 
-from baselines.policy import PolicySpec
-from baselines.registry import make_policy
+from petswarm.baselines.policy import PolicySpec
+from petswarm.baselines.registry import make_policy
 from petswarm_env.config import Config
 from petswarm_env.env import PetSwarmEnv
 from petswarm_env.observe import MAX_LINKS
 from petswarm_env.wrappers import FixedAgents
-from training.config import TrainConfig
-from training.teacher import PrivilegedTeacher
+from petswarm.training.config import TrainConfig
+from petswarm.training.teacher import PrivilegedTeacher
 
 
 def discounted_returns(rewards: list[float], gamma: float) -> list[float]:
@@ -47,7 +47,7 @@ class ScriptedLabels:
 
 
 class TeacherLabels:
-    """The privileged teacher as a labeller (:mod:`training.teacher`): its action from ground
+    """The privileged teacher as a labeller (:mod:`petswarm.training.teacher`): its action from ground
     truth, for the robots whose rows it is given; of the rows it reads the ultrasonic ranges (the
     robot's own sensors, for its keep-out) and whether the robot has a fix of anyone. A robot with
     no IR fix younger than the observation's age range — of a reference neighbour or of the master
@@ -84,13 +84,13 @@ def collect_demonstrations(env_cfg: Config, samples: int, noise_std: float, seed
     """Run the scripted reference with action noise over episodes ``seed, seed + 1, …`` until
     ``samples`` agent-steps; return the inputs (each live agent's row), the reference's
     (noise-free) actions and the discounted returns of the executed trajectories (for the critic).
-    ``env`` is the run's fixed-agents env (:func:`training.vec_env.training_env`: its draws, its
+    ``env`` is the run's fixed-agents env (:func:`petswarm.training.vec_env.training_env`: its draws, its
     rows with the state); by default ``FixedAgents(PetSwarmEnv(env_cfg))``. The reference reads
     only the observation (a row's first ``layout.size`` values) of the robots that are slaves. With
     ``driver`` (a function of a batch of rows to actions: DAgger) the driver's actions are executed
     (with the noise) and the reference's recorded. ``teacher`` names the labeller
     (:data:`LABELLERS`): ``scripted`` (the reference, from the observation) or ``privileged``
-    (:class:`training.teacher.PrivilegedTeacher`, from ground truth); it is called at every step,
+    (:class:`petswarm.training.teacher.PrivilegedTeacher`, from ground truth); it is called at every step,
     so the teacher sees the episode's every state."""
     env = env if env is not None else FixedAgents(PetSwarmEnv(env_cfg))
     rng = np.random.default_rng(seed)

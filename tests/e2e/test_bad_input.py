@@ -20,9 +20,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from baselines.learned import LearnedPolicy, PolicyLoadError, save_policy
-from baselines.policy import PolicySpec
-from cli.main import main
+from petswarm.baselines.learned import LearnedPolicy, PolicyLoadError, save_policy
+from petswarm.baselines.policy import PolicySpec
+from petswarm.cli.main import main
 from petswarm_env.env import PetSwarmEnv
 from petswarm_env.observe import ObservationLayout
 
@@ -257,7 +257,7 @@ def test_malformed_policy_file_through_the_cli(capsys, outputs, spec, monkeypatc
 
 
 def test_a_policy_of_an_older_observation_version_loads_with_a_warning(tmp_path, spec, monkeypatch, capsys):
-    import baselines.learned as learned
+    import petswarm.baselines.learned as learned
 
     v = learned.OBS_VERSION
     _write_policy(tmp_path / "old.npz", spec.layout)  # today's version, its fields all in today's layout
@@ -308,7 +308,7 @@ def test_bad_report_paths(capsys, outputs, argv, words):
 # -- a killed run keeps its finished episodes ------------------------------------------------------
 def _start_run(tmp_path, *extra):
     env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[2])}
-    return subprocess.Popen([sys.executable, "-m", "cli.main", "run", "--episodes", "40", "--set", "max_cycles=40", "--quiet",
+    return subprocess.Popen([sys.executable, "-m", "petswarm.cli.main", "run", "--episodes", "40", "--set", "max_cycles=40", "--quiet",
                              "--json", str(tmp_path / "OUT.json"), *extra], stderr=subprocess.PIPE, text=True, env=env)
 
 
@@ -482,10 +482,10 @@ def test_a_checkpoint_restores_weights_optimizer_counters_and_rngs(run):
 
     import torch
 
-    from training.checkpoint import read_checkpoint, restore_checkpoint, save_checkpoint
-    from training.config import load_train_config
-    from training.train import build_model
-    from training.vec_env import make_vec_env
+    from petswarm.training.checkpoint import read_checkpoint, restore_checkpoint, save_checkpoint
+    from petswarm.training.config import load_train_config
+    from petswarm.training.train import build_model
+    from petswarm.training.vec_env import make_vec_env
 
     def draws():
         return torch.rand(3).tolist(), np.random.random(3).tolist(), random.random()

@@ -13,12 +13,12 @@ from collections import Counter
 import pytest
 
 import petswarm_env
-from bench.console import format_report
-from bench.page import HAND_WRITTEN_BEGIN, HAND_WRITTEN_END, write_benchmarks_md
-from bench.parts import CATEGORIES, MODULE_PARTS, Uncategorised, module_of, module_part, part_of
-from bench.profile import breakdown_from_samples
-from bench.run import main_bench
-from bench.settings import tiny_settings
+from petswarm.bench.console import format_report
+from petswarm.bench.page import HAND_WRITTEN_BEGIN, HAND_WRITTEN_END, write_benchmarks_md
+from petswarm.bench.parts import CATEGORIES, MODULE_PARTS, Uncategorised, module_of, module_part, part_of
+from petswarm.bench.profile import breakdown_from_samples
+from petswarm.bench.run import main_bench
+from petswarm.bench.settings import tiny_settings
 
 
 def _positive(x) -> bool:
@@ -177,9 +177,9 @@ def test_the_page_keeps_its_hand_written_section_and_generates_only_measured_fig
 
 
 def test_missing_mpe_is_recorded_as_skipped(monkeypatch):
-    import bench.run
+    import petswarm.bench.run
 
-    monkeypatch.setattr(bench.run, "mpe_available", lambda: (False, "mpe2 is not installed"))
+    monkeypatch.setattr(petswarm.bench.run, "mpe_available", lambda: (False, "mpe2 is not installed"))
     result = main_bench(True, None, settings=tiny_settings(slaves=(5,), training_workers=()), verbose=False)
     assert not [r for r in result["results"] if r["kind"] == "mpe"]
     assert result["skipped"] == [{"name": "mpe_simple_spread", "reason": "mpe2 is not installed"}]
@@ -210,7 +210,7 @@ def test_sampled_breakdown_charges_the_innermost_non_neutral_frame_below_env_ste
 
 
 def test_rllib_scaling_summary_takes_medians_of_interleaved_rounds():
-    from bench.rllib_scaling import summarize
+    from petswarm.bench.rllib_scaling import summarize
 
     rows = [{"env_runners": n, "agent_steps_per_s": whole, "sampling_agent_steps_per_s": sampling}
             for n, whole, sampling in [(0, 100.0, 120.0), (2, 150.0, 200.0), (0, 80.0, 100.0), (2, 130.0, 170.0),

@@ -6,11 +6,11 @@ import sys
 
 import pytest
 
-from cli.main import main
+from petswarm.cli.main import main
 
 
 def _run(*args):
-    return subprocess.run([sys.executable, "-m", "cli.main", *args], capture_output=True, text=True, timeout=300)
+    return subprocess.run([sys.executable, "-m", "petswarm.cli.main", *args], capture_output=True, text=True, timeout=300)
 
 
 def test_run_help_documents_every_option():

@@ -33,20 +33,19 @@ def test_readme_states_the_observation_size_and_the_ci_command():
     assert test_cmd in readme and test_cmd in ci
 
 
-def test_configs_default_is_the_packaged_default():
-    assert (ROOT / "configs" / "default.yaml").read_text() == (ROOT / "petswarm_env" / "default.yaml").read_text()
+def test_the_shipped_configs_are_the_repositorys_configs_folder():
+    """One file per config: the package reads the repository's configs/ (mapped into the wheel)."""
+    from petswarm import shipped, shipped_configs
 
-
-def test_configs_eval_grid_is_the_packaged_grid():
-    assert (ROOT / "configs" / "eval" / "grid.yaml").read_text() == (ROOT / "evaluation" / "grid.yaml").read_text()
-
-
-def test_configs_train_ppo_is_the_packaged_training_default():
-    assert (ROOT / "configs" / "train" / "ppo.yaml").read_text() == (ROOT / "training" / "ppo.yaml").read_text()
+    assert shipped_configs().resolve() == (ROOT / "configs").resolve()
+    assert shipped("configs/train/generalize.yaml") == shipped_configs() / "train" / "generalize.yaml"
+    assert shipped("generalize") == shipped_configs() / "train" / "generalize.yaml"
+    assert shipped("eval/grid") == shipped_configs() / "eval" / "grid.yaml"
+    assert shipped("no_such_config") is None and shipped("../pyproject.toml") is None
 
 
 def test_every_default_value_has_a_comment_or_a_commented_section():
-    text = (ROOT / "petswarm_env" / "default.yaml").read_text()
+    text = (ROOT / "configs" / "default.yaml").read_text()
     headers: dict[int, str] = {}  # indentation -> the section line above
     for line in text.splitlines():
         if not line.strip() or line.lstrip().startswith("#"):
@@ -107,8 +106,8 @@ def _flags_of(parser) -> set[str]:
 
 
 def test_training_doc_petswarm_commands_use_real_subcommands_flags_and_config_keys():
-    from cli.main import build_parser
-    from training.config import load_train_config
+    from petswarm.cli.main import build_parser
+    from petswarm.training.config import load_train_config
 
     import argparse
 
@@ -146,7 +145,7 @@ def _flatten(d: dict, prefix: str = "") -> dict:
 def test_training_doc_scripts_extras_files_and_config_keys_exist():
     import tomllib
 
-    from training.config import RESUMABLE, load_train_config
+    from petswarm.training.config import RESUMABLE, load_train_config
 
     text = TRAINING_DOC.read_text()
     flat = " ".join(text.split())
@@ -163,6 +162,7 @@ def test_training_doc_scripts_extras_files_and_config_keys_exist():
     for path, test in re.findall(r"(tests/[\w/]+\.py)::(\w+)", text):
         assert f"def {test}(" in (ROOT / path).read_text(), f"{path} has no {test}"
     for module, script, args in re.findall(r"python (?:-m ([\w.]+)|([\w/]+\.py))((?: --[\w-]+(?: [^\s`-]\S*)?)*)", flat):
+        module = module.removeprefix("petswarm.")  # petswarm.X.Y is the repository's X/Y.py
         path = ROOT / (script or module.replace(".", "/") + ".py")
         if module and not path.is_file() and module.split(".")[0] not in ("bench", "experiments", "petswarm_env", "tests"):
             continue  # another program's module (python -m venv)
@@ -174,4 +174,4 @@ def test_training_doc_scripts_extras_files_and_config_keys_exist():
         assert key in keys, f"{key} is not a training config key"
     resume = flat[flat.index("`--resume` continues"):]
     resume = resume[:resume.index("RESUMABLE")]
-    assert all(f"`{k}`" in resume for k in RESUMABLE), "the resume paragraph lists training.config.RESUMABLE"
+    assert all(f"`{k}`" in resume for k in RESUMABLE), "the resume paragraph lists petswarm.training.config.RESUMABLE"

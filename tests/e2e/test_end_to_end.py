@@ -6,7 +6,7 @@ import math
 
 import pytest
 
-from evaluation.runner import run
+from petswarm.evaluation.runner import run
 from petswarm_env.config import load_config
 
 SEEDS = 5

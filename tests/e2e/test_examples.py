@@ -10,8 +10,8 @@ import pytest
 
 pytest.importorskip("torchrl")
 
-from baselines.learned import LearnedPolicy, shipped_policy_path  # noqa: E402
-from baselines.policy import PolicySpec  # noqa: E402
+from petswarm.baselines.learned import LearnedPolicy, shipped_policy_path  # noqa: E402
+from petswarm.baselines.policy import PolicySpec  # noqa: E402
 from petswarm_env import parallel_env  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]

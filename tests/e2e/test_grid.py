@@ -8,9 +8,9 @@ from pathlib import Path
 
 import pytest
 
-from cli.main import main
-from evaluation.grid import run_cell
-from evaluation.grid_spec import load_grid
+from petswarm.cli.main import main
+from petswarm.evaluation.grid import run_cell
+from petswarm.evaluation.grid_spec import load_grid
 
 ROOT = Path(__file__).resolve().parents[2]
 COMMITTED = ROOT / "configs" / "eval" / "grid.yaml"
@@ -129,7 +129,7 @@ def test_the_committed_grid_has_40_cells_over_every_value_of_issue_16():
 
 
 def test_a_killed_grid_keeps_its_finished_cells_and_resume_runs_only_the_rest(tmp_path):
-    from evaluation.grid import run_grid
+    from petswarm.evaluation.grid import run_grid
     from petswarm_env.config import load_config
 
     grid, out = load_grid(_grid(tmp_path), episodes=1), tmp_path / "grid.json"
@@ -164,8 +164,8 @@ def test_the_report_shows_eval_results_and_the_grid_side_by_side(tmp_path):
 
 
 def test_grid_without_a_file_is_the_committed_grid_shipped_in_the_package():
-    from cli.main import SHIPPED_GRID, build_parser
-    from evaluation.grid_spec import load_grid
+    from petswarm.cli.main import SHIPPED_GRID, build_parser
+    from petswarm.evaluation.grid_spec import load_grid
 
     args = build_parser().parse_args(["eval", "--grid"])
     assert args.grid == str(SHIPPED_GRID) and SHIPPED_GRID.is_file()

@@ -12,8 +12,8 @@ from pathlib import Path
 
 import pytest
 
-from cli.main import main
-from evaluation.pcap import KIND_OF_CODE, decode_payload
+from petswarm.cli.main import main
+from petswarm.evaluation.pcap import KIND_OF_CODE, decode_payload
 
 ROOT = Path(__file__).resolve().parents[2]
 LUA = ROOT / "docs" / "examples" / "petswarm.lua"

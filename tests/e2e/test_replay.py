@@ -5,8 +5,8 @@ import re
 
 import pytest
 
-from cli.main import main
-from evaluation.replay import load_replay, undelta
+from petswarm.cli.main import main
+from petswarm.evaluation.replay import load_replay, undelta
 
 
 @pytest.fixture(scope="module")

@@ -10,8 +10,8 @@ import sys
 
 import pytest
 
-from evaluation.report import load_result, write_report
-from evaluation.stats import mean_ci95, t_critical_95
+from petswarm.evaluation.report import load_result, write_report
+from petswarm.evaluation.stats import mean_ci95, t_critical_95
 
 
 def _episode(seed: int, scenario: str, policy: str, rmse: float, steps: int = 12, gif: str | None = None) -> dict:

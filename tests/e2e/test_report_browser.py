@@ -11,7 +11,7 @@ import shutil
 
 import pytest
 
-from cli.main import main
+from petswarm.cli.main import main
 from tests.e2e.browser import Browser, chromium_path
 
 STEPS = 150

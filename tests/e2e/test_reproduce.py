@@ -11,17 +11,17 @@ import os
 import numpy as np
 import pytest
 
-from cli.main import main
-from experiments import registry
-from experiments.ir_accuracy import IR_QUICK_SAMPLES_PER_POINT
-from experiments.calibrate_organize import candidate_line
-from experiments.lf_accuracy import PAPER_RMSE, lf_rows
-from experiments.organize_time import PAPER_MIN_ORGANIZE_S, PAPER_RETRY_PCT, organize_rows, organize_summary, organize_time
-from experiments.reaction_time import REACTION_TOLERANCE_S, reaction_trial
-from experiments.report import render_html
-from experiments.reproduce import table_lines
-from experiments.results import BASES, Experiment, ExperimentResult, NotAvailable, Row
-from experiments.rotation_sync import PAPER_ROTATION, rotation_rows, rotation_trial
+from petswarm.cli.main import main
+from petswarm.experiments import registry
+from petswarm.experiments.ir_accuracy import IR_QUICK_SAMPLES_PER_POINT
+from petswarm.experiments.calibrate_organize import candidate_line
+from petswarm.experiments.lf_accuracy import PAPER_RMSE, lf_rows
+from petswarm.experiments.organize_time import PAPER_MIN_ORGANIZE_S, PAPER_RETRY_PCT, organize_rows, organize_summary, organize_time
+from petswarm.experiments.reaction_time import REACTION_TOLERANCE_S, reaction_trial
+from petswarm.experiments.report import render_html
+from petswarm.experiments.reproduce import table_lines
+from petswarm.experiments.results import BASES, Experiment, ExperimentResult, NotAvailable, Row
+from petswarm.experiments.rotation_sync import PAPER_ROTATION, rotation_rows, rotation_trial
 from petswarm_env.config import load_config
 
 ROW_KEYS = {"metric", "paper", "sim", "tolerance", "ok", "basis"}
@@ -212,7 +212,7 @@ def test_a_held_out_retry_count_can_fail_and_stays_failing():
 
 
 def test_organize_time_notes_a_failing_held_out_count(monkeypatch):
-    import experiments.organize_time as ot
+    import petswarm.experiments.organize_time as ot
 
     share = {1: 0.0, 2: 0.06, 3: 0.6, 4: 0.67, 5: 0.8}  # 3 slaves retry twice as often as the paper's 30 %
 

@@ -23,16 +23,16 @@ import pytest
 
 pytest.importorskip("ray.rllib")
 
-from baselines.learned import LearnedPolicy, read_policy_file  # noqa: E402
-from baselines.policy import PolicySpec  # noqa: E402
-from evaluation.evaluate import mean_formation_rmse  # noqa: E402
+from petswarm.baselines.learned import LearnedPolicy, read_policy_file  # noqa: E402
+from petswarm.baselines.policy import PolicySpec  # noqa: E402
+from petswarm.evaluation.evaluate import mean_formation_rmse  # noqa: E402
 from petswarm_env import parallel_env  # noqa: E402
 from petswarm_env.config import ConfigError, load_config  # noqa: E402
-from training import rllib_backend  # noqa: E402
-from training.checkpoint import read_checkpoint  # noqa: E402
-from training.config import load_train_config  # noqa: E402
-from training.export import rllib_actor_layers  # noqa: E402
-from training.train import train  # noqa: E402
+from petswarm.training import rllib_backend  # noqa: E402
+from petswarm.training.checkpoint import read_checkpoint  # noqa: E402
+from petswarm.training.config import load_train_config  # noqa: E402
+from petswarm.training.export import rllib_actor_layers  # noqa: E402
+from petswarm.training.train import train  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 TINY = {"timesteps": 400, "num_envs": 1, "ppo.n_steps": 50, "ppo.batch_size": 50, "ppo.n_epochs": 1, "ppo.net_arch": [16, 16],
@@ -187,7 +187,7 @@ def test_address_joins_a_cluster_head_started_on_loopback(tmp_path):
         sets = [f"{k}={json.dumps(v) if isinstance(v, list) else v}" for k, v in {**TINY, "timesteps": 200, "pretrain.samples": 0,
                                                                                     "rllib.num_env_runners": 1}.items()]
         env = {**os.environ, "RAY_AUTH_MODE": "token", "RAY_AUTH_TOKEN": token, "PYTHONPATH": str(ROOT)}
-        proc = subprocess.run([sys.executable, "-m", "cli.main", "train", "--backend", "rllib", "--address", address, "--no-progress",
+        proc = subprocess.run([sys.executable, "-m", "petswarm.cli.main", "train", "--backend", "rllib", "--address", address, "--no-progress",
                                "--out", str(tmp_path / "cluster"), *[a for kv in sets for a in ("--set", kv)]],
                               env=env, capture_output=True, text=True, timeout=600)
         assert proc.returncode == 0, proc.stderr[-3000:]

@@ -1,9 +1,9 @@
 """The learned policy shipped with the package loads safely and holds the default formation."""
 
-from baselines.learned import LearnedPolicy, read_policy_file, shipped_policy_path
-from baselines.policy import PolicySpec
-from baselines.registry import make_policy
-from evaluation.runner import run_episode
+from petswarm.baselines.learned import LearnedPolicy, read_policy_file, shipped_policy_path
+from petswarm.baselines.policy import PolicySpec
+from petswarm.baselines.registry import make_policy
+from petswarm.evaluation.runner import run_episode
 from petswarm_env import parallel_env
 
 

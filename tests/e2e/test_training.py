@@ -10,14 +10,14 @@ import pytest
 pytest.importorskip("stable_baselines3")
 pytest.importorskip("supersuit")
 
-from baselines.learned import LearnedPolicy, PolicyLoadError, read_policy_file, save_policy
-from baselines.policy import PolicySpec
-from evaluation.evaluate import evaluate
+from petswarm.baselines.learned import LearnedPolicy, PolicyLoadError, read_policy_file, save_policy
+from petswarm.baselines.policy import PolicySpec
+from petswarm.evaluation.evaluate import evaluate
 from petswarm_env import parallel_env
 from petswarm_env.config import ConfigError, load_config
 from petswarm_env.observe import ObservationLayout
-from training.config import load_train_config
-from training.train import train
+from petswarm.training.config import load_train_config
+from petswarm.training.train import train
 
 SHORT = {
     "timesteps": 2048,
@@ -132,7 +132,7 @@ def test_layout_in_another_order_is_mapped_by_name(tmp_path):
     meta, layers = read_policy_file(tmp_path / "p.npz")
     reordered = list(reversed(layout.signature()))
     index = np.concatenate([np.arange(layout.slices[n].start, layout.slices[n].stop) for n, _ in reordered])
-    from baselines.learned import observation_mapping
+    from petswarm.baselines.learned import observation_mapping
 
     assert np.array_equal(observation_mapping(reordered, layout), index)
 

@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 import petswarm_env
-from baselines.policy import PolicySpec
-from baselines.registry import make_policy
+from petswarm.baselines.policy import PolicySpec
+from petswarm.baselines.registry import make_policy
 from tests.protocol.test_join import slaves_consistent
 from tests.protocol.test_knowledge_in_frames import CUSTOM, MASTER, _NoSwarmSection, _per_robot_configs
 

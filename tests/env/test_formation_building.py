@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 import petswarm_env
-from baselines.leader_follower import LeaderFollowerPolicy
-from baselines.policy import PolicySpec
+from petswarm.baselines.leader_follower import LeaderFollowerPolicy
+from petswarm.baselines.policy import PolicySpec
 from petswarm_env.config import ConfigError, load_config
 from petswarm_env.metrics import BUILT_WITHIN_M
 from petswarm_env.middleware import join

@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 import petswarm_env
-from baselines.policy import PolicySpec
-from baselines.registry import make_policy
+from petswarm.baselines.policy import PolicySpec
+from petswarm.baselines.registry import make_policy
 
 HET = {"user.scenario": "heterogeneous", "max_cycles": 200}
 

@@ -12,8 +12,8 @@ from pettingzoo.utils.conversions import parallel_to_aec_wrapper
 from pettingzoo.utils.wrappers import OrderEnforcingWrapper
 
 import petswarm_env
-from baselines.policy import PolicySpec
-from baselines.registry import make_policy
+from petswarm.baselines.policy import PolicySpec
+from petswarm.baselines.registry import make_policy
 from petswarm_env import petswarm_v0
 from petswarm_env.env import INFO_DEFAULTS, PetSwarmEnv
 

@@ -19,8 +19,8 @@ import numpy as np
 import pytest
 
 import petswarm_env
-from baselines.policy import PolicySpec
-from baselines.registry import make_policy
+from petswarm.baselines.policy import PolicySpec
+from petswarm.baselines.registry import make_policy
 from petswarm_env.sim.world import World
 
 STEPS = 100  # 10 s: organized, driving, the user walking and turning

@@ -43,8 +43,8 @@ def test_observation_builder_equals_the_oracle_bit_for_bit(overrides):
     and converted to float32 — on the knowledge of real episodes; ages beyond the clip and both
     link slots occur."""
     import petswarm_env
-    from baselines.policy import PolicySpec
-    from baselines.registry import make_policy
+    from petswarm.baselines.policy import PolicySpec
+    from petswarm.baselines.registry import make_policy
     from petswarm_env.observe import ObservationLayout, Readings, build_observation
 
     env = petswarm_env.parallel_env(max_cycles=300, **overrides)

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 import petswarm_env
-from baselines.policy import PolicySpec
-from baselines.registry import make_policy
+from petswarm.baselines.policy import PolicySpec
+from petswarm.baselines.registry import make_policy
 from petswarm_env.env import INFO_DEFAULTS
 
 KEYS = ("faults_injected", "faults_detected", "detection_time_s", "reassignments", "reassignment_time_s",

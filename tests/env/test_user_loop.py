@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 import petswarm_env
-from baselines.policy import PolicySpec
-from baselines.registry import make_policy
+from petswarm.baselines.policy import PolicySpec
+from petswarm.baselines.registry import make_policy
 from petswarm_env.comms.ir_channel import IRChannel
 from petswarm_env.comms.radio import RadioMedium
 from petswarm_env.config import load_config

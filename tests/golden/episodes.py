@@ -58,8 +58,8 @@ CASES: dict[str, tuple[dict[str, Any], str, int, int]] = {
 
 
 def _policy(name: str, env, seed: int):
-    from baselines.policy import PolicySpec
-    from baselines.registry import make_policy
+    from petswarm.baselines.policy import PolicySpec
+    from petswarm.baselines.registry import make_policy
 
     return make_policy(name, PolicySpec.from_env(env), seed=seed)
 

@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 import petswarm_env
-from baselines.policy import PolicySpec
-from baselines.registry import make_policy
+from petswarm.baselines.policy import PolicySpec
+from petswarm.baselines.registry import make_policy
 from petswarm_env.config import load_config
 from petswarm_env.middleware import fleet as fleet_mod
 from petswarm_env.middleware import messages as msg

@@ -2,9 +2,9 @@
 
 import math
 
-from baselines.policy import PolicySpec
-from baselines.registry import make_policy
-from evaluation.runner import run_episode
+from petswarm.baselines.policy import PolicySpec
+from petswarm.baselines.registry import make_policy
+from petswarm.evaluation.runner import run_episode
 from petswarm_env import PetSwarmEnv
 from petswarm_env.comms.radio import OUTCOMES
 from petswarm_env.config import load_config

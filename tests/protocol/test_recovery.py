@@ -229,9 +229,9 @@ def test_one_recovery_at_a_time_on_a_master_with_two_users():
     grid) used to start two recoveries whose refills shared the join manager's answers: a late
     scan response was read as a joining answer (KeyError 'available'). One runs at a time now, and
     an answer counts only when it is of the kind the step waits for."""
-    from baselines.policy import PolicySpec
-    from baselines.registry import make_policy
-    from evaluation.runner import run_episode
+    from petswarm.baselines.policy import PolicySpec
+    from petswarm.baselines.registry import make_policy
+    from petswarm.evaluation.runner import run_episode
 
     env = petswarm_env.parallel_env(**{"world.num_users": 2, "user.scenario": "random_walk"})
     seed = 900000003

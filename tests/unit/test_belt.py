@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from experiments.measure_wearables import recognition_latency_experiment
+from petswarm.experiments.measure_wearables import recognition_latency_experiment
 from petswarm_env.config import BeltConfig, load_config
 from petswarm_env.wearables.belt import (
     ACTIVITIES,

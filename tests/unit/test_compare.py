@@ -1,6 +1,6 @@
 """training/compare.py: the grid's cells and the summary against the reference policy."""
 
-from training.compare import cells, compare, label, summary
+from petswarm.training.compare import cells, compare, label, summary
 
 
 def test_the_grid_is_every_formation_in_both_modes_and_the_extra_cells():

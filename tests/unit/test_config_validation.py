@@ -184,7 +184,7 @@ def test_override_that_is_not_key_value_or_conflicts():
 
 def test_training_config_refuses_bad_values_naming_the_key():
     pytest.importorskip("stable_baselines3")
-    from training.config import load_train_config
+    from petswarm.training.config import load_train_config
 
     for overrides, words in [({"ppo.gamma": 2}, "ppo.gamma"), ({"ppo.net_arch": [True, 8]}, "ppo.net_arch"),
                              ({"ppo.learning_rate": math.nan}, "ppo.learning_rate"), ({"bogus": 1}, "bogus"),

@@ -5,7 +5,7 @@ import numpy as np
 import pydantic
 import pytest
 
-from experiments.ir_accuracy import (
+from petswarm.experiments.ir_accuracy import (
     PAPER_ANGLES_DEG,
     PAPER_DIRECTION_RMSE_DEG,
     PAPER_DISTANCE_RMSE_CM,

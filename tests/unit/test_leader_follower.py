@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 import petswarm_env
-from baselines.leader_follower import LeaderFollowerPolicy
-from baselines.policy import PolicySpec
+from petswarm.baselines.leader_follower import LeaderFollowerPolicy
+from petswarm.baselines.policy import PolicySpec
 from petswarm_env.observe import AGE_SCALE_S, POS_SCALE_M
 
 

@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from experiments.lf_accuracy import PAPER_RMSE, lf_accuracy_experiment
+from petswarm.experiments.lf_accuracy import PAPER_RMSE, lf_accuracy_experiment
 from petswarm_env.config import ConfigError, LFConfig, load_config
 from petswarm_env.wearables.lf import (
     LFFix,

@@ -6,8 +6,8 @@ from pathlib import Path
 
 import pytest
 
-from evaluation import pcap
-from evaluation.pcap_docs import with_lua_tables, with_table
+from petswarm.evaluation import pcap
+from petswarm.evaluation.pcap_docs import with_lua_tables, with_table
 from petswarm_env.comms.radio import BROADCAST, Frame
 from petswarm_env.middleware import messages as msg
 
@@ -96,6 +96,6 @@ def test_tap_header_is_version_0_with_its_length():
 
 def test_the_docs_and_the_dissector_are_generated_from_the_tables():
     doc = (ROOT / "docs" / "pcap.md").read_text(encoding="utf-8")
-    assert with_table(doc) == doc, "regenerate: python -m evaluation.pcap_docs --md docs/pcap.md --lua docs/examples/petswarm.lua"
+    assert with_table(doc) == doc, "regenerate: python -m petswarm.evaluation.pcap_docs --md docs/pcap.md --lua docs/examples/petswarm.lua"
     lua = (ROOT / "docs" / "examples" / "petswarm.lua").read_text(encoding="utf-8")
     assert with_lua_tables(lua) == lua

@@ -9,8 +9,8 @@ import yaml
 from petswarm_env.config import ConfigError, load_config
 from petswarm_env.env import PetSwarmEnv
 from petswarm_env.wrappers import FixedAgents
-from training.config import load_train_config
-from training.randomize import CACHE, PoolSpaces, RandomizedEnv, WithState, check_pools, draw, draw_config
+from petswarm.training.config import load_train_config
+from petswarm.training.randomize import CACHE, PoolSpaces, RandomizedEnv, WithState, check_pools, draw, draw_config
 
 ENV = {"max_cycles": 12}
 POOLS = {"swarm.num_slaves": [2, 3], "world.num_users": [1, 2],

@@ -1,7 +1,7 @@
 """experiments/reassignment.py (issue 15 part 5): its trials' configuration (it runs in
 tests/e2e/test_reproduce.py)."""
 
-from experiments import reassignment
+from petswarm.experiments import reassignment
 
 
 def test_its_trials_are_the_dropout_scenario_in_a_four_slave_swarm():

@@ -6,8 +6,8 @@ from types import SimpleNamespace
 
 import pytest
 
-from evaluation.replay import delta, load_replay, replay_name, undelta
-from evaluation.replay_viewer import choose, embed, parse_spec
+from petswarm.evaluation.replay import delta, load_replay, replay_name, undelta
+from petswarm.evaluation.replay_viewer import choose, embed, parse_spec
 
 
 def test_delta_coding_round_trips_and_keeps_nulls():

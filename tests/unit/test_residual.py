@@ -10,17 +10,17 @@ import pytest
 pytest.importorskip("stable_baselines3")
 pytest.importorskip("supersuit")
 
-from baselines.leader_follower import LeaderFollowerPolicy
-from baselines.learned import LearnedPolicy, Residual, read_policy_file, save_policy
-from baselines.policy import PolicySpec
+from petswarm.baselines.leader_follower import LeaderFollowerPolicy
+from petswarm.baselines.learned import LearnedPolicy, Residual, read_policy_file, save_policy
+from petswarm.baselines.policy import PolicySpec
 from petswarm_env.config import ConfigError, load_config
 from petswarm_env.env import PetSwarmEnv
 from petswarm_env.wrappers import FixedAgents
-from training.config import load_train_config
-from training.export import learned_policy
-from training.residual import ResidualActions, zero_action_head
-from training.train import build_model, train
-from training.vec_env import make_vec_env
+from petswarm.training.config import load_train_config
+from petswarm.training.export import learned_policy
+from petswarm.training.residual import ResidualActions, zero_action_head
+from petswarm.training.train import build_model, train
+from petswarm.training.vec_env import make_vec_env
 
 CFG = {"max_cycles": 120, "world.num_users": 2}  # two swarms: robots of several members and both users
 

@@ -202,7 +202,7 @@ def test_a_behaviour_no_module_serves_is_refused_naming_it():
 
 
 def test_a_policy_needing_a_missing_behaviour_is_refused_when_attached():
-    from baselines.policy import PolicySpec, RandomPolicy
+    from petswarm.baselines.policy import PolicySpec, RandomPolicy
     from petswarm_env.observe import ObservationLayout
 
     spec = PolicySpec(ObservationLayout(8), 1.5, 2.0, 2.0, (resolve(CFG, "petbot"), resolve(CFG, "r1")))
@@ -243,8 +243,8 @@ def test_the_heading_yield_lets_a_differential_body_move_first():
 
 
 def test_a_learned_policy_file_declaring_a_behaviour_no_body_has_is_refused(tmp_path):
-    from baselines.learned import LearnedPolicy, save_policy
-    from baselines.policy import PolicySpec
+    from petswarm.baselines.learned import LearnedPolicy, save_policy
+    from petswarm.baselines.policy import PolicySpec
     from petswarm_env.observe import ObservationLayout
 
     layout = ObservationLayout(8)

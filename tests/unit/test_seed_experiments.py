@@ -7,9 +7,9 @@ import math
 
 import pytest
 
-from experiments import ruta_example, sensor_mapping
-from experiments.registry import results_json, run_experiments
-from experiments.results import Row
+from petswarm.experiments import ruta_example, sensor_mapping
+from petswarm.experiments.registry import results_json, run_experiments
+from petswarm.experiments.results import Row
 from petswarm_env.config import load_config
 from petswarm_env.mapping import MYBOT, RITY, TABLE_V, LocationRule, SensorLocation, build_sensor_table
 from petswarm_env.middleware import ruta

@@ -11,13 +11,13 @@ pytest.importorskip("supersuit")
 
 from stable_baselines3.common.logger import Logger
 
-from baselines.learned import read_policy_file
-from cli.main import main
+from petswarm.baselines.learned import read_policy_file
+from petswarm.cli.main import main
 from petswarm_env.env import PetSwarmEnv
-from training.callbacks import PeriodicCallback
-from training.config import load_train_config
-from training.train import build_model
-from training.vec_env import make_vec_env
+from petswarm.training.callbacks import PeriodicCallback
+from petswarm.training.config import load_train_config
+from petswarm.training.train import build_model
+from petswarm.training.vec_env import make_vec_env
 
 TINY = {"num_envs": 1, "num_cpus": 0, "ppo.n_steps": 16, "ppo.batch_size": 48, "ppo.n_epochs": 2, "ppo.net_arch": [8],
         "ppo.critic": "state", "env.max_cycles": 20, "eval.episodes": 1, "eval.max_cycles": 10,

@@ -6,14 +6,14 @@ import math
 import numpy as np
 import pytest
 
-from baselines.registry import make_policy
-from baselines.policy import PolicySpec
-from evaluation.evaluate import make_team
+from petswarm.baselines.registry import make_policy
+from petswarm.baselines.policy import PolicySpec
+from petswarm.evaluation.evaluate import make_team
 from petswarm_env import parallel_env
 from petswarm_env.config import ConfigError
-from training.config import load_train_config
-from training.teacher import TEACHER_NAME, PrivilegedTeacher, TeacherDriver, TeacherGains
-from training.warm_start import collect_demonstrations
+from petswarm.training.config import load_train_config
+from petswarm.training.teacher import TEACHER_NAME, PrivilegedTeacher, TeacherDriver, TeacherGains
+from petswarm.training.warm_start import collect_demonstrations
 
 
 def _world_command(env, agent, action):
@@ -126,7 +126,7 @@ def test_a_training_config_that_trains_nothing_is_refused():
 
 
 def test_a_robot_that_cannot_know_where_its_swarm_is_is_labelled_with_the_reference():
-    from training.warm_start import ScriptedLabels, TeacherLabels
+    from petswarm.training.warm_start import ScriptedLabels, TeacherLabels
 
     env = parallel_env(**{"swarm.num_slaves": 3})
     obs, _ = env.reset(seed=2)

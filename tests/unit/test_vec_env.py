@@ -10,7 +10,7 @@ pytest.importorskip("supersuit")
 
 import petswarm_env
 from petswarm_env.config import load_config
-from training.vec_env import SeededVecEnv, make_vec_env
+from petswarm.training.vec_env import SeededVecEnv, make_vec_env
 
 
 class _Vector:

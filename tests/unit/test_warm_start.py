@@ -5,8 +5,8 @@ import numpy as np
 import torch
 
 from petswarm_env.env import PetSwarmEnv
-from training.config import load_train_config
-from training.warm_start import collect_demonstrations, fit_actor_critic
+from petswarm.training.config import load_train_config
+from petswarm.training.warm_start import collect_demonstrations, fit_actor_critic
 
 
 def test_dagger_rounds_add_the_actors_states_labelled_by_the_reference():

@@ -100,7 +100,7 @@ def reaction_time(cfg: Config, seed: int, quick: bool, progress: Progress) -> Ex
         notes.append(
             f"faster than the paper's prototype (belt rotation flag, BLE report every {cfg.ble.report_period_s:g} s, "
             f"{cfg.control_period_s:g} s control step); no mechanism in seeds 000/002 explains 1.1 s: neither the belt answering "
-            "each 350 ms LF burst (seed 002 §3.3) nor a following swarm's walking turn brings the three rows in (README)")
+            "each 350 ms LF burst (seed 002 §3.3) nor a following swarm's walking turn brings the three rows in (docs/reproduce.md)")
     return ExperimentResult(rows, data, note="; ".join(notes), calibration=REACTION_CALIBRATION)
 
 

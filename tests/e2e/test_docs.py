@@ -24,58 +24,116 @@ def test_state_doc_matches_the_state_layout():
     assert doc == state.markdown(load_config()), "regenerate with: python -m petswarm_env.state > docs/state.md"
 
 
+README = ROOT / "README.md"
+USAGE = ROOT / "docs" / "usage.md"
+RUN_CMD = "bash scripts/setup.sh && .venv/bin/petswarm run --episodes 5"
+TEST_CMD = "bash scripts/setup.sh test && .venv/bin/python -m pytest"
+
+
 def test_readme_states_the_observation_size_and_the_ci_command():
-    readme = (ROOT / "README.md").read_text()
+    readme = README.read_text()
     layout = ObservationLayout(load_config().robot.ultrasonic.count)
     assert f"({layout.size},)" in readme
     ci = (ROOT / ".ci" / "run").read_text()
-    test_cmd = "bash scripts/setup.sh test && .venv/bin/python -m pytest"
-    assert test_cmd in readme and test_cmd in ci
+    assert TEST_CMD in readme and TEST_CMD in ci
+    assert RUN_CMD in readme
 
 
-def test_the_shipped_configs_are_the_repositorys_configs_folder():
-    """One file per config: the package reads the repository's configs/ (mapped into the wheel)."""
-    from petswarm import shipped, shipped_configs
-
-    assert shipped_configs().resolve() == (ROOT / "configs").resolve()
-    assert shipped("configs/train/generalize.yaml") == shipped_configs() / "train" / "generalize.yaml"
-    assert shipped("generalize") == shipped_configs() / "train" / "generalize.yaml"
-    assert shipped("eval/grid") == shipped_configs() / "eval" / "grid.yaml"
-    assert shipped("no_such_config") is None and shipped("../pyproject.toml") is None
+def test_readme_is_a_door_short_with_the_quickstart_early():
+    lines = README.read_text().splitlines()
+    assert len(lines) <= 350, f"README.md has {len(lines)} lines; the limit is 350 (move detail under docs/)"
+    first = next(i for i, ln in enumerate(lines) if ln.startswith("```python"))
+    end = next(i for i in range(first + 1, len(lines)) if lines[i].startswith("```"))
+    assert end < 120, f"the Python quickstart ends on line {end + 1}; it must sit within the first 120"
+    assert "parallel_env" in "\n".join(lines[first:end]) and "env.step" in "\n".join(lines[first:end])
 
 
-def test_every_default_value_has_a_comment_or_a_commented_section():
-    text = (ROOT / "configs" / "default.yaml").read_text()
-    headers: dict[int, str] = {}  # indentation -> the section line above
-    for line in text.splitlines():
-        if not line.strip() or line.lstrip().startswith("#"):
-            continue
-        indent = len(line) - len(line.lstrip())
-        if line.rstrip().endswith(":") or re.match(r"^\s*\w+:\s+#", line):
-            headers[indent] = line
-            continue
-        parents = [h for i, h in headers.items() if i < indent]
-        assert "#" in line or any("#" in h for h in parents), f"undocumented default: {line.strip()}"
+def test_readme_quickstart_runs(capsys):
+    """The README's first Python block, on a shortened episode (``max_cycles`` added)."""
+    code = _block(README, "## Python quickstart")
+    short = code.replace('"swarm.num_slaves": 3,', '"swarm.num_slaves": 3, "max_cycles": 40,')
+    assert short != code
+    exec(compile(short, "README.md", "exec"), {})
+    assert "formation RMSE" in capsys.readouterr().out
 
 
-def _readme_block(after: str) -> str:
-    text = (ROOT / "README.md").read_text()
+def test_usage_python_api_example_runs(capsys):
+    """docs/usage.md's first Python block (the API tour), on a shortened episode."""
+    code = _block(USAGE, "## The Python API")
+    short = code.replace('"swarm.num_slaves": 3,', '"swarm.num_slaves": 3, "max_cycles": 40,')
+    assert short != code
+    exec(compile(short, "docs/usage.md", "exec"), {})
+    assert "formation_rmse_m" in capsys.readouterr().out
+
+
+def test_readme_env_card_names_the_versions_spaces_and_every_top_level_key():
+    from petswarm_env import ENV_NAME, parallel_env
+    from petswarm_env.observe import OBS_VERSION
+
+    readme = README.read_text()
+    card = readme[readme.index("## Environment card"):readme.index("## Documentation")]
+    env = parallel_env()
+    assert ENV_NAME in card and env.metadata["name"] == ENV_NAME
+    assert f"observation layout version {OBS_VERSION}" in card
+    assert f"{env.state_space.shape[0]} values for the default config, state version {state.STATE_VERSION}" in card
+    assert f"Box(-1, 1, {env.action_space(env.possible_agents[0]).shape}" in card
+    for mode in env.metadata["render_modes"]:
+        assert f'"{mode}"' in card
+    for key in load_config().to_dict():
+        assert f"`{key}`" in card, f"the env card does not name the top-level config key {key}"
+    for name in ("config", "render_mode", "**overrides"):
+        assert name in card
+
+
+def test_readme_and_docs_links_resolve():
+    pages = [README, *sorted((ROOT / "docs").glob("*.md"))]
+    for page in pages:
+        text = re.sub(r"```.*?```", "", page.read_text(), flags=re.S)
+        for target in re.findall(r"\]\(([^)\s]+)\)", text):
+            if re.match(r"[a-z]+:", target) or target.startswith("#"):
+                continue
+            path, _, anchor = target.partition("#")
+            assert (page.parent / path).exists(), f"{page.relative_to(ROOT)} links to {target}, which does not exist"
+            if anchor and path.endswith(".md"):
+                assert anchor in _anchors(page.parent / path), f"{page.relative_to(ROOT)} links to {target}: no such heading"
+    readme = README.read_text()
+    for doc in ("architecture", "observation", "state", "faults", "training", "benchmarks", "results", "reproduce",
+                "pcap", "usage", "configuration"):
+        assert f"(docs/{doc}.md)" in readme, f"the README's table of contents lacks docs/{doc}.md"
+
+
+def _anchors(page: Path) -> set[str]:
+    """GitHub's heading anchors of a markdown page (lower case, punctuation dropped, spaces → -)."""
+    text = re.sub(r"```.*?```", "", page.read_text(), flags=re.S)
+    return {re.sub(r"[^\w\- ]", "", h.strip().lower()).replace(" ", "-") for h in re.findall(r"^#+ (.*)$", text, re.M)}
+
+
+def test_no_issue_numbers_in_readme_docs_and_configs():
+    """Cite papers, not process: no 'issue 14' in what a user reads."""
+    pages = [README, *(ROOT / "docs").glob("*.md"), *(ROOT / "configs").rglob("*.yaml")]
+    for page in pages:
+        hits = re.findall(r".{0,30}\bissues? ?#?\d+.{0,30}", page.read_text(), flags=re.I)
+        assert not hits, f"{page.relative_to(ROOT)} cites an issue number: {hits[0]!r}"
+
+
+def _block(page: Path, after: str) -> str:
+    text = page.read_text()
     start = text.index("```python", text.index(after)) + len("```python")
     return text[start:text.index("```", start)]
 
 
-def test_readme_supersuit_sb3_snippet_runs():
-    """The README's FixedAgents + SuperSuit + SB3 snippet, with a tiny run in place of its numbers."""
+def test_usage_supersuit_sb3_snippet_runs():
+    """docs/usage.md's FixedAgents + SuperSuit + SB3 snippet, with a tiny run in place of its numbers."""
     import pytest
 
     pytest.importorskip("stable_baselines3")
     pytest.importorskip("supersuit")
-    code = _readme_block("SuperSuit + Stable-Baselines3 (what")
+    code = _block(USAGE, "SuperSuit + Stable-Baselines3 (what")
     small = (code.replace("max_cycles=300", "max_cycles=10").replace("4, num_cpus=2", "1, num_cpus=0")
              .replace('PPO("MlpPolicy", vec)', 'PPO("MlpPolicy", vec, n_steps=16, batch_size=32, n_epochs=1)')
              .replace("learn(100_000)", "learn(16)"))
     assert small != code
-    exec(compile(small, "README.md", "exec"), {})
+    exec(compile(small, "docs/usage.md", "exec"), {})
 
 
 # -- docs/training.md: every command, flag, key, extra and file it names exists ---------------------

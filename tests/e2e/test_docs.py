@@ -146,13 +146,16 @@ def _doc_commands(text: str, program: str) -> list[list[str]]:
     inline code spans (which may wrap over lines), as shell words."""
     import shlex
 
-    blocks = re.findall(r"```(?:bash)?\n(.*?)```", text, re.S)
+    blocks = [body for lang, body in re.findall(r"```(\w*)\n(.*?)```", text, re.S) if lang in ("", "bash")]
     lines = [ln.split(" # ")[0] for b in blocks for ln in b.splitlines()]
     spans = [" ".join(s.split()) for s in re.findall(r"(?<!`)`([^`]+)`(?!`)", re.sub(r"```.*?```", "", text, flags=re.S))]
     out = []
     for line in [*lines, *spans]:
         for part in re.split(r"&&|;", line):
-            words = shlex.split(part.replace("<", "").replace(">", ""), posix=True)
+            try:
+                words = shlex.split(part.replace("<", "").replace(">", ""), posix=True)
+            except ValueError:  # an apostrophe in prose ("the grid's")
+                words = part.split()
             for i, w in enumerate(words):
                 if w.endswith(program) and i + 1 < len(words):
                     out.append(words[i + 1:])
@@ -233,3 +236,27 @@ def test_training_doc_scripts_extras_files_and_config_keys_exist():
     resume = flat[flat.index("`--resume` continues"):]
     resume = resume[:resume.index("RESUMABLE")]
     assert all(f"`{k}`" in resume for k in RESUMABLE), "the resume paragraph lists petswarm.training.config.RESUMABLE"
+
+
+def test_every_petswarm_command_of_the_readme_and_moved_pages_is_real():
+    """The commands that moved out of the README keep naming real subcommands, flags and keys."""
+    from petswarm.cli.main import build_parser
+
+    import argparse
+
+    sub = next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction)).choices
+    env_keys = set(_flatten(load_config().to_dict()))
+    for page in (README, USAGE, *(ROOT / "docs" / f"{n}.md" for n in ("results", "reproduce", "configuration", "faults"))):
+        commands = _doc_commands(page.read_text(), "petswarm")
+        assert commands or page.name in ("configuration.md", "faults.md"), f"{page.name} names no petswarm command"
+        for words in commands:
+            if words[0] in ("[--config", "RESULT.json", "..."):
+                continue  # the usage synopsis of docs/usage.md's command line
+            assert words[0] in sub, f"{page.name}: no subcommand petswarm {words[0]}"
+            flags = _flags_of(sub[words[0]])
+            for i, w in enumerate(words):
+                if w.startswith("--"):
+                    assert w.split("=")[0] in flags, f"{page.name}: petswarm {words[0]} has no flag {w}"
+                if i and words[i - 1] == "--set" and "=" in w:
+                    key = w.split("=")[0]
+                    assert key in env_keys or any(k.startswith(f"{key}.") for k in env_keys), f"{page.name}: --set {key} is no config key"

@@ -17,7 +17,7 @@ where a RUN is ``{"label", "episodes", "formation_rmse_m", "formation_rmse_ci95"
 "per_episode": [{"seed", "formation_rmse_m", "collisions", "slaves_missing"}]}``. ``ratio`` is the
 candidate's mean formation RMSE over the reference's (``median_ratio`` the medians', ``episodes_better``
 the seeds on which the candidate did better); a cell *meets the target* when the ratio is
-at most ``target_ratio`` and the candidate collided no more often than the reference (issue 16).
+at most ``target_ratio`` and the candidate collided no more often than the reference.
 ``episodes`` is empty: the per-episode figures are inside the cells (so ``petswarm report`` tells
 the file from an ``eval`` result and draws the grid's heatmap).
 """

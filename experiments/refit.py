@@ -1,4 +1,4 @@
-"""After a change of behaviour (another branch merged): re-fit what the env's behaviour moves, re-run
+"""After a change of behaviour (a change to a model, the protocol or the start): re-fit what the env's behaviour moves, re-run
 the papers' experiments and print docs/reproduce.md's first table.
 
 Usage: python -m petswarm.experiments.refit [--skip-fit] [--trials N] [--json reproduce.json] [--report reproduce.html]

@@ -1,4 +1,4 @@
-"""Config types of the runtime changes (issue 15 part 4): ``faults``, ``faults_random``,
+"""Config types of the runtime changes (docs/faults.md): ``faults``, ``faults_random``,
 ``arrivals`` (petswarm_env/runtime.py, petswarm_env/sim/faults.py). Their defaults live in
 ``default.yaml`` like every other value; :class:`~petswarm_env.config.Config` holds them."""
 
@@ -8,7 +8,7 @@ from pydantic import Field, model_validator
 
 from petswarm_env.config_base import Section
 
-# runtime changes (issue 15 part 4; petswarm_env/sim/faults.py): the fault kinds; an arrival's type is one
+# runtime changes (petswarm_env/sim/faults.py, docs/faults.md): the fault kinds; an arrival's type is one
 # of the config's robot_types (checked by Config, which holds both)
 FAULT_KINDS = ("dead", "radio_silent", "ir", "ultrasonic", "ahrs", "battery")
 FAULT_TARGETS = ("master", "random_slave")

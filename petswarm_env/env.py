@@ -26,7 +26,7 @@ only (:mod:`petswarm_env.observe`). Agents come and go with the middleware: a ro
 being a slave (it became the master, or the swarm dispersed) is terminated; a robot that becomes
 a slave joins ``agents``.
 
-Runtime changes (issue 15, docs/faults.md; none by default): ``faults`` break parts of robots and
+Runtime changes (docs/faults.md; none by default): ``faults`` break parts of robots and
 ``arrivals`` switch robots on mid-episode (:mod:`petswarm_env.runtime`); a dead slave is
 terminated, a slave that lost its master (no status broadcast for ``protocol.status_timeout_s``)
 stops and is terminated, an arrival that joins is a new agent (``possible_agents`` ends with the

@@ -17,7 +17,7 @@ The summary's formation figures:
 * ``emergency_s``: the time spent in emergency, read from each user session's state after every
   step, summed over the users (with one user: the time its swarm stood in emergency).
 * ``error_trace`` (every step, emergency included) is the mean formation error of the step's slaves.
-* runtime changes (issue 15; :mod:`petswarm_env.runtime`): ``faults_injected``; ``faults_detected``,
+* runtime changes (docs/faults.md; :mod:`petswarm_env.runtime`): ``faults_injected``; ``faults_detected``,
   the faults the middleware noticed — the robot declared lost by its master's ring, or, for a
   master, its loss noticed by a slave's status timeout (sensor faults are not detected: the robot
   still answers); ``detection_time_s``, the mean time from a fault to its detection (NaN if
@@ -52,7 +52,7 @@ if TYPE_CHECKING:
     from petswarm_env.middleware.user_session import UserSession
     from petswarm_env.sim.world import World
 
-BUILT_WITHIN_M = 0.3  # the formation is built once every slave is this close to its reference point (issue 14)
+BUILT_WITHIN_M = 0.3  # the formation is built once every slave is this close to its reference point (chosen)
 _EVENTS = ("master_changes", "mode_changes", "token_recoveries", "emergencies", "exceptions")
 
 
@@ -69,7 +69,7 @@ class EpisodeMetrics:
     slaves_missing: int = 0  # required minus joined when the swarms organized, over every swarm
     stale_fix_s: float = 0.0  # slave time with no IR fix of any reference neighbour within AGE_SCALE_S
     error_trace: list[float] = field(default_factory=list)  # mean formation error per step (m)
-    slots_unfilled_s: float = 0.0  # slot-seconds with fewer live slaves than required (issue 15)
+    slots_unfilled_s: float = 0.0  # slot-seconds with fewer live slaves than required (docs/faults.md)
 
     def add_step(self, errors_m: list[float], counted_m: list[float] | None = None, emergencies: int = 0) -> None:
         """One step: the formation errors of its slaves (``errors_m``, for the trace), those that

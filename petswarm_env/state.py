@@ -33,7 +33,7 @@ from petswarm_env.scenarios import ACTIVITIES
 if TYPE_CHECKING:
     from petswarm_env.config import Config
 
-STATE_VERSION = 2  # 2: the type and fault fields carry the robot types and faults of issue 15
+STATE_VERSION = 2  # 2: the type and fault fields carry the robot types (seeds 001, 003) and the runtime faults
 STATE_POS_SCALE_M = 10.0  # positions relative to user 0, m / 10
 STATE_POS_CLIP = 2.0  # … clipped to ±2 (20 m)
 ERROR_SCALE_M = 3.0  # reference errors, m / 3 (the observation's POS_SCALE_M)

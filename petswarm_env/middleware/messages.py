@@ -34,7 +34,7 @@ MODE_CHANGE_ACK = "mode_change_ack"
 HANDOVER = "handover"  # old master -> new master: take over the user connection
 HANDOVER_ACK = "handover_ack"
 
-MEMBER_UPDATE = "member_update"  # master -> swarm: a member removed or recruited: new total, member and neighbour tables (issue 15)
+MEMBER_UPDATE = "member_update"  # master -> swarm: a member removed or recruited: new total, member and neighbour tables (seed 003)
 MEMBER_UPDATE_ACK = "member_update_ack"
 
 # Payload sizes (bytes of MAC payload; the PHY and MAC headers and the FCS are

@@ -35,7 +35,7 @@ class SequenceManager:
 
     def master_lost(self, now_s: float) -> bool:
         """A slave that heard no status broadcast of its master for ``protocol.status_timeout_s``
-        (since it joined, if none yet) has lost its master (issue 15): it stops — the caller's
+        (since it joined, if none yet) has lost its master (chosen): it stops — the caller's
         emergency stop — and returns to waiting. True when that happened now."""
         node = self.node
         if node.state != "slave":

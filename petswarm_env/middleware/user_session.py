@@ -105,7 +105,7 @@ class UserSession:
         self._emergency_since = 0.0
         self._gestures: list[str] = []  # gestures the user is about to perform, one stroke at a time
         self._watch_free_s = -math.inf
-        self.paused = False  # the user stopped after losing their master (issue 15), until a swarm is organized again
+        self.paused = False  # the user stopped after losing their master, until a swarm is organized again
         swarm.on_master_change = self._on_master_change
         self.clock.process(self._wakeup_bursts())
         self.clock.process(self._lf_bursts())
@@ -129,7 +129,7 @@ class UserSession:
                 return
             yield self.clock.timeout(cfg.lf.wake_period_s)
 
-    # -- master loss (issue 15) ---------------------------------------------------------------------
+    # -- master loss (docs/faults.md) --------------------------------------------------------------
     def _master_lost(self) -> None:
         """The robot the wearables are connected to is off (a ``dead`` or ``battery`` fault): the
         BLE link drops, the belt alerts the user, who stops and waits (chosen); the session goes

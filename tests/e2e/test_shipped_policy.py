@@ -17,7 +17,7 @@ def test_shipped_policy_records_how_it_was_trained():
 
 
 def test_shipped_policy_holds_the_default_wedge():
-    # from the slots (issue 16's policy trained from scattered starts over drawn configs; it holds the wedge here too)
+    # from the slots (the policy trained from scattered starts over drawn configs; it holds the wedge here too)
     env = parallel_env(max_cycles=300, **{"swarm.spawn": "at_slots"})
     policy = make_policy("learned", PolicySpec.from_env(env))
     assert isinstance(policy, LearnedPolicy)

@@ -14,9 +14,9 @@ swarm.extra_robots, or the pool's robots with a swarm.pool or a scenario's pool)
 ``world.num_users`` blocks of :data:`USER_FIELDS`, then :data:`GLOBAL_FIELDS`. Positions are
 relative to user 0 (the world frame's axes), so the state does not grow with the distance walked.
 
-Reserved slots: ``type`` and ``fault`` of every robot are 0 until the heterogeneous-swarm issue
-(robot types, faults) fills them; their bounds and places are fixed now so that a critic's input
-size does not change then.
+Every robot block ends with ``type`` (its index in ``robot_types``) and ``fault`` (a fault is
+active): their places were fixed before robot types and faults existed (then always 0), so a
+critic's input size did not change when they came (state version 2).
 """
 
 from __future__ import annotations

@@ -112,7 +112,7 @@ def test_no_issue_numbers_in_readme_docs_and_configs():
     """Cite papers, not process: no issue numbers in what a user reads."""
     pages = [README, *(ROOT / "docs").glob("*.md"), *(ROOT / "configs").rglob("*.yaml")]
     for page in pages:
-        hits = re.findall(r".{0,30}\bissues? ?#?\d+.{0,30}", page.read_text(), flags=re.I)
+        hits = re.findall(r".{0,30}\bissues?\s?#?\d+.{0,30}", page.read_text(), flags=re.I)
         assert not hits, f"{page.relative_to(ROOT)} cites an issue number: {hits[0]!r}"
 
 

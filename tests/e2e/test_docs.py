@@ -66,6 +66,15 @@ def test_usage_python_api_example_runs(capsys):
     assert "formation_rmse_m" in capsys.readouterr().out
 
 
+def test_readme_headline_table_is_the_results_pages():
+    """The README's headline rows are docs/results.md's, figure for figure, with the same commands."""
+    readme, results = README.read_text(), (ROOT / "docs" / "results.md").read_text()
+    rows = [ln for ln in readme.splitlines() if ln.startswith("| scripted, ") or ln.startswith("| random |")]
+    assert len(rows) == 3 and all(row in results for row in rows)
+    commands = [ln for ln in readme.splitlines() if ln.startswith("petswarm run ")]
+    assert len(commands) == 3 and all(c in results for c in commands)
+
+
 def test_readme_env_card_names_the_versions_spaces_and_every_top_level_key():
     from petswarm_env import ENV_NAME, parallel_env
     from petswarm_env.observe import OBS_VERSION
@@ -90,12 +99,13 @@ def test_readme_and_docs_links_resolve():
     for page in pages:
         text = re.sub(r"```.*?```", "", page.read_text(), flags=re.S)
         for target in re.findall(r"\]\(([^)\s]+)\)", text):
-            if re.match(r"[a-z]+:", target) or target.startswith("#"):
+            if re.match(r"[a-z]+:", target):
                 continue
             path, _, anchor = target.partition("#")
             assert (page.parent / path).exists(), f"{page.relative_to(ROOT)} links to {target}, which does not exist"
-            if anchor and path.endswith(".md"):
-                assert anchor in _anchors(page.parent / path), f"{page.relative_to(ROOT)} links to {target}: no such heading"
+            if anchor and (not path or path.endswith(".md")):
+                heading_of = _anchors(page.parent / (path or page.name))
+                assert anchor in heading_of, f"{page.relative_to(ROOT)} links to {target}: no such heading"
     readme = README.read_text()
     for doc in ("architecture", "observation", "state", "faults", "training", "benchmarks", "results", "reproduce",
                 "pcap", "usage", "configuration"):
@@ -259,4 +269,5 @@ def test_every_petswarm_command_of_the_readme_and_moved_pages_is_real():
                     assert w.split("=")[0] in flags, f"{page.name}: petswarm {words[0]} has no flag {w}"
                 if i and words[i - 1] == "--set" and "=" in w:
                     key = w.split("=")[0]
-                    assert key in env_keys or any(k.startswith(f"{key}.") for k in env_keys), f"{page.name}: --set {key} is no config key"
+                    known = key in env_keys or any(k.startswith(f"{key}.") for k in env_keys)
+                    assert known, f"{page.name}: --set {key} is no config key"

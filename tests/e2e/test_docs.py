@@ -92,6 +92,9 @@ def test_readme_env_card_names_the_versions_spaces_and_every_top_level_key():
         assert f"`{key}`" in card, f"the env card does not name the top-level config key {key}"
     for name in ("config", "render_mode", "**overrides"):
         assert name in card
+    w = load_config().reward
+    assert f"weights in `reward:` ({w.formation}, {w.heading}, {w.collision}, {w.smoothness})" in card
+    assert f"{env.metadata['render_fps']} fps" in card and f"({load_config().max_cycles} = " in card
 
 
 def test_readme_and_docs_links_resolve():

@@ -10,13 +10,13 @@ It reads only the observation, like a learned policy. Per step:
    moved out to that distance — a formation that lags its user's turn must not put a robot on the
    user's path. A neighbour whose fix is stale — no measurement, or one at the end of the
    observation's age range (2 s): occluded, beyond the IR's reach, or the ring lost its slots — gives
-   no target (decided, issue 14): the slave cannot know where that neighbour is now (its last fix is
+   no target (chosen): the slave cannot know where that neighbour is now (its last fix is
    carried over its own rotation only, and the age no longer grows), so it keeps moving with the
    swarm (step 2's feed-forward, step 3's heading) and takes the position correction up again with
    the next fix. It neither stops (the swarm would walk away from it) nor chases the last fix (a
    target that does not recede as it drives would run it off). The episode summary counts that
    time (``stale_fix_s``), so a slave that lost its neighbour shows. Building the formation
-   (issue 14 item 3, seed 000 Fig. 10: robots start scattered), chosen, when no reference
+   (seed 000 Fig. 10: robots start scattered), chosen, when no reference
    neighbour gives a target: (1b) the master in IR sight — our reference location from the
    master's fix turned by an anchor member's (the observation's ``anchor.*``: another member seen,
    standing at its slot's distance from the master), or, with no anchor, orbit the master at our

@@ -12,7 +12,7 @@ idea, SPEC §5): fields that match by name and size are wired through (in any or
 policy needs that the environment lacks, or has with another size, is refused with a message that
 names it. Extra environment fields the policy never saw are ignored.
 
-A *residual* policy (metadata ``residual_of: scripted`` and ``residual_scale: s``, issue 16) is a
+A *residual* policy (metadata ``residual_of: scripted`` and ``residual_scale: s``) is a
 learned correction on top of the scripted reference (residual policy learning): its action is
 ``clip(scripted(obs) + s · clip(mlp(obs), -1, 1), -1, 1)``, both parts reading the same
 observation of the same robot (:class:`Residual`); with a zero last layer it is the scripted

@@ -19,12 +19,12 @@ import argparse
 import logging
 import sys
 import warnings
-from importlib import resources
 
+from petswarm import shipped, shipped_configs
 from petswarm_env.config import ConfigError, load_config, parse_override
 from petswarm_env.files import Terminated, check_distinct_paths, check_output_path, exit_cleanly_on_signals, jsonl_path
 
-SHIPPED_GRID = resources.files("petswarm.evaluation") / "grid.yaml"  # = configs/eval/grid.yaml, in the package
+SHIPPED_GRID = shipped_configs() / "eval" / "grid.yaml"  # configs/eval/grid.yaml, shipped in the package
 
 
 class _Parser(argparse.ArgumentParser):
@@ -51,6 +51,18 @@ _positive_int = _int_at_least(1, "a positive integer")
 _seed = _int_at_least(0, "a non-negative integer seed")
 
 
+def _config_file(text: str) -> str:
+    """A --config or --grid file: the path as given when it exists, else the shipped config of that
+    name (``configs/train/generalize.yaml``, ``train/generalize``, ``generalize``: see
+    :func:`petswarm.shipped`), else the path as given (its loader names what is missing)."""
+    from pathlib import Path
+
+    if Path(text).exists():
+        return text
+    found = shipped(text)
+    return str(found) if found is not None else text
+
+
 def _policy_name(text: str) -> str:
     from petswarm.baselines.registry import POLICY_NAMES
 
@@ -75,7 +87,8 @@ def _eval_policy_name(text: str) -> str:
 
 def _add_env_config_options(parser: argparse.ArgumentParser) -> None:
     """--config and --set of the commands that build an environment from configs/default.yaml."""
-    parser.add_argument("--config", metavar="FILE", help="YAML file merged over configs/default.yaml")
+    parser.add_argument("--config", metavar="FILE", type=_config_file,
+                        help="YAML file merged over configs/default.yaml (a shipped config also by name)")
     parser.add_argument("--set", metavar="KEY=VALUE", action="append", default=[],
                         help="override a config key with a dotted path, e.g. --set swarm.num_slaves=3 (repeatable)")
 
@@ -124,7 +137,8 @@ def _add_train(sub) -> None:
         "configs/train/ppo.yaml (or --config), copied into the run folder; checkpoints are atomic; "
         "--resume continues a run.",
     )
-    train.add_argument("--config", metavar="FILE", help="training YAML merged over configs/train/ppo.yaml")
+    train.add_argument("--config", metavar="FILE", type=_config_file,
+                       help="training YAML merged over configs/train/ppo.yaml (a shipped one also by name: generalize, teacher, ...)")
     train.add_argument("--set", metavar="KEY=VALUE", action="append", default=[],
                        help="override a training key (ppo.learning_rate=1e-4) or an env key (env.swarm.num_slaves=3)")
     train.add_argument("--timesteps", type=_positive_int, metavar="N", help="total agent-steps (overrides the config)")
@@ -157,9 +171,9 @@ def _add_eval(sub) -> None:
     ev.add_argument("--episodes", type=_positive_int, default=None, metavar="N",
                     help="episodes (seeds) per scenario (default 5); with --grid per cell (default: the grid file's)")
     ev.add_argument("--seed", type=_seed, metavar="S", help="first seed (default: config seed; with --grid the grid file's)")
-    ev.add_argument("--grid", metavar="FILE", nargs="?", const=str(SHIPPED_GRID),
+    ev.add_argument("--grid", metavar="FILE", nargs="?", const=str(SHIPPED_GRID), type=_config_file,
                     help="run the comparison grid of FILE (without FILE: the committed configs/eval/grid.yaml, shipped in the "
-                    "package as evaluation/grid.yaml): each cell's candidate vs the reference, "
+                    "package): each cell's candidate vs the reference, "
                     "ratios and collisions; JSON input of `petswarm report` (its heatmap)")
     ev.add_argument("--resume", action="store_true", help="with --grid: keep the finished cells of the --json file, run the rest")
     _add_env_config_options(ev)
@@ -176,7 +190,8 @@ def _add_bench(sub) -> None:
         help="measure env speed (vs. the physics floor and MPE), a step's cost breakdown, memory and training throughput",
         description="Speed benchmark: petswarm env.step rate with 2, 5 and 9 slaves (scripted and random actions), the "
         "pymunk physics floor, MPE simple_spread (mpe2, the bench extra), a cProfile breakdown of one step, memory "
-        "growth over a long run and PPO samples/s; prints a report and the issue's targets.",
+        "growth over a long run and PPO samples/s; prints a report and its targets (≥ 2× MPE's steps/s, 9 slaves ≤ 2× "
+        "the cost of 5, no memory growth).",
     )
     bench.add_argument("--quick", action="store_true", help="short measurements (about a minute) instead of the full run")
     bench.add_argument("--json", metavar="OUT", help="write the results as JSON (atomically)")

@@ -1,4 +1,4 @@
-"""The runtime-change scenarios' figures for the scripted reference (issue 15 targets):
+"""The runtime-change scenarios' figures for the scripted reference, against their targets:
 
 * ``dropout``: the fault's detection time, the time until every slot is filled again
   (``reassignment_time_s``), and how far the slaves are from their reference points after

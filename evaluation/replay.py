@@ -20,8 +20,8 @@ quantised integers), ``arena`` (``walls`` as ``[x1, y1, x2, y2]``, ``boxes`` as 
   does: stop/rest/walk/run), ``state`` (the user's robot state, seed 002 Fig. 4), ``master`` (the
   robot index of the master), and ``commands`` (``[frame, command]`` for every command the user's
   robot received, the start-up ones at frame 0);
-* ``robots``: per robot ``id``, ``type`` (``petbot``: every robot today; issue 15's heterogeneous
-  robots record their own), ``x``, ``y``, ``th``, ``ref_x``, ``ref_y`` (its reference point, null
+* ``robots``: per robot ``id``, ``type`` (``petbot`` for every robot: the
+  replay does not record a mixed pool's types yet), ``x``, ``y``, ``th``, ``ref_x``, ``ref_y`` (its reference point, null
   while it has none), and the runs ``role`` (master/slave/waiting/other), ``state`` (its middleware's
   sequence state: waiting, organizing, master, slave, …), ``member`` (member number, -1 outside a
   swarm), ``arbiter`` (the source that won its arbiter on that step: safety/user/policy, "" when
@@ -52,7 +52,7 @@ from petswarm.evaluation.pcap import attach_trace, detach_trace
 from petswarm_env.files import write_text_atomic
 
 FORMAT, VERSION = "petswarm-replay", 1
-ROBOT_TYPE = "petbot"  # the one robot type until issue 15
+ROBOT_TYPE = "petbot"  # every robot's type in a replay: the replay does not record a mixed pool's types yet
 OUTCOMES = ("sent", "lost", "collided")
 
 

@@ -1,4 +1,4 @@
-"""The three ``swarm.assignment`` strategies side by side (issue 15 part 3): seed 000 Table 2's
+"""The three ``swarm.assignment`` strategies side by side: seed 000 Table 2's
 ``closest``, seed 003 Algorithm 1 (``ruta_centralized``) and Algorithm 2 (``ruta_decentralized``).
 
 Usage:

@@ -17,8 +17,8 @@ import petswarm_env
 from petswarm.experiments.results import Experiment, ExperimentResult, Progress, Row
 from petswarm_env.config import Config
 
-MIN_ORGANIZE_TOLERANCE_S = 0.1  # issue 4: minimum organize time within ±0.1 s at each slave count
-RETRY_TOLERANCE_PCT = 15.0  # issue 4: retry probability within ±15 points at each count
+MIN_ORGANIZE_TOLERANCE_S = 0.1  # chosen: minimum organize time within ±0.1 s at each slave count
+RETRY_TOLERANCE_PCT = 15.0  # chosen: retry probability within ±15 points at each count
 
 # -- seed 000 §4.5 (Fig. 22, Table 5) ----------------------------------------------------------------
 PAPER_SLAVE_COUNTS = (1, 2, 3, 4, 5)

@@ -24,7 +24,7 @@ MOTION_BASELINE_STEPS = 15  # the standing velocity: mean and σ over the last 1
 REACTION_SETUP = {"swarm.mode": "leading", "swarm.num_slaves": 2, "swarm.formation": "row", "user.scenario": "straight",
                   "swarm.spawn": "at_slots"}  # the paper's trials start from a built formation (seed 000 §4.4)
 PAPER_REACTION_P90 = {"master": 1.1, "slave": 1.2, "slave_minus_master": 0.24}  # seed 000 §4.4, Fig. 20–21
-# issue 4: 90th-percentile reaction times within ±0.2 s; issue 14: the slave − master interval within
+# chosen: 90th-percentile reaction times within ±0.2 s; the slave − master interval within
 # what Fig. 21 resolves, about ±0.1 s (±0.2 s on 0.24 s could not fail: any interval under 0.44 s passed)
 REACTION_TOLERANCE_S = {"master": 0.2, "slave": 0.2, "slave_minus_master": 0.1}
 REACTION_CALIBRATION = "nothing (belt.*, ble.report_period_s, the broadcast period and the control step are chosen, none tuned to these rows)"
@@ -100,7 +100,7 @@ def reaction_time(cfg: Config, seed: int, quick: bool, progress: Progress) -> Ex
         notes.append(
             f"faster than the paper's prototype (belt rotation flag, BLE report every {cfg.ble.report_period_s:g} s, "
             f"{cfg.control_period_s:g} s control step); no mechanism in seeds 000/002 explains 1.1 s: neither the belt answering "
-            "each 350 ms LF burst (seed 002 §3.3) nor a following swarm's walking turn brings the three rows in (README)")
+            "each 350 ms LF burst (seed 002 §3.3) nor a following swarm's walking turn brings the three rows in (docs/reproduce.md)")
     return ExperimentResult(rows, data, note="; ".join(notes), calibration=REACTION_CALIBRATION)
 
 

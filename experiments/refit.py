@@ -1,5 +1,5 @@
-"""After a change of behaviour (another branch merged): re-fit what the env's behaviour moves, re-run
-the papers' experiments and print the README's reproduce table.
+"""After a change of behaviour (a change to a model, the protocol or the start): re-fit what the env's behaviour moves, re-run
+the papers' experiments and print docs/reproduce.md's first table.
 
 Usage: python -m petswarm.experiments.refit [--skip-fit] [--trials N] [--json reproduce.json] [--report reproduce.html]
 
@@ -15,7 +15,7 @@ Usage: python -m petswarm.experiments.refit [--skip-fit] [--trials N] [--json re
    there, run ``python -m petswarm.experiments.calibrate_ir`` / ``calibrate_lf --search``.
 2. **Reproduce**: every experiment of the registry, the full run (``petswarm reproduce``), with the
    JSON and the HTML page written.
-3. **The README table**: the markdown of *The papers' measurements* with the basis column.
+3. **The reproduce table**: the markdown of docs/reproduce.md's first table, with the basis column.
 
 Exit status: 0 when it got to the table, 1 when the fit moved (nothing re-run), whatever the rows say.
 """
@@ -58,7 +58,7 @@ def main() -> int:
         print(f"the fit holds: radio.processing_jitter_s = {current} is still the best on the fit counts")
     cfg = load_config()
     results = reproduce_results(cfg, list(EXPERIMENTS), cfg.seed, False, args.json, args.report, "python -m petswarm.experiments.refit")
-    print("\nREADME, 'The papers' measurements':\n")
+    print("\ndocs/reproduce.md, the papers' measurements:\n")
     print(markdown_table(results))
     return 0
 

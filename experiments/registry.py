@@ -1,5 +1,5 @@
-"""The papers' experiments that ``petswarm reproduce`` runs (SPEC §3.7), in the order of the
-issue (names are part of the interface, issue 4):
+"""The papers' experiments that ``petswarm reproduce`` runs (SPEC §3.7), in the order of SPEC §3.7
+(names are part of the interface):
 
 * ``ir_accuracy``   seed 000 §4.3, Fig. 18–19, Table 4 (:mod:`petswarm.experiments.ir_accuracy`)
 * ``reaction_time`` seed 000 §4.4, Fig. 20–21 (:mod:`petswarm.experiments.reaction_time`)
@@ -10,7 +10,7 @@ issue (names are part of the interface, issue 4):
 * ``ruta_example``  seed 003 §5.2.1 (:mod:`petswarm.experiments.ruta_example`)
 
 Each runs one of the papers' own evaluations through the code the environment uses and returns
-rows of *paper figure vs simulated figure* with the issue's tolerance and the row's basis
+rows of *paper figure vs simulated figure* with its tolerance and the row's basis
 (``calibrated`` or ``validated``, :mod:`petswarm.experiments.results`).
 No experiment computes its answer from a formula of the result.
 
@@ -38,7 +38,7 @@ from petswarm_env.files import jsonable
 EXPERIMENTS: dict[str, Experiment] = {
     m.EXPERIMENT.name: m.EXPERIMENT for m in (ir_accuracy, reaction_time, organize_time, lf_accuracy, rotation_sync)
 }
-EXPERIMENTS.update({m.EXPERIMENT.name: m.EXPERIMENT for m in (sensor_mapping, ruta_example, reassignment)})  # issue 15
+EXPERIMENTS.update({m.EXPERIMENT.name: m.EXPERIMENT for m in (sensor_mapping, ruta_example, reassignment)})  # seeds 001 and 003
 
 
 def parse_only(text: str | None) -> list[str]:

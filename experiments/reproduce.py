@@ -74,7 +74,7 @@ def table_lines(results: dict[str, ExperimentResult]) -> list[tuple[str, ...]]:
 
 
 def markdown_table(results: dict[str, ExperimentResult]) -> str:
-    """The README's reproduce table (GitHub markdown): a row per figure with its basis; a failing
+    """docs/reproduce.md's table (GitHub markdown): a row per figure with its basis; a failing
     row's ok in bold."""
     out = ["| experiment | metric | basis | paper | sim | tolerance | ok |", "|---|---|---|---|---|---|---|"]
     for name, res in results.items():

@@ -27,7 +27,7 @@ from typing import Any
 
 Progress = Callable[[int, int], None]  # progress(done, total)
 
-RMSE_TOLERANCE_REL = 0.20  # issue 4: RMSEs within ±20 % of the paper
+RMSE_TOLERANCE_REL = 0.20  # chosen: RMSEs within ±20 % of the paper
 
 
 BASES = ("calibrated", "validated")  # what a row tests (module docstring)

@@ -29,7 +29,7 @@ from petswarm_env.middleware import ruta
 BASIS = "validated"  # the paper's inputs through the equations; no parameter is fitted
 PRINTED_TOLERANCE = 0.01  # two printed decimals, rounded or truncated
 # The paper's printed inputs computed exactly, to its two decimals: 0.7 × 2200/130 × 1/3 = 3.949
-# (issue 15 states it as 3.95). The paper prints 3.90 because it writes the bracket as 5.58 (it is
+# (3.95). The paper prints 3.90 because it writes the bracket as 5.58 (it is
 # 5.641): this row compares with the exact figure at the printed tolerance, the row above with the
 # paper's own 3.90, so neither needs a widened tolerance.
 R1_EXACT = 3.95

@@ -1,7 +1,7 @@
 """Typed, validated configuration.
 
 The values live in one place, ``configs/default.yaml`` (shipped inside the package as
-``petswarm_env/default.yaml`` and mirrored at the repository's ``configs/``); this module holds
+``petswarm/configs/default.yaml``; one file, the repository's ``configs/default.yaml``); this module holds
 only their *types and ranges*. A user's file or ``--set`` overrides are merged over the defaults,
 then validated as a whole: an unknown key or a bad value raises :class:`ConfigError` whose message
 names the key, what is wrong and what is allowed.
@@ -12,7 +12,6 @@ from __future__ import annotations
 import math
 import os
 from collections.abc import Mapping
-from importlib import resources
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
@@ -532,7 +531,9 @@ def arrival_slots(cfg: Config) -> int:
 
 
 def default_config_path() -> Path:
-    return Path(str(resources.files("petswarm_env") / "default.yaml"))
+    from petswarm import shipped_configs
+
+    return shipped_configs() / "default.yaml"
 
 
 def load_config(

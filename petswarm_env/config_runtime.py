@@ -11,7 +11,7 @@ from pydantic import Field, model_validator
 
 from petswarm_env.config_base import COUNT, EPISODE_S, LONG_S, NEAR_M, SHORT_M, TICK_S, Section
 
-# runtime changes (issue 15 part 4; petswarm_env/sim/faults.py): the fault kinds; an arrival's type is one
+# runtime changes (petswarm_env/sim/faults.py, docs/faults.md): the fault kinds; an arrival's type is one
 # of the config's robot_types (checked by Config, which holds both)
 FAULT_KINDS = ("dead", "radio_silent", "ir", "ultrasonic", "ahrs", "battery")
 FAULT_TARGETS = ("master", "random_slave")

@@ -29,7 +29,7 @@ being a slave (it became the master, or the swarm dispersed) is terminated; a ro
 slave joins ``agents``. The experimenter's tools read the ground truth through ``env.truth``
 (:class:`~petswarm_env.episode.Truth`, read-only); a policy reads only its observation.
 
-Runtime changes (issue 15, docs/faults.md; none by default): ``faults`` break parts of robots and
+Runtime changes (docs/faults.md; none by default): ``faults`` break parts of robots and
 ``arrivals`` switch robots on mid-episode (:mod:`petswarm_env.runtime`); a dead slave is
 terminated, a slave that lost its master (no status broadcast for ``protocol.status_timeout_s``)
 stops and is terminated, an arrival that joins is a new agent (``possible_agents`` ends with the

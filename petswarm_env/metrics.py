@@ -17,7 +17,7 @@ The summary's formation figures:
 * ``emergency_s``: the time spent in emergency, read from each user session's state after every
   step, summed over the users (with one user: the time its swarm stood in emergency).
 * ``error_trace`` (every step, emergency included) is the mean formation error of the step's slaves.
-* runtime changes (issue 15; :mod:`petswarm_env.runtime`): ``faults_injected``; ``faults_detected``,
+* runtime changes (docs/faults.md; :mod:`petswarm_env.runtime`): ``faults_injected``; ``faults_detected``,
   the faults the middleware noticed — the robot declared lost by its master's ring, or, for a
   master, its loss noticed by a slave's status timeout (sensor faults are not detected: the robot
   still answers); ``detection_time_s``, the mean time from a fault to its detection (NaN if

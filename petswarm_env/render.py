@@ -52,7 +52,7 @@ ROLE_COLOURS = {
     "waiting": (150, 150, 150),  # grey
     "other": (145, 60, 190),  # purple (another user's swarm)
 }
-FAULT_MARK = (235, 20, 20)  # a robot's fault state (issue 15): a red cross when off, a red rim for a broken part
+FAULT_MARK = (235, 20, 20)  # a robot's fault state (docs/faults.md): a red cross when off, a red rim for a broken part
 FAULT_SHORT = {"dead": "X", "battery": "B0", "radio_silent": "RF", "ir": "IR", "ultrasonic": "US", "ahrs": "AHRS"}
 
 _MAX_PX = 1_000_000  # clamp for far-off coordinates so pygame never sees absurd integers

@@ -1,4 +1,4 @@
-"""The episode's runtime changes (issue 15 part 4): faults and arrivals, as the experimenter makes
+"""The episode's runtime changes (docs/faults.md): faults and arrivals, as the experimenter makes
 them happen. Nothing here is a robot's knowledge: the env asks this module to break parts of
 robots and to switch robots on; the robots' middleware notices only through what its radio, IR
 module and sensors stop or start delivering (:mod:`petswarm_env.sim.faults`,
@@ -135,7 +135,7 @@ class Runtime:
 
     def check_batteries(self) -> None:
         """A battery the robot's motion and sensing drained to 0 (sim/battery.py) is the ``battery``
-        fault (issue 15 part 1): logged and applied like an injected one. Called after every step."""
+        fault (seed 003 §4.1.2's battery): logged and applied like an injected one. Called after every step."""
         for robot in self.world.robots:
             if robot.battery.empty and "battery" not in robot.health.active:
                 self.faults.inject(robot.index, "battery", self.clock.now, self._role(robot.index))

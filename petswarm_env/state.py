@@ -14,9 +14,9 @@ swarm.extra_robots, or the pool's robots with a swarm.pool or a scenario's pool)
 ``world.num_users`` blocks of :data:`USER_FIELDS`, then :data:`GLOBAL_FIELDS`. Positions are
 relative to user 0 (the world frame's axes), so the state does not grow with the distance walked.
 
-Reserved slots: ``type`` and ``fault`` of every robot are 0 until the heterogeneous-swarm issue
-(robot types, faults) fills them; their bounds and places are fixed now so that a critic's input
-size does not change then.
+Every robot block ends with ``type`` (its index in ``robot_types``) and ``fault`` (a fault is
+active): their places were fixed before robot types and faults existed (then always 0), so a
+critic's input size did not change when they came (state version 2).
 """
 
 from __future__ import annotations
@@ -33,7 +33,7 @@ from petswarm_env.scenarios import ACTIVITIES
 if TYPE_CHECKING:
     from petswarm_env.config import Config
 
-STATE_VERSION = 2  # 2: the type and fault fields carry the robot types and faults of issue 15
+STATE_VERSION = 2  # 2: the type and fault fields carry the robot types (seeds 001, 003) and the runtime faults
 STATE_POS_SCALE_M = 10.0  # positions relative to user 0, m / 10
 STATE_POS_CLIP = 2.0  # … clipped to ±2 (20 m)
 ERROR_SCALE_M = 3.0  # reference errors, m / 3 (the observation's POS_SCALE_M)

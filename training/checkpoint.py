@@ -37,7 +37,7 @@ from petswarm_env.config import ConfigError
 from petswarm_env.files import read_npz, write_atomic
 
 CHECKPOINT = "latest.npz"
-OLD_SB3_CHECKPOINT = "latest.zip"  # petswarm before issue 14: SB3's pickled format, never read
+OLD_SB3_CHECKPOINT = "latest.zip"  # what earlier versions wrote: SB3's pickled format, never read
 FORMAT = "petswarm-checkpoint"
 FORMAT_VERSION = 1
 MAX_BYTES = 1_000_000_000

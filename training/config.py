@@ -1,6 +1,6 @@
 """The training configuration: every hyper-parameter of a run, validated (pydantic).
 
-The defaults are ``configs/train/ppo.yaml``, shipped in the package as ``training/ppo.yaml``
+The defaults are ``configs/train/ppo.yaml``, shipped in the package (``petswarm.shipped_configs()``)
 (the two files are equal, a test checks it); ``load_train_config`` merges a user file and dotted
 overrides over them. Keys under ``env.`` are overrides of the environment config
 (``configs/default.yaml``) and are validated against it too.
@@ -9,7 +9,6 @@ overrides over them. Keys under ``env.`` are overrides of the environment config
 from __future__ import annotations
 
 import os
-from importlib import resources
 from pathlib import Path
 from typing import Any, Literal
 
@@ -26,10 +25,11 @@ from petswarm_env.config import (
     nest_dotted,
     read_yaml,
 )
+from petswarm import shipped_configs
 from petswarm.baselines.learned import Residual
 from petswarm.training.randomize import check_pools, draw_config
 
-DEFAULT_TRAIN_CONFIG = Path(str(resources.files("petswarm.training") / "ppo.yaml"))
+DEFAULT_TRAIN_CONFIG = shipped_configs() / "train" / "ppo.yaml"
 
 
 class PPOConfig(Section):

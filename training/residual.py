@@ -1,4 +1,4 @@
-"""Residual policy learning (issue 16): the trained network corrects the scripted reference.
+"""Residual policy learning: the trained network corrects the scripted reference.
 
 With ``residual_of: scripted`` in the training config, PPO's action for a robot is not the robot's
 command but a correction: :class:`ResidualActions` sends ``clip(scripted(obs) + s · clip(a, -1,

@@ -57,7 +57,7 @@ NOTIFY_RESERVE_TRIES = 4
 # chosen: the master takes as joining candidates the scan responders its RSSI estimate puts within
 # this many times the available region (the RSSI distance is off by ~10 % at 1 dB shadowing)
 CANDIDATE_REACH = 1.3
-# chosen: a refill (issue 15) scans at most this many times; the master's periodic scan
+# chosen: a refill (of a lost member's slot) scans at most this many times; the master's periodic scan
 # (protocol.rescan_period_s) tries again later while a slot stays open
 REFILL_SCANS = 3
 
@@ -361,7 +361,7 @@ class JoinManager:
 
     def refill(self, open_members: list[int], pan: int, members: dict[int, int], mode: str, result: OrganizeResult):
         """Recruit waiting robots into the ``open_members`` of an organized swarm (SimPy generator;
-        issue 15): the same pipeline as organizing — scan, query, :meth:`_select`, notify — on the
+        docs/faults.md): the same pipeline as organizing — scan, query, :meth:`_select`, notify — on the
         common PAN, within ``protocol.organize_timeout_s``. ``members`` is the master's member
         table now. Returns the new member table (the joiners notified in it), or None when no robot
         was recruited. The formation for the new size is the standard one of the master's shape and

@@ -1,4 +1,4 @@
-"""Losing and recruiting members while organized (issue 15; seed 003: a failing robot's task is
+"""Losing and recruiting members while organized (seed 003: a failing robot's task is
 taken over, robots are added at runtime).
 
 Both sides run on one robot's station, like the other managers:

@@ -12,7 +12,7 @@ Robots have independent clocks, so IR transmission is sequenced by a token:
 A lost token must not stall the ring (SPEC §3.3, chosen): the master watches the ring and, after
 ``token_timeout_s`` of silence, regenerates the token and transmits itself.
 
-A member that stops answering (issue 15; chosen): the holder before it retries the token
+A member that stops answering (chosen): the holder before it retries the token
 ``token_retries`` times, then skips it, every round. The master counts, at the start of each of
 its own slots (one round of the ring), the members it heard no ring frame from since the start of
 its previous slot — their acknowledgements of its start sign and token (and those it overhears,

@@ -166,12 +166,12 @@ class Scenario:
 
     name: str = ""
     changes_master: bool = False
-    # runtime changes the scenario brings when the config lists none (issue 15; plain mappings of the
+    # runtime changes the scenario brings when the config lists none (plain mappings of the
     # config's keys: faults [{at_s, robot, kind, duration_s}], arrivals [{at_s, type}]; petswarm_env/runtime.py)
     faults: tuple[dict[str, Any], ...] = ()
     arrivals: tuple[dict[str, Any], ...] = ()
     # the waiting robots of each user's pool by type, ((type, count), ...), used when swarm.pool is
-    # empty (issue 15; robot_types.pool_types); () = swarm.num_slaves + swarm.extra_robots petbots
+    # empty (robot_types.pool_types); () = swarm.num_slaves + swarm.extra_robots petbots
     robot_pool: tuple[tuple[str, int], ...] = ()
 
     def walk(self, user: Any, rng: np.random.Generator) -> list[Segment]:

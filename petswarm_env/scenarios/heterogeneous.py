@@ -1,4 +1,4 @@
-"""``heterogeneous`` (issue 15): a mixed pool — one of each shipped robot type, seed 003's
+"""``heterogeneous``: a mixed pool — one of each shipped robot type, seed 003's
 heterogeneous swarm with seed 001's Mybot — accompanying a user on seed 002 Fig. 18a's walk
 (8 s straight, a 60° left turn, then straight on). The master is the user's petbot; each slave
 is its body mapped onto the env's virtual robot (petswarm_env/middle_layer.py)."""

@@ -1,4 +1,4 @@
-"""Scenarios of a swarm that changes and fails (issue 15 part 6; seed 003: robots fail and are
+"""Scenarios of a swarm that changes and fails (seed 003: robots fail and are
 added at runtime). The user walks straight on (the default script); each scenario brings its
 faults and arrivals (petswarm_env/runtime.py), used when the config lists none. Times are episode
 time: seconds after ``reset`` returned."""

@@ -1,4 +1,4 @@
-"""Every robot's fault state, in one place (issue 15 part 4; seed 003: robots fail and are replaced).
+"""Every robot's fault state, in one place (seed 003: robots fail and are replaced).
 
 A fault is hardware truth: the robot's software does not read it. Each kind switches off a part of
 the robot, and each part's model asks :class:`Health` whether it works:

@@ -1,4 +1,4 @@
-"""The comparison grid (issue 16 part 4): ``petswarm eval --grid FILE`` end to end through the
+"""The comparison grid (docs/results.md): ``petswarm eval --grid FILE`` end to end through the
 CLI (JSON, resume, the report's heatmap), the grid file's one-line errors, a cell's determinism,
 and the committed grid's coverage."""
 

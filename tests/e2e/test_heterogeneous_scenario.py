@@ -1,8 +1,8 @@
-"""End-to-end: the ``heterogeneous`` scenario (issue 15) — a petbot master and a pool of one
+"""End-to-end: the ``heterogeneous`` scenario — a petbot master and a pool of one
 petbot, one mybot (seed 001, differential), one r1 and one r2 (seed 003's R1, R2) — held by the
 scripted reference from the slots (``swarm.spawn: at_slots``): formation RMSE <= 0.25 m, no
-collisions, seeds 0–4 (the README's figures). From the scattered start it builds, but looser (the
-README says by how much)."""
+collisions, seeds 0–4 (the figures of docs/results.md). From the scattered start it builds, but looser (docs/results.md
+says by how much)."""
 
 import pytest
 
@@ -41,7 +41,7 @@ def test_the_scattered_mixed_swarm_builds_and_runs():
 
 def test_the_mixed_swarm_builds_from_the_slots(hetero):
     # seeds 2 and 4 within 3 s; seeds 0, 1 and 3 once the user walks off (user.formation_wait_s = 30 s):
-    # a differential slave holds 0.3-0.4 m off its slot while standing (README, "A heterogeneous swarm";
+    # a differential slave holds 0.3-0.4 m off its slot while standing (docs/results.md, "A heterogeneous swarm";
     # seed 3 built in 2.9 s while the odometry read the body's true velocity, in 32.6 s with the wheels')
     times = [ep["building_time_s"] for ep in hetero["episodes"]]
     assert all(t < 40.0 for t in times) and sum(t < 3.0 for t in times) >= 2, times

@@ -11,13 +11,13 @@ def test_shipped_policy_records_how_it_was_trained():
     meta, layers = read_policy_file(shipped_policy_path())
     assert meta["env_name"] == "petswarm_v0"
     assert meta["info"]["command"].startswith("petswarm train")
-    assert meta["info"]["timesteps"] >= 100_000  # mappo_generalize.npz: 165 888 rows after a 200 k-sample warm start (README)
+    assert meta["info"]["timesteps"] >= 100_000  # mappo_generalize.npz: 165 888 rows after a 200 k-sample warm start (docs/results.md)
     assert meta["observation_version"] == 2 and meta["info"]["train_config"]["randomize"]
     assert layers[-1][0].shape[0] == 3
 
 
 def test_shipped_policy_holds_the_default_wedge():
-    # from the slots (issue 16's policy trained from scattered starts over drawn configs; it holds the wedge here too)
+    # from the slots (the policy trained from scattered starts over drawn configs; it holds the wedge here too)
     env = parallel_env(max_cycles=300, **{"swarm.spawn": "at_slots"})
     policy = make_policy("learned", PolicySpec.from_env(env))
     assert isinstance(policy, LearnedPolicy)

@@ -1,6 +1,7 @@
-"""Packaging: the wheel ships everything ``petswarm train/eval/reproduce`` read (default.yaml,
-training/ppo.yaml, the shipped policy), so a fresh venv with only the wheel runs them outside the
-repository. The venv gets the already-installed dependencies through a ``.pth`` line to this
+"""Packaging: the wheel installs two import packages (``petswarm_env`` and ``petswarm``) and ships
+everything ``petswarm run/train/eval/report/reproduce`` read (the configs, the grid, the examples,
+the shipped policies), so a fresh venv with only the wheel runs them outside the repository, in a
+folder that has packages of its own named like the repository's folders (``training/``...). The venv gets the already-installed dependencies through a ``.pth`` line to this
 interpreter's site-packages (no torch reinstall); petswarm itself comes only from the wheel."""
 
 import json
@@ -38,17 +39,26 @@ def venv(tmp_path_factory):
     py = env_dir / "bin" / "python"
     site = Path(_run([py, "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"], tmp).strip())
     (site / "_deps_of_the_test_venv.pth").write_text(sysconfig.get_paths()["purelib"] + "\n")  # deps only, appended
+    (site / "_venv_own_packages.txt").write_text("\n".join(p.name for p in site.iterdir()))  # pip, setuptools on 3.11
     _run([py, "-m", "pip", "install", "-q", "--no-deps", "--no-index", wheel], tmp)
     work = tmp / "work"
-    work.mkdir()
+    for name in ("training", "baselines", "evaluation", "cli"):  # a user's own packages of generic names
+        (work / name).mkdir(parents=True)
+        (work / name / "__init__.py").write_text("raise ImportError('the user's own package was imported')\n")
     return env_dir / "bin", work, site
 
 
-def test_the_wheels_package_is_the_one_imported(venv):
+def test_the_wheel_installs_only_project_named_packages(venv):
     bin_dir, work, site = venv
-    where = _run([bin_dir / "python", "-c", "import petswarm_env, training, baselines; print(petswarm_env.__file__, training.__file__)"],
+    where = _run([bin_dir / "python", "-c",
+                  "import petswarm_env, petswarm.training, petswarm.baselines; print(petswarm_env.__file__, petswarm.training.__file__)"],
                  work)
     assert all(p.startswith(str(site)) for p in where.split()), where
+    own = set((site / "_venv_own_packages.txt").read_text().split())  # what `python -m venv` put there
+    top = {p.name for p in site.iterdir() if p.is_dir() and not p.name.endswith((".dist-info", "__pycache__"))} - own
+    assert top == {"petswarm", "petswarm_env"}, top
+    assert (site / "petswarm" / "configs" / "train" / "generalize.yaml").is_file()
+    assert (site / "petswarm" / "examples" / "torchrl_collect.py").is_file()
 
 
 def test_train_eval_and_reproduce_run_from_the_wheel_outside_the_repo(venv):
@@ -65,3 +75,22 @@ def test_train_eval_and_reproduce_run_from_the_wheel_outside_the_repo(venv):
     _run([petswarm, "eval", "--policy", "learned", "--episodes", "1", "--set", "max_cycles=10"], work)  # the shipped model
     out = _run([petswarm, "reproduce", "--only", "ir_accuracy", "--quick"], work)
     assert "ir_accuracy" in out
+
+
+def test_run_grid_and_report_by_shipped_names_from_the_wheel(venv):
+    bin_dir, work, _ = venv
+    petswarm = bin_dir / "petswarm"
+    _run([petswarm, "run", "--episodes", "1", "--set", "max_cycles=20", "--json", "r.json"], work)
+    assert json.loads((work / "r.json").read_text())["summary"]["episodes"] == 1
+    grid = ("seed: 900000000\nepisodes: 1\ncells:\n  - name: tiny\n    set: {max_cycles: 10}\n")  # seed, episodes: required
+    (work / "tiny_grid.yaml").write_text(grid)
+    _run([petswarm, "eval", "--grid", "tiny_grid.yaml", "--policy", "scripted", "--episodes", "1", "--json", "g.json"], work)
+    assert (work / "g.json").is_file()
+    _run([petswarm, "report", "r.json", "--out", "r.html"], work)
+    assert (work / "r.html").stat().st_size > 0
+    # a shipped training config by the repository's path, found in the package
+    out = _run([petswarm, "train", "--config", "configs/train/ppo.yaml", "--timesteps", "64", "--out", "runs/named", "--no-progress",
+                "--set", "num_envs=1", "--set", "num_cpus=0", "--set", "ppo.n_steps=32", "--set", "ppo.batch_size=32",
+                "--set", "ppo.net_arch=[8,8]", "--set", "pretrain.samples=0", "--set", "eval.every_steps=1000000",
+                "--set", "checkpoint.every_steps=1000000", "--set", "env.max_cycles=20"], work)
+    assert (work / "runs" / "named" / "policy.npz").is_file(), out

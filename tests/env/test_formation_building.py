@@ -108,9 +108,9 @@ def test_a_swarm_that_never_builds_reports_nan_and_the_user_walks_after_the_wait
     assert walked == pytest.approx(4.0, abs=0.11)
 
 
-# heterogeneous (issue 15): the scripted slave, written for a holonomic body, asks a differential
+# heterogeneous: the scripted slave, written for a holonomic body, asks a differential
 # body to move sideways while holding its heading; the two turns cancel and the mixed pool builds
-# only after ~35 s from the scattered start (README, "A heterogeneous swarm"). Strict: it fails
+# only after ~35 s from the scattered start (docs/results.md, "A heterogeneous swarm"). Strict: it fails
 # loudly once the building gets within 25 s.
 _SCATTERED_SLOW = {"heterogeneous": "a differential body's turn toward its move and the scripted slave's heading hold cancel"}
 

@@ -1,4 +1,4 @@
-"""A heterogeneous swarm in the env (issue 15): the mixed pool of the ``heterogeneous`` scenario and
+"""A heterogeneous swarm in the env (seeds 001, 003): the mixed pool of the ``heterogeneous`` scenario and
 ``swarm.pool``, one observation space, each slave's body mapped onto the virtual ring."""
 
 import numpy as np

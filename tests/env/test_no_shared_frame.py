@@ -1,4 +1,4 @@
-"""No shared frame (issue 14 item 1): nothing a robot knows is in the world frame.
+"""No shared frame (seed 000 §3.5): nothing a robot knows is in the world frame.
 
 Each robot's AHRS reads yaw relative to its own power-on heading (seed 000 §3.5: no compass; every
 relative heading comes from the heading exchange). So turning the whole initial scene — robots,

@@ -1,4 +1,4 @@
-"""The runtime-change scenarios end to end with the scripted reference (issue 15 part 6:
+"""The runtime-change scenarios end to end with the scripted reference (docs/faults.md:
 dropout, master_loss, arrival; petswarm_env/scenarios/runtime_changes.py): the summary's keys, the
 agents following the middleware (a dead slave terminated, an arrival a new agent), the state in
 its bounds, the same episode from the same seed."""

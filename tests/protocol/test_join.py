@@ -250,7 +250,7 @@ def test_a_joined_robot_is_counted_in_the_swarm_whose_pan_it_joined():
             assert env.episode.fleet.swarm_of(n) is sw and env.episode.fleet.nodes[n].swarm_pan == sw.pan
 
 
-# -- organizing under loss (issue 14 item 9) ----------------------------------------------------------
+# -- organizing under loss (seed 000 §4.5) ------------------------------------------------------------
 
 
 def test_the_master_keeps_scanning_while_fewer_robots_are_available_than_required():

@@ -1,4 +1,4 @@
-"""Knowledge travels in frames (issue 14 item 4; seed 000 §3.4 Fig. 8, §3.5 Table 3).
+"""Knowledge travels in frames (seed 000 §3.4 Fig. 8, §3.5 Table 3).
 
 A slave's member table, neighbour table with its offsets, formation shape and driving mode come
 only from the joining notification and the mode-change frames it received — never from its own

@@ -1,4 +1,4 @@
-"""Detection and recovery through the middleware (issue 15; middleware/token_ring.py,
+"""Detection and recovery through the middleware (docs/faults.md; middleware/token_ring.py,
 middleware/recovery.py, middleware/join.py): the ring retries and skips a silent member, the
 master declares it lost after protocol.lost_after_rounds rounds, removes it with an acknowledged
 member update (robust to lost copies), and refills the open member number through the join

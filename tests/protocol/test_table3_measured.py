@@ -1,4 +1,4 @@
-"""Table 3 from measurements (issue 14 item 5; seed 000 §3.5, Table 3).
+"""Table 3 from measurements (seed 000 §3.5, Table 3).
 
 On a driving-mode change with master change, "the closest robot" (leading → following) and "the
 robot with the highest hierarchical level" (following → leading: the farthest from the user) are

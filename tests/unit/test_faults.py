@@ -1,4 +1,4 @@
-"""Fault state and fault effects (issue 15 part 4; petswarm_env/sim/faults.py, petswarm_env/runtime.py)."""
+"""Fault state and fault effects (docs/faults.md; petswarm_env/sim/faults.py, petswarm_env/runtime.py)."""
 
 import math
 

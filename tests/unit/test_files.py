@@ -61,7 +61,7 @@ def test_jsonable_gives_plain_strict_json():
     json.dumps(out, allow_nan=False)  # strict JSON
 
 
-# -- temporary files: every exit path, and leftovers of a killed process (issue 14 part 2) -------
+# -- temporary files: every exit path, and leftovers of a killed process -----------------------
 def _dead_pid() -> int:
     import subprocess
     import sys

@@ -1,4 +1,4 @@
-"""The house rules of issue 13, read from the source: sizes of files and functions.
+"""The house rules (docs/architecture.md), read from the source: sizes of files and functions.
 
 No module outside ``tests/`` is over ``MAX_FILE_LINES`` lines, and no function is over
 ``MAX_FUNCTION_LINES`` lines unless its docstring says why it is one function ("on purpose").

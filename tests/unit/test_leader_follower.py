@@ -1,5 +1,5 @@
 """The scripted leader–follower controller on Python floats computes, bit for bit, what its numpy
-form computed (the reference figures of the README depend on it), on recorded and random observations."""
+form computed (the reference figures of docs/results.md depend on it), on recorded and random observations."""
 
 import math
 

@@ -179,7 +179,7 @@ def test_tracker_follows_a_walking_user_between_fixes():
 
 
 def test_a_tracker_reset_counts_from_the_robots_own_ahrs_reading():
-    """The AHRS reads from each robot's own power-on heading (issue 14 item 1): a handed-over fix
+    """The AHRS reads from each robot's own power-on heading (seed 000 §3.5: no compass): a handed-over fix
     (a master change) placed right after a reset stays where it was put once the robot's next
     reading arrives, whatever that reading is."""
     for yaw in (0.0, 1.2, -2.9):

@@ -1,4 +1,4 @@
-"""experiments/reassignment.py (issue 15 part 5): its trials' configuration (it runs in
+"""experiments/reassignment.py (seed 003 §5.2): its trials' configuration (it runs in
 tests/e2e/test_reproduce.py)."""
 
 from petswarm.experiments import reassignment

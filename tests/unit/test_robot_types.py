@@ -1,4 +1,4 @@
-"""Robot types (issue 15 §1): the robot_types config, swarm.pool, the bodies (differential drive,
+"""Robot types (seeds 001 and 003): the robot_types config, swarm.pool, the bodies (differential drive,
 wheel slip, per-type limits, the battery) and seed 001's middle layer on them (mapping tables,
 NULL location, presence 0, the behaviour refusal)."""
 

@@ -75,7 +75,7 @@ def test_ahrs_is_truth_plus_a_drifting_bias_and_white_noise():
 
 
 def test_ahrs_counts_from_its_own_power_on_heading():
-    """No shared frame (issue 14 item 1, seed 000 §3.5: no compass): at power-on each AHRS takes a
+    """No shared frame (seed 000 §3.5: no compass): at power-on each AHRS takes a
     random power-on heading (its first draw), so robots facing the same way read unrelated yaws,
     while a robot's own readings still differ by its own rotation; a robot turned before power-on
     with the same stream reads exactly what the unturned one reads."""

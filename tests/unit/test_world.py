@@ -51,7 +51,7 @@ def test_unknown_scenario_is_refused_with_the_choices():
 
     with pytest.raises(ValueError, match="unknown scenario 'moonwalk'; choose one of: straight, .*zigzag"):
         scenarios.get("moonwalk")
-    assert len(SCENARIOS) == 12  # the 8 walks, heterogeneous and the 3 runtime-change scenarios (issue 15)
+    assert len(SCENARIOS) == 12  # the 8 walks, heterogeneous and the 3 runtime-change scenarios
 
 
 def test_ultrasonic_sees_a_box_ahead_and_a_robot_collides_with_it():

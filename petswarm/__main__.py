@@ -1,0 +1,5 @@
+"""``python -m petswarm`` = the ``petswarm`` command."""
+
+from petswarm.cli.main import main
+
+raise SystemExit(main())

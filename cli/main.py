@@ -32,23 +32,28 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"petswarm: error: {message}\n")
 
 
-def _int_at_least(minimum: int, what: str):
-    """An argparse type: an integer of at least ``minimum``, else "expected <what>, got ..."."""
+def _int_at_least(minimum: int, what: str, maximum: int | None = None):
+    """An argparse type: an integer from ``minimum`` to ``maximum``, else "expected <what>, got ..."."""
 
     def parse(text: str) -> int:
+        if len(text) > 30:
+            raise argparse.ArgumentTypeError(f"expected {what}, got a number of {len(text)} characters")
         try:
             value = int(text)
         except ValueError:
             raise argparse.ArgumentTypeError(f"expected {what}, got '{text}'") from None
-        if value < minimum:
+        if value < minimum or (maximum is not None and value > maximum):
             raise argparse.ArgumentTypeError(f"expected {what}, got {value}")
         return value
 
     return parse
 
 
-_positive_int = _int_at_least(1, "a positive integer")
-_seed = _int_at_least(0, "a non-negative integer seed")
+# the ranges of the command line's numbers: a million episodes (a day of one core at 0.1 s each),
+# a seed of numpy's 63 bits, a training budget of 10^12 agent-steps (training/config.py MAX_STEPS)
+_positive_int = _int_at_least(1, "a positive integer up to 1000000", 1_000_000)
+_seed = _int_at_least(0, "a non-negative integer seed below 2^63", 2**63 - 1 - 1_000_000)
+_timesteps = _int_at_least(1, "a positive integer up to 10^12", 10**12)
 
 
 def _policy_name(text: str) -> str:
@@ -127,7 +132,7 @@ def _add_train(sub) -> None:
     train.add_argument("--config", metavar="FILE", help="training YAML merged over configs/train/ppo.yaml")
     train.add_argument("--set", metavar="KEY=VALUE", action="append", default=[],
                        help="override a training key (ppo.learning_rate=1e-4) or an env key (env.swarm.num_slaves=3)")
-    train.add_argument("--timesteps", type=_positive_int, metavar="N", help="total agent-steps (overrides the config)")
+    train.add_argument("--timesteps", type=_timesteps, metavar="N", help="total agent-steps (overrides the config)")
     train.add_argument("--out", metavar="runs/NAME", default="runs/ppo", help="run folder (default runs/ppo)")
     train.add_argument("--resume", action="store_true", help="continue the run in --out from its latest checkpoint")
     train.add_argument("--no-progress", action="store_true", help="no progress bar")

@@ -782,3 +782,26 @@ def test_numbers_beyond_their_physical_range_through_the_cli(capsys, outputs, ar
     t0 = time.perf_counter()
     _fails(capsys, [*argv, "--json", outputs / "OUT.json"], words)
     assert time.perf_counter() - t0 < 10 and _snapshot(outputs) == before
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["run", "--episodes", "99999999999999999999999"], "--episodes"),
+    (["eval", "--episodes", "10000000000"], "--episodes"),
+    (["run", "--seed", str(2**64)], "--seed"),
+    (["run", "--seed", "9" * 5000], "characters"),
+    (["train", "--timesteps", "1" + "0" * 13], "--timesteps"),
+    (["train", "--set", "ppo.batch_size=99999999999"], "ppo.batch_size"),
+    (["train", "--set", "ppo.net_arch=[100000000]"], "ppo.net_arch.0"),
+    (["train", "--set", "num_envs=100000"], "num_envs"),
+    (["train", "--set", "ppo.n_steps=60000", "--set", "num_envs=8"], "memory budget"),
+    (["train", "--set", "ppo.log_std_init=1e300"], "ppo.log_std_init"),
+    (["train", "--set", "pretrain.samples=1e15"], "pretrain.samples"),
+])
+def test_unbounded_counts_of_the_command_line_and_the_training_config(capsys, outputs, argv, words):
+    if argv[0] == "train":
+        pytest.importorskip("stable_baselines3")
+        argv = [*argv, "--out", str(outputs / "run")]
+    before = _snapshot(outputs)
+    t0 = time.perf_counter()
+    _fails(capsys, argv, words)
+    assert time.perf_counter() - t0 < 20 and _snapshot(outputs) == before

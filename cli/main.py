@@ -256,10 +256,28 @@ def _env_config(args):
     return load_config(args.config, dict(parse_override(item) for item in args.set))
 
 
+def _check_video_budget(cfg, flag: str) -> None:
+    """A GIF holds its frames in memory until it is written (petswarm_env/render.py: one byte a pixel
+    after quantizing, a frame every ``VIDEO_EVERY`` steps): refuse before the episode one that would
+    need more than the config's memory budget."""
+    from evaluation.runner import VIDEO_EVERY
+    from petswarm_env.config import MEMORY_BUDGET_BYTES
+
+    w, h = cfg.render.size_px
+    need = -(-cfg.max_cycles // VIDEO_EVERY) * w * h
+    if need > MEMORY_BUDGET_BYTES:
+        raise ConfigError(f"{flag}: a GIF of max_cycles={cfg.max_cycles} steps at render.size_px={list(cfg.render.size_px)} needs "
+                          f"{need / 1e9:.1f} GB of frames, more than the {MEMORY_BUDGET_BYTES / 1e9:g} GB budget; lower "
+                          "max_cycles or render.size_px")
+
+
 def _run(args, argv: list[str]) -> int:
     from evaluation.commands import run_command
 
-    return run_command(_env_config(args), args.policy, args.episodes, args.seed, args.render, args.video, args.json, args.quiet,
+    cfg = _env_config(args)
+    if args.video:
+        _check_video_budget(cfg, "--video")
+    return run_command(cfg, args.policy, args.episodes, args.seed, args.render, args.video, args.json, args.quiet,
                        args.pcap)
 
 
@@ -288,7 +306,10 @@ def _eval(args, argv: list[str]) -> int:
         return grid_command(_env_config(args), args.grid, args.policy, args.episodes, args.seed, args.json, args.resume)
     if args.resume:
         raise ConfigError("--resume belongs to --grid; give --grid FILE or drop --resume")
-    return eval_command(_env_config(args), args.policy or "scripted", args.mix, args.scenarios, args.episodes or 5, args.seed,
+    cfg = _env_config(args)
+    if args.video_dir:
+        _check_video_budget(cfg, "--video-dir")
+    return eval_command(cfg, args.policy or "scripted", args.mix, args.scenarios, args.episodes or 5, args.seed,
                         args.json, args.video_dir, args.pcap_dir, args.replay_dir)
 
 

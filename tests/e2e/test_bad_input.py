@@ -805,3 +805,12 @@ def test_unbounded_counts_of_the_command_line_and_the_training_config(capsys, ou
     t0 = time.perf_counter()
     _fails(capsys, argv, words)
     assert time.perf_counter() - t0 < 20 and _snapshot(outputs) == before
+
+
+@pytest.mark.parametrize("argv", [["run", "--video", "{dir}/v.gif"], ["eval", "--video-dir", "{dir}/clips2", "--episodes", "1"]],
+                         ids=["run", "eval"])
+def test_a_gif_beyond_the_memory_budget_is_refused_before_the_episode(capsys, outputs, argv):
+    before = _snapshot(outputs)
+    argv = [a.replace("{dir}", str(outputs)) for a in argv]
+    _fails(capsys, [*argv, "--set", "render.size_px=[8192, 8192]", "--json", outputs / "OUT.json"], "GB budget")
+    assert _snapshot(outputs) == before and not (outputs / "clips2").exists()

@@ -454,6 +454,13 @@ RESUME_CASES = [
     ("optimizer_nan", lambda r: _edit_checkpoint(r, lambda a: a[next(k for k in a if k.endswith(":exp_avg"))].fill(np.nan)), [], "NaN"),
     ("timesteps_401_digits", lambda r: _edit_checkpoint(r, lambda a: _state(a, num_timesteps=10**400)), [], "num_timesteps"),
     ("backend_number", lambda r: _edit_checkpoint(r, lambda a: _state(a, backend=5)), [], "'backend'"),
+    ("log_nested_deep", lambda r: (r / "train_log.json").write_text("[" * 100_000 + "]" * 100_000), [], "train_log.json"),
+    ("log_number_5000_digits", lambda r: (r / "train_log.json").write_text('{"timesteps": ' + "9" * 5000 + "}"), [], "train_log.json"),
+    ("env_config_alias_bomb", lambda r: (r / "env_config.yaml").write_text(
+        "x: [" + ",".join(["&a0 [1,1,1,1,1,1,1,1,1,1]"] + [f"&a{k} [" + ",".join([f"*a{k - 1}"] * 10) + "]" for k in range(1, 9)]) + "]\n"),
+     [], "env_config.yaml"),
+    ("train_config_deep", lambda r: (r / "train_config.yaml").write_text("ppo: " + "[" * 30_000 + "]" * 30_000 + "\n"), [],
+     "train_config.yaml"),
 ]
 
 

@@ -434,3 +434,22 @@ def test_a_file_beyond_the_size_limit_is_refused_before_parsing(tmp_path):
     t0 = time.perf_counter()
     message = _refused(path=tmp_path / "wide.yaml")
     assert "wide.yaml" in message and "bytes, more than the" in message and time.perf_counter() - t0 < 2
+
+
+def test_docs_inputs_states_the_limits_the_code_has():
+    """docs/inputs.md quotes the limits; they must be the code's."""
+    from pathlib import Path
+
+    from evaluation.grid_spec import MAX_CELLS, MAX_RUNS
+    from petswarm_env import config_base, config_yaml
+    from petswarm_env.config import MEMORY_BUDGET_BYTES
+
+    doc = (Path(__file__).resolve().parents[2] / "docs" / "inputs.md").read_text()
+    assert f"| file size | {config_yaml.MAX_YAML_BYTES // 1000} kB |" in doc
+    assert f"| nesting depth | {config_yaml.MAX_YAML_DEPTH} |" in doc
+    assert f"| values after expanding aliases | {config_yaml.MAX_YAML_VALUES:,} |" in doc
+    assert f"| characters of one number | {config_yaml.MAX_NUMBER_CHARS} |" in doc
+    assert f"| `TICK_S` | {config_base.TICK_S * 1000:g} ms |" in doc and f"| `LONG_S` | {config_base.LONG_S:g} s |" in doc
+    assert f"| `EPISODE_S` | {config_base.EPISODE_S:,.0f} s |" in doc and f"| `MAX_CYCLES` | {config_base.MAX_CYCLES:,} |" in doc
+    assert f"{config_base.FAST_MPS:g} m/s" in doc and f"{config_base.LEVEL_DB:g} dB" in doc and f"| `ADC_MAX` | {config_base.ADC_MAX:g} |" in doc
+    assert f"At most {MAX_CELLS:,} cells" in doc and f"{MAX_RUNS:,} episodes" in doc and f"fit {MEMORY_BUDGET_BYTES / 1e9:g} GB" in doc

@@ -357,8 +357,9 @@ def _check_paths(args) -> None:
         inputs["RESULT.json"] = list(args.results)
     outputs = {"--out": get("out") if args.command == "report" else None, "--json": get("json"), "--video": get("video"),
                "--pcap": get("pcap"), "--md": get("md"), "--report": get("report")}
-    if get("json") and args.command in ("run", "eval"):
+    if get("json") and args.command in ("run", "eval") and not getattr(args, "grid", None):
         outputs["--json's lines file"] = str(jsonl_path(args.json))
+        check_output_path(outputs["--json's lines file"], "--json's lines file")
     check_distinct_paths(inputs, outputs)
 
 

@@ -8,7 +8,7 @@ from typing import Annotated
 
 from pydantic import Field, model_validator
 
-from petswarm_env.config_base import COUNT, EPISODE_S, Section
+from petswarm_env.config_base import COUNT, EPISODE_S, TICK_S, Section
 
 # runtime changes (issue 15 part 4; petswarm_env/sim/faults.py): the fault kinds; an arrival's type is one
 # of the config's robot_types (checked by Config, which holds both)
@@ -20,7 +20,7 @@ class FaultSpec(Section):
     at_s: float = Field(ge=0, le=EPISODE_S, description="episode time of the fault (s after reset ended)")
     robot: Annotated[int, Field(ge=0, le=COUNT)] | str = Field(description="robot index, 'master' or 'random_slave' (a seeded draw at the fault's time)")
     kind: str = Field(description="dead | radio_silent | ir | ultrasonic | ahrs | battery")
-    duration_s: float | None = Field(gt=0, le=EPISODE_S, default=None, description="a transient fault clears after this; null = permanent")
+    duration_s: float | None = Field(ge=TICK_S, le=EPISODE_S, default=None, description="a transient fault clears after this; null = permanent")
 
     @model_validator(mode="after")
     def _check(self) -> FaultSpec:

@@ -103,6 +103,7 @@ CASES = [
     ({"faults": [{"at_s": 1, "robot": 99, "kind": "dead"}]}, "faults[0].robot"),
     ({"faults": [{"at_s": 1, "robot": "boss", "kind": "dead"}]}, "faults[].robot"),
     ({"faults": [{"at_s": 1, "robot": 1, "kind": "dead", "duration_s": 0}]}, "duration_s"),
+    ({"faults": [{"at_s": 1, "robot": 1, "kind": "dead", "duration_s": 1e-300}]}, "duration_s"),
     ({"faults_random.kinds": ["zap"]}, "faults_random.kinds"),
     ({"faults_random.rate_per_min": -1}, "faults_random.rate_per_min"),
     ({"arrivals": [{"at_s": 1, "type": "tank"}]}, "arrivals[0].type"),

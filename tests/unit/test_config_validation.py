@@ -345,10 +345,25 @@ def _alarm(signum, frame):
     raise _Hang
 
 
+def _own_bounds(key: str) -> list[float]:
+    """The field's own lowest and highest allowed values (just inside an excluded bound)."""
+    from petswarm_env.config import Config
+    from petswarm_env.config_base import field_bounds
+
+    loc = tuple(key.split(".")) + ((0,) if key in PAIR_KEYS else ())
+    bounds = field_bounds(Config, loc)
+    if bounds is None:
+        return []
+    lo, above, hi, below = bounds
+    whole = isinstance(DEFAULTS[key][0] if key in PAIR_KEYS else DEFAULTS.get(key, 0.0), int)
+    step = 1 if whole else max(abs(lo), abs(hi), 1.0) * 1e-9
+    return [lo + step if above else lo, hi - step if below else hi]
+
+
 @pytest.mark.parametrize("key", WALK_KEYS)
 def test_the_extremes_of_every_number_are_refused_in_one_line_or_run(key):
-    """1e-9, 0, -1, 1e300, inf and NaN in every number of the config: refused in one line naming
-    the key, or accepted and an episode resets and steps within 20 s with finite observations
+    """1e-9, 0, -1, 1e300, inf, NaN and the field's own bounds in every number of the config: refused
+    in one line naming the key, or accepted and an episode resets and steps within 20 s with finite observations
     (a refusal at reset, one line naming its keys, is legitimate: the swarm cannot organize)."""
     import signal
 
@@ -356,7 +371,7 @@ def test_the_extremes_of_every_number_are_refused_in_one_line_or_run(key):
 
     previous = signal.signal(signal.SIGALRM, _alarm)
     try:
-        for v in WALK_VALUES:
+        for v in WALK_VALUES + _own_bounds(key):
             value = [v, DEFAULTS[key][1]] if key in PAIR_KEYS else v
             signal.alarm(20)
             try:

@@ -358,8 +358,13 @@ def _check_paths(args) -> None:
     outputs = {"--out": get("out") if args.command == "report" else None, "--json": get("json"), "--video": get("video"),
                "--pcap": get("pcap"), "--md": get("md"), "--report": get("report")}
     if get("json") and args.command in ("run", "eval") and not getattr(args, "grid", None):
-        outputs["--json's lines file"] = str(jsonl_path(args.json))
-        check_output_path(outputs["--json's lines file"], "--json's lines file")
+        lines = outputs["--json's lines file"] = str(jsonl_path(args.json))
+        try:
+            check_output_path(lines, "--json's lines file")
+        except ValueError as exc:
+            raise ValueError(f"--json '{args.json}' writes each finished episode to '{lines}', which cannot be written "
+                             f"({str(exc).split(': ', 1)[-1] if 'cannot be written' in str(exc) else 'it is not a file'}); "
+                             "remove it or name another --json") from None
     check_distinct_paths(inputs, outputs)
 
 

@@ -574,7 +574,7 @@ def test_a_checkpoint_restores_weights_optimizer_counters_and_rngs(run):
     (["run", "--json", "/sys/OUT.json"], "cannot be written"),
     (["report", "{dir}/OUT.json", "--out", "/proc/r.html"], "cannot be written"),
     (["run", "--json", "/dev/null"], "not a regular file"),
-    (["run", "--json", "{dir}/sub.json"], "lines file"),  # sub.jsonl is a folder
+    (["run", "--json", "{dir}/sub.json"], "writes each finished episode"),  # sub.jsonl is a folder
 ], ids=lambda a: " ".join(a)[:60] if isinstance(a, list) else None)
 def test_an_output_that_is_an_input_or_unwritable_is_refused_before_any_work(capsys, outputs, argv, words):
     (outputs / "c.yaml").write_text("seed: 1\nmax_cycles: 5\n")

@@ -11,6 +11,9 @@
     petswarm report RESULT.json ... --out report.html [--replays first|all|none|SCENARIO:SEED,...]
     petswarm bench  [--quick] [--json OUT] [--md docs/benchmarks.md]
     petswarm reproduce [--only NAME,...] [--quick] [--json OUT] [--report OUT.html] [--check] [--seed S]
+
+Every command takes ``--log-level debug|info|warning|error`` (before or after its name). Every
+input is checked before the work starts (docs/inputs.md): a bad one is one line on stderr, exit 2.
 """
 
 from __future__ import annotations

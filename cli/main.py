@@ -11,6 +11,9 @@
     petswarm report RESULT.json ... --out report.html [--replays first|all|none|SCENARIO:SEED,...]
     petswarm bench  [--quick] [--json OUT] [--md docs/benchmarks.md]
     petswarm reproduce [--only NAME,...] [--quick] [--json OUT] [--report OUT.html] [--check] [--seed S]
+
+Every command takes ``--log-level debug|info|warning|error`` (before or after its name). Every
+input is checked before the work starts (docs/inputs.md): a bad one is one line on stderr, exit 2.
 """
 
 from __future__ import annotations
@@ -32,23 +35,28 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"petswarm: error: {message}\n")
 
 
-def _int_at_least(minimum: int, what: str):
-    """An argparse type: an integer of at least ``minimum``, else "expected <what>, got ..."."""
+def _int_at_least(minimum: int, what: str, maximum: int | None = None):
+    """An argparse type: an integer from ``minimum`` to ``maximum``, else "expected <what>, got ..."."""
 
     def parse(text: str) -> int:
+        if len(text) > 30:
+            raise argparse.ArgumentTypeError(f"expected {what}, got a number of {len(text)} characters")
         try:
             value = int(text)
         except ValueError:
             raise argparse.ArgumentTypeError(f"expected {what}, got '{text}'") from None
-        if value < minimum:
+        if value < minimum or (maximum is not None and value > maximum):
             raise argparse.ArgumentTypeError(f"expected {what}, got {value}")
         return value
 
     return parse
 
 
-_positive_int = _int_at_least(1, "a positive integer")
-_seed = _int_at_least(0, "a non-negative integer seed")
+# the ranges of the command line's numbers: a million episodes (a day of one core at 0.1 s each),
+# a seed of numpy's 63 bits, a training budget of 10^12 agent-steps (training/config.py MAX_STEPS)
+_positive_int = _int_at_least(1, "a positive integer up to 1000000", 1_000_000)
+_seed = _int_at_least(0, "a non-negative integer seed below 2^63", 2**63 - 1 - 1_000_000)
+_timesteps = _int_at_least(1, "a positive integer up to 10^12", 10**12)
 
 
 def _config_file(text: str) -> str:
@@ -141,7 +149,7 @@ def _add_train(sub) -> None:
                        help="training YAML merged over configs/train/ppo.yaml (a shipped one also by name: generalize, teacher, ...)")
     train.add_argument("--set", metavar="KEY=VALUE", action="append", default=[],
                        help="override a training key (ppo.learning_rate=1e-4) or an env key (env.swarm.num_slaves=3)")
-    train.add_argument("--timesteps", type=_positive_int, metavar="N", help="total agent-steps (overrides the config)")
+    train.add_argument("--timesteps", type=_timesteps, metavar="N", help="total agent-steps (overrides the config)")
     train.add_argument("--out", metavar="runs/NAME", default="runs/ppo", help="run folder (default runs/ppo)")
     train.add_argument("--resume", action="store_true", help="continue the run in --out from its latest checkpoint")
     train.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -269,10 +277,28 @@ def _env_config(args):
     return load_config(args.config, dict(parse_override(item) for item in args.set))
 
 
+def _check_video_budget(cfg, flag: str) -> None:
+    """A GIF holds its frames in memory until it is written (petswarm_env/render.py: one byte a pixel
+    after quantizing, a frame every ``VIDEO_EVERY`` steps): refuse before the episode one that would
+    need more than the config's memory budget."""
+    from petswarm.evaluation.runner import VIDEO_EVERY
+    from petswarm_env.config import MEMORY_BUDGET_BYTES
+
+    w, h = cfg.render.size_px
+    need = -(-cfg.max_cycles // VIDEO_EVERY) * w * h
+    if need > MEMORY_BUDGET_BYTES:
+        raise ConfigError(f"{flag}: a GIF of max_cycles={cfg.max_cycles} steps at render.size_px={list(cfg.render.size_px)} needs "
+                          f"{need / 1e9:.1f} GB of frames, more than the {MEMORY_BUDGET_BYTES / 1e9:g} GB budget; lower "
+                          "max_cycles or render.size_px")
+
+
 def _run(args, argv: list[str]) -> int:
     from petswarm.evaluation.commands import run_command
 
-    return run_command(_env_config(args), args.policy, args.episodes, args.seed, args.render, args.video, args.json, args.quiet,
+    cfg = _env_config(args)
+    if args.video:
+        _check_video_budget(cfg, "--video")
+    return run_command(cfg, args.policy, args.episodes, args.seed, args.render, args.video, args.json, args.quiet,
                        args.pcap)
 
 
@@ -305,7 +331,10 @@ def _eval(args, argv: list[str]) -> int:
         return grid_command(_env_config(args), args.grid, args.policy, args.episodes, args.seed, args.json, args.resume)
     if args.resume:
         raise ConfigError("--resume belongs to --grid; give --grid FILE or drop --resume")
-    return eval_command(_env_config(args), args.policy or "scripted", args.mix, args.scenarios, args.episodes or 5, args.seed,
+    cfg = _env_config(args)
+    if args.video_dir:
+        _check_video_budget(cfg, "--video-dir")
+    return eval_command(cfg, args.policy or "scripted", args.mix, args.scenarios, args.episodes or 5, args.seed,
                         args.json, args.video_dir, args.pcap_dir, args.replay_dir)
 
 
@@ -353,8 +382,14 @@ def _check_paths(args) -> None:
         inputs["RESULT.json"] = list(args.results)
     outputs = {"--out": get("out") if args.command == "report" else None, "--json": get("json"), "--video": get("video"),
                "--pcap": get("pcap"), "--md": get("md"), "--report": get("report")}
-    if get("json") and args.command in ("run", "eval"):
-        outputs["--json's lines file"] = str(jsonl_path(args.json))
+    if get("json") and args.command in ("run", "eval") and not getattr(args, "grid", None):
+        lines = outputs["--json's lines file"] = str(jsonl_path(args.json))
+        try:
+            check_output_path(lines, "--json's lines file")
+        except ValueError as exc:
+            raise ValueError(f"--json '{args.json}' writes each finished episode to '{lines}', which cannot be written "
+                             f"({str(exc).split(': ', 1)[-1] if 'cannot be written' in str(exc) else 'it is not a file'}); "
+                             "remove it or name another --json") from None
     check_distinct_paths(inputs, outputs)
 
 

@@ -9,6 +9,8 @@ names the key, what is wrong and what is allowed.
 
 from __future__ import annotations
 
+import copy
+import functools
 import math
 import os
 from collections.abc import Mapping
@@ -530,6 +532,17 @@ def arrival_slots(cfg: Config) -> int:
     return max((len(SCENARIOS[n].arrivals) for n in names), default=0)
 
 
+@functools.lru_cache(maxsize=1)
+def _default_values() -> dict[str, Any]:
+    return read_yaml(default_config_path())
+
+
+def _defaults() -> dict[str, Any]:
+    """The default values (the package's default.yaml, parsed once per process: PyYAML takes tens
+    of milliseconds for it, and grids and tests load thousands of configs), a fresh copy each call."""
+    return copy.deepcopy(_default_values())
+
+
 def default_config_path() -> Path:
     from petswarm import shipped_configs
 
@@ -549,7 +562,7 @@ def load_config(
         raise TypeError(f"config must be a Config, the path of a YAML file or None, got {describe_value(path)}")
     if overrides is not None and not isinstance(overrides, Mapping):
         raise TypeError(f"config overrides must be a mapping of dotted keys to values, got {describe_value(overrides)}")
-    data = read_yaml(default_config_path())
+    data = _defaults()
     user: dict[str, Any] = {}
     if path is not None:
         user = read_yaml(path)

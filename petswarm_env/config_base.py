@@ -114,8 +114,18 @@ def format_validation_error(exc: ValidationError, root: Any = None) -> str:
 
 
 def _field_range(root: Any, loc: tuple) -> str | None:
-    """``"0.001 to 600"`` for the field at a pydantic location of ``root`` (its bounds), or None.
-    A dict of sections (``robot_types.NAME``) is stepped over by its key."""
+    """``"0.001 to 600"`` for the field at a pydantic location of ``root`` (its bounds), or None."""
+    bounds = field_bounds(root, loc)
+    if bounds is None:
+        return None
+    lo, above, hi, below = bounds
+    return f"{'above ' if above else ''}{lo:g} to {'below ' if below else ''}{hi:g}"
+
+
+def field_bounds(root: Any, loc: tuple) -> tuple[float, bool, float, bool] | None:
+    """The bounds of the numeric field at a pydantic location of ``root``: (low, low excluded,
+    high, high excluded), or None if it has not both. A dict of sections (``robot_types.NAME``)
+    is stepped over by its key."""
     cls: Any = root
     info = None
     dict_of = None
@@ -143,12 +153,14 @@ def _field_range(root: Any, loc: tuple) -> str | None:
     if info is None:
         return None
     lo = hi = None
-    above = below = ""
+    above = below = False
     for m in info.metadata:
         if getattr(m, "gt", None) is not None:
-            lo, above = m.gt, "above "
-        lo = getattr(m, "ge", lo)
+            lo, above = m.gt, True
+        if getattr(m, "ge", None) is not None:
+            lo, above = m.ge, False
         if getattr(m, "lt", None) is not None:
-            hi, below = m.lt, "below "
-        hi = getattr(m, "le", hi)
-    return f"{above}{lo:g} to {below}{hi:g}" if lo is not None and hi is not None else None
+            hi, below = m.lt, True
+        if getattr(m, "le", None) is not None:
+            hi, below = m.le, False
+    return (lo, above, hi, below) if lo is not None and hi is not None else None

@@ -21,7 +21,7 @@ class FaultSpec(Section):
     at_s: float = Field(ge=0, le=EPISODE_S, description="episode time of the fault (s after reset ended)")
     robot: Annotated[int, Field(ge=0, le=COUNT)] | str = Field(description="robot index, 'master' or 'random_slave' (a seeded draw at the fault's time)")
     kind: str = Field(description="dead | radio_silent | ir | ultrasonic | ahrs | battery")
-    duration_s: float | None = Field(gt=0, le=EPISODE_S, default=None, description="a transient fault clears after this; null = permanent")
+    duration_s: float | None = Field(ge=TICK_S, le=EPISODE_S, default=None, description="a transient fault clears after this; null = permanent")
 
     @model_validator(mode="after")
     def _check(self) -> FaultSpec:

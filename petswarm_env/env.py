@@ -152,7 +152,7 @@ class PetSwarmEnv(ParallelEnv):
         return f"{agent!r} is not an agent of this env; the possible agents are {', '.join(self.possible_agents)}"
 
     def reset(self, seed: int | None = None, options: dict | None = None):
-        check_reset_options(options)  # None or known keys only (inputs.py)
+        check_reset_options(options)  # None or a dict; an unknown key is warned (inputs.py)
         self._reset_seed = seed  # named when the swarm cannot organize
         if seed is not None:
             seed = _checked_seed(seed)

@@ -10,9 +10,9 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
-from pydantic import Field, ValidationError
+from pydantic import Field, ValidationError, model_validator
 
 from petswarm_env.config import (
     Section,
@@ -31,47 +31,57 @@ from petswarm.training.randomize import check_pools, draw_config
 
 DEFAULT_TRAIN_CONFIG = shipped_configs() / "train" / "ppo.yaml"
 
+# the ranges of the training numbers: a run's memory and time stay bounded (PPO's rollout buffer holds
+# n_steps x num_envs rows per slave, the networks are a few layers of at most MAX_WIDTH units)
+MAX_STEPS = 10**12  # agent-steps of a run: at 10^4 steps/s, three years
+MAX_ROLLOUT = 65_536  # n_steps, batch sizes (the shipped 256 and 1024)
+ROLLOUT_ROWS = 65_536  # n_steps x num_envs: with 16 slaves and 200 observation floats, 0.8 GB of rollout buffer
+MAX_SAMPLES = 10**8  # warm-start and DAgger samples (the shipped at most 200,000)
+MAX_WORKERS = 256  # env copies, CPUs, Ray runners
+MAX_WIDTH = 1024  # units of one hidden layer (the shipped 64)
+MAX_CYCLES = 1_000_000  # as the env's max_cycles
+
 
 class PPOConfig(Section):
-    learning_rate: float = Field(gt=0)
-    n_steps: int = Field(ge=8)
-    batch_size: int = Field(ge=8)
-    n_epochs: int = Field(ge=1)
+    learning_rate: float = Field(gt=0, le=1.0)
+    n_steps: int = Field(ge=8, le=MAX_ROLLOUT)
+    batch_size: int = Field(ge=8, le=MAX_ROLLOUT)
+    n_epochs: int = Field(ge=1, le=1000)
     gamma: float = Field(gt=0, le=1)
     gae_lambda: float = Field(gt=0, le=1)
-    clip_range: float = Field(gt=0)
-    ent_coef: float = Field(ge=0)
-    vf_coef: float = Field(ge=0)
-    max_grad_norm: float = Field(gt=0)
-    net_arch: list[int]
+    clip_range: float = Field(gt=0, le=10.0)
+    ent_coef: float = Field(ge=0, le=10.0)
+    vf_coef: float = Field(ge=0, le=100.0)
+    max_grad_norm: float = Field(gt=0, le=1e6)
+    net_arch: list[Annotated[int, Field(ge=1, le=MAX_WIDTH)]] = Field(min_length=1, max_length=16)
     activation: Literal["tanh", "relu"]
-    log_std_init: float
+    log_std_init: float = Field(ge=-20.0, le=5.0)  # log σ of the Gaussian policy: σ from 2e-9 to 148 action units
     critic: Literal["local", "state"] = Field(
         "local", description="local: the critic reads the observation (PPO); state: the observation and env.state() (MAPPO)")
 
 
 class EvalConfig(Section):
-    every_steps: int = Field(ge=1)
-    episodes: int = Field(ge=1)
-    seed: int = Field(ge=0)
-    max_cycles: int = Field(ge=1)
+    every_steps: int = Field(ge=1, le=MAX_STEPS)
+    episodes: int = Field(ge=1, le=10_000)
+    seed: int = Field(ge=0, le=2**63 - 1 - 10_000)
+    max_cycles: int = Field(ge=1, le=MAX_CYCLES)
     metric: Literal["formation_rmse_m", "formation_hold_rmse_m"] = Field(
         "formation_rmse_m", description="the figure whose median per-seed ratio to scripted picks the best evaluated "
                                         "policy (policy.npz): the whole episode, or from the moment the formation is built")
 
 
 class CheckpointConfig(Section):
-    every_steps: int = Field(ge=1)
+    every_steps: int = Field(ge=1, le=MAX_STEPS)
 
 
 class PretrainConfig(Section):
-    samples: int = Field(ge=0, description="agent-samples of the scripted reference to imitate; 0 = no warm start")
-    noise_std: float = Field(ge=0, description="action noise while collecting (visits recovery states)")
-    epochs: int = Field(ge=1)
-    batch_size: int = Field(ge=8)
-    learning_rate: float = Field(gt=0)
-    dagger_rounds: int = Field(0, ge=0, description="DAgger rounds after the cloning: the actor drives, the reference labels")
-    dagger_samples: int = Field(0, ge=0, description="agent-samples the actor collects in each DAgger round")
+    samples: int = Field(ge=0, le=MAX_SAMPLES, description="agent-samples of the scripted reference to imitate; 0 = no warm start")
+    noise_std: float = Field(ge=0, le=10.0, description="action noise while collecting (visits recovery states)")
+    epochs: int = Field(ge=1, le=1000)
+    batch_size: int = Field(ge=8, le=MAX_ROLLOUT)
+    learning_rate: float = Field(gt=0, le=1.0)
+    dagger_rounds: int = Field(0, ge=0, le=1000, description="DAgger rounds after the cloning: the actor drives, the reference labels")
+    dagger_samples: int = Field(0, ge=0, le=MAX_SAMPLES, description="agent-samples the actor collects in each DAgger round")
     teacher: Literal["scripted", "privileged"] = Field(
         "scripted", description="who labels the demonstrations: scripted (the reference, from the observation) or "
                                 "privileged (training/teacher.py, from ground truth; the student still reads only the observation)")
@@ -81,16 +91,16 @@ class RLlibConfig(Section):
     """``petswarm train --backend rllib`` (training/rllib_backend.py): the ``ppo:`` values map onto
     RLlib's PPO; a rollout is ``ppo.n_steps × num_envs`` env steps, as with SB3."""
 
-    num_env_runners: int = Field(ge=0, description="Ray actors sampling the env (0 = in the driver)")
-    num_envs_per_env_runner: int = Field(ge=1, description="env copies each runner steps together")
-    sample_timeout_s: float = Field(gt=0, description="how long RLlib waits for a runner's samples")
+    num_env_runners: int = Field(ge=0, le=MAX_WORKERS, description="Ray actors sampling the env (0 = in the driver)")
+    num_envs_per_env_runner: int = Field(ge=1, le=MAX_WORKERS, description="env copies each runner steps together")
+    sample_timeout_s: float = Field(gt=0, le=86_400.0, description="how long RLlib waits for a runner's samples")
 
 
 class TrainConfig(Section):
-    seed: int = Field(ge=0)
-    timesteps: int = Field(ge=0, description="PPO's budget in agent-steps (rows); 0 = the warm start alone (pretrain:)")
-    num_envs: int = Field(ge=1)
-    num_cpus: int = Field(ge=0)
+    seed: int = Field(ge=0, le=2**63 - 1)
+    timesteps: int = Field(ge=0, le=MAX_STEPS, description="PPO's budget in agent-steps (rows); 0 = the warm start alone (pretrain:)")
+    num_envs: int = Field(ge=1, le=MAX_WORKERS)
+    num_cpus: int = Field(ge=0, le=MAX_WORKERS)
     env: dict[str, Any]
     ppo: PPOConfig
     eval: EvalConfig
@@ -104,6 +114,14 @@ class TrainConfig(Section):
         None, description="scripted: the policy learns a correction added to the scripted reference's action "
                           "(training/residual.py); null: the policy is the action")
     residual_scale: float = Field(1.0, gt=0, le=1, description="with residual_of: the correction's bound in action units")
+
+    @model_validator(mode="after")
+    def _check_rollout(self) -> TrainConfig:
+        rows = self.ppo.n_steps * self.num_envs
+        if rows > ROLLOUT_ROWS:
+            raise ValueError(f"ppo.n_steps x num_envs is {rows} rollout rows per slave, more than the {ROLLOUT_ROWS} the "
+                             "memory budget holds; lower ppo.n_steps or num_envs")
+        return self
 
     def residual(self) -> Residual | None:
         """The residual the policy learns (:class:`petswarm.baselines.learned.Residual`), or None."""

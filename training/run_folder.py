@@ -75,7 +75,7 @@ class _TrainLog(_Record):
     resumes: list[_Resume] = Field(default_factory=list)
     pretrain: dict[str, Any] | None = None
     command: str = ""
-    active_agent_steps: int = Steps
+    active_agent_steps: int = Field(default=0, ge=0, le=10**15)  # SB3 runs count it, RLlib runs do not
 
 
 def _problem(exc: ValidationError) -> str:

@@ -91,7 +91,9 @@ def _read_run_file(path: Path, what: str) -> Any:
         return json.loads(text) if path.suffix == ".json" else parse_yaml(text, f"'{path}'")  # bounded: no alias bomb
     except FileNotFoundError:
         raise ConfigError(f"cannot resume: the run folder has no {path.name} ({what}); train without --resume first") from None
-    except (OSError, UnicodeDecodeError, ValueError, yaml.YAMLError) as exc:
+    except ConfigError as exc:  # beyond the YAML bounds (an alias bomb, nested too deep): the reason names the file
+        raise ConfigError(f"cannot resume: {exc}") from None
+    except (OSError, UnicodeDecodeError, ValueError, RecursionError, yaml.YAMLError) as exc:
         raise ConfigError(f"cannot resume: '{path}' ({what}) cannot be read ({type(exc).__name__}); "
                           "the run folder is damaged, start a new run with another --out") from None
 

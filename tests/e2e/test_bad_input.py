@@ -454,6 +454,13 @@ RESUME_CASES = [
     ("optimizer_nan", lambda r: _edit_checkpoint(r, lambda a: a[next(k for k in a if k.endswith(":exp_avg"))].fill(np.nan)), [], "NaN"),
     ("timesteps_401_digits", lambda r: _edit_checkpoint(r, lambda a: _state(a, num_timesteps=10**400)), [], "num_timesteps"),
     ("backend_number", lambda r: _edit_checkpoint(r, lambda a: _state(a, backend=5)), [], "'backend'"),
+    ("log_nested_deep", lambda r: (r / "train_log.json").write_text("[" * 100_000 + "]" * 100_000), [], "train_log.json"),
+    ("log_number_5000_digits", lambda r: (r / "train_log.json").write_text('{"timesteps": ' + "9" * 5000 + "}"), [], "train_log.json"),
+    ("env_config_alias_bomb", lambda r: (r / "env_config.yaml").write_text(
+        "x: [" + ",".join(["&a0 [1,1,1,1,1,1,1,1,1,1]"] + [f"&a{k} [" + ",".join([f"*a{k - 1}"] * 10) + "]" for k in range(1, 9)]) + "]\n"),
+     [], "env_config.yaml"),
+    ("train_config_deep", lambda r: (r / "train_config.yaml").write_text("ppo: " + "[" * 30_000 + "]" * 30_000 + "\n"), [],
+     "train_config.yaml"),
 ]
 
 
@@ -567,12 +574,14 @@ def test_a_checkpoint_restores_weights_optimizer_counters_and_rngs(run):
     (["run", "--json", "/sys/OUT.json"], "cannot be written"),
     (["report", "{dir}/OUT.json", "--out", "/proc/r.html"], "cannot be written"),
     (["run", "--json", "/dev/null"], "not a regular file"),
+    (["run", "--json", "{dir}/sub.json"], "writes each finished episode"),  # sub.jsonl is a folder
 ], ids=lambda a: " ".join(a)[:60] if isinstance(a, list) else None)
 def test_an_output_that_is_an_input_or_unwritable_is_refused_before_any_work(capsys, outputs, argv, words):
     (outputs / "c.yaml").write_text("seed: 1\nmax_cycles: 5\n")
     (outputs / "c.gif").write_text("seed: 1\n")
     (outputs / "c.jsonl").write_text("seed: 1\n")
     (outputs / "sub").mkdir()
+    (outputs / "sub.jsonl").mkdir()
     (outputs / "link.json").symlink_to(outputs / "r.json")
     before = _snapshot(outputs)
     t0 = time.perf_counter()
@@ -782,3 +791,35 @@ def test_numbers_beyond_their_physical_range_through_the_cli(capsys, outputs, ar
     t0 = time.perf_counter()
     _fails(capsys, [*argv, "--json", outputs / "OUT.json"], words)
     assert time.perf_counter() - t0 < 10 and _snapshot(outputs) == before
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["run", "--episodes", "99999999999999999999999"], "--episodes"),
+    (["eval", "--episodes", "10000000000"], "--episodes"),
+    (["run", "--seed", str(2**64)], "--seed"),
+    (["run", "--seed", "9" * 5000], "characters"),
+    (["train", "--timesteps", "1" + "0" * 13], "--timesteps"),
+    (["train", "--set", "ppo.batch_size=99999999999"], "ppo.batch_size"),
+    (["train", "--set", "ppo.net_arch=[100000000]"], "ppo.net_arch.0"),
+    (["train", "--set", "num_envs=100000"], "num_envs"),
+    (["train", "--set", "ppo.n_steps=60000", "--set", "num_envs=8"], "memory budget"),
+    (["train", "--set", "ppo.log_std_init=1e300"], "ppo.log_std_init"),
+    (["train", "--set", "pretrain.samples=1e15"], "pretrain.samples"),
+])
+def test_unbounded_counts_of_the_command_line_and_the_training_config(capsys, outputs, argv, words):
+    if argv[0] == "train":
+        pytest.importorskip("stable_baselines3")
+        argv = [*argv, "--out", str(outputs / "run")]
+    before = _snapshot(outputs)
+    t0 = time.perf_counter()
+    _fails(capsys, argv, words)
+    assert time.perf_counter() - t0 < 20 and _snapshot(outputs) == before
+
+
+@pytest.mark.parametrize("argv", [["run", "--video", "{dir}/v.gif"], ["eval", "--video-dir", "{dir}/clips2", "--episodes", "1"]],
+                         ids=["run", "eval"])
+def test_a_gif_beyond_the_memory_budget_is_refused_before_the_episode(capsys, outputs, argv):
+    before = _snapshot(outputs)
+    argv = [a.replace("{dir}", str(outputs)) for a in argv]
+    _fails(capsys, [*argv, "--set", "render.size_px=[8192, 8192]", "--json", outputs / "OUT.json"], "GB budget")
+    assert _snapshot(outputs) == before and not (outputs / "clips2").exists()

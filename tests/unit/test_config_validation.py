@@ -104,6 +104,7 @@ CASES = [
     ({"faults": [{"at_s": 1, "robot": 99, "kind": "dead"}]}, "faults[0].robot"),
     ({"faults": [{"at_s": 1, "robot": "boss", "kind": "dead"}]}, "faults[].robot"),
     ({"faults": [{"at_s": 1, "robot": 1, "kind": "dead", "duration_s": 0}]}, "duration_s"),
+    ({"faults": [{"at_s": 1, "robot": 1, "kind": "dead", "duration_s": 1e-300}]}, "duration_s"),
     ({"faults_random.kinds": ["zap"]}, "faults_random.kinds"),
     ({"faults_random.rate_per_min": -1}, "faults_random.rate_per_min"),
     ({"arrivals": [{"at_s": 1, "type": "tank"}]}, "arrivals[0].type"),
@@ -345,10 +346,25 @@ def _alarm(signum, frame):
     raise _Hang
 
 
+def _own_bounds(key: str) -> list[float]:
+    """The field's own lowest and highest allowed values (just inside an excluded bound)."""
+    from petswarm_env.config import Config
+    from petswarm_env.config_base import field_bounds
+
+    loc = tuple(key.split(".")) + ((0,) if key in PAIR_KEYS else ())
+    bounds = field_bounds(Config, loc)
+    if bounds is None:
+        return []
+    lo, above, hi, below = bounds
+    whole = isinstance(DEFAULTS[key][0] if key in PAIR_KEYS else DEFAULTS.get(key, 0.0), int)
+    step = 1 if whole else max(abs(lo), abs(hi), 1.0) * 1e-9
+    return [lo + step if above else lo, hi - step if below else hi]
+
+
 @pytest.mark.parametrize("key", WALK_KEYS)
 def test_the_extremes_of_every_number_are_refused_in_one_line_or_run(key):
-    """1e-9, 0, -1, 1e300, inf and NaN in every number of the config: refused in one line naming
-    the key, or accepted and an episode resets and steps within 20 s with finite observations
+    """1e-9, 0, -1, 1e300, inf, NaN and the field's own bounds in every number of the config: refused
+    in one line naming the key, or accepted and an episode resets and steps within 20 s with finite observations
     (a refusal at reset, one line naming its keys, is legitimate: the swarm cannot organize)."""
     import signal
 
@@ -356,7 +372,7 @@ def test_the_extremes_of_every_number_are_refused_in_one_line_or_run(key):
 
     previous = signal.signal(signal.SIGALRM, _alarm)
     try:
-        for v in WALK_VALUES:
+        for v in WALK_VALUES + _own_bounds(key):
             value = [v, DEFAULTS[key][1]] if key in PAIR_KEYS else v
             signal.alarm(20)
             try:
@@ -435,3 +451,22 @@ def test_a_file_beyond_the_size_limit_is_refused_before_parsing(tmp_path):
     t0 = time.perf_counter()
     message = _refused(path=tmp_path / "wide.yaml")
     assert "wide.yaml" in message and "bytes, more than the" in message and time.perf_counter() - t0 < 2
+
+
+def test_docs_inputs_states_the_limits_the_code_has():
+    """docs/inputs.md quotes the limits; they must be the code's."""
+    from pathlib import Path
+
+    from petswarm.evaluation.grid_spec import MAX_CELLS, MAX_RUNS
+    from petswarm_env import config_base, config_yaml
+    from petswarm_env.config import MEMORY_BUDGET_BYTES
+
+    doc = (Path(__file__).resolve().parents[2] / "docs" / "inputs.md").read_text()
+    assert f"| file size | {config_yaml.MAX_YAML_BYTES // 1000} kB |" in doc
+    assert f"| nesting depth | {config_yaml.MAX_YAML_DEPTH} |" in doc
+    assert f"| values after expanding aliases | {config_yaml.MAX_YAML_VALUES:,} |" in doc
+    assert f"| characters of one number | {config_yaml.MAX_NUMBER_CHARS} |" in doc
+    assert f"| `TICK_S` | {config_base.TICK_S * 1000:g} ms |" in doc and f"| `LONG_S` | {config_base.LONG_S:g} s |" in doc
+    assert f"| `EPISODE_S` | {config_base.EPISODE_S:,.0f} s |" in doc and f"| `MAX_CYCLES` | {config_base.MAX_CYCLES:,} |" in doc
+    assert f"{config_base.FAST_MPS:g} m/s" in doc and f"{config_base.LEVEL_DB:g} dB" in doc and f"| `ADC_MAX` | {config_base.ADC_MAX:g} |" in doc
+    assert f"At most {MAX_CELLS:,} cells" in doc and f"{MAX_RUNS:,} episodes" in doc and f"fit {MEMORY_BUDGET_BYTES / 1e9:g} GB" in doc

@@ -44,9 +44,7 @@ MODULE_PARTS: dict[str, str | None] = {
     "petswarm_env.inputs": "other",  # reset options and actions, checked
     "petswarm_env.runtime": "other",  # the episode's faults and arrivals, scheduled on the clock (docs/faults.md)
     "petswarm_env.robot_types": "other",  # the robot types resolved at the env's construction
-    "petswarm_env.env": "other",
-    "petswarm_env.inputs": "other",  # the checks of actions and reset options
-    "petswarm_env.config_yaml": "other",  # the bounded YAML reader  # env.step itself: action checks
+    "petswarm_env.env": "other",  # env.step itself: action checks
     "petswarm_env.episode": "other",  # the episode's own bookkeeping: commands to the arbiters, the agent lifecycle
     "petswarm_env.vector": "other",  # the vector env: arrays in and out around each copy's episode
     "petswarm_env.files": "other",

@@ -30,13 +30,13 @@ def _command(args, argv):
 ])
 def test_log_level_sets_what_reaches_stderr(monkeypatch, capsys, argv, lines):
     monkeypatch.setitem(cli.COMMANDS, "run", _command)
-    assert petswarm.cli.main(argv) == 0
+    assert cli.main(argv) == 0
     assert capsys.readouterr().err.splitlines() == lines
 
 
 def test_a_bad_log_level_is_one_line(capsys):
     with pytest.raises(SystemExit) as info:
-        petswarm.cli.main(["run", "--log-level", "loud"])
+        cli.main(["run", "--log-level", "loud"])
     assert info.value.code == 2 and "--log-level" in capsys.readouterr().err
 
 

@@ -14,20 +14,7 @@ import petswarm_env
 from petswarm_env.middleware import messages as msg
 from petswarm_env.middleware.join import JoinManager
 
-STILL = {"user.start_delay_s": 100.0, "swarm.spawn": "at_slots"}  # the user stands, the members at their slots
-
-
-def make(**overrides):
-    env = petswarm_env.parallel_env(**{**STILL, **overrides})
-    env.reset(seed=0)
-    return env
-
-
-def run(env, seconds):
-    for _ in range(int(round(seconds / env.cfg.control_period_s))):
-        if not env.agents:
-            return
-        env.step({a: np.zeros(3, np.float32) for a in env.agents})
+from tests.protocol.still import make, run
 
 
 def assert_tables_agree(env):

@@ -14,20 +14,7 @@ from petswarm_env.middleware import succession as su
 from petswarm_env.middleware.formation import formation_for_mode
 from petswarm_env.middleware.modes import nominal_geometry, plan_mode_change
 
-STILL = {"user.start_delay_s": 100.0, "swarm.spawn": "at_slots"}  # the user stands, the members at their slots
-
-
-def make(seed=0, **overrides):
-    env = petswarm_env.parallel_env(**{**STILL, **overrides})
-    env.reset(seed=seed)
-    return env
-
-
-def run(env, seconds):
-    for _ in range(int(round(seconds / env.cfg.control_period_s))):
-        if not env.agents:
-            return
-        env.step({a: np.zeros(3, np.float32) for a in env.agents})
+from tests.protocol.still import make, run
 
 
 def successions(env):

@@ -58,6 +58,7 @@ from petswarm_env.wrappers import FixedAgents  # noqa: E402
 from training.callbacks import policy_info, public_log  # noqa: E402
 from training.checkpoint import checkpoint_path, restore_weights, save_weights_checkpoint  # noqa: E402
 from training.config import TrainConfig  # noqa: E402
+from training.progress import LineProgress  # noqa: E402
 from training.export import rllib_actor_layers  # noqa: E402
 from training.train import begin_run, write_run_configs  # noqa: E402
 from training.warm_start import fit_actor_critic  # noqa: E402
@@ -287,14 +288,15 @@ def train_rllib(cfg: TrainConfig | None, out_dir: str | os.PathLike, resume: boo
         progress = Progress(cfg, out, log, spec)
         if "pretrain" in log and not resume:
             log["pretrain"]["eval_formation_rmse_m"] = mean_formation_rmse(eval_cfg, progress.policy(algo), cfg.eval_seeds())
+        line = LineProgress(cfg.timesteps) if progress_bar else None  # a redrawn line on a terminal, log lines otherwise
         while log["timesteps"] < cfg.timesteps:
             t = time.perf_counter()
             result = algo.train()
             progress.iteration(algo, result, time.perf_counter() - t)
-            if progress_bar:
-                print(f"\ragent-steps {log['timesteps']}/{cfg.timesteps}  {log['samples_per_s'][-1]:.0f}/s", end="", flush=True)
-        if progress_bar:
-            print()
+            if line:
+                line.update(log["timesteps"], log["samples_per_s"][-1])
+        if line:
+            line.close()
         if not log["evaluations"] or log["evaluations"][-1]["timesteps"] != log["timesteps"]:
             progress.evaluate(algo)
         progress.checkpoint(algo)

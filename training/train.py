@@ -42,7 +42,7 @@ from training.residual import zero_action_head
 from training.state_critic import StateCriticPolicy
 from training.vec_env import make_vec_env, training_env
 from training.warm_start import pretrain_policy
-from training.progress import LogProgress, wants_bar
+from training.progress import log_progress_callback, wants_bar
 from training.run_folder import check_checkpoint_state, check_train_log
 
 
@@ -195,7 +195,7 @@ def train(cfg: TrainConfig | None, out_dir: str | os.PathLike, resume: bool = Fa
                 cfg, lambda spec: learned_policy(model, spec, cfg.ppo.activation))
         write_run_configs(out, cfg, env_cfg, resume, changes)  # once the checkpoint is known good
         callback = PeriodicCallback(cfg, out, layout, log)
-        logged = [LogProgress(cfg.timesteps)] if progress_bar and not wants_bar(progress_bar) else []  # not a terminal: log lines
+        logged = [log_progress_callback(cfg.timesteps)] if progress_bar and not wants_bar(progress_bar) else []  # not a terminal: log lines
         model.learn(cfg.timesteps - model.num_timesteps, callback=[callback, *logged], reset_num_timesteps=False, tb_log_name="ppo",
                     progress_bar=wants_bar(progress_bar))
         callback.checkpoint()

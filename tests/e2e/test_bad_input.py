@@ -645,6 +645,7 @@ GRID_DAMAGE = [
     ("no_key", _set(["key"], _DROP), "'key' is missing"),
     ("per_episode_rmse_list", _set(["reference", "per_episode", 0, "formation_rmse_m"], [1]), "reference.per_episode.0.formation_rmse_m"),
     ("meets_target_number", _set(["meets_target"], 1), "'meets_target'"),
+    ("per_episode_rmse_null", _set(["candidate", "per_episode", 0, "formation_rmse_m"], None), "candidate.per_episode.0.formation_rmse_m"),
     ("episodes_mismatch", _set(["candidate", "episodes"], 7), "per_episode"),
     ("cell_a_string", None, "not a cell record"),
 ]

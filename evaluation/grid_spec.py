@@ -265,13 +265,13 @@ Count = Field(ge=0, le=10**12)
 
 class _EpisodeRecord(_Record):
     seed: int = Field(ge=0)
-    formation_rmse_m: float | None
+    formation_rmse_m: float  # NaN allowed (no formation), null not: the summaries compute with it
 
 
 class _RunRecord(_Record):
     label: str
     episodes: int = Count
-    formation_rmse_m: float | None
+    formation_rmse_m: float  # NaN allowed (no formation), null not: the summaries compute with it
     collisions: int = Count
     per_episode: list[_EpisodeRecord]
 
@@ -279,7 +279,7 @@ class _RunRecord(_Record):
 class _CellRecord(_Record):
     key: str
     name: str
-    ratio: float | None
+    ratio: float
     median_ratio: float | None = None
     episodes_better: int = Count
     meets_target: bool

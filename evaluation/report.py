@@ -92,11 +92,12 @@ def load_result(path: str | os.PathLike) -> dict[str, Any]:
 
 MAX_REPLAY_BYTES = 500_000_000  # a replay file embedded in the page (a 600-step episode's is about 1 MB)
 MAX_INT_BITS = 64  # no count, seed or figure of a result needs more (a 401-digit number is no result's)
+MAX_FIGURE = 1e15  # no measured float of a result comes near (metres, seconds, ratios); 1e308 overflows the plots
 
 
 def _check_inputs(path: str | os.PathLike, data: dict[str, Any]) -> None:
     """Refuse, naming the file and the field, what the report would choke on or follow blindly:
-    an integer beyond 64 bits (no float holds it), a grid cell or run that is not an object, a
+    an integer beyond 64 bits (no float holds it), a float beyond :data:`MAX_FIGURE`, a grid cell or run that is not an object, a
     ``gif``/``pcap``/``replay`` that is not text, a replay that is not a regular file (``/dev/zero``
     would be read forever) or is larger than :data:`MAX_REPLAY_BYTES`."""
     stack: list[tuple[Any, str]] = [(data, "")]
@@ -110,6 +111,9 @@ def _check_inputs(path: str | os.PathLike, data: dict[str, Any]) -> None:
             digits = len(str(value)) if value.bit_length() < 40_000 else "thousands of"
             raise ValueError(f"{path}: field '{where}' is a number of {digits} digits, beyond any figure of a result; "
                              "repair the file or evaluate again")
+        elif isinstance(value, float) and math.isfinite(value) and abs(value) > MAX_FIGURE:
+            raise ValueError(f"{path}: field '{where}' is {value:g}, beyond any figure of a result (positions, times and "
+                             f"errors stay within ±{MAX_FIGURE:g}); repair the file or evaluate again")
     if is_grid(data):
         for k, cell in enumerate(data["cells"]):
             if not isinstance(cell, dict):

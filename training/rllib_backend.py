@@ -60,6 +60,7 @@ from petswarm.training.config import TrainConfig  # noqa: E402
 from petswarm.training.export import rllib_actor_layers  # noqa: E402
 from petswarm.training.train import begin_run, write_run_configs  # noqa: E402
 from petswarm.training.warm_start import fit_actor_critic  # noqa: E402
+from petswarm.training.progress import LineProgress  # noqa: E402
 
 ALGORITHM = "PPO (Ray RLlib, new API stack)"
 _PACKAGES = ("petswarm_env", "baselines", "training", "evaluation")  # what a cluster's workers import
@@ -294,14 +295,15 @@ def train_rllib(cfg: TrainConfig | None, out_dir: str | os.PathLike, resume: boo
         progress = Progress(cfg, out, log, spec)
         if "pretrain" in log and not resume:  # the warm-started actor competes for the best
             log["pretrain"]["eval_formation_rmse_m"] = progress.evaluate(algo)["formation_rmse_m"]
+        line = LineProgress(cfg.timesteps) if progress_bar else None  # a redrawn line on a terminal, log lines otherwise
         while log["timesteps"] < cfg.timesteps:
             t = time.perf_counter()
             result = algo.train()
             progress.iteration(algo, result, time.perf_counter() - t)
-            if progress_bar:
-                print(f"\ragent-steps {log['timesteps']}/{cfg.timesteps}  {log['samples_per_s'][-1]:.0f}/s", end="", flush=True)
-        if progress_bar:
-            print()
+            if line:
+                line.update(log["timesteps"], log["samples_per_s"][-1])
+        if line:
+            line.close()
         if not log["evaluations"] or log["evaluations"][-1]["timesteps"] != log["timesteps"]:
             progress.evaluate(algo)
         progress.checkpoint(algo)

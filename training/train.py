@@ -43,7 +43,7 @@ from petswarm.training.residual import zero_action_head
 from petswarm.training.state_critic import StateCriticPolicy
 from petswarm.training.vec_env import make_vec_env, training_env
 from petswarm.training.warm_start import pretrain_policy
-from petswarm.training.progress import LogProgress, wants_bar
+from petswarm.training.progress import log_progress_callback, wants_bar
 from petswarm.training.run_folder import check_checkpoint_state, check_train_log
 
 
@@ -198,7 +198,7 @@ def train(cfg: TrainConfig | None, out_dir: str | os.PathLike, resume: bool = Fa
             if "pretrain" in log:
                 log["pretrain"]["eval_formation_rmse_m"] = start["formation_rmse_m"]
         callback = PeriodicCallback(cfg, out, layout, log)
-        logged = [LogProgress(cfg.timesteps)] if progress_bar and not wants_bar(progress_bar) else []  # not a terminal: log lines
+        logged = [log_progress_callback(cfg.timesteps)] if progress_bar and not wants_bar(progress_bar) else []  # not a terminal: log lines
         model.learn(cfg.timesteps - model.num_timesteps, callback=[callback, *logged], reset_num_timesteps=False, tb_log_name="ppo",
                     progress_bar=wants_bar(progress_bar))
         callback.checkpoint()

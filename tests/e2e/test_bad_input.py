@@ -645,6 +645,7 @@ GRID_DAMAGE = [
     ("no_key", _set(["key"], _DROP), "'key' is missing"),
     ("per_episode_rmse_list", _set(["reference", "per_episode", 0, "formation_rmse_m"], [1]), "reference.per_episode.0.formation_rmse_m"),
     ("meets_target_number", _set(["meets_target"], 1), "'meets_target'"),
+    ("per_episode_rmse_null", _set(["candidate", "per_episode", 0, "formation_rmse_m"], None), "candidate.per_episode.0.formation_rmse_m"),
     ("episodes_mismatch", _set(["candidate", "episodes"], 7), "per_episode"),
     ("cell_a_string", None, "not a cell record"),
 ]
@@ -705,11 +706,12 @@ def test_report_links_only_http_and_relative(outputs, eval_result, gif, capsys):
     (lambda d: d["episodes"][0].__setitem__("replay", 5), "'replay' must be a path"),
     (lambda d: d["episodes"][0].__setitem__("gif", ["a.gif"]), "'gif' must be a path"),
     (lambda d: d["episodes"][0].__setitem__("formation_rmse_m", 10**400), "401 digits"),
+    (lambda d: d["episodes"][0].__setitem__("formation_rmse_m", 1.5e308), "beyond any figure"),
     (lambda d: d.update(kind="grid", cells=[{"candidate": [1, 2]}]), "'candidate' must be a JSON object"),
     (lambda d: d.update(kind="grid", cells=[{"candidate": {"collisions": -10**500}}]), "digits"),
     (lambda d: d.update(kind="grid", cells=["x"]), "cell 0 must be a JSON object"),
     (lambda d: d.update(kind="grid", cells=[{"reference": {"per_episode": "x"}}]), "per_episode"),
-], ids=["dev_zero", "a_folder", "replay_number", "gif_list", "huge_rmse", "candidate_list", "huge_collisions", "cell_text", "per_episode_text"])
+], ids=["dev_zero", "a_folder", "replay_number", "gif_list", "huge_rmse", "float_1e308", "candidate_list", "huge_collisions", "cell_text", "per_episode_text"])
 def test_report_refuses_what_it_would_choke_on(capsys, outputs, eval_result, edit, words):
     data = json.loads(json.dumps(eval_result))
     edit(data)

@@ -30,13 +30,13 @@ def _command(args, argv):
 ])
 def test_log_level_sets_what_reaches_stderr(monkeypatch, capsys, argv, lines):
     monkeypatch.setitem(cli.COMMANDS, "run", _command)
-    assert cli.main(argv) == 0
+    assert petswarm.cli.main(argv) == 0
     assert capsys.readouterr().err.splitlines() == lines
 
 
 def test_a_bad_log_level_is_one_line(capsys):
     with pytest.raises(SystemExit) as info:
-        cli.main(["run", "--log-level", "loud"])
+        petswarm.cli.main(["run", "--log-level", "loud"])
     assert info.value.code == 2 and "--log-level" in capsys.readouterr().err
 
 
@@ -53,3 +53,14 @@ def test_training_without_a_terminal_logs_progress_lines(tmp_path):
     lines = [ln for ln in proc.stderr.splitlines() if ln.strip()]
     assert lines and all(ln.startswith("petswarm: ") for ln in lines) and "\r" not in proc.stderr
     assert any(ln.startswith("petswarm: info: trained 128 of 128 agent-steps (100 %)") for ln in lines)
+
+
+def test_the_rllib_progress_line_logs_when_not_a_terminal(monkeypatch, caplog):
+    from petswarm.training import progress
+
+    monkeypatch.setattr(progress.sys.stderr, "isatty", lambda: False, raising=False)
+    caplog.set_level(logging.INFO, logger="petswarm.train")
+    line = progress.LineProgress(1000, every_s=0.0)
+    line.update(500, 250.0)
+    line.close()
+    assert [r.getMessage() for r in caplog.records] == ["trained 500 of 1,000 agent-steps (50 %), 250 steps/s, about 0 min left"] * 2

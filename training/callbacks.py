@@ -8,8 +8,10 @@ one. Every evaluation (:func:`evaluate_and_keep`) runs the actor on the evaluati
 (``eval.episodes`` seeds, default 10, each with the config it draws) and scores it by the median
 over the seeds of its per-seed ratio to the scripted reference on the same seed and config
 (``eval.metric``: ``formation_rmse_m`` by default, or ``formation_hold_rmse_m``; an episode whose
-figure is NaN where the reference's is not counts as an infinite ratio: a failure is never hidden).
-An evaluation with a lower median ratio than every earlier one writes ``policy.npz`` and becomes
+figure is NaN where the reference's is not counts as an infinite ratio). A median does not see a
+lost formation in fewer than half of the seeds, so evaluations are ranked first by ``not_built``,
+the seeds on which the reference built its formation and the actor did not, then by the median
+ratio. An evaluation ranked before every earlier one writes ``policy.npz`` and becomes
 ``log["best"]``; the warm-started (or residual) actor is evaluated before PPO at agent-step 0 and
 competes too. The log's evaluations say which was best (``"best": true`` at the time).
 """
@@ -85,6 +87,18 @@ def median_ratio(episodes: list[dict[str, Any]], reference: list[dict[str, Any]]
     return float(statistics.median(ratios)) if ratios else math.nan
 
 
+def not_built(episodes: list[dict[str, Any]], reference: list[dict[str, Any]]) -> int:
+    """On how many seeds the reference built its formation and the policy did not (a lost
+    formation, which a median over the seeds does not see while it is under half of them)."""
+    ref = {e["seed"]: math.isfinite(e["building_time_s"]) for e in reference}
+    return sum(ref.get(e["seed"], False) and not math.isfinite(e["building_time_s"]) for e in episodes)
+
+
+def _rank(unbuilt: int, ratio: float) -> tuple[int, float]:
+    """The order of evaluations (lower is better): fewer lost formations first, then the median ratio (NaN last)."""
+    return unbuilt, (math.inf if math.isnan(ratio) else ratio)
+
+
 def scripted_reference(cfg: TrainConfig, log: dict[str, Any]) -> None:
     """The scripted reference's evaluation episodes and mean RMSE in ``log`` (once per run; a run
     resumed from before the per-episode figures gets them now, on the same seeds and configs)."""
@@ -107,14 +121,16 @@ def evaluate_and_keep(cfg: TrainConfig, out: Path, log: dict[str, Any], policy_f
     episodes = pool_episodes(cfg, policy_for)
     metric = cfg.eval.metric
     ratio = median_ratio(episodes, log["scripted_eval_episodes"], metric)
+    unbuilt = not_built(episodes, log["scripted_eval_episodes"])
     wall = log.get("wall_time_before_s", 0.0) + time.time() - log["_start"] if "_start" in log else None
     record = {"timesteps": int(timesteps), "formation_rmse_m": _finite_mean(e["formation_rmse_m"] for e in episodes),
               "scripted_rmse_m": log["scripted_eval_rmse_m"],
               "formation_hold_rmse_m": _finite_mean(e["formation_hold_rmse_m"] for e in episodes),
               "built": sum(math.isfinite(e["building_time_s"]) for e in episodes), "episodes": len(episodes),
-              "metric": metric, "median_ratio": ratio, "wall_time_s": None if wall is None else round(wall, 1), **(extra or {})}
+              "metric": metric, "median_ratio": ratio, "not_built": unbuilt,
+              "wall_time_s": None if wall is None else round(wall, 1), **(extra or {})}
     best = log.get("best")
-    better = best is None or (not math.isnan(ratio) and (math.isnan(best["median_ratio"]) or ratio < best["median_ratio"]))
+    better = best is None or _rank(unbuilt, ratio) < _rank(best.get("not_built", 0), best["median_ratio"])
     record["best"] = bool(better)
     log["evaluations"].append(record)
     if better:
@@ -122,7 +138,7 @@ def evaluate_and_keep(cfg: TrainConfig, out: Path, log: dict[str, Any], policy_f
         info["selected"] = {"by": f"median over {len(episodes)} evaluation seeds of the {metric} ratio to scripted",
                             "median_ratio": ratio, "timesteps": int(timesteps)}
         export(Path(out) / "policy.npz", info)
-        log["best"] = {"timesteps": int(timesteps), "median_ratio": ratio, "metric": metric,
+        log["best"] = {"timesteps": int(timesteps), "median_ratio": ratio, "not_built": unbuilt, "metric": metric,
                        "formation_rmse_m": record["formation_rmse_m"], "wall_time_s": record["wall_time_s"]}
     return record
 

@@ -57,7 +57,7 @@ def test_a_local_run_binds_ray_to_loopback_and_writes_the_run_folder(run):
     assert list((out / "tb" / "rllib").glob("events.out.tfevents*"))
     # the warm-started actor (agent-step 0) competes for policy.npz with every periodic evaluation
     assert [e["timesteps"] for e in log["evaluations"]] == [0, 200, 400] and log["pretrain"]["samples"] == 200
-    best = min(log["evaluations"], key=lambda e: (e["median_ratio"], e["timesteps"]))
+    best = min(log["evaluations"], key=lambda e: (e["not_built"], e["median_ratio"], e["timesteps"]))
     assert read_policy_file(out / "policy.npz")[0]["info"]["selected"]["timesteps"] == best["timesteps"] == log["best"]["timesteps"]
     assert not list(out.rglob(".*.npz")) and not list(out.rglob(".*.json")), "no temp files left"
 

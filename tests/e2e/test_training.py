@@ -67,10 +67,10 @@ def test_the_best_evaluated_actor_is_policy_npz_and_the_last_is_last_npz(trained
     # the warm start, every eval.every_steps (inside a rollout: the weights before its update), the final weights
     assert [e["timesteps"] for e in evals] == [0, 1024, 2048, 2048]
     assert evals[-1]["n_updates"] > evals[-2]["n_updates"]
-    best = min(evals, key=lambda e: (e["median_ratio"], e["timesteps"]))  # the first of equals stays
+    rank = [(e["not_built"], e["median_ratio"]) for e in evals]  # fewer lost formations first, then the median ratio
+    best = evals[rank.index(min(rank))]  # the first of equals stays
     assert log["best"]["timesteps"] == best["timesteps"] and log["best"]["median_ratio"] == best["median_ratio"]
-    assert [e["best"] for e in evals] == [e["median_ratio"] < min([x["median_ratio"] for x in evals[:k]], default=float("inf"))
-                                           for k, e in enumerate(evals)]
+    assert [e["best"] for e in evals] == [r < min(rank[:k], default=(1 << 30, float("inf"))) for k, r in enumerate(rank)]
     meta, layers = read_policy_file(out / "policy.npz")
     assert meta["info"]["selected"]["timesteps"] == best["timesteps"] == meta["info"]["timesteps"]
     cfg = load_train_config(overrides=SHORT)

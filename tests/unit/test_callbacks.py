@@ -89,3 +89,14 @@ def test_the_median_ratio_counts_a_failed_episode_as_infinitely_worse():
            {"seed": 4, "m": 0.1}, {"seed": 9, "m": 0.1}]  # seed 9: the reference has no figure, left out
     assert median_ratio(eps, ref, "m") == pytest.approx(1.0)  # ratios 0.5, 1, inf, 1.5, 0.5
     assert median_ratio([{"seed": 2, "m": float("nan")}], ref, "m") == float("inf")
+
+
+def test_a_lost_formation_ranks_an_evaluation_behind_one_without():
+    from petswarm.training.callbacks import _rank, not_built
+
+    nan = float("nan")
+    ref = [{"seed": s, "building_time_s": 8.0} for s in range(3)] + [{"seed": 3, "building_time_s": nan}]
+    eps = [{"seed": 0, "building_time_s": 7.0}, {"seed": 1, "building_time_s": nan}, {"seed": 2, "building_time_s": 9.0},
+           {"seed": 3, "building_time_s": nan}]  # seed 3: the reference did not build either
+    assert not_built(eps, ref) == 1
+    assert _rank(1, 0.5) > _rank(0, 1.2) and _rank(0, 0.9) < _rank(0, 1.0) and _rank(0, nan) > _rank(0, 9.0)

@@ -1,4 +1,4 @@
-"""Config types of the runtime changes (issue 15 part 4): ``faults``, ``faults_random``,
+"""Config types of the runtime changes (docs/faults.md): ``faults``, ``faults_random``,
 ``arrivals`` (petswarm_env/runtime.py, petswarm_env/sim/faults.py), and ``succession`` (a slave
 takes a lost master's place, petswarm_env/middleware/succession.py). Their defaults live in
 ``default.yaml`` like every other value; :class:`~petswarm_env.config.Config` holds them."""

@@ -67,7 +67,7 @@ if TYPE_CHECKING:
     from petswarm_env.middleware.user_session import UserSession
     from petswarm_env.sim.world import World
 
-BUILT_WITHIN_M = 0.3  # the formation is built once every slave is this close to its reference point (issue 14)
+BUILT_WITHIN_M = 0.3  # the formation is built once every slave is this close to its reference point (chosen)
 # the settle window after a refill: 10 s, the settling the fault figures allow (docs/faults.md
 # judges the dropout's largest error from 10 s after the refill on; this scores the 10 s before)
 REFILL_SETTLE_S = 10.0
@@ -87,7 +87,7 @@ class EpisodeMetrics:
     slaves_missing: int = 0  # required minus joined when the swarms organized, over every swarm
     stale_fix_s: float = 0.0  # slave time with no IR fix of any reference neighbour within AGE_SCALE_S
     error_trace: list[float] = field(default_factory=list)  # mean formation error per step (m)
-    slots_unfilled_s: float = 0.0  # slot-seconds with fewer live slaves than required (issue 15)
+    slots_unfilled_s: float = 0.0  # slot-seconds with fewer live slaves than required (docs/faults.md)
     hold_sq_error_sum: float = 0.0  # the counted errors from the step the formation was built on
     hold_error_count: int = 0
     hold_steps: int = 0

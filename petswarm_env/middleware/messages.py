@@ -38,7 +38,7 @@ CANDIDACY = "candidacy"  # slave -> swarm: its claim to take the lost master's p
 TAKEOVER = "takeover"  # elected slave -> swarm: it is the master now: its claim, member and neighbour tables
 TAKEOVER_ACK = "takeover_ack"
 
-MEMBER_UPDATE = "member_update"  # master -> swarm: a member removed or recruited: new total, member and neighbour tables (issue 15)
+MEMBER_UPDATE = "member_update"  # master -> swarm: a member removed or recruited: new total, member and neighbour tables (seed 003 §4.1.2)
 MEMBER_UPDATE_ACK = "member_update_ack"
 # a member whose sensor failed so that it cannot hold its slot -> master (seed 003 Algorithm 2 step 5: "it sends a
 # request (bid) to the other robots"; the master, which holds the tables, runs the takeover)

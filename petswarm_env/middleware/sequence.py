@@ -40,7 +40,7 @@ class SequenceManager:
 
     def master_lost(self, now_s: float) -> bool:
         """Whether this slave has no master now (the caller's emergency stop). A slave that heard
-        no status broadcast of its master for ``protocol.status_timeout_s`` has lost it (issue 15):
+        no status broadcast of its master for ``protocol.status_timeout_s`` has lost it (docs/faults.md):
         it records the loss and starts choosing a new master among the slaves
         (:mod:`.succession`); it stays stopped while that runs. The timeout counts from the last
         status broadcast heard since it joined; before the first one, from its joining plus

@@ -119,7 +119,7 @@ class UserSession:
         self._emergency_since = 0.0
         self._gestures: list[str] = []  # gestures the user is about to perform, one stroke at a time
         self._watch_free_s = -math.inf
-        self.paused = False  # the user stopped after losing their master (issue 15), until paired with an organized swarm
+        self.paused = False  # the user stopped after losing their master (the belt's alert), until paired with an organized swarm
         self.link_ack_s = -math.inf  # the belt last heard the connected robot's BLE link layer
         self.released_by: set[int | None] = set()  # robots whose link the belt lost (it does not pair with them again)
         self.link_losses: list[tuple[float, str]] = []  # (time, supervision_timeout | released)

@@ -1,4 +1,4 @@
-"""Every input a user can get wrong (issue 14 part 2), through the command line and the loaders:
+"""Every input a user can get wrong, through the command line and the loaders:
 CLI flags, config values, scenario names, policy files, result JSON for the report, and (with the
 training stack) checkpoints and resumes. Each case is one line on stderr naming the problem, exit
 status 2, no traceback, and nothing already written is lost (an existing OUT.json, OUT.jsonl or

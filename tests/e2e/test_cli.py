@@ -86,7 +86,7 @@ def test_train_backend_options_are_checked_with_one_line(args, words, tmp_path):
 
 @pytest.mark.parametrize("command", [["run", "--episodes", "2"], ["eval", "--scenarios", "straight", "--episodes", "1"]])
 def test_a_swarm_that_organized_short_is_reported(monkeypatch, capsys, command):
-    """Issue 14 item 9: a swarm short of swarm.num_slaves gives a warning line per episode from
+    """A swarm short of swarm.num_slaves gives a warning line per episode from
     petswarm run / eval (and slaves_missing in the JSON); a full one gives none."""
     from petswarm_env.env import OTHER_USER_ID
     from petswarm_env.episode import Episode

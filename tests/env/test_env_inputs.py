@@ -1,4 +1,4 @@
-"""Bad input to the env's API (issue 14 part 2): seeds, spaces of unknown agents, actions that
+"""Bad input to the env's API: seeds, spaces of unknown agents, actions that
 are not numbers, bodies outside the arena. Each is refused with one line that says what is wrong
 and what is allowed, and the episode in progress is not disturbed."""
 
@@ -81,7 +81,7 @@ def test_integer_and_list_actions_are_numbers(env):
 
 
 def test_robots_outside_the_arena_are_refused_at_reset():
-    # a 1 m arena cannot hold the swarm at all: refused when the env is made (issue 14 item 7's check,
+    # a 1 m arena cannot hold the swarm at all: refused when the env is made (the arena check,
     # with the size it needs); robots a custom placement puts outside are refused at reset
     with pytest.raises(ValueError) as info:
         petswarm_env.parallel_env(**{"world.arena_m": [1.0, 1.0], "max_cycles": 1}).reset(seed=0)

@@ -1,4 +1,4 @@
-"""Issue 14, item 3: the swarm builds its formation (seed 000 §3.4 Table 2, §3.5 Fig. 10). Waiting
+"""The swarm builds its formation (seed 000 §3.4 Table 2, §3.5 Fig. 10). Waiting
 robots start scattered in the master's available region with random headings (``swarm.spawn:
 scattered``; ``at_slots`` keeps the old start), member numbers follow the master's estimated
 distances, the slaves drive to their references from where they start, and the summary reports

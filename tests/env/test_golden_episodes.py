@@ -1,6 +1,6 @@
 """Whole episodes hashed against golden values (tests/golden/episodes.json).
 
-The golden values were recorded before the restructure of issue 13; a change that alters behaviour
+The golden values were recorded before the code's restructure; a change that alters behaviour
 on purpose regenerates them (``python -m tests.golden.episodes --regenerate``) in the same commit
 and says why. The cases run in one child process with NumPy's AVX-512 kernels off
 (``tests.golden.episodes.portable_environ``), so the hashes hold on AVX-512 and AVX2 machines alike.

@@ -1,4 +1,4 @@
-"""What MARL libraries expect of the env (issue 16 §1): PettingZoo's own tests (API, state, seeds),
+"""What MARL libraries expect of the env : PettingZoo's own tests (API, state, seeds),
 the versioned module and make, finite observation bounds that hold, flat infos with the same keys
 at reset and at every step, render() as RLlib calls it, and pickling between episodes."""
 

@@ -44,7 +44,7 @@ def test_episode_metrics_count_only_the_errors_out_of_emergency():
 
 
 def test_a_swarm_parked_in_emergency_does_not_look_good():
-    """Issue 14: a swarm that sat in emergency for 18 600 of 20 000 steps read formation_rmse_m
+    """A swarm that sat in emergency for 18 600 of 20 000 steps read formation_rmse_m
     0.126. The user is carried out of LF range: the swarm stops in emergency; its steps there count
     in ``emergency_s``, not in the RMSE, whose step count says what it covers."""
     env = petswarm_env.parallel_env(**{"user.scenario": "straight", "user.start_delay_s": 100.0, "max_cycles": 120})

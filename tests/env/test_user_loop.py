@@ -197,7 +197,7 @@ def test_user_beyond_the_reliable_range_is_an_emergency_and_everyone_stops():
 
 
 def test_the_user_turns_back_at_the_walls_and_the_swarm_stays_in_the_world():
-    """Issue 14: the zigzag user walked through the arena wall; the master hit it and the swarm sat
+    """The zigzag user walked through the arena wall; the master hit it and the swarm sat
     in emergency. In a 16 m arena (60 m of zigzag in 600 steps) the script turns back at the walls:
     the user stays inside the turn-back margin, nobody touches a wall, no emergency."""
     # at_slots: the formation is built at once, so the RMSE measures how it keeps through the turns

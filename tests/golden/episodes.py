@@ -35,13 +35,13 @@ import numpy as np
 
 GOLDEN_PATH = Path(__file__).with_name("episodes.json")
 
-# Issue 15 added 16 observation fields after layout 2's 67 (the ring's presence and location-known
+# Robot types, faults and RUTA added 16 observation fields after layout 2's 67 (the ring's presence and location-known
 # flags, layout 3) and 7 summary keys (faults, reassignments, arrivals). ``layout2_sha256`` hashes a
 # case as it was hashed before: each observation cut to its first 67 values, the summary without
-# those keys; it equals the hash recorded at 64567ef, before issue 15 — so a petbot-only pool gives
+# those keys; it equals the hash recorded at 64567ef, before robot types, faults and RUTA — so a petbot-only pool gives
 # the same episodes as before the heterogeneous swarm, bit for bit.
 LAYOUT2_SIZE = 67
-ISSUE15_SUMMARY_KEYS = frozenset({"faults_injected", "faults_detected", "detection_time_s", "reassignments",
+RUNTIME_SUMMARY_KEYS = frozenset({"faults_injected", "faults_detected", "detection_time_s", "reassignments",
                                   "reassignment_time_s", "slots_unfilled_s", "arrivals_joined"})
 # Summary keys added later without any change of behaviour (building and holding measured apart,
 # petswarm_env/metrics.py): left out of ``layout2_sha256`` like the keys above.
@@ -112,7 +112,7 @@ def run_case(name: str) -> dict[str, Any]:
         n += 1
     summary = env.episode_summary()
     h.update(json.dumps(summary, sort_keys=True, default=float).encode())
-    before = {k: v for k, v in summary.items() if k not in ISSUE15_SUMMARY_KEYS | FIGURE_SUMMARY_KEYS}
+    before = {k: v for k, v in summary.items() if k not in RUNTIME_SUMMARY_KEYS | FIGURE_SUMMARY_KEYS}
     h2.update(json.dumps(before, sort_keys=True, default=float).encode())
     return {"sha256": h.hexdigest(), "layout2_sha256": h2.hexdigest(), "steps": n,
             "formation_rmse_m": summary["formation_rmse_m"]}

@@ -1,6 +1,6 @@
 """The master's status broadcast (seed 000 §3.5, Fig. 9) carries what the master itself measured.
 
-Issue 14 item 2: "its driving speed" is what its own wheel odometry measures, with the slaves'
+Seed 000 §3.5: "its driving speed" is what its own wheel odometry measures, with the slaves'
 odometry noise model (sim/sensors.py), never the body's true velocity.
 """
 

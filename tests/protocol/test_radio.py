@@ -290,7 +290,7 @@ def test_no_foreign_pan_frame_processed_in_an_episode():
 
 
 def test_no_foreign_pan_frame_processed_under_loss_one_user():
-    """Issue 14 item 8: ``foreign_pan_frames_processed`` counts only frames of another PAN that a
+    """``foreign_pan_frames_processed`` counts only frames of another PAN that a
     robot processed. The organizing master listens on the PAN it forms (a retried joining
     notification is acknowledged there): those frames are its own PAN's, never foreign. Before,
     the count was non-zero in 7 of 25 such episodes."""

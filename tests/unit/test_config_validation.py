@@ -1,4 +1,4 @@
-"""Bad config input, every section (issue 14 part 2): each case is refused with a one-line
+"""Bad config input, every section: each case is refused with a one-line
 ConfigError that names the key; booleans are not numbers; NaN and infinity are not floats; min/max
 pairs are ordered; YAML that is not a mapping, does not parse or has unknown keys is refused."""
 

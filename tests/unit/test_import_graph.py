@@ -1,4 +1,4 @@
-"""No import circles among the project's own modules (issue 13, "No import circles").
+"""No import circles among the project's own modules (the architecture's rule: no import circles).
 
 The graph is read from the source with :mod:`ast`, not by importing anything: every top-level
 package of the repository (a folder with an ``__init__.py`` beside ``pyproject.toml``) and every
@@ -17,7 +17,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
 
-# Circles known on main and being removed by another branch of issue 13; the lead empties this
+# Circles known on main and to be removed; empty this
 # list when that branch is merged. Each entry is the exact set of modules of one circle (a strongly
 # connected component of the graph): a circle that grows, shrinks or disappears fails the test too,
 # so an entry can never hide anything but the circle it names.

@@ -120,7 +120,7 @@ def _walk(segments, start=(0.0, 0.0), heading=0.0, horizon_s=2000.0, dt=0.05):
 
 @pytest.mark.parametrize("name", list(SCENARIOS))
 def test_the_script_turns_back_at_the_walls(name):
-    """Issue 14: in a 20 000-step zigzag the user walked through the arena wall at step 1 373. With
+    """In a 20 000-step zigzag the user walked through the arena wall at step 1 373. With
     the turn-back rule every named script keeps the user inside the walls minus the swarm's reach
     and a clearance over 2 000 s in a 20 m arena; without it the same walk leaves the arena."""
     from petswarm_env.scenarios.base import TURN_BACK_CLEARANCE_M, Arena, turn_back_radius_m

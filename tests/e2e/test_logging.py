@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-import petswarm.cli.main as cli
+import petswarm.cli.main as cli_main
 
 
 def _command(args, argv):
@@ -29,14 +29,14 @@ def _command(args, argv):
     (["--log-level", "error", "run"], []),
 ])
 def test_log_level_sets_what_reaches_stderr(monkeypatch, capsys, argv, lines):
-    monkeypatch.setitem(cli.COMMANDS, "run", _command)
-    assert petswarm.cli.main(argv) == 0
+    monkeypatch.setitem(cli_main.COMMANDS, "run", _command)
+    assert cli_main.main(argv) == 0
     assert capsys.readouterr().err.splitlines() == lines
 
 
 def test_a_bad_log_level_is_one_line(capsys):
     with pytest.raises(SystemExit) as info:
-        petswarm.cli.main(["run", "--log-level", "loud"])
+        cli_main.main(["run", "--log-level", "loud"])
     assert info.value.code == 2 and "--log-level" in capsys.readouterr().err
 
 

@@ -21,3 +21,15 @@ def run(env, seconds):
         if not env.agents:
             return
         env.step({a: np.zeros(3, np.float32) for a in env.agents})
+
+
+def assert_tables_agree(env, totals: bool = True):
+    """Every slave of the swarm holds the master's member and neighbour tables (learned from frames),
+    and with ``totals`` the member count that goes with them."""
+    master = env.episode.swarm.master
+    for idx in env.episode.swarm.slave_ids():
+        node = env.episode.fleet.nodes[idx]
+        assert node.know.members == master.know.members, f"robot {idx} holds other member tables"
+        assert node.formation.links == master.formation.links
+        if totals:
+            assert node.know.total_members == len(master.know.members)

@@ -14,17 +14,7 @@ import petswarm_env
 from petswarm_env.middleware import messages as msg
 from petswarm_env.middleware.join import JoinManager
 
-from tests.protocol.still import make, run
-
-
-def assert_tables_agree(env):
-    """Every slave of the swarm holds the master's member and neighbour tables (learned from frames)."""
-    master = env.episode.swarm.master
-    for idx in env.episode.swarm.slave_ids():
-        node = env.episode.fleet.nodes[idx]
-        assert node.know.members == master.know.members, f"robot {idx} holds other member tables"
-        assert node.formation.links == master.formation.links
-        assert node.know.total_members == len(master.know.members)
+from tests.protocol.still import assert_tables_agree, make, run
 
 
 def test_silent_member_is_retried_skipped_then_lost_and_removed():

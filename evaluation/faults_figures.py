@@ -63,7 +63,8 @@ def _run(scenario: str, seed: int, overrides: dict | None = None) -> dict:
         moved = []
         fault_s = env.truth.faults[0].time_s
         for idx, node in env.truth.nodes.items():
-            for _, master, t_timeout in node.seq.master_lost_at:
+            for _, master, t_local in node.seq.master_lost_at:
+                t_timeout = node.clock.true_time(t_local)  # logged on the robot's own clock
                 if t_timeout < fault_s:
                     continue  # an earlier timeout (under loss): not the master's loss
                 # from the last step at or before the timeout instant (the slave notices at the next control step)

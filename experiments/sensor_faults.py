@@ -50,7 +50,8 @@ def run(kind: str, seed: int, at_s: float = 20.0, target: str = "random_slave", 
         return {"kind": kind, "seed": seed, "injected": False}
     fault = log[0]
     node = env.episode.fleet.nodes[fault.robot]
-    found = [t for t, part in node.diagnosis.detected if part == kind and t >= fault.time_s]
+    found = [t for t in (node.clock.true_time(t) for t, part in node.diagnosis.detected if part == kind)  # its own clock
+             if t >= fault.time_s]
     detected_s = found[0] if found else None
     t0 = detected_s if detected_s is not None else fault.time_s
     window = [e for t, e in errors if t0 < t <= t0 + REFORM_AFTER_S]

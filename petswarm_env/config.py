@@ -117,6 +117,8 @@ class RobotConfig(Section):
     ahrs_noise_deg: float = Field(ge=0, le=180)
     ahrs_drift_dps: float = Field(ge=0, le=SPIN_DPS)
     odometry_noise_rel: float = Field(ge=0, le=REL)
+    clock_drift_ppm: float = Field(ge=0, le=1000.0, description="each MCU clock's drift is drawn within ± this (ppm)")
+    clock_offset_max_s: float = Field(ge=0, le=1e6, description="each MCU clock's offset is drawn in [0, this) s")
 
 
 class CustomLink(Section):

@@ -383,7 +383,7 @@ class Episode:
             if idx in masters:
                 continue
             node = self.fleet.nodes[idx]
-            if node.seq.master_lost(world.now):  # no status broadcast for protocol.status_timeout_s: emergency stop, waiting
+            if node.seq.master_lost(node.clock.now):  # on its own clock: no status broadcast for protocol.status_timeout_s: emergency stop, waiting
                 world.robots[idx].set_command(0.0, 0.0, 0.0)
                 continue
             st = node.know.status

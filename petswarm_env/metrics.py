@@ -271,13 +271,13 @@ class Experimenter:
         observation's age range (``observe.AGE_SCALE_S``; none yet counts from the episode's start):
         a slave that cannot know where its neighbours are (the scripted one then only moves with the
         swarm, :mod:`petswarm.baselines.leader_follower`)."""
-        now, nodes, stale = self.world.now, self.fleet.nodes, 0
-        oldest = now - AGE_SCALE_S
+        nodes, stale = self.fleet.nodes, 0
         for agent in agents:
             node = nodes[self.agent_index[agent]]
             irs, members = node.know.ir, node.know.members
             times = [irs[nb].time_s for nb in (members.get(lk.neighbour) for lk in node.reference_links()) if nb in irs]
-            if max(times, default=self._start_s) < oldest:
+            # the fixes' times are on the robot's own clock (its MCU's): compared on that clock
+            if max(times, default=node.clock.local(self._start_s)) < node.clock.now - AGE_SCALE_S:
                 stale += 1
         return stale
 
@@ -373,8 +373,9 @@ class Experimenter:
     def _detected_at(self, fault) -> float | None:
         """When the middleware noticed ``fault`` (a FaultRecord), or None."""
         if fault.role == "master":
-            times = [t for n in self.fleet.nodes.values() for t, m, _ in n.seq.master_lost_at
-                     if m == fault.robot and t >= fault.time_s]
+            # the slaves log on their own clocks: read on the true one
+            times = [t for n in self.fleet.nodes.values() for t in (n.clock.true_time(t_local) for t_local, m, _ in n.seq.master_lost_at
+                                                                     if m == fault.robot) if t >= fault.time_s]
             return min(times, default=None)
         times = [t for sw in self.swarms for t, event, ids in sw.member_log
                  if event == "lost" and fault.robot in ids and t >= fault.time_s]

@@ -225,7 +225,7 @@ class Readings:
 
     know: Knowledge  # its middleware's knowledge (IR, headings, master status, members)
     links: Sequence[Any]  # its reference links in the neighbour table (formation.Link)
-    now_s: float  # clock time
+    now_s: float  # the robot's own clock (its MCU's: the times in ``know`` are on it)
     odometry: tuple[float, float, float]  # wheel odometry (Vx, Vy, ω), body frame
     yaw_rad: float  # AHRS yaw
     last_action: np.ndarray  # the action applied last step, (3,)
@@ -386,7 +386,8 @@ class Observer:
         return hit[1], hit[2]
 
     def observe(self, agents: list[str], last_actions: dict[str, np.ndarray], now_s: float) -> dict[str, np.ndarray]:
-        """A new observation array for each of ``agents`` at clock time ``now_s`` (``last_actions``:
+        """A new observation array for each of ``agents`` at true time ``now_s`` (the ages of what a
+        robot knows are counted on its own clock, ``node.clock``) (``last_actions``:
         agent -> the action applied last step; none yet reads as zeros). The odometry noise of all
         agents is one draw, in the agents' order."""
         sensors, nodes, agent_index, ahrs, layout = self.sensors, self.nodes, self.agent_index, self.ahrs, self.layout
@@ -406,8 +407,8 @@ class Observer:
                 level, offset = levels.get(member, 0), slots[member]
             last = last_actions.get(agent)
             odometry = sensors.odometry(idx, noise[i] if noise is not None else None)
-            yaw = ahrs[idx](now_s)
-            readings = Readings(know, node.reference_links(), now_s, odometry, yaw,
+            yaw = ahrs[idx](now_s)  # the sensor's physics at true time
+            readings = Readings(know, node.reference_links(), node.clock.now, odometry, yaw,  # ages on its own clock
                                 last if last is not None else _NO_ACTION, ranges[idx], level, offset, slots, flags[idx])
             obs[agent] = build_observation(layout, readings)  # a new array: what the agent gets is its own
         return obs

@@ -51,8 +51,10 @@ class Node(Station):
         # the robot's own sensor diagnosis (middleware/diagnosis.py), fed by its ring and AHRS readings
         self.diagnosis = Diagnosis(node_id, cfg, robot, lambda: self.know, self.ring)
         self.diagnosis.on_detect = self.recovery.sensor_failed
-        robot.on_ring = self.diagnosis.on_ring
-        robot.ahrs.on_reading = self.diagnosis.on_ahrs
+        # the sensors hand their readings to the MCU, which stamps them with its own clock
+        local = self.clock.local
+        robot.on_ring = lambda ranges, present, now_s: self.diagnosis.on_ring(ranges, present, local(now_s))
+        robot.ahrs.on_reading = lambda now_s, yaw: self.diagnosis.on_ahrs(local(now_s), yaw)
         self.succession = SuccessionManager(self, self.seq.leave_swarm)
         self.seq.successor = self.succession
         self.seq.ring_heard = self.ring.last_heard_s

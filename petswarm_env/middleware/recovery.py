@@ -61,6 +61,7 @@ class RecoveryManager:
         self._forget = forget  # the ring's count of a robot starts over (TokenRing.forget)
         self._leave = leave  # back to waiting (SequenceManager.leave_swarm)
         self.last_seq = -1
+        self._last_src: int | None = None  # the master whose update ``last_seq`` numbers (each master counts its own)
         self._sent_seq = -1
         self._seq = -1
         self._acks: set[int] = set()
@@ -209,7 +210,9 @@ class RecoveryManager:
         node = self.node
         clock = node.clock
         cfg = node.cfg.protocol
-        seq = max(self._sent_seq + 1, int(round(clock.now * 1000)))  # increasing across masters (ms of the clock)
+        # this master's own count (2 bytes on air, messages.py); a slave compares it only with the same
+        # master's earlier updates: no number of one robot is compared with another's
+        seq = self._sent_seq + 1
         self._sent_seq = self._seq = seq
         others = {n for m, n in members.items() if m != 0}
         payload = dict(seq=seq, members=dict(members), shape=formation.shape, links=formation.links_payload(),
@@ -277,7 +280,7 @@ class RecoveryManager:
         clock = node.clock
         cfg = node.cfg.protocol
         pan = node.swarm_pan
-        seq = self._request_seq = int(round(clock.now * 1000))
+        seq = self._request_seq = self._request_seq + 1  # own count: only its acknowledgement carries it back
         for _ in range(cfg.max_retries + 1):
             if node.state != "slave" or node.swarm_pan != pan or node.member_node(0) is None:
                 return  # removed meanwhile (the member update came): the request was heard
@@ -293,9 +296,9 @@ class RecoveryManager:
             return
         p = frame.payload
         node.send(msg.MEMBER_UPDATE_ACK, dst=frame.src, seq=p["seq"])
-        if p["seq"] <= self.last_seq:
-            return
-        self.last_seq = p["seq"]
+        if frame.src == self._last_src and p["seq"] <= self.last_seq:
+            return  # an older update of the same master
+        self.last_seq, self._last_src = p["seq"], frame.src
         members = {int(m): n for m, n in p["members"].items()}
         if node.node_id not in members.values():  # removed: not a member any more
             self._leave()

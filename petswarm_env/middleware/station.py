@@ -39,7 +39,7 @@ from petswarm_env.config import Config
 from petswarm_env.middleware import messages as msg
 from petswarm_env.middleware.formation import Formation
 from petswarm_env.middleware.knowledge import IRMeasurement, Knowledge
-from petswarm_env.sim.clock import Clock
+from petswarm_env.sim.clock import Clock, LocalClock
 from petswarm_env.sim.draws import Draws
 from petswarm_env.sim.sensors import Odometry
 
@@ -47,6 +47,16 @@ if TYPE_CHECKING:
     from petswarm_env.sim.robot import Robot
 
 COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
+
+
+def mcu_clock(clock: Clock, cfg: Config, rng: np.random.Generator) -> LocalClock:
+    """One MCU's own clock over ``clock``: a drift drawn uniformly within ±``robot.clock_drift_ppm``
+    and an offset (the time since it powered on) within ``[0, robot.clock_offset_max_s)``, both from
+    ``rng`` (its own stream of the episode's seed: same seed, same clocks)."""
+    ppm, offset_max = cfg.robot.clock_drift_ppm, cfg.robot.clock_offset_max_s
+    drift = float(rng.uniform(-ppm, ppm)) * 1e-6 if ppm > 0 else 0.0
+    offset = float(rng.uniform(0.0, offset_max)) if offset_max > 0 else 0.0
+    return LocalClock(clock, offset, drift)
 
 
 class Signal:
@@ -86,8 +96,6 @@ class Station:
                  rng: np.random.Generator):
         self.node_id = node_id
         self.cfg = cfg
-        self.clock = clock
-        self.later = clock.later  # later(delay, fn, *args): a call on the clock
         self.radio = radio
         self.rng = rng
         self.draws = Draws(rng)  # scalar draws (MCU processing jitter) taken from rng in blocks
@@ -95,6 +103,11 @@ class Station:
         self._processing_s, self._jitter_s = cfg.radio.processing_s, cfg.radio.processing_jitter_s
         self._robot = robot  # own body: its AHRS, and the antenna's position
         self.odometry = Odometry(robot, cfg.robot, rng.spawn(1)[0])  # own wheel odometry, own noise stream
+        # the MCU's own clock (seed 000 §3.3: the robots' clocks are independent): every timer and
+        # timestamp of this robot's middleware is on it; the true clock only reads the body's sensors
+        self.clock = mcu_clock(clock, cfg, rng.spawn(1)[0])
+        self._true_clock = clock
+        self.later = self.clock.later  # later(delay, fn, *args): a call after ``delay`` seconds of the MCU's clock
         # the antenna's position, for the radio's propagation model (not the middleware): the body's
         # reader bound once (a radio station reads it for every frame it sends or receives)
         self.position: Callable[[], tuple[float, float]] = robot.read_position
@@ -181,7 +194,7 @@ class Station:
     # -- own sensors and the IR module ------------------------------------------------------------
     def ahrs_yaw(self) -> float:
         """Own AHRS reading (an own sensor: noisy, drifting)."""
-        return self._robot.ahrs_yaw(self.clock.now)
+        return self._robot.ahrs_yaw(self._true_clock.now)  # the sensor's physics runs on true time
 
     def own_body_status(self) -> dict | None:
         """Own body's status report for RUTA (type, battery, slip, draws, sensors), when the body

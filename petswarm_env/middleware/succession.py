@@ -250,7 +250,7 @@ class SuccessionManager:
         self.user_estimate = own_user_estimate(node, clock.now)
         adopted = adopted_swarm_config(node)
         table, formation = succession_plan(node.formation, know.members, old_member, know.mode, adopted.swarm)
-        self._seq = max(self._seq + 1, int(round(clock.now * 1000)))
+        self._seq += 1  # own count: only the acknowledgements carry it back
         seq = self._seq
         self.accepted = key
         lf = sorted(n for n in table.values() if n in know.lf_members or n == node.node_id)

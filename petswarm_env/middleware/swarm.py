@@ -128,7 +128,7 @@ class Swarm:
                 rotating=view.user_rotating if view else False,
                 user=view.user_position_m if view else (self.cfg.master.distance_m, 0.0),
             )
-            yield self.clock.timeout(period)
+            yield master.clock.timeout(period)  # the master's own clock (seed 000 §3.3: independent clocks)
 
     def broadcast_mode(self) -> str:
         """The mode the slaves hear: the driving mode, or ``emergency`` while the user is lost."""
@@ -146,7 +146,7 @@ class Swarm:
             self.mode = new_mode
             self.events["mode_changes"] += 1
             return None
-        geometry = measured_geometry(self.formation, master.know, master.ahrs_yaw(), self.clock.now, user_xy,
+        geometry = measured_geometry(self.formation, master.know, master.ahrs_yaw(), master.clock.now, user_xy,
                                      self.cfg.master.distance_m)
         plan = plan_mode_change(self.cfg.swarm, self.formation, master.know.members, self.mode, new_mode,
                                 master_change, geometry, master.know.lf_members)

@@ -25,6 +25,12 @@ master of their swarm:
   chosen: it clears by itself when the user is back inside the reliable range);
 * the **master-role controller** (:mod:`petswarm_env.control.master`) that drives the master.
 
+Clocks (seed 000 §3.3: independent clocks): what the robot side does runs on the current master's
+own clock (``node.clock``: the LF burst period, the user tracker's times, the lost-user timeout, the
+remote driver); what the belt does on the belt's (:attr:`UserSession.belt_clock`: its report period
+and its BLE supervision timeout, drawn like a robot's MCU clock). The watch's recognition and the
+BLE link's latency are physics and human timing, on the true clock.
+
 The session reads the truth only where a sensor does (the LF physics needs the true user position
 relative to the transmitting robot; the belt needs the user's true motion), like every sensor model.
 """
@@ -41,6 +47,7 @@ from petswarm_env.control.master import BeltView, MasterController, UserTracker
 from petswarm_env.middleware.formation import formation_for_mode, user_position_in_formation
 from petswarm_env.middleware.knowledge import FRESH_IR_S
 from petswarm_env.middleware.modes import measured_geometry
+from petswarm_env.middleware.station import mcu_clock
 from petswarm_env.middleware.succession import own_user_estimate
 from petswarm_env.middleware.swarm import Swarm
 from petswarm_env.sim.geometry import wrap_angle
@@ -99,12 +106,14 @@ class UserSession:
         self.user = user
         rngs = rng.spawn(4)
         self.rng_lf, rng_belt, rng_watch, self.rng_misc = rngs
+        self.belt_clock = mcu_clock(world.clock, cfg, rng.spawn(1)[0])  # the belt's MCU keeps its own time (chosen: a robot's crystal)
         self.belt = SmartBelt(cfg.belt, rng_belt, t0_s=world.now)
         self._belt_fed = (world.now, user.heading)  # the user's heading when the belt was last advanced
         self.watch = Watch(cfg.watch, rng_watch)
         self.remote = RemoteDriver(cfg.watch)
         self.ctrl = MasterController(cfg.master, math.radians(cfg.lf.reliable_half_angle_deg))
         self.tracker = UserTracker(cfg.master.tracker_alpha, cfg.master.tracker_beta)
+        self.tracker_node = swarm.master  # the robot the tracker runs on: its times are on that robot's own clock
         self.user_pattern = user_pattern  # stored in the belt's LF receiver register
         self.robot_pattern = robot_pattern  # what the user's robot bursts
         self.state = "waiting_user"
@@ -135,20 +144,20 @@ class UserSession:
     # -- pairing (seed 002 §3.2) ------------------------------------------------------------------
     def _wakeup_bursts(self):
         cfg = self.cfg
-        yield self.clock.timeout(float(self.rng_misc.uniform(0.0, cfg.lf.wake_period_s)))  # own clock phase
         robot = self.swarm.master
+        yield robot.clock.timeout(float(self.rng_misc.uniform(0.0, cfg.lf.wake_period_s)))  # own clock phase
         while self.connected_robot is None:
             d = math.dist(self.world.robots[robot.node_id].position, self.user.position)
             if lf.wakes_up(cfg.lf, d, self.robot_pattern, self.user_pattern):
                 yield self.clock.timeout(cfg.ble.connect_s)
                 self.connected_robot = robot.node_id
-                self.paired_at_s = self.clock.now
-                self.link_since_s = self.link_ack_s = self.clock.now
+                self.paired_at_s = self.link_since_s = self.clock.now
+                self.link_ack_s = self.belt_clock.now
                 robot.connected_user = self.swarm.user_id
                 robot.state = "command_waiting"
                 self.state = "command_waiting"
                 return
-            yield self.clock.timeout(cfg.lf.wake_period_s)
+            yield robot.clock.timeout(cfg.lf.wake_period_s)
 
     # -- losing the master, pairing with the next (seed 002 §3.2; middleware/succession.py) --------
     def _link_lost(self, reason: str) -> None:
@@ -177,9 +186,10 @@ class UserSession:
         idx = self.connected_robot
         if idx is None:
             return
+        now = self.belt_clock.now  # the belt's supervision timer runs on its own clock
         if self.world.robots[idx].health.powered:
-            self.link_ack_s = self.clock.now
-        elif self.clock.now - self.link_ack_s > self.cfg.ble.supervision_timeout_s:
+            self.link_ack_s = now
+        elif now - self.link_ack_s > self.cfg.ble.supervision_timeout_s:
             self._link_lost("supervision_timeout")
 
     def _on_succession(self, node) -> None:
@@ -189,11 +199,12 @@ class UserSession:
         (they stop at the belt's alert); it drives within ``succession.approach_m`` of that and bursts
         its wake-up pattern (:meth:`_successor_command`)."""
         self.tracker.reset(node.ahrs_yaw())
+        self.tracker_node = node
         self.ctrl.reset()
         est = node.succession.user_estimate
         self._search = None
         if est is not None:
-            self.tracker.fix(est, self.clock.now)
+            self.tracker.fix(est, node.clock.now)
             d = math.hypot(*est) or 1.0
             c, s = math.cos(self.tracker.pose[2]), math.sin(self.tracker.pose[2])
             along = (c * est[0] / d - s * est[1] / d, s * est[0] / d + c * est[1] / d)  # odometry frame
@@ -219,7 +230,7 @@ class UserSession:
         stands still within ``lf.wake_range_m`` of where it puts them), and every ``lf.wake_period_s``
         after; a belt within ``lf.wake_range_m`` whose pattern matches
         pairs over BLE (``ble.connect_s``)."""
-        cfg, now = self.cfg, self.clock.now
+        cfg, now = self.cfg, self.tracker_node.clock.now  # the new master's own clock (its tracker's)
         est = self.tracker.user_body(now)
         d_est = math.hypot(*est[0]) if est is not None else 0.0
         stalled = math.hypot(odometry[0], odometry[1]) < STALLED_MPS  # it gets no closer (the ultrasonic safety stage)
@@ -243,7 +254,8 @@ class UserSession:
         if self.connected_robot is not None or not self.world.robots[node.node_id].health.powered:
             return
         self.connected_robot = node.node_id
-        self.paired_at_s = self.link_since_s = self.link_ack_s = self.clock.now
+        self.paired_at_s = self.link_since_s = self.clock.now
+        self.link_ack_s = self.belt_clock.now
         node.connected_user = self.swarm.user_id
         node.previous_driving_state = self.swarm.mode
         if node.state != "master":
@@ -260,7 +272,7 @@ class UserSession:
         swarm = self.swarm
         fleet = swarm.fleet
         while self.connected_robot is None:
-            yield self.clock.timeout(cfg.lf.wake_period_s)
+            yield swarm.master.clock.timeout(cfg.lf.wake_period_s)  # the waiting robots' burst period (chosen: the old master's clock)
             if swarm.master.state == "master" or any(n.succession.electing for n in swarm.nodes.values()
                                                       if fleet.swarm_of(n.node_id) is swarm):
                 continue  # a slave takes or took the master's place: it calls the belt (_successor_command)
@@ -277,6 +289,7 @@ class UserSession:
                         break
                     swarm.master = node
                     self.tracker.reset(node.ahrs_yaw())
+                    self.tracker_node = node
                     self._paired(node, [f"mode:{swarm.mode}", "organize"])
                     return
 
@@ -284,24 +297,24 @@ class UserSession:
     def _lf_bursts(self):
         cfg = self.cfg
         period = cfg.lf.burst_period_s
-        yield self.clock.timeout(float(self.rng_misc.uniform(0.0, period)))
+        yield self.swarm.master.clock.timeout(float(self.rng_misc.uniform(0.0, period)))
         while True:
             if self.connected_robot is not None and self.state in ("following", "leading", "emergency") \
                     and self.clock.now >= self.link_since_s:
                 tx = self.swarm.master.node_id
                 robot = self.world.robots[tx]
                 if not can_be_master(robot):
-                    yield self.clock.timeout(period)
+                    yield self.swarm.master.clock.timeout(period)
                     continue  # a body without LF antennas bursts no LF (robot_types)
                 (ux, uy), (rx, ry) = self.user.position, robot.position
                 dx, dy = ux - rx, uy - ry
                 c, s = math.cos(robot.heading), math.sin(robot.heading)
                 fix = lf.locate(cfg.lf, c * dx + s * dy, -s * dx + c * dy, self.rng_lf)
                 if fix.valid:  # the belt heard both antennas; RSSIs go back over BLE
-                    t_burst = self.clock.now
+                    t_burst = self.tracker_node.clock.now  # stamped on the clock of the robot whose tracker takes it
                     ev = self.clock.timeout(cfg.ble.latency_s)
                     ev.callbacks.append(lambda _e, tx=tx, fix=fix, t=t_burst: self._on_fix(tx, fix, t))
-            yield self.clock.timeout(period)
+            yield self.swarm.master.clock.timeout(period)  # the master's burst period, on its own clock
 
     def _on_fix(self, tx: int, fix: lf.LFFix, t_burst: float) -> None:
         if self.connected_robot != tx or self.swarm.master.node_id != tx:
@@ -312,12 +325,12 @@ class UserSession:
     def _belt_reports(self):
         cfg = self.cfg
         while True:
-            yield self.clock.timeout(cfg.ble.report_period_s)
+            yield self.belt_clock.timeout(cfg.ble.report_period_s)  # the belt's report period, on its own clock
             self._ble_supervision()
             if self.connected_robot is None or self.clock.now < self.link_since_s:
                 continue
             r = self.belt.reading()
-            view = BeltView(r.activity, r.rotating, r.angular_speed_rps, r.accumulated_angle_rad, self.clock.now)
+            view = BeltView(r.activity, r.rotating, r.angular_speed_rps, r.accumulated_angle_rad, self.belt_clock.now)
             ev = self.clock.timeout(cfg.ble.latency_s)
             ev.callbacks.append(lambda _e, v=view: setattr(self, "belt_view", v))
 
@@ -338,7 +351,7 @@ class UserSession:
             if self.state in ("exception", "emergency", "waiting_user"):
                 return
             if mode != "remote" and swarm.organized:
-                est = self.tracker.user_body(self.clock.now)
+                est = self.tracker.user_body(self.tracker_node.clock.now)
                 swarm.change_mode(mode, self.cfg.swarm.master_change, est[0] if est is not None else None)
             elif swarm.mode != mode:
                 swarm.mode = mode
@@ -400,7 +413,7 @@ class UserSession:
         if command == "organize":  # leading: the master shifts to its place first (seed 000 §3.5)
             if self.state not in ("following", "leading"):
                 return False
-            est = self.tracker.user_body(self.clock.now)
+            est = self.tracker.user_body(self.tracker_node.clock.now)
             return est is not None and abs(math.hypot(*est[0]) - self.target_distance_m()) < 0.15
         return True
 
@@ -429,11 +442,15 @@ class UserSession:
         self.belt.advance(now, seg.speed_mps if moving else 0.0, turn, seg.activity if moving else "stop")
         self._pick_up_user_commands()
         master = self.swarm.master
+        # from here on the clock of the robot whose tracker this is: the master's own (the belt and the
+        # user above: physics); between a handover's takeover and its end, still the old master's
+        now = self.tracker_node.clock.now
         yaw = master.ahrs_yaw()
         self.tracker.move(odometry, yaw, cfg.control_period_s)
         est = self.tracker.user_body(now)
-        # emergency: the user is out of the reliable range (no fix) for too long
-        if self.state in ("following", "leading") and now - max(self.tracker.last_fix_s, self.link_since_s) > cfg.master.lost_user_s:
+        # emergency: the user is out of the reliable range (no fix) for too long (the link came up
+        # at an event of the master's own BLE radio: it knows that moment on its own clock)
+        if self.state in ("following", "leading") and now - max(self.tracker.last_fix_s, self.tracker_node.clock.local(self.link_since_s)) > cfg.master.lost_user_s:
             self.state = "emergency"
             self._emergency_since = now
             self.events["emergencies"] += 1
@@ -473,7 +490,7 @@ class UserSession:
         if idx is None:
             return
         node = self.swarm.nodes[idx]
-        if node.seq.cut_off(now):
+        if node.seq.cut_off(node.clock.now):  # the robot's own timeout, on its own clock
             node.seq.leave_swarm()
             node.connected_user = None
             self._link_lost("released")
@@ -491,7 +508,7 @@ class UserSession:
                 return False  # the swarm is re-forming around the master: its echoes are members
             if swarm.formation is not None:
                 master = swarm.master
-                geometry = measured_geometry(swarm.formation, master.know, master.ahrs_yaw(), self.clock.now, None,
+                geometry = measured_geometry(swarm.formation, master.know, master.ahrs_yaw(), master.clock.now, None,
                                              self.cfg.master.distance_m)
                 members = [(math.hypot(x, y), math.atan2(y, x)) for m, (x, y) in geometry.positions.items() if m]
         rim = self.cfg.robot.radius_m
@@ -510,11 +527,13 @@ class UserSession:
         BLE. Its user tracker starts from what it knows itself (:func:`~.succession.own_user_estimate`:
         the old master's last status broadcast placed through its own IR fix and heading estimate of
         the old master): the handover frame carries no track."""
-        now = self.clock.now
         self.connected_robot = new.node_id
-        self.link_since_s = self.link_ack_s = now + self.cfg.ble.connect_s
+        self.link_since_s = self.clock.now + self.cfg.ble.connect_s
+        self.link_ack_s = self.belt_clock.now + self.cfg.ble.connect_s
         self.tracker.reset(new.ahrs_yaw())  # the new master's own odometry frame
+        self.tracker_node = new
         self.ctrl.reset()
+        now = new.clock.now  # the new master's own clock
         est = own_user_estimate(new, now, old.node_id)
         if est is not None:
             self.tracker.fix(est, now)

@@ -20,6 +20,12 @@ the middleware's generators run on it unchanged) — it has what they use of an 
 * :meth:`Clock.any_of` — "the first of these events", what ``simpy.AnyOf`` gives a process that
   only waits on it, without building a condition value.
 
+Each robot's MCU (and each wearable that keeps time) runs its own crystal, so it has its own clock
+(seed 000 §3.3: the robots' clocks are independent — that is why the IR ring passes a token): a
+:class:`LocalClock` over the one clock, ``local = offset + (1 + drift) · t``. Its ``timeout`` and
+``later`` take local seconds (a timer of ``d`` local seconds fires after ``d / (1 + drift)`` true
+seconds), its ``now`` is local time; the events and processes are the one clock's.
+
 This is the only module that touches SimPy's internals (the events' ``callbacks``, ``_ok``,
 ``_defused``, ``_value``, the environment's ``_active_proc``); ``pyproject.toml`` bounds simpy to
 the major version this was written against (4).
@@ -210,3 +216,61 @@ class _FirstOf(simpy.Event):
             value = ConditionValue()
             value.events.append(event)
             self.succeed(value)
+
+
+@cython.final
+@cython.cclass
+class LocalClock:
+    """One MCU's own clock over the simulation's :class:`Clock` (module docstring): it reads
+    ``offset_s + (1 + drift) · t`` at true time ``t``, and its timers count its own seconds. A robot's
+    middleware sees only this (``Station.clock``): what it schedules and the times it writes into its
+    own state are its own; it never reads another robot's clock. ``drift`` is a fraction (50 ppm is
+    5e-5); ``offset_s`` is arbitrary (the time since the MCU powered on): nothing depends on it."""
+
+    offset_s = cython.declare(cython.double, visibility="readonly")
+    drift = cython.declare(cython.double, visibility="readonly")
+    _rate = cython.declare(cython.double)  # local seconds per true second: 1 + drift
+    _clock = cython.declare(Clock)
+
+    def __init__(self, clock: Clock, offset_s: float = 0.0, drift: float = 0.0):
+        if not -0.5 < drift < 0.5:
+            raise ValueError(f"a clock drift of {drift!r} is not a crystal's: give a fraction such as 5e-5 (50 ppm)")
+        self._clock = clock
+        self.offset_s = offset_s
+        self.drift = drift
+        self._rate = 1.0 + drift
+
+    @property
+    def now(self) -> float:
+        """This clock's reading now (local seconds)."""
+        return self.offset_s + self._rate * self._clock.now
+
+    def local(self, t_true: cython.double) -> cython.double:
+        """This clock's reading at true time ``t_true`` (for what a sensor hands its MCU at ``t_true``)."""
+        return self.offset_s + self._rate * t_true
+
+    def true_time(self, t_local: cython.double) -> cython.double:
+        """The true time at which this clock read ``t_local`` — for the experimenter's records
+        (metrics), never for the robot."""
+        return (t_local - self.offset_s) / self._rate
+
+    def true_delay(self, d_local: cython.double) -> cython.double:
+        """How many true seconds ``d_local`` seconds of this clock last."""
+        return d_local / self._rate
+
+    def timeout(self, delay: float = 0, value: Any = None) -> Timeout:
+        """SimPy's ``timeout``, ``delay`` in this clock's seconds."""
+        return self._clock.timeout(delay / self._rate, value)
+
+    def later(self, delay: cython.double, fn, *args) -> None:
+        """:meth:`Clock.later`, ``delay`` in this clock's seconds."""
+        self._clock._push(self._clock.now + delay / self._rate, NORMAL, fn, args)
+
+    def process(self, generator) -> Process:
+        return self._clock.process(generator)
+
+    def event(self) -> Event:
+        return self._clock.event()
+
+    def any_of(self, events) -> Event:
+        return self._clock.any_of(events)

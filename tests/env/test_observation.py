@@ -58,7 +58,7 @@ def test_observation_builder_equals_the_oracle_bit_for_bit(overrides):
         for agent in env.agents:
             idx = env.episode.agent_index[agent]
             node, robot = env.episode.fleet.nodes[idx], env.episode.world.robots[idx]
-            now = env.episode.world.now + float(rng.choice([0.0, 1.5, 30.0]))  # ages beyond the clip too
+            now = node.clock.now + float(rng.choice([0.0, 1.5, 30.0]))  # its own clock; ages beyond the clip too
             args = (node.know, node.reference_links(), now, robot.velocity_body, robot.heading + float(rng.normal()),
                     rng.uniform(-1, 1, 3).astype(np.float32))
             rest = (int(rng.integers(0, 4)), (float(rng.normal()), float(rng.normal())))

@@ -62,11 +62,10 @@ def reference_pairs(env):
 def test_slaves_measure_their_reference_neighbours(seed):
     env = run_env(seed)
     robots = env.episode.world.robots
-    now = env.episode.world.now
     for n, node, ref in reference_pairs(env):
         m = node.know.ir.get(ref)
         assert m is not None, f"slave {n} has no IR measurement of its reference neighbour {ref}"
-        assert now - m.time_s < 1.5  # fresh: measured in one of the last ring rounds
+        assert 0.0 <= node.clock.now - m.time_s < 1.5  # fresh (on its own clock): measured in one of the last ring rounds
         true_d = math.dist(robots[n].position, robots[ref].position)
         assert abs(m.distance_m - true_d) < 0.3
         true_b = bearing(robots[n].position, robots[n].heading, robots[ref].position)
@@ -272,7 +271,7 @@ def test_heading_is_not_paired_with_a_measurement_from_an_older_round():
         on_heading(frame)
 
     node.on(msg.HEADING, count)
-    t_blind = env.episode.world.now
+    t_blind = node.clock.now  # the times it stores are on its own clock
     for _ in range(30):
         env.step({})
     assert received, "the neighbour's heading reports must still arrive"
@@ -280,7 +279,7 @@ def test_heading_is_not_paired_with_a_measurement_from_an_older_round():
     blind[0] = False
     for _ in range(20):
         env.step({})
-    assert node.know.heading[ref].time_s > env.episode.world.now - 1.5  # measuring again: paired again
+    assert node.know.heading[ref].time_s > node.clock.now - 1.5  # measuring again: paired again
 
 
 # -- the IR port: the holder's transmission through the IR medium (fleet) --------------------------
@@ -298,7 +297,7 @@ def test_the_ir_medium_stores_every_measurement_before_asking_the_holders_neighb
         node.ring.report_heading = lambda tx, n=n, report=report: (calls.append(("report", n)), report(tx))[1]
     neighbours = sorted(sw.slave_ids(), reverse=True)[:2] + [None]  # any order; a missing member is skipped
     for n in sw.slave_ids():  # they heard the holder's start sign just now: they credit its IR to it
-        sw.nodes[n].ring.holder_heard = (holder.node_id, env.episode.world.now)
+        sw.nodes[n].ring.holder_heard = (holder.node_id, sw.nodes[n].clock.now)
     reporters = env.episode.fleet.ir_slot(holder, neighbours)
     stores = [n for kind, n in calls if kind == "store"]
     assert stores and all(kind == "store" for kind, _ in calls[: len(stores)])

@@ -18,7 +18,7 @@ def test_a_slave_that_heard_no_status_yet_waits_for_the_first_broadcast():
     env = petswarm_env.parallel_env(**{"user.start_delay_s": 100.0})
     env.reset(seed=0)
     node = env.episode.fleet.nodes[env.episode.swarm.slave_ids()[0]]
-    now = env.episode.world.now
+    now = node.clock.now  # its own clock
     cfg = env.cfg.protocol
     node.know.status = None
     node.joined_s = now - cfg.status_timeout_s - 0.5  # joined early in a long organize: no broadcast yet

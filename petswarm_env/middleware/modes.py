@@ -145,6 +145,8 @@ class ModeManager:
     def __init__(self, node: Station):
         self.node = node
         self.last_seq = -1
+        self._last_src: int | None = None  # the master whose plan ``last_seq`` numbers (each master counts its own)
+        self._sent_seq = 0  # own count of the plans this robot announced as master
         self._acks: set[int] = set()
         self.handover_acked = False
         node.on(msg.MODE_CHANGE, self._on_mode_change)
@@ -153,8 +155,11 @@ class ModeManager:
         node.on(msg.HANDOVER_ACK, self._on_handover_ack)
 
     # -- master side ------------------------------------------------------------------------------
-    def change(self, plan: ModeChangePlan, seq: int, result: dict):
-        """Master process: announce the plan until acknowledged, then hand the user over."""
+    def change(self, plan: ModeChangePlan, result: dict):
+        """Master process: announce the plan until acknowledged, then hand the user over. The plan's
+        number is this master's own count: a slave compares it only with the same master's."""
+        self._sent_seq += 1
+        seq = self._sent_seq
         node = self.node
         clock = node.clock
         cfg = node.cfg.protocol
@@ -216,15 +221,15 @@ class ModeManager:
         node = self.node
         p = frame.payload
         node.send(msg.MODE_CHANGE_ACK, dst=frame.src)
-        if p["seq"] <= self.last_seq or node.state != "slave":
-            return
+        if (frame.src == self._last_src and p["seq"] <= self.last_seq) or node.state != "slave":
+            return  # a repeat of a plan of the same master, or not a slave
         members = {int(m): n for m, n in p["members"].items()}
         if node.node_id not in members.values():
             # the new tables leave us out (the master removed us as lost, and its removal notice
             # never reached us): we are no member of that plan, so we keep what we know and our own
             # status timeout tells us the swarm is gone (chosen)
             return
-        self.last_seq = p["seq"]
+        self.last_seq, self._last_src = p["seq"], frame.src
         node.know.members = members
         node.know.total_members = len(members)
         node.know.member = next(m for m, n in members.items() if n == node.node_id)

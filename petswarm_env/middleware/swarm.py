@@ -67,7 +67,6 @@ class Swarm:
         self.user_view: MasterStatus | None = None  # the master's view of its user (set by the session)
         self.events = {"master_changes": 0, "mode_changes": 0, "successions": 0}
         self.emergency = False  # the user is lost (seed 002 Fig. 4); set by the user session
-        self._mode_seq = 0
         self.on_master_change = None  # callback(old_node, new_node), set by the user session
         self.on_succession = None  # callback(new_node): a slave took a lost master's place; set by the user session
         # members lost and recruited while organized (middleware/recovery.py): (time, "lost" | "joined", node ids)
@@ -151,9 +150,8 @@ class Swarm:
         plan = plan_mode_change(self.cfg.swarm, self.formation, master.know.members, self.mode, new_mode,
                                 master_change, geometry, master.know.lf_members)
         self.last_geometry = geometry
-        self._mode_seq += 1
         self.mode_change_result: dict = {}
-        self.clock.process(master.modes.change(plan, self._mode_seq, self.mode_change_result))
+        self.clock.process(master.modes.change(plan, self.mode_change_result))
         return plan
 
     # -- what the robots signal (forwarded by the fleet to the swarm the robot is in) ---------------

@@ -101,3 +101,34 @@ def test_a_robot_that_becomes_master_takes_its_users_request_from_its_tables_not
     assert adopted.swarm.spacing_m == pytest.approx(0.7)
     node.cfg = adopted  # as the takeover commits it (succession.py, modes.py)
     assert node.recovery.open_members() == []  # its user's two slaves are there: no slot open
+
+
+def test_a_slave_compares_a_plans_or_updates_number_only_with_the_same_masters():
+    """Each master numbers its mode-change plans and member updates with its own count (nothing it
+    could know of another master's count, nor a clock shared with it): a slave drops a repeat of the
+    same master's plan or update, and takes a new master's first one although its number is lower."""
+    from petswarm_env.comms.radio import BROADCAST, Frame
+
+    env = make(0)
+    sw = env.episode.swarm
+    master = sw.master
+    node = sw.nodes[sw.slave_ids()[0]]
+    other = sw.slave_ids()[1]
+    members = dict(master.know.members)
+    base = dict(members=members, shape=master.formation.shape, links=master.formation.links_payload())
+
+    def plan(src, seq, mode):
+        return Frame("mode_change", src, BROADCAST, node.swarm_pan, dict(base, seq=seq, mode=mode, lf=[]))
+
+    def update(src, seq, mode):
+        return Frame("member_update", src, BROADCAST, node.swarm_pan, dict(base, seq=seq, mode=mode))
+
+    for make_frame, handle in ((plan, node.modes._on_mode_change), (update, node.recovery._on_update)):
+        handle(make_frame(master.node_id, 7, "leading"))
+        assert node.know.mode == "leading"
+        handle(make_frame(master.node_id, 7, "following"))  # a repeat of the same master's: dropped
+        assert node.know.mode == "leading"
+        handle(make_frame(other, 1, "following"))  # another master's first, numbered lower: taken
+        assert node.know.mode == "following"
+        handle(make_frame(other, 1, "leading"))  # and its repeat dropped
+        assert node.know.mode == "following"

@@ -169,6 +169,7 @@ class ProtocolConfig(Section):
     organize_timeout_s: float = Field(ge=TICK_S, le=LONG_S)
     ring_response_timeout_s: float = Field(ge=TICK_S, le=LONG_S, description="token holder waits this long for responses")
     ir_tx_s: float = Field(ge=TICK_S, le=LONG_S, description="IR transmission time of one token holder")
+    ring_answer_slot_s: float = Field(ge=0, le=1.0, description="a crowded ring's members answer a start sign in member order, this far apart (middleware/token_ring.py)")
     token_timeout_s: float = Field(ge=TICK_S, le=LONG_S, description="master regenerates the token after this silence")
     token_retries: int = Field(ge=0, le=COUNT)
     broadcast_period_s: float = Field(ge=TICK_S, le=LONG_S, description="master's speed/activity broadcast")

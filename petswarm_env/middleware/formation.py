@@ -137,6 +137,35 @@ def formation_for_mode(cfg: SwarmConfig, num_members: int, mode: str) -> Formati
     return formation.rotated(math.pi) if mode == "leading" else formation
 
 
+def _wedge_links(s: float, n: int) -> dict[int, tuple[Link, ...]]:
+    """The wedge: a V opening backwards, its two arms 30° off the back axis, filled row by row.
+
+    Row r (r ≥ 1) lies r·s·cos 30° behind the master and holds r + 1 places, s apart across it
+    (lateral r·s/2, (r − 2)·s/2, …, −r·s/2): a triangular lattice whose every place is s from the
+    one or two places diagonally in front of it, its reference neighbours (seed 000 §3.5: each slave
+    keeps its reference to its neighbour robot(s); MAX_LINKS). Members 1–4 take the arms' first two
+    rows (left, right, left, right: the V of 1 + 4), the others the free places nearest the master
+    first, left before right (chosen: 16 slaves fill 5 rows, 4.3 m deep, each reference
+    neighbour 1 m away; two 8-robot arms reach 7 m behind the master, far beyond the IR's 2.4-2.8 m
+    reach from every robot but its chain neighbours, with one reference each, and no formation of
+    them was built from a scattered start)."""
+    back, half = s * math.cos(math.radians(30)), s * math.sin(math.radians(30))
+    places = [(1, 1), (1, -1), (2, 2), (2, -2)]
+    rows = 1
+    while (rows + 1) * (rows + 2) // 2 - 1 < n - 1:  # rows 1..rows hold 2 + 3 + ... places
+        rows += 1
+    rest = [(r, k) for r in range(1, rows + 1) for k in range(r, -r - 1, -2) if (r, k) not in places]
+    places += sorted(rest, key=lambda rk: (round(0.75 * rk[0] ** 2 + 0.25 * rk[1] ** 2, 9), -rk[1]))
+    member = {(0, 0): 0}
+    links: dict[int, tuple[Link, ...]] = {}
+    for m, (r, k) in enumerate(places[: n - 1], start=1):
+        front = [(0, 0)] if r == 1 else [(r - 1, k - 1), (r - 1, k + 1)]
+        links[m] = tuple(Link(member[(fr, fk)], (-(r - fr) * back, (k - fk) * half))
+                         for fr, fk in front if (fr, fk) in member)
+        member[(r, k)] = m
+    return links
+
+
 def build_formation(cfg: SwarmConfig, num_members: int) -> Formation:
     """Neighbour table for ``num_members`` robots (master included) in the configured shape."""
     s = cfg.spacing_m
@@ -149,11 +178,8 @@ def build_formation(cfg: SwarmConfig, num_members: int) -> Formation:
         for m in range(1, n):
             side = 1.0 if m % 2 == 1 else -1.0
             links[m] = (Link(max(m - 2, 0), (0.0, side * s)),)
-    elif cfg.formation == "wedge":  # V opening backwards: two arms at 30° off the back axis
-        back, lateral = -s * math.cos(math.radians(30)), s * math.sin(math.radians(30))
-        for m in range(1, n):
-            side = 1.0 if m % 2 == 1 else -1.0
-            links[m] = (Link(max(m - 2, 0), (back, side * lateral)),)
+    elif cfg.formation == "wedge":
+        links = _wedge_links(s, n)
     elif cfg.formation == "grid":  # two columns; front neighbour and left neighbour
         for m in range(1, n):
             row, col = divmod(m, 2)

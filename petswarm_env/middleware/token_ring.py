@@ -22,6 +22,25 @@ one: at ``radio.loss_prob`` 0.3, five frames all lost is 0.2 %) — and declares
 after ``protocol.lost_after_rounds`` such rounds in a row: ``lost_handler(node_id)``, the
 recovery manager (:mod:`.recovery`), removes it from the tables.
 
+A crowded ring (chosen; seed 000 gives the sequence of Fig. 7, not its timing for many robots): the
+answers to one ring frame all leave after one MCU processing delay, spread only by its jitter
+(``radio.processing_jitter_s``), and CSMA cannot tell apart two senders whose assessments fall
+within one turnaround, so once the answers need more air than the jitter spreads them over —
+``(members − 1) × (an answer's airtime + turnaround) > processing_jitter_s``, from 7 slaves on with
+the defaults — most of them collide (1 master + 16 slaves: 60 % of the token answers, 3.7 tokens per
+hand-over). :func:`ring_plan` then runs the ring as (:class:`RingPlan`):
+
+- the members answer a start sign in member order after the holder, ``protocol.ring_answer_slot_s``
+  apart (802.15.4's own remedy, a backoff, made deterministic by the member number every robot holds);
+- only the robot a token names answers it (the one answer the holder waits for; the others' sign of
+  life is their answer to every start sign);
+- the holder passes the token at its IR deadline instead of waiting for its neighbours' heading
+  reports, which it pairs when they arrive (during the next slot): a round of N slots must revisit
+  every member within the IR fix's freshness (:data:`~.knowledge.FRESH_IR_S`, 2 s), and 17 slots of
+  0.16 s (with the wait) take 2.7 s, 17 of 0.11 s 1.9 s.
+
+A ring that is not crowded (the default 1 + 4) runs as before, frame for frame.
+
 Heading exchange: robot j saw robot i at bearing φ_ji (in j's frame); i saw j at φ_ij. Then
 θ_j − θ_i = φ_ij − φ_ji + π (SPEC §3.4), with no compass. The two bearings must come from the same
 round of the ring: i pairs j's report with its own measurement of j's latest slot, and drops the
@@ -32,8 +51,10 @@ both robots moved since, would give a wrong heading.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 from petswarm_env.comms.radio import Frame
+from petswarm_env.config import Config
 from petswarm_env.middleware import messages as msg
 from petswarm_env.middleware.knowledge import HeadingEstimate
 from petswarm_env.middleware.station import Station
@@ -43,6 +64,24 @@ from petswarm_env.sim.geometry import wrap_angle
 # chosen: a holder announced this long ago (its start sign, sync or the token to it) still transmits: the slot's
 # acknowledgement wait and its IR transmission (protocol.ring_response_timeout_s 0.05 + ir_tx_s 0.04) with room
 ANNOUNCE_S = 0.12
+
+
+class RingPlan(NamedTuple):
+    """How the ring runs for a swarm of a given size (module docstring, "A crowded ring")."""
+
+    answer_slot_s: float  # 0: every member answers a start sign at once (after its MCU delay); else in member order, this far apart
+    all_answer_token: bool  # every member answers a token (True), or only the robot it names
+    wait_headings: bool  # the holder waits for its neighbours' heading reports before passing the token
+
+
+def ring_plan(cfg: Config, total_members: int) -> RingPlan:
+    """The ring's plan for ``total_members`` robots (master included): crowded when the answers to
+    one ring frame need more air than the MCU's response jitter spreads them over."""
+    radio = cfg.radio
+    answer_air_s = (radio.frame_overhead_bytes + msg.SIZE_BYTES[msg.TX_START_ACK]) * 8.0 / radio.bitrate_bps
+    if (total_members - 1) * (answer_air_s + radio.turnaround_s) <= radio.processing_jitter_s:
+        return RingPlan(0.0, True, True)
+    return RingPlan(cfg.protocol.ring_answer_slot_s, False, False)
 
 
 def relative_heading(bearing_self_sees_other: float, bearing_other_sees_self: float) -> float:
@@ -75,6 +114,7 @@ class TokenRing:
         self.started_s = -math.inf  # master: when it started its ring
         self.lost_handler = None  # master: called with the node id of a member declared lost (Node wires it)
         self._declared: set[int] = set()
+        self._plan: tuple[int, RingPlan] | None = None  # (total members, its plan)
         node.on(msg.TX_START, self._on_tx_start)
         node.on(msg.TOKEN, self._on_token)
         node.on(msg.SYNC, self._on_sync)
@@ -86,6 +126,13 @@ class TokenRing:
     def slot_starts(self) -> dict[int, float]:
         """Robot -> when its latest IR slot began (its start sign heard): the IR self-check reads it."""
         return self._slot_start
+
+    def plan(self) -> RingPlan:
+        """The ring's plan for the swarm as this robot's tables count it (:func:`ring_plan`)."""
+        total = self.node.know.total_members
+        if self._plan is None or self._plan[0] != total:
+            self._plan = (total, ring_plan(self.node.cfg, total))
+        return self._plan[1]
 
     # -- ring order -----------------------------------------------------------------------------
     def _next_member(self, member: int) -> int:
@@ -142,7 +189,7 @@ class TokenRing:
         reporters = node.transmit_ir(neighbours)
         self._headings_expected = set(reporters)
         self._headings_event = clock.event()
-        if reporters:
+        if reporters and self.plan().wait_headings:  # else the reports are paired as they come (crowded ring)
             yield clock.any_of([self._headings_event, clock.timeout(cfg.ring_response_timeout_s)])
         self._headings_expected = set()
         if node.know is not know:
@@ -225,7 +272,14 @@ class TokenRing:
         self.slot_range_m[frame.src] = frame.rx_distance_est_m  # the announcer's RSSI range (the IR self-check)
         seq = frame.payload["seq"]
         self.token_seq = max(seq, self.token_seq)
-        self.node.send(msg.TX_START_ACK, dst=frame.src)
+        node = self.node
+        slot = self.plan().answer_slot_s
+        holder = next((m for m, n in node.know.members.items() if n == frame.src), None) if slot > 0 else None
+        if holder is None:
+            node.send(msg.TX_START_ACK, dst=frame.src)
+        else:  # crowded ring: in member order after the holder
+            rank = (node.know.member - holder - 1) % node.know.total_members
+            node.later(rank * slot, node.send, msg.TX_START_ACK, frame.src)
 
     def _on_token(self, frame: Frame) -> None:
         node = self.node
@@ -233,9 +287,11 @@ class TokenRing:
         nxt = node.know.members.get(frame.payload["next"])
         if nxt is not None:
             self.token_to = (nxt, node.clock.now)
-        node.send(msg.TOKEN_ACK, dst=frame.src)
+        named = node.know.members.get(frame.payload["next"]) == node.node_id
+        if named or self.plan().all_answer_token:
+            node.send(msg.TOKEN_ACK, dst=frame.src)
         seq = frame.payload["seq"]
-        if seq <= self.token_seq or node.know.members.get(frame.payload["next"]) != node.node_id:
+        if seq <= self.token_seq or not named:
             return
         self.token_seq = seq
         if self.drop_next_token:

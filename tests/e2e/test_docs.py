@@ -70,7 +70,7 @@ def test_readme_headline_table_is_the_results_pages():
     """The README's headline rows are docs/results.md's, figure for figure, with the same commands."""
     readme, results = README.read_text(), (ROOT / "docs" / "results.md").read_text()
     rows = [ln for ln in readme.splitlines() if ln.startswith("| scripted, ") or ln.startswith("| random |")]
-    assert len(rows) == 3 and all(row in results for row in rows)
+    assert len(rows) == 5 and all(row in results for row in rows)  # the default's three, 1 + 9 and 1 + 16
     commands = [ln for ln in readme.splitlines() if ln.startswith("petswarm run ")]
     assert len(commands) == 3 and all(c in results for c in commands)
 

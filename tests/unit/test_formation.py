@@ -103,6 +103,25 @@ def test_neighbours_of_wedge():
     assert f.neighbours(4) == {2}
 
 
+def test_a_large_wedge_fills_its_v_row_by_row():
+    """1 + 16: the V of 1 + 4 first, then the free places nearest the master; every slave 1 m from
+    each of its one or two reference neighbours diagonally in front of it, 5 rows, 4.3 m deep."""
+    f = formation("wedge", n=17)
+    slots = f.slot_positions()
+    assert np.allclose(slots[:5], EXPECTED_SLOTS["wedge"])
+    assert np.allclose(slots[5], (-2 * C30, 0.0))  # the first inner place: between members 1 and 2, behind them
+    assert slots[:, 0].min() == pytest.approx(-5 * C30)
+    assert np.hypot(*slots.T).max() < 4.4  # two 8-robot arms reached 8 m
+    for m, links in f.links.items():
+        assert 1 <= len(links) <= MAX_LINKS
+        for lk in links:
+            assert lk.neighbour < m and slots[lk.neighbour][0] > slots[m][0]  # in front of it
+            assert math.dist(slots[m], slots[lk.neighbour]) == pytest.approx(1.0)
+    assert sum(len(lks) == 2 for lks in f.links.values()) == 8  # the inner places (the arms: 8 with one)
+    d = np.hypot(*(slots[:, None] - slots[None]).transpose(2, 0, 1))
+    assert d[~np.eye(17, dtype=bool)].min() == pytest.approx(1.0)
+
+
 def test_grid_uses_front_and_side_neighbour():
     f = formation("grid")
     assert {lk.neighbour for lk in f.links[3]} == {1, 2}

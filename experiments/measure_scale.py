@@ -1,0 +1,133 @@
+"""Large swarms: whether 1 master + N slaves organize, build their formation and hold it, and what
+the IR token ring (seed 000 §3.3, Fig. 7) costs at that size.
+
+    python -m petswarm.experiments.measure_scale --slaves 9 16 --seeds 0-19 --loss 0 0.1
+
+For each slave count and loss, one episode per seed of the default scenario (scattered start,
+zigzag, 60 s) with the scripted reference. Per case it prints:
+
+* ``joined``: resets in which every required slave joined (a reset that cannot organize counts as not
+  joined and its episode as not built);
+* ``built``: episodes whose formation was built (``building_time_s`` finite: every slave within
+  0.3 m of its reference point at once, petswarm_env/metrics.py), and the mean building time;
+* ``hold``: the mean of ``formation_hold_rmse_m`` over the built episodes (the RMSE from the moment
+  built), and ``rmse``: the mean ``formation_rmse_m``;
+* ``contacts``: robot–robot contacts, summed over the episodes;
+* ``round``: the ring's mean round time (between the master's start signs) and ``collided``: the
+  share of receptions destroyed by overlapping frames (radio trace, the experimenter's tool);
+* ``stale``: the mean slave-seconds per episode without a fresh IR fix of a reference neighbour.
+
+``--set KEY=VALUE`` overrides any config key (``--set swarm.formation=column``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from typing import Any
+
+import numpy as np
+
+import petswarm_env
+from petswarm.baselines.policy import PolicySpec
+from petswarm.baselines.registry import make_policy
+from petswarm.experiments.measure_succession import parse_seeds
+from petswarm_env.config import parse_override
+from petswarm_env.middleware import messages as msg
+
+
+class _RingTrace:
+    """The radio trace hook (comms/radio.py): when the master put its start signs on the air."""
+
+    def __init__(self):
+        self.master: int | None = None
+        self.starts: list[float] = []
+
+    def on_air(self, now: float, station: int, frame, start_s: float, end_s: float) -> None:
+        if frame.kind == msg.TX_START and station == self.master:
+            self.starts.append(now)
+
+    def reception(self, now: float, frame, receiver: int, outcome: str, distance_est_m: float) -> None:
+        pass
+
+    def busy(self, now: float, station: int, frame) -> None:
+        pass
+
+
+def episode(slaves: int, loss: float, seed: int, overrides: dict[str, Any]) -> dict[str, Any]:
+    """One episode of 1 master + ``slaves`` at radio loss ``loss``: what it gave."""
+    env = petswarm_env.parallel_env(**{"swarm.num_slaves": slaves, "radio.loss_prob": loss, **overrides})
+    trace = _RingTrace()
+    env.radio_trace = trace
+    try:
+        obs, _ = env.reset(seed=seed)
+    except RuntimeError as e:  # the swarm did not organize (OrganizeError)
+        return {"seed": seed, "joined": False, "organized": False, "error": str(e).splitlines()[0]}
+    joined = len(env.agents) == slaves
+    ep = env.episode
+    trace.master = ep.swarms[0].master.node_id
+    organized_s = ep.world.now
+    st = ep.radio.stats
+    before = (st.receptions, st.frames_collided)
+    policy = make_policy("scripted", PolicySpec.from_env(env), seed=seed)
+    policy.reset(seed)
+    while env.agents:
+        obs, _, terms, truncs, _ = env.step(policy.act_all({a: obs[a] for a in env.agents}))
+        if all(terms.values()) or all(truncs.values()):
+            break
+    s = env.episode_summary()
+    starts = np.array([t for t in trace.starts if t >= organized_s])
+    receptions, collided = st.receptions - before[0], st.frames_collided - before[1]
+    return {
+        "seed": seed, "joined": joined, "organized": True,
+        "building_time_s": s["building_time_s"], "hold_rmse_m": s["formation_hold_rmse_m"],
+        "rmse_m": s["formation_rmse_m"], "contacts": s["collisions"]["robot_robot"],
+        "round_s": float(np.mean(np.diff(starts))) if starts.size > 2 else math.nan,
+        "collided": collided / receptions if receptions else math.nan,
+        "stale_fix_s": s["stale_fix_s"],
+    }
+
+
+def summarize(rows: list[dict[str, Any]]) -> dict[str, Any]:
+    def mean(key: str, among: list[dict[str, Any]]) -> float:
+        vals = [r[key] for r in among if math.isfinite(r.get(key, math.nan))]
+        return float(np.mean(vals)) if vals else math.nan
+
+    ran = [r for r in rows if r["organized"]]
+    built = [r for r in ran if math.isfinite(r["building_time_s"])]
+    return {
+        "episodes": len(rows), "joined": sum(r["joined"] for r in rows), "built": len(built),
+        "building_s": mean("building_time_s", built), "hold_rmse_m": mean("hold_rmse_m", built),
+        "rmse_m": mean("rmse_m", ran), "contacts": sum(r["contacts"] for r in ran),
+        "round_s": mean("round_s", ran), "collided": mean("collided", ran), "stale_fix_s": mean("stale_fix_s", ran),
+    }
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m petswarm.experiments.measure_scale",
+                                     description=__doc__.splitlines()[0])
+    parser.add_argument("--slaves", type=int, nargs="+", default=[9, 16])
+    parser.add_argument("--seeds", default="0-19", help="a range lo-hi (inclusive) or a comma list")
+    parser.add_argument("--loss", type=float, nargs="+", default=[0.0])
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
+    parser.add_argument("--verbose", action="store_true", help="a line per episode too")
+    args = parser.parse_args(argv)
+    overrides = dict(parse_override(item) for item in args.set)
+    seeds = parse_seeds(args.seeds)
+    print("slaves  loss  episodes  joined  built  building_s  hold_m  rmse_m  contacts  round_s  collided  stale_s")
+    for slaves in args.slaves:
+        for loss in args.loss:
+            rows = []
+            for seed in seeds:
+                rows.append(episode(slaves, loss, seed, overrides))
+                if args.verbose:
+                    print("   ", rows[-1], flush=True)
+            s = summarize(rows)
+            print(f"{slaves:6d} {loss:5.2f} {s['episodes']:9d} {s['joined']:7d} {s['built']:6d} {s['building_s']:11.1f} "
+                  f"{s['hold_rmse_m']:7.3f} {s['rmse_m']:7.3f} {s['contacts']:9d} {s['round_s']:8.2f} "
+                  f"{100 * s['collided']:8.1f}% {s['stale_fix_s']:8.1f}", flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -30,6 +30,8 @@ COMPILED: tuple[str, ...] = (
     "petswarm_env.middleware.station",
     "petswarm_env.sim.battery",
     "petswarm_env.sim.body",
+    "petswarm_env.sim.geometry",
+    "petswarm_env.observe",
 )
 
 PURE_ENV = "PETSWARM_PURE_PYTHON"  # "1": run the interpreted form of every module of COMPILED

@@ -31,6 +31,8 @@ COMPILED: tuple[str, ...] = (
     "petswarm_env.sim.battery",
     "petswarm_env.sim.body",
     "petswarm_env.sim.geometry",
+    "petswarm_env.sim.sensors",
+    "petswarm_env.comms.ir",
     "petswarm_env.observe",
 )
 

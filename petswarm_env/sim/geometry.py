@@ -166,6 +166,7 @@ def ring_first_hits(
     inside or on a circle: never seen), ``b = d·m``, ``disc = b² − cc`` (a miss when negative),
     the root ``t = −b − √disc`` kept negated, ``tn = b + √disc`` (rounding to nearest is symmetric,
     so ``−tn`` is ``t`` to the bit, up to the sign of a zero), and ``tn > 0``: behind the origin.
+    One function on purpose: its loop runs for every ray of every robot at every step, on C locals.
 
     Args:
         origins: (N, 2) ray start points, m.

@@ -30,6 +30,12 @@ COMPILED: tuple[str, ...] = (
     "petswarm_env.middleware.station",
     "petswarm_env.sim.battery",
     "petswarm_env.sim.body",
+    "petswarm_env.sim.geometry",
+    "petswarm_env.sim.sensors",
+    "petswarm_env.comms.ir",
+    "petswarm_env.observe",
+    "petswarm_env.middleware.token_ring",
+    "petswarm_env.middleware.sequence",
 )
 
 PURE_ENV = "PETSWARM_PURE_PYTHON"  # "1": run the interpreted form of every module of COMPILED

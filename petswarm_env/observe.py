@@ -16,7 +16,10 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
+import cython
 import numpy as np
+from cython.cimports.libc.math import cos as _cos
+from cython.cimports.libc.math import sin as _sin
 
 from petswarm_env.middleware.formation import MAX_LINKS, Formation, user_position_in_formation
 from petswarm_env.scenarios import ACTIVITIES
@@ -24,6 +27,8 @@ from petswarm_env.scenarios import ACTIVITIES
 if TYPE_CHECKING:
     from petswarm_env.middleware.node import Knowledge, Node
     from petswarm_env.sim.sensors import Sensors
+
+COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
 
 OBS_VERSION = 3  # 3: the ring's presence and location-known flags (seed 001's middle layer: heterogeneous bodies); 2: the master's IR fix (master.ir_*) and an anchor member's (anchor.*): a slave finds its slot from a scattered start
 POS_SCALE_M = 3.0
@@ -114,12 +119,6 @@ _BUILDER_FIELDS = ("master.valid", "master.activity", "master.rotating", "master
                    "master.ir_valid", "anchor.ir_valid", "self.odometry", "self.yaw_sincos", "self.last_action", "self.offset_from_master_xy", "self.ultrasonic",
                    "self.hierarchy", "self.members", "self.member", "self.ultrasonic_present")
 _ACTIVITY_INDEX = {a: i for i, a in enumerate(ACTIVITIES)}
-_cos, _sin = math.cos, math.sin
-
-
-def _clip(x: float, c: float) -> float:
-    """``x`` clipped to [-c, c] (a bound of the layout; nan passes through)."""
-    return -c if x < -c else c if x > c else x
 
 
 class ObservationLayout:
@@ -146,6 +145,7 @@ class ObservationLayout:
         st = {name: sl.start for name, sl in self.slices.items()}
         self._link_starts = tuple(st[f"link{k}.present"] for k in range(MAX_LINKS))
         self._starts = tuple(st[name] for name in _BUILDER_FIELDS)
+        self._scratch = np.zeros(self.size)  # the builder's float64 values (build_observation)
 
     def get(self, obs: np.ndarray, name: str) -> np.ndarray:
         return obs[self.slices[name]]
@@ -238,18 +238,57 @@ class Readings:
 
 def build_observation(layout: ObservationLayout, readings: Readings, out: np.ndarray | None = None) -> np.ndarray:
     """The observation of one slave, written into ``out`` (layout.size,) or, with ``out=None``, a
-    new float32 array. Built as a Python list and converted once (one numpy conversion instead of
-    one per value), with ``np.fromiter``: the same float64 -> float32 rounding as ``np.array(v,
-    dtype=np.float32)`` at a fraction of its cost. The ring may be a list of Python floats (the
-    env converts the rings of all robots at once). Field offsets come unpacked from
-    ``layout._starts``; ages are clipped to 1 as ``min(age, 1.0)`` would (``1.0 if age > 1.0
-    else age``, nan passing through in both). One function on purpose, the fields written in the
-    layout's order: it runs for every slave at every step."""
+    new float32 array. The values are computed in float64 (:func:`_fill`, into the layout's scratch
+    array) and converted once (float64 -> float32 rounding, as ``np.array(v, dtype=np.float32)``).
+    The ring may be a list of Python floats (the env converts the rings of all robots at once) or
+    an array."""
     if layout.limits is None or layout.us_max_range_m is None:
         raise ValueError("build_observation needs a layout with limits and us_max_range_m (the robot's scales)")
-    v = [0.0] * layout.size
-    vmax, _, wmax = layout.limits
-    know, links, now, yaw_rad = readings.know, readings.links, readings.now_s, readings.yaw_rad
+    r = readings
+    buf = layout._scratch
+    _fill(layout, buf, r.know, r.links, r.now_s, r.odometry, r.yaw_rad, r.last_action, r.ultrasonic_m,
+          r.hierarchy_level, r.offset_from_master_m, r.member_slots, r.ultrasonic_flags)
+    if out is None:
+        return buf.astype(np.float32)
+    out[:] = buf
+    return out
+
+
+@cython.cfunc
+@cython.inline
+def _clip(x: cython.double, c: cython.double) -> cython.double:
+    """``x`` clipped to [-c, c] (a bound of the layout; nan passes through)."""
+    return -c if x < -c else c if x > c else x
+
+
+@cython.cfunc
+@cython.inline
+def _age(age: cython.double) -> cython.double:
+    """An age in scaled units clipped to 1 as ``min(age, 1.0)`` would (nan passes through)."""
+    return 1.0 if age > 1.0 else age
+
+
+@cython.cfunc
+def _fill(layout: ObservationLayout, buf, know, links, now: cython.double, odometry, yaw_rad: cython.double,
+          last_action, ultrasonic_m, hierarchy_level: cython.double, offset_from_master, member_slots,
+          flags) -> cython.void:
+    """The observation of one slave (:class:`Readings`' fields) in float64 into ``buf``
+    (layout.size,), the fields written in the layout's order. One function on purpose: it runs for
+    every slave at every step (typed: C doubles in the compiled core, Python floats interpreted;
+    the same IEEE operations in the same order, so the same bits)."""
+    v: cython.double[::1] = buf
+    k: cython.Py_ssize_t
+    n: cython.Py_ssize_t = v.shape[0]
+    for k in range(n):
+        v[k] = 0.0
+    lim = layout.limits
+    vmax: cython.double = lim[0]
+    wmax: cython.double = lim[2]
+    b: cython.double
+    age: cython.double
+    dist: cython.double
+    rel: cython.double
+    base: cython.Py_ssize_t
     if links:
         members, irs, heads = know.members, know.ir, know.heading
         for base, link in zip(layout._link_starts, links):
@@ -258,11 +297,11 @@ def build_observation(layout: ObservationLayout, readings: Readings, out: np.nda
             m = irs.get(nb)
             if m is not None:  # bearing carried over own rotation since the measurement (AHRS)
                 b = m.bearing_rad - (yaw_rad - m.own_yaw_rad)
-                age = (now - m.time_s) / AGE_SCALE_S
+                dist = m.distance_m
                 v[base + 1] = 1.0
-                v[base + 2] = m.distance_m * _cos(b) / POS_SCALE_M
-                v[base + 3] = m.distance_m * _sin(b) / POS_SCALE_M
-                v[base + 4] = 1.0 if age > 1.0 else age
+                v[base + 2] = dist * _cos(b) / POS_SCALE_M
+                v[base + 3] = dist * _sin(b) / POS_SCALE_M
+                v[base + 4] = _age((now - m.time_s) / AGE_SCALE_S)
             else:
                 v[base + 4] = 1.0
             ox, oy = link.offset_m
@@ -271,14 +310,30 @@ def build_observation(layout: ObservationLayout, readings: Readings, out: np.nda
             h = heads.get(nb)
             if h is not None:  # θ_nb − θ_self falls as we turn: carry it over own rotation (AHRS)
                 rel = h.relative_rad - (yaw_rad - h.own_yaw_rad)
-                age = (now - h.time_s) / AGE_SCALE_S
                 v[base + 7] = _sin(rel)
                 v[base + 8] = _cos(rel)
                 v[base + 9] = 1.0
-                v[base + 10] = 1.0 if age > 1.0 else age
+                v[base + 10] = _age((now - h.time_s) / AGE_SCALE_S)
             else:
                 v[base + 8] = 1.0
                 v[base + 10] = 1.0
+    i: cython.Py_ssize_t
+    activity: cython.Py_ssize_t
+    rotating: cython.Py_ssize_t
+    turn_rate: cython.Py_ssize_t
+    leading: cython.Py_ssize_t
+    user_xy: cython.Py_ssize_t
+    master_ir: cython.Py_ssize_t
+    anchor: cython.Py_ssize_t
+    odo: cython.Py_ssize_t
+    yaw: cython.Py_ssize_t
+    last: cython.Py_ssize_t
+    offset: cython.Py_ssize_t
+    us: cython.Py_ssize_t
+    hierarchy: cython.Py_ssize_t
+    members_at: cython.Py_ssize_t
+    member_at: cython.Py_ssize_t
+    flags_at: cython.Py_ssize_t
     (i, activity, rotating, turn_rate, leading, user_xy, master_ir, anchor, odo, yaw, last, offset, us,
      hierarchy, members_at, member_at, flags_at) = layout._starts
     v[leading] = 1.0 if know.mode == "leading" else 0.0  # from the joining / mode-change frames
@@ -288,11 +343,12 @@ def build_observation(layout: ObservationLayout, readings: Readings, out: np.nda
         svx, svy, sw = st.velocity
         ux, uy = st.user_position_m
         v[i] = 1.0
-        v[i + 1] = 1.0 if age > 1.0 else age
+        v[i + 1] = _age(age)
         v[i + 2] = _clip(svx / vmax, CLIP)
         v[i + 3] = _clip(svy / vmax, CLIP)
         v[i + 4] = _clip(sw / wmax, CLIP)
-        v[activity + _ACTIVITY_INDEX[st.activity]] = 1.0
+        ai: cython.Py_ssize_t = _ACTIVITY_INDEX[st.activity]
+        v[activity + ai] = 1.0
         v[rotating] = 1.0 if st.user_rotating else 0.0
         v[turn_rate] = _clip(st.user_turn_rate_rps / wmax, CLIP)
         v[user_xy] = _clip(ux / POS_SCALE_M, USER_CLIP)
@@ -302,58 +358,64 @@ def build_observation(layout: ObservationLayout, readings: Readings, out: np.nda
     m = know.ir.get(know.members.get(0))  # the master's IR fix (member 0), carried over own rotation (AHRS)
     if m is not None:
         b = m.bearing_rad - (yaw_rad - m.own_yaw_rad)
-        age = (now - m.time_s) / AGE_SCALE_S
+        dist = m.distance_m
         v[master_ir] = 1.0
-        v[master_ir + 1] = m.distance_m * _cos(b) / POS_SCALE_M
-        v[master_ir + 2] = m.distance_m * _sin(b) / POS_SCALE_M
-        v[master_ir + 3] = 1.0 if age > 1.0 else age
+        v[master_ir + 1] = dist * _cos(b) / POS_SCALE_M
+        v[master_ir + 2] = dist * _sin(b) / POS_SCALE_M
+        v[master_ir + 3] = _age((now - m.time_s) / AGE_SCALE_S)
     else:
         v[master_ir + 3] = 1.0
     v[anchor + 3] = 1.0
-    slots, own = readings.member_slots, know.member
+    own = know.member
+    nslots: cython.Py_ssize_t = len(member_slots)
     for member, nid in sorted(know.members.items()):  # the anchor: the lowest other slave's member number with a fresh fix
-        if member == 0 or member == own or member >= len(slots):
+        if member == 0 or member == own or member >= nslots:
             continue
         m = know.ir.get(nid)
         if m is not None and now - m.time_s < AGE_SCALE_S:
             b = m.bearing_rad - (yaw_rad - m.own_yaw_rad)
-            sx, sy = slots[member]
+            dist = m.distance_m
+            sx, sy = member_slots[member]
             v[anchor] = 1.0
-            v[anchor + 1] = m.distance_m * _cos(b) / POS_SCALE_M
-            v[anchor + 2] = m.distance_m * _sin(b) / POS_SCALE_M
+            v[anchor + 1] = dist * _cos(b) / POS_SCALE_M
+            v[anchor + 2] = dist * _sin(b) / POS_SCALE_M
             v[anchor + 3] = (now - m.time_s) / AGE_SCALE_S
             v[anchor + 4] = sx / POS_SCALE_M
             v[anchor + 5] = sy / POS_SCALE_M
             break
-    odometry = readings.odometry
-    v[odo] = _clip(odometry[0] / vmax, CLIP)
-    v[odo + 1] = _clip(odometry[1] / vmax, CLIP)
-    v[odo + 2] = _clip(odometry[2] / wmax, CLIP)
+    ovx, ovy, ow = odometry
+    v[odo] = _clip(ovx / vmax, CLIP)
+    v[odo + 1] = _clip(ovy / vmax, CLIP)
+    v[odo + 2] = _clip(ow / wmax, CLIP)
     v[yaw] = _sin(yaw_rad)
     v[yaw + 1] = _cos(yaw_rad)
-    v[last : last + 3] = readings.last_action.tolist()
-    offset_from_master = readings.offset_from_master_m
-    v[offset] = offset_from_master[0] / POS_SCALE_M
-    v[offset + 1] = offset_from_master[1] / POS_SCALE_M
-    ultrasonic_m, us_max_range_m = readings.ultrasonic_m, layout.us_max_range_m
-    if isinstance(ultrasonic_m, np.ndarray):
-        v[us : us + len(ultrasonic_m)] = (ultrasonic_m / us_max_range_m).tolist()
-    else:  # Python floats (the env's call): Python's division rounds as numpy's float64 one
-        v[us : us + len(ultrasonic_m)] = [r / us_max_range_m for r in ultrasonic_m]
-    total = max(know.total_members, 1)
-    v[hierarchy] = readings.hierarchy_level / total
+    a0, a1, a2 = last_action.tolist()  # float32 values, exactly as doubles
+    v[last] = a0
+    v[last + 1] = a1
+    v[last + 2] = a2
+    ox, oy = offset_from_master
+    v[offset] = ox / POS_SCALE_M
+    v[offset + 1] = oy / POS_SCALE_M
+    us_max: cython.double = layout.us_max_range_m
+    ring = ultrasonic_m.tolist() if isinstance(ultrasonic_m, np.ndarray) else ultrasonic_m
+    r: cython.double
+    k = us
+    for r in ring:  # Python's division rounds as numpy's float64 one
+        v[k] = r / us_max
+        k += 1
+    total: cython.double = max(know.total_members, 1)
+    v[hierarchy] = hierarchy_level / total
     v[members_at] = total / 16.0
-    v[member_at] = know.member / 16.0
-    flags = readings.ultrasonic_flags
+    v[member_at] = own / 16.0
+    f: cython.double
     if flags:
-        v[flags_at : flags_at + len(flags)] = flags
+        k = flags_at
+        for f in flags:
+            v[k] = f
+            k += 1
     else:
-        n = layout.size - flags_at
-        v[flags_at:] = [1.0] * n
-    if out is None:
-        return np.fromiter(v, np.float32, len(v))
-    out[:] = v
-    return out
+        for k in range(flags_at, n):
+            v[k] = 1.0
 
 
 _NO_ACTION = np.zeros(3, np.float32)  # the last action of an agent that has not acted yet (read only)
@@ -389,11 +451,15 @@ class Observer:
         """A new observation array for each of ``agents`` at true time ``now_s`` (the ages of what a
         robot knows are counted on its own clock, ``node.clock``) (``last_actions``:
         agent -> the action applied last step; none yet reads as zeros). The odometry noise of all
-        agents is one draw, in the agents' order."""
+        agents is one draw, in the agents' order. Each agent's readings go to the builder as they
+        are gathered (:func:`build_observation`'s body, without a :class:`Readings` per agent)."""
         sensors, nodes, agent_index, ahrs, layout = self.sensors, self.nodes, self.agent_index, self.ahrs, self.layout
+        if layout.limits is None or layout.us_max_range_m is None:
+            raise ValueError("Observer needs a layout with limits and us_max_range_m (the robot's scales)")
         noise = sensors.odometry_noise(len(agents))
         ranges = sensors.ranges.tolist()  # every robot's ring as Python floats, in one conversion
         flags = sensors.flags  # every robot's ring flags (the middle layer's presence and location-known)
+        buf = layout._scratch
         obs = {}
         for i, agent in enumerate(agents):
             idx = agent_index[agent]
@@ -408,9 +474,9 @@ class Observer:
             last = last_actions.get(agent)
             odometry = sensors.odometry(idx, noise[i] if noise is not None else None)
             yaw = ahrs[idx](now_s)  # the sensor's physics at true time
-            readings = Readings(know, node.reference_links(), node.clock.now, odometry, yaw,  # ages on its own clock
-                                last if last is not None else _NO_ACTION, ranges[idx], level, offset, slots, flags[idx])
-            obs[agent] = build_observation(layout, readings)  # a new array: what the agent gets is its own
+            _fill(layout, buf, know, node.reference_links(), node.clock.now, odometry, yaw,  # ages on its own clock
+                  last if last is not None else _NO_ACTION, ranges[idx], level, offset, slots, flags[idx])
+            obs[agent] = buf.astype(np.float32)  # a new array: what the agent gets is its own
         return obs
 
 

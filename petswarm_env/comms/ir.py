@@ -32,13 +32,31 @@ from __future__ import annotations
 import functools
 import math
 
+import cython
 import numpy as np
+from cython.cimports.libc.math import atan2 as _c_atan2
+from cython.cimports.libc.math import cos as _c_cos
+from cython.cimports.libc.math import hypot as _c_hypot
+from cython.cimports.libc.math import pow as _c_pow
+from cython.cimports.libc.math import sqrt as _c_sqrt
 
 from petswarm_env.config import IRConfig
 from petswarm_env.sim import geometry
 
+COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
+
 # Distances are clamped to at least this (m) so a degenerate zero distance cannot produce inf·0.
 _MIN_DISTANCE_M = 0.01
+
+
+@cython.cfunc
+@cython.inline
+def _hypot(a: cython.double, b: cython.double) -> cython.double:
+    """The C library's hypot (numpy's), not Python's ``math.hypot``: the two differ in the last bit
+    now and then."""
+    if cython.compiled:
+        return _c_hypot(a, b)
+    return float(np.hypot(a, b))
 
 
 @functools.cache
@@ -75,12 +93,25 @@ def received_strengths(
     k = cfg.num_receivers
     axes = _ring(k)[0]
     z_rel, z_abs = rng.standard_normal((2, len(distance_m), k)).tolist()
-    s1, att, far, exponent = cfg.strength_at_1m, cfg.occlusion_attenuation, cfg.max_range_m, cfg.lobe_exponent
-    rel, add, sat = cfg.noise_rel, cfg.noise_abs, cfg.saturation
-    cos = math.cos
+    s1: cython.double = cfg.strength_at_1m
+    att: cython.double = cfg.occlusion_attenuation
+    far: cython.double = cfg.max_range_m
+    exponent: cython.double = cfg.lobe_exponent
+    rel: cython.double = cfg.noise_rel
+    add: cython.double = cfg.noise_abs
+    sat: cython.double = cfg.saturation
+    d: cython.double
+    bearing: cython.double
+    on_axis: cython.double
+    axis: cython.double
+    z1: cython.double
+    z2: cython.double
+    c: cython.double
+    x: cython.double
     out = []
     for d, bearing, occ, zr, za in zip(distance_m, bearing_rad, occluded, z_rel, z_abs):
-        d = max(d, _MIN_DISTANCE_M)
+        if d < _MIN_DISTANCE_M:  # max(d, _MIN_DISTANCE_M)
+            d = _MIN_DISTANCE_M
         on_axis = s1 / (d * d)  # inverse-square fall-off
         if occ:
             on_axis = on_axis * att
@@ -88,9 +119,9 @@ def received_strengths(
             on_axis = 0.0
         row = []
         for axis, z1, z2 in zip(axes, zr, za):
-            c = cos(bearing - axis)
+            c = _c_cos(bearing - axis)
             if c > 0.0:
-                x = on_axis * c**exponent * (1.0 + rel * z1) + add * z2
+                x = on_axis * _c_pow(c, exponent) * (1.0 + rel * z1) + add * z2
             else:  # the source is behind this receiver: a zero lobe, so the reading is the additive noise
                 x = add * z2
             # the clip to [0, sat], as max(x, 0.0) then min(x, sat)
@@ -126,28 +157,42 @@ def estimate(cfg: IRConfig, strengths: list[list[float]]) -> tuple[list[float], 
         whose strongest reading is below ``cfg.detect_threshold`` are invalid and get nan.
     """
     # seed 000, §3.3, Eqs. 1–3 (text garbled in the extraction; reconstructed as above)
-    k = cfg.num_receivers
-    _, delta, cos_d, sin_d = _ring(k)
-    den_a, den_b = 1.0 + 2.0 * cos_d**2, 2.0 * sin_d**2
-    strongest, s0_all, a_all, b_all = [], [], [], []
-    for s in strengths:
-        i = s.index(max(s))  # the strongest receiver (the first of equals, as argmax)
-        s0, s_plus, s_minus = s[i], s[(i + 1) % k], s[(i - 1) % k]
-        strongest.append(i)
-        s0_all.append(s0)
-        a_all.append((s0 + (s_plus + s_minus) * cos_d) / den_a)
-        b_all.append((s_plus - s_minus) * sin_d / den_b)
-    # numpy's hypot (libm's), not math.hypot: the two differ in the last bit now and then
-    r_all = np.hypot(np.array(a_all), np.array(b_all)).tolist()
-    threshold, s1 = cfg.detect_threshold, cfg.strength_at_1m
+    k: cython.Py_ssize_t = cfg.num_receivers
+    ring = _ring(k)
+    delta: cython.double = ring[1]
+    cos_d: cython.double = ring[2]
+    sin_d: cython.double = ring[3]
+    den_a: cython.double = 1.0 + 2.0 * cos_d**2
+    den_b: cython.double = 2.0 * sin_d**2
+    threshold: cython.double = cfg.detect_threshold
+    s1: cython.double = cfg.strength_at_1m
+    i: cython.Py_ssize_t
+    j: cython.Py_ssize_t
+    s0: cython.double
+    sj: cython.double
+    a: cython.double
+    b: cython.double
+    r: cython.double
+    theta: cython.double
     distance, bearing, valid = [], [], []
-    for i, s0, a, b, r in zip(strongest, s0_all, a_all, b_all, r_all):
+    for row in strengths:
+        i = 0  # the strongest receiver (the first of equals, as argmax)
+        s0 = row[0]
+        for j in range(1, k):
+            sj = row[j]
+            if sj > s0:
+                i, s0 = j, sj
+        s_plus: cython.double = row[(i + 1) % k]
+        s_minus: cython.double = row[(i - 1 + k) % k]
+        a = (s0 + (s_plus + s_minus) * cos_d) / den_a
+        b = (s_plus - s_minus) * sin_d / den_b
+        r = _hypot(a, b)
         ok = s0 >= threshold and r > 0.0
         valid.append(ok)
         if ok:
-            distance.append(math.sqrt(s1 / r))
-            theta = math.atan2(b, a) + i * delta
-            w = -geometry.wrap_angle(-theta)  # to (−π, π]: π − (π − θ) mod 2π, to the bit
+            distance.append(_c_sqrt(s1 / r))
+            theta = _c_atan2(b, a) + i * delta
+            w: cython.double = -geometry.wrap_angle(-theta)  # to (−π, π]: π − (π − θ) mod 2π, to the bit
             bearing.append(w + 2.0 * math.pi if w <= -math.pi else w)
         else:
             distance.append(math.nan)

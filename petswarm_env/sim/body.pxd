@@ -33,5 +33,8 @@ cdef class DrivenBody(Body):
     cdef double _limits_dt
     cdef readonly double _max_dv  # read by Robot.apply (the wheels follow the command under the same limits)
     cdef readonly double _max_dw
+    cdef public tuple _wheels
+    cdef public object _drain
 
     cpdef drive(self, double dt)
+    cpdef apply(self, double dt)

@@ -181,7 +181,10 @@ class DrivenBody(Body):
     """A dynamic body driven by an own-frame velocity command under acceleration limits (a robot's
     motors): :meth:`apply`, every physics substep, moves the achieved velocity toward
     :attr:`command` by at most ``max_accel_mps2``·dt and ``max_alpha_rps2``·dt and writes it to the
-    body (contacts may still change it during the substep)."""
+    body (contacts may still change it during the substep). The motors' own speed (``_wheels``)
+    follows the command under the same limits from its own previous value, whatever the body does;
+    ``_drain`` (a robot's battery, ``drain(dt, velocity_body)`` → True when it has just emptied, or
+    None) is drained after every substep, and an empty battery stops the body."""
 
     def __init__(self, space: pymunk.Space, position, heading_rad: float, radius_m: float, collision_type: int,
                  mass_kg: float, max_accel_mps2: float, max_alpha_rps2: float, **shape: float):
@@ -191,15 +194,48 @@ class DrivenBody(Body):
         self._accel = (max_accel_mps2, max_alpha_rps2)
         self._limits_dt = -1.0  # the substep length the limits below were computed for
         self._max_dv = self._max_dw = 0.0
+        self._wheels = (0.0, 0.0, 0.0)  # the motors' own-frame speed (a robot's wheel_velocity)
+        self._drain = None  # the battery's drain(dt, velocity_body), or None
 
+    @cython.ccall
     def apply(self, dt: cython.double) -> None:
-        """One substep of the drive, from the body's actual velocity (after the last step's
-        contacts); sets :attr:`velocity_body`. Only a changed value is written to the body."""
+        """One substep of the drive (:meth:`drive`), then the motors' own speed follows the command
+        under the same limits — a shove or a wall moves the body, not the wheels (they slip) — then
+        the battery's drain over the substep (an empty battery stops the body)."""
         self.drive(dt)
+        wx: cython.double
+        wy: cython.double
+        ww: cython.double
+        cx: cython.double
+        cy: cython.double
+        cw: cython.double
+        wx, wy, ww = self._wheels
+        cx, cy, cw = self.command
+        dvx: cython.double = cx - wx
+        dvy: cython.double = cy - wy
+        dv: cython.double
+        k: cython.double
+        dw: cython.double
+        max_dw: cython.double = self._max_dw
+        if dvx != 0.0 or dvy != 0.0 or cw != ww:
+            dv = _hypot(dvx, dvy)
+            if dv > self._max_dv:
+                k = self._max_dv / dv
+                dvx *= k
+                dvy *= k
+            dw = cw - ww  # max(-max_dw, min(max_dw, cw - ww)) as Python's min and max give it (nan too)
+            dw = dw if dw < max_dw else max_dw
+            dw = dw if dw > -max_dw else -max_dw
+            self._wheels = (wx + dvx, wy + dvy, ww + dw)
+        drain = self._drain
+        if drain is not None and drain(dt, self.velocity_body):
+            self.command = (0.0, 0.0, 0.0)
 
     @cython.ccall
     def drive(self, dt: cython.double) -> None:
-        """:meth:`apply`'s body, callable from C (a subclass's ``apply`` calls it)."""
+        """The drive of one substep (:meth:`apply`'s first part): the achieved velocity toward the
+        command, from the body's actual velocity (after the last step's contacts); sets
+        :attr:`velocity_body`. Only a changed value is written to the body."""
         if dt != self._limits_dt:  # the per-substep limits, computed once per substep length
             self._limits_dt = dt
             self._max_dv = self._accel[0] * dt

@@ -14,8 +14,16 @@ from __future__ import annotations
 
 import math
 
+import cython
 import numpy as np
+from cython.cimports.libc.math import cos as _c_cos
+from cython.cimports.libc.math import fabs as _c_fabs
+from cython.cimports.libc.math import sin as _c_sin
+from cython.cimports.libc.math import sqrt as _c_sqrt
 
+COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
+
+_INF = math.inf
 _PI = math.pi
 _TWO_PI = 2.0 * math.pi
 
@@ -89,10 +97,23 @@ class SegmentSet:
         lo = np.minimum(self.a, self.b) - max_range
         hi = np.maximum(self.a, self.b) + max_range
         self._boxes = [(i, *lo[i].tolist(), *hi[i].tolist()) for i in range(len(self.a))]
+        e = self.b - self.a  # each segment's vector, as ray_segment_distances computes it
+        self._ends = [(*self.a[i].tolist(), *e[i].tolist()) for i in range(len(self.a))]
         self.max_range = max_range
 
     def __len__(self) -> int:
         return len(self.a)
+
+    def ends_near(self, points: list) -> list[tuple[float, float, float, float]]:
+        """``(ax, ay, ex, ey)`` (a segment's start and its vector ``b − a``) of the segments that
+        some ray of length ``max_range`` from ``points`` (a list of ``[x, y]``) may hit
+        (:meth:`near_box` of the points' bounding box)."""
+        if not self._boxes or not points:
+            return []
+        xs = [p[0] for p in points]
+        ys = [p[1] for p in points]
+        ends = self._ends
+        return [ends[i] for i in self.near_box(min(xs), min(ys), max(xs), max(ys))]
 
     def near(self, points: np.ndarray) -> list[int]:
         """Indices of the segments that some ray of length ``max_range`` from ``points`` may hit:
@@ -135,18 +156,17 @@ def ring_first_hits(
 
     Ray ``k`` of origin ``i`` points at ``headings[i] + angles[k]``. The result is the distance to
     the nearest circle (the nearer root of the ray–circle quadratic; a ray never sees a circle its
-    origin is inside or on) or segment (:func:`ray_segment_distances`), hits beyond ``max_range``
-    are ``inf``, computed in one pass: the origin-to-centre vectors are shared by the rays of one
-    origin, and segments out of reach of every origin are left out. (``tests/oracles.py`` keeps the
-    per-circle ray cast it equals.)
+    origin is inside or on) or segment (the arithmetic of :func:`ray_segment_distances`, ray by
+    ray), hits beyond ``max_range`` are ``inf``; segments out of reach of every origin are left out.
+    (``tests/oracles.py`` keeps the per-circle ray cast and the numpy formulation it equals.)
 
-    Written for few numpy calls on small arrays (a handful of robots, where a call costs more than
-    its arithmetic): the (circle, origin, ray) arrays have the circles first, so the nearest hit is
-    a reduction over the leading axis; misses are marked by overwriting in place rather than by
-    boolean masks combined with ``&``; the ``max_range`` cut is applied once, to the nearest hit of
-    each ray (it is within range iff some hit is). The root ``t = −b − √disc`` is kept negated,
-    ``tn = b + √disc``: rounding to nearest is symmetric, so ``−tn`` is ``t`` to the bit (up to the
-    sign of a zero).
+    A loop over (origin, ray, circle) in C doubles in the compiled core (a handful of robots: the
+    arithmetic is a few hundred operations, less than the numpy calls it replaced cost), the same
+    IEEE operations in the same order as the numpy formulation: ``cc = |m|² − r²`` (the origin
+    inside or on a circle: never seen), ``b = d·m``, ``disc = b² − cc`` (a miss when negative),
+    the root ``t = −b − √disc`` kept negated, ``tn = b + √disc`` (rounding to nearest is symmetric,
+    so ``−tn`` is ``t`` to the bit, up to the sign of a zero), and ``tn > 0``: behind the origin.
+    One function on purpose: its loop runs for every ray of every robot at every step, on C locals.
 
     Args:
         origins: (N, 2) ray start points, m.
@@ -159,29 +179,97 @@ def ring_first_hits(
     Returns:
         (N, K) distances, m; ``inf`` where the ray meets nothing within ``max_range``.
     """
-    o = _as_points(origins)
-    c = _as_points(centers)
-    ang = np.asarray(headings, dtype=float).reshape(-1, 1) + np.asarray(angles, dtype=float).reshape(1, -1)
-    dx, dy = np.cos(ang), np.sin(ang)  # (N, K)
-    if c.shape[0]:
-        r = np.asarray(radii, dtype=float).reshape(-1, 1, 1)
-        mx = (o[:, 0] - c[:, 0:1])[:, :, None]  # (C, N, 1) centre -> origin
-        my = (o[:, 1] - c[:, 1:2])[:, :, None]
-        cc = mx * mx + my * my - r * r  # |m|² − r², ≤ 0 when the origin is inside: never seen
-        cc[cc <= 0.0] = np.inf
-        b = dx * mx + dy * my  # (C, N, K) d·m
-        disc = b * b - cc  # −inf when inside
-        disc[disc < 0.0] = np.inf  # a miss: its root below becomes +inf, i.e. not in front
-        tn = b + np.sqrt(disc)  # −t, t = −b − √disc the nearer root of t² + 2bt + cc = 0
-        tn[tn > 0.0] = -np.inf  # behind the origin (t < 0), or a miss
-        d = -tn.max(axis=0)  # (N, K) the nearest hit in front; inf for none
-    else:
-        d = np.full(ang.shape, np.inf)
-    if walls is not None and len(walls):
-        near = walls.near(o)
-        if len(near):
-            dirs = np.stack([dx, dy], axis=-1).reshape(-1, 2)
-            seg = ray_segment_distances(np.repeat(o, ang.shape[1], axis=0), dirs, walls.a[near], walls.b[near], max_range)
-            d = np.minimum(d, seg.min(axis=1).reshape(ang.shape))
-    d[d > max_range] = np.inf
-    return d
+    o = _as_points(origins).tolist()
+    c = _as_points(centers).tolist()
+    th = np.asarray(headings, dtype=float).reshape(-1).tolist()
+    ang = np.asarray(angles, dtype=float).reshape(-1).tolist()
+    r = np.asarray(radii, dtype=float).reshape(-1).tolist()
+    n: cython.Py_ssize_t = len(o)
+    nk: cython.Py_ssize_t = len(ang)
+    nc: cython.Py_ssize_t = len(c)
+    out = np.empty((n, nk))
+    d: cython.double[:, ::1] = out
+    segs = walls.ends_near(o) if walls is not None and len(walls) else []
+    ns: cython.Py_ssize_t = len(segs)
+    # the circles (centre, squared radius) and the segments (start, vector) side by side
+    table = np.empty(3 * nc + 4 * ns)
+    cs: cython.double[::1] = table
+    j: cython.Py_ssize_t
+    rj: cython.double
+    for j in range(nc):
+        cs[3 * j] = c[j][0]
+        cs[3 * j + 1] = c[j][1]
+        rj = r[j]
+        cs[3 * j + 2] = rj * rj
+    sg: cython.Py_ssize_t = 3 * nc
+    for j in range(ns):
+        cs[sg + 4 * j] = segs[j][0]
+        cs[sg + 4 * j + 1] = segs[j][1]
+        cs[sg + 4 * j + 2] = segs[j][2]
+        cs[sg + 4 * j + 3] = segs[j][3]
+    reach: cython.double = max_range
+    i: cython.Py_ssize_t
+    k: cython.Py_ssize_t
+    ox: cython.double
+    oy: cython.double
+    a: cython.double
+    dx: cython.double
+    dy: cython.double
+    mx: cython.double
+    my: cython.double
+    cc: cython.double
+    b: cython.double
+    disc: cython.double
+    tn: cython.double
+    best: cython.double
+    denom: cython.double
+    aox: cython.double
+    aoy: cython.double
+    ex: cython.double
+    ey: cython.double
+    t: cython.double
+    u: cython.double
+    near: cython.double
+    ang_k: cython.double
+    inf: cython.double = _INF
+    eps: cython.double = _PARALLEL_EPS
+    for i in range(n):
+        ox = o[i][0]
+        oy = o[i][1]
+        a = th[i]
+        for k in range(nk):
+            ang_k = ang[k]
+            ang_k = a + ang_k
+            dx = _c_cos(ang_k)
+            dy = _c_sin(ang_k)
+            best = -inf  # the largest tn: the nearest hit in front
+            for j in range(nc):
+                mx = ox - cs[3 * j]
+                my = oy - cs[3 * j + 1]
+                cc = mx * mx + my * my - cs[3 * j + 2]
+                if cc <= 0.0:
+                    cc = inf
+                b = dx * mx + dy * my
+                disc = b * b - cc
+                if disc < 0.0:
+                    disc = inf
+                tn = b + _c_sqrt(disc)
+                if tn > 0.0:
+                    tn = -inf
+                if tn > best:
+                    best = tn
+            near = -best
+            for j in range(ns):
+                ex = cs[sg + 4 * j + 2]
+                ey = cs[sg + 4 * j + 3]
+                denom = dx * ey - dy * ex
+                if _c_fabs(denom) < eps:
+                    continue
+                aox = cs[sg + 4 * j] - ox
+                aoy = cs[sg + 4 * j + 1] - oy
+                t = (aox * ey - aoy * ex) / denom
+                u = (aox * dy - aoy * dx) / denom
+                if t >= 0.0 and t <= reach and u >= 0.0 and u <= 1.0 and t < near:
+                    near = t
+            d[i, k] = inf if near > reach else near
+    return out

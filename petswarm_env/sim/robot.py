@@ -66,9 +66,10 @@ _PETBOT_BATTERY = BatterySpec(math.inf, 0.0, 0.0, 0.0)
 
 
 class Robot(DrivenBody):
-    """Physical truth of one robot: a pymunk body driven by velocity commands (its motors:
-    :meth:`~.body.DrivenBody.apply`), with its own sensors' models attached (the AHRS here; the
-    ultrasonic ring and the odometry in :class:`~.sensors.Sensors`) and its battery.
+    """Physical truth of one robot: a pymunk body driven by velocity commands (its motors, every
+    substep: :meth:`~.body.DrivenBody.apply`, the drive, the wheels and the battery's drain), with
+    its own sensors' models attached (the AHRS here; the ultrasonic ring and the odometry in
+    :class:`~.sensors.Sensors`) and its battery.
 
     ``body`` is its robot type (:class:`~petswarm_env.robot_types.BodySpec`; None: ``cfg``, the
     petbot, as before robot types). A mecanum body saturates its wheels (:func:`saturate_command`);
@@ -94,8 +95,7 @@ class Robot(DrivenBody):
         self.ahrs_yaw = self.ahrs.yaw  # ahrs_yaw(now_s): the reading (bound once: read every frame)
         battery = body.battery if body is not None else _PETBOT_BATTERY
         self.battery = Battery(battery, rc.max_speed_mps, rc.max_omega_rps)
-        self._drain = self.battery.drain  # bound once: it runs every substep
-        self._wheels = (0.0, 0.0, 0.0)  # the motors' own-frame speed, body share (wheel_velocity)
+        self._drain = self.battery.drain  # DrivenBody.apply drains it every substep
         self.sensors_off: set[int] = set()  # ids of its sensors that are faulty (Sensors.sensor_off sets it)
         slip = body.slip if body is not None else 0.0
         self._keep = 1.0 - slip  # the body's share of the wheels' motion
@@ -117,26 +117,6 @@ class Robot(DrivenBody):
             cmd = saturate_command(float(vx), float(vy), float(omega), self.cfg)
         keep = self._keep
         self.command = cmd if keep == 1.0 else (cmd[0] * keep, cmd[1] * keep, cmd[2] * keep)
-
-    def apply(self, dt: float) -> None:
-        """One substep of the drive, then the battery's drain over it (an empty battery stops the
-        robot); the motors' own speed follows the command (:attr:`wheel_velocity`)."""
-        self.drive(dt)  # DrivenBody.apply's drive (compiled)
-        # the wheels' speed as the motor controllers drive it: toward the command under the same limits,
-        # from its own previous value — a shove or a wall moves the body, not the wheels (they slip)
-        wx, wy, ww = self._wheels
-        cx, cy, cw = self.command
-        dvx, dvy = cx - wx, cy - wy
-        if dvx or dvy or cw != ww:
-            dv = math.hypot(dvx, dvy)
-            if dv > self._max_dv:
-                k = self._max_dv / dv
-                dvx *= k
-                dvy *= k
-            dw = max(-self._max_dw, min(self._max_dw, cw - ww))
-            self._wheels = (wx + dvx, wy + dvy, ww + dw)
-        if self._drain(dt, self.velocity_body):
-            self.command = (0.0, 0.0, 0.0)
 
     @property
     def wheel_velocity(self) -> tuple[float, float, float]:

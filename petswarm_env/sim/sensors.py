@@ -12,13 +12,18 @@ from __future__ import annotations
 import math
 from typing import Protocol
 
+import cython
 import numpy as np
+from cython.cimports.libc.math import sqrt as _c_sqrt
 
 from petswarm_env.config import RobotConfig
 from petswarm_env.middle_layer import BodyMap, MiddleLayer
 from petswarm_env.sim import geometry
 from petswarm_env.sim.body import Body
 from petswarm_env.sim.draws import Draws
+
+
+COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
 
 
 class Truth(Protocol):
@@ -32,6 +37,7 @@ class Truth(Protocol):
     def truth_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]: ...
 
 
+@cython.cclass
 class AHRS:
     """Yaw (rad) of one body relative to its own power-on heading: truth − the heading at power-on
     + a slowly drifting bias (a random walk in time) + white noise.
@@ -42,20 +48,36 @@ class AHRS:
     and moved since, so its power-on heading is its current heading plus a uniform random angle,
     drawn per robot and episode — no two robots share a frame, and a robot's readings are in no
     frame of the world; only differences of its own readings (its own rotation) mean something.
-    Before :meth:`power_on` it reads the body's heading (offset 0: a bare sensor, for tests)."""
+    Before :meth:`power_on` it reads the body's heading (offset 0: a bare sensor, for tests).
+
+    A typed class of the compiled core: read for every frame a robot's middleware stamps and every
+    observation."""
+
+    body = cython.declare(object, visibility="public")
+    noise_rad = cython.declare(cython.double, visibility="public")  # σ of the white noise
+    drift_rad = cython.declare(cython.double, visibility="public")  # σ of the bias walk over one second
+    bias_rad = cython.declare(cython.double, visibility="public")
+    power_on_heading_rad = cython.declare(cython.double, visibility="public")  # the heading its readings count from
+    time_s = cython.declare(cython.double, visibility="public")  # clock time of the last bias step
+    _last_yaw = cython.declare(cython.double, visibility="public")  # the last reading (a frozen AHRS repeats it)
+    on_reading = cython.declare(object, visibility="public")  # the robot's software sees every reading (its self-diagnosis): on_reading(now_s, yaw)
+    _heading = cython.declare(object)
+    _health = cython.declare(object)
+    _draws = cython.declare(object)
+    _normal = cython.declare(object)
 
     def __init__(self, body: Body, cfg: RobotConfig, rng: np.random.Generator | None = None):
         self.body = body
         self._heading = body.heading_reader()
-        self.noise_rad = math.radians(cfg.ahrs_noise_deg)  # σ of the white noise
-        self.drift_rad = math.radians(cfg.ahrs_drift_dps)  # σ of the bias walk over one second
+        self.noise_rad = math.radians(cfg.ahrs_noise_deg)
+        self.drift_rad = math.radians(cfg.ahrs_drift_dps)
         self.bias_rad = 0.0
-        self.power_on_heading_rad = 0.0  # the heading its readings count from
-        self.time_s = 0.0  # clock time of the last bias step
+        self.power_on_heading_rad = 0.0
+        self.time_s = 0.0
         self.rng = np.random.default_rng(0) if rng is None else rng  # (the env gives every robot its own stream)
         self._health = getattr(body, "health", None)  # an AHRS fault freezes the output (sim/faults.py)
         self._last_yaw = 0.0
-        self.on_reading = None  # the robot's software sees every reading (its self-diagnosis): on_reading(now_s, yaw)
+        self.on_reading = None
 
     def power_on(self, rng: np.random.Generator, now_s: float = 0.0) -> None:
         """Switch on at clock time ``now_s`` with the noise stream ``rng`` (its first draw is the
@@ -73,8 +95,9 @@ class AHRS:
     @rng.setter
     def rng(self, rng: np.random.Generator) -> None:
         self._draws = Draws(rng)
+        self._normal = self._draws.normal
 
-    def yaw(self, now_s: float) -> float:
+    def yaw(self, now_s: cython.double) -> float:
         """The reading at clock time ``now_s``: the bias walks over the time since the last reading
         (one normal), then one normal of white noise."""
         health = self._health
@@ -82,12 +105,17 @@ class AHRS:
             if self.on_reading is not None:
                 self.on_reading(now_s, self._last_yaw)
             return self._last_yaw  # no new yaw: the last reading repeats
-        draws = self._draws
-        dt = now_s - self.time_s
+        normal = self._normal
+        dt: cython.double = now_s - self.time_s
+        z: cython.double
         if dt > 0:
-            self.bias_rad += self.drift_rad * math.sqrt(dt) * draws.normal()
+            z = normal()
+            self.bias_rad += self.drift_rad * _c_sqrt(dt) * z
             self.time_s = now_s
-        yaw = self._last_yaw = self._heading() - self.power_on_heading_rad + self.bias_rad + self.noise_rad * draws.normal()
+        heading: cython.double = self._heading()
+        z = normal()
+        yaw: cython.double = heading - self.power_on_heading_rad + self.bias_rad + self.noise_rad * z
+        self._last_yaw = yaw
         if self.on_reading is not None:
             self.on_reading(now_s, yaw)
         return yaw

@@ -58,6 +58,7 @@ import gymnasium
 import numpy as np
 from pettingzoo import ParallelEnv
 
+from petswarm_env.config_yaml import dotted_keywords
 from petswarm_env.config import DRIVING_MODES, Config, ConfigError, arrival_slots, describe_value, flatten_dotted, load_config
 from petswarm_env.episode import INFO_DEFAULTS, OTHER_USER_ID, SWARM_PAN, WAKE_PATTERN, Episode, Setup  # noqa: F401 (re-exported)
 from petswarm_env.inputs import check_reset_options, checked_action
@@ -97,6 +98,7 @@ class PetSwarmEnv(ParallelEnv):
     }
 
     def __init__(self, config: Config | str | None = None, render_mode: str | None = None, **overrides: Any):
+        overrides = dotted_keywords(overrides)  # swarm__num_slaves=3 is swarm.num_slaves=3, as in parallel_env
         if isinstance(config, Config):
             cfg = load_config(overrides={**flatten_dotted(config.to_dict()), **overrides}) if overrides else config
         else:

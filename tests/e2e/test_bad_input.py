@@ -96,6 +96,10 @@ CLI_CASES = [
     (["train", "--set", "ppo.gamma=2"], "ppo.gamma"),
     (["train", "--set", "env.swarm.num_slaves=true"], "swarm.num_slaves"),
     (["train", "--resume", "--out", "{dir}/no_run"], "no checkpoint"),
+    (["eval", "--scenarios", "", "--episodes", "1"], "names no scenario"),
+    (["eval", "--scenarios", " , ,", "--episodes", "1"], "names no scenario"),
+    (["eval", "--scenarios", "u_turn,straight,u_turn", "--episodes", "1"], "u_turn more than once"),
+    (["eval", "--mix", "robot_1=random", "--mix", "robot_1=scripted", "--episodes", "1"], "robot_1 twice"),
 ]
 
 
@@ -299,6 +303,7 @@ def test_bad_result_file_for_the_report(capsys, outputs, content, words):
     (["report", "{dir}", "--out", "{dir}/report.html"], "is a directory"),
     (["report", "{dir}/OUT.json", "--out", "{dir}"], "is a folder"),
     (["report", "{dir}/OUT.json", "--out", "{dir}/clips/report.html"], "is a file, not a folder"),
+    (["report", "{dir}/OUT.json", "{dir}/./OUT.json", "--out", "{dir}/report.html"], "is given twice"),
 ])
 def test_bad_report_paths(capsys, outputs, argv, words):
     before = _snapshot(outputs)
@@ -785,6 +790,9 @@ def test_a_box_away_from_the_start_runs(capsys):
     (["run", "--set", "watch.accel_rate_hz=5e6"], "watch.accel_rate_hz"),
     (["run", "--set", "ir.num_receivers=100000"], "ir.num_receivers"),
     (["run", "--set", "max_cycles=900000"], "a day"),
+    (["run", "--set", "master.distance_m=0.3"], "master.distance_m"),  # inside the user's body: organize failed, blaming collisions
+    (["run", "--set", "lf.rssi_at_1m_db=20"], "lf.rssi_at_1m_db"),
+    (["run", "--set", "robot_types.petbot.battery_mah=1e-300"], "robot_types.petbot.battery_mah"),  # every robot dead at once
     (["run", "--set", "swarm.formation=custom", "--set", "swarm.num_slaves=2", "--set",
       "swarm.custom_links=[{robot: 1, neighbour: 2, offset_m: [-1, 0]}, {robot: 2, neighbour: 1, offset_m: [1, 0]}]"], "swarm.custom_links"),
 ], ids=lambda a: " ".join(a)[6:60] if isinstance(a, list) else None)
@@ -825,3 +833,26 @@ def test_a_gif_beyond_the_memory_budget_is_refused_before_the_episode(capsys, ou
     argv = [a.replace("{dir}", str(outputs)) for a in argv]
     _fails(capsys, [*argv, "--set", "render.size_px=[8192, 8192]", "--json", outputs / "OUT.json"], "GB budget")
     assert _snapshot(outputs) == before and not (outputs / "clips2").exists()
+
+
+def test_a_bad_value_in_a_training_config_file_names_the_file(capsys, outputs):
+    pytest.importorskip("stable_baselines3")
+    (outputs / "t.yaml").write_text("ppo:\n  gamma: 3\n")
+    line = _fails(capsys, ["train", "--config", outputs / "t.yaml", "--out", outputs / "run", "--timesteps", "64"], "ppo.gamma")
+    assert "t.yaml" in line
+    line = _fails(capsys, ["train", "--config", outputs / "t.yaml", "--set", "ppo.gamma=5", "--out", outputs / "run"], "ppo.gamma")
+    assert "t.yaml" not in line  # the --set's value, not the file's
+
+
+def test_keyword_overrides_in_both_forms_and_waiting_agents_actions():
+    import petswarm_env
+
+    with pytest.raises(ValueError, match="'swarm.num_slaves' is given twice"):
+        petswarm_env.parallel_env(**{"swarm.num_slaves": 2, "swarm__num_slaves": 3})
+    assert PetSwarmEnv(swarm__num_slaves=3).cfg.swarm.num_slaves == 3  # the class takes section__key as parallel_env does
+    env = petswarm_env.parallel_env(**{"user.scenario": "mode_change", "max_cycles": 5})
+    _, infos = env.reset(seed=0)
+    assert infos["robot_0"]["active"] == 0  # robot_0 waits (the master): its action is still checked, then ignored
+    with pytest.raises(ValueError, match="action of robot_0"):
+        env.step({"robot_0": [np.nan, 0.0, 0.0]})
+    env.step({"robot_0": np.ones(3, np.float32)})

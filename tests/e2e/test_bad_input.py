@@ -653,6 +653,9 @@ GRID_DAMAGE = [
     ("per_episode_rmse_null", _set(["candidate", "per_episode", 0, "formation_rmse_m"], None), "candidate.per_episode.0.formation_rmse_m"),
     ("episodes_mismatch", _set(["candidate", "episodes"], 7), "per_episode"),
     ("cell_a_string", None, "not a cell record"),
+    ("ratio_negative", _set(["ratio"], -0.5), "'ratio' input should not be negative"),
+    ("rmse_negative", _set(["reference", "formation_rmse_m"], -1.0), "'reference.formation_rmse_m' input should not be negative"),
+    ("episode_rmse_negative", _set(["candidate", "per_episode", 0, "formation_rmse_m"], -3.0), "candidate.per_episode.0.formation_rmse_m"),
 ]
 
 
@@ -716,7 +719,22 @@ def test_report_links_only_http_and_relative(outputs, eval_result, gif, capsys):
     (lambda d: d.update(kind="grid", cells=[{"candidate": {"collisions": -10**500}}]), "digits"),
     (lambda d: d.update(kind="grid", cells=["x"]), "cell 0 must be a JSON object"),
     (lambda d: d.update(kind="grid", cells=[{"reference": {"per_episode": "x"}}]), "per_episode"),
-], ids=["dev_zero", "a_folder", "replay_number", "gif_list", "huge_rmse", "float_1e308", "candidate_list", "huge_collisions", "cell_text", "per_episode_text"])
+    # figures of the wrong type or sign: refused field by field, not drawn as NaN
+    (lambda d: d["episodes"][0].__setitem__("formation_rmse_m", "0.4"), "'formation_rmse_m' must be a number"),
+    (lambda d: d["episodes"][0].__setitem__("formation_hold_rmse_m", -0.2), "'formation_hold_rmse_m' must not be negative"),
+    (lambda d: d["episodes"][0].__setitem__("building_time_s", False), "'building_time_s' must be a number"),
+    (lambda d: d["episodes"][0]["collisions"].__setitem__("robot_user", -3), "'collisions.robot_user' must not be negative"),
+    (lambda d: d["episodes"][0].__setitem__("seed", "one"), "'seed' must be a number"),
+    (lambda d: d["episodes"][0].__setitem__("scenario", 7), "'scenario' must be a scenario name"),
+    (lambda d: d["episodes"][0].__setitem__("error_trace", [0.1, "x"]), "'error_trace' holds 'x'"),
+    (lambda d: d["episodes"][0].__setitem__("error_trace", [0.0] * 1_000_001), "at most 1000000"),
+    (lambda d: d.update(policy={"name": "x"}), "'policy' must be text"),
+    (lambda d: d.update(config=[1]), "'config' must be a JSON object"),
+    (lambda d: d.update(kind="grid", cells={"a": 1}), "'cells' of a grid result must be a list"),
+    (lambda d: d.update(kind=["grid"]), "'kind' must be text"),
+], ids=["dev_zero", "a_folder", "replay_number", "gif_list", "huge_rmse", "float_1e308", "candidate_list", "huge_collisions", "cell_text",
+        "per_episode_text", "rmse_text", "hold_negative", "building_bool", "collisions_negative", "seed_text", "scenario_number",
+        "trace_text", "trace_too_long", "policy_object", "config_list", "cells_object", "kind_list"])
 def test_report_refuses_what_it_would_choke_on(capsys, outputs, eval_result, edit, words):
     data = json.loads(json.dumps(eval_result))
     edit(data)
@@ -856,3 +874,12 @@ def test_keyword_overrides_in_both_forms_and_waiting_agents_actions():
     with pytest.raises(ValueError, match="action of robot_0"):
         env.step({"robot_0": [np.nan, 0.0, 0.0]})
     env.step({"robot_0": np.ones(3, np.float32)})
+
+
+def test_the_report_checks_a_grid_results_cells_as_resume_does(capsys, outputs, grid_result):
+    data = json.loads((grid_result / "g.json").read_text())
+    data["cells"][0]["key"] = 12
+    (outputs / "bad.json").write_text(json.dumps(data))
+    before = _snapshot(outputs)
+    line = _fails(capsys, ["report", outputs / "bad.json", "--out", outputs / "report.html"], "field 'key'")
+    assert "bad.json" in line and "cell 0" in line and _snapshot(outputs) == before

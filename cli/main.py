@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import argparse
 import logging
+import os
 import sys
 import warnings
 
@@ -107,6 +108,19 @@ def _experiment_list() -> list[str]:
     return list(EXPERIMENTS)
 
 
+def _scenario_list(text: str) -> str:
+    """``--scenarios``: comma-separated names, at least one (the names are checked against the
+    scenarios when the config is known)."""
+    if not [name for name in text.split(",") if name.strip()]:
+        raise argparse.ArgumentTypeError(f"names no scenario ({text!r}); give comma-separated names such as zigzag,u_turn")
+    names = [name.strip() for name in text.split(",") if name.strip()]
+    twice = sorted({name for name in names if names.count(name) > 1})
+    if twice:
+        raise argparse.ArgumentTypeError(f"names {', '.join(twice[:3])} more than once; give each scenario once "
+                                         "(--episodes sets how many episodes each runs)")
+    return text
+
+
 def _experiment_names(text: str) -> list[str]:
     from petswarm.experiments.registry import parse_only
 
@@ -175,7 +189,7 @@ def _add_eval(sub) -> None:
                     "truth: a ceiling to compare with, not a policy (docs/training.md)")
     ev.add_argument("--mix", metavar="ROBOT=POLICY", action="append", default=[],
                     help="give one robot another policy, e.g. --mix robot_2=learned (repeatable)")
-    ev.add_argument("--scenarios", metavar="a,b,...", help="comma-separated scenarios (default: the config's scenario)")
+    ev.add_argument("--scenarios", metavar="a,b,...", type=_scenario_list, help="comma-separated scenarios (default: the config's scenario)")
     ev.add_argument("--episodes", type=_positive_int, default=None, metavar="N",
                     help="episodes (seeds) per scenario (default 5); with --grid per cell (default: the grid file's)")
     ev.add_argument("--seed", type=_seed, metavar="S", help="first seed (default: config seed; with --grid the grid file's)")
@@ -380,6 +394,12 @@ def _check_paths(args) -> None:
             inputs["--grid"] = args.grid
     if args.command == "report":
         inputs["RESULT.json"] = list(args.results)
+        seen: dict[str, str] = {}
+        for path in args.results:  # one result twice would be compared with itself under two labels
+            key = os.path.realpath(path)
+            if key in seen:
+                raise ValueError(f"RESULT.json '{path}' is given twice (also as '{seen[key]}'); give each result once")
+            seen[key] = path
     outputs = {"--out": get("out") if args.command == "report" else None, "--json": get("json"), "--video": get("video"),
                "--pcap": get("pcap"), "--md": get("md"), "--report": get("report")}
     if get("json") and args.command in ("run", "eval") and not getattr(args, "grid", None):

@@ -27,6 +27,8 @@ def parse_mix(items: list[str]) -> dict[str, str]:
         robot, sep, policy = item.partition("=")
         if not sep or not robot.startswith("robot_") or not policy:
             raise ConfigError(f"--mix '{item}' must look like ROBOT=POLICY, e.g. robot_2=learned")
+        if robot.strip() in mix:
+            raise ConfigError(f"--mix names {robot.strip()} twice ({robot.strip()}={mix[robot.strip()]} and {item}); give each robot once")
         mix[robot.strip()] = policy.strip()
     return mix
 

@@ -38,10 +38,10 @@ def _run(scenario: str, seed: int, overrides: dict | None = None) -> dict:
     track: list[tuple[float, list[tuple[float, float]]]] = []  # (time, every robot's position)
     errors: list[tuple[float, float]] = []  # (time, the largest slave formation error)
     while env.agents:
-        obs, _, _, _, infos = env.step(policy.act_all({a: obs[a] for a in env.agents}))
+        obs, _, _, _, infos = env.step(policy.act_all({a: obs[a] for a in env.active_agents}))
         track.append((env.truth.now, [r.position for r in env.truth.robots]))
         if infos:
-            errors.append((env.truth.now, max(i["formation_error_m"] for i in infos.values())))
+            errors.append((env.truth.now, max(i["formation_error_m"] if i["active"] else 0.0 for i in infos.values())))
     if scenario == "master_loss":  # the episode ended with its last slave: watch the robots stop, 3 s more of the world
         for _ in range(int(round(3.0 / env.cfg.control_period_s))):
             env.episode.tick()  # the world goes on: the masters driven by their users, no agent

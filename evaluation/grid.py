@@ -117,6 +117,8 @@ def run_team(cfg: Config, policy: str, mix: dict[str, str], seeds: list[int], wa
         def on_step(infos: dict[str, dict[str, Any]]) -> None:
             built = math.isfinite(env.episode.metrics.building_time_s)  # set by this step's experimenter once every slave is in place
             for agent, info in infos.items():
+                if not info["active"]:  # an agent waiting to join has no formation error yet
+                    continue
                 e = info["formation_error_m"]
                 for key in ("mix", "mix_hold") if agent in watched else ("others", "others_hold"):
                     if built or not key.endswith("_hold"):

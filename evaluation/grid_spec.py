@@ -21,9 +21,9 @@ import itertools
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field, ValidationError
 
 from petswarm_env.config import ConfigError, Config, describe_value, flatten_dotted, load_config, read_yaml
 
@@ -263,15 +263,24 @@ class _Record(BaseModel):
 Count = Field(ge=0, le=10**12)
 
 
+def _not_negative(x: float) -> float:
+    if x < 0:  # NaN passes: no formation, no ratio
+        raise ValueError("Input should not be negative (an error or a ratio of errors)")
+    return x
+
+
+Figure = Annotated[float, AfterValidator(_not_negative)]  # NaN allowed (no formation), null not: the summaries compute with it
+
+
 class _EpisodeRecord(_Record):
     seed: int = Field(ge=0)
-    formation_rmse_m: float  # NaN allowed (no formation), null not: the summaries compute with it
+    formation_rmse_m: Figure
 
 
 class _RunRecord(_Record):
     label: str
     episodes: int = Count
-    formation_rmse_m: float  # NaN allowed (no formation), null not: the summaries compute with it
+    formation_rmse_m: Figure
     collisions: int = Count
     per_episode: list[_EpisodeRecord]
 
@@ -279,8 +288,8 @@ class _RunRecord(_Record):
 class _CellRecord(_Record):
     key: str
     name: str
-    ratio: float
-    median_ratio: float | None = None
+    ratio: Figure
+    median_ratio: Figure | None = None
     episodes_better: int = Count
     meets_target: bool
     collisions_not_more: bool
@@ -289,27 +298,31 @@ class _CellRecord(_Record):
     reference: _RunRecord
 
 
-def check_previous_cells(path: str, cells: list[Any]) -> None:
-    """Every cell of an earlier grid result (``eval --grid --resume``) must be a whole cell record
-    (the fields a kept cell is summarised and reported from, of their types), or the command is
-    refused before it runs or rewrites anything: a damaged file is never replaced by a partial one.
-    Raises :class:`ConfigError` naming the file, the cell and the field."""
+RESUME_FIX = "repair the file or write the grid to another --json without --resume"
+
+
+def check_previous_cells(path: str, cells: list[Any], what: str = "--resume", fix: str = RESUME_FIX) -> None:
+    """Every cell of an earlier grid result (``eval --grid --resume``; the report reads the same
+    records, ``what``/``fix`` its words) must be a whole cell record (the fields a kept cell is
+    summarised and reported from, of their types, errors and ratios never negative), or the command
+    is refused before it runs or rewrites anything: a damaged file is never replaced by a partial
+    one. Raises :class:`ConfigError` naming the file, the cell and the field."""
     for k, cell in enumerate(cells):
         if not isinstance(cell, dict):
-            raise ConfigError(f"--resume: '{path}' cell {k} is {describe_value(cell)}, not a cell record; repair the file "
-                              "or write the grid to another --json without --resume")
+            raise ConfigError(f"{what}: '{path}' cell {k} is {describe_value(cell)}, not a cell record; {fix}")
         try:
             record = _CellRecord.model_validate(cell)
         except ValidationError as exc:
             err = exc.errors()[0]
             field = ".".join(str(p) for p in err["loc"]) or "(cell)"
             name = cell.get("name") if isinstance(cell.get("name"), str) else None
-            what = ("is missing" if err["type"] == "missing" else "must be a JSON object" if err["type"] in ("model_type", "dict_type")
-                    else f"{err['msg'][0].lower()}{err['msg'][1:]} (got {describe_value(err.get('input'))})")
-            raise ConfigError(f"--resume: '{path}' cell {k}" + (f" ('{name[:60]}')" if name else "") +
-                              f": field '{field}' {what}; repair the file or write the grid to another --json without --resume") from None
+            problem = ("is missing" if err["type"] == "missing" else "must be a JSON object" if err["type"] in ("model_type", "dict_type")
+                       else f"{err['msg'].removeprefix('Value error, ')[0].lower()}{err['msg'].removeprefix('Value error, ')[1:]} "
+                       f"(got {describe_value(err.get('input'))})")
+            raise ConfigError(f"{what}: '{path}' cell {k}" + (f" ('{name[:60]}')" if name else "") +
+                              f": field '{field}' {problem}; {fix}") from None
         for run in ("candidate", "reference"):
             r = getattr(record, run)
             if len(r.per_episode) != r.episodes:
-                raise ConfigError(f"--resume: '{path}' cell {k}: field '{run}.per_episode' holds {len(r.per_episode)} episodes, "
-                                  f"'{run}.episodes' says {r.episodes}; repair the file or write to another --json")
+                raise ConfigError(f"{what}: '{path}' cell {k}: field '{run}.per_episode' holds {len(r.per_episode)} episodes, "
+                                  f"'{run}.episodes' says {r.episodes}; {fix}")

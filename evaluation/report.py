@@ -84,7 +84,7 @@ def load_result(path: str | os.PathLike) -> dict[str, Any]:
         if not isinstance(ep, dict):
             raise ValueError(f"{path}: episode {i} must be a JSON object, got {type(ep).__name__}")  # noqa: TRY004 (bad file content)
     data["episodes"] = episodes
-    if not isinstance(data.get("config"), dict):
+    if data.get("config") is None:
         data["config"] = {}
     _check_inputs(path, data)
     return data
@@ -93,6 +93,62 @@ def load_result(path: str | os.PathLike) -> dict[str, Any]:
 MAX_REPLAY_BYTES = 500_000_000  # a replay file embedded in the page (a 600-step episode's is about 1 MB)
 MAX_INT_BITS = 64  # no count, seed or figure of a result needs more (a 401-digit number is no result's)
 MAX_FIGURE = 1e15  # no measured float of a result comes near (metres, seconds, ratios); 1e308 overflows the plots
+MAX_TRACE = 1_000_000  # points of an episode's error_trace: one a step, and an episode is at most 1e6 steps (config max_cycles)
+# an episode's figures the report reads: a number, never negative; NaN or null = not measured (no formation built)
+EPISODE_FIGURES = ("formation_rmse_m", "formation_hold_rmse_m", "building_time_s", "refill_settle_rmse_m", "organize_time_s",
+                   "join_retries", "token_recoveries", "seed")
+TEXT_FIELDS = ("label", "policy", "kind")  # the result's own names, shown in the page
+
+
+def _figure_problem(value: Any) -> str | None:
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return f"must be a number, got {type(value).__name__} {str(value)[:40]!r}"
+    if value < 0:
+        return f"must not be negative, got {value:g}"
+    return None
+
+
+def _check_fields(path: str | os.PathLike, data: dict[str, Any]) -> None:
+    """The result's fields the report reads, of their types: text names, a config mapping, and
+    each episode's figures (numbers, never negative), collision counts, scenario name and error
+    trace (numbers, at most :data:`MAX_TRACE`); a grid's cells as ``eval --grid --resume`` checks
+    them (grid_spec.py)."""
+    for key in TEXT_FIELDS:
+        if data.get(key) is not None and not isinstance(data[key], str):
+            raise ValueError(f"{path}: field '{key}' must be text, got {type(data[key]).__name__}; repair the file or evaluate again")
+    if not isinstance(data["config"], dict):
+        raise ValueError(f"{path}: field 'config' must be a JSON object (the run's config), got {type(data['config']).__name__}; "
+                         "repair the file or evaluate again")
+    for i, ep in enumerate(data["episodes"]):
+        for key in EPISODE_FIGURES:
+            problem = _figure_problem(ep.get(key))
+            if problem:
+                raise ValueError(f"{path}: episode {i} field '{key}' {problem}; repair the file or evaluate again")
+        collisions = ep.get("collisions")
+        counts = collisions.items() if isinstance(collisions, dict) else [("", collisions)]
+        for kind, n in counts:
+            problem = _figure_problem(n)
+            if problem:
+                raise ValueError(f"{path}: episode {i} field 'collisions{'.' + kind if kind else ''}' {problem}; repair the file")
+        if ep.get("scenario") is not None and not isinstance(ep["scenario"], str):
+            raise ValueError(f"{path}: episode {i} field 'scenario' must be a scenario name (text), got {type(ep['scenario']).__name__}")
+        trace = ep.get("error_trace")
+        if trace is not None:
+            if not isinstance(trace, list) or len(trace) > MAX_TRACE:
+                raise ValueError(f"{path}: episode {i} field 'error_trace' must be a list of at most {MAX_TRACE} errors (one a "
+                                 f"step), got {type(trace).__name__} of {len(trace) if isinstance(trace, list) else 1}; repair the file")
+            bad = next((v for v in trace if _figure_problem(v)), None)
+            if bad is not None or any(v is None for v in trace):
+                raise ValueError(f"{path}: episode {i} field 'error_trace' holds {str(bad)[:40]!r}: {_figure_problem(bad) or 'not a number'}; "
+                                 "repair the file or evaluate again")
+    if data.get("kind") == "grid":
+        from petswarm.evaluation.grid_spec import check_previous_cells
+
+        if not isinstance(data.get("cells"), list):
+            raise ValueError(f"{path}: field 'cells' of a grid result must be a list of cells, got {type(data.get('cells')).__name__}")
+        check_previous_cells(str(path), data["cells"], what="report", fix="repair the file or run the grid again")
 
 
 def _check_inputs(path: str | os.PathLike, data: dict[str, Any]) -> None:
@@ -126,6 +182,7 @@ def _check_inputs(path: str | os.PathLike, data: dict[str, Any]) -> None:
                 per = run.get("per_episode") if isinstance(run, dict) else None
                 if per is not None and not (isinstance(per, list) and all(isinstance(e, dict) for e in per)):
                     raise ValueError(f"{path}: cell {k} field '{side}.per_episode' must be a list of JSON objects")
+    _check_fields(path, data)
     result_dir = Path(path).resolve().parent
     for i, ep in enumerate(data["episodes"]):
         for key in ("gif", "pcap", "replay"):

@@ -82,9 +82,9 @@ def run_episode(
             traj_user.append(user)
             for rid, p in robots.items():
                 traj_robots.setdefault(rid, []).append(p)
-        # act for the live agents only (one that just left slave-role driving gets its last observation)
+        # act for the robots in slave-role driving only (a waiting agent's zero observation is padding)
         raise_pending_signal()  # a Ctrl-C or SIGTERM that a C callback swallowed (petswarm_env/files.py)
-        observations, _, _, _, infos = env.step(policy.act_all({a: observations[a] for a in env.agents}))
+        observations, _, _, _, infos = env.step(policy.act_all({a: observations[a] for a in env.active_agents}))
         if on_step:
             on_step(infos)
         if on_frame:

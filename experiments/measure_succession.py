@@ -35,9 +35,9 @@ def run(kind: str, seed: int, at_s: float, max_cycles: int, overrides: dict) -> 
     policy = make_policy("scripted", PolicySpec.from_env(env), seed=seed)
     errors_after: list[float] = []
     while env.agents:
-        obs, _, _, _, infos = env.step(policy.act_all({a: obs[a] for a in env.agents}))
+        obs, _, _, _, infos = env.step(policy.act_all({a: obs[a] for a in env.active_agents}))
         if env.episode.world.now - t0 >= at_s + 15.0:  # the formation 15 s after the fault
-            errors_after += [i["formation_error_m"] for i in infos.values()]
+            errors_after += [i["formation_error_m"] for i in infos.values() if i["active"]]
     # each robot logs on its own clock (seed 000 §3.3): the experimenter reads the true time
     elections = [(n.clock.true_time(a), n.clock.true_time(b), lost, new)
                  for n in env.episode.fleet.nodes.values() for a, b, lost, new in n.succession.elections]

@@ -50,7 +50,7 @@ def trial(env, policy, seed: int, steps: int) -> dict[str, Any]:
     for _ in range(steps):
         if not env.agents:
             break
-        obs, *_ = env.step(policy.act_all({a: obs[a] for a in env.agents}))
+        obs, *_ = env.step(policy.act_all({a: obs[a] for a in env.active_agents}))
     s = env.episode_summary()
     return {"seed": seed, "slaves": slaves, "required": required, "full": slaves == required,
             "retries": sum(r.retries for r in results), "organize_s": max(r.elapsed_s for r in results),

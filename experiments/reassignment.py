@@ -103,14 +103,14 @@ def trial(mode: str, seed: int) -> dict[str, Any]:
     sq, n = 0.0, 0
     dropped_s = back_s = math.nan
     while env.agents:
-        obs, _, _, _, infos = env.step(policy.act_all({a: obs[a] for a in env.agents}))
+        obs, _, _, _, infos = env.step(policy.act_all({a: obs[a] for a in env.active_agents}))
         now = env.truth.now
-        if now >= t_fault and math.isnan(dropped_s) and len(env.agents) < required:
+        if now >= t_fault and math.isnan(dropped_s) and len(env.active_agents) < required:
             dropped_s = now  # the dead slave is no agent any more
-        elif not math.isnan(dropped_s) and math.isnan(back_s) and len(env.agents) >= required:
+        elif not math.isnan(dropped_s) and math.isnan(back_s) and len(env.active_agents) >= required:
             back_s = now  # a recruit took the slot: as many slave agents as before
         if t_fault <= now < t_fault + WINDOW_S:
-            errs = [i["formation_error_m"] for i in infos.values() if math.isfinite(i.get("formation_error_m", math.nan))]
+            errs = [i["formation_error_m"] for i in infos.values() if i["active"] and math.isfinite(i.get("formation_error_m", math.nan))]
             sq += sum(e * e for e in errs)
             n += len(errs)
     summary = env.episode_summary()

@@ -42,8 +42,8 @@ def run(kind: str, seed: int, at_s: float = 20.0, target: str = "random_slave", 
     policy = make_policy("scripted", PolicySpec.from_env(env), seed=seed)
     errors: list[tuple[float, dict[str, float]]] = []  # (time, agent -> formation error)
     while env.agents:
-        obs, _, _, _, infos = env.step(policy.act_all({a: obs[a] for a in env.agents}))
-        live = set(env.agents)
+        obs, _, _, _, infos = env.step(policy.act_all({a: obs[a] for a in env.active_agents}))
+        live = set(env.active_agents)
         errors.append((env.episode.world.now, {a: i["formation_error_m"] for a, i in infos.items() if a in live}))
     log = env.episode.runtime.faults.log
     if not log:

@@ -165,6 +165,19 @@ def flatten_dotted(d: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
     return out
 
 
+def dotted_keywords(overrides: Mapping[str, Any]) -> dict[str, Any]:
+    """Keyword overrides: ``swarm__num_slaves=3`` means ``swarm.num_slaves = 3``. One key given in
+    both forms is refused (which value was meant?)."""
+    out: dict[str, Any] = {}
+    for key, value in overrides.items():
+        dotted = key.replace("__", ".") if isinstance(key, str) else key
+        if dotted in out:
+            forms = [k for k in overrides if isinstance(k, str) and k.replace("__", ".") == dotted]
+            raise ConfigError(f"config key '{dotted}' is given twice ({' and '.join(forms)}); give it once")
+        out[dotted] = value
+    return out
+
+
 def parse_override(item: str) -> tuple[str, Any]:
     """Parse ``KEY=VALUE`` (VALUE read as YAML, so ``3``, ``0.1``, ``true``, ``[1, 2]`` work)."""
     if "=" not in item:

@@ -23,17 +23,24 @@ summary's ``slaves_missing``); the agents are the robots that joined. Each ``ste
 episode's ``advance``: every robot's command through its arbiter (safety > user > policy, seed 001),
 the clock for one control period (0.1 s), the sensors, then the experimenter's errors and contacts
 (:mod:`petswarm_env.metrics`: ground truth), the rewards (:mod:`petswarm_env.reward`) and the
-observations from each slave's sensors and middleware only (:mod:`petswarm_env.observe`). Agents
-come and go with the middleware, by the lifecycle of :mod:`petswarm_env.episode`: a robot that stops
-being a slave (it became the master, or the swarm dispersed) is terminated; a robot that becomes a
-slave joins ``agents``. The experimenter's tools read the ground truth through ``env.truth``
+observations from each slave's sensors and middleware only (:mod:`petswarm_env.observe`).
+
+The agents: every robot of ``possible_agents`` is in ``agents`` from ``reset`` on, so no agent ever
+joins after it (what TorchRL's ``PettingZooWrapper`` reads at reset, and RLlib's spaces). A robot in
+slave-role driving is *active* (``infos[a]["active"]`` 1, its own observation; ``active_agents``);
+one not (yet) in it — a master that may hand over, an arrival not yet switched on or joining, a
+slave the swarm did not recruit — *waits*: a zero observation (never a real one: its yaw sin/cos lie
+on the unit circle), ``active`` 0, reward 0.0, its action checked and ignored; it turns active under
+the same id when it becomes a slave. Agents leave with the middleware, by the lifecycle of
+:mod:`petswarm_env.episode`: a robot that stops being a slave (it became the master, the swarm
+dispersed, it died) is terminated and never comes back in that episode. The experimenter's tools read the ground truth through ``env.truth``
 (:class:`~petswarm_env.episode.Truth`, read-only); a policy reads only its observation.
 
 Runtime changes (docs/faults.md; none by default): ``faults`` break parts of robots and
 ``arrivals`` switch robots on mid-episode (:mod:`petswarm_env.runtime`); a dead slave is
 terminated, a slave that lost its master (no status broadcast for ``protocol.status_timeout_s``)
-stops and is terminated, an arrival that joins is a new agent (``possible_agents`` ends with the
-arrival robots).
+stops and is terminated, an arrival waits until it joins (``possible_agents`` ends with the arrival
+robots).
 
 Spaces: observation ``Box(low, high, (N,), float32)`` with values scaled to about [-1, 1] and each
 field's bounds in docs/observation.md (N = 83 with 8 ultrasonic sensors), action ``Box(-1, 1, (3,),
@@ -51,6 +58,7 @@ import gymnasium
 import numpy as np
 from pettingzoo import ParallelEnv
 
+from petswarm_env.config_yaml import dotted_keywords
 from petswarm_env.config import DRIVING_MODES, Config, ConfigError, arrival_slots, describe_value, flatten_dotted, load_config
 from petswarm_env.episode import INFO_DEFAULTS, OTHER_USER_ID, SWARM_PAN, WAKE_PATTERN, Episode, Setup  # noqa: F401 (re-exported)
 from petswarm_env.inputs import check_reset_options, checked_action
@@ -90,6 +98,7 @@ class PetSwarmEnv(ParallelEnv):
     }
 
     def __init__(self, config: Config | str | None = None, render_mode: str | None = None, **overrides: Any):
+        overrides = dotted_keywords(overrides)  # swarm__num_slaves=3 is swarm.num_slaves=3, as in parallel_env
         if isinstance(config, Config):
             cfg = load_config(overrides={**flatten_dotted(config.to_dict()), **overrides}) if overrides else config
         else:
@@ -126,6 +135,7 @@ class PetSwarmEnv(ParallelEnv):
         self.layout = ObservationLayout(cfg.robot.ultrasonic.count, self._limits, cfg.robot.ultrasonic.max_range_m)
         self._obs_space = gymnasium.spaces.Box(*observation_bounds(self.layout, cfg), dtype=np.float32)
         self._act_space = gymnasium.spaces.Box(-1.0, 1.0, (3,), np.float32)
+        self._zero = np.zeros(self._obs_space.shape, np.float32)  # a waiting agent's observation (module docstring)
         self.state_layout = StateLayout(cfg)
         self.state_space = gymnasium.spaces.Box(self.state_layout.low, self.state_layout.high, dtype=np.float32)
         self.setup = Setup(cfg, self._bodies, self._reach_m, self._arrival_slots, frozenset(self.possible_agents), self.layout,
@@ -163,7 +173,9 @@ class PetSwarmEnv(ParallelEnv):
         self.agents = []
         self.episode = Episode(self.setup, streams, self.radio_trace, seed=self._reset_seed)
         observations, infos = self.episode.start()
-        self.agents = list(self.episode.agents)
+        self.agents = self._present()
+        for a in self.agents[len(self.episode.agents):]:  # waiting to join (module docstring)
+            observations[a], infos[a] = self._zero.copy(), dict(INFO_DEFAULTS)
         if self.render_mode == "human":
             self.render()
         return observations, infos
@@ -173,11 +185,27 @@ class PetSwarmEnv(ParallelEnv):
             raise RuntimeError("call reset() before step()")
         if not self.agents:
             raise RuntimeError("the episode is over (no live agents); call reset()")
-        out = self.episode.advance(self._validate(actions))
-        self.agents = list(self.episode.agents)
+        acts = self._validate(actions)
+        ep = self.episode
+        waiting = self.agents[len(ep.agents):]  # present, not (yet) in slave-role driving: their actions are ignored
+        observations, rewards, terminations, truncations, infos = ep.advance({a: acts[a] for a in ep.agents})
+        truncated = ep.num_cycles >= self.cfg.max_cycles
+        for a in waiting:
+            if a not in rewards:  # still waiting (one that joined in this step has the episode's own entries)
+                observations[a], infos[a] = self._zero.copy(), dict(INFO_DEFAULTS)
+                rewards[a], terminations[a], truncations[a] = 0.0, False, truncated
+        self.agents = [] if truncated else self._present()
         if self.render_mode == "human":
             self.render()
-        return out
+        return observations, rewards, terminations, truncations, infos
+
+    def _present(self) -> list[str]:
+        """The agents after a reset or a step: the episode's agents in slave-role driving (in the
+        episode's order), then the possible agents waiting to join (in ``possible_agents`` order):
+        neither an agent now nor one that left (a terminated agent never comes back)."""
+        ep = self.episode
+        live = set(ep.agents)
+        return list(ep.agents) + [a for a in self.possible_agents if a not in live and a not in ep.left]
 
     def render(self, mode: str | None = None):
         """The current frame (``rgb_array``) or the window (``human``) of the env's ``render_mode``.
@@ -249,6 +277,12 @@ class PetSwarmEnv(ParallelEnv):
         return out
 
     # -- the episode's views ---------------------------------------------------------------------
+    @property
+    def active_agents(self) -> list[str]:
+        """The agents in slave-role driving (infos ``active`` 1): ``agents`` without those waiting
+        to join. What the experimenter's tools and a policy that skips padding act for."""
+        return list(self.episode.agents) if self.episode is not None and self.agents else []
+
     @property
     def truth(self):
         """The current episode's ground truth for the experimenter's tools (evaluation, metrics,

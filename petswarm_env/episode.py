@@ -19,7 +19,9 @@ robot the middleware recruits again later in the episode (a transient fault's en
 waiting and the master's scan may take it back; a second master change makes the master a slave
 again) is a member of its swarm that the env holds still (motors commanded to zero), an obstacle
 the agents drive around — it has no driver until the next episode. A robot that becomes a slave
-for the first time (the old master after a master change, an arrival) joins ``agents``.
+for the first time (the old master after a master change, an arrival) joins ``agents``. (The env
+puts the possible agents that have not joined yet in its own ``agents`` from reset on, waiting with
+a zero observation, so no adapter sees an agent appear: :mod:`petswarm_env.env`.)
 
 What a step returns: ``rewards``, ``terminations`` and ``truncations`` for every agent that acted
 in it and every agent that joined in it; ``observations`` and ``infos`` for the agents live after
@@ -69,9 +71,10 @@ WAKE_PATTERN = 0x5A00  # user u's belt and robot share the LF wake-up pattern WA
 # every agent's infos, at reset and at every step: flat, numeric, always these keys (the value of an
 # agent that has no such figure yet): its member number, its true formation error (m), the contacts it
 # began this step, 1 on the step it joined (the old master after a mode change), else 0, and how many of
-# the required slaves its swarm lacked when it organized (Swarm.slaves_missing)
+# the required slaves its swarm lacked when it organized (Swarm.slaves_missing); ``active`` is 1 for a robot in
+# slave-role driving, 0 for an agent of the env waiting to join (its observation is zeros: env.py)
 INFO_DEFAULTS: dict[str, float | int] = {"member": -1, "formation_error_m": 0.0, "new_contacts": 0, "joined": 0,
-                                         "slaves_missing": 0}
+                                         "slaves_missing": 0, "active": 0}
 
 StepResult = tuple[dict[str, np.ndarray], dict[str, float], dict[str, bool], dict[str, bool], dict[str, dict]]
 
@@ -353,7 +356,7 @@ class Episode:
         """One agent's infos (the keys of :data:`INFO_DEFAULTS`)."""
         node = self.fleet.nodes[self.agent_index[agent]]
         return {"member": node.know.member, "formation_error_m": error_m, "new_contacts": contacts, "joined": joined,
-                "slaves_missing": self.missing_by_pan.get(node.swarm_pan, 0)}
+                "slaves_missing": self.missing_by_pan.get(node.swarm_pan, 0), "active": 1}
 
     def _control(self, acts: dict[str, np.ndarray] | None) -> None:
         """One command per robot through its arbiter (seed 001): masters from their user session,

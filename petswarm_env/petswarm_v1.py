@@ -20,15 +20,14 @@ from pettingzoo.utils import wrappers
 from pettingzoo.utils.conversions import parallel_to_aec_wrapper
 
 from petswarm_env.config import Config
+from petswarm_env.config_yaml import dotted_keywords
 from petswarm_env.env import ENV_NAME, PetSwarmEnv
 from petswarm_env.vector import VectorEnv
 
 __all__ = ["ENV_NAME", "env", "parallel_env", "raw_env", "vector_env"]
 
 
-def _dotted(overrides: dict[str, Any]) -> dict[str, Any]:
-    """Keyword overrides: ``swarm__num_slaves=3`` means ``swarm.num_slaves = 3``."""
-    return {k.replace("__", "."): v for k, v in overrides.items()}
+_dotted = dotted_keywords  # swarm__num_slaves=3 means swarm.num_slaves = 3 (config_yaml.py)
 
 
 def parallel_env(config: Config | str | None = None, render_mode: str | None = None, **overrides: Any) -> PetSwarmEnv:

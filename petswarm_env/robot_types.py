@@ -59,7 +59,7 @@ class RobotTypeConfig(Section):
     wheel_slip_pct: float | None = Field(None, ge=0, lt=100, description="seed 003's w, % of the wheels' motion lost")
     sensors: list[SensorEntry] | None = Field(None, max_length=64)
     behaviours: list[str] | None = Field(None, max_length=64, description="behaviour modules besides MOVE (seed 001 §IV)")
-    battery_mah: float | None = Field(None, gt=0, le=1e6, description="battery capacity, mAh")
+    battery_mah: float | None = Field(None, ge=1, le=1e6, description="battery capacity, mAh (1 mAh runs a petbot some 5 s)")
     servo_ma: float | None = Field(None, ge=0, le=1e5, description="drive servos' current at full load, mA (seed 003 rate_servo)")
     actuator_ma: float | None = Field(None, ge=0, le=1e5, description="manipulator current while in use, mA (seed 003 rate_act)")
     sensing_ma: float | None = Field(None, ge=0, le=1e5, description="sensors' and electronics' current, always on, mA (seed 003 rate_sens)")

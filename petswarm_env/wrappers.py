@@ -1,14 +1,14 @@
 """Wrappers for MARL libraries that need a fixed set of agents.
 
-The env's agents follow the middleware (:mod:`petswarm_env.env`, the lifecycle of
-:mod:`petswarm_env.episode`): in a mode change with master change the farthest slave becomes the
-master (*terminated*) and the old master joins as a slave a few steps later; a dispersed swarm's
-slaves all leave; an arrival joins. The raw env passes PettingZoo's ``parallel_api_test`` and
-drives RLlib's ``ParallelPettingZooEnv`` with RLlib's own episode bookkeeping on every scenario
-(tests/env/test_lifecycle.py). Adapters that assume every possible agent is present from reset to
-the episode's end need :class:`FixedAgents`: SuperSuit's vector env, TorchRL's ``PettingZooWrapper``
-where an agent joins after reset (it reads every possible agent's observation at reset: a master
-change, an arrival; without one it takes the raw env with ``use_mask=True``) and BenchMARL over it.
+The env's agents (:mod:`petswarm_env.env`, the lifecycle of :mod:`petswarm_env.episode`): every
+possible agent is an agent from reset on (one not yet in slave-role driving waits with a zero
+observation, ``active`` 0), and agents leave with the middleware: in a mode change with master
+change the farthest slave becomes the master (*terminated*); a dispersed swarm's slaves all leave;
+a dead slave leaves. The raw env passes PettingZoo's ``parallel_api_test`` and drives RLlib's
+``ParallelPettingZooEnv`` (with RLlib's own episode bookkeeping) and TorchRL's ``PettingZooWrapper``
+with ``use_mask=True`` on every scenario and fault kind (tests/env/test_lifecycle.py). Adapters
+that assume every possible agent is present until the episode's end need :class:`FixedAgents`:
+SuperSuit's vector env, TorchRL's ``PettingZooWrapper`` without ``use_mask``, and BenchMARL over it.
 
 Do not use SuperSuit's ``black_death_v3`` instead: in SuperSuit 3.11 it ends an episode only when
 its agents are terminated *and* truncated, so an episode that ends by truncation (every petswarm
@@ -82,7 +82,8 @@ class FixedAgents(BaseParallelWrapper):
         out = {}
         for a in self.possible_agents:
             info = {**INFO_DEFAULTS, **infos[a]} if a in infos else dict(INFO_DEFAULTS)
-            info["active"] = int(a in obs)
+            # the robot's own observation: the env's "active" (a waiting agent's zeros are padding too)
+            info["active"] = int(a in obs and infos.get(a, {}).get("active", 1))
             out[a] = info
         return out
 

@@ -155,7 +155,10 @@ def load_train_config(path: str | os.PathLike | None = None, overrides: dict[str
     if path is not None:
         user = read_yaml(path)
         env_user, pools_user = user.pop("env", None), user.pop("randomize", None)
-        data = merge_mappings(data, user)
+        try:
+            data = merge_mappings(data, user)
+        except ConfigError as exc:
+            raise ConfigError(f"{exc} (in training config file '{path}')") from None
         if env_user is not None:
             data["env"] = {**data.get("env", {}), **env_user}
         if pools_user is not None:  # pool by pool, as env: key by key
@@ -172,7 +175,12 @@ def load_train_config(path: str | os.PathLike | None = None, overrides: dict[str
     try:
         cfg = TrainConfig.model_validate(data)
     except ValidationError as exc:
-        raise ConfigError(format_validation_error(exc)) from None
+        message = format_validation_error(exc)
+        loc = exc.errors()[0]["loc"]
+        if path is not None and loc and not any(key == ".".join(map(str, loc)) or key.startswith(f"{loc[0]}.")
+                                                for key in (overrides or {})):  # not from a --set: from the file
+            message += f" (in training config file '{path}')"
+        raise ConfigError(message) from None
     try:
         cfg.env_config()  # validates the env overrides (unknown key / bad value -> ConfigError)
     except ConfigError as exc:

@@ -96,6 +96,10 @@ CLI_CASES = [
     (["train", "--set", "ppo.gamma=2"], "ppo.gamma"),
     (["train", "--set", "env.swarm.num_slaves=true"], "swarm.num_slaves"),
     (["train", "--resume", "--out", "{dir}/no_run"], "no checkpoint"),
+    (["eval", "--scenarios", "", "--episodes", "1"], "names no scenario"),
+    (["eval", "--scenarios", " , ,", "--episodes", "1"], "names no scenario"),
+    (["eval", "--scenarios", "u_turn,straight,u_turn", "--episodes", "1"], "u_turn more than once"),
+    (["eval", "--mix", "robot_1=random", "--mix", "robot_1=scripted", "--episodes", "1"], "robot_1 twice"),
 ]
 
 
@@ -299,6 +303,7 @@ def test_bad_result_file_for_the_report(capsys, outputs, content, words):
     (["report", "{dir}", "--out", "{dir}/report.html"], "is a directory"),
     (["report", "{dir}/OUT.json", "--out", "{dir}"], "is a folder"),
     (["report", "{dir}/OUT.json", "--out", "{dir}/clips/report.html"], "is a file, not a folder"),
+    (["report", "{dir}/OUT.json", "{dir}/./OUT.json", "--out", "{dir}/report.html"], "is given twice"),
 ])
 def test_bad_report_paths(capsys, outputs, argv, words):
     before = _snapshot(outputs)
@@ -648,6 +653,9 @@ GRID_DAMAGE = [
     ("per_episode_rmse_null", _set(["candidate", "per_episode", 0, "formation_rmse_m"], None), "candidate.per_episode.0.formation_rmse_m"),
     ("episodes_mismatch", _set(["candidate", "episodes"], 7), "per_episode"),
     ("cell_a_string", None, "not a cell record"),
+    ("ratio_negative", _set(["ratio"], -0.5), "'ratio' input should not be negative"),
+    ("rmse_negative", _set(["reference", "formation_rmse_m"], -1.0), "'reference.formation_rmse_m' input should not be negative"),
+    ("episode_rmse_negative", _set(["candidate", "per_episode", 0, "formation_rmse_m"], -3.0), "candidate.per_episode.0.formation_rmse_m"),
 ]
 
 
@@ -711,7 +719,22 @@ def test_report_links_only_http_and_relative(outputs, eval_result, gif, capsys):
     (lambda d: d.update(kind="grid", cells=[{"candidate": {"collisions": -10**500}}]), "digits"),
     (lambda d: d.update(kind="grid", cells=["x"]), "cell 0 must be a JSON object"),
     (lambda d: d.update(kind="grid", cells=[{"reference": {"per_episode": "x"}}]), "per_episode"),
-], ids=["dev_zero", "a_folder", "replay_number", "gif_list", "huge_rmse", "float_1e308", "candidate_list", "huge_collisions", "cell_text", "per_episode_text"])
+    # figures of the wrong type or sign: refused field by field, not drawn as NaN
+    (lambda d: d["episodes"][0].__setitem__("formation_rmse_m", "0.4"), "'formation_rmse_m' must be a number"),
+    (lambda d: d["episodes"][0].__setitem__("formation_hold_rmse_m", -0.2), "'formation_hold_rmse_m' must not be negative"),
+    (lambda d: d["episodes"][0].__setitem__("building_time_s", False), "'building_time_s' must be a number"),
+    (lambda d: d["episodes"][0]["collisions"].__setitem__("robot_user", -3), "'collisions.robot_user' must not be negative"),
+    (lambda d: d["episodes"][0].__setitem__("seed", "one"), "'seed' must be a number"),
+    (lambda d: d["episodes"][0].__setitem__("scenario", 7), "'scenario' must be a scenario name"),
+    (lambda d: d["episodes"][0].__setitem__("error_trace", [0.1, "x"]), "'error_trace' holds 'x'"),
+    (lambda d: d["episodes"][0].__setitem__("error_trace", [0.0] * 1_000_001), "at most 1000000"),
+    (lambda d: d.update(policy={"name": "x"}), "'policy' must be text"),
+    (lambda d: d.update(config=[1]), "'config' must be a JSON object"),
+    (lambda d: d.update(kind="grid", cells={"a": 1}), "'cells' of a grid result must be a list"),
+    (lambda d: d.update(kind=["grid"]), "'kind' must be text"),
+], ids=["dev_zero", "a_folder", "replay_number", "gif_list", "huge_rmse", "float_1e308", "candidate_list", "huge_collisions", "cell_text",
+        "per_episode_text", "rmse_text", "hold_negative", "building_bool", "collisions_negative", "seed_text", "scenario_number",
+        "trace_text", "trace_too_long", "policy_object", "config_list", "cells_object", "kind_list"])
 def test_report_refuses_what_it_would_choke_on(capsys, outputs, eval_result, edit, words):
     data = json.loads(json.dumps(eval_result))
     edit(data)
@@ -785,6 +808,9 @@ def test_a_box_away_from_the_start_runs(capsys):
     (["run", "--set", "watch.accel_rate_hz=5e6"], "watch.accel_rate_hz"),
     (["run", "--set", "ir.num_receivers=100000"], "ir.num_receivers"),
     (["run", "--set", "max_cycles=900000"], "a day"),
+    (["run", "--set", "master.distance_m=0.3"], "master.distance_m"),  # inside the user's body: organize failed, blaming collisions
+    (["run", "--set", "lf.rssi_at_1m_db=20"], "lf.rssi_at_1m_db"),
+    (["run", "--set", "robot_types.petbot.battery_mah=1e-300"], "robot_types.petbot.battery_mah"),  # every robot dead at once
     (["run", "--set", "swarm.formation=custom", "--set", "swarm.num_slaves=2", "--set",
       "swarm.custom_links=[{robot: 1, neighbour: 2, offset_m: [-1, 0]}, {robot: 2, neighbour: 1, offset_m: [1, 0]}]"], "swarm.custom_links"),
 ], ids=lambda a: " ".join(a)[6:60] if isinstance(a, list) else None)
@@ -825,3 +851,35 @@ def test_a_gif_beyond_the_memory_budget_is_refused_before_the_episode(capsys, ou
     argv = [a.replace("{dir}", str(outputs)) for a in argv]
     _fails(capsys, [*argv, "--set", "render.size_px=[8192, 8192]", "--json", outputs / "OUT.json"], "GB budget")
     assert _snapshot(outputs) == before and not (outputs / "clips2").exists()
+
+
+def test_a_bad_value_in_a_training_config_file_names_the_file(capsys, outputs):
+    pytest.importorskip("stable_baselines3")
+    (outputs / "t.yaml").write_text("ppo:\n  gamma: 3\n")
+    line = _fails(capsys, ["train", "--config", outputs / "t.yaml", "--out", outputs / "run", "--timesteps", "64"], "ppo.gamma")
+    assert "t.yaml" in line
+    line = _fails(capsys, ["train", "--config", outputs / "t.yaml", "--set", "ppo.gamma=5", "--out", outputs / "run"], "ppo.gamma")
+    assert "t.yaml" not in line  # the --set's value, not the file's
+
+
+def test_keyword_overrides_in_both_forms_and_waiting_agents_actions():
+    import petswarm_env
+
+    with pytest.raises(ValueError, match="'swarm.num_slaves' is given twice"):
+        petswarm_env.parallel_env(**{"swarm.num_slaves": 2, "swarm__num_slaves": 3})
+    assert PetSwarmEnv(swarm__num_slaves=3).cfg.swarm.num_slaves == 3  # the class takes section__key as parallel_env does
+    env = petswarm_env.parallel_env(**{"user.scenario": "mode_change", "max_cycles": 5})
+    _, infos = env.reset(seed=0)
+    assert infos["robot_0"]["active"] == 0  # robot_0 waits (the master): its action is still checked, then ignored
+    with pytest.raises(ValueError, match="action of robot_0"):
+        env.step({"robot_0": [np.nan, 0.0, 0.0]})
+    env.step({"robot_0": np.ones(3, np.float32)})
+
+
+def test_the_report_checks_a_grid_results_cells_as_resume_does(capsys, outputs, grid_result):
+    data = json.loads((grid_result / "g.json").read_text())
+    data["cells"][0]["key"] = 12
+    (outputs / "bad.json").write_text(json.dumps(data))
+    before = _snapshot(outputs)
+    line = _fails(capsys, ["report", outputs / "bad.json", "--out", outputs / "report.html"], "field 'key'")
+    assert "bad.json" in line and "cell 0" in line and _snapshot(outputs) == before

@@ -1,7 +1,10 @@
-"""The agent lifecycle (petswarm_env/episode.py): an agent that is terminated never comes back
-under the same id in that episode, and the observations after a step hold only agents a caller
-may act for. PettingZoo's ``parallel_api_test`` runs on the raw env (no wrapper) on every shipped
-scenario with a transient fault of every kind, and the README's loop runs on each."""
+"""The agent lifecycle (petswarm_env/episode.py, env.py): every possible agent is an agent from
+reset — a robot not (yet) in slave-role driving waits with a zero observation and ``active`` 0 —
+an agent that is terminated never comes back under the same id in that episode, and the
+observations after a step hold only agents a caller may act for. On every shipped scenario × every
+fault kind, without wrappers: PettingZoo's ``parallel_api_test``, the README's loop, TorchRL's
+``PettingZooWrapper`` (``use_mask=True``, its setting for a varying agent set) and RLlib's
+``ParallelPettingZooEnv`` with RLlib's own episode bookkeeping."""
 
 import numpy as np
 import pytest
@@ -15,24 +18,83 @@ from petswarm_env.scenarios import SCENARIOS
 
 MAX_CYCLES = 80  # 8 s: a fault at 1 s for 3 s, the reboot and the master's scan take the robot back by then
 TRANSIENT = {"at_s": 1.0, "robot": "random_slave", "duration_s": 3.0}
+EARLIER = 5.0  # the matrix runs each scenario's own faults and arrivals this many times earlier (arrival 25 s -> 5 s)
 
 
-def _env(scenario: str, kind: str, max_cycles: int = MAX_CYCLES, **overrides):
-    """``scenario`` with its own faults and one transient ``kind`` fault on a random slave early on."""
-    faults = [dict(f) for f in SCENARIOS[scenario].faults] + [{**TRANSIENT, "kind": kind}]
-    return petswarm_env.parallel_env(**{"user.scenario": scenario, "faults": faults, "max_cycles": max_cycles, **overrides})
+def _env(scenario: str, kind: str, max_cycles: int = MAX_CYCLES, *, earlier: float = 1.0, **overrides):
+    """``scenario`` with its own faults (and arrivals), times divided by ``earlier``, and one
+    transient ``kind`` fault on a random slave early on."""
+    sc = SCENARIOS[scenario]
+    faults = [{**f, "at_s": f["at_s"] / earlier} for f in sc.faults] + [{**TRANSIENT, "kind": kind}]
+    arrivals = [{**a, "at_s": a["at_s"] / earlier} for a in sc.arrivals]
+    return petswarm_env.parallel_env(**{"user.scenario": scenario, "faults": faults, "arrivals": arrivals,
+                                        "max_cycles": max_cycles, **overrides})
+
+
+def _matrix_cycles(scenario: str) -> int:
+    return 200 if SCENARIOS[scenario].changes_master else MAX_CYCLES  # mode_change hands over at ~17 s
+
+
+def _torchrl_rollout(raw, steps: int):
+    """TorchRL's stock ``PettingZooWrapper`` straight around the env (no FixedAgents), through an
+    auto-reset; every waiting agent's row is zeros and the agents' rows are masked as env.agents."""
+    import torch
+    from torchrl.envs import PettingZooWrapper
+
+    env = PettingZooWrapper(env=raw, use_mask=True, done_on_any=False, return_state=True)
+    scripted = make_policy("scripted", PolicySpec.from_env(raw))
+
+    def policy(td):  # the scripted slave on every row (a waiting agent's action is ignored by the env)
+        obs = td["robot", "observation"].numpy()
+        acts = [scripted.act(a, obs[i]) for i, a in enumerate(env.group_map["robot"])]
+        td["robot", "action"] = torch.as_tensor(np.stack(acts))
+        return td
+
+    td = env.rollout(steps, policy=policy, break_when_any_done=False)
+    obs, active = td["next", "robot", "observation"], td["next", "robot", "info", "active"].bool()
+    assert not obs[~active].any() and obs[active].abs().sum(-1).gt(0).all()
+    assert int(td["next", "done"].sum()) >= 1 and td["robot", "mask"][0].all()
+    return td
+
+
+def _rllib_episode(raw, policy):
+    """RLlib's ParallelPettingZooEnv straight around the env, its steps fed to RLlib's own
+    MultiAgentEpisode (what its env runners do): agents that join, leave or are truncated."""
+    from ray.rllib.env.multi_agent_episode import MultiAgentEpisode
+    from ray.rllib.env.wrappers.pettingzoo_env import ParallelPettingZooEnv
+
+    env = ParallelPettingZooEnv(raw)
+    obs, infos = env.reset(seed=0)
+    episode = MultiAgentEpisode()
+    episode.add_env_reset(observations=obs, infos=infos)
+    done = False
+    while not done:
+        actions = policy.act_all(obs)
+        obs, rewards, terms, truncs, infos = env.step(actions)
+        episode.add_env_step(observations=obs, actions=actions, rewards=rewards, infos=infos, terminateds=terms, truncateds=truncs)
+        done = terms["__all__"] or truncs["__all__"]
+    assert episode.is_done
+    return episode
 
 
 @pytest.mark.parametrize("kind", FAULT_KINDS)
 @pytest.mark.parametrize("scenario", sorted(SCENARIOS))
-def test_parallel_api_test_and_the_readme_loop_pass_without_wrappers(scenario, kind):
-    env = _env(scenario, kind)
-    parallel_api_test(env, num_cycles=MAX_CYCLES)
-    observations, _ = env.reset(seed=1)  # the README's loop (README.md, "Using the environment")
+def test_every_adapter_takes_the_raw_env_on_every_scenario_and_fault_kind(scenario, kind):
+    pytest.importorskip("torchrl")
+    pytest.importorskip("ray")
+    cycles = _matrix_cycles(scenario)
+    env = _env(scenario, kind, cycles, earlier=EARLIER)
+    parallel_api_test(env, num_cycles=cycles)
+    observations, _ = env.reset(seed=1)  # the README's loop (README.md, "Python quickstart")
+    assert set(env.agents) == set(env.possible_agents)  # every possible agent from reset on
     policy = make_policy("scripted", PolicySpec.from_env(env))
     while env.agents:
         observations, rewards, terminations, truncations, infos = env.step(policy.act_all(observations))
-    assert env.episode_summary()["faults_injected"] >= 1
+    summary = env.episode_summary()
+    assert summary["faults_injected"] >= 1 + len(SCENARIOS[scenario].faults)
+    assert summary["arrivals_joined"] == len(SCENARIOS[scenario].arrivals)  # the arrival joined: a waiting agent became active
+    _torchrl_rollout(env, cycles + 10)
+    _rllib_episode(env, policy)
 
 
 def _run(env, seed=0):
@@ -82,38 +144,26 @@ def test_terminated_agents_get_reward_and_termination_but_no_observation():
 
 @pytest.mark.parametrize("scenario, kind", [("mode_change", None), ("dropout", "dead")])
 def test_rllibs_parallel_pettingzoo_env_and_its_episode_bookkeeping_take_the_raw_env(scenario, kind):
-    """RLlib's ParallelPettingZooEnv straight around the env, its steps fed to RLlib's own
-    MultiAgentEpisode (what its env runners do): agents that join, leave or are truncated."""
+    """At the scenarios' own times: mode_change's old master and dropout's arrival wait from reset
+    and join mid-episode; one slave leaves."""
     pytest.importorskip("ray")
-    from ray.rllib.env.multi_agent_episode import MultiAgentEpisode
-    from ray.rllib.env.wrappers.pettingzoo_env import ParallelPettingZooEnv
-
     raw = _env(scenario, kind, max_cycles=400) if kind else petswarm_env.parallel_env(**{"user.scenario": scenario, "max_cycles": 400})
-    env = ParallelPettingZooEnv(raw)
-    policy = make_policy("scripted", PolicySpec.from_env(raw))
-    obs, infos = env.reset(seed=0)
-    episode = MultiAgentEpisode()
-    episode.add_env_reset(observations=obs, infos=infos)
-    done = False
-    while not done:
-        actions = policy.act_all(obs)
-        obs, rewards, terms, truncs, infos = env.step(actions)
-        episode.add_env_step(observations=obs, actions=actions, rewards=rewards, infos=infos, terminateds=terms, truncateds=truncs)
-        done = terms["__all__"] or truncs["__all__"]
-    assert episode.is_done and len(episode.agent_episodes) == 5  # mode_change: robot_0 joins; dropout: the arrival robot_5
+    episode = _rllib_episode(raw, make_policy("scripted", PolicySpec.from_env(raw)))
+    assert len(episode.agent_episodes) == 5  # mode_change: robot_0 waits, then joins; dropout: the arrival robot_5
 
 
-def test_torchrls_pettingzoo_wrapper_takes_the_raw_env_when_every_agent_is_there_at_reset():
-    """TorchRL's PettingZooWrapper (use_mask=True) reads every possible agent's observation at reset:
-    it takes the raw env where no agent joins later (no master change, no arrival), through
-    transient faults and auto-resets; elsewhere FixedAgents (petswarm_env/wrappers.py)."""
+def test_torchrls_pettingzoo_wrapper_sees_the_waiting_agent_join():
+    """mode_change: robot_0 (the master at reset) is a waiting agent (zeros, active 0, its actions
+    ignored) until the master change makes it a slave; the slave that became the master is masked
+    out from then on and never comes back."""
     pytest.importorskip("torchrl")
-    from torchrl.envs import PettingZooWrapper
-
-    env = PettingZooWrapper(env=_env("straight", "dead", max_cycles=150), use_mask=True, done_on_any=False, return_state=True)
-    td = env.rollout(320, break_when_any_done=False)
-    mask = td["robot", "mask"].sum(-1)
-    assert int(mask.max()) == 4 and int(mask.min()) == 3 and int(td["next", "done"].sum()) == 2
+    raw = petswarm_env.parallel_env(**{"user.scenario": "mode_change", "max_cycles": 250})
+    td = _torchrl_rollout(raw, 250)
+    row = raw.possible_agents.index("robot_0")
+    active, mask = td["next", "robot", "info", "active"].bool(), td["next", "robot", "mask"]
+    joined = int(active[:, row].float().argmax())
+    assert 100 < joined < 249 and not active[:joined, row].any() and active[joined:-1, row].all()
+    assert int(mask[-2].sum()) == len(raw.possible_agents) - 1  # the new master left the agents
 
 
 def test_the_benchs_loop_acts_only_for_live_agents_past_a_slave_leaving():

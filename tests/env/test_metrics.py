@@ -149,7 +149,7 @@ def _errors_by_step(env, pol, seed):
     pol.reset(seed)
     out = []
     while env.agents:
-        acting = list(env.agents)  # the step's slaves (a recruit joining in this step gets its first infos, no error yet)
+        acting = env.active_agents  # the step's slaves (a recruit joining in this step gets its first infos, no error yet)
         obs, _, _, _, infos = env.step(pol.act_all({a: obs[a] for a in acting}))
         with_ref = env.episode.experimenter.formation_errors(acting)[0]
         errs = [infos[a]["formation_error_m"] for a in acting if a in infos and a in with_ref]

@@ -25,14 +25,15 @@ def test_each_copy_is_the_parallel_env_with_the_same_seed_across_auto_resets(ove
     seeds = [i["episode_seed"] for i in infos]
     assert len(set(seeds)) == num_envs and list(venv.episode_seeds) == seeds
     refs = [petswarm_env.parallel_env(**overrides) for _ in range(num_envs)]
-    ref_obs = [r.reset(seed=s)[0] for r, s in zip(refs, seeds)]
+    ref_obs, ref_infos = map(list, zip(*(r.reset(seed=s) for r, s in zip(refs, seeds))))
     policy = make_policy("scripted", PolicySpec.from_env(refs[0]))
     rng = np.random.default_rng(0)
     restarts = 0
     for _ in range(overrides["max_cycles"] + 5):  # past every copy's first truncation: one auto-reset each
         for n in range(num_envs):
             np.testing.assert_array_equal(obs[n], _slots(venv, ref_obs[n]))
-            assert venv.active[n].tolist() == [a in refs[n].agents for a in venv.possible_agents]
+            # a slot is active while its robot is in slave-role driving: the env's agents with "active" 1
+            assert venv.active[n].tolist() == [a in refs[n].agents and ref_infos[n][a]["active"] == 1 for a in venv.possible_agents]
         actions = rng.uniform(-1.2, 1.2, (num_envs, venv.max_agents, 3)).astype(np.float32)  # out of range: clipped alike
         scripted = [policy.act_all(o) for o in ref_obs]
         for n in range(num_envs):
@@ -40,16 +41,20 @@ def test_each_copy_is_the_parallel_env_with_the_same_seed_across_auto_resets(ove
                 actions[n, venv.possible_agents.index(a)] = act
         obs, rewards, terminated, truncated, infos = venv.step(actions)
         for n, ref in enumerate(refs):
-            o, r, term, trunc, _ = ref.step({a: actions[n, venv.possible_agents.index(a)] for a in ref.agents})
+            waiting = {a for a in ref.agents if not ref_infos[n][a]["active"]}  # the env's agents waiting to join
+            o, r, term, trunc, i = ref.step({a: actions[n, venv.possible_agents.index(a)] for a in ref.agents})
             for a in r:
+                if a in waiting and not i[a]["joined"]:
+                    assert (r[a], term[a]) == (0.0, False)
+                    continue
                 j = venv.possible_agents.index(a)
                 assert (rewards[n, j], terminated[n, j], truncated[n, j]) == (np.float32(r[a]), term[a], trunc[a])
             if not ref.agents:  # the copy started its next episode; the reference does what it did
                 restarts += 1
                 np.testing.assert_array_equal(infos[n]["final_observation"], _slots(venv, o))
                 assert infos[n]["episode_summary"] == ref.episode_summary()
-                o, _ = ref.reset(seed=infos[n]["episode_seed"])
-            ref_obs[n] = o
+                o, i = ref.reset(seed=infos[n]["episode_seed"])
+            ref_obs[n], ref_infos[n] = o, i
     assert restarts == num_envs
     assert venv.state().shape == (num_envs, venv.state_dim)
     np.testing.assert_array_equal(venv.state()[0], refs[0].state())

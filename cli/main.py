@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import argparse
 import logging
+import os
 import sys
 import warnings
 
@@ -437,12 +438,29 @@ def _warn_in_one_line(message, category, filename, lineno, file=None, line=None)
     logging.getLogger("petswarm.warnings").warning(str(message))
 
 
+# RLlib orders a step's agents through sets of agent ids, so with Python's per-process string hash
+# (PYTHONHASHSEED unset) two runs of one seed sample and update in different orders and diverge
+# (docs/training.md, "Deterministic runs"); a fixed hash makes them bit-identical.
+RLLIB_HASH_SEED = "0"
+
+
+def _restart_with_fixed_hash(args) -> None:
+    """``petswarm train --backend rllib`` run as a program without PYTHONHASHSEED: this process is
+    replaced by the same command with PYTHONHASHSEED=0 (its Ray workers inherit it)."""
+    if args.command == "train" and args.backend == "rllib" and "PYTHONHASHSEED" not in os.environ:
+        os.execve(sys.executable, sys.orig_argv, {**os.environ, "PYTHONHASHSEED": RLLIB_HASH_SEED})
+
+
 def main(argv: list[str] | None = None) -> int:
     """Parse, dispatch, and turn every error a user can cause into one line on stderr with exit
     status 2; Ctrl-C exits 130, SIGTERM/SIGHUP 128 + the signal (after every temporary file is
-    removed: :func:`petswarm_env.files.exit_cleanly_on_signals`)."""
+    removed: :func:`petswarm_env.files.exit_cleanly_on_signals`). Run as a program (``argv`` from
+    the command line), an RLlib training restarts itself with a fixed string hash first."""
+    own_command_line = argv is None
     argv = sys.argv[1:] if argv is None else argv
     args = build_parser().parse_args(argv)
+    if own_command_line:
+        _restart_with_fixed_hash(args)
     configure_logging(args.log_level)
     try:
         with exit_cleanly_on_signals(), warnings.catch_warnings():

@@ -325,6 +325,8 @@ def summarize(data: dict[str, Any]) -> dict[str, Any]:
                 "training_seeds": [r["training_seed"] for r in runs if r["training_seed"] is not None],
                 "rmse_iqm": task_aggregates(np.array([_scores(r, "formation_rmse_m") for r in runs]), ref)["iqm"],
                 "built": sum(1 for e in eps if isinstance(e.get("building_time_s"), (int, float)) and math.isfinite(e["building_time_s"])),
+                "refilled": sum(1 for e in eps if isinstance(e.get("refill_settle_rmse_m"), (int, float))
+                                and math.isfinite(e["refill_settle_rmse_m"])),  # a dead slave's place refilled
                 "collisions_per_episode": sum(sum(e["collisions"].values()) for e in eps) / len(eps),
                 "wall_time_s": float(np.mean([r["wall_time_s"] for r in runs])),
                 "agent_steps": int(np.mean([r["agent_steps"] for r in runs])),
@@ -385,7 +387,12 @@ def markdown(data: dict[str, Any], summary: dict[str, Any], plot_name: str | Non
     header = (f"| algorithm | runs × episodes | IQM {metric} (m) [95 % CI] | P(impr. over scripted) [95 % CI] | "
               "IQM whole-episode RMSE (m) | built | collisions / episode | training wall time (s) | agent-steps / run |")
     for task, rows in summary["tasks"].items():
-        lines += [f"## {task}", "", f"Env overrides: `{json.dumps(cfg['tasks'][task])}`", "", header, "|---|---|---|---|---|---|---|---|---|"]
+        lines += [f"## {task}", "", f"Env overrides: `{json.dumps(cfg['tasks'][task])}`", ""]
+        done = [(n, r) for n, r in rows.items() if r["status"] == "done"]
+        if cfg["tasks"][task].get("faults") and done:  # whether a recruit took the dead robot's slot (petswarm_env/metrics.py)
+            lines += ["Episodes in which a dead slave's place was refilled: "
+                      + ", ".join(f"{n} {r['refilled']}/{r['episodes']}" for n, r in done) + ".", ""]
+        lines += [header, "|---|---|---|---|---|---|---|---|---|"]
         for name, r in rows.items():
             if r["status"] != "done":
                 lines.append(f"| {name} | not run: {r['reason']} | | | | | | | |")

@@ -290,40 +290,50 @@ def _scores(run: dict[str, Any], metric: str) -> list[float]:
     return list(worst_for_missing(e.get(metric) for e in run["episodes"]))
 
 
+def _metrics(primary: str) -> list[str]:
+    """The scores summarized: the config's metric first, then the other of :data:`SCORES`."""
+    return [primary, *(m for m in SCORES if m != primary)]
+
+
 def summarize(data: dict[str, Any]) -> dict[str, Any]:
-    """Per task and algorithm, over its runs (training seeds) and their held-out episodes: the
-    interquartile mean of the score with its 95 % bootstrap interval, the probability of improvement
-    over the scripted reference with its interval, the whole-episode RMSE's IQM, the share of
-    episodes that built their formation, collisions per episode, the mean training wall time and
-    agent-steps per run; and over all tasks, each score divided by the reference's IQM on its task,
-    the IQM and probability of improvement with 95 % intervals stratified over tasks."""
+    """Per task and algorithm, over its runs (training seeds) and their held-out episodes, for each
+    score of :data:`SCORES` (``by_metric``; the config's metric also at the top level): the
+    interquartile mean with its 95 % bootstrap interval and the probability of improvement over the
+    scripted reference with its interval; the episodes that built their formation, collisions per
+    episode, the mean training wall time and agent-steps per run. Over all tasks (``overall``, per
+    score): each score divided by the reference's IQM on its task, the IQM and probability of
+    improvement with 95 % intervals stratified over tasks."""
     import numpy as np
 
-    from petswarm.evaluation.stats import stratified_aggregates, task_aggregates
+    from petswarm.evaluation.stats import task_aggregates
 
     cfg = data["config"]
-    metric = cfg["metric"]
+    metrics = _metrics(cfg["metric"])
     by: dict[tuple[str, str], list[dict[str, Any]]] = {}
     for run in data["runs"].values():
         by.setdefault((run["task"], run["algorithm"]), []).append(run)
     rows: dict[str, dict[str, Any]] = {}
-    normalized: dict[str, list[tuple[Any, Any]]] = {}
+    normalized: dict[str, dict[str, list[tuple[Any, Any]]]] = {m: {} for m in metrics}
     for task in cfg["tasks"]:
         ref_runs = by.get((task, REFERENCE), [])
-        ref = np.array([_scores(r, metric) for r in ref_runs]) if ref_runs else None
         rows[task] = {}
         for name in cfg["algorithms"]:
             runs = sorted(by.get((task, name), []), key=lambda r: -1 if r["training_seed"] is None else r["training_seed"])
-            if not runs or ref is None:
+            if not runs or not ref_runs:
                 rows[task][name] = {"status": "not run", "reason": data.get("not_run", {}).get(name, "no finished run")}
                 continue
-            cand = np.array([_scores(r, metric) for r in runs])
-            row = task_aggregates(cand, ref)
+            row: dict[str, Any] = {"by_metric": {}}
+            for m in metrics:
+                cand, ref = (np.array([_scores(r, m) for r in rr]) for rr in (runs, ref_runs))
+                row["by_metric"][m] = task_aggregates(cand, ref)
+                ref_iqm = task_aggregates(ref, ref, reps=1)["iqm"]  # the reference's IQM on this task
+                if math.isfinite(ref_iqm) and ref_iqm > 0:
+                    normalized[m].setdefault(name, []).append((cand / ref_iqm, ref / ref_iqm))
             eps = [e for r in runs for e in r["episodes"]]
+            row.update(row["by_metric"][metrics[0]])
             row.update({
                 "status": "done",
                 "training_seeds": [r["training_seed"] for r in runs if r["training_seed"] is not None],
-                "rmse_iqm": task_aggregates(np.array([_scores(r, "formation_rmse_m") for r in runs]), ref)["iqm"],
                 "built": sum(1 for e in eps if isinstance(e.get("building_time_s"), (int, float)) and math.isfinite(e["building_time_s"])),
                 "refilled": sum(1 for e in eps if isinstance(e.get("refill_settle_rmse_m"), (int, float))
                                 and math.isfinite(e["refill_settle_rmse_m"])),  # a dead slave's place refilled
@@ -332,18 +342,24 @@ def summarize(data: dict[str, Any]) -> dict[str, Any]:
                 "agent_steps": int(np.mean([r["agent_steps"] for r in runs])),
             })
             rows[task][name] = row
-            ref_iqm = rows[task].get(REFERENCE, {}).get("iqm", math.nan)
-            if math.isfinite(ref_iqm) and ref_iqm > 0:
-                normalized.setdefault(name, []).append((cand / ref_iqm, ref / ref_iqm))
-    overall = {}
+    overall = {m: _overall(normalized[m], rows, cfg) for m in metrics}
+    return {"metric": metrics[0], "metrics": metrics, "tasks": rows, "overall": overall}
+
+
+def _overall(normalized: dict[str, list[tuple[Any, Any]]], rows: dict[str, Any], cfg: dict[str, Any]) -> dict[str, Any]:
+    """Each algorithm's pooled figures over every task (stratified), or why there are none."""
+    from petswarm.evaluation.stats import stratified_aggregates
+
+    out = {}
     for name in cfg["algorithms"]:
         if len(normalized.get(name, [])) == len(cfg["tasks"]):
-            overall[name] = {**stratified_aggregates(normalized[name]), "status": "done"}
+            out[name] = {**stratified_aggregates(normalized[name]), "status": "done"}
         elif all(rows[t][name]["status"] != "done" for t in rows):
-            overall[name] = {"status": "not run"}
-        else:  # a task without this row, or whose reference IQM is not a positive number to divide by
-            overall[name] = {"status": f"not on every task ({len(normalized.get(name, []))} of {len(cfg['tasks'])} normalized)"}
-    return {"metric": metric, "tasks": rows, "overall": overall}
+            out[name] = {"status": "not run"}
+        else:  # a task without this row, or whose reference IQM is not a positive number to divide by (+inf: not built)
+            out[name] = {"status": f"not pooled: {len(normalized.get(name, []))} of {len(cfg['tasks'])} tasks (the others lack "
+                                   "this row or a finite scripted IQM)"}
+    return out
 
 
 def _ci(point: float, ci: list[float], digits: int) -> str:
@@ -360,8 +376,10 @@ def markdown(data: dict[str, Any], summary: dict[str, Any], plot_name: str | Non
              f"Made by `{data.get('command') or 'petswarm benchmark'}`. Each trained algorithm is trained on each task "
              f"from {len(cfg['training_seeds'])} training seeds ({', '.join(map(str, cfg['training_seeds']))}); every policy "
              f"then drives every slave on the same {cfg['episodes']} held-out seeds ({cfg['seed']} … "
-             f"{cfg['seed'] + cfg['episodes'] - 1}, never seen in training), {metric} per episode, lower is better. "
-             "An episode whose formation never built scores +∞ (the worst), never dropped.", "",
+             f"{cfg['seed'] + cfg['episodes'] - 1}, never seen in training). Two scores per episode, lower is better: "
+             "`formation_hold_rmse_m`, the formation RMSE from the moment the formation is built (an episode whose "
+             "formation never built scores +∞, the worst, never dropped), and `formation_rmse_m`, the whole episode's "
+             f"(building from the scattered start included). The first named ({metric}) is the config's metric.", "",
              "Statistics after rliable (Agarwal et al. 2021), computed with numpy and scipy in evaluation/stats.py "
              "(rliable 1.2 pins arch < 8, which does not import beside pandas 3): **IQM**, the interquartile mean over "
              "all runs' episodes; its **95 % CI**, a percentile bootstrap drawing the training runs, then each drawn "
@@ -384,69 +402,88 @@ def markdown(data: dict[str, Any], summary: dict[str, Any], plot_name: str | Non
               "it can reach.", ""]
     if plot_name:
         lines += [f"![IQM with 95 % CIs per task]({plot_name})", ""]
-    header = (f"| algorithm | runs × episodes | IQM {metric} (m) [95 % CI] | P(impr. over scripted) [95 % CI] | "
-              "IQM whole-episode RMSE (m) | built | collisions / episode | training wall time (s) | agent-steps / run |")
+    short = {"formation_hold_rmse_m": "hold RMSE", "formation_rmse_m": "whole-episode RMSE"}
+    ms = summary["metrics"]
+    header = ("| algorithm | runs × episodes | " + " | ".join(f"IQM {short[m]} (m) [95 % CI] | P(impr.) {short[m]} [95 % CI]"
+                                                            for m in ms)
+              + " | built | collisions / episode | training wall time (s) | agent-steps / run |")
+    rule = "|---" * (6 + 2 * len(ms)) + "|"
     for task, rows in summary["tasks"].items():
         lines += [f"## {task}", "", f"Env overrides: `{json.dumps(cfg['tasks'][task])}`", ""]
         done = [(n, r) for n, r in rows.items() if r["status"] == "done"]
-        if cfg["tasks"][task].get("faults") and done:  # whether a recruit took the dead robot's slot (petswarm_env/metrics.py)
+        if any(r["refilled"] for _, r in done) or cfg["tasks"][task].get("faults"):  # a recruit took a dead robot's slot (petswarm_env/metrics.py)
             lines += ["Episodes in which a dead slave's place was refilled: "
                       + ", ".join(f"{n} {r['refilled']}/{r['episodes']}" for n, r in done) + ".", ""]
-        lines += [header, "|---|---|---|---|---|---|---|---|---|"]
+        lines += [header, rule]
         for name, r in rows.items():
             if r["status"] != "done":
-                lines.append(f"| {name} | not run: {r['reason']} | | | | | | | |")
+                lines.append(f"| {name} | not run: {r['reason']} |" + " |" * (4 + 2 * len(ms)))
                 continue
-            p = "—" if name == REFERENCE else _ci(r["p_improvement"], r["p_improvement_ci95"], 2)
-            lines.append(f"| {name} | {r['runs']} × {r['episodes'] // r['runs']} | {_ci(r['iqm'], r['iqm_ci95'], 3)} | {p} | "
-                         f"{r['rmse_iqm']:.3f} | {r['built']}/{r['episodes']} | {r['collisions_per_episode']:.2f} | "
-                         f"{r['wall_time_s']:.0f} | {r['agent_steps']} |")
+            cells = []
+            for m in ms:
+                a = r["by_metric"][m]
+                cells += [_ci(a["iqm"], a["iqm_ci95"], 3), "—" if name == REFERENCE else _ci(a["p_improvement"], a["p_improvement_ci95"], 2)]
+            lines.append(f"| {name} | {r['runs']} × {r['episodes'] // r['runs']} | " + " | ".join(cells)
+                         + f" | {r['built']}/{r['episodes']} | {r['collisions_per_episode']:.2f} | {r['wall_time_s']:.0f} | "
+                         f"{r['agent_steps']} |")
         lines.append("")
-    lines += ["## All tasks", "", f"Each score divided by the scripted reference's IQM on its task (1 = the reference).", "",
-              "| algorithm | normalized IQM [95 % CI] | mean P(impr. over scripted) [95 % CI] |", "|---|---|---|"]
-    for name, r in summary["overall"].items():
-        if r["status"] != "done":
-            lines.append(f"| {name} | {r['status']} | |")
-            continue
-        p = "—" if name == REFERENCE else _ci(r["p_improvement"], r["p_improvement_ci95"], 2)
-        lines.append(f"| {name} | {_ci(r['iqm'], r['iqm_ci95'], 2)} | {p} |")
+    lines += ["## All tasks", "", "Each score divided by the scripted reference's IQM on its task (1 = the reference); "
+              "a score whose scripted IQM is +∞ on some task (half its episodes never built) cannot be pooled.", "",
+              "| algorithm | " + " | ".join(f"normalized IQM {short[m]} [95 % CI] | mean P(impr.) {short[m]} [95 % CI]" for m in ms)
+              + " |", "|---" * (1 + 2 * len(ms)) + "|"]
+    for name in cfg["algorithms"]:
+        cells = []
+        for m in ms:
+            r = summary["overall"][m][name]
+            if r["status"] != "done":
+                cells += [r["status"], ""]
+                continue
+            cells += [_ci(r["iqm"], r["iqm_ci95"], 2), "—" if name == REFERENCE else _ci(r["p_improvement"], r["p_improvement_ci95"], 2)]
+        lines.append(f"| {name} | " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
 
 
 def write_plot(summary: dict[str, Any], path: str | Path) -> None:
-    """One panel per task and one for all tasks: each row's IQM with its 95 % interval (rliable's
-    interval-estimate plot); an interval reaching +∞ is drawn to the panel's edge."""
+    """One row of panels per score, one panel per task and one for all tasks: each algorithm's IQM
+    with its 95 % interval (rliable's interval-estimate plot); an interval reaching +∞ is drawn to
+    the panel's edge and marked."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    panels = [(task, rows, "m") for task, rows in summary["tasks"].items()] + [("all tasks (÷ scripted)", summary["overall"], "")]
-    fig, axes = plt.subplots(1, len(panels), figsize=(3.2 * len(panels), 0.5 * max(len(r) for _, r, _ in panels) + 1.6), sharey=True)
+    ms, tasks = summary["metrics"], list(summary["tasks"])
     names = list(next(iter(summary["tasks"].values())))
-    for ax, (title, rows, unit) in zip(axes, panels):
-        finite = [v for r in rows.values() if r.get("status") == "done" for v in (r["iqm"], *r["iqm_ci95"]) if math.isfinite(v)]
-        edge = max(finite) * 1.15 if finite else 1.0
-        for y, name in enumerate(names):
-            r = rows.get(name, {})
-            if r.get("status") != "done":
-                ax.text(0.02 * edge, y, "not run", va="center", fontsize=8, color="grey")
-                continue
-            lo, hi = (min(v, edge) for v in r["iqm_ci95"])
-            ax.barh(y, hi - lo, left=lo, height=0.6, alpha=0.35, color=f"C{y}")
-            ax.plot([min(r["iqm"], edge)] * 2, [y - 0.3, y + 0.3], color=f"C{y}", lw=2)
-            if not math.isfinite(r["iqm_ci95"][1]):
-                ax.text(edge, y, "→∞ ", va="center", ha="right", fontsize=8)
-        ax.set_title(title, fontsize=9)
-        ax.set_xlim(0, edge)
-        ax.set_xlabel(f"IQM {summary['metric']}" + (f" ({unit})" if unit else ""), fontsize=8)
-        ax.grid(axis="x", alpha=0.3)
-    axes[0].set_yticks(range(len(names)), names)
-    axes[0].invert_yaxis()
+    fig, axes = plt.subplots(len(ms), len(tasks) + 1, figsize=(2.9 * (len(tasks) + 1), (0.45 * len(names) + 1.4) * len(ms)),
+                             sharey=True, squeeze=False)
+    for i, m in enumerate(ms):
+        panels = [(t, {n: (r["by_metric"][m] if r["status"] == "done" else None) for n, r in summary["tasks"][t].items()}, "m")
+                  for t in tasks]
+        panels.append(("all tasks (÷ scripted)", {n: (r if r["status"] == "done" else None) for n, r in summary["overall"][m].items()}, ""))
+        for ax, (title, rows, unit) in zip(axes[i], panels):
+            finite = [v for r in rows.values() if r for v in (r["iqm"], *r["iqm_ci95"]) if math.isfinite(v)]
+            edge = max(finite) * 1.15 if finite else 1.0
+            for y, name in enumerate(names):
+                r = rows.get(name)
+                if r is None:
+                    ax.text(0.02 * edge, y, "not run / not pooled", va="center", fontsize=7, color="grey")
+                    continue
+                lo, hi = (min(v, edge) for v in r["iqm_ci95"])
+                ax.barh(y, hi - lo, left=lo, height=0.6, alpha=0.35, color=f"C{y}")
+                ax.plot([min(r["iqm"], edge)] * 2, [y - 0.3, y + 0.3], color=f"C{y}", lw=2)
+                if not math.isfinite(r["iqm_ci95"][1]):
+                    ax.text(edge, y, "→∞ ", va="center", ha="right", fontsize=8)
+            ax.set_title(title, fontsize=9)
+            ax.set_xlim(0, edge)
+            ax.set_ylim(len(names) - 0.4, -0.6)  # the first algorithm on top
+            ax.set_xlabel(f"IQM {m}" + (f" ({unit})" if unit else ""), fontsize=7)
+            ax.tick_params(labelsize=7)
+            ax.grid(axis="x", alpha=0.3)
+        axes[i][0].set_yticks(range(len(names)), names)
     fig.tight_layout()
 
     def save(tmp: str) -> None:
-        fig.savefig(tmp, format="png", dpi=110)
+        fig.savefig(tmp, format="png", dpi=100)
 
     from petswarm_env.files import write_atomic
 

@@ -53,6 +53,9 @@ def test_every_seed_of_every_algorithm_is_trained_and_evaluated_on_the_held_out_
     assert "recurrent" in data["not_run"]
     row = data["summary"]["tasks"]["wedge_following"]["ippo"]
     assert row["runs"] == 3 and row["episodes"] == 6 and 0 <= row["p_improvement"] <= 1
+    assert set(row["by_metric"]) == {"formation_hold_rmse_m", "formation_rmse_m"}  # both scores, each with its interval
+    whole = row["by_metric"]["formation_rmse_m"]
+    assert whole["iqm_ci95"][0] <= whole["iqm"] <= whole["iqm_ci95"][1]
 
 
 def test_the_page_has_a_row_per_algorithm_with_cis_and_the_plot(tiny):

@@ -10,6 +10,8 @@
     petswarm eval   --grid configs/eval/grid.yaml [--policy PATH] [--episodes N] [--seed S] [--json OUT] [--resume]
     petswarm report RESULT.json ... --out report.html [--replays first|all|none|SCENARIO:SEED,...]
     petswarm bench  [--quick] [--json OUT] [--md docs/benchmarks.md]
+    petswarm benchmark [--config configs/benchmark.yaml] [--set KEY=VALUE ...] [--json OUT] [--out runs/benchmark]
+                    [--md docs/benchmark.md]
     petswarm reproduce [--only NAME,...] [--quick] [--json OUT] [--report OUT.html] [--check] [--seed S]
 
 Every command takes ``--log-level debug|info|warning|error`` (before or after its name). Every
@@ -220,6 +222,26 @@ def _add_bench(sub) -> None:
     bench.add_argument("--md", metavar="docs/benchmarks.md", help="also write the markdown report, with its plot beside it (*_steps.png)")
 
 
+def _add_benchmark(sub) -> None:
+    bm = sub.add_parser(
+        "benchmark",
+        help="train each algorithm on named tasks from several seeds, evaluate on held-out seeds, report IQMs with CIs",
+        description="The benchmark of slave policies (training/benchmark.py, docs/benchmark.md): each trained algorithm "
+        "(IPPO, MAPPO) is trained on each task of the file from each training seed, then every policy (and the scripted "
+        "reference and the privileged teacher) drives every slave on the same held-out seeds. Per task: the interquartile "
+        "mean of the score with a 95 % bootstrap CI, the probability of improvement over scripted, wall time and "
+        "agent-steps. Resumable: the runs already in --json with the same settings are kept.",
+    )
+    bm.add_argument("--config", type=_config_file, default=str(shipped_configs() / "benchmark.yaml"),
+                    metavar="configs/benchmark.yaml", help="tasks, algorithms and budgets (default: the shipped one)")
+    bm.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                    help="override a top-level key of the file, e.g. --set episodes=3 --set training_seeds=[0] (repeatable)")
+    bm.add_argument("--json", default="benchmark.json", metavar="OUT",
+                    help="the runs and the summary (default benchmark.json); an existing one is resumed")
+    bm.add_argument("--out", default="runs/benchmark", metavar="DIR", help="the training runs' folders (default runs/benchmark)")
+    bm.add_argument("--md", metavar="docs/benchmark.md", help="also write the markdown page, with its plot beside it (*.png)")
+
+
 def _add_reproduce(sub) -> None:
     repro = sub.add_parser(
         "reproduce",
@@ -262,7 +284,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="petswarm", description="Pet-Bot swarm environment: run, evaluate and measure.")
     _add_log_level(parser, "info")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
-    for add in (_add_run, _add_train, _add_eval, _add_bench, _add_reproduce, _add_report):
+    for add in (_add_run, _add_train, _add_eval, _add_bench, _add_benchmark, _add_reproduce, _add_report):
         add(sub)
     for choice in sub.choices.values():  # before or after the command: petswarm --log-level debug run / petswarm run --log-level debug
         _add_log_level(choice, argparse.SUPPRESS)
@@ -366,6 +388,12 @@ def _bench(args, argv: list[str]) -> int:
     return bench_command(args.quick, args.json, args.md)
 
 
+def _benchmark(args, argv: list[str]) -> int:
+    from petswarm.training.benchmark import benchmark_command
+
+    return benchmark_command(args.config, args.set, args.json, args.out, args.md, "petswarm " + " ".join(argv))
+
+
 def _reproduce(args, argv: list[str]) -> int:
     from petswarm.experiments.registry import EXPERIMENTS
     from petswarm.experiments.reproduce import reproduce
@@ -414,7 +442,8 @@ def _check_paths(args) -> None:
 
 
 # each command runs a function of its room (imported when the command runs: `petswarm run` needs no training stack)
-COMMANDS = {"run": _run, "train": _train, "eval": _eval, "report": _report, "bench": _bench, "reproduce": _reproduce}
+COMMANDS = {"run": _run, "train": _train, "eval": _eval, "report": _report, "bench": _bench, "benchmark": _benchmark,
+            "reproduce": _reproduce}
 
 
 def _one_line(exc: BaseException) -> str:
@@ -428,12 +457,29 @@ def _warn_in_one_line(message, category, filename, lineno, file=None, line=None)
     logging.getLogger("petswarm.warnings").warning(str(message))
 
 
+# RLlib orders a step's agents through sets of agent ids, so with Python's per-process string hash
+# (PYTHONHASHSEED unset) two runs of one seed sample and update in different orders and diverge
+# (docs/training.md, "Deterministic runs"); a fixed hash makes them bit-identical.
+RLLIB_HASH_SEED = "0"
+
+
+def _restart_with_fixed_hash(args) -> None:
+    """``petswarm train --backend rllib`` run as a program without PYTHONHASHSEED: this process is
+    replaced by the same command with PYTHONHASHSEED=0 (its Ray workers inherit it)."""
+    if args.command == "train" and args.backend == "rllib" and "PYTHONHASHSEED" not in os.environ:
+        os.execve(sys.executable, sys.orig_argv, {**os.environ, "PYTHONHASHSEED": RLLIB_HASH_SEED})
+
+
 def main(argv: list[str] | None = None) -> int:
     """Parse, dispatch, and turn every error a user can cause into one line on stderr with exit
     status 2; Ctrl-C exits 130, SIGTERM/SIGHUP 128 + the signal (after every temporary file is
-    removed: :func:`petswarm_env.files.exit_cleanly_on_signals`)."""
+    removed: :func:`petswarm_env.files.exit_cleanly_on_signals`). Run as a program (``argv`` from
+    the command line), an RLlib training restarts itself with a fixed string hash first."""
+    own_command_line = argv is None
     argv = sys.argv[1:] if argv is None else argv
     args = build_parser().parse_args(argv)
+    if own_command_line:
+        _restart_with_fixed_hash(args)
     configure_logging(args.log_level)
     try:
         with exit_cleanly_on_signals(), warnings.catch_warnings():

@@ -10,7 +10,7 @@ The result (``petswarm eval --grid FILE --json OUT``), in the style of ``petswar
      "complete", "config", "set",
      "cells": [{"index", "name", "group", "axes", "overrides", "team", "seeds", "key",
                 "candidate": RUN, "reference": RUN, "ratio", "median_ratio", "episodes_better",
-                "mix_robots_ratio", "ratio_ci95", "hold_ratio", "settle_ratio", "mix_robots_hold_ratio",
+                "mix_robots_ratio", "ratio_ci95", "hold_ratio", "building_ratio", "settle_ratio", "mix_robots_hold_ratio",
                 "others_hold_ratio", "others_ratio" (each NAME_ratio with NAME_ratio_ci95),
                 "score_metric", "score_ratio", "score_ratio_ci95", "score_pairs", "p_improvement",
                 "collisions_not_more", "built_not_fewer", "others_no_worse", "meets_target", "wall_s"}],
@@ -30,7 +30,8 @@ refill (:mod:`petswarm_env.metrics`).
 medians', ``episodes_better`` the seeds on which the candidate did better). Every other
 ``NAME_ratio`` is the candidate's mean of a per-episode figure over the reference's, on the seeds
 where both have it, with ``NAME_ratio_ci95``, a 95 % percentile bootstrap interval over those seeds
-resampled in pairs (:func:`petswarm.evaluation.stats.paired_ratio`): ``hold`` the hold RMSE, ``settle`` the
+resampled in pairs (:func:`petswarm.evaluation.stats.paired_ratio`): ``hold`` the hold RMSE, ``building``
+the building time (on the seeds where both built), ``settle`` the
 RMSE in the settle window after a refill, ``mix_robots_hold`` the mixed-in candidate robots' own hold
 RMSE, ``others``/``others_hold`` the other robots' (a mixed cell).
 
@@ -174,6 +175,7 @@ def _values(run: dict[str, Any], key: str) -> list[float]:
 # figure, with its paired bootstrap CI: name -> the per-episode key it compares
 RATIOS = {
     "hold": "formation_hold_rmse_m",
+    "building": "building_time_s",
     "settle": "refill_settle_rmse_m",
     "mix_robots_hold": "mix_robots_hold_rmse_m",
     "others_hold": "others_hold_rmse_m",

@@ -223,7 +223,7 @@ def grid_section(data: dict[str, Any], label: str, number: int) -> str:
         rows.append(([escape(c.get("name", NA)), _team(c), _ratio_ci(c, "score") if "score_ratio" in c else _fmt(c.get("ratio"), 2),
                       _fmt(c.get("p_improvement"), 2),
                       _ratio_ci(c, "hold"), _pair(cand, ref, "formation_hold_rmse_m", 3),
-                      _pair(cand, ref, "building_time_s", 1),
+                      _pair(cand, ref, "building_time_s", 1) + (f" ({_ratio_ci(c, 'building')})" if "building_ratio" in c else ""),
                       f"{escape(cand.get('formations_built', NA))} / {escape(ref.get('formations_built', NA))}",
                       f"{_fmt(c.get('ratio'), 2)}" + (f" {_ci_pair(c.get('ratio_ci95'))}" if "ratio_ci95" in c else ""),
                       _ci(cand), _ci(ref), _ratio_ci(c, "settle"),
@@ -234,7 +234,7 @@ def grid_section(data: dict[str, Any], label: str, number: int) -> str:
                       "yes" if c.get("meets_target") else "no"],
                      "best" if c.get("meets_target") else ""))
     parts.append(table(["cell", "candidate team", "scored ratio [95 % CI]", "P(improvement)", "hold ratio [95 % CI]",
-                        "hold RMSE (m) cand. / ref.", "building time (s) cand. / ref.", "built cand. / ref.",
+                        "hold RMSE (m) cand. / ref.", "building time (s) cand. / ref. (ratio [95 % CI])", "built cand. / ref.",
                         "whole-episode ratio [95 % CI]", "candidate RMSE (m) ± 95 % CI", "reference RMSE (m) ± 95 % CI",
                         "settle-after-refill ratio [95 % CI]", "collisions cand. / ref.", "emergencies cand. / ref.",
                         "median ratio", "episodes better", "others' hold ratio (mixed)", "target met"], rows, left_cols=2))

@@ -142,3 +142,99 @@ def stratified_ratio_aggregates(cells: list[tuple[Iterable[Any], Iterable[Any]]]
     q = lambda a: [float(np.percentile(a, 2.5)), float(np.percentile(a, 97.5))]  # noqa: E731
     return {"cells": len(ratios), "ratio_iqm": interquartile_mean(ratios), "ratio_iqm_ci95": q(iqm_boot),
             "p_improvement": float(np.mean(probs)), "p_improvement_ci95": q(p_boot)}
+
+
+# -- the benchmark's aggregates (training/benchmark.py): runs x held-out episodes per task --------
+# Agarwal et al. 2021 (rliable): the interquartile mean over a task's scores, a 95 % percentile
+# bootstrap interval, stratified over tasks when tasks are pooled, and the probability of
+# improvement. A task's scores are a (training runs x held-out episodes) array, lower is better; an
+# episode without a score (the formation never built) counts as +inf, the worst, never dropped.
+
+
+def _iqm_rows(values: "np.ndarray") -> "np.ndarray":
+    """The interquartile mean of each row (``scipy.stats.trim_mean(…, 0.25)``); +inf kept."""
+    import numpy as np
+
+    v = np.sort(values, axis=-1)
+    n = v.shape[-1]
+    cut = int(0.25 * n)  # scipy's trim_mean trims int(0.25 n) values from each end
+    return np.mean(v[..., cut:n - cut], axis=-1)
+
+
+def worst_for_missing(values: Iterable[Any]) -> "np.ndarray":
+    """The scores as floats, each one that is not a finite number (NaN, None) as +inf: the worst."""
+    import numpy as np
+
+    return np.array([v if math.isfinite(v) else math.inf for v in map(as_number, values)], dtype=float)
+
+
+def resample_task(runs: "np.ndarray", rng, reps: int = BOOTSTRAP_RESAMPLES) -> "np.ndarray":
+    """``reps`` bootstrap copies of a task's (runs x episodes) scores, flattened to (reps, runs x
+    episodes): the runs drawn with replacement, then each drawn run's episodes with replacement (a
+    two-level bootstrap: both the training seed and the held-out seed vary; with one run, the
+    scripted reference or the teacher, it is the episodes' bootstrap)."""
+    import numpy as np
+
+    runs = np.atleast_2d(np.asarray(runs, dtype=float))
+    r, e = runs.shape
+    which = rng.integers(0, r, size=(reps, r)) if r > 1 else np.zeros((reps, 1), dtype=int)
+    eps = rng.integers(0, e, size=(reps, r, e))
+    return runs[which[:, :, None], eps].reshape(reps, r * e)
+
+
+def _interval(boot: "np.ndarray") -> list[float]:
+    """The 95 % percentile interval of bootstrap copies, by nearest rank outward (the 2.5 % quantile
+    rounded down, the 97.5 % up): an interval of real copies, +inf included, never interpolated."""
+    import numpy as np
+
+    return [float(np.quantile(boot, 0.025, method="lower")), float(np.quantile(boot, 0.975, method="higher"))]
+
+
+def _p_better(cand: "np.ndarray", ref: "np.ndarray") -> "np.ndarray":
+    """P(a candidate score < a reference score), ties half, along the last axes: (…, n) vs (…, m)."""
+    import numpy as np
+
+    c, f = cand[..., :, None], ref[..., None, :]
+    with np.errstate(invalid="ignore"):  # inf - inf: a tie, counted by ==
+        return (f > c).mean(axis=(-2, -1)) + 0.5 * (f == c).mean(axis=(-2, -1))
+
+
+def task_aggregates(runs: Any, reference: Any, reps: int = BOOTSTRAP_RESAMPLES, seed: int = BOOTSTRAP_SEED) -> dict[str, Any]:
+    """One task: the interquartile mean of the candidate's scores (all runs' episodes pooled) with
+    its 95 % bootstrap interval (:func:`resample_task`), and the probability that a candidate
+    episode scores below (better than) a reference episode, with its interval (both sides resampled
+    on their own). ``runs`` and ``reference``: (runs x episodes) arrays, missing scores as +inf."""
+    import numpy as np
+
+    rng = np.random.default_rng(seed)
+    cand, ref = np.atleast_2d(np.asarray(runs, dtype=float)), np.atleast_2d(np.asarray(reference, dtype=float))
+    bc, br = resample_task(cand, rng, reps), resample_task(ref, rng, reps)
+    return {"iqm": float(_iqm_rows(cand.ravel())), "iqm_ci95": _interval(_iqm_rows(bc)),
+            "p_improvement": float(_p_better(cand.ravel(), ref.ravel())), "p_improvement_ci95": _interval(_p_better(bc, br)),
+            "runs": int(cand.shape[0]), "episodes": int(cand.size)}
+
+
+def stratified_aggregates(tasks: list[tuple[Any, Any]], reps: int = BOOTSTRAP_RESAMPLES,
+                          seed: int = BOOTSTRAP_SEED) -> dict[str, Any]:
+    """Over tasks (each its candidate's and its reference's (runs x episodes) scores, already
+    normalized so tasks compare, e.g. by the reference's interquartile mean): the interquartile mean
+    of all the candidate's scores pooled and the mean over tasks of the probability of improvement,
+    each with a 95 % stratified bootstrap interval: every resample draws within each task
+    (:func:`resample_task`), so each task keeps its number of scores (rliable's StratifiedBootstrap)."""
+    import numpy as np
+
+    rng = np.random.default_rng(seed)
+    points, boots, probs, boot_p = [], [], [], []
+    for runs, reference in tasks:
+        cand, ref = np.atleast_2d(np.asarray(runs, dtype=float)), np.atleast_2d(np.asarray(reference, dtype=float))
+        bc, br = resample_task(cand, rng, reps), resample_task(ref, rng, reps)
+        points.append(cand.ravel())
+        boots.append(bc)
+        probs.append(_p_better(cand.ravel(), ref.ravel()))
+        boot_p.append(_p_better(bc, br))
+    if not points:
+        return {"tasks": 0, "iqm": math.nan, "iqm_ci95": [math.nan, math.nan], "p_improvement": math.nan,
+                "p_improvement_ci95": [math.nan, math.nan]}
+    return {"tasks": len(points), "iqm": float(_iqm_rows(np.concatenate(points))),
+            "iqm_ci95": _interval(_iqm_rows(np.concatenate(boots, axis=1))), "p_improvement": float(np.mean(probs)),
+            "p_improvement_ci95": _interval(np.mean(boot_p, axis=0))}

@@ -102,3 +102,22 @@ def test_a_swarm_that_organized_short_is_reported(monkeypatch, capsys, command):
     assert main([*command, "--seed", "7", "--set", "max_cycles=10"]) == 0
     err = [ln for ln in capsys.readouterr().err.splitlines() if ln.startswith("warning:")]
     assert len(err) == 1 and "seed 7" in err[0] and "1 of 4 required slave(s) did not join" in err[0]
+
+
+def test_an_rllib_training_run_as_a_program_restarts_with_a_fixed_string_hash(monkeypatch):
+    """RLlib's order of agents follows Python's string hash (docs/training.md, "Deterministic runs"):
+    ``petswarm train --backend rllib`` from the command line re-executes itself with PYTHONHASHSEED
+    set, unless it is set; other commands and in-process calls are left alone."""
+    from petswarm.cli import main as cli_main
+
+    calls = []
+    monkeypatch.setattr(cli_main.os, "execve", lambda path, argv, env: calls.append((path, argv, env["PYTHONHASHSEED"])))
+    monkeypatch.delenv("PYTHONHASHSEED", raising=False)
+    parse = cli_main.build_parser().parse_args
+    cli_main._restart_with_fixed_hash(parse(["train", "--backend", "rllib"]))
+    assert calls == [(cli_main.sys.executable, cli_main.sys.orig_argv, "0")]
+    cli_main._restart_with_fixed_hash(parse(["train"]))
+    cli_main._restart_with_fixed_hash(parse(["run"]))
+    monkeypatch.setenv("PYTHONHASHSEED", "123")
+    cli_main._restart_with_fixed_hash(parse(["train", "--backend", "rllib"]))
+    assert len(calls) == 1

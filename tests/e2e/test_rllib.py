@@ -202,3 +202,22 @@ def test_address_joins_a_cluster_head_started_on_loopback(tmp_path):
         _stop(pids)
         assert not [pid for pid in pids if _state(pid) != "Z"], "the head's processes are stopped"
         shutil.rmtree(tmp, ignore_errors=True)
+
+
+def test_two_command_line_runs_of_one_seed_give_the_same_weights(tmp_path):
+    """With 0 env runners the same command twice gives bit-identical weights: RLlib's seeds come
+    from ``seed:`` (``.debugging(seed=…)``) and the CLI fixes Python's string hash, which orders
+    RLlib's agents (docs/training.md, "Deterministic runs"); each run is its own process, as a user's."""
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONHASHSEED"}
+    env["PYTHONPATH"] = str(ROOT)
+    sets = [f"{k}={json.dumps(v) if isinstance(v, list) else v}" for k, v in {**TINY, "rllib.num_env_runners": 0}.items()]
+    weights = []
+    for name in ("a", "b"):
+        proc = subprocess.run([sys.executable, "-m", "petswarm.cli.main", "train", "--backend", "rllib", "--no-progress",
+                               "--out", str(tmp_path / name), *[a for kv in sets for a in ("--set", kv)]],
+                              env=env, capture_output=True, text=True, timeout=600)
+        assert proc.returncode == 0, proc.stderr[-3000:]
+        with np.load(tmp_path / name / "checkpoints" / "latest.npz") as ckpt:
+            weights.append({k: ckpt[k] for k in ckpt.files if k.startswith("policy:")})
+    assert weights[0].keys() == weights[1].keys() and len(weights[0]) >= 6
+    assert all(np.array_equal(weights[0][k], weights[1][k]) for k in weights[0])

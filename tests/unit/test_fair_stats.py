@@ -89,3 +89,11 @@ def test_with_the_candidate_driving_the_team_its_own_error_is_the_other_robots()
     dragged = _run([0.09, 0.09], mix_robots_hold_rmse_m=[0.2, 0.2], others_hold_rmse_m=[0.05, 0.05])
     v = compare_runs(dragged, ref, True, "formation_hold_rmse_m", 0.8, 0.1, candidate_in_mix=False)
     assert v["others_no_worse"] is False and not v["meets_target"]  # the reference robot held twice as badly
+
+
+def test_the_building_time_has_its_ratio_and_interval_on_the_seeds_where_both_built():
+    cand = _run([0.1, 0.1, 0.1], building_time_s=[4.0, 6.0, math.nan])
+    ref = _run([0.1, 0.1, 0.1], building_time_s=[8.0, 12.0, 9.0])
+    v = compare_runs(cand, ref, False, "formation_hold_rmse_m", 0.8, 0.1)
+    assert v["building_ratio"] == pytest.approx(0.5)  # (4 + 6) / (8 + 12): the third seed has no pair
+    assert v["building_ratio_ci95"] == pytest.approx([0.5, 0.5])  # both pairs are 0.5: every resample is

@@ -31,7 +31,9 @@ REFORM_AFTER_S = 10.0
 REFORM_ERROR_M = 0.3
 
 
-def run(kind: str, seed: int, at_s: float = 20.0, target: str = "random_slave", overrides: dict | None = None) -> dict:
+def run(kind: str, seed: int, at_s: float = 20.0, target: str = "random_slave", overrides: dict | None = None,
+        on_step=None) -> dict:
+    """One run; ``on_step(env)`` (tests) is called after every step."""
     from petswarm.baselines.policy import PolicySpec
     from petswarm.baselines.registry import make_policy
 
@@ -45,6 +47,8 @@ def run(kind: str, seed: int, at_s: float = 20.0, target: str = "random_slave", 
         obs, _, _, _, infos = env.step(policy.act_all({a: obs[a] for a in env.agents}))
         live = set(env.agents)
         errors.append((env.episode.world.now, {a: i["formation_error_m"] for a, i in infos.items() if a in live}))
+        if on_step is not None:
+            on_step(env)
     log = env.episode.runtime.faults.log
     if not log:
         return {"kind": kind, "seed": seed, "injected": False}

@@ -73,6 +73,8 @@ class RecoveryManager:
         self.bid_requests: list[tuple[float, str]] = []  # member: (time, the part that failed) of each bid request started
         self._request_seq = -1
         self._request_acked = None
+        self._asked_out = False  # member: a bid request of ours is pending (its own fault, not a loss)
+        self.clear_out: tuple[float, float, float, float] | None = None  # (start, vx, vy, duration): the move out of the formation
         node.on(msg.MEMBER_UPDATE, self._on_update)
         node.on(msg.MEMBER_UPDATE_ACK, self._on_ack)
         node.on(msg.BID_REQUEST, self._on_bid_request)
@@ -269,6 +271,7 @@ class RecoveryManager:
         status = assignment.own_status(node)
         if ruta.must_request_bids(status, held):
             self.bid_requests.append((node.clock.now, part))
+            self._asked_out = True
             sensors = sum(bit for kind, bit in assignment.SENSOR_BITS.items() if kind in status.sensors)
             node.clock.process(self._request_bids(member, sensors))
 
@@ -298,6 +301,9 @@ class RecoveryManager:
         self.last_seq = p["seq"]
         members = {int(m): n for m, n in p["members"].items()}
         if node.node_id not in members.values():  # removed: not a member any more
+            if self._asked_out:
+                self._plan_clear_out()
+            self._asked_out = False
             self._leave()
             return
         know = node.know
@@ -306,6 +312,47 @@ class RecoveryManager:
         know.member = next(m for m, n in members.items() if n == node.node_id)
         know.mode = p["mode"]
         node.formation = Formation.from_links_payload(p["shape"], p["links"])
+
+
+    def _plan_clear_out(self) -> None:
+        """The robot leaves its slot for its own fault (seed 003 Algorithm 2 step 5: "the faulty robot
+        leaves"): it drives out of the formation, sideways in its own frame, away from the formation's
+        axis (its slot's side; the left for a slot on the axis), until it stands beyond the formation's
+        outermost slot by its diameter and :data:`CLEAR_MARGIN_M`, keeping the swarm's pace from the
+        master's last status broadcast meanwhile, then stops (chosen: a robot that stops where it was
+        stands in the path of the member that takes its place and of the members behind it, which the
+        walking formation drives into). The command is its middleware's (:meth:`leaving_command`); it
+        needs no sensor that may have failed: the wheels alone."""
+        node = self.node
+        if node.formation is None:
+            return
+        pos = node.formation.slot_positions()
+        member = node.know.member
+        if not 0 < member < len(pos):
+            return
+        lateral = float(pos[member][1])
+        side = 1.0 if lateral >= 0 else -1.0
+        outermost = max((float(p[1]) * side for p in pos), default=0.0)
+        out_m = outermost - lateral * side + 2.0 * node.cfg.robot.radius_m + CLEAR_MARGIN_M
+        status = node.know.status
+        vx = float(status.velocity[0]) if status is not None else 0.0
+        self.clear_out = (node.clock.now, vx, side * CLEAR_SPEED_MPS, out_m / CLEAR_SPEED_MPS)
+
+    def leaving_command(self, now_s: float) -> tuple[float, float, float] | None:
+        """The body-frame command of the move out of the formation (:meth:`_plan_clear_out`) while it
+        lasts, (0, 0, 0) once, then None (nothing to drive)."""
+        c = self.clear_out
+        if c is None:
+            return None
+        t0, vx, vy, duration = c
+        if now_s - t0 < duration and self.node.state == "waiting":
+            return (vx, vy, 0.0)
+        self.clear_out = None
+        return (0.0, 0.0, 0.0)
+
+
+CLEAR_SPEED_MPS = 0.5  # chosen: the sideways speed of a faulty robot leaving the formation (a third of the top speed)
+CLEAR_MARGIN_M = 0.3  # chosen: its clearance beyond the formation's outermost slot
 
 
 def least_total(cost: list[list[float]]) -> list[int]:

@@ -68,12 +68,15 @@ class RecoveryManager:
         self._event = None
         self._lost: list[int] = []
         self.busy = False
+        self.mirrored = False  # master: the last removal chose the mirror image of the standard table
         self.update_retries = 0  # master: member-update broadcasts repeated for a missing acknowledgement
         self.refills: list[OrganizeResult] = []
         self.bid_requests: list[tuple[float, str]] = []  # member: (time, the part that failed) of each bid request started
         self._request_seq = -1
         self._request_acked = None
         self._asked_out = False  # member: a bid request of ours is pending (its own fault, not a loss)
+        self._was_master = False  # member: it handed its user over for a part it found broken (after_handover)
+        self.cannot_lead: Callable[[str], None] | None = None  # master: the node's seam to hand its user over
         self.clear_out: tuple[float, float, float, float] | None = None  # (start, vx, vy, duration): the move out of the formation
         node.on(msg.MEMBER_UPDATE, self._on_update)
         node.on(msg.MEMBER_UPDATE_ACK, self._on_ack)
@@ -136,7 +139,7 @@ class RecoveryManager:
             formation = formation_for_mode(node.cfg.swarm, len(members), know.mode)
         except ValueError:  # a custom table fixes its size: the loss is detected, the tables stay
             return
-        members = self.nearest_slots(members, formation)
+        members, formation, self.mirrored = self.removal_plan(members, formation)
         self._commit(members, formation)
         self._forget(node_id)
         node.members_changed.emit("lost", [node_id])
@@ -144,6 +147,19 @@ class RecoveryManager:
         # acknowledgement; its own update, once a robot joined, supersedes this one)
         node.clock.process(self._announce(members, formation))
         yield node.clock.timeout(0.0)
+
+    def removal_plan(self, members: dict[int, int], formation: Formation) -> tuple[dict[int, int], Formation, bool]:
+        """The remaining members (``members``, the lost one out) on ``formation`` (the standard table one
+        smaller) or on its mirror image, whichever the least total move (:meth:`nearest_slots`) makes
+        shorter (chosen: a wedge that lost a front slave on one arm is refilled from the other arm's rear
+        otherwise, that robot crossing the formation through its neighbours; equal totals keep the
+        standard table). Returns (member number -> node id, the formation, whether it is the mirror)."""
+        mirror = formation.mirrored()
+        total, table = self._least_move(members, formation)
+        total_m, table_m = self._least_move(members, mirror)
+        if total_m < total - 1e-9:
+            return table_m, mirror, True
+        return table, formation, False
 
     def nearest_slots(self, members: dict[int, int], formation: Formation) -> dict[int, int]:
         """The remaining slaves (``members``: member number -> node id, the lost one out) on the slots
@@ -154,6 +170,10 @@ class RecoveryManager:
         holds (it drives there) unless the RSSI range of its latest ring frame disagrees with that
         slot's distance by more than :data:`OFF_SLOT_M` — then r from the master, bearing unknown
         (:func:`~.assignment.slot_distance`). Equal totals keep the robots in member order."""
+        return self._least_move(members, formation)[1]
+
+    def _least_move(self, members: dict[int, int], formation: Formation) -> tuple[float, dict[int, int]]:
+        """:meth:`nearest_slots` and the total distance of its assignment (m, as the master estimates it)."""
         node = self.node
         know = node.know
         slaves = [n for m, n in sorted(members.items()) if m != 0]
@@ -182,7 +202,7 @@ class RecoveryManager:
         out = {0: members[0]}
         for i, n in enumerate(slaves):
             out[order[i] + 1] = n
-        return dict(sorted(out.items()))
+        return sum(cost[i][order[i]] for i in range(len(slaves))), dict(sorted(out.items()))
 
     def _refill(self):
         node = self.node
@@ -194,6 +214,8 @@ class RecoveryManager:
             return
         added = [n for m, n in new.items() if know.members.get(m) != n]
         formation = formation_for_mode(node.cfg.swarm, len(new), know.mode)
+        if self.mirrored:  # the table the removal mirrored stays so: the members hold their sides
+            formation = formation.mirrored()
         self._commit(new, formation)
         for n in added:
             self._forget(n)
@@ -261,6 +283,9 @@ class RecoveryManager:
         subtask, :func:`~.assignment.slot_subtask`) sends the bid request to its master (seed 003
         Algorithm 2 step 5), repeated until acknowledged (``protocol.max_retries``)."""
         node = self.node
+        if node.state == "master" and part in MASTER_NEEDS and self.cannot_lead is not None:
+            self.cannot_lead(part)  # it hands its user over (Table 3), then asks to leave as a slave
+            return
         if node.state != "slave" or node.formation is None:
             return
         member = node.know.member
@@ -274,6 +299,13 @@ class RecoveryManager:
             self._asked_out = True
             sensors = sum(bit for kind, bit in assignment.SENSOR_BITS.items() if kind in status.sensors)
             node.clock.process(self._request_bids(member, sensors))
+
+    def after_handover(self, failed: frozenset[str]) -> None:
+        """This master handed its user over (Table 3, modes.py) and is a slave now: a part it found
+        broken may leave it unable to hold its slot (:meth:`sensor_failed`: the bid request)."""
+        self._was_master = bool(failed)
+        for part in sorted(failed):
+            self.sensor_failed(part)
 
     def _request_bids(self, member: int, sensors: int):
         node = self.node
@@ -303,7 +335,7 @@ class RecoveryManager:
         if node.node_id not in members.values():  # removed: not a member any more
             if self._asked_out:
                 self._plan_clear_out()
-            self._asked_out = False
+            self._asked_out = self._was_master = False
             self._leave()
             return
         know = node.know
@@ -334,9 +366,10 @@ class RecoveryManager:
         side = 1.0 if lateral >= 0 else -1.0
         outermost = max((float(p[1]) * side for p in pos), default=0.0)
         out_m = outermost - lateral * side + 2.0 * node.cfg.robot.radius_m + CLEAR_MARGIN_M
-        status = node.know.status
-        vx = float(status.velocity[0]) if status is not None else 0.0
-        self.clear_out = (node.clock.now, vx, side * CLEAR_SPEED_MPS, out_m / CLEAR_SPEED_MPS)
+        status = node.know.status  # a slave keeps the master's pace; a master that handed its user over, its own
+        vx = float(status.velocity[0]) if status is not None else float(node.odometry.read()[0])
+        ahead = 0.0 if self._was_master else CLEAR_AHEAD_MPS
+        self.clear_out = (node.clock.now, vx + ahead, side * CLEAR_SPEED_MPS, out_m / CLEAR_SPEED_MPS)
 
     def leaving_command(self, now_s: float) -> tuple[float, float, float] | None:
         """The body-frame command of the move out of the formation (:meth:`_plan_clear_out`) while it
@@ -351,8 +384,13 @@ class RecoveryManager:
         return (0.0, 0.0, 0.0)
 
 
+# the parts a master's job needs (chosen): its IR module — every slave locates it by its IR (seed 000 §3.3,
+# the master's slot of the ring) and it measures the heading exchange's bearings; a master whose IR broke
+# hands its user over (swarm.hand_over_for_fault). Its ultrasonic ring and AHRS: recorded, no handover.
+MASTER_NEEDS = frozenset({"ir"})
 CLEAR_SPEED_MPS = 0.5  # chosen: the sideways speed of a faulty robot leaving the formation (a third of the top speed)
-CLEAR_MARGIN_M = 0.3  # chosen: its clearance beyond the formation's outermost slot
+CLEAR_AHEAD_MPS = 0.25  # chosen: a slave also drives ahead of the swarm's pace, out of the way of the member behind it that moves up (a master that handed its user over does not: the user and the new master are ahead of it)
+CLEAR_MARGIN_M = 1.0  # chosen: its clearance beyond the formation's outermost slot (a formation drifts sideways by half a spacing as it re-forms)
 
 
 def least_total(cost: list[list[float]]) -> list[int]:

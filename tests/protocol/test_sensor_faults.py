@@ -121,3 +121,28 @@ def test_the_faulty_robot_drives_out_of_the_formation_and_the_rest_re_form(kind)
     _, _, vy, duration = seen["plan"]
     assert abs(vy) * duration >= 2 * 0.2  # sideways, at least its diameter
     assert r["reformed"], f"largest live-slave error {r['largest_error_m']:.2f} m 10 s after the detection"
+
+
+def test_a_master_whose_ir_breaks_hands_its_user_over_by_table_3_and_the_swarm_goes_on():
+    """The master finds its IR module broken (its slaves lose their fix of it): it hands the user over to
+    the robot closest to the user by what it knows (Table 3, following: its last IR fixes, else the
+    slots of its table), asks to leave as a slave (bid request), drives out of the
+    way, and the new master follows the user to the end of the episode."""
+    from petswarm.experiments import sensor_faults
+
+    seen: dict = {}
+
+    def watch(env):
+        swarm = env.episode.swarms[0]
+        if "members" not in seen and env.episode.runtime.faults.log:
+            seen["members"] = dict(swarm.master.know.members)
+
+    r = sensor_faults.run("ir", 2, target="master", on_step=watch)
+    assert r["robot"] == 0 and r["detection_s"] is not None and r["detection_s"] <= 3.0
+    assert len(r["handovers"]) == 1
+    _, old, new, part = r["handovers"][0]
+    assert (old, part) == (0, "ir") and new == r["master_after"]
+    assert new in (seen["members"][1], seen["members"][2])  # one of the front pair, the closest to the user
+    assert r["bid_request"] and r["other_detections"] == []  # the old master asked to leave its new slot
+    assert r["session_state"] == "following" and r["user_distance_end_m"] <= sensor_faults.USER_FOLLOWED_M
+    assert r["reformed"]

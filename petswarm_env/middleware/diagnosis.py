@@ -15,14 +15,16 @@ All three checks run on the robot's MCU, on its own readings:
   ultrasonic front-ends, which listen to each transducer ringing down after its own burst, the ring-down
   that sets every ultrasonic sensor's minimum range): :data:`US_SILENT_BURSTS` readings in a row whose
   bursts did not ring down are a dead ring (a driver that sends no burst hears no echo either). It
-  costs no extra reading: the ring reports it with every reading (``Sensors.read_rings``). (2) A
-  neighbour that the robot's own IR fix places on a ring sensor's ray and
-  well within its range must echo: :data:`US_MISSES` such expected echoes that read the maximum
-  range ("nothing there"), with no echo of the ring in between, is a dead ring. Any echo
-  afterwards clears it. A ring whose rays all miss its neighbours (they stand between the rays)
-  reads as a dead one does: then nothing tells them apart until one comes onto a ray (chosen: no
-  check by silence alone — healthy rings of a 1+5 wedge stayed silent with a neighbour 1 m away for
-  over 3 s, the rays passing on either side of it).
+  costs no extra reading: the ring reports it with every reading (``Sensors.read_rings``); a
+  reading that rings down again clears it. (2) For a ring that rings but hears nothing: a neighbour
+  that the robot's own IR fix places on a ring sensor's ray and well within its range must echo:
+  :data:`US_MISSES` such expected echoes that read nothing, with no echo of the ring in between, is
+  a dead ring; any echo afterwards clears it. An echo is a reading 3 σ of the ring's noise short of
+  its maximum range (a sensor that hears nothing reads its maximum; the simulated one adds noise).
+  A ring whose rays all miss its neighbours (they stand between the rays: in a wedge, 15° off the
+  nearest rays of an 8-sensor ring) reads as a dead one does, so this check alone waits until one
+  comes onto a ray (chosen: no check by silence alone — healthy rings of a 1+5 wedge stayed silent
+  with a neighbour 1 m away for over 3 s, the rays passing on either side of it).
 * **AHRS**: a working AHRS's yaw carries white noise, so two readings at different times never
   agree to the last bit; :data:`AHRS_FROZEN` readings in a row that repeat the same value are a
   frozen output (a stuck sensor bus). An AHRS configured without noise or drift cannot be judged

@@ -10,8 +10,8 @@ scripted reference drives the slaves, the fault starts at ``--at`` s of episode 
   (``formation_error_m`` of the env's infos) 10 s after the detection is at most 0.3 m;
 * **RMSE**: the formation RMSE of those slaves over the 10 s after the detection;
 * with ``--target master``: whether the master handed its user over (``master_after``, ``handovers``),
-  and whether the episode ran to ``max_cycles`` with the swarm's master following its user (the
-  session ``following``, the master within :data:`USER_FOLLOWED_M` of the user at the end).
+  and whether the episode ran to ``max_cycles`` with the swarm's master driving its user (the
+  session ``following`` or ``leading``, the master within :data:`USER_FOLLOWED_M` of the user at the end).
 
 A run that never detects counts as not re-formed; its RMSE is taken over the 10 s after the fault.
 
@@ -111,9 +111,9 @@ def main(argv: list[str] | None = None) -> None:
         rmse = [r["rmse_m"] for r in rows if not math.isnan(r["rmse_m"])]
         if args.target == "master":
             handed = [r for r in rows if r["master_after"] != r["robot"]]
-            full = sum(r["cycles"] == rows[0]["cycles"] and r["session_state"] == "following"
+            full = sum(r["cycles"] == max(x["cycles"] for x in rows) and r["session_state"] in ("following", "leading")
                        and r["user_distance_end_m"] <= USER_FOLLOWED_M for r in handed)
-            print(f"{kind} on the master: handed over in {len(handed)}/{len(rows)}; the new master follows its user "
+            print(f"{kind} on the master: handed over in {len(handed)}/{len(rows)}; the new master drives its user "
                   f"(within {USER_FOLLOWED_M:g} m at the end, to max_cycles) in {full}/{len(rows)}")
         print(f"{kind} on the {args.target}: detected {len(det)}/{len(rows)}, median {statistics.median(det) if det else math.nan:.2f} s "
               f"(max {max(det, default=math.nan):.2f}); re-formed {sum(r['reformed'] for r in rows)}/{len(rows)}; "

@@ -77,7 +77,8 @@ class RecoveryManager:
         self._asked_out = False  # member: a bid request of ours is pending (its own fault, not a loss)
         self._was_master = False  # member: it handed its user over for a part it found broken (after_handover)
         self.cannot_lead: Callable[[str], None] | None = None  # master: the node's seam to hand its user over
-        self.clear_out: tuple[float, float, float, float] | None = None  # (start, vx, vy, duration): the move out of the formation
+        self.clear_out: tuple[float, float, float, float] | None = None  # (start, vx, vy, distance): the move out of the formation
+        self._cleared = (0.0, 0.0)  # (time, sideways metres the wheels counted) of that move
         node.on(msg.MEMBER_UPDATE, self._on_update)
         node.on(msg.MEMBER_UPDATE_ACK, self._on_ack)
         node.on(msg.BID_REQUEST, self._on_bid_request)
@@ -370,16 +371,21 @@ class RecoveryManager:
         status = node.know.status  # a slave keeps the master's pace; a master that handed its user over, its own
         vx = float(status.velocity[0]) if status is not None else float(node.odometry.read()[0])
         ahead = 0.0 if self._was_master else CLEAR_AHEAD_MPS
-        self.clear_out = (node.clock.now, vx + ahead, side * CLEAR_SPEED_MPS, out_m / CLEAR_SPEED_MPS)
+        self.clear_out = (node.clock.now, vx + ahead, side * CLEAR_SPEED_MPS, out_m)
+        self._cleared = (node.clock.now, 0.0)
 
     def leaving_command(self, now_s: float) -> tuple[float, float, float] | None:
-        """The body-frame command of the move out of the formation (:meth:`_plan_clear_out`) while it
-        lasts, (0, 0, 0) once, then None (nothing to drive)."""
+        """The body-frame command of the move out of the formation (:meth:`_plan_clear_out`) until its
+        wheel odometry counts the sideways distance (or :data:`CLEAR_TIMEOUT` times the time it takes at
+        the commanded speed passed), (0, 0, 0) once, then None (nothing to drive)."""
         c = self.clear_out
         if c is None:
             return None
-        t0, vx, vy, duration = c
-        if now_s - t0 < duration and self.node.state == "waiting":
+        t0, vx, vy, out_m = c
+        last_s, done_m = self._cleared
+        done_m += abs(self.node.odometry.read()[1]) * (now_s - last_s)  # the wheels' sideways travel since
+        self._cleared = (now_s, done_m)
+        if done_m < out_m and now_s - t0 < CLEAR_TIMEOUT * out_m / abs(vy) and self.node.state == "waiting":
             return (vx, vy, 0.0)
         self.clear_out = None
         return (0.0, 0.0, 0.0)
@@ -390,6 +396,7 @@ class RecoveryManager:
 # hands its user over (swarm.hand_over_for_fault). Its ultrasonic ring and AHRS: recorded, no handover.
 MASTER_NEEDS = frozenset({"ir"})
 CLEAR_SPEED_MPS = 0.5  # chosen: the sideways speed of a faulty robot leaving the formation (a third of the top speed)
+CLEAR_TIMEOUT = 3.0  # chosen: the move out gives up after three times its time at the commanded speed (a robot held by a contact)
 CLEAR_AHEAD_MPS = 0.25  # chosen: a slave also drives ahead of the swarm's pace, out of the way of the member behind it that moves up (a master that handed its user over does not: the user and the new master are ahead of it)
 CLEAR_MARGIN_M = 1.0  # chosen: its clearance beyond the formation's outermost slot (a formation drifts sideways by half a spacing as it re-forms)
 # chosen: a master that handed its user over clears further: its formation then re-centres on the new master, which

@@ -8,7 +8,10 @@ scripted reference drives the slaves, the fault starts at ``--at`` s of episode 
   found that part broken, and how long after the fault;
 * **re-formed**: the largest formation error of the slaves still in slave-role driving
   (``formation_error_m`` of the env's infos) 10 s after the detection is at most 0.3 m;
-* **RMSE**: the formation RMSE of those slaves over the 10 s after the detection.
+* **RMSE**: the formation RMSE of those slaves over the 10 s after the detection;
+* with ``--target master``: whether the master handed its user over (``master_after``, ``handovers``),
+  and whether the episode ran to ``max_cycles`` with the swarm's master driving its user (the
+  session ``following`` or ``leading``, the master within :data:`USER_FOLLOWED_M` of the user at the end).
 
 A run that never detects counts as not re-formed; its RMSE is taken over the 10 s after the fault.
 
@@ -29,9 +32,12 @@ import petswarm_env
 
 REFORM_AFTER_S = 10.0
 REFORM_ERROR_M = 0.3
+USER_FOLLOWED_M = 2.0  # a master that follows its user stands about master.distance_m (1 m) behind them
 
 
-def run(kind: str, seed: int, at_s: float = 20.0, target: str = "random_slave", overrides: dict | None = None) -> dict:
+def run(kind: str, seed: int, at_s: float = 20.0, target: str = "random_slave", overrides: dict | None = None,
+        on_step=None) -> dict:
+    """One run; ``on_step(env)`` (tests) is called after every step."""
     from petswarm.baselines.policy import PolicySpec
     from petswarm.baselines.registry import make_policy
 
@@ -45,6 +51,8 @@ def run(kind: str, seed: int, at_s: float = 20.0, target: str = "random_slave", 
         obs, _, _, _, infos = env.step(policy.act_all({a: obs[a] for a in env.active_agents}))
         live = set(env.active_agents)
         errors.append((env.episode.world.now, {a: i["formation_error_m"] for a, i in infos.items() if a in live}))
+        if on_step is not None:
+            on_step(env)
     log = env.episode.runtime.faults.log
     if not log:
         return {"kind": kind, "seed": seed, "injected": False}
@@ -58,7 +66,13 @@ def run(kind: str, seed: int, at_s: float = 20.0, target: str = "random_slave", 
     sq = [v * v for e in window for v in e.values()]
     at = [e for t, e in errors if t >= t0 + REFORM_AFTER_S]
     largest = max(at[0].values(), default=math.nan) if at else math.nan
+    ep = env.episode
+    swarm, session = ep.swarms[0], ep.sessions[0]
+    user_xy, master_xy = ep.world.users[0].body.position, ep.world.robots[swarm.master.node_id].body.position
     return {"kind": kind, "seed": seed, "injected": True, "robot": fault.robot, "role": fault.role,
+            "master_after": swarm.master.node_id, "handovers": [list(h) for h in swarm.fault_handovers],
+            "cycles": ep.num_cycles, "session_state": session.state,
+            "user_distance_end_m": math.hypot(user_xy[0] - master_xy[0], user_xy[1] - master_xy[1]),
             "detection_s": None if detected_s is None else detected_s - fault.time_s,
             "bid_request": bool(node.recovery.bid_requests),
             "other_detections": [(i, part) for i, n in env.episode.fleet.nodes.items() for _, part in n.diagnosis.detected
@@ -96,6 +110,12 @@ def main(argv: list[str] | None = None) -> None:
         rows = [r for r in rows if r["injected"]]
         det = [r["detection_s"] for r in rows if r["detection_s"] is not None]
         rmse = [r["rmse_m"] for r in rows if not math.isnan(r["rmse_m"])]
+        if args.target == "master":
+            handed = [r for r in rows if r["master_after"] != r["robot"]]
+            full = sum(r["cycles"] == max(x["cycles"] for x in rows) and r["session_state"] in ("following", "leading")
+                       and r["user_distance_end_m"] <= USER_FOLLOWED_M for r in handed)
+            print(f"{kind} on the master: handed over in {len(handed)}/{len(rows)}; the new master drives its user "
+                  f"(within {USER_FOLLOWED_M:g} m at the end, to max_cycles) in {full}/{len(rows)}")
         print(f"{kind} on the {args.target}: detected {len(det)}/{len(rows)}, median {statistics.median(det) if det else math.nan:.2f} s "
               f"(max {max(det, default=math.nan):.2f}); re-formed {sum(r['reformed'] for r in rows)}/{len(rows)}; "
               f"RMSE 10 s after detection median {statistics.median(rmse) if rmse else math.nan:.2f} m "

@@ -377,6 +377,11 @@ class Episode:
                 robot.set_command(0.0, 0.0, 0.0)
         if acts is None:
             return
+        for idx, node in self.fleet.nodes.items():  # a robot leaving its slot for its own fault drives out of the way
+            move = node.recovery.leaving_command(world.now) if node.recovery.clear_out is not None else None
+            if move is not None and idx not in masters:
+                cmd, _ = self.arbiters[idx].decide(move, None, ranges[idx], False)
+                world.robots[idx].set_command(*cmd)
         if self.left:  # a robot recruited again after it left the agents has no driver (module docstring): held still
             for idx in self.slave_ids:
                 if f"robot_{idx}" in self.left and idx not in masters:

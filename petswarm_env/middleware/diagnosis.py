@@ -11,13 +11,20 @@ All three checks run on the robot's MCU, on its own readings:
   RSSI puts within :data:`IR_EXPECT_RANGE_M` should give an IR fix of it; :data:`IR_MISSES` such
   slots in a row without a fix, while their radio frames keep arriving, is a broken IR module
   (receiver; the same module transmits). A fix after that clears it (a transient fault's end).
-* **ultrasonic ring**: a neighbour that the robot's own IR fix places on a ring sensor's ray and
-  well within its range must echo: :data:`US_MISSES` such expected echoes that read the maximum
-  range ("nothing there"), with no echo of the ring in between, is a dead ring. Any echo
-  afterwards clears it. A ring whose rays all miss its neighbours (they stand between the rays)
-  reads as a dead one does: then nothing tells them apart until one comes onto a ray (chosen: no
-  check by silence alone — healthy rings of a 1+5 wedge stayed silent with a neighbour 1 m away for
-  over 3 s, the rays passing on either side of it).
+* **ultrasonic ring**, two checks. (1) The driver's self-test (chosen: the transducer diagnosis of
+  ultrasonic front-ends, which listen to each transducer ringing down after its own burst, the ring-down
+  that sets every ultrasonic sensor's minimum range): :data:`US_SILENT_BURSTS` readings in a row whose
+  bursts did not ring down are a dead ring (a driver that sends no burst hears no echo either). It
+  costs no extra reading: the ring reports it with every reading (``Sensors.read_rings``); a
+  reading that rings down again clears it. (2) For a ring that rings but hears nothing: a neighbour
+  that the robot's own IR fix places on a ring sensor's ray and well within its range must echo:
+  :data:`US_MISSES` such expected echoes that read nothing, with no echo of the ring in between, is
+  a dead ring; any echo afterwards clears it. An echo is a reading 3 σ of the ring's noise short of
+  its maximum range (a sensor that hears nothing reads its maximum; the simulated one adds noise).
+  A ring whose rays all miss its neighbours (they stand between the rays: in a wedge, 15° off the
+  nearest rays of an 8-sensor ring) reads as a dead one does, so this check alone waits until one
+  comes onto a ray (chosen: no check by silence alone — healthy rings of a 1+5 wedge stayed silent
+  with a neighbour 1 m away for over 3 s, the rays passing on either side of it).
 * **AHRS**: a working AHRS's yaw carries white noise, so two readings at different times never
   agree to the last bit; :data:`AHRS_FROZEN` readings in a row that repeat the same value are a
   frozen output (a stuck sensor bus). An AHRS configured without noise or drift cannot be judged
@@ -51,6 +58,7 @@ US_RAY_MARGIN_M = 0.1
 US_MARGIN_M = 0.8  # chosen: ... and its rim this much inside the sensor's maximum range (1.2 m)
 US_FIX_AGE_S = 0.6  # chosen: an IR fix this fresh places the neighbour well enough for the check
 US_MISSES = 8  # chosen: expected echoes that read nothing, with no echo in between -> ring dead
+US_SILENT_BURSTS = 3  # chosen: readings in a row without the transducers' ring-down -> ring dead (one is a glitch)
 AHRS_FROZEN = 6  # chosen: readings in a row, at different times, with the very same value -> frozen output
 AHRS_WINDOW_S = 2.0  # chosen: the commanded rotation is compared with the AHRS over this long ...
 AHRS_TURN_RAD = 0.6  # ... and one over this much with an AHRS change under ...
@@ -78,6 +86,11 @@ class Diagnosis:
         self._us_angles = [2.0 * math.pi * k / us.count for k in range(us.count)]
         self._radius = cfg.robot.radius_m
         self._us_miss = 0
+        self._us_silent = 0  # readings in a row whose bursts did not ring down
+        self._us_by_self_test = False  # the ring found dead by its self-test (its pass clears it)
+        # chosen: 3 σ of the ring's noise below its maximum range is an echo (a sensor that hears nothing
+        # reads its maximum range; the simulated one adds its noise to it)
+        self._us_echo_margin = max(3.0 * us.noise_m, 1e-9)
         p = cfg.protocol
         self._slot_over_s = p.ring_response_timeout_s * 2 + p.ir_tx_s + 0.02  # an IR slot is over by then
         self._ir_seen: dict[int, float] = {}  # announcer -> start of its latest slot evaluated
@@ -92,9 +105,10 @@ class Diagnosis:
         self._tick_s: float | None = None
 
     # -- the checks ---------------------------------------------------------------------------------
-    def on_ring(self, ranges, present, now_s: float) -> None:
+    def on_ring(self, ranges, present, now_s: float, rang: bool = True) -> None:
         """The ultrasonic ring's reading (virtual-ring order, ``present``: which slots the body has),
-        every control period: the ring and IR checks, and the commanded rotation's integral."""
+        every control period, and its self-test (``rang``: the transducers rang down after their
+        bursts): the ring and IR checks, and the commanded rotation's integral."""
         if not self.robot.health.powered:
             if self.failed or self._tick_s is not None:
                 self._reboot()
@@ -103,7 +117,7 @@ class Diagnosis:
         self._turned += self.robot.command[2] * dt
         self._tick_s = now_s
         self._check_ir(now_s)
-        self._check_ring(ranges, present, now_s)
+        self._check_ring(ranges, present, now_s, rang)
 
     def on_ahrs(self, now_s: float, yaw: float) -> None:
         """Every AHRS reading the robot takes (its MCU's, the observation's)."""
@@ -170,15 +184,25 @@ class Diagnosis:
         if len(self._ir_missed_from) >= max(2, min(IR_SOURCES, len(near))):
             self._detect("ir", now_s)
 
-    def _check_ring(self, ranges, present, now_s: float) -> None:
-        top = self._us_max - 1e-9
+    def _check_ring(self, ranges, present, now_s: float, rang: bool = True) -> None:
+        if not any(present):
+            return  # a body without an ultrasonic sensor: nothing to judge
+        top = self._us_max - self._us_echo_margin  # a reading this short is an echo; a healthy "nothing" reads max ± noise
         echo = any(r < top for r, p in zip(ranges, present) if p)
-        if echo:
+        self._us_silent = 0 if rang else self._us_silent + 1
+        if rang and (echo or self._us_by_self_test):  # an echo, or the self-test that found it passes again
             self._us_miss = 0
             if "ultrasonic" in self.failed:
                 self._clear("ultrasonic")
-            return
+            if echo:
+                return
         if "ultrasonic" in self.failed:
+            return
+        if self._us_silent >= US_SILENT_BURSTS:
+            self._us_by_self_test = True
+            self._detect("ultrasonic", now_s)
+            return
+        if echo:
             return
         know = self._know_of()
         yaw = self.robot.ahrs._last_yaw  # the last AHRS reading the robot took (no new draw)
@@ -209,7 +233,8 @@ class Diagnosis:
         for part in sorted(self.failed):
             self._mark(part, True)
         self.failed.clear()
-        self._us_miss, self._ir_miss, self._yaw_same = 0, 0, 0
+        self._us_miss, self._us_silent, self._ir_miss, self._yaw_same = 0, 0, 0, 0
+        self._us_by_self_test = False
         self._ir_missed_from.clear()
         self._yaw_last, self._tick_s = None, None
         self._yaw_hist.clear()
@@ -226,6 +251,7 @@ class Diagnosis:
         self.failed.discard(part)
         if part == "ultrasonic":
             self._us_miss = 0
+            self._us_by_self_test = False
         if part == "ir":
             self._ir_miss = 0
             self._ir_missed_from.clear()

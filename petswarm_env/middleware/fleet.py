@@ -48,6 +48,7 @@ class Fleet:
         node.plan_applied.connect(lambda plan, previous: swarm_of(index).apply_plan(plan, previous))
         node.handed_over.connect(lambda new_master: swarm_of(index).hand_over(node, self.nodes[new_master]))
         node.took_over.connect(lambda: swarm_of(index).take_over(node))
+        node.cannot_lead.connect(lambda part: swarm_of(index).hand_over_for_fault(node, part))
         node.members_changed.connect(lambda event, ids: swarm_of(index).members_changed(node, event, ids))
         return node
 

@@ -35,6 +35,12 @@ class Formation:
     def size(self) -> int:
         return len(self.links) + 1
 
+    def mirrored(self) -> Formation:
+        """The same table reflected about the formation's x axis (every offset's y negated): the
+        shape's mirror image, slot m on the other side (a wedge's arms swap)."""
+        return Formation(self.shape, {m: tuple(Link(lk.neighbour, (lk.offset_m[0], -lk.offset_m[1])) for lk in links)
+                                      for m, links in self.links.items()})
+
     def slot_positions(self) -> np.ndarray:
         """Reference position of every member in the formation frame, master at the origin."""
         pos = {0: np.zeros(2)}

@@ -139,6 +139,29 @@ def plan_mode_change(
     return ModeChangePlan(new_mode, dict(sorted(new_members.items())), new_formation, new_root != 0, False)
 
 
+def plan_master_handover(formation: Formation, members: dict[int, int], mode: str, geometry: SwarmGeometry,
+                         lf_members: frozenset[int] | None = None) -> ModeChangePlan | None:
+    """A master that can no longer do its job (its IR module broke: its slaves lose their fix of it,
+    middleware/diagnosis.py) hands its user over by Table 3's rule for the mode it drives — following:
+    the robot closest to the user, leading: the farthest (the highest hierarchical level) — among the
+    others that may be master (``lf_members``), from what it knows (``geometry``: with its IR broken its
+    members stand at their slots, :func:`measured_geometry`). As Table 3's master change, the references
+    are kept (the table re-rooted at the new master); the old master is a slave at the new master's old
+    slot, which it then asks to leave (seed 003 Algorithm 2 step 5). None: no other robot may be master
+    (chosen), or a mode Table 3 has no row for."""
+    if mode not in TABLE3_MODES or formation.size < 2:
+        return None
+    able = [m for m in range(1, formation.size) if m in members and (lf_members is None or members[m] in lf_members)]
+    if not able:
+        return None
+    distance = geometry.user_distance
+    sign = 1.0 if mode == "following" else -1.0  # following: the closest; leading: the farthest
+    new_root = min(able, key=lambda m: (sign * round(distance(m), 9), m))
+    new_formation, renumber = formation.rerooted(new_root)
+    new_members = {renumber[m]: node for m, node in members.items()}
+    return ModeChangePlan(mode, dict(sorted(new_members.items())), new_formation, True, False)
+
+
 class ModeManager:
     """Both ends of a mode change on one robot."""
 

@@ -27,7 +27,7 @@ from petswarm_env.middleware.knowledge import MasterStatus
 from petswarm_env.middleware.modes import ModeManager
 from petswarm_env.middleware.recovery import RecoveryManager
 from petswarm_env.middleware.sequence import SequenceManager
-from petswarm_env.middleware.station import Station
+from petswarm_env.middleware.station import Signal, Station
 from petswarm_env.middleware.succession import SuccessionManager
 from petswarm_env.middleware.token_ring import TokenRing
 from petswarm_env.sim.clock import Clock
@@ -51,6 +51,10 @@ class Node(Station):
         # the robot's own sensor diagnosis (middleware/diagnosis.py), fed by its ring and AHRS readings
         self.diagnosis = Diagnosis(node_id, cfg, robot, lambda: self.know, self.ring)
         self.diagnosis.on_detect = self.recovery.sensor_failed
+        self.cannot_lead = Signal()  # (part): as master, it found broken a part its job needs (RecoveryManager.sensor_failed)
+        self.recovery.cannot_lead = self.cannot_lead.emit
+        # a master that handed its user over is a slave: a part it found broken may leave it unable to hold its slot
+        self.handed_over.connect(lambda _new_master: self.recovery.after_handover(frozenset(self.diagnosis.failed)))
         # the sensors hand their readings to the MCU, which stamps them with its own clock
         local = self.clock.local
         robot.on_ring = lambda ranges, present, now_s: self.diagnosis.on_ring(ranges, present, local(now_s))

@@ -69,11 +69,17 @@ class RecoveryManager:
         self._event = None
         self._lost: list[int] = []
         self.busy = False
+        self.mirrored = False  # master: the last removal chose the mirror image of the standard table
         self.update_retries = 0  # master: member-update broadcasts repeated for a missing acknowledgement
         self.refills: list[OrganizeResult] = []
         self.bid_requests: list[tuple[float, str]] = []  # member: (time, the part that failed) of each bid request started
         self._request_seq = -1
         self._request_acked = None
+        self._asked_out = False  # member: a bid request of ours is pending (its own fault, not a loss)
+        self._was_master = False  # member: it handed its user over for a part it found broken (after_handover)
+        self.cannot_lead: Callable[[str], None] | None = None  # master: the node's seam to hand its user over
+        self.clear_out: tuple[float, float, float, float] | None = None  # (start, vx, vy, distance): the move out of the formation
+        self._cleared = (0.0, 0.0)  # (time, sideways metres the wheels counted) of that move
         node.on(msg.MEMBER_UPDATE, self._on_update)
         node.on(msg.MEMBER_UPDATE_ACK, self._on_ack)
         node.on(msg.BID_REQUEST, self._on_bid_request)
@@ -135,7 +141,7 @@ class RecoveryManager:
             formation = formation_for_mode(node.cfg.swarm, len(members), know.mode)
         except ValueError:  # a custom table fixes its size: the loss is detected, the tables stay
             return
-        members = self.nearest_slots(members, formation)
+        members, formation, self.mirrored = self.removal_plan(members, formation)
         self._commit(members, formation)
         self._forget(node_id)
         node.members_changed.emit("lost", [node_id])
@@ -143,6 +149,19 @@ class RecoveryManager:
         # acknowledgement; its own update, once a robot joined, supersedes this one)
         node.clock.process(self._announce(members, formation))
         yield node.clock.timeout(0.0)
+
+    def removal_plan(self, members: dict[int, int], formation: Formation) -> tuple[dict[int, int], Formation, bool]:
+        """The remaining members (``members``, the lost one out) on ``formation`` (the standard table one
+        smaller) or on its mirror image, whichever the least total move (:meth:`nearest_slots`) makes
+        shorter (chosen: a wedge that lost a front slave on one arm is refilled from the other arm's rear
+        otherwise, that robot crossing the formation through its neighbours; equal totals keep the
+        standard table). Returns (member number -> node id, the formation, whether it is the mirror)."""
+        mirror = formation.mirrored()
+        total, table = self._least_move(members, formation)
+        total_m, table_m = self._least_move(members, mirror)
+        if total_m < total - 1e-9:
+            return table_m, mirror, True
+        return table, formation, False
 
     def nearest_slots(self, members: dict[int, int], formation: Formation) -> dict[int, int]:
         """The remaining slaves (``members``: member number -> node id, the lost one out) on the slots
@@ -153,6 +172,10 @@ class RecoveryManager:
         holds (it drives there) unless the RSSI range of its latest ring frame disagrees with that
         slot's distance by more than :data:`OFF_SLOT_M` — then r from the master, bearing unknown
         (:func:`~.assignment.slot_distance`). Equal totals keep the robots in member order."""
+        return self._least_move(members, formation)[1]
+
+    def _least_move(self, members: dict[int, int], formation: Formation) -> tuple[float, dict[int, int]]:
+        """:meth:`nearest_slots` and the total distance of its assignment (m, as the master estimates it)."""
         node = self.node
         know = node.know
         slaves = [n for m, n in sorted(members.items()) if m != 0]
@@ -181,7 +204,7 @@ class RecoveryManager:
         out = {0: members[0]}
         for i, n in enumerate(slaves):
             out[order[i] + 1] = n
-        return dict(sorted(out.items()))
+        return sum(cost[i][order[i]] for i in range(len(slaves))), dict(sorted(out.items()))
 
     def _refill(self):
         node = self.node
@@ -193,6 +216,8 @@ class RecoveryManager:
             return
         added = [n for m, n in new.items() if know.members.get(m) != n]
         formation = formation_for_mode(node.cfg.swarm, len(new), know.mode)
+        if self.mirrored:  # the table the removal mirrored stays so: the members hold their sides
+            formation = formation.mirrored()
         self._commit(new, formation)
         for n in added:
             self._forget(n)
@@ -262,6 +287,9 @@ class RecoveryManager:
         subtask, :func:`~.assignment.slot_subtask`) sends the bid request to its master (seed 003
         Algorithm 2 step 5), repeated until acknowledged (``protocol.max_retries``)."""
         node = self.node
+        if node.state == "master" and part in MASTER_NEEDS and self.cannot_lead is not None:
+            self.cannot_lead(part)  # it hands its user over (Table 3), then asks to leave as a slave
+            return
         if node.state != "slave" or node.formation is None:
             return
         member = node.know.member
@@ -272,8 +300,16 @@ class RecoveryManager:
         status = assignment.own_status(node)
         if ruta.must_request_bids(status, held):
             self.bid_requests.append((node.clock.now, part))
+            self._asked_out = True
             sensors = sum(bit for kind, bit in assignment.SENSOR_BITS.items() if kind in status.sensors)
             node.clock.process(self._request_bids(member, sensors))
+
+    def after_handover(self, failed: frozenset[str]) -> None:
+        """This master handed its user over (Table 3, modes.py) and is a slave now: a part it found
+        broken may leave it unable to hold its slot (:meth:`sensor_failed`: the bid request)."""
+        self._was_master = bool(failed)
+        for part in sorted(failed):
+            self.sensor_failed(part)
 
     def _request_bids(self, member: int, sensors: int):
         node = self.node
@@ -301,6 +337,9 @@ class RecoveryManager:
         self.last_seq, self._last_src = p["seq"], frame.src
         members = {int(m): n for m, n in p["members"].items()}
         if node.node_id not in members.values():  # removed: not a member any more
+            if self._asked_out:
+                self._plan_clear_out()
+            self._asked_out = self._was_master = False
             self._leave()
             return
         know = node.know
@@ -309,6 +348,64 @@ class RecoveryManager:
         know.member = next(m for m, n in members.items() if n == node.node_id)
         know.mode = p["mode"]
         node.formation = Formation.from_links_payload(p["shape"], p["links"])
+
+    def _plan_clear_out(self) -> None:
+        """The robot leaves its slot for its own fault (seed 003 Algorithm 2 step 5: "the faulty robot
+        leaves"): it drives out of the formation, sideways in its own frame, away from the formation's
+        axis (its slot's side; the left for a slot on the axis), until it stands beyond the formation's
+        outermost slot by its diameter and :data:`CLEAR_MARGIN_M`, keeping the swarm's pace from the
+        master's last status broadcast and :data:`CLEAR_AHEAD_MPS` more meanwhile (a master that handed its
+        user over: its own pace, :data:`CLEAR_MARGIN_MASTER_M`), then stops (chosen: a robot that stops where it was
+        stands in the path of the member that takes its place and of the members behind it, which the
+        walking formation drives into). The command is its middleware's (:meth:`leaving_command`); it
+        needs no sensor that may have failed: the wheels alone."""
+        node = self.node
+        if node.formation is None:
+            return
+        pos = node.formation.slot_positions()
+        member = node.know.member
+        if not 0 < member < len(pos):
+            return
+        lateral = float(pos[member][1])
+        side = 1.0 if lateral >= 0 else -1.0
+        outermost = max((float(p[1]) * side for p in pos), default=0.0)
+        margin = CLEAR_MARGIN_MASTER_M if self._was_master else CLEAR_MARGIN_M
+        out_m = outermost - lateral * side + 2.0 * node.cfg.robot.radius_m + margin
+        status = node.know.status  # a slave keeps the master's pace; a master that handed its user over, its own
+        vx = float(status.velocity[0]) if status is not None else float(node.odometry.read()[0])
+        ahead = 0.0 if self._was_master else CLEAR_AHEAD_MPS
+        self.clear_out = (node.clock.now, vx + ahead, side * CLEAR_SPEED_MPS, out_m)
+        self._cleared = (node.clock.now, 0.0)
+
+    def leaving_command(self, now_s: float) -> tuple[float, float, float] | None:
+        """The body-frame command of the move out of the formation (:meth:`_plan_clear_out`) until its
+        wheel odometry counts the sideways distance (or :data:`CLEAR_TIMEOUT` times the time it takes at
+        the commanded speed passed), (0, 0, 0) once, then None (nothing to drive)."""
+        c = self.clear_out
+        if c is None:
+            return None
+        t0, vx, vy, out_m = c
+        last_s, done_m = self._cleared
+        done_m += abs(self.node.odometry.read()[1]) * (now_s - last_s)  # the wheels' sideways travel since
+        self._cleared = (now_s, done_m)
+        if done_m < out_m and now_s - t0 < CLEAR_TIMEOUT * out_m / abs(vy) and self.node.state == "waiting":
+            return (vx, vy, 0.0)
+        self.clear_out = None
+        return (0.0, 0.0, 0.0)
+
+
+# the parts a master's job needs (chosen): its IR module — every slave locates it by its IR (seed 000 §3.3,
+# the master's slot of the ring) and it measures the heading exchange's bearings; a master whose IR broke
+# hands its user over (swarm.hand_over_for_fault). Its ultrasonic ring and AHRS: recorded, no handover.
+MASTER_NEEDS = frozenset({"ir"})
+CLEAR_SPEED_MPS = 0.5  # chosen: the sideways speed of a faulty robot leaving the formation (a third of the top speed)
+CLEAR_TIMEOUT = 3.0  # chosen: the move out gives up after three times its time at the commanded speed (a robot held by a contact)
+CLEAR_AHEAD_MPS = 0.25  # chosen: a slave also drives ahead of the swarm's pace, out of the way of the member behind it that moves up (a master that handed its user over does not: the user and the new master are ahead of it)
+CLEAR_MARGIN_M = 1.0  # chosen: its clearance beyond the formation's outermost slot (a formation drifts sideways by half a spacing as it re-forms)
+# chosen: a master that handed its user over clears further: its formation then re-centres on the new master, which
+# drives onto the user's line, half a spacing or more sideways (IR on the master, seeds 20-39: re-formed 14/20 with
+# 1.0 m, 17/20 with 1.5 m; seeds 0-19: 18/20 with both)
+CLEAR_MARGIN_MASTER_M = 1.5
 
 
 def least_total(cost: list[list[float]]) -> list[int]:

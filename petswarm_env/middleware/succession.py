@@ -93,9 +93,14 @@ def own_user_estimate(node: Station, now_s: float, master: int | None = None) ->
     seen = know.ir.get(master)
     if seen is not None and now_s - seen.time_s <= FRESH_IR_S:
         mx, my = seen.position_now(yaw)
-    elif node.formation is not None and 0 < own_slot < node.formation.size and node.member_node(0) == master:
-        sx, sy = (float(v) for v in node.formation.slot_positions()[own_slot])
-        mx, my = -(c * sx - s * sy), -(s * sx + c * sy)  # the master from its own slot, turned into own frame
+    elif node.formation is not None and 0 <= own_slot < node.formation.size and master in know.members.values() \
+            and master != node.node_id:
+        # the master from the two slots of the neighbour table (the master's frame), turned into own frame: as a
+        # slave its own slot; as the new master of a handover (modes.py) the old master's slot of the re-rooted table
+        pos = node.formation.slot_positions()
+        m = next(k for k, n in know.members.items() if n == master)
+        sx, sy = (float(v) for v in pos[own_slot] - pos[m])
+        mx, my = -(c * sx - s * sy), -(s * sx + c * sy)
     else:
         return None
     ux, uy = status.user_position_m

@@ -19,7 +19,8 @@ from petswarm_env.middleware import messages as msg
 from petswarm_env.middleware.formation import Formation
 from petswarm_env.middleware.join import OrganizeResult
 from petswarm_env.middleware.knowledge import MasterStatus
-from petswarm_env.middleware.modes import ModeChangePlan, SwarmGeometry, measured_geometry, plan_mode_change
+from petswarm_env.middleware.modes import (ModeChangePlan, SwarmGeometry, measured_geometry, plan_master_handover,
+                                          plan_mode_change)
 from petswarm_env.middleware.node import Node
 from petswarm_env.sim.clock import Clock
 from petswarm_env.sim.world import World
@@ -67,6 +68,8 @@ class Swarm:
         self.user_view: MasterStatus | None = None  # the master's view of its user (set by the session)
         self.events = {"master_changes": 0, "mode_changes": 0, "successions": 0}
         self.emergency = False  # the user is lost (seed 002 Fig. 4); set by the user session
+        self.handing_over = False  # the master hands its user over for a broken part (hand_over_for_fault)
+        self.fault_handovers: list[tuple[float, int, int, str]] = []  # (time, old master, new master, part)
         self.on_master_change = None  # callback(old_node, new_node), set by the user session
         self.on_succession = None  # callback(new_node): a slave took a lost master's place; set by the user session
         # members lost and recruited while organized (middleware/recovery.py): (time, "lost" | "joined", node ids)
@@ -154,6 +157,29 @@ class Swarm:
         self.clock.process(master.modes.change(plan, self.mode_change_result))
         return plan
 
+    def hand_over_for_fault(self, master: Node, part: str) -> ModeChangePlan | None:
+        """The master found its ``part`` broken and its job needs it (``Station.cannot_lead``): it hands
+        its user over by Table 3 (:func:`~.modes.plan_master_handover`, from what it knows: its IR
+        measurements, stale now, and its LF track of the user) through the mode-change protocol with a
+        master change, the mode unchanged. Once a slave, it asks to leave its slot (the node's
+        ``handed_over``, seed 003 Algorithm 2 step 5). Nothing when no other robot may be master."""
+        if master is not self.master or master.state != "master" or not self.organized or self.formation is None \
+                or self.handing_over:
+            return None
+        view = self.user_view
+        user_xy = view.user_position_m if view is not None else None
+        geometry = measured_geometry(self.formation, master.know, master.ahrs_yaw(), master.clock.now, user_xy,
+                                     self.cfg.master.distance_m)
+        plan = plan_master_handover(self.formation, master.know.members, self.mode, geometry, master.know.lf_members)
+        if plan is None:
+            return None
+        self.handing_over = True
+        self.last_geometry = geometry
+        self.mode_change_result = {"reason": part}
+        self.fault_handovers.append((self.clock.now, master.node_id, plan.members[0], part))
+        self.clock.process(master.modes.change(plan, self.mode_change_result))
+        return plan
+
     # -- what the robots signal (forwarded by the fleet to the swarm the robot is in) ---------------
     def apply_plan(self, plan: ModeChangePlan, previous_members: dict[int, int]) -> None:
         """The (old) master committed the plan once every member acknowledged it."""
@@ -166,6 +192,7 @@ class Swarm:
     def hand_over(self, old: Node, new: Node) -> None:
         """The old master handed the user over and is a slave now."""
         self.master = new  # takes effect for the swarm once the new master took over
+        self.handing_over = False
         self.events["master_changes"] += 1
         if self.on_master_change is not None:
             self.on_master_change(old, new)

@@ -128,6 +128,7 @@ class UserSession:
         self._emergency_since = 0.0
         self._gestures: list[str] = []  # gestures the user is about to perform, one stroke at a time
         self._watch_free_s = -math.inf
+        self.fault_pause_s: float | None = None  # the user stopped at a master's handover for a broken part, since
         self.paused = False  # the user stopped after losing their master (the belt's alert), until paired with an organized swarm
         self.link_ack_s = -math.inf  # the belt last heard the connected robot's BLE link layer
         self.released_by: set[int | None] = set()  # robots whose link the belt lost (it does not pair with them again)
@@ -431,6 +432,9 @@ class UserSession:
         now = self.clock.now
         user = self.user
         self._check_release(now)
+        if self.fault_pause_s is not None and self.tracker.last_fix_s > self.fault_pause_s:
+            self.fault_pause_s = None
+            user.walking = True  # the new master located the user: they walk on
         if self.paused and self.swarm.organized and self.state in ("following", "leading"):
             self.paused = False
             user.walking = True  # paired again with an organized swarm: the user walks on
@@ -537,3 +541,11 @@ class UserSession:
         est = own_user_estimate(new, now, old.node_id)
         if est is not None:
             self.tracker.fix(est, now)
+        handovers = self.swarm.fault_handovers
+        if handovers and handovers[-1][1] == old.node_id and handovers[-1][2] == new.node_id and self.user.walking:
+            # a master that hands the user over for a broken part (swarm.hand_over_for_fault) alerts the belt
+            # first (chosen, as the belt's alert of a lost master): the user stops until the new master's own
+            # LF fix of them (its estimate above is the old master's last broadcast, a second old)
+            self.user.walking = False
+            self.events["alerts_to_belt"] += 1
+            self.fault_pause_s = now

@@ -12,9 +12,12 @@ the robot, and each part's model asks :class:`Health` whether it works:
 * ``ir`` — the IR module is off: no transmission in its token slot, no reception of the others';
 * ``ultrasonic`` — the ring gives no readings: every sensor reads ``robot.ultrasonic.max_range_m``
   (an echo-less ping: "nothing in range"; chosen, the value the ring gives in the open, so the
-  safety stage sees no obstacle). :meth:`Faults.ultrasonic_ok` is the per-robot flag the ring
-  model follows (``Sensors.read_rings``); the observation's presence flags and the robot's status
-  change only when its own diagnosis has found the ring dead (middleware/diagnosis.py);
+  safety stage sees no obstacle), and its transducers do not ring down after their bursts (chosen:
+  the ring's driver sends no burst; the driver's self-test reports it with every reading, as the
+  transducer diagnosis of ultrasonic front-ends does). :meth:`Faults.ultrasonic_ok` is the
+  per-robot flag the ring model follows (``Sensors.read_rings``); the observation's presence flags
+  and the robot's status change only when its own diagnosis has found the ring dead
+  (middleware/diagnosis.py);
 * ``ahrs`` — the AHRS gives no new yaw: it repeats its last reading from the fault on (a frozen
   output; chosen — the robot's software cannot tell, like a stuck sensor bus).
 

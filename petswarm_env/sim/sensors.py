@@ -247,8 +247,10 @@ class Sensors:
 
     def read_rings(self) -> np.ndarray:
         """Read every robot's ultrasonic ring now; also kept as :attr:`ranges`. A ring with an
-        ``ultrasonic`` fault reads the maximum range on every sensor; each robot's software gets its
-        reading (``robot.on_ring``, its self-diagnosis: middleware/diagnosis.py), then the sensors it
+        ``ultrasonic`` fault reads the maximum range on every sensor and its transducers do not ring
+        down after their bursts (the driver's self-test, chosen: a dead ring driver sends no burst);
+        each robot's software gets its reading and the self-test's result (``robot.on_ring(ranges,
+        present, now, rang)``, its self-diagnosis: middleware/diagnosis.py), then the sensors it
         knows to be off (``robot.sensors_off``) read ``max_range`` with presence 0 (:meth:`sensor_off`)."""
         self._follow_faults()
         robots = self.world.robots
@@ -269,7 +271,7 @@ class Sensors:
             if listener is not None:
                 if now is None:
                     now = self.world.clock.now
-                listener(self.ranges[i], self._present[i], now)
+                listener(self.ranges[i], self._present[i], now, i not in self._ring_faulted)
             if robot.sensors_off != self._off.get(i, set()):  # the robot's own record of its broken sensors
                 self.sensor_off(i, set(robot.sensors_off))
         if self._off:

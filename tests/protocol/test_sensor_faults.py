@@ -44,6 +44,7 @@ def test_an_ultrasonic_fault_is_found_by_the_robot_and_only_then_lowers_its_flag
                 seen = (found[0], pres.max(), assignment.own_status(node))
     assert seen is not None, "the ultrasonic fault was never detected"
     t, presence, status = seen
+    assert 0 < t - env.episode.runtime.faults.log[0].time_s <= 1.0  # the ring's self-test: a few readings
     assert presence == 0.0  # the observation of the detection's own step reads the ring absent
     assert status.rate_sens_ma is None and "DISTANCE" not in status.sensors
     assert (msg.BID_REQUEST, 3, env.episode.fleet.nodes[0].node_id) in frames  # the bid request went to the master
@@ -97,3 +98,51 @@ def test_a_spare_takes_the_faulty_robots_slot_and_the_faulty_robot_is_not_recrui
     spare = env.episode.runtime.arrived[0][1]
     assert log[:2] == [("lost", [2]), ("joined", [spare])]
     assert spare in env.episode.swarm.slave_ids() and 2 not in env.episode.swarm.slave_ids()
+
+
+@pytest.mark.parametrize("kind", ["ahrs", "ultrasonic"])
+def test_the_faulty_robot_drives_out_of_the_formation_and_the_rest_re_form(kind):
+    """Seed 1 (the fault on robot 2, the front slave on one arm): a faulty robot that stopped where it stood
+    was in the path of the member taking its place, which lagged 3.6 m behind 10 s later. Now it drives out
+    beside the formation (its own wheels: the move needs no sensor), stops there, and the others re-form."""
+    from petswarm.experiments import sensor_faults
+
+    seen: dict = {}
+
+    def watch(env):
+        rec = env.episode.fleet.nodes[2].recovery
+        if rec.clear_out is not None and "plan" not in seen:
+            seen["plan"] = rec.clear_out
+            seen["start"] = tuple(env.episode.world.robots[2].body.position)
+
+    r = sensor_faults.run(kind, 1, on_step=watch)
+    assert r["robot"] == 2 and r["detection_s"] is not None and r["detection_s"] <= 3.0
+    assert "plan" in seen, "the faulty robot never planned its move out"
+    _, _, vy, out_m = seen["plan"]
+    assert abs(vy) > 0 and out_m >= 2 * 0.2  # sideways, at least its diameter
+    assert r["reformed"], f"largest live-slave error {r['largest_error_m']:.2f} m 10 s after the detection"
+
+
+def test_a_master_whose_ir_breaks_hands_its_user_over_by_table_3_and_the_swarm_goes_on():
+    """The master finds its IR module broken (its slaves lose their fix of it): it hands the user over to
+    the robot closest to the user by what it knows (Table 3, following: its last IR fixes, else the
+    slots of its table), asks to leave as a slave (bid request), drives out of the
+    way, and the new master follows the user to the end of the episode."""
+    from petswarm.experiments import sensor_faults
+
+    seen: dict = {}
+
+    def watch(env):
+        swarm = env.episode.swarms[0]
+        if "members" not in seen and env.episode.runtime.faults.log:
+            seen["members"] = dict(swarm.master.know.members)
+
+    r = sensor_faults.run("ir", 2, target="master", on_step=watch)
+    assert r["robot"] == 0 and r["detection_s"] is not None and r["detection_s"] <= 3.0
+    assert len(r["handovers"]) == 1
+    _, old, new, part = r["handovers"][0]
+    assert (old, part) == (0, "ir") and new == r["master_after"]
+    assert new in (seen["members"][1], seen["members"][2])  # one of the front pair, the closest to the user
+    assert r["bid_request"] and r["other_detections"] == []  # the old master asked to leave its new slot
+    assert r["session_state"] == "following" and r["user_distance_end_m"] <= sensor_faults.USER_FOLLOWED_M
+    assert r["reformed"]

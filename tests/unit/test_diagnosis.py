@@ -51,6 +51,49 @@ def test_a_neighbour_on_a_ray_that_never_echoes_is_a_dead_ring_and_an_echo_reviv
     assert "ultrasonic" not in d.failed and robot.sensors_off == set()
 
 
+def test_a_ring_whose_bursts_do_not_ring_down_is_dead_and_a_passing_self_test_revives_it():
+    """The driver's self-test: readings whose bursts did not ring down, a few in a row, are a dead ring
+    (whatever the neighbours); one passing reading in between starts the count over."""
+    d, robot, _, found = _diag()
+    present = [1.0] * CFG.robot.ultrasonic.count
+    silent = [MAX] * CFG.robot.ultrasonic.count
+    t = 10.0
+    for _ in range(D.US_SILENT_BURSTS - 1):
+        d.on_ring(silent, present, t, False)
+        t += 0.1
+    d.on_ring(silent, present, t, True)  # a glitch, not a dead ring
+    for _ in range(D.US_SILENT_BURSTS - 1):
+        t += 0.1
+        d.on_ring(silent, present, t, False)
+    assert found == []
+    d.on_ring(silent, present, t + 0.1, False)
+    assert found == ["ultrasonic"] and robot.sensors_off == set(range(1, CFG.robot.ultrasonic.count + 1))
+    d.on_ring(silent, present, t + 0.2, False)
+    assert "ultrasonic" in d.failed
+    d.on_ring(silent, present, t + 0.3, True)  # the fault ended: the transducers ring again
+    assert "ultrasonic" not in d.failed and robot.sensors_off == set()
+
+
+def test_a_body_without_an_ultrasonic_sensor_is_not_judged():
+    d, _, _, found = _diag()
+    for k in range(10):
+        d.on_ring([MAX] * 8, [0.0] * 8, 10.0 + 0.1 * k, False)
+    assert found == []
+
+
+def test_a_reading_at_the_maximum_range_within_its_noise_is_no_echo():
+    """A sensor that hears nothing reads its maximum range; the simulated one adds its noise to it, so
+    a reading a noise's width below the maximum is still "nothing" (not an echo that clears the count)."""
+    d, _, know, found = _diag()
+    present = [1.0] * CFG.robot.ultrasonic.count
+    near_max = [MAX - CFG.robot.ultrasonic.noise_m] * CFG.robot.ultrasonic.count
+    for k in range(D.US_MISSES):
+        now = 10.0 + 0.1 * k
+        know.ir[2] = IRMeasurement(1.0, 0.0, now - 0.1, 0.0)
+        d.on_ring(near_max, present, now)
+    assert found == ["ultrasonic"]
+
+
 def test_a_neighbour_between_rays_proves_nothing():
     """The ring's rays pass on either side of a body 22° off a sensor at 0.9 m: a healthy ring reads
     nothing there too, however long it lasts."""

@@ -50,3 +50,25 @@ def test_members_at_their_slots_keep_them_and_without_a_fix_the_held_slot_counts
     rm = _manager(members, {11: (-0.87, 0.5), 12: (-0.87, -0.5)})  # 13 and 14 unseen (occluded): at their slots
     remaining = {m: n for m, n in members.items() if n != 14}
     assert rm.nearest_slots(remaining, formation_for_mode(CFG.swarm, 4, "following")) == {0: 0, 1: 11, 2: 12, 3: 13}
+
+
+def test_a_wedge_that_lost_a_front_slave_takes_its_mirror_image_when_that_moves_less():
+    """Slot 1 (front, left arm) lost: on the standard table one smaller the right arm's rear robot must
+    cross to the left (1.7 m at best, through its neighbours); the mirror image moves one robot 1 m."""
+    members = {0: 0, 1: 11, 2: 12, 3: 13, 4: 14}
+    rm = _manager(members, {12: (-0.87, -0.5), 13: (-1.73, 1.0), 14: (-1.73, -1.0)})
+    remaining = {m: n for m, n in members.items() if n != 11}
+    standard = formation_for_mode(CFG.swarm, 4, "following")
+    table, formation, mirrored = rm.removal_plan(remaining, standard)
+    assert mirrored and table == {0: 0, 1: 12, 2: 13, 3: 14}
+    slots = formation.slot_positions()
+    assert [tuple(round(float(v), 2) for v in slots[m]) for m in (1, 2, 3)] == [(-0.87, -0.5), (-0.87, 0.5), (-1.73, -1.0)]
+
+
+def test_a_loss_the_standard_table_serves_as_well_keeps_it():
+    members = {0: 0, 1: 11, 2: 12, 3: 13, 4: 14}
+    rm = _manager(members, {11: (-0.87, 0.5), 12: (-0.87, -0.5), 13: (-1.73, 1.0)})  # the last slot lost
+    remaining = {m: n for m, n in members.items() if n != 14}
+    standard = formation_for_mode(CFG.swarm, 4, "following")
+    table, formation, mirrored = rm.removal_plan(remaining, standard)
+    assert not mirrored and formation is standard and table == {0: 0, 1: 11, 2: 12, 3: 13}

@@ -166,8 +166,6 @@ def save_policy(path: str | os.PathLike, layers: list[tuple[np.ndarray, np.ndarr
     (format version 2; None: a feed-forward policy, version 1)."""
     if activation not in ACTIVATIONS:
         raise ValueError(f"activation must be one of {sorted(ACTIVATIONS)}, got '{activation}'")
-    if residual is not None and recurrent is not None:
-        raise ValueError("a policy is residual or recurrent, not both")
     meta = {
         "format": FORMAT,
         "format_version": FORMAT_VERSION if recurrent is None else RECURRENT_FORMAT_VERSION,
@@ -275,8 +273,6 @@ def _read_meta(path: Path, arrays: dict[str, np.ndarray]) -> dict[str, Any]:
                 and 0 <= recurrent["encoder_layers"] < n):
             raise _field_error(path, "recurrent", f"must be {{cell: one of {list(CELLS)}, hidden_size >= 1, encoder_layers from 0 "
                                                   f"to num_layers - 1}}, got {describe_value(recurrent)}")
-        if "residual_of" in meta:
-            raise _field_error(path, "residual_of", "is given with 'recurrent': a recurrent policy is not a residual one")
     return meta
 
 
@@ -428,7 +424,7 @@ class LearnedPolicy(Policy):
         except PolicyLoadError as exc:
             raise PolicyLoadError(f"policy file '{path}': {exc}") from None
         if recurrent is not None:
-            return RecurrentPolicy(spec, layers, meta["activation"], index, recurrent, meta)
+            return RecurrentPolicy(spec, layers, meta["activation"], index, recurrent, meta)  # residual too if the file says so
         return cls(spec, layers, meta["activation"], index, meta)
 
     def forward(self, obs: np.ndarray) -> np.ndarray:
@@ -455,7 +451,8 @@ class LearnedPolicy(Policy):
 
 class RecurrentPolicy(LearnedPolicy):
     """A saved recurrent actor (module docstring: encoder, GRU cell, head) evaluated with numpy: the
-    mean action, clipped. It keeps one hidden state per agent: zero at :meth:`reset` (the start of
+    mean action, clipped (with ``residual_of``: the correction of the base policy's action, as
+    :class:`Residual`). It keeps one hidden state per agent: zero at :meth:`reset` (the start of
     an episode) and for an agent that did not act on the step before (it just joined, or rejoined,
     slave-role driving). A step is one :meth:`act_all` call, or a round of :meth:`act` calls in
     which no agent is asked twice."""
@@ -463,8 +460,6 @@ class RecurrentPolicy(LearnedPolicy):
     def __init__(self, spec: PolicySpec, layers: list[tuple[np.ndarray, np.ndarray]], activation: str,
                  index: np.ndarray, recurrent: Recurrent, meta: dict[str, Any] | None = None):
         super().__init__(spec, layers, activation, index, {**(meta or {}), **recurrent.meta()})
-        if self.residual is not None:
-            raise PolicyLoadError("a recurrent policy cannot be a residual one")
         self.encoder_layers = recurrent.encoder_layers
         c = recurrent.cell
         self.cell = GRUCell(*(np.asarray(a, dtype=np.float64) for a in (c.w_ih, c.w_hh, c.b_ih, c.b_hh)))
@@ -518,4 +513,6 @@ class RecurrentPolicy(LearnedPolicy):
         for i, a in enumerate(agents):
             self._hidden[a], self._last[a] = h[i], self._step
             self._asked.add(a)
+        if self.base is not None:  # a residual recurrent policy: the memory corrects the base policy's action
+            return {a: self.residual.apply(self.base.act(a, observations[i]), out[i]) for i, a in enumerate(agents)}
         return {a: out[i] for i, a in enumerate(agents)}

@@ -109,6 +109,8 @@ class RecurrentConfig(Section):
     samples_per_round: int = Field(20_000, ge=1, le=MAX_SAMPLES, description="labelled agent-samples collected per DAgger round")
     teacher_noise_std: float = Field(0.3, ge=0, le=10.0, description="action noise while the teacher drives (round 0)")
     student_noise_std: float = Field(0.1, ge=0, le=10.0, description="action noise while the student drives (rounds 1, 2, ...)")
+    teacher_mix: float = Field(0.5, ge=0, le=1.0, description="DAgger's beta: in round k a robot's step executes the teacher's "
+                                                             "action with probability teacher_mix ** k (the student's otherwise)")
     updates_per_round: int = Field(150, ge=1, le=1_000_000, description="gradient steps after each round, on all data so far")
     batch_sequences: int = Field(16, ge=1, le=MAX_ROLLOUT, description="sequences (one robot's stretch of driving each) per step")
     learning_rate: float = Field(1e-3, gt=0, le=1.0)
@@ -209,13 +211,13 @@ def load_train_config(path: str | os.PathLike | None = None, overrides: dict[str
     if not cfg.residual_of and cfg.residual_scale != 1.0:
         raise ConfigError(f"residual_scale: {cfg.residual_scale} bounds a residual policy's correction, but residual_of is null; "
                           "set residual_of: scripted, or drop residual_scale")
-    if cfg.algorithm == "recurrent" and (cfg.timesteps == 0 or cfg.residual_of):
+    if cfg.algorithm == "recurrent" and cfg.timesteps == 0:
         raise ConfigError("algorithm: recurrent distils the teacher in rounds of DAgger whose labelled samples are timesteps: give "
-                          f"timesteps > 0 (got {cfg.timesteps}) and residual_of: null (got {cfg.residual_of!r})")
+                          f"timesteps > 0 (got {cfg.timesteps})")
     if cfg.algorithm == "ppo" and cfg.timesteps == 0 and cfg.pretrain.samples == 0:
         raise ConfigError("timesteps: 0 trains by the warm start alone, but pretrain.samples is 0 too: nothing would be trained; "
                           "give timesteps > 0 (PPO) or pretrain.samples > 0 (imitation)")
-    if cfg.residual_of and cfg.pretrain.samples > 0:
+    if cfg.algorithm == "ppo" and cfg.residual_of and cfg.pretrain.samples > 0:
         raise ConfigError(f"residual_of: {cfg.residual_of} starts training at the {cfg.residual_of} reference itself (a zero "
                           f"correction), so the warm start that imitates it has nothing to learn; set pretrain.samples: 0 "
                           f"(got {cfg.pretrain.samples}) or residual_of: null")

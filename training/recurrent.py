@@ -12,7 +12,9 @@ does at inference, which is the same network in numpy.
 How it learns: DAgger (Ross, Gordon & Bagnell 2011). Round 0: the teacher
 (:class:`petswarm.training.teacher.PrivilegedTeacher`, which reads ground truth and exists only at
 training time) drives with action noise and labels what it does. Rounds 1, 2, ...: the student drives
-(its exported numpy policy, with a little noise), the teacher labels every state the student visits,
+(its exported numpy policy, with a little noise; in round ``k`` each robot's step executes the
+teacher's action instead with probability ``recurrent.teacher_mix ** k``, DAgger's β mixture, so the
+early data stays near the states the teacher visits), the teacher labels every state the student visits,
 the data is aggregated and the student refitted on everything so far — by backpropagation through
 time over whole sequences (one robot's stretch of driving, from its hidden state's zero). A robot
 with no fresh IR fix of anyone is labelled by the scripted reference's rejoin and search instead
@@ -25,6 +27,11 @@ so the number of rounds scales with ``--timesteps``; the gradient steps per roun
 time grows linearly with it. After every ``recurrent.eval_every_rounds`` rounds the student is
 evaluated against the scripted reference on the evaluation seeds (:func:`petswarm.training.callbacks.evaluate_and_keep`):
 the best evaluation is ``policy.npz``, the last round's student ``last.npz``.
+
+With ``residual_of: scripted`` the GRU learns a correction of the scripted reference's action
+(residual policy learning, as training/residual.py, ``residual_scale`` its bound): its targets are
+``clip((teacher − reference) / residual_scale, −1, 1)``, so the reference's precise holding is where
+it starts and the memory only has to learn where the teacher does better.
 
 Entry point for other tools: :func:`train_recurrent` ``(config, timesteps, seed, out_dir) -> path of policy.npz``.
 """
@@ -41,7 +48,7 @@ import numpy as np
 import torch
 import yaml
 
-from petswarm.baselines.learned import ACTIVATIONS, GRUCell, Recurrent, RecurrentPolicy, save_policy
+from petswarm.baselines.learned import GRUCell, Recurrent, RecurrentPolicy, Residual, save_policy
 from petswarm.baselines.policy import PolicySpec
 from petswarm.training.callbacks import LAST_POLICY, evaluate_and_keep, policy_info, public_log, scripted_reference
 from petswarm.training.config import ConfigError, TrainConfig, load_train_config
@@ -93,25 +100,36 @@ class RecurrentActor(torch.nn.Module):
 
 
 def build_actor(cfg: TrainConfig, obs_size: int) -> RecurrentActor:
+    """A fresh actor of ``recurrent:``'s sizes; with ``residual_of`` its last layer is zero, so the
+    first policy is the base itself."""
     r = cfg.recurrent
-    return RecurrentActor(obs_size, list(r.encoder), r.hidden_size, list(r.head), cfg.ppo.activation)
+    actor = RecurrentActor(obs_size, list(r.encoder), r.hidden_size, list(r.head), cfg.ppo.activation)
+    if cfg.residual_of:
+        with torch.no_grad():
+            actor.head[-1].weight.zero_()
+            actor.head[-1].bias.zero_()
+    return actor
 
 
-def numpy_policy(actor: RecurrentActor, spec: PolicySpec) -> RecurrentPolicy:
-    """The actor's current weights as the numpy policy that ships (for an env of the layout it trains on)."""
+def numpy_policy(actor: RecurrentActor, spec: PolicySpec, residual: Residual | None = None) -> RecurrentPolicy:
+    """The actor's current weights as the numpy policy that ships (for an env of the layout it trains
+    on; with ``residual``, correcting that base policy's action)."""
     layers, recurrent = actor.export()
-    return RecurrentPolicy(spec, layers, actor.activation, np.arange(spec.layout.size), recurrent)
+    return RecurrentPolicy(spec, layers, actor.activation, np.arange(spec.layout.size), recurrent,
+                           residual.meta() if residual else None)
 
 
-def export_actor(actor: RecurrentActor, path: str | os.PathLike, layout: ObservationLayout, info: dict[str, Any]) -> None:
+def export_actor(actor: RecurrentActor, path: str | os.PathLike, layout: ObservationLayout, info: dict[str, Any],
+                 residual: Residual | None = None) -> None:
     layers, recurrent = actor.export()
-    save_policy(path, layers, actor.activation, layout, info, recurrent=recurrent)
+    save_policy(path, layers, actor.activation, layout, info, residual=residual, recurrent=recurrent)
 
 
 @dataclass
 class Sequence:
     """One robot's stretch of slave-role driving: its observations (T, obs), the teacher's actions
-    (T, 3) and each step's loss weight (T,)."""
+    (T, 3; with ``residual_of``, the corrections of the base's actions toward them) and each step's
+    loss weight (T,)."""
 
     obs: np.ndarray
     act: np.ndarray
@@ -119,13 +137,16 @@ class Sequence:
 
 
 def collect_sequences(env, samples: int, seed: int, cfg: TrainConfig, driver: RecurrentPolicy | None,
-                      noise_std: float) -> tuple[list[Sequence], dict[str, int]]:
+                      noise_std: float, beta: float = 0.0) -> tuple[list[Sequence], dict[str, int]]:
     """Episodes ``seed, seed + 1, …`` of the fixed-agents training ``env`` until ``samples``
-    labelled agent-steps: the teacher drives (``driver`` None) or the student does, with Gaussian
-    action noise of ``noise_std``; every live robot's step is labelled by the teacher. Returns the
+    labelled agent-steps (the last episode is played to its end): the teacher drives (``driver``
+    None) or the student does — each robot's step executing the teacher's action instead with
+    probability ``beta`` (DAgger's mixture) — with Gaussian action noise of ``noise_std``; every
+    live robot's step is labelled by the teacher. Returns the
     sequences (a robot's sequence ends when it stops driving; a new one starts when it rejoins) and
     counts of building and lost steps."""
     r = cfg.recurrent
+    residual = cfg.residual()
     rng = np.random.default_rng(seed)
     out: list[Sequence] = []
     counts = {"samples": 0, "building": 0, "lost": 0}
@@ -134,6 +155,7 @@ def collect_sequences(env, samples: int, seed: int, cfg: TrainConfig, driver: Re
         rows, infos = env.reset(seed=seed + episode)
         episode += 1
         label = TeacherLabels(env)  # after the reset: the episode's env
+        base = residual.base_policy(PolicySpec.from_env(env)) if residual else None  # a residual's target: teacher - base
         if driver is not None:
             driver.reset()
         open_: dict[str, list[tuple[np.ndarray, np.ndarray, float]]] = {}
@@ -146,15 +168,22 @@ def collect_sequences(env, samples: int, seed: int, cfg: TrainConfig, driver: Re
                 continue
             seen = {a: rows[a] for a in live}
             target = label(seen)
-            executed = target if driver is None else driver.act_all(seen)
+            executed = target if driver is None else driver.act_all(seen)  # the student acts every step: its memory runs
+            if driver is not None and beta > 0.0:
+                executed = {a: target[a] if rng.random() < beta else executed[a] for a in live}
             noisy = {a: np.clip(v + rng.normal(0.0, noise_std, 3), -1.0, 1.0).astype(np.float32) for a, v in executed.items()}
+            if base is not None:  # the correction that turns the base's action into the teacher's, in the residual's units
+                base_act = base.act_all(seen)
+                learn = {a: np.clip((target[a] - base_act[a]) / residual.scale, -1.0, 1.0) for a in live}
+            else:
+                learn = target
             for a in live:
                 lost = label.lost(rows[a])
                 building = infos[a]["formation_error_m"] > r.building_error_m  # ground truth as a loss weight, never an input
                 w = 1.0 + r.lost_weight * lost + r.building_weight * building
                 counts["lost"] += int(lost)
                 counts["building"] += int(building)
-                open_.setdefault(a, []).append((rows[a], target[a], w))
+                open_.setdefault(a, []).append((rows[a], learn[a], w))
             counts["samples"] += len(live)
             rows, _, _, _, infos = env.step(noisy)
         out.extend(_sequence(steps) for steps in open_.values())
@@ -232,22 +261,23 @@ def train(cfg: TrainConfig, out_dir: str | os.PathLike, command: str = "", progr
     try:
         for k in range(rounds):
             t0 = time.time()
-            driver = None if k == 0 else numpy_policy(actor, PolicySpec.from_env(env))
+            driver = None if k == 0 else numpy_policy(actor, PolicySpec.from_env(env), cfg.residual())
             seqs, counts = collect_sequences(env, r.samples_per_round, cfg.seed + 100_000 + 10_000 * k, cfg, driver,
-                                             r.teacher_noise_std if k == 0 else r.student_noise_std)
+                                             r.teacher_noise_std if k == 0 else r.student_noise_std, r.teacher_mix ** k)
             data.extend(seqs)
             t1 = time.time()
             loss = fit(actor, opt, data, r.updates_per_round, r.batch_sequences, rng)
             log["timesteps"] += counts["samples"]
             log["wall_time_s"] = time.time() - log["_start"]
-            record = {"round": k, "driver": "teacher" if k == 0 else "student", **counts, "sequences": len(data),
+            record = {"round": k, "driver": "teacher" if k == 0 else "student", "beta": r.teacher_mix ** k, **counts, "sequences": len(data),
                       "loss": loss, "collect_s": round(t1 - t0, 1), "fit_s": round(time.time() - t1, 1)}
             log["rounds"].append(record)
             info = policy_info(cfg, log, ALGORITHM)
-            export_actor(actor, out / LAST_POLICY, layout, info)
+            export_actor(actor, out / LAST_POLICY, layout, info, cfg.residual())
             if (k + 1) % r.eval_every_rounds == 0 or k == rounds - 1:
-                ev = evaluate_and_keep(cfg, out, log, lambda spec: numpy_policy(actor, spec), log["timesteps"],
-                                       lambda path, info: export_actor(actor, path, layout, info), ALGORITHM, {"round": k})
+                ev = evaluate_and_keep(cfg, out, log, lambda spec: numpy_policy(actor, spec, cfg.residual()), log["timesteps"],
+                                       lambda path, info: export_actor(actor, path, layout, info, cfg.residual()), ALGORITHM,
+                                       {"round": k})
                 record["eval_median_ratio"] = ev["median_ratio"]
             log["wall_time_s"] = time.time() - log["_start"]
             write_json_atomic(out / "train_log.json", public_log(log))

@@ -108,7 +108,7 @@ def _rewrite(src, dst, change):
     (lambda m, a: m["recurrent"].__setitem__("cell", "lstm"), "recurrent"),
     (lambda m, a: m["recurrent"].__setitem__("hidden_size", 13), "w1"),
     (lambda m, a: m.__setitem__("format_version", 1), "recurrent"),
-    (lambda m, a: m.update(residual_of="scripted"), "residual_of"),
+    (lambda m, a: m.update(residual_of="learned"), "residual_of"),
 ])
 def test_a_damaged_recurrent_file_is_refused_by_field(spec, tmp_path, change, field):
     export_actor(_actor(spec), tmp_path / "r.npz", spec.layout, {})
@@ -125,3 +125,19 @@ def test_the_dagger_budget_scales_with_timesteps():
     assert rounds_for(load_train_config("configs/train/recurrent.yaml", {"timesteps": 1})) == 1
     with pytest.raises(ConfigError, match="timesteps > 0"):
         load_train_config("configs/train/recurrent.yaml", {"timesteps": 0})
+
+
+def test_a_residual_recurrent_policy_corrects_the_scripted_reference(spec, tmp_path):
+    from petswarm.baselines.learned import Residual
+    from petswarm.baselines.registry import make_policy
+
+    actor = _actor(spec)
+    export_actor(actor, tmp_path / "rr.npz", spec.layout, {}, Residual("scripted", 0.5))
+    policy = LearnedPolicy.load(tmp_path / "rr.npz", spec)
+    assert isinstance(policy, RecurrentPolicy) and policy.residual == Residual("scripted", 0.5)
+    env = parallel_env()
+    obs, _ = env.reset(seed=0)
+    agent, o = next(iter(obs.items()))
+    base = make_policy("scripted", spec).act(agent, o)
+    want = np.clip(base + 0.5 * _torch_actions(actor, o[None])[0], -1.0, 1.0)
+    assert np.abs(policy.act_all({agent: o})[agent] - want).max() < 1e-5

@@ -18,6 +18,14 @@ learned correction on top of the scripted reference (residual policy learning): 
 observation of the same robot (:class:`Residual`); with a zero last layer it is the scripted
 reference, bit for bit. A file without ``residual_of`` is a plain MLP policy (every file written
 before the field existed).
+
+A *recurrent* policy (format version 2, metadata ``recurrent: {cell: gru, hidden_size: H,
+encoder_layers: k}``) carries a memory of the robot's observation history: layers ``0..k-1`` encode
+the observation (the activation after each), a GRU cell (Cho et al. 2014, in torch's gate layout
+``r, z, n``: arrays ``gru_w_ih``, ``gru_w_hh``, ``gru_b_ih``, ``gru_b_hh``) updates the hidden state
+``h`` from the encoding, and the remaining layers map ``[encoding, h]`` to the action. ``h`` is one
+vector per robot, zero at the start of an episode and whenever a robot (re)joins slave-role driving
+(:class:`RecurrentPolicy`): what the robot remembers is only what arrived in its own observations.
 """
 
 from __future__ import annotations
@@ -45,7 +53,11 @@ from petswarm_env.files import read_npz, write_atomic
 from petswarm_env.observe import OBS_VERSION, ObservationLayout
 
 FORMAT = "petswarm-policy"
-FORMAT_VERSION = 1
+FORMAT_VERSION = 1  # a feed-forward actor (layers only)
+RECURRENT_FORMAT_VERSION = 2  # a recurrent actor (encoder layers, a GRU cell, head layers): a reader of version 1 refuses it
+FORMAT_VERSIONS = (FORMAT_VERSION, RECURRENT_FORMAT_VERSION)
+CELLS = ("gru",)
+GRU_ARRAYS = ("gru_w_ih", "gru_w_hh", "gru_b_ih", "gru_b_hh")
 ACTIVATIONS = {"tanh": np.tanh, "relu": lambda x: np.maximum(x, 0.0)}
 RESIDUAL_BASES = {"scripted": LeaderFollowerPolicy}  # what a residual policy corrects (a policy of the observation alone)
 
@@ -84,6 +96,53 @@ class Residual:
         return {"residual_of": self.of, "residual_scale": float(self.scale)}
 
 
+def _sigmoid(x: np.ndarray) -> np.ndarray:
+    return 0.5 * (1.0 + np.tanh(0.5 * x))  # = 1 / (1 + exp(-x)), without overflow
+
+
+@dataclass(frozen=True)
+class GRUCell:
+    """A GRU cell's weights in torch's ``nn.GRU`` layout (the gates ``r, z, n`` stacked by rows):
+    ``w_ih`` (3H, in), ``w_hh`` (3H, H), ``b_ih`` and ``b_hh`` (3H,). :meth:`step` is torch's
+    equations (Cho et al. 2014): ``r = σ(W_ir x + b_ir + W_hr h + b_hr)``, ``z`` likewise,
+    ``n = tanh(W_in x + b_in + r ⊙ (W_hn h + b_hn))``, ``h' = (1 − z) ⊙ n + z ⊙ h``."""
+
+    w_ih: np.ndarray
+    w_hh: np.ndarray
+    b_ih: np.ndarray
+    b_hh: np.ndarray
+
+    @property
+    def hidden_size(self) -> int:
+        return self.w_hh.shape[1]
+
+    def arrays(self) -> dict[str, np.ndarray]:
+        return dict(zip(GRU_ARRAYS, (self.w_ih, self.w_hh, self.b_ih, self.b_hh)))
+
+    def step(self, x: np.ndarray, h: np.ndarray) -> np.ndarray:
+        """The next hidden states (batch, H) from inputs ``x`` (batch, in) and states ``h`` (batch, H)."""
+        n = self.hidden_size
+        gi = x @ self.w_ih.T + self.b_ih
+        gh = h @ self.w_hh.T + self.b_hh
+        r = _sigmoid(gi[:, :n] + gh[:, :n])
+        z = _sigmoid(gi[:, n:2 * n] + gh[:, n:2 * n])
+        c = np.tanh(gi[:, 2 * n:] + r * gh[:, 2 * n:])
+        return (1.0 - z) * c + z * h
+
+
+@dataclass(frozen=True)
+class Recurrent:
+    """A recurrent actor's memory (module docstring): the first ``encoder_layers`` layers encode the
+    observation, ``cell`` updates the hidden state from the encoding, the other layers read
+    ``[encoding, hidden state]``."""
+
+    encoder_layers: int
+    cell: GRUCell
+
+    def meta(self) -> dict[str, Any]:
+        return {"recurrent": {"cell": "gru", "hidden_size": int(self.cell.hidden_size), "encoder_layers": int(self.encoder_layers)}}
+
+
 class PolicyLoadError(ValueError):
     """A policy file is missing, corrupt, or does not fit the environment."""
 
@@ -99,16 +158,17 @@ def shipped_policy_path() -> Path:
 
 def save_policy(path: str | os.PathLike, layers: list[tuple[np.ndarray, np.ndarray]], activation: str,
                 layout: ObservationLayout, info: dict[str, Any] | None = None, behaviours: list[str] | None = None,
-                residual: Residual | None = None) -> None:
+                residual: Residual | None = None, recurrent: Recurrent | None = None) -> None:
     """Write ``layers`` ((weight (out, in), bias (out,)) each; the last one is linear) atomically.
     ``behaviours``: the behaviours the policy commands (seed 001 §IV; default MOVE, the env's action);
     ``residual``: the policy the layers correct and the correction's bound (module docstring; None:
-    a plain MLP policy)."""
+    a plain MLP policy); ``recurrent``: the GRU between the encoder layers and the head layers
+    (format version 2; None: a feed-forward policy, version 1)."""
     if activation not in ACTIVATIONS:
         raise ValueError(f"activation must be one of {sorted(ACTIVATIONS)}, got '{activation}'")
     meta = {
         "format": FORMAT,
-        "format_version": FORMAT_VERSION,
+        "format_version": FORMAT_VERSION if recurrent is None else RECURRENT_FORMAT_VERSION,
         "env_name": ENV_NAME,
         "observation_version": OBS_VERSION,
         "observation_layout": [[name, size] for name, size in layout.signature()],
@@ -119,10 +179,14 @@ def save_policy(path: str | os.PathLike, layers: list[tuple[np.ndarray, np.ndarr
     }
     if residual is not None:
         meta.update(residual.meta())
+    if recurrent is not None:
+        meta.update(recurrent.meta())
     arrays = {"meta": np.frombuffer(json.dumps(meta).encode(), dtype=np.uint8)}
     for i, (w, b) in enumerate(layers):
         arrays[f"w{i}"] = np.asarray(w, dtype=np.float32)
         arrays[f"b{i}"] = np.asarray(b, dtype=np.float32)
+    for name, a in (recurrent.cell.arrays().items() if recurrent is not None else ()):
+        arrays[name] = np.asarray(a, dtype=np.float32)
     write_atomic(path, lambda tmp: np.savez(tmp, **arrays), suffix=".npz")
 
 
@@ -160,9 +224,9 @@ def _read_meta(path: Path, arrays: dict[str, np.ndarray]) -> dict[str, Any]:
             raise PolicyLoadError(f"'{path}' is a training checkpoint, not a policy; use the run's policy.npz")
         raise PolicyLoadError(f"'{path}' is not a petswarm policy file (field 'format' is {meta.get('format')!r}, "
                               f"a policy file has {FORMAT!r})")
-    if meta.get("format_version") != FORMAT_VERSION or not _is_int(meta.get("format_version")):
+    if meta.get("format_version") not in FORMAT_VERSIONS or not _is_int(meta.get("format_version")):
         raise PolicyLoadError(f"policy file '{path}': field 'format_version' is {meta.get('format_version')!r}, this "
-                              f"petswarm reads version {FORMAT_VERSION}; {FIX} with this petswarm")
+                              f"petswarm reads versions {', '.join(map(str, FORMAT_VERSIONS))}; {FIX} with this petswarm")
     missing = [key for key in REQUIRED if key not in meta]
     if missing:
         raise _field_error(path, missing[0], "is missing")
@@ -199,6 +263,16 @@ def _read_meta(path: Path, arrays: dict[str, np.ndarray]) -> dict[str, Any]:
                                                    f"correction), got {describe_value(meta['residual_scale'])}")
     if not isinstance(meta.get("info", {}), dict):
         raise _field_error(path, "info", f"must be a JSON object, got {type(meta['info']).__name__}")
+    recurrent = meta.get("recurrent")
+    if (meta["format_version"] == RECURRENT_FORMAT_VERSION) != (recurrent is not None):
+        raise _field_error(path, "recurrent", f"must be given exactly when 'format_version' is {RECURRENT_FORMAT_VERSION} "
+                                              f"(a recurrent policy), got {describe_value(recurrent)} with version {meta['format_version']}")
+    if recurrent is not None:
+        if not (isinstance(recurrent, dict) and recurrent.get("cell") in CELLS and _is_int(recurrent.get("hidden_size"))
+                and recurrent["hidden_size"] >= 1 and _is_int(recurrent.get("encoder_layers"))
+                and 0 <= recurrent["encoder_layers"] < n):
+            raise _field_error(path, "recurrent", f"must be {{cell: one of {list(CELLS)}, hidden_size >= 1, encoder_layers from 0 "
+                                                  f"to num_layers - 1}}, got {describe_value(recurrent)}")
     return meta
 
 
@@ -206,6 +280,7 @@ def _read_layers(path: Path, arrays: dict[str, np.ndarray], meta: dict[str, Any]
     """The layers (weight (out, in), bias (out,)): present, float, chained shapes, finite, the
     first taking the layout's values and the last giving the 3 action values."""
     layers = []
+    rec = meta.get("recurrent")
     for i in range(meta["num_layers"]):
         for name in (f"w{i}", f"b{i}"):
             if name not in arrays:
@@ -213,13 +288,19 @@ def _read_layers(path: Path, arrays: dict[str, np.ndarray], meta: dict[str, Any]
             if arrays[name].dtype.kind != "f":
                 raise _field_error(path, name, f"must hold floating-point weights, got {arrays[name].dtype}")
         w, b = arrays[f"w{i}"], arrays[f"b{i}"]
-        if w.ndim != 2 or b.shape != (w.shape[0],) or (i > 0 and w.shape[1] != layers[-1][0].shape[0]):
+        before = layers[-1][0].shape[0] if i > 0 else None
+        if rec is not None and i == rec["encoder_layers"]:  # the first head layer reads [encoding, hidden state]
+            before = (before if i > 0 else w.shape[1] - rec["hidden_size"]) + rec["hidden_size"]
+        if w.ndim != 2 or b.shape != (w.shape[0],) or (before is not None and w.shape[1] != before):
             raise _field_error(path, f"w{i}", f"has shape {w.shape} with bias {b.shape}, which does not chain with the "
-                                              "layer before (weights (out, in), bias (out,))")
+                                              "layer before (weights (out, in), bias (out,)"
+                                              + (", the first head layer reading [encoding, hidden state])" if rec else ")"))
         if not (np.all(np.isfinite(w)) and np.all(np.isfinite(b))):
             raise _field_error(path, f"w{i}", "or its bias holds NaN or infinite weights")
         layers.append((w, b))
     inputs = sum(size for _, size in meta["observation_layout"])
+    if rec is not None and rec["encoder_layers"] == 0:  # the cell reads the observation, the head [observation, h]
+        inputs += rec["hidden_size"]
     if layers[0][0].shape[1] != inputs:
         raise _field_error(path, "w0", f"takes {layers[0][0].shape[1]} inputs but field 'observation_layout' has {inputs} values")
     if layers[-1][0].shape[0] != 3:
@@ -227,10 +308,45 @@ def _read_layers(path: Path, arrays: dict[str, np.ndarray], meta: dict[str, Any]
     return layers
 
 
-def read_policy_file(path: str | os.PathLike) -> tuple[dict[str, Any], list[tuple[np.ndarray, np.ndarray]]]:
-    """Metadata and layers of a policy file; :class:`PolicyLoadError` names the file and the
-    field of any problem. Never unpickles (:func:`petswarm_env.files.read_npz`)."""
+def _read_cell(path: Path, arrays: dict[str, np.ndarray], meta: dict[str, Any],
+               layers: list[tuple[np.ndarray, np.ndarray]]) -> Recurrent | None:
+    """A recurrent policy's GRU cell, its shapes chained between the encoder and the head."""
+    rec = meta.get("recurrent")
+    if rec is None:
+        return None
+    k, n = rec["encoder_layers"], rec["hidden_size"]
+    feed = layers[k - 1][0].shape[0] if k > 0 else sum(size for _, size in meta["observation_layout"])
+    shapes = {"gru_w_ih": (3 * n, feed), "gru_w_hh": (3 * n, n), "gru_b_ih": (3 * n,), "gru_b_hh": (3 * n,)}
+    for name, shape in shapes.items():
+        a = arrays.get(name)
+        if a is None:
+            raise _field_error(path, name, "is missing (field 'recurrent' declares a GRU cell)")
+        if a.dtype.kind != "f" or a.shape != shape:
+            raise _field_error(path, name, f"must be floating-point of shape {shape} (hidden_size {n}, input {feed}), "
+                                           f"got {a.dtype} of shape {a.shape}")
+        if not np.all(np.isfinite(a)):
+            raise _field_error(path, name, "holds NaN or infinite weights")
+    return Recurrent(k, GRUCell(*(arrays[name] for name in GRU_ARRAYS)))
+
+
+def read_policy(path: str | os.PathLike) -> tuple[dict[str, Any], list[tuple[np.ndarray, np.ndarray]], Recurrent | None]:
+    """Metadata, layers and (a recurrent policy's) :class:`Recurrent` of a policy file (:func:`read_policy_file`)."""
     path = Path(path)
+    arrays = _read_arrays(path)
+    meta = _read_meta(path, arrays)
+    layers = _read_layers(path, arrays, meta)
+    return meta, layers, _read_cell(path, arrays, meta, layers)
+
+
+def read_policy_file(path: str | os.PathLike) -> tuple[dict[str, Any], list[tuple[np.ndarray, np.ndarray]]]:
+    """Metadata and layers of a policy file (of a recurrent one: the encoder's and the head's,
+    :func:`read_policy` gives its cell too); :class:`PolicyLoadError` names the file and the field
+    of any problem. Never unpickles (:func:`petswarm_env.files.read_npz`)."""
+    meta, layers, _ = read_policy(path)
+    return meta, layers
+
+
+def _read_arrays(path: Path) -> dict[str, np.ndarray]:
     if not path.is_file():
         raise PolicyLoadError(f"policy file '{path}' does not exist" + (" (it is a folder)" if path.is_dir() else ""))
     try:
@@ -239,8 +355,7 @@ def read_policy_file(path: str | os.PathLike) -> tuple[dict[str, Any], list[tupl
         raise PolicyLoadError(f"policy file '{path}' cannot be read: {exc}; {FIX}") from None
     except OSError as exc:
         raise PolicyLoadError(f"policy file '{path}' cannot be read ({exc.strerror or exc})") from None
-    meta = _read_meta(path, arrays)
-    return meta, _read_layers(path, arrays, meta)
+    return arrays
 
 
 def observation_mapping(saved: list[tuple[str, int]], layout: ObservationLayout) -> np.ndarray:
@@ -293,7 +408,8 @@ class LearnedPolicy(Policy):
 
     @classmethod
     def load(cls, path: str | os.PathLike, spec: PolicySpec) -> LearnedPolicy:
-        meta, layers = read_policy_file(path)
+        """The policy of a file: a :class:`LearnedPolicy`, or a :class:`RecurrentPolicy` for a recurrent file."""
+        meta, layers, recurrent = read_policy(path)
         if meta["env_name"] != ENV_NAME:
             warnings.warn(f"policy file '{path}' was trained on {meta['env_name']}, this environment is {ENV_NAME} (the same "
                           "observation and action, other swarm dynamics); its results are not comparable to a "
@@ -307,6 +423,8 @@ class LearnedPolicy(Policy):
             index = observation_mapping(saved, spec.layout)
         except PolicyLoadError as exc:
             raise PolicyLoadError(f"policy file '{path}': {exc}") from None
+        if recurrent is not None:
+            return RecurrentPolicy(spec, layers, meta["activation"], index, recurrent, meta)  # residual too if the file says so
         return cls(spec, layers, meta["activation"], index, meta)
 
     def forward(self, obs: np.ndarray) -> np.ndarray:
@@ -329,3 +447,72 @@ class LearnedPolicy(Policy):
         if self.base is None:
             return {a: out[i] for i, a in enumerate(agents)}
         return {a: self.residual.apply(self.base.act(a, observations[a]), out[i]) for i, a in enumerate(agents)}
+
+
+class RecurrentPolicy(LearnedPolicy):
+    """A saved recurrent actor (module docstring: encoder, GRU cell, head) evaluated with numpy: the
+    mean action, clipped (with ``residual_of``: the correction of the base policy's action, as
+    :class:`Residual`). It keeps one hidden state per agent: zero at :meth:`reset` (the start of
+    an episode) and for an agent that did not act on the step before (it just joined, or rejoined,
+    slave-role driving). A step is one :meth:`act_all` call, or a round of :meth:`act` calls in
+    which no agent is asked twice."""
+
+    def __init__(self, spec: PolicySpec, layers: list[tuple[np.ndarray, np.ndarray]], activation: str,
+                 index: np.ndarray, recurrent: Recurrent, meta: dict[str, Any] | None = None):
+        super().__init__(spec, layers, activation, index, {**(meta or {}), **recurrent.meta()})
+        self.encoder_layers = recurrent.encoder_layers
+        c = recurrent.cell
+        self.cell = GRUCell(*(np.asarray(a, dtype=np.float64) for a in (c.w_ih, c.w_hh, c.b_ih, c.b_hh)))
+        self.reset()
+
+    def reset(self, seed: int | None = None) -> None:
+        self._hidden: dict[str, np.ndarray] = {}
+        self._last: dict[str, int] = {}  # the step on which each agent last acted
+        self._step = 0
+        self._asked: set[str] = set()
+
+    def hidden(self, agent: str) -> np.ndarray | None:
+        """The agent's hidden state after its last action (None before its first)."""
+        return self._hidden.get(agent)
+
+    def step_batch(self, x: np.ndarray, h: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """One step of the network for a batch: observations ``x`` (batch, env observation) and
+        hidden states ``h`` (batch, H) -> (mean actions, unclipped (batch, 3); next hidden states)."""
+        x = np.asarray(x, dtype=np.float64)
+        x = x if self._identity else x[..., self.index]
+        for w, b in self.layers[:self.encoder_layers]:
+            x = self.act_fn(x @ w.T + b)
+        h = self.cell.step(x, h)
+        y = np.concatenate([x, h], axis=-1)
+        head = self.layers[self.encoder_layers:]
+        for w, b in head[:-1]:
+            y = self.act_fn(y @ w.T + b)
+        w, b = head[-1]
+        return y @ w.T + b, h
+
+    def forward(self, obs: np.ndarray) -> np.ndarray:
+        raise TypeError("a recurrent policy has no one-frame forward pass; use act_all (or step_batch with hidden states)")
+
+    def act(self, agent: str, observation: np.ndarray) -> np.ndarray:
+        if agent in self._asked:  # asked twice: a new step
+            self._step += 1
+            self._asked = set()
+        return self._act([agent], [observation])[agent]
+
+    def act_all(self, observations: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        self._step += 1
+        self._asked = set()
+        return self._act(list(observations), [observations[a] for a in observations]) if observations else {}
+
+    def _act(self, agents: list[str], observations: list[np.ndarray]) -> dict[str, np.ndarray]:
+        n = self.cell.hidden_size
+        zero = np.zeros(n)
+        h = np.stack([self._hidden[a] if self._last.get(a) == self._step - 1 else zero for a in agents])
+        out, h = self.step_batch(np.stack(observations), h)
+        out = np.clip(out, -1.0, 1.0).astype(np.float32)
+        for i, a in enumerate(agents):
+            self._hidden[a], self._last[a] = h[i], self._step
+            self._asked.add(a)
+        if self.base is not None:  # a residual recurrent policy: the memory corrects the base policy's action
+            return {a: self.residual.apply(self.base.act(a, observations[i]), out[i]) for i, a in enumerate(agents)}
+        return {a: out[i] for i, a in enumerate(agents)}

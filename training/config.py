@@ -96,6 +96,31 @@ class RLlibConfig(Section):
     sample_timeout_s: float = Field(gt=0, le=86_400.0, description="how long RLlib waits for a runner's samples")
 
 
+class RecurrentConfig(Section):
+    """``algorithm: recurrent`` (training/recurrent.py): a GRU actor over the observation history,
+    distilled from the privileged teacher by DAgger. ``timesteps`` is the budget: labelled
+    agent-samples over all rounds, ``samples_per_round`` each (the first round driven by the teacher)."""
+
+    hidden_size: int = Field(64, ge=1, le=MAX_WIDTH, description="units of the GRU cell")
+    encoder: list[Annotated[int, Field(ge=1, le=MAX_WIDTH)]] = Field(
+        default_factory=lambda: [128], max_length=16, description="layers encoding the observation before the GRU")
+    head: list[Annotated[int, Field(ge=1, le=MAX_WIDTH)]] = Field(
+        default_factory=lambda: [64], max_length=16, description="hidden layers from [encoding, hidden state] to the action")
+    samples_per_round: int = Field(20_000, ge=1, le=MAX_SAMPLES, description="labelled agent-samples collected per DAgger round")
+    teacher_noise_std: float = Field(0.3, ge=0, le=10.0, description="action noise while the teacher drives (round 0)")
+    student_noise_std: float = Field(0.1, ge=0, le=10.0, description="action noise while the student drives (rounds 1, 2, ...)")
+    teacher_mix: float = Field(0.5, ge=0, le=1.0, description="DAgger's beta: in round k a robot's step executes the teacher's "
+                                                             "action with probability teacher_mix ** k (the student's otherwise)")
+    updates_per_round: int = Field(150, ge=1, le=1_000_000, description="gradient steps after each round, on all data so far")
+    batch_sequences: int = Field(16, ge=1, le=MAX_ROLLOUT, description="sequences (one robot's stretch of driving each) per step")
+    learning_rate: float = Field(1e-3, gt=0, le=1.0)
+    building_error_m: float = Field(0.3, ge=0, le=1000.0, description="a step counts as building while the robot's formation "
+                                                                      "error (ground truth, a label only) exceeds this")
+    building_weight: float = Field(3.0, ge=0, le=1000.0, description="extra loss weight of a building step")
+    lost_weight: float = Field(5.0, ge=0, le=1000.0, description="extra loss weight of a step without a fresh IR fix (search, lost)")
+    eval_every_rounds: int = Field(1, ge=1, le=1_000_000, description="evaluate (and keep the best as policy.npz) every this many rounds")
+
+
 class TrainConfig(Section):
     seed: int = Field(ge=0, le=2**63 - 1)
     timesteps: int = Field(ge=0, le=MAX_STEPS, description="PPO's budget in agent-steps (rows); 0 = the warm start alone (pretrain:)")
@@ -114,6 +139,10 @@ class TrainConfig(Section):
         None, description="scripted: the policy learns a correction added to the scripted reference's action "
                           "(training/residual.py); null: the policy is the action")
     residual_scale: float = Field(1.0, gt=0, le=1, description="with residual_of: the correction's bound in action units")
+    algorithm: Literal["ppo", "recurrent"] = Field(
+        "ppo", description="ppo: PPO (the ppo: and pretrain: sections); recurrent: a GRU actor distilled from the privileged "
+                           "teacher by DAgger (the recurrent: section, training/recurrent.py)")
+    recurrent: RecurrentConfig = Field(default_factory=RecurrentConfig)
 
     @model_validator(mode="after")
     def _check_rollout(self) -> TrainConfig:
@@ -190,10 +219,13 @@ def load_train_config(path: str | os.PathLike | None = None, overrides: dict[str
     if not cfg.residual_of and cfg.residual_scale != 1.0:
         raise ConfigError(f"residual_scale: {cfg.residual_scale} bounds a residual policy's correction, but residual_of is null; "
                           "set residual_of: scripted, or drop residual_scale")
-    if cfg.timesteps == 0 and cfg.pretrain.samples == 0:
+    if cfg.algorithm == "recurrent" and cfg.timesteps == 0:
+        raise ConfigError("algorithm: recurrent distils the teacher in rounds of DAgger whose labelled samples are timesteps: give "
+                          f"timesteps > 0 (got {cfg.timesteps})")
+    if cfg.algorithm == "ppo" and cfg.timesteps == 0 and cfg.pretrain.samples == 0:
         raise ConfigError("timesteps: 0 trains by the warm start alone, but pretrain.samples is 0 too: nothing would be trained; "
                           "give timesteps > 0 (PPO) or pretrain.samples > 0 (imitation)")
-    if cfg.residual_of and cfg.pretrain.samples > 0:
+    if cfg.algorithm == "ppo" and cfg.residual_of and cfg.pretrain.samples > 0:
         raise ConfigError(f"residual_of: {cfg.residual_of} starts training at the {cfg.residual_of} reference itself (a zero "
                           f"correction), so the warm start that imitates it has nothing to learn; set pretrain.samples: 0 "
                           f"(got {cfg.pretrain.samples}) or residual_of: null")

@@ -226,6 +226,8 @@ def train_command(config: str | None, settings: list[str], timesteps: int | None
         raise ConfigError(f"cannot resume: the run folder '{out}' has no train_config.yaml; start a new run with another --out")
     # a resumed run starts from its own config: the file and --set change only what they name
     cfg = load_train_config(config, overrides, base=saved if resume and saved.is_file() else None)
+    if cfg.algorithm == "recurrent":  # DAgger from the privileged teacher into a GRU actor (training/recurrent.py)
+        return _recurrent_command(cfg, out, resume, run, command)
     log = (run or train)(cfg, out, resume=resume, progress_bar=progress_bar, command=command, **run_options)
     if log.get("finished"):
         print(f"run '{out}' is already finished: {log['timesteps']} agent-steps trained, its budget is {log['budget']}; "
@@ -245,4 +247,26 @@ def train_command(config: str | None, settings: list[str], timesteps: int | None
     print(f"trained {what} in {log['wall_time_s']:.0f} s; "
           f"eval formation_rmse_m {last.get('formation_rmse_m', float('nan')):.3f} "
           f"(scripted {log['scripted_eval_rmse_m']:.3f}); {chosen}")
+    return 0
+
+
+def _recurrent_command(cfg: TrainConfig, out: str, resume: bool, run, command: str) -> int:
+    """``petswarm train`` of a config with ``algorithm: recurrent``: :func:`petswarm.training.recurrent.train`
+    and one summary line."""
+    from petswarm.training.recurrent import rounds_for
+    from petswarm.training.recurrent import train as train_recurrent_run
+
+    if resume:
+        raise ConfigError("algorithm: recurrent runs are not resumable; drop --resume and start a new run with another --out")
+    if run is not None:
+        raise ConfigError("algorithm: recurrent trains with torch in this process (DAgger, training/recurrent.py); drop --backend rllib")
+    print(f"recurrent actor by DAgger from the privileged teacher: {rounds_for(cfg)} rounds of {cfg.recurrent.samples_per_round} "
+          f"labelled agent-samples (timesteps {cfg.timesteps})", flush=True)
+    log = train_recurrent_run(cfg, out, command=command, progress=lambda line: print(line, flush=True))
+    best = log.get("best")
+    chosen = (f"policy: {out}/policy.npz, the best evaluation (after {best['timesteps']} samples, median {best['metric']} ratio "
+              f"to scripted {best['median_ratio']:.2f}, {best['not_built']} formations not built that scripted built)"
+              if best else f"policy: {out}/policy.npz")
+    print(f"trained {log['timesteps']} labelled agent-samples in {len(log['rounds'])} DAgger rounds, {log['wall_time_s']:.0f} s; "
+          f"{chosen}; the last: {out}/last.npz")
     return 0

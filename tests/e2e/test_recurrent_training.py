@@ -1,0 +1,59 @@
+"""A short recurrent run through ``petswarm train --config recurrent``: DAgger rounds from the
+privileged teacher, the best evaluation as policy.npz, the last round as last.npz; the run
+refuses to resume or to overwrite."""
+
+import json
+
+import numpy as np
+import pytest
+
+pytest.importorskip("torch")
+
+from petswarm.baselines.learned import LearnedPolicy, RecurrentPolicy, read_policy_file  # noqa: E402
+from petswarm.baselines.policy import PolicySpec  # noqa: E402
+from petswarm.evaluation.runner import run_episode  # noqa: E402
+from petswarm.training.recurrent import train_recurrent  # noqa: E402
+from petswarm.training.train import train_command  # noqa: E402
+from petswarm_env import parallel_env  # noqa: E402
+from petswarm_env.config import ConfigError  # noqa: E402
+
+SHORT = ["env.max_cycles=60", "eval.max_cycles=60", "eval.episodes=2", "recurrent.samples_per_round=300",
+         "recurrent.updates_per_round=3", "recurrent.batch_sequences=4", "recurrent.encoder=[16]", "recurrent.head=[8]",
+         "recurrent.hidden_size=8", "recurrent.eval_every_rounds=1"]
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("runs") / "rec"
+    assert train_command("configs/train/recurrent.yaml", SHORT, 600, str(out), False, False, "petswarm train --config recurrent") == 0
+    return out, json.loads((out / "train_log.json").read_text())
+
+
+def test_the_rounds_are_driven_by_the_teacher_then_the_student(run):
+    out, log = run
+    assert [r["driver"] for r in log["rounds"]] == ["teacher", "student"]
+    assert log["timesteps"] == sum(r["samples"] for r in log["rounds"]) >= 600
+    assert len(log["evaluations"]) == 2 and log["best"]["timesteps"] in {e["timesteps"] for e in log["evaluations"]}
+    assert log["command"] == "petswarm train --config recurrent"
+
+
+def test_policy_npz_is_the_best_evaluation_and_last_npz_the_last_round(run):
+    out, log = run
+    best, _ = read_policy_file(out / "policy.npz")
+    last, _ = read_policy_file(out / "last.npz")
+    assert best["info"]["selected"]["timesteps"] == log["best"]["timesteps"]
+    assert last["info"]["timesteps"] == log["timesteps"]
+    assert best["recurrent"]["hidden_size"] == 8 and best["info"]["train_config"]["algorithm"] == "recurrent"
+    env = parallel_env(max_cycles=40)
+    policy = LearnedPolicy.load(out / "policy.npz", PolicySpec.from_env(env))
+    assert isinstance(policy, RecurrentPolicy)
+    summary = run_episode(env, policy, seed=3)
+    assert np.isfinite(summary["formation_rmse_m"])
+
+
+def test_a_recurrent_run_is_not_resumed_nor_overwritten(run):
+    out, _ = run
+    with pytest.raises(ConfigError, match="not resumable"):
+        train_command("configs/train/recurrent.yaml", SHORT, 600, str(out), True, False, "")
+    with pytest.raises(ConfigError, match="already holds a run"):
+        train_recurrent("recurrent", 600, 0, out)

@@ -1,0 +1,143 @@
+"""The recurrent policy: numpy inference equals torch's, its hidden state restarts when a robot
+(re)joins, its file format round-trips and refuses what does not fit; the DAgger budget scales."""
+
+import json
+
+import numpy as np
+import pytest
+
+torch = pytest.importorskip("torch")
+
+from petswarm.baselines.learned import (  # noqa: E402
+    LearnedPolicy, PolicyLoadError, RecurrentPolicy, read_policy, read_policy_file)
+from petswarm.baselines.policy import PolicySpec  # noqa: E402
+from petswarm.training.config import load_train_config  # noqa: E402
+from petswarm.training.recurrent import RecurrentActor, export_actor, numpy_policy, rounds_for  # noqa: E402
+from petswarm_env import parallel_env  # noqa: E402
+from petswarm_env.config import ConfigError  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def spec():
+    return PolicySpec.from_env(parallel_env())
+
+
+def _actor(spec, encoder=(32,), head=(16,), seed=0):
+    torch.manual_seed(seed)
+    actor = RecurrentActor(spec.layout.size, list(encoder), 12, list(head))
+    with torch.no_grad():  # larger weights than the default init: the gates and the memory matter
+        for p in actor.parameters():
+            p.mul_(3.0)
+    return actor
+
+
+def _torch_actions(actor, seq: np.ndarray) -> np.ndarray:
+    with torch.no_grad():
+        out, _ = actor(torch.as_tensor(seq[None], dtype=torch.float32))
+    return np.clip(out[0].numpy(), -1.0, 1.0)
+
+
+@pytest.mark.parametrize("encoder,head", [((32,), (16,)), ((), (16,)), ((32, 24), ())])
+def test_numpy_inference_equals_torch_over_a_sequence(spec, encoder, head):
+    actor = _actor(spec, encoder, head)
+    policy = numpy_policy(actor, spec)
+    rng = np.random.default_rng(1)
+    seqs = {a: rng.uniform(-1, 1, (40, spec.layout.size)).astype(np.float32) for a in ("robot_1", "robot_2")}
+    got = {a: [] for a in seqs}
+    policy.reset(0)
+    for t in range(40):
+        for a, act in policy.act_all({a: s[t] for a, s in seqs.items()}).items():
+            got[a].append(act)
+    for a, s in seqs.items():
+        want = _torch_actions(actor, s)
+        assert np.abs(np.stack(got[a]) - want).max() < 1e-5
+        assert np.abs(want[1:] - want[:-1]).max() > 1e-3  # the actions change: the check is not vacuous
+
+
+def test_the_memory_matters_and_restarts_at_reset_and_when_a_robot_rejoins(spec):
+    actor = _actor(spec)
+    policy = numpy_policy(actor, spec)
+    rng = np.random.default_rng(2)
+    s = rng.uniform(-1, 1, (12, spec.layout.size)).astype(np.float32)
+    fresh = _torch_actions(actor, s)
+    policy.reset(0)
+    steps = [policy.act_all({"robot_1": s[t], "robot_2": s[t]}) for t in range(6)]
+    # robot_1 leaves slave-role driving for a step, then rejoins with s[6:]: its memory starts again
+    policy.act_all({"robot_2": s[6]})
+    again = [policy.act_all({"robot_1": s[t], "robot_2": s[t]})["robot_1"] for t in range(6, 12)]
+    assert np.abs(np.stack(again) - _torch_actions(actor, s[6:])).max() < 1e-5
+    assert np.abs(np.stack([x["robot_1"] for x in steps]) - fresh[:6]).max() < 1e-5
+    # the same frame after a different history gives another action: the policy remembers
+    assert np.abs(again[0] - fresh[6]).max() > 1e-3
+    policy.reset(1)
+    assert np.abs(policy.act_all({"robot_2": s[0]})["robot_2"] - fresh[0]).max() < 1e-5
+    # act(), robot by robot: a round in which no robot is asked twice is one step
+    policy.reset(2)
+    per_agent = [[policy.act(a, s[t]) for a in ("robot_1", "robot_2")] for t in range(6)]
+    assert np.abs(np.stack([p[0] for p in per_agent]) - fresh[:6]).max() < 1e-5
+
+
+def test_a_recurrent_file_round_trips_and_loads_as_learned(spec, tmp_path):
+    actor = _actor(spec)
+    export_actor(actor, tmp_path / "r.npz", spec.layout, {"command": "test"})
+    meta, layers, recurrent = read_policy(tmp_path / "r.npz")
+    assert meta["format_version"] == 2 and meta["recurrent"] == {"cell": "gru", "hidden_size": 12, "encoder_layers": 1}
+    assert len(read_policy_file(tmp_path / "r.npz")[1]) == len(layers) == 3
+    loaded = LearnedPolicy.load(tmp_path / "r.npz", spec)
+    assert isinstance(loaded, RecurrentPolicy)
+    rng = np.random.default_rng(3)
+    s = rng.uniform(-1, 1, (10, spec.layout.size)).astype(np.float32)
+    got = np.stack([loaded.act_all({"robot_1": x})["robot_1"] for x in s])
+    assert np.abs(got - _torch_actions(actor, s)).max() < 1e-5
+    with pytest.raises(TypeError, match="no one-frame forward"):
+        loaded.forward(s[0])
+
+
+def _rewrite(src, dst, change):
+    arrays = dict(np.load(src))
+    meta = json.loads(arrays["meta"].tobytes())
+    change(meta, arrays)
+    arrays["meta"] = np.frombuffer(json.dumps(meta).encode(), dtype=np.uint8)
+    np.savez(dst, **arrays)
+
+
+@pytest.mark.parametrize("change,field", [
+    (lambda m, a: a.pop("gru_w_hh"), "gru_w_hh"),
+    (lambda m, a: a.__setitem__("gru_b_ih", a["gru_b_ih"][:5]), "gru_b_ih"),
+    (lambda m, a: m.pop("recurrent"), "recurrent"),
+    (lambda m, a: m["recurrent"].__setitem__("cell", "lstm"), "recurrent"),
+    (lambda m, a: m["recurrent"].__setitem__("hidden_size", 13), "w1"),
+    (lambda m, a: m.__setitem__("format_version", 1), "recurrent"),
+    (lambda m, a: m.update(residual_of="learned"), "residual_of"),
+])
+def test_a_damaged_recurrent_file_is_refused_by_field(spec, tmp_path, change, field):
+    export_actor(_actor(spec), tmp_path / "r.npz", spec.layout, {})
+    _rewrite(tmp_path / "r.npz", tmp_path / "bad.npz", change)
+    with pytest.raises(PolicyLoadError, match=field):
+        LearnedPolicy.load(tmp_path / "bad.npz", spec)
+
+
+def test_the_dagger_budget_scales_with_timesteps():
+    cfg = load_train_config("configs/train/recurrent.yaml")
+    per = cfg.recurrent.samples_per_round
+    assert rounds_for(cfg) == cfg.timesteps // per
+    assert rounds_for(load_train_config("configs/train/recurrent.yaml", {"timesteps": 5 * per})) == 5
+    assert rounds_for(load_train_config("configs/train/recurrent.yaml", {"timesteps": 1})) == 1
+    with pytest.raises(ConfigError, match="timesteps > 0"):
+        load_train_config("configs/train/recurrent.yaml", {"timesteps": 0})
+
+
+def test_a_residual_recurrent_policy_corrects_the_scripted_reference(spec, tmp_path):
+    from petswarm.baselines.learned import Residual
+    from petswarm.baselines.registry import make_policy
+
+    actor = _actor(spec)
+    export_actor(actor, tmp_path / "rr.npz", spec.layout, {}, Residual("scripted", 0.5))
+    policy = LearnedPolicy.load(tmp_path / "rr.npz", spec)
+    assert isinstance(policy, RecurrentPolicy) and policy.residual == Residual("scripted", 0.5)
+    env = parallel_env()
+    obs, _ = env.reset(seed=0)
+    agent, o = next(iter(obs.items()))
+    base = make_policy("scripted", spec).act(agent, o)
+    want = np.clip(base + 0.5 * _torch_actions(actor, o[None])[0], -1.0, 1.0)
+    assert np.abs(policy.act_all({agent: o})[agent] - want).max() < 1e-5

@@ -1,0 +1,315 @@
+"""A recurrent slave policy distilled from the privileged teacher (``algorithm: recurrent``,
+``configs/train/recurrent.yaml``; ``petswarm train --config recurrent``).
+
+Why a memory: a robot's observation is a frame of intermittent evidence — IR fixes of its neighbours
+that come and go, headings that arrive in radio frames — and a one-frame network cannot integrate
+it; a GRU over the robot's own observation history can (Cho et al. 2014). The actor
+(:class:`RecurrentActor`): an encoder MLP, a GRU cell, a head reading ``[encoding, hidden state]``;
+it reads only the observation, never ground truth, and its hidden state starts at zero when the
+robot starts (or restarts) slave-role driving — exactly what :class:`petswarm.baselines.learned.RecurrentPolicy`
+does at inference, which is the same network in numpy.
+
+How it learns: DAgger (Ross, Gordon & Bagnell 2011). Round 0: the teacher
+(:class:`petswarm.training.teacher.PrivilegedTeacher`, which reads ground truth and exists only at
+training time) drives with action noise and labels what it does. Rounds 1, 2, ...: the student drives
+(its exported numpy policy, with a little noise; in round ``k`` each robot's step executes the
+teacher's action instead with probability ``recurrent.teacher_mix ** k``, DAgger's β mixture, so the
+early data stays near the states the teacher visits), the teacher labels every state the student visits,
+the data is aggregated and the student refitted on everything so far — by backpropagation through
+time over whole sequences (one robot's stretch of driving, from its hidden state's zero). A robot
+with no fresh IR fix of anyone is labelled by the scripted reference's rejoin and search instead
+(:class:`petswarm.training.warm_start.TeacherLabels`: no observation could follow the teacher
+there). Rare states weigh more in the loss: building (the robot's true formation error above
+``recurrent.building_error_m``, a label, never an input) and lost (no fresh fix).
+
+The budget: ``timesteps`` labelled agent-samples in all, ``recurrent.samples_per_round`` per round,
+so the number of rounds scales with ``--timesteps``; the gradient steps per round are fixed, so the
+time grows linearly with it. After every ``recurrent.eval_every_rounds`` rounds the student is
+evaluated against the scripted reference on the evaluation seeds (:func:`petswarm.training.callbacks.evaluate_and_keep`):
+the best evaluation is ``policy.npz``, the last round's student ``last.npz``.
+
+With ``residual_of: scripted`` the GRU learns a correction of the scripted reference's action
+(residual policy learning, as training/residual.py, ``residual_scale`` its bound): its targets are
+``clip((teacher − reference) / residual_scale, −1, 1)``, so the reference's precise holding is where
+it starts and the memory only has to learn where the teacher does better.
+
+Entry point for other tools: :func:`train_recurrent` ``(config, timesteps, seed, out_dir) -> path of policy.npz``.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+import yaml
+
+from petswarm.baselines.learned import GRUCell, Recurrent, RecurrentPolicy, Residual, save_policy
+from petswarm.baselines.policy import PolicySpec
+from petswarm.training.callbacks import LAST_POLICY, evaluate_and_keep, policy_info, public_log, scripted_reference
+from petswarm.training.config import ConfigError, TrainConfig, load_train_config
+from petswarm.training.vec_env import training_env
+from petswarm.training.warm_start import TeacherLabels
+from petswarm_env.config import Config
+from petswarm_env.env import PetSwarmEnv
+from petswarm_env.files import write_json_atomic, write_text_atomic
+from petswarm_env.observe import ObservationLayout
+
+ALGORITHM = "recurrent actor (GRU) distilled from the privileged teacher by DAgger"
+
+
+class RecurrentActor(torch.nn.Module):
+    """Encoder MLP -> GRU -> head MLP on ``[encoding, hidden state]`` -> 3 action means (module docstring)."""
+
+    def __init__(self, obs_size: int, encoder: list[int], hidden_size: int, head: list[int], activation: str = "tanh"):
+        super().__init__()
+        act = torch.nn.Tanh if activation == "tanh" else torch.nn.ReLU
+        self.activation = activation
+        mods: list[torch.nn.Module] = []
+        width = obs_size
+        for n in encoder:
+            mods += [torch.nn.Linear(width, n), act()]
+            width = n
+        self.encoder = torch.nn.Sequential(*mods)
+        self.gru = torch.nn.GRU(width, hidden_size, batch_first=True)
+        mods, w = [], width + hidden_size
+        for n in head:
+            mods += [torch.nn.Linear(w, n), act()]
+            w = n
+        mods.append(torch.nn.Linear(w, 3))
+        self.head = torch.nn.Sequential(*mods)
+
+    def forward(self, x: torch.Tensor, h0: torch.Tensor | None = None) -> tuple[torch.Tensor, torch.Tensor]:
+        """``x`` (batch, time, obs) -> (action means (batch, time, 3), last hidden state (1, batch, H))."""
+        e = self.encoder(x)
+        hs, h_last = self.gru(e, h0)
+        return self.head(torch.cat([e, hs], dim=-1)), h_last
+
+    def export(self) -> tuple[list[tuple[np.ndarray, np.ndarray]], Recurrent]:
+        """The layers (encoder's, then head's) and the GRU cell of :func:`petswarm.baselines.learned.save_policy`."""
+        def linears(seq):
+            return [(m.weight.detach().numpy().copy(), m.bias.detach().numpy().copy()) for m in seq if isinstance(m, torch.nn.Linear)]
+        enc = linears(self.encoder)
+        g = self.gru
+        cell = GRUCell(*(getattr(g, name).detach().numpy().copy() for name in ("weight_ih_l0", "weight_hh_l0", "bias_ih_l0", "bias_hh_l0")))
+        return enc + linears(self.head), Recurrent(len(enc), cell)
+
+
+def build_actor(cfg: TrainConfig, obs_size: int) -> RecurrentActor:
+    """A fresh actor of ``recurrent:``'s sizes; with ``residual_of`` its last layer is zero, so the
+    first policy is the base itself."""
+    r = cfg.recurrent
+    actor = RecurrentActor(obs_size, list(r.encoder), r.hidden_size, list(r.head), cfg.ppo.activation)
+    if cfg.residual_of:
+        with torch.no_grad():
+            actor.head[-1].weight.zero_()
+            actor.head[-1].bias.zero_()
+    return actor
+
+
+def numpy_policy(actor: RecurrentActor, spec: PolicySpec, residual: Residual | None = None) -> RecurrentPolicy:
+    """The actor's current weights as the numpy policy that ships (for an env of the layout it trains
+    on; with ``residual``, correcting that base policy's action)."""
+    layers, recurrent = actor.export()
+    return RecurrentPolicy(spec, layers, actor.activation, np.arange(spec.layout.size), recurrent,
+                           residual.meta() if residual else None)
+
+
+def export_actor(actor: RecurrentActor, path: str | os.PathLike, layout: ObservationLayout, info: dict[str, Any],
+                 residual: Residual | None = None) -> None:
+    layers, recurrent = actor.export()
+    save_policy(path, layers, actor.activation, layout, info, residual=residual, recurrent=recurrent)
+
+
+@dataclass
+class Sequence:
+    """One robot's stretch of slave-role driving: its observations (T, obs), the teacher's actions
+    (T, 3; with ``residual_of``, the corrections of the base's actions toward them) and each step's
+    loss weight (T,)."""
+
+    obs: np.ndarray
+    act: np.ndarray
+    weight: np.ndarray
+
+
+def collect_sequences(env, samples: int, seed: int, cfg: TrainConfig, driver: RecurrentPolicy | None,
+                      noise_std: float, beta: float = 0.0) -> tuple[list[Sequence], dict[str, int]]:
+    """Episodes ``seed, seed + 1, …`` of the fixed-agents training ``env`` until ``samples``
+    labelled agent-steps (the last episode is played to its end): the teacher drives (``driver``
+    None) or the student does — each robot's step executing the teacher's action instead with
+    probability ``beta`` (DAgger's mixture) — with Gaussian action noise of ``noise_std``; every
+    live robot's step is labelled by the teacher. Returns the
+    sequences (a robot's sequence ends when it stops driving; a new one starts when it rejoins) and
+    counts of building and lost steps."""
+    r = cfg.recurrent
+    residual = cfg.residual()
+    rng = np.random.default_rng(seed)
+    out: list[Sequence] = []
+    counts = {"samples": 0, "building": 0, "lost": 0}
+    episode = 0
+    while counts["samples"] < samples:
+        rows, infos = env.reset(seed=seed + episode)
+        episode += 1
+        label = TeacherLabels(env)  # after the reset: the episode's env
+        base = residual.base_policy(PolicySpec.from_env(env)) if residual else None  # a residual's target: teacher - base
+        if driver is not None:
+            driver.reset()
+        open_: dict[str, list[tuple[np.ndarray, np.ndarray, float]]] = {}
+        while env.agents:
+            live = [a for a in env.agents if infos[a]["active"]]
+            for a in [a for a in open_ if a not in live]:  # stopped driving: its sequence is complete
+                out.append(_sequence(open_.pop(a)))
+            if not live:
+                rows, _, _, _, infos = env.step({})
+                continue
+            seen = {a: rows[a] for a in live}
+            target = label(seen)
+            executed = target if driver is None else driver.act_all(seen)  # the student acts every step: its memory runs
+            if driver is not None and beta > 0.0:
+                executed = {a: target[a] if rng.random() < beta else executed[a] for a in live}
+            noisy = {a: np.clip(v + rng.normal(0.0, noise_std, 3), -1.0, 1.0).astype(np.float32) for a, v in executed.items()}
+            if base is not None:  # the correction that turns the base's action into the teacher's, in the residual's units
+                base_act = base.act_all(seen)
+                learn = {a: np.clip((target[a] - base_act[a]) / residual.scale, -1.0, 1.0) for a in live}
+            else:
+                learn = target
+            for a in live:
+                lost = label.lost(rows[a])
+                building = infos[a]["formation_error_m"] > r.building_error_m  # ground truth as a loss weight, never an input
+                w = 1.0 + r.lost_weight * lost + r.building_weight * building
+                counts["lost"] += int(lost)
+                counts["building"] += int(building)
+                open_.setdefault(a, []).append((rows[a], learn[a], w))
+            counts["samples"] += len(live)
+            rows, _, _, _, infos = env.step(noisy)
+        out.extend(_sequence(steps) for steps in open_.values())
+    return out, counts
+
+
+def _sequence(steps: list[tuple[np.ndarray, np.ndarray, float]]) -> Sequence:
+    return Sequence(np.stack([s[0] for s in steps]).astype(np.float32), np.stack([s[1] for s in steps]).astype(np.float32),
+                    np.array([s[2] for s in steps], dtype=np.float32))
+
+
+def batch(seqs: list[Sequence]) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """Sequences padded at their ends to the longest: inputs (B, T, obs), targets (B, T, 3), weights
+    (B, T; zero on padding, which comes after every real step and so never reaches one through the GRU)."""
+    n = max(len(s.obs) for s in seqs)
+    x = np.zeros((len(seqs), n, seqs[0].obs.shape[1]), np.float32)
+    y = np.zeros((len(seqs), n, 3), np.float32)
+    w = np.zeros((len(seqs), n), np.float32)
+    for i, s in enumerate(seqs):
+        x[i, :len(s.obs)], y[i, :len(s.obs)], w[i, :len(s.obs)] = s.obs, s.act, s.weight
+    return torch.from_numpy(x), torch.from_numpy(y), torch.from_numpy(w)
+
+
+def fit(actor: RecurrentActor, opt: torch.optim.Optimizer, data: list[Sequence], updates: int, batch_sequences: int,
+        rng: np.random.Generator) -> float:
+    """``updates`` gradient steps of the weighted MSE to the teacher's actions, each on
+    ``batch_sequences`` sequences drawn from ``data`` (backpropagation through time over whole
+    sequences); the mean loss of the last tenth of the steps."""
+    losses = []
+    for _ in range(updates):
+        idx = rng.choice(len(data), size=min(batch_sequences, len(data)), replace=False)
+        x, y, w = batch([data[i] for i in idx])
+        pred, _ = actor(x)
+        loss = (w * ((pred - y) ** 2).sum(-1)).sum() / w.gt(0).sum().clamp(min=1)
+        opt.zero_grad()
+        loss.backward()
+        torch.nn.utils.clip_grad_norm_(actor.parameters(), 1.0)
+        opt.step()
+        losses.append(float(loss.detach()))
+    tail = losses[-max(1, len(losses) // 10):]
+    return float(sum(tail) / len(tail))
+
+
+def rounds_for(cfg: TrainConfig) -> int:
+    """DAgger rounds of the budget: ``timesteps // recurrent.samples_per_round`` (at least 1), round 0 the teacher's."""
+    return max(1, cfg.timesteps // cfg.recurrent.samples_per_round)
+
+
+def train(cfg: TrainConfig, out_dir: str | os.PathLike, command: str = "", progress=print) -> dict[str, Any]:
+    """Distil the teacher into a recurrent actor in the run folder ``out_dir`` (module docstring);
+    returns the train log. The folder gets train_config.yaml, env_config.yaml, policy.npz (the best
+    evaluation), last.npz (the last round's student) and train_log.json."""
+    if cfg.algorithm != "recurrent":
+        raise ConfigError(f"training/recurrent.py trains algorithm: recurrent, the config says {cfg.algorithm!r}")
+    out = Path(out_dir)
+    if (out / "train_log.json").exists():
+        raise ConfigError(f"'{out}' already holds a run; choose another --out (a recurrent run is not resumable)")
+    out.mkdir(parents=True, exist_ok=True)
+    torch.set_num_threads(1)  # reproducible CPU math on a shared machine
+    torch.manual_seed(cfg.seed)
+    rng = np.random.default_rng(cfg.seed)
+    env_cfg: Config = cfg.env_config()
+    layout = PetSwarmEnv(env_cfg).layout
+    write_text_atomic(out / "train_config.yaml", yaml.safe_dump(cfg.model_dump(mode="json"), sort_keys=False))
+    write_text_atomic(out / "env_config.yaml", yaml.safe_dump(env_cfg.to_dict(), sort_keys=False))
+    log: dict[str, Any] = {"timesteps": 0, "wall_time_s": 0.0, "evaluations": [], "scripted_eval_rmse_m": None,
+                           "command": command, "rounds": [], "wall_time_before_s": 0.0, "_start": time.time()}
+    scripted_reference(cfg, log)
+    r = cfg.recurrent
+    env = training_env(env_cfg, cfg.randomize, cfg.env, False)
+    actor = build_actor(cfg, layout.size)
+    opt = torch.optim.Adam(actor.parameters(), lr=r.learning_rate)
+    data: list[Sequence] = []
+    rounds = rounds_for(cfg)
+    try:
+        for k in range(rounds):
+            t0 = time.time()
+            driver = None if k == 0 else numpy_policy(actor, PolicySpec.from_env(env), cfg.residual())
+            seqs, counts = collect_sequences(env, r.samples_per_round, cfg.seed + 100_000 + 10_000 * k, cfg, driver,
+                                             r.teacher_noise_std if k == 0 else r.student_noise_std, r.teacher_mix ** k)
+            data.extend(seqs)
+            t1 = time.time()
+            loss = fit(actor, opt, data, r.updates_per_round, r.batch_sequences, rng)
+            log["timesteps"] += counts["samples"]
+            log["wall_time_s"] = time.time() - log["_start"]
+            record = {"round": k, "driver": "teacher" if k == 0 else "student", "beta": r.teacher_mix ** k, **counts, "sequences": len(data),
+                      "loss": loss, "collect_s": round(t1 - t0, 1), "fit_s": round(time.time() - t1, 1)}
+            log["rounds"].append(record)
+            info = policy_info(cfg, log, ALGORITHM)
+            export_actor(actor, out / LAST_POLICY, layout, info, cfg.residual())
+            if (k + 1) % r.eval_every_rounds == 0 or k == rounds - 1:
+                ev = evaluate_and_keep(cfg, out, log, lambda spec: numpy_policy(actor, spec, cfg.residual()), log["timesteps"],
+                                       lambda path, info: export_actor(actor, path, layout, info, cfg.residual()), ALGORITHM,
+                                       {"round": k})
+                record["eval_median_ratio"] = ev["median_ratio"]
+            log["wall_time_s"] = time.time() - log["_start"]
+            write_json_atomic(out / "train_log.json", public_log(log))
+            if progress:
+                ev = log["evaluations"][-1] if log["evaluations"] and log["evaluations"][-1].get("round") == k else None
+                progress(f"round {k + 1}/{rounds} ({record['driver']} drove): {log['timesteps']} samples, loss {loss:.4f}"
+                         + (f", eval median {cfg.eval.metric} ratio {ev['median_ratio']:.2f} (not built {ev['not_built']})" if ev else "")
+                         + f", {log['wall_time_s']:.0f} s")
+    finally:
+        env.close()
+    log["wall_time_s"] = time.time() - log["_start"]
+    write_json_atomic(out / "train_log.json", public_log(log))
+    return public_log(log)
+
+
+def train_recurrent(config: TrainConfig | str | os.PathLike | None, timesteps: int | None, seed: int | None,
+                    out_dir: str | os.PathLike, command: str = "", progress=None) -> Path:
+    """Train a recurrent policy and return the path of its ``policy.npz`` (the best evaluated
+    student; ``last.npz`` beside it). ``config``: a :class:`TrainConfig`, a training YAML (path or
+    shipped name), or None for ``configs/train/recurrent.yaml``; ``timesteps`` (labelled
+    agent-samples: the DAgger budget) and ``seed`` override the config's when given. The entry point
+    for tools that train many runs (a benchmark)."""
+    if not isinstance(config, TrainConfig):
+        from petswarm import shipped
+
+        name = "recurrent" if config is None else str(config)
+        path = name if Path(name).exists() else shipped(name) or name  # a path, or a shipped config by name
+        config = load_train_config(path)
+    changes = {k: v for k, v in (("timesteps", timesteps), ("seed", seed)) if v is not None}
+    cfg = config.model_copy(update=changes) if changes else config
+    cfg = TrainConfig.model_validate(cfg.model_dump())
+    if cfg.algorithm != "recurrent":
+        cfg = TrainConfig.model_validate({**cfg.model_dump(), "algorithm": "recurrent"})
+    train(cfg, out_dir, command=command, progress=progress)
+    return Path(out_dir) / "policy.npz"

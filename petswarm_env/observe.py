@@ -185,7 +185,7 @@ def _ir_distance_bound(ir) -> float:
 
 def formation_extents(swarm_cfg) -> tuple[float, float]:
     """The largest |component| of a link offset and of a slot position (m) over every neighbour
-    table of the configured shape a swarm can hold: 2 … num_slaves + 1 members (the join and
+    table of the configured shape a swarm can hold: 2 … num_slaves + spares + 1 members (the join and
     the mode change build them so, :func:`~.middleware.formation.formation_for_mode`), both modes,
     rooted at any member (a mode change with master change re-roots the table at the new master,
     so a slot is bounded by the table's extent along each axis, not by its distance from member 0).
@@ -193,7 +193,7 @@ def formation_extents(swarm_cfg) -> tuple[float, float]:
     from petswarm_env.middleware.formation import formation_for_mode
 
     link = slot = 0.0
-    full = swarm_cfg.num_slaves + 1
+    full = swarm_cfg.num_slaves + swarm_cfg.spares + 1
     for n in [full] if swarm_cfg.formation == "custom" else range(2, full + 1):
         for mode in ("following", "leading"):
             formation = formation_for_mode(swarm_cfg, n, mode)

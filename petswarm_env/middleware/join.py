@@ -193,11 +193,14 @@ class JoinManager:
         leaving ``reserve_s`` for the steps after it."""
         return retries < self.node.cfg.protocol.max_retries and self.node.clock.now + reserve_s < self._deadline
 
-    def organize(self, required: int, pan: int, result: OrganizeResult, mode_of: Callable[[], str]):
+    def organize(self, required: int, pan: int, result: OrganizeResult, mode_of: Callable[[], str], spares: int = 0):
         """Master-side organize process (SimPy generator), the steps of seed 000 Fig. 8; fills
         ``result``. The formation is the master's: the shape its user chose (its own
         ``swarm`` configuration), laid out for the driving mode ``mode_of()`` once the members are
-        selected; the joining notifications carry it to the members."""
+        selected; the joining notifications carry it to the members. ``spares`` (``swarm.spares``,
+        chosen): up to this many available robots beyond the ``required`` join too, on the shape's
+        next slots (the scans retry for the required ones only); they walk with the swarm, so a lost
+        member's place is filled from inside it (middleware/recovery.py)."""
         node = self.node
         t0 = node.clock.now
         self.opened_s = t0
@@ -208,7 +211,7 @@ class JoinManager:
         node.pans = frozenset({PAN_WAITING, pan})
         candidates, answers = yield from self._scan_and_query(required, result)  # steps 1-2
         result.candidates = sorted(candidates)
-        chosen, n_available = yield from self._choose(candidates, answers, list(range(1, required + 1)), result)
+        chosen, n_available = yield from self._choose(candidates, answers, list(range(1, required + spares + 1)), result)
         members = {0: node.node_id}  # step 3: the member table, the master is member 0; the filled slots
         members.update({i + 1: chosen[m] for i, m in enumerate(sorted(chosen))})  # numbered 1..n (no gap)
         mode = mode_of()
@@ -220,7 +223,7 @@ class JoinManager:
         result.members = members
         result.elapsed_s = node.clock.now - t0
         joiners = len(members) - 1
-        result.complete = joiners == min(required, n_available) and joiners > 0
+        result.complete = joiners >= min(required, n_available) and joiners > 0
 
     def _scan_and_query(self, required: int, result: OrganizeResult, max_scans: int | None = None):
         """Steps 1-2: scan, then query the new candidates. While fewer robots are available than

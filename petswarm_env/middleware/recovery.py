@@ -24,6 +24,14 @@ Both sides run on one robot's station, like the other managers:
   fills the lowest open numbers), notify (:meth:`~.join.JoinManager.refill`) — into the open
   member numbers, then broadcasts the member update with the new tables. Robots switched on
   mid-episode (``arrivals``) are found by the same periodic scan.
+* **astray** (master): a member that lost its swarm — the RSSI range of its ring frames puts it
+  farther from the master than both its slot's distance plus :data:`ASTRAY_M` and the IR's reach
+  (``ir.max_range_m``: nobody can give it a fix), and the master has no fresh IR fix of it — for
+  :data:`ASTRAY_S` in a row (:meth:`RecoveryManager.check_astray`, at each periodic scan) is removed like a lost member
+  and its slot refilled: it still answers the ring by radio (30 m), so the ring alone would keep it
+  a member, driving with no fix, until it left radio range (a mixed pool's slow r1 lost its
+  swarm at the start of the walk and drifted 14-30 m away). It hears the member update and goes back to
+  waiting, where the periodic scan recruits it again once it is inside the available region.
 * **no robot to recruit**: the formation stays at the smaller size the removal planned (the
   remaining members re-planned, its tables sent), and the periodic scan keeps looking.
 * **members** apply an update they hear (acknowledging every copy); a robot that finds itself
@@ -50,6 +58,12 @@ from petswarm_env.middleware.station import Station
 # chosen: a member whose RSSI range differs from its slot's distance from the master by more than this is not at
 # its slot (the RSSI range is off by ~10 % at 1 dB shadowing: 0.2 m at 2 m)
 OFF_SLOT_M = 0.75
+# chosen: a member whose RSSI range exceeds its slot's distance from the master by this much, and the IR's reach,
+# with no fresh IR fix of it, for ASTRAY_S in a row, has lost its swarm and is removed (the rejoin timeout: its last
+# fix stays fresh knowledge.FRESH_IR_S, then ASTRAY_S, seen at a periodic scan: at most 2 + 3 + 1 = 6 s). 1.5 m is > 6 σ of the RSSI range's error at 3 m (~10 % at
+# 1 dB shadowing), and the scattered start stands within 2.25 m of the master, inside the 3 m IR reach
+ASTRAY_M = 1.5
+ASTRAY_S = 3.0
 
 
 class RecoveryManager:
@@ -72,6 +86,8 @@ class RecoveryManager:
         self.mirrored = False  # master: the last removal chose the mirror image of the standard table
         self.update_retries = 0  # master: member-update broadcasts repeated for a missing acknowledgement
         self.refills: list[OrganizeResult] = []
+        self.astray: list[tuple[float, int]] = []  # master: (time, node id) of each member removed as astray
+        self._astray_since: dict[int, float] = {}  # master: member -> since when its range has said astray
         self.bid_requests: list[tuple[float, str]] = []  # member: (time, the part that failed) of each bid request started
         self._request_seq = -1
         self._request_acked = None
@@ -98,8 +114,9 @@ class RecoveryManager:
 
     def open_members(self) -> list[int]:
         """The member numbers the user's required count leaves open: after the last member, up to
-        ``swarm.num_slaves`` (the master's own configuration: its user's request)."""
-        return list(range(self.node.know.total_members, self.node.cfg.swarm.num_slaves + 1))
+        ``swarm.num_slaves`` plus ``swarm.spares`` (the master's own configuration: its user's request)."""
+        swarm = self.node.cfg.swarm
+        return list(range(self.node.know.total_members, swarm.num_slaves + swarm.spares + 1))
 
     def maintain(self, pan: int):
         """Master process: the periodic scan while organized on ``pan`` and a slot is open."""
@@ -110,6 +127,7 @@ class RecoveryManager:
             yield clock.timeout(period)
             if node.state != "master" or node.swarm_pan != pan:
                 return
+            self.check_astray()
             if not self.busy and self.open_members():
                 self.busy = True
                 yield from self._refill()
@@ -117,6 +135,33 @@ class RecoveryManager:
                 if self._lost:
                     self.busy = True
                     clock.process(self._recover())
+
+    def check_astray(self) -> None:
+        """Master: remove every member astray for :data:`ASTRAY_S` (module docstring). What it reads
+        is its own: the RSSI range of each member's latest ring frame to it (within ``FRESH_IR_S``),
+        its IR fixes, its formation."""
+        node = self.node
+        know = node.know
+        ring = getattr(node, "ring", None)
+        if node.formation is None or ring is None:
+            return
+        now = node.clock.now
+        slots = node.formation.slot_positions()
+        reach = node.cfg.ir.max_range_m
+        seen_ir = {n for n, fix in know.ir.items() if now - fix.time_s <= FRESH_IR_S}
+        astray = set()
+        for m, n in know.members.items():
+            if m == 0 or m >= len(slots) or n in seen_ir or now - ring.heard.get(n, -math.inf) > FRESH_IR_S:
+                continue
+            r = ring.slot_range_m.get(n, math.nan)
+            if r > max(math.hypot(*slots[m]) + ASTRAY_M, reach):
+                astray.add(n)
+        self._astray_since = {n: self._astray_since.get(n, now) for n in astray}
+        for n, since in sorted(self._astray_since.items()):
+            if now - since >= ASTRAY_S - 1e-9 and n not in self._lost:
+                self.astray.append((now, n))
+                del self._astray_since[n]
+                self.member_lost(n)
 
     def _recover(self):
         """Remove the lost members one after another, then refill (SimPy process; ``busy`` was set

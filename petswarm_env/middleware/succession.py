@@ -158,7 +158,7 @@ def adopted_swarm_config(node: Station):
     is its own rows (turned back from the leading layout)."""
     cfg = node.cfg
     formation = node.formation
-    update: dict = {"num_slaves": max(1, node.know.total_members - 1)}
+    update: dict = {"num_slaves": max(1, node.know.total_members - 1), "spares": 0}  # a spare is a member like the others
     if formation is not None and formation.links:
         first = formation.links[min(formation.links)][0]
         update["formation"] = formation.shape

@@ -85,7 +85,8 @@ class Swarm:
 
     def _organize(self):
         master = self.master
-        yield from master.join.organize(self.cfg.swarm.num_slaves, self.pan, self.organize_result, lambda: self.mode)
+        yield from master.join.organize(self.cfg.swarm.num_slaves, self.pan, self.organize_result, lambda: self.mode,
+                                        spares=self.cfg.swarm.spares)
         self.formation = master.formation  # laid out for the driving mode by the master's join manager
         self._start_master_processes(master)
 

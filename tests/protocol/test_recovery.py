@@ -191,3 +191,69 @@ def test_one_recovery_at_a_time_on_a_master_with_two_users():
     assert sorted(i for ids in lost for i in ids) == [1, 2]
     refills = [r for sw in env.episode.swarms for r in sw.master.recovery.refills]
     assert refills and math.isfinite(ep["formation_rmse_m"])
+
+
+def _carry(env, idx, away_m):
+    """The experimenter carries robot ``idx`` ``away_m`` from the master, straight out from it."""
+    world = env.episode.world
+    master = world.robots[env.episode.swarm.master.node_id]
+    robot = world.robots[idx]
+    (mx, my), (x, y) = master.position, robot.position
+    d = math.hypot(x - mx, y - my)
+    robot.body.position = (mx + (x - mx) * away_m / d, my + (y - my) * away_m / d)
+    robot.set_velocity((0.0, 0.0), 0.0)
+    world.space.reindex_shapes_for_body(robot.body)
+    world.invalidate_truth()
+
+
+def test_a_member_astray_beyond_the_ir_reach_is_removed_and_waits():
+    from petswarm_env.middleware.knowledge import FRESH_IR_S
+    from petswarm_env.middleware.recovery import ASTRAY_S
+    env = make()
+    run(env, 1.0)
+    _carry(env, 2, 6.0)  # far beyond its slot and the IR's reach, well inside radio range
+    t0 = env.episode.world.now
+    run(env, ASTRAY_S + 5.0)
+    master = env.episode.swarm.master
+    removed = [(t, ids) for t, e, ids in env.episode.swarm.member_log if e == "lost"]
+    assert removed and removed[0][1] == [2]
+    # its last IR fix stays fresh FRESH_IR_S, then ASTRAY_S in a row, seen at a periodic scan (+ the update's air time)
+    assert ASTRAY_S <= removed[0][0] - t0 <= FRESH_IR_S + ASTRAY_S + env.cfg.protocol.rescan_period_s + 0.5
+    assert [n for _, n in master.recovery.astray] == [2]
+    assert 2 not in master.know.members.values()
+    assert env.episode.fleet.nodes[2].state == "waiting"  # it heard the member update: back to waiting
+    assert "robot_2" not in env.agents
+    assert_tables_agree(env)
+
+
+def test_a_member_off_its_slot_inside_the_ir_reach_stays():
+    env = make()
+    run(env, 1.0)
+    _carry(env, 2, 2.6)  # off its slot, but the master still sees it by IR
+    run(env, 8.0)
+    master = env.episode.swarm.master
+    assert 2 in master.know.members.values() and not master.recovery.astray
+
+
+def test_a_spare_walks_with_the_swarm_and_fills_a_lost_members_place():
+    # seed 3: the extra robot (placed at the rim of the available region) is inside it at the organize
+    env = make(seed=3, **{"swarm.spawn": "scattered", "swarm.extra_robots": 1, "swarm.spares": 1, "faults": [{"at_s": 1.0, "robot": 2, "kind": "dead"}]})
+    master = env.episode.swarm.master
+    assert len(master.know.members) == 1 + 5 and len(env.agents) == 5  # the spare joined beside the required 4
+    run(env, 5.0)
+    log = env.episode.swarm.member_log
+    assert [e for _, e, _ in log] == ["lost"]  # removed; nobody recruited: the spare is inside the swarm already
+    assert 2 not in master.know.members.values() and len(master.know.members) == 1 + 4
+    assert len(env.agents) == 4 and master.recovery.open_members() == [5]  # the scan looks for a new spare
+    assert master.formation.size == 5  # the standard table of the required count
+    assert_tables_agree(env)
+
+
+def test_without_spares_the_extra_robot_stays_waiting_and_a_short_pool_organizes_as_fast():
+    env = make(**{"swarm.extra_robots": 1})
+    assert len(env.episode.swarm.master.know.members) == 1 + 4
+    short = make(**{"swarm.spares": 2})  # no robot beyond the four required: organizes without waiting for spares
+    plain = make()
+    assert len(short.episode.swarm.master.know.members) == 1 + 4
+    assert short.episode.swarm.organize_result.elapsed_s == plain.episode.swarm.organize_result.elapsed_s
+    assert short.episode.swarm.organize_result.complete

@@ -57,7 +57,7 @@ class Node(Station):
         self.handed_over.connect(lambda _new_master: self.recovery.after_handover(frozenset(self.diagnosis.failed)))
         # the sensors hand their readings to the MCU, which stamps them with its own clock
         local = self.clock.local
-        robot.on_ring = lambda ranges, present, now_s: self.diagnosis.on_ring(ranges, present, local(now_s))
+        robot.on_ring = lambda ranges, present, now_s, rang=True: self.diagnosis.on_ring(ranges, present, local(now_s), rang)
         robot.ahrs.on_reading = lambda now_s, yaw: self.diagnosis.on_ahrs(local(now_s), yaw)
         self.succession = SuccessionManager(self, self.seq.leave_swarm)
         self.seq.successor = self.succession

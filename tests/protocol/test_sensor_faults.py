@@ -37,7 +37,8 @@ def test_an_ultrasonic_fault_is_found_by_the_robot_and_only_then_lowers_its_flag
         agent = "robot_3"
         if env.episode.runtime.faults.log and seen is None and agent in obs:
             pres = obs[agent][env.layout.slices["self.ultrasonic_present"]]
-            found = [t for t, part in node.diagnosis.detected if part == "ultrasonic"]
+            # the robot stamps its detections on its own clock (seed 000 §3.3): the test reads true time
+            found = [node.clock.true_time(t) for t, part in node.diagnosis.detected if part == "ultrasonic"]
             if not found:  # broken but not found yet: the robot believes its ring, and says so
                 assert pres.min() == 1.0 and assignment.own_status(node).rate_sens_ma == 65.0
             else:

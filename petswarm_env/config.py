@@ -130,8 +130,7 @@ class CustomLink(Section):
 class SwarmConfig(Section):
     num_slaves: int = Field(ge=1, le=16)
     extra_robots: int = Field(ge=0, le=16, description="waiting robots beyond the required number")
-    spares: int = Field(0, ge=0, le=15, description="robots the master recruits beyond num_slaves when the pool has them: "
-                        "they hold the shape's next slots and fill a lost member's place (middleware/join.py)")
+    spares: int = Field(0, ge=0, le=15, description="robots recruited beyond num_slaves, walking on the shape's next slots (middleware/join.py)")
     formation: Literal[FORMATIONS]  # type: ignore[valid-type]
     spacing_m: float = Field(ge=0.01, le=NEAR_M)
     custom_links: list[CustomLink] = Field(max_length=32)
@@ -489,9 +488,7 @@ class Config(Section):
         if self.swarm.formation == "custom" and not self.swarm.custom_links:
             raise ValueError("swarm.formation 'custom' needs swarm.custom_links (robot, neighbour, offset_m)")
         if self.swarm.spares and (self.swarm.formation == "custom" or self.swarm.num_slaves + self.swarm.spares > 16):
-            raise ValueError(f"swarm.spares={self.swarm.spares} needs a standard formation (not 'custom': its table fixes the "
-                             f"size) and swarm.num_slaves + swarm.spares <= 16 (now {self.swarm.num_slaves + self.swarm.spares}); "
-                             "lower swarm.spares")
+            raise ValueError(f"swarm.spares={self.swarm.spares} needs a standard formation (a custom table fixes the size) and swarm.num_slaves + swarm.spares <= 16; lower swarm.spares")
         if self.swarm.formation == "custom":
             named, want = sorted({lk.robot for lk in self.swarm.custom_links}), list(range(1, self.swarm.num_slaves + 1))
             if named != want:

@@ -66,9 +66,23 @@ ALGORITHM = "PPO (Ray RLlib, new API stack)"
 _PACKAGES = ("petswarm_env", "baselines", "training", "evaluation")  # what a cluster's workers import
 
 
+class _EndingPettingZooEnv(ParallelPettingZooEnv):
+    """RLlib's adapter, ending the episode when every agent is done: RLlib sets ``__all__`` only when
+    every agent is terminated, or every one truncated; FixedAgents ends an episode whose last live
+    robots were terminated (they left the swarm: dead, astray) with those terminated and the others,
+    inactive, truncated — then neither holds. The per-agent flags stay as FixedAgents gives them."""
+
+    def step(self, action_dict):
+        obss, rews, terminateds, truncateds, infos = super().step(action_dict)
+        flags = [terminateds.get(a, False) or truncateds.get(a, False) for a in obss]
+        if flags and all(flags) and not (terminateds["__all__"] or truncateds["__all__"]):
+            terminateds["__all__"] = True
+        return obss, rews, terminateds, truncateds, infos
+
+
 def make_env(env_config: dict[str, Any]) -> ParallelPettingZooEnv:
     """The env RLlib's runners build: ``env_config["config"]`` is the env config as a dict."""
-    return ParallelPettingZooEnv(FixedAgents(PetSwarmEnv(load_config(overrides=flatten_dotted(env_config["config"])))))
+    return _EndingPettingZooEnv(FixedAgents(PetSwarmEnv(load_config(overrides=flatten_dotted(env_config["config"])))))
 
 
 def map_to_shared(agent_id, *args, **kwargs) -> str:

@@ -25,6 +25,7 @@ pytest.importorskip("ray.rllib")
 
 from petswarm.baselines.learned import LearnedPolicy, read_policy_file  # noqa: E402
 from petswarm.baselines.policy import PolicySpec  # noqa: E402
+from petswarm.baselines.registry import make_policy  # noqa: E402
 from petswarm.evaluation.evaluate import mean_formation_rmse  # noqa: E402
 from petswarm_env import parallel_env  # noqa: E402
 from petswarm_env.config import ConfigError, load_config  # noqa: E402
@@ -112,14 +113,19 @@ def test_the_exported_actor_is_the_rllib_modules_deterministic_action():
 
 
 def test_rllibs_pettingzoo_adapter_runs_the_fixed_agents_env_through_a_master_change():
-    cfg = load_config(overrides={"user.scenario": "mode_change", "max_cycles": 420, "render.size_px": [64, 48]})  # zero actions never build: the user waits user.formation_wait_s (30 s)
+    cfg = load_config(overrides={"user.scenario": "mode_change", "max_cycles": 420, "render.size_px": [64, 48]})
     env = rllib_backend.make_env({"config": cfg.to_dict()})
-    obs, _ = env.reset(seed=42, options={})  # RLlib's own env check: reset(seed=42, options={}) and one step
+    obs, infos = env.reset(seed=42, options={})  # RLlib's own env check: reset(seed=42, options={}) and one step
     assert set(obs) == set(env.get_agent_ids()) == set(env.observation_space.keys())
+    # the scripted reference drives the live robots (standing ones would be left beyond the swarm's reach
+    # once the user walks, and removed as astray before the mode change: middleware/recovery.py)
+    policy = make_policy("scripted", PolicySpec.from_env(env.par_env))
     joined = set()
     done = {"__all__": False}
     while not done["__all__"]:
-        obs, rewards, done, truncated, infos = env.step({a: np.zeros(3, np.float32) for a in obs})
+        live = {a: o for a, o in obs.items() if infos[a]["active"]}
+        acts = {**{a: np.zeros(3, np.float32) for a in obs}, **policy.act_all(live)}
+        obs, rewards, done, truncated, infos = env.step(acts)
         joined |= {a for a, info in infos.items() if info["joined"]}
         done = {"__all__": done["__all__"] or truncated["__all__"]}
         assert all(type(r) is float for r in rewards.values())

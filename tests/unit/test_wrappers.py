@@ -8,6 +8,8 @@ from pettingzoo import ParallelEnv
 from pettingzoo.test import parallel_api_test
 
 import petswarm_env
+from petswarm.baselines.policy import PolicySpec
+from petswarm.baselines.registry import make_policy
 from petswarm_env.env import INFO_DEFAULTS
 from petswarm_env.wrappers import FixedAgents
 
@@ -97,20 +99,27 @@ def test_fixed_agents_active_flag_marks_the_robots_own_observations():
 def test_fixed_agents_over_a_mode_change_keeps_every_robot_and_ends_by_truncation():
     """mode_change: a slave becomes the master (the env terminates it), robot_0 joins as a slave;
     the wrapper keeps all five robots from reset to the end, ignores actions of inactive ones."""
-    env = FixedAgents(petswarm_env.parallel_env(**{"user.scenario": "mode_change", "max_cycles": 420}))  # constant actions never build: the user waits user.formation_wait_s (30 s)
+    env = FixedAgents(petswarm_env.parallel_env(**{"user.scenario": "mode_change", "max_cycles": 420}))
     obs, infos = env.reset(seed=0)
+    # the scripted reference drives the live robots (standing ones would be left beyond the swarm's reach once
+    # the user walks, and removed as astray before the mode change: middleware/recovery.py); the inactive
+    # ones get a constant action, which the wrapper ignores
+    policy = make_policy("scripted", PolicySpec.from_env(env), 0)
     assert env.agents == env.possible_agents == [f"robot_{i}" for i in range(5)]
     assert infos["robot_0"]["active"] == 0 and not obs["robot_0"].any()
     seen_active = {a: set() for a in env.agents}
     space = env.observation_space("robot_0")
     while env.agents:
-        obs, rewards, terms, truncs, infos = env.step({a: np.full(3, 0.1, np.float32) for a in env.agents})
+        acts = {**{a: np.full(3, 0.1, np.float32) for a in env.agents},
+                **policy.act_all({a: o for a, o in obs.items() if infos[a]["active"]})}
+        was_active = {a for a in env.possible_agents if infos[a]["active"]}
+        obs, rewards, terms, truncs, infos = env.step(acts)
         for a in env.possible_agents:
             seen_active[a].add(infos[a]["active"])
             assert space.contains(obs[a]) and type(rewards[a]) is float
             assert set(infos[a]) == {*INFO_DEFAULTS, "active"}
-            if not infos[a]["active"]:
-                assert not obs[a].any() and rewards[a] == 0.0
+            if not infos[a]["active"]:  # a robot that left in this step gets its last reward (the env's)
+                assert not obs[a].any() and (a in was_active or rewards[a] == 0.0)
     assert seen_active["robot_0"] == {0, 1}  # joined mid-episode
     assert sum(seen_active[a] == {0, 1} for a in env.possible_agents[1:]) == 1  # the new master left
     assert all(truncs.values()) and not any(terms.values())

@@ -379,7 +379,7 @@ class Episode:
             return
         for idx, node in self.fleet.nodes.items():  # a robot leaving its slot for its own fault drives out of the way
             move = node.recovery.leaving_command(world.now) if node.recovery.clear_out is not None else None
-            if move is not None and idx not in masters:
+            if move is not None and idx not in masters and world.robots[idx].health.powered:
                 cmd, _ = self.arbiters[idx].decide(move, None, ranges[idx], False)
                 world.robots[idx].set_command(*cmd)
         if self.left:  # a robot recruited again after it left the agents has no driver (module docstring): held still

@@ -94,7 +94,8 @@ class RecoveryManager:
         self._asked_out = False  # member: a bid request of ours is pending (its own fault, not a loss)
         self._was_master = False  # member: it handed its user over for a part it found broken (after_handover)
         self.cannot_lead: Callable[[str], None] | None = None  # master: the node's seam to hand its user over
-        self.clear_out: tuple[float, float, float, float] | None = None  # (start, vx, vy, distance): the move out of the formation
+        # (start, vx, vy, distance): the move out of the formation (_plan_clear_out)
+        self.clear_out: tuple[float, float, float, float] | None = None
         self._cleared = (0.0, 0.0)  # (time, sideways metres the wheels counted) of that move
         node.on(msg.MEMBER_UPDATE, self._on_update)
         node.on(msg.MEMBER_UPDATE_ACK, self._on_ack)
@@ -416,7 +417,7 @@ class RecoveryManager:
         outermost = max((float(p[1]) * side for p in pos), default=0.0)
         margin = CLEAR_MARGIN_MASTER_M if self._was_master else CLEAR_MARGIN_M
         out_m = outermost - lateral * side + 2.0 * node.cfg.robot.radius_m + margin
-        status = node.know.status  # a slave keeps the master's pace; a master that handed its user over, its own
+        status = node.know.status  # the master's pace; a master that handed its user over and heard none yet: its own
         vx = float(status.velocity[0]) if status is not None else float(node.odometry.read()[0])
         ahead = 0.0 if self._was_master else CLEAR_AHEAD_MPS
         self.clear_out = (node.clock.now, vx + ahead, side * CLEAR_SPEED_MPS, out_m)
@@ -445,8 +446,11 @@ class RecoveryManager:
 MASTER_NEEDS = frozenset({"ir"})
 CLEAR_SPEED_MPS = 0.5  # chosen: the sideways speed of a faulty robot leaving the formation (a third of the top speed)
 CLEAR_TIMEOUT = 3.0  # chosen: the move out gives up after three times its time at the commanded speed (a robot held by a contact)
-CLEAR_AHEAD_MPS = 0.25  # chosen: a slave also drives ahead of the swarm's pace, out of the way of the member behind it that moves up (a master that handed its user over does not: the user and the new master are ahead of it)
-CLEAR_MARGIN_M = 1.0  # chosen: its clearance beyond the formation's outermost slot (a formation drifts sideways by half a spacing as it re-forms)
+# chosen: a slave also drives ahead of the swarm's pace, out of the way of the member behind it that moves up
+# (a master that handed its user over does not: the user and the new master are ahead of it)
+CLEAR_AHEAD_MPS = 0.25
+# chosen: its clearance beyond the formation's outermost slot (a formation drifts sideways by half a spacing as it re-forms)
+CLEAR_MARGIN_M = 1.0
 # chosen: a master that handed its user over clears further: its formation then re-centres on the new master, which
 # drives onto the user's line, half a spacing or more sideways (IR on the master, seeds 20-39: re-formed 14/20 with
 # 1.0 m, 17/20 with 1.5 m; seeds 0-19: 18/20 with both)

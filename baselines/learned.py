@@ -152,7 +152,14 @@ class PolicyVersionWarning(UserWarning):
 
 
 def shipped_policy_path() -> Path:
-    """The learned policy shipped with the package (``petswarm run/eval --policy learned``)."""
+    """The learned policy shipped with the package (``petswarm run/eval --policy learned``): the
+    recurrent student of the privileged teacher (``petswarm train --config recurrent``, docs/training.md)."""
+    return Path(str(resources.files("petswarm.baselines") / "models" / "recurrent_teacher.npz"))
+
+
+def feed_forward_policy_path() -> Path:
+    """The shipped one-frame MLP policy (MAPPO after a DAgger warm start, ``configs/train/generalize.yaml``;
+    ``learned`` before the recurrent one): for tools that need a feed-forward actor (the TorchRL example)."""
     return Path(str(resources.files("petswarm.baselines") / "models" / "mappo_generalize.npz"))
 
 

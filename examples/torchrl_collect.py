@@ -1,5 +1,6 @@
 """TorchRL over petswarm: ``PettingZooWrapper`` around the fixed-agents env, collected with TorchRL's
-``Collector`` and the shipped learned policy as a TensorDict actor (the ``torchrl`` extra)::
+``Collector`` and the shipped one-frame MLP policy (``mappo_generalize.npz``; ``learned`` is recurrent,
+a memory per robot, which a feed-forward TensorDict actor does not carry) as a TensorDict actor (the ``torchrl`` extra)::
 
     pip install -e '.[torchrl]'          # torchrl 0.14.1, tensordict 0.14.3 (with torch==2.13.0)
     python examples/torchrl_collect.py --frames 400
@@ -24,7 +25,7 @@ from tensordict.nn import TensorDictModule
 from torchrl.collectors import Collector
 from torchrl.envs import PettingZooWrapper
 
-from petswarm.baselines.learned import observation_mapping, read_policy_file, shipped_policy_path
+from petswarm.baselines.learned import feed_forward_policy_path, observation_mapping, read_policy_file
 from petswarm.baselines.policy import PolicySpec
 from petswarm_env import petswarm_v1
 from petswarm_env.wrappers import FixedAgents
@@ -49,10 +50,10 @@ class _Select(torch.nn.Module):
 
 
 def actor_from_policy_file(path=None) -> TensorDictModule:
-    """A TensorDict actor from a petswarm policy file (default: the shipped one): the same layers
+    """A TensorDict actor from a petswarm policy file (default: the shipped feed-forward one): the same layers
     as baselines/learned.py's numpy forward, in torch, after the same field mapping onto this env's
     observation (the default config's), with the action clipped to [-1, 1]."""
-    meta, layers = read_policy_file(path or shipped_policy_path())
+    meta, layers = read_policy_file(path or feed_forward_policy_path())
     layout = PolicySpec.from_env(petswarm_v1.parallel_env()).layout
     index = observation_mapping([(n, s) for n, s in meta["observation_layout"]], layout)
     act = torch.nn.Tanh if meta["activation"] == "tanh" else torch.nn.ReLU
@@ -68,7 +69,7 @@ def actor_from_policy_file(path=None) -> TensorDictModule:
 
 
 def collect(frames: int = 400, frames_per_batch: int = 200, max_cycles: int = 100, seed: int = 0) -> dict:
-    """Collect ``frames`` env steps with the shipped policy; returns what was collected."""
+    """Collect ``frames`` env steps with the shipped feed-forward policy; returns what was collected."""
     torch.manual_seed(seed)
     env = make_env(max_cycles)
     env.set_seed(seed)

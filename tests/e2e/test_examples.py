@@ -10,7 +10,7 @@ import pytest
 
 pytest.importorskip("torchrl")
 
-from petswarm.baselines.learned import LearnedPolicy, shipped_policy_path  # noqa: E402
+from petswarm.baselines.learned import LearnedPolicy, feed_forward_policy_path  # noqa: E402
 from petswarm.baselines.policy import PolicySpec  # noqa: E402
 from petswarm_env import parallel_env  # noqa: E402
 
@@ -25,7 +25,7 @@ def _example(name):
     return module
 
 
-def test_torchrl_collector_gathers_every_robot_with_the_state_and_the_shipped_policy():
+def test_torchrl_collector_gathers_every_robot_with_the_state_and_the_shipped_feed_forward_policy():
     example = _example("torchrl_collect")
     out = example.collect(frames=100, frames_per_batch=50, max_cycles=30)
     size = PolicySpec.from_env(parallel_env()).layout.size
@@ -36,7 +36,7 @@ def test_torchrl_collector_gathers_every_robot_with_the_state_and_the_shipped_po
     assert set(info.keys()) >= {"active", "formation_error_m", "new_contacts", "joined", "member"}
     assert bool(info["active"].all())  # the default scenario: every robot a slave all along
     env = parallel_env()
-    policy = LearnedPolicy.load(shipped_policy_path(), PolicySpec.from_env(env))
+    policy = LearnedPolicy.load(feed_forward_policy_path(), PolicySpec.from_env(env))
     obs = batch["robot", "observation"].numpy().reshape(-1, size)
     expected = np.clip(policy.forward(obs), -1, 1)
     assert np.abs(batch["robot", "action"].numpy().reshape(-1, 3) - expected).max() < 1e-4

@@ -1,26 +1,40 @@
 """The learned policy shipped with the package loads safely and holds the default formation."""
 
-from petswarm.baselines.learned import LearnedPolicy, read_policy_file, shipped_policy_path
+import yaml
+
+from petswarm.baselines.learned import (LearnedPolicy, RecurrentPolicy, feed_forward_policy_path, read_policy_file,
+                                        shipped_policy_path)
 from petswarm.baselines.policy import PolicySpec
 from petswarm.baselines.registry import make_policy
 from petswarm.evaluation.runner import run_episode
+from petswarm.training.config import load_train_config
 from petswarm_env import parallel_env
+from petswarm_env.env import ENV_NAME
+from petswarm_env.observe import OBS_VERSION
 
 
 def test_shipped_policy_records_how_it_was_trained():
     meta, layers = read_policy_file(shipped_policy_path())
-    assert meta["env_name"] == "petswarm_v0"
-    assert meta["info"]["command"].startswith("petswarm train")
-    assert meta["info"]["timesteps"] >= 100_000  # mappo_generalize.npz: 165 888 rows after a 200 k-sample warm start (docs/results.md)
-    assert meta["observation_version"] == 2 and meta["info"]["train_config"]["randomize"]
+    assert meta["env_name"] == ENV_NAME and meta["observation_version"] == OBS_VERSION  # trained on the current observation
+    assert meta["info"]["command"].startswith("petswarm train --config recurrent")
+    assert meta["info"]["timesteps"] >= 100_000  # recurrent_teacher.npz: the best evaluation, after 105 060 labelled samples
+    assert meta["recurrent"]["cell"] == "gru" and meta["residual_of"] == "scripted"
     assert layers[-1][0].shape[0] == 3
+    # the committed config is the one it was trained with: `petswarm train --config recurrent` runs the same
+    committed = load_train_config("configs/train/recurrent.yaml").model_dump(mode="json")
+    assert yaml.safe_load(yaml.safe_dump(meta["info"]["train_config"])) == committed
+
+
+def test_the_feed_forward_policy_is_still_shipped():
+    meta, _ = read_policy_file(feed_forward_policy_path())
+    assert meta["env_name"] == "petswarm_v0" and "recurrent" not in meta  # mappo_generalize.npz (docs/results.md)
 
 
 def test_shipped_policy_holds_the_default_wedge():
     # from the slots (the policy trained from scattered starts over drawn configs; it holds the wedge here too)
     env = parallel_env(max_cycles=300, **{"swarm.spawn": "at_slots"})
     policy = make_policy("learned", PolicySpec.from_env(env))
-    assert isinstance(policy, LearnedPolicy)
+    assert isinstance(policy, RecurrentPolicy)
     summary = run_episode(env, policy, seed=0)
     assert summary["formation_rmse_m"] < 0.25, summary
     assert summary["collisions"]["robot_robot"] == 0

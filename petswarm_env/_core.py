@@ -34,8 +34,6 @@ COMPILED: tuple[str, ...] = (
     "petswarm_env.sim.sensors",
     "petswarm_env.comms.ir",
     "petswarm_env.observe",
-    "petswarm_env.middleware.token_ring",
-    "petswarm_env.middleware.sequence",
 )
 
 PURE_ENV = "PETSWARM_PURE_PYTHON"  # "1": run the interpreted form of every module of COMPILED

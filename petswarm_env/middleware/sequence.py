@@ -10,14 +10,10 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-import cython
-
 from petswarm_env.comms.radio import PAN_WAITING, Frame
 from petswarm_env.middleware import messages as msg
 from petswarm_env.middleware.knowledge import Knowledge
 from petswarm_env.middleware.station import Station
-
-COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
 
 
 class SequenceManager:

@@ -53,16 +53,12 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
-import cython
-
 from petswarm_env.comms.radio import Frame
 from petswarm_env.config import Config
 from petswarm_env.middleware import messages as msg
 from petswarm_env.middleware.knowledge import HeadingEstimate
 from petswarm_env.middleware.station import Station
 from petswarm_env.sim.geometry import wrap_angle
-
-COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
 
 
 # chosen: a holder announced this long ago (its start sign, sync or the token to it) still transmits: the slot's

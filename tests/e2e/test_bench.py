@@ -81,7 +81,9 @@ def test_memory_breakdown_training_and_machine(bench):
     assert set(b["shares"]) == set(CATEGORIES)
     assert all(v >= 0 for v in b["shares"].values())
     assert sum(b["shares"].values()) == pytest.approx(1.0)
-    assert b["shares"]["physics"] > 0 and b["shares"]["radio_middleware"] > 0 and b["shares"]["observation"] > 0
+    # the compiled core (petswarm_env/_core.py) has no Python frames: its time counts for its interpreted callers,
+    # so a part whose modules are all compiled (the observation's) may read 0; pymunk and simpy stay interpreted
+    assert b["shares"]["physics"] > 0 and b["shares"]["radio_middleware"] > 0
     assert b["top_functions"] and _positive(b["profiled_ms_per_step"])
 
     tr = result["training"]
@@ -100,6 +102,7 @@ def test_report_and_markdown(bench):
     assert "| petswarm scripted (1+5) | 6 |" in md
     assert "](benchmarks_steps.png)" in md  # the plot, linked relative to the markdown
     assert "## Where a step's time goes" in md and "Method:" in md
+    assert "Neither profiler sees the compiled core" in md and "`petswarm_env.observe`" in md
     assert plot_path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert sorted(p.name for p in md_path.parent.iterdir()) == ["benchmarks.md", "benchmarks_steps.png"]  # no temp files
 

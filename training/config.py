@@ -178,7 +178,7 @@ def load_train_config(path: str | os.PathLike | None = None, overrides: dict[str
     except ValidationError as exc:
         message = format_validation_error(exc)
         loc = exc.errors()[0]["loc"]
-        from_set = any(key == ".".join(map(str, loc)) or key.startswith(f"{loc[0]}.") for key in (overrides or {}))
+        from_set = bool(loc) and any(key == ".".join(map(str, loc)) or key.startswith(f"{loc[0]}.") for key in (overrides or {}))
         node = user if path is not None else {}
         for part in loc:  # the file that holds the key: the given config, else the base (a resumed run's own)
             node = node.get(part) if isinstance(node, dict) else None

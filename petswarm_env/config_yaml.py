@@ -194,6 +194,9 @@ def nest_dotted(overrides: Mapping[str, Any]) -> dict[str, Any]:
     nested: dict[str, Any] = {}
     for key, value in overrides.items():
         parts = key.split(".")
+        if not all(parts):
+            raise ConfigError(f"config key '{key}' has an empty part (a leading, trailing or doubled '.'); write it as "
+                              "section.key, e.g. swarm.num_slaves")
         node = nested
         for part in parts[:-1]:
             node = node.setdefault(part, {})

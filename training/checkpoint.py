@@ -90,6 +90,9 @@ def read_checkpoint(out: str | os.PathLike) -> tuple[dict[str, Any], dict[str, n
     if not path.is_file():
         if old.exists():
             raise ConfigError(OLD_FORMAT_MESSAGE.format(path=old))
+        if path.exists() or path.is_symlink() or (path.parent.exists() and not path.parent.is_dir()):
+            raise ConfigError(f"cannot resume: '{out}' checkpoints/{CHECKPOINT} is not a regular file (a folder, a device, a "
+                              "dangling link, or checkpoints is a file); the run folder is damaged, start a new run with another --out")
         raise ConfigError(f"cannot resume: '{out}' has no checkpoint (checkpoints/{CHECKPOINT}); train without --resume first")
     try:
         arrays = read_npz(path, MAX_BYTES)
@@ -109,6 +112,11 @@ def read_checkpoint(out: str | os.PathLike) -> tuple[dict[str, Any], dict[str, n
     n = state.get("num_timesteps")
     if not isinstance(n, int) or isinstance(n, bool) or n < 0:
         raise ConfigError(f"checkpoint '{path}': field 'num_timesteps' must be a whole number >= 0, got {n!r}")
+    from petswarm.training.config import MAX_STEPS
+
+    if n > MAX_STEPS:  # no run trains more (training config timesteps); a larger count is damage, not progress
+        raise ConfigError(f"checkpoint '{path}': field 'num_timesteps' is {n}, more than the {MAX_STEPS} agent-steps a run may "
+                          "train; the checkpoint is damaged, start a new run with another --out")
     return state, arrays
 
 

@@ -181,6 +181,7 @@ def load_train_config(path: str | os.PathLike | None = None, overrides: dict[str
     train_config.yaml when it resumes), then ``path``, then dotted overrides; validated. Keys
     under ``env.`` are checked against the environment config too."""
     data = read_yaml(DEFAULT_TRAIN_CONFIG if base is None else base)
+    user: dict[str, Any] = {}
     if path is not None:
         user = read_yaml(path)
         env_user, pools_user = user.pop("env", None), user.pop("randomize", None)
@@ -206,9 +207,14 @@ def load_train_config(path: str | os.PathLike | None = None, overrides: dict[str
     except ValidationError as exc:
         message = format_validation_error(exc)
         loc = exc.errors()[0]["loc"]
-        if path is not None and loc and not any(key == ".".join(map(str, loc)) or key.startswith(f"{loc[0]}.")
-                                                for key in (overrides or {})):  # not from a --set: from the file
+        from_set = bool(loc) and any(key == ".".join(map(str, loc)) or key.startswith(f"{loc[0]}.") for key in (overrides or {}))
+        node = user if path is not None else {}
+        for part in loc:  # the file that holds the key: the given config, else the base (a resumed run's own)
+            node = node.get(part) if isinstance(node, dict) else None
+        if loc and not from_set and (node is not None or base is None) and path is not None:
             message += f" (in training config file '{path}')"
+        elif loc and not from_set and base is not None:
+            message += f" (in '{base}')"
         raise ConfigError(message) from None
     try:
         cfg.env_config()  # validates the env overrides (unknown key / bad value -> ConfigError)

@@ -116,8 +116,11 @@ def open_run(cfg: TrainConfig | None, out: Path, resume: bool) -> tuple[TrainCon
     changes = resume_changes(saved, cfg or saved, out)
     cfg = cfg or saved
     env_saved = _read_run_file(out / "env_config.yaml", "the run's environment config")
+    if not isinstance(env_saved, dict):
+        raise ConfigError(f"cannot resume: '{out / 'env_config.yaml'}' (the run's environment config) must hold a mapping of "
+                          f"keys, got {type(env_saved).__name__}; the run folder is damaged, start a new run with another --out")
     env_now = flatten_dotted(cfg.env_config().to_dict())
-    env_then = flatten_dotted(env_saved) if isinstance(env_saved, dict) else {}
+    env_then = flatten_dotted(env_saved)
     differ = sorted(k for k in set(env_now) | set(env_then) if env_now.get(k) != env_then.get(k))
     if differ:
         k = differ[0]

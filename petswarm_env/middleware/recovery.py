@@ -64,6 +64,7 @@ OFF_SLOT_M = 0.75
 # 1 dB shadowing), and the scattered start stands within 2.25 m of the master, inside the 3 m IR reach
 ASTRAY_M = 1.5
 ASTRAY_S = 3.0
+ASTRAY_REACHES = 2.0
 
 
 class RecoveryManager:
@@ -155,7 +156,7 @@ class RecoveryManager:
             if m == 0 or m >= len(slots) or n in seen_ir or now - ring.heard.get(n, -math.inf) > FRESH_IR_S:
                 continue
             r = ring.slot_range_m.get(n, math.nan)
-            if r > max(math.hypot(*slots[m]) + ASTRAY_M, reach):
+            if r > max(math.hypot(*slots[m]) + ASTRAY_M, ASTRAY_REACHES * reach):
                 astray.add(n)
         self._astray_since = {n: self._astray_since.get(n, now) for n in astray}
         for n, since in sorted(self._astray_since.items()):

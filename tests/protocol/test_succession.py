@@ -194,7 +194,7 @@ def test_with_no_slave_able_to_be_master_the_belt_pairs_with_a_waiting_robot_of_
     assert env.episode.fleet.nodes[spare].state == "waiting" and env.episode.world.robots[spare].type_name == "petbot"
     run(env, 6.0)
     session, world = env.episode.sessions[0], env.episode.world
-    assert not successions(env) and not env.agents and session.state == "waiting_user"
+    assert not successions(env) and not env.active_agents and session.state == "waiting_user"
     robot = world.robots[spare]  # the user walks up to the spare (by hand: the script cannot) ...
     x, y = robot.position
     body = world.user.body

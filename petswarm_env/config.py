@@ -348,10 +348,8 @@ class Config(Section):
             if isinstance(f.robot, int) and f.robot >= n:
                 raise ValueError(f"faults[{i}].robot {f.robot} is not a robot index (this config has robots 0..{n - 1}); "
                                  "give an index below it, 'master' or 'random_slave'")
-        touching = self.user.radius_m + self.robot.radius_m
-        if self.master.distance_m <= touching:  # the master would stand inside the user's body (seed 000 §3.6.2: 1 m)
-            raise ValueError(f"master.distance_m ({self.master.distance_m:g} m) must exceed user.radius_m + robot.radius_m "
-                             f"({touching:g} m): the master keeps its distance from the user's body; give a larger distance")
+        if self.master.distance_m <= (touching := self.user.radius_m + self.robot.radius_m):  # inside the user (seed 000 §3.6.2: 1 m)
+            raise ValueError(f"master.distance_m ({self.master.distance_m:g} m) must exceed user.radius_m + robot.radius_m ({touching:g} m)")
         if self.radio.max_be < self.radio.min_be:
             raise ValueError(f"radio.max_be ({self.radio.max_be}) must be at least radio.min_be ({self.radio.min_be})")
         if self.control.safety_stop_m >= self.robot.ultrasonic.max_range_m:

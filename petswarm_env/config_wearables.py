@@ -41,11 +41,8 @@ class LFConfig(Section):
                              "lf.table_max_m - lf.table_min_m")
         hearing = self.hearing_range_m
         if hearing < self.reliable_range_m:
-            raise ValueError(
-                f"lf.sensitivity_db ({self.sensitivity_db:g} dB) with lf.rssi_at_1m_db ({self.rssi_at_1m_db:g} dB) hears only to "
-                f"{hearing:.2f} m on axis; it must reach lf.reliable_range_m ({self.reliable_range_m} m): lower lf.sensitivity_db "
-                "or raise lf.rssi_at_1m_db"
-            )
+            raise ValueError(f"lf.sensitivity_db ({self.sensitivity_db:g} dB) with lf.rssi_at_1m_db ({self.rssi_at_1m_db:g} dB) hears "
+                             f"only to {hearing:.2f} m; it must reach lf.reliable_range_m ({self.reliable_range_m} m): lower the first or raise the second")
         if self.table_max_m < hearing:
             raise ValueError(f"lf.table_max_m ({self.table_max_m} m) must cover the hearing range ({hearing:.2f} m on axis) of "
                              "lf.rssi_at_1m_db and lf.sensitivity_db: raise lf.table_max_m or lf.sensitivity_db")
@@ -55,6 +52,8 @@ class LFConfig(Section):
     def hearing_range_m(self) -> float:
         """Distance at which the on-axis carrier falls to the receiver's sensitivity, m."""
         return float(10.0 ** ((self.rssi_at_1m_db - self.sensitivity_db) / self.falloff_db_per_decade))
+
+
 Cadence = Annotated[float, Field(ge=-10.0, le=10.0)]  # a step-frequency coefficient: a person steps at most 5 times a second
 
 
@@ -108,6 +107,7 @@ class BeltConfig(Section):
         """Step frequency of the gait (walk or run) at a speed, Hz."""
         c0, c1 = self.run_cadence_hz if posture == "run" else self.walk_cadence_hz
         return max(0.0, c0 + c1 * max(0.0, speed_mps))
+
 
 class WatchConfig(Section):
     """Smart-watch gesture and remote-control parameters (seed 002 §3.1, Table 1). Values in ``default.yaml``."""

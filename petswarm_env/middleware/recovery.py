@@ -25,8 +25,8 @@ Both sides run on one robot's station, like the other managers:
   member numbers, then broadcasts the member update with the new tables. Robots switched on
   mid-episode (``arrivals``) are found by the same periodic scan.
 * **astray** (master): a member that lost its swarm — the RSSI range of its ring frames puts it
-  farther from the master than both its slot's distance plus :data:`ASTRAY_M` and the IR's reach
-  (``ir.max_range_m``: nobody can give it a fix), and the master has no fresh IR fix of it — for
+  farther from the master than both its slot's distance plus :data:`ASTRAY_M` and
+  :data:`ASTRAY_REACHES` times the IR's reach (``ir.max_range_m``: nobody can give it a fix), and the master has no fresh IR fix of it — for
   :data:`ASTRAY_S` in a row (:meth:`RecoveryManager.check_astray`, at each periodic scan) is removed like a lost member
   and its slot refilled: it still answers the ring by radio (30 m), so the ring alone would keep it
   a member, driving with no fix, until it left radio range (a mixed pool's slow r1 lost its
@@ -64,7 +64,11 @@ OFF_SLOT_M = 0.75
 # 1 dB shadowing), and the scattered start stands within 2.25 m of the master, inside the 3 m IR reach
 ASTRAY_M = 1.5
 ASTRAY_S = 3.0
-ASTRAY_REACHES = 2.0
+# chosen: ... and beyond 1.5 times the IR's reach (4.5 m at 3 m). At 1 reach a swarm re-forming after a master change
+# lost members that were only lagging (mode_change, seeds 0-4: members removed in 4 of 5 episodes, the whole swarm
+# in one); at 2 reaches a mixed pool's slave stayed >= 5 m off its slot in 2 of 20 runs
+# (python -m petswarm.experiments.measure_mixed --seeds 0-19 --variants plain --assignments closest: 20/20 at 1.5)
+ASTRAY_REACHES = 1.5
 
 
 class RecoveryManager:

@@ -10,11 +10,10 @@ import numpy as np
 import pytest
 
 import petswarm_env
-from petswarm.baselines.policy import PolicySpec
-from petswarm.baselines.registry import make_policy
 from petswarm_env.middleware import station as station_module
 from petswarm_env.middleware import user_session as session_module
 from petswarm_env.sim.clock import Clock, LocalClock
+from tests.env.test_no_shared_frame import _trace  # one scripted run, every step's observations
 
 STEPS = 100  # 10 s: organized, driving, the user walking
 TOLERANCE = 1e-5  # in observation units; ages are differences of local times: only rounding may differ
@@ -92,18 +91,6 @@ def test_a_robots_timers_run_on_its_own_clock():
     gap = fired[a.node_id] - fired[b.node_id]
     assert gap == pytest.approx(5.0 / (1 + a.clock.drift) - 5.0 / (1 + b.clock.drift), abs=1e-9)
     assert abs(gap) > 1e-6  # the drifts do show (tens of ppm of 5 s: tens to hundreds of µs)
-
-
-def _trace(overrides, seed, steps):
-    env = petswarm_env.parallel_env(max_cycles=steps, **overrides)
-    policy = make_policy("scripted", PolicySpec.from_env(env), seed)
-    obs, _ = env.reset(seed=seed)
-    policy.reset(seed)
-    trace = [obs]
-    for _ in range(steps):
-        obs, *_ = env.step(policy.act_all({a: obs[a] for a in env.agents}))
-        trace.append(obs)
-    return trace, env
 
 
 @pytest.mark.parametrize("overrides, seed", [

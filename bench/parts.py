@@ -41,6 +41,7 @@ MODULE_PARTS: dict[str, str | None] = {
     "petswarm_env.config_base": "other",
     "petswarm_env.config_runtime": "other",
     "petswarm_env.config_yaml": "other",
+    "petswarm_env.config_wearables": "other",
     "petswarm_env.inputs": "other",  # reset options and actions, checked
     "petswarm_env.runtime": "other",  # the episode's faults and arrivals, scheduled on the clock (docs/faults.md)
     "petswarm_env.robot_types": "other",  # the robot types resolved at the env's construction

@@ -113,12 +113,21 @@ def _train_ppo(critic: str) -> Callable[[dict[str, Any], Path, int], Trained]:
     return run
 
 
-def _recurrent_unavailable() -> str | None:
-    try:
-        from petswarm.training import recurrent  # noqa: F401  the teacher-distilled recurrent policy's trainer
-    except ImportError:
-        return "the teacher-distilled recurrent policy's trainer (petswarm.training.recurrent) is not in this petswarm"
-    return "petswarm.training.recurrent exists but its benchmark adapter is not written (training/benchmark.py ALGORITHMS)"
+def _train_recurrent(overrides: dict[str, Any], out: Path, seed: int) -> Trained:
+    """The teacher-distilled recurrent policy (training/recurrent.py) from configs/train/recurrent.yaml
+    and the row's overrides; its budget is the labelled agent-samples (``timesteps``). A finished run
+    in ``out`` is read back; a half-trained one is refused by the trainer (it is not resumable)."""
+    from petswarm import shipped
+    from petswarm.training.config import load_train_config
+    from petswarm.training.recurrent import train_recurrent
+
+    log_path = out / "train_log.json"
+    if not (log_path.exists() and (out / "policy.npz").exists()):
+        cfg = load_train_config(shipped("recurrent"), overrides={**overrides, "seed": seed})
+        train_recurrent(cfg, None, None, out, command="petswarm benchmark")
+    log = json.loads(log_path.read_text(encoding="utf-8"))
+    return Trained(str(out / "policy.npz"), float(log["wall_time_s"]), int(log["timesteps"]),
+                   {"dagger_samples": int(log["timesteps"]), "rounds": len(log.get("rounds", []))})
 
 
 def _teacher_name() -> str:
@@ -135,8 +144,8 @@ ALGORITHMS: dict[str, Algorithm] = {a.name: a for a in (
               train=_train_ppo("local")),
     Algorithm("mappo", "PPO with one shared actor and a centralized critic on env.state() (training/state_critic.py)",
               train=_train_ppo("state")),
-    Algorithm("recurrent", "a recurrent actor distilled from the privileged teacher (DAgger)",
-              unavailable=_recurrent_unavailable),
+    Algorithm("recurrent", "a GRU actor distilled from the privileged teacher by DAgger (training/recurrent.py)",
+              train=_train_recurrent),
 )}
 
 

@@ -8,7 +8,7 @@ import yaml
 pytest.importorskip("stable_baselines3")
 
 from petswarm.cli.main import main
-from petswarm.training.benchmark import load_benchmark_config, run_benchmark
+from petswarm.training.benchmark import ALGORITHMS, Algorithm, load_benchmark_config, run_benchmark
 
 TINY = {
     "seed": 910000000,
@@ -19,7 +19,7 @@ TINY = {
               "ppo.net_arch": [16], "eval.episodes": 1, "eval.max_cycles": 30, "eval.every_steps": 10**6,
               "checkpoint.every_steps": 10**6},
     "tasks": {"wedge_following": {"swarm.formation": "wedge", "user.scenario": "zigzag"}},
-    "algorithms": {"scripted": {}, "ippo": {"timesteps": 64, "pretrain.samples": 0}, "recurrent": {}},
+    "algorithms": {"scripted": {}, "ippo": {"timesteps": 64, "pretrain.samples": 0}, "unbuilt": {}},
 }
 
 
@@ -27,6 +27,17 @@ def _write(tmp_path, data, name="bench.yaml"):
     path = tmp_path / name
     path.write_text(yaml.safe_dump(data))
     return path
+
+
+UNBUILT = Algorithm("unbuilt", "a row whose trainer this petswarm lacks", unavailable=lambda: "its trainer is not here")
+
+
+@pytest.fixture(scope="module", autouse=True)
+def unbuilt_row():
+    """A row that cannot run in this petswarm: reported "not run", with its reason."""
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setitem(ALGORITHMS, "unbuilt", UNBUILT)
+        yield
 
 
 @pytest.fixture(scope="module")
@@ -50,7 +61,7 @@ def test_every_seed_of_every_algorithm_is_trained_and_evaluated_on_the_held_out_
     ippo = [data["runs"][f"wedge_following/ippo/{s}"] for s in range(3)]
     assert all(r["agent_steps"] >= 64 and r["wall_time_s"] > 0 for r in ippo)
     assert len({r["policy"] for r in ippo}) == 3 and all((tmp / "runs").glob("wedge_following/ippo/seed*/last.npz"))
-    assert "recurrent" in data["not_run"]
+    assert data["not_run"]["unbuilt"] == "its trainer is not here"
     row = data["summary"]["tasks"]["wedge_following"]["ippo"]
     assert row["runs"] == 3 and row["episodes"] == 6 and 0 <= row["p_improvement"] <= 1
     assert set(row["by_metric"]) == {"formation_hold_rmse_m", "formation_rmse_m"}  # both scores, each with its interval
@@ -62,7 +73,7 @@ def test_the_page_has_a_row_per_algorithm_with_cis_and_the_plot(tiny):
     tmp, _ = tiny
     page = (tmp / "bench.md").read_text()
     assert "| ippo | 3 × 2 |" in page and "| scripted | 1 × 2 |" in page
-    assert "| recurrent | not run: " in page and "![IQM with 95 % CIs per task](bench.png)" in page
+    assert "| unbuilt | not run: its trainer is not here |" in page and "![IQM with 95 % CIs per task](bench.png)" in page
     assert (tmp / "bench.png").read_bytes()[:4] == b"\x89PNG"
 
 
@@ -108,3 +119,17 @@ def test_set_overrides_a_top_level_key_and_refuses_others(tmp_path):
     assert load_benchmark_config(config, ["episodes=3"]).episodes == 3
     with pytest.raises(Exception, match="no such key"):
         load_benchmark_config(config, ["episode=3"])
+
+
+def test_the_recurrent_row_trains_the_teacher_distilled_policy_and_reads_a_finished_run_back(tmp_path):
+    pytest.importorskip("torch")
+    short = {"env.max_cycles": 60, "eval.max_cycles": 60, "eval.episodes": 2, "recurrent.samples_per_round": 300,
+             "recurrent.updates_per_round": 3, "recurrent.batch_sequences": 4, "recurrent.encoder": [16],
+             "recurrent.head": [8], "recurrent.hidden_size": 8, "recurrent.eval_every_rounds": 1, "timesteps": 600}
+    out = tmp_path / "rec"
+    trained = ALGORITHMS["recurrent"].train(short, out, 3)
+    assert trained.policy == str(out / "policy.npz") and (out / "policy.npz").exists()
+    assert trained.agent_steps >= 600 and trained.detail["rounds"] == 2 and trained.wall_time_s > 0
+    assert "seed: 3" in (out / "train_config.yaml").read_text()
+    again = ALGORITHMS["recurrent"].train(short, out, 3)  # a finished run is read back, not retrained
+    assert again == trained

@@ -13,7 +13,7 @@ import petswarm_env
 from petswarm_env.middleware import station as station_module
 from petswarm_env.middleware import user_session as session_module
 from petswarm_env.sim.clock import Clock, LocalClock
-from tests.env.test_no_shared_frame import _trace  # one scripted run, every step's observations
+from tests.env.test_no_shared_frame import _trace, assert_same_observations  # one scripted run; two compared
 
 STEPS = 100  # 10 s: organized, driving, the user walking
 TOLERANCE = 1e-5  # in observation units; ages are differences of local times: only rounding may differ
@@ -118,15 +118,4 @@ def test_shifting_every_clocks_offset_leaves_every_observation_the_same(monkeypa
     assert made, "the shifted clocks were not used"
     nodes, shifted_nodes = env.episode.fleet.nodes, env_shifted.episode.fleet.nodes
     assert all(abs(nodes[i].clock.offset_s - shifted_nodes[i].clock.offset_s) > 1.0 for i in nodes)
-    worst = 0.0
-    for step, (a, b) in enumerate(zip(straight, turned)):
-        assert sorted(a) == sorted(b), f"step {step}: agents differ"
-        for agent in a:
-            diff = float(np.max(np.abs(a[agent].astype(np.float64) - b[agent])))
-            if diff > TOLERANCE:
-                layout = env.layout
-                bad = [f.name for f in layout.fields
-                       if np.max(np.abs(a[agent][layout.slices[f.name]] - b[agent][layout.slices[f.name]])) > TOLERANCE]
-                pytest.fail(f"step {step}, {agent}: observation differs by {diff:.3g} in {bad}")
-            worst = max(worst, diff)
-    assert worst < TOLERANCE
+    assert_same_observations(straight, turned, env.layout, TOLERANCE)

@@ -40,6 +40,21 @@ def _rotated_world(monkeypatch, angle):
     monkeypatch.setattr(World, "add_user", lambda self, script, p, th: add_user(self, script, turn(p), th + angle))
 
 
+def assert_same_observations(straight, turned, layout, tolerance=TOLERANCE):
+    """Every step's observations of two traces agree within ``tolerance``; a failure names the fields."""
+    worst = 0.0
+    for step, (a, b) in enumerate(zip(straight, turned)):
+        assert sorted(a) == sorted(b), f"step {step}: agents differ"
+        for agent in a:
+            diff = float(np.max(np.abs(a[agent].astype(np.float64) - b[agent])))
+            if diff > tolerance:
+                bad = [f.name for f in layout.fields
+                       if np.max(np.abs(a[agent][layout.slices[f.name]] - b[agent][layout.slices[f.name]])) > tolerance]
+                pytest.fail(f"step {step}, {agent}: observation differs by {diff:.3g} in {bad}")
+            worst = max(worst, diff)
+    assert worst < tolerance
+
+
 def _trace(overrides, seed, steps):
     env = petswarm_env.parallel_env(max_cycles=steps, **overrides)
     policy = make_policy("scripted", PolicySpec.from_env(env), seed)
@@ -64,15 +79,4 @@ def test_turning_the_whole_scene_leaves_every_observation_the_same(monkeypatch, 
         turned, env_turned = _trace(overrides, seed, STEPS)
     # the scene did turn: the first robot's true heading differs by the angle
     assert math.remainder(env_turned.episode.world.robots[0].heading - env.episode.world.robots[0].heading - angle, 2 * math.pi) == pytest.approx(0.0, abs=1e-3)
-    worst = 0.0
-    for step, (a, b) in enumerate(zip(straight, turned)):
-        assert sorted(a) == sorted(b), f"step {step}: agents differ"
-        for agent in a:
-            diff = float(np.max(np.abs(a[agent].astype(np.float64) - b[agent])))
-            if diff > TOLERANCE:
-                layout = env.layout
-                bad = [f.name for f in layout.fields
-                       if np.max(np.abs(a[agent][layout.slices[f.name]] - b[agent][layout.slices[f.name]])) > TOLERANCE]
-                pytest.fail(f"step {step}, {agent}: observation differs by {diff:.3g} in {bad}")
-            worst = max(worst, diff)
-    assert worst < TOLERANCE
+    assert_same_observations(straight, turned, env.layout)

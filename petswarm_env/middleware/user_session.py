@@ -62,6 +62,7 @@ MODE_SETTLE_S = 5.0  # chosen: after a mode change the re-forming swarm raises n
 LEADING_LF_MARGIN_M = 0.3  # chosen: a leading master stays this far inside its LF range
 APPROACH_SLACK_M = 0.15  # chosen: a new master bursts its wake-up pattern once this near its approach distance ...
 STALLED_MPS = 0.05  # chosen: ... or once its own odometry says it stands (it can get no closer)
+BLOCKED_S = 2.0  # chosen: ... or once it has stood this long wherever it puts the user (something stands in its way)
 # chosen: where a new master looks for its user after an unanswered wake-up burst, (along, left) of its
 # first estimate in metres, "along" pointing from where it stood to the user: 0.5 m steps, inside the
 # 1 m wake-up range (seed 002 §3.2), first farther along (the user walked on before the alert)
@@ -135,6 +136,7 @@ class UserSession:
         self.link_losses: list[tuple[float, str]] = []  # (time, supervision_timeout | released)
         self.pairings: list[tuple[float, int]] = []  # (time, robot) of every pairing after the first
         self._wake_next_s = -math.inf  # a new master's next wake-up burst
+        self._stalled_since: float | None = None  # since when a new master has stood while looking for its user
         self._search: tuple | None = None  # a new master's search: (first estimate, direction along, next offset)
         swarm.on_master_change = self._on_master_change
         swarm.on_succession = self._on_succession
@@ -211,6 +213,7 @@ class UserSession:
             along = (c * est[0] / d - s * est[1] / d, s * est[0] / d + c * est[1] / d)  # odometry frame
             self._search = (tuple(self.tracker.pos), along, 0)
         self._wake_next_s = -math.inf
+        self._stalled_since: float | None = None
 
     def _search_on(self) -> None:
         """A wake-up burst the belt did not answer: the user is not where the new master put them.
@@ -235,7 +238,9 @@ class UserSession:
         est = self.tracker.user_body(now)
         d_est = math.hypot(*est[0]) if est is not None else 0.0
         stalled = math.hypot(odometry[0], odometry[1]) < STALLED_MPS  # it gets no closer (the ultrasonic safety stage)
-        near = d_est <= cfg.succession.approach_m + APPROACH_SLACK_M or (stalled and d_est <= cfg.lf.wake_range_m)
+        self._stalled_since = (now if self._stalled_since is None else self._stalled_since) if stalled else None
+        blocked = self._stalled_since is not None and now - self._stalled_since >= BLOCKED_S  # the burst unanswered, it looks elsewhere
+        near = d_est <= cfg.succession.approach_m + APPROACH_SLACK_M or (stalled and d_est <= cfg.lf.wake_range_m) or blocked
         if near and now >= self._wake_next_s and self.world.robots[node.node_id].health.powered:
             self._wake_next_s = now + cfg.lf.wake_period_s
             d = math.dist(self.world.robots[node.node_id].position, self.user.position)  # the LF field's reach

@@ -222,3 +222,15 @@ def test_the_new_master_of_a_table3_change_knows_its_swarm_only_from_frames():
     assert node is not first and node.state == "master"
     assert node.cfg is not env.cfg and node.cfg.swarm.num_slaves == len(node.know.members) - 1
     assert node.cfg.swarm.formation == env.cfg.swarm.formation
+
+
+def test_a_new_master_blocked_short_of_its_user_bursts_and_looks_elsewhere_until_the_belt_pairs():
+    """Straight walk, seed 11, the master radio-silent at 20 s: the new master stops 1.23 m from the
+    user with the silent master standing between them, beyond the 1 m LF wake-up range, and its
+    estimate keeps it from bursting; standing BLOCKED_S it bursts, unanswered, and moves its guess
+    around the estimate until the belt pairs (it never paired before this rule)."""
+    from petswarm.experiments.measure_succession import run as run_succession
+
+    row = run_succession("radio_silent", 11, 20.0, 600, {})
+    assert row["new_master_s"] <= 5.0 and row["full"]
+    assert math.isfinite(row["paired_s"]) and row["paired_s"] <= 20.0

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import math
 
-from petswarm.bench.settings import TARGET_VS_MPE
+from petswarm.bench.settings import TARGET_SCALING_16, TARGET_TRAINING, TARGET_VECTOR_PER_CORE, TARGET_VS_MPE
 
 
 def find_result(results: list[dict], kind: str, agents: int, policy: str | None = None) -> dict | None:
@@ -39,6 +39,7 @@ def target_rows(result: dict) -> list[tuple[str, str, str, str]]:
          fmt(r.get("petswarm_vs_mpe_6_sequential")) + "×", "(info)", ""),
         ("per-step cost 9 slaves / 5 slaves", fmt(t["cost_9_vs_5_slaves"]["measured"]) + "×", "≤ 2×",
          verdict(t["cost_9_vs_5_slaves"]["met"])),
+        *_optional_rows(t),
         (f"memory growth {m['steps_first']:,} → {m['steps_last']:,} steps: RSS / live blocks",
          f"{fmt(m['growth']['rss'], '+.1f')} MB / {fmt(100 * m['growth']['py_blocks_rel'], '+.2f')} %", "none",
          verdict(t["memory_growth"]["met"])),
@@ -47,6 +48,21 @@ def target_rows(result: dict) -> list[tuple[str, str, str, str]]:
         ("petswarm (1+5) / physics floor (6 bodies), steps/s", fmt(r["petswarm_vs_floor_6"], ".4f") + "×", "(info)", ""),
         *_instruction_rows(result.get("instructions")),
     ]
+
+
+def _optional_rows(t: dict) -> list[tuple[str, str, str, str]]:
+    """The targets a run measures only with some settings (16 slaves, the vector envs, training)."""
+    rows = []
+    for key, name, target in (
+        ("cost_16_vs_5_slaves", "per-step cost 16 slaves / 5 slaves", f"≤ {TARGET_SCALING_16:g}×"),
+        ("vector_64_per_core", "vector_env(64) 1+5 / parallel_env 1+5, env-steps per CPU-second (side by side)",
+         f"≥ {TARGET_VECTOR_PER_CORE:g}×"),
+        ("sb3_vector_vs_one_copy", "SB3 PPO samples/s, the vector env / SuperSuit's one copy (one core)",
+         f"≥ {TARGET_TRAINING:g}×"),
+    ):
+        if key in t and t[key]["measured"] is not None:
+            rows.append((name, fmt(t[key]["measured"]) + "×", target, verdict(t[key]["met"])))
+    return rows
 
 
 def _instruction_rows(ins: dict | None) -> list[tuple[str, str, str, str]]:
@@ -99,6 +115,12 @@ def format_report(result: dict) -> str:
     if "skipped" in tr:
         lines.append(f"training throughput: skipped: {tr['skipped']}")
     else:
-        parts = [f"{r['workers']} worker{'s' if r['workers'] > 1 else ''} {r['samples_per_s']:,.0f} samples/s" for r in tr["runs"]]
+        parts = [f"{r.get('path', 'supersuit')} {r['num_envs']} cop{'ies' if r['num_envs'] > 1 else 'y'}/"
+                 f"{r['num_cpus']} processes {r['samples_per_s']:,.0f} samples/s" for r in tr["runs"]]
         lines.append(f"training throughput (PPO, {tr['env']}): " + "; ".join(parts))
+    vec = result.get("vector")
+    if vec:
+        lines.append("vector envs side by side (env-steps/s; per CPU-s; vs parallel_env): " + "; ".join(
+            f"{r['label']} {r['env_steps_per_s']:,.0f}; {fmt(r['env_steps_per_cpu_s'], ',.0f')}; {r['vs_single']:.2f}×"
+            for r in vec["rows"]))
     return "\n".join(lines)

@@ -315,28 +315,54 @@ def _memory_markdown(mem: dict) -> list[str]:
 
 
 def _training_markdown(tr: dict) -> list[str]:
-    """Training throughput: PPO samples/s per worker setting."""
+    """Training throughput: PPO samples/s per vector env and worker setting."""
     out = ["## Training throughput", ""]
     if "skipped" in tr:
         out.append(f"Skipped: {tr['skipped']}")
     else:
         out += [
-            f"PPO (stable-baselines3 via SuperSuit), {tr['env']}, net {tr['net_arch']}, torch threads {tr['torch_threads']}.",
+            f"PPO (stable-baselines3), {tr['env']}, net {tr['net_arch']}, torch threads {tr['torch_threads']}.",
             "",
-            "| workers | num_envs | num_cpus | vector rows | n_steps | rollout | batch | epochs | samples | s | samples/s |",
-            "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
+            "| vector env | num_envs | processes | vector rows | n_steps | rollout | batch | epochs | samples | s | samples/s | samples per CPU-s |",
+            "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
         ]
         for r in tr["runs"]:
             out.append(
-                f"| {r['workers']} | {r['num_envs']} | {r['num_cpus']} | {r['vector_rows']} | {r['n_steps']} | "
+                f"| {r.get('path', 'supersuit')} | {r['num_envs']} | {r['num_cpus']} | {r['vector_rows']} | {r['n_steps']} | "
                 f"{r['rollout_samples']} | {r['batch_size']} | {r['n_epochs']} | {r['samples']:,} | {r['wall_s']:.1f} | "
-                f"{r['samples_per_s']:,.0f} |"
+                f"{r['samples_per_s']:,.0f} | {fmt(r.get('samples_per_cpu_s'), ',.0f')} |"
             )
         out += ["", tr["method"]]
     out.append("")
     return out
 
 
+def _vector_markdown(vec: dict | None) -> list[str]:
+    """Many envs in one process: the vector env at several sizes beside the single env and VMAS."""
+    if not vec:
+        return []
+    out = [
+        "## Many envs in one process",
+        "",
+        (f"Side by side in one run: {vec['rounds']} rounds of one {vec['burst_s']:g} s burst of step time per system, "
+         "the order rotating from round to round; uniform random actions drawn outside the timed call; one thread "
+         "each. *env-steps*: steps of one env copy (a `vector_env(64).step` is 64). The vector env's auto-resets "
+         "are inside its step; the single env's resets are timed apart; VMAS is never reset. *per CPU-s*: over "
+         "`time.process_time`, which the other processes' load disturbs less than wall time."),
+        "",
+        "| system | envs | env-steps/s | env-steps per CPU-s | µs per env-step | vs parallel_env (wall) | vs parallel_env (CPU) | per round (wall) | reset s |",
+        "|---|---:|---:|---:|---:|---:|---:|---|---:|",
+    ]
+    for r in vec["rows"]:
+        pr = r["per_round_vs_single"]
+        out.append(
+            f"| {r['label']} | {r['num_envs']} | {r['env_steps_per_s']:,.0f} | {fmt(r['env_steps_per_cpu_s'], ',.0f')} | "
+            f"{r['us_per_env_step']:.1f} | {r['vs_single']:.2f}× | {fmt(r['vs_single_cpu'])}× | "
+            f"{min(pr):.2f}–{max(pr):.2f}× | {fmt(r.get('reset_s'), '.1f')} |")
+    if vec.get("vmas_skipped"):
+        out += ["", f"VMAS: skipped: {vec['vmas_skipped']}"]
+    out.append("")
+    return out
 
 
 def benchmarks_markdown(result: dict, plot_rel: str, hand_written: str = "") -> str:
@@ -352,7 +378,8 @@ def benchmarks_markdown(result: dict, plot_rel: str, hand_written: str = "") -> 
     ]
     if hand_written:
         out += [hand_written, ""]
-    out += [*_memory_markdown(result["memory_mb"]), *_training_markdown(result["training"])]
+    out += [*_memory_markdown(result["memory_mb"]), *_vector_markdown(result.get("vector")),
+            *_training_markdown(result["training"])]
     return "\n".join(out)
 
 

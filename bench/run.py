@@ -24,6 +24,9 @@ from petswarm.bench.settings import (
     MEMORY_GROWTH_TOLERANCE_MB,
     QUICK,
     TARGET_SCALING,
+    TARGET_SCALING_16,
+    TARGET_TRAINING,
+    TARGET_VECTOR_PER_CORE,
     TARGET_VS_MPE,
     BenchSettings,
     log,
@@ -31,6 +34,7 @@ from petswarm.bench.settings import (
 from petswarm.bench.instructions import bench_instructions, valgrind_available
 from petswarm.bench.speed import bench_floor, bench_mpe, bench_petswarm, bench_side_by_side, mpe_available
 from petswarm.bench.throughput import bench_training
+from petswarm.bench.vector import bench_vector_side_by_side
 from petswarm_env.config import load_config
 from petswarm_env.files import jsonable, write_json_atomic
 
@@ -103,13 +107,36 @@ def _ratios(results: list[dict], side_by_side: dict | None) -> dict[str, float |
         "petswarm_vs_mpe_6_sequential": sequential,
         "petswarm_vs_floor_6": _ratio(ps6, find_result(results, "floor", 6)),
         "cost_9_vs_5_slaves": _ratio(ps6, find_result(results, "petswarm", 10, "scripted")),
+        "cost_16_vs_5_slaves": _ratio(ps6, find_result(results, "petswarm", 17, "scripted")),
     }
 
 
-def _targets(ratios: dict[str, float | None], memory: dict) -> dict[str, dict[str, Any]]:
+def _vector_row(vector: dict | None, num_envs: int) -> dict | None:
+    for r in (vector or {}).get("rows", []):
+        if r["label"].startswith("petswarm vector_env") and r["num_envs"] == num_envs:
+            return r
+    return None
+
+
+def _met(measured: float | None, ok) -> bool | None:
+    return None if measured is None else bool(ok(measured))
+
+
+def _targets(ratios: dict[str, float | None], memory: dict, vector: dict | None = None,
+             training: dict | None = None) -> dict[str, dict[str, Any]]:
     g = memory["growth"]
     vs_mpe, scaling = ratios["petswarm_vs_mpe_6"], ratios["cost_9_vs_5_slaves"]
+    scaling16 = ratios.get("cost_16_vs_5_slaves")
+    v64 = _vector_row(vector, 64)
+    per_core = v64["vs_single_cpu"] if v64 else None
+    sb3 = (training or {}).get("vector_vs_supersuit_1")
     return {
+        "cost_16_vs_5_slaves": {"measured": scaling16, "target": f"<= {TARGET_SCALING_16:g}",
+                                "met": _met(scaling16, lambda x: x <= TARGET_SCALING_16)},
+        "vector_64_per_core": {"measured": per_core, "target": f">= {TARGET_VECTOR_PER_CORE:g}",
+                               "met": _met(per_core, lambda x: x >= TARGET_VECTOR_PER_CORE)},
+        "sb3_vector_vs_one_copy": {"measured": sb3, "target": f">= {TARGET_TRAINING:g}",
+                                   "met": _met(sb3, lambda x: x >= TARGET_TRAINING)},
         "petswarm_vs_mpe_6": {"measured": vs_mpe, "target": f">= {TARGET_VS_MPE:g}",
                               "met": None if vs_mpe is None else vs_mpe >= TARGET_VS_MPE},
         "cost_9_vs_5_slaves": {"measured": scaling, "target": f"<= {TARGET_SCALING:g}",
@@ -154,6 +181,11 @@ def run_bench(s: BenchSettings, mode: str = "custom", verbose: bool = False) -> 
     log(verbose, f"memory 1+{prof_slaves}: {s.memory_steps[0]} vs {s.memory_steps[1]} steps")
     memory = bench_memory(prof_slaves, s)
     phase("memory")
+    vector = None
+    if s.vector_envs:
+        log(verbose, "vector envs side by side")
+        vector = bench_vector_side_by_side(s, verbose)
+        phase("vector")
     log(verbose, "training throughput")
     training = bench_training(s, verbose) if s.training_workers else {"skipped": "disabled in the settings"}
     phase("training")
@@ -167,7 +199,8 @@ def run_bench(s: BenchSettings, mode: str = "custom", verbose: bool = False) -> 
         "ratios": ratios,
         "side_by_side": side_by_side,
         "instructions": instructions,
-        "targets": _targets(ratios, memory),
+        "targets": _targets(ratios, memory, vector, training),
+        "vector": vector,
         "memory_mb": memory,
         "breakdown": breakdown,
         "training": training,

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import time
 import warnings
 from typing import Any
@@ -29,27 +30,35 @@ def bench_training(s: BenchSettings, verbose: bool = False) -> dict:
     p = tcfg.ppo
     torch.set_num_threads(1)  # as `petswarm train`: the cores run the env workers
     runs = []
-    for workers in s.training_workers:
-        num_envs, num_cpus = (1, 0) if workers <= 1 else (workers, workers)
+    settings = [("supersuit", w) for w in s.training_workers] + [("petswarm", n) for n in s.training_vector_envs]
+    for path, k in settings:
+        if path == "supersuit":  # k workers: k copies in k processes; 1: one copy in this process
+            num_envs, num_cpus = (1, 0) if k <= 1 else (k, k)
+        else:  # the batched vector env: k copies in this process
+            num_envs, num_cpus = k, 0
         rows = num_envs * slaves
         n_steps = max(8, s.training_rollout // rows)
         rollout = n_steps * rows
         batch = min(p.batch_size, rollout)
-        log(verbose, f"training: {workers} worker(s), {s.training_samples} samples, n_steps {n_steps}")
+        log(verbose, f"training: {path}, {num_envs} cop{'ies' if num_envs > 1 else 'y'}, {num_cpus} processes, "
+                     f"{s.training_samples} samples, n_steps {n_steps}")
         set_random_seed(s.seed)
         with warnings.catch_warnings():  # SB3 notes SuperSuit's vector env has no render_mode
             warnings.filterwarnings("ignore", message="The `render_mode` attribute is not defined")
-            venv = make_vec_env(env_cfg, num_envs, num_cpus, s.seed, vec_env="supersuit")  # k workers: k processes
+            venv = make_vec_env(env_cfg, num_envs, num_cpus, s.seed, vec_env=path)
         try:
             model = build_model(p, venv, s.seed, n_steps=n_steps, batch_size=batch)
+            c0 = _cpu()
             t0 = time.perf_counter()
             model.learn(total_timesteps=s.training_samples, progress_bar=False)
             wall = time.perf_counter() - t0
             samples = int(model.num_timesteps)
         finally:
             venv.close()
+        cpu = _cpu() - c0  # the worker processes count once joined at close
         runs.append({
-            "workers": workers,
+            "path": path,
+            "workers": max(1, num_cpus),
             "num_envs": num_envs,
             "num_cpus": num_cpus,
             "vector_rows": rows,
@@ -59,7 +68,9 @@ def bench_training(s: BenchSettings, verbose: bool = False) -> dict:
             "n_epochs": p.n_epochs,
             "samples": samples,
             "wall_s": wall,
+            "cpu_s": cpu,
             "samples_per_s": samples / wall,
+            "samples_per_cpu_s": samples / cpu if cpu > 0 else None,
         })
     out: dict[str, Any] = {
         "env": f"training env (configs/train/ppo.yaml): {slaves} slaves, max_cycles {env_cfg.max_cycles}",
@@ -68,9 +79,21 @@ def bench_training(s: BenchSettings, verbose: bool = False) -> dict:
         "runs": runs,
         "method": "wall time of model.learn(total_timesteps) for a fresh PPO (configs/train/ppo.yaml "
         "hyper-parameters, n_steps = rollout / vector rows); includes env steps, policy inference and "
-        "the PPO updates; model and env construction are excluded. 1 worker = one env copy in this "
-        "process (num_envs 1, num_cpus 0); k workers = k copies in k processes (num_envs k, num_cpus k).",
+        "the PPO updates; model and env construction are excluded. *supersuit*: SuperSuit's pipeline over "
+        "FixedAgents, 1 worker = one env copy in this process (num_envs 1, num_cpus 0), k workers = k copies "
+        "in k processes; *petswarm*: the batched vector env (`petswarm_env.vector_env`, `--vec-env petswarm`, "
+        "the default of `petswarm train`), num_envs copies in this process. *per CPU-s*: the samples over the "
+        "CPU time of this process and its joined worker processes (`os.times`).",
     }
-    if len(runs) >= 2:
-        out["speedup"] = runs[-1]["samples_per_s"] / runs[0]["samples_per_s"]
+    base = next((r for r in runs if r["path"] == "supersuit" and r["num_envs"] == 1), None)
+    vec = [r for r in runs if r["path"] == "petswarm"]
+    if base is not None and vec:
+        best = max(vec, key=lambda r: r["samples_per_s"])
+        out["vector_vs_supersuit_1"] = best["samples_per_s"] / base["samples_per_s"]
+        out["vector_vs_supersuit_1_num_envs"] = best["num_envs"]
     return out
+
+
+def _cpu() -> float:
+    t = os.times()
+    return t.user + t.system + t.children_user + t.children_system

@@ -4,6 +4,7 @@
 #   bash scripts/setup.sh test     # + training stack (SB3, RLlib) + TorchRL + test tools (torch==2.13.0 CPU first),
 #                                  # and Debian's chromium and tshark when missing (the browser and pcap tests)
 #   bash scripts/setup.sh train    # + training stack: SB3 + SuperSuit and Ray RLlib (pins the CPU build of torch first)
+#   bash scripts/setup.sh bench    # + training stack + the benchmark's peers (MPE, VMAS): `petswarm bench`
 # torch is installed first and stays pinned in the second pip command: an unpinned torch would pull
 # a multi-GB CUDA build, and ray[rllib]==2.60.0 pins gymnasium==1.2.2 (never pair an unpinned
 # ray[rllib] with gymnasium>=1.4: pip would backtrack through old Ray releases).
@@ -36,7 +37,9 @@ case "$what" in
          extras="render,train,rllib,torchrl,test" ;;
   train) torch=(torch==2.13.0)
          extras="render,train,rllib" ;;
-  *) echo "setup.sh: unknown target '$what' (run | test | train)" >&2; exit 2 ;;
+  bench) torch=(torch==2.13.0)
+         extras="render,train,bench" ;;
+  *) echo "setup.sh: unknown target '$what' (run | test | train | bench)" >&2; exit 2 ;;
 esac
 [ ${#torch[@]} -eq 0 ] || "$py" -m pip install -q "${torch[@]}"
 "$py" -m pip install -q "${torch[@]}" -e ".[$extras]"

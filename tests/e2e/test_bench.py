@@ -235,3 +235,28 @@ def test_env_loop_acts_only_for_the_agents_in_the_episode():
     loop = EnvLoop(16, "scripted", 0)
     loop.run(steps=560)
     assert loop.steps == 560
+
+
+def test_vector_envs_side_by_side_and_training_paths(bench):
+    """The vector env's rows (per env-step, beside the single env and VMAS where installed) and the
+    SB3 runs of both vector paths are in the result, the console report and the page."""
+    result, _, md_path, _ = bench
+    vec = result["vector"]
+    labels = [r["label"] for r in vec["rows"]]
+    assert labels[0] == "petswarm parallel_env 1+5" and "petswarm vector_env(2) 1+5" in labels
+    for r in vec["rows"]:
+        assert _positive(r["env_steps_per_s"]) and _positive(r["us_per_env_step"])
+        assert r["env_steps"] == r["calls"] * r["num_envs"]
+        assert len(r["per_round_vs_single"]) == vec["rounds"]
+    assert vec["rows"][0]["vs_single"] == pytest.approx(1.0)
+    if importlib.util.find_spec("vmas") is not None:
+        assert any(lb.startswith("VMAS simple_spread N=6") for lb in labels)
+    else:
+        assert "vmas is not installed" in vec["vmas_skipped"]
+    assert "## Many envs in one process" in md_path.read_text()
+    assert "vector envs side by side" in format_report(result)
+    tr = result["training"]
+    if "skipped" not in tr:
+        assert {r["path"] for r in tr["runs"]} == {"supersuit", "petswarm"}
+        assert _positive(tr["vector_vs_supersuit_1"])
+        assert "| petswarm | 1 | 0 |" in md_path.read_text()

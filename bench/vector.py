@@ -1,0 +1,196 @@
+"""Many envs in one process: petswarm's batched vector env (``petswarm_env.vector_env``) at several
+sizes, the single ``parallel_env`` and VMAS ``simple_spread`` (where ``vmas`` is installed), timed
+side by side in rotating bursts (:func:`bench_vector_side_by_side`).
+
+Every system is driven by uniform random actions drawn outside the timed call (VMAS's own
+benchmarks do the same), one thread each (``torch.set_num_threads(1)`` for VMAS), and counted in
+*env-steps*: one step of one env copy, so a ``vector_env(64).step`` is 64 env-steps. The vector
+env's auto-resets happen inside its ``step`` and are timed with it; the single env's resets are
+timed apart, as in the other measurements; VMAS is never reset (its episodes have no end here).
+Per-core figures divide by this process's CPU time (``time.process_time``), which other
+processes' load disturbs less than wall time.
+"""
+
+from __future__ import annotations
+
+import gc
+import time
+from typing import Any
+
+import numpy as np
+
+from petswarm.bench.loops import EnvLoop
+from petswarm.bench.settings import BenchSettings, log
+
+
+def vmas_available() -> tuple[bool, str]:
+    try:
+        import vmas  # noqa: F401
+    except ImportError as exc:
+        return False, f"vmas is not installed ({exc}); install the bench extra: pip install -e '.[bench]'"
+    return True, ""
+
+
+class _Burst:
+    """One system under test: ``burst(seconds)`` steps it until ``seconds`` more of step time,
+    accumulating wall time, CPU time and env-steps."""
+
+    label: str
+    num_envs: int
+
+    def __init__(self) -> None:
+        self.wall_s = self.cpu_s = 0.0
+        self.env_steps = self.calls = 0
+
+    def _one(self) -> None:
+        raise NotImplementedError
+
+    def burst(self, seconds: float) -> tuple[int, float, float]:
+        steps0, wall0, cpu0 = self.env_steps, self.wall_s, self.cpu_s
+        perf, cpu = time.perf_counter, time.process_time
+        while self.wall_s - wall0 < seconds or self.calls == 0:
+            self._prepare()
+            t0, c0 = perf(), cpu()
+            self._one()
+            self.wall_s += perf() - t0
+            self.cpu_s += cpu() - c0
+            self.env_steps += self.num_envs
+            self.calls += 1
+        return self.env_steps - steps0, self.wall_s - wall0, self.cpu_s - cpu0
+
+    def _prepare(self) -> None:
+        """Untimed work before a step (draw the actions, reset a finished single env)."""
+
+    def clear(self) -> None:
+        self.wall_s = self.cpu_s = 0.0
+        self.env_steps = self.calls = 0
+
+    def close(self) -> None:
+        pass
+
+
+class SingleEnv(_Burst):
+    """``parallel_env`` of 1 master + ``num_slaves`` slaves, random actions; resets untimed."""
+
+    def __init__(self, num_slaves: int, seed: int):
+        super().__init__()
+        self.loop = EnvLoop(num_slaves, "random", seed)
+        self.label = f"petswarm parallel_env 1+{num_slaves}"
+        self.num_envs = 1
+        self._actions: dict | None = None
+
+    def _prepare(self) -> None:
+        if self.loop._over():
+            self.loop._reset()
+        self._actions = self.loop._actions()
+
+    def _one(self) -> None:
+        self.loop._step(self._actions)
+
+
+class VectorEnv(_Burst):
+    """``vector_env(num_envs)`` of 1 master + ``num_slaves`` slaves, random actions for every slot
+    (an inactive slot's action is ignored), auto-resets inside the timed step."""
+
+    def __init__(self, num_envs: int, num_slaves: int, seed: int):
+        super().__init__()
+        import petswarm_env
+
+        self.venv = petswarm_env.vector_env(num_envs, **{"swarm.num_slaves": num_slaves})
+        t0 = time.perf_counter()
+        obs, _ = self.venv.reset(seed=seed)
+        self.reset_s = time.perf_counter() - t0
+        self.rng = np.random.default_rng(seed)
+        self.shape = obs.shape[:2] + (3,)
+        self.label = f"petswarm vector_env({num_envs}) 1+{num_slaves}"
+        self.num_envs = num_envs
+        self._actions: np.ndarray | None = None
+
+    def _prepare(self) -> None:
+        self._actions = self.rng.uniform(-1.0, 1.0, self.shape).astype(np.float32)
+
+    def _one(self) -> None:
+        self.venv.step(self._actions)
+
+    def close(self) -> None:
+        self.venv.close()
+
+
+class VMASEnv(_Burst):
+    """VMAS ``simple_spread`` with ``n_agents`` agents, ``num_envs`` envs on the CPU, one torch
+    thread, continuous random actions."""
+
+    def __init__(self, num_envs: int, n_agents: int, seed: int):
+        super().__init__()
+        import torch
+        import vmas
+
+        torch.set_num_threads(1)
+        self.torch = torch
+        self.env = vmas.make_env("simple_spread", num_envs=num_envs, device="cpu", continuous_actions=True,
+                                 n_agents=n_agents, seed=seed, max_steps=None)
+        self.env.reset()
+        self.gen = torch.Generator().manual_seed(seed)
+        self.sizes = [self.env.get_agent_action_size(a) for a in self.env.agents]
+        self.label = f"VMAS simple_spread N={n_agents}, {num_envs} envs"
+        self.num_envs = num_envs
+        self._actions: list | None = None
+
+    def _prepare(self) -> None:
+        t = self.torch
+        self._actions = [t.rand(self.num_envs, k, generator=self.gen) * 2 - 1 for k in self.sizes]
+
+    def _one(self) -> None:
+        self.env.step(self._actions)
+
+
+def bench_vector_side_by_side(s: BenchSettings, verbose: bool = False) -> dict[str, Any]:
+    """The single env, ``vector_env`` at each of ``s.vector_envs`` and VMAS simple_spread N=6 with
+    ``s.vmas_envs`` envs (if installed), 1 master + 5 slaves, timed in ``s.vector_rounds`` rounds of
+    one ``s.vector_burst_s`` burst each, the order rotating from round to round. Per system:
+    env-steps/s (wall) and per CPU-second; ratios to the single env in the same run."""
+    systems: list[_Burst] = [SingleEnv(5, s.seed)]
+    reset_s: dict[str, float] = {}
+    for n in s.vector_envs:
+        log(verbose, f"vector_env({n}): reset")
+        v = VectorEnv(n, 5, s.seed)
+        reset_s[v.label] = v.reset_s
+        systems.append(v)
+    ok, reason = vmas_available()
+    if ok and s.vmas_envs:
+        systems.append(VMASEnv(s.vmas_envs, 6, s.seed))
+    for sys_ in systems:  # warm up, then forget
+        sys_.burst(min(0.2, s.vector_burst_s))
+        sys_.clear()
+    gc.collect()
+    per_round: list[dict[str, float]] = []
+    for k in range(s.vector_rounds):
+        order = systems[k % len(systems):] + systems[: k % len(systems)]
+        rates = {}
+        for sys_ in order:
+            steps, wall, cpu = sys_.burst(s.vector_burst_s)
+            rates[sys_.label] = steps / wall
+        per_round.append(rates)
+        log(verbose, f"vector round {k + 1}/{s.vector_rounds}")
+    single = systems[0]
+    rows = []
+    for sys_ in systems:
+        rows.append({
+            "label": sys_.label,
+            "num_envs": sys_.num_envs,
+            "env_steps": sys_.env_steps,
+            "calls": sys_.calls,
+            "env_steps_per_s": sys_.env_steps / sys_.wall_s,
+            "env_steps_per_cpu_s": sys_.env_steps / sys_.cpu_s if sys_.cpu_s > 0 else None,
+            "us_per_env_step": 1e6 * sys_.wall_s / sys_.env_steps,
+            "vs_single": (sys_.env_steps / sys_.wall_s) / (single.env_steps / single.wall_s),
+            "vs_single_cpu": ((sys_.env_steps / sys_.cpu_s) / (single.env_steps / single.cpu_s)
+                              if sys_.cpu_s > 0 and single.cpu_s > 0 else None),
+            "per_round_vs_single": [r[sys_.label] / r[single.label] for r in per_round],
+            "reset_s": reset_s.get(sys_.label),
+        })
+        sys_.close()
+    out: dict[str, Any] = {"rows": rows, "rounds": s.vector_rounds, "burst_s": s.vector_burst_s}
+    if not ok:
+        out["vmas_skipped"] = reason
+    return out

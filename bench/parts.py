@@ -61,6 +61,7 @@ MODULE_PARTS: dict[str, str | None] = {
     "petswarm_env.middleware": "radio_middleware",  # every robot's managers and messages
     "petswarm_env.middleware.user_session": "user_sensing",  # the master's wearables chain (LF, belt)
     "petswarm_env.wearables": "user_sensing",
+    "petswarm_env.wearables.belt_window": "user_sensing",  # the belt's window statistics, every accelerometer sample
     "petswarm_env.control": "control",  # master-role controller, control arbiter
     "petswarm_env.observe": "observation",
     "petswarm_env.mapping": "observation",  # seed 001's sensor/behaviour mapper between a body and the layout

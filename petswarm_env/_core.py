@@ -34,6 +34,7 @@ COMPILED: tuple[str, ...] = (
     "petswarm_env.sim.sensors",
     "petswarm_env.comms.ir",
     "petswarm_env.observe",
+    "petswarm_env.wearables.belt_window",
 )
 
 PURE_ENV = "PETSWARM_PURE_PYTHON"  # "1": run the interpreted form of every module of COMPILED

@@ -45,6 +45,8 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 
+import numpy as np
+
 from petswarm_env.sim.geometry import wrap_angle
 
 # chosen: an announced IR slot within this RSSI range should give a fix (the IR detection fades out at
@@ -84,7 +86,9 @@ class Diagnosis:
         us = cfg.robot.ultrasonic
         self._us_max = us.max_range_m
         self._us_angles = [2.0 * math.pi * k / us.count for k in range(us.count)]
+        self._us_rays = [(k, math.cos(a), math.sin(a)) for k, a in enumerate(self._us_angles)]  # (slot, cos, sin) of each ray
         self._radius = cfg.robot.radius_m
+        self._us_reach = self._us_max - US_MARGIN_M  # a neighbour's near rim closer than this must echo
         self._us_miss = 0
         self._us_silent = 0  # readings in a row whose bursts did not ring down
         self._us_by_self_test = False  # the ring found dead by its self-test (its pass clears it)
@@ -150,16 +154,18 @@ class Diagnosis:
         ring = self.ring
         ranges = ring.slot_range_m
         own = ring.own_slot
-        if own is not None and own[0] > self._own_seen and now_s - own[0] >= self._slot_over_s:
+        over = self._slot_over_s
+        if own is not None and own[0] > self._own_seen and now_s - own[0] >= over:
             self._own_seen = own[0]
             if ring.report_s >= own[0]:
                 self._ir_hit()
             elif any(ranges.get(n, math.inf) <= IR_EXPECT_RANGE_M for n in own[1]):
                 self._ir_missed(now_s, self.node_id)  # near neighbours heard our start sign, none reported seeing our IR
+        seen, me = self._ir_seen, self.node_id
         for src, t0 in ring.slot_starts.items():
-            if src == self.node_id or t0 <= self._ir_seen.get(src, -math.inf) or now_s - t0 < self._slot_over_s:
-                continue
-            self._ir_seen[src] = t0
+            if t0 <= seen.get(src, -math.inf) or src == me or now_s - t0 < over:
+                continue  # evaluated already (the most frequent), our own, or not over yet
+            seen[src] = t0
             fix = know.ir.get(src)
             if fix is not None and fix.time_s >= t0:
                 self._ir_hit()
@@ -188,7 +194,11 @@ class Diagnosis:
         if not any(present):
             return  # a body without an ultrasonic sensor: nothing to judge
         top = self._us_max - self._us_echo_margin  # a reading this short is an echo; a healthy "nothing" reads max ± noise
-        echo = any(r < top for r, p in zip(ranges, present) if p)
+        echo = False
+        for r, p in zip(ranges.tolist() if isinstance(ranges, np.ndarray) else ranges, present):
+            if p and r < top:
+                echo = True
+                break
         self._us_silent = 0 if rang else self._us_silent + 1
         if rang and (echo or self._us_by_self_test):  # an echo, or the self-test that found it passes again
             self._us_miss = 0
@@ -207,18 +217,19 @@ class Diagnosis:
         know = self._know_of()
         yaw = self.robot.ahrs._last_yaw  # the last AHRS reading the robot took (no new draw)
         r = self._radius
+        wide, reach, n_present = r - US_RAY_MARGIN_M, self._us_reach, len(present)
         on_ray = False
         for fix in know.ir.values():
             if now_s - fix.time_s > US_FIX_AGE_S:
                 continue
             x, y = fix.position_now(yaw)
-            for k, a in enumerate(self._us_angles):
-                if k >= len(present) or not present[k]:
+            for k, c, s in self._us_rays:
+                if k >= n_present or not present[k]:
                     continue
-                along = x * math.cos(a) + y * math.sin(a)
-                across = abs(-x * math.sin(a) + y * math.cos(a))
+                along = x * c + y * s
+                across = abs(-x * s + y * c)
                 # the neighbour (a body of our radius) across the ray, its near rim within reach
-                if across < r - US_RAY_MARGIN_M and 0 < along - 2 * r < self._us_max - US_MARGIN_M:
+                if across < wide and 0 < along - 2 * r < reach:
                     on_ray = True
                     break
             if on_ray:

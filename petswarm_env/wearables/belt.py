@@ -151,6 +151,9 @@ class SmartBelt:
         self._ma = [0.0] * cfg.ma_samples  # ring buffer of the moving-average filter
         self._on_rps = math.radians(cfg.rotation_on_dps)
         self._off_rps = math.radians(cfg.rotation_off_dps)
+        self._gyro_noise_rps = math.radians(cfg.gyro_noise_dps)
+        self._wobble_rad = math.radians(cfg.gait_yaw_wobble_deg)
+        self._cadence = (None, math.nan, math.nan)  # (posture, speed, cadence) of the last gait: the user's state holds for many periods
         # the belt's knowledge
         self._activity = 0
         self._activity_since = self._t0
@@ -195,13 +198,21 @@ class SmartBelt:
             sma_mps2=self._sma,
         )
 
+    def _cadence_hz(self, posture: str, speed_mps: float) -> float:
+        """``cfg.cadence_hz``, kept for the last (posture, speed)."""
+        last_posture, last_speed, f = self._cadence
+        if posture != last_posture or speed_mps != last_speed:
+            f = self.cfg.cadence_hz(posture, speed_mps)
+            self._cadence = (posture, speed_mps, f)
+        return f
+
     # ------------------------------------------------------------------ accelerometer
 
     def _synth_accel(self, n: int, speed_mps: float, posture: str) -> list[float]:
         """n vertical-acceleration samples (m/s², gravity included) of the waist."""
         cfg, dt = self.cfg, self._acc_dt
         if posture in ("walk", "run"):
-            f = cfg.cadence_hz(posture, speed_mps)
+            f = self._cadence_hz(posture, speed_mps)
             bounce = cfg.run_bounce_m if posture == "run" else cfg.walk_bounce_m
             amp, jitter = (2.0 * math.pi * f) ** 2 * bounce, cfg.gait_phase_jitter
         elif posture == "rest":
@@ -249,11 +260,12 @@ class SmartBelt:
         cfg = self.cfg
         dt = cfg.gyro_period_s
         if posture in ("walk", "run"):
-            f_stride = 0.5 * cfg.cadence_hz(posture, speed_mps)  # one stride = two steps
-            wobble_rps = math.radians(cfg.gait_yaw_wobble_deg) * 2.0 * math.pi * f_stride
+            f_stride = 0.5 * self._cadence_hz(posture, speed_mps)  # one stride = two steps
+            wobble_rps = self._wobble_rad * 2.0 * math.pi * f_stride
         else:
             f_stride, wobble_rps = 0.0, 0.0
-        noise = (math.radians(cfg.gyro_noise_dps) * self.rng.standard_normal(m)).tolist()
+        sigma = self._gyro_noise_rps
+        noise = [sigma * z for z in self.rng.standard_normal(m).tolist()]
         n_ma = cfg.ma_samples
         for k in range(m):
             self._stride_phase = (self._stride_phase + 2.0 * math.pi * f_stride * dt) % (2.0 * math.pi)

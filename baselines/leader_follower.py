@@ -65,6 +65,11 @@ def _r32(x: float) -> float:
     return _F32[0]
 
 
+def _clip1(a: np.ndarray) -> np.ndarray:
+    """``np.clip(a, -1, 1)``, value for value (NaN stays NaN), without ``np.clip``'s Python wrapper."""
+    return np.minimum(np.maximum(a, -1.0), 1.0)
+
+
 class LeaderFollowerPolicy(Policy):
     name = "scripted"
 
@@ -98,7 +103,6 @@ class LeaderFollowerPolicy(Policy):
         self.search = search_mps  # step 1d: nothing in IR sight, circle the nearest echo at this speed
         self.rejoin = rejoin_mps  # step 1c: lost, toward the master's last fix at this speed (relative to the swarm)
         st = {name: sl.start for name, sl in spec.layout.slices.items()}
-        self._i = st  # index of each observation field's first value
         self._links = [
             tuple(st[f"link{k}.{f}"] for f in ("present", "heading_sincos", "heading_valid", "heading_age",
                                                "ir_valid", "ir_age", "neighbour_xy", "offset_xy"))
@@ -108,21 +112,57 @@ class LeaderFollowerPolicy(Policy):
         self._us = range(us.start, us.stop)
         n_us = us.stop - us.start
         self._us_dirs = [(math.cos(a), math.sin(a)) for a in (k * (2 * math.pi / max(n_us, 1)) for k in range(n_us))]
-        # the float32 scales of the observation fields (a Python float meets float32 values as float32)
+        self._us_rays = [(k, ux, uy) for k, (ux, uy) in zip(self._us, self._us_dirs)]
+        self._vmax, self._wmax = spec.max_speed_mps, spec.max_omega_rps
+        self._j_odo, self._j_mvalid, self._j_mvel = st["self.odometry"], st["master.valid"], st["master.velocity"]
+        self._j_ref, self._j_user, self._j_turn = st["self.offset_from_master_xy"], st["master.user_xy"], st["master.turn_rate"]
+        self._j_leading, self._j_rotating, self._j_member = st["master.leading"], st["master.rotating"], st["self.member"]
+        self._j_mir_valid, self._j_mir_xy, self._j_mir_age = st["master.ir_valid"], st["master.ir_xy"], st["master.ir_age"]
+        self._j_anchor = st["anchor.ir_valid"]  # then anchor.ir_xy (+1, +2), anchor.ir_age (+3), anchor.slot_xy (+4, +5)
+        if [st[f"anchor.{f}"] - self._j_anchor for f in ("ir_xy", "ir_age", "slot_xy")] != [1, 3, 4]:
+            raise ValueError("observation layout: the anchor fields are not ir_valid, ir_xy, ir_age, slot_xy in this order")
+        # the float32 scale of each observation value that the controller reads scaled (a Python float
+        # meets float32 values as float32): positions, ages, the turn rate and the ultrasonic ranges
         self._pos32, self._age32 = _r32(POS_SCALE_M), _r32(AGE_SCALE_S)
         self._omega32, self._us32 = _r32(spec.max_omega_rps), _r32(spec.us_max_range_m)
+        scale = np.ones(spec.layout.size, dtype=np.float32)
+        for name, sl in spec.layout.slices.items():
+            if name.endswith(("neighbour_xy", "offset_xy", "offset_from_master_xy", "user_xy", "ir_xy", "slot_xy")):
+                scale[sl] = self._pos32
+            elif name.endswith("ir_age"):
+                scale[sl] = self._age32
+        scale[spec.layout.slices["master.turn_rate"]] = self._omega32
+        scale[us] = self._us32
+        self._scale32 = scale
 
     def act(self, agent: str, obs: np.ndarray) -> np.ndarray:
-        """The action of one slave: the five steps of the module docstring, in order. One function
-        on purpose: it runs for every slave at every step on Python floats, where a helper call
-        costs more than the arithmetic it would hold (see "Arithmetic" above)."""
-        o = np.asarray(obs, dtype=np.float32).tolist()
-        i = self._i
-        r32, pos32 = _r32, self._pos32
-        vmax, wmax = self.spec.max_speed_mps, self.spec.max_omega_rps
-        odo_x, odo_y = o[i["self.odometry"]] * vmax, o[i["self.odometry"] + 1] * vmax
-        have_status = o[i["master.valid"]] > 0.5
-        j = i["master.velocity"]
+        """The action of one slave (:meth:`_act` on its observation)."""
+        x = np.asarray(obs, dtype=np.float32)
+        return _clip1(np.array(self._act(x.tolist(), (x * self._scale32).tolist()), dtype=np.float32))
+
+    def act_all(self, observations: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """Every slave's action, the same as :meth:`act` for each, bit for bit: the observations'
+        float32 scaling and the clipping run once over all of them."""
+        if not observations:
+            return {}
+        x = np.asarray(list(observations.values()), dtype=np.float32)
+        act = self._act
+        rows = [act(o, s) for o, s in zip(x.tolist(), (x * self._scale32).tolist())]
+        out = _clip1(np.array(rows, dtype=np.float32))
+        return {agent: out[k] for k, agent in enumerate(observations)}
+
+    def _act(self, o: list, s: list) -> tuple[float, float, float]:
+        """The five steps of the module docstring, in order, on one observation: ``o`` its float32
+        values, ``s`` the same values times each field's float32 scale (``POS_SCALE_M``,
+        ``AGE_SCALE_S``, the ultrasonic range), rounded to float32 (numpy's float32 product: the
+        ``_r32(o · scale)`` of "Arithmetic" above). Returns ``(Vx/vmax, Vy/vmax, ω/ωmax)``, before
+        clipping. One function on purpose: it runs for every slave at every step on Python floats,
+        where a helper call costs more than the arithmetic it would hold (see "Arithmetic" above)."""
+        r32 = _r32
+        vmax, wmax = self._vmax, self._wmax
+        odo_x, odo_y = o[self._j_odo] * vmax, o[self._j_odo + 1] * vmax
+        have_status = o[self._j_mvalid] > 0.5
+        j = self._j_mvel
         mv0, mv1, mv2 = (o[j] * vmax, o[j + 1] * vmax, o[j + 2] * wmax) if have_status else (0.0, 0.0, 0.0)
 
         targets, dthetas, ref_dists = [], [], []
@@ -135,13 +175,13 @@ class LeaderFollowerPolicy(Policy):
             dthetas.append(dth)
             if o[ir_valid] < 0.5 or o[ir_age] >= 1.0:
                 continue  # no measurement, or one older than the observation's age range: move with the swarm
-            nbx, nby = r32(o[nb_xy] * pos32), r32(o[nb_xy + 1] * pos32)
-            age = r32(o[ir_age] * self._age32)
+            nbx, nby = s[nb_xy], s[nb_xy + 1]
+            age = s[ir_age]
             cd, sd = math.cos(dth), math.sin(dth)
             # the neighbour moved with the swarm (master speed, formation frame) and we moved (odometry)
             now_x = nbx + (cd * mv0 - sd * mv1 - odo_x) * age
             now_y = nby + (sd * mv0 + cd * mv1 - odo_y) * age
-            offx, offy = r32(o[off_xy] * pos32), r32(o[off_xy + 1] * pos32)
+            offx, offy = s[off_xy], s[off_xy + 1]
             ref_dists.append(math.hypot(offx, offy))
             cd, sd = r32(cd), r32(sd)
             targets.append((now_x + r32(r32(cd * offx) - r32(sd * offy)), now_y + r32(r32(sd * offx) + r32(cd * offy))))
@@ -153,26 +193,26 @@ class LeaderFollowerPolicy(Policy):
         # the master's motion gives the reference location: its translation plus its rotation
         # carrying the location about it (ω × offset from the master); in a leading turn step 4's
         # arc about the user takes the rotation's place
-        j = i["self.offset_from_master_xy"]
-        refx, refy = r32(o[j] * pos32), r32(o[j + 1] * pos32)
-        leading_turn = have_status and o[i["master.leading"]] > 0.5 and o[i["master.rotating"]] > 0.5
+        j = self._j_ref
+        refx, refy = s[j], s[j + 1]
+        leading_turn = have_status and o[self._j_leading] > 0.5 and o[self._j_rotating] > 0.5
         wr = 0.0 if leading_turn or not self.carry else mv2
         fx, fy = mv0 - wr * refy, mv1 + wr * refx
         vx, vy = cd * fx - sd * fy, sd * fx + cd * fy
-        j = i["master.user_xy"]
-        user_x, user_y = r32(o[j] * pos32), r32(o[j + 1] * pos32)
+        j = self._j_user
+        user_x, user_y = s[j], s[j + 1]
         # step 1: toward the reference location — moved out of a keep-out disc around the user (the
         # master's broadcast user position, carried from the formation frame into ours): a formation
         # that lags its user's turn must not place anyone on the user's path
         if targets:
-            tx = sum((t[0] for t in targets), 0.0) / len(targets)  # their mean
-            ty = sum((t[1] for t in targets), 0.0) / len(targets)
+            tx = sum([t[0] for t in targets], 0.0) / len(targets)  # their mean
+            ty = sum([t[1] for t in targets], 0.0) / len(targets)
             if have_status and self.user_keep_out > 0:
                 dux, duy = r32(user_x - refx), r32(user_y - refy)  # user relative to our reference
                 ux = tx + r32(r32(cd32 * dux) - r32(sd32 * duy))
                 uy = ty + r32(r32(sd32 * dux) + r32(cd32 * duy))
                 away_x, away_y = tx - ux, ty - uy
-                gap = float(np.hypot(away_x, away_y))
+                gap = float(np.hypot(away_x, away_y))  # numpy's hypot: it differs from math.hypot in the last bit
                 if gap < self.user_keep_out:
                     if gap > 1e-6:
                         dx, dy = away_x / gap, away_y / gap
@@ -181,20 +221,20 @@ class LeaderFollowerPolicy(Policy):
                         dx, dy = -ux / norm, -uy / norm
                     tx, ty = ux + dx * self.user_keep_out, uy + dy * self.user_keep_out
             vx, vy = vx + self.kp * tx, vy + self.kp * ty
-        elif o[i["master.ir_valid"]] > 0.5 and o[i["master.ir_age"]] < 1.0:
+        elif o[self._j_mir_valid] > 0.5 and o[self._j_mir_age] < 1.0:
             # step 1b, building (no reference neighbour in sight: a scattered start): our reference
             # location from the master's fix and an anchor's (another member seen, standing at its
             # slot's distance from the master): the two fixes turn the formation frame into ours;
             # with the master alone, orbit it at our reference's distance until a member shows up
-            j = i["master.ir_xy"]
-            age = r32(o[i["master.ir_age"]] * self._age32)
-            mx, my = r32(o[j] * pos32) - odo_x * age, r32(o[j + 1] * pos32) - odo_y * age
+            j = self._j_mir_xy
+            age = s[self._j_mir_age]
+            mx, my = s[j] - odo_x * age, s[j + 1] - odo_y * age
             goal = None
-            j = i["anchor.ir_valid"]
+            j = self._j_anchor
             if o[j] > 0.5 and o[j + 3] < 1.0:
-                age = r32(o[j + 3] * self._age32)
-                kx, ky = r32(o[j + 1] * pos32) - odo_x * age - mx, r32(o[j + 2] * pos32) - odo_y * age - my
-                ax_, ay_ = r32(o[j + 4] * pos32), r32(o[j + 5] * pos32)
+                age = s[j + 3]
+                kx, ky = s[j + 1] - odo_x * age - mx, s[j + 2] - odo_y * age - my
+                ax_, ay_ = s[j + 4], s[j + 5]
                 if abs(math.hypot(kx, ky) - math.hypot(ax_, ay_)) < self.anchor_tol:
                     phi = math.atan2(ky, kx) - math.atan2(ay_, ax_)
                     c_, s_ = math.cos(phi), math.sin(phi)
@@ -202,30 +242,29 @@ class LeaderFollowerPolicy(Policy):
             if goal is None:
                 dist, reach = max(math.hypot(mx, my), 1e-9), math.hypot(refx, refy)
                 goal = (mx * (1.0 - reach / dist), my * (1.0 - reach / dist))
-                turn = self.orbit if o[i["self.member"]] * 16.0 % 2.0 > 0.5 else -self.orbit  # odd members counter-clockwise
+                turn = self.orbit if o[self._j_member] * 16.0 % 2.0 > 0.5 else -self.orbit  # odd members counter-clockwise
                 vx, vy = vx + turn * my / dist, vy - turn * mx / dist
             gain = min(self.kp, self.approach / max(math.hypot(*goal), 1e-9))
             vx, vy = vx + gain * goal[0], vy + gain * goal[1]
-        elif have_status and o[i["master.ir_valid"]] > 0.5:
+        elif have_status and o[self._j_mir_valid] > 0.5:
             # step 1c, lost (no fix of anyone within the age range: the swarm walked out of our IR's
             # reach): back toward where we last saw the master, relative to the swarm we keep moving
             # with (the bearing is carried over our rotation, the swarm's motion is step 2's
             # feed-forward), until its IR reaches us again
-            j = i["master.ir_xy"]
-            mx, my = r32(o[j] * pos32), r32(o[j + 1] * pos32)
+            j = self._j_mir_xy
+            mx, my = s[j], s[j + 1]
             dist = max(math.hypot(mx, my), 1e-9)
             vx, vy = vx + self.rejoin * mx / dist, vy + self.rejoin * my / dist
         else:
             # step 1d, nothing in IR sight yet (the user or a robot may stand between us and the
             # swarm): circle the nearest ultrasonic echo, clockwise, until an IR fix comes
-            us32 = self._us32
             near = min(zip(self._us, self._us_dirs), key=lambda kd: o[kd[0]], default=None)
             if near is not None and o[near[0]] < 1.0:
                 (ux_k, uy_k) = near[1]
                 vx, vy = vx + self.search * uy_k, vy - self.search * ux_k
         # step 4: leading mode arc driving on user rotation
         if leading_turn:
-            turn = r32(o[i["master.turn_rate"]] * self._omega32)
+            turn = s[self._j_turn]
             rx, ry = r32(refx - user_x), r32(refy - user_y)
             ax, ay = r32(-turn * ry), r32(turn * rx)
             vx, vy = vx + r32(r32(cd32 * ax) - r32(sd32 * ay)), vy + r32(r32(sd32 * ax) + r32(cd32 * ay))
@@ -236,15 +275,15 @@ class LeaderFollowerPolicy(Policy):
         keep_out = self.keep_out
         if ref_dists:
             keep_out = min(keep_out, max(0.1, 0.85 * (min(ref_dists) - 0.4)))
-        keep32, us32 = r32(keep_out), self._us32
+        keep32 = r32(keep_out)
         push_x = push_y = 0.0
         close = False
-        for k, (ux_k, uy_k) in zip(self._us, self._us_dirs):
-            rng_k = r32(o[k] * us32)
+        for k, ux_k, uy_k in self._us_rays:
+            rng_k = s[k]
             if rng_k < keep32:
                 depth = r32(keep32 - rng_k)
                 push_x, push_y = push_x + depth * ux_k, push_y + depth * uy_k
                 close = True
         if close:
             vx, vy = vx - self.krep * push_x, vy - self.krep * push_y
-        return np.clip(np.array([vx / vmax, vy / vmax, omega / wmax], dtype=np.float32), -1.0, 1.0)
+        return vx / vmax, vy / vmax, omega / wmax

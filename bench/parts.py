@@ -58,9 +58,12 @@ MODULE_PARTS: dict[str, str | None] = {
     "petswarm_env.sim.geometry": None,  # ray casts (observation) and IR occlusion (middleware)
     "petswarm_env.scenarios": None,  # the user's script, read by User.apply
     "petswarm_env.comms": "radio_middleware",  # the 802.15.4 medium, IR optics
+    "petswarm_env.comms.ir_channel": "radio_middleware",  # an IR slot's lines of sight and measurements
     "petswarm_env.middleware": "radio_middleware",  # every robot's managers and messages
+    "petswarm_env.middleware.diagnosis": "radio_middleware",  # each robot's sensor self-diagnosis, every ring and AHRS reading
     "petswarm_env.middleware.user_session": "user_sensing",  # the master's wearables chain (LF, belt)
     "petswarm_env.wearables": "user_sensing",
+    "petswarm_env.wearables.belt_window": "user_sensing",  # the belt's window statistics, every accelerometer sample
     "petswarm_env.control": "control",  # master-role controller, control arbiter
     "petswarm_env.observe": "observation",
     "petswarm_env.mapping": "observation",  # seed 001's sensor/behaviour mapper between a body and the layout

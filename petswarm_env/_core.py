@@ -34,6 +34,9 @@ COMPILED: tuple[str, ...] = (
     "petswarm_env.sim.sensors",
     "petswarm_env.comms.ir",
     "petswarm_env.observe",
+    "petswarm_env.wearables.belt_window",
+    "petswarm_env.comms.ir_channel",
+    "petswarm_env.middleware.diagnosis",
 )
 
 PURE_ENV = "PETSWARM_PURE_PYTHON"  # "1": run the interpreted form of every module of COMPILED

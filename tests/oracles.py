@@ -291,6 +291,20 @@ def belt_accel_samples(cfg: BeltConfig, phase: float, n: int, speed_mps: float, 
     return 9.80665 + amp * np.sin(phases) + cfg.accel_noise_mps2 * z[:n], float(phases[-1] % (2 * np.pi))
 
 
+def belt_window_stats(windows: np.ndarray, deadband: float) -> tuple[list[int], list[float]]:
+    """The belt's first form of its window statistics (petswarm_env/wearables/belt_window.py): numpy
+    on the windows (..., W) — the mean removed, the signs of each row as a byte string (the zeros
+    dropped keep the last sign across the dead band), the SMA the mean magnitude. Flat lists."""
+    w = windows.shape[-1]
+    x = windows - np.add.reduce(windows, axis=-1, keepdims=True) * (1.0 / w)
+    signs = ((x > deadband).view(np.int8) - (x < -deadband).view(np.int8)).tobytes()
+    changes = []
+    for i in range(0, len(signs), w):
+        held = signs[i : i + w].replace(b"\x00", b"")
+        changes.append(held.count(b"\x01\xff") + held.count(b"\xff\x01"))
+    return changes, (np.add.reduce(np.abs(x), axis=-1) * (1.0 / w)).reshape(-1).tolist()
+
+
 def sign_changes_loop(row: np.ndarray, deadband: float) -> int:
     """Sign changes of the mean-removed row, the sign held inside the dead band, as a plain loop
     (the belt counts them on byte strings)."""

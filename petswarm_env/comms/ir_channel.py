@@ -13,17 +13,45 @@ IR needs a line of sight (SPEC §3.2: "bodies in the line of sight block the sig
 * a round body (another robot, a user) cutting the line attenuates the signal by
   ``ir.occlusion_attenuation`` (0.05: below the detection threshold beyond 0.61 m, and no body fits
   between two robots closer than 0.8 m, so a body blocks too).
+
+A module of the compiled core (``petswarm_env/_core.py``): Cython's pure-Python mode, so this file
+runs as it is under the interpreter and is compiled to C at install; the geometry of a slot (one
+line of sight per receiver, tested against every round body) runs on typed locals.
 """
 
 from __future__ import annotations
 
 import math
 
+import cython
 import numpy as np
+from cython.cimports.libc.math import atan2 as _c_atan2
+from cython.cimports.libc.math import hypot as _c_hypot
 
 from petswarm_env.comms import ir
 from petswarm_env.sim.geometry import SegmentSet, segment_crosses
 from petswarm_env.sim.world import World
+
+COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
+
+
+@cython.cfunc
+@cython.inline
+def _hypot(a: cython.double, b: cython.double) -> cython.double:
+    """The C library's hypot (numpy's), not Python's ``math.hypot``: the two differ in the last bit
+    now and then."""
+    if cython.compiled:
+        return _c_hypot(a, b)
+    return float(np.hypot(a, b))
+
+
+@cython.cfunc
+@cython.inline
+def _atan2(y: cython.double, x: cython.double) -> cython.double:
+    """The C library's atan2 (what ``math.atan2`` calls)."""
+    if cython.compiled:
+        return _c_atan2(y, x)
+    return math.atan2(y, x)
 
 
 class IRChannel:
@@ -41,21 +69,27 @@ class IRChannel:
         (rad), and validity, one entry per receiver (nan where not valid).
         """
         centers, radii, headings = self.world.truth_arrays()
-        cl, rl, hl = centers.tolist(), radii.tolist(), headings.tolist()
-        tx_x, tx_y = cl[tx_index]
+        cl: list = centers.tolist()
+        rl: list = radii.tolist()
+        hl: list = headings.tolist()
+        tx: cython.Py_ssize_t = tx_index
+        r: cython.Py_ssize_t
+        tx_x: cython.double = cl[tx][0]
+        tx_y: cython.double = cl[tx][1]
+        px: cython.double
+        py: cython.double
+        dx: cython.double
+        dy: cython.double
         walls = self._walls_near(cl, tx_index, rx_indices)
-        dxs, dys, bearing, occluded, opaque = [], [], [], [], []
+        distance, bearing, occluded, opaque = [], [], [], []
         for r in rx_indices:
-            px, py = cl[r]
+            px, py = cl[r][0], cl[r][1]
             dx, dy = tx_x - px, tx_y - py  # receiver -> transmitter
-            dxs.append(dx)
-            dys.append(dy)
-            bearing.append(math.atan2(dy, dx) - hl[r])  # in the receiver's frame (its heading only)
-            occluded.append(line_of_sight_blocked(px, py, dx, dy, cl, rl, r, tx_index))
+            distance.append(_hypot(dx, dy))  # libm's hypot (numpy's): math.hypot differs in the last bit now and then
+            bearing.append(_atan2(dy, dx) - cython.cast(cython.double, hl[r]))  # in the receiver's frame (its heading only)
+            occluded.append(line_of_sight_blocked(px, py, dx, dy, cl, rl, r, tx))
             if walls:
                 opaque.append(any(segment_crosses(px, py, dx, dy, *w) for w in walls))
-        # numpy's hypot (libm's), not math.hypot: the two differ in the last bit now and then
-        distance = np.hypot(np.array(dxs), np.array(dys)).tolist()
         if any(opaque):  # no light reaches these receivers: as from a source beyond range
             distance = [math.inf if o else d for d, o in zip(distance, opaque)]
         strengths = ir.received_strengths(self.cfg, distance, bearing, occluded, self.rng)
@@ -74,17 +108,29 @@ class IRChannel:
         return [self._wall_ends[i] for i in near]
 
 
-def line_of_sight_blocked(px: float, py: float, vx: float, vy: float, centers: list, radii: list, rx: int, tx: int) -> bool:
+@cython.ccall
+def line_of_sight_blocked(px: cython.double, py: cython.double, vx: cython.double, vy: cython.double, centers: list,
+                          radii: list, rx: cython.Py_ssize_t, tx: cython.Py_ssize_t) -> cython.bint:
     """Does a body other than the receiver ``rx`` and the transmitter ``tx`` cut the line of sight
     ``p → p + v``? A circle (``centers``, ``radii``: every round body, as lists) blocks it when its
     centre is strictly closer than its radius to some point of the segment (grazing is clear).
-    Plain Python: an IR slot has a handful of segments (``tests/oracles.py`` keeps the numpy form
-    for many segments, ``segments_blocked``)."""
-    vv = vx * vx + vy * vy
-    den = vv if vv > 0.0 else 1.0
-    for j, ((cx, cy), r) in enumerate(zip(centers, radii)):
+    One segment on typed locals: an IR slot has a handful of segments (``tests/oracles.py`` keeps
+    the numpy form for many segments, ``segments_blocked``)."""
+    vv: cython.double = vx * vx + vy * vy
+    den: cython.double = vv if vv > 0.0 else 1.0
+    j: cython.Py_ssize_t
+    cx: cython.double
+    cy: cython.double
+    r: cython.double
+    u: cython.double
+    ex: cython.double
+    ey: cython.double
+    n: cython.Py_ssize_t = min(len(centers), len(radii))
+    for j in range(n):
         if j == rx or j == tx:
             continue
+        cx, cy = centers[j][0], centers[j][1]
+        r = radii[j]
         u = ((cx - px) * vx + (cy - py) * vy) / den  # the closest point's parameter on the segment
         if u < 0.0:  # clamped to the segment, as max(u, 0.0) then min(u, 1.0)
             u = 0.0

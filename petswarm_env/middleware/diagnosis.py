@@ -38,6 +38,11 @@ seed 003 Algorithm 2 step 5 starts) and the robot's own record of its working se
 the ultrasonic ring's and the IR ring's registered sensors read not ``working``
 (``Robot.sensors_off``, which the observation's presence flags and the status report read).
 ``detected`` keeps when each part was found broken (the experimenter's figures read it).
+
+A module of the compiled core (``petswarm_env/_core.py``): Cython's pure-Python mode, so this file
+runs as it is under the interpreter and is compiled to C at install. The checks run for every
+ultrasonic and AHRS reading of every robot: the diagnosis is a typed class, its counters and times
+typed attributes, its checks C functions (not replaceable from Python).
 """
 
 from __future__ import annotations
@@ -45,7 +50,12 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 
+import cython
+import numpy as np
+
 from petswarm_env.sim.geometry import wrap_angle
+
+COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
 
 # chosen: an announced IR slot within this RSSI range should give a fix (the IR detection fades out at
 # 2.4-2.8 m, config ir.max_range_m; the RSSI range is off by ~10 % at 1 dB shadowing)
@@ -67,24 +77,56 @@ AHRS_STILL_RAD = 0.05  # ... this is a disagreement
 KINDS = ("ir", "ultrasonic", "ahrs")
 
 
+@cython.cclass
 class Diagnosis:
     """One robot's self-diagnosis. The node feeds it: :meth:`on_ring` after every ultrasonic reading
     (its periodic tick), :meth:`on_ahrs` with every AHRS reading. ``know`` and ``ring`` are the
     node's knowledge and token ring (the IR fixes it stored, the slots it heard announced)."""
 
-    def __init__(self, node_id: int, cfg, robot, know_of: Callable[[], object], ring) -> None:
+    node_id = cython.declare(object, visibility="public")
+    cfg = cython.declare(object, visibility="public")
+    robot = cython.declare(object, visibility="public")
+    ring = cython.declare(object, visibility="public")
+    failed = cython.declare(set, visibility="public")
+    detected = cython.declare(list, visibility="public")
+    on_detect = cython.declare(object, visibility="public")
+    _know_of = cython.declare(object)
+    _us_max = cython.declare(cython.double)
+    _us_angles = cython.declare(list)
+    _us_rays = cython.declare(list)
+    _radius = cython.declare(cython.double)
+    _us_reach = cython.declare(cython.double)
+    _us_miss = cython.declare(cython.int)
+    _us_silent = cython.declare(cython.int)
+    _us_by_self_test = cython.declare(cython.bint)
+    _us_echo_margin = cython.declare(cython.double)
+    _slot_over_s = cython.declare(cython.double)
+    _ir_seen = cython.declare(dict)
+    _ir_miss = cython.declare(cython.int)
+    _ir_missed_from = cython.declare(set)
+    _own_seen = cython.declare(cython.double)
+    _ahrs_noisy = cython.declare(cython.bint)
+    _yaw_last = cython.declare(object)
+    _yaw_same = cython.declare(cython.int)
+    _yaw_hist = cython.declare(list)
+    _turned = cython.declare(cython.double)
+    _tick_s = cython.declare(object)
+
+    def __init__(self, node_id, cfg, robot, know_of: Callable[[], object], ring) -> None:
         self.node_id = node_id
         self.cfg = cfg
         self.robot = robot
         self._know_of = know_of  # the node replaces its Knowledge when it leaves a swarm: read it each time
         self.ring = ring
-        self.failed: set[str] = set()  # the parts found broken (and not found working again)
-        self.detected: list[tuple[float, str]] = []  # (time, part) of every detection
-        self.on_detect: Callable[[str], None] | None = None  # the node's seam (status, bid request)
+        self.failed = set()  # the parts found broken (and not found working again)
+        self.detected = []  # (time, part) of every detection
+        self.on_detect = None  # the node's seam (status, bid request)
         us = cfg.robot.ultrasonic
         self._us_max = us.max_range_m
         self._us_angles = [2.0 * math.pi * k / us.count for k in range(us.count)]
+        self._us_rays = [(k, math.cos(a), math.sin(a)) for k, a in enumerate(self._us_angles)]  # (slot, cos, sin) of each ray
         self._radius = cfg.robot.radius_m
+        self._us_reach = self._us_max - US_MARGIN_M  # a neighbour's near rim closer than this must echo
         self._us_miss = 0
         self._us_silent = 0  # readings in a row whose bursts did not ring down
         self._us_by_self_test = False  # the ring found dead by its self-test (its pass clears it)
@@ -93,19 +135,19 @@ class Diagnosis:
         self._us_echo_margin = max(3.0 * us.noise_m, 1e-9)
         p = cfg.protocol
         self._slot_over_s = p.ring_response_timeout_s * 2 + p.ir_tx_s + 0.02  # an IR slot is over by then
-        self._ir_seen: dict[int, float] = {}  # announcer -> start of its latest slot evaluated
+        self._ir_seen = {}  # announcer -> start of its latest slot evaluated
         self._ir_miss = 0
-        self._ir_missed_from: set[int] = set()  # the slots' holders of the misses since the last fix
+        self._ir_missed_from = set()  # the slots' holders of the misses since the last fix
         self._own_seen = -math.inf  # start of our own latest slot evaluated
         self._ahrs_noisy = cfg.robot.ahrs_noise_deg > 0 or cfg.robot.ahrs_drift_dps > 0
-        self._yaw_last: tuple[float, float] | None = None  # (time, value) of the last reading
+        self._yaw_last = None  # (time, value) of the last reading
         self._yaw_same = 0
-        self._yaw_hist: list[tuple[float, float, float]] = []  # (time, AHRS yaw, commanded rotation since start)
+        self._yaw_hist = []  # (time, AHRS yaw, commanded rotation since start)
         self._turned = 0.0  # the commanded rotation integrated (rad)
-        self._tick_s: float | None = None
+        self._tick_s = None
 
     # -- the checks ---------------------------------------------------------------------------------
-    def on_ring(self, ranges, present, now_s: float, rang: bool = True) -> None:
+    def on_ring(self, ranges, present, now_s: cython.double, rang: cython.bint = True) -> None:
         """The ultrasonic ring's reading (virtual-ring order, ``present``: which slots the body has),
         every control period, and its self-test (``rang``: the transducers rang down after their
         bursts): the ring and IR checks, and the commanded rotation's integral."""
@@ -119,7 +161,7 @@ class Diagnosis:
         self._check_ir(now_s)
         self._check_ring(ranges, present, now_s, rang)
 
-    def on_ahrs(self, now_s: float, yaw: float) -> None:
+    def on_ahrs(self, now_s: cython.double, yaw: cython.double) -> None:
         """Every AHRS reading the robot takes (its MCU's, the observation's)."""
         last = self._yaw_last
         if last is not None and now_s > last[0]:
@@ -145,34 +187,39 @@ class Diagnosis:
         if last is None or now_s > last[0]:
             self._yaw_last = (now_s, yaw)
 
-    def _check_ir(self, now_s: float) -> None:
+    @cython.cfunc
+    def _check_ir(self, now_s: cython.double) -> cython.void:
         know = self._know_of()
         ring = self.ring
         ranges = ring.slot_range_m
         own = ring.own_slot
-        if own is not None and own[0] > self._own_seen and now_s - own[0] >= self._slot_over_s:
+        over = self._slot_over_s
+        if own is not None and own[0] > self._own_seen and now_s - own[0] >= over:
             self._own_seen = own[0]
             if ring.report_s >= own[0]:
                 self._ir_hit()
             elif any(ranges.get(n, math.inf) <= IR_EXPECT_RANGE_M for n in own[1]):
                 self._ir_missed(now_s, self.node_id)  # near neighbours heard our start sign, none reported seeing our IR
+        seen, me = self._ir_seen, self.node_id
         for src, t0 in ring.slot_starts.items():
-            if src == self.node_id or t0 <= self._ir_seen.get(src, -math.inf) or now_s - t0 < self._slot_over_s:
-                continue
-            self._ir_seen[src] = t0
+            if t0 <= seen.get(src, -math.inf) or src == me or now_s - t0 < over:
+                continue  # evaluated already (the most frequent), our own, or not over yet
+            seen[src] = t0
             fix = know.ir.get(src)
             if fix is not None and fix.time_s >= t0:
                 self._ir_hit()
             elif ranges.get(src, math.inf) <= IR_EXPECT_RANGE_M and src in know.members.values():
                 self._ir_missed(now_s, src)
 
-    def _ir_hit(self) -> None:
+    @cython.cfunc
+    def _ir_hit(self) -> cython.void:
         self._ir_miss = 0
         self._ir_missed_from.clear()
         if "ir" in self.failed:
             self._clear("ir")
 
-    def _ir_missed(self, now_s: float, src: int) -> None:
+    @cython.cfunc
+    def _ir_missed(self, now_s: cython.double, src: object) -> cython.void:
         """A slot that should have given an IR fix (``src``: its announcer) or a heading report
         (``src`` = us: our own slot) gave none."""
         self._ir_miss += 1
@@ -184,11 +231,16 @@ class Diagnosis:
         if len(self._ir_missed_from) >= max(2, min(IR_SOURCES, len(near))):
             self._detect("ir", now_s)
 
-    def _check_ring(self, ranges, present, now_s: float, rang: bool = True) -> None:
+    @cython.cfunc
+    def _check_ring(self, ranges, present, now_s: cython.double, rang: cython.bint) -> cython.void:
         if not any(present):
             return  # a body without an ultrasonic sensor: nothing to judge
         top = self._us_max - self._us_echo_margin  # a reading this short is an echo; a healthy "nothing" reads max ± noise
-        echo = any(r < top for r, p in zip(ranges, present) if p)
+        echo = False
+        for r, p in zip(ranges.tolist() if isinstance(ranges, np.ndarray) else ranges, present):
+            if p and r < top:
+                echo = True
+                break
         self._us_silent = 0 if rang else self._us_silent + 1
         if rang and (echo or self._us_by_self_test):  # an echo, or the self-test that found it passes again
             self._us_miss = 0
@@ -207,18 +259,19 @@ class Diagnosis:
         know = self._know_of()
         yaw = self.robot.ahrs._last_yaw  # the last AHRS reading the robot took (no new draw)
         r = self._radius
+        wide, reach, n_present = r - US_RAY_MARGIN_M, self._us_reach, len(present)
         on_ray = False
         for fix in know.ir.values():
             if now_s - fix.time_s > US_FIX_AGE_S:
                 continue
             x, y = fix.position_now(yaw)
-            for k, a in enumerate(self._us_angles):
-                if k >= len(present) or not present[k]:
+            for k, c, s in self._us_rays:
+                if k >= n_present or not present[k]:
                     continue
-                along = x * math.cos(a) + y * math.sin(a)
-                across = abs(-x * math.sin(a) + y * math.cos(a))
+                along = x * c + y * s
+                across = abs(-x * s + y * c)
                 # the neighbour (a body of our radius) across the ray, its near rim within reach
-                if across < r - US_RAY_MARGIN_M and 0 < along - 2 * r < self._us_max - US_MARGIN_M:
+                if across < wide and 0 < along - 2 * r < reach:
                     on_ray = True
                     break
             if on_ray:
@@ -228,7 +281,8 @@ class Diagnosis:
             if self._us_miss >= US_MISSES:
                 self._detect("ultrasonic", now_s)
 
-    def _reboot(self) -> None:
+    @cython.cfunc
+    def _reboot(self) -> cython.void:
         """The robot is off: when it is switched on again it knows nothing of its sensors (sim/faults.py)."""
         for part in sorted(self.failed):
             self._mark(part, True)
@@ -240,14 +294,16 @@ class Diagnosis:
         self._yaw_hist.clear()
 
     # -- results ------------------------------------------------------------------------------------
-    def _detect(self, part: str, now_s: float) -> None:
+    @cython.cfunc
+    def _detect(self, part: str, now_s: cython.double) -> cython.void:
         self.failed.add(part)
         self.detected.append((now_s, part))
         self._mark(part, False)
         if self.on_detect is not None:
             self.on_detect(part)
 
-    def _clear(self, part: str) -> None:
+    @cython.cfunc
+    def _clear(self, part: str) -> cython.void:
         self.failed.discard(part)
         if part == "ultrasonic":
             self._us_miss = 0
@@ -258,7 +314,8 @@ class Diagnosis:
         self._yaw_same = 0 if part == "ahrs" else self._yaw_same
         self._mark(part, True)
 
-    def _mark(self, part: str, working: bool) -> None:
+    @cython.cfunc
+    def _mark(self, part: str, working: cython.bint) -> cython.void:
         """The robot's record of its working sensors (``Robot.sensors_off``: the status report and
         the observation's presence flags read it) follows a detection of the ring or the IR module."""
         kind = {"ultrasonic": "DISTANCE", "ir": "IR"}.get(part)

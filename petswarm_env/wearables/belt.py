@@ -48,13 +48,14 @@ Units: seconds, metres, radians; angular rates in rad/s (``*_dps`` config keys a
 from __future__ import annotations
 
 import math
+from array import array
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.lib.stride_tricks import sliding_window_view
 
 from petswarm_env.config import BeltConfig
 from petswarm_env.scenarios import ACTIVITIES  # seed 002 Table 2; index = activity code below
+from petswarm_env.wearables.belt_window import window_stats
 
 GRAVITY_MPS2 = 9.80665
 _EPS_S = 1e-9  # sample times are compared with this slack (float accumulation of 0.1 s steps)
@@ -70,7 +71,7 @@ def count_sign_changes(windows: np.ndarray, deadband: float) -> np.ndarray:
     is + above ``deadband``, − below ``-deadband``; a sample inside the band keeps the last sign, so
     sensor noise around zero is not counted as motion. Returns the count per window.
     """
-    return _sign_changes(_remove_mean(windows), deadband)
+    return _per_row(windows, deadband)[0]
 
 
 def signal_magnitude_area(windows: np.ndarray) -> np.ndarray:
@@ -78,30 +79,17 @@ def signal_magnitude_area(windows: np.ndarray) -> np.ndarray:
 
     The window mean (gravity) is removed first, as for the periodicity.
     """
-    return _sma(_remove_mean(windows))
+    return _per_row(windows, 0.0)[1]
 
 
-def _remove_mean(windows: np.ndarray) -> np.ndarray:
-    w = windows.shape[-1]
-    return windows - np.add.reduce(windows, axis=-1, keepdims=True) * (1.0 / w)
-
-
-def _sma(x: np.ndarray) -> np.ndarray:
-    return np.add.reduce(np.abs(x), axis=-1) * (1.0 / x.shape[-1])
-
-
-def _sign_changes(x: np.ndarray, deadband: float) -> np.ndarray:
-    """Sign changes per row of mean-removed ``x`` (..., W), the sign held inside the dead band.
-
-    Each row's signs (+1, −1, or 0 inside the band) become a byte string; dropping the zeros keeps
-    the last sign across the band, and a change is a ``+1 −1`` or a ``−1 +1`` pair."""
+def _per_row(windows: np.ndarray, deadband: float) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`~.belt_window.window_stats` on every row of ``windows`` (..., W)."""
+    x = np.asarray(windows, dtype=np.float64)
     shape, w = x.shape[:-1], x.shape[-1]
-    signs = ((x > deadband).view(np.int8) - (x < -deadband).view(np.int8)).tobytes()
-    counts = []
-    for i in range(0, len(signs), w):
-        held = signs[i : i + w].replace(b"\x00", b"")
-        counts.append(held.count(b"\x01\xff") + held.count(b"\xff\x01"))
-    return np.array(counts, dtype=np.intp).reshape(shape)
+    flat = np.ascontiguousarray(x).reshape(-1)
+    rows = [window_stats(flat, k * w, k * w + 1, w, deadband) for k in range(flat.size // w)]
+    changes = np.array([r[0][0] for r in rows], dtype=np.intp).reshape(shape)
+    return changes, np.array([r[1][0] for r in rows], dtype=np.float64).reshape(shape)
 
 
 def sma_level(sma: float, cfg: BeltConfig) -> int:
@@ -154,8 +142,7 @@ class SmartBelt:
         self._acc_dt = 1.0 / cfg.accel_rate_hz
         self._w = cfg.window_samples
         self._n_acc = 0
-        self._hist = np.zeros(2 * self._w - 1)  # last W-1 samples, then room for a chunk of up to W
-        self._windows = sliding_window_view(self._hist, self._w)  # row j = the window ending at sample W-1+j
+        self._hist = array("d", bytes(8 * (2 * self._w - 1)))  # last W-1 samples, then room for a chunk of up to W
         self._gait_phase = float(rng.uniform(0.0, 2.0 * math.pi))
         # gyro: sample k at t0 + k·period
         self._n_gyro = 0
@@ -164,6 +151,9 @@ class SmartBelt:
         self._ma = [0.0] * cfg.ma_samples  # ring buffer of the moving-average filter
         self._on_rps = math.radians(cfg.rotation_on_dps)
         self._off_rps = math.radians(cfg.rotation_off_dps)
+        self._gyro_noise_rps = math.radians(cfg.gyro_noise_dps)
+        self._wobble_rad = math.radians(cfg.gait_yaw_wobble_deg)
+        self._cadence = (None, math.nan, math.nan)  # (posture, speed, cadence) of the last gait: the user's state holds for many periods
         # the belt's knowledge
         self._activity = 0
         self._activity_since = self._t0
@@ -208,13 +198,21 @@ class SmartBelt:
             sma_mps2=self._sma,
         )
 
+    def _cadence_hz(self, posture: str, speed_mps: float) -> float:
+        """``cfg.cadence_hz``, kept for the last (posture, speed)."""
+        last_posture, last_speed, f = self._cadence
+        if posture != last_posture or speed_mps != last_speed:
+            f = self.cfg.cadence_hz(posture, speed_mps)
+            self._cadence = (posture, speed_mps, f)
+        return f
+
     # ------------------------------------------------------------------ accelerometer
 
     def _synth_accel(self, n: int, speed_mps: float, posture: str) -> list[float]:
         """n vertical-acceleration samples (m/s², gravity included) of the waist."""
         cfg, dt = self.cfg, self._acc_dt
         if posture in ("walk", "run"):
-            f = cfg.cadence_hz(posture, speed_mps)
+            f = self._cadence_hz(posture, speed_mps)
             bounce = cfg.run_bounce_m if posture == "run" else cfg.walk_bounce_m
             amp, jitter = (2.0 * math.pi * f) ** 2 * bounce, cfg.gait_phase_jitter
         elif posture == "rest":
@@ -238,14 +236,13 @@ class SmartBelt:
     def _accel_chunk(self, n: int, speed_mps: float, posture: str) -> None:
         """Sample n (≤ W) accelerometer values and run Table 2 on the window ending at each."""
         w, h = self._w, self._hist
-        h[w - 1 : w - 1 + n] = self._synth_accel(n, speed_mps, posture)
+        h[w - 1 : w - 1 + n] = array("d", self._synth_accel(n, speed_mps, posture))
         first = self._n_acc  # index (0-based) of the first new sample
         valid_from = max(0, (w - 1) - first)  # windows need W samples since power-on
         if valid_from < n:
             cfg = self.cfg
-            x = _remove_mean(self._windows[valid_from:n])
-            changes = _sign_changes(x, cfg.sign_deadband_mps2).tolist()
-            sma = _sma(x).tolist()
+            # window j = h[j : j + W], the one ending at new sample j
+            changes, sma = window_stats(h, valid_from, n, w, cfg.sign_deadband_mps2)
             t_first = self._t0 + self._acc_dt * (first + 1 + valid_from)
             for j in range(len(sma)):  # Table 2 on the window ending at each new sample
                 code = classify(changes[j] >= cfg.min_sign_changes, sma_level(sma[j], cfg))
@@ -263,11 +260,12 @@ class SmartBelt:
         cfg = self.cfg
         dt = cfg.gyro_period_s
         if posture in ("walk", "run"):
-            f_stride = 0.5 * cfg.cadence_hz(posture, speed_mps)  # one stride = two steps
-            wobble_rps = math.radians(cfg.gait_yaw_wobble_deg) * 2.0 * math.pi * f_stride
+            f_stride = 0.5 * self._cadence_hz(posture, speed_mps)  # one stride = two steps
+            wobble_rps = self._wobble_rad * 2.0 * math.pi * f_stride
         else:
             f_stride, wobble_rps = 0.0, 0.0
-        noise = (math.radians(cfg.gyro_noise_dps) * self.rng.standard_normal(m)).tolist()
+        sigma = self._gyro_noise_rps
+        noise = [sigma * z for z in self.rng.standard_normal(m).tolist()]
         n_ma = cfg.ma_samples
         for k in range(m):
             self._stride_phase = (self._stride_phase + 2.0 * math.pi * f_stride * dt) % (2.0 * math.pi)

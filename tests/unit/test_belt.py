@@ -1,6 +1,7 @@
 """Smart belt (petswarm_env/wearables/belt.py): seed 002 §3.4, Table 2, on simulated IMU signals."""
 
 import math
+from array import array
 
 import numpy as np
 import pytest
@@ -68,6 +69,30 @@ def test_sign_changes_of_a_sine_and_of_noise():
     assert got.shape == (4, 5)
     assert all(got[i, j] == oracles.sign_changes_loop(rows[i, j], 0.3) for i in range(4) for j in range(5))
     assert signal_magnitude_area(sine) == pytest.approx(2.0 * 2 / np.pi, rel=0.05)  # mean |A sin|
+
+
+@pytest.mark.parametrize("w", [1, 3, 7, 8, 9, 16, 100, 128, 129, 300])
+def test_window_statistics_equal_the_numpy_form(w):
+    """The typed window statistics (belt_window.py) are numpy's first form's, bit for bit: numpy's
+    pairwise summation order (8 lanes up to 128 values, halved beyond), on the belt's own sliding
+    windows over its sample buffer, at every window length around the order's breakpoints."""
+    from numpy.lib.stride_tricks import sliding_window_view
+
+    from petswarm_env.wearables.belt_window import window_stats
+
+    rng = np.random.default_rng(w)
+    for trial in range(40):
+        deadband = float(rng.choice([0.0, 0.15, 0.6]))
+        samples = rng.normal(9.8, rng.choice([0.03, 0.5, 3.0]), 2 * w - 1)
+        if trial % 4 == 0:  # a slow drift: sums where the order shows in the last bit
+            samples += np.linspace(0.0, 50.0, samples.size)
+        start = int(rng.integers(0, w))
+        stop = int(rng.integers(start, w + 1))
+        want = oracles.belt_window_stats(sliding_window_view(samples, w)[start:stop], deadband)
+        assert window_stats(samples, start, stop, w, deadband) == want
+        assert window_stats(array("d", samples.tolist()), start, stop, w, deadband) == want  # the belt's buffer
+    with pytest.raises(ValueError, match="do not fit"):
+        window_stats(np.zeros(w), 0, 2, w, 0.0)
 
 
 @pytest.mark.parametrize(

@@ -57,3 +57,46 @@ def test_a_missing_build_is_one_line_naming_the_fix(tmp_path, monkeypatch):
     ok = subprocess.run([sys.executable, "-c", "import petswarm_env"], cwd=tmp_path, env=environ,
                         capture_output=True, text=True, check=False, timeout=120)
     assert ok.returncode == 0, ok.stderr[-2000:]
+
+
+def fault_episode() -> list:
+    """A walk in which three robots' sensors break (ultrasonic, IR, AHRS): every robot's own
+    detections (middleware/diagnosis.py, on its own clock) and a hash of every observation."""
+    import hashlib
+
+    import petswarm_env
+    from petswarm.baselines.policy import PolicySpec
+    from petswarm.baselines.registry import make_policy
+
+    faults = [{"at_s": 3.0, "robot": 3, "kind": "ultrasonic"}, {"at_s": 4.0, "robot": 2, "kind": "ir"},
+              {"at_s": 5.0, "robot": 4, "kind": "ahrs"}]
+    env = petswarm_env.parallel_env(**{"user.scenario": "straight", "max_cycles": 110, "faults": faults})
+    obs, _ = env.reset(seed=0)
+    policy = make_policy("scripted", PolicySpec.from_env(env), seed=0)
+    h = hashlib.sha256()
+    while env.agents:
+        obs, *_ = env.step(policy.act_all({a: obs[a] for a in env.agents}))
+        for a in sorted(obs):
+            h.update(a.encode() + obs[a].tobytes())
+    detected = {str(n): [[t, part] for t, part in node.diagnosis.detected] for n, node in env.episode.fleet.nodes.items()}
+    return [detected, h.hexdigest()]
+
+
+def test_the_interpreted_form_finds_the_same_sensor_faults_bit_for_bit():
+    """The self-diagnosis (compiled since its checks run for every reading) finds the same faults at
+    the same times in both forms, and the episodes are the same to the bit (the golden cases have
+    no faults)."""
+    from tests.golden.episodes import portable_environ
+
+    code = "import json; from tests.unit.test_compiled_core import fault_episode; print(json.dumps(fault_episode()))"
+    out = {}
+    for pure in ("0", "1"):
+        env = dict(portable_environ(), **{_core.PURE_ENV: pure})
+        env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
+        run = subprocess.run([sys.executable, "-c", code], cwd=ROOT, env=env, capture_output=True, text=True,
+                             check=False, timeout=300)
+        assert run.returncode == 0, run.stderr[-2000:]
+        out[pure] = json.loads(run.stdout.strip().splitlines()[-1])
+    detected, _ = out["0"]
+    assert {part for parts in detected.values() for _, part in parts} == {"ultrasonic", "ir", "ahrs"}
+    assert out["1"] == out["0"]

@@ -113,10 +113,20 @@ def _recorded(overrides: dict, steps: int) -> tuple[LeaderFollowerPolicy, list[n
 
 
 def _assert_same(policy: LeaderFollowerPolicy, observations) -> None:
+    """``act`` on each observation, and ``act_all`` on them five at a time, give the numpy form's action."""
+    wants = []
     for obs in observations:
         got, want = policy.act("robot_1", obs), numpy_act(policy, obs)
         assert got.dtype == want.dtype == np.float32
         assert got.tobytes() == want.tobytes(), (obs.tolist(), got, want)
+        wants.append(want)
+    for k in range(0, len(observations), 5):
+        batch = {f"robot_{j + 1}": obs for j, obs in enumerate(observations[k : k + 5])}
+        got = policy.act_all(batch)
+        assert list(got) == list(batch)
+        for j, agent in enumerate(batch):
+            assert got[agent].dtype == np.float32 and got[agent].shape == (3,)
+            assert got[agent].tobytes() == wants[k + j].tobytes(), (batch[agent].tolist(), got[agent], wants[k + j])
 
 
 @pytest.mark.parametrize(

@@ -265,7 +265,8 @@ class PetSwarmEnv(ParallelEnv):
                 except ValueError:  # ragged shapes: the loop below names the agent
                     arr = None
             if arr is not None and arr.shape == (len(self.agents), 3) and np.isfinite(arr).all():
-                np.clip(arr, -1.0, 1.0, out=arr)
+                np.minimum(arr, 1.0, out=arr)  # clipped to [-1, 1] (finite: np.clip's values, without its wrapper)
+                np.maximum(arr, -1.0, out=arr)
                 return dict(zip(self.agents, arr))
         out = {}
         for agent in self.agents:

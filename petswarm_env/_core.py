@@ -34,6 +34,8 @@ COMPILED: tuple[str, ...] = (
     "petswarm_env.sim.sensors",
     "petswarm_env.comms.ir",
     "petswarm_env.observe",
+    "petswarm_env.control.arbiter",
+    "petswarm_env.sim.robot",
 )
 
 PURE_ENV = "PETSWARM_PURE_PYTHON"  # "1": run the interpreted form of every module of COMPILED

@@ -37,6 +37,8 @@ COMPILED: tuple[str, ...] = (
     "petswarm_env.wearables.belt_window",
     "petswarm_env.comms.ir_channel",
     "petswarm_env.middleware.diagnosis",
+    "petswarm_env.control.arbiter",
+    "petswarm_env.sim.robot",
 )
 
 PURE_ENV = "PETSWARM_PURE_PYTHON"  # "1": run the interpreted form of every module of COMPILED

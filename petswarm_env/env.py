@@ -52,6 +52,7 @@ state ``state()`` in ``state_space`` (docs/state.md). Infos are flat and numeric
 """
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import gymnasium
@@ -252,20 +253,25 @@ class PetSwarmEnv(ParallelEnv):
         the live agents); a live agent without an action stands still."""
         if not isinstance(actions, dict):
             raise TypeError(f"actions must be a dict agent -> array of 3 floats, got {type(actions).__name__}")
-        unknown = [a for a in actions if a not in self._possible]
-        if unknown:
+        if not self._possible.issuperset(actions):
+            unknown = [a for a in actions if a not in self._possible]
             raise KeyError(f"actions for agents not in the episode: {sorted(map(str, unknown))}; live agents: {self.agents}")
         # the common case in one numpy pass: a float array for every agent, all finite, shape (3,)
         if len(actions) >= len(self.agents):
             values = [actions.get(a) for a in self.agents]
             arr = None
-            if all(type(v) is np.ndarray and v.dtype.kind == "f" for v in values):
+            for v in values:
+                if type(v) is not np.ndarray or v.dtype.kind != "f":
+                    break
+            else:
                 try:
                     arr = np.array(values, dtype=np.float32)
                 except ValueError:  # ragged shapes: the loop below names the agent
                     arr = None
-            if arr is not None and arr.shape == (len(self.agents), 3) and np.isfinite(arr).all():
-                np.clip(arr, -1.0, 1.0, out=arr)
+            # finite: a NaN or an infinity makes the sum one (a sum that overflows float32 takes the loop below)
+            if arr is not None and arr.shape == (len(self.agents), 3) and math.isfinite(arr.sum()):
+                np.minimum(arr, 1.0, out=arr)  # clipped to [-1, 1] (finite: np.clip's values, without its wrapper)
+                np.maximum(arr, -1.0, out=arr)
                 return dict(zip(self.agents, arr))
         out = {}
         for agent in self.agents:

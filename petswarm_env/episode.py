@@ -183,6 +183,14 @@ class Episode:
         world, fleet, agent_index = self.world, self.fleet, self.agent_index
         truncated = self.num_cycles >= self.cfg.max_cycles
         slaves = self._current_slaves()
+        if slaves == self.slave_ids and not truncated:
+            # the slaves of the last step: every agent is one of them and none joins (the agents
+            # after the last step are those slaves that are agents), so what follows gives
+            # every agent its observation and no termination
+            observations = self.observer.observe(self.agents, self.last_action, world.now)
+            terminations = dict.fromkeys(self.agents, False)
+            self.agents = list(self.agents)
+            return observations, rewards, terminations, dict(terminations), infos
         live = {f"robot_{i}" for i in slaves}
         terminations = {a: a not in live for a in self.agents}
         for a, done in terminations.items():  # a robot that left slave-role driving and drives no user stands still

@@ -271,13 +271,21 @@ class Experimenter:
         observation's age range (``observe.AGE_SCALE_S``; none yet counts from the episode's start):
         a slave that cannot know where its neighbours are (the scripted one then only moves with the
         swarm, :mod:`petswarm.baselines.leader_follower`)."""
-        nodes, stale = self.fleet.nodes, 0
+        nodes, agent_index, stale = self.fleet.nodes, self.agent_index, 0
         for agent in agents:
-            node = nodes[self.agent_index[agent]]
-            irs, members = node.know.ir, node.know.members
-            times = [irs[nb].time_s for nb in (members.get(lk.neighbour) for lk in node.reference_links()) if nb in irs]
+            node = nodes[agent_index[agent]]
+            know = node.know
+            irs, members = know.ir, know.members
+            newest = None  # the newest fix's time: max(...) as the builtin gives it (the first of equals)
+            for lk in node.reference_links():
+                nb = members.get(lk.neighbour)
+                if nb in irs:
+                    t = irs[nb].time_s
+                    if newest is None or t > newest:
+                        newest = t
+            clock = node.clock
             # the fixes' times are on the robot's own clock (its MCU's): compared on that clock
-            if max(times, default=node.clock.local(self._start_s)) < node.clock.now - AGE_SCALE_S:
+            if (clock.local(self._start_s) if newest is None else newest) < clock.now - AGE_SCALE_S:
                 stale += 1
         return stale
 

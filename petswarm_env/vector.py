@@ -42,6 +42,22 @@ from petswarm_env.episode import Episode
 SEED_BOUND = 2**31  # the episode seeds are drawn in [0, SEED_BOUND)
 
 
+class _Gathered:
+    """(copy, slot) -> value entries of one step, for one indexed write per array."""
+
+    __slots__ = ("copies", "slots", "items")
+
+    def __init__(self):
+        self.copies: list[int] = []
+        self.slots: list[int] = []
+        self.items: list = []
+
+    def add(self, n: int, j: int, value) -> None:
+        self.copies.append(n)
+        self.slots.append(j)
+        self.items.append(value)
+
+
 class VectorEnv:
     """``num_envs`` copies of the env of one config (module docstring)."""
 
@@ -116,29 +132,46 @@ class VectorEnv:
         if not np.isfinite(acts[self.active]).all():
             bad = np.argwhere(~np.isfinite(acts).all(axis=2) & self.active)[0]
             raise ValueError(f"the action of copy {bad[0]}'s {self.possible_agents[bad[1]]} contains NaN or inf; actions must be finite")
-        np.clip(acts, -1.0, 1.0, out=acts)
+        np.minimum(acts, 1.0, out=acts)  # clipped to [-1, 1] (np.clip's values, without its wrapper)
+        np.maximum(acts, -1.0, out=acts)
         n_envs, m = self.num_envs, self.max_agents
         obs = np.zeros((n_envs, m, self.obs_dim), np.float32)
         rewards = np.zeros((n_envs, m), np.float32)
         terminated = np.zeros((n_envs, m), bool)
         truncated = np.zeros((n_envs, m), bool)
-        infos: list[dict[str, Any]] = []
+        infos: list[dict[str, Any]] = [{} for _ in range(n_envs)]
         slot = self._slot
+        # every copy's results gathered as (copy, slot) lists and written with one indexed
+        # assignment per array after the loop (a numpy item write per agent costs more)
+        at, values, ended = _Gathered(), _Gathered(), []
         for n, episode in enumerate(self.episodes):
             row = acts[n]
             observations, rew, term, trunc, _ = episode.advance({a: row[slot[a]] for a in episode.agents})
             for a, r in rew.items():
-                j = slot[a]
-                rewards[n, j], terminated[n, j], truncated[n, j] = r, term[a], trunc[a]
-            self._fill(n, obs, observations, episode.agents)
-            info: dict[str, Any] = {}
-            if not episode.agents:  # the episode is over: its last arrays, then the next episode
-                observed = np.zeros(m, bool)
-                observed[[slot[a] for a in observations]] = True
-                info = {"final_observation": obs[n].copy(), "final_active": observed, "final_state": episode.state(),
+                at.add(n, slot[a], (r, term[a], trunc[a]))
+            for a, o in observations.items():
+                values.add(n, slot[a], o)
+            if not episode.agents:  # the episode is over: its last arrays below, then the next episode
+                ended.append((n, observations))
+        if at.copies:
+            r, te, tr = zip(*at.items)
+            rewards[at.copies, at.slots], terminated[at.copies, at.slots], truncated[at.copies, at.slots] = r, te, tr
+        if values.copies:
+            obs[values.copies, values.slots] = values.items
+        self.active[:] = False
+        live = _Gathered()
+        for n, episode in enumerate(self.episodes):
+            for a in episode.agents:
+                live.add(n, slot[a], True)
+        for n, observations in ended:
+            episode = self.episodes[n]
+            observed = np.zeros(m, bool)
+            observed[[slot[a] for a in observations]] = True
+            infos[n] = {"final_observation": obs[n].copy(), "final_active": observed, "final_state": episode.state(),
                         "episode_summary": episode.summary(), "finished_seed": int(self.episode_seeds[n])}
-                info.update(self._start(n, obs))
-            infos.append(info)
+            infos[n].update(self._start(n, obs))  # the next episode's first row of obs and active
+        if live.copies:
+            self.active[live.copies, live.slots] = True
         return obs, rewards, terminated, truncated, infos
 
     def state(self) -> np.ndarray:

@@ -12,6 +12,9 @@ Several sources want to drive one robot body. Seed 001 ranks them: robot self-pr
 The highest-priority source that has something to say suppresses the lower ones; which source won
 is counted per robot and per episode. ``control.safety_layer: false`` removes the ultrasonic stage
 (a pure-RL study that wants the policy to learn avoidance by itself); the emergency stop stays.
+
+A module of the compiled core (``petswarm_env/_core.py``, Cython's pure-Python mode): the stage and
+the arbiter are typed classes, the stage's check runs on C doubles (every robot, every step).
 """
 
 from __future__ import annotations
@@ -19,7 +22,11 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
+import cython
 import numpy as np
+
+COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
+_sqrt = math.sqrt  # (the C library's sqrt in the compiled form: correctly rounded, the same value)
 
 SOURCES = ("safety", "user", "policy")  # seed 001: self-protection > user > software agent
 
@@ -32,6 +39,7 @@ class ArbiterCounts:
         self.wins[source] += 1
 
 
+@cython.cclass
 class SafetyStage:
     """Ultrasonic collision avoidance on a commanded body velocity.
 
@@ -42,45 +50,83 @@ class SafetyStage:
     robot's own ultrasonic ring (its sensor), never ground truth.
     """
 
+    dirs = cython.declare(object, visibility="public")  # (n, 2): each sensor's direction, body frame
+    _dx = cython.declare(list)  # the same as Python floats
+    _dy = cython.declare(list)
+    stop = cython.declare(cython.double, visibility="public")
+    backoff = cython.declare(cython.double, visibility="public")
+    two_a = cython.declare(cython.double, visibility="public")
+
     def __init__(self, num_sensors: int, stop_distance_m: float, backoff_speed_mps: float, max_accel_mps2: float):
         ang = np.arange(num_sensors) * (2 * math.pi / max(num_sensors, 1))
         self.dirs = np.stack([np.cos(ang), np.sin(ang)], axis=1)
-        self._dirs = [tuple(d) for d in self.dirs.tolist()]  # Python floats: the check runs per robot and tick
+        self._dx = self.dirs[:, 0].tolist()
+        self._dy = self.dirs[:, 1].tolist()
         self.stop = stop_distance_m
         self.backoff = backoff_speed_mps
         self.two_a = 2.0 * max_accel_mps2
 
-    def filter(self, command: tuple[float, float, float], ranges: np.ndarray) -> tuple[float, float, float] | None:
+    @cython.ccall
+    def filter(self, command, ranges):
         """The safe version of ``command`` (body frame), or None when nothing needed changing.
 
-        Plain Python over the few sensors of the ring (a numpy call costs more than the
-        arithmetic on eight values)."""
-        vx, vy = float(command[0]), float(command[1])
-        stop, two_a, half = self.stop, self.two_a, 0.5 * self.stop
-        rs = ranges.tolist() if isinstance(ranges, np.ndarray) else [float(r) for r in ranges]
-        nearest = min(rs, default=math.inf)
-        if nearest >= half and vx * vx + vy * vy <= two_a * max(nearest - stop, 0.0):
+        A loop over the few sensors of the ring (a numpy call costs more than the arithmetic on
+        eight values); ``min`` and ``max`` as Python's builtins give them."""
+        vx: cython.double = float(command[0])
+        vy: cython.double = float(command[1])
+        stop: cython.double = self.stop
+        two_a: cython.double = self.two_a
+        half: cython.double = 0.5 * stop
+        rs: list = ranges.tolist() if isinstance(ranges, np.ndarray) else [float(r) for r in ranges]
+        n: cython.Py_ssize_t = len(rs)
+        k: cython.Py_ssize_t
+        r: cython.double
+        nearest: cython.double = math.inf
+        for k in range(n):  # min(rs, default=inf)
+            r = rs[k]
+            if k == 0 or r < nearest:
+                nearest = r
+        gap: cython.double = nearest - stop
+        if nearest >= half and vx * vx + vy * vy <= two_a * (0.0 if 0.0 > gap else gap):
             # the whole speed is below the nearest sensor's braking limit, so no sensor's component
             # of it can exceed its own (1e-9 m/s of slack below absorbs the rounding): nothing to do
             return None
-        allowed = [math.sqrt(two_a * max(r - stop, 0.0)) for r in rs]
-        over = [k for k, ((dx, dy), r, lim) in enumerate(zip(self._dirs, rs, allowed))
-                if dx * vx + dy * vy > lim + 1e-9 or r < half]
+        allowed: list = []
+        over: list = []
+        dx: cython.double
+        dy: cython.double
+        lim: cython.double
+        for k in range(n):
+            r = rs[k]
+            gap = r - stop
+            lim = _sqrt(two_a * (0.0 if 0.0 > gap else gap))
+            allowed.append(lim)
+            if k < len(self._dx):  # (a ring of more readings than sensors: the sensors' own)
+                dx, dy = self._dx[k], self._dy[k]
+                if dx * vx + dy * vy > lim + 1e-9 or r < half:
+                    over.append(k)
         if not over:
             return None
+        excess: cython.double
+        back: cython.double
         for k in over:
-            dx, dy = self._dirs[k]
-            excess = (vx * dx + vy * dy) - allowed[k]
+            dx, dy = self._dx[k], self._dy[k]
+            excess = (vx * dx + vy * dy) - cython.cast(cython.double, allowed[k])
             if excess > 0.0:  # too fast toward the obstacle: take the excess off
                 vx, vy = vx - excess * dx, vy - excess * dy
-            if rs[k] < half:  # too close already: back away
-                back = self.backoff * (1.0 - rs[k] / half)
+            r = rs[k]
+            if r < half:  # too close already: back away
+                back = self.backoff * (1.0 - r / half)
                 vx, vy = vx - back * dx, vy - back * dy
         return vx, vy, float(command[2])
 
 
+@cython.cclass
 class ControlArbiter:
     """Per-robot priority arbitration: safety > user > policy (seed 001)."""
+
+    safety = cython.declare(SafetyStage, visibility="public")  # None: no ultrasonic stage
+    counts = cython.declare(object, visibility="public")  # ArbiterCounts: the wins of this episode
 
     def __init__(self, safety: SafetyStage | None):
         self.safety = safety
@@ -105,5 +151,5 @@ class ControlArbiter:
                 safe = self.safety.filter(cmd, ranges)
                 if safe is not None:
                     cmd, source = safe, "safety"
-        self.counts.add(source)
+        self.counts.wins[source] += 1  # (ArbiterCounts.add)
         return cmd, source

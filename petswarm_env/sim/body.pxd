@@ -10,6 +10,7 @@ ctypedef cpVect (*_GetVec)(void *) noexcept nogil
 ctypedef double (*_GetDbl)(void *) noexcept nogil
 ctypedef void (*_SetVec)(void *, cpVect) noexcept nogil
 ctypedef void (*_SetDbl)(void *, double) noexcept nogil
+ctypedef void (*_SpaceStep)(void *, double) noexcept  # runs pymunk's collision callbacks (cffi reports their errors itself)
 
 cdef _GetVec _cp_get_position
 cdef _GetDbl _cp_get_angle
@@ -17,6 +18,7 @@ cdef _GetVec _cp_get_velocity
 cdef _GetDbl _cp_get_angular_velocity
 cdef _SetVec _cp_set_velocity
 cdef _SetDbl _cp_set_angular_velocity
+cdef _SpaceStep _cp_space_step
 
 
 cdef class Body:
@@ -38,3 +40,27 @@ cdef class DrivenBody(Body):
 
     cpdef drive(self, double dt)
     cpdef apply(self, double dt)
+
+
+cdef class WalkingBody(Body):
+    cdef public object script
+    cdef public object segment
+    cdef public double script_time_s
+    cdef public bint walking
+    cdef public list pending_commands
+
+    cpdef apply(self, double dt)
+
+
+cdef class Substeps:
+    cdef readonly object space
+    cdef object _run_until
+    cdef readonly list robots
+    cdef readonly list users
+    cdef readonly double dt
+    cdef public long long done
+    cdef public long long steps
+    cdef size_t _cspace  # the address of the Chipmunk space (alive as long as ``space``)
+
+    cpdef run(self, int n)
+    cdef void _step(self, double dt)

@@ -32,6 +32,7 @@ _get_velocity = pymunk.cp.cpBodyGetVelocity
 _get_angular_velocity = pymunk.cp.cpBodyGetAngularVelocity
 _set_velocity = pymunk.cp.cpBodySetVelocity
 _set_angular_velocity = pymunk.cp.cpBodySetAngularVelocity
+_radians = math.radians
 _hypot = math.hypot  # Python's own (CPython's hypot is not the C library's: the same value as before, bit for bit)
 
 if cython.compiled:  # Chipmunk's accessors by their C addresses (declared in body.pxd)
@@ -44,6 +45,7 @@ if cython.compiled:  # Chipmunk's accessors by their C addresses (declared in bo
     _cp_get_angular_velocity = cython.cast(_GetDbl, cython.cast(cython.size_t, _address("cpBodyGetAngularVelocity")))
     _cp_set_velocity = cython.cast(_SetVec, cython.cast(cython.size_t, _address("cpBodySetVelocity")))
     _cp_set_angular_velocity = cython.cast(_SetDbl, cython.cast(cython.size_t, _address("cpBodySetAngularVelocity")))
+    _cp_space_step = cython.cast(_SpaceStep, cython.cast(cython.size_t, _address("cpSpaceStep")))
 
 
 # One accessor each for what the drive and the radio read and write of a body: Chipmunk's own
@@ -280,6 +282,126 @@ class DrivenBody(Body):
         vy_w: cython.double = s * vx + c * vy
         if vx_w != wx or vy_w != wy:
             _set_vel(self, vx_w, vy_w)
+
+
+@cython.cclass
+class WalkingBody(Body):
+    """A kinematic body walked on a script (a user, :mod:`.user`): :meth:`apply`, every physics
+    substep, sets the velocity of the script's segment at the script's time along the body's own
+    heading (the body integrates it). ``walking`` False: it stands (the script waits)."""
+
+    def __init__(self, space: pymunk.Space, position, heading_rad: float, radius_m: float, collision_type: int, script):
+        super().__init__(space, position, heading_rad, radius_m, collision_type)  # kinematic: does not yield
+        self.script = script
+        self.segment = script.segments[0]
+        self.script_time_s = 0.0
+        self.walking = False  # the script starts when the swarm is organized
+        self.pending_commands = []  # commands the user issued (wearables pick them up)
+
+    @cython.ccall
+    def apply(self, dt: cython.double) -> None:
+        """Set this substep's velocity from the script; a segment that begins with a command
+        issues it (:attr:`pending_commands`). A kinematic body keeps the velocity it was given, so
+        only a changed value is written."""
+        wx: cython.double
+        wy: cython.double
+        if not self.walking:
+            wx, wy = _vel(self)
+            if wx != 0.0 or wy != 0.0:
+                _set_vel(self, 0.0, 0.0)
+            if _omega(self) != 0.0:
+                _set_omega(self, 0.0)
+            return
+        seg = self.script.at(self.script_time_s)
+        if seg is not self.segment and seg.command:
+            self.pending_commands.append(seg.command)
+        self.segment = seg
+        self.script_time_s += dt
+        th: cython.double = _angle(self)
+        speed: cython.double = seg.speed_mps
+        vx: cython.double = speed * _c_cos(th)  # the C library's, as math.cos
+        vy: cython.double = speed * _c_sin(th)
+        w: cython.double = _radians(seg.turn_rate_dps)
+        wx, wy = _vel(self)
+        if vx != wx or vy != wy:
+            _set_vel(self, vx, vy)
+        if w != _omega(self):
+            _set_omega(self, w)
+
+
+@cython.cclass
+class Substeps:
+    """A world's physics substeps (:meth:`~.world.World.advance`): at each substep boundary the
+    clock's pending events up to that instant (``run_until``), then every robot's drive
+    (:meth:`DrivenBody.apply`), every user's walk (:meth:`WalkingBody.apply`) and one Chipmunk
+    step of ``dt``. ``robots`` and ``users`` are the world's own lists (bodies added later are
+    stepped too). Substep instants come from the integer count ``done`` (no float drift);
+    ``steps`` counts the space's steps (the world's truth arrays are valid for one value).
+
+    The compiled form calls Chipmunk's ``cpSpaceStep`` directly, doing what pymunk's
+    ``Space.step`` does around it (its lock while Chipmunk runs the collision callbacks, then what
+    they deferred): the same physics, without the wrapper's per-call Python work."""
+
+    def __init__(self, space: pymunk.Space, run_until, robots: list, users: list, dt: float):
+        self.space = space
+        self._run_until = run_until
+        self.robots = robots
+        self.users = users
+        self.dt = dt
+        self.done = 0
+        self.steps = 0
+        if cython.compiled:
+            self._cspace = int(pymunk.ffi.cast("uintptr_t", space._space))  # alive as long as space
+
+    @cython.ccall
+    def run(self, n: cython.int) -> None:
+        """``n`` substeps (class docstring)."""
+        dt: cython.double = self.dt
+        k: cython.int
+        r: DrivenBody
+        u: WalkingBody
+        for k in range(n):
+            self.done += 1
+            self._run_until(self.done * dt)
+            for r in self.robots:
+                r.apply(dt)
+            for u in self.users:
+                u.apply(dt)
+            self._step(dt)
+            self.steps += 1
+
+    @cython.cfunc
+    def _step(self, dt: cython.double) -> cython.void:
+        """One step of the space: pymunk's ``Space.step`` (see the class docstring)."""
+        space = self.space
+        if not cython.compiled or space._bodies_to_check or space.threaded:
+            space.step(dt)  # pymunk's own (it checks the bodies added since its last step)
+            return
+        space._locked = True
+        try:
+            _cp_space_step(cython.cast(cython.p_void, self._cspace), dt)
+            if space._removed_shapes:
+                space._removed_shapes.clear()
+        finally:
+            space._locked = False
+        if space._add_later or space._remove_later or space._post_step_callbacks:
+            _after_step(space)
+
+
+def _after_step(space: pymunk.Space) -> None:
+    """What pymunk's ``Space.step`` (pymunk 7) does after Chipmunk's step: add and remove what the
+    collision callbacks deferred, then the post-step callbacks."""
+    space.add(*space._add_later)
+    space._add_later.clear()
+    removed = set()
+    while space._remove_later:
+        to_remove, _ = space._remove_later.popitem()
+        if to_remove not in removed:
+            removed.add(to_remove)
+            space._remove(to_remove)
+    for key in space._post_step_callbacks:
+        space._post_step_callbacks[key](space)
+    space._post_step_callbacks.clear()
 
 
 def read_poses(bodies: list[Body]) -> tuple[list[float], list[float]]:

@@ -2,12 +2,16 @@
 
 Control factors (seed 000 §3.6.1, Fig. 11; seed 002 §3.4): ``Vx`` front/rear speed, ``Vy``
 left/right speed, ``ω`` angular speed, all in the robot's body frame (x forward, y left, ω CCW).
+
+A module of the compiled core (``petswarm_env/_core.py``, Cython's pure-Python mode): the wheel
+saturation runs on C doubles (every robot's command, every step).
 """
 
 from __future__ import annotations
 
 import math
 
+import cython
 import numpy as np
 import pymunk
 
@@ -19,6 +23,8 @@ from petswarm_env.sim.body import COLLISION_ROBOT, DrivenBody
 from petswarm_env.sim.body import _get_position  # noqa: F401  read here by middleware/node.py until it binds Body.read_position
 from petswarm_env.sim.faults import FaultState
 from petswarm_env.sim.sensors import AHRS
+
+COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
 
 # Wheel order: front-left, front-right, rear-left, rear-right. Linear wheel-rim speeds (m/s).
 _INV = np.array(  # body (vx, vy, L*ω) -> wheels
@@ -43,20 +49,36 @@ def body_velocity(wheels: np.ndarray, lever_m: float) -> tuple[float, float, flo
     return float(vx), float(vy), float(l_omega / lever_m)
 
 
-def saturate_command(vx: float, vy: float, omega: float, cfg: RobotConfig) -> tuple[float, float, float]:
+@cython.ccall
+def saturate_command(vx: cython.double, vy: cython.double, omega: cython.double, cfg) -> tuple:
     """Clip ω to its limit, then scale all wheels together so none exceeds the wheel limit.
 
     Scaling the four wheels by one factor keeps the commanded direction (SPEC §1: a saturated
-    command keeps its direction).
+    command keeps its direction). ``min`` and ``max`` written out as Python's builtins give them
+    (the first of equals; a NaN ω clips to the limit).
     """
-    omega = max(-cfg.max_omega_rps, min(cfg.max_omega_rps, omega))
-    lever = cfg.wheel_lever_m
+    limit: cython.double = cfg.max_omega_rps
+    omega = omega if omega < limit else limit  # max(-limit, min(limit, ω))
+    omega = omega if omega > -limit else -limit
+    lever: cython.double = cfg.wheel_lever_m
     # max |wheel| of _INV @ (vx, vy, Lω) without building arrays (hot path)
-    a, b = vx + vy, vx - vy
-    lw = lever * omega
-    peak = max(abs(b - lw), abs(a + lw), abs(a - lw), abs(b + lw))
-    if peak > cfg.max_speed_mps:
-        k = cfg.max_speed_mps / peak
+    a: cython.double = vx + vy
+    b: cython.double = vx - vy
+    lw: cython.double = lever * omega
+    peak: cython.double = abs(b - lw)  # max(|b − Lω|, |a + Lω|, |a − Lω|, |b + Lω|)
+    wheel: cython.double = abs(a + lw)
+    if wheel > peak:
+        peak = wheel
+    wheel = abs(a - lw)
+    if wheel > peak:
+        peak = wheel
+    wheel = abs(b + lw)
+    if wheel > peak:
+        peak = wheel
+    max_speed: cython.double = cfg.max_speed_mps
+    k: cython.double
+    if peak > max_speed:
+        k = max_speed / peak
         return vx * k, vy * k, omega * k
     return vx, vy, omega
 

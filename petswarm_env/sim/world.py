@@ -17,7 +17,7 @@ from petswarm_env.config import Config
 from petswarm_env.robot_types import DEFAULT_TYPE
 from petswarm_env.robot_types import resolve as resolve_type
 from petswarm_env.scenarios import ScenarioScript
-from petswarm_env.sim.body import COLLISION_ROBOT, COLLISION_USER, COLLISION_WALL, read_poses
+from petswarm_env.sim.body import COLLISION_ROBOT, COLLISION_USER, COLLISION_WALL, Substeps, read_poses
 from petswarm_env.sim.clock import Clock
 from petswarm_env.sim.robot import Robot
 from petswarm_env.sim.user import User
@@ -47,9 +47,7 @@ class World:
         self.space.gravity = (0.0, 0.0)  # top view
         self.space.collision_slop = cfg.world.collision_slop_m
         self.dt_sub = cfg.control_period_s / cfg.physics_substeps
-        self._substeps_done = 0
-        self._physics_steps = 0  # Space.step calls so far: the truth arrays are valid for one value
-        self._truth_at = -1  # _physics_steps when the truth arrays were read (-1: stale)
+        self._truth_at = -1  # substeps.steps when the truth arrays were read (-1: stale)
         self._truth: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         self.robots: list[Robot] = []
         # each robot's type, by index in the order add_robot is called (the env sets it before the
@@ -57,6 +55,7 @@ class World:
         self.body_plan: list = []
         self.default_body = resolve_type(cfg, DEFAULT_TYPE)
         self.users: list[User] = []
+        self.substeps = Substeps(self.space, self.clock.run_until, self.robots, self.users, self.dt_sub)  # advance()
         self.user = self.add_user(script, (0.0, 0.0), 0.0)  # the first user (user 0)
         self.collisions = CollisionCounts()
         self.wall_a, self.wall_b = self._build_static()
@@ -122,21 +121,9 @@ class World:
         return self.clock.now  # (a plain attribute of the clock)
 
     def advance(self, substeps: int) -> None:
-        """Run the clock for ``substeps`` physics substeps (events first, then physics)."""
-        dt = self.dt_sub
-        robots = self.robots
-        users = self.users
-        run_until = self.clock.run_until
-        step = self.space.step
-        for _ in range(substeps):
-            self._substeps_done += 1
-            run_until(self._substeps_done * dt)
-            for r in robots:
-                r.apply(dt)
-            for user in users:
-                user.apply(dt)
-            step(dt)
-            self._physics_steps += 1
+        """Run the clock for ``substeps`` physics substeps (events first, then physics:
+        :class:`~.body.Substeps`, compiled)."""
+        self.substeps.run(substeps)
 
     # -- truth arrays (for sensor models, metrics, rendering) ------------------------------------
     def invalidate_truth(self) -> None:
@@ -147,7 +134,8 @@ class World:
         """Centres of every round body (robots, then the users), their radii and the robots'
         headings, read from Chipmunk once per physics step (read-only arrays, shared by every
         caller until the next ``Space.step``)."""
-        if self._truth_at == self._physics_steps and self._truth is not None:
+        steps = self.substeps.steps  # Space.step calls so far: the truth arrays are valid for one value
+        if self._truth_at == steps and self._truth is not None:
             return self._truth
         xy, th = read_poses(self.robots)
         if self.users:
@@ -163,7 +151,7 @@ class World:
         centers.flags.writeable = False
         headings.flags.writeable = False
         self._truth = (centers, radii, headings)
-        self._truth_at = self._physics_steps
+        self._truth_at = steps
         return self._truth
 
     def robot_positions(self) -> np.ndarray:

@@ -7,6 +7,7 @@ import pytest
 
 from petswarm_env.config import load_config
 from petswarm_env.scenarios import SCENARIOS
+from petswarm_env.sim.body import COLLISION_ROBOT
 from petswarm_env.sim.robot import Robot
 from petswarm_env.sim.sensors import UltrasonicRing
 from petswarm_env.sim.world import World
@@ -99,3 +100,49 @@ def test_truth_arrays_follow_the_physics_and_are_read_only():
     robot.body.position = (9.0, 9.0)  # moved by hand: stale until told
     world.invalidate_truth()
     assert world.robot_positions()[0].tolist() == [9.0, 9.0]
+
+
+def _pushing_world():
+    """A robot driving into another one at 1 m/s: contacts every substep."""
+    cfg = load_config()
+    world = World(cfg, SCENARIOS["straight"].script(cfg.user, np.random.default_rng(0)))
+    world.user.body.position = (-10.0, 0.0)
+    a, b = world.add_robot((0.0, 0.0), 0.0), world.add_robot((0.5, 0.0), 0.0)
+    a.command = (1.0, 0.0, 0.0)
+    world.invalidate_truth()
+    return world, a, b
+
+
+def test_the_substep_loop_steps_the_space_as_pymunk_does():
+    """World.advance (body.Substeps, Chipmunk's step called directly in the compiled form) against
+    the same substeps written out with pymunk's own Space.step: the same bodies, bit for bit."""
+    fast, _, _ = _pushing_world()
+    slow, _, _ = _pushing_world()
+    fast.advance(100)
+    dt = slow.dt_sub
+    for k in range(1, 101):
+        slow.clock.run_until(k * dt)
+        for body in (*slow.robots, *slow.users):
+            body.apply(dt)
+        slow.space.step(dt)
+    assert [(r.position, r.heading, r.velocity_body) for r in fast.robots] == \
+        [(r.position, r.heading, r.velocity_body) for r in slow.robots]
+    assert fast.collisions.robot_robot == slow.collisions.robot_robot > 0
+    assert fast.substeps.steps == fast.substeps.done == 100
+
+
+def test_what_a_collision_callback_defers_runs_after_the_substep():
+    """A post-step callback and a body removal asked for inside Chipmunk's step (pymunk defers them
+    while the space is locked) run after that substep, as pymunk's Space.step runs them."""
+    world, a, b = _pushing_world()
+    seen = []
+
+    def begin(arbiter, space, data):
+        seen.append(space._locked)
+        space.add_post_step_callback(lambda sp, key, tag: seen.append(tag), "post", "post")
+        space.remove(b.body, b.shape)
+
+    world.space.on_collision(COLLISION_ROBOT, COLLISION_ROBOT, begin=begin)
+    world.advance(40)
+    assert seen[:2] == [True, "post"]
+    assert b.body not in world.space.bodies and not world.space._locked

@@ -72,6 +72,7 @@ class RingPlan(NamedTuple):
     answer_slot_s: float  # 0: every member answers a start sign at once (after its MCU delay); else in member order, this far apart
     all_answer_token: bool  # every member answers a token (True), or only the robot it names
     wait_headings: bool  # the holder waits for its neighbours' heading reports before passing the token
+    ir_tx_s: float  # how long the holder transmits IR (protocol.ir_tx_s; a crowded ring: protocol.ring_ir_tx_crowded_s)
 
 
 def ring_plan(cfg: Config, total_members: int) -> RingPlan:
@@ -80,8 +81,8 @@ def ring_plan(cfg: Config, total_members: int) -> RingPlan:
     radio = cfg.radio
     answer_air_s = (radio.frame_overhead_bytes + msg.SIZE_BYTES[msg.TX_START_ACK]) * 8.0 / radio.bitrate_bps
     if (total_members - 1) * (answer_air_s + radio.turnaround_s) <= radio.processing_jitter_s:
-        return RingPlan(0.0, True, True)
-    return RingPlan(cfg.protocol.ring_answer_slot_s, False, False)
+        return RingPlan(0.0, True, True, cfg.protocol.ir_tx_s)
+    return RingPlan(cfg.protocol.ring_answer_slot_s, False, False, cfg.protocol.ring_ir_tx_crowded_s)
 
 
 def relative_heading(bearing_self_sees_other: float, bearing_other_sees_self: float) -> float:
@@ -112,6 +113,7 @@ class TokenRing:
         self.silent_rounds: dict[int, int] = {}  # master: member -> rounds in a row it was not heard in
         self.round_start_s = 0.0  # master: start of its previous slot
         self.started_s = -math.inf  # master: when it started its ring
+        self.rounds = 0  # master: rounds of its ring since it started it
         self.lost_handler = None  # master: called with the node id of a member declared lost (Node wires it)
         self._declared: set[int] = set()
         self._plan: tuple[int, RingPlan] | None = None  # (total members, its plan)
@@ -176,7 +178,7 @@ class TokenRing:
         yield from self._wait_acks(peers)
         if node.state == "master" and node.know is know:
             self._count_silent(peers, slot_start)
-        yield clock.timeout(cfg.ir_tx_s)
+        yield clock.timeout(self.plan().ir_tx_s)
         if self.token_seq != seq or node.know is not know:  # superseded, or left the swarm
             self.holding = False
             return
@@ -235,6 +237,9 @@ class TokenRing:
                 self._declared.add(peer)
                 self.lost_handler(peer)
         self.round_start_s = slot_start
+        self.rounds += 1
+        if self.rounds == 1:  # every member has had its slot: the master has measured each one in its IR reach
+            self.node.join.replan_by_fixes()
 
     def last_heard_s(self) -> float | None:
         """Master: when it last heard a ring frame of a member of its tables, or started its ring
@@ -255,6 +260,7 @@ class TokenRing:
         node = self.node
         self.round_start_s = self.started_s = node.clock.now  # every member's first round counts from now
         self.silent_rounds = {}
+        self.rounds = 0
         if node.know.total_members > 1:
             self.token_seq += 1000  # supersede any token still in flight
             node.clock.process(self.hold(self.token_seq))

@@ -37,7 +37,15 @@ hand-over). :func:`ring_plan` then runs the ring as (:class:`RingPlan`):
 - the holder passes the token at its IR deadline instead of waiting for its neighbours' heading
   reports, which it pairs when they arrive (during the next slot): a round of N slots must revisit
   every member within the IR fix's freshness (:data:`~.knowledge.FRESH_IR_S`, 2 s), and 17 slots of
-  0.16 s (with the wait) take 2.7 s, 17 of 0.11 s 1.9 s.
+  0.16 s (with the wait) take 2.7 s, 17 of 0.11 s 1.9 s;
+- the holder transmits IR ``protocol.ring_ir_tx_crowded_s`` (15 ms) instead of ``protocol.ir_tx_s``
+  (40 ms): the rest of a slot — the answers to its start sign (~50 ms) and the token's hand-over
+  (~25 ms), MCU processing delays — stays, so this is what shortens the round (1 + 16: 1.75 → 1.42 s,
+  one missed slot then leaves a fix about 3 s old instead of 3.5 s).
+
+After its ring's first round the master has measured every member in its IR reach: it hands the
+round to the join manager, which may re-plan which member takes which slot
+(:meth:`~.join.JoinManager.replan_by_fixes`, from ``protocol.replan_min_slaves`` slaves on).
 
 A ring that is not crowded (the default 1 + 4) runs as before, frame for frame.
 

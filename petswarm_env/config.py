@@ -172,6 +172,8 @@ class ProtocolConfig(Section):
     ring_response_timeout_s: float = Field(ge=TICK_S, le=LONG_S, description="token holder waits this long for responses")
     ir_tx_s: float = Field(ge=TICK_S, le=LONG_S, description="IR transmission time of one token holder")
     ring_answer_slot_s: float = Field(ge=0, le=1.0, description="a crowded ring's members answer a start sign in member order, this far apart (middleware/token_ring.py)")
+    ring_ir_tx_crowded_s: float = Field(ge=TICK_S, le=LONG_S, description="IR transmission time of one token holder in a crowded ring (middleware/token_ring.py)")
+    replan_min_slaves: int = Field(ge=1, le=COUNT, description="from this many slaves the master re-plans the slots by its IR fixes after the ring's first round (middleware/join.py)")
     token_timeout_s: float = Field(ge=TICK_S, le=LONG_S, description="master regenerates the token after this silence")
     token_retries: int = Field(ge=0, le=COUNT)
     broadcast_period_s: float = Field(ge=TICK_S, le=LONG_S, description="master's speed/activity broadcast")

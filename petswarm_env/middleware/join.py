@@ -152,6 +152,7 @@ class JoinManager:
         self._bid_at: dict[int, float] = {}  # bidder -> when its bid for the current announcement arrived
         self._auction_won: dict[int, int] = {}  # the last auction's outcome: member number -> robot id
         self._query_range_m: float | None = None  # candidate side: its RSSI range estimate of the joining query
+        self.replans = 0  # master: member updates sent by replan_by_fixes (the slots re-planned after the ring's first round)
         node.on(msg.SCAN, self._on_scan)
         node.on(msg.JOIN_QUERY, self._on_query)
         node.on(msg.STATUS_QUERY, self._on_query)
@@ -361,6 +362,32 @@ class JoinManager:
             free = [rid for rid in free if rid not in won.values()]
             if not missing:
                 return  # every free robot bid: a slot still open has no robot able to take it
+
+    def replan_by_fixes(self) -> None:
+        """Master, once its IR token ring has gone round after organizing (chosen, not in the papers):
+        which member takes which slot, re-planned by what it measured. Step 3 numbers the members
+        closest first by the RSSI range of their answers (bearing unknown), so from a scattered start
+        a large swarm's robots cross each other on the way to their slots; after one round the master
+        has its own IR fix of every member in its IR reach (the RSSI range of the others' ring frames):
+        the members take the slots by the least total distance it estimates
+        (:meth:`~.recovery.RecoveryManager.nearest_slots`, the same rule as a refill), and it
+        broadcasts the member update with the new member table when that differs. From
+        ``protocol.replan_min_slaves`` slaves on (the default 1 + 4 keeps its numbering, frame for frame)."""
+        node = self.node
+        know = node.know
+        formation = node.formation
+        if node.state != "master" or formation is None or know.total_members - 1 < node.cfg.protocol.replan_min_slaves:
+            return
+        recovery = node.recovery
+        members = dict(know.members)
+        table = recovery.nearest_slots(members, formation)
+        if table == members:
+            return
+        self.replans += 1
+        # the neighbour table stays; only the numbers move: the recovery manager's commit and its
+        # acknowledged member update (middleware/recovery.py), as after a removal
+        recovery._commit(table, formation)
+        node.clock.process(recovery._announce(table, formation))
 
     def refill(self, open_members: list[int], pan: int, members: dict[int, int], mode: str, result: OrganizeResult):
         """Recruit waiting robots into the ``open_members`` of an organized swarm (SimPy generator;

@@ -37,7 +37,15 @@ hand-over). :func:`ring_plan` then runs the ring as (:class:`RingPlan`):
 - the holder passes the token at its IR deadline instead of waiting for its neighbours' heading
   reports, which it pairs when they arrive (during the next slot): a round of N slots must revisit
   every member within the IR fix's freshness (:data:`~.knowledge.FRESH_IR_S`, 2 s), and 17 slots of
-  0.16 s (with the wait) take 2.7 s, 17 of 0.11 s 1.9 s.
+  0.16 s (with the wait) take 2.7 s, 17 of 0.11 s 1.9 s;
+- the holder transmits IR ``protocol.ring_ir_tx_crowded_s`` (15 ms) instead of ``protocol.ir_tx_s``
+  (40 ms): the rest of a slot — the answers to its start sign (~50 ms) and the token's hand-over
+  (~25 ms), MCU processing delays — stays, so this is what shortens the round (1 + 16: 1.75 → 1.42 s,
+  one missed slot then leaves a fix about 3 s old instead of 3.5 s).
+
+After its ring's first round the master has measured every member in its IR reach: it hands the
+round to the join manager, which may re-plan which member takes which slot
+(:meth:`~.join.JoinManager.replan_by_fixes`, from ``protocol.replan_min_slaves`` slaves on).
 
 A ring that is not crowded (the default 1 + 4) runs as before, frame for frame.
 
@@ -72,6 +80,7 @@ class RingPlan(NamedTuple):
     answer_slot_s: float  # 0: every member answers a start sign at once (after its MCU delay); else in member order, this far apart
     all_answer_token: bool  # every member answers a token (True), or only the robot it names
     wait_headings: bool  # the holder waits for its neighbours' heading reports before passing the token
+    ir_tx_s: float  # how long the holder transmits IR (protocol.ir_tx_s; a crowded ring: protocol.ring_ir_tx_crowded_s)
 
 
 def ring_plan(cfg: Config, total_members: int) -> RingPlan:
@@ -80,8 +89,8 @@ def ring_plan(cfg: Config, total_members: int) -> RingPlan:
     radio = cfg.radio
     answer_air_s = (radio.frame_overhead_bytes + msg.SIZE_BYTES[msg.TX_START_ACK]) * 8.0 / radio.bitrate_bps
     if (total_members - 1) * (answer_air_s + radio.turnaround_s) <= radio.processing_jitter_s:
-        return RingPlan(0.0, True, True)
-    return RingPlan(cfg.protocol.ring_answer_slot_s, False, False)
+        return RingPlan(0.0, True, True, cfg.protocol.ir_tx_s)
+    return RingPlan(cfg.protocol.ring_answer_slot_s, False, False, cfg.protocol.ring_ir_tx_crowded_s)
 
 
 def relative_heading(bearing_self_sees_other: float, bearing_other_sees_self: float) -> float:
@@ -112,6 +121,7 @@ class TokenRing:
         self.silent_rounds: dict[int, int] = {}  # master: member -> rounds in a row it was not heard in
         self.round_start_s = 0.0  # master: start of its previous slot
         self.started_s = -math.inf  # master: when it started its ring
+        self.rounds = 0  # master: rounds of its ring since it started it
         self.lost_handler = None  # master: called with the node id of a member declared lost (Node wires it)
         self._declared: set[int] = set()
         self._plan: tuple[int, RingPlan] | None = None  # (total members, its plan)
@@ -176,7 +186,7 @@ class TokenRing:
         yield from self._wait_acks(peers)
         if node.state == "master" and node.know is know:
             self._count_silent(peers, slot_start)
-        yield clock.timeout(cfg.ir_tx_s)
+        yield clock.timeout(self.plan().ir_tx_s)
         if self.token_seq != seq or node.know is not know:  # superseded, or left the swarm
             self.holding = False
             return
@@ -235,6 +245,9 @@ class TokenRing:
                 self._declared.add(peer)
                 self.lost_handler(peer)
         self.round_start_s = slot_start
+        self.rounds += 1
+        if self.rounds == 1:  # every member has had its slot: the master has measured each one in its IR reach
+            self.node.join.replan_by_fixes()
 
     def last_heard_s(self) -> float | None:
         """Master: when it last heard a ring frame of a member of its tables, or started its ring
@@ -255,6 +268,7 @@ class TokenRing:
         node = self.node
         self.round_start_s = self.started_s = node.clock.now  # every member's first round counts from now
         self.silent_rounds = {}
+        self.rounds = 0
         if node.know.total_members > 1:
             self.token_seq += 1000  # supersede any token still in flight
             node.clock.process(self.hold(self.token_seq))

@@ -331,11 +331,12 @@ def test_ring_plan_is_crowded_only_when_the_answers_outgrow_the_mcu_jitter():
 
     cfg = load_config()
     for slaves in range(1, 7):  # the default 1 + 4 among them: the ring as seed 000 Fig. 7 runs it, frame for frame
-        assert ring_plan(cfg, slaves + 1) == (0.0, True, True)
+        assert ring_plan(cfg, slaves + 1) == (0.0, True, True, cfg.protocol.ir_tx_s)
     for slaves in (7, 9, 16):
         plan = ring_plan(cfg, slaves + 1)
         assert plan.answer_slot_s == cfg.protocol.ring_answer_slot_s > 0
         assert not plan.all_answer_token and not plan.wait_headings
+        assert plan.ir_tx_s == cfg.protocol.ring_ir_tx_crowded_s < cfg.protocol.ir_tx_s
     # a wider jitter spreads more answers: 16 slaves' answers fit 16 x 0.86 ms
     wide = load_config(overrides={"radio.processing_jitter_s": 0.02})
     assert ring_plan(wide, 17).wait_headings
@@ -364,9 +365,10 @@ class RingFrames:
 
 @pytest.mark.parametrize("seed", [0, 1])
 def test_a_ring_of_seventeen_revisits_every_member_within_the_fix_freshness(seed):
-    """1 master + 16 slaves: every one joins, the ring's round stays under the 2 s an IR fix stays
-    fresh on average (17 slots of 0.16 s took 2.6 s when every robot answered at once and the holder waited
-    for the heading reports), a token is answered at the first try (3.7 tokens per hand-over
+    """1 master + 16 slaves: every one joins, the ring's round stays well under the 2 s an IR fix stays
+    fresh, every round (17 slots of 0.16 s took 2.6 s when every robot answered at once and the holder waited
+    for the heading reports; 1.8-2.0 s with the 40 ms IR time of a small ring, ~1.55 s with the crowded
+    ring's 15 ms), a token is answered at the first try (3.7 tokens per hand-over
     before) and fewer of its answers collide (60 % before)."""
     from petswarm_env.middleware.knowledge import FRESH_IR_S
 
@@ -380,7 +382,7 @@ def test_a_ring_of_seventeen_revisits_every_member_within_the_fix_freshness(seed
     for _ in range(60):
         env.step({})
     rounds = np.diff(trace.starts)
-    assert rounds.size >= 2 and rounds.mean() < FRESH_IR_S and rounds.max() < FRESH_IR_S + 0.2  # a token retry costs one wait
+    assert rounds.size >= 2 and rounds.mean() < 0.85 * FRESH_IR_S and rounds.max() < FRESH_IR_S
     assert trace.tokens < 2.0 * trace.slots
     assert trace.collided < 0.25 * trace.answers
     fresh = fresh_measurements(before, ir_times(env))

@@ -105,7 +105,8 @@ def test_neighbours_of_wedge():
 
 def test_a_large_wedge_fills_its_v_row_by_row():
     """1 + 16: the V of 1 + 4 first, then the free places nearest the master; every slave 1 m from
-    each of its one or two reference neighbours diagonally in front of it, 5 rows, 4.3 m deep."""
+    each of its one or two reference neighbours diagonally in front of it (an edge place of the V
+    beyond the first two rows: the one in front and the one beside it, inward), 5 rows, 4.3 m deep."""
     f = formation("wedge", n=17)
     slots = f.slot_positions()
     assert np.allclose(slots[:5], EXPECTED_SLOTS["wedge"])
@@ -115,9 +116,12 @@ def test_a_large_wedge_fills_its_v_row_by_row():
     for m, links in f.links.items():
         assert 1 <= len(links) <= MAX_LINKS
         for lk in links:
-            assert lk.neighbour < m and slots[lk.neighbour][0] > slots[m][0]  # in front of it
+            assert lk.neighbour < m and slots[lk.neighbour][0] >= slots[m][0] - 1e-9  # in front of it or beside it
             assert math.dist(slots[m], slots[lk.neighbour]) == pytest.approx(1.0)
-    assert sum(len(lks) == 2 for lks in f.links.values()) == 8  # the inner places (the arms: 8 with one)
+    # one reference: the first row and members 3, 4 (the V of 1 + 4 stays as it was); every other place two
+    assert sorted(m for m, lks in f.links.items() if len(lks) == 1) == [1, 2, 3, 4]
+    assert [lk.neighbour for lk in f.links[8]] == [3, 6]  # the left edge of row 3: member 3 in front, member 6 beside it
+    assert [lk.neighbour for lk in formation("wedge", n=5).links[3]] == [1]
     d = np.hypot(*(slots[:, None] - slots[None]).transpose(2, 0, 1))
     assert d[~np.eye(17, dtype=bool)].min() == pytest.approx(1.0)
 

@@ -462,7 +462,9 @@ class RecoveryManager:
 
 # the parts a master's job needs (chosen): its IR module — every slave locates it by its IR (seed 000 §3.3,
 # the master's slot of the ring) and it measures the heading exchange's bearings; a master whose IR broke
-# hands its user over (swarm.hand_over_for_fault). Its ultrasonic ring and AHRS: recorded, no handover.
+# hands its user over (swarm.hand_over_for_fault). Its ultrasonic ring and AHRS: recorded, no handover (the LF
+# antennas locate its user, seed 002 §3.2-3.4, and the slaves see its IR; handing over measured worse: re-formed
+# 18/20 and the user lost in 3 of 40 runs, against 19/20 and none kept — docs/faults.md)
 MASTER_NEEDS = frozenset({"ir"})
 CLEAR_SPEED_MPS = 0.5  # chosen: the sideways speed of a faulty robot leaving the formation (a third of the top speed)
 CLEAR_TIMEOUT = 3.0  # chosen: the move out gives up after three times its time at the commanded speed (a robot held by a contact)

@@ -17,7 +17,9 @@ formation, placed at the master's true pose) from ``--judge-at`` s to the end; t
 slave stayed >= ``FAR_M`` from its slot; when (s after the fault) the dead robot was out of the
 master's tables and the swarm held the user's count of live slaves again (counted within
 ``REFILL_WITHIN_S``), and whether the spare (the pool's robot beyond the user's count) was among them
-(the spare refilled the dead member's place); the members the master removed (lost, astray); the
+(the spare refilled the dead member's place), and whether none of them was an arrival (the pool's own robots
+held the count: the spare refilled the place — or, with ``swarm.spares`` >= 1, the spare walking in the formation
+was the robot that died and the user's count held without it); the members the master removed (lost, astray); the
 slaves at the end; robot-robot contacts.
 
 Targets (docs/results.md): no slave >= 5 m from its slot after 60 s in every run; the spare refills
@@ -96,7 +98,7 @@ def run(seed: int, variant: str, assignment: str, args) -> dict:
     policy = make_policy("scripted", PolicySpec.from_env(env), seed=seed)
     dt = env.cfg.control_period_s
     worst_late, far_s, far_run = 0.0, 0.0, {}
-    refill_s, by_spare = math.nan, False
+    refill_s, by_spare, by_pool = math.nan, False, False
     while env.agents:
         obs, *_ = env.step(policy.act_all({a: obs[a] for a in env.agents}))
         t = truth.now - t0
@@ -114,10 +116,11 @@ def run(seed: int, variant: str, assignment: str, args) -> dict:
             if gone and len(live) >= num_slaves:
                 refill_s = truth.now - truth.faults[0].time_s
                 by_spare = any(i in live for i in spare)
+                by_pool = not any(i in arrivals for i in live)
     summary = env.episode.summary()
     removed = [(round(t - t0, 1), ids) for t, event, ids in truth.member_log if event == "lost"]
     return {"seed": seed, "variant": variant, "assignment": assignment, "worst_late_m": worst_late, "far_s": far_s,
-            "refill_s": refill_s, "by_spare": by_spare, "spare": spare, "removed": removed, "slaves_end": len(sw.slave_ids()),
+            "refill_s": refill_s, "by_spare": by_spare, "by_pool": by_pool, "spare": spare, "removed": removed, "slaves_end": len(sw.slave_ids()),
             "dead": [f.robot for f in truth.faults], "contacts": summary["collisions"]["robot_robot"],
             "arrivals_joined": summary["arrivals_joined"]}
 
@@ -150,8 +153,9 @@ def main(argv: list[str] | None = None) -> int:
             if refilled:
                 line += f" (median {statistics.median(r['refill_s'] for r in refilled):.1f} s)"
             if variant == "spare":
-                line += (f", the spare among them in {sum(r['by_spare'] for r in refilled)}, the spare itself the dead slave in "
-                         f"{sum(any(i in r['spare'] for i in r['dead']) for r in rows)}")
+                line += (f", by the pool's own robots (no arrival among them: the spare refilled) in "
+                         f"{sum(r['by_pool'] for r in refilled)} (the spare among them in {sum(r['by_spare'] for r in refilled)}, "
+                         f"the spare itself the dead slave in {sum(any(i in r['spare'] for i in r['dead']) for r in rows)})")
             line += (f"; members removed {sum(len(ids) for r in rows for _, ids in r['removed'])}, slaves at the end "
                      f"{sum(r['slaves_end'] for r in rows) / len(rows):.1f} (mean), "
                      f"robot-robot contacts {sum(r['contacts'] for r in rows)}")

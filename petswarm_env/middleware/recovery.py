@@ -91,6 +91,8 @@ class RecoveryManager:
         self.mirrored = False  # master: the last removal chose the mirror image of the standard table
         self.update_retries = 0  # master: member-update broadcasts repeated for a missing acknowledgement
         self.refills: list[OrganizeResult] = []
+        self._organized_slaves = 0  # master: the slaves it drove with when its periodic scan started (places)
+        self.pool_heard = 0  # master: the joining candidates its organize's scans heard (places; set by the swarm)
         self.astray: list[tuple[float, int]] = []  # master: (time, node id) of each member removed as astray
         self._astray_since: dict[int, float] = {}  # master: member -> since when its range has said astray
         self.bid_requests: list[tuple[float, str]] = []  # member: (time, the part that failed) of each bid request started
@@ -119,16 +121,29 @@ class RecoveryManager:
             node.clock.process(self._recover())
 
     def open_members(self) -> list[int]:
-        """The member numbers the user's required count leaves open: after the last member, up to
-        ``swarm.num_slaves`` plus ``swarm.spares`` (the master's own configuration: its user's request)."""
+        """The member numbers the swarm's places leave open: after the last member, up to :attr:`places`
+        (``swarm.num_slaves``, its user's request, plus the spare places its organize filled)."""
+        return list(range(self.node.know.total_members, self.places + 1))
+
+    @property
+    def places(self) -> int:
+        """The slave places the master keeps filled: ``swarm.num_slaves`` (the master's own configuration:
+        its user's request) and, of the ``swarm.spares`` beyond it, as many as robots its organize heard
+        beyond that count (:attr:`pool_heard`: the joining candidates its scans found, seed 000 Fig. 8 step 1,
+        whether they joined or declined by Table 1) or recruited (chosen: a spare place exists where the
+        pool had a robot to spare when the swarm organized — a spare at the rim of the available region
+        declines by its own RSSI estimate at one query and joins at a later scan; a pool of exactly the
+        user's count keeps no spare place open, so its full swarm runs no periodic scan, as with
+        ``swarm.spares`` 0)."""
         swarm = self.node.cfg.swarm
-        return list(range(self.node.know.total_members, swarm.num_slaves + swarm.spares + 1))
+        return min(swarm.num_slaves + swarm.spares, max(swarm.num_slaves, self._organized_slaves, self.pool_heard))
 
     def maintain(self, pan: int):
         """Master process: the periodic scan while organized on ``pan`` and a slot is open."""
         node = self.node
         clock = node.clock
         period = node.cfg.protocol.rescan_period_s
+        self._organized_slaves = node.know.total_members - 1  # the slaves its organize (or takeover) left it with
         while True:
             yield clock.timeout(period)
             if node.state != "master" or node.swarm_pan != pan:
@@ -447,7 +462,9 @@ class RecoveryManager:
 
 # the parts a master's job needs (chosen): its IR module — every slave locates it by its IR (seed 000 §3.3,
 # the master's slot of the ring) and it measures the heading exchange's bearings; a master whose IR broke
-# hands its user over (swarm.hand_over_for_fault). Its ultrasonic ring and AHRS: recorded, no handover.
+# hands its user over (swarm.hand_over_for_fault). Its ultrasonic ring and AHRS: recorded, no handover (the LF
+# antennas locate its user, seed 002 §3.2-3.4, and the slaves see its IR; handing over measured worse: re-formed
+# 18/20 and the user lost in 3 of 40 runs, against 19/20 and none kept — docs/faults.md)
 MASTER_NEEDS = frozenset({"ir"})
 CLEAR_SPEED_MPS = 0.5  # chosen: the sideways speed of a faulty robot leaving the formation (a third of the top speed)
 CLEAR_TIMEOUT = 3.0  # chosen: the move out gives up after three times its time at the commanded speed (a robot held by a contact)

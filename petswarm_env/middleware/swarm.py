@@ -88,6 +88,7 @@ class Swarm:
         yield from master.join.organize(self.cfg.swarm.num_slaves, self.pan, self.organize_result, lambda: self.mode,
                                         spares=self.cfg.swarm.spares)
         self.formation = master.formation  # laid out for the driving mode by the master's join manager
+        master.recovery.pool_heard = len(self.organize_result.candidates)  # the robots its scans heard (spare places)
         self._start_master_processes(master)
 
     def _start_master_processes(self, master: Node) -> None:

@@ -58,6 +58,7 @@ from petswarm_env.wearables.belt import SmartBelt
 from petswarm_env.wearables.watch import Command, RemoteDriver, Watch
 
 DRIVING_STATES = ("following", "leading", "remote")
+MOVING_ACTIVITIES = ("walk", "run")  # the belt's activities (seed 002 Table 2) in which the user moves
 MODE_SETTLE_S = 5.0  # chosen: after a mode change the re-forming swarm raises no obstacle exception
 LEADING_LF_MARGIN_M = 0.3  # chosen: a leading master stays this far inside its LF range
 APPROACH_SLACK_M = 0.15  # chosen: a new master bursts its wake-up pattern once this near its approach distance ...
@@ -467,8 +468,13 @@ class UserSession:
         elif self.state == "emergency" and self.tracker.last_fix_s > self._emergency_since:
             self.state = self.previous_mode
         self.swarm.emergency = self.state == "emergency"
-        # exception: an obstacle in the leading robot's travel direction (behind it: it faces the user)
-        if self.state == "leading" and ranges is not None and len(ranges) and self._obstacle_behind(ranges):
+        # exception: an obstacle in the leading robot's travel direction (behind it: it faces the user) while it
+        # travels — its user walks or runs by the belt's report (seed 002 §3.4); a leading robot whose user stands
+        # has no travel direction (chosen: during the building of seed 000 Fig. 10 the slaves cross behind the
+        # master before its IR has fixed them, and the exception they raised was never returned from by a user
+        # who then walked off: 8 of 20 leading straight walks, seeds 0-19, ended 22-38 m from their master)
+        if self.state == "leading" and self.belt_view.activity in MOVING_ACTIVITIES and ranges is not None \
+                and len(ranges) and self._obstacle_behind(ranges):
             self.state = "exception"
             self.events["exceptions"] += 1
             self.events["alerts_to_belt"] += 1

@@ -174,6 +174,23 @@ def test_obstacle_ahead_while_leading_raises_the_exception_then_return_resumes()
     assert "leading" in seen  # the return command resumes the previous mode
 
 
+def test_a_leading_master_whose_user_stands_raises_no_exception():
+    # a box close behind the leading master (its travel direction) while its user stands: the master does not
+    # travel, so nothing is in its way (the building swarm's slaves crossing there raised exceptions before)
+    box = {"center_m": [2.3, 0.0], "size_m": [0.2, 0.2]}
+    env = petswarm_env.parallel_env(**{"swarm.mode": "leading", "user.scenario": "straight", "swarm.num_slaves": 2,
+                                       "world.obstacles": [box], "user.start_delay_s": 100.0,
+                                       "user.formation_wait_s": 100.0})
+    env.reset(seed=0)
+    se = env.episode.session
+    robot = env.episode.world.robots[env.episode.swarm.master.node_id]
+    run(env, 50)
+    gap = 2.3 - 0.1 - robot.position[0] - env.cfg.robot.radius_m
+    assert 0.0 < gap < env.cfg.master.exception_range_m  # the box is within the exception's range behind it
+    assert se.belt_view.activity in ("stop", "rest")  # the belt reports the user standing
+    assert se.state == "leading" and se.events["exceptions"] == 0
+
+
 def test_user_beyond_the_reliable_range_is_an_emergency_and_everyone_stops():
     env = petswarm_env.parallel_env(**{"user.scenario": "straight", "user.start_delay_s": 100.0})
     env.reset(seed=0)

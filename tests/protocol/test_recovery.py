@@ -257,3 +257,8 @@ def test_without_spares_the_extra_robot_stays_waiting_and_a_short_pool_organizes
     assert len(short.episode.swarm.master.know.members) == 1 + 4
     assert short.episode.swarm.organize_result.elapsed_s == plain.episode.swarm.organize_result.elapsed_s
     assert short.episode.swarm.organize_result.complete
+    # a pool of exactly the user's count keeps no spare place open: the full swarm runs no periodic scan
+    assert short.episode.swarm.master.recovery.open_members() == []
+    spare = make(**{"swarm.extra_robots": 1, "swarm.spares": 2})  # one robot to spare: one spare place, not two
+    recovery = spare.episode.swarm.master.recovery
+    assert recovery.pool_heard == 5 and recovery.places == 5

@@ -147,3 +147,17 @@ def test_a_master_whose_ir_breaks_hands_its_user_over_by_table_3_and_the_swarm_g
     assert r["bid_request"] and r["other_detections"] == []  # the old master asked to leave its new slot
     assert r["session_state"] == "following" and r["user_distance_end_m"] <= sensor_faults.USER_FOLLOWED_M
     assert r["reformed"]
+
+
+@pytest.mark.parametrize("kind", ["ultrasonic", "ahrs"])
+def test_a_master_whose_ultrasonic_or_ahrs_breaks_finds_it_and_keeps_its_user(kind):
+    """The master's ultrasonic ring or AHRS: found by its own diagnosis like a slave's, and the master keeps its
+    role (its LF antennas locate the user, its IR is seen by the slaves: docs/faults.md, measured against a
+    handover): no handover, no bid request, the formation holds and the user is driven to the end."""
+    from petswarm.experiments import sensor_faults
+
+    r = sensor_faults.run(kind, 2, target="master")
+    assert r["robot"] == 0 and r["detection_s"] is not None and r["detection_s"] <= 3.0
+    assert r["handovers"] == [] and r["master_after"] == 0 and not r["bid_request"] and r["other_detections"] == []
+    assert r["session_state"] == "following" and r["user_distance_end_m"] <= sensor_faults.USER_FOLLOWED_M
+    assert r["reformed"]

@@ -232,6 +232,15 @@ def rounds_for(cfg: TrainConfig) -> int:
     return max(1, cfg.timesteps // cfg.recurrent.samples_per_round)
 
 
+def round_learning_rate(cfg: TrainConfig, k: int, rounds: int) -> float:
+    """Round ``k``'s Adam step size: ``recurrent.learning_rate``, or with ``learning_rate_final`` a
+    linear decay to it over the rounds (small steps once the aggregated data is large)."""
+    r = cfg.recurrent
+    if r.learning_rate_final is None or rounds < 2:
+        return r.learning_rate
+    return r.learning_rate + (r.learning_rate_final - r.learning_rate) * k / (rounds - 1)
+
+
 def train(cfg: TrainConfig, out_dir: str | os.PathLike, command: str = "", progress=print) -> dict[str, Any]:
     """Distil the teacher into a recurrent actor in the run folder ``out_dir`` (module docstring);
     returns the train log. The folder gets train_config.yaml, env_config.yaml, policy.npz (the best
@@ -266,10 +275,12 @@ def train(cfg: TrainConfig, out_dir: str | os.PathLike, command: str = "", progr
                                              r.teacher_noise_std if k == 0 else r.student_noise_std, r.teacher_mix ** k)
             data.extend(seqs)
             t1 = time.time()
+            for group in opt.param_groups:
+                group["lr"] = round_learning_rate(cfg, k, rounds)
             loss = fit(actor, opt, data, r.updates_per_round, r.batch_sequences, rng)
             log["timesteps"] += counts["samples"]
             log["wall_time_s"] = time.time() - log["_start"]
-            record = {"round": k, "driver": "teacher" if k == 0 else "student", "beta": r.teacher_mix ** k, **counts, "sequences": len(data),
+            record = {"round": k, "driver": "teacher" if k == 0 else "student", "beta": r.teacher_mix ** k, "learning_rate": opt.param_groups[0]["lr"], **counts, "sequences": len(data),
                       "loss": loss, "collect_s": round(t1 - t0, 1), "fit_s": round(time.time() - t1, 1)}
             log["rounds"].append(record)
             info = policy_info(cfg, log, ALGORITHM)

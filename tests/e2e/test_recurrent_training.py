@@ -32,6 +32,7 @@ def run(tmp_path_factory):
 def test_the_rounds_are_driven_by_the_teacher_then_the_student(run):
     out, log = run
     assert [r["driver"] for r in log["rounds"]] == ["teacher", "student"]
+    assert {r["learning_rate"] for r in log["rounds"]} == {0.002}  # recurrent.yaml: no decay
     assert log["timesteps"] == sum(r["samples"] for r in log["rounds"]) >= 600
     assert len(log["evaluations"]) == 2 and log["best"]["timesteps"] in {e["timesteps"] for e in log["evaluations"]}
     assert log["command"] == "petswarm train --config recurrent"

@@ -12,7 +12,7 @@ from petswarm.baselines.learned import (  # noqa: E402
     LearnedPolicy, PolicyLoadError, RecurrentPolicy, read_policy, read_policy_file)
 from petswarm.baselines.policy import PolicySpec  # noqa: E402
 from petswarm.training.config import load_train_config  # noqa: E402
-from petswarm.training.recurrent import RecurrentActor, export_actor, numpy_policy, rounds_for  # noqa: E402
+from petswarm.training.recurrent import RecurrentActor, export_actor, numpy_policy, round_learning_rate, rounds_for  # noqa: E402
 from petswarm_env import parallel_env  # noqa: E402
 from petswarm_env.config import ConfigError  # noqa: E402
 
@@ -125,6 +125,28 @@ def test_the_dagger_budget_scales_with_timesteps():
     assert rounds_for(load_train_config("configs/train/recurrent.yaml", {"timesteps": 1})) == 1
     with pytest.raises(ConfigError, match="timesteps > 0"):
         load_train_config("configs/train/recurrent.yaml", {"timesteps": 0})
+
+
+def test_the_learning_rate_decays_linearly_over_the_rounds_when_asked():
+    constant = load_train_config("configs/train/recurrent.yaml")
+    assert constant.recurrent.learning_rate_final is None
+    assert {round_learning_rate(constant, k, 5) for k in range(5)} == {constant.recurrent.learning_rate}
+    cfg = load_train_config("configs/train/recurrent.yaml", {"recurrent.learning_rate": 0.002, "recurrent.learning_rate_final": 0.0004})
+    rates = [round_learning_rate(cfg, k, 5) for k in range(5)]
+    assert rates[0] == 0.002 and rates[-1] == pytest.approx(0.0004)
+    assert np.allclose(np.diff(rates), -0.0004)
+    assert round_learning_rate(cfg, 0, 1) == 0.002  # one round: the first rate
+    with pytest.raises(ConfigError, match="learning_rate_final"):
+        load_train_config("configs/train/recurrent.yaml", {"recurrent.learning_rate_final": -1.0})
+
+
+def test_the_long_config_differs_from_the_committed_one_only_where_it_says():
+    base, long = load_train_config("configs/train/recurrent.yaml"), load_train_config("configs/train/recurrent_long.yaml")
+    assert rounds_for(long) == 3 * rounds_for(base)
+    assert (long.residual_scale, long.recurrent.learning_rate_final) == (1.0, 0.0003)
+    same = {**long.model_dump(), "timesteps": base.timesteps, "residual_scale": base.residual_scale,
+            "recurrent": {**long.model_dump()["recurrent"], "learning_rate_final": None}}
+    assert same == base.model_dump()
 
 
 def test_a_residual_recurrent_policy_corrects_the_scripted_reference(spec, tmp_path):

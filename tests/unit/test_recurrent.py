@@ -143,9 +143,9 @@ def test_the_learning_rate_decays_linearly_over_the_rounds_when_asked():
 def test_the_long_config_differs_from_the_committed_one_only_where_it_says():
     base, long = load_train_config("configs/train/recurrent.yaml"), load_train_config("configs/train/recurrent_long.yaml")
     assert rounds_for(long) == 3 * rounds_for(base)
-    assert (long.residual_scale, long.recurrent.learning_rate_final) == (1.0, 0.0003)
-    same = {**long.model_dump(), "timesteps": base.timesteps, "residual_scale": base.residual_scale,
-            "recurrent": {**long.model_dump()["recurrent"], "learning_rate_final": None}}
+    assert (long.recurrent.updates_per_round, long.recurrent.learning_rate_final) == (400, 0.0003)
+    same = {**long.model_dump(), "timesteps": base.timesteps,
+            "recurrent": {**long.model_dump()["recurrent"], "learning_rate_final": None, "updates_per_round": 250}}
     assert same == base.model_dump()
 
 
@@ -163,3 +163,32 @@ def test_a_residual_recurrent_policy_corrects_the_scripted_reference(spec, tmp_p
     base = make_policy("scripted", spec).act(agent, o)
     want = np.clip(base + 0.5 * _torch_actions(actor, o[None])[0], -1.0, 1.0)
     assert np.abs(policy.act_all({agent: o})[agent] - want).max() < 1e-5
+
+
+class _FirstResetFails:
+    """A training env whose first reset raises the swarm's OrganizeError (a draw that never organizes)."""
+
+    def __init__(self, env):
+        self._env, self.seeds = env, []
+
+    def __getattr__(self, name):
+        return getattr(self._env, name)
+
+    def reset(self, seed=None, options=None):
+        from petswarm_env.middleware.join import OrganizeError
+
+        self.seeds.append(seed)
+        if len(self.seeds) == 1:
+            raise OrganizeError("user 0's belt never woke up (a test)", seed, "belt")
+        return self._env.reset(seed=seed, options=options)
+
+
+def test_a_draw_that_never_organizes_is_skipped_not_fatal():
+    from petswarm.training.recurrent import collect_sequences
+    from petswarm.training.vec_env import training_env
+
+    cfg = load_train_config("configs/train/recurrent.yaml", {"env.max_cycles": 40})
+    env = _FirstResetFails(training_env(cfg.env_config(), cfg.randomize, cfg.env, False))
+    seqs, counts = collect_sequences(env, 50, 7, cfg, None, 0.0)
+    assert counts["unorganized"] == 1 and counts["samples"] >= 50 and seqs
+    assert env.seeds[:2] == [7, 8]  # the next seed, not the same one again

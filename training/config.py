@@ -122,6 +122,8 @@ class RecurrentConfig(Section):
     building_weight: float = Field(3.0, ge=0, le=1000.0, description="extra loss weight of a building step")
     lost_weight: float = Field(5.0, ge=0, le=1000.0, description="extra loss weight of a step without a fresh IR fix (search, lost)")
     eval_every_rounds: int = Field(1, ge=1, le=1_000_000, description="evaluate (and keep the best as policy.npz) every this many rounds")
+    validation_fraction: float = Field(0.0, ge=0.0, lt=1.0, description="share of each round's sequences held out of the fit: "
+                                                                        "their loss and explained share are logged (0: none)")
 
 
 class TrainConfig(Section):

@@ -8,7 +8,8 @@ Two measurements, per cell, on the first ``--episodes`` seeds of the grid:
    the scripted reference's rejoin and search for a robot with no fresh IR fix) and the scripted
    reference are asked for their actions in the same observation. Per phase — *holding* (the
    robot's true formation error at most ``building_error_m``), *building* (above it) and *lost* (no
-   fresh fix of anyone) — the RMS of the student's error to the label, of the correction the label
+   fresh fix of anyone; *holding_late*: holding from step 300 on, longer than any training
+   episode) — the RMS of the student's error to the label, of the correction the label
    asks of the reference (label − reference: what a residual student has to learn), of the
    student's own correction (student − reference) and the share of
    that correction's square the student explains, ``1 − err² / correction²`` (1: the teacher's
@@ -40,7 +41,8 @@ from petswarm.training.warm_start import TeacherLabels
 from petswarm_env.config import load_config
 from petswarm_env.env import PetSwarmEnv
 
-PHASES = ("holding", "building", "lost")
+PHASES = ("holding", "building", "lost", "holding_late")
+TRAIN_CYCLES = 300  # the training episodes' length (configs/train/recurrent.yaml env.max_cycles): a GRU never ran longer
 
 
 class LabelDriver:
@@ -67,9 +69,11 @@ class LabelDriver:
                 for a in observations}
 
 
-def imitation_by_phase(env: PetSwarmEnv, policy_name: str, seed: int, building_error_m: float) -> tuple[dict, dict]:
+def imitation_by_phase(env: PetSwarmEnv, policy_name: str, seed: int, building_error_m: float,
+                       split_at: int = TRAIN_CYCLES) -> tuple[dict, dict]:
     """One episode driven by ``policy_name``: per phase the sums of squared errors (student − label,
-    label − reference) and counts, and the episode summary."""
+    label − reference, student − reference) and counts, and the episode summary. Holding steps from
+    step ``split_at`` on count as ``holding_late`` (longer than any training episode), not ``holding``."""
     spec = PolicySpec.from_env(env)
     student = make_policy(policy_name, spec, seed)
     rows, infos = env.reset(seed=seed)
@@ -83,7 +87,8 @@ def imitation_by_phase(env: PetSwarmEnv, policy_name: str, seed: int, building_e
         if live:
             target, base = label(seen), reference.act_all(seen)
             for a in live:
-                phase = "lost" if label.lost(rows[a]) else "building" if infos[a]["formation_error_m"] > building_error_m else "holding"
+                phase = "lost" if label.lost(rows[a]) else "building" if infos[a]["formation_error_m"] > building_error_m else \
+                    "holding" if env.num_cycles < split_at else "holding_late"
                 acc[phase] += (float(np.sum((act[a] - target[a]) ** 2)), float(np.sum((target[a] - base[a]) ** 2)),
                                float(np.sum((act[a] - base[a]) ** 2)), 1.0)
         rows, _, _, _, infos = env.step(act)
@@ -144,7 +149,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--grid", default="configs/eval/heldout_recurrent.yaml")
     ap.add_argument("--policy", default="learned", help="learned or the path of a policy file")
     ap.add_argument("--episodes", type=int, default=2, help="the grid's first seeds per cell")
-    ap.add_argument("--scales", default="0.5,1.0,none", help="residual bounds of the zero-error ceilings (none: the label itself)")
+    ap.add_argument("--scales", default="0.5,1.0,none", help="residual bounds of the zero-error ceilings (none: the label "
+                                                             "itself; empty: no ceilings)")
     ap.add_argument("--json", default=None)
     a = ap.parse_args(argv)
     scales = [None if s.strip() == "none" else float(s) for s in a.scales.split(",") if s.strip()]

@@ -192,3 +192,19 @@ def test_a_draw_that_never_organizes_is_skipped_not_fatal():
     seqs, counts = collect_sequences(env, 50, 7, cfg, None, 0.0)
     assert counts["unorganized"] == 1 and counts["samples"] >= 50 and seqs
     assert env.seeds[:2] == [7, 8]  # the next seed, not the same one again
+
+
+def test_the_validation_loss_of_a_zero_output_explains_nothing(spec):
+    from petswarm.training.recurrent import Sequence, validation_loss
+
+    actor = _actor(spec)
+    with torch.no_grad():
+        actor.head[-1].weight.zero_()
+        actor.head[-1].bias.zero_()
+    rng = np.random.default_rng(0)
+    seqs = [Sequence(rng.normal(size=(n, spec.layout.size)).astype(np.float32), rng.normal(size=(n, 3)).astype(np.float32),
+                     rng.uniform(1, 3, n).astype(np.float32)) for n in (5, 9, 2)]
+    loss, zero = validation_loss(actor, seqs, 2)
+    assert loss == pytest.approx(zero) and zero > 0
+    y = np.concatenate([s.act for s in seqs]); w = np.concatenate([s.weight for s in seqs])
+    assert zero == pytest.approx(float((w * (y ** 2).sum(1)).sum() / len(w)), rel=1e-5)

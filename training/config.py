@@ -114,11 +114,16 @@ class RecurrentConfig(Section):
     updates_per_round: int = Field(150, ge=1, le=1_000_000, description="gradient steps after each round, on all data so far")
     batch_sequences: int = Field(16, ge=1, le=MAX_ROLLOUT, description="sequences (one robot's stretch of driving each) per step")
     learning_rate: float = Field(1e-3, gt=0, le=1.0)
+    learning_rate_final: float | None = Field(
+        None, gt=0, le=1.0, description="the last round's learning rate: from learning_rate down to this, linearly over the "
+                                        "rounds (None: constant)")
     building_error_m: float = Field(0.3, ge=0, le=1000.0, description="a step counts as building while the robot's formation "
                                                                       "error (ground truth, a label only) exceeds this")
     building_weight: float = Field(3.0, ge=0, le=1000.0, description="extra loss weight of a building step")
     lost_weight: float = Field(5.0, ge=0, le=1000.0, description="extra loss weight of a step without a fresh IR fix (search, lost)")
     eval_every_rounds: int = Field(1, ge=1, le=1_000_000, description="evaluate (and keep the best as policy.npz) every this many rounds")
+    validation_fraction: float = Field(0.0, ge=0.0, lt=1.0, description="share of each round's sequences held out of the fit: "
+                                                                        "their loss and explained share are logged (0: none)")
 
 
 class TrainConfig(Section):

@@ -57,6 +57,7 @@ from petswarm.training.warm_start import TeacherLabels
 from petswarm_env.config import Config
 from petswarm_env.env import PetSwarmEnv
 from petswarm_env.files import write_json_atomic, write_text_atomic
+from petswarm_env.middleware.join import OrganizeError
 from petswarm_env.observe import ObservationLayout
 
 ALGORITHM = "recurrent actor (GRU) distilled from the privileged teacher by DAgger"
@@ -142,18 +143,25 @@ def collect_sequences(env, samples: int, seed: int, cfg: TrainConfig, driver: Re
     labelled agent-steps (the last episode is played to its end): the teacher drives (``driver``
     None) or the student does — each robot's step executing the teacher's action instead with
     probability ``beta`` (DAgger's mixture) — with Gaussian action noise of ``noise_std``; every
-    live robot's step is labelled by the teacher. Returns the
+    live robot's step is labelled by the teacher; a seed whose swarm does not organize is skipped
+    (counted as ``unorganized``). Returns the
     sequences (a robot's sequence ends when it stops driving; a new one starts when it rejoins) and
     counts of building and lost steps."""
     r = cfg.recurrent
     residual = cfg.residual()
     rng = np.random.default_rng(seed)
     out: list[Sequence] = []
-    counts = {"samples": 0, "building": 0, "lost": 0}
+    counts = {"samples": 0, "building": 0, "lost": 0, "unorganized": 0}
     episode = 0
     while counts["samples"] < samples:
-        rows, infos = env.reset(seed=seed + episode)
         episode += 1
+        try:
+            rows, infos = env.reset(seed=seed + episode - 1)
+        except OrganizeError:  # this draw's swarm never organized (as the evaluation runner records it): no data, the next seed
+            counts["unorganized"] += 1
+            if counts["unorganized"] == episode >= 20:
+                raise ConfigError(f"none of seeds {seed}..{seed + episode - 1} organized a swarm; check the env config and randomize pools")
+            continue
         label = TeacherLabels(env)  # after the reset: the episode's env
         base = residual.base_policy(PolicySpec.from_env(env)) if residual else None  # a residual's target: teacher - base
         if driver is not None:
@@ -227,9 +235,33 @@ def fit(actor: RecurrentActor, opt: torch.optim.Optimizer, data: list[Sequence],
     return float(sum(tail) / len(tail))
 
 
+def validation_loss(actor: RecurrentActor, data: list[Sequence], batch_sequences: int) -> tuple[float, float]:
+    """The weighted loss of :func:`fit` on ``data`` (sequences never fitted) and the same of a zero
+    output (the base's action, with a residual); ``1 - loss / zero`` is the share of the target the
+    actor explains on new episodes."""
+    loss = zero = weight = 0.0
+    with torch.no_grad():
+        for i in range(0, len(data), batch_sequences):
+            x, y, w = batch(data[i:i + batch_sequences])
+            pred, _ = actor(x)
+            loss += float((w * ((pred - y) ** 2).sum(-1)).sum())
+            zero += float((w * (y ** 2).sum(-1)).sum())
+            weight += float(w.gt(0).sum())
+    return loss / max(weight, 1.0), zero / max(weight, 1.0)
+
+
 def rounds_for(cfg: TrainConfig) -> int:
     """DAgger rounds of the budget: ``timesteps // recurrent.samples_per_round`` (at least 1), round 0 the teacher's."""
     return max(1, cfg.timesteps // cfg.recurrent.samples_per_round)
+
+
+def round_learning_rate(cfg: TrainConfig, k: int, rounds: int) -> float:
+    """Round ``k``'s Adam step size: ``recurrent.learning_rate``, or with ``learning_rate_final`` a
+    linear decay to it over the rounds (small steps once the aggregated data is large)."""
+    r = cfg.recurrent
+    if r.learning_rate_final is None or rounds < 2:
+        return r.learning_rate
+    return r.learning_rate + (r.learning_rate_final - r.learning_rate) * k / (rounds - 1)
 
 
 def train(cfg: TrainConfig, out_dir: str | os.PathLike, command: str = "", progress=print) -> dict[str, Any]:
@@ -257,6 +289,8 @@ def train(cfg: TrainConfig, out_dir: str | os.PathLike, command: str = "", progr
     actor = build_actor(cfg, layout.size)
     opt = torch.optim.Adam(actor.parameters(), lr=r.learning_rate)
     data: list[Sequence] = []
+    held_out: list[Sequence] = []  # recurrent.validation_fraction of each round's sequences, never fitted
+    split_rng = np.random.default_rng(cfg.seed + 1)  # its own stream: without a split the run is as before
     rounds = rounds_for(cfg)
     try:
         for k in range(rounds):
@@ -264,13 +298,23 @@ def train(cfg: TrainConfig, out_dir: str | os.PathLike, command: str = "", progr
             driver = None if k == 0 else numpy_policy(actor, PolicySpec.from_env(env), cfg.residual())
             seqs, counts = collect_sequences(env, r.samples_per_round, cfg.seed + 100_000 + 10_000 * k, cfg, driver,
                                              r.teacher_noise_std if k == 0 else r.student_noise_std, r.teacher_mix ** k)
+            if r.validation_fraction > 0.0:
+                out_of_fit = split_rng.random(len(seqs)) < r.validation_fraction
+                held_out.extend(s for s, v in zip(seqs, out_of_fit) if v)
+                seqs = [s for s, v in zip(seqs, out_of_fit) if not v]
             data.extend(seqs)
             t1 = time.time()
+            for group in opt.param_groups:
+                group["lr"] = round_learning_rate(cfg, k, rounds)
             loss = fit(actor, opt, data, r.updates_per_round, r.batch_sequences, rng)
             log["timesteps"] += counts["samples"]
             log["wall_time_s"] = time.time() - log["_start"]
-            record = {"round": k, "driver": "teacher" if k == 0 else "student", "beta": r.teacher_mix ** k, **counts, "sequences": len(data),
+            record = {"round": k, "driver": "teacher" if k == 0 else "student", "beta": r.teacher_mix ** k, "learning_rate": opt.param_groups[0]["lr"], **counts, "sequences": len(data),
                       "loss": loss, "collect_s": round(t1 - t0, 1), "fit_s": round(time.time() - t1, 1)}
+            if held_out:
+                val, zero = validation_loss(actor, held_out, r.batch_sequences)
+                record.update(validation_loss=val, validation_explained=1.0 - val / zero if zero > 0 else float("nan"),
+                              validation_sequences=len(held_out))
             log["rounds"].append(record)
             info = policy_info(cfg, log, ALGORITHM)
             export_actor(actor, out / LAST_POLICY, layout, info, cfg.residual())
@@ -284,6 +328,8 @@ def train(cfg: TrainConfig, out_dir: str | os.PathLike, command: str = "", progr
             if progress:
                 ev = log["evaluations"][-1] if log["evaluations"] and log["evaluations"][-1].get("round") == k else None
                 progress(f"round {k + 1}/{rounds} ({record['driver']} drove): {log['timesteps']} samples, loss {loss:.4f}"
+                         + (f", held-out loss {record['validation_loss']:.4f} (explained {record['validation_explained']:+.2f})"
+                            if held_out else "")
                          + (f", eval median {cfg.eval.metric} ratio {ev['median_ratio']:.2f} (not built {ev['not_built']})" if ev else "")
                          + f", {log['wall_time_s']:.0f} s")
     finally:

@@ -32,6 +32,7 @@ def run(tmp_path_factory):
 def test_the_rounds_are_driven_by_the_teacher_then_the_student(run):
     out, log = run
     assert [r["driver"] for r in log["rounds"]] == ["teacher", "student"]
+    assert {r["learning_rate"] for r in log["rounds"]} == {0.002}  # recurrent.yaml: no decay
     assert log["timesteps"] == sum(r["samples"] for r in log["rounds"]) >= 600
     assert len(log["evaluations"]) == 2 and log["best"]["timesteps"] in {e["timesteps"] for e in log["evaluations"]}
     assert log["command"] == "petswarm train --config recurrent"
@@ -57,3 +58,14 @@ def test_a_recurrent_run_is_not_resumed_nor_overwritten(run):
         train_command("configs/train/recurrent.yaml", SHORT, 600, str(out), True, False, "")
     with pytest.raises(ConfigError, match="already holds a run"):
         train_recurrent("recurrent", 600, 0, out)
+
+
+def test_a_validation_split_is_held_out_of_the_fit_and_logged(tmp_path):
+    out = tmp_path / "val"
+    short = [s for s in SHORT if not s.startswith("recurrent.samples_per_round")] + [
+        "recurrent.samples_per_round=600", "recurrent.validation_fraction=0.5"]
+    assert train_command("configs/train/recurrent.yaml", short, 1200, str(out), False, False, "") == 0
+    rounds = json.loads((out / "train_log.json").read_text())["rounds"]
+    held = [r["validation_sequences"] for r in rounds]
+    assert 0 < held[0] <= held[-1] and all(r["sequences"] + r["validation_sequences"] > r["sequences"] for r in rounds)
+    assert all(np.isfinite(r["validation_loss"]) and r["validation_explained"] <= 1.0 for r in rounds)

@@ -12,7 +12,7 @@ from petswarm.baselines.learned import (  # noqa: E402
     LearnedPolicy, PolicyLoadError, RecurrentPolicy, read_policy, read_policy_file)
 from petswarm.baselines.policy import PolicySpec  # noqa: E402
 from petswarm.training.config import load_train_config  # noqa: E402
-from petswarm.training.recurrent import RecurrentActor, export_actor, numpy_policy, rounds_for  # noqa: E402
+from petswarm.training.recurrent import RecurrentActor, export_actor, numpy_policy, round_learning_rate, rounds_for  # noqa: E402
 from petswarm_env import parallel_env  # noqa: E402
 from petswarm_env.config import ConfigError  # noqa: E402
 
@@ -127,6 +127,28 @@ def test_the_dagger_budget_scales_with_timesteps():
         load_train_config("configs/train/recurrent.yaml", {"timesteps": 0})
 
 
+def test_the_learning_rate_decays_linearly_over_the_rounds_when_asked():
+    constant = load_train_config("configs/train/recurrent.yaml")
+    assert constant.recurrent.learning_rate_final is None
+    assert {round_learning_rate(constant, k, 5) for k in range(5)} == {constant.recurrent.learning_rate}
+    cfg = load_train_config("configs/train/recurrent.yaml", {"recurrent.learning_rate": 0.002, "recurrent.learning_rate_final": 0.0004})
+    rates = [round_learning_rate(cfg, k, 5) for k in range(5)]
+    assert rates[0] == 0.002 and rates[-1] == pytest.approx(0.0004)
+    assert np.allclose(np.diff(rates), -0.0004)
+    assert round_learning_rate(cfg, 0, 1) == 0.002  # one round: the first rate
+    with pytest.raises(ConfigError, match="learning_rate_final"):
+        load_train_config("configs/train/recurrent.yaml", {"recurrent.learning_rate_final": -1.0})
+
+
+def test_the_long_config_differs_from_the_committed_one_only_where_it_says():
+    base, long = load_train_config("configs/train/recurrent.yaml"), load_train_config("configs/train/recurrent_long.yaml")
+    assert rounds_for(long) == 3 * rounds_for(base)
+    assert (long.recurrent.updates_per_round, long.recurrent.learning_rate_final) == (400, 0.0003)
+    same = {**long.model_dump(), "timesteps": base.timesteps,
+            "recurrent": {**long.model_dump()["recurrent"], "learning_rate_final": None, "updates_per_round": 250}}
+    assert same == base.model_dump()
+
+
 def test_a_residual_recurrent_policy_corrects_the_scripted_reference(spec, tmp_path):
     from petswarm.baselines.learned import Residual
     from petswarm.baselines.registry import make_policy
@@ -141,3 +163,48 @@ def test_a_residual_recurrent_policy_corrects_the_scripted_reference(spec, tmp_p
     base = make_policy("scripted", spec).act(agent, o)
     want = np.clip(base + 0.5 * _torch_actions(actor, o[None])[0], -1.0, 1.0)
     assert np.abs(policy.act_all({agent: o})[agent] - want).max() < 1e-5
+
+
+class _FirstResetFails:
+    """A training env whose first reset raises the swarm's OrganizeError (a draw that never organizes)."""
+
+    def __init__(self, env):
+        self._env, self.seeds = env, []
+
+    def __getattr__(self, name):
+        return getattr(self._env, name)
+
+    def reset(self, seed=None, options=None):
+        from petswarm_env.middleware.join import OrganizeError
+
+        self.seeds.append(seed)
+        if len(self.seeds) == 1:
+            raise OrganizeError("user 0's belt never woke up (a test)", seed, "belt")
+        return self._env.reset(seed=seed, options=options)
+
+
+def test_a_draw_that_never_organizes_is_skipped_not_fatal():
+    from petswarm.training.recurrent import collect_sequences
+    from petswarm.training.vec_env import training_env
+
+    cfg = load_train_config("configs/train/recurrent.yaml", {"env.max_cycles": 40})
+    env = _FirstResetFails(training_env(cfg.env_config(), cfg.randomize, cfg.env, False))
+    seqs, counts = collect_sequences(env, 50, 7, cfg, None, 0.0)
+    assert counts["unorganized"] == 1 and counts["samples"] >= 50 and seqs
+    assert env.seeds[:2] == [7, 8]  # the next seed, not the same one again
+
+
+def test_the_validation_loss_of_a_zero_output_explains_nothing(spec):
+    from petswarm.training.recurrent import Sequence, validation_loss
+
+    actor = _actor(spec)
+    with torch.no_grad():
+        actor.head[-1].weight.zero_()
+        actor.head[-1].bias.zero_()
+    rng = np.random.default_rng(0)
+    seqs = [Sequence(rng.normal(size=(n, spec.layout.size)).astype(np.float32), rng.normal(size=(n, 3)).astype(np.float32),
+                     rng.uniform(1, 3, n).astype(np.float32)) for n in (5, 9, 2)]
+    loss, zero = validation_loss(actor, seqs, 2)
+    assert loss == pytest.approx(zero) and zero > 0
+    y = np.concatenate([s.act for s in seqs]); w = np.concatenate([s.weight for s in seqs])
+    assert zero == pytest.approx(float((w * (y ** 2).sum(1)).sum() / len(w)), rel=1e-5)

@@ -15,12 +15,10 @@ def bench_training(s: BenchSettings, verbose: bool = False) -> dict:
     training vector env: 1 worker = the env copy in this process (num_envs 1, num_cpus 0);
     k workers = k env copies in k worker processes (num_envs k, num_cpus k)."""
     try:
+        import stable_baselines3  # noqa: F401  (the training stack, used by _one_run)
         import torch
-        from stable_baselines3.common.utils import set_random_seed
 
         from petswarm.training.config import load_train_config
-        from petswarm.training.train import build_model
-        from petswarm.training.vec_env import make_vec_env
     except ImportError as exc:
         return {"skipped": f"{exc.name or exc} is not installed; set up the training stack with: bash scripts/setup.sh train"}
 
@@ -29,49 +27,8 @@ def bench_training(s: BenchSettings, verbose: bool = False) -> dict:
     slaves = env_cfg.swarm.num_slaves + env_cfg.swarm.extra_robots
     p = tcfg.ppo
     torch.set_num_threads(1)  # as `petswarm train`: the cores run the env workers
-    runs = []
-    settings = [("supersuit", w) for w in s.training_workers] + [("petswarm", n) for n in s.training_vector_envs]
-    for path, k in settings:
-        if path == "supersuit":  # k workers: k copies in k processes; 1: one copy in this process
-            num_envs, num_cpus = (1, 0) if k <= 1 else (k, k)
-        else:  # the batched vector env: k copies in this process
-            num_envs, num_cpus = k, 0
-        rows = num_envs * slaves
-        n_steps = max(8, s.training_rollout // rows)
-        rollout = n_steps * rows
-        batch = min(p.batch_size, rollout)
-        log(verbose, f"training: {path}, {num_envs} cop{'ies' if num_envs > 1 else 'y'}, {num_cpus} processes, "
-                     f"{s.training_samples} samples, n_steps {n_steps}")
-        set_random_seed(s.seed)
-        with warnings.catch_warnings():  # SB3 notes SuperSuit's vector env has no render_mode
-            warnings.filterwarnings("ignore", message="The `render_mode` attribute is not defined")
-            venv = make_vec_env(env_cfg, num_envs, num_cpus, s.seed, vec_env=path)
-        try:
-            model = build_model(p, venv, s.seed, n_steps=n_steps, batch_size=batch)
-            c0 = _cpu()
-            t0 = time.perf_counter()
-            model.learn(total_timesteps=s.training_samples, progress_bar=False)
-            wall = time.perf_counter() - t0
-            samples = int(model.num_timesteps)
-        finally:
-            venv.close()
-        cpu = _cpu() - c0  # the worker processes count once joined at close
-        runs.append({
-            "path": path,
-            "workers": max(1, num_cpus),
-            "num_envs": num_envs,
-            "num_cpus": num_cpus,
-            "vector_rows": rows,
-            "n_steps": n_steps,
-            "rollout_samples": rollout,
-            "batch_size": batch,
-            "n_epochs": p.n_epochs,
-            "samples": samples,
-            "wall_s": wall,
-            "cpu_s": cpu,
-            "samples_per_s": samples / wall,
-            "samples_per_cpu_s": samples / cpu if cpu > 0 else None,
-        })
+    runs = [_one_run(path, k, s, p, env_cfg, slaves, verbose)
+            for path, k in [("supersuit", w) for w in s.training_workers] + [("petswarm", n) for n in s.training_vector_envs]]
     out: dict[str, Any] = {
         "env": f"training env (configs/train/ppo.yaml): {slaves} slaves, max_cycles {env_cfg.max_cycles}",
         "net_arch": list(p.net_arch),
@@ -92,6 +49,56 @@ def bench_training(s: BenchSettings, verbose: bool = False) -> dict:
         out["vector_vs_supersuit_1"] = best["samples_per_s"] / base["samples_per_s"]
         out["vector_vs_supersuit_1_num_envs"] = best["num_envs"]
     return out
+
+
+def _one_run(path: str, k: int, s: BenchSettings, p: Any, env_cfg: Any, slaves: int, verbose: bool) -> dict:
+    """One fresh PPO trained for ``s.training_samples`` samples on vector path ``path`` with ``k``
+    copies (SuperSuit: ``k`` worker processes, or one copy in this process for 1)."""
+    from stable_baselines3.common.utils import set_random_seed
+
+    from petswarm.training.train import build_model
+    from petswarm.training.vec_env import make_vec_env
+
+    if path == "supersuit":  # k workers: k copies in k processes; 1: one copy in this process
+        num_envs, num_cpus = (1, 0) if k <= 1 else (k, k)
+    else:  # the batched vector env: k copies in this process
+        num_envs, num_cpus = k, 0
+    rows = num_envs * slaves
+    n_steps = max(8, s.training_rollout // rows)
+    rollout = n_steps * rows
+    batch = min(p.batch_size, rollout)
+    log(verbose, f"training: {path}, {num_envs} cop{'ies' if num_envs > 1 else 'y'}, {num_cpus} processes, "
+                 f"{s.training_samples} samples, n_steps {n_steps}")
+    set_random_seed(s.seed)
+    with warnings.catch_warnings():  # SB3 notes SuperSuit's vector env has no render_mode
+        warnings.filterwarnings("ignore", message="The `render_mode` attribute is not defined")
+        venv = make_vec_env(env_cfg, num_envs, num_cpus, s.seed, vec_env=path)
+    try:
+        model = build_model(p, venv, s.seed, n_steps=n_steps, batch_size=batch)
+        c0 = _cpu()
+        t0 = time.perf_counter()
+        model.learn(total_timesteps=s.training_samples, progress_bar=False)
+        wall = time.perf_counter() - t0
+        samples = int(model.num_timesteps)
+    finally:
+        venv.close()
+    cpu = _cpu() - c0  # the worker processes count once joined at close
+    return {
+        "path": path,
+        "workers": max(1, num_cpus),
+        "num_envs": num_envs,
+        "num_cpus": num_cpus,
+        "vector_rows": rows,
+        "n_steps": n_steps,
+        "rollout_samples": rollout,
+        "batch_size": batch,
+        "n_epochs": p.n_epochs,
+        "samples": samples,
+        "wall_s": wall,
+        "cpu_s": cpu,
+        "samples_per_s": samples / wall,
+        "samples_per_cpu_s": samples / cpu if cpu > 0 else None,
+    }
 
 
 def _cpu() -> float:

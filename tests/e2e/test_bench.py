@@ -235,3 +235,18 @@ def test_env_loop_acts_only_for_the_agents_in_the_episode():
     loop = EnvLoop(16, "scripted", 0)
     loop.run(steps=560)
     assert loop.steps == 560
+
+
+def test_the_vector_step_timing_counts_the_auto_resets_apart(capsys):
+    """``python -m petswarm.bench.step --vector N``: episodes of 3 steps, so the copies restart
+    within the run; their auto-resets are reported as a share of the step time."""
+    import re
+
+    from petswarm.bench.step import vector
+
+    vector(2, 16, {"max_cycles": 3})
+    out = capsys.readouterr().out
+    found = re.search(r"per env-step: (\d+) us, of which auto-resets (\d+) us; without them (\d+) us", out)
+    assert found, out
+    total, resets, rest = map(int, found.groups())
+    assert 0 < resets < total and abs(total - resets - rest) <= 1

@@ -11,6 +11,10 @@ the clock).
 scripted policy acting on each copy's active slots: CPU time per env-step of ``step``, and apart
 the share of it that is the auto-resets of finished copies (their organize phase), which the
 single env's figure leaves out (its resets are timed apart).
+
+To compare two checkouts, run each from its own directory: ``python -m`` puts the current
+directory first on ``sys.path``, so a checkout's interpreter started in another checkout imports
+that one's ``petswarm_env``.
 """
 
 from __future__ import annotations
@@ -77,6 +81,7 @@ def vector(num_envs: int, env_steps: int, overrides: dict) -> None:
 
     venv._start = timed_start
     obs, _ = venv.reset(seed=0)
+    reset_cpu[0] = 0.0  # (the first episodes: not in a step)
     actions = np.zeros((num_envs, len(agents), 3), np.float32)
     step_cpu, calls = 0.0, 0
     while calls * num_envs < env_steps:

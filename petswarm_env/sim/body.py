@@ -404,17 +404,18 @@ def _after_step(space: pymunk.Space) -> None:
     space._post_step_callbacks.clear()
 
 
-def read_poses(bodies: list[Body]) -> tuple[list[float], list[float]]:
-    """Centres ``[x0, y0, x1, y1, ...]`` (m) and headings (rad) of ``bodies``, read from Chipmunk
-    in one pass (the world's truth arrays, once per physics step)."""
-    xy: list = []
-    th: list = []
+def read_poses(bodies: list, centers: cython.double[:, :], first: cython.Py_ssize_t, headings: cython.double[:] = None) -> None:
+    """Write the centres (m) of ``bodies`` into rows ``first, first + 1, ...`` of ``centers`` (n, 2)
+    and, unless ``headings`` is None, their headings (rad) into the same entries of ``headings``,
+    read from Chipmunk in one pass (the world's truth arrays, once per physics step)."""
     b: Body
+    i: cython.Py_ssize_t = first
     x: cython.double
     y: cython.double
     for b in bodies:
         x, y = _pos(b)
-        xy.append(x)
-        xy.append(y)
-        th.append(_angle(b))
-    return xy, th
+        centers[i, 0] = x
+        centers[i, 1] = y
+        if headings is not None:
+            headings[i] = _angle(b)
+        i += 1

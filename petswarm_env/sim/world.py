@@ -137,11 +137,11 @@ class World:
         steps = self.substeps.steps  # Space.step calls so far: the truth arrays are valid for one value
         if self._truth_at == steps and self._truth is not None:
             return self._truth
-        xy, th = read_poses(self.robots)
-        if self.users:
-            xy += read_poses(self.users)[0]
-        centers = np.array(xy, dtype=float).reshape(-1, 2)
-        headings = np.array(th, dtype=float)
+        n = len(self.robots)
+        centers = np.empty((n + len(self.users), 2))
+        headings = np.empty(n)
+        read_poses(self.robots, centers, 0, headings)
+        read_poses(self.users, centers, n)
         if self._truth is None or len(self._truth[1]) != len(centers):
             radii = np.full(len(centers), self.cfg.user.radius_m)
             radii[: len(self.robots)] = [r.radius_m for r in self.robots]

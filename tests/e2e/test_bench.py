@@ -260,3 +260,16 @@ def test_vector_envs_side_by_side_and_training_paths(bench):
         assert {r["path"] for r in tr["runs"]} == {"supersuit", "petswarm"}
         assert _positive(tr["vector_vs_supersuit_1"])
         assert "| petswarm | 1 | 0 |" in md_path.read_text()
+def test_the_vector_step_timing_counts_the_auto_resets_apart(capsys):
+    """``python -m petswarm.bench.step --vector N``: episodes of 3 steps, so the copies restart
+    within the run; their auto-resets are reported as a share of the step time."""
+    import re
+
+    from petswarm.bench.step import vector
+
+    vector(2, 16, {"max_cycles": 3})
+    out = capsys.readouterr().out
+    found = re.search(r"per env-step: (\d+) us, of which auto-resets (\d+) us; without them (\d+) us", out)
+    assert found, out
+    total, resets, rest = map(int, found.groups())
+    assert 0 < resets < total and abs(total - resets - rest) <= 1

@@ -46,7 +46,10 @@ def test_read_poses_is_the_truth_arrays():
     world = World(cfg, SCENARIOS["straight"].script(cfg.user, np.random.default_rng(0)))
     for i in range(3):
         world.add_robot((i, 2.0 * i), 0.1 * i)
-    xy, th = read_poses(world.robots)
-    centers, _, headings = world.truth_arrays()
-    assert centers[:3].ravel().tolist() == xy and headings.tolist() == th
-    assert centers[3].tolist() == list(world.user.position)
+    centers, headings = np.zeros((4, 2)), np.zeros(4)
+    read_poses(world.robots, centers, 1, headings)
+    truth, _, truth_headings = world.truth_arrays()
+    assert centers[1:].tolist() == [list(r.position) for r in world.robots] == truth[:3].tolist()
+    assert headings[1:].tolist() == [r.heading for r in world.robots] == truth_headings.tolist()
+    assert centers[0].tolist() == [0.0, 0.0] and headings[0] == 0.0
+    assert truth[3].tolist() == list(world.user.position)

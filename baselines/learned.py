@@ -153,8 +153,8 @@ class PolicyVersionWarning(UserWarning):
 
 def shipped_policy_path() -> Path:
     """The learned policy shipped with the package (``petswarm run/eval --policy learned``): the
-    recurrent student of the privileged teacher (``petswarm train --config recurrent``, docs/training.md)."""
-    return Path(str(resources.files("petswarm.baselines") / "models" / "recurrent_teacher.npz"))
+    recurrent student of the privileged teacher (``petswarm train --config recurrent_long``, docs/training.md)."""
+    return Path(str(resources.files("petswarm.baselines") / "models" / "recurrent_long.npz"))
 
 
 def feed_forward_policy_path() -> Path:

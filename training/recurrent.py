@@ -57,7 +57,6 @@ from petswarm.training.warm_start import TeacherLabels
 from petswarm_env.config import Config
 from petswarm_env.env import PetSwarmEnv
 from petswarm_env.files import write_json_atomic, write_text_atomic
-from petswarm_env.middleware.join import OrganizeError
 from petswarm_env.observe import ObservationLayout
 
 ALGORITHM = "recurrent actor (GRU) distilled from the privileged teacher by DAgger"
@@ -143,8 +142,8 @@ def collect_sequences(env, samples: int, seed: int, cfg: TrainConfig, driver: Re
     labelled agent-steps (the last episode is played to its end): the teacher drives (``driver``
     None) or the student does — each robot's step executing the teacher's action instead with
     probability ``beta`` (DAgger's mixture) — with Gaussian action noise of ``noise_std``; every
-    live robot's step is labelled by the teacher; a seed whose swarm does not organize is skipped
-    (counted as ``unorganized``). Returns the
+    live robot's step is labelled by the teacher; a seed whose start-up fails in the env's reset (a
+    swarm that does not organize, a belt that never wakes) is skipped (counted as ``unorganized``). Returns the
     sequences (a robot's sequence ends when it stops driving; a new one starts when it rejoins) and
     counts of building and lost steps."""
     r = cfg.recurrent
@@ -157,7 +156,7 @@ def collect_sequences(env, samples: int, seed: int, cfg: TrainConfig, driver: Re
         episode += 1
         try:
             rows, infos = env.reset(seed=seed + episode - 1)
-        except OrganizeError:  # this draw's swarm never organized (as the evaluation runner records it): no data, the next seed
+        except RuntimeError:  # this draw's start-up failed (OrganizeError, or a belt that never woke up): no data, the next seed
             counts["unorganized"] += 1
             if counts["unorganized"] == episode >= 20:
                 raise ConfigError(f"none of seeds {seed}..{seed + episode - 1} organized a swarm; check the env config and randomize pools")

@@ -117,13 +117,7 @@ def diagnose(grid_path: str, policy: str, episodes: int, scales: list[float | No
                 acc[p] += a[p]
             student_hold.append(summary["formation_hold_rmse_m"])
         ref_hold = [run_episode(env, make_policy("scripted", PolicySpec.from_env(env)), s)["formation_hold_rmse_m"] for s in seeds]
-        phases = {}
-        for p in PHASES:
-            err, corr, own, n = acc[p]
-            phases[p] = {"steps": int(n), "rms_error": math.sqrt(err / n) if n else math.nan,
-                         "rms_correction": math.sqrt(corr / n) if n else math.nan,
-                         "rms_student_correction": math.sqrt(own / n) if n else math.nan,
-                         "explained": 1.0 - err / corr if corr > 0 else math.nan}
+        phases = _phases(acc)
         ceilings = {}
         for scale in scales:
             hold = [run_episode(env, LabelDriver(env, scale), s)["formation_hold_rmse_m"] for s in seeds]
@@ -136,10 +130,47 @@ def diagnose(grid_path: str, policy: str, episodes: int, scales: list[float | No
     return {"grid": grid_path, "policy": policy, "seeds": seeds, "cells": cells}
 
 
+def diagnose_draws(train_config: str, policy: str, seeds: list[int], building_error_m: float = 0.3) -> dict[str, Any]:
+    """The imitation error by phase (no ceilings) on fresh episodes of a training config's own draws
+    (its ``env`` and ``randomize`` pools, one config drawn per seed, as training draws them): whether
+    the student generalizes inside its training distribution. A seed whose start-up fails is skipped."""
+    from petswarm.training.config import load_train_config
+    from petswarm.training.randomize import draw_config
+
+    cfg = load_train_config(train_config)
+    acc = {p: np.zeros(4) for p in PHASES}
+    used = []
+    for s in seeds:
+        env = PetSwarmEnv(draw_config(cfg.env, cfg.randomize, s))
+        try:
+            a, _ = imitation_by_phase(env, policy, s, building_error_m)
+        except RuntimeError:  # the draw's swarm never organized
+            continue
+        finally:
+            env.close()
+        used.append(s)
+        for p in PHASES:
+            acc[p] += a[p]
+    return {"name": f"draws of {train_config}", "seeds": used, "phases": _phases(acc)}
+
+
+def _phases(acc: dict[str, np.ndarray]) -> dict[str, dict[str, float]]:
+    out = {}
+    for p in PHASES:
+        err, corr, own, n = acc[p]
+        out[p] = {"steps": int(n), "rms_error": math.sqrt(err / n) if n else math.nan,
+                  "rms_correction": math.sqrt(corr / n) if n else math.nan,
+                  "rms_student_correction": math.sqrt(own / n) if n else math.nan,
+                  "explained": 1.0 - err / corr if corr > 0 else math.nan}
+    return out
+
+
 def format_row(row: dict[str, Any]) -> str:
     ph = "  ".join(f"{p} {v['steps']}: err {v['rms_error']:.2f} corr {v['rms_correction']:.2f} "
                    f"own {v['rms_student_correction']:.2f} expl {v['explained']:+.2f}"
                    for p, v in row["phases"].items() if v["steps"])
+    if "ceilings" not in row:
+        return f"{row['name']}  |  {ph}"
     ce = "  ".join(f"{k} {v:.2f}" for k, v in row["ceilings"].items())
     return f"{row['name']:<22} student {row['student_hold_ratio']:.2f}  ceilings: {ce}  |  {ph}"
 
@@ -151,10 +182,17 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--episodes", type=int, default=2, help="the grid's first seeds per cell")
     ap.add_argument("--scales", default="0.5,1.0,none", help="residual bounds of the zero-error ceilings (none: the label "
                                                              "itself; empty: no ceilings)")
+    ap.add_argument("--draws", default=None, metavar="TRAIN_CONFIG",
+                    help="instead of the grid: fresh episodes of this training config's draws (seeds from --seed, --episodes of them)")
+    ap.add_argument("--seed", type=int, default=777000, help="with --draws: the first seed")
     ap.add_argument("--json", default=None)
     a = ap.parse_args(argv)
     scales = [None if s.strip() == "none" else float(s) for s in a.scales.split(",") if s.strip()]
-    out = diagnose(a.grid, a.policy, a.episodes, scales)
+    if a.draws:
+        out = diagnose_draws(a.draws, a.policy, list(range(a.seed, a.seed + a.episodes)))
+        print(format_row(out))
+    else:
+        out = diagnose(a.grid, a.policy, a.episodes, scales)
     if a.json:
         with open(a.json, "w") as f:
             json.dump(out, f, indent=1)

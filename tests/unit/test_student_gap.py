@@ -38,3 +38,13 @@ def test_the_label_driver_is_the_label_through_the_residual_bound():
     base = make_policy("scripted", PolicySpec.from_env(env)).act_all(seen)
     assert all(np.all(np.abs(bounded[a] - base[a]) <= 0.1 + 1e-6) for a in seen)
     assert any(not np.allclose(bounded[a], label[a]) for a in seen)  # the bound cuts something here
+
+
+def test_the_draws_of_a_training_config_are_diagnosed_too():
+    from petswarm.training.student_gap import diagnose_draws
+
+    out = diagnose_draws("configs/train/recurrent.yaml", "scripted", [777000])
+    assert out["seeds"] == [777000]
+    steps = sum(p["steps"] for p in out["phases"].values())
+    assert steps > 0 and all(p["rms_student_correction"] == 0.0 for p in out["phases"].values() if p["steps"])
+    assert out["phases"]["building"]["explained"] == 0.0  # the reference as student: none of the teacher's correction

@@ -260,6 +260,8 @@ def test_vector_envs_side_by_side_and_training_paths(bench):
         assert {r["path"] for r in tr["runs"]} == {"supersuit", "petswarm"}
         assert _positive(tr["vector_vs_supersuit_1"])
         assert "| petswarm | 1 | 0 |" in md_path.read_text()
+
+
 def test_the_vector_step_timing_counts_the_auto_resets_apart(capsys):
     """``python -m petswarm.bench.step --vector N``: episodes of 3 steps, so the copies restart
     within the run; their auto-resets are reported as a share of the step time."""

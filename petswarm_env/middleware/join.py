@@ -386,8 +386,7 @@ class JoinManager:
         self.replans += 1
         # the neighbour table stays; only the numbers move: the recovery manager's commit and its
         # acknowledged member update (middleware/recovery.py), as after a removal
-        recovery._commit(table, formation)
-        node.clock.process(recovery._announce(table, formation))
+        recovery.reassign(table, formation)
 
     def refill(self, open_members: list[int], pan: int, members: dict[int, int], mode: str, result: OrganizeResult):
         """Recruit waiting robots into the ``open_members`` of an organized swarm (SimPy generator;

@@ -290,6 +290,12 @@ class RecoveryManager:
         node.members_changed.emit("joined", added)
         yield from self._announce(new, formation)
 
+    def reassign(self, members: dict[int, int], formation: Formation) -> None:
+        """The master's new numbering of its members on ``formation``: held at once, then sent as
+        an acknowledged member update (as after a removal)."""
+        self._commit(members, formation)
+        self.node.clock.process(self._announce(members, formation))
+
     def _commit(self, members: dict[int, int], formation: Formation) -> None:
         know = self.node.know
         know.members = dict(members)

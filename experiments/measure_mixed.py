@@ -35,18 +35,11 @@ import statistics
 import petswarm_env
 from petswarm.baselines.policy import PolicySpec
 from petswarm.baselines.registry import make_policy
+from petswarm.experiments.measure_succession import parse_seeds
 
 FAR_M = 5.0  # the target's "left behind": a slave this far from its slot
 REFILL_WITHIN_S = 15.0  # chosen: a refill counts when the user's count of slaves is back this soon after the fault
 POOL = (("petbot", 1), ("mybot", 1), ("r1", 1), ("r2", 1))  # the heterogeneous scenario's pool (scenarios/heterogeneous.py)
-
-
-def parse_seeds(text: str) -> list[int]:
-    out: list[int] = []
-    for part in text.split(","):
-        lo, _, hi = part.partition("-")
-        out += list(range(int(lo), int(hi or lo) + 1))
-    return out
 
 
 def slot_distances(truth) -> dict[int, float]:

@@ -21,10 +21,12 @@ import petswarm_env
 
 
 def parse_seeds(text: str) -> list[int]:
-    if "-" in text:
-        lo, hi = text.split("-")
-        return list(range(int(lo), int(hi) + 1))
-    return [int(x) for x in text.split(",")]
+    """Seeds from ``0-19``, ``3,5,8`` or both (``0-2,5``)."""
+    out: list[int] = []
+    for part in text.split(","):
+        lo, _, hi = part.partition("-")
+        out += list(range(int(lo), int(hi or lo) + 1))
+    return out
 
 
 def run(kind: str, seed: int, at_s: float, max_cycles: int, overrides: dict) -> dict:

@@ -29,6 +29,7 @@ import math
 import statistics
 
 import petswarm_env
+from petswarm.experiments.measure_succession import parse_seeds
 
 REFORM_AFTER_S = 10.0
 REFORM_ERROR_M = 0.3
@@ -82,14 +83,6 @@ def run(kind: str, seed: int, at_s: float = 20.0, target: str = "random_slave", 
             "rmse_m": math.sqrt(sum(sq) / len(sq)) if sq else math.nan}
 
 
-def _seeds(text: str) -> list[int]:
-    out: list[int] = []
-    for part in text.split(","):
-        a, _, b = part.partition("-")
-        out += list(range(int(a), int(b or a) + 1))
-    return out
-
-
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--kinds", default="ir,ultrasonic,ahrs")
@@ -104,7 +97,7 @@ def main(argv: list[str] | None = None) -> None:
     target = "random_slave" if args.target == "slave" else "master"
     results = []
     for kind in args.kinds.split(","):
-        rows = [run(kind, s, args.at, target, overrides) for s in _seeds(args.seeds)]
+        rows = [run(kind, s, args.at, target, overrides) for s in parse_seeds(args.seeds)]
         for r in rows:
             print(json.dumps(r))
         rows = [r for r in rows if r["injected"]]

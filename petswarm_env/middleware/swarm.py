@@ -93,7 +93,7 @@ class Swarm:
 
     def _start_master_processes(self, master: Node) -> None:
         master.ring.start_as_master()
-        self.clock.process(self._broadcast_status(master))
+        self.clock.start(self._broadcast_status, master)
         self.clock.process(master.recovery.maintain(self.pan))  # the periodic scan while a slot is open
 
     def members_changed(self, node: Node, event: str, node_ids: list[int]) -> None:
@@ -119,20 +119,22 @@ class Swarm:
         return [self.master.node_id, *self.slave_ids()] if self.organized else []
 
     # -- master broadcast (seed 000 §3.5, Fig. 9) ------------------------------------------------
-    def _broadcast_status(self, master: Node):
-        period = self.cfg.protocol.broadcast_period_s
-        while master.state == "master" and self.master is master:
-            view = self.user_view
-            master.send(
-                msg.STATUS,
-                velocity=master.odometry.read(),  # (vx, vy, ω): what its own wheels measure, noise and all
-                activity=view.activity if view else "stop",
-                mode=self.broadcast_mode(),
-                turn_rate=view.user_turn_rate_rps if view else 0.0,
-                rotating=view.user_rotating if view else False,
-                user=view.user_position_m if view else (self.cfg.master.distance_m, 0.0),
-            )
-            yield master.clock.timeout(period)  # the master's own clock (seed 000 §3.3: independent clocks)
+    def _broadcast_status(self, master: Node) -> None:
+        """The master's status, every ``protocol.broadcast_period_s`` while it is this swarm's master."""
+        if master.state != "master" or self.master is not master:
+            return
+        view = self.user_view
+        master.send(
+            msg.STATUS,
+            velocity=master.odometry.read(),  # (vx, vy, ω): what its own wheels measure, noise and all
+            activity=view.activity if view else "stop",
+            mode=self.broadcast_mode(),
+            turn_rate=view.user_turn_rate_rps if view else 0.0,
+            rotating=view.user_rotating if view else False,
+            user=view.user_position_m if view else (self.cfg.master.distance_m, 0.0),
+        )
+        # the master's own clock (seed 000 §3.3: independent clocks)
+        master.clock.later(self.cfg.protocol.broadcast_period_s, self._broadcast_status, master)
 
     def broadcast_mode(self) -> str:
         """The mode the slaves hear: the driving mode, or ``emergency`` while the user is lost."""

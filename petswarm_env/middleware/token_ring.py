@@ -98,6 +98,143 @@ def relative_heading(bearing_self_sees_other: float, bearing_other_sees_self: fl
     return wrap_angle(bearing_self_sees_other - bearing_other_sees_self + math.pi)
 
 
+class _Wait:
+    """What the holder waits for — every acknowledgement it needs, or its neighbours' heading
+    reports — with the response timeout: the first of the two resumes its slot (seed 000 Fig. 7:
+    "waits for the responses"). ``triggered``: what it waited for came; ``armed``: the slot waits on
+    it (the heading reports are waited for only in a ring that is not crowded); ``done``: the slot
+    resumed. Its steps are keyed on the clock where SimPy put the same wait written as
+    ``AnyOf(event, timeout)`` in a process: the event, then the condition, each one step later."""
+
+    __slots__ = ("slot", "triggered", "armed", "done")
+
+    def __init__(self, slot: _Slot):
+        self.slot = slot
+        self.triggered = False
+        self.armed = False
+        self.done = False
+
+
+# the step of a holder's slot that the next resume runs
+_ACKED, _IR_DONE, _HEADINGS, _TOKEN_ACKED = 0, 1, 2, 3
+
+
+class _Slot:
+    """One holder's slot of the ring (seed 000 §3.3 Fig. 7), as a state machine on its MCU's clock:
+    start sign and the responses, IR transmission, the neighbours' heading reports, token hand-over
+    (with retries, skipping a robot that does not answer). A robot that leaves the swarm meanwhile
+    (``node.know`` replaced) ends it; so does a newer token (``token_seq``) at the IR deadline."""
+
+    __slots__ = ("ring", "seq", "know", "peers", "slot_start", "step", "member", "nxt", "target", "skips_left",
+                 "attempts_left")
+
+    def __init__(self, ring: TokenRing, seq: int):
+        self.ring = ring
+        self.seq = seq
+        self.know = ring.node.know  # leave_swarm() replaces it: then this slot is over
+        self.step = _ACKED
+
+    def start(self) -> None:
+        ring, node = self.ring, self.ring.node
+        ring.holding = True
+        ring.token_seq = self.seq
+        ring.last_activity_s = node.clock.now
+        self.peers = ring._ring_peers()
+        self.slot_start = node.clock.now
+        node.send(msg.TX_START, seq=self.seq)
+        self.step = _ACKED
+        ring._wait_acks(self.peers, self)
+
+    def resume(self) -> None:
+        step = self.step
+        if step == _ACKED:
+            self._acked()
+        elif step == _IR_DONE:
+            self._ir_done()
+        elif step == _HEADINGS:
+            self._pass_token()
+        else:
+            self._token_acked()
+
+    def _end(self) -> None:
+        self.ring.holding = False
+
+    def _acked(self) -> None:
+        ring, node = self.ring, self.ring.node
+        if node.state == "master" and node.know is self.know:
+            ring._count_silent(self.peers, self.slot_start)
+        self.step = _IR_DONE
+        node.clock.later(ring.plan().ir_tx_s, self.resume)
+
+    def _ir_done(self) -> None:
+        ring, node, know = self.ring, self.ring.node, self.know
+        if ring.token_seq != self.seq or node.know is not know:  # superseded, or left the swarm
+            return self._end()
+        # every other member measures our IR now; our neighbours (by our neighbour table, in its
+        # order) that saw us report the bearing they saw us at (Fig. 9): wait for them before passing on
+        formation = node.formation
+        neighbours = [know.members.get(m) for m in formation.neighbours(know.member)] if formation is not None else []
+        # our own slot as our IR self-check sees it: the neighbours that acknowledged our start sign (middleware/diagnosis.py)
+        ring.own_slot = (self.slot_start, frozenset(n for n in neighbours if n in ring._acks))
+        reporters = node.transmit_ir(neighbours)
+        ring._headings_expected = set(reporters)
+        wait = ring._headings_event = _Wait(self)
+        if reporters and ring.plan().wait_headings:  # else the reports are paired as they come (crowded ring)
+            wait.armed = True
+            self.step = _HEADINGS
+            node.clock.later(node.cfg.protocol.ring_response_timeout_s, ring._wait_over, wait)
+            return
+        self._pass_token()
+
+    def _pass_token(self) -> None:
+        ring, node = self.ring, self.ring.node
+        ring._headings_expected = set()
+        if node.know is not self.know:
+            return self._end()
+        self.member = node.know.member
+        self.nxt = ring._next_member(self.member)
+        self.skips_left = node.know.total_members
+        self._next_target()
+
+    def _next_target(self) -> None:
+        """The token goes to the next member in the table; one the table lost meanwhile is passed over."""
+        ring, know = self.ring, self.ring.node.know
+        while self.skips_left > 0:
+            self.skips_left -= 1
+            target = know.members.get(self.nxt)
+            if target is None:  # the tables shrank meanwhile (a member removed)
+                self.nxt = ring._next_member(self.nxt)
+                continue
+            self.target = target
+            self.attempts_left = ring.node.cfg.protocol.token_retries + 1
+            return self._send_token()
+        self._finish()
+
+    def _send_token(self) -> None:
+        self.attempts_left -= 1
+        self.ring.node.send(msg.TOKEN, seq=self.seq + 1, next=self.nxt)
+        self.step = _TOKEN_ACKED
+        self.ring._wait_acks({self.target}, self)
+
+    def _token_acked(self) -> None:
+        ring = self.ring
+        if ring.node.know is not self.know:
+            return self._end()
+        if self.target not in ring._acks and self.attempts_left > 0:
+            return self._send_token()  # retry
+        if self.target in ring._acks or self.nxt == self.member:
+            return self._finish()
+        self.nxt = ring._next_member(self.nxt)  # skip a robot that does not answer
+        self._next_target()
+
+    def _finish(self) -> None:
+        ring, node = self.ring, self.ring.node
+        ring.holding = False
+        ring.last_activity_s = node.clock.now
+        if self.nxt == self.member:  # nobody else answered: keep the token
+            node.clock.start(ring._begin, self.seq + 1)
+
+
 class TokenRing:
     def __init__(self, node: Station):
         self.node = node
@@ -153,12 +290,21 @@ class TokenRing:
         return {n for n in self.node.know.members.values() if n != self.node.node_id}
 
     # -- holder -----------------------------------------------------------------------------------
-    def _wait_acks(self, needed: set[int]):
-        clock = self.node.clock
+    def _wait_acks(self, needed: set[int], slot: _Slot) -> None:
+        """The holder waits for acknowledgements from ``needed``, or the response timeout: ``slot``
+        resumes at the first of the two (:class:`_Wait`)."""
         self._acks = set()
         self._acks_needed = needed
-        self._acks_event = clock.event()
-        yield clock.any_of([self._acks_event, clock.timeout(self.node.cfg.protocol.ring_response_timeout_s)])
+        wait = self._acks_event = _Wait(slot)
+        wait.armed = True
+        self.node.clock.later(self.node.cfg.protocol.ring_response_timeout_s, self._wait_over, wait)
+
+    def _wait_over(self, wait: _Wait) -> None:
+        """The first of a wait's two ends (its event, or its timeout) resumes its slot; the later one is nothing."""
+        if wait.done or not wait.armed:
+            return
+        wait.done = True
+        self.node.clock.soon(wait.slot.resume)
 
     def _on_ack(self, frame: Frame) -> None:
         self.heard[frame.src] = self.node.clock.now  # an acknowledgement to another holder, overheard, is a sign of life too
@@ -167,66 +313,16 @@ class TokenRing:
         self._acks.add(frame.src)
         self.heard[frame.src] = self.node.clock.now
         self.slot_range_m[frame.src] = frame.rx_distance_est_m  # its RSSI range, as of its latest ring frame to us
-        ev = self._acks_event
-        if ev is not None and not ev.triggered and self._acks_needed <= self._acks:
-            ev.succeed()
+        wait = self._acks_event
+        if wait is not None and not wait.triggered and self._acks_needed <= self._acks:
+            wait.triggered = True
+            if wait.armed:
+                self.node.clock.soon(self._wait_over, wait)
 
-    def hold(self, seq: int):
-        """Holder's slot (SimPy process): start sign, IR transmission, token hand-over."""
-        node = self.node
-        clock = node.clock
-        cfg = node.cfg.protocol
-        know = node.know  # leave_swarm() replaces it: then this slot is over
-        self.holding = True
-        self.token_seq = seq
-        self.last_activity_s = clock.now
-        peers = self._ring_peers()
-        slot_start = clock.now
-        node.send(msg.TX_START, seq=seq)
-        yield from self._wait_acks(peers)
-        if node.state == "master" and node.know is know:
-            self._count_silent(peers, slot_start)
-        yield clock.timeout(self.plan().ir_tx_s)
-        if self.token_seq != seq or node.know is not know:  # superseded, or left the swarm
-            self.holding = False
-            return
-        # every other member measures our IR now; our neighbours (by our neighbour table, in its
-        # order) that saw us report the bearing they saw us at (Fig. 9): wait for them before passing on
-        formation = node.formation
-        neighbours = [know.members.get(m) for m in formation.neighbours(know.member)] if formation is not None else []
-        # our own slot as our IR self-check sees it: the neighbours that acknowledged our start sign (middleware/diagnosis.py)
-        self.own_slot = (slot_start, frozenset(n for n in neighbours if n in self._acks))
-        reporters = node.transmit_ir(neighbours)
-        self._headings_expected = set(reporters)
-        self._headings_event = clock.event()
-        if reporters and self.plan().wait_headings:  # else the reports are paired as they come (crowded ring)
-            yield clock.any_of([self._headings_event, clock.timeout(cfg.ring_response_timeout_s)])
-        self._headings_expected = set()
-        if node.know is not know:
-            self.holding = False
-            return
-        member = node.know.member
-        nxt = self._next_member(member)
-        for _skip in range(node.know.total_members):
-            target = node.know.members.get(nxt)
-            if target is None:  # the tables shrank meanwhile (a member removed)
-                nxt = self._next_member(nxt)
-                continue
-            for _attempt in range(cfg.token_retries + 1):
-                node.send(msg.TOKEN, seq=seq + 1, next=nxt)
-                yield from self._wait_acks({target})
-                if node.know is not know:
-                    self.holding = False
-                    return
-                if target in self._acks:
-                    break
-            if target in self._acks or nxt == member:
-                break
-            nxt = self._next_member(nxt)  # skip a robot that does not answer
-        self.holding = False
-        self.last_activity_s = clock.now
-        if nxt == member:  # nobody else answered: keep the token
-            node.clock.process(self._begin(seq + 1))
+    def hold(self, seq: int) -> None:
+        """Become the holder of token ``seq`` and run its slot (:class:`_Slot`): start sign, IR
+        transmission, token hand-over."""
+        _Slot(self, seq).start()
 
     def _count_silent(self, peers: set[int], slot_start: float) -> None:
         """Master, at the start of its slot: a round has passed since its previous slot; count the
@@ -271,13 +367,13 @@ class TokenRing:
         self.rounds = 0
         if node.know.total_members > 1:
             self.token_seq += 1000  # supersede any token still in flight
-            node.clock.process(self.hold(self.token_seq))
-            node.clock.process(self.watchdog())
+            node.clock.start(self.hold, self.token_seq)
+            node.clock.start(self._watch)
 
-    def _begin(self, seq: int):
+    def _begin(self, seq: int) -> None:
         """Become the holder: send the sync message, switch IR to transmit, run the slot."""
         self.node.send(msg.SYNC, seq=seq)
-        yield from self.hold(seq)
+        self.hold(seq)
 
     # -- everyone ---------------------------------------------------------------------------------
     def _on_tx_start(self, frame: Frame) -> None:
@@ -311,7 +407,7 @@ class TokenRing:
         if self.drop_next_token:
             self.drop_next_token = False
             return
-        node.clock.process(self._begin(seq))
+        node.clock.start(self._begin, seq)
 
     def _on_sync(self, frame: Frame) -> None:
         self.last_activity_s = self.heard[frame.src] = self.node.clock.now
@@ -360,21 +456,26 @@ class TokenRing:
             node.know.heading[frame.src] = HeadingEstimate(rel, node.clock.now, yaw)
         # else we missed the sender's latest slot: no pair of bearings from this round
         self._headings_expected.discard(frame.src)
-        ev = self._headings_event
-        if ev is not None and not ev.triggered and not self._headings_expected:
-            ev.succeed()
+        wait = self._headings_event
+        if wait is not None and not wait.triggered and not self._headings_expected:
+            wait.triggered = True
+            if wait.armed:
+                node.clock.soon(self._wait_over, wait)
 
     # -- master: watchdog -------------------------------------------------------------------------
-    def watchdog(self):
-        """Master process: regenerate a lost token after ``token_timeout_s`` of ring silence."""
+    def _watch(self) -> None:
+        """Master: regenerate a lost token after ``token_timeout_s`` of ring silence, looking every
+        ``token_timeout_s / 2`` of its own clock while it is the master."""
         node = self.node
-        clock = node.clock
-        timeout = node.cfg.protocol.token_timeout_s
-        while node.state == "master":
-            yield clock.timeout(timeout / 2)
-            if node.state != "master":
-                return
-            if not self.holding and clock.now - self.last_activity_s > timeout:
-                self.recoveries += 1
-                self.token_seq += 1000  # supersede any stale holder
-                clock.process(self.hold(self.token_seq))
+        if node.state == "master":
+            node.clock.later(node.cfg.protocol.token_timeout_s / 2, self._watchdog)
+
+    def _watchdog(self) -> None:
+        node = self.node
+        if node.state != "master":
+            return
+        if not self.holding and node.clock.now - self.last_activity_s > node.cfg.protocol.token_timeout_s:
+            self.recoveries += 1
+            self.token_seq += 1000  # supersede any stale holder
+            node.clock.start(self.hold, self.token_seq)
+        self._watch()

@@ -142,8 +142,8 @@ class UserSession:
         swarm.on_master_change = self._on_master_change
         swarm.on_succession = self._on_succession
         self.clock.process(self._wakeup_bursts())
-        self.clock.process(self._lf_bursts())
-        self.clock.process(self._belt_reports())
+        self.clock.start(self._lf_bursts)
+        self.clock.start(self._belt_reports)
 
     # -- pairing (seed 002 §3.2) ------------------------------------------------------------------
     def _wakeup_bursts(self):
@@ -301,27 +301,29 @@ class UserSession:
                     return
 
     # -- localisation (seed 002 §3.3) -------------------------------------------------------------
-    def _lf_bursts(self):
+    def _lf_bursts(self) -> None:
+        """The master bursts LF every ``lf.burst_period_s`` of its own clock, from a random phase."""
+        period = self.cfg.lf.burst_period_s
+        self.swarm.master.clock.later(float(self.rng_misc.uniform(0.0, period)), self._lf_burst)
+
+    def _lf_burst(self) -> None:
         cfg = self.cfg
         period = cfg.lf.burst_period_s
-        yield self.swarm.master.clock.timeout(float(self.rng_misc.uniform(0.0, period)))
-        while True:
-            if self.connected_robot is not None and self.state in ("following", "leading", "emergency") \
-                    and self.clock.now >= self.link_since_s:
-                tx = self.swarm.master.node_id
-                robot = self.world.robots[tx]
-                if not can_be_master(robot):
-                    yield self.swarm.master.clock.timeout(period)
-                    continue  # a body without LF antennas bursts no LF (robot_types)
-                (ux, uy), (rx, ry) = self.user.position, robot.position
-                dx, dy = ux - rx, uy - ry
-                c, s = math.cos(robot.heading), math.sin(robot.heading)
-                fix = lf.locate(cfg.lf, c * dx + s * dy, -s * dx + c * dy, self.rng_lf)
-                if fix.valid:  # the belt heard both antennas; RSSIs go back over BLE
-                    t_burst = self.tracker_node.clock.now  # stamped on the clock of the robot whose tracker takes it
-                    ev = self.clock.timeout(cfg.ble.latency_s)
-                    ev.callbacks.append(lambda _e, tx=tx, fix=fix, t=t_burst: self._on_fix(tx, fix, t))
-            yield self.swarm.master.clock.timeout(period)  # the master's burst period, on its own clock
+        if self.connected_robot is not None and self.state in ("following", "leading", "emergency") \
+                and self.clock.now >= self.link_since_s:
+            tx = self.swarm.master.node_id
+            robot = self.world.robots[tx]
+            if not can_be_master(robot):
+                self.swarm.master.clock.later(period, self._lf_burst)
+                return  # a body without LF antennas bursts no LF (robot_types)
+            (ux, uy), (rx, ry) = self.user.position, robot.position
+            dx, dy = ux - rx, uy - ry
+            c, s = math.cos(robot.heading), math.sin(robot.heading)
+            fix = lf.locate(cfg.lf, c * dx + s * dy, -s * dx + c * dy, self.rng_lf)
+            if fix.valid:  # the belt heard both antennas; RSSIs go back over BLE
+                t_burst = self.tracker_node.clock.now  # stamped on the clock of the robot whose tracker takes it
+                self.clock.later(cfg.ble.latency_s, self._on_fix, tx, fix, t_burst)
+        self.swarm.master.clock.later(period, self._lf_burst)  # the master's burst period, on its own clock
 
     def _on_fix(self, tx: int, fix: lf.LFFix, t_burst: float) -> None:
         if self.connected_robot != tx or self.swarm.master.node_id != tx:
@@ -329,17 +331,17 @@ class UserSession:
         self.tracker.fix((fix.x_fwd, fix.y_left), t_burst)
 
     # -- belt reports (seed 002 §3.4) -------------------------------------------------------------
-    def _belt_reports(self):
-        cfg = self.cfg
-        while True:
-            yield self.belt_clock.timeout(cfg.ble.report_period_s)  # the belt's report period, on its own clock
-            self._ble_supervision()
-            if self.connected_robot is None or self.clock.now < self.link_since_s:
-                continue
+    def _belt_reports(self) -> None:
+        """The belt reports the user's motion every ``ble.report_period_s`` of its own clock."""
+        self.belt_clock.later(self.cfg.ble.report_period_s, self._belt_report)
+
+    def _belt_report(self) -> None:
+        self._ble_supervision()
+        if self.connected_robot is not None and self.clock.now >= self.link_since_s:
             r = self.belt.reading()
             view = BeltView(r.activity, r.rotating, r.angular_speed_rps, r.accumulated_angle_rad, self.belt_clock.now)
-            ev = self.clock.timeout(cfg.ble.latency_s)
-            ev.callbacks.append(lambda _e, v=view: setattr(self, "belt_view", v))
+            self.clock.later(self.cfg.ble.latency_s, setattr, self, "belt_view", view)
+        self._belt_reports()  # the belt's report period, on its own clock
 
     # -- commands (seed 002 §2, Table 1, Fig. 4) ----------------------------------------------------
     def _deliver(self, handler, item, delay_s: float) -> None:

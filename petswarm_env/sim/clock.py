@@ -17,6 +17,11 @@ the middleware's generators run on it unchanged) — it has what they use of an 
   one callback would be, but it is a bare callback — no event, no callback list, no value — that the
   loop calls directly. The middleware schedules most of its work this way (a frame's CCA and
   delivery, the handling of a received frame after the MCU delay);
+* ``clock.start(fn, *args)`` and ``clock.soon(fn, *args)``: a bare callback now, keyed where SimPy
+  would put the first step of a process started now (``start``: its initialisation is *urgent*, before
+  the events due now) or an event that succeeds now (``soon``: after the events already due now).
+  With ``later`` they let a protocol written as callbacks (the token ring, :mod:`..middleware.token_ring`)
+  run its steps exactly where the same protocol written as SimPy processes ran them;
 * :meth:`Clock.any_of` — "the first of these events", what ``simpy.AnyOf`` gives a process that
   only waits on it, without building a condition value.
 
@@ -37,7 +42,7 @@ from typing import Any, Optional
 
 import cython
 import simpy
-from simpy.events import NORMAL, PENDING, ConditionValue, Event, Process, Timeout
+from simpy.events import NORMAL, PENDING, URGENT, ConditionValue, Event, Process, Timeout
 
 COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
 
@@ -155,6 +160,16 @@ class Clock:
         """Run ``fn(*args)`` after ``delay`` seconds of clock time (a bare callback, module docstring)."""
         self._push(self.now + delay, NORMAL, fn, args)
 
+    def start(self, fn, *args) -> None:
+        """Run ``fn(*args)`` now, before the events due now: where SimPy runs the first step of a
+        process started now (its ``Initialize`` event is urgent)."""
+        self._push(self.now, URGENT, fn, args)
+
+    def soon(self, fn, *args) -> None:
+        """Run ``fn(*args)`` now, after the entries already due now: where SimPy processes an event
+        that succeeds now (``event.succeed()``)."""
+        self._push(self.now, NORMAL, fn, args)
+
     @cython.ccall
     def run_until(self, t: cython.double):
         """Process every entry before ``t``, then stand at ``t`` — what SimPy's ``run(until=t)``
@@ -265,6 +280,14 @@ class LocalClock:
     def later(self, delay: cython.double, fn, *args) -> None:
         """:meth:`Clock.later`, ``delay`` in this clock's seconds."""
         self._clock._push(self._clock.now + delay / self._rate, NORMAL, fn, args)
+
+    def start(self, fn, *args) -> None:
+        """:meth:`Clock.start` (no delay: the same on every clock)."""
+        self._clock._push(self._clock.now, URGENT, fn, args)
+
+    def soon(self, fn, *args) -> None:
+        """:meth:`Clock.soon` (no delay: the same on every clock)."""
+        self._clock._push(self._clock.now, NORMAL, fn, args)
 
     def process(self, generator) -> Process:
         return self._clock.process(generator)

@@ -76,3 +76,47 @@ def test_bare_callbacks_run_in_clock_order(loop):
     assert want == [(0.0, 4), (0.1, 1), (0.1, 3), (0.15, "proc"), (0.15, "from proc"), (0.2, 2), (0.3, 0)]
     clock = Clock()
     assert trace(clock, clock.later) == want
+
+
+def test_start_and_soon_run_where_a_process_start_and_an_event_success_run():
+    """``clock.start(fn)`` is keyed as SimPy keys a process started now (its first step before the
+    events due now), ``clock.soon(fn)`` as an event that succeeds now (after them): the same trace
+    as a plain SimPy environment with processes and events, the oracle."""
+    from petswarm_env.sim.clock import Clock
+
+    def trace(clock, start, soon):
+        out = []
+        for k in range(3):
+            clock.timeout(0.1).callbacks.append(lambda _e, k=k: out.append(("due", k)))
+
+        def at_0_1():
+            out.append(("now", round(clock.now, 9)))
+            soon(lambda: out.append("soon a"))
+            start(lambda: out.append("start"))
+            soon(lambda: out.append("soon b"))
+
+        clock.timeout(0.1).callbacks.append(lambda _e: at_0_1())
+        clock.timeout(0.1).callbacks.append(lambda _e: out.append(("due", 3)))
+        clock.run(until=1.0)
+        return out
+
+    def simpy_start(clock):
+        def start(fn):
+            def proc():
+                fn()
+                yield clock.timeout(0)
+            clock.process(proc())
+        return start
+
+    def simpy_soon(clock):
+        def soon(fn):
+            ev = clock.event()
+            ev.callbacks.append(lambda _e: fn())
+            ev.succeed()
+        return soon
+
+    ref = simpy.Environment()
+    want = trace(ref, simpy_start(ref), simpy_soon(ref))
+    assert want == [("due", 0), ("due", 1), ("due", 2), ("now", 0.1), "start", ("due", 3), "soon a", "soon b"]
+    clock = Clock()
+    assert trace(clock, clock.start, clock.soon) == want

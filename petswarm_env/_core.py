@@ -28,6 +28,7 @@ COMPILED: tuple[str, ...] = (
     "petswarm_env.sim.clock",
     "petswarm_env.comms.radio",
     "petswarm_env.middleware.station",
+    "petswarm_env.middleware.token_ring",
     "petswarm_env.sim.battery",
     "petswarm_env.sim.body",
     "petswarm_env.sim.geometry",

@@ -27,7 +27,7 @@ from petswarm_env.middleware.knowledge import MasterStatus
 from petswarm_env.middleware.modes import ModeManager
 from petswarm_env.middleware.recovery import RecoveryManager
 from petswarm_env.middleware.sequence import SequenceManager
-from petswarm_env.middleware.station import Signal, Station
+from petswarm_env.middleware.station import OwnClock, Signal, Station
 from petswarm_env.middleware.succession import SuccessionManager
 from petswarm_env.middleware.token_ring import TokenRing
 from petswarm_env.sim.clock import Clock
@@ -56,9 +56,9 @@ class Node(Station):
         # a master that handed its user over is a slave: a part it found broken may leave it unable to hold its slot
         self.handed_over.connect(lambda _new_master: self.recovery.after_handover(frozenset(self.diagnosis.failed)))
         # the sensors hand their readings to the MCU, which stamps them with its own clock
-        local = self.clock.local
-        robot.on_ring = lambda ranges, present, now_s, rang=True: self.diagnosis.on_ring(ranges, present, local(now_s), rang)
-        robot.ahrs.on_reading = lambda now_s, yaw: self.diagnosis.on_ahrs(local(now_s), yaw)
+        stamp = OwnClock(self.clock, self.diagnosis.on_ring, self.diagnosis.on_ahrs)
+        robot.on_ring = stamp.ring
+        robot.ahrs.on_reading = stamp.ahrs
         self.succession = SuccessionManager(self, self.seq.leave_swarm)
         self.seq.successor = self.succession
         self.seq.ring_heard = self.ring.last_heard_s

@@ -59,6 +59,32 @@ def mcu_clock(clock: Clock, cfg: Config, rng: np.random.Generator) -> LocalClock
     return LocalClock(clock, offset, drift)
 
 
+@cython.final
+@cython.cclass
+class OwnClock:
+    """The robot's sensors hand their readings to its software (its self-diagnosis), which stamps
+    them with its MCU's own clock (seed 000 §3.3: independent clocks): :meth:`ring` and :meth:`ahrs`
+    are the ultrasonic ring's and the AHRS's listeners, called for every reading with the true time,
+    and call ``on_ring`` / ``on_ahrs`` with the MCU's reading of it (``clock.local``)."""
+
+    _local = cython.declare(object)  # the MCU clock's reader (LocalClock.local)
+    _on_ring = cython.declare(object)
+    _on_ahrs = cython.declare(object)
+
+    def __init__(self, clock: LocalClock, on_ring: Callable[..., None], on_ahrs: Callable[..., None]):
+        self._local = clock.local
+        self._on_ring = on_ring
+        self._on_ahrs = on_ahrs
+
+    def ring(self, ranges, present, now_s, rang=True) -> None:
+        """``robot.on_ring(ranges, present, now_s, rang)``: the ring's reading and self-test."""
+        self._on_ring(ranges, present, self._local(now_s), rang)
+
+    def ahrs(self, now_s, yaw) -> None:
+        """``ahrs.on_reading(now_s, yaw)``: one AHRS reading."""
+        self._on_ahrs(self._local(now_s), yaw)
+
+
 class Signal:
     """An upward notification of one robot's middleware: a manager emits it, the fleet subscribes."""
 

@@ -61,6 +61,8 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
+import cython
+
 from petswarm_env.comms.radio import Frame
 from petswarm_env.config import Config
 from petswarm_env.middleware import messages as msg
@@ -68,6 +70,7 @@ from petswarm_env.middleware.knowledge import HeadingEstimate
 from petswarm_env.middleware.station import Station
 from petswarm_env.sim.geometry import wrap_angle
 
+COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
 
 # chosen: a holder announced this long ago (its start sign, sync or the token to it) still transmits: the slot's
 # acknowledgement wait and its IR transmission (protocol.ring_response_timeout_s 0.05 + ir_tx_s 0.04) with room
@@ -98,6 +101,8 @@ def relative_heading(bearing_self_sees_other: float, bearing_other_sees_self: fl
     return wrap_angle(bearing_self_sees_other - bearing_other_sees_self + math.pi)
 
 
+@cython.final
+@cython.cclass
 class _Wait:
     """What the holder waits for — every acknowledgement it needs, or its neighbours' heading
     reports — with the response timeout: the first of the two resumes its slot (seed 000 Fig. 7:
@@ -106,162 +111,78 @@ class _Wait:
     resumed. Its steps are keyed on the clock where SimPy put the same wait written as
     ``AnyOf(event, timeout)`` in a process: the event, then the condition, each one step later."""
 
-    __slots__ = ("slot", "triggered", "armed", "done")
+    slot = cython.declare(object)  # the _Slot it resumes
+    triggered = cython.declare(cython.bint)
+    armed = cython.declare(cython.bint)
+    done = cython.declare(cython.bint)
 
-    def __init__(self, slot: _Slot):
+    def __init__(self, slot):
         self.slot = slot
         self.triggered = False
         self.armed = False
         self.done = False
 
 
-# the step of a holder's slot that the next resume runs
-_ACKED, _IR_DONE, _HEADINGS, _TOKEN_ACKED = 0, 1, 2, 3
-
-
-class _Slot:
-    """One holder's slot of the ring (seed 000 §3.3 Fig. 7), as a state machine on its MCU's clock:
-    start sign and the responses, IR transmission, the neighbours' heading reports, token hand-over
-    (with retries, skipping a robot that does not answer). A robot that leaves the swarm meanwhile
-    (``node.know`` replaced) ends it; so does a newer token (``token_seq``) at the IR deadline."""
-
-    __slots__ = ("ring", "seq", "know", "peers", "slot_start", "step", "member", "nxt", "target", "skips_left",
-                 "attempts_left")
-
-    def __init__(self, ring: TokenRing, seq: int):
-        self.ring = ring
-        self.seq = seq
-        self.know = ring.node.know  # leave_swarm() replaces it: then this slot is over
-        self.step = _ACKED
-
-    def start(self) -> None:
-        ring, node = self.ring, self.ring.node
-        ring.holding = True
-        ring.token_seq = self.seq
-        ring.last_activity_s = node.clock.now
-        self.peers = ring._ring_peers()
-        self.slot_start = node.clock.now
-        node.send(msg.TX_START, seq=self.seq)
-        self.step = _ACKED
-        ring._wait_acks(self.peers, self)
-
-    def resume(self) -> None:
-        step = self.step
-        if step == _ACKED:
-            self._acked()
-        elif step == _IR_DONE:
-            self._ir_done()
-        elif step == _HEADINGS:
-            self._pass_token()
-        else:
-            self._token_acked()
-
-    def _end(self) -> None:
-        self.ring.holding = False
-
-    def _acked(self) -> None:
-        ring, node = self.ring, self.ring.node
-        if node.state == "master" and node.know is self.know:
-            ring._count_silent(self.peers, self.slot_start)
-        self.step = _IR_DONE
-        node.clock.later(ring.plan().ir_tx_s, self.resume)
-
-    def _ir_done(self) -> None:
-        ring, node, know = self.ring, self.ring.node, self.know
-        if ring.token_seq != self.seq or node.know is not know:  # superseded, or left the swarm
-            return self._end()
-        # every other member measures our IR now; our neighbours (by our neighbour table, in its
-        # order) that saw us report the bearing they saw us at (Fig. 9): wait for them before passing on
-        formation = node.formation
-        neighbours = [know.members.get(m) for m in formation.neighbours(know.member)] if formation is not None else []
-        # our own slot as our IR self-check sees it: the neighbours that acknowledged our start sign (middleware/diagnosis.py)
-        ring.own_slot = (self.slot_start, frozenset(n for n in neighbours if n in ring._acks))
-        reporters = node.transmit_ir(neighbours)
-        ring._headings_expected = set(reporters)
-        wait = ring._headings_event = _Wait(self)
-        if reporters and ring.plan().wait_headings:  # else the reports are paired as they come (crowded ring)
-            wait.armed = True
-            self.step = _HEADINGS
-            node.clock.later(node.cfg.protocol.ring_response_timeout_s, ring._wait_over, wait)
-            return
-        self._pass_token()
-
-    def _pass_token(self) -> None:
-        ring, node = self.ring, self.ring.node
-        ring._headings_expected = set()
-        if node.know is not self.know:
-            return self._end()
-        self.member = node.know.member
-        self.nxt = ring._next_member(self.member)
-        self.skips_left = node.know.total_members
-        self._next_target()
-
-    def _next_target(self) -> None:
-        """The token goes to the next member in the table; one the table lost meanwhile is passed over."""
-        ring, know = self.ring, self.ring.node.know
-        while self.skips_left > 0:
-            self.skips_left -= 1
-            target = know.members.get(self.nxt)
-            if target is None:  # the tables shrank meanwhile (a member removed)
-                self.nxt = ring._next_member(self.nxt)
-                continue
-            self.target = target
-            self.attempts_left = ring.node.cfg.protocol.token_retries + 1
-            return self._send_token()
-        self._finish()
-
-    def _send_token(self) -> None:
-        self.attempts_left -= 1
-        self.ring.node.send(msg.TOKEN, seq=self.seq + 1, next=self.nxt)
-        self.step = _TOKEN_ACKED
-        self.ring._wait_acks({self.target}, self)
-
-    def _token_acked(self) -> None:
-        ring = self.ring
-        if ring.node.know is not self.know:
-            return self._end()
-        if self.target not in ring._acks and self.attempts_left > 0:
-            return self._send_token()  # retry
-        if self.target in ring._acks or self.nxt == self.member:
-            return self._finish()
-        self.nxt = ring._next_member(self.nxt)  # skip a robot that does not answer
-        self._next_target()
-
-    def _finish(self) -> None:
-        ring, node = self.ring, self.ring.node
-        ring.holding = False
-        ring.last_activity_s = node.clock.now
-        if self.nxt == self.member:  # nobody else answered: keep the token
-            node.clock.start(ring._begin, self.seq + 1)
-
-
+@cython.cclass
 class TokenRing:
+    """One robot's token ring and heading exchange (module docstring). A typed class of the
+    compiled core; its methods are looked up as Python attributes, so a test may replace them."""
+
+    __dict__ = cython.declare(dict)
+    node = cython.declare(object, visibility="public")
+    token_seq = cython.declare(cython.longlong, visibility="public")
+    holding = cython.declare(cython.bint, visibility="public")
+    last_activity_s = cython.declare(cython.double, visibility="public")
+    recoveries = cython.declare(cython.long, visibility="public")
+    drop_next_token = cython.declare(cython.bint, visibility="public")
+    _acks = cython.declare(set)
+    _acks_needed = cython.declare(set)
+    _acks_event = cython.declare(_Wait)
+    _headings_expected = cython.declare(set)
+    _headings_event = cython.declare(_Wait)
+    _slot_start = cython.declare(dict)
+    holder_heard = cython.declare(tuple, visibility="public")
+    token_to = cython.declare(tuple, visibility="public")
+    own_slot = cython.declare(object, visibility="public")
+    report_s = cython.declare(cython.double, visibility="public")
+    slot_range_m = cython.declare(dict, visibility="public")
+    heard = cython.declare(dict, visibility="public")
+    silent_rounds = cython.declare(dict, visibility="public")
+    round_start_s = cython.declare(cython.double, visibility="public")
+    started_s = cython.declare(cython.double, visibility="public")
+    rounds = cython.declare(cython.long, visibility="public")
+    lost_handler = cython.declare(object, visibility="public")
+    _declared = cython.declare(set)
+    _plan = cython.declare(object)
+    _clock = cython.declare(object)  # the robot's own MCU clock (Station.clock)
+
     def __init__(self, node: Station):
         self.node = node
+        self._clock = node.clock
         self.token_seq = -1  # highest token sequence number seen
         self.holding = False
         self.last_activity_s = 0.0
         self.recoveries = 0  # master only: tokens regenerated
         self.drop_next_token = False  # fault injection: silently lose the next token handed to us
-        self._acks: set[int] = set()
-        self._acks_needed: set[int] = set()
+        self._acks = set()
+        self._acks_needed = set()
         self._acks_event = None
-        self._headings_expected: set[int] = set()
+        self._headings_expected = set()
         self._headings_event = None
-        self._slot_start: dict[int, float] = {}  # robot -> start of its latest IR slot (its TX_START)
-        self.holder_heard: tuple[int | None, float] = (None, -math.inf)  # (sender of the latest start sign or sync, when)
-        self.token_to: tuple[int | None, float] = (None, -math.inf)  # (the robot the latest token heard went to, when)
-        self.own_slot: tuple[float, frozenset[int]] | None = None  # (start, neighbours that acked) of our latest slot
+        self._slot_start = {}  # robot -> start of its latest IR slot (its TX_START)
+        self.holder_heard = (None, -math.inf)  # (sender of the latest start sign or sync, when)
+        self.token_to = (None, -math.inf)  # (the robot the latest token heard went to, when)
+        self.own_slot = None  # (start, neighbours that acked) of our latest slot
         self.report_s = -math.inf  # when a neighbour last reported the bearing it saw us at (heading exchange)
-        self.slot_range_m: dict[int, float] = {}  # robot -> the RSSI range of its latest start sign or ack to us (middleware/diagnosis.py)
-        self.heard: dict[int, float] = {}  # robot -> when we last received one of its ring frames
-        self.silent_rounds: dict[int, int] = {}  # master: member -> rounds in a row it was not heard in
+        self.slot_range_m = {}  # robot -> the RSSI range of its latest start sign or ack to us (middleware/diagnosis.py)
+        self.heard = {}  # robot -> when we last received one of its ring frames
+        self.silent_rounds = {}  # master: member -> rounds in a row it was not heard in
         self.round_start_s = 0.0  # master: start of its previous slot
         self.started_s = -math.inf  # master: when it started its ring
         self.rounds = 0  # master: rounds of its ring since it started it
         self.lost_handler = None  # master: called with the node id of a member declared lost (Node wires it)
-        self._declared: set[int] = set()
-        self._plan: tuple[int, RingPlan] | None = None  # (total members, its plan)
+        self._declared = set()
+        self._plan = None  # (total members, its plan)
         node.on(msg.TX_START, self._on_tx_start)
         node.on(msg.TOKEN, self._on_token)
         node.on(msg.SYNC, self._on_sync)
@@ -282,49 +203,54 @@ class TokenRing:
         return self._plan[1]
 
     # -- ring order -----------------------------------------------------------------------------
-    def _next_member(self, member: int) -> int:
+    @cython.cfunc
+    def _next_member(self, member):
         total = self.node.know.total_members
         return (member + 1) % total if total else 0
 
-    def _ring_peers(self) -> set[int]:
+    @cython.cfunc
+    def _ring_peers(self) -> set:
         return {n for n in self.node.know.members.values() if n != self.node.node_id}
 
     # -- holder -----------------------------------------------------------------------------------
-    def _wait_acks(self, needed: set[int], slot: _Slot) -> None:
+    @cython.cfunc
+    def _wait_acks(self, needed: set, slot: _Slot):
         """The holder waits for acknowledgements from ``needed``, or the response timeout: ``slot``
         resumes at the first of the two (:class:`_Wait`)."""
         self._acks = set()
         self._acks_needed = needed
-        wait = self._acks_event = _Wait(slot)
+        wait: _Wait = _Wait(slot)
+        self._acks_event = wait
         wait.armed = True
-        self.node.clock.later(self.node.cfg.protocol.ring_response_timeout_s, self._wait_over, wait)
+        self._clock.later(self.node.cfg.protocol.ring_response_timeout_s, self._wait_over, wait)
 
     def _wait_over(self, wait: _Wait) -> None:
         """The first of a wait's two ends (its event, or its timeout) resumes its slot; the later one is nothing."""
         if wait.done or not wait.armed:
             return
         wait.done = True
-        self.node.clock.soon(wait.slot.resume)
+        self._clock.soon(wait.slot.resume)
 
     def _on_ack(self, frame: Frame) -> None:
-        self.heard[frame.src] = self.node.clock.now  # an acknowledgement to another holder, overheard, is a sign of life too
+        self.heard[frame.src] = self._clock.now  # an acknowledgement to another holder, overheard, is a sign of life too
         if frame.dst != self.node.node_id:
             return
         self._acks.add(frame.src)
-        self.heard[frame.src] = self.node.clock.now
+        self.heard[frame.src] = self._clock.now
         self.slot_range_m[frame.src] = frame.rx_distance_est_m  # its RSSI range, as of its latest ring frame to us
-        wait = self._acks_event
+        wait: _Wait = self._acks_event
         if wait is not None and not wait.triggered and self._acks_needed <= self._acks:
             wait.triggered = True
             if wait.armed:
-                self.node.clock.soon(self._wait_over, wait)
+                self._clock.soon(self._wait_over, wait)
 
     def hold(self, seq: int) -> None:
         """Become the holder of token ``seq`` and run its slot (:class:`_Slot`): start sign, IR
         transmission, token hand-over."""
         _Slot(self, seq).start()
 
-    def _count_silent(self, peers: set[int], slot_start: float) -> None:
+    @cython.cfunc
+    def _count_silent(self, peers: set, slot_start: cython.double):
         """Master, at the start of its slot: a round has passed since its previous slot; count the
         members not heard in it, and declare lost those silent ``protocol.lost_after_rounds`` rounds
         in a row (module docstring)."""
@@ -362,13 +288,13 @@ class TokenRing:
     def start_as_master(self) -> None:
         """The master starts the ring (with a fresh token) and its watchdog."""
         node = self.node
-        self.round_start_s = self.started_s = node.clock.now  # every member's first round counts from now
+        self.round_start_s = self.started_s = self._clock.now  # every member's first round counts from now
         self.silent_rounds = {}
         self.rounds = 0
         if node.know.total_members > 1:
             self.token_seq += 1000  # supersede any token still in flight
-            node.clock.start(self.hold, self.token_seq)
-            node.clock.start(self._watch)
+            self._clock.start(self.hold, self.token_seq)
+            self._clock.start(self._watch)
 
     def _begin(self, seq: int) -> None:
         """Become the holder: send the sync message, switch IR to transmit, run the slot."""
@@ -377,8 +303,8 @@ class TokenRing:
 
     # -- everyone ---------------------------------------------------------------------------------
     def _on_tx_start(self, frame: Frame) -> None:
-        self.last_activity_s = self._slot_start[frame.src] = self.heard[frame.src] = self.node.clock.now
-        self.holder_heard = (frame.src, self.node.clock.now)
+        self.last_activity_s = self._slot_start[frame.src] = self.heard[frame.src] = self._clock.now
+        self.holder_heard = (frame.src, self._clock.now)
         self.slot_range_m[frame.src] = frame.rx_distance_est_m  # the announcer's RSSI range (the IR self-check)
         seq = frame.payload["seq"]
         self.token_seq = max(seq, self.token_seq)
@@ -393,10 +319,10 @@ class TokenRing:
 
     def _on_token(self, frame: Frame) -> None:
         node = self.node
-        self.last_activity_s = self.heard[frame.src] = node.clock.now
+        self.last_activity_s = self.heard[frame.src] = self._clock.now
         nxt = node.know.members.get(frame.payload["next"])
         if nxt is not None:
-            self.token_to = (nxt, node.clock.now)
+            self.token_to = (nxt, self._clock.now)
         named = node.know.members.get(frame.payload["next"]) == node.node_id
         if named or self.plan().all_answer_token:
             node.send(msg.TOKEN_ACK, dst=frame.src)
@@ -407,11 +333,11 @@ class TokenRing:
         if self.drop_next_token:
             self.drop_next_token = False
             return
-        node.clock.start(self._begin, seq)
+        self._clock.start(self._begin, seq)
 
     def _on_sync(self, frame: Frame) -> None:
-        self.last_activity_s = self.heard[frame.src] = self.node.clock.now
-        self.holder_heard = (frame.src, self.node.clock.now)
+        self.last_activity_s = self.heard[frame.src] = self._clock.now
+        self.holder_heard = (frame.src, self._clock.now)
         self.token_seq = max(self.token_seq, frame.payload["seq"])
 
     def announced_holder(self) -> int | None:
@@ -421,7 +347,7 @@ class TokenRing:
         None: it heard no announcement and cannot say whose IR it measured (the measurement is
         dropped). Chosen order: a token's "next" names a member by the receiver's own table and a
         token may be passed on again (its acknowledgement lost) while the first robot holds."""
-        now = self.node.clock.now
+        now = self._clock.now
         for holder, t in (self.holder_heard, self.token_to):
             if now - t <= ANNOUNCE_S:
                 return holder
@@ -431,7 +357,7 @@ class TokenRing:
         """The IR medium asks a neighbour of the transmitter ``holder`` at the end of its slot: if
         we measured it in this slot, we report the bearing we saw it at (Fig. 9)."""
         seen = self.node.know.ir.get(holder)
-        if seen is None or seen.time_s != self.node.clock.now:
+        if seen is None or seen.time_s != self._clock.now:
             return False
         self.send_heading(holder, seen.bearing_rad)
         return True
@@ -446,21 +372,21 @@ class TokenRing:
         node = self.node
         if frame.dst != node.node_id:
             return
-        self.report_s = node.clock.now
+        self.report_s = self._clock.now
         seen = node.know.ir.get(frame.src)
         if seen is not None and seen.time_s >= self._slot_start.get(frame.src, -math.inf):
             # our bearing of the sender dates from its slot: carry it over our own rotation since (AHRS)
             yaw = node.ahrs_yaw()
             bearing_now = seen.bearing_rad - (yaw - seen.own_yaw_rad)
             rel = relative_heading(bearing_now, frame.payload["bearing"])
-            node.know.heading[frame.src] = HeadingEstimate(rel, node.clock.now, yaw)
+            node.know.heading[frame.src] = HeadingEstimate(rel, self._clock.now, yaw)
         # else we missed the sender's latest slot: no pair of bearings from this round
         self._headings_expected.discard(frame.src)
-        wait = self._headings_event
+        wait: _Wait = self._headings_event
         if wait is not None and not wait.triggered and not self._headings_expected:
             wait.triggered = True
             if wait.armed:
-                node.clock.soon(self._wait_over, wait)
+                self._clock.soon(self._wait_over, wait)
 
     # -- master: watchdog -------------------------------------------------------------------------
     def _watch(self) -> None:
@@ -468,14 +394,169 @@ class TokenRing:
         ``token_timeout_s / 2`` of its own clock while it is the master."""
         node = self.node
         if node.state == "master":
-            node.clock.later(node.cfg.protocol.token_timeout_s / 2, self._watchdog)
+            self._clock.later(node.cfg.protocol.token_timeout_s / 2, self._watchdog)
 
     def _watchdog(self) -> None:
         node = self.node
         if node.state != "master":
             return
-        if not self.holding and node.clock.now - self.last_activity_s > node.cfg.protocol.token_timeout_s:
+        if not self.holding and self._clock.now - self.last_activity_s > node.cfg.protocol.token_timeout_s:
             self.recoveries += 1
             self.token_seq += 1000  # supersede any stale holder
-            node.clock.start(self.hold, self.token_seq)
+            self._clock.start(self.hold, self.token_seq)
         self._watch()
+
+
+# the step of a holder's slot that the next resume runs
+_ACKED = cython.declare(cython.int, 0)  # the start sign's responses (or the timeout)
+_IR_DONE = cython.declare(cython.int, 1)  # the IR transmission's end
+_HEADINGS = cython.declare(cython.int, 2)  # the neighbours' heading reports (or the timeout)
+_TOKEN_ACKED = cython.declare(cython.int, 3)  # the token's acknowledgement (or the timeout)
+
+
+@cython.final
+@cython.cclass
+class _Slot:
+    """One holder's slot of the ring (seed 000 §3.3 Fig. 7), as a state machine on its MCU's clock:
+    start sign and the responses, IR transmission, the neighbours' heading reports, token hand-over
+    (with retries, skipping a robot that does not answer). A robot that leaves the swarm meanwhile
+    (``node.know`` replaced) ends it; so does a newer token (``token_seq``) at the IR deadline."""
+
+    ring = cython.declare(TokenRing)
+    seq = cython.declare(cython.longlong)
+    know = cython.declare(object)
+    peers = cython.declare(set)
+    slot_start = cython.declare(cython.double)
+    step = cython.declare(cython.int)
+    member = cython.declare(object)
+    nxt = cython.declare(object)
+    target = cython.declare(object)
+    skips_left = cython.declare(cython.long)
+    attempts_left = cython.declare(cython.long)
+
+    def __init__(self, ring: TokenRing, seq: cython.longlong):
+        self.ring = ring
+        self.seq = seq
+        self.know = ring.node.know  # leave_swarm() replaces it: then this slot is over
+        self.step = _ACKED
+
+    def start(self) -> None:
+        ring: TokenRing = self.ring
+        node = ring.node
+        ring.holding = True
+        ring.token_seq = self.seq
+        ring.last_activity_s = ring._clock.now
+        self.peers = ring._ring_peers()
+        self.slot_start = ring._clock.now
+        node.send(msg.TX_START, seq=self.seq)
+        self.step = _ACKED
+        ring._wait_acks(self.peers, self)
+
+    def resume(self) -> None:
+        step = self.step
+        if step == _ACKED:
+            self._acked()
+        elif step == _IR_DONE:
+            self._ir_done()
+        elif step == _HEADINGS:
+            self._pass_token()
+        else:
+            self._token_acked()
+
+    @cython.cfunc
+    def _end(self):
+        self.ring.holding = False
+
+    @cython.cfunc
+    def _acked(self):
+        ring: TokenRing = self.ring
+        node = ring.node
+        if node.state == "master" and node.know is self.know:
+            ring._count_silent(self.peers, self.slot_start)
+        self.step = _IR_DONE
+        ring._clock.later(ring.plan().ir_tx_s, self.resume)
+
+    @cython.cfunc
+    def _ir_done(self):
+        ring: TokenRing = self.ring
+        node, know = ring.node, self.know
+        if ring.token_seq != self.seq or node.know is not know:  # superseded, or left the swarm
+            self._end()
+            return
+        # every other member measures our IR now; our neighbours (by our neighbour table, in its
+        # order) that saw us report the bearing they saw us at (Fig. 9): wait for them before passing on
+        formation = node.formation
+        neighbours = [know.members.get(m) for m in formation.neighbours(know.member)] if formation is not None else []
+        # our own slot as our IR self-check sees it: the neighbours that acknowledged our start sign (middleware/diagnosis.py)
+        ring.own_slot = (self.slot_start, frozenset(n for n in neighbours if n in ring._acks))
+        reporters = node.transmit_ir(neighbours)
+        ring._headings_expected = set(reporters)
+        wait: _Wait = _Wait(self)
+        ring._headings_event = wait
+        if reporters and ring.plan().wait_headings:  # else the reports are paired as they come (crowded ring)
+            wait.armed = True
+            self.step = _HEADINGS
+            ring._clock.later(node.cfg.protocol.ring_response_timeout_s, ring._wait_over, wait)
+            return
+        self._pass_token()
+
+    @cython.cfunc
+    def _pass_token(self):
+        ring: TokenRing = self.ring
+        node = ring.node
+        ring._headings_expected = set()
+        if node.know is not self.know:
+            self._end()
+            return
+        self.member = node.know.member
+        self.nxt = ring._next_member(self.member)
+        self.skips_left = node.know.total_members
+        self._next_target()
+
+    @cython.cfunc
+    def _next_target(self):
+        """The token goes to the next member in the table; one the table lost meanwhile is passed over."""
+        ring: TokenRing = self.ring
+        know = ring.node.know
+        while self.skips_left > 0:
+            self.skips_left -= 1
+            target = know.members.get(self.nxt)
+            if target is None:  # the tables shrank meanwhile (a member removed)
+                self.nxt = ring._next_member(self.nxt)
+                continue
+            self.target = target
+            self.attempts_left = ring.node.cfg.protocol.token_retries + 1
+            self._send_token()
+            return
+        self._finish()
+
+    @cython.cfunc
+    def _send_token(self):
+        self.attempts_left -= 1
+        self.ring.node.send(msg.TOKEN, seq=self.seq + 1, next=self.nxt)
+        self.step = _TOKEN_ACKED
+        self.ring._wait_acks({self.target}, self)
+
+    @cython.cfunc
+    def _token_acked(self):
+        ring: TokenRing = self.ring
+        if ring.node.know is not self.know:
+            self._end()
+            return
+        if self.target not in ring._acks and self.attempts_left > 0:
+            self._send_token()  # retry
+            return
+        if self.target in ring._acks or self.nxt == self.member:
+            self._finish()
+            return
+        self.nxt = ring._next_member(self.nxt)  # skip a robot that does not answer
+        self._next_target()
+
+    @cython.cfunc
+    def _finish(self):
+        ring: TokenRing = self.ring
+        node = ring.node
+        ring.holding = False
+        ring.last_activity_s = ring._clock.now
+        if self.nxt == self.member:  # nobody else answered: keep the token
+            ring._clock.start(ring._begin, self.seq + 1)

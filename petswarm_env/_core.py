@@ -36,6 +36,7 @@ COMPILED: tuple[str, ...] = (
     "petswarm_env.comms.ir",
     "petswarm_env.observe",
     "petswarm_env.wearables.belt_window",
+    "petswarm_env.wearables.belt",
     "petswarm_env.comms.ir_channel",
     "petswarm_env.middleware.diagnosis",
     "petswarm_env.control.arbiter",

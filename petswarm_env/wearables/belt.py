@@ -51,14 +51,17 @@ import math
 from array import array
 from dataclasses import dataclass
 
+import cython
 import numpy as np
 
 from petswarm_env.config import BeltConfig
 from petswarm_env.scenarios import ACTIVITIES  # seed 002 Table 2; index = activity code below
 from petswarm_env.wearables.belt_window import window_stats
 
-GRAVITY_MPS2 = 9.80665
-_EPS_S = 1e-9  # sample times are compared with this slack (float accumulation of 0.1 s steps)
+COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
+
+GRAVITY_MPS2 = cython.declare(cython.double, 9.80665)
+_EPS_S = cython.declare(cython.double, 1e-9)  # sample times are compared with this slack (float accumulation of 0.1 s steps)
 
 
 # --------------------------------------------------------------------------- recognition rules
@@ -85,19 +88,22 @@ def signal_magnitude_area(windows: np.ndarray) -> np.ndarray:
 def _per_row(windows: np.ndarray, deadband: float) -> tuple[np.ndarray, np.ndarray]:
     """:func:`~.belt_window.window_stats` on every row of ``windows`` (..., W)."""
     x = np.asarray(windows, dtype=np.float64)
-    shape, w = x.shape[:-1], x.shape[-1]
+    w = x.shape[x.ndim - 1]  # (the compiled core indexes without wrap-around: no negative index)
+    shape = x.shape[: x.ndim - 1]
     flat = np.ascontiguousarray(x).reshape(-1)
     rows = [window_stats(flat, k * w, k * w + 1, w, deadband) for k in range(flat.size // w)]
     changes = np.array([r[0][0] for r in rows], dtype=np.intp).reshape(shape)
     return changes, np.array([r[1][0] for r in rows], dtype=np.float64).reshape(shape)
 
 
-def sma_level(sma: float, cfg: BeltConfig) -> int:
+@cython.ccall
+def sma_level(sma: cython.double, cfg: BeltConfig) -> cython.int:
     """SMA level 1 / 2 / 3 of one window by the two thresholds (seed 002 Table 2)."""
     return 1 + (sma >= cfg.sma_level2_mps2) + (sma >= cfg.sma_level3_mps2)
 
 
-def classify(periodic: bool, level: int) -> int:
+@cython.ccall
+def classify(periodic: cython.bint, level: cython.int) -> cython.int:
     """Seed 002 Table 2 for one window, as an activity code (index into :data:`ACTIVITIES`).
 
     Periodic ("Movement"): SMA 3 → Run (3), 2 → Walk (2), 1 → Rest (1).
@@ -124,6 +130,7 @@ class BeltReading:
     sma_mps2: float  # SMA of the last window
 
 
+@cython.cclass
 class SmartBelt:
     """The smart belt on the user's waist: IMU sampling and the recognition of seed 002 §3.4.
 
@@ -131,7 +138,38 @@ class SmartBelt:
     ``t_end`` with the user's true motion held constant since the previous call (the env calls it
     once per control period). ``reading()`` is the belt's current knowledge. Until the first full
     window the activity is Stop (nothing recognised yet).
+
+    A typed class of the compiled core (Cython's pure-Python mode, ``petswarm_env/_core.py``): it
+    runs for every control period.
     """
+
+    __dict__ = cython.declare(dict)
+    cfg = cython.declare(object, visibility="public")
+    rng = cython.declare(object, visibility="public")
+    _t0 = cython.declare(cython.double)
+    _t = cython.declare(cython.double)
+    _acc_dt = cython.declare(cython.double)
+    _w = cython.declare(cython.Py_ssize_t)
+    _n_acc = cython.declare(cython.Py_ssize_t)
+    _hist = cython.declare(object)  # array("d")
+    _gait_phase = cython.declare(cython.double, visibility="public")
+    _n_gyro = cython.declare(cython.Py_ssize_t)
+    _stride_phase = cython.declare(cython.double)
+    _bias_rps = cython.declare(cython.double)
+    _ma = cython.declare(list)
+    _on_rps = cython.declare(cython.double)
+    _off_rps = cython.declare(cython.double)
+    _gyro_noise_rps = cython.declare(cython.double)
+    _wobble_rad = cython.declare(cython.double)
+    _cadence = cython.declare(tuple)
+    _activity = cython.declare(cython.int)
+    _activity_since = cython.declare(cython.double)
+    _sign_changes = cython.declare(object)
+    _sma = cython.declare(cython.double)
+    _rotating = cython.declare(cython.bint)
+    _rotation_since = cython.declare(cython.double)
+    _omega_f = cython.declare(cython.double)
+    _angle = cython.declare(cython.double)
 
     def __init__(self, cfg: BeltConfig, rng: np.random.Generator, t0_s: float = 0.0):
         self.cfg = cfg
@@ -176,11 +214,12 @@ class SmartBelt:
             raise ValueError(f"posture '{posture}' is not one of {', '.join(ACTIVITIES)}")
         if t_end < self._t - _EPS_S:
             raise ValueError(f"belt time runs forward: t_end {t_end} < {self._t}")
-        n_target = math.floor((t_end - self._t0) / self._acc_dt + _EPS_S)
+        n_target: cython.Py_ssize_t = math.floor((t_end - self._t0) / self._acc_dt + _EPS_S)
+        n: cython.Py_ssize_t
         while self._n_acc < n_target:
             n = min(self._w, n_target - self._n_acc)
             self._accel_chunk(n, speed_mps, posture)
-        m_target = math.floor((t_end - self._t0) / self.cfg.gyro_period_s + _EPS_S)
+        m_target: cython.Py_ssize_t = math.floor((t_end - self._t0) / self.cfg.gyro_period_s + _EPS_S)
         if m_target > self._n_gyro:
             self._gyro_samples(m_target - self._n_gyro, speed_mps, turn_rate_rps, posture)
         self._t = max(self._t, float(t_end))
@@ -198,7 +237,8 @@ class SmartBelt:
             sma_mps2=self._sma,
         )
 
-    def _cadence_hz(self, posture: str, speed_mps: float) -> float:
+    @cython.cfunc
+    def _cadence_hz(self, posture: str, speed_mps: cython.double) -> cython.double:
         """``cfg.cadence_hz``, kept for the last (posture, speed)."""
         last_posture, last_speed, f = self._cadence
         if posture != last_posture or speed_mps != last_speed:
@@ -208,12 +248,16 @@ class SmartBelt:
 
     # ------------------------------------------------------------------ accelerometer
 
-    def _synth_accel(self, n: int, speed_mps: float, posture: str) -> list[float]:
+    def _synth_accel(self, n: cython.Py_ssize_t, speed_mps: cython.double, posture: str) -> list:
         """n vertical-acceleration samples (m/s², gravity included) of the waist."""
-        cfg, dt = self.cfg, self._acc_dt
+        cfg = self.cfg
+        dt: cython.double = self._acc_dt
+        f: cython.double
+        amp: cython.double
+        jitter: cython.double
         if posture in ("walk", "run"):
             f = self._cadence_hz(posture, speed_mps)
-            bounce = cfg.run_bounce_m if posture == "run" else cfg.walk_bounce_m
+            bounce: cython.double = cfg.run_bounce_m if posture == "run" else cfg.walk_bounce_m
             amp, jitter = (2.0 * math.pi * f) ** 2 * bounce, cfg.gait_phase_jitter
         elif posture == "rest":
             f, amp, jitter = cfg.rest_sway_hz, cfg.rest_sway_mps2, cfg.rest_phase_jitter
@@ -221,55 +265,83 @@ class SmartBelt:
             f, amp, jitter = 0.0, 0.0, 0.0
         # plain Python on the handful of samples of one control period: the same operations, in the
         # same order, as the array expression G + amp·sin(φ0 + cumsum(dφ)) + σ·z (bit-identical)
-        z = self.rng.standard_normal(2 * n).tolist()  # sensor noise, then phase jitter
-        step = 2.0 * math.pi * f * dt
-        jitter_step = jitter * math.sqrt(dt) if jitter > 0.0 and amp > 0.0 else 0.0
-        phase0, noise = self._gait_phase, cfg.accel_noise_mps2
-        out, turned = [], 0.0
+        z: list = self.rng.standard_normal(2 * n).tolist()  # sensor noise, then phase jitter
+        step: cython.double = 2.0 * math.pi * f * dt
+        jitter_step: cython.double = jitter * math.sqrt(dt) if jitter > 0.0 and amp > 0.0 else 0.0
+        phase0: cython.double = self._gait_phase
+        noise: cython.double = cfg.accel_noise_mps2
+        out: list = []
+        turned: cython.double = 0.0
+        dphi: cython.double
+        zk: cython.double
+        k: cython.Py_ssize_t
         for k in range(n):
-            dphi = step + jitter_step * z[n + k] if jitter_step else step
+            if jitter_step:
+                zk = z[n + k]
+                dphi = step + jitter_step * zk
+            else:
+                dphi = step
             turned = turned + dphi if k else dphi
-            out.append(GRAVITY_MPS2 + amp * math.sin(phase0 + turned) + noise * z[k])
+            zk = z[k]
+            out.append(GRAVITY_MPS2 + amp * math.sin(phase0 + turned) + noise * zk)
         self._gait_phase = (phase0 + turned) % (2.0 * math.pi)
         return out
 
-    def _accel_chunk(self, n: int, speed_mps: float, posture: str) -> None:
+    @cython.cfunc
+    def _accel_chunk(self, n: cython.Py_ssize_t, speed_mps: cython.double, posture: str):
         """Sample n (≤ W) accelerometer values and run Table 2 on the window ending at each."""
-        w, h = self._w, self._hist
-        h[w - 1 : w - 1 + n] = array("d", self._synth_accel(n, speed_mps, posture))
-        first = self._n_acc  # index (0-based) of the first new sample
-        valid_from = max(0, (w - 1) - first)  # windows need W samples since power-on
+        w: cython.Py_ssize_t = self._w
+        h: cython.double[::1] = self._hist
+        samples: list = self._synth_accel(n, speed_mps, posture)
+        k: cython.Py_ssize_t
+        for k in range(n):
+            h[w - 1 + k] = samples[k]
+        first: cython.Py_ssize_t = self._n_acc  # index (0-based) of the first new sample
+        valid_from: cython.Py_ssize_t = max(0, (w - 1) - first)  # windows need W samples since power-on
         if valid_from < n:
             cfg = self.cfg
             # window j = h[j : j + W], the one ending at new sample j
-            changes, sma = window_stats(h, valid_from, n, w, cfg.sign_deadband_mps2)
-            t_first = self._t0 + self._acc_dt * (first + 1 + valid_from)
+            changes, sma = window_stats(self._hist, valid_from, n, w, cfg.sign_deadband_mps2)
+            t_first: cython.double = self._t0 + self._acc_dt * (first + 1 + valid_from)
+            min_changes: cython.int = cfg.min_sign_changes
+            code: cython.int
             for j in range(len(sma)):  # Table 2 on the window ending at each new sample
-                code = classify(changes[j] >= cfg.min_sign_changes, sma_level(sma[j], cfg))
+                code = classify(changes[j] >= min_changes, sma_level(sma[j], cfg))
                 if code != self._activity:
                     self._activity, self._activity_since = code, t_first + self._acc_dt * j
-            self._sign_changes = changes[-1]
-            self._sma = sma[-1]
-        h[: w - 1] = h[n : n + w - 1]  # keep the last W-1 samples
+            self._sign_changes = changes[len(changes) - 1]
+            self._sma = sma[len(sma) - 1]
+        for k in range(w - 1):  # keep the last W-1 samples
+            h[k] = h[n + k]
         self._n_acc += n
 
     # ------------------------------------------------------------------ gyro
 
-    def _gyro_samples(self, m: int, speed_mps: float, turn_rate_rps: float, posture: str) -> None:
+    @cython.cfunc
+    def _gyro_samples(self, m: cython.Py_ssize_t, speed_mps: cython.double, turn_rate_rps: cython.double, posture: str):
         """Sample m gyro values (every 70 ms, seed 002 §3.4), filter them, update the rotation state."""
         cfg = self.cfg
-        dt = cfg.gyro_period_s
+        dt: cython.double = cfg.gyro_period_s
+        f_stride: cython.double
+        wobble_rps: cython.double
         if posture in ("walk", "run"):
             f_stride = 0.5 * self._cadence_hz(posture, speed_mps)  # one stride = two steps
             wobble_rps = self._wobble_rad * 2.0 * math.pi * f_stride
         else:
             f_stride, wobble_rps = 0.0, 0.0
-        sigma = self._gyro_noise_rps
-        noise = [sigma * z for z in self.rng.standard_normal(m).tolist()]
-        n_ma = cfg.ma_samples
+        sigma: cython.double = self._gyro_noise_rps
+        noise: list = [sigma * z for z in self.rng.standard_normal(m).tolist()]
+        n_ma: cython.Py_ssize_t = cfg.ma_samples
+        k: cython.Py_ssize_t
+        filled: cython.Py_ssize_t
+        raw: cython.double
+        nk: cython.double
+        omega: cython.double
+        t_k: cython.double
         for k in range(m):
             self._stride_phase = (self._stride_phase + 2.0 * math.pi * f_stride * dt) % (2.0 * math.pi)
-            raw = turn_rate_rps + wobble_rps * math.cos(self._stride_phase) + self._bias_rps + noise[k]
+            nk = noise[k]
+            raw = turn_rate_rps + wobble_rps * math.cos(self._stride_phase) + self._bias_rps + nk
             self._ma[self._n_gyro % n_ma] = raw
             self._n_gyro += 1
             filled = min(self._n_gyro, n_ma)

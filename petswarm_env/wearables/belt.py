@@ -49,7 +49,6 @@ from __future__ import annotations
 
 import math
 from array import array
-from dataclasses import dataclass
 
 import cython
 import numpy as np
@@ -115,19 +114,20 @@ def classify(periodic: cython.bint, level: cython.int) -> cython.int:
 # --------------------------------------------------------------------------- the device
 
 
-@dataclass(frozen=True)
+@cython.dataclasses.dataclass(frozen=True)
+@cython.cclass
 class BeltReading:
     """What the belt knows (and sends over BLE): seed 002 §3.4's movement and rotation states."""
 
     activity: str  # stop | rest | walk | run (Table 2)
-    rotating: bool  # rotation state
-    angular_speed_rps: float  # moving-average filtered yaw rate, CCW positive
-    accumulated_angle_rad: float  # angle of the current (or last finished) rotation, CCW positive
-    time_s: float  # time the belt has been advanced to
-    activity_since_s: float  # accelerometer sample time at which the current activity was first recognised
-    rotation_since_s: float  # gyro sample time at which the rotation flag last changed
-    sign_changes: int  # periodicity of the last window
-    sma_mps2: float  # SMA of the last window
+    rotating: cython.bint  # rotation state
+    angular_speed_rps: cython.double  # moving-average filtered yaw rate, CCW positive
+    accumulated_angle_rad: cython.double  # angle of the current (or last finished) rotation, CCW positive
+    time_s: cython.double  # time the belt has been advanced to
+    activity_since_s: cython.double  # accelerometer sample time at which the current activity was first recognised
+    rotation_since_s: cython.double  # gyro sample time at which the rotation flag last changed
+    sign_changes: cython.long  # periodicity of the last window
+    sma_mps2: cython.double  # SMA of the last window
 
 
 @cython.cclass

@@ -555,7 +555,6 @@ class _Slot:
     @cython.cfunc
     def _finish(self):
         ring: TokenRing = self.ring
-        node = ring.node
         ring.holding = False
         ring.last_activity_s = ring._clock.now
         if self.nxt == self.member:  # nobody else answered: keep the token

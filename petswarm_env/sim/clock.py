@@ -150,8 +150,8 @@ class Clock:
 
     def any_of(self, events) -> Event:
         """An event that succeeds when the first of ``events`` has been processed — what
-        ``simpy.AnyOf`` does for a process that only waits on it (the token ring's "responses or
-        timeout"), without building a condition value. The same events go on the queue in the same
+        ``simpy.AnyOf`` does for a process that only waits on it (the join and recovery managers'
+        "responses or timeout"), without building a condition value. The same events go on the queue in the same
         order as with ``AnyOf``. Its value is a ``ConditionValue`` holding the first event."""
         return _FirstOf(self, events)
 

@@ -72,6 +72,7 @@ MODULE_PARTS: dict[str, str | None] = {
     "petswarm_env.middle_layer": "observation",  # the mapper wired: each body type's table onto the virtual ring
     "petswarm_env.reward": "reward_metrics",
     "petswarm_env.metrics": "reward_metrics",
+    "petswarm_env.references": "reward_metrics",  # the experimenter's reference points and errors, every step
     "petswarm_env.state": "reward_metrics",  # the global state for critics: truth, like the metrics (not in step)
     "petswarm_env.wrappers": "other",  # FixedAgents: padding around env.step
     "petswarm_env.petswarm_v1": "other",  # the versioned module's constructors

@@ -41,6 +41,7 @@ COMPILED: tuple[str, ...] = (
     "petswarm_env.middleware.diagnosis",
     "petswarm_env.control.arbiter",
     "petswarm_env.sim.robot",
+    "petswarm_env.references",
 )
 
 PURE_ENV = "PETSWARM_PURE_PYTHON"  # "1": run the interpreted form of every module of COMPILED

@@ -188,8 +188,9 @@ class PetSwarmEnv(ParallelEnv):
             raise RuntimeError("the episode is over (no live agents); call reset()")
         acts = self._validate(actions)
         ep = self.episode
-        waiting = self.agents[len(ep.agents):]  # present, not (yet) in slave-role driving: their actions are ignored
-        observations, rewards, terminations, truncations, infos = ep.advance({a: acts[a] for a in ep.agents})
+        live = len(ep.agents)  # the episode's agents come first in self.agents (_present)
+        waiting = self.agents[live:]  # present, not (yet) in slave-role driving: their actions are ignored
+        observations, rewards, terminations, truncations, infos = ep.advance(acts[:live])
         truncated = ep.num_cycles >= self.cfg.max_cycles
         for a in waiting:
             if a not in rewards:  # still waiting (one that joined in this step has the episode's own entries)
@@ -246,11 +247,12 @@ class PetSwarmEnv(ParallelEnv):
         return {**self.__dict__, "episode": None, "agents": [], "_renderer": None}
 
     # -- per step --------------------------------------------------------------------------------
-    def _validate(self, actions: dict[str, Any]) -> dict[str, np.ndarray]:
-        """Every live agent's action, checked and clipped to [-1, 1]. An id that is not a possible
-        agent is refused; an action for a possible agent that is not live now (it left, or has
-        not joined) is ignored, as PettingZoo's own conversions do (``aec_to_parallel`` steps only
-        the live agents); a live agent without an action stands still."""
+    def _validate(self, actions: dict[str, Any]) -> np.ndarray:
+        """Every live agent's action, checked and clipped to [-1, 1]: a new float32 array
+        ``(len(agents), 3)`` in the order of ``agents``. An id that is not a possible agent is
+        refused; an action for a possible agent that is not live now (it left, or has not joined)
+        is ignored, as PettingZoo's own conversions do (``aec_to_parallel`` steps only the live
+        agents); a live agent without an action stands still."""
         if not isinstance(actions, dict):
             raise TypeError(f"actions must be a dict agent -> array of 3 floats, got {type(actions).__name__}")
         if not self._possible.issuperset(actions):
@@ -272,14 +274,12 @@ class PetSwarmEnv(ParallelEnv):
             if arr is not None and arr.shape == (len(self.agents), 3) and math.isfinite(arr.sum()):
                 np.minimum(arr, 1.0, out=arr)  # clipped to [-1, 1] (finite: np.clip's values, without its wrapper)
                 np.maximum(arr, -1.0, out=arr)
-                return dict(zip(self.agents, arr))
-        out = {}
-        for agent in self.agents:
+                return arr
+        out = np.zeros((len(self.agents), 3), np.float32)  # a missing action means "stand still"
+        for k, agent in enumerate(self.agents):
             a = actions.get(agent)
-            if a is None:
-                out[agent] = np.zeros(3, np.float32)  # a missing action means "stand still"
-                continue
-            out[agent] = checked_action(agent, a)  # numbers, no boolean, shape (3,), finite (inputs.py)
+            if a is not None:
+                out[k] = checked_action(agent, a)  # numbers, no boolean, shape (3,), finite (inputs.py)
         return out
 
     # -- the episode's views ---------------------------------------------------------------------

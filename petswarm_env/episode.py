@@ -135,6 +135,9 @@ class Episode:
         self.agents = [f"robot_{i}" for i in self.slave_ids]
         self.agent_index = {f"robot_{i}": i for i in range(len(world.robots))}
         self.last_action = {a: np.zeros(3, np.float32) for a in self.agents}
+        self._last_agents: list[str] | None = None  # the agents of the last step and their actions (advance)
+        self._last_acts = np.zeros((0, 3), np.float32)
+        self._scale = np.array(self.setup.limits, np.float32)  # action 1 -> Vx, Vy, ω (as a float32 action times a float)
         self.observer = Observer(self.setup.layout, self.fleet.nodes, self.sensors, [r.ahrs_yaw for r in world.robots],
                                  self.agent_index, cfg.master.distance_m)
         self.experimenter = Experimenter(cfg, world, self.fleet, self.swarms, self.sessions, self.arbiters, self.radio,
@@ -151,29 +154,37 @@ class Episode:
         """The observations and infos of the episode's start (``reset``'s return)."""
         observations = self.observer.observe(self.agents, self.last_action, self.world.now)
         errors, _ = self.experimenter.formation_errors(self.agents)
-        infos = {a: self._info(a, errors.get(a, 0.0), 0, 0) for a in self.agents}
+        infos = self._infos(self.agents, [errors.get(a, 0.0) for a in self.agents], [0] * len(self.agents))
         return observations, infos
 
-    def advance(self, acts: dict[str, np.ndarray]) -> StepResult:
-        """One control step with ``acts`` (agent -> a valid action in [-1, 1]^3 for every agent,
-        ``PetSwarmEnv._validate``'s output): every robot's command through its arbiter, the clock
-        for one control period, the sensors; then the truth, the rewards and the agent lifecycle."""
-        cfg = self.cfg
+    def advance(self, acts: dict[str, np.ndarray] | np.ndarray) -> StepResult:
+        """One control step with ``acts``, a valid action in [-1, 1]^3 for every agent: agent ->
+        action, or one float32 array ``(len(agents), 3)`` in the order of ``agents``
+        (``PetSwarmEnv._validate``'s output; the episode keeps it as the agents' last actions, so
+        the caller passes a new one every step): every robot's command through its arbiter, the
+        clock for one control period, the sensors; then the truth, the rewards and the agent
+        lifecycle."""
+        agents = self.agents
+        if isinstance(acts, dict):
+            acts = np.array([acts[a] for a in agents], dtype=np.float32).reshape(-1, 3)
         self.tick(acts)
         self.runtime.check_batteries()  # a drained battery is a fault (runtime.py)
         self.num_cycles += 1
 
-        truth = self.experimenter.step(self.agents)  # formation and heading errors, contacts (metrics.py)
+        truth = self.experimenter.step(agents)  # formation and heading errors, contacts (metrics.py)
         if not all(session.user.walking for session in self.sessions):  # only while a user still stands
-            self._start_walks(dict(zip(self.agents, truth.formation_error_m)))
-        infos = {agent: self._info(agent, err, c, 0) for agent, err, c in zip(self.agents, truth.formation_error_m, truth.new_contacts)}
-        # every slave's reward in one pass over the slaves (reward.py)
-        now_acts = np.array([acts[a] for a in self.agents], dtype=np.float32).reshape(-1, 3)
-        last_acts = np.array([self.last_action[a] for a in self.agents], dtype=np.float32).reshape(-1, 3)
-        rewards = dict(zip(self.agents, slave_rewards(cfg.reward, truth.formation_error_m, truth.heading_error_rad,
-                                                      truth.new_contacts, now_acts, last_acts)))
-        for agent in self.agents:
-            self.last_action[agent] = acts[agent]
+            self._start_walks(dict(zip(agents, truth.formation_error_m)))
+        infos = self._infos(agents, truth.formation_error_m, truth.new_contacts)
+        # every slave's reward in one pass over the slaves (reward.py); the last actions are the
+        # last step's array while the agents are the same
+        if self._last_agents == agents:
+            last_acts = self._last_acts
+        else:
+            last_acts = np.array([self.last_action[a] for a in agents], dtype=np.float32).reshape(-1, 3)
+        rewards = dict(zip(agents, slave_rewards(self.cfg.reward, truth.formation_error_m, truth.heading_error_rad,
+                                                 truth.new_contacts, acts, last_acts)))
+        self.last_action.update(zip(agents, acts))
+        self._last_agents, self._last_acts = agents, acts
         return self._lifecycle(rewards, infos)
 
     def _lifecycle(self, rewards: dict[str, float], infos: dict[str, dict]) -> StepResult:
@@ -212,7 +223,8 @@ class Episode:
         observations = {a: o for a, o in observed.items() if not terminations.get(a, False)}
         for a in joined:
             rewards[a], terminations[a], truncations[a] = 0.0, False, truncated
-            infos[a] = self._info(a, 0.0, 0, 1)
+            infos[a] = self._infos([a], [0.0], [0])[a]
+            infos[a]["joined"] = 1
         infos = {a: infos[a] for a in observations}
         return observations, rewards, terminations, truncations, infos
 
@@ -360,52 +372,64 @@ class Episode:
         world.invalidate_truth()
 
     # -- per step --------------------------------------------------------------------------------
-    def _info(self, agent: str, error_m: float, contacts: int, joined: int) -> dict[str, float | int]:
-        """One agent's infos (the keys of :data:`INFO_DEFAULTS`)."""
-        node = self.fleet.nodes[self.agent_index[agent]]
-        return {"member": node.know.member, "formation_error_m": error_m, "new_contacts": contacts, "joined": joined,
-                "slaves_missing": self.missing_by_pan.get(node.swarm_pan, 0), "active": 1}
+    def _infos(self, agents: list[str], errors_m: list[float], contacts: list[int]) -> dict[str, dict[str, float | int]]:
+        """The infos of ``agents`` (the keys of :data:`INFO_DEFAULTS`) with their formation errors
+        and new contacts, none of them joined in this step."""
+        nodes, index, missing = self.fleet.nodes, self.agent_index, self.missing_by_pan
+        out = {}
+        for agent, error_m, c in zip(agents, errors_m, contacts):
+            node = nodes[index[agent]]
+            out[agent] = {"member": node.know.member, "formation_error_m": error_m, "new_contacts": c, "joined": 0,
+                          "slaves_missing": missing.get(node.swarm_pan, 0), "active": 1}
+        return out
 
-    def _control(self, acts: dict[str, np.ndarray] | None) -> None:
+    def _control(self, acts: np.ndarray | None) -> None:
         """One command per robot through its arbiter (seed 001): masters from their user session,
-        slaves from the agents' actions; the slaves stop when their master broadcasts an emergency."""
+        slaves from the agents' actions (``acts``, in the order of ``agents``); the slaves stop
+        when their master broadcasts an emergency."""
         world = self.world
-        lim = self.setup.limits
+        robots, arbiters, nodes = world.robots, self.arbiters, self.fleet.nodes
         ranges = self.sensors.ranges
         masters = set()
         for session in self.sessions:
             idx = session.swarm.master.node_id
             masters.add(idx)
             policy, user_cmd, stop = session.step(self.sensors.odometry(idx), ranges[idx])
-            cmd, _ = self.arbiters[idx].decide(policy, user_cmd, ranges[idx], stop)
-            robot = world.robots[idx]
+            cmd, _ = arbiters[idx].decide(policy, user_cmd, ranges[idx], stop)
+            robot = robots[idx]
             if robot.health.powered:
                 robot.set_command(*cmd)
             else:  # a master that is off (a fault): motors off
                 robot.set_command(0.0, 0.0, 0.0)
         if acts is None:
             return
-        for idx, node in self.fleet.nodes.items():  # a robot leaving its slot for its own fault drives out of the way
-            move = node.recovery.leaving_command(world.now) if node.recovery.clear_out is not None else None
-            if move is not None and idx not in masters and world.robots[idx].health.powered:
-                cmd, _ = self.arbiters[idx].decide(move, None, ranges[idx], False)
-                world.robots[idx].set_command(*cmd)
+        now = world.now
+        for idx, node in nodes.items():  # a robot leaving its slot for its own fault drives out of the way
+            recovery = node.recovery
+            move = recovery.leaving_command(now) if recovery.clear_out is not None else None
+            if move is not None and idx not in masters and robots[idx].health.powered:
+                cmd, _ = arbiters[idx].decide(move, None, ranges[idx], False)
+                robots[idx].set_command(*cmd)
         if self.left:  # a robot recruited again after it left the agents has no driver (module docstring): held still
             for idx in self.slave_ids:
                 if f"robot_{idx}" in self.left and idx not in masters:
-                    world.robots[idx].set_command(0.0, 0.0, 0.0)
-        for agent, a in acts.items():
-            idx = self.agent_index[agent]
+                    robots[idx].set_command(0.0, 0.0, 0.0)
+        # the action scale in one float32 product (a float32 action times a float is rounded to
+        # float32), as Python floats
+        scaled = (acts * self._scale).tolist()
+        agent_index = self.agent_index
+        for agent, (vx, vy, omega) in zip(self.agents, scaled):
+            idx = agent_index[agent]
             if idx in masters:
                 continue
-            node = self.fleet.nodes[idx]
+            node = nodes[idx]
             if node.seq.master_lost(node.clock.now):  # on its own clock: no status broadcast for protocol.status_timeout_s: emergency stop, waiting
-                world.robots[idx].set_command(0.0, 0.0, 0.0)
+                robots[idx].set_command(0.0, 0.0, 0.0)
                 continue
             st = node.know.status
             stop = st is not None and st.mode == "emergency"
-            cmd, _ = self.arbiters[idx].decide((a[0] * lim[0], a[1] * lim[1], a[2] * lim[2]), None, ranges[idx], stop)
-            world.robots[idx].set_command(*cmd)
+            cmd, _ = arbiters[idx].decide((vx, vy, omega), None, ranges[idx], stop)
+            robots[idx].set_command(*cmd)
 
     def _start_walks(self, errors_m: dict[str, float]) -> None:
         """Start the script of each user who has stood long enough (chosen): once their swarm is

@@ -56,8 +56,8 @@ import numpy as np
 
 from petswarm_env.control.arbiter import SOURCES
 from petswarm_env.observe import AGE_SCALE_S
+from petswarm_env.references import ReferenceTable
 from petswarm_env.render import RobotView, Scene
-from petswarm_env.sim.geometry import wrap_angle
 
 if TYPE_CHECKING:
     from petswarm_env.comms.radio import RadioMedium
@@ -172,6 +172,7 @@ class Experimenter:
         self._start_s = world.now  # organized: the end of reset
         self.runtime = None  # the episode's faults and arrivals (petswarm_env/runtime.py), set by the env
         self.organized_at_s = world.now
+        self._table = ReferenceTable()  # the swarms' reference links as C arrays (references.py)
 
     # -- reference points and errors -------------------------------------------------------------
     def reference_positions(self) -> dict[int, np.ndarray]:
@@ -197,59 +198,38 @@ class Experimenter:
 
     def _references(self, xy: list, th: list) -> dict[int, tuple[float, float, float]]:
         """Every slave's reference point and the true heading of the master whose neighbour table
-        defines it: robot index -> (x, y, θ_master)."""
-        out = {}
-        for swarm in self.swarms:
-            if swarm.formation is None or not swarm.organized:
-                continue
-            members = swarm.master.know.members
-            t = th[swarm.master.node_id]
-            c, s = math.cos(t), math.sin(t)
-            for m, links in swarm.formation.links.items():
-                idx = members.get(m)
-                if idx is None or not links:
-                    continue
-                sx = sy = 0.0
-                for link in links:
-                    nx, ny = xy[members[link.neighbour]]
-                    ox, oy = link.offset_m
-                    sx += nx + c * ox - s * oy
-                    sy += ny + s * ox + c * oy
-                out[idx] = (sx / len(links), sy / len(links), t)
-        return out
+        defines it: robot index -> (x, y, θ_master) (:class:`.references.ReferenceTable`)."""
+        self._table.update(self.swarms)
+        return self._table.references(xy, th)
 
     def formation_errors(self, agents: list[str]) -> tuple[dict[str, float], dict[str, float]]:
         """Each agent's distance from its reference point and heading error from the heading of the
-        master whose table defines that point (truth), from the truth arrays as lists (one conversion for all robots); agents
-        without a reference point are left out."""
-        centers, _, headings = self.world.truth_arrays()
-        xy, th = centers.tolist(), headings.tolist()
-        refs = self._references(xy, th)
-        agent_index = self.agent_index
-        errors, heading = {}, {}
-        for agent in agents:
-            idx = agent_index[agent]
-            ref = refs.get(idx)
-            if ref is None:
-                continue
-            x, y = xy[idx]
-            errors[agent] = math.hypot(x - ref[0], y - ref[1])
-            heading[agent] = wrap_angle(th[idx] - ref[2])
+        master whose table defines that point (truth); agents without a reference point are left out."""
+        errs, heads, has = self._errors(agents)
+        errors = {a: e for a, e, h in zip(agents, errs, has) if h}
+        heading = {a: e for a, e, h in zip(agents, heads, has) if h}
         return errors, heading
+
+    def _errors(self, agents: list[str]) -> tuple[list[float], list[float], list[bool]]:
+        """Each agent's formation error and heading error (0.0 without a reference point) and
+        whether it has one, from the truth arrays as lists (one conversion for all robots)."""
+        centers, _, headings = self.world.truth_arrays()
+        self._table.update(self.swarms)
+        agent_index = self.agent_index
+        return self._table.errors(centers.tolist(), headings.tolist(), [agent_index[a] for a in agents])
 
     def step(self, agents: list[str]) -> SlaveTruth:
         """The step's truth for ``agents`` (formation and heading errors, contacts each robot began
         since the last step); adds the step to :attr:`metrics`."""
-        errors, heading_errs = self.formation_errors(agents)
+        errs, heads, has = self._errors(agents)
+        errors = {a: e for a, e, h in zip(agents, errs, has) if h}
         per_robot, seen, agent_index = self.world.collisions.per_robot, self._contacts_seen, self.agent_index
-        errs, heads, contacts = [], [], []
+        contacts = []
         for agent in agents:
             idx = agent_index[agent]
-            new_contacts = per_robot.get(idx, 0) - seen.get(idx, 0)
-            seen[idx] = per_robot.get(idx, 0)
-            errs.append(errors.get(agent, 0.0))
-            heads.append(heading_errs.get(agent, 0.0))
-            contacts.append(new_contacts)
+            now_contacts = per_robot.get(idx, 0)
+            contacts.append(now_contacts - seen.get(idx, 0))
+            seen[idx] = now_contacts
         m = self.metrics
         if errors and math.isnan(m.building_time_s) and max(errors.values()) <= BUILT_WITHIN_M:
             m.building_time_s = self.world.now - self._start_s

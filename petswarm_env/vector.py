@@ -146,7 +146,7 @@ class VectorEnv:
         at, values, ended = _Gathered(), _Gathered(), []
         for n, episode in enumerate(self.episodes):
             row = acts[n]
-            observations, rew, term, trunc, _ = episode.advance({a: row[slot[a]] for a in episode.agents})
+            observations, rew, term, trunc, _ = episode.advance(row[[slot[a] for a in episode.agents]])  # (a new array)
             for a, r in rew.items():
                 at.add(n, slot[a], (r, term[a], trunc[a]))
             for a, o in observations.items():

@@ -34,16 +34,6 @@ _MS_PER_H = 3600.0
 class Battery:
     """One robot's battery (``spec``: a :class:`~petswarm_env.robot_types.Battery`)."""
 
-    capacity_mah = cython.declare(cython.double, visibility="public")
-    remaining_mah = cython.declare(cython.double, visibility="public")
-    empty = cython.declare(cython.bint, visibility="public")
-    actuating = cython.declare(cython.bint, visibility="public")
-    _servo = cython.declare(cython.double)
-    _act = cython.declare(cython.double)
-    _sens = cython.declare(cython.double)
-    _inv_v = cython.declare(cython.double)
-    _inv_w = cython.declare(cython.double)
-
     def __init__(self, spec, max_speed_mps: float, max_omega_rps: float):
         self.capacity_mah = float(spec.capacity_mah)
         self.remaining_mah = self.capacity_mah
@@ -65,15 +55,21 @@ class Battery:
 
     @cython.ccall
     def drain(self, dt: cython.double, velocity_body: tuple) -> cython.bint:
-        """One substep of ``dt`` s at ``velocity_body``; True when the battery has just emptied.
-        (:meth:`current_ma`'s formula written out: it runs for every robot at every substep.)"""
-        if self.empty:
-            return False
+        """One substep of ``dt`` s at ``velocity_body``; True when the battery has just emptied."""
         vx: cython.double
         vy: cython.double
         w: cython.double
         vx, vy, w = velocity_body
-        load: cython.double = _hypot(vx, vy) * self._inv_v + (w if w >= 0.0 else -w) * self._inv_w
+        return self.drain_at(dt, _hypot(vx, vy), w)
+
+    @cython.cfunc
+    def drain_at(self, dt: cython.double, speed: cython.double, omega: cython.double) -> cython.bint:
+        """:meth:`drain` at the body speed ``speed`` = hypot(vx, vy) (m/s) and the turn rate
+        ``omega`` (rad/s): :meth:`current_ma`'s formula written out, for the drive's call at every
+        substep of every robot (:meth:`~.body.DrivenBody.apply`)."""
+        if self.empty:
+            return False
+        load: cython.double = speed * self._inv_v + (omega if omega >= 0.0 else -omega) * self._inv_w
         ma: cython.double = self._sens + self._servo * (load if load < 1.0 else 1.0)
         if self.actuating:
             ma += self._act

@@ -2,6 +2,8 @@
 # classes, and Chipmunk's body accessors called through their C addresses, which pymunk's cffi
 # module gives; body.py reads them only when compiled, the interpreter calls them through cffi).
 
+from petswarm_env.sim.battery cimport Battery
+
 ctypedef struct cpVect:  # Chipmunk's cpVect (cpFloat is double in pymunk's build)
     double x
     double y
@@ -36,7 +38,7 @@ cdef class DrivenBody(Body):
     cdef readonly double _max_dv  # read by Robot.apply (the wheels follow the command under the same limits)
     cdef readonly double _max_dw
     cdef public tuple _wheels
-    cdef public object _drain
+    cdef public Battery battery
 
     cpdef drive(self, double dt)
     cpdef apply(self, double dt)

@@ -22,7 +22,13 @@ from functools import partial
 import cython
 import pymunk
 from cython.cimports.libc.math import cos as _c_cos
+from cython.cimports.libc.math import fabs as _c_fabs
+from cython.cimports.libc.math import frexp as _c_frexp
+from cython.cimports.libc.math import isinf as _c_isinf
+from cython.cimports.libc.math import isnan as _c_isnan
+from cython.cimports.libc.math import ldexp as _c_ldexp
 from cython.cimports.libc.math import sin as _c_sin
+from cython.cimports.libc.math import sqrt as _c_sqrt
 
 COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
 
@@ -33,7 +39,7 @@ _get_angular_velocity = pymunk.cp.cpBodyGetAngularVelocity
 _set_velocity = pymunk.cp.cpBodySetVelocity
 _set_angular_velocity = pymunk.cp.cpBodySetAngularVelocity
 _radians = math.radians
-_hypot = math.hypot  # Python's own (CPython's hypot is not the C library's: the same value as before, bit for bit)
+_hypot = math.hypot  # Python's own (CPython's hypot is not the C library's): the interpreted form's, _py_hypot's oracle
 
 if cython.compiled:  # Chipmunk's accessors by their C addresses (declared in body.pxd)
     def _address(name: str) -> int:
@@ -105,6 +111,76 @@ def _set_omega(b: Body, w: cython.double) -> cython.void:
         _cp_set_angular_velocity(cython.cast(cython.p_void, b._cp), w)
     else:
         _set_angular_velocity(b._cbody, w)
+
+
+@cython.cfunc
+@cython.inline
+@cython.exceptval(check=False)
+def _square_error(v: cython.double, hi: cython.double) -> cython.double:
+    """The rounding error of ``hi = v * v``, exactly (Dekker's product with Veltkamp's split, as
+    ``fma(v, v, -hi)`` gives it): ``v`` must be below 2^996 (here |v| < 1)."""
+    c: cython.double = 134217729.0 * v  # 2^27 + 1
+    vh: cython.double = c - (c - v)
+    vl: cython.double = v - vh
+    return ((vh * vh - hi) + 2.0 * vh * vl) + vl * vl
+
+
+@cython.cfunc
+@cython.inline
+@cython.exceptval(check=False)
+def _py_hypot(x: cython.double, y: cython.double) -> cython.double:
+    """``math.hypot(x, y)`` bit for bit, in C: CPython's ``vector_norm`` (Modules/mathmodule.c,
+    3.11) for two coordinates, which is not the C library's ``hypot`` — a lossless scaling by a
+    power of two, exact squares, a compensated sum and one differential correction of the square
+    root. The interpreted form calls ``math.hypot`` itself (the oracle: tests/unit/test_body.py
+    holds the two to each other)."""
+    if not cython.compiled:
+        return _hypot(x, y)
+    ax: cython.double = _c_fabs(x)
+    ay: cython.double = _c_fabs(y)
+    mx: cython.double = 0.0  # max(|x|, |y|) as CPython finds it (a NaN is never the max)
+    if ax > mx:
+        mx = ax
+    if ay > mx:
+        mx = ay
+    if _c_isinf(mx):
+        return mx
+    if _c_isnan(ax) or _c_isnan(ay):
+        return math.nan
+    if mx == 0.0:
+        return mx
+    e: cython.int
+    _c_frexp(mx, cython.address(e))
+    if e < -1023:  # subnormal (ldexp(1.0, -e) would overflow): CPython's own, never met by a body's speed
+        return _hypot(x, y)
+    scale: cython.double = _c_ldexp(1.0, -e)
+    csum: cython.double = 1.0
+    frac1: cython.double = 0.0
+    frac2: cython.double = 0.0
+    v: cython.double
+    hi: cython.double
+    s: cython.double
+    k: cython.int
+    for k in range(2):
+        v = (ax if k == 0 else ay) * scale  # lossless
+        hi = v * v  # lossless squaring: (hi, its error)
+        s = csum + hi  # lossless addition (csum >= hi): (s, (csum - s) + hi)
+        frac1 += _square_error(v, hi)
+        frac2 += (csum - s) + hi
+        csum = s
+    h: cython.double = _c_sqrt(csum - 1.0 + (frac1 + frac2))
+    hi = -h * h  # dl_mul(-h, h): its error is minus that of h * h
+    s = csum + hi
+    frac1 -= _square_error(h, -hi)
+    frac2 += (csum - s) + hi
+    csum = s
+    h += (csum - 1.0 + (frac1 + frac2)) / (2.0 * h)  # differential correction
+    return h / scale
+
+
+def hypot(x: float, y: float) -> float:
+    """:func:`_py_hypot` for Python callers (its test)."""
+    return _py_hypot(x, y)
 
 
 COLLISION_ROBOT = 1
@@ -185,8 +261,8 @@ class DrivenBody(Body):
     :attr:`command` by at most ``max_accel_mps2``·dt and ``max_alpha_rps2``·dt and writes it to the
     body (contacts may still change it during the substep). The motors' own speed (``_wheels``)
     follows the command under the same limits from its own previous value, whatever the body does;
-    ``_drain`` (a robot's battery, ``drain(dt, velocity_body)`` → True when it has just emptied, or
-    None) is drained after every substep, and an empty battery stops the body."""
+    ``battery`` (a robot's :class:`~.battery.Battery`, or None) is drained after every substep,
+    and an empty battery stops the body."""
 
     def __init__(self, space: pymunk.Space, position, heading_rad: float, radius_m: float, collision_type: int,
                  mass_kg: float, max_accel_mps2: float, max_alpha_rps2: float, **shape: float):
@@ -197,7 +273,7 @@ class DrivenBody(Body):
         self._limits_dt = -1.0  # the substep length the limits below were computed for
         self._max_dv = self._max_dw = 0.0
         self._wheels = (0.0, 0.0, 0.0)  # the motors' own-frame speed (a robot's wheel_velocity)
-        self._drain = None  # the battery's drain(dt, velocity_body), or None
+        self.battery = None  # a robot's Battery (robot.py), drained at every substep
 
     @cython.ccall
     def apply(self, dt: cython.double) -> None:
@@ -220,7 +296,7 @@ class DrivenBody(Body):
         dw: cython.double
         max_dw: cython.double = self._max_dw
         if dvx != 0.0 or dvy != 0.0 or cw != ww:
-            dv = _hypot(dvx, dvy)
+            dv = _py_hypot(dvx, dvy)
             if dv > self._max_dv:
                 k = self._max_dv / dv
                 dvx *= k
@@ -229,9 +305,14 @@ class DrivenBody(Body):
             dw = dw if dw < max_dw else max_dw
             dw = dw if dw > -max_dw else -max_dw
             self._wheels = (wx + dvx, wy + dvy, ww + dw)
-        drain = self._drain
-        if drain is not None and drain(dt, self.velocity_body):
-            self.command = (0.0, 0.0, 0.0)
+        battery = self.battery
+        bx: cython.double
+        by: cython.double
+        bw: cython.double
+        if battery is not None:
+            bx, by, bw = self.velocity_body
+            if battery.drain_at(dt, _py_hypot(bx, by), bw):  # Battery.drain, its speed computed here
+                self.command = (0.0, 0.0, 0.0)
 
     @cython.ccall
     def drive(self, dt: cython.double) -> None:
@@ -257,7 +338,7 @@ class DrivenBody(Body):
         cx, cy, cw = self.command
         dvx: cython.double = cx - vx
         dvy: cython.double = cy - vy
-        dv: cython.double = _hypot(dvx, dvy)
+        dv: cython.double = _py_hypot(dvx, dvy)
         max_dv: cython.double = self._max_dv
         k: cython.double
         if dv > max_dv:

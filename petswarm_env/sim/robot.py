@@ -116,8 +116,7 @@ class Robot(DrivenBody):
         self.ahrs = AHRS(self, rc)  # own sensor: yaw with white noise and a drifting bias
         self.ahrs_yaw = self.ahrs.yaw  # ahrs_yaw(now_s): the reading (bound once: read every frame)
         battery = body.battery if body is not None else _PETBOT_BATTERY
-        self.battery = Battery(battery, rc.max_speed_mps, rc.max_omega_rps)
-        self._drain = self.battery.drain  # DrivenBody.apply drains it every substep
+        self.battery = Battery(battery, rc.max_speed_mps, rc.max_omega_rps)  # DrivenBody.apply drains it every substep
         self.sensors_off: set[int] = set()  # ids of its sensors that are faulty (Sensors.sensor_off sets it)
         slip = body.slip if body is not None else 0.0
         self._keep = 1.0 - slip  # the body's share of the wheels' motion

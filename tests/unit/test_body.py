@@ -53,3 +53,16 @@ def test_read_poses_is_the_truth_arrays():
     assert headings[1:].tolist() == [r.heading for r in world.robots] == truth_headings.tolist()
     assert centers[0].tolist() == [0.0, 0.0] and headings[0] == 0.0
     assert truth[3].tolist() == list(world.user.position)
+
+
+def test_the_drives_hypot_is_pythons_bit_for_bit():
+    """The compiled drive's hypot (CPython's vector_norm written in C) gives ``math.hypot``'s value
+    to the bit: speeds of every scale, zeros, signs, subnormals, infinities and NaN."""
+    from petswarm_env.sim.body import hypot
+
+    rng = np.random.default_rng(0)
+    pairs = [rng.normal(0.0, 1.0, (20000, 2)), np.exp(rng.uniform(-740.0, 709.0, (20000, 2))) * rng.choice([-1.0, 1.0], (20000, 2)),
+             np.c_[rng.normal(0.0, 1.0, 2000), np.zeros(2000)], rng.normal(0.0, 1e-310, (2000, 2))]
+    values = [(x, y) for arr in pairs for x, y in arr.tolist()]
+    values += [(0.0, 0.0), (-0.0, 0.0), (3.0, 4.0), (1e308, 1e308), (5e-324, 5e-324), (math.inf, math.nan), (math.nan, 1.0), (-math.inf, 2.0)]
+    assert [repr(hypot(x, y)) for x, y in values] == [repr(math.hypot(x, y)) for x, y in values]

@@ -1,0 +1,169 @@
+"""The experimenter's reference points on C doubles: every slave's reference point, formation
+error and heading error from the world's truth arrays (the figures of :mod:`petswarm_env.metrics`).
+
+A slave's *reference point* is the mean over its reference links of its neighbour's true position
+plus the link's offset rotated by the formation heading, the true heading of the master whose
+neighbour table defines it; its *formation error* is its true distance from that point and its
+*heading error* its true heading minus that master's. A :class:`ReferenceTable` holds every
+organized swarm's links as flat C arrays — (slave, master) robot indices, and per link the
+neighbour's robot index and the offset — rebuilt only when a swarm's formation, master, members
+or organized state changed since the last step; each step reads the truth arrays as lists (one
+conversion for all robots).
+
+The sums run in the order of the links, as ``sum(neighbour + R(θ)·offset) / n`` in Python floats
+(``nx + c·ox − s·oy`` per link), so the interpreted form and the compiled form give the same
+values to the bit (the C build has no fused multiply-add: setup.py).
+
+A module of the compiled core (``petswarm_env/_core.py``, Cython's pure-Python mode).
+"""
+
+from __future__ import annotations
+
+import math
+
+import cython
+import numpy as np
+from cython.cimports.libc.math import cos as _c_cos
+from cython.cimports.libc.math import sin as _c_sin
+
+from petswarm_env.sim.geometry import wrap_angle
+
+COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
+
+_hypot = math.hypot  # Python's own (CPython's hypot is not the C library's)
+
+
+@cython.cclass
+class ReferenceTable:
+    """The reference links of every organized swarm (module docstring). :meth:`update` with the
+    swarms before reading; :meth:`errors` and :meth:`references` read the world's truth arrays
+    as lists (``xy``: every body's centre, ``th``: every robot's heading)."""
+
+    _keys = cython.declare(list)  # per swarm: what its links were built from (formation, master, members)
+    _slave = cython.declare(cython.long[:])  # per entry: the slave's robot index
+    _master = cython.declare(cython.long[:])  # per entry: the robot index of the master whose table defines it
+    _first = cython.declare(cython.long[:])  # per entry: its first link
+    _count = cython.declare(cython.long[:])  # per entry: its number of links
+    _nb = cython.declare(cython.long[:])  # per link: the neighbour's robot index
+    _ox = cython.declare(cython.double[:])  # per link: the offset, formation frame (m)
+    _oy = cython.declare(cython.double[:])
+    _entries = cython.declare(cython.Py_ssize_t)
+    _entry_of = cython.declare(dict)  # robot index -> its entry (the last swarm's, as a dict assignment keeps it)
+
+    def __init__(self):
+        self._keys = []
+        self._entries = 0
+        self._entry_of = {}
+        self._build([])
+
+    def update(self, swarms: list) -> None:
+        """Rebuild the links if a swarm's formation (the same plan object), master, members or
+        organized state changed."""
+        keys = self._keys
+        if len(keys) == len(swarms):
+            for swarm, key in zip(swarms, keys):
+                if not _same_links(swarm, key):
+                    break
+            else:
+                return
+        self._build(swarms)
+        self._keys = [_swarm_key(sw) for sw in swarms]
+
+    def _build(self, swarms: list) -> None:
+        """The flat links of ``swarms`` (in the order of the swarms and of each formation's links)."""
+        slave, master, first, count, nb, ox, oy = [], [], [], [], [], [], []
+        entry_of = {}
+        for swarm in swarms:
+            if swarm.formation is None or not swarm.organized:
+                continue
+            members = swarm.master.know.members
+            for m, links in swarm.formation.links.items():
+                idx = members.get(m)
+                if idx is None or not links:
+                    continue
+                entry_of[idx] = len(slave)
+                slave.append(idx)
+                master.append(swarm.master.node_id)
+                first.append(len(nb))
+                count.append(len(links))
+                for link in links:
+                    nb.append(members[link.neighbour])
+                    ox.append(link.offset_m[0])
+                    oy.append(link.offset_m[1])
+        self._slave, self._master = np.array(slave, np.int_), np.array(master, np.int_)
+        self._first, self._count = np.array(first, np.int_), np.array(count, np.int_)
+        self._nb, self._ox, self._oy = np.array(nb, np.int_), np.array(ox, float), np.array(oy, float)
+        self._entries = len(slave)
+        self._entry_of = entry_of
+
+    @cython.cfunc
+    def _point(self, e: cython.Py_ssize_t, xy: list, th: list) -> tuple:
+        """Entry ``e``'s reference point and formation heading: (x, y, θ_master)."""
+        t: cython.double = th[self._master[e]]
+        c: cython.double = _c_cos(t)  # the C library's, as math.cos
+        s: cython.double = _c_sin(t)
+        sx: cython.double = 0.0
+        sy: cython.double = 0.0
+        k: cython.Py_ssize_t
+        j: cython.Py_ssize_t
+        ox: cython.double
+        oy: cython.double
+        nx: cython.double
+        ny: cython.double
+        for k in range(self._first[e], self._first[e] + self._count[e]):
+            j = self._nb[k]
+            ox, oy = float(self._ox[k]), float(self._oy[k])  # (float: Python floats in the interpreted form too)
+            nx, ny = xy[j]
+            sx += nx + c * ox - s * oy
+            sy += ny + s * ox + c * oy
+        n: cython.double = self._count[e]
+        return sx / n, sy / n, t
+
+    def references(self, xy: list, th: list) -> dict:
+        """Every slave's reference point and formation heading: robot index -> (x, y, θ_master)."""
+        out = {}
+        e: cython.Py_ssize_t
+        for e in range(self._entries):  # a robot in two swarms' tables: the last one's point
+            out[int(self._slave[e])] = self._point(e, xy, th)
+        return out
+
+    def errors(self, xy: list, th: list, robots: list) -> tuple:
+        """For the robots ``robots`` (indices): their formation errors (m) and heading errors (rad),
+        0.0 for a robot without a reference point, and whether each has one."""
+        errs, heads, has = [], [], []
+        entry_of = self._entry_of
+        x: cython.double
+        y: cython.double
+        t: cython.double
+        px: cython.double
+        py: cython.double
+        for idx in robots:
+            e = entry_of.get(idx)
+            if e is None:
+                errs.append(0.0)
+                heads.append(0.0)
+                has.append(False)
+                continue
+            x, y, t = self._point(e, xy, th)
+            px, py = xy[idx]
+            errs.append(_hypot(px - x, py - y))
+            heads.append(wrap_angle(th[idx] - t))
+            has.append(True)
+        return errs, heads, has
+
+
+def _same_links(swarm, key: tuple) -> bool:
+    """Whether ``swarm``'s links are still those built from ``key`` (:func:`_swarm_key`)."""
+    if swarm.formation is None or not swarm.organized:
+        return key[0] is None
+    master = swarm.master
+    return key[0] is swarm.formation and key[1] == master.node_id and key[2] == master.know.members
+
+
+def _swarm_key(swarm) -> tuple:
+    """What a swarm's reference links depend on: its formation (an immutable plan), its master
+    and the master's member table (a copy), while it is organized."""
+    if swarm.formation is None or not swarm.organized:
+        return (None,)
+    master = swarm.master
+    return (swarm.formation, master.node_id, dict(master.know.members))

@@ -234,3 +234,25 @@ def test_a_new_master_blocked_short_of_its_user_bursts_and_looks_elsewhere_until
     row = run_succession("radio_silent", 11, 20.0, 600, {})
     assert row["new_master_s"] <= 5.0 and row["full"]
     assert math.isfinite(row["paired_s"]) and row["paired_s"] <= 20.0
+
+
+def test_the_user_walks_away_from_a_following_master_and_toward_a_leading_one():
+    """seed 002 §3.3: a following master walks behind its user, a leading one ahead; the new master's
+    search takes the user's way from where it puts the user and the lost master."""
+    user, master = (2.0, 1.0), (0.0, 1.0)
+    assert su.user_travel(user, master, "following") == pytest.approx((1.0, 0.0))
+    assert su.user_travel(user, master, "leading") == pytest.approx((-1.0, 0.0))
+    assert su.user_travel(user, master, "remote") is None
+    assert su.user_travel(user, user, "following") is None
+
+
+def test_a_leading_successor_beside_the_user_looks_the_way_the_user_walked():
+    """Straight walk, leading, seed 12, the master dead at 20 s just as its user set off toward it:
+    the user walked 1.4 m on before the belt's alert stopped them, across the line from the new
+    master (which stood beside them) to its first estimate; it never paired while it looked only
+    along that line and around it, and pairs once it looks the way the user walked."""
+    from petswarm.experiments.measure_succession import run as run_succession
+
+    row = run_succession("dead", 12, 20.0, 600, {"swarm.mode": "leading"})
+    assert row["new_master_s"] <= 5.0 and row["full"]
+    assert math.isfinite(row["paired_s"]) and row["paired_s"] <= 15.0

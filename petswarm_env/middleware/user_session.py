@@ -140,6 +140,7 @@ class UserSession:
         self.link_losses: list[tuple[float, str]] = []  # (time, supervision_timeout | released)
         self.pairings: list[tuple[float, int]] = []  # (time, robot) of every pairing after the first
         self._wake_next_s = -math.inf  # a new master's next wake-up burst
+        self._first_burst_done = False  # a new master burst its wake-up pattern at its takeover
         self._stalled_since: float | None = None  # since when a new master has stood while looking for its user
         self._search: tuple | None = None  # a new master's search: (first estimate, its steps, the next step)
         swarm.on_master_change = self._on_master_change
@@ -222,6 +223,7 @@ class UserSession:
             self._search = (tuple(self.tracker.pos), steps, 0)
         self._wake_next_s = -math.inf
         self._stalled_since: float | None = None
+        self._first_burst_done = False
 
     def _search_on(self) -> None:
         """A wake-up burst the belt did not answer: the user is not where the new master put them.
@@ -250,18 +252,28 @@ class UserSession:
         self._stalled_since = (now if self._stalled_since is None else self._stalled_since) if stalled else None
         blocked = self._stalled_since is not None and now - self._stalled_since >= BLOCKED_S  # the burst unanswered, it looks elsewhere
         near = d_est <= cfg.succession.approach_m + APPROACH_SLACK_M or (stalled and d_est <= cfg.lf.wake_range_m) or blocked
+        if not self._first_burst_done and self.world.robots[node.node_id].health.powered:
+            self._first_burst_done = True  # the burst of entering waiting-user (seed 002 Fig. 4), wherever it stands
+            if self._wake_up(node):
+                return (0.0, 0.0, 0.0)
         if near and now >= self._wake_next_s and self.world.robots[node.node_id].health.powered:
             self._wake_next_s = now + cfg.lf.wake_period_s
-            d = math.dist(self.world.robots[node.node_id].position, self.user.position)  # the LF field's reach
-            if lf.wakes_up(cfg.lf, d, self.robot_pattern, self.user_pattern):
-                self.clock.later(cfg.ble.connect_s, self._paired, node, [f"mode:{self.swarm.mode}"])
-                self._wake_next_s = math.inf
-            else:
+            if not self._wake_up(node):
                 self._search_on()
         if est is None:
             return (0.0, 0.0, 0.0)
         return self.ctrl.command(est[0], (0.0, 0.0), self.belt_view, odometry, "following", cfg.succession.approach_m,
                                  cfg.control_period_s)
+
+    def _wake_up(self, node) -> bool:
+        """One LF wake-up burst of ``node`` (seed 002 §3.2): a belt within ``lf.wake_range_m`` whose
+        pattern matches pairs over BLE (``ble.connect_s``). Whether it did."""
+        d = math.dist(self.world.robots[node.node_id].position, self.user.position)  # the LF field's reach
+        if not lf.wakes_up(self.cfg.lf, d, self.robot_pattern, self.user_pattern):
+            return False
+        self.clock.later(self.cfg.ble.connect_s, self._paired, node, [f"mode:{self.swarm.mode}"])
+        self._wake_next_s = math.inf
+        return True
 
     def _paired(self, node, startup: list[str]) -> None:
         """The belt connected over BLE to ``node`` (seed 002 §3.2): command-waiting; the user gives

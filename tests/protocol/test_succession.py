@@ -256,3 +256,16 @@ def test_a_leading_successor_beside_the_user_looks_the_way_the_user_walked():
     row = run_succession("dead", 12, 20.0, 600, {"swarm.mode": "leading"})
     assert row["new_master_s"] <= 5.0 and row["full"]
     assert math.isfinite(row["paired_s"]) and row["paired_s"] <= 15.0
+
+
+def test_a_new_master_bursts_its_wake_up_pattern_as_it_takes_over():
+    """seed 002 Fig. 4: a robot entering waiting-user bursts its wake-up pattern; a new master does so
+    at its takeover, wherever it stands, before it drives to where it puts its user. Leading straight
+    walk at radio.loss_prob 0.3, seed 4, the master dead at 20 s: the new master takes over 1.0 m
+    from the stopped user, its estimate 1.3 m off; it used to drive away to that estimate and never
+    paired. Now the takeover's burst pairs at once (new master 1.7 s, paired 2.1 s after the death)."""
+    from petswarm.experiments.measure_succession import run as run_succession
+
+    row = run_succession("dead", 4, 20.0, 600, {"swarm.mode": "leading", "radio.loss_prob": 0.3})
+    assert row["new_master_s"] <= 5.0 and row["full"]
+    assert row["paired_s"] - row["new_master_s"] <= 1.0  # the takeover's burst (BLE connect), not a search

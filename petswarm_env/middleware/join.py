@@ -226,7 +226,8 @@ class JoinManager:
         joiners = len(members) - 1
         result.complete = joiners >= min(required, n_available) and joiners > 0
 
-    def _scan_and_query(self, required: int, result: OrganizeResult, max_scans: int | None = None):
+    def _scan_and_query(self, required: int, result: OrganizeResult, max_scans: int | None = None,
+                        region_m: float | None = None):
         """Steps 1-2: scan, then query the new candidates. While fewer robots are available than
         the user requires, the master has not received every response it expects (a scan response
         may have been lost, or collided: seed 000 §4.5, "simultaneous message reception or message
@@ -234,15 +235,16 @@ class JoinManager:
         expected response, it retries that step"), within ``protocol.max_retries`` scans and the
         organize deadline, less the time the notifications need (:data:`NOTIFY_RESERVE_TRIES`
         tries of each). Returns the candidates (robot id -> estimated distance) and their answers
-        (robot id -> frame)."""
+        (robot id -> frame). ``region_m``: a refill's available region (:meth:`~.recovery.RecoveryManager.refill_region_m`), which
+        the joining query announces; None: the organize's, ``protocol.join_radius_m``."""
         timeout = self.node.cfg.protocol.response_timeout_s
         candidates: dict[int, float] = {}
         answers: dict[int, Frame] = {}
         scans = 0
         while True:
-            new = yield from self._scan(candidates)
+            new = yield from self._scan(candidates, region_m)
             candidates.update(new)
-            yield from self._query(set(new), answers, result)
+            yield from self._query(set(new), answers, result, region_m)
             n_available = sum(1 for f in answers.values() if f.payload["available"])
             reserve = timeout * (max(required, len(answers)) + NOTIFY_RESERVE_TRIES)
             if n_available >= required or not self._may_retry(scans, reserve) or (max_scans is not None and scans + 1 >= max_scans):
@@ -250,7 +252,7 @@ class JoinManager:
             scans += 1
             result.retries += 1
 
-    def _scan(self, known: dict[int, float]):
+    def _scan(self, known: dict[int, float], region_m: float | None = None):
         """Step 1: broadcast the scan (listing the robots already heard, which stay silent) and
         estimate the joining candidates among the new responders (seed 000 §3.4): those whose
         response's RSSI puts them within :data:`CANDIDATE_REACH` times the available region (each
@@ -260,10 +262,10 @@ class JoinManager:
         self._kinds = frozenset({msg.SCAN_RESPONSE})
         node.send(msg.SCAN, pan=PAN_WAITING, known=sorted(known))
         yield node.clock.timeout(self._left(node.cfg.protocol.scan_window_s))
-        reach = CANDIDATE_REACH * node.cfg.protocol.join_radius_m
+        reach = CANDIDATE_REACH * (region_m or node.cfg.protocol.join_radius_m)
         return {rid: f.rx_distance_est_m for rid, f in self._got.items() if rid not in known and f.rx_distance_est_m <= reach}
 
-    def _query(self, pending: set[int], answers: dict[int, Frame], result: OrganizeResult):
+    def _query(self, pending: set[int], answers: dict[int, Frame], result: OrganizeResult, region_m: float | None = None):
         """Step 2: the joining query to the ``pending`` candidates until each answered (Table 1
         is theirs to apply); missing answers → query again (a retry, within ``max_retries`` of this
         step and the deadline)."""
@@ -273,8 +275,9 @@ class JoinManager:
         tries = 0
         # ruta_centralized: the query asks for the candidates' status (seed 003 Algorithm 1's input)
         kind = msg.STATUS_QUERY if node.cfg.swarm.assignment == "ruta_centralized" else msg.JOIN_QUERY
+        region = {} if region_m is None else {"region_m": region_m}  # a refill's region travels in its query
         while pending:
-            node.send(kind, pan=PAN_WAITING, candidates=sorted(pending))
+            node.send(kind, pan=PAN_WAITING, candidates=sorted(pending), **region)
             yield from self._collect(pending, cfg.response_timeout_s, (msg.JOIN_ANSWER, msg.STATUS_ANSWER))
             answers.update({rid: self._got[rid] for rid in pending if rid in self._got})
             pending -= set(answers)
@@ -388,19 +391,22 @@ class JoinManager:
         # acknowledged member update (middleware/recovery.py), as after a removal
         recovery.reassign(table, formation)
 
-    def refill(self, open_members: list[int], pan: int, members: dict[int, int], mode: str, result: OrganizeResult):
+    def refill(self, open_members: list[int], pan: int, members: dict[int, int], mode: str, result: OrganizeResult,
+               region_m: float | None = None):
         """Recruit waiting robots into the ``open_members`` of an organized swarm (SimPy generator;
         docs/faults.md): the same pipeline as organizing — scan, query, :meth:`_select`, notify — on the
         common PAN, within ``protocol.organize_timeout_s``. ``members`` is the master's member
         table now. Returns the new member table (the joiners notified in it), or None when no robot
         was recruited. The formation for the new size is the standard one of the master's shape and
-        ``mode`` (:func:`~.formation.formation_for_mode`), which the joining notification carries."""
+        ``mode`` (:func:`~.formation.formation_for_mode`), which the joining notification carries.
+        ``region_m``: the refill's available region, announced in its joining query
+        (:meth:`~.recovery.RecoveryManager.refill_region_m`); None: ``protocol.join_radius_m``."""
         node = self.node
         t0 = node.clock.now
         self._deadline = t0 + node.cfg.protocol.organize_timeout_s
         node.pans = frozenset({PAN_WAITING, pan})  # hear the waiting robots' answers beside the swarm's frames
         try:
-            candidates, answers = yield from self._scan_and_query(len(open_members), result, REFILL_SCANS)
+            candidates, answers = yield from self._scan_and_query(len(open_members), result, REFILL_SCANS, region_m)
             result.candidates = sorted(candidates)
             self.opened_s = t0  # the open slots' subtasks were announced now (RUTA's priority counts from here)
             picked, _ = yield from self._choose(candidates, answers, open_members, result)
@@ -481,7 +487,8 @@ class JoinManager:
             return
         if node.state not in SCAN_ANSWERING_STATES and node.connected_user is None:
             return  # joined another swarm meanwhile: it no longer hears the common PAN anyway
-        ok = can_join(node.connected_user, frame.rx_distance_est_m, node.cfg.protocol.join_radius_m)
+        region = frame.payload.get("region_m", node.cfg.protocol.join_radius_m)  # a refill announces its own
+        ok = can_join(node.connected_user, frame.rx_distance_est_m, region)
         if frame.kind == msg.JOIN_QUERY and getattr(node, "failed_sensors", ()):
             ok = False  # chosen: Table 2 knows no sensors, so a robot that found one of its own broken declines
             # (ruta_centralized asks for the status instead, which then speaks for it)

@@ -100,6 +100,9 @@ SLOT_ENTRY_BYTES = 6
 BID_ENTRY_BYTES = 5  # member number 1, the utility 4 (float32)
 
 
+REGION_BYTES = 2  # a refill's joining query: its available region (a distance, int16 cm; join.refill_region_m)
+
+
 def _table_bytes(payload: dict) -> int:
     links = sum(len(lks) for lks in payload["links"].values())
     return MEMBER_ENTRY_BYTES * len(payload["members"]) + LINK_ENTRY_BYTES * links
@@ -108,8 +111,8 @@ def _table_bytes(payload: dict) -> int:
 # the variable part of a frame that carries a list or the tables, from its payload
 PER_ENTRY_BYTES = {
     SCAN: lambda p: LIST_ENTRY_BYTES * len(p["known"]),
-    JOIN_QUERY: lambda p: LIST_ENTRY_BYTES * len(p["candidates"]),
-    STATUS_QUERY: lambda p: LIST_ENTRY_BYTES * len(p["candidates"]),
+    JOIN_QUERY: lambda p: LIST_ENTRY_BYTES * len(p["candidates"]) + REGION_BYTES * ("region_m" in p),
+    STATUS_QUERY: lambda p: LIST_ENTRY_BYTES * len(p["candidates"]) + REGION_BYTES * ("region_m" in p),
     JOIN_NOTIFY: _table_bytes,
     SLOT_ANNOUNCE: lambda p: SLOT_ENTRY_BYTES * len(p["slots"]) + LIST_ENTRY_BYTES * len(p["bidders"]),
     BID: lambda p: BID_ENTRY_BYTES * len(p["utilities"]),

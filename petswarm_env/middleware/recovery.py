@@ -24,6 +24,9 @@ Both sides run on one robot's station, like the other managers:
   fills the lowest open numbers), notify (:meth:`~.join.JoinManager.refill`) — into the open
   member numbers, then broadcasts the member update with the new tables. Robots switched on
   mid-episode (``arrivals``) are found by the same periodic scan.
+  While the master stands, the refill's joining query announces a region that reaches the open
+  slots (:meth:`RecoveryManager.refill_region_m`): a robot left waiting at the rim of the organize's
+  region is within reach of a slot a loss opens.
 * **astray** (master): a member that lost its swarm — the RSSI range of its ring frames puts it
   farther from the master than both its slot's distance plus :data:`ASTRAY_M` and
   :data:`ASTRAY_REACHES` times the IR's reach (``ir.max_range_m``: nobody can give it a fix), and the master has no fresh IR fix of it — for
@@ -69,6 +72,9 @@ ASTRAY_S = 3.0
 # in one); at 2 reaches a mixed pool's slave stayed >= 5 m off its slot in 2 of 20 runs
 # (python -m petswarm.experiments.measure_mixed --seeds 0-19 --variants plain --assignments closest: 20/20 at 1.5)
 ASTRAY_REACHES = 1.5
+# chosen: a master whose own odometry reads less than this stands (a refill may recruit from beyond the organize's
+# region: RecoveryManager.refill_region_m); a master holding its distance to a standing user creeps below it
+STANDING_MPS = 0.1
 
 
 class RecoveryManager:
@@ -277,7 +283,9 @@ class RecoveryManager:
         know = node.know
         result = OrganizeResult()
         self.refills.append(result)
-        new = yield from self.join.refill(self.open_members(), node.swarm_pan, dict(know.members), know.mode, result)
+        open_members = self.open_members()
+        new = yield from self.join.refill(open_members, node.swarm_pan, dict(know.members), know.mode, result,
+                                          self.refill_region_m(open_members))
         if new is None or node.state != "master":
             return
         added = [n for m, n in new.items() if know.members.get(m) != n]
@@ -289,6 +297,25 @@ class RecoveryManager:
             self._forget(n)
         node.members_changed.emit("joined", added)
         yield from self._announce(new, formation)
+
+    def refill_region_m(self, open_members: list[int]) -> float | None:
+        """A refill's available region (chosen; seed 000 Table 1 defines the organize's, ``protocol.join_radius_m``
+        around the master, where its swarm gathers): while the master stands (its own odometry below
+        :data:`STANDING_MPS`), ``protocol.join_radius_m`` around the open slots — a robot that far from a slot is
+        at most the slot's distance from the master more from the master, the one distance it measures (the
+        query's RSSI) — but never beyond where :meth:`check_astray` would remove it from that slot; while the
+        swarm walks, the organize's (None: a recruit from farther falls behind a walking swarm). A robot left
+        waiting at the rim of the organize's region (Table 2 took the closest) stays within reach of a slot a
+        loss opens, though the master moved to its user's distance since."""
+        node = self.node
+        vx, vy, _ = node.odometry.read()
+        if math.hypot(vx, vy) >= STANDING_MPS or node.formation is None:
+            return None
+        slots = assignment.slots_formation(node.cfg.swarm, open_members).slot_positions()
+        reach = max((math.hypot(*slots[m]) for m in open_members if m < len(slots)), default=0.0)
+        astray = max(reach + ASTRAY_M, ASTRAY_REACHES * node.cfg.ir.max_range_m)
+        radius = node.cfg.protocol.join_radius_m
+        return max(radius, min(radius + reach, astray))
 
     def reassign(self, members: dict[int, int], formation: Formation) -> None:
         """The master's new numbering of its members on ``formation``: held at once, then sent as

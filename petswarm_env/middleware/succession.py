@@ -79,6 +79,28 @@ def own_user_estimate(node: Station, now_s: float, master: int | None = None) ->
     IR fix of the master (fresh within ``FRESH_IR_S``; else its own slot of the neighbour table),
     its heading-exchange estimate of the master's heading (else aligned). None without a status.
     ``master``: the robot whose broadcast it was (by default member 0 of its tables)."""
+    placed = own_user_and_master(node, now_s, master)
+    return placed[0] if placed is not None else None
+
+
+def user_travel(user: tuple[float, float], master: tuple[float, float], mode: str) -> tuple[float, float] | None:
+    """The direction its user walks, in this robot's body frame, from where it puts the user and
+    their master (:func:`own_user_and_master`): seed 002 §3.3 — in following the master walks behind
+    its user, who walks away from it (master → user); in leading it walks ahead and the user walks
+    toward it (user → master). None in remote (the user drives the robot) or with the two together."""
+    if mode not in ("following", "leading"):
+        return None
+    dx, dy = user[0] - master[0], user[1] - master[1]
+    d = math.hypot(dx, dy)
+    if d < 1e-6:
+        return None
+    return (dx / d, dy / d) if mode == "following" else (-dx / d, -dy / d)
+
+
+def own_user_and_master(node: Station, now_s: float, master: int | None = None
+                        ) -> tuple[tuple[float, float], tuple[float, float]] | None:
+    """:func:`own_user_estimate` and where this slave puts the master itself (its IR fix, else its
+    slot of the neighbour table), both in its own body frame."""
     know = node.know
     status = know.status
     own_slot = know.member
@@ -104,7 +126,7 @@ def own_user_estimate(node: Station, now_s: float, master: int | None = None) ->
     else:
         return None
     ux, uy = status.user_position_m
-    return mx + c * ux - s * uy, my + s * ux + c * uy
+    return (mx + c * ux - s * uy, my + s * ux + c * uy), (mx, my)
 
 
 def claim_key(distance_m: float, mode: str, member: int) -> tuple[int, int]:
@@ -181,6 +203,7 @@ class SuccessionManager:
         self.claims: dict[int, tuple[int, int]] = {}  # node id -> claim key heard (own included)
         self.accepted: tuple[int, int] | None = None  # the claim of the takeover accepted (or made)
         self.user_estimate: tuple[float, float] | None = None  # a new master: its user, own body frame, at its takeover
+        self.user_travel: tuple[float, float] | None = None  # a new master: the way its user walked, own body frame, at its takeover
         self.elections: list[tuple[float, float, int | None, int]] = []  # a new master: (loss noticed, took over, lost, itself)
         self._noticed_s = 0.0
         self._seq = -1
@@ -252,7 +275,9 @@ class SuccessionManager:
         clock = node.clock
         know = node.know
         old_member = know.member
-        self.user_estimate = own_user_estimate(node, clock.now)
+        placed = own_user_and_master(node, clock.now)
+        self.user_estimate = placed[0] if placed is not None else None
+        self.user_travel = user_travel(*placed, know.mode) if placed is not None else None
         adopted = adopted_swarm_config(node)
         table, formation = succession_plan(node.formation, know.members, old_member, know.mode, adopted.swarm)
         self._seq += 1  # own count: only the acknowledgements carry it back

@@ -64,11 +64,14 @@ LEADING_LF_MARGIN_M = 0.3  # chosen: a leading master stays this far inside its 
 APPROACH_SLACK_M = 0.15  # chosen: a new master bursts its wake-up pattern once this near its approach distance ...
 STALLED_MPS = 0.05  # chosen: ... or once its own odometry says it stands (it can get no closer)
 BLOCKED_S = 2.0  # chosen: ... or once it has stood this long wherever it puts the user (something stands in its way)
-# chosen: where a new master looks for its user after an unanswered wake-up burst, (along, left) of its
-# first estimate in metres, "along" pointing from where it stood to the user: 0.5 m steps, inside the
-# 1 m wake-up range (seed 002 §3.2), first farther along (the user walked on before the alert)
-SEARCH_OFFSETS_M = ((0.6, 0.0), (1.2, 0.0), (0.0, 0.6), (0.0, -0.6), (-0.6, 0.0), (0.6, 0.6), (0.6, -0.6), (1.8, 0.0),
-                    (1.2, 0.6), (1.2, -0.6), (0.0, 0.0))
+# chosen: where a new master looks for its user after an unanswered wake-up burst, (direction, along, left)
+# of its first estimate in metres: "line" points from where it stood to the user (it stops
+# succession.approach_m short of its guess, so a guess short of the user is the miss it makes most),
+# "travel" the way the user walked (succession.user_travel: they walked on between the master's last
+# status broadcast and the belt's alert); 0.6 m steps, inside the 1 m wake-up range (seed 002 §3.2)
+SEARCH_OFFSETS_M = (("line", 0.6, 0.0), ("travel", 0.6, 0.0), ("travel", 1.2, 0.0), ("line", 1.2, 0.0),
+                    ("line", 0.0, 0.6), ("line", 0.0, -0.6), ("line", -0.6, 0.0), ("line", 0.6, 0.6),
+                    ("line", 0.6, -0.6), ("line", 1.8, 0.0), ("line", 1.2, 0.6), ("line", 1.2, -0.6), ("line", 0.0, 0.0))
 
 
 def master_distance_m(cfg: Config, formation, mode: str) -> float:
@@ -137,8 +140,9 @@ class UserSession:
         self.link_losses: list[tuple[float, str]] = []  # (time, supervision_timeout | released)
         self.pairings: list[tuple[float, int]] = []  # (time, robot) of every pairing after the first
         self._wake_next_s = -math.inf  # a new master's next wake-up burst
+        self._first_burst_done = False  # a new master burst its wake-up pattern at its takeover
         self._stalled_since: float | None = None  # since when a new master has stood while looking for its user
-        self._search: tuple | None = None  # a new master's search: (first estimate, direction along, next offset)
+        self._search: tuple | None = None  # a new master's search: (first estimate, its steps, the next step)
         swarm.on_master_change = self._on_master_change
         swarm.on_succession = self._on_succession
         self.clock.process(self._wakeup_bursts())
@@ -211,23 +215,29 @@ class UserSession:
             self.tracker.fix(est, node.clock.now)
             d = math.hypot(*est) or 1.0
             c, s = math.cos(self.tracker.pose[2]), math.sin(self.tracker.pose[2])
-            along = (c * est[0] / d - s * est[1] / d, s * est[0] / d + c * est[1] / d)  # odometry frame
-            self._search = (tuple(self.tracker.pos), along, 0)
+            # the line from itself to the user, and the way the user walked before the alert stopped them
+            # (succession.user_travel: from where it put the user and the lost master, by the driving mode)
+            ways = {"line": (est[0] / d, est[1] / d), "travel": node.succession.user_travel}
+            steps = [((c * ways[w][0] - s * ways[w][1], s * ways[w][0] + c * ways[w][1]), along, side)  # odometry frame
+                     for w, along, side in SEARCH_OFFSETS_M if ways[w] is not None]
+            self._search = (tuple(self.tracker.pos), steps, 0)
         self._wake_next_s = -math.inf
         self._stalled_since: float | None = None
+        self._first_burst_done = False
 
     def _search_on(self) -> None:
         """A wake-up burst the belt did not answer: the user is not where the new master put them.
         It moves the place it drives to by the next of :data:`SEARCH_OFFSETS_M` around its first
-        estimate (along the line from itself to the user first: the user walked on before the
-        alert stopped them, or less far), and bursts again there (chosen; seed 002 has no search)."""
+        estimate (along the way the user walked first: they walked on between the master's last
+        status broadcast and the belt's alert, or less far; :func:`~.succession.user_travel`), and
+        bursts again there (chosen; seed 002 has no search)."""
         if self._search is None or self.tracker.pos is None:
             return
-        origin, (ax, ay), k = self._search
-        along, side = SEARCH_OFFSETS_M[k % len(SEARCH_OFFSETS_M)]
+        origin, steps, k = self._search
+        (ax, ay), along, side = steps[k % len(steps)]
         self.tracker.pos = [origin[0] + along * ax - side * ay, origin[1] + along * ay + side * ax]
         self.tracker.vel = [0.0, 0.0]
-        self._search = (origin, (ax, ay), k + 1)
+        self._search = (origin, steps, k + 1)
 
     def _successor_command(self, node, odometry) -> tuple[float, float, float]:
         """A new master waiting for its user: drive toward where it puts them and burst the wake-up
@@ -242,18 +252,28 @@ class UserSession:
         self._stalled_since = (now if self._stalled_since is None else self._stalled_since) if stalled else None
         blocked = self._stalled_since is not None and now - self._stalled_since >= BLOCKED_S  # the burst unanswered, it looks elsewhere
         near = d_est <= cfg.succession.approach_m + APPROACH_SLACK_M or (stalled and d_est <= cfg.lf.wake_range_m) or blocked
+        if not self._first_burst_done and self.world.robots[node.node_id].health.powered:
+            self._first_burst_done = True  # the burst of entering waiting-user (seed 002 Fig. 4), wherever it stands
+            if self._wake_up(node):
+                return (0.0, 0.0, 0.0)
         if near and now >= self._wake_next_s and self.world.robots[node.node_id].health.powered:
             self._wake_next_s = now + cfg.lf.wake_period_s
-            d = math.dist(self.world.robots[node.node_id].position, self.user.position)  # the LF field's reach
-            if lf.wakes_up(cfg.lf, d, self.robot_pattern, self.user_pattern):
-                self.clock.later(cfg.ble.connect_s, self._paired, node, [f"mode:{self.swarm.mode}"])
-                self._wake_next_s = math.inf
-            else:
+            if not self._wake_up(node):
                 self._search_on()
         if est is None:
             return (0.0, 0.0, 0.0)
         return self.ctrl.command(est[0], (0.0, 0.0), self.belt_view, odometry, "following", cfg.succession.approach_m,
                                  cfg.control_period_s)
+
+    def _wake_up(self, node) -> bool:
+        """One LF wake-up burst of ``node`` (seed 002 §3.2): a belt within ``lf.wake_range_m`` whose
+        pattern matches pairs over BLE (``ble.connect_s``). Whether it did."""
+        d = math.dist(self.world.robots[node.node_id].position, self.user.position)  # the LF field's reach
+        if not lf.wakes_up(self.cfg.lf, d, self.robot_pattern, self.user_pattern):
+            return False
+        self.clock.later(self.cfg.ble.connect_s, self._paired, node, [f"mode:{self.swarm.mode}"])
+        self._wake_next_s = math.inf
+        return True
 
     def _paired(self, node, startup: list[str]) -> None:
         """The belt connected over BLE to ``node`` (seed 002 §3.2): command-waiting; the user gives

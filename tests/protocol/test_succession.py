@@ -234,3 +234,38 @@ def test_a_new_master_blocked_short_of_its_user_bursts_and_looks_elsewhere_until
     row = run_succession("radio_silent", 11, 20.0, 600, {})
     assert row["new_master_s"] <= 5.0 and row["full"]
     assert math.isfinite(row["paired_s"]) and row["paired_s"] <= 20.0
+
+
+def test_the_user_walks_away_from_a_following_master_and_toward_a_leading_one():
+    """seed 002 §3.3: a following master walks behind its user, a leading one ahead; the new master's
+    search takes the user's way from where it puts the user and the lost master."""
+    user, master = (2.0, 1.0), (0.0, 1.0)
+    assert su.user_travel(user, master, "following") == pytest.approx((1.0, 0.0))
+    assert su.user_travel(user, master, "leading") == pytest.approx((-1.0, 0.0))
+    assert su.user_travel(user, master, "remote") is None
+    assert su.user_travel(user, user, "following") is None
+
+
+def test_a_leading_successor_beside_the_user_looks_the_way_the_user_walked():
+    """Straight walk, leading, seed 12, the master dead at 20 s just as its user set off toward it:
+    the user walked 1.4 m on before the belt's alert stopped them, across the line from the new
+    master (which stood beside them) to its first estimate; it never paired while it looked only
+    along that line and around it, and pairs once it looks the way the user walked."""
+    from petswarm.experiments.measure_succession import run as run_succession
+
+    row = run_succession("dead", 12, 20.0, 600, {"swarm.mode": "leading"})
+    assert row["new_master_s"] <= 5.0 and row["full"]
+    assert math.isfinite(row["paired_s"]) and row["paired_s"] <= 15.0
+
+
+def test_a_new_master_bursts_its_wake_up_pattern_as_it_takes_over():
+    """seed 002 Fig. 4: a robot entering waiting-user bursts its wake-up pattern; a new master does so
+    at its takeover, wherever it stands, before it drives to where it puts its user. Leading straight
+    walk at radio.loss_prob 0.3, seed 4, the master dead at 20 s: the new master takes over 1.0 m
+    from the stopped user, its estimate 1.3 m off; it used to drive away to that estimate and never
+    paired. Now the takeover's burst pairs at once (new master 1.7 s, paired 2.1 s after the death)."""
+    from petswarm.experiments.measure_succession import run as run_succession
+
+    row = run_succession("dead", 4, 20.0, 600, {"swarm.mode": "leading", "radio.loss_prob": 0.3})
+    assert row["new_master_s"] <= 5.0 and row["full"]
+    assert row["paired_s"] - row["new_master_s"] <= 1.0  # the takeover's burst (BLE connect), not a search

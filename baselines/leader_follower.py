@@ -31,7 +31,12 @@ It reads only the observation, like a learned policy. Per step:
    carrying the location about it (ω × offset from the master), so a turning master does not
    leave its formation behind;
 3. estimate the twisted heading Δθ = θ_neighbour − θ_self from the heading exchange and correct
-   it with ω until it is inside the error band;
+   it with ω until it is inside the error band. Chosen: only an exchange within the observation's
+   age range (2 s) counts; Δθ is the mean over those, and a link without one places its step-1
+   target by that mean. An older one is carried over our own rotation only, and the neighbour may
+   have turned any amount since (while building, a whole row turns): averaged with a fresh one it
+   cancelled it, and a slave stood 80-90° off its neighbours, its targets turned with it (1 + 16,
+   seeds 0-19: built 15 → 19 of 20);
 4. on user rotation: leading mode → arc driving (the velocity a point at the robot's distance
    from the user has when the formation turns with the user); following mode → just keep moving
    toward the reference location;
@@ -166,13 +171,19 @@ class LeaderFollowerPolicy(Policy):
         mv0, mv1, mv2 = (o[j] * vmax, o[j + 1] * vmax, o[j + 2] * wmax) if have_status else (0.0, 0.0, 0.0)
 
         targets, dthetas, ref_dists = [], [], []
+        links = []
         for present, sincos, h_valid, h_age, ir_valid, ir_age, nb_xy, off_xy in self._links:
             if o[present] < 0.5:
                 continue
-            dth = 0.0
-            if o[h_valid] > 0.5:  # the neighbour kept turning with the swarm since
+            dth = None
+            if o[h_valid] > 0.5 and o[h_age] < 1.0:  # the neighbour kept turning with the swarm since
                 dth = math.atan2(o[sincos], o[sincos + 1]) + mv2 * o[h_age] * AGE_SCALE_S
-            dthetas.append(dth)
+                dthetas.append(dth)
+            links.append((dth, ir_valid, ir_age, nb_xy, off_xy))
+        dth_mean = sum(dthetas, 0.0) / len(dthetas) if dthetas else 0.0
+        for dth, ir_valid, ir_age, nb_xy, off_xy in links:
+            if dth is None:
+                dth = dth_mean
             if o[ir_valid] < 0.5 or o[ir_age] >= 1.0:
                 continue  # no measurement, or one older than the observation's age range: move with the swarm
             nbx, nby = s[nb_xy], s[nb_xy + 1]
@@ -186,7 +197,7 @@ class LeaderFollowerPolicy(Policy):
             cd, sd = r32(cd), r32(sd)
             targets.append((now_x + r32(r32(cd * offx) - r32(sd * offy)), now_y + r32(r32(sd * offx) + r32(cd * offy))))
 
-        dth = sum(dthetas, 0.0) / len(dthetas) if dthetas else 0.0  # their mean
+        dth = dth_mean
         cd, sd = math.cos(dth), math.sin(dth)
         cd32, sd32 = r32(cd), r32(sd)
         # step 2: master's driving speed, rotated from the formation frame into ours — the velocity

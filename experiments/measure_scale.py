@@ -15,7 +15,10 @@ zigzag, 60 s) with the scripted reference. Per case it prints:
 * ``contacts``: robot–robot contacts, summed over the episodes;
 * ``round``: the ring's mean round time (between the master's start signs) and ``collided``: the
   share of receptions destroyed by overlapping frames (radio trace, the experimenter's tool);
-* ``stale``: the mean slave-seconds per episode without a fresh IR fix of a reference neighbour.
+* ``stale``: the mean slave-seconds per episode without a fresh IR fix of a reference neighbour;
+* ``astray``: members the master removed as astray (``middleware/recovery.py``: its RSSI range of
+  them beyond their slot's distance plus a margin, no IR fix of them, for 3 s), summed over the
+  episodes: each renumbers the swarm, and its formation is re-built.
 
 ``--set KEY=VALUE`` overrides any config key (``--set swarm.formation=column``).
 """
@@ -85,6 +88,7 @@ def episode(slaves: int, loss: float, seed: int, overrides: dict[str, Any]) -> d
         "round_s": float(np.mean(np.diff(starts))) if starts.size > 2 else math.nan,
         "collided": collided / receptions if receptions else math.nan,
         "stale_fix_s": s["stale_fix_s"],
+        "astray": sum(len(node.recovery.astray) for node in ep.fleet.nodes.values()),
     }
 
 
@@ -100,6 +104,7 @@ def summarize(rows: list[dict[str, Any]]) -> dict[str, Any]:
         "building_s": mean("building_time_s", built), "hold_rmse_m": mean("hold_rmse_m", built),
         "rmse_m": mean("rmse_m", ran), "contacts": sum(r["contacts"] for r in ran),
         "round_s": mean("round_s", ran), "collided": mean("collided", ran), "stale_fix_s": mean("stale_fix_s", ran),
+        "astray": sum(r["astray"] for r in ran),
     }
 
 
@@ -114,7 +119,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     overrides = dict(parse_override(item) for item in args.set)
     seeds = parse_seeds(args.seeds)
-    print("slaves  loss  episodes  joined  built  building_s  hold_m  rmse_m  contacts  round_s  collided  stale_s")
+    print("slaves  loss  episodes  joined  built  building_s  hold_m  rmse_m  contacts  round_s  collided  stale_s  astray")
     for slaves in args.slaves:
         for loss in args.loss:
             rows = []
@@ -125,7 +130,7 @@ def main(argv: list[str] | None = None) -> int:
             s = summarize(rows)
             print(f"{slaves:6d} {loss:5.2f} {s['episodes']:9d} {s['joined']:7d} {s['built']:6d} {s['building_s']:11.1f} "
                   f"{s['hold_rmse_m']:7.3f} {s['rmse_m']:7.3f} {s['contacts']:9d} {s['round_s']:8.2f} "
-                  f"{100 * s['collided']:8.1f}% {s['stale_fix_s']:8.1f}", flush=True)
+                  f"{100 * s['collided']:8.1f}% {s['stale_fix_s']:8.1f} {s['astray']:7d}", flush=True)
     return 0
 
 

@@ -20,15 +20,21 @@ def numpy_act(p: LeaderFollowerPolicy, obs: np.ndarray) -> np.ndarray:
     have_status = obs[sl["master.valid"]][0] > 0.5
     mv = obs[sl["master.velocity"]] * np.array([vmax, vmax, wmax]) if have_status else np.zeros(3)
     targets, dthetas, ref_dists = [], [], []
+    own = {}  # link -> its heading difference, from a heading exchange within the age range
     for k in range(2):
         q = f"link{k}."
         if obs[sl[q + "present"]][0] < 0.5:
             continue
         s, c = obs[sl[q + "heading_sincos"]]
-        dth = 0.0
-        if obs[sl[q + "heading_valid"]][0] > 0.5:
-            dth = math.atan2(s, c) + mv[2] * obs[sl[q + "heading_age"]][0] * AGE_SCALE_S
-        dthetas.append(dth)
+        if obs[sl[q + "heading_valid"]][0] > 0.5 and obs[sl[q + "heading_age"]][0] < 1.0:
+            own[k] = math.atan2(s, c) + mv[2] * obs[sl[q + "heading_age"]][0] * AGE_SCALE_S
+            dthetas.append(own[k])
+    mean_dth = float(np.mean(dthetas)) if dthetas else 0.0
+    for k in range(2):
+        q = f"link{k}."
+        if obs[sl[q + "present"]][0] < 0.5:
+            continue
+        dth = own.get(k, mean_dth)
         if obs[sl[q + "ir_valid"]][0] < 0.5 or obs[sl[q + "ir_age"]][0] >= 1.0:
             continue
         nb = obs[sl[q + "neighbour_xy"]] * POS_SCALE_M
@@ -39,7 +45,7 @@ def numpy_act(p: LeaderFollowerPolicy, obs: np.ndarray) -> np.ndarray:
         off = obs[sl[q + "offset_xy"]] * POS_SCALE_M
         ref_dists.append(math.hypot(off[0], off[1]))
         targets.append(nb_now + np.array([cd * off[0] - sd * off[1], sd * off[0] + cd * off[1]]))
-    dth = float(np.mean(dthetas)) if dthetas else 0.0
+    dth = mean_dth
     cd, sd = math.cos(dth), math.sin(dth)
     ref = obs[sl["self.offset_from_master_xy"]] * POS_SCALE_M
     leading_turn = have_status and obs[sl["master.leading"]][0] > 0.5 and obs[sl["master.rotating"]][0] > 0.5
@@ -154,7 +160,41 @@ def test_equals_the_numpy_form_on_random_observations():
         for name in flags:
             obs[sl[name]] = rng.random() < 0.8
         obs[sl["self.ultrasonic"]] = rng.uniform(0.0, rng.choice([0.3, 1.0]), sl["self.ultrasonic"].stop - sl["self.ultrasonic"].start)
+        for k in range(2):  # a heading or IR measurement at the end of the age range (stale)
+            for age in ("heading_age", "ir_age"):
+                if rng.random() < 0.3:
+                    obs[sl[f"link{k}.{age}"]] = 1.0
         if rng.random() < 0.3:  # the user right on the reference location
             obs[sl["master.user_xy"]] = obs[sl["self.offset_from_master_xy"]] + rng.normal(0, 0.05, 2).astype(np.float32)
         observations.append(obs)
     _assert_same(policy, observations)
+
+
+def test_a_stale_heading_does_not_cancel_a_fresh_one():
+    """Step 3: a heading exchange at the end of the observation's age range (its neighbour may
+    have turned any amount since) is not averaged with a fresh one; the slave turns by the fresh
+    one, and a link without a fresh heading places its target by the fresh one too."""
+    env = petswarm_env.parallel_env(**{"swarm.num_slaves": 9})
+    policy = LeaderFollowerPolicy(PolicySpec.from_env(env))
+    sl = policy.spec.layout.slices
+    obs = np.zeros(policy.spec.layout.size, np.float32)
+    obs[sl["self.ultrasonic"]] = 1.0
+    fresh, stale = -1.2, 1.2  # θ_neighbour − θ_self as each exchange said
+    for k, (rel, age) in enumerate([(fresh, 0.1), (stale, 1.0)]):
+        q = f"link{k}."
+        obs[sl[q + "present"]] = 1.0
+        obs[sl[q + "heading_sincos"]] = (math.sin(rel), math.cos(rel))
+        obs[sl[q + "heading_valid"]] = 1.0
+        obs[sl[q + "heading_age"]] = age
+        obs[sl[q + "ir_valid"]] = 1.0
+        obs[sl[q + "ir_age"]] = 0.1
+        obs[sl[q + "offset_xy"]] = (-1.0 / POS_SCALE_M, 0.0)  # 1 m behind either neighbour, formation frame
+    obs[sl["link0.neighbour_xy"]] = (1.0 / POS_SCALE_M, 0.0)
+    obs[sl["link1.neighbour_xy"]] = (1.0 / POS_SCALE_M, 0.0)
+    act = policy.act("robot_1", obs)
+    assert act[2] == pytest.approx(max(-1.0, policy.kh * fresh / policy.spec.max_omega_rps), abs=1e-6)
+    # both targets: the neighbour's fix plus the offset turned by the fresh difference
+    tx, ty = 1.0 - math.cos(fresh), -math.sin(fresh)
+    want = np.clip(np.array([policy.kp * tx, policy.kp * ty]) / policy.spec.max_speed_mps, -1, 1)
+    assert act[:2] == pytest.approx(want, abs=1e-5)
+    assert act.tobytes() == numpy_act(policy, obs).tobytes()

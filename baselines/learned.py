@@ -26,6 +26,10 @@ the observation (the activation after each), a GRU cell (Cho et al. 2014, in tor
 ``h`` from the encoding, and the remaining layers map ``[encoding, h]`` to the action. ``h`` is one
 vector per robot, zero at the start of an episode and whenever a robot (re)joins slave-role driving
 (:class:`RecurrentPolicy`): what the robot remembers is only what arrived in its own observations.
+
+An *estimating* recurrent policy (metadata ``estimator: {outputs, scale, law}`` besides
+``recurrent``) has a head of seven outputs, an estimate of what the privileged teacher reads, and
+acts with the teacher's control law on that estimate (:mod:`petswarm.baselines.estimator`).
 """
 
 from __future__ import annotations
@@ -165,12 +169,14 @@ def feed_forward_policy_path() -> Path:
 
 def save_policy(path: str | os.PathLike, layers: list[tuple[np.ndarray, np.ndarray]], activation: str,
                 layout: ObservationLayout, info: dict[str, Any] | None = None, behaviours: list[str] | None = None,
-                residual: Residual | None = None, recurrent: Recurrent | None = None) -> None:
+                residual: Residual | None = None, recurrent: Recurrent | None = None,
+                estimator: dict[str, Any] | None = None) -> None:
     """Write ``layers`` ((weight (out, in), bias (out,)) each; the last one is linear) atomically.
     ``behaviours``: the behaviours the policy commands (seed 001 §IV; default MOVE, the env's action);
     ``residual``: the policy the layers correct and the correction's bound (module docstring; None:
     a plain MLP policy); ``recurrent``: the GRU between the encoder layers and the head layers
-    (format version 2; None: a feed-forward policy, version 1)."""
+    (format version 2; None: a feed-forward policy, version 1); ``estimator``: a recurrent policy's
+    estimate and law (:mod:`petswarm.baselines.estimator`; None: the layers give the action)."""
     if activation not in ACTIVATIONS:
         raise ValueError(f"activation must be one of {sorted(ACTIVATIONS)}, got '{activation}'")
     meta = {
@@ -188,6 +194,8 @@ def save_policy(path: str | os.PathLike, layers: list[tuple[np.ndarray, np.ndarr
         meta.update(residual.meta())
     if recurrent is not None:
         meta.update(recurrent.meta())
+    if estimator is not None:
+        meta["estimator"] = estimator
     arrays = {"meta": np.frombuffer(json.dumps(meta).encode(), dtype=np.uint8)}
     for i, (w, b) in enumerate(layers):
         arrays[f"w{i}"] = np.asarray(w, dtype=np.float32)
@@ -280,6 +288,14 @@ def _read_meta(path: Path, arrays: dict[str, np.ndarray]) -> dict[str, Any]:
                 and 0 <= recurrent["encoder_layers"] < n):
             raise _field_error(path, "recurrent", f"must be {{cell: one of {list(CELLS)}, hidden_size >= 1, encoder_layers from 0 "
                                                   f"to num_layers - 1}}, got {describe_value(recurrent)}")
+    if "estimator" in meta:
+        from petswarm.baselines.estimator import check_estimator_meta
+
+        problem = "needs a recurrent policy (field 'recurrent')" if recurrent is None else check_estimator_meta(meta["estimator"])
+        if problem is None and meta.get("residual_of") is not None:
+            problem = "excludes 'residual_of' (an estimating policy's action comes from its law)"
+        if problem:
+            raise _field_error(path, "estimator", problem)
     return meta
 
 
@@ -310,8 +326,10 @@ def _read_layers(path: Path, arrays: dict[str, np.ndarray], meta: dict[str, Any]
         inputs += rec["hidden_size"]
     if layers[0][0].shape[1] != inputs:
         raise _field_error(path, "w0", f"takes {layers[0][0].shape[1]} inputs but field 'observation_layout' has {inputs} values")
-    if layers[-1][0].shape[0] != 3:
-        raise _field_error(path, f"w{len(layers) - 1}", f"outputs {layers[-1][0].shape[0]} values; a slave action has 3")
+    outputs = len(meta["estimator"]["outputs"]) if "estimator" in meta else 3
+    if layers[-1][0].shape[0] != outputs:
+        raise _field_error(path, f"w{len(layers) - 1}", f"outputs {layers[-1][0].shape[0]} values; "
+                                                        + (f"the estimate has {outputs}" if "estimator" in meta else "a slave action has 3"))
     return layers
 
 
@@ -430,6 +448,10 @@ class LearnedPolicy(Policy):
             index = observation_mapping(saved, spec.layout)
         except PolicyLoadError as exc:
             raise PolicyLoadError(f"policy file '{path}': {exc}") from None
+        if "estimator" in meta:
+            from petswarm.baselines.estimator import EstimatorPolicy
+
+            return EstimatorPolicy(spec, layers, meta["activation"], index, recurrent, meta)
         if recurrent is not None:
             return RecurrentPolicy(spec, layers, meta["activation"], index, recurrent, meta)  # residual too if the file says so
         return cls(spec, layers, meta["activation"], index, meta)

@@ -124,6 +124,12 @@ class RecurrentConfig(Section):
     eval_every_rounds: int = Field(1, ge=1, le=1_000_000, description="evaluate (and keep the best as policy.npz) every this many rounds")
     validation_fraction: float = Field(0.0, ge=0.0, lt=1.0, description="share of each round's sequences held out of the fit: "
                                                                         "their loss and explained share are logged (0: none)")
+    target: Literal["action", "estimate"] = Field(
+        "action", description="action: the GRU learns the teacher's action (or, with residual_of, its correction); estimate: "
+                              "it learns what the teacher reads (offset to the reference point, its velocity, the heading error, "
+                              "the master's turn rate) and acts with the teacher's law on it (training/estimator.py)")
+    estimate_clip_m: float = Field(1.5, gt=0, le=100.0, description="target: estimate: the offset label's length is clipped to "
+                                                                   "this (beyond it the teacher's approach runs at full speed)")
 
 
 class TrainConfig(Section):
@@ -230,6 +236,9 @@ def load_train_config(path: str | os.PathLike | None = None, overrides: dict[str
     if not cfg.residual_of and cfg.residual_scale != 1.0:
         raise ConfigError(f"residual_scale: {cfg.residual_scale} bounds a residual policy's correction, but residual_of is null; "
                           "set residual_of: scripted, or drop residual_scale")
+    if cfg.algorithm == "recurrent" and cfg.recurrent.target == "estimate" and cfg.residual_of:
+        raise ConfigError(f"recurrent.target: estimate acts with the teacher's law on the GRU's estimate, not as a correction of "
+                          f"another policy; set residual_of: null (got {cfg.residual_of!r})")
     if cfg.algorithm == "recurrent" and cfg.timesteps == 0:
         raise ConfigError("algorithm: recurrent distils the teacher in rounds of DAgger whose labelled samples are timesteps: give "
                           f"timesteps > 0 (got {cfg.timesteps})")

@@ -33,6 +33,12 @@ With ``residual_of: scripted`` the GRU learns a correction of the scripted refer
 ``clip((teacher − reference) / residual_scale, −1, 1)``, so the reference's precise holding is where
 it starts and the memory only has to learn where the teacher does better.
 
+With ``recurrent.target: estimate`` (``configs/train/estimator.yaml``) the GRU's targets are not the
+teacher's action but what the teacher reads — the offset to the true reference point, its velocity,
+the heading error and the master's turn rate, in the robot's own frame — and the policy that ships
+acts with the teacher's law on that estimate (:mod:`petswarm.training.estimator`,
+:mod:`petswarm.baselines.estimator`); the rounds, the fit and the evaluation are the same.
+
 Entry point for other tools: :func:`train_recurrent` ``(config, timesteps, seed, out_dir) -> path of policy.npz``.
 """
 
@@ -48,10 +54,12 @@ import numpy as np
 import torch
 import yaml
 
+from petswarm.baselines.estimator import OUTPUTS, EstimatorPolicy
 from petswarm.baselines.learned import GRUCell, Recurrent, RecurrentPolicy, Residual, save_policy
 from petswarm.baselines.policy import PolicySpec
 from petswarm.training.callbacks import LAST_POLICY, evaluate_and_keep, policy_info, public_log, scripted_reference
 from petswarm.training.config import ConfigError, TrainConfig, load_train_config
+from petswarm.training.estimator import EstimateLabels, estimator_meta
 from petswarm.training.vec_env import training_env
 from petswarm.training.warm_start import TeacherLabels
 from petswarm_env.config import Config
@@ -60,12 +68,15 @@ from petswarm_env.files import write_json_atomic, write_text_atomic
 from petswarm_env.observe import ObservationLayout
 
 ALGORITHM = "recurrent actor (GRU) distilled from the privileged teacher by DAgger"
+ALGORITHM_ESTIMATE = "recurrent estimator (GRU) of what the privileged teacher reads, by DAgger, acting with the teacher's law"
 
 
 class RecurrentActor(torch.nn.Module):
-    """Encoder MLP -> GRU -> head MLP on ``[encoding, hidden state]`` -> 3 action means (module docstring)."""
+    """Encoder MLP -> GRU -> head MLP on ``[encoding, hidden state]`` -> 3 action means, or with
+    ``outputs`` another count (an estimate: module docstring)."""
 
-    def __init__(self, obs_size: int, encoder: list[int], hidden_size: int, head: list[int], activation: str = "tanh"):
+    def __init__(self, obs_size: int, encoder: list[int], hidden_size: int, head: list[int], activation: str = "tanh",
+                 outputs: int = 3):
         super().__init__()
         act = torch.nn.Tanh if activation == "tanh" else torch.nn.ReLU
         self.activation = activation
@@ -80,7 +91,7 @@ class RecurrentActor(torch.nn.Module):
         for n in head:
             mods += [torch.nn.Linear(w, n), act()]
             w = n
-        mods.append(torch.nn.Linear(w, 3))
+        mods.append(torch.nn.Linear(w, outputs))
         self.head = torch.nn.Sequential(*mods)
 
     def forward(self, x: torch.Tensor, h0: torch.Tensor | None = None) -> tuple[torch.Tensor, torch.Tensor]:
@@ -103,7 +114,8 @@ def build_actor(cfg: TrainConfig, obs_size: int) -> RecurrentActor:
     """A fresh actor of ``recurrent:``'s sizes; with ``residual_of`` its last layer is zero, so the
     first policy is the base itself."""
     r = cfg.recurrent
-    actor = RecurrentActor(obs_size, list(r.encoder), r.hidden_size, list(r.head), cfg.ppo.activation)
+    outputs = len(OUTPUTS) if r.target == "estimate" else 3
+    actor = RecurrentActor(obs_size, list(r.encoder), r.hidden_size, list(r.head), cfg.ppo.activation, outputs)
     if cfg.residual_of:
         with torch.no_grad():
             actor.head[-1].weight.zero_()
@@ -111,25 +123,34 @@ def build_actor(cfg: TrainConfig, obs_size: int) -> RecurrentActor:
     return actor
 
 
-def numpy_policy(actor: RecurrentActor, spec: PolicySpec, residual: Residual | None = None) -> RecurrentPolicy:
+def numpy_policy(actor: RecurrentActor, spec: PolicySpec, residual: Residual | None = None,
+                 estimator: dict[str, Any] | None = None) -> RecurrentPolicy:
     """The actor's current weights as the numpy policy that ships (for an env of the layout it trains
-    on; with ``residual``, correcting that base policy's action)."""
+    on; with ``residual``, correcting that base policy's action; with ``estimator``, the estimating
+    policy of :mod:`petswarm.baselines.estimator`)."""
     layers, recurrent = actor.export()
+    if estimator is not None:
+        return EstimatorPolicy(spec, layers, actor.activation, np.arange(spec.layout.size), recurrent, {"estimator": estimator})
     return RecurrentPolicy(spec, layers, actor.activation, np.arange(spec.layout.size), recurrent,
                            residual.meta() if residual else None)
 
 
 def export_actor(actor: RecurrentActor, path: str | os.PathLike, layout: ObservationLayout, info: dict[str, Any],
-                 residual: Residual | None = None) -> None:
+                 residual: Residual | None = None, estimator: dict[str, Any] | None = None) -> None:
     layers, recurrent = actor.export()
-    save_policy(path, layers, actor.activation, layout, info, residual=residual, recurrent=recurrent)
+    save_policy(path, layers, actor.activation, layout, info, residual=residual, recurrent=recurrent, estimator=estimator)
+
+
+def estimator_of(cfg: TrainConfig, spec: PolicySpec) -> dict[str, Any] | None:
+    """The ``estimator`` record of a ``recurrent.target: estimate`` run (None for an action target)."""
+    return estimator_meta(cfg.recurrent.estimate_clip_m, spec) if cfg.recurrent.target == "estimate" else None
 
 
 @dataclass
 class Sequence:
     """One robot's stretch of slave-role driving: its observations (T, obs), the teacher's actions
-    (T, 3; with ``residual_of``, the corrections of the base's actions toward them) and each step's
-    loss weight (T,)."""
+    (T, 3; with ``residual_of``, the corrections of the base's actions toward them; with
+    ``recurrent.target: estimate``, the estimate's targets (T, 7)) and each step's loss weight (T,)."""
 
     obs: np.ndarray
     act: np.ndarray
@@ -145,7 +166,9 @@ def collect_sequences(env, samples: int, seed: int, cfg: TrainConfig, driver: Re
     live robot's step is labelled by the teacher; a seed whose start-up fails in the env's reset (a
     swarm that does not organize, a belt that never wakes) is skipped (counted as ``unorganized``). Returns the
     sequences (a robot's sequence ends when it stops driving; a new one starts when it rejoins) and
-    counts of building and lost steps."""
+    counts of building and lost steps. With ``recurrent.target: estimate`` the targets are what the
+    teacher reads (:class:`petswarm.training.estimator.EstimateLabels`), and a step without them (no
+    reference point, or lost: the law does not act there) weighs zero — the GRU still reads it."""
     r = cfg.recurrent
     residual = cfg.residual()
     rng = np.random.default_rng(seed)
@@ -162,6 +185,7 @@ def collect_sequences(env, samples: int, seed: int, cfg: TrainConfig, driver: Re
                 raise ConfigError(f"none of seeds {seed}..{seed + episode - 1} organized a swarm; check the env config and randomize pools")
             continue
         label = TeacherLabels(env)  # after the reset: the episode's env
+        estimates = EstimateLabels(env, r.estimate_clip_m) if r.target == "estimate" else None
         base = residual.base_policy(PolicySpec.from_env(env)) if residual else None  # a residual's target: teacher - base
         if driver is not None:
             driver.reset()
@@ -179,7 +203,10 @@ def collect_sequences(env, samples: int, seed: int, cfg: TrainConfig, driver: Re
             if driver is not None and beta > 0.0:
                 executed = {a: target[a] if rng.random() < beta else executed[a] for a in live}
             noisy = {a: np.clip(v + rng.normal(0.0, noise_std, 3), -1.0, 1.0).astype(np.float32) for a, v in executed.items()}
-            if base is not None:  # the correction that turns the base's action into the teacher's, in the residual's units
+            if estimates is not None:  # what the teacher reads, in the estimate's units (and whether the step counts)
+                read = estimates(label.teacher, seen)
+                learn = {a: read[a][0] for a in live}
+            elif base is not None:  # the correction that turns the base's action into the teacher's, in the residual's units
                 base_act = base.act_all(seen)
                 learn = {a: np.clip((target[a] - base_act[a]) / residual.scale, -1.0, 1.0) for a in live}
             else:
@@ -188,6 +215,8 @@ def collect_sequences(env, samples: int, seed: int, cfg: TrainConfig, driver: Re
                 lost = label.lost(rows[a])
                 building = infos[a]["formation_error_m"] > r.building_error_m  # ground truth as a loss weight, never an input
                 w = 1.0 + r.lost_weight * lost + r.building_weight * building
+                if estimates is not None and not read[a][1]:
+                    w = 0.0
                 counts["lost"] += int(lost)
                 counts["building"] += int(building)
                 open_.setdefault(a, []).append((rows[a], learn[a], w))
@@ -207,7 +236,7 @@ def batch(seqs: list[Sequence]) -> tuple[torch.Tensor, torch.Tensor, torch.Tenso
     (B, T; zero on padding, which comes after every real step and so never reaches one through the GRU)."""
     n = max(len(s.obs) for s in seqs)
     x = np.zeros((len(seqs), n, seqs[0].obs.shape[1]), np.float32)
-    y = np.zeros((len(seqs), n, 3), np.float32)
+    y = np.zeros((len(seqs), n, seqs[0].act.shape[1]), np.float32)
     w = np.zeros((len(seqs), n), np.float32)
     for i, s in enumerate(seqs):
         x[i, :len(s.obs)], y[i, :len(s.obs)], w[i, :len(s.obs)] = s.obs, s.act, s.weight
@@ -278,6 +307,7 @@ def train(cfg: TrainConfig, out_dir: str | os.PathLike, command: str = "", progr
     rng = np.random.default_rng(cfg.seed)
     env_cfg: Config = cfg.env_config()
     layout = PetSwarmEnv(env_cfg).layout
+    estimator = estimator_of(cfg, PolicySpec.from_env(PetSwarmEnv(env_cfg)))  # an estimate's units: the env's speed limits
     write_text_atomic(out / "train_config.yaml", yaml.safe_dump(cfg.model_dump(mode="json"), sort_keys=False))
     write_text_atomic(out / "env_config.yaml", yaml.safe_dump(env_cfg.to_dict(), sort_keys=False))
     log: dict[str, Any] = {"timesteps": 0, "wall_time_s": 0.0, "evaluations": [], "scripted_eval_rmse_m": None,
@@ -294,7 +324,7 @@ def train(cfg: TrainConfig, out_dir: str | os.PathLike, command: str = "", progr
     try:
         for k in range(rounds):
             t0 = time.time()
-            driver = None if k == 0 else numpy_policy(actor, PolicySpec.from_env(env), cfg.residual())
+            driver = None if k == 0 else numpy_policy(actor, PolicySpec.from_env(env), cfg.residual(), estimator)
             seqs, counts = collect_sequences(env, r.samples_per_round, cfg.seed + 100_000 + 10_000 * k, cfg, driver,
                                              r.teacher_noise_std if k == 0 else r.student_noise_std, r.teacher_mix ** k)
             if r.validation_fraction > 0.0:
@@ -315,12 +345,13 @@ def train(cfg: TrainConfig, out_dir: str | os.PathLike, command: str = "", progr
                 record.update(validation_loss=val, validation_explained=1.0 - val / zero if zero > 0 else float("nan"),
                               validation_sequences=len(held_out))
             log["rounds"].append(record)
-            info = policy_info(cfg, log, ALGORITHM)
-            export_actor(actor, out / LAST_POLICY, layout, info, cfg.residual())
+            info = policy_info(cfg, log, ALGORITHM if r.target == "action" else ALGORITHM_ESTIMATE)
+            export_actor(actor, out / LAST_POLICY, layout, info, cfg.residual(), estimator)
             if (k + 1) % r.eval_every_rounds == 0 or k == rounds - 1:
-                ev = evaluate_and_keep(cfg, out, log, lambda spec: numpy_policy(actor, spec, cfg.residual()), log["timesteps"],
-                                       lambda path, info: export_actor(actor, path, layout, info, cfg.residual()), ALGORITHM,
-                                       {"round": k})
+                ev = evaluate_and_keep(cfg, out, log, lambda spec: numpy_policy(actor, spec, cfg.residual(), estimator),
+                                       log["timesteps"], lambda path, info: export_actor(actor, path, layout, info, cfg.residual(),
+                                                                                          estimator),
+                                       ALGORITHM if r.target == "action" else ALGORITHM_ESTIMATE, {"round": k})
                 record["eval_median_ratio"] = ev["median_ratio"]
             log["wall_time_s"] = time.time() - log["_start"]
             write_json_atomic(out / "train_log.json", public_log(log))

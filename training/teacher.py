@@ -24,7 +24,8 @@ The teacher's control law, per slave and step (world frame, then into the robot'
    ``clearance_m`` is pushed out sideways, and a body already closer than that pushes back. Then
    the robot's own ultrasonic ring, as the scripted slave's step 5: a range shorter than
    ``sonar_keep_out_m`` pushes the command away from that sensor (the one part of the teacher a
-   student can see the reason for);
+   student can see the reason for; steps 3 and 4's ring are :mod:`petswarm.baselines.estimator`'s
+   functions, which an estimating student acts with);
 5. *heading*: the master's true heading, with the master's turn rate as feed-forward.
 
 The figures it reaches (the grid with the teacher as candidate) are in docs/training.md,
@@ -38,6 +39,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from petswarm.baselines.estimator import approach_speed, sonar_keep_off
 from petswarm_env.robot_types import resolve
 from petswarm_env.sim.geometry import wrap_angle
 
@@ -122,33 +124,67 @@ class PrivilegedTeacher:
     def _act(self, agent: str, ranges: np.ndarray | None) -> np.ndarray:
         env, g = self.env, self.g
         i = env.agent_robot(agent)
-        ref = self._refs.get(i)
-        if ref is None:
+        point = self._reference_point(i)
+        if point is None:
             return np.zeros(3, np.float32)
         body = env.truth.robots[i].cfg
         vmax, wmax = body.max_speed_mps, body.max_omega_rps
         xy, th = self._xy, self._th
-        rx, ry, th_m = ref
-        vrx, vry, w_m = self._ref_vel.get(i, (0.0, 0.0, 0.0))  # 1
-        for ux, uy in xy[len(env.truth.robots):]:  # 2: the reference point out of every user's way
-            gap = math.hypot(rx - ux, ry - uy)
-            if 1e-6 < gap < g.user_keep_out_m:
-                rx, ry = ux + (rx - ux) * g.user_keep_out_m / gap, uy + (ry - uy) * g.user_keep_out_m / gap
+        rx, ry, th_m, vrx, vry, w_m = point
         px, py = xy[i]
         ex, ey = rx - px, ry - py
         d = math.hypot(ex, ey)
-        speed = min(vmax, g.gain * d, math.sqrt(2.0 * g.decel_mps2 * d))  # 3
+        speed = float(approach_speed(d, vmax, g.gain, g.decel_mps2))  # 3
         wx, wy = vrx + (speed * ex / d if d > 1e-9 else 0.0), vry + (speed * ey / d if d > 1e-9 else 0.0)
         wx, wy = self._avoid(i, wx, wy)  # 4, from the truth
         c, s = math.cos(th[i]), math.sin(th[i])
         vx, vy = c * wx + s * wy, -s * wx + c * wy
         if ranges is not None and g.sonar_keep_out_m > 0:  # 4, from the robot's own ultrasonic ring
-            vx, vy = self._keep_off(vx, vy, ranges)
+            vx, vy = (float(v) for v in sonar_keep_off(np.array([[vx, vy]]), ranges, g.sonar_keep_out_m, g.sonar_gain)[0])
         norm = math.hypot(vx, vy)
         if norm > vmax:
             vx, vy = vx * vmax / norm, vy * vmax / norm
         omega = w_m + g.heading_gain * wrap_angle(th_m - th[i])  # 5
         return np.clip(np.array([vx / vmax, vy / vmax, omega / wmax], dtype=np.float32), -1.0, 1.0)
+
+    def _reference_point(self, i: int) -> tuple[float, float, float, float, float, float] | None:
+        """Steps 1 and 2 for robot ``i``: its true reference point (world frame) moved out of every
+        user's way, the master's true heading, the point's velocity and the master's turn rate
+        ``(rx, ry, θ_m, vrx, vry, ω_m)``; None when it has no reference point."""
+        ref = self._refs.get(i)
+        if ref is None:
+            return None
+        g, xy = self.g, self._xy
+        rx, ry, th_m = ref
+        vrx, vry, w_m = self._ref_vel.get(i, (0.0, 0.0, 0.0))  # 1
+        for ux, uy in xy[len(self.env.truth.robots):]:  # 2: the reference point out of every user's way
+            gap = math.hypot(rx - ux, ry - uy)
+            if 1e-6 < gap < g.user_keep_out_m:
+                rx, ry = ux + (rx - ux) * g.user_keep_out_m / gap, uy + (ry - uy) * g.user_keep_out_m / gap
+        return rx, ry, th_m, vrx, vry, w_m
+
+    def reads(self, agents: list[str]) -> dict[str, tuple[float, ...] | None]:
+        """What the teacher's steps 1–3 and 5 read of each agent's situation, in the robot's own body
+        frame: ``(ex, ey, vx, vy, dθ, ω_m)`` — the offset from the robot to its reference point
+        (after step 2), the point's velocity, the heading error to the master
+        (``wrap(θ_m − θ)``) and the master's turn rate; None for an agent with no reference point.
+        The labels of an estimating student (:mod:`petswarm.training.estimator`): ground truth, for
+        training and measurement only."""
+        self._read_truth()
+        out: dict[str, tuple[float, ...] | None] = {}
+        for agent in agents:
+            i = self.env.agent_robot(agent)
+            point = self._reference_point(i)
+            if point is None:
+                out[agent] = None
+                continue
+            rx, ry, th_m, vrx, vry, w_m = point
+            px, py = self._xy[i]
+            c, s = math.cos(self._th[i]), math.sin(self._th[i])
+            ex, ey = rx - px, ry - py
+            out[agent] = (c * ex + s * ey, -s * ex + c * ey, c * vrx + s * vry, -s * vrx + c * vry,
+                          wrap_angle(th_m - self._th[i]), w_m)
+        return out
 
     def _avoid(self, i: int, ux: float, uy: float) -> tuple[float, float]:
         """Step 4: the commanded world velocity (ux, uy) pushed off every body it would pass too
@@ -176,19 +212,6 @@ class PrivilegedTeacher:
                 dux += g.push * depth * mx / m
                 duy += g.push * depth * my / m
         return ux + dux, uy + duy
-
-    def _keep_off(self, vx: float, vy: float, ranges: np.ndarray) -> tuple[float, float]:
-        """Step 4, from the robot's own sensors: every ultrasonic range shorter than the keep-out
-        pushes the body-frame command away from that sensor's direction."""
-        g = self.g
-        n = len(ranges)
-        for k, r in enumerate(np.asarray(ranges, dtype=float).tolist()):
-            if r < g.sonar_keep_out_m:
-                a = 2.0 * math.pi * k / n
-                depth = g.sonar_keep_out_m - r
-                vx -= g.sonar_gain * depth * math.cos(a)
-                vy -= g.sonar_gain * depth * math.sin(a)
-        return vx, vy
 
 
 TEACHER_NAME = "privileged-teacher"  # its name where evaluation takes a policy name (petswarm eval --policy)

@@ -21,11 +21,13 @@ def test_shipped_policy_records_how_it_was_trained():
     assert meta["recurrent"]["cell"] == "gru" and meta["residual_of"] == "scripted"
     assert layers[-1][0].shape[0] == 3
     # the committed config is the one it was trained with: `petswarm train --config recurrent_long` runs the same
-    # (a key added to the schema since, at its default, changes nothing: recurrent.validation_fraction 0)
+    # (keys added to the schema since, at their defaults, change nothing: recurrent.validation_fraction 0, the action
+    # target, whose estimate_clip_m is not read)
     committed = load_train_config("configs/train/recurrent_long.yaml").model_dump(mode="json")
     trained = yaml.safe_load(yaml.safe_dump(meta["info"]["train_config"]))
     added = set(committed["recurrent"]) - set(trained["recurrent"])
-    assert added <= {"validation_fraction"} and all(committed["recurrent"][k] == 0.0 for k in added)
+    defaults = {"validation_fraction": 0.0, "target": "action", "estimate_clip_m": 1.5}
+    assert added <= set(defaults) and all(committed["recurrent"][k] == defaults[k] for k in added)
     assert trained == {**committed, "recurrent": {k: v for k, v in committed["recurrent"].items() if k not in added}}
 
 

@@ -228,8 +228,8 @@ class Episode:
         infos = {a: infos[a] for a in observations}
         return observations, rewards, terminations, truncations, infos
 
-    def tick(self, acts: dict[str, np.ndarray] | None = None) -> None:
-        """The clock for one control period: every robot's command (``acts`` for the agents; with
+    def tick(self, acts: np.ndarray | None = None) -> None:
+        """The clock for one control period: every robot's command (``acts``, the agents' actions in their order; with
         None only the masters are driven, by their users, as while the swarm organizes), the
         physics substeps with the middleware's events, the ultrasonic rings. No step is counted:
         :meth:`advance` is the env's step; this alone serves the start-up and tools that watch the

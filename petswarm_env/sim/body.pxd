@@ -40,8 +40,8 @@ cdef class DrivenBody(Body):
     cdef public tuple _wheels
     cdef public Battery battery
 
-    cpdef drive(self, double dt)
-    cpdef apply(self, double dt)
+    cdef _drive(self, double dt)
+    cdef _apply(self, double dt)
 
 
 cdef class WalkingBody(Body):
@@ -51,7 +51,7 @@ cdef class WalkingBody(Body):
     cdef public bint walking
     cdef public list pending_commands
 
-    cpdef apply(self, double dt)
+    cdef _apply(self, double dt)
 
 
 cdef class Substeps:

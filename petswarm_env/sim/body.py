@@ -275,12 +275,17 @@ class DrivenBody(Body):
         self._wheels = (0.0, 0.0, 0.0)  # the motors' own-frame speed (a robot's wheel_velocity)
         self.battery = None  # a robot's Battery (robot.py), drained at every substep
 
-    @cython.ccall
-    def apply(self, dt: cython.double) -> None:
-        """One substep of the drive (:meth:`drive`), then the motors' own speed follows the command
+    def apply(self, dt: float) -> None:
+        """One substep of the drive (:meth:`_apply`), for a Python caller."""
+        self._apply(dt)
+
+    @cython.cfunc
+    def _apply(self, dt: cython.double):
+        """One substep of the drive (:meth:`_drive`), then the motors' own speed follows the command
         under the same limits — a shove or a wall moves the body, not the wheels (they slip) — then
-        the battery's drain over the substep (an empty battery stops the body)."""
-        self.drive(dt)
+        the battery's drain over the substep (an empty battery stops the body). A C method: the
+        substeps call it without looking up a Python override (a robot is a Python subclass)."""
+        self._drive(dt)
         wx: cython.double
         wy: cython.double
         ww: cython.double
@@ -314,9 +319,9 @@ class DrivenBody(Body):
             if battery.drain_at(dt, _py_hypot(bx, by), bw):  # Battery.drain, its speed computed here
                 self.command = (0.0, 0.0, 0.0)
 
-    @cython.ccall
-    def drive(self, dt: cython.double) -> None:
-        """The drive of one substep (:meth:`apply`'s first part): the achieved velocity toward the
+    @cython.cfunc
+    def _drive(self, dt: cython.double):
+        """The drive of one substep (:meth:`_apply`'s first part): the achieved velocity toward the
         command, from the body's actual velocity (after the last step's contacts); sets
         :attr:`velocity_body`. Only a changed value is written to the body."""
         if dt != self._limits_dt:  # the per-substep limits, computed once per substep length
@@ -379,8 +384,12 @@ class WalkingBody(Body):
         self.walking = False  # the script starts when the swarm is organized
         self.pending_commands = []  # commands the user issued (wearables pick them up)
 
-    @cython.ccall
-    def apply(self, dt: cython.double) -> None:
+    def apply(self, dt: float) -> None:
+        """One substep of the walk (:meth:`_apply`), for a Python caller."""
+        self._apply(dt)
+
+    @cython.cfunc
+    def _apply(self, dt: cython.double):
         """Set this substep's velocity from the script; a segment that begins with a command
         issues it (:attr:`pending_commands`). A kinematic body keeps the velocity it was given, so
         only a changed value is written."""
@@ -414,7 +423,7 @@ class WalkingBody(Body):
 class Substeps:
     """A world's physics substeps (:meth:`~.world.World.advance`): at each substep boundary the
     clock's pending events up to that instant (``run_until``), then every robot's drive
-    (:meth:`DrivenBody.apply`), every user's walk (:meth:`WalkingBody.apply`) and one Chipmunk
+    (:meth:`DrivenBody._apply`), every user's walk (:meth:`WalkingBody._apply`) and one Chipmunk
     step of ``dt``. ``robots`` and ``users`` are the world's own lists (bodies added later are
     stepped too). Substep instants come from the integer count ``done`` (no float drift);
     ``steps`` counts the space's steps (the world's truth arrays are valid for one value).
@@ -445,9 +454,9 @@ class Substeps:
             self.done += 1
             self._run_until(self.done * dt)
             for r in self.robots:
-                r.apply(dt)
+                r._apply(dt)
             for u in self.users:
-                u.apply(dt)
+                u._apply(dt)
             self._step(dt)
             self.steps += 1
 

@@ -100,7 +100,7 @@ SLOT_ENTRY_BYTES = 6
 BID_ENTRY_BYTES = 5  # member number 1, the utility 4 (float32)
 
 
-REGION_BYTES = 2  # a refill's joining query: its available region (a distance, int16 cm; join.refill_region_m)
+REGION_BYTES = 2  # a refill's joining query: its available region (a distance, int16 cm; recovery.RecoveryManager.refill_region_m)
 
 
 def _table_bytes(payload: dict) -> int:

@@ -228,9 +228,9 @@ class UserSession:
     def _search_on(self) -> None:
         """A wake-up burst the belt did not answer: the user is not where the new master put them.
         It moves the place it drives to by the next of :data:`SEARCH_OFFSETS_M` around its first
-        estimate (along the way the user walked first: they walked on between the master's last
-        status broadcast and the belt's alert, or less far; :func:`~.succession.user_travel`), and
-        bursts again there (chosen; seed 002 has no search)."""
+        estimate (first farther along its line of sight, then the way the user walked: they walked on
+        between the master's last status broadcast and the belt's alert, :func:`~.succession.user_travel`),
+        and bursts again there (chosen; seed 002 has no search)."""
         if self._search is None or self.tracker.pos is None:
             return
         origin, steps, k = self._search
@@ -240,11 +240,11 @@ class UserSession:
         self._search = (origin, steps, k + 1)
 
     def _successor_command(self, node, odometry) -> tuple[float, float, float]:
-        """A new master waiting for its user: drive toward where it puts them and burst the wake-up
-        pattern (seed 002 §3.2) once it believes it is within ``succession.approach_m`` of them (or
-        stands still within ``lf.wake_range_m`` of where it puts them), and every ``lf.wake_period_s``
-        after; a belt within ``lf.wake_range_m`` whose pattern matches
-        pairs over BLE (``ble.connect_s``)."""
+        """A new master waiting for its user: burst the wake-up pattern (seed 002 §3.2) as it takes
+        over (entering waiting-user, seed 002 Fig. 4), drive toward where it puts them and burst again
+        once it believes it is within ``succession.approach_m`` of them (or stands still within
+        ``lf.wake_range_m`` of where it puts them), and every ``lf.wake_period_s`` after; a belt within
+        ``lf.wake_range_m`` whose pattern matches pairs over BLE (``ble.connect_s``)."""
         cfg, now = self.cfg, self.tracker_node.clock.now  # the new master's own clock (its tracker's)
         est = self.tracker.user_body(now)
         d_est = math.hypot(*est[0]) if est is not None else 0.0

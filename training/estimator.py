@@ -98,6 +98,20 @@ def scripted_pair(spec: PolicySpec) -> tuple[LeaderFollowerPolicy, LeaderFollowe
     return (LeaderFollowerPolicy(spec, position_gain=1.0, approach_mps=1e12), LeaderFollowerPolicy(spec, position_gain=0.0))
 
 
+def rms(squares: list[float], mask: np.ndarray | None = None) -> float | None:
+    """The root of the mean of ``squares`` (where ``mask``); None if there are none."""
+    v = np.asarray(squares, dtype=np.float64)
+    v = v if mask is None else v[mask]
+    return float(np.sqrt(v.mean())) if v.size else None
+
+
+def median(squares: list[float], mask: np.ndarray | None = None) -> float | None:
+    """The median length of the errors whose ``squares`` are given (where ``mask``); None if none."""
+    v = np.asarray(squares, dtype=np.float64)
+    v = v if mask is None else v[mask]
+    return float(np.sqrt(np.median(v))) if v.size else None
+
+
 def estimate_error(env, policy: EstimatorPolicy | None, seeds: list[int], clip_m: float, driver: str = "student",
                    noise_std: float = 0.0) -> dict[str, Any]:
     """The estimate's error on the episodes ``seeds`` of ``env`` (a fixed-agents training env): the
@@ -158,16 +172,6 @@ def estimate_error(env, policy: EstimatorPolicy | None, seeds: list[int], clip_m
                      for a, v in executed.items()}
             rows, _, _, _, infos = env.step(noisy)
     hold = np.array(phase, dtype=bool)
-
-    def rms(values: list[float], mask: np.ndarray | None = None) -> float | None:
-        v = np.asarray(values, dtype=np.float64)
-        v = v if mask is None else v[mask]
-        return float(np.sqrt(v.mean())) if v.size else None
-
-    def median(values: list[float], mask: np.ndarray | None = None) -> float | None:
-        v = np.asarray(values, dtype=np.float64)
-        v = v if mask is None else v[mask]
-        return float(np.sqrt(np.median(v))) if v.size else None  # the median error length
 
     out: dict[str, Any] = {"samples": len(phase), "holding_samples": int(hold.sum()), "driver": driver,
                            "clip_m": clip_m, "wall_time_s": round(time.time() - t0, 1), "offset_rms_m": {}, "offset_median_m": {}}

@@ -130,6 +130,8 @@ class RecurrentConfig(Section):
                               "the master's turn rate) and acts with the teacher's law on it (training/estimator.py)")
     estimate_clip_m: float = Field(1.5, gt=0, le=100.0, description="target: estimate: the offset label's length is clipped to "
                                                                    "this (beyond it the teacher's approach runs at full speed)")
+    estimate_gain: float = Field(4.0, gt=0, le=1000.0, description="target: estimate: the law's approach gain near the point "
+                                                                    "(1/s; the teacher's is 4)")
 
 
 class TrainConfig(Section):

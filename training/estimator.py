@@ -98,6 +98,20 @@ def scripted_pair(spec: PolicySpec) -> tuple[LeaderFollowerPolicy, LeaderFollowe
     return (LeaderFollowerPolicy(spec, position_gain=1.0, approach_mps=1e12), LeaderFollowerPolicy(spec, position_gain=0.0))
 
 
+def rms(squares: list[float], mask: np.ndarray | None = None) -> float | None:
+    """The root of the mean of ``squares`` (where ``mask``); None if there are none."""
+    v = np.asarray(squares, dtype=np.float64)
+    v = v if mask is None else v[mask]
+    return float(np.sqrt(v.mean())) if v.size else None
+
+
+def median(squares: list[float], mask: np.ndarray | None = None) -> float | None:
+    """The median length of the errors whose ``squares`` are given (where ``mask``); None if none."""
+    v = np.asarray(squares, dtype=np.float64)
+    v = v if mask is None else v[mask]
+    return float(np.sqrt(np.median(v))) if v.size else None
+
+
 def estimate_error(env, policy: EstimatorPolicy | None, seeds: list[int], clip_m: float, driver: str = "student",
                    noise_std: float = 0.0) -> dict[str, Any]:
     """The estimate's error on the episodes ``seeds`` of ``env`` (a fixed-agents training env): the
@@ -105,7 +119,8 @@ def estimate_error(env, policy: EstimatorPolicy | None, seeds: list[int], clip_m
     step of a robot with a reference point and a fresh fix, the RMS (m) of the offset estimate's
     error — the GRU's, the scripted reference's one-frame one, and no estimate (zero) — all with the
     offset clipped to ``clip_m`` as the label is, overall and split by holding (true offset ≤
-    :data:`HOLDING_M`) and building; and the GRU's RMS error of the reference point's velocity
+    :data:`HOLDING_M`) and building (and the median error length of each: the RMS weighs the rare
+    large errors); and the GRU's RMS error of the reference point's velocity
     (m/s), of the heading error (rad) and of the master's turn rate (rad/s)."""
     from petswarm.training.warm_start import TeacherLabels
 
@@ -158,43 +173,122 @@ def estimate_error(env, policy: EstimatorPolicy | None, seeds: list[int], clip_m
             rows, _, _, _, infos = env.step(noisy)
     hold = np.array(phase, dtype=bool)
 
-    def rms(values: list[float], mask: np.ndarray | None = None) -> float | None:
-        v = np.asarray(values, dtype=np.float64)
-        v = v if mask is None else v[mask]
-        return float(np.sqrt(v.mean())) if v.size else None
-
     out: dict[str, Any] = {"samples": len(phase), "holding_samples": int(hold.sum()), "driver": driver,
-                           "clip_m": clip_m, "wall_time_s": round(time.time() - t0, 1), "offset_rms_m": {}}
+                           "clip_m": clip_m, "wall_time_s": round(time.time() - t0, 1), "offset_rms_m": {}, "offset_median_m": {}}
     for k, v in sq.items():
         if v:
             out["offset_rms_m"][k] = {"all": rms(v), "holding": rms(v, hold), "building": rms(v, ~hold)}
+            out["offset_median_m"][k] = {"all": median(v), "holding": median(v, hold), "building": median(v, ~hold)}
     if extra["heading"]:
         out["gru_other_rms"] = {"ref_velocity_mps": rms(extra["ref_velocity"]), "heading_rad": rms(extra["heading"]),
                                 "turn_rate_rps": rms(extra["turn_rate"])}
     return out
 
 
+def law_ceiling(grid_path: str, episodes: int, progress=print) -> list[dict[str, Any]]:
+    """A student with **no estimation error**: on each cell of a comparison grid (its first
+    ``episodes`` seeds), the hold ratio to the scripted reference and the collisions of the
+    teacher's law acting on the truth it reads with only the robot's own ultrasonic avoidance (what
+    an estimating policy's law is: :class:`~petswarm.training.teacher.TeacherGains` with ``push``
+    0), beside the full teacher (its avoidance of other bodies from their true positions) — lost
+    robots drive by the scripted reference in both, as the DAgger labeller. Ratios: the mean
+    ``formation_hold_rmse_m`` over the seeds both built, as :mod:`petswarm.training.student_gap`."""
+    from petswarm.baselines.registry import make_policy
+    from petswarm.evaluation.grid_spec import load_grid
+    from petswarm.evaluation.runner import run_episode
+    from petswarm.training.student_gap import LabelDriver, _hold_ratio
+    from petswarm_env.config import load_config
+    from petswarm_env.env import PetSwarmEnv
+
+    class LawOnTruth(LabelDriver):
+        def __init__(self, env, gains: TeacherGains):
+            self.gains = gains
+            super().__init__(env, None)
+
+        def reset(self, seed: int | None = None) -> None:
+            super().reset(seed)
+            self.label.teacher.g = self.gains
+
+    grid = load_grid(grid_path, load_config(), "scripted")
+    seeds = grid.seeds()[:episodes]
+    rows = []
+    for cell in grid.cells:
+        if cell.mix:
+            continue
+        env = PetSwarmEnv(cell.config)
+        ref = [run_episode(env, make_policy("scripted", PolicySpec.from_env(env)), s) for s in seeds]
+        row: dict[str, Any] = {"cell": cell.name, "scripted_collisions": sum(sum(r["collisions"].values()) for r in ref)}
+        for name, gains in (("teacher", TeacherGains()), ("law_on_truth", TeacherGains(push=0.0))):
+            res = [run_episode(env, LawOnTruth(env, gains), s) for s in seeds]
+            row[name] = _hold_ratio([e["formation_hold_rmse_m"] for e in res], [e["formation_hold_rmse_m"] for e in ref])
+            row[name + "_collisions"] = sum(sum(e["collisions"].values()) for e in res)
+        env.close()
+        rows.append(row)
+        if progress:
+            progress(json.dumps(row))
+    return rows
+
+
+def relaw(path: str, out: str, changes: dict[str, float]) -> None:
+    """A copy of the estimating policy file ``path`` at ``out`` with the law's constants ``changes``
+    (the weights as they are): a law chosen after training, by measurement."""
+    from petswarm.baselines.learned import read_policy
+    from petswarm_env.files import read_npz, write_atomic
+
+    meta, _, _ = read_policy(path)  # checked as any policy file
+    if "estimator" not in meta:
+        raise SystemExit(f"'{path}' is not an estimating policy (no 'estimator' record)")
+    unknown = sorted(set(changes) - set(LAW_KEYS))
+    if unknown:
+        raise SystemExit(f"--law {unknown[0]}: not a law constant; the law's are {', '.join(LAW_KEYS)}")
+    arrays = read_npz(path, 256_000_000)
+    meta["estimator"]["law"].update(changes)
+    meta["info"] = {**meta.get("info", {}), "law_changed": changes}
+    arrays["meta"] = np.frombuffer(json.dumps(meta).encode(), dtype=np.uint8)
+    write_atomic(out, lambda tmp: np.savez(tmp, **arrays), suffix=".npz")
+
+
 def main(argv: list[str] | None = None) -> int:
     """``python -m petswarm.training.estimator --policy runs/estimator/policy.npz --draws estimator``:
-    the estimate's error (:func:`estimate_error`) on fresh draws of a training config's pools."""
+    the estimate's error (:func:`estimate_error`) on fresh draws of a training config's pools;
+    ``--ceiling GRID``: :func:`law_ceiling`; ``--policy P --law gain=2 --out Q``: :func:`relaw`."""
     from petswarm import shipped
     from petswarm.baselines.learned import LearnedPolicy
     from petswarm.training.config import load_train_config
     from petswarm.training.vec_env import training_env
+    from petswarm_env.env import PetSwarmEnv
 
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--policy", required=True, help="an estimating policy file (policy.npz of a recurrent.target: estimate run)")
+    p.add_argument("--policy", help="an estimating policy file (policy.npz of a recurrent.target: estimate run)")
+    p.add_argument("--ceiling", metavar="GRID", help="instead: the law on the truth (no estimation error) on GRID's cells")
+    p.add_argument("--episodes", type=int, default=2, help="--ceiling: seeds per cell")
+    p.add_argument("--law", nargs="+", metavar="KEY=VALUE", help="with --out: rewrite these law constants of --policy")
+    p.add_argument("--out", help="--law: the new policy file")
     p.add_argument("--draws", default="estimator", help="the training config whose env and pools are drawn (path or shipped name)")
     p.add_argument("--seeds", default="777000-777011", help="episode seeds FIRST-LAST (never training's: it draws from 100 000)")
     p.add_argument("--driver", choices=("student", "teacher"), default="student")
     p.add_argument("--json", default=None)
     a = p.parse_args(argv)
+    if a.ceiling:
+        rows = law_ceiling(a.ceiling, a.episodes)
+        if a.json:
+            with open(a.json, "w") as f:
+                f.write(json.dumps(rows, indent=1) + "\n")
+        return 0
+    if not a.policy:
+        p.error("--policy is required (or --ceiling GRID)")
+    if a.law:
+        if not a.out:
+            p.error("--law needs --out (the new policy file)")
+        relaw(a.policy, a.out, {k: float(v) for k, v in (kv.split("=", 1) for kv in a.law)})
+        print(f"wrote {a.out}")
+        return 0
     cfg = load_train_config(shipped(a.draws) or a.draws)
     first, _, last = a.seeds.partition("-")
     seeds = list(range(int(first), int(last or first) + 1))
     env = training_env(cfg.env_config(), cfg.randomize, cfg.env, False)
     try:
-        policy = LearnedPolicy.load(a.policy, PolicySpec.from_env(env))
+        policy = LearnedPolicy.load(a.policy, PolicySpec.from_env(PetSwarmEnv(cfg.env_config())))  # before the env's first draw
         if not isinstance(policy, EstimatorPolicy):
             p.error(f"'{a.policy}' is not an estimating policy (its file has no 'estimator' record); train one with "
                     "recurrent.target: estimate")

@@ -60,6 +60,7 @@ from petswarm.baselines.policy import PolicySpec
 from petswarm.training.callbacks import LAST_POLICY, evaluate_and_keep, policy_info, public_log, scripted_reference
 from petswarm.training.config import ConfigError, TrainConfig, load_train_config
 from petswarm.training.estimator import EstimateLabels, estimator_meta
+from petswarm.training.teacher import TeacherGains
 from petswarm.training.vec_env import training_env
 from petswarm.training.warm_start import TeacherLabels
 from petswarm_env.config import Config
@@ -143,7 +144,9 @@ def export_actor(actor: RecurrentActor, path: str | os.PathLike, layout: Observa
 
 def estimator_of(cfg: TrainConfig, spec: PolicySpec) -> dict[str, Any] | None:
     """The ``estimator`` record of a ``recurrent.target: estimate`` run (None for an action target)."""
-    return estimator_meta(cfg.recurrent.estimate_clip_m, spec) if cfg.recurrent.target == "estimate" else None
+    if cfg.recurrent.target != "estimate":
+        return None
+    return estimator_meta(cfg.recurrent.estimate_clip_m, spec, TeacherGains(gain=cfg.recurrent.estimate_gain))
 
 
 @dataclass

@@ -163,3 +163,15 @@ def test_the_scripted_offset_is_its_reference_location_and_the_error_is_measured
 def test_clip_length_keeps_direction():
     v = clip_length(np.array([[3.0, 4.0], [0.3, 0.4]]), 1.0)
     assert np.allclose(v, [[0.6, 0.8], [0.3, 0.4]])
+
+
+def test_a_law_rewritten_after_training_keeps_the_weights(spec, tmp_path):
+    from petswarm.training.estimator import relaw
+
+    export_actor(_actor(spec), tmp_path / "a.npz", spec.layout, {}, estimator=estimator_meta(1.0, spec))
+    relaw(str(tmp_path / "a.npz"), str(tmp_path / "b.npz"), {"gain": 2.0})
+    (ma, la, ca), (mb, lb, cb) = read_policy(tmp_path / "a.npz"), read_policy(tmp_path / "b.npz")
+    assert ma["estimator"]["law"]["gain"] == 4.0 and mb["estimator"]["law"]["gain"] == 2.0
+    assert all(np.array_equal(x[0], y[0]) for x, y in zip(la, lb)) and np.array_equal(ca.cell.w_hh, cb.cell.w_hh)
+    with pytest.raises(SystemExit, match="not a law constant"):
+        relaw(str(tmp_path / "a.npz"), str(tmp_path / "c.npz"), {"push": 1.0})

@@ -63,15 +63,53 @@ MODE_SETTLE_S = 5.0  # chosen: after a mode change the re-forming swarm raises n
 LEADING_LF_MARGIN_M = 0.3  # chosen: a leading master stays this far inside its LF range
 APPROACH_SLACK_M = 0.15  # chosen: a new master bursts its wake-up pattern once this near its approach distance ...
 STALLED_MPS = 0.05  # chosen: ... or once its own odometry says it stands (it can get no closer)
-BLOCKED_S = 2.0  # chosen: ... or once it has stood this long wherever it puts the user (something stands in its way)
-# chosen: where a new master looks for its user after an unanswered wake-up burst, (direction, along, left)
-# of its first estimate in metres: "line" points from where it stood to the user (it stops
-# succession.approach_m short of its guess, so a guess short of the user is the miss it makes most),
-# "travel" the way the user walked (succession.user_travel: they walked on between the master's last
-# status broadcast and the belt's alert); 0.6 m steps, inside the 1 m wake-up range (seed 002 §3.2)
-SEARCH_OFFSETS_M = (("line", 0.6, 0.0), ("travel", 0.6, 0.0), ("travel", 1.2, 0.0), ("line", 1.2, 0.0),
-                    ("line", 0.0, 0.6), ("line", 0.0, -0.6), ("line", -0.6, 0.0), ("line", 0.6, 0.6),
-                    ("line", 0.6, -0.6), ("line", 1.8, 0.0), ("line", 1.2, 0.6), ("line", 1.2, -0.6), ("line", 0.0, 0.0))
+BLOCKED_S = 2.0  # chosen: ... or once it has come no closer (PROGRESS_M) for this long (something stands in its way)
+PROGRESS_M = 0.1  # chosen: a new master comes closer to where it drives by at least this per BLOCKED_S, or it is blocked
+# chosen: where a new master looks for its user after an unanswered wake-up burst (seed 002 has no
+# search). The places it bursts from lie on a triangular lattice SEARCH_SPACING_M apart: every point
+# of the plane is within SEARCH_SPACING_M / sqrt(3) = 0.81 m of one, inside the 1 m wake-up range
+# (seed 002 §3.2) with 0.19 m for where it stops (SEARCH_STAND_M short of a place). Of the lattice
+# laid around its first estimate, it takes the SEARCH_PLACES nearest the stretch the user may have
+# walked on before the belt's alert stopped them (up to SEARCH_WALK_M the way they walked,
+# succession.user_travel: the master's last status broadcast is a status timeout old when the slaves
+# notice the loss), and visits them likeliest first (the nearer of two about as likely: SEARCH_DETOUR,
+# since each place costs a wake-up period of lf.wake_period_s whatever the drive), bursting at each.
+SEARCH_SPACING_M = 1.4
+SEARCH_WALK_M = 1.4
+SEARCH_PLACES = 13
+SEARCH_STAND_M = 0.2
+SEARCH_DETOUR = 0.5
+
+
+def search_places(origin: tuple[float, float], way: tuple[float, float], start: tuple[float, float],
+                  spacing_m: float = SEARCH_SPACING_M, walk_m: float = SEARCH_WALK_M,
+                  count: int = SEARCH_PLACES) -> list[tuple[float, float]]:
+    """The places a new master bursts its wake-up pattern from while it looks for its user (the
+    comment above): the ``count`` points of a triangular lattice around ``origin`` (its first
+    estimate of the user) nearest the stretch from ``origin`` ``walk_m`` along the unit vector
+    ``way`` (the way the user walked), in the order a robot at ``start`` visits them: next the place
+    nearest that stretch, a place ``SEARCH_DETOUR`` m of the way from the robot counting as one
+    metre farther from the stretch. One frame for all the arguments and the result."""
+    ux, uy = way
+    vx, vy = -uy, ux
+    row = spacing_m * math.sqrt(3.0) / 2.0
+    reach = int(math.ceil((walk_m + spacing_m * math.sqrt(count)) / spacing_m)) + 1
+    lattice = []
+    for k in range(-reach, reach + 1):
+        b = k * row
+        for j in range(-reach, reach + 1):
+            a = (j + 0.5 * (k % 2)) * spacing_m
+            cost = math.hypot(a - min(max(a, 0.0), walk_m), b)  # distance to the stretch walked
+            lattice.append((round(cost, 9), abs(k), a, b))
+    lattice.sort()
+    todo = [(cost, (origin[0] + a * ux + b * vx, origin[1] + a * uy + b * vy)) for cost, _, a, b in lattice[:count]]
+    out: list[tuple[float, float]] = []
+    here = start
+    while todo:  # the likeliest next, a nearer one where they are about as likely (SEARCH_DETOUR)
+        nxt = min(range(len(todo)), key=lambda i: (round(todo[i][0] + SEARCH_DETOUR * math.dist(here, todo[i][1]), 9), i))
+        here = todo.pop(nxt)[1]
+        out.append(here)
+    return out
 
 
 def master_distance_m(cfg: Config, formation, mode: str) -> float:
@@ -142,7 +180,11 @@ class UserSession:
         self._wake_next_s = -math.inf  # a new master's next wake-up burst
         self._first_burst_done = False  # a new master burst its wake-up pattern at its takeover
         self._stalled_since: float | None = None  # since when a new master has stood while looking for its user
-        self._search: tuple | None = None  # a new master's search: (first estimate, its steps, the next step)
+        self._progress: tuple[float, float] = (math.inf, 0.0)  # (its nearest to where it drives, since when)
+        self._arrival_burst = True  # a new master bursts as it arrives short of its first estimate
+        self._search: tuple | None = None  # a new master's search: (its burst places, odometry frame; the next one)
+        self._search_way: tuple[float, float] | None = None  # the way its user walked (its body frame at its takeover)
+        self._search_yaw = 0.0  # its yaw at its takeover (the odometry frame's)
         swarm.on_master_change = self._on_master_change
         swarm.on_succession = self._on_succession
         self.clock.process(self._wakeup_bursts())
@@ -211,58 +253,85 @@ class UserSession:
         self.ctrl.reset()
         est = node.succession.user_estimate
         self._search = None
+        self._search_yaw = self.tracker.pose[2]
         if est is not None:
             self.tracker.fix(est, node.clock.now)
-            d = math.hypot(*est) or 1.0
-            c, s = math.cos(self.tracker.pose[2]), math.sin(self.tracker.pose[2])
-            # the line from itself to the user, and the way the user walked before the alert stopped them
-            # (succession.user_travel: from where it put the user and the lost master, by the driving mode)
-            ways = {"line": (est[0] / d, est[1] / d), "travel": node.succession.user_travel}
-            steps = [((c * ways[w][0] - s * ways[w][1], s * ways[w][0] + c * ways[w][1]), along, side)  # odometry frame
-                     for w, along, side in SEARCH_OFFSETS_M if ways[w] is not None]
-            self._search = (tuple(self.tracker.pos), steps, 0)
+        self._search_way = node.succession.user_travel  # the way its user walked (own body frame at its takeover)
         self._wake_next_s = -math.inf
         self._stalled_since: float | None = None
+        self._progress = (math.inf, 0.0)
         self._first_burst_done = False
+        self._arrival_burst = True
 
-    def _search_on(self) -> None:
-        """A wake-up burst the belt did not answer: the user is not where the new master put them.
-        It moves the place it drives to by the next of :data:`SEARCH_OFFSETS_M` around its first
-        estimate (along the way the user walked first: they walked on between the master's last
-        status broadcast and the belt's alert, or less far; :func:`~.succession.user_travel`), and
-        bursts again there (chosen; seed 002 has no search)."""
-        if self._search is None or self.tracker.pos is None:
-            return
-        origin, steps, k = self._search
-        (ax, ay), along, side = steps[k % len(steps)]
-        self.tracker.pos = [origin[0] + along * ax - side * ay, origin[1] + along * ay + side * ax]
+    def _search_on(self, node) -> None:
+        """A wake-up burst the belt did not answer where the new master believed it near its user:
+        the user is not where it put them. It drives to the next of its burst places
+        (:func:`search_places`, laid out at the first unanswered burst around where it then put the
+        user, along the way the user walked — :func:`~.succession.user_travel` — or, not knowing
+        it, along the line from itself to that guess), and bursts again there (chosen; seed 002 has
+        no search). Without any estimate it looks around the place ahead of itself at the standard
+        distance (every robot of a swarm faces its user)."""
+        pose = self.tracker.pose
+        if self._search is None:
+            c, s = math.cos(pose[2]), math.sin(pose[2])
+            if self.tracker.pos is not None:
+                origin = (float(self.tracker.pos[0]), float(self.tracker.pos[1]))
+            else:
+                d = self.cfg.master.distance_m
+                origin = (pose[0] + c * d, pose[1] + s * d)
+            way = self._search_way
+            if way is not None:  # own body frame at its takeover -> odometry frame (its yaw then: the tracker's reset)
+                c0, s0 = math.cos(self._search_yaw), math.sin(self._search_yaw)
+                way = (c0 * way[0] - s0 * way[1], s0 * way[0] + c0 * way[1])
+            else:
+                dx, dy = origin[0] - pose[0], origin[1] - pose[1]
+                d = math.hypot(dx, dy)
+                way = (dx / d, dy / d) if d > 1e-6 else (c, s)
+            self._search = (search_places(origin, way, (pose[0], pose[1])), 0)
+        places, k = self._search
+        self.tracker.pos = list(places[k % len(places)])
         self.tracker.vel = [0.0, 0.0]
-        self._search = (origin, steps, k + 1)
+        self._search = (places, k + 1)
 
     def _successor_command(self, node, odometry) -> tuple[float, float, float]:
-        """A new master waiting for its user: drive toward where it puts them and burst the wake-up
-        pattern (seed 002 §3.2) once it believes it is within ``succession.approach_m`` of them (or
-        stands still within ``lf.wake_range_m`` of where it puts them), and every ``lf.wake_period_s``
-        after; a belt within ``lf.wake_range_m`` whose pattern matches
-        pairs over BLE (``ble.connect_s``)."""
+        """A new master waiting for its user (seed 002 Fig. 4, waiting-user): it bursts its wake-up
+        pattern (seed 002 §3.2) as it takes over, wherever it stands; drives toward where it puts its
+        user and bursts as it arrives ``succession.approach_m`` short of them (or stands still within
+        ``lf.wake_range_m`` of that place, or comes no closer: ``BLOCKED_S``); and bursts every
+        ``lf.wake_period_s`` after, wherever it is. A burst unanswered where it believed itself near
+        sends it to the next place of its search (:meth:`_search_on`), where it stands
+        ``SEARCH_STAND_M`` short. A belt within ``lf.wake_range_m`` whose pattern matches pairs over
+        BLE (``ble.connect_s``)."""
         cfg, now = self.cfg, self.tracker_node.clock.now  # the new master's own clock (its tracker's)
         est = self.tracker.user_body(now)
         d_est = math.hypot(*est[0]) if est is not None else 0.0
         stalled = math.hypot(odometry[0], odometry[1]) < STALLED_MPS  # it gets no closer (the ultrasonic safety stage)
         self._stalled_since = (now if self._stalled_since is None else self._stalled_since) if stalled else None
-        blocked = self._stalled_since is not None and now - self._stalled_since >= BLOCKED_S  # the burst unanswered, it looks elsewhere
-        near = d_est <= cfg.succession.approach_m + APPROACH_SLACK_M or (stalled and d_est <= cfg.lf.wake_range_m) or blocked
-        if not self._first_burst_done and self.world.robots[node.node_id].health.powered:
+        if d_est < self._progress[0] - PROGRESS_M:
+            self._progress = (d_est, now)
+        blocked = now - self._progress[1] >= BLOCKED_S  # it comes no closer (standing or sliding along a body in its way)
+        stand = SEARCH_STAND_M if self._search is not None else cfg.succession.approach_m  # a burst place, or short of its user
+        near = d_est <= stand + APPROACH_SLACK_M or (stalled and d_est <= cfg.lf.wake_range_m) or blocked
+        powered = self.world.robots[node.node_id].health.powered
+        if not self._first_burst_done and powered:
             self._first_burst_done = True  # the burst of entering waiting-user (seed 002 Fig. 4), wherever it stands
+            self._wake_next_s = now + cfg.lf.wake_period_s
+            self._arrival_burst = not near  # standing near where it puts its user already: this was that burst
             if self._wake_up(node):
                 return (0.0, 0.0, 0.0)
-        if near and now >= self._wake_next_s and self.world.robots[node.node_id].health.powered:
+        # waiting-user: a burst as it arrives short of where it puts its user, and every lf.wake_period_s (seed 002 §3.2)
+        if powered and (now >= self._wake_next_s or (near and self._arrival_burst)):
             self._wake_next_s = now + cfg.lf.wake_period_s
-            if not self._wake_up(node):
-                self._search_on()
+            self._arrival_burst = False
+            if not self._wake_up(node) and near:
+                self._search_on(node)  # it stood where it put its user, unanswered: it looks elsewhere
+                self._stalled_since = None
+                est = self.tracker.user_body(now)
+                self._progress = (math.hypot(*est[0]), now) if est is not None else (math.inf, now)
         if est is None:
             return (0.0, 0.0, 0.0)
-        return self.ctrl.command(est[0], (0.0, 0.0), self.belt_view, odometry, "following", cfg.succession.approach_m,
+        stand = SEARCH_STAND_M if self._search is not None else cfg.succession.approach_m
+        return self.ctrl.command(est[0], (0.0, 0.0), self.belt_view, odometry, "following", stand,
                                  cfg.control_period_s)
 
     def _wake_up(self, node) -> bool:
@@ -563,7 +632,11 @@ class UserSession:
         """The new master takes over the user (seed 000 Table 3): the wearables reconnect to it over
         BLE. Its user tracker starts from what it knows itself (:func:`~.succession.own_user_estimate`:
         the old master's last status broadcast placed through its own IR fix and heading estimate of
-        the old master): the handover frame carries no track."""
+        the old master): the handover frame carries no track. A master that hands over before its
+        user's belt paired with it (a new master still looking for its user) hands over no user: the
+        belt stays unpaired, and the new master calls it by its wake-up pattern (:meth:`_on_succession`)."""
+        if self.connected_robot is None:
+            return
         self.connected_robot = new.node_id
         self.link_since_s = self.clock.now + self.cfg.ble.connect_s
         self.link_ack_s = self.belt_clock.now + self.cfg.ble.connect_s

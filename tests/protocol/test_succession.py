@@ -258,14 +258,135 @@ def test_a_leading_successor_beside_the_user_looks_the_way_the_user_walked():
     assert math.isfinite(row["paired_s"]) and row["paired_s"] <= 15.0
 
 
-def test_a_new_master_bursts_its_wake_up_pattern_as_it_takes_over():
-    """seed 002 Fig. 4: a robot entering waiting-user bursts its wake-up pattern; a new master does so
-    at its takeover, wherever it stands, before it drives to where it puts its user. Leading straight
-    walk at radio.loss_prob 0.3, seed 4, the master dead at 20 s: the new master takes over 1.0 m
-    from the stopped user, its estimate 1.3 m off; it used to drive away to that estimate and never
-    paired. Now the takeover's burst pairs at once (new master 1.7 s, paired 2.1 s after the death)."""
-    from petswarm.experiments.measure_succession import run as run_succession
+def _with_estimate_off_by(monkeypatch, env, offset_m):
+    """The new master's estimate of its user is the truth moved ``offset_m`` (world frame): the
+    experimenter sets the error a robot's estimate may carry (its last status broadcast is a status
+    timeout old, its heading estimate off) to test the search, not the estimate."""
+    real = su.own_user_and_master
 
-    row = run_succession("dead", 4, 20.0, 600, {"swarm.mode": "leading", "radio.loss_prob": 0.3})
-    assert row["new_master_s"] <= 5.0 and row["full"]
-    assert row["paired_s"] - row["new_master_s"] <= 1.0  # the takeover's burst (BLE connect), not a search
+    def placed(node, now_s, master=None):
+        out = real(node, now_s, master)
+        world = env.episode.world
+        robot = world.robots[node.node_id]
+        c, s = math.cos(robot.heading), math.sin(robot.heading)
+
+        def body(x, y):  # a world point in the robot's body frame
+            dx, dy = x - robot.position[0], y - robot.position[1]
+            return (c * dx + s * dy, -s * dx + c * dy)
+
+        ux, uy = world.user.position
+        user = body(ux + offset_m[0], uy + offset_m[1])
+        return user, (out[1] if out is not None else body(*world.robots[env.episode.swarm.master.node_id].position))
+
+    monkeypatch.setattr(su, "own_user_and_master", placed)
+
+
+@pytest.mark.parametrize("mode", ["following", "leading"])
+@pytest.mark.parametrize("angle_deg", range(0, 360, 45))
+def test_a_new_master_finds_its_user_wherever_its_estimate_is_off(monkeypatch, mode, angle_deg):
+    """The search (user_session.search_places): a new master whose estimate of the standing user is
+    1.5 m off in any direction — beyond the 1 m wake-up range of where it stops short of it — bursts
+    from the places of its search until the belt pairs, within twelve wake-up periods of the death.
+    (The search it replaced — offsets along the line to the estimate and the way the user walked,
+    the new master 0.7 m short of each — paired in 8 of these 16, never in the other 8.)"""
+    env = make(0, faults=[{"at_s": 1.0, "robot": "master", "kind": "dead"}], **{"swarm.mode": mode})
+    a = math.radians(angle_deg)
+    _with_estimate_off_by(monkeypatch, env, (1.5 * math.cos(a), 1.5 * math.sin(a)))
+    session = env.episode.sessions[0]
+    t_death = env.episode.world.now + 1.0
+    for _ in range(450):
+        env.step({x: np.zeros(3, np.float32) for x in env.agents})
+        if session.pairings:
+            break
+    assert successions(env), "no new master"
+    (t_paired, robot), = session.pairings
+    assert robot == env.episode.swarm.master.node_id
+    assert t_paired - t_death <= 2.0 + 12 * env.cfg.lf.wake_period_s
+
+
+def test_search_places_cover_the_stretch_the_user_may_have_walked():
+    """Every point within 0.8 m of the stretch walked (SEARCH_WALK_M the way the user walked from the
+    first estimate) is within SEARCH_SPACING_M / sqrt(3) of a burst place, inside the 1 m wake-up
+    range; the places are visited likeliest first (SEARCH_DETOUR)."""
+    from petswarm_env.middleware import user_session as us
+
+    origin, way, start = (2.0, -1.0), (math.cos(0.4), math.sin(0.4)), (0.0, 0.0)
+    places = us.search_places(origin, way, start)
+    assert len(places) == us.SEARCH_PLACES
+    reach = us.SEARCH_SPACING_M / math.sqrt(3.0) + 1e-9
+    assert reach < env_wake_range()
+    for t in np.linspace(0.0, us.SEARCH_WALK_M, 8):
+        for off in np.linspace(-0.8, 0.8, 9):
+            for side in (-1.0, 1.0):
+                px = origin[0] + t * way[0] - side * off * way[1]
+                py = origin[1] + t * way[1] + side * off * way[0]
+                assert min(math.dist((px, py), q) for q in places) <= reach
+    def off_stretch(q):  # distance to the stretch walked
+        a = (q[0] - origin[0]) * way[0] + (q[1] - origin[1]) * way[1]
+        b = -(q[0] - origin[0]) * way[1] + (q[1] - origin[1]) * way[0]
+        return math.hypot(a - min(max(a, 0.0), us.SEARCH_WALK_M), b)
+
+    assert places[0] == pytest.approx(origin)  # on the stretch, and nearest the robot of those
+    here = start
+    for k, q in enumerate(places):  # the likeliest next, the nearer of two about as likely
+        key = off_stretch(q) + us.SEARCH_DETOUR * math.dist(here, q)
+        assert key <= min(off_stretch(r) + us.SEARCH_DETOUR * math.dist(here, r) for r in places[k:]) + 1e-6
+        here = q
+
+
+def env_wake_range():
+    return petswarm_env.load_config().lf.wake_range_m
+
+
+def test_a_new_master_bursts_its_wake_up_pattern_as_it_takes_over(monkeypatch):
+    """seed 002 Fig. 4: a robot entering waiting-user bursts its wake-up pattern; a new master does so
+    at its takeover, wherever it stands and wherever it puts its user (here 3 m off), before it drives
+    anywhere: its first burst comes within a control period of its takeover."""
+    from petswarm_env.middleware import user_session as us
+
+    env = make(0, faults=[{"at_s": 1.0, "robot": "master", "kind": "dead"}])
+    _with_estimate_off_by(monkeypatch, env, (-3.0, 0.0))
+    bursts = []
+    real = us.UserSession._wake_up
+
+    def wake_up(self, node):
+        bursts.append((self.clock.now, node.node_id, tuple(env.episode.world.robots[node.node_id].position)))
+        return real(self, node)
+
+    monkeypatch.setattr(us.UserSession, "_wake_up", wake_up)
+    taken = None
+    for _ in range(60):
+        env.step({x: np.zeros(3, np.float32) for x in env.agents})
+        if successions(env) and taken is None:
+            (_, taken, _, new), = successions(env)
+            at = tuple(env.episode.world.robots[new].position)
+    assert taken is not None and bursts
+    t, robot, where = bursts[0]
+    assert robot == new and 0.0 <= t - taken <= env.cfg.control_period_s + 1e-9
+    assert math.dist(where, at) < 0.05  # where it stood at its takeover
+
+
+def test_a_new_master_that_hands_over_before_its_user_paired_hands_over_no_user(monkeypatch):
+    """A new master still looking for its user that finds a part of its own broken hands the master
+    role over by Table 3 (swarm.hand_over_for_fault); it has no user to hand over, so the belt stays
+    unpaired until the robot that holds the role now calls it by its wake-up pattern (before, the
+    session took the handover for a pairing and the belt never paired again)."""
+    env = make(0, faults=[{"at_s": 1.0, "robot": "master", "kind": "dead"}])
+    _with_estimate_off_by(monkeypatch, env, (3.0, 0.0))  # it drives off to look: no pairing for a while
+    session = env.episode.sessions[0]
+    swarm = env.episode.swarm
+    for _ in range(60):
+        env.step({x: np.zeros(3, np.float32) for x in env.agents})
+        if successions(env):
+            break
+    assert successions(env) and not session.pairings
+    first = swarm.master
+    assert swarm.hand_over_for_fault(first, "ir") is not None
+    for _ in range(450):
+        env.step({x: np.zeros(3, np.float32) for x in env.agents})
+        if session.pairings:
+            break
+        assert session.connected_robot is None
+    assert swarm.master is not first
+    (_, robot), = session.pairings
+    assert robot == swarm.master.node_id

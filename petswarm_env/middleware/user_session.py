@@ -81,15 +81,13 @@ SEARCH_STAND_M = 0.2
 SEARCH_DETOUR = 0.5
 
 
-def search_places(origin: tuple[float, float], way: tuple[float, float], start: tuple[float, float],
-                  spacing_m: float = SEARCH_SPACING_M, walk_m: float = SEARCH_WALK_M,
-                  count: int = SEARCH_PLACES) -> list[tuple[float, float]]:
+def search_places(origin: tuple[float, float], way: tuple[float, float], spacing_m: float = SEARCH_SPACING_M,
+                  walk_m: float = SEARCH_WALK_M, count: int = SEARCH_PLACES) -> list[tuple[float, tuple[float, float]]]:
     """The places a new master bursts its wake-up pattern from while it looks for its user (the
     comment above): the ``count`` points of a triangular lattice around ``origin`` (its first
     estimate of the user) nearest the stretch from ``origin`` ``walk_m`` along the unit vector
-    ``way`` (the way the user walked), in the order a robot at ``start`` visits them: next the place
-    nearest that stretch, a place ``SEARCH_DETOUR`` m of the way from the robot counting as one
-    metre farther from the stretch. One frame for all the arguments and the result."""
+    ``way`` (the way the user walked), each with its distance to that stretch, nearest first. One
+    frame for the arguments and the result."""
     ux, uy = way
     vx, vy = -uy, ux
     row = spacing_m * math.sqrt(3.0) / 2.0
@@ -102,14 +100,15 @@ def search_places(origin: tuple[float, float], way: tuple[float, float], start: 
             cost = math.hypot(a - min(max(a, 0.0), walk_m), b)  # distance to the stretch walked
             lattice.append((round(cost, 9), abs(k), a, b))
     lattice.sort()
-    todo = [(cost, (origin[0] + a * ux + b * vx, origin[1] + a * uy + b * vy)) for cost, _, a, b in lattice[:count]]
-    out: list[tuple[float, float]] = []
-    here = start
-    while todo:  # the likeliest next, a nearer one where they are about as likely (SEARCH_DETOUR)
-        nxt = min(range(len(todo)), key=lambda i: (round(todo[i][0] + SEARCH_DETOUR * math.dist(here, todo[i][1]), 9), i))
-        here = todo.pop(nxt)[1]
-        out.append(here)
-    return out
+    return [(cost, (origin[0] + a * ux + b * vx, origin[1] + a * uy + b * vy)) for cost, _, a, b in lattice[:count]]
+
+
+def next_place(todo: list[tuple[float, tuple[float, float]]], here: tuple[float, float], skip: int | None = None) -> int:
+    """Which of the places ``todo`` (:func:`search_places`) a robot at ``here`` visits next: the one
+    nearest the stretch walked, a place ``SEARCH_DETOUR`` m of the way from the robot counting as one
+    metre farther from the stretch; not ``skip`` (a place it could not reach) while others are left."""
+    pick = [i for i in range(len(todo)) if i != skip] or list(range(len(todo)))
+    return min(pick, key=lambda i: (round(todo[i][0] + SEARCH_DETOUR * math.dist(here, todo[i][1]), 9), i))
 
 
 def master_distance_m(cfg: Config, formation, mode: str) -> float:
@@ -182,7 +181,7 @@ class UserSession:
         self._stalled_since: float | None = None  # since when a new master has stood while looking for its user
         self._progress: tuple[float, float] = (math.inf, 0.0)  # (its nearest to where it drives, since when)
         self._arrival_burst = True  # a new master bursts as it arrives short of its first estimate
-        self._search: tuple | None = None  # a new master's search: (its burst places, odometry frame; the next one)
+        self._search: tuple | None = None  # a new master's search, odometry frame: (origin, way, places to do, the current one)
         self._search_way: tuple[float, float] | None = None  # the way its user walked (its body frame at its takeover)
         self._search_yaw = 0.0  # its yaw at its takeover (the odometry frame's)
         swarm.on_master_change = self._on_master_change
@@ -248,50 +247,65 @@ class UserSession:
         last status broadcast, its IR fix and heading estimate of the lost master), the user standing
         (they stop at the belt's alert); it drives within ``succession.approach_m`` of that and bursts
         its wake-up pattern (:meth:`_successor_command`)."""
+        way = node.succession.user_travel
+        est = node.succession.user_estimate
+        handed = self.swarm.fault_handovers
+        if handed and handed[-1][1:3] == (self.tracker_node.node_id, node.node_id):
+            # no election: a new master still looking for its user handed it the role for a broken part
+            # (swarm.hand_over_for_fault); it knew no more than a guess of where its user is: the robot
+            # looks around itself (it stands in its user's swarm)
+            est, way = None, None
         self.tracker.reset(node.ahrs_yaw())
         self.tracker_node = node
         self.ctrl.reset()
-        est = node.succession.user_estimate
         self._search = None
         self._search_yaw = self.tracker.pose[2]
         if est is not None:
             self.tracker.fix(est, node.clock.now)
-        self._search_way = node.succession.user_travel  # the way its user walked (own body frame at its takeover)
+        self._search_way = way  # the way its user walked (own body frame at its takeover)
         self._wake_next_s = -math.inf
         self._stalled_since: float | None = None
         self._progress = (math.inf, 0.0)
         self._first_burst_done = False
         self._arrival_burst = True
 
-    def _search_on(self, node) -> None:
+    def _search_on(self, node, reached: bool) -> None:
         """A wake-up burst the belt did not answer where the new master believed it near its user:
-        the user is not where it put them. It drives to the next of its burst places
-        (:func:`search_places`, laid out at the first unanswered burst around where it then put the
-        user, along the way the user walked — :func:`~.succession.user_travel` — or, not knowing
-        it, along the line from itself to that guess), and bursts again there (chosen; seed 002 has
-        no search). Without any estimate it looks around the place ahead of itself at the standard
-        distance (every robot of a swarm faces its user)."""
+        the user is not within the wake-up range of where it stands. It drives to the next of its
+        burst places (:func:`search_places`, laid out at the first unanswered burst around where it
+        then put the user, along the way the user walked — :func:`~.succession.user_travel` — or,
+        not knowing it, along the line from itself to that guess; :func:`next_place`), and bursts
+        again there (chosen; seed 002 has no search). A place it did not reach (``reached``: it came
+        no closer, something in its way) stays to do, to be tried again from elsewhere; once every
+        place is done the search starts over. Without any estimate it looks around itself (it stands
+        in its user's swarm)."""
         pose = self.tracker.pose
+        here = (pose[0], pose[1])
         if self._search is None:
-            c, s = math.cos(pose[2]), math.sin(pose[2])
             if self.tracker.pos is not None:
                 origin = (float(self.tracker.pos[0]), float(self.tracker.pos[1]))
             else:
-                d = self.cfg.master.distance_m
-                origin = (pose[0] + c * d, pose[1] + s * d)
+                origin = here
             way = self._search_way
             if way is not None:  # own body frame at its takeover -> odometry frame (its yaw then: the tracker's reset)
                 c0, s0 = math.cos(self._search_yaw), math.sin(self._search_yaw)
                 way = (c0 * way[0] - s0 * way[1], s0 * way[0] + c0 * way[1])
             else:
-                dx, dy = origin[0] - pose[0], origin[1] - pose[1]
+                dx, dy = origin[0] - here[0], origin[1] - here[1]
                 d = math.hypot(dx, dy)
-                way = (dx / d, dy / d) if d > 1e-6 else (c, s)
-            self._search = (search_places(origin, way, (pose[0], pose[1])), 0)
-        places, k = self._search
-        self.tracker.pos = list(places[k % len(places)])
+                way = (dx / d, dy / d) if d > 1e-6 else (math.cos(pose[2]), math.sin(pose[2]))
+            self._search = (origin, way, search_places(origin, way), None)
+        origin, way, todo, current = self._search
+        skip = None
+        if current is not None and not reached:
+            todo.append(current)  # not reached: to be tried again, from elsewhere
+            skip = len(todo) - 1
+        if not todo:
+            todo = search_places(origin, way)  # every place done: over again
+        current = todo.pop(next_place(todo, here, skip))
+        self.tracker.pos = list(current[1])
         self.tracker.vel = [0.0, 0.0]
-        self._search = (places, k + 1)
+        self._search = (origin, way, todo, current)
 
     def _successor_command(self, node, odometry) -> tuple[float, float, float]:
         """A new master waiting for its user (seed 002 Fig. 4, waiting-user): it bursts its wake-up
@@ -323,8 +337,8 @@ class UserSession:
         if powered and (now >= self._wake_next_s or (near and self._arrival_burst)):
             self._wake_next_s = now + cfg.lf.wake_period_s
             self._arrival_burst = False
-            if not self._wake_up(node) and near:
-                self._search_on(node)  # it stood where it put its user, unanswered: it looks elsewhere
+            if not self._wake_up(node) and near:  # it stood where it put its user, unanswered: it looks elsewhere
+                self._search_on(node, reached=self._search is None or d_est <= stand + APPROACH_SLACK_M)
                 self._stalled_since = None
                 est = self.tracker.user_body(now)
                 self._progress = (math.hypot(*est[0]), now) if est is not None else (math.inf, now)

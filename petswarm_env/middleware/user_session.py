@@ -48,7 +48,7 @@ from petswarm_env.middleware.formation import formation_for_mode, user_position_
 from petswarm_env.middleware.knowledge import FRESH_IR_S
 from petswarm_env.middleware.modes import measured_geometry
 from petswarm_env.middleware.station import mcu_clock
-from petswarm_env.middleware.succession import own_user_estimate
+from petswarm_env.middleware.succession import SEARCH_STAND_M, own_user_estimate, search_step
 from petswarm_env.middleware.swarm import Swarm
 from petswarm_env.sim.geometry import wrap_angle
 from petswarm_env.sim.user import User
@@ -65,50 +65,7 @@ APPROACH_SLACK_M = 0.15  # chosen: a new master bursts its wake-up pattern once 
 STALLED_MPS = 0.05  # chosen: ... or once its own odometry says it stands (it can get no closer)
 BLOCKED_S = 2.0  # chosen: ... or once it has come no closer (PROGRESS_M) for this long (something stands in its way)
 PROGRESS_M = 0.1  # chosen: a new master comes closer to where it drives by at least this per BLOCKED_S, or it is blocked
-# chosen: where a new master looks for its user after an unanswered wake-up burst (seed 002 has no
-# search). The places it bursts from lie on a triangular lattice SEARCH_SPACING_M apart: every point
-# of the plane is within SEARCH_SPACING_M / sqrt(3) = 0.81 m of one, inside the 1 m wake-up range
-# (seed 002 §3.2) with 0.19 m for where it stops (SEARCH_STAND_M short of a place). Of the lattice
-# laid around its first estimate, it takes the SEARCH_PLACES nearest the stretch the user may have
-# walked on before the belt's alert stopped them (up to SEARCH_WALK_M the way they walked,
-# succession.user_travel: the master's last status broadcast is a status timeout old when the slaves
-# notice the loss), and visits them likeliest first (the nearer of two about as likely: SEARCH_DETOUR,
-# since each place costs a wake-up period of lf.wake_period_s whatever the drive), bursting at each.
-SEARCH_SPACING_M = 1.4
-SEARCH_WALK_M = 1.4
-SEARCH_PLACES = 13
-SEARCH_STAND_M = 0.2
-SEARCH_DETOUR = 0.5
 
-
-def search_places(origin: tuple[float, float], way: tuple[float, float], spacing_m: float = SEARCH_SPACING_M,
-                  walk_m: float = SEARCH_WALK_M, count: int = SEARCH_PLACES) -> list[tuple[float, tuple[float, float]]]:
-    """The places a new master bursts its wake-up pattern from while it looks for its user (the
-    comment above): the ``count`` points of a triangular lattice around ``origin`` (its first
-    estimate of the user) nearest the stretch from ``origin`` ``walk_m`` along the unit vector
-    ``way`` (the way the user walked), each with its distance to that stretch, nearest first. One
-    frame for the arguments and the result."""
-    ux, uy = way
-    vx, vy = -uy, ux
-    row = spacing_m * math.sqrt(3.0) / 2.0
-    reach = int(math.ceil((walk_m + spacing_m * math.sqrt(count)) / spacing_m)) + 1
-    lattice = []
-    for k in range(-reach, reach + 1):
-        b = k * row
-        for j in range(-reach, reach + 1):
-            a = (j + 0.5 * (k % 2)) * spacing_m
-            cost = math.hypot(a - min(max(a, 0.0), walk_m), b)  # distance to the stretch walked
-            lattice.append((round(cost, 9), abs(k), a, b))
-    lattice.sort()
-    return [(cost, (origin[0] + a * ux + b * vx, origin[1] + a * uy + b * vy)) for cost, _, a, b in lattice[:count]]
-
-
-def next_place(todo: list[tuple[float, tuple[float, float]]], here: tuple[float, float], skip: int | None = None) -> int:
-    """Which of the places ``todo`` (:func:`search_places`) a robot at ``here`` visits next: the one
-    nearest the stretch walked, a place ``SEARCH_DETOUR`` m of the way from the robot counting as one
-    metre farther from the stretch; not ``skip`` (a place it could not reach) while others are left."""
-    pick = [i for i in range(len(todo)) if i != skip] or list(range(len(todo)))
-    return min(pick, key=lambda i: (round(todo[i][0] + SEARCH_DETOUR * math.dist(here, todo[i][1]), 9), i))
 
 
 def master_distance_m(cfg: Config, formation, mode: str) -> float:
@@ -271,41 +228,12 @@ class UserSession:
 
     def _search_on(self, node, reached: bool) -> None:
         """A wake-up burst the belt did not answer where the new master believed it near its user:
-        the user is not within the wake-up range of where it stands. It drives to the next of its
-        burst places (:func:`search_places`, laid out at the first unanswered burst around where it
-        then put the user, along the way the user walked — :func:`~.succession.user_travel` — or,
-        not knowing it, along the line from itself to that guess; :func:`next_place`), and bursts
-        again there (chosen; seed 002 has no search). A place it did not reach (``reached``: it came
-        no closer, something in its way) stays to do, to be tried again from elsewhere; once every
-        place is done the search starts over. Without any estimate it looks around itself (it stands
-        in its user's swarm)."""
-        pose = self.tracker.pose
-        here = (pose[0], pose[1])
-        if self._search is None:
-            if self.tracker.pos is not None:
-                origin = (float(self.tracker.pos[0]), float(self.tracker.pos[1]))
-            else:
-                origin = here
-            way = self._search_way
-            if way is not None:  # own body frame at its takeover -> odometry frame (its yaw then: the tracker's reset)
-                c0, s0 = math.cos(self._search_yaw), math.sin(self._search_yaw)
-                way = (c0 * way[0] - s0 * way[1], s0 * way[0] + c0 * way[1])
-            else:
-                dx, dy = origin[0] - here[0], origin[1] - here[1]
-                d = math.hypot(dx, dy)
-                way = (dx / d, dy / d) if d > 1e-6 else (math.cos(pose[2]), math.sin(pose[2]))
-            self._search = (origin, way, search_places(origin, way), None)
-        origin, way, todo, current = self._search
-        skip = None
-        if current is not None and not reached:
-            todo.append(current)  # not reached: to be tried again, from elsewhere
-            skip = len(todo) - 1
-        if not todo:
-            todo = search_places(origin, way)  # every place done: over again
-        current = todo.pop(next_place(todo, here, skip))
-        self.tracker.pos = list(current[1])
+        it drives to the next place of its search (:func:`~.succession.search_step`; chosen, seed
+        002 has no search) and bursts again there."""
+        pos = tuple(self.tracker.pos) if self.tracker.pos is not None else None
+        self._search, place = search_step(self._search, pos, self.tracker.pose, self._search_way, self._search_yaw, reached)
+        self.tracker.pos = list(place)
         self.tracker.vel = [0.0, 0.0]
-        self._search = (origin, way, todo, current)
 
     def _successor_command(self, node, odometry) -> tuple[float, float, float]:
         """A new master waiting for its user (seed 002 Fig. 4, waiting-user): it bursts its wake-up

@@ -304,7 +304,7 @@ def _paired_after_death(monkeypatch, mode, offset_m, seconds=45.0):
 
 
 def test_a_new_master_finds_its_user_wherever_its_estimate_is_off(monkeypatch):
-    """The search (user_session.search_places): a new master whose estimate of the standing user is
+    """The search (succession.search_places): a new master whose estimate of the standing user is
     1.5 m off — beyond the 1 m wake-up range of where it stops short of it — in 8 directions, in
     following and leading, bursts from the places of its search until the belt pairs. Measured: 14
     of 16 within 45 s (following 45 and 270 degrees not: the search looks along the way the user
@@ -320,15 +320,13 @@ def test_search_places_cover_the_stretch_the_user_may_have_walked():
     """Every point within 0.8 m of the stretch walked (SEARCH_WALK_M the way the user walked from the
     first estimate) is within SEARCH_SPACING_M / sqrt(3) of a burst place, inside the 1 m wake-up
     range; the places are visited likeliest first (SEARCH_DETOUR)."""
-    from petswarm_env.middleware import user_session as us
-
     origin, way, start = (2.0, -1.0), (math.cos(0.4), math.sin(0.4)), (0.0, 0.0)
-    todo = us.search_places(origin, way)
+    todo = su.search_places(origin, way)
     places = [q for _, q in todo]
-    assert len(places) == us.SEARCH_PLACES
-    reach = us.SEARCH_SPACING_M / math.sqrt(3.0) + 1e-9
+    assert len(places) == su.SEARCH_PLACES
+    reach = su.SEARCH_SPACING_M / math.sqrt(3.0) + 1e-9
     assert reach < env_wake_range()
-    for t in np.linspace(0.0, us.SEARCH_WALK_M, 8):
+    for t in np.linspace(0.0, su.SEARCH_WALK_M, 8):
         for off in np.linspace(-0.8, 0.8, 9):
             for side in (-1.0, 1.0):
                 px = origin[0] + t * way[0] - side * off * way[1]
@@ -338,20 +336,20 @@ def test_search_places_cover_the_stretch_the_user_may_have_walked():
     def off_stretch(q):  # distance to the stretch walked
         a = (q[0] - origin[0]) * way[0] + (q[1] - origin[1]) * way[1]
         b = -(q[0] - origin[0]) * way[1] + (q[1] - origin[1]) * way[0]
-        return math.hypot(a - min(max(a, 0.0), us.SEARCH_WALK_M), b)
+        return math.hypot(a - min(max(a, 0.0), su.SEARCH_WALK_M), b)
 
     assert all(cost == pytest.approx(off_stretch(q)) for cost, q in todo)
-    assert todo[us.next_place(todo, start)][1] == pytest.approx(origin)  # on the stretch, the nearer of those
+    assert todo[su.next_place(todo, start)][1] == pytest.approx(origin)  # on the stretch, the nearer of those
     here = start
     while todo:  # the likeliest next, the nearer of two about as likely
-        k = us.next_place(todo, here)
-        key = todo[k][0] + us.SEARCH_DETOUR * math.dist(here, todo[k][1])
-        assert key <= min(c + us.SEARCH_DETOUR * math.dist(here, q) for c, q in todo) + 1e-9
+        k = su.next_place(todo, here)
+        key = todo[k][0] + su.SEARCH_DETOUR * math.dist(here, todo[k][1])
+        assert key <= min(c + su.SEARCH_DETOUR * math.dist(here, q) for c, q in todo) + 1e-9
         here = todo.pop(k)[1]
-    todo = us.search_places(origin, way)
-    k = us.next_place(todo, start)
-    assert us.next_place(todo, start, skip=k) != k  # a place it could not reach: another first
-    assert us.next_place(todo[k:k + 1], start, skip=0) == 0  # unless it is the last
+    todo = su.search_places(origin, way)
+    k = su.next_place(todo, start)
+    assert su.next_place(todo, start, skip=k) != k  # a place it could not reach: another first
+    assert su.next_place(todo[k:k + 1], start, skip=0) == 0  # unless it is the last
 
 
 def env_wake_range():

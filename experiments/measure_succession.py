@@ -75,7 +75,8 @@ def main(argv: list[str] | None = None) -> int:
               f"{args.max_cycles} cycles); "
               f"new master median {statistics.median(r['new_master_s'] for r in rows):.2f} s, "
               f"paired median {statistics.median(finite) if finite else math.nan:.2f} s (max {max(finite) if finite else math.nan:.2f}), "
-              f"RMSE 15 s on median {statistics.median(r['rmse_after_m'] for r in rows):.2f} m")
+              f"RMSE 15 s on median {statistics.median(r['rmse_after_m'] for r in rows):.2f} m; "
+              f"failing seeds {[r['seed'] for r in rows if r not in ok] or 'none'}")
     return 0
 
 

@@ -64,6 +64,83 @@ LF_ANTENNAS = 2  # a master locates its user with two LF antennas (seed 002 §3.
 EXACT_ASSIGNMENT_UP_TO = 7  # chosen: the least-move assignment is exact up to this many members (7! orders), greedy beyond
 
 
+# chosen: where a new master looks for its user after an unanswered wake-up burst (seed 002 has no
+# search). The places it bursts from lie on a triangular lattice SEARCH_SPACING_M apart: every point
+# of the plane is within SEARCH_SPACING_M / sqrt(3) = 0.81 m of one, inside the 1 m wake-up range
+# (seed 002 §3.2) with 0.19 m for where it stops (SEARCH_STAND_M short of a place). Of the lattice
+# laid around its first estimate, it takes the SEARCH_PLACES nearest the stretch the user may have
+# walked on before the belt's alert stopped them (up to SEARCH_WALK_M the way they walked,
+# succession.user_travel: the master's last status broadcast is a status timeout old when the slaves
+# notice the loss), and visits them likeliest first (the nearer of two about as likely: SEARCH_DETOUR,
+# since each place costs a wake-up period of lf.wake_period_s whatever the drive), bursting at each.
+SEARCH_SPACING_M = 1.4
+SEARCH_WALK_M = 1.4
+SEARCH_PLACES = 13
+SEARCH_STAND_M = 0.2
+SEARCH_DETOUR = 0.5
+
+
+def search_places(origin: tuple[float, float], way: tuple[float, float], spacing_m: float = SEARCH_SPACING_M,
+                  walk_m: float = SEARCH_WALK_M, count: int = SEARCH_PLACES) -> list[tuple[float, tuple[float, float]]]:
+    """The places a new master bursts its wake-up pattern from while it looks for its user (the
+    comment above): the ``count`` points of a triangular lattice around ``origin`` (its first
+    estimate of the user) nearest the stretch from ``origin`` ``walk_m`` along the unit vector
+    ``way`` (the way the user walked), each with its distance to that stretch, nearest first. One
+    frame for the arguments and the result."""
+    ux, uy = way
+    vx, vy = -uy, ux
+    row = spacing_m * math.sqrt(3.0) / 2.0
+    reach = int(math.ceil((walk_m + spacing_m * math.sqrt(count)) / spacing_m)) + 1
+    lattice = []
+    for k in range(-reach, reach + 1):
+        b = k * row
+        for j in range(-reach, reach + 1):
+            a = (j + 0.5 * (k % 2)) * spacing_m
+            cost = math.hypot(a - min(max(a, 0.0), walk_m), b)  # distance to the stretch walked
+            lattice.append((round(cost, 9), abs(k), a, b))
+    lattice.sort()
+    return [(cost, (origin[0] + a * ux + b * vx, origin[1] + a * uy + b * vy)) for cost, _, a, b in lattice[:count]]
+
+
+def next_place(todo: list[tuple[float, tuple[float, float]]], here: tuple[float, float], skip: int | None = None) -> int:
+    """Which of the places ``todo`` (:func:`search_places`) a robot at ``here`` visits next: the one
+    nearest the stretch walked, a place ``SEARCH_DETOUR`` m of the way from the robot counting as one
+    metre farther from the stretch; not ``skip`` (a place it could not reach) while others are left."""
+    pick = [i for i in range(len(todo)) if i != skip] or list(range(len(todo)))
+    return min(pick, key=lambda i: (round(todo[i][0] + SEARCH_DETOUR * math.dist(here, todo[i][1]), 9), i))
+
+
+
+def search_step(search: tuple | None, guess: tuple[float, float] | None, pose, way: tuple[float, float] | None,
+                yaw0: float, reached: bool) -> tuple[tuple, tuple[float, float]]:
+    """One step of a new master's search for its user, in its odometry frame: returns the search
+    state and the next place to burst from. The first step lays the places out (:func:`search_places`)
+    around ``guess`` (where it puts the user; None: around itself, it stands in its user's swarm)
+    along ``way`` (the way the user walked, its body frame at its takeover, yaw ``yaw0``:
+    :func:`user_travel`; None: the line from itself to the guess). A place not ``reached`` (it came
+    no closer: something in its way) stays to do, tried again from elsewhere; once every place is
+    done the search starts over. ``pose``: its odometry (x, y, yaw)."""
+    here = (pose[0], pose[1])
+    if search is None:
+        origin = guess if guess is not None else here
+        if way is not None:
+            c0, s0 = math.cos(yaw0), math.sin(yaw0)
+            way = (c0 * way[0] - s0 * way[1], s0 * way[0] + c0 * way[1])
+        else:
+            dx, dy = origin[0] - here[0], origin[1] - here[1]
+            d = math.hypot(dx, dy)
+            way = (dx / d, dy / d) if d > 1e-6 else (math.cos(pose[2]), math.sin(pose[2]))
+        search = (origin, way, search_places(origin, way), None)
+    origin, way, todo, current = search
+    skip = None
+    if current is not None and not reached:
+        todo.append(current)
+        skip = len(todo) - 1
+    if not todo:
+        todo = search_places(origin, way)
+    current = todo.pop(next_place(todo, here, skip))
+    return (origin, way, todo, current), current[1]
+
 def body_can_be_master(station: Station) -> bool:
     """Whether this robot's own body carries the LF antennas a master needs (its own body report;
     a bare station is a petbot, which does)."""

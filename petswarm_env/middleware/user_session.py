@@ -48,7 +48,7 @@ from petswarm_env.middleware.formation import formation_for_mode, user_position_
 from petswarm_env.middleware.knowledge import FRESH_IR_S
 from petswarm_env.middleware.modes import measured_geometry
 from petswarm_env.middleware.station import mcu_clock
-from petswarm_env.middleware.succession import own_user_estimate
+from petswarm_env.middleware.succession import SEARCH_STAND_M, own_user_estimate, search_step
 from petswarm_env.middleware.swarm import Swarm
 from petswarm_env.sim.geometry import wrap_angle
 from petswarm_env.sim.user import User
@@ -63,15 +63,9 @@ MODE_SETTLE_S = 5.0  # chosen: after a mode change the re-forming swarm raises n
 LEADING_LF_MARGIN_M = 0.3  # chosen: a leading master stays this far inside its LF range
 APPROACH_SLACK_M = 0.15  # chosen: a new master bursts its wake-up pattern once this near its approach distance ...
 STALLED_MPS = 0.05  # chosen: ... or once its own odometry says it stands (it can get no closer)
-BLOCKED_S = 2.0  # chosen: ... or once it has stood this long wherever it puts the user (something stands in its way)
-# chosen: where a new master looks for its user after an unanswered wake-up burst, (direction, along, left)
-# of its first estimate in metres: "line" points from where it stood to the user (it stops
-# succession.approach_m short of its guess, so a guess short of the user is the miss it makes most),
-# "travel" the way the user walked (succession.user_travel: they walked on between the master's last
-# status broadcast and the belt's alert); 0.6 m steps, inside the 1 m wake-up range (seed 002 §3.2)
-SEARCH_OFFSETS_M = (("line", 0.6, 0.0), ("travel", 0.6, 0.0), ("travel", 1.2, 0.0), ("line", 1.2, 0.0),
-                    ("line", 0.0, 0.6), ("line", 0.0, -0.6), ("line", -0.6, 0.0), ("line", 0.6, 0.6),
-                    ("line", 0.6, -0.6), ("line", 1.8, 0.0), ("line", 1.2, 0.6), ("line", 1.2, -0.6), ("line", 0.0, 0.0))
+BLOCKED_S = 2.0  # chosen: ... or once it has come no closer (PROGRESS_M) for this long (something stands in its way)
+PROGRESS_M = 0.1  # chosen: a new master comes closer to where it drives by at least this per BLOCKED_S, or it is blocked
+
 
 
 def master_distance_m(cfg: Config, formation, mode: str) -> float:
@@ -142,7 +136,11 @@ class UserSession:
         self._wake_next_s = -math.inf  # a new master's next wake-up burst
         self._first_burst_done = False  # a new master burst its wake-up pattern at its takeover
         self._stalled_since: float | None = None  # since when a new master has stood while looking for its user
-        self._search: tuple | None = None  # a new master's search: (first estimate, its steps, the next step)
+        self._progress: tuple[float, float] = (math.inf, 0.0)  # (its nearest to where it drives, since when)
+        self._arrival_burst = True  # a new master bursts as it arrives short of its first estimate
+        self._search: tuple | None = None  # a new master's search, odometry frame: (origin, way, places to do, the current one)
+        self._search_way: tuple[float, float] | None = None  # the way its user walked (its body frame at its takeover)
+        self._search_yaw = 0.0  # its yaw at its takeover (the odometry frame's)
         swarm.on_master_change = self._on_master_change
         swarm.on_succession = self._on_succession
         self.clock.process(self._wakeup_bursts())
@@ -206,63 +204,76 @@ class UserSession:
         last status broadcast, its IR fix and heading estimate of the lost master), the user standing
         (they stop at the belt's alert); it drives within ``succession.approach_m`` of that and bursts
         its wake-up pattern (:meth:`_successor_command`)."""
+        way = node.succession.user_travel
+        est = node.succession.user_estimate
+        handed = self.swarm.fault_handovers
+        if handed and handed[-1][1:3] == (self.tracker_node.node_id, node.node_id):
+            # no election: a new master still looking for its user handed it the role for a broken part
+            # (swarm.hand_over_for_fault); it knew no more than a guess of where its user is: the robot
+            # looks around itself (it stands in its user's swarm)
+            est, way = None, None
         self.tracker.reset(node.ahrs_yaw())
         self.tracker_node = node
         self.ctrl.reset()
-        est = node.succession.user_estimate
         self._search = None
+        self._search_yaw = self.tracker.pose[2]
         if est is not None:
             self.tracker.fix(est, node.clock.now)
-            d = math.hypot(*est) or 1.0
-            c, s = math.cos(self.tracker.pose[2]), math.sin(self.tracker.pose[2])
-            # the line from itself to the user, and the way the user walked before the alert stopped them
-            # (succession.user_travel: from where it put the user and the lost master, by the driving mode)
-            ways = {"line": (est[0] / d, est[1] / d), "travel": node.succession.user_travel}
-            steps = [((c * ways[w][0] - s * ways[w][1], s * ways[w][0] + c * ways[w][1]), along, side)  # odometry frame
-                     for w, along, side in SEARCH_OFFSETS_M if ways[w] is not None]
-            self._search = (tuple(self.tracker.pos), steps, 0)
+        self._search_way = way  # the way its user walked (own body frame at its takeover)
         self._wake_next_s = -math.inf
         self._stalled_since: float | None = None
+        self._progress = (math.inf, 0.0)
         self._first_burst_done = False
+        self._arrival_burst = True
 
-    def _search_on(self) -> None:
-        """A wake-up burst the belt did not answer: the user is not where the new master put them.
-        It moves the place it drives to by the next of :data:`SEARCH_OFFSETS_M` around its first
-        estimate (first farther along its line of sight, then the way the user walked: they walked on
-        between the master's last status broadcast and the belt's alert, :func:`~.succession.user_travel`),
-        and bursts again there (chosen; seed 002 has no search)."""
-        if self._search is None or self.tracker.pos is None:
-            return
-        origin, steps, k = self._search
-        (ax, ay), along, side = steps[k % len(steps)]
-        self.tracker.pos = [origin[0] + along * ax - side * ay, origin[1] + along * ay + side * ax]
+    def _search_on(self, node, reached: bool) -> None:
+        """A wake-up burst the belt did not answer where the new master believed it near its user:
+        it drives to the next place of its search (:func:`~.succession.search_step`; chosen, seed
+        002 has no search) and bursts again there."""
+        pos = tuple(self.tracker.pos) if self.tracker.pos is not None else None
+        self._search, place = search_step(self._search, pos, self.tracker.pose, self._search_way, self._search_yaw, reached)
+        self.tracker.pos = list(place)
         self.tracker.vel = [0.0, 0.0]
-        self._search = (origin, steps, k + 1)
 
     def _successor_command(self, node, odometry) -> tuple[float, float, float]:
-        """A new master waiting for its user: burst the wake-up pattern (seed 002 §3.2) as it takes
-        over (entering waiting-user, seed 002 Fig. 4), drive toward where it puts them and burst again
-        once it believes it is within ``succession.approach_m`` of them (or stands still within
-        ``lf.wake_range_m`` of where it puts them), and every ``lf.wake_period_s`` after; a belt within
-        ``lf.wake_range_m`` whose pattern matches pairs over BLE (``ble.connect_s``)."""
+        """A new master waiting for its user (seed 002 Fig. 4, waiting-user): it bursts its wake-up
+        pattern (seed 002 §3.2) as it takes over, wherever it stands; drives toward where it puts its
+        user and bursts as it arrives ``succession.approach_m`` short of them (or stands still within
+        ``lf.wake_range_m`` of that place, or comes no closer: ``BLOCKED_S``); and bursts every
+        ``lf.wake_period_s`` after, wherever it is. A burst unanswered where it believed itself near
+        sends it to the next place of its search (:meth:`_search_on`), where it stands
+        ``SEARCH_STAND_M`` short. A belt within ``lf.wake_range_m`` whose pattern matches pairs over
+        BLE (``ble.connect_s``)."""
         cfg, now = self.cfg, self.tracker_node.clock.now  # the new master's own clock (its tracker's)
         est = self.tracker.user_body(now)
         d_est = math.hypot(*est[0]) if est is not None else 0.0
         stalled = math.hypot(odometry[0], odometry[1]) < STALLED_MPS  # it gets no closer (the ultrasonic safety stage)
         self._stalled_since = (now if self._stalled_since is None else self._stalled_since) if stalled else None
-        blocked = self._stalled_since is not None and now - self._stalled_since >= BLOCKED_S  # the burst unanswered, it looks elsewhere
-        near = d_est <= cfg.succession.approach_m + APPROACH_SLACK_M or (stalled and d_est <= cfg.lf.wake_range_m) or blocked
-        if not self._first_burst_done and self.world.robots[node.node_id].health.powered:
+        if d_est < self._progress[0] - PROGRESS_M:
+            self._progress = (d_est, now)
+        blocked = now - self._progress[1] >= BLOCKED_S  # it comes no closer (standing or sliding along a body in its way)
+        stand = SEARCH_STAND_M if self._search is not None else cfg.succession.approach_m  # a burst place, or short of its user
+        near = d_est <= stand + APPROACH_SLACK_M or (stalled and d_est <= cfg.lf.wake_range_m) or blocked
+        powered = self.world.robots[node.node_id].health.powered
+        if not self._first_burst_done and powered:
             self._first_burst_done = True  # the burst of entering waiting-user (seed 002 Fig. 4), wherever it stands
+            self._wake_next_s = now + cfg.lf.wake_period_s
+            self._arrival_burst = not near  # standing near where it puts its user already: this was that burst
             if self._wake_up(node):
                 return (0.0, 0.0, 0.0)
-        if near and now >= self._wake_next_s and self.world.robots[node.node_id].health.powered:
+        # waiting-user: a burst as it arrives short of where it puts its user, and every lf.wake_period_s (seed 002 §3.2)
+        if powered and (now >= self._wake_next_s or (near and self._arrival_burst)):
             self._wake_next_s = now + cfg.lf.wake_period_s
-            if not self._wake_up(node):
-                self._search_on()
+            self._arrival_burst = False
+            if not self._wake_up(node) and near:  # it stood where it put its user, unanswered: it looks elsewhere
+                self._search_on(node, reached=self._search is None or d_est <= stand + APPROACH_SLACK_M)
+                self._stalled_since = None
+                est = self.tracker.user_body(now)
+                self._progress = (math.hypot(*est[0]), now) if est is not None else (math.inf, now)
         if est is None:
             return (0.0, 0.0, 0.0)
-        return self.ctrl.command(est[0], (0.0, 0.0), self.belt_view, odometry, "following", cfg.succession.approach_m,
+        stand = SEARCH_STAND_M if self._search is not None else cfg.succession.approach_m
+        return self.ctrl.command(est[0], (0.0, 0.0), self.belt_view, odometry, "following", stand,
                                  cfg.control_period_s)
 
     def _wake_up(self, node) -> bool:
@@ -563,7 +574,11 @@ class UserSession:
         """The new master takes over the user (seed 000 Table 3): the wearables reconnect to it over
         BLE. Its user tracker starts from what it knows itself (:func:`~.succession.own_user_estimate`:
         the old master's last status broadcast placed through its own IR fix and heading estimate of
-        the old master): the handover frame carries no track."""
+        the old master): the handover frame carries no track. A master that hands over before its
+        user's belt paired with it (a new master still looking for its user) hands over no user: the
+        belt stays unpaired, and the new master calls it by its wake-up pattern (:meth:`_on_succession`)."""
+        if self.connected_robot is None:
+            return
         self.connected_robot = new.node_id
         self.link_since_s = self.clock.now + self.cfg.ble.connect_s
         self.link_ack_s = self.belt_clock.now + self.cfg.ble.connect_s

@@ -39,7 +39,12 @@ from petswarm_env.config import Config
 from petswarm_env.middleware import messages as msg
 from petswarm_env.middleware.formation import Formation
 from petswarm_env.middleware.knowledge import IRMeasurement, Knowledge
-from petswarm_env.sim.clock import Clock, LocalClock
+from petswarm_env.sim.clock import Clock
+
+if cython.compiled:  # the MCU clock's C methods (sim/clock.pxd): a received frame is scheduled by a C call
+    from cython.cimports.petswarm_env.sim.clock import LocalClock
+else:
+    from petswarm_env.sim.clock import LocalClock
 from petswarm_env.sim.draws import Draws
 from petswarm_env.sim.sensors import Odometry
 
@@ -114,6 +119,7 @@ class Station:
     health = cython.declare(object, visibility="public")
     later = cython.declare(object, visibility="public")
     radio = cython.declare(object, visibility="public")
+    _mcu = cython.declare(LocalClock)  # ``clock``, typed
     _uniform = cython.declare(object)
     _processing_s = cython.declare(cython.double)
     _jitter_s = cython.declare(cython.double)
@@ -132,6 +138,7 @@ class Station:
         # the MCU's own clock (seed 000 §3.3: the robots' clocks are independent): every timer and
         # timestamp of this robot's middleware is on it; the true clock only reads the body's sensors
         self.clock = mcu_clock(clock, cfg, rng.spawn(1)[0])
+        self._mcu = self.clock
         self._true_clock = clock
         self.later = self.clock.later  # later(delay, fn, *args): a call after ``delay`` seconds of the MCU's clock
         # the antenna's position, for the radio's propagation model (not the middleware): the body's
@@ -172,7 +179,7 @@ class Station:
         if handler is None or not self.health.radio_ok:
             return
         u: cython.double = self._uniform()  # processing_delay(), inlined: called for every reception
-        self.later(self._processing_s + self._jitter_s * u, self._handle, handler, frame)
+        self._mcu.call_later(self._processing_s + self._jitter_s * u, self._handle, (handler, frame))
 
     def processing_delay(self) -> float:
         """MCU time to handle a received frame before it can answer (``processing_s`` plus a

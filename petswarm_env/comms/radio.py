@@ -43,6 +43,7 @@ from typing import Any, Optional, Protocol
 
 import cython
 import numpy as np
+from cython.cimports.libc.math import sqrt as _c_sqrt
 
 from petswarm_env.config import RadioConfig
 from petswarm_env.sim.draws import Draws
@@ -357,6 +358,8 @@ class RadioMedium:
         d2: cython.double
         d: cython.double
         est: cython.double
+        u: cython.double  # a receiver's loss draw
+        z: cython.double  # a receiver's shadowing draw
         node_id: cython.long
         collided: cython.bint
         p: _Port
@@ -385,16 +388,22 @@ class RadioMedium:
                 if trace is not None:
                     trace.reception(now, frame, node_id, COLLIDED, math.nan)
                 continue
-            if loss > 0 and self._rx_uniform() < loss:
-                stats.frames_lost += 1
-                if trace is not None:
-                    trace.reception(now, frame, node_id, LOST, math.nan)
-                continue
+            if loss > 0:
+                u = self._rx_uniform()
+                if u < loss:
+                    stats.frames_lost += 1
+                    if trace is not None:
+                        trace.reception(now, frame, node_id, LOST, math.nan)
+                    continue
             # RSSI-based distance estimate: log-distance path loss with log-normal shadowing
-            d = math.sqrt(d2)
+            d = _c_sqrt(d2)
             if d < 0.1:  # max(d, 0.1)
                 d = 0.1
-            est = d * 10.0 ** (shadow_k * self._rx_normal()) if shadow_k > 0 else d
+            if shadow_k > 0:
+                z = self._rx_normal()
+                est = d * 10.0 ** (shadow_k * z)
+            else:
+                est = d
             if trace is not None:
                 trace.reception(now, frame, node_id, DELIVERED, est)
             st.receive(_received(frame, est))

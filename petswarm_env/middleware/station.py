@@ -53,6 +53,8 @@ if TYPE_CHECKING:
 
 COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
 
+_FIXED_BYTES: dict = msg.FIXED_BYTES
+
 
 def mcu_clock(clock: Clock, cfg: Config, rng: np.random.Generator) -> LocalClock:
     """One MCU's own clock over ``clock``: a drift drawn uniformly within ±``robot.clock_drift_ppm``
@@ -72,22 +74,22 @@ class OwnClock:
     are the ultrasonic ring's and the AHRS's listeners, called for every reading with the true time,
     and call ``on_ring`` / ``on_ahrs`` with the MCU's reading of it (``clock.local``)."""
 
-    _local = cython.declare(object)  # the MCU clock's reader (LocalClock.local)
+    _clock = cython.declare(LocalClock)  # the MCU's clock (its ``local`` a C call in the compiled form)
     _on_ring = cython.declare(object)
     _on_ahrs = cython.declare(object)
 
     def __init__(self, clock: LocalClock, on_ring: Callable[..., None], on_ahrs: Callable[..., None]):
-        self._local = clock.local
+        self._clock = clock
         self._on_ring = on_ring
         self._on_ahrs = on_ahrs
 
     def ring(self, ranges, present, now_s, rang=True) -> None:
         """``robot.on_ring(ranges, present, now_s, rang)``: the ring's reading and self-test."""
-        self._on_ring(ranges, present, self._local(now_s), rang)
+        self._on_ring(ranges, present, self._clock.local(now_s), rang)
 
     def ahrs(self, now_s, yaw) -> None:
         """``ahrs.on_reading(now_s, yaw)``: one AHRS reading."""
-        self._on_ahrs(self._local(now_s), yaw)
+        self._on_ahrs(self._clock.local(now_s), yaw)
 
 
 class Signal:
@@ -170,7 +172,10 @@ class Station:
         if not self.health.radio_ok:  # radio off (a fault): nothing leaves
             return
         pan = self.swarm_pan if pan is None else pan
-        frame = Frame(kind, self.node_id, dst, pan, payload, msg.payload_bytes(kind, payload))
+        size = _FIXED_BYTES.get(kind)  # a frame without a list or table: its kind's size
+        if size is None:
+            size = msg.payload_bytes(kind, payload)
+        frame = Frame(kind, self.node_id, dst, pan, payload, size)
         self.radio.send(self, frame)
 
     def receive(self, frame: Frame) -> None:

@@ -2,6 +2,10 @@
 # its classes and the C methods that the other modules of the compiled core call directly (the
 # radio and the station put their callbacks on the queue by a C call, not a Python one).
 
+cimport cython
+
+
+@cython.final
 cdef class _Entry:
     cdef double t
     cdef int prio
@@ -23,6 +27,7 @@ cdef class Clock:
     cpdef run_until(self, double t)
 
 
+@cython.final
 cdef class LocalClock:
     cdef readonly double offset_s
     cdef readonly double drift
@@ -30,3 +35,4 @@ cdef class LocalClock:
     cdef Clock _clock
 
     cdef void call_later(self, double delay, object fn, tuple args)
+    cpdef double local(self, double t_true)

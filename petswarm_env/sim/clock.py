@@ -252,6 +252,7 @@ class LocalClock:
         """This clock's reading now (local seconds)."""
         return self.offset_s + self._rate * self._clock.now
 
+    @cython.ccall
     def local(self, t_true: cython.double) -> cython.double:
         """This clock's reading at true time ``t_true`` (for what a sensor hands its MCU at ``t_true``)."""
         return self.offset_s + self._rate * t_true

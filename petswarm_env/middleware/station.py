@@ -117,7 +117,8 @@ class Station:
     pans = cython.declare(frozenset, visibility="public")  # PAN IDs its MAC accepts
     swarm_pan = cython.declare(object, visibility="public")
     handlers = cython.declare(dict, visibility="public")
-    counters = cython.declare(dict, visibility="public")
+    _frames_handled = cython.declare(cython.long)
+    _foreign_pan_frames_processed = cython.declare(cython.long)
     health = cython.declare(object, visibility="public")
     later = cython.declare(object, visibility="public")
     radio = cython.declare(object, visibility="public")
@@ -153,7 +154,8 @@ class Station:
         self.know = Knowledge()
         self.formation: Formation | None = None
         self.swarm_pan: int | None = None
-        self.counters = {"foreign_pan_frames_processed": 0, "frames_handled": 0}
+        self._frames_handled = 0  # frames handed to a handler (``counters``)
+        self._foreign_pan_frames_processed = 0  # of them, on a PAN it is not on (must never happen)
         self.handlers: dict[str, Callable[[Frame], None]] = {}
         # port: transmit_ir(neighbours) -> reporters; the fleet wires it (see fleet.Fleet.ir_slot)
         self.transmit_ir: Callable[[list[int | None]], list[int]] = self._ir_not_wired
@@ -194,13 +196,18 @@ class Station:
 
     def _handle(self, handler: Callable[[Frame], None], frame: Frame) -> None:
         pan = frame.pan
-        counters: dict = self.counters
         if pan not in self.pans:  # the PAN changed while the frame was being processed
             return
         if pan != PAN_WAITING and pan != self.swarm_pan:
-            counters["foreign_pan_frames_processed"] += 1  # must never happen
-        counters["frames_handled"] += 1
+            self._foreign_pan_frames_processed += 1  # must never happen
+        self._frames_handled += 1
         handler(frame)
+
+    @property
+    def counters(self) -> dict[str, int]:
+        """How many frames this station handled, and how many of them on a PAN it is not on."""
+        return {"foreign_pan_frames_processed": self._foreign_pan_frames_processed,
+                "frames_handled": self._frames_handled}
 
     def on(self, kind: str, handler: Callable[[Frame], None]) -> None:
         self.handlers[kind] = handler

@@ -43,10 +43,15 @@ from typing import Any, Optional, Protocol
 
 import cython
 import numpy as np
+from cython.cimports.libc.math import sqrt as _c_sqrt
 
 from petswarm_env.config import RadioConfig
-from petswarm_env.sim.clock import Clock
 from petswarm_env.sim.draws import Draws
+
+if cython.compiled:  # the clock's C methods (sim/clock.pxd): the medium schedules by a C call
+    from cython.cimports.petswarm_env.sim.clock import Clock
+else:
+    from petswarm_env.sim.clock import Clock
 
 COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
 
@@ -186,7 +191,7 @@ class RadioMedium:
     stats = cython.declare(RadioStats, visibility="public")
     drop_filter = cython.declare(object, visibility="public")  # fault injection (tests)
     trace = cython.declare(object, visibility="public")  # the experimenter's trace hook (module docstring)
-    _later = cython.declare(object)
+    _clock = cython.declare(Clock)  # the same clock, typed
     _mac_uniform = cython.declare(object)
     _rx_uniform = cython.declare(object)
     _rx_normal = cython.declare(object)
@@ -207,7 +212,7 @@ class RadioMedium:
 
     def __init__(self, clock: Clock, cfg: RadioConfig, rng: np.random.Generator):
         self.clock = clock
-        self._later = clock.later  # later(delay, fn, *args): a call on the clock
+        self._clock = clock  # _clock.call_later(delay, fn, args): a call on the clock
         self.cfg = cfg
         self.rng = rng
         # two independent streams: the MAC's backoffs, and what happens at receivers (loss,
@@ -263,7 +268,7 @@ class RadioMedium:
     def _start(self, port: _Port, frame: Frame) -> cython.void:
         """The MAC takes the first frame of the station's queue: driver latency, first backoff."""
         be: cython.int = self._min_be
-        self._later(self._latency_s + self._backoff(be), self._cca, port, frame, 0, be)
+        self._clock.call_later(self._latency_s + self._backoff(be), self._cca, (port, frame, 0, be))
 
     @cython.cfunc
     def _done(self, port: _Port) -> cython.void:
@@ -279,7 +284,7 @@ class RadioMedium:
         return cython.cast(cython.long, u * (1 << be)) * self._backoff_slot_s
 
     def _cca(self, port: _Port, frame: Frame, nb: cython.int, be: cython.int) -> None:
-        now: cython.double = self.clock.now
+        now: cython.double = self._clock.now
         station = port.station
         x: cython.double
         y: cython.double
@@ -295,7 +300,7 @@ class RadioMedium:
                     self._done(port)
                     return
                 be = min(be + 1, self._max_be)
-                self._later(self._backoff(be), self._cca, port, frame, nb + 1, be)
+                self._clock.call_later(self._backoff(be), self._cca, (port, frame, nb + 1, be))
                 return
         # clear: on the air after the RX-to-TX turnaround, which the CCA of others cannot sense
         start: cython.double = now + self._turnaround_s
@@ -304,14 +309,14 @@ class RadioMedium:
         self.stats.frames_sent += 1
         if self.trace is not None:
             self.trace.on_air(now, port.node_id, frame, start, tx.end)
-        self._later(tx.end - now, self._deliver, tx, port)
+        self._clock.call_later(tx.end - now, self._deliver, (tx, port))
 
     # -- receiving ------------------------------------------------------------------------------
     def _deliver(self, tx: _Tx, sender: _Port) -> None:
         """The frame has left the air: every station in range gets it now, unless it collided.
         One function on purpose: the loop over the receivers runs on typed locals for every frame."""
         self._done(sender)
-        now: cython.double = self.clock.now
+        now: cython.double = self._clock.now
         frame: Frame = tx.frame
         air: list = self._air
         # one pass: the transmissions that overlap this one, and the start of the oldest one still
@@ -353,6 +358,8 @@ class RadioMedium:
         d2: cython.double
         d: cython.double
         est: cython.double
+        u: cython.double  # a receiver's loss draw
+        z: cython.double  # a receiver's shadowing draw
         node_id: cython.long
         collided: cython.bint
         p: _Port
@@ -381,16 +388,22 @@ class RadioMedium:
                 if trace is not None:
                     trace.reception(now, frame, node_id, COLLIDED, math.nan)
                 continue
-            if loss > 0 and self._rx_uniform() < loss:
-                stats.frames_lost += 1
-                if trace is not None:
-                    trace.reception(now, frame, node_id, LOST, math.nan)
-                continue
+            if loss > 0:
+                u = self._rx_uniform()
+                if u < loss:
+                    stats.frames_lost += 1
+                    if trace is not None:
+                        trace.reception(now, frame, node_id, LOST, math.nan)
+                    continue
             # RSSI-based distance estimate: log-distance path loss with log-normal shadowing
-            d = math.sqrt(d2)
+            d = _c_sqrt(d2)
             if d < 0.1:  # max(d, 0.1)
                 d = 0.1
-            est = d * 10.0 ** (shadow_k * self._rx_normal()) if shadow_k > 0 else d
+            if shadow_k > 0:
+                z = self._rx_normal()
+                est = d * 10.0 ** (shadow_k * z)
+            else:
+                est = d
             if trace is not None:
                 trace.reception(now, frame, node_id, DELIVERED, est)
             st.receive(_received(frame, est))

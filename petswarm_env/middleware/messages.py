@@ -128,6 +128,12 @@ PER_ENTRY_BYTES = {
 MAX_PAYLOAD_BYTES = 116
 
 
+# the kinds whose frames carry no list and no table: their payload size is the kind's alone
+# (``payload_bytes(kind, p) == FIXED_BYTES[kind]`` for every payload ``p``), read by the station for
+# every frame it sends (the token ring's, the heading exchange's and the status broadcast's frames)
+FIXED_BYTES = {kind: size for kind, size in SIZE_BYTES.items() if kind not in PER_ENTRY_BYTES}
+
+
 def payload_bytes(kind: str, payload: dict) -> int:
     """The payload size of a frame of ``kind`` carrying ``payload``."""
     extra = PER_ENTRY_BYTES.get(kind)

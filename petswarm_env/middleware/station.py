@@ -39,7 +39,12 @@ from petswarm_env.config import Config
 from petswarm_env.middleware import messages as msg
 from petswarm_env.middleware.formation import Formation
 from petswarm_env.middleware.knowledge import IRMeasurement, Knowledge
-from petswarm_env.sim.clock import Clock, LocalClock
+from petswarm_env.sim.clock import Clock
+
+if cython.compiled:  # the MCU clock's C methods (sim/clock.pxd): a received frame is scheduled by a C call
+    from cython.cimports.petswarm_env.sim.clock import LocalClock
+else:
+    from petswarm_env.sim.clock import LocalClock
 from petswarm_env.sim.draws import Draws
 from petswarm_env.sim.sensors import Odometry
 
@@ -47,6 +52,8 @@ if TYPE_CHECKING:
     from petswarm_env.sim.robot import Robot
 
 COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
+
+_FIXED_BYTES: dict = msg.FIXED_BYTES
 
 
 def mcu_clock(clock: Clock, cfg: Config, rng: np.random.Generator) -> LocalClock:
@@ -67,22 +74,22 @@ class OwnClock:
     are the ultrasonic ring's and the AHRS's listeners, called for every reading with the true time,
     and call ``on_ring`` / ``on_ahrs`` with the MCU's reading of it (``clock.local``)."""
 
-    _local = cython.declare(object)  # the MCU clock's reader (LocalClock.local)
+    _clock = cython.declare(LocalClock)  # the MCU's clock (its ``local`` a C call in the compiled form)
     _on_ring = cython.declare(object)
     _on_ahrs = cython.declare(object)
 
     def __init__(self, clock: LocalClock, on_ring: Callable[..., None], on_ahrs: Callable[..., None]):
-        self._local = clock.local
+        self._clock = clock
         self._on_ring = on_ring
         self._on_ahrs = on_ahrs
 
     def ring(self, ranges, present, now_s, rang=True) -> None:
         """``robot.on_ring(ranges, present, now_s, rang)``: the ring's reading and self-test."""
-        self._on_ring(ranges, present, self._local(now_s), rang)
+        self._on_ring(ranges, present, self._clock.local(now_s), rang)
 
     def ahrs(self, now_s, yaw) -> None:
         """``ahrs.on_reading(now_s, yaw)``: one AHRS reading."""
-        self._on_ahrs(self._local(now_s), yaw)
+        self._on_ahrs(self._clock.local(now_s), yaw)
 
 
 class Signal:
@@ -110,10 +117,12 @@ class Station:
     pans = cython.declare(frozenset, visibility="public")  # PAN IDs its MAC accepts
     swarm_pan = cython.declare(object, visibility="public")
     handlers = cython.declare(dict, visibility="public")
-    counters = cython.declare(dict, visibility="public")
+    _frames_handled = cython.declare(cython.long)
+    _foreign_pan_frames_processed = cython.declare(cython.long)
     health = cython.declare(object, visibility="public")
     later = cython.declare(object, visibility="public")
     radio = cython.declare(object, visibility="public")
+    _mcu = cython.declare(LocalClock)  # ``clock``, typed
     _uniform = cython.declare(object)
     _processing_s = cython.declare(cython.double)
     _jitter_s = cython.declare(cython.double)
@@ -132,6 +141,7 @@ class Station:
         # the MCU's own clock (seed 000 §3.3: the robots' clocks are independent): every timer and
         # timestamp of this robot's middleware is on it; the true clock only reads the body's sensors
         self.clock = mcu_clock(clock, cfg, rng.spawn(1)[0])
+        self._mcu = self.clock
         self._true_clock = clock
         self.later = self.clock.later  # later(delay, fn, *args): a call after ``delay`` seconds of the MCU's clock
         # the antenna's position, for the radio's propagation model (not the middleware): the body's
@@ -144,7 +154,8 @@ class Station:
         self.know = Knowledge()
         self.formation: Formation | None = None
         self.swarm_pan: int | None = None
-        self.counters = {"foreign_pan_frames_processed": 0, "frames_handled": 0}
+        self._frames_handled = 0  # frames handed to a handler (``counters``)
+        self._foreign_pan_frames_processed = 0  # of them, on a PAN it is not on (must never happen)
         self.handlers: dict[str, Callable[[Frame], None]] = {}
         # port: transmit_ir(neighbours) -> reporters; the fleet wires it (see fleet.Fleet.ir_slot)
         self.transmit_ir: Callable[[list[int | None]], list[int]] = self._ir_not_wired
@@ -163,7 +174,10 @@ class Station:
         if not self.health.radio_ok:  # radio off (a fault): nothing leaves
             return
         pan = self.swarm_pan if pan is None else pan
-        frame = Frame(kind, self.node_id, dst, pan, payload, msg.payload_bytes(kind, payload))
+        size = _FIXED_BYTES.get(kind)  # a frame without a list or table: its kind's size
+        if size is None:
+            size = msg.payload_bytes(kind, payload)
+        frame = Frame(kind, self.node_id, dst, pan, payload, size)
         self.radio.send(self, frame)
 
     def receive(self, frame: Frame) -> None:
@@ -172,7 +186,7 @@ class Station:
         if handler is None or not self.health.radio_ok:
             return
         u: cython.double = self._uniform()  # processing_delay(), inlined: called for every reception
-        self.later(self._processing_s + self._jitter_s * u, self._handle, handler, frame)
+        self._mcu.call_later(self._processing_s + self._jitter_s * u, self._handle, (handler, frame))
 
     def processing_delay(self) -> float:
         """MCU time to handle a received frame before it can answer (``processing_s`` plus a
@@ -182,13 +196,18 @@ class Station:
 
     def _handle(self, handler: Callable[[Frame], None], frame: Frame) -> None:
         pan = frame.pan
-        counters: dict = self.counters
         if pan not in self.pans:  # the PAN changed while the frame was being processed
             return
         if pan != PAN_WAITING and pan != self.swarm_pan:
-            counters["foreign_pan_frames_processed"] += 1  # must never happen
-        counters["frames_handled"] += 1
+            self._foreign_pan_frames_processed += 1  # must never happen
+        self._frames_handled += 1
         handler(frame)
+
+    @property
+    def counters(self) -> dict[str, int]:
+        """How many frames this station handled, and how many of them on a PAN it is not on."""
+        return {"foreign_pan_frames_processed": self._foreign_pan_frames_processed,
+                "frames_handled": self._frames_handled}
 
     def on(self, kind: str, handler: Callable[[Frame], None]) -> None:
         self.handlers[kind] = handler

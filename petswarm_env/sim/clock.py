@@ -50,13 +50,8 @@ COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py c
 @cython.final
 @cython.cclass
 class _Entry:
-    """One entry of the queue: SimPy's key, and a SimPy event or a bare callback (``args`` not None)."""
-
-    t = cython.declare(cython.double)
-    prio = cython.declare(cython.int)
-    eid = cython.declare(cython.longlong)
-    event = cython.declare(object)  # the event, or the callback's function
-    args = cython.declare(tuple)  # the callback's arguments; None for an event
+    """One entry of the queue: SimPy's key, and a SimPy event or a bare callback (``args`` not None).
+    Its typed fields are declared in ``clock.pxd``: ``t``, ``prio``, ``eid``, ``event``, ``args``."""
 
 
 @cython.cfunc
@@ -72,12 +67,8 @@ def _before(a: _Entry, b: _Entry) -> cython.bint:
 
 @cython.cclass
 class Clock:
-    """The simulation's clock, see the module docstring."""
-
-    now = cython.declare(cython.double, visibility="public")
-    _eid = cython.declare(cython.longlong)
-    _heap = cython.declare(list)
-    _active_proc = cython.declare(object, visibility="public")  # SimPy's Process sets it while it runs
+    """The simulation's clock, see the module docstring. Its typed attributes (``now``, the queue)
+    and its C methods are declared in ``clock.pxd``."""
 
     def __init__(self, initial_time: float = 0.0):
         self.now = initial_time
@@ -158,6 +149,12 @@ class Clock:
     # -- the clock's own ------------------------------------------------------------------------
     def later(self, delay: cython.double, fn, *args) -> None:
         """Run ``fn(*args)`` after ``delay`` seconds of clock time (a bare callback, module docstring)."""
+        self._push(self.now + delay, NORMAL, fn, args)
+
+    @cython.cfunc
+    def call_later(self, delay: cython.double, fn: object, args: tuple) -> cython.void:
+        """:meth:`later` with the arguments in a tuple: what the other modules of the compiled core
+        call (a C call in the compiled form, ``clock.pxd``)."""
         self._push(self.now + delay, NORMAL, fn, args)
 
     def start(self, fn, *args) -> None:
@@ -242,11 +239,6 @@ class LocalClock:
     own state are its own; it never reads another robot's clock. ``drift`` is a fraction (50 ppm is
     5e-5); ``offset_s`` is arbitrary (the time since the MCU powered on): nothing depends on it."""
 
-    offset_s = cython.declare(cython.double, visibility="readonly")
-    drift = cython.declare(cython.double, visibility="readonly")
-    _rate = cython.declare(cython.double)  # local seconds per true second: 1 + drift
-    _clock = cython.declare(Clock)
-
     def __init__(self, clock: Clock, offset_s: float = 0.0, drift: float = 0.0):
         if not -0.5 < drift < 0.5:
             raise ValueError(f"a clock drift of {drift!r} is not a crystal's: give a fraction such as 5e-5 (50 ppm)")
@@ -260,6 +252,7 @@ class LocalClock:
         """This clock's reading now (local seconds)."""
         return self.offset_s + self._rate * self._clock.now
 
+    @cython.ccall
     def local(self, t_true: cython.double) -> cython.double:
         """This clock's reading at true time ``t_true`` (for what a sensor hands its MCU at ``t_true``)."""
         return self.offset_s + self._rate * t_true
@@ -279,6 +272,11 @@ class LocalClock:
 
     def later(self, delay: cython.double, fn, *args) -> None:
         """:meth:`Clock.later`, ``delay`` in this clock's seconds."""
+        self._clock._push(self._clock.now + delay / self._rate, NORMAL, fn, args)
+
+    @cython.cfunc
+    def call_later(self, delay: cython.double, fn: object, args: tuple) -> cython.void:
+        """:meth:`later` with the arguments in a tuple (:meth:`Clock.call_later`)."""
         self._clock._push(self._clock.now + delay / self._rate, NORMAL, fn, args)
 
     def start(self, fn, *args) -> None:

@@ -272,8 +272,9 @@ class Sensors:
                 if now is None:
                     now = self.world.clock.now
                 listener(self.ranges[i], self._present[i], now, i not in self._ring_faulted)
-            if robot.sensors_off != self._off.get(i, set()):  # the robot's own record of its broken sensors
-                self.sensor_off(i, set(robot.sensors_off))
+            off = robot.sensors_off  # the robot's own record of its broken sensors
+            if (off != self._off[i]) if i in self._off else off:
+                self.sensor_off(i, set(off))
         if self._off:
             for i, off in self._off.items():
                 for k, f in enumerate(self.flags[i][: self.ring.count]):

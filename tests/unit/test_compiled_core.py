@@ -21,21 +21,24 @@ def test_every_core_module_runs_compiled():
 
 
 def test_the_interpreted_form_gives_the_golden_episode_bit_for_bit():
-    """The same golden case in a child process with ``PETSWARM_PURE_PYTHON=1``: every core module is
-    its ``.py``, and the episode's hash is the golden one that the compiled form meets
-    (tests/env/test_golden_episodes.py)."""
+    """Golden cases in a child process with ``PETSWARM_PURE_PYTHON=1``: every core module is its
+    ``.py``, and the episodes' hashes are the golden ones that the compiled form meets
+    (tests/env/test_golden_episodes.py): the default swarm, and 1 + 9, whose token ring runs crowded
+    (middleware/token_ring.py)."""
     from tests.golden.episodes import GOLDEN_PATH, portable_environ
 
+    cases = ["default_seed0", "nine_slaves_u_turn"]
     code = ("import json; from petswarm_env import _core; from tests.golden.episodes import run_case; "
-            "print(json.dumps([_core.compiled_modules(), run_case('default_seed0')['sha256']]))")
+            f"print(json.dumps([_core.compiled_modules(), [run_case(c)['sha256'] for c in {cases!r}]]))")
     env = dict(portable_environ(), **{_core.PURE_ENV: "1"})
     env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
     out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, env=env, capture_output=True, text=True, check=False,
                          timeout=300)
     assert out.returncode == 0, out.stderr[-2000:]
-    compiled, sha = json.loads(out.stdout.strip().splitlines()[-1])
+    compiled, shas = json.loads(out.stdout.strip().splitlines()[-1])
     assert compiled == {m: False for m in _core.COMPILED}
-    assert sha == json.loads(GOLDEN_PATH.read_text())["default_seed0"]["sha256"]
+    golden = json.loads(GOLDEN_PATH.read_text())
+    assert shas == [golden[c]["sha256"] for c in cases]
 
 
 def test_a_missing_build_is_one_line_naming_the_fix(tmp_path, monkeypatch):

@@ -91,8 +91,20 @@ def received_strengths(
     alone, which is what ``on_axis·0·(1 + …) + noise`` gives.
     """
     k = cfg.num_receivers
-    axes = _ring(k)[0]
-    z_rel, z_abs = rng.standard_normal((2, len(distance_m), k)).tolist()
+    z = rng.standard_normal((2, len(distance_m), k))
+    out = np.empty((len(distance_m), k))
+    ring_readings(cfg, distance_m, bearing_rad, occluded, z, out)
+    return out.tolist()
+
+
+@cython.ccall
+def ring_readings(cfg: IRConfig, distance_m: list, bearing_rad: list, occluded: list, z: cython.double[:, :, ::1],
+                  out: cython.double[:, ::1]) -> cython.void:
+    """:func:`received_strengths` with its noise given: ``z`` (2, M, K), the multiplicative then the
+    additive standard normals of every receiver; the readings written into ``out`` (M, K). Typed
+    loops over C arrays: what the IR channel calls for a slot (no Python float per reading)."""
+    k: cython.Py_ssize_t = cfg.num_receivers
+    delta: cython.double = _ring(k)[1]
     s1: cython.double = cfg.strength_at_1m
     att: cython.double = cfg.occlusion_attenuation
     far: cython.double = cfg.max_range_m
@@ -100,38 +112,36 @@ def received_strengths(
     rel: cython.double = cfg.noise_rel
     add: cython.double = cfg.noise_abs
     sat: cython.double = cfg.saturation
+    m: cython.Py_ssize_t = len(distance_m)
+    i: cython.Py_ssize_t
+    j: cython.Py_ssize_t
     d: cython.double
     bearing: cython.double
     on_axis: cython.double
-    axis: cython.double
-    z1: cython.double
-    z2: cython.double
     c: cython.double
     x: cython.double
-    out = []
-    for d, bearing, occ, zr, za in zip(distance_m, bearing_rad, occluded, z_rel, z_abs):
+    for i in range(m):
+        d = distance_m[i]
         if d < _MIN_DISTANCE_M:  # max(d, _MIN_DISTANCE_M)
             d = _MIN_DISTANCE_M
         on_axis = s1 / (d * d)  # inverse-square fall-off
-        if occ:
+        if occluded[i]:
             on_axis = on_axis * att
         if d > far:
             on_axis = 0.0
-        row = []
-        for axis, z1, z2 in zip(axes, zr, za):
-            c = _c_cos(bearing - axis)
+        bearing = bearing_rad[i]
+        for j in range(k):
+            c = _c_cos(bearing - j * delta)  # receiver j's axis: j·Δ
             if c > 0.0:
-                x = on_axis * _c_pow(c, exponent) * (1.0 + rel * z1) + add * z2
+                x = on_axis * _c_pow(c, exponent) * (1.0 + rel * z[0, i, j]) + add * z[1, i, j]
             else:  # the source is behind this receiver: a zero lobe, so the reading is the additive noise
-                x = add * z2
+                x = add * z[1, i, j]
             # the clip to [0, sat], as max(x, 0.0) then min(x, sat)
             if x < 0.0:
                 x = 0.0
             elif x > sat:
                 x = sat
-            row.append(x)
-        out.append(row)
-    return out
+            out[i, j] = x
 
 
 def estimate(cfg: IRConfig, strengths: list[list[float]]) -> tuple[list[float], list[float], list[bool]]:
@@ -156,6 +166,17 @@ def estimate(cfg: IRConfig, strengths: list[list[float]]) -> tuple[list[float], 
         distance_m, bearing_rad (in the receiving robot's body frame) and valid, M each. Rows
         whose strongest reading is below ``cfg.detect_threshold`` are invalid and get nan.
     """
+    s = np.asarray(strengths, dtype=np.float64).reshape(len(strengths), cfg.num_receivers)
+    distance, bearing, valid = np.empty(len(strengths)), np.empty(len(strengths)), np.empty(len(strengths), np.uint8)
+    estimate_rows(cfg, s, distance, bearing, valid)
+    return distance.tolist(), bearing.tolist(), valid.view(np.bool_).tolist()
+
+
+@cython.ccall
+def estimate_rows(cfg: IRConfig, strengths: cython.double[:, ::1], distance: cython.double[::1],
+                  bearing: cython.double[::1], valid: cython.uchar[::1]) -> cython.void:
+    """:func:`estimate` on an (M, K) array of readings, into ``distance``, ``bearing`` and ``valid``
+    (M each): typed loops, what the IR channel calls for a slot."""
     # seed 000, §3.3, Eqs. 1–3 (text garbled in the extraction; reconstructed as above)
     k: cython.Py_ssize_t = cfg.num_receivers
     ring = _ring(k)
@@ -174,27 +195,27 @@ def estimate(cfg: IRConfig, strengths: list[list[float]]) -> tuple[list[float], 
     b: cython.double
     r: cython.double
     theta: cython.double
-    distance, bearing, valid = [], [], []
-    for row in strengths:
+    m: cython.Py_ssize_t = strengths.shape[0]
+    row: cython.Py_ssize_t
+    for row in range(m):
         i = 0  # the strongest receiver (the first of equals, as argmax)
-        s0 = row[0]
+        s0 = strengths[row, 0]
         for j in range(1, k):
-            sj = row[j]
+            sj = strengths[row, j]
             if sj > s0:
                 i, s0 = j, sj
-        s_plus: cython.double = row[(i + 1) % k]
-        s_minus: cython.double = row[(i - 1 + k) % k]
+        s_plus: cython.double = strengths[row, (i + 1) % k]
+        s_minus: cython.double = strengths[row, (i - 1 + k) % k]
         a = (s0 + (s_plus + s_minus) * cos_d) / den_a
         b = (s_plus - s_minus) * sin_d / den_b
         r = _hypot(a, b)
-        ok = s0 >= threshold and r > 0.0
-        valid.append(ok)
+        ok: cython.bint = s0 >= threshold and r > 0.0
+        valid[row] = ok
         if ok:
-            distance.append(_c_sqrt(s1 / r))
+            distance[row] = _c_sqrt(s1 / r)
             theta = _c_atan2(b, a) + i * delta
             w: cython.double = -geometry.wrap_angle(-theta)  # to (−π, π]: π − (π − θ) mod 2π, to the bit
-            bearing.append(w + 2.0 * math.pi if w <= -math.pi else w)
+            bearing[row] = w + 2.0 * math.pi if w <= -math.pi else w
         else:
-            distance.append(math.nan)
-            bearing.append(math.nan)
-    return distance, bearing, valid
+            distance[row] = math.nan
+            bearing[row] = math.nan

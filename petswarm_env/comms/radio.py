@@ -81,6 +81,9 @@ class Frame:
     rx_distance_est_m: cython.double = math.nan  # filled per reception
 
 
+_NAN = cython.declare(cython.double, math.nan)
+
+
 @cython.cfunc
 def _received(frame: Frame, est: cython.double) -> Frame:
     """The copy of ``frame`` a receiver gets, with its RSSI distance estimate (the fields set
@@ -163,6 +166,14 @@ class _Tx:
 
     def __init__(self, frame: Frame, start: cython.double, end: cython.double, x: cython.double, y: cython.double):
         self.frame, self.start, self.end, self.x, self.y = frame, start, end, x, y
+
+
+@cython.cfunc
+def _on_air(frame: Frame, start: cython.double, end: cython.double, x: cython.double, y: cython.double) -> _Tx:
+    """A :class:`_Tx`, its fields set directly (one for every frame on the air)."""
+    tx: _Tx = _Tx.__new__(_Tx)
+    tx.frame, tx.start, tx.end, tx.x, tx.y = frame, start, end, x, y
+    return tx
 
 
 @cython.final
@@ -259,7 +270,19 @@ class RadioMedium:
     def send(self, station: Station, frame: Frame) -> None:
         """Queue ``frame`` from ``station``; its MAC sends one frame at a time, in order:
         latency, then CSMA-CA, then airtime."""
-        port: _Port = self._ports[station.node_id]
+        self._enqueue(self._ports[station.node_id], frame)
+
+    @cython.ccall
+    def transmit(self, kind: str, src: cython.long, dst: object, pan: object, payload: dict, size: cython.long):
+        """:meth:`send` of the frame ``Frame(kind, src, dst, pan, payload, size)`` from the station
+        ``src``, built here (a station's ``send``: one call, the frame's fields set directly)."""
+        frame: Frame = Frame.__new__(Frame)
+        frame.kind, frame.src, frame.dst, frame.pan = kind, src, dst, pan
+        frame.payload, frame.size_bytes, frame.rx_distance_est_m = payload, size, _NAN
+        self._enqueue(self._ports[src], frame)
+
+    @cython.cfunc
+    def _enqueue(self, port: _Port, frame: Frame) -> cython.void:
         port.queue.append(frame)
         if len(port.queue) == 1:
             self._start(port, frame)
@@ -304,7 +327,7 @@ class RadioMedium:
                 return
         # clear: on the air after the RX-to-TX turnaround, which the CCA of others cannot sense
         start: cython.double = now + self._turnaround_s
-        tx = _Tx(frame, start, start + self.airtime_s(frame), x, y)
+        tx = _on_air(frame, start, start + self.airtime_s(frame), x, y)
         self._air.append(tx)
         self.stats.frames_sent += 1
         if self.trace is not None:

@@ -177,8 +177,7 @@ class Station:
         size = _FIXED_BYTES.get(kind)  # a frame without a list or table: its kind's size
         if size is None:
             size = msg.payload_bytes(kind, payload)
-        frame = Frame(kind, self.node_id, dst, pan, payload, size)
-        self.radio.send(self, frame)
+        self.radio.transmit(kind, self.node_id, dst, pan, payload, size)  # radio.send(self, Frame(...))
 
     def receive(self, frame: Frame) -> None:
         """Called by the medium for every frame its MAC accepted; handled after MCU processing."""

@@ -6,6 +6,7 @@ cimport cython
 
 
 @cython.final
+@cython.freelist(256)
 cdef class _Entry:
     cdef double t
     cdef int prio

@@ -48,6 +48,7 @@ COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py c
 
 
 @cython.final
+@cython.freelist(256)  # entries are made and dropped for every event: reused, not allocated
 @cython.cclass
 class _Entry:
     """One entry of the queue: SimPy's key, and a SimPy event or a bare callback (``args`` not None).

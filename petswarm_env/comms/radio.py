@@ -179,15 +179,18 @@ def _on_air(frame: Frame, start: cython.double, end: cython.double, x: cython.do
 @cython.final
 @cython.cclass
 class _Port:
-    """An attached station as the medium reads it: its id, its station, its MAC's queue of frames."""
+    """An attached station as the medium reads it: its id, its station, its antenna's position reader
+    (``station.position``, read for every frame it sends or hears), its MAC's queue of frames."""
 
     node_id = cython.declare(cython.long)
     station = cython.declare(object)
+    position = cython.declare(object)
     queue = cython.declare(list)
 
     def __init__(self, node_id: cython.long, station: object):
         self.node_id = node_id
         self.station = station
+        self.position = station.position
         self.queue = []
 
 
@@ -255,6 +258,7 @@ class RadioMedium:
         if node_id in self._ports:  # attached again: the new station replaces the old one in place
             port: _Port = self._ports[node_id]
             port.station = station
+            port.position = station.position
             port.queue = []
         else:
             port = _Port(node_id, station)
@@ -308,10 +312,9 @@ class RadioMedium:
 
     def _cca(self, port: _Port, frame: Frame, nb: cython.int, be: cython.int) -> None:
         now: cython.double = self._clock.now
-        station = port.station
         x: cython.double
         y: cython.double
-        x, y = station.position()
+        x, y = port.position()
         r2: cython.double = self._range2
         tx: _Tx
         for tx in self._air:
@@ -391,7 +394,7 @@ class RadioMedium:
             if node_id == src:
                 continue
             st = p.station
-            rx, ry = st.position()
+            rx, ry = p.position()
             d2 = (rx - tx_x) ** 2 + (ry - tx_y) ** 2
             if d2 > r2:
                 continue

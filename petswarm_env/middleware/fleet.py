@@ -6,12 +6,16 @@ The world, the radio medium and the IR optical channel are shared by all robots 
 and subscribes to the node's signals, which it forwards to the user's :class:`~.swarm.Swarm` the
 robot is in: first the swarm whose pool it starts in, then the one whose PAN it joined. Only the
 env imports this module.
+
+A module of the compiled core (``petswarm_env/_core.py``): the IR medium (:meth:`Fleet.ir_slot`)
+runs for every slot of every token ring; the same file runs under the interpreter.
 """
 
 from __future__ import annotations
 
 import functools
 
+import cython
 import numpy as np
 
 from petswarm_env.comms.ir_channel import IRChannel
@@ -20,6 +24,8 @@ from petswarm_env.config import Config
 from petswarm_env.middleware.node import Node
 from petswarm_env.middleware.swarm import Swarm
 from petswarm_env.sim.world import World
+
+COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
 
 
 class Fleet:

@@ -232,12 +232,12 @@ class TokenRing:
         self._clock.soon(wait.slot.resume)
 
     def _on_ack(self, frame: Frame) -> None:
-        self.heard[frame.src] = self._clock.now  # an acknowledgement to another holder, overheard, is a sign of life too
+        src = frame.src
+        self.heard[src] = self._clock.now  # an acknowledgement to another holder, overheard, is a sign of life too
         if frame.dst != self.node.node_id:
             return
-        self._acks.add(frame.src)
-        self.heard[frame.src] = self._clock.now
-        self.slot_range_m[frame.src] = frame.rx_distance_est_m  # its RSSI range, as of its latest ring frame to us
+        self._acks.add(src)
+        self.slot_range_m[src] = frame.rx_distance_est_m  # its RSSI range, as of its latest ring frame to us
         wait: _Wait = self._acks_event
         if wait is not None and not wait.triggered and self._acks_needed <= self._acks:
             wait.triggered = True
@@ -303,30 +303,31 @@ class TokenRing:
 
     # -- everyone ---------------------------------------------------------------------------------
     def _on_tx_start(self, frame: Frame) -> None:
-        self.last_activity_s = self._slot_start[frame.src] = self.heard[frame.src] = self._clock.now
-        self.holder_heard = (frame.src, self._clock.now)
-        self.slot_range_m[frame.src] = frame.rx_distance_est_m  # the announcer's RSSI range (the IR self-check)
+        src, now = frame.src, self._clock.now
+        self.last_activity_s = self._slot_start[src] = self.heard[src] = now
+        self.holder_heard = (src, now)
+        self.slot_range_m[src] = frame.rx_distance_est_m  # the announcer's RSSI range (the IR self-check)
         seq = frame.payload["seq"]
         self.token_seq = max(seq, self.token_seq)
         node = self.node
         slot = self.plan().answer_slot_s
-        holder = next((m for m, n in node.know.members.items() if n == frame.src), None) if slot > 0 else None
+        holder = next((m for m, n in node.know.members.items() if n == src), None) if slot > 0 else None
         if holder is None:
-            node.send(msg.TX_START_ACK, dst=frame.src)
+            node.send(msg.TX_START_ACK, src)
         else:  # crowded ring: in member order after the holder
             rank = (node.know.member - holder - 1) % node.know.total_members
-            node.later(rank * slot, node.send, msg.TX_START_ACK, frame.src)
+            node.later(rank * slot, node.send, msg.TX_START_ACK, src)
 
     def _on_token(self, frame: Frame) -> None:
-        node = self.node
-        self.last_activity_s = self.heard[frame.src] = self._clock.now
-        nxt = node.know.members.get(frame.payload["next"])
+        node, src, now, payload = self.node, frame.src, self._clock.now, frame.payload
+        self.last_activity_s = self.heard[src] = now
+        nxt = node.know.members.get(payload["next"])
         if nxt is not None:
-            self.token_to = (nxt, self._clock.now)
-        named = node.know.members.get(frame.payload["next"]) == node.node_id
+            self.token_to = (nxt, now)
+        named = nxt == node.node_id
         if named or self.plan().all_answer_token:
-            node.send(msg.TOKEN_ACK, dst=frame.src)
-        seq = frame.payload["seq"]
+            node.send(msg.TOKEN_ACK, src)
+        seq = payload["seq"]
         if seq <= self.token_seq or not named:
             return
         self.token_seq = seq
@@ -336,8 +337,9 @@ class TokenRing:
         self._clock.start(self._begin, seq)
 
     def _on_sync(self, frame: Frame) -> None:
-        self.last_activity_s = self.heard[frame.src] = self._clock.now
-        self.holder_heard = (frame.src, self._clock.now)
+        src, now = frame.src, self._clock.now
+        self.last_activity_s = self.heard[src] = now
+        self.holder_heard = (src, now)
         self.token_seq = max(self.token_seq, frame.payload["seq"])
 
     def announced_holder(self) -> int | None:

@@ -72,6 +72,27 @@ def test_frame_arrives_after_latency_turnaround_and_airtime():
     assert radio.stats.frames_sent == 1
 
 
+def test_transmit_is_send_of_the_frame_built_from_its_fields():
+    """A station's send (``RadioMedium.transmit``: the medium builds the frame) puts on the air and
+    delivers what ``send`` of the same frame does: the same frames, at the same times, with the same
+    RSSI estimates, from the same draws."""
+    got = []
+    for way in ("send", "transmit"):
+        clock, radio = medium(seed=3, loss_prob=0.2)
+        a, b, c = stations(clock, radio, [(1, {PAN_A}, (0, 0)), (2, {PAN_A}, (1, 0)), (3, {PAN_A}, (0, 2))])
+        for k in range(6):
+            src, dst = (a, BROADCAST) if k % 2 == 0 else (b, 3)
+            fields = ("test", src.node_id, dst, PAN_A, {"k": k}, 10 + k)
+            if way == "send":
+                radio.send(src, Frame(*fields))
+            else:
+                radio.transmit(*fields)
+        clock.run(until=1.0)
+        got.append([(st.node_id, t, f) for st in (a, b, c) for t, f in st.got])
+    assert got[0] == got[1] and len(got[0]) >= 5
+    assert {f.src for _, _, f in got[1]} == {1, 2} and all(f.rx_distance_est_m > 0 for _, _, f in got[1])
+
+
 def test_broadcast_reaches_same_pan_only():
     clock, radio = medium()
     sender, *same = stations(clock, radio, [(1, {PAN_A}, (0, 0)), (2, {PAN_A}, (1, 0)), (3, {PAN_A}, (0, 2)), (4, {PAN_WAITING, PAN_A}, (2, 2))])

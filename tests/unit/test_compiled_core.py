@@ -103,3 +103,47 @@ def test_the_interpreted_form_finds_the_same_sensor_faults_bit_for_bit():
     detected, _ = out["0"]
     assert {part for parts in detected.values() for _, part in parts} == {"ultrasonic", "ir", "ahrs"}
     assert out["1"] == out["0"]
+
+
+def ir_slots() -> list:
+    """Every robot's IR slot measured by all the others (``IRChannel.measure``: lines of sight, the
+    ring's readings and the estimator, ``comms/ir_channel.py`` and ``comms/ir.py``) in a crowd with
+    bodies in the lines of sight, some robots out of range and one behind the arena's wall: the
+    results as exact hex strings (NaN included)."""
+    import numpy as np
+
+    from petswarm_env.comms.ir_channel import IRChannel
+    from petswarm_env.config import load_config
+    from petswarm_env.scenarios import SCENARIOS
+    from petswarm_env.sim.world import World
+
+    cfg = load_config()
+    world = World(cfg, SCENARIOS["straight"].script(cfg.user, np.random.default_rng(0)))
+    rng = np.random.default_rng(5)
+    for p, th in zip(rng.uniform(-2.5, 2.5, (8, 2)), rng.uniform(-3.0, 3.0, 8)):
+        world.add_robot(p, th)
+    channel = IRChannel(world, cfg.ir, np.random.default_rng(11))
+    out = []
+    for tx in range(8):
+        rxs = [r for r in range(8) if r != tx]
+        out.append([[float(v).hex() for v in values] for values in channel.measure(tx, rxs)])
+    return out
+
+
+def test_the_interpreted_form_measures_the_same_ir_slots_bit_for_bit():
+    """The IR medium's measurement of a slot (compiled: it runs for every slot of every ring) gives
+    the same distances, bearings and validity to the bit in both forms."""
+    from tests.golden.episodes import portable_environ
+
+    code = "import json; from tests.unit.test_compiled_core import ir_slots; print(json.dumps(ir_slots()))"
+    out = {}
+    for pure in ("0", "1"):
+        env = dict(portable_environ(), **{_core.PURE_ENV: pure})
+        env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
+        run = subprocess.run([sys.executable, "-c", code], cwd=ROOT, env=env, capture_output=True, text=True,
+                             check=False, timeout=300)
+        assert run.returncode == 0, run.stderr[-2000:]
+        out[pure] = json.loads(run.stdout.strip().splitlines()[-1])
+    valid = [v for slot in out["0"] for v in slot[2]]
+    assert float.fromhex("0x1.0p+0").hex() in valid and float.fromhex("0x0.0p+0").hex() in valid  # both kinds
+    assert out["1"] == out["0"]

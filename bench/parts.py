@@ -61,6 +61,7 @@ MODULE_PARTS: dict[str, str | None] = {
     "petswarm_env.comms.ir_channel": "radio_middleware",  # an IR slot's lines of sight and measurements
     "petswarm_env.middleware": "radio_middleware",  # every robot's managers and messages
     "petswarm_env.middleware.token_ring": "radio_middleware",  # the IR token ring and heading exchange, every ring frame
+    "petswarm_env.middleware.node": "radio_middleware",  # each robot's middleware: the master's status broadcast, every frame
     "petswarm_env.middleware.fleet": "radio_middleware",  # the IR medium: every slot of every token ring
     "petswarm_env.middleware.diagnosis": "radio_middleware",  # each robot's sensor self-diagnosis, every ring and AHRS reading
     "petswarm_env.middleware.user_session": "user_sensing",  # the master's wearables chain (LF, belt)

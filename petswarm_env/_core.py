@@ -38,6 +38,7 @@ COMPILED: tuple[str, ...] = (
     "petswarm_env.wearables.belt_window",
     "petswarm_env.wearables.belt",
     "petswarm_env.comms.ir_channel",
+    "petswarm_env.middleware.node",
     "petswarm_env.middleware.fleet",
     "petswarm_env.middleware.diagnosis",
     "petswarm_env.control.arbiter",

@@ -10,12 +10,16 @@ Everything a policy may see is in :class:`~.knowledge.Knowledge`.
 
 The managers never see the per-user swarm nor another robot: what they report upward leaves through
 the station's signals, the IR transmission through its IR port; :mod:`.fleet` wires both.
+
+A module of the compiled core (``petswarm_env/_core.py``): the master's status broadcast is handled
+here for every frame; the same file runs under the interpreter.
 """
 
 from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+import cython
 import numpy as np
 
 from petswarm_env.comms.radio import Frame, RadioMedium
@@ -34,6 +38,8 @@ from petswarm_env.sim.clock import Clock
 
 if TYPE_CHECKING:
     from petswarm_env.sim.robot import Robot
+
+COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
 
 
 class Node(Station):

@@ -120,6 +120,8 @@ class Station:
     _frames_handled = cython.declare(cython.long)
     _foreign_pan_frames_processed = cython.declare(cython.long)
     health = cython.declare(object, visibility="public")
+    know = cython.declare(object, visibility="public")  # read by every manager, the observation and the metrics
+    formation = cython.declare(object, visibility="public")
     later = cython.declare(object, visibility="public")
     radio = cython.declare(object, visibility="public")
     _mcu = cython.declare(LocalClock)  # ``clock``, typed

@@ -74,9 +74,7 @@ class OwnClock:
     are the ultrasonic ring's and the AHRS's listeners, called for every reading with the true time,
     and call ``on_ring`` / ``on_ahrs`` with the MCU's reading of it (``clock.local``)."""
 
-    _clock = cython.declare(LocalClock)  # the MCU's clock (its ``local`` a C call in the compiled form)
-    _on_ring = cython.declare(object)
-    _on_ahrs = cython.declare(object)
+    # its typed attributes (``_clock``, ``_on_ring``, ``_on_ahrs``) are declared in ``station.pxd``
 
     def __init__(self, clock: LocalClock, on_ring: Callable[..., None], on_ahrs: Callable[..., None]):
         self._clock = clock
@@ -112,22 +110,7 @@ class Signal:
 class Station:
     """One robot's lower layer, its state and its knowledge, attached to the radio."""
 
-    # read for every frame sent, received or handled: typed
-    node_id = cython.declare(cython.long, visibility="public")
-    pans = cython.declare(frozenset, visibility="public")  # PAN IDs its MAC accepts
-    swarm_pan = cython.declare(object, visibility="public")
-    handlers = cython.declare(dict, visibility="public")
-    _frames_handled = cython.declare(cython.long)
-    _foreign_pan_frames_processed = cython.declare(cython.long)
-    health = cython.declare(object, visibility="public")
-    know = cython.declare(object, visibility="public")  # read by every manager, the observation and the metrics
-    formation = cython.declare(object, visibility="public")
-    later = cython.declare(object, visibility="public")
-    radio = cython.declare(object, visibility="public")
-    _mcu = cython.declare(LocalClock)  # ``clock``, typed
-    _uniform = cython.declare(object)
-    _processing_s = cython.declare(cython.double)
-    _jitter_s = cython.declare(cython.double)
+    # its typed attributes, read for every frame sent, received or handled, are declared in ``station.pxd``
 
     def __init__(self, node_id: int, cfg: Config, clock: Clock, radio: RadioMedium, robot: Robot,
                  rng: np.random.Generator):

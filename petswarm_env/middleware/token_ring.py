@@ -67,8 +67,12 @@ from petswarm_env.comms.radio import Frame
 from petswarm_env.config import Config
 from petswarm_env.middleware import messages as msg
 from petswarm_env.middleware.knowledge import HeadingEstimate
-from petswarm_env.middleware.station import Station
 from petswarm_env.sim.geometry import wrap_angle
+
+if cython.compiled:  # a station's typed attributes (middleware/station.pxd): read by a C read for every ring frame
+    from cython.cimports.petswarm_env.middleware.station import Station
+else:
+    from petswarm_env.middleware.station import Station
 
 COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
 
@@ -129,7 +133,7 @@ class TokenRing:
     compiled core; its methods are looked up as Python attributes, so a test may replace them."""
 
     __dict__ = cython.declare(dict)
-    node = cython.declare(object, visibility="public")
+    node = cython.declare(Station, visibility="public")
     token_seq = cython.declare(cython.longlong, visibility="public")
     holding = cython.declare(cython.bint, visibility="public")
     last_activity_s = cython.declare(cython.double, visibility="public")
@@ -303,13 +307,13 @@ class TokenRing:
 
     # -- everyone ---------------------------------------------------------------------------------
     def _on_tx_start(self, frame: Frame) -> None:
+        node: Station = self.node
         src, now = frame.src, self._clock.now
         self.last_activity_s = self._slot_start[src] = self.heard[src] = now
         self.holder_heard = (src, now)
         self.slot_range_m[src] = frame.rx_distance_est_m  # the announcer's RSSI range (the IR self-check)
         seq = frame.payload["seq"]
         self.token_seq = max(seq, self.token_seq)
-        node = self.node
         slot = self.plan().answer_slot_s
         holder = next((m for m, n in node.know.members.items() if n == src), None) if slot > 0 else None
         if holder is None:
@@ -319,7 +323,8 @@ class TokenRing:
             node.later(rank * slot, node.send, msg.TX_START_ACK, src)
 
     def _on_token(self, frame: Frame) -> None:
-        node, src, now, payload = self.node, frame.src, self._clock.now, frame.payload
+        node: Station = self.node
+        src, now, payload = frame.src, self._clock.now, frame.payload
         self.last_activity_s = self.heard[src] = now
         nxt = node.know.members.get(payload["next"])
         if nxt is not None:
@@ -371,7 +376,7 @@ class TokenRing:
         node.later(node.processing_delay(), lambda: node.send(msg.HEADING, dst=holder, bearing=bearing_rad))
 
     def _on_heading(self, frame: Frame) -> None:
-        node = self.node
+        node: Station = self.node
         if frame.dst != node.node_id:
             return
         self.report_s = self._clock.now

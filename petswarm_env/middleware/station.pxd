@@ -1,0 +1,35 @@
+# The compiled form's declarations of station.py (Cython's augmenting .pxd): the typed attributes of
+# its classes, so that the token ring (middleware/token_ring.py), which every ring frame runs, reads a
+# station's state (its id, its knowledge, its configuration) by a C read, not a Python one.
+
+cimport cython
+
+from petswarm_env.sim.clock cimport LocalClock
+
+
+@cython.final
+cdef class OwnClock:
+    cdef LocalClock _clock  # the MCU's clock (its ``local`` a C call)
+    cdef object _on_ring
+    cdef object _on_ahrs
+
+
+cdef class Station:
+    # read for every frame sent, received or handled
+    cdef public long node_id
+    cdef public frozenset pans  # PAN IDs its MAC accepts
+    cdef public object swarm_pan
+    cdef public dict handlers
+    cdef long _frames_handled
+    cdef long _foreign_pan_frames_processed
+    cdef public object health
+    cdef public object cfg  # may be replaced (tests): read, never cached
+    cdef public object state  # the sequence manager's state
+    cdef public object know  # read by every manager, the observation and the metrics
+    cdef public object formation
+    cdef public object later
+    cdef public object radio
+    cdef LocalClock _mcu  # ``clock``, typed
+    cdef object _uniform
+    cdef double _processing_s
+    cdef double _jitter_s

@@ -164,7 +164,8 @@ class UltrasonicRing:
         self.count = us.count if angles_rad is None else len(angles_rad)
         self.min_range_m, self.max_range_m, self.noise_m = us.min_range_m, us.max_range_m, us.noise_m
         self.radius_m = cfg.radius_m if radii_m is None else np.asarray(radii_m, float)
-        self.angles = np.arange(us.count) * (2 * math.pi / max(us.count, 1)) if angles_rad is None else np.asarray(angles_rad)
+        self.angles = np.arange(us.count) * (2 * math.pi / max(us.count, 1)) if angles_rad is None else np.asarray(angles_rad, float)
+        self._rims = np.broadcast_to(self.radius_m, (self.count,)).astype(float)  # each sensor's distance from the centre
         rim = cfg.radius_m if radii_m is None else max(radii_m, default=0.0)
         self.reach_m = us.max_range_m + rim  # from the centre
         self.walls = geometry.SegmentSet(wall_a, wall_b, self.reach_m)
@@ -177,18 +178,39 @@ class UltrasonicRing:
             return np.zeros((len(indices), n))
         centers, radii, headings = world.truth_arrays()
         if isinstance(indices, list) and indices == list(range(len(world.robots))):
-            pos, th = centers[: len(indices)], headings  # every robot, in order (the env's call): views
+            pos, th = centers, headings  # every robot, in order (the env's call): the first rows
         else:
             pos, th = centers[indices], headings[indices]
-        d = geometry.ring_first_hits(pos, th, self.angles, centers, radii, self.walls, self.reach_m)
-        d = d.reshape(-1) if isinstance(self.radius_m, float) else (d.reshape(len(indices), n) - self.radius_m).reshape(-1)
-        if isinstance(self.radius_m, float):
-            d -= self.radius_m  # from the sensor on the rim (d is a new array: in place)
-        if self.noise_m > 0:
-            d += rng.normal(0.0, self.noise_m, d.shape)
-        np.maximum(d, self.min_range_m, out=d)  # np.clip
-        np.minimum(d, self.max_range_m, out=d)
-        return d.reshape(len(indices), n)
+        d = np.empty((len(indices), n))
+        geometry.ring_cast(pos, len(indices), th, self.angles, centers, radii, self.walls.table, self.reach_m, d)
+        noise = rng.normal(0.0, self.noise_m, d.size) if self.noise_m > 0 else None
+        _readings(d, self._rims, noise, self.min_range_m, self.max_range_m)
+        return d
+
+
+@cython.cfunc
+def _readings(d: cython.double[:, ::1], rims: cython.double[::1], noise, lo: cython.double, hi: cython.double) -> cython.void:
+    """The ring's readings from its ray casts ``d`` (n, K), in place: from the sensor on the rim
+    (``rims``: each sensor's radius), plus the noise (n·K draws, or None), clipped to [lo, hi] as
+    ``np.maximum`` then ``np.minimum`` clip (a NaN stays NaN)."""
+    n: cython.Py_ssize_t = d.shape[0]
+    nk: cython.Py_ssize_t = d.shape[1]
+    i: cython.Py_ssize_t
+    k: cython.Py_ssize_t
+    x: cython.double
+    z: cython.double[::1]
+    if noise is not None:
+        z = noise
+    for i in range(n):
+        for k in range(nk):
+            x = d[i, k] - rims[k]
+            if noise is not None:
+                x += z[i * nk + k]
+            if x < lo:
+                x = lo
+            if x > hi:
+                x = hi
+            d[i, k] = x
 
 
 class Sensors:

@@ -271,7 +271,7 @@ class Sensors:
         """Read every robot's ultrasonic ring now; also kept as :attr:`ranges`. A ring with an
         ``ultrasonic`` fault reads the maximum range on every sensor and its transducers do not ring
         down after their bursts (the driver's self-test, chosen: a dead ring driver sends no burst);
-        each robot's software gets its reading and the self-test's result (``robot.on_ring(ranges,
+        each robot's software gets its reading (a list of floats) and the self-test's result (``robot.on_ring(ranges,
         present, now, rang)``, its self-diagnosis: middleware/diagnosis.py), then the sensors it
         knows to be off (``robot.sensors_off``) read ``max_range`` with presence 0 (:meth:`sensor_off`)."""
         self._follow_faults()
@@ -285,17 +285,20 @@ class Sensors:
                 if virt:
                     ranges[np.ix_(indices, virt)] = own[:, cols]
             self.ranges = ranges
-        for i in self._ring_faulted:  # no echo: "nothing in range" on every sensor (sim/faults.py)
+        faulted = self._ring_faulted
+        for i in faulted:  # no echo: "nothing in range" on every sensor (sim/faults.py)
             self.ranges[i, :] = self.ring.max_range_m
         now = None
+        rows = self.ranges.tolist()  # each robot's reading as Python floats, for its software
+        present, known_off = self._present, self._off
         for i, robot in enumerate(robots):
             listener = getattr(robot, "on_ring", None)
             if listener is not None:
                 if now is None:
                     now = self.world.clock.now
-                listener(self.ranges[i], self._present[i], now, i not in self._ring_faulted)
+                listener(rows[i], present[i], now, i not in faulted)
             off = robot.sensors_off  # the robot's own record of its broken sensors
-            if (off != self._off[i]) if i in self._off else off:
+            if (off != known_off[i]) if i in known_off else off:
                 self.sensor_off(i, set(off))
         if self._off:
             for i, off in self._off.items():

@@ -52,10 +52,16 @@ from array import array
 
 import cython
 import numpy as np
+from cython.cimports.libc.math import cos as _cos
+from cython.cimports.libc.math import sin as _sin
 
 from petswarm_env.config import BeltConfig
 from petswarm_env.scenarios import ACTIVITIES  # seed 002 Table 2; index = activity code below
-from petswarm_env.wearables.belt_window import window_stats
+
+if cython.compiled:  # the window statistics' C function (wearables/belt_window.pxd): a C call per control period
+    from cython.cimports.petswarm_env.wearables.belt_window import window_stats
+else:
+    from petswarm_env.wearables.belt_window import window_stats
 
 COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
 
@@ -98,7 +104,14 @@ def _per_row(windows: np.ndarray, deadband: float) -> tuple[np.ndarray, np.ndarr
 @cython.ccall
 def sma_level(sma: cython.double, cfg: BeltConfig) -> cython.int:
     """SMA level 1 / 2 / 3 of one window by the two thresholds (seed 002 Table 2)."""
-    return 1 + (sma >= cfg.sma_level2_mps2) + (sma >= cfg.sma_level3_mps2)
+    return _level(sma, cfg.sma_level2_mps2, cfg.sma_level3_mps2)
+
+
+@cython.cfunc
+@cython.inline
+def _level(sma: cython.double, level2: cython.double, level3: cython.double) -> cython.int:
+    """:func:`sma_level` with its two thresholds given (read once per control period)."""
+    return 1 + (sma >= level2) + (sma >= level3)
 
 
 @cython.ccall
@@ -248,6 +261,7 @@ class SmartBelt:
 
     # ------------------------------------------------------------------ accelerometer
 
+    @cython.ccall
     def _synth_accel(self, n: cython.Py_ssize_t, speed_mps: cython.double, posture: str) -> list:
         """n vertical-acceleration samples (m/s², gravity included) of the waist."""
         cfg = self.cfg
@@ -283,7 +297,7 @@ class SmartBelt:
                 dphi = step
             turned = turned + dphi if k else dphi
             zk = z[k]
-            out.append(GRAVITY_MPS2 + amp * math.sin(phase0 + turned) + noise * zk)
+            out.append(GRAVITY_MPS2 + amp * _sin(phase0 + turned) + noise * zk)  # the C library's sin, as math.sin
         self._gait_phase = (phase0 + turned) % (2.0 * math.pi)
         return out
 
@@ -301,12 +315,14 @@ class SmartBelt:
         if valid_from < n:
             cfg = self.cfg
             # window j = h[j : j + W], the one ending at new sample j
-            changes, sma = window_stats(self._hist, valid_from, n, w, cfg.sign_deadband_mps2)
+            changes, sma = window_stats(h, valid_from, n, w, cfg.sign_deadband_mps2)
             t_first: cython.double = self._t0 + self._acc_dt * (first + 1 + valid_from)
             min_changes: cython.int = cfg.min_sign_changes
+            level2: cython.double = cfg.sma_level2_mps2
+            level3: cython.double = cfg.sma_level3_mps2
             code: cython.int
             for j in range(len(sma)):  # Table 2 on the window ending at each new sample
-                code = classify(changes[j] >= min_changes, sma_level(sma[j], cfg))
+                code = classify(changes[j] >= min_changes, _level(sma[j], level2, level3))
                 if code != self._activity:
                     self._activity, self._activity_since = code, t_first + self._acc_dt * j
             self._sign_changes = changes[len(changes) - 1]
@@ -341,7 +357,7 @@ class SmartBelt:
         for k in range(m):
             self._stride_phase = (self._stride_phase + 2.0 * math.pi * f_stride * dt) % (2.0 * math.pi)
             nk = noise[k]
-            raw = turn_rate_rps + wobble_rps * math.cos(self._stride_phase) + self._bias_rps + nk
+            raw = turn_rate_rps + wobble_rps * _cos(self._stride_phase) + self._bias_rps + nk  # the C library's cos, as math.cos
             self._ma[self._n_gyro % n_ma] = raw
             self._n_gyro += 1
             filled = min(self._n_gyro, n_ma)

@@ -292,6 +292,9 @@ def _fill(layout: ObservationLayout, v: cython.double[::1], know, links, now: cy
     dist: cython.double
     rel: cython.double
     base: cython.Py_ssize_t
+    mb: cython.double  # a measurement's bearing (or relative heading), own yaw and time, as C doubles
+    my: cython.double
+    mt: cython.double
     # unpacked pairs and triples as C doubles (Python floats: their division is the same IEEE one)
     ox: cython.double
     oy: cython.double
@@ -317,12 +320,12 @@ def _fill(layout: ObservationLayout, v: cython.double[::1], know, links, now: cy
             nb = members.get(link.neighbour)
             m = irs.get(nb)
             if m is not None:  # bearing carried over own rotation since the measurement (AHRS)
-                b = m.bearing_rad - (yaw_rad - m.own_yaw_rad)
-                dist = m.distance_m
+                mb, my, mt, dist = m.bearing_rad, m.own_yaw_rad, m.time_s, m.distance_m
+                b = mb - (yaw_rad - my)
                 v[base + 1] = 1.0
                 v[base + 2] = dist * _cos(b) / pos_scale
                 v[base + 3] = dist * _sin(b) / pos_scale
-                v[base + 4] = _age((now - m.time_s) / age_scale)
+                v[base + 4] = _age((now - mt) / age_scale)
             else:
                 v[base + 4] = 1.0
             ox, oy = link.offset_m
@@ -330,11 +333,12 @@ def _fill(layout: ObservationLayout, v: cython.double[::1], know, links, now: cy
             v[base + 6] = oy / pos_scale
             h = heads.get(nb)
             if h is not None:  # θ_nb − θ_self falls as we turn: carry it over own rotation (AHRS)
-                rel = h.relative_rad - (yaw_rad - h.own_yaw_rad)
+                mb, my, mt = h.relative_rad, h.own_yaw_rad, h.time_s
+                rel = mb - (yaw_rad - my)
                 v[base + 7] = _sin(rel)
                 v[base + 8] = _cos(rel)
                 v[base + 9] = 1.0
-                v[base + 10] = _age((now - h.time_s) / age_scale)
+                v[base + 10] = _age((now - mt) / age_scale)
             else:
                 v[base + 8] = 1.0
                 v[base + 10] = 1.0
@@ -360,7 +364,8 @@ def _fill(layout: ObservationLayout, v: cython.double[::1], know, links, now: cy
     v[leading] = 1.0 if know.mode == "leading" else 0.0  # from the joining / mode-change frames
     st = know.status
     if st is not None:
-        age = now - st.time_s  # / 1.0
+        mt = st.time_s
+        age = now - mt  # / 1.0
         svx, svy, sw = st.velocity
         ux, uy = st.user_position_m
         v[i] = 1.0
@@ -371,42 +376,46 @@ def _fill(layout: ObservationLayout, v: cython.double[::1], know, links, now: cy
         ai: cython.Py_ssize_t = _ACTIVITY_INDEX[st.activity]
         v[activity + ai] = 1.0
         v[rotating] = 1.0 if st.user_rotating else 0.0
-        v[turn_rate] = _clip(st.user_turn_rate_rps / wmax, clip)
+        turn: cython.double = st.user_turn_rate_rps
+        v[turn_rate] = _clip(turn / wmax, clip)
         v[user_xy] = _clip(ux / pos_scale, user_clip)
         v[user_xy + 1] = _clip(uy / pos_scale, user_clip)
     else:
         v[i + 1] = 1.0
     m = irs.get(members.get(0))  # the master's IR fix (member 0), carried over own rotation (AHRS)
     if m is not None:
-        b = m.bearing_rad - (yaw_rad - m.own_yaw_rad)
-        dist = m.distance_m
+        mb, my, mt, dist = m.bearing_rad, m.own_yaw_rad, m.time_s, m.distance_m
+        b = mb - (yaw_rad - my)
         v[master_ir] = 1.0
         v[master_ir + 1] = dist * _cos(b) / pos_scale
         v[master_ir + 2] = dist * _sin(b) / pos_scale
-        v[master_ir + 3] = _age((now - m.time_s) / age_scale)
+        v[master_ir + 3] = _age((now - mt) / age_scale)
     else:
         v[master_ir + 3] = 1.0
     v[anchor + 3] = 1.0
-    own = know.member
+    own: cython.Py_ssize_t = know.member
     nslots: cython.Py_ssize_t = len(member_slots)
     # the anchor: the lowest other slave's member number with a fresh fix (one pass over the members)
     fix = None
-    first = None
+    member: cython.Py_ssize_t
+    first: cython.Py_ssize_t = nslots
     for member, nid in members.items():
-        if member == 0 or member == own or member >= nslots or (first is not None and member > first):
+        if member == 0 or member == own or member >= first:
             continue
         m = irs.get(nid)
-        if m is not None and now - m.time_s < age_scale:
-            first, fix = member, m
+        if m is not None:
+            mt = m.time_s
+            if now - mt < age_scale:
+                first, fix = member, m
     if fix is not None:
         m = fix
-        b = m.bearing_rad - (yaw_rad - m.own_yaw_rad)
-        dist = m.distance_m
+        mb, my, mt, dist = m.bearing_rad, m.own_yaw_rad, m.time_s, m.distance_m
+        b = mb - (yaw_rad - my)
         sx, sy = member_slots[first]
         v[anchor] = 1.0
         v[anchor + 1] = dist * _cos(b) / pos_scale
         v[anchor + 2] = dist * _sin(b) / pos_scale
-        v[anchor + 3] = (now - m.time_s) / age_scale
+        v[anchor + 3] = (now - mt) / age_scale
         v[anchor + 4] = sx / pos_scale
         v[anchor + 5] = sy / pos_scale
     ovx, ovy, ow = odometry
@@ -485,6 +494,7 @@ class Observer:
         noise = sensors.odometry_noise(len(agents))
         ranges = sensors.ranges.tolist()  # every robot's ring as Python floats, in one conversion
         flags = sensors.flags  # every robot's ring flags (the middle layer's presence and location-known)
+        cache: dict = self._formation_cache
         v: cython.double[::1] = layout._scratch  # the builder's float64 values, one agent at a time
         size: cython.Py_ssize_t = v.shape[0]
         block = np.empty((len(agents), size), np.float32)  # one row per agent, each its own memory
@@ -500,7 +510,11 @@ class Observer:
             level, offset, slots = 0, (0.0, 0.0), ()
             formation = node.formation
             if formation is not None and 0 <= member < formation.size:
-                slots, levels = self.formation_geometry(formation)
+                hit = cache.get(id(formation))  # formation_geometry's cache, read here
+                if hit is None or hit[0] is not formation:
+                    slots, levels = self.formation_geometry(formation)
+                else:
+                    slots, levels = hit[1], hit[2]
                 level, offset = levels.get(member, 0), slots[member]
             last = last_actions.get(agent)
             odometry = sensors.odometry(idx, noise[i] if noise is not None else None)

@@ -121,11 +121,15 @@ class AHRS:
         return yaw
 
 
+@cython.ccall
 def noisy_odometry(velocity_body: tuple[float, float, float], errors) -> tuple[float, float, float]:
     """The wheel-odometry model: the wheels' velocity ``(vx, vy, ω)`` in the body frame, each
     component with its relative error (``errors``: three draws of N(0, ``odometry_noise_rel``))."""
     vx, vy, w = velocity_body
-    return vx * (1 + errors[0]), vy * (1 + errors[1]), w * (1 + errors[2])
+    ex: cython.double = errors[0]
+    ey: cython.double = errors[1]
+    ew: cython.double = errors[2]
+    return vx * (1 + ex), vy * (1 + ey), w * (1 + ew)
 
 
 class Odometry:

@@ -29,6 +29,8 @@ cdef class Body:
     cdef public object _cbody
     cdef size_t _cp  # the address of the Chipmunk body (alive as long as ``body``)
 
+    cdef double _read_heading(self)
+
 
 cdef class DrivenBody(Body):
     cdef double _cx, _cy, _cw  # the command (its property: a tuple)

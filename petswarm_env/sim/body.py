@@ -228,6 +228,11 @@ class Body:
         """True heading (rad, counter-clockwise from +x; not wrapped)."""
         return _angle(self)
 
+    @cython.cfunc
+    def _read_heading(self) -> cython.double:
+        """:attr:`heading` as a C call (body.pxd), for a sensor that reads it many times a step (the AHRS)."""
+        return _angle(self)
+
     def heading_reader(self) -> Callable[[], float]:
         """A function of no argument that returns :attr:`heading`: Chipmunk's accessor bound to
         this body (a C-level partial, no Python frame per call), for a sensor that reads the

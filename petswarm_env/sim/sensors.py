@@ -20,6 +20,11 @@ from petswarm_env.config import RobotConfig
 from petswarm_env.middle_layer import BodyMap, MiddleLayer
 from petswarm_env.sim import geometry
 from petswarm_env.sim.body import Body
+
+if cython.compiled:  # the body's heading as a C call (sim/body.pxd): the AHRS reads it for every reading
+    from cython.cimports.petswarm_env.sim.body import Body as _CBody
+else:
+    _CBody = Body
 from petswarm_env.sim.draws import Draws
 
 
@@ -62,6 +67,7 @@ class AHRS:
     _last_yaw = cython.declare(cython.double, visibility="public")  # the last reading (a frozen AHRS repeats it)
     on_reading = cython.declare(object, visibility="public")  # the robot's software sees every reading (its self-diagnosis): on_reading(now_s, yaw)
     _heading = cython.declare(object)
+    _body = cython.declare(_CBody)  # the body when it is a Body (its heading a C call), else None
     _health = cython.declare(object)
     _draws = cython.declare(object)
     _normal = cython.declare(object)
@@ -69,6 +75,7 @@ class AHRS:
     def __init__(self, body: Body, cfg: RobotConfig, rng: np.random.Generator | None = None):
         self.body = body
         self._heading = body.heading_reader()
+        self._body = body if isinstance(body, Body) else None
         self.noise_rad = math.radians(cfg.ahrs_noise_deg)
         self.drift_rad = math.radians(cfg.ahrs_drift_dps)
         self.bias_rad = 0.0
@@ -112,7 +119,7 @@ class AHRS:
             z = normal()
             self.bias_rad += self.drift_rad * _c_sqrt(dt) * z
             self.time_s = now_s
-        heading: cython.double = self._heading()
+        heading: cython.double = self._body._read_heading() if self._body is not None else self._heading()
         z = normal()
         yaw: cython.double = heading - self.power_on_heading_rad + self.bias_rad + self.noise_rad * z
         self._last_yaw = yaw
@@ -130,6 +137,41 @@ def noisy_odometry(velocity_body: tuple[float, float, float], errors) -> tuple[f
     ey: cython.double = errors[1]
     ew: cython.double = errors[2]
     return vx * (1 + ex), vy * (1 + ey), w * (1 + ew)
+
+
+@cython.cclass
+class NormalStream:
+    """One generator's standard normals z, drawn ``block`` at a time (``standard_normal``) and
+    handed out in order: numpy's ``normal(0.0, σ, size)`` is ``0.0 + σ·z`` of the next ``size``
+    of them, so ``0.0 + σ·z`` taken here is the number that call gives, and the stream's draws are
+    the generator's draws in the order they were asked for. Every draw of the generator must come
+    through the stream (the sensor stream of :class:`Sensors`). Read per reading in C."""
+
+    rng = cython.declare(object, visibility="readonly")
+    block = cython.declare(cython.Py_ssize_t, visibility="readonly")
+    _z = cython.declare(list)
+    _i = cython.declare(cython.Py_ssize_t)
+
+    def __init__(self, rng: np.random.Generator, block: int = 256):
+        self.rng = rng
+        self.block = block
+        self._z = []
+        self._i = 0
+
+    @cython.cfunc
+    def next(self) -> cython.double:
+        """The next z."""
+        if self._i == len(self._z):
+            self._z = self.rng.standard_normal(self.block).tolist()
+            self._i = 0
+        z: cython.double = self._z[self._i]
+        self._i += 1
+        return z
+
+    def normal(self, scale: cython.double, size: cython.Py_ssize_t) -> list:
+        """``size`` draws of N(0, ``scale``): ``rng.normal(0.0, scale, size).tolist()``'s numbers."""
+        k: cython.Py_ssize_t
+        return [0.0 + scale * self.next() for k in range(size)]
 
 
 class Odometry:
@@ -174,9 +216,10 @@ class UltrasonicRing:
         self.reach_m = us.max_range_m + rim  # from the centre
         self.walls = geometry.SegmentSet(wall_a, wall_b, self.reach_m)
 
-    def ranges(self, world: Truth, indices: list[int], rng: np.random.Generator) -> np.ndarray:
-        """Readings (m) of the robots ``indices``: (len(indices), count); one noise draw of that
-        shape from ``rng``."""
+    def ranges(self, world: Truth, indices: list[int], rng) -> np.ndarray:
+        """Readings (m) of the robots ``indices``: (len(indices), count); the noise is the next
+        len(indices)·count draws of ``rng`` (a :class:`NormalStream`, or a generator: one
+        ``normal`` call's numbers)."""
         n = self.count
         if n == 0 or not len(indices):
             return np.zeros((len(indices), n))
@@ -187,29 +230,31 @@ class UltrasonicRing:
             pos, th = centers[indices], headings[indices]
         d = np.empty((len(indices), n))
         geometry.ring_cast(pos, len(indices), th, self.angles, centers, radii, self.walls.table, self.reach_m, d)
-        noise = rng.normal(0.0, self.noise_m, d.size) if self.noise_m > 0 else None
-        _readings(d, self._rims, noise, self.min_range_m, self.max_range_m)
+        if self.noise_m > 0:
+            normals = rng if isinstance(rng, NormalStream) else NormalStream(rng, d.size)  # (a generator: exactly d.size draws)
+            _readings(d, self._rims, normals, self.noise_m, self.min_range_m, self.max_range_m)
+        else:
+            _readings(d, self._rims, None, 0.0, self.min_range_m, self.max_range_m)
         return d
 
 
 @cython.cfunc
-def _readings(d: cython.double[:, ::1], rims: cython.double[::1], noise, lo: cython.double, hi: cython.double) -> cython.void:
+def _readings(d: cython.double[:, ::1], rims: cython.double[::1], normals: NormalStream | None, sigma: cython.double,
+              lo: cython.double, hi: cython.double) -> cython.void:
     """The ring's readings from its ray casts ``d`` (n, K), in place: from the sensor on the rim
-    (``rims``: each sensor's radius), plus the noise (n·K draws, or None), clipped to [lo, hi] as
+    (``rims``: each sensor's radius), plus N(0, ``sigma``) noise (the next n·K draws of ``normals``
+    in row order, as ``normal(0.0, sigma, n·K)``; None: none), clipped to [lo, hi] as
     ``np.maximum`` then ``np.minimum`` clip (a NaN stays NaN)."""
     n: cython.Py_ssize_t = d.shape[0]
     nk: cython.Py_ssize_t = d.shape[1]
     i: cython.Py_ssize_t
     k: cython.Py_ssize_t
     x: cython.double
-    z: cython.double[::1]
-    if noise is not None:
-        z = noise
     for i in range(n):
         for k in range(nk):
             x = d[i, k] - rims[k]
-            if noise is not None:
-                x += z[i * nk + k]
+            if normals is not None:
+                x += 0.0 + sigma * normals.next()
             if x < lo:
                 x = lo
             if x > hi:
@@ -233,7 +278,7 @@ class Sensors:
 
     def __init__(self, world: Truth, cfg: RobotConfig, rng: np.random.Generator):
         self.world = world
-        self.rng = rng
+        self._normals = NormalStream(rng)  # every draw of the sensor stream goes through it
         self.ring = UltrasonicRing(cfg, world.wall_a, world.wall_b)
         self.odometry_noise_rel = cfg.odometry_noise_rel
         self._cfg = cfg
@@ -243,6 +288,11 @@ class Sensors:
         self.refresh()
         self.ranges = np.zeros((0, self.ring.count))  # every robot's last ring, (robots, count) m
         self.read_rings()
+
+    @property
+    def rng(self) -> np.random.Generator:
+        """The env's sensor stream (drawn only through :class:`NormalStream`)."""
+        return self._normals.rng
 
     def refresh(self) -> None:
         """(Re)build the middle layer for the world's robots now: call after adding a robot (an
@@ -281,11 +331,11 @@ class Sensors:
         self._follow_faults()
         robots = self.world.robots
         if not self._groups:
-            self.ranges = self.ring.ranges(self.world, list(range(len(robots))), self.rng)
+            self.ranges = self.ring.ranges(self.world, list(range(len(robots))), self._normals)
         else:
             ranges = np.full((len(robots), self.ring.count), self.ring.max_range_m)
             for indices, ring, virt, cols in self._groups:
-                own = ring.ranges(self.world, indices, self.rng)
+                own = ring.ranges(self.world, indices, self._normals)
                 if virt:
                     ranges[np.ix_(indices, virt)] = own[:, cols]
             self.ranges = ranges
@@ -348,7 +398,10 @@ class Sensors:
         """The relative odometry errors of ``n`` readings in one draw, (n, 3) (the same numbers as
         ``n`` draws of 3); None when the odometry is noiseless."""
         k = self.odometry_noise_rel
-        return self.rng.normal(0.0, k, (n, 3)).tolist() if k > 0 else None
+        if k <= 0:
+            return None
+        normal = self._normals.normal
+        return [normal(k, 3) for _ in range(n)]
 
     def odometry(self, index: int, noise: list[float] | None = None) -> tuple[float, float, float]:
         """Wheel odometry of robot ``index``: what its wheels turn ``(vx, vy, ω)`` (``Robot.wheel_velocity``) with relative
@@ -357,5 +410,5 @@ class Sensors:
         velocity = robot.wheel_velocity  # the wheel encoders: the motors' speed, not the body's (a shove turns no wheel)
         k = self.odometry_noise_rel
         if k > 0:
-            return noisy_odometry(velocity, self.rng.normal(0.0, k, 3).tolist() if noise is None else noise)
+            return noisy_odometry(velocity, self._normals.normal(k, 3) if noise is None else noise)
         return velocity

@@ -173,6 +173,11 @@ class NormalStream:
         k: cython.Py_ssize_t
         return [0.0 + scale * self.next() for k in range(size)]
 
+    def standard_normal(self, size: cython.Py_ssize_t) -> list:
+        """The next ``size`` z's: ``rng.standard_normal(size).tolist()``'s numbers."""
+        k: cython.Py_ssize_t
+        return [self.next() for k in range(size)]
+
 
 class Odometry:
     """One robot's wheel odometry read on its own, at any clock time, with its own noise stream: the

@@ -57,6 +57,7 @@ from cython.cimports.libc.math import sin as _sin
 
 from petswarm_env.config import BeltConfig
 from petswarm_env.scenarios import ACTIVITIES  # seed 002 Table 2; index = activity code below
+from petswarm_env.sim.sensors import NormalStream
 
 if cython.compiled:  # the window statistics' C function (wearables/belt_window.pxd): a C call per control period
     from cython.cimports.petswarm_env.wearables.belt_window import window_stats
@@ -158,7 +159,7 @@ class SmartBelt:
 
     __dict__ = cython.declare(dict)
     cfg = cython.declare(object, visibility="public")
-    rng = cython.declare(object, visibility="public")
+    _normals = cython.declare(object)  # the stream's normals after power-on, in blocks (sim/sensors.NormalStream)
     _t0 = cython.declare(cython.double)
     _t = cython.declare(cython.double)
     _acc_dt = cython.declare(cython.double)
@@ -186,7 +187,6 @@ class SmartBelt:
 
     def __init__(self, cfg: BeltConfig, rng: np.random.Generator, t0_s: float = 0.0):
         self.cfg = cfg
-        self.rng = rng
         self._t0 = float(t0_s)
         self._t = float(t0_s)
         # accelerometer: sample k (k = 1, 2, ...) at t0 + k/rate
@@ -199,6 +199,7 @@ class SmartBelt:
         self._n_gyro = 0
         self._stride_phase = float(rng.uniform(0.0, 2.0 * math.pi))
         self._bias_rps = math.radians(cfg.gyro_bias_dps) * float(rng.standard_normal())
+        self.rng = rng  # every later draw: standard normals, through the stream
         self._ma = [0.0] * cfg.ma_samples  # ring buffer of the moving-average filter
         self._on_rps = math.radians(cfg.rotation_on_dps)
         self._off_rps = math.radians(cfg.rotation_off_dps)
@@ -216,6 +217,17 @@ class SmartBelt:
         self._angle = 0.0
 
     # ------------------------------------------------------------------ public API
+
+    @property
+    def rng(self) -> np.random.Generator:
+        """The belt's noise stream (after its power-on draws, every draw is a standard normal:
+        drawn in blocks by :class:`~petswarm_env.sim.sensors.NormalStream`, the same numbers in
+        the same order)."""
+        return self._normals.rng
+
+    @rng.setter
+    def rng(self, rng: np.random.Generator) -> None:
+        self._normals = NormalStream(rng)
 
     def advance(self, t_end: float, speed_mps: float, turn_rate_rps: float, posture: str) -> None:
         """Sample and process the IMU up to ``t_end`` (s), the user's state constant since the last call.
@@ -279,7 +291,7 @@ class SmartBelt:
             f, amp, jitter = 0.0, 0.0, 0.0
         # plain Python on the handful of samples of one control period: the same operations, in the
         # same order, as the array expression G + amp·sin(φ0 + cumsum(dφ)) + σ·z (bit-identical)
-        z: list = self.rng.standard_normal(2 * n).tolist()  # sensor noise, then phase jitter
+        z: list = self._normals.standard_normal(2 * n)  # sensor noise, then phase jitter
         step: cython.double = 2.0 * math.pi * f * dt
         jitter_step: cython.double = jitter * math.sqrt(dt) if jitter > 0.0 and amp > 0.0 else 0.0
         phase0: cython.double = self._gait_phase
@@ -346,7 +358,7 @@ class SmartBelt:
         else:
             f_stride, wobble_rps = 0.0, 0.0
         sigma: cython.double = self._gyro_noise_rps
-        noise: list = [sigma * z for z in self.rng.standard_normal(m).tolist()]
+        noise: list = [sigma * z for z in self._normals.standard_normal(m)]
         n_ma: cython.Py_ssize_t = cfg.ma_samples
         k: cython.Py_ssize_t
         filled: cython.Py_ssize_t

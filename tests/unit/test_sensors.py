@@ -135,3 +135,4 @@ def test_the_sensor_stream_hands_out_the_generators_normals_in_order():
     rng = np.random.default_rng(5)
     for size, scale in [(3, 0.1), (10, 0.02), (1, 1.0), (15, 0.5), (0, 0.3), (7, 2.0)]:
         assert stream.normal(scale, size) == rng.normal(0.0, scale, size).tolist()
+        assert stream.standard_normal(size + 2) == rng.standard_normal(size + 2).tolist()

@@ -145,26 +145,29 @@ class NormalStream:
     handed out in order: numpy's ``normal(0.0, σ, size)`` is ``0.0 + σ·z`` of the next ``size``
     of them, so ``0.0 + σ·z`` taken here is the number that call gives, and the stream's draws are
     the generator's draws in the order they were asked for. Every draw of the generator must come
-    through the stream (the sensor stream of :class:`Sensors`). Read per reading in C."""
+    through the stream (the env's sensor stream in :class:`Sensors`; a smart belt's). Read per
+    reading in C."""
 
     rng = cython.declare(object, visibility="readonly")
     block = cython.declare(cython.Py_ssize_t, visibility="readonly")
-    _z = cython.declare(list)
-    _i = cython.declare(cython.Py_ssize_t)
+    _block = cython.declare(object)  # the block (float64 array), refilled in place
+    _z = cython.declare(cython.double[::1])  # the same, as C doubles
+    _i = cython.declare(cython.Py_ssize_t)  # the next z's index (``block``: used up)
 
     def __init__(self, rng: np.random.Generator, block: int = 256):
         self.rng = rng
-        self.block = block
-        self._z = []
-        self._i = 0
+        self.block = max(int(block), 1)
+        self._block = np.empty(self.block)
+        self._z = self._block
+        self._i = self.block
 
     @cython.cfunc
     def next(self) -> cython.double:
         """The next z."""
-        if self._i == len(self._z):
-            self._z = self.rng.standard_normal(self.block).tolist()
+        if self._i == self.block:
+            self.rng.standard_normal(out=self._block)
             self._i = 0
-        z: cython.double = self._z[self._i]
+        z: cython.double = float(self._z[self._i])  # (a Python float in the interpreted form too)
         self._i += 1
         return z
 

@@ -269,18 +269,21 @@ def _age(age: cython.double) -> cython.double:
 
 
 @cython.cfunc
-def _fill(layout: ObservationLayout, buf, know, links, now: cython.double, odometry, yaw_rad: cython.double,
-          last_action, ultrasonic_m, hierarchy_level: cython.double, offset_from_master, member_slots,
-          flags) -> cython.void:
-    """The observation of one slave (:class:`Readings`' fields) in float64 into ``buf``
+def _fill(layout: ObservationLayout, v: cython.double[::1], know, links, now: cython.double, odometry,
+          yaw_rad: cython.double, last_action, ultrasonic_m, hierarchy_level: cython.double, offset_from_master,
+          member_slots, flags) -> cython.void:
+    """The observation of one slave (:class:`Readings`' fields) in float64 into ``v``
     (layout.size,), the fields written in the layout's order. One function on purpose: it runs for
     every slave at every step (typed: C doubles in the compiled core, Python floats interpreted;
     the same IEEE operations in the same order, so the same bits)."""
-    v: cython.double[::1] = buf
     k: cython.Py_ssize_t
     n: cython.Py_ssize_t = v.shape[0]
     for k in range(n):
         v[k] = 0.0
+    pos_scale: cython.double = POS_SCALE_M  # the scales as C doubles (a module constant is a Python float)
+    age_scale: cython.double = AGE_SCALE_S
+    clip: cython.double = CLIP
+    user_clip: cython.double = USER_CLIP
     lim = layout.limits
     vmax: cython.double = lim[0]
     wmax: cython.double = lim[2]
@@ -289,31 +292,53 @@ def _fill(layout: ObservationLayout, buf, know, links, now: cython.double, odome
     dist: cython.double
     rel: cython.double
     base: cython.Py_ssize_t
+    mb: cython.double  # a measurement's bearing (or relative heading), own yaw and time, as C doubles
+    my: cython.double
+    mt: cython.double
+    # unpacked pairs and triples as C doubles (Python floats: their division is the same IEEE one)
+    ox: cython.double
+    oy: cython.double
+    svx: cython.double
+    svy: cython.double
+    sw: cython.double
+    ux: cython.double
+    uy: cython.double
+    sx: cython.double
+    sy: cython.double
+    ovx: cython.double
+    ovy: cython.double
+    ow: cython.double
+    a0: cython.double
+    a1: cython.double
+    a2: cython.double
+    members: dict = know.members
+    irs: dict = know.ir
     if links:
-        members, irs, heads = know.members, know.ir, know.heading
+        heads: dict = know.heading
         for base, link in zip(layout._link_starts, links):
             v[base] = 1.0
             nb = members.get(link.neighbour)
             m = irs.get(nb)
             if m is not None:  # bearing carried over own rotation since the measurement (AHRS)
-                b = m.bearing_rad - (yaw_rad - m.own_yaw_rad)
-                dist = m.distance_m
+                mb, my, mt, dist = m.bearing_rad, m.own_yaw_rad, m.time_s, m.distance_m
+                b = mb - (yaw_rad - my)
                 v[base + 1] = 1.0
-                v[base + 2] = dist * _cos(b) / POS_SCALE_M
-                v[base + 3] = dist * _sin(b) / POS_SCALE_M
-                v[base + 4] = _age((now - m.time_s) / AGE_SCALE_S)
+                v[base + 2] = dist * _cos(b) / pos_scale
+                v[base + 3] = dist * _sin(b) / pos_scale
+                v[base + 4] = _age((now - mt) / age_scale)
             else:
                 v[base + 4] = 1.0
             ox, oy = link.offset_m
-            v[base + 5] = ox / POS_SCALE_M
-            v[base + 6] = oy / POS_SCALE_M
+            v[base + 5] = ox / pos_scale
+            v[base + 6] = oy / pos_scale
             h = heads.get(nb)
             if h is not None:  # θ_nb − θ_self falls as we turn: carry it over own rotation (AHRS)
-                rel = h.relative_rad - (yaw_rad - h.own_yaw_rad)
+                mb, my, mt = h.relative_rad, h.own_yaw_rad, h.time_s
+                rel = mb - (yaw_rad - my)
                 v[base + 7] = _sin(rel)
                 v[base + 8] = _cos(rel)
                 v[base + 9] = 1.0
-                v[base + 10] = _age((now - h.time_s) / AGE_SCALE_S)
+                v[base + 10] = _age((now - mt) / age_scale)
             else:
                 v[base + 8] = 1.0
                 v[base + 10] = 1.0
@@ -339,54 +364,64 @@ def _fill(layout: ObservationLayout, buf, know, links, now: cython.double, odome
     v[leading] = 1.0 if know.mode == "leading" else 0.0  # from the joining / mode-change frames
     st = know.status
     if st is not None:
-        age = now - st.time_s  # / 1.0
+        mt = st.time_s
+        age = now - mt  # / 1.0
         svx, svy, sw = st.velocity
         ux, uy = st.user_position_m
         v[i] = 1.0
         v[i + 1] = _age(age)
-        v[i + 2] = _clip(svx / vmax, CLIP)
-        v[i + 3] = _clip(svy / vmax, CLIP)
-        v[i + 4] = _clip(sw / wmax, CLIP)
+        v[i + 2] = _clip(svx / vmax, clip)
+        v[i + 3] = _clip(svy / vmax, clip)
+        v[i + 4] = _clip(sw / wmax, clip)
         ai: cython.Py_ssize_t = _ACTIVITY_INDEX[st.activity]
         v[activity + ai] = 1.0
         v[rotating] = 1.0 if st.user_rotating else 0.0
-        v[turn_rate] = _clip(st.user_turn_rate_rps / wmax, CLIP)
-        v[user_xy] = _clip(ux / POS_SCALE_M, USER_CLIP)
-        v[user_xy + 1] = _clip(uy / POS_SCALE_M, USER_CLIP)
+        turn: cython.double = st.user_turn_rate_rps
+        v[turn_rate] = _clip(turn / wmax, clip)
+        v[user_xy] = _clip(ux / pos_scale, user_clip)
+        v[user_xy + 1] = _clip(uy / pos_scale, user_clip)
     else:
         v[i + 1] = 1.0
-    m = know.ir.get(know.members.get(0))  # the master's IR fix (member 0), carried over own rotation (AHRS)
+    m = irs.get(members.get(0))  # the master's IR fix (member 0), carried over own rotation (AHRS)
     if m is not None:
-        b = m.bearing_rad - (yaw_rad - m.own_yaw_rad)
-        dist = m.distance_m
+        mb, my, mt, dist = m.bearing_rad, m.own_yaw_rad, m.time_s, m.distance_m
+        b = mb - (yaw_rad - my)
         v[master_ir] = 1.0
-        v[master_ir + 1] = dist * _cos(b) / POS_SCALE_M
-        v[master_ir + 2] = dist * _sin(b) / POS_SCALE_M
-        v[master_ir + 3] = _age((now - m.time_s) / AGE_SCALE_S)
+        v[master_ir + 1] = dist * _cos(b) / pos_scale
+        v[master_ir + 2] = dist * _sin(b) / pos_scale
+        v[master_ir + 3] = _age((now - mt) / age_scale)
     else:
         v[master_ir + 3] = 1.0
     v[anchor + 3] = 1.0
-    own = know.member
+    own: cython.Py_ssize_t = know.member
     nslots: cython.Py_ssize_t = len(member_slots)
-    for member, nid in sorted(know.members.items()):  # the anchor: the lowest other slave's member number with a fresh fix
-        if member == 0 or member == own or member >= nslots:
+    # the anchor: the lowest other slave's member number with a fresh fix (one pass over the members)
+    fix = None
+    member: cython.Py_ssize_t
+    first: cython.Py_ssize_t = nslots
+    for member, nid in members.items():
+        if member == 0 or member == own or member >= first:
             continue
-        m = know.ir.get(nid)
-        if m is not None and now - m.time_s < AGE_SCALE_S:
-            b = m.bearing_rad - (yaw_rad - m.own_yaw_rad)
-            dist = m.distance_m
-            sx, sy = member_slots[member]
-            v[anchor] = 1.0
-            v[anchor + 1] = dist * _cos(b) / POS_SCALE_M
-            v[anchor + 2] = dist * _sin(b) / POS_SCALE_M
-            v[anchor + 3] = (now - m.time_s) / AGE_SCALE_S
-            v[anchor + 4] = sx / POS_SCALE_M
-            v[anchor + 5] = sy / POS_SCALE_M
-            break
+        m = irs.get(nid)
+        if m is not None:
+            mt = m.time_s
+            if now - mt < age_scale:
+                first, fix = member, m
+    if fix is not None:
+        m = fix
+        mb, my, mt, dist = m.bearing_rad, m.own_yaw_rad, m.time_s, m.distance_m
+        b = mb - (yaw_rad - my)
+        sx, sy = member_slots[first]
+        v[anchor] = 1.0
+        v[anchor + 1] = dist * _cos(b) / pos_scale
+        v[anchor + 2] = dist * _sin(b) / pos_scale
+        v[anchor + 3] = (now - mt) / age_scale
+        v[anchor + 4] = sx / pos_scale
+        v[anchor + 5] = sy / pos_scale
     ovx, ovy, ow = odometry
-    v[odo] = _clip(ovx / vmax, CLIP)
-    v[odo + 1] = _clip(ovy / vmax, CLIP)
-    v[odo + 2] = _clip(ow / wmax, CLIP)
+    v[odo] = _clip(ovx / vmax, clip)
+    v[odo + 1] = _clip(ovy / vmax, clip)
+    v[odo + 2] = _clip(ow / wmax, clip)
     v[yaw] = _sin(yaw_rad)
     v[yaw + 1] = _cos(yaw_rad)
     a0, a1, a2 = last_action.tolist()  # float32 values, exactly as doubles
@@ -394,8 +429,8 @@ def _fill(layout: ObservationLayout, buf, know, links, now: cython.double, odome
     v[last + 1] = a1
     v[last + 2] = a2
     ox, oy = offset_from_master
-    v[offset] = ox / POS_SCALE_M
-    v[offset + 1] = oy / POS_SCALE_M
+    v[offset] = ox / pos_scale
+    v[offset + 1] = oy / pos_scale
     us_max: cython.double = layout.us_max_range_m
     ring = ultrasonic_m.tolist() if isinstance(ultrasonic_m, np.ndarray) else ultrasonic_m
     r: cython.double
@@ -459,7 +494,13 @@ class Observer:
         noise = sensors.odometry_noise(len(agents))
         ranges = sensors.ranges.tolist()  # every robot's ring as Python floats, in one conversion
         flags = sensors.flags  # every robot's ring flags (the middle layer's presence and location-known)
-        buf = layout._scratch
+        cache: dict = self._formation_cache
+        v: cython.double[::1] = layout._scratch  # the builder's float64 values, one agent at a time
+        size: cython.Py_ssize_t = v.shape[0]
+        block = np.empty((len(agents), size), np.float32)  # one row per agent, each its own memory
+        rows: cython.float[:, ::1] = block
+        k: cython.Py_ssize_t
+        i: cython.Py_ssize_t
         obs = {}
         for i, agent in enumerate(agents):
             idx = agent_index[agent]
@@ -469,14 +510,23 @@ class Observer:
             level, offset, slots = 0, (0.0, 0.0), ()
             formation = node.formation
             if formation is not None and 0 <= member < formation.size:
-                slots, levels = self.formation_geometry(formation)
+                hit = cache.get(id(formation))  # formation_geometry's cache, read here
+                if hit is None or hit[0] is not formation:
+                    slots, levels = self.formation_geometry(formation)
+                else:
+                    slots, levels = hit[1], hit[2]
                 level, offset = levels.get(member, 0), slots[member]
             last = last_actions.get(agent)
             odometry = sensors.odometry(idx, noise[i] if noise is not None else None)
             yaw = ahrs[idx](now_s)  # the sensor's physics at true time
-            _fill(layout, buf, know, node.reference_links(), node.clock.now, odometry, yaw,  # ages on its own clock
+            _fill(layout, v, know, node.reference_links(), node.clock.now, odometry, yaw,  # ages on its own clock
                   last if last is not None else _NO_ACTION, ranges[idx], level, offset, slots, flags[idx])
-            obs[agent] = buf.astype(np.float32)  # a new array: what the agent gets is its own
+            if cython.compiled:  # float64 -> float32 rounding, as astype(np.float32)
+                for k in range(size):
+                    rows[i, k] = v[k]
+            else:
+                block[i] = v
+            obs[agent] = block[i]  # a row of its own: what the agent gets is its own
         return obs
 
 

@@ -73,7 +73,8 @@ class Battery:
         ma: cython.double = self._sens + self._servo * (load if load < 1.0 else 1.0)
         if self.actuating:
             ma += self._act
-        self.remaining_mah -= ma * dt / _MS_PER_H
+        ms_per_h: cython.double = _MS_PER_H  # a C double (the module constant is a Python float)
+        self.remaining_mah -= ma * dt / ms_per_h
         if self.remaining_mah <= 0.0:
             self.remaining_mah = 0.0
             self.empty = True

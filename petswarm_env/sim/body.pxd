@@ -29,15 +29,17 @@ cdef class Body:
     cdef public object _cbody
     cdef size_t _cp  # the address of the Chipmunk body (alive as long as ``body``)
 
+    cdef double _read_heading(self)
+
 
 cdef class DrivenBody(Body):
-    cdef public tuple command
-    cdef public tuple velocity_body
+    cdef double _cx, _cy, _cw  # the command (its property: a tuple)
+    cdef double _vx, _vy, _vw  # velocity_body
+    cdef double _wx, _wy, _ww  # _wheels
     cdef tuple _accel
     cdef double _limits_dt
     cdef readonly double _max_dv  # read by Robot.apply (the wheels follow the command under the same limits)
     cdef readonly double _max_dw
-    cdef public tuple _wheels
     cdef public Battery battery
 
     cdef _drive(self, double dt)

@@ -228,6 +228,11 @@ class Body:
         """True heading (rad, counter-clockwise from +x; not wrapped)."""
         return _angle(self)
 
+    @cython.cfunc
+    def _read_heading(self) -> cython.double:
+        """:attr:`heading` as a C call (body.pxd), for a sensor that reads it many times a step (the AHRS)."""
+        return _angle(self)
+
     def heading_reader(self) -> Callable[[], float]:
         """A function of no argument that returns :attr:`heading`: Chipmunk's accessor bound to
         this body (a C-level partial, no Python frame per call), for a sensor that reads the
@@ -275,6 +280,35 @@ class DrivenBody(Body):
         self._wheels = (0.0, 0.0, 0.0)  # the motors' own-frame speed (a robot's wheel_velocity)
         self.battery = None  # a robot's Battery (robot.py), drained at every substep
 
+    # The three velocity triples live in C doubles (read and written at every substep); Python sees
+    # each as a tuple of floats, and setting one sets its three values.
+    @property
+    def command(self) -> tuple[float, float, float]:
+        """The own-frame command (vx m/s, vy m/s, ω rad/s) the drive moves toward."""
+        return (self._cx, self._cy, self._cw)
+
+    @command.setter
+    def command(self, value) -> None:
+        self._cx, self._cy, self._cw = value
+
+    @property
+    def velocity_body(self) -> tuple[float, float, float]:
+        """The achieved own-frame velocity (vx, vy, ω) after the last substep's drive."""
+        return (self._vx, self._vy, self._vw)
+
+    @velocity_body.setter
+    def velocity_body(self, value) -> None:
+        self._vx, self._vy, self._vw = value
+
+    @property
+    def _wheels(self) -> tuple[float, float, float]:
+        """The motors' own-frame speed (vx, vy, ω)."""
+        return (self._wx, self._wy, self._ww)
+
+    @_wheels.setter
+    def _wheels(self, value) -> None:
+        self._wx, self._wy, self._ww = value
+
     def apply(self, dt: float) -> None:
         """One substep of the drive (:meth:`_apply`), for a Python caller."""
         self._apply(dt)
@@ -286,14 +320,12 @@ class DrivenBody(Body):
         the battery's drain over the substep (an empty battery stops the body). A C method: the
         substeps call it without looking up a Python override (a robot is a Python subclass)."""
         self._drive(dt)
-        wx: cython.double
-        wy: cython.double
-        ww: cython.double
-        cx: cython.double
-        cy: cython.double
-        cw: cython.double
-        wx, wy, ww = self._wheels
-        cx, cy, cw = self.command
+        wx: cython.double = self._wx
+        wy: cython.double = self._wy
+        ww: cython.double = self._ww
+        cx: cython.double = self._cx
+        cy: cython.double = self._cy
+        cw: cython.double = self._cw
         dvx: cython.double = cx - wx
         dvy: cython.double = cy - wy
         dv: cython.double
@@ -309,15 +341,13 @@ class DrivenBody(Body):
             dw = cw - ww  # max(-max_dw, min(max_dw, cw - ww)) as Python's min and max give it (nan too)
             dw = dw if dw < max_dw else max_dw
             dw = dw if dw > -max_dw else -max_dw
-            self._wheels = (wx + dvx, wy + dvy, ww + dw)
+            self._wx = wx + dvx
+            self._wy = wy + dvy
+            self._ww = ww + dw
         battery = self.battery
-        bx: cython.double
-        by: cython.double
-        bw: cython.double
         if battery is not None:
-            bx, by, bw = self.velocity_body
-            if battery.drain_at(dt, _py_hypot(bx, by), bw):  # Battery.drain, its speed computed here
-                self.command = (0.0, 0.0, 0.0)
+            if battery.drain_at(dt, _py_hypot(self._vx, self._vy), self._vw):  # Battery.drain, its speed computed here
+                self._cx = self._cy = self._cw = 0.0
 
     @cython.cfunc
     def _drive(self, dt: cython.double):
@@ -337,10 +367,9 @@ class DrivenBody(Body):
         vx: cython.double = c * wx + s * wy
         vy: cython.double = -s * wx + c * wy
         w: cython.double = _omega(self)
-        cx: cython.double
-        cy: cython.double
-        cw: cython.double
-        cx, cy, cw = self.command
+        cx: cython.double = self._cx
+        cy: cython.double = self._cy
+        cw: cython.double = self._cw
         dvx: cython.double = cx - vx
         dvy: cython.double = cy - vy
         dv: cython.double = _py_hypot(dvx, dvy)
@@ -359,7 +388,9 @@ class DrivenBody(Body):
         elif dw < -max_dw:
             dw = -max_dw
         w_new: cython.double = w + dw
-        self.velocity_body = (vx, vy, w_new)
+        self._vx = vx
+        self._vy = vy
+        self._vw = w_new
         # write only what changed (a body turning at its commanded rate, or driving straight at its
         # commanded speed, keeps its values): the same state as writing it again
         if w_new != w:

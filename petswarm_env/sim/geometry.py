@@ -99,6 +99,8 @@ class SegmentSet:
         self._boxes = [(i, *lo[i].tolist(), *hi[i].tolist()) for i in range(len(self.a))]
         e = self.b - self.a  # each segment's vector, as ray_segment_distances computes it
         self._ends = [(*self.a[i].tolist(), *e[i].tolist()) for i in range(len(self.a))]
+        # per segment its grown box then its start and vector, flat: what ring_cast reads
+        self.table = np.array([[*box[1:], *end] for box, end in zip(self._boxes, self._ends)], float).reshape(-1)
         self.max_range = max_range
 
     def __len__(self) -> int:
@@ -157,16 +159,8 @@ def ring_first_hits(
     Ray ``k`` of origin ``i`` points at ``headings[i] + angles[k]``. The result is the distance to
     the nearest circle (the nearer root of the ray–circle quadratic; a ray never sees a circle its
     origin is inside or on) or segment (the arithmetic of :func:`ray_segment_distances`, ray by
-    ray), hits beyond ``max_range`` are ``inf``; segments out of reach of every origin are left out.
-    (``tests/oracles.py`` keeps the per-circle ray cast and the numpy formulation it equals.)
-
-    A loop over (origin, ray, circle) in C doubles in the compiled core (a handful of robots: the
-    arithmetic is a few hundred operations, less than the numpy calls it replaced cost), the same
-    IEEE operations in the same order as the numpy formulation: ``cc = |m|² − r²`` (the origin
-    inside or on a circle: never seen), ``b = d·m``, ``disc = b² − cc`` (a miss when negative),
-    the root ``t = −b − √disc`` kept negated, ``tn = b + √disc`` (rounding to nearest is symmetric,
-    so ``−tn`` is ``t`` to the bit, up to the sign of a zero), and ``tn > 0``: behind the origin.
-    One function on purpose: its loop runs for every ray of every robot at every step, on C locals.
+    ray), hits beyond ``max_range`` are ``inf``. (``tests/oracles.py`` keeps the per-circle ray
+    cast and the numpy formulation it equals.) The cast itself is :func:`ring_cast`.
 
     Args:
         origins: (N, 2) ray start points, m.
@@ -179,37 +173,49 @@ def ring_first_hits(
     Returns:
         (N, K) distances, m; ``inf`` where the ray meets nothing within ``max_range``.
     """
-    o = _as_points(origins).tolist()
-    c = _as_points(centers).tolist()
-    th = np.asarray(headings, dtype=float).reshape(-1).tolist()
-    ang = np.asarray(angles, dtype=float).reshape(-1).tolist()
-    r = np.asarray(radii, dtype=float).reshape(-1).tolist()
-    n: cython.Py_ssize_t = len(o)
-    nk: cython.Py_ssize_t = len(ang)
-    nc: cython.Py_ssize_t = len(c)
-    out = np.empty((n, nk))
-    d: cython.double[:, ::1] = out
-    segs = walls.ends_near(o) if walls is not None and len(walls) else []
-    ns: cython.Py_ssize_t = len(segs)
-    # the circles (centre, squared radius) and the segments (start, vector) side by side
-    table = np.empty(3 * nc + 4 * ns)
-    cs: cython.double[::1] = table
-    j: cython.Py_ssize_t
-    rj: cython.double
-    for j in range(nc):
-        cs[3 * j] = c[j][0]
-        cs[3 * j + 1] = c[j][1]
-        rj = r[j]
-        cs[3 * j + 2] = rj * rj
-    sg: cython.Py_ssize_t = 3 * nc
-    for j in range(ns):
-        cs[sg + 4 * j] = segs[j][0]
-        cs[sg + 4 * j + 1] = segs[j][1]
-        cs[sg + 4 * j + 2] = segs[j][2]
-        cs[sg + 4 * j + 3] = segs[j][3]
-    reach: cython.double = max_range
+    o = np.ascontiguousarray(_as_points(origins))
+    th = np.ascontiguousarray(np.asarray(headings, dtype=float).reshape(-1))
+    ang = np.ascontiguousarray(np.asarray(angles, dtype=float).reshape(-1))
+    out = np.empty((len(o), len(ang)))
+    table = walls.table if walls is not None else np.empty(0)
+    ring_cast(o, len(o), th, ang, np.ascontiguousarray(_as_points(centers)),
+              np.ascontiguousarray(np.asarray(radii, dtype=float).reshape(-1)), table, max_range, out)
+    return out
+
+
+def ring_cast(origins: cython.const[cython.double][:, ::1], n: cython.Py_ssize_t,
+              headings: cython.const[cython.double][::1], angles: cython.const[cython.double][::1],
+              centers: cython.const[cython.double][:, ::1], radii: cython.const[cython.double][::1],
+              walls: cython.const[cython.double][::1], max_range: cython.double,
+              out: cython.double[:, ::1]) -> None:
+    """:func:`ring_first_hits` on float64 arrays, into ``out`` (n, K): the rays of the first ``n``
+    origins (rows of ``origins``), ``walls`` a :attr:`SegmentSet.table` (segments whose grown box
+    misses every origin are left out: none of their hits is within reach). The env's ring calls it
+    on the world's truth arrays as they are (no conversion).
+
+    A loop over (origin, ray, circle) in C doubles in the compiled core (a handful of robots: the
+    arithmetic is a few hundred operations, less than the numpy calls it replaced cost), the same
+    IEEE operations in the same order as the numpy formulation: ``cc = |m|² − r²`` (the origin
+    inside or on a circle: never seen), ``b = d·m``, ``disc = b² − cc`` (a miss when negative),
+    the root ``t = −b − √disc`` kept negated, ``tn = b + √disc`` (rounding to nearest is symmetric,
+    so ``−tn`` is ``t`` to the bit, up to the sign of a zero), and ``tn > 0``: behind the origin.
+    One function on purpose: its loop runs for every ray of every robot at every step, on C locals."""
+    nk: cython.Py_ssize_t = angles.shape[0]
+    nc: cython.Py_ssize_t = centers.shape[0]
+    nw: cython.Py_ssize_t = walls.shape[0] // 8
     i: cython.Py_ssize_t
+    j: cython.Py_ssize_t
     k: cython.Py_ssize_t
+    x0: cython.double = _INF  # the origins' bounding box
+    y0: cython.double = _INF
+    x1: cython.double = -_INF
+    y1: cython.double = -_INF
+    for i in range(n):
+        x0 = min(x0, origins[i, 0])
+        y0 = min(y0, origins[i, 1])
+        x1 = max(x1, origins[i, 0])
+        y1 = max(y1, origins[i, 1])
+    reach: cython.double = max_range
     ox: cython.double
     oy: cython.double
     a: cython.double
@@ -218,6 +224,7 @@ def ring_first_hits(
     mx: cython.double
     my: cython.double
     cc: cython.double
+    rj: cython.double
     b: cython.double
     disc: cython.double
     tn: cython.double
@@ -231,22 +238,24 @@ def ring_first_hits(
     u: cython.double
     near: cython.double
     ang_k: cython.double
+    w: cython.Py_ssize_t
     inf: cython.double = _INF
     eps: cython.double = _PARALLEL_EPS
     for i in range(n):
-        ox = o[i][0]
-        oy = o[i][1]
-        a = th[i]
+        ox = origins[i, 0]
+        oy = origins[i, 1]
+        a = headings[i]
         for k in range(nk):
-            ang_k = ang[k]
+            ang_k = angles[k]
             ang_k = a + ang_k
             dx = _c_cos(ang_k)
             dy = _c_sin(ang_k)
             best = -inf  # the largest tn: the nearest hit in front
             for j in range(nc):
-                mx = ox - cs[3 * j]
-                my = oy - cs[3 * j + 1]
-                cc = mx * mx + my * my - cs[3 * j + 2]
+                mx = ox - centers[j, 0]
+                my = oy - centers[j, 1]
+                rj = radii[j]
+                cc = mx * mx + my * my - rj * rj
                 if cc <= 0.0:
                     cc = inf
                 b = dx * mx + dy * my
@@ -259,17 +268,20 @@ def ring_first_hits(
                 if tn > best:
                     best = tn
             near = -best
-            for j in range(ns):
-                ex = cs[sg + 4 * j + 2]
-                ey = cs[sg + 4 * j + 3]
+            for j in range(nw):
+                w = 8 * j
+                if not (walls[w] <= x1 and walls[w + 1] <= y1 and walls[w + 2] >= x0 and walls[w + 3] >= y0):
+                    continue  # out of reach of every origin (its grown box misses their box)
+                w += 4
+                ex = walls[w + 2]
+                ey = walls[w + 3]
                 denom = dx * ey - dy * ex
                 if _c_fabs(denom) < eps:
                     continue
-                aox = cs[sg + 4 * j] - ox
-                aoy = cs[sg + 4 * j + 1] - oy
+                aox = walls[w] - ox
+                aoy = walls[w + 1] - oy
                 t = (aox * ey - aoy * ex) / denom
                 u = (aox * dy - aoy * dx) / denom
                 if t >= 0.0 and t <= reach and u >= 0.0 and u <= 1.0 and t < near:
                     near = t
-            d[i, k] = inf if near > reach else near
-    return out
+            out[i, k] = inf if near > reach else near

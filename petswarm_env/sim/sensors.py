@@ -20,6 +20,11 @@ from petswarm_env.config import RobotConfig
 from petswarm_env.middle_layer import BodyMap, MiddleLayer
 from petswarm_env.sim import geometry
 from petswarm_env.sim.body import Body
+
+if cython.compiled:  # the body's heading as a C call (sim/body.pxd): the AHRS reads it for every reading
+    from cython.cimports.petswarm_env.sim.body import Body as _CBody
+else:
+    _CBody = Body
 from petswarm_env.sim.draws import Draws
 
 
@@ -62,6 +67,7 @@ class AHRS:
     _last_yaw = cython.declare(cython.double, visibility="public")  # the last reading (a frozen AHRS repeats it)
     on_reading = cython.declare(object, visibility="public")  # the robot's software sees every reading (its self-diagnosis): on_reading(now_s, yaw)
     _heading = cython.declare(object)
+    _body = cython.declare(_CBody)  # the body when it is a Body (its heading a C call), else None
     _health = cython.declare(object)
     _draws = cython.declare(object)
     _normal = cython.declare(object)
@@ -69,6 +75,7 @@ class AHRS:
     def __init__(self, body: Body, cfg: RobotConfig, rng: np.random.Generator | None = None):
         self.body = body
         self._heading = body.heading_reader()
+        self._body = body if isinstance(body, Body) else None
         self.noise_rad = math.radians(cfg.ahrs_noise_deg)
         self.drift_rad = math.radians(cfg.ahrs_drift_dps)
         self.bias_rad = 0.0
@@ -112,7 +119,7 @@ class AHRS:
             z = normal()
             self.bias_rad += self.drift_rad * _c_sqrt(dt) * z
             self.time_s = now_s
-        heading: cython.double = self._heading()
+        heading: cython.double = self._body._read_heading() if self._body is not None else self._heading()
         z = normal()
         yaw: cython.double = heading - self.power_on_heading_rad + self.bias_rad + self.noise_rad * z
         self._last_yaw = yaw
@@ -121,11 +128,58 @@ class AHRS:
         return yaw
 
 
+@cython.ccall
 def noisy_odometry(velocity_body: tuple[float, float, float], errors) -> tuple[float, float, float]:
     """The wheel-odometry model: the wheels' velocity ``(vx, vy, ω)`` in the body frame, each
     component with its relative error (``errors``: three draws of N(0, ``odometry_noise_rel``))."""
     vx, vy, w = velocity_body
-    return vx * (1 + errors[0]), vy * (1 + errors[1]), w * (1 + errors[2])
+    ex: cython.double = errors[0]
+    ey: cython.double = errors[1]
+    ew: cython.double = errors[2]
+    return vx * (1 + ex), vy * (1 + ey), w * (1 + ew)
+
+
+@cython.cclass
+class NormalStream:
+    """One generator's standard normals z, drawn ``block`` at a time (``standard_normal``) and
+    handed out in order: numpy's ``normal(0.0, σ, size)`` is ``0.0 + σ·z`` of the next ``size``
+    of them, so ``0.0 + σ·z`` taken here is the number that call gives, and the stream's draws are
+    the generator's draws in the order they were asked for. Every draw of the generator must come
+    through the stream (the env's sensor stream in :class:`Sensors`; a smart belt's). Read per
+    reading in C."""
+
+    rng = cython.declare(object, visibility="readonly")
+    block = cython.declare(cython.Py_ssize_t, visibility="readonly")
+    _block = cython.declare(object)  # the block (float64 array), refilled in place
+    _z = cython.declare(cython.double[::1])  # the same, as C doubles
+    _i = cython.declare(cython.Py_ssize_t)  # the next z's index (``block``: used up)
+
+    def __init__(self, rng: np.random.Generator, block: int = 256):
+        self.rng = rng
+        self.block = max(int(block), 1)
+        self._block = np.empty(self.block)
+        self._z = self._block
+        self._i = self.block
+
+    @cython.cfunc
+    def next(self) -> cython.double:
+        """The next z."""
+        if self._i == self.block:
+            self.rng.standard_normal(out=self._block)
+            self._i = 0
+        z: cython.double = float(self._z[self._i])  # (a Python float in the interpreted form too)
+        self._i += 1
+        return z
+
+    def normal(self, scale: cython.double, size: cython.Py_ssize_t) -> list:
+        """``size`` draws of N(0, ``scale``): ``rng.normal(0.0, scale, size).tolist()``'s numbers."""
+        k: cython.Py_ssize_t
+        return [0.0 + scale * self.next() for k in range(size)]
+
+    def standard_normal(self, size: cython.Py_ssize_t) -> list:
+        """The next ``size`` z's: ``rng.standard_normal(size).tolist()``'s numbers."""
+        k: cython.Py_ssize_t
+        return [self.next() for k in range(size)]
 
 
 class Odometry:
@@ -164,31 +218,56 @@ class UltrasonicRing:
         self.count = us.count if angles_rad is None else len(angles_rad)
         self.min_range_m, self.max_range_m, self.noise_m = us.min_range_m, us.max_range_m, us.noise_m
         self.radius_m = cfg.radius_m if radii_m is None else np.asarray(radii_m, float)
-        self.angles = np.arange(us.count) * (2 * math.pi / max(us.count, 1)) if angles_rad is None else np.asarray(angles_rad)
+        self.angles = np.arange(us.count) * (2 * math.pi / max(us.count, 1)) if angles_rad is None else np.asarray(angles_rad, float)
+        self._rims = np.broadcast_to(self.radius_m, (self.count,)).astype(float)  # each sensor's distance from the centre
         rim = cfg.radius_m if radii_m is None else max(radii_m, default=0.0)
         self.reach_m = us.max_range_m + rim  # from the centre
         self.walls = geometry.SegmentSet(wall_a, wall_b, self.reach_m)
 
-    def ranges(self, world: Truth, indices: list[int], rng: np.random.Generator) -> np.ndarray:
-        """Readings (m) of the robots ``indices``: (len(indices), count); one noise draw of that
-        shape from ``rng``."""
+    def ranges(self, world: Truth, indices: list[int], rng) -> np.ndarray:
+        """Readings (m) of the robots ``indices``: (len(indices), count); the noise is the next
+        len(indices)·count draws of ``rng`` (a :class:`NormalStream`, or a generator: one
+        ``normal`` call's numbers)."""
         n = self.count
         if n == 0 or not len(indices):
             return np.zeros((len(indices), n))
         centers, radii, headings = world.truth_arrays()
         if isinstance(indices, list) and indices == list(range(len(world.robots))):
-            pos, th = centers[: len(indices)], headings  # every robot, in order (the env's call): views
+            pos, th = centers, headings  # every robot, in order (the env's call): the first rows
         else:
             pos, th = centers[indices], headings[indices]
-        d = geometry.ring_first_hits(pos, th, self.angles, centers, radii, self.walls, self.reach_m)
-        d = d.reshape(-1) if isinstance(self.radius_m, float) else (d.reshape(len(indices), n) - self.radius_m).reshape(-1)
-        if isinstance(self.radius_m, float):
-            d -= self.radius_m  # from the sensor on the rim (d is a new array: in place)
+        d = np.empty((len(indices), n))
+        geometry.ring_cast(pos, len(indices), th, self.angles, centers, radii, self.walls.table, self.reach_m, d)
         if self.noise_m > 0:
-            d += rng.normal(0.0, self.noise_m, d.shape)
-        np.maximum(d, self.min_range_m, out=d)  # np.clip
-        np.minimum(d, self.max_range_m, out=d)
-        return d.reshape(len(indices), n)
+            normals = rng if isinstance(rng, NormalStream) else NormalStream(rng, d.size)  # (a generator: exactly d.size draws)
+            _readings(d, self._rims, normals, self.noise_m, self.min_range_m, self.max_range_m)
+        else:
+            _readings(d, self._rims, None, 0.0, self.min_range_m, self.max_range_m)
+        return d
+
+
+@cython.cfunc
+def _readings(d: cython.double[:, ::1], rims: cython.double[::1], normals: NormalStream | None, sigma: cython.double,
+              lo: cython.double, hi: cython.double) -> cython.void:
+    """The ring's readings from its ray casts ``d`` (n, K), in place: from the sensor on the rim
+    (``rims``: each sensor's radius), plus N(0, ``sigma``) noise (the next n·K draws of ``normals``
+    in row order, as ``normal(0.0, sigma, n·K)``; None: none), clipped to [lo, hi] as
+    ``np.maximum`` then ``np.minimum`` clip (a NaN stays NaN)."""
+    n: cython.Py_ssize_t = d.shape[0]
+    nk: cython.Py_ssize_t = d.shape[1]
+    i: cython.Py_ssize_t
+    k: cython.Py_ssize_t
+    x: cython.double
+    for i in range(n):
+        for k in range(nk):
+            x = d[i, k] - rims[k]
+            if normals is not None:
+                x += 0.0 + sigma * normals.next()
+            if x < lo:
+                x = lo
+            if x > hi:
+                x = hi
+            d[i, k] = x
 
 
 class Sensors:
@@ -207,7 +286,7 @@ class Sensors:
 
     def __init__(self, world: Truth, cfg: RobotConfig, rng: np.random.Generator):
         self.world = world
-        self.rng = rng
+        self._normals = NormalStream(rng)  # every draw of the sensor stream goes through it
         self.ring = UltrasonicRing(cfg, world.wall_a, world.wall_b)
         self.odometry_noise_rel = cfg.odometry_noise_rel
         self._cfg = cfg
@@ -217,6 +296,11 @@ class Sensors:
         self.refresh()
         self.ranges = np.zeros((0, self.ring.count))  # every robot's last ring, (robots, count) m
         self.read_rings()
+
+    @property
+    def rng(self) -> np.random.Generator:
+        """The env's sensor stream (drawn only through :class:`NormalStream`)."""
+        return self._normals.rng
 
     def refresh(self) -> None:
         """(Re)build the middle layer for the world's robots now: call after adding a robot (an
@@ -249,31 +333,34 @@ class Sensors:
         """Read every robot's ultrasonic ring now; also kept as :attr:`ranges`. A ring with an
         ``ultrasonic`` fault reads the maximum range on every sensor and its transducers do not ring
         down after their bursts (the driver's self-test, chosen: a dead ring driver sends no burst);
-        each robot's software gets its reading and the self-test's result (``robot.on_ring(ranges,
+        each robot's software gets its reading (a list of floats) and the self-test's result (``robot.on_ring(ranges,
         present, now, rang)``, its self-diagnosis: middleware/diagnosis.py), then the sensors it
         knows to be off (``robot.sensors_off``) read ``max_range`` with presence 0 (:meth:`sensor_off`)."""
         self._follow_faults()
         robots = self.world.robots
         if not self._groups:
-            self.ranges = self.ring.ranges(self.world, list(range(len(robots))), self.rng)
+            self.ranges = self.ring.ranges(self.world, list(range(len(robots))), self._normals)
         else:
             ranges = np.full((len(robots), self.ring.count), self.ring.max_range_m)
             for indices, ring, virt, cols in self._groups:
-                own = ring.ranges(self.world, indices, self.rng)
+                own = ring.ranges(self.world, indices, self._normals)
                 if virt:
                     ranges[np.ix_(indices, virt)] = own[:, cols]
             self.ranges = ranges
-        for i in self._ring_faulted:  # no echo: "nothing in range" on every sensor (sim/faults.py)
+        faulted = self._ring_faulted
+        for i in faulted:  # no echo: "nothing in range" on every sensor (sim/faults.py)
             self.ranges[i, :] = self.ring.max_range_m
         now = None
+        rows = self.ranges.tolist()  # each robot's reading as Python floats, for its software
+        present, known_off = self._present, self._off
         for i, robot in enumerate(robots):
             listener = getattr(robot, "on_ring", None)
             if listener is not None:
                 if now is None:
                     now = self.world.clock.now
-                listener(self.ranges[i], self._present[i], now, i not in self._ring_faulted)
+                listener(rows[i], present[i], now, i not in faulted)
             off = robot.sensors_off  # the robot's own record of its broken sensors
-            if (off != self._off[i]) if i in self._off else off:
+            if (off != known_off[i]) if i in known_off else off:
                 self.sensor_off(i, set(off))
         if self._off:
             for i, off in self._off.items():
@@ -319,7 +406,10 @@ class Sensors:
         """The relative odometry errors of ``n`` readings in one draw, (n, 3) (the same numbers as
         ``n`` draws of 3); None when the odometry is noiseless."""
         k = self.odometry_noise_rel
-        return self.rng.normal(0.0, k, (n, 3)).tolist() if k > 0 else None
+        if k <= 0:
+            return None
+        normal = self._normals.normal
+        return [normal(k, 3) for _ in range(n)]
 
     def odometry(self, index: int, noise: list[float] | None = None) -> tuple[float, float, float]:
         """Wheel odometry of robot ``index``: what its wheels turn ``(vx, vy, ω)`` (``Robot.wheel_velocity``) with relative
@@ -328,5 +418,5 @@ class Sensors:
         velocity = robot.wheel_velocity  # the wheel encoders: the motors' speed, not the body's (a shove turns no wheel)
         k = self.odometry_noise_rel
         if k > 0:
-            return noisy_odometry(velocity, self.rng.normal(0.0, k, 3).tolist() if noise is None else noise)
+            return noisy_odometry(velocity, self._normals.normal(k, 3) if noise is None else noise)
         return velocity

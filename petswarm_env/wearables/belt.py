@@ -52,10 +52,17 @@ from array import array
 
 import cython
 import numpy as np
+from cython.cimports.libc.math import cos as _cos
+from cython.cimports.libc.math import sin as _sin
 
 from petswarm_env.config import BeltConfig
 from petswarm_env.scenarios import ACTIVITIES  # seed 002 Table 2; index = activity code below
-from petswarm_env.wearables.belt_window import window_stats
+from petswarm_env.sim.sensors import NormalStream
+
+if cython.compiled:  # the window statistics' C function (wearables/belt_window.pxd): a C call per control period
+    from cython.cimports.petswarm_env.wearables.belt_window import window_stats
+else:
+    from petswarm_env.wearables.belt_window import window_stats
 
 COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
 
@@ -98,7 +105,14 @@ def _per_row(windows: np.ndarray, deadband: float) -> tuple[np.ndarray, np.ndarr
 @cython.ccall
 def sma_level(sma: cython.double, cfg: BeltConfig) -> cython.int:
     """SMA level 1 / 2 / 3 of one window by the two thresholds (seed 002 Table 2)."""
-    return 1 + (sma >= cfg.sma_level2_mps2) + (sma >= cfg.sma_level3_mps2)
+    return _level(sma, cfg.sma_level2_mps2, cfg.sma_level3_mps2)
+
+
+@cython.cfunc
+@cython.inline
+def _level(sma: cython.double, level2: cython.double, level3: cython.double) -> cython.int:
+    """:func:`sma_level` with its two thresholds given (read once per control period)."""
+    return 1 + (sma >= level2) + (sma >= level3)
 
 
 @cython.ccall
@@ -145,7 +159,7 @@ class SmartBelt:
 
     __dict__ = cython.declare(dict)
     cfg = cython.declare(object, visibility="public")
-    rng = cython.declare(object, visibility="public")
+    _normals = cython.declare(object)  # the stream's normals after power-on, in blocks (sim/sensors.NormalStream)
     _t0 = cython.declare(cython.double)
     _t = cython.declare(cython.double)
     _acc_dt = cython.declare(cython.double)
@@ -173,7 +187,6 @@ class SmartBelt:
 
     def __init__(self, cfg: BeltConfig, rng: np.random.Generator, t0_s: float = 0.0):
         self.cfg = cfg
-        self.rng = rng
         self._t0 = float(t0_s)
         self._t = float(t0_s)
         # accelerometer: sample k (k = 1, 2, ...) at t0 + k/rate
@@ -186,6 +199,7 @@ class SmartBelt:
         self._n_gyro = 0
         self._stride_phase = float(rng.uniform(0.0, 2.0 * math.pi))
         self._bias_rps = math.radians(cfg.gyro_bias_dps) * float(rng.standard_normal())
+        self.rng = rng  # every later draw: standard normals, through the stream
         self._ma = [0.0] * cfg.ma_samples  # ring buffer of the moving-average filter
         self._on_rps = math.radians(cfg.rotation_on_dps)
         self._off_rps = math.radians(cfg.rotation_off_dps)
@@ -203,6 +217,17 @@ class SmartBelt:
         self._angle = 0.0
 
     # ------------------------------------------------------------------ public API
+
+    @property
+    def rng(self) -> np.random.Generator:
+        """The belt's noise stream (after its power-on draws, every draw is a standard normal:
+        drawn in blocks by :class:`~petswarm_env.sim.sensors.NormalStream`, the same numbers in
+        the same order)."""
+        return self._normals.rng
+
+    @rng.setter
+    def rng(self, rng: np.random.Generator) -> None:
+        self._normals = NormalStream(rng)
 
     def advance(self, t_end: float, speed_mps: float, turn_rate_rps: float, posture: str) -> None:
         """Sample and process the IMU up to ``t_end`` (s), the user's state constant since the last call.
@@ -248,6 +273,7 @@ class SmartBelt:
 
     # ------------------------------------------------------------------ accelerometer
 
+    @cython.ccall
     def _synth_accel(self, n: cython.Py_ssize_t, speed_mps: cython.double, posture: str) -> list:
         """n vertical-acceleration samples (m/s², gravity included) of the waist."""
         cfg = self.cfg
@@ -265,7 +291,7 @@ class SmartBelt:
             f, amp, jitter = 0.0, 0.0, 0.0
         # plain Python on the handful of samples of one control period: the same operations, in the
         # same order, as the array expression G + amp·sin(φ0 + cumsum(dφ)) + σ·z (bit-identical)
-        z: list = self.rng.standard_normal(2 * n).tolist()  # sensor noise, then phase jitter
+        z: list = self._normals.standard_normal(2 * n)  # sensor noise, then phase jitter
         step: cython.double = 2.0 * math.pi * f * dt
         jitter_step: cython.double = jitter * math.sqrt(dt) if jitter > 0.0 and amp > 0.0 else 0.0
         phase0: cython.double = self._gait_phase
@@ -283,7 +309,7 @@ class SmartBelt:
                 dphi = step
             turned = turned + dphi if k else dphi
             zk = z[k]
-            out.append(GRAVITY_MPS2 + amp * math.sin(phase0 + turned) + noise * zk)
+            out.append(GRAVITY_MPS2 + amp * _sin(phase0 + turned) + noise * zk)  # the C library's sin, as math.sin
         self._gait_phase = (phase0 + turned) % (2.0 * math.pi)
         return out
 
@@ -301,12 +327,14 @@ class SmartBelt:
         if valid_from < n:
             cfg = self.cfg
             # window j = h[j : j + W], the one ending at new sample j
-            changes, sma = window_stats(self._hist, valid_from, n, w, cfg.sign_deadband_mps2)
+            changes, sma = window_stats(h, valid_from, n, w, cfg.sign_deadband_mps2)
             t_first: cython.double = self._t0 + self._acc_dt * (first + 1 + valid_from)
             min_changes: cython.int = cfg.min_sign_changes
+            level2: cython.double = cfg.sma_level2_mps2
+            level3: cython.double = cfg.sma_level3_mps2
             code: cython.int
             for j in range(len(sma)):  # Table 2 on the window ending at each new sample
-                code = classify(changes[j] >= min_changes, sma_level(sma[j], cfg))
+                code = classify(changes[j] >= min_changes, _level(sma[j], level2, level3))
                 if code != self._activity:
                     self._activity, self._activity_since = code, t_first + self._acc_dt * j
             self._sign_changes = changes[len(changes) - 1]
@@ -330,7 +358,7 @@ class SmartBelt:
         else:
             f_stride, wobble_rps = 0.0, 0.0
         sigma: cython.double = self._gyro_noise_rps
-        noise: list = [sigma * z for z in self.rng.standard_normal(m).tolist()]
+        noise: list = [sigma * z for z in self._normals.standard_normal(m)]
         n_ma: cython.Py_ssize_t = cfg.ma_samples
         k: cython.Py_ssize_t
         filled: cython.Py_ssize_t
@@ -341,7 +369,7 @@ class SmartBelt:
         for k in range(m):
             self._stride_phase = (self._stride_phase + 2.0 * math.pi * f_stride * dt) % (2.0 * math.pi)
             nk = noise[k]
-            raw = turn_rate_rps + wobble_rps * math.cos(self._stride_phase) + self._bias_rps + nk
+            raw = turn_rate_rps + wobble_rps * _cos(self._stride_phase) + self._bias_rps + nk  # the C library's cos, as math.cos
             self._ma[self._n_gyro % n_ma] = raw
             self._n_gyro += 1
             filled = min(self._n_gyro, n_ma)

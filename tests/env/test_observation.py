@@ -97,3 +97,22 @@ def test_float32_conversion_and_python_division_round_as_numpy():
     age = [float("nan"), float("inf"), -1.0, 0.999, 1.0, 1.0000001]
     assert [1.0 if a > 1.0 else a for a in age][1:] == [min(a, 1.0) for a in age][1:]
     assert math.isnan(min(age[0], 1.0)) and math.isnan(1.0 if age[0] > 1.0 else age[0])
+
+
+def test_every_agent_gets_its_own_observation_array():
+    """The observations of one step are rows of one float32 block: each agent's is C-contiguous, shares
+    no memory with another's, and writing into it leaves the others as they were."""
+    import petswarm_env
+
+    env = petswarm_env.parallel_env(max_cycles=20)
+    obs, _ = env.reset(seed=0)
+    for _ in range(5):
+        obs, *_ = env.step({a: np.array([0.1, 0.0, 0.05], np.float32) for a in env.agents})
+    agents = sorted(obs)
+    assert len(agents) >= 2
+    for a in agents:
+        assert obs[a].dtype == np.float32 and obs[a].flags.c_contiguous and obs[a].shape == (env.layout.size,)
+        assert not any(np.shares_memory(obs[a], obs[b]) for b in agents if b != a)
+    kept = {a: obs[a].copy() for a in agents}
+    obs[agents[0]][:] = 7.0
+    assert all(np.array_equal(obs[a], kept[a]) for a in agents[1:])

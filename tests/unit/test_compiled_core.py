@@ -147,3 +147,46 @@ def test_the_interpreted_form_measures_the_same_ir_slots_bit_for_bit():
     valid = [v for slot in out["0"] for v in slot[2]]
     assert float.fromhex("0x1.0p+0").hex() in valid and float.fromhex("0x0.0p+0").hex() in valid  # both kinds
     assert out["1"] == out["0"]
+
+
+def heterogeneous_episode() -> list:
+    """The heterogeneous pool (seed 001: each type casts its own ring, mapped onto the virtual one)
+    with one slave's battery nearly empty (the drive stops it mid-episode): a hash of every
+    observation and of every robot's drive triples and charge at the end."""
+    import hashlib
+
+    import petswarm_env
+    from petswarm.baselines.policy import PolicySpec
+    from petswarm.baselines.registry import make_policy
+
+    env = petswarm_env.parallel_env(**{"user.scenario": "heterogeneous", "max_cycles": 90})
+    obs, _ = env.reset(seed=2)
+    robots = env.episode.world.robots
+    robots[2].battery.set_remaining(0.02)  # mAh: empties within the episode
+    policy = make_policy("scripted", PolicySpec.from_env(env), seed=2)
+    h = hashlib.sha256()
+    while env.agents:
+        obs, *_ = env.step(policy.act_all({a: obs[a] for a in env.agents}))
+        for a in sorted(obs):
+            h.update(a.encode() + obs[a].tobytes())
+    ends = [[r.command, r.velocity_body, r.wheel_velocity, r.battery.remaining_mah, r.battery.empty] for r in robots]
+    return [h.hexdigest(), repr(ends)]
+
+
+def test_the_interpreted_form_gives_the_heterogeneous_ring_and_the_drive_bit_for_bit():
+    """Each body type's own ring (one cast and one noise draw per type) and the drive's C triples
+    (command, achieved velocity, wheels) with a battery that empties: the same episode to the bit in
+    both forms."""
+    from tests.golden.episodes import portable_environ
+
+    code = "import json; from tests.unit.test_compiled_core import heterogeneous_episode; print(json.dumps(heterogeneous_episode()))"
+    out = {}
+    for pure in ("0", "1"):
+        env = dict(portable_environ(), **{_core.PURE_ENV: pure})
+        env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
+        run = subprocess.run([sys.executable, "-c", code], cwd=ROOT, env=env, capture_output=True, text=True,
+                             check=False, timeout=300)
+        assert run.returncode == 0, run.stderr[-2000:]
+        out[pure] = json.loads(run.stdout.strip().splitlines()[-1])
+    assert "True" in out["0"][1]  # the battery did empty
+    assert out["1"] == out["0"]

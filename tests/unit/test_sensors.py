@@ -7,7 +7,7 @@ import pytest
 
 from petswarm_env.config import load_config
 from petswarm_env.scenarios import SCENARIOS
-from petswarm_env.sim.sensors import AHRS, Sensors, UltrasonicRing
+from petswarm_env.sim.sensors import AHRS, NormalStream, Sensors, UltrasonicRing
 from petswarm_env.sim.world import World
 
 
@@ -126,3 +126,13 @@ def test_odometry_counts_what_the_wheels_turn_not_a_shove():
         space.step(0.02)
     vx, vy, w = odo.read()
     assert math.isclose(vx, 5 * 0.02 * cfg.max_accel_mps2) and vy == 0.0 and w == 0.0  # the motors' ramp
+
+
+def test_the_sensor_stream_hands_out_the_generators_normals_in_order():
+    """NormalStream draws blocks ahead; the numbers it hands out are those of numpy's normal(0, σ,
+    size) calls on the same generator, in order, across block boundaries."""
+    stream = NormalStream(np.random.default_rng(5), block=7)
+    rng = np.random.default_rng(5)
+    for size, scale in [(3, 0.1), (10, 0.02), (1, 1.0), (15, 0.5), (0, 0.3), (7, 2.0)]:
+        assert stream.normal(scale, size) == rng.normal(0.0, scale, size).tolist()
+        assert stream.standard_normal(size + 2) == rng.standard_normal(size + 2).tolist()

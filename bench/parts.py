@@ -47,6 +47,7 @@ MODULE_PARTS: dict[str, str | None] = {
     "petswarm_env.robot_types": "other",  # the robot types resolved at the env's construction
     "petswarm_env.env": "other",  # env.step itself: action checks
     "petswarm_env.episode": "other",  # the episode's own bookkeeping: commands to the arbiters, the agent lifecycle
+    "petswarm_env.step_kernel": "other",  # the episode's per-step loops (commands, contacts, infos), compiled
     "petswarm_env.vector": "other",  # the vector env: arrays in and out around each copy's episode
     "petswarm_env.files": "other",
     "petswarm_env.render": "other",

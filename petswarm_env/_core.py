@@ -44,6 +44,8 @@ COMPILED: tuple[str, ...] = (
     "petswarm_env.control.arbiter",
     "petswarm_env.sim.robot",
     "petswarm_env.references",
+    "petswarm_env.reward",
+    "petswarm_env.step_kernel",
 )
 
 PURE_ENV = "PETSWARM_PURE_PYTHON"  # "1": run the interpreted form of every module of COMPILED

@@ -52,7 +52,6 @@ state ``state()`` in ``state_space`` (docs/state.md). Infos are flat and numeric
 """
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import gymnasium
@@ -68,6 +67,7 @@ from petswarm_env.observe import OBS_VERSION, ObservationLayout, observation_bou
 from petswarm_env.robot_types import DEFAULT_TYPE, episode_scenarios, max_pool_size, pool_problem, pool_types
 from petswarm_env.robot_types import resolve as resolve_type
 from petswarm_env.scenarios import SCENARIOS
+from petswarm_env.step_kernel import clip_finite
 from petswarm_env.state import StateLayout
 
 ENV_NAME = "petswarm_v1"
@@ -271,9 +271,8 @@ class PetSwarmEnv(ParallelEnv):
                 except ValueError:  # ragged shapes: the loop below names the agent
                     arr = None
             # finite: a NaN or an infinity makes the sum one (a sum that overflows float32 takes the loop below)
-            if arr is not None and arr.shape == (len(self.agents), 3) and math.isfinite(arr.sum()):
-                np.minimum(arr, 1.0, out=arr)  # clipped to [-1, 1] (finite: np.clip's values, without its wrapper)
-                np.maximum(arr, -1.0, out=arr)
+            # all finite: clipped to [-1, 1] in place (np.clip's values; a NaN or an infinity takes the loop below)
+            if arr is not None and arr.shape == (len(self.agents), 3) and clip_finite(arr):
                 return arr
         out = np.zeros((len(self.agents), 3), np.float32)  # a missing action means "stand still"
         for k, agent in enumerate(self.agents):

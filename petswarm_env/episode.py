@@ -45,6 +45,7 @@ from typing import Any
 
 import numpy as np
 
+from petswarm_env import step_kernel
 from petswarm_env.inputs import check_start_clear_of_boxes
 from petswarm_env.comms.ir_channel import IRChannel
 from petswarm_env.comms.radio import RadioMedium
@@ -132,8 +133,8 @@ class Episode:
         for arb in self.arbiters.values():  # the episode's counts start now
             arb.counts = type(arb.counts)()
         self.slave_ids = self._current_slaves()
-        self.agents = [f"robot_{i}" for i in self.slave_ids]
         self.agent_index = {f"robot_{i}": i for i in range(len(world.robots))}
+        self._set_agents([f"robot_{i}" for i in self.slave_ids])
         self.last_action = {a: np.zeros(3, np.float32) for a in self.agents}
         self._last_agents: list[str] | None = None  # the agents of the last step and their actions (advance)
         self._last_acts = np.zeros((0, 3), np.float32)
@@ -171,10 +172,12 @@ class Episode:
         self.runtime.check_batteries()  # a drained battery is a fault (runtime.py)
         self.num_cycles += 1
 
-        truth = self.experimenter.step(agents)  # formation and heading errors, contacts (metrics.py)
+        ids = self._ids
+        truth = self.experimenter.step(agents, ids)  # formation and heading errors, contacts (metrics.py)
         if not all(session.user.walking for session in self.sessions):  # only while a user still stands
             self._start_walks(dict(zip(agents, truth.formation_error_m)))
-        infos = self._infos(agents, truth.formation_error_m, truth.new_contacts)
+        infos = step_kernel.infos(agents, ids, self.fleet.nodes, self.missing_by_pan, truth.formation_error_m,
+                                  truth.new_contacts)
         # every slave's reward in one pass over the slaves (reward.py); the last actions are the
         # last step's array while the agents are the same
         if self._last_agents == agents:
@@ -200,7 +203,7 @@ class Episode:
             # every agent its observation and no termination
             observations = self.observer.observe(self.agents, self.last_action, world.now)
             terminations = dict.fromkeys(self.agents, False)
-            self.agents = list(self.agents)
+            self.agents = list(self.agents)  # (the same robots: _ids stands)
             return observations, rewards, terminations, dict(terminations), infos
         live = {f"robot_{i}" for i in slaves}
         terminations = {a: a not in live for a in self.agents}
@@ -216,7 +219,7 @@ class Episode:
             self.last_action[a] = np.zeros(3, np.float32)
         self.slave_ids = slaves
         before = list(self.agents)
-        self.agents = [a for a in before if a in live and not truncated] + ([] if truncated else joined)
+        self._set_agents([a for a in before if a in live and not truncated] + ([] if truncated else joined))
         # observed in the order of before (the odometry noise is one draw over them, observe.py);
         # an agent terminated now gets no observation (module docstring)
         observed = self.observer.observe(before + [a for a in joined if a not in before], self.last_action, world.now)
@@ -372,16 +375,19 @@ class Episode:
         world.invalidate_truth()
 
     # -- per step --------------------------------------------------------------------------------
+    def _set_agents(self, agents: list[str]) -> None:
+        """The agents from now on, and their robot indices in their order (``_ids``, what the
+        per-step loops of :mod:`.step_kernel` read)."""
+        self.agents = agents
+        index = self.agent_index
+        self._ids = [index[a] for a in agents]
+
     def _infos(self, agents: list[str], errors_m: list[float], contacts: list[int]) -> dict[str, dict[str, float | int]]:
         """The infos of ``agents`` (the keys of :data:`INFO_DEFAULTS`) with their formation errors
-        and new contacts, none of them joined in this step."""
-        nodes, index, missing = self.fleet.nodes, self.agent_index, self.missing_by_pan
-        out = {}
-        for agent, error_m, c in zip(agents, errors_m, contacts):
-            node = nodes[index[agent]]
-            out[agent] = {"member": node.know.member, "formation_error_m": error_m, "new_contacts": c, "joined": 0,
-                          "slaves_missing": missing.get(node.swarm_pan, 0), "active": 1}
-        return out
+        and new contacts, none of them joined in this step (:func:`.step_kernel.infos`)."""
+        index = self.agent_index
+        return step_kernel.infos(agents, [index[a] for a in agents], self.fleet.nodes, self.missing_by_pan, errors_m,
+                                 contacts)
 
     def _control(self, acts: np.ndarray | None) -> None:
         """One command per robot through its arbiter (seed 001): masters from their user session,
@@ -403,33 +409,15 @@ class Episode:
                 robot.set_command(0.0, 0.0, 0.0)
         if acts is None:
             return
-        now = world.now
-        for idx, node in nodes.items():  # a robot leaving its slot for its own fault drives out of the way
-            recovery = node.recovery
-            move = recovery.leaving_command(now) if recovery.clear_out is not None else None
-            if move is not None and idx not in masters and robots[idx].health.powered:
-                cmd, _ = arbiters[idx].decide(move, None, ranges[idx], False)
-                robots[idx].set_command(*cmd)
+        # a robot leaving its slot for its own fault drives out of the way
+        step_kernel.command_leaving(nodes, masters, robots, arbiters, ranges, world.now)
         if self.left:  # a robot recruited again after it left the agents has no driver (module docstring): held still
             for idx in self.slave_ids:
                 if f"robot_{idx}" in self.left and idx not in masters:
                     robots[idx].set_command(0.0, 0.0, 0.0)
-        # the action scale in one float32 product (a float32 action times a float is rounded to
-        # float32), as Python floats
-        scaled = (acts * self._scale).tolist()
-        agent_index = self.agent_index
-        for agent, (vx, vy, omega) in zip(self.agents, scaled):
-            idx = agent_index[agent]
-            if idx in masters:
-                continue
-            node = nodes[idx]
-            if node.seq.master_lost(node.clock.now):  # on its own clock: no status broadcast for protocol.status_timeout_s: emergency stop, waiting
-                robots[idx].set_command(0.0, 0.0, 0.0)
-                continue
-            st = node.know.status
-            stop = st is not None and st.mode == "emergency"
-            cmd, _ = arbiters[idx].decide((vx, vy, omega), None, ranges[idx], stop)
-            robots[idx].set_command(*cmd)
+        # the agents' actions times the action scale (float32 products), through their arbiters;
+        # a slave whose master is lost (on its own clock) or in emergency stops
+        step_kernel.command_slaves(self._ids, acts, self._scale, masters, nodes, robots, arbiters, ranges)
 
     def _start_walks(self, errors_m: dict[str, float]) -> None:
         """Start the script of each user who has stood long enough (chosen): once their swarm is

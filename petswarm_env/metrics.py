@@ -58,6 +58,8 @@ from petswarm_env.control.arbiter import SOURCES
 from petswarm_env.observe import AGE_SCALE_S
 from petswarm_env.references import ReferenceTable
 from petswarm_env.render import RobotView, Scene
+from petswarm_env.step_kernel import new_contacts
+from petswarm_env.step_kernel import stale_fixes as _stale_fixes
 
 if TYPE_CHECKING:
     from petswarm_env.comms.radio import RadioMedium
@@ -210,26 +212,27 @@ class Experimenter:
         heading = {a: e for a, e, h in zip(agents, heads, has) if h}
         return errors, heading
 
-    def _errors(self, agents: list[str]) -> tuple[list[float], list[float], list[bool]]:
+    def _errors(self, agents: list[str], robot_ids: list[int] | None = None) -> tuple[list[float], list[float], list[bool]]:
         """Each agent's formation error and heading error (0.0 without a reference point) and
-        whether it has one, from the truth arrays as lists (one conversion for all robots)."""
+        whether it has one, from the truth arrays as lists (one conversion for all robots);
+        ``robot_ids``: the agents' robot indices, if the caller has them."""
         centers, _, headings = self.world.truth_arrays()
         self._table.update(self.swarms)
-        agent_index = self.agent_index
-        return self._table.errors(centers.tolist(), headings.tolist(), [agent_index[a] for a in agents])
+        if robot_ids is None:
+            agent_index = self.agent_index
+            robot_ids = [agent_index[a] for a in agents]
+        return self._table.errors(centers.tolist(), headings.tolist(), robot_ids)
 
-    def step(self, agents: list[str]) -> SlaveTruth:
-        """The step's truth for ``agents`` (formation and heading errors, contacts each robot began
-        since the last step); adds the step to :attr:`metrics`."""
-        errs, heads, has = self._errors(agents)
+    def step(self, agents: list[str], robot_ids: list[int] | None = None) -> SlaveTruth:
+        """The step's truth for ``agents`` (robots ``robot_ids``, their indices, if the caller has
+        them): formation and heading errors, contacts each robot began since the last step; adds
+        the step to :attr:`metrics`."""
+        agent_index = self.agent_index
+        if robot_ids is None:
+            robot_ids = [agent_index[a] for a in agents]
+        errs, heads, has = self._errors(agents, robot_ids)
         errors = {a: e for a, e, h in zip(agents, errs, has) if h}
-        per_robot, seen, agent_index = self.world.collisions.per_robot, self._contacts_seen, self.agent_index
-        contacts = []
-        for agent in agents:
-            idx = agent_index[agent]
-            now_contacts = per_robot.get(idx, 0)
-            contacts.append(now_contacts - seen.get(idx, 0))
-            seen[idx] = now_contacts
+        contacts = new_contacts(robot_ids, self.world.collisions.per_robot, self._contacts_seen)
         m = self.metrics
         if errors and math.isnan(m.building_time_s) and max(errors.values()) <= BUILT_WITHIN_M:
             m.building_time_s = self.world.now - self._start_s
@@ -240,7 +243,7 @@ class Experimenter:
             m.add_step(list(errors.values()), counted, len(parked), end_s=self.world.now)
         else:
             m.add_step(list(errors.values()), end_s=self.world.now)
-        m.stale_fix_s += self.cfg.control_period_s * self.stale_fixes(agents)
+        m.stale_fix_s += self.cfg.control_period_s * _stale_fixes(robot_ids, self.fleet.nodes, self._start_s, AGE_SCALE_S)
         missing = self.cfg.world.num_users * self.cfg.swarm.num_slaves - len(agents)
         if missing > 0:
             m.slots_unfilled_s += missing * self.cfg.control_period_s
@@ -251,23 +254,8 @@ class Experimenter:
         observation's age range (``observe.AGE_SCALE_S``; none yet counts from the episode's start):
         a slave that cannot know where its neighbours are (the scripted one then only moves with the
         swarm, :mod:`petswarm.baselines.leader_follower`)."""
-        nodes, agent_index, stale = self.fleet.nodes, self.agent_index, 0
-        for agent in agents:
-            node = nodes[agent_index[agent]]
-            know = node.know
-            irs, members = know.ir, know.members
-            newest = None  # the newest fix's time: max(...) as the builtin gives it (the first of equals)
-            for lk in node.reference_links():
-                nb = members.get(lk.neighbour)
-                if nb in irs:
-                    t = irs[nb].time_s
-                    if newest is None or t > newest:
-                        newest = t
-            clock = node.clock
-            # the fixes' times are on the robot's own clock (its MCU's): compared on that clock
-            if (clock.local(self._start_s) if newest is None else newest) < clock.now - AGE_SCALE_S:
-                stale += 1
-        return stale
+        agent_index = self.agent_index
+        return _stale_fixes([agent_index[a] for a in agents], self.fleet.nodes, self._start_s, AGE_SCALE_S)
 
     # -- counts and the summary ------------------------------------------------------------------
     def event_counts(self) -> dict[str, Any]:

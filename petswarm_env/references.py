@@ -49,6 +49,9 @@ class ReferenceTable:
     _oy = cython.declare(cython.double[:])
     _entries = cython.declare(cython.Py_ssize_t)
     _entry_of = cython.declare(dict)  # robot index -> its entry (the last swarm's, as a dict assignment keeps it)
+    _px = cython.declare(cython.double)  # the last _point's reference point and formation heading
+    _py = cython.declare(cython.double)
+    _pt = cython.declare(cython.double)
 
     def __init__(self):
         self._keys = []
@@ -97,8 +100,8 @@ class ReferenceTable:
         self._entry_of = entry_of
 
     @cython.cfunc
-    def _point(self, e: cython.Py_ssize_t, xy: list, th: list) -> tuple:
-        """Entry ``e``'s reference point and formation heading: (x, y, θ_master)."""
+    def _point(self, e: cython.Py_ssize_t, xy: list, th: list) -> cython.void:
+        """Entry ``e``'s reference point and formation heading, into ``_px``, ``_py``, ``_pt``."""
         t: cython.double = th[self._master[e]]
         c: cython.double = _c_cos(t)  # the C library's, as math.cos
         s: cython.double = _c_sin(t)
@@ -117,14 +120,15 @@ class ReferenceTable:
             sx += nx + c * ox - s * oy
             sy += ny + s * ox + c * oy
         n: cython.double = self._count[e]
-        return sx / n, sy / n, t
+        self._px, self._py, self._pt = sx / n, sy / n, t
 
     def references(self, xy: list, th: list) -> dict:
         """Every slave's reference point and formation heading: robot index -> (x, y, θ_master)."""
         out = {}
         e: cython.Py_ssize_t
         for e in range(self._entries):  # a robot in two swarms' tables: the last one's point
-            out[int(self._slave[e])] = self._point(e, xy, th)
+            self._point(e, xy, th)
+            out[int(self._slave[e])] = (self._px, self._py, self._pt)
         return out
 
     def errors(self, xy: list, th: list, robots: list) -> tuple:
@@ -132,9 +136,6 @@ class ReferenceTable:
         0.0 for a robot without a reference point, and whether each has one."""
         errs, heads, has = [], [], []
         entry_of = self._entry_of
-        x: cython.double
-        y: cython.double
-        t: cython.double
         px: cython.double
         py: cython.double
         for idx in robots:
@@ -144,10 +145,10 @@ class ReferenceTable:
                 heads.append(0.0)
                 has.append(False)
                 continue
-            x, y, t = self._point(e, xy, th)
+            self._point(e, xy, th)
             px, py = xy[idx]
-            errs.append(_hypot(px - x, py - y))
-            heads.append(wrap_angle(th[idx] - t))
+            errs.append(_hypot(px - self._px, py - self._py))
+            heads.append(wrap_angle(th[idx] - self._pt))
             has.append(True)
         return errs, heads, has
 

@@ -8,31 +8,48 @@
 ``e`` is the distance (m) from the slave's true position to its reference position, θ its true
 heading, θ_formation the master's true heading, ``a`` the action in [-1, 1]³. Weights are in the
 ``reward`` section of the config.
+
+A module of the compiled core (``petswarm_env/_core.py``, Cython's pure-Python mode): the sum is
+C doubles in the order above, as the interpreter computes it in Python floats (no fused multiply-add:
+setup.py; ``math.cos`` is the C library's).
 """
 
 from __future__ import annotations
 
-import math
-
+import cython
 import numpy as np
+from cython.cimports.libc.math import cos as _c_cos
 
 from petswarm_env.config import RewardConfig
+
+COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
 
 
 def slave_rewards(
     cfg: RewardConfig,
-    formation_errors_m: list[float],
-    heading_errors_rad: list[float],
-    new_contacts: list[int],
-    actions: np.ndarray,
-    last_actions: np.ndarray,
-) -> list[float]:
+    formation_errors_m,  # n floats (m)
+    heading_errors_rad,  # n floats (rad)
+    new_contacts,  # n ints
+    actions,  # (n, 3) float32
+    last_actions,  # (n, 3) float32
+) -> list:
     """The reward of n slaves at once (module docstring): lists of n errors and contact counts,
     ``actions`` and ``last_actions`` (n, 3). The squared action changes by ``np.vecdot``, which sums
     as ``a @ a`` does (``tests/oracles.py`` keeps the one-slave form it equals)."""
     da = np.asarray(actions) - np.asarray(last_actions)
     smooth = np.vecdot(da, da).tolist() if len(da) else []
-    return [
-        float(-cfg.formation * e - cfg.heading * (1.0 - math.cos(h)) - cfg.collision * c - cfg.smoothness * q)
-        for e, h, c, q in zip(formation_errors_m, heading_errors_rad, new_contacts, smooth)
-    ]
+    wf: cython.double = cfg.formation
+    wh: cython.double = cfg.heading
+    wc: cython.double = cfg.collision
+    ws: cython.double = cfg.smoothness
+    e: cython.double
+    h: cython.double
+    c: cython.double
+    q: cython.double
+    k: cython.Py_ssize_t
+    n: cython.Py_ssize_t = min(len(formation_errors_m), len(heading_errors_rad), len(new_contacts), len(smooth))
+    out = []
+    for k in range(n):
+        e, h, c, q = formation_errors_m[k], heading_errors_rad[k], new_contacts[k], smooth[k]
+        out.append(float(-wf * e - wh * (1.0 - _c_cos(h)) - wc * c - ws * q))
+    return out

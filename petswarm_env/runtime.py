@@ -33,6 +33,7 @@ import numpy as np
 
 from petswarm_env.config import ArrivalSpec, Config, FaultSpec
 from petswarm_env.sim.faults import POWER_KINDS, Faults
+from petswarm_env.step_kernel import drained
 
 if TYPE_CHECKING:
     from petswarm_env.middleware.fleet import Fleet
@@ -136,9 +137,8 @@ class Runtime:
     def check_batteries(self) -> None:
         """A battery the robot's motion and sensing drained to 0 (sim/battery.py) is the ``battery``
         fault (seed 003 §4.1.2's battery): logged and applied like an injected one. Called after every step."""
-        for robot in self.world.robots:
-            if robot.battery.empty and "battery" not in robot.health.active:
-                self.faults.inject(robot.index, "battery", self.clock.now, self._role(robot.index))
+        for robot in drained(self.world.robots):  # (a typed loop: step_kernel.py)
+            self.faults.inject(robot.index, "battery", self.clock.now, self._role(robot.index))
 
     def _apply(self, idx: int, kind: str, on: bool) -> None:
         """A part changed: the motors and the middleware follow the robot's power. An injected

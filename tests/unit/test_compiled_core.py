@@ -190,3 +190,48 @@ def test_the_interpreted_form_gives_the_heterogeneous_ring_and_the_drive_bit_for
         out[pure] = json.loads(run.stdout.strip().splitlines()[-1])
     assert "True" in out["0"][1]  # the battery did empty
     assert out["1"] == out["0"]
+
+
+def frame_episode() -> list:
+    """The per-step bookkeeping around the physics (petswarm_env/step_kernel.py, reward.py): a walk in
+    which a slave's IR breaks (it asks out and drives out of its slot) and another's battery is
+    emptied (the battery fault), under random actions (contacts): a hash of every reward, termination and info, and the summary."""
+    import hashlib
+
+    import petswarm_env
+    from petswarm.baselines.policy import PolicySpec
+    from petswarm.baselines.registry import make_policy
+
+    faults = [{"at_s": 3.0, "robot": 2, "kind": "ir"}]
+    env = petswarm_env.parallel_env(**{"control.safety_layer": False, "max_cycles": 200, "faults": faults})
+    obs, _ = env.reset(seed=3)
+    policy = make_policy("random", PolicySpec.from_env(env), seed=3)  # random actions: contacts
+    h = hashlib.sha256()
+    steps = 0
+    while env.agents:
+        if steps == 60:
+            env.truth.robots[4].battery.set_remaining(0.0)
+        obs, rewards, terms, truncs, infos = env.step(policy.act_all({a: obs[a] for a in env.agents}))
+        h.update(repr([sorted(rewards.items()), sorted(terms.items()), sorted(truncs.items()),
+                       sorted((a, sorted(i.items())) for a, i in infos.items())]).encode())
+        steps += 1
+    return [h.hexdigest(), json.dumps(env.episode_summary(), sort_keys=True, default=str)]
+
+
+def test_the_interpreted_form_gives_the_same_rewards_infos_and_summary_bit_for_bit():
+    """The per-step loops (the slaves' commands, the move out of a slot, the contacts, the stale
+    fixes, the infos, the drained batteries, the rewards) give the same episode in both forms."""
+    from tests.golden.episodes import portable_environ
+
+    code = "import json; from tests.unit.test_compiled_core import frame_episode; print(json.dumps(frame_episode()))"
+    out = {}
+    for pure in ("0", "1"):
+        env = dict(portable_environ(), **{_core.PURE_ENV: pure})
+        env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
+        run = subprocess.run([sys.executable, "-c", code], cwd=ROOT, env=env, capture_output=True, text=True,
+                             check=False, timeout=300)
+        assert run.returncode == 0, run.stderr[-2000:]
+        out[pure] = json.loads(run.stdout.strip().splitlines()[-1])
+    summary = json.loads(out["0"][1])
+    assert summary["faults_injected"] == 2 and summary["collisions"]["robot_robot"] + summary["collisions"]["robot_user"] > 0
+    assert out["1"] == out["0"]

@@ -1,0 +1,146 @@
+"""The episode's per-step bookkeeping around the physics and the middleware, as typed loops: the
+actions' clip (``PetSwarmEnv._validate``), the slaves' commands through their arbiters (seed 001;
+``Episode._control``), the contacts each robot began and the slaves without a fresh IR fix (the
+experimenter's step, :mod:`petswarm_env.metrics`), the agents' infos (``Episode._infos``) and the
+drained batteries (:meth:`petswarm_env.runtime.Runtime.check_batteries`).
+
+Each function does what the interpreted lines it replaced did, in the same order and with the same
+arithmetic: the action scale is one float32 product per value (a float32 action times a float32
+scale, rounded to float32, as numpy's ``acts * scale``), every other figure is a C double computed
+as the interpreter computes the Python float (the C build has no fused multiply-add: setup.py). The
+middleware's own methods (the sequence's master-lost check, the recovery's move out, the arbiter's
+decision, the robot's motors) are called as they are: only the loops around them are compiled.
+
+A module of the compiled core (``petswarm_env/_core.py``, Cython's pure-Python mode): the
+interpreted form is the oracle the tests hold the compiled form to.
+"""
+
+from __future__ import annotations
+
+import cython
+from cython.cimports.libc.math import isfinite as _c_isfinite
+
+COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
+
+_STOP = (0.0, 0.0, 0.0)
+
+
+def clip_finite(arr) -> bool:
+    """Clip a float32 ``(n, 3)`` array of actions to [-1, 1] in place if every value is finite
+    (True); otherwise leave it as it is (False: the caller names the agent)."""
+    a: cython.float[:, :] = arr
+    i: cython.Py_ssize_t
+    j: cython.Py_ssize_t
+    v: cython.float
+    for i in range(a.shape[0]):
+        for j in range(3):
+            if not _c_isfinite(a[i, j]):
+                return False
+    for i in range(a.shape[0]):
+        for j in range(3):
+            v = a[i, j]
+            if v > 1.0:
+                a[i, j] = 1.0
+            elif v < -1.0:
+                a[i, j] = -1.0
+    return True
+
+
+def command_slaves(robot_ids: list, acts, scale, masters: set, nodes: dict, robots: list, arbiters: dict, ranges) -> None:
+    """Each agent's command (``robot_ids[k]``'s action ``acts[k]``, float32, scaled by ``scale``:
+    action 1 -> Vx, Vy, ω) through its arbiter to its motors; a robot that drives a user
+    (``masters``) is skipped; a slave whose master is lost (on its own clock: no status broadcast for
+    ``protocol.status_timeout_s``) stops, waiting; the master's emergency broadcast stops it."""
+    a: cython.float[:, :] = acts
+    sx: cython.float = scale[0]
+    sy: cython.float = scale[1]
+    sw: cython.float = scale[2]
+    vx: cython.float
+    vy: cython.float
+    omega: cython.float
+    k: cython.Py_ssize_t
+    for k in range(len(robot_ids)):
+        idx = robot_ids[k]
+        if idx in masters:
+            continue
+        node = nodes[idx]
+        if node.seq.master_lost(node.clock.now):
+            robots[idx].set_command(0.0, 0.0, 0.0)
+            continue
+        st = node.know.status
+        stop = st is not None and st.mode == "emergency"
+        vx, vy, omega = a[k, 0] * sx, a[k, 1] * sy, a[k, 2] * sw  # float32 products, as numpy's
+        cmd = arbiters[idx].decide((float(vx), float(vy), float(omega)), None, ranges[idx], stop)[0]
+        robots[idx].set_command(cmd[0], cmd[1], cmd[2])
+
+
+def command_leaving(nodes: dict, masters: set, robots: list, arbiters: dict, ranges, now_s: float) -> None:
+    """A robot leaving its slot for its own fault drives out of the way (the recovery's move out,
+    middleware/recovery.py), through its arbiter; a master or a robot that is off is not driven."""
+    for idx, node in nodes.items():
+        recovery = node.recovery
+        if recovery.clear_out is None:
+            continue
+        move = recovery.leaving_command(now_s)
+        if move is not None and idx not in masters and robots[idx].health.powered:
+            cmd = arbiters[idx].decide(move, None, ranges[idx], False)[0]
+            robots[idx].set_command(cmd[0], cmd[1], cmd[2])
+
+
+def new_contacts(robot_ids: list, per_robot: dict, seen: dict) -> list:
+    """The contacts each robot began since the last call (``per_robot``: the world's counts so far;
+    ``seen``: the counts at the last call, updated)."""
+    out = []
+    now: cython.long
+    for idx in robot_ids:
+        now = per_robot.get(idx, 0)
+        out.append(now - seen.get(idx, 0))
+        seen[idx] = now
+    return out
+
+
+def stale_fixes(robot_ids: list, nodes: dict, start_s: float, age_s: float) -> cython.long:
+    """How many of the robots ``robot_ids`` have no IR fix of any reference neighbour younger than
+    ``age_s`` on their own clock (none yet counts from ``start_s``, the episode's start)."""
+    stale: cython.long = 0
+    t: cython.double
+    newest: cython.double
+    found: cython.bint
+    for idx in robot_ids:
+        node = nodes[idx]
+        know = node.know
+        irs, members = know.ir, know.members
+        found = False  # the newest fix's time: max(...) as the builtin gives it (the first of equals)
+        newest = 0.0
+        for lk in node.reference_links():
+            nb = members.get(lk.neighbour)
+            if nb in irs:
+                t = irs[nb].time_s
+                if not found or t > newest:
+                    newest, found = t, True
+        clock = node.clock
+        # the fixes' times are on the robot's own clock (its MCU's): compared on that clock
+        if (newest if found else clock.local(start_s)) < clock.now - age_s:
+            stale += 1
+    return stale
+
+
+def infos(agents: list, robot_ids: list, nodes: dict, missing: dict, errors_m: list, contacts: list) -> dict:
+    """The infos of ``agents`` (robots ``robot_ids``; the keys of ``episode.INFO_DEFAULTS``) with
+    their formation errors and new contacts, none of them joined in this step."""
+    out = {}
+    k: cython.Py_ssize_t
+    for k in range(len(agents)):
+        node = nodes[robot_ids[k]]
+        out[agents[k]] = {"member": node.know.member, "formation_error_m": errors_m[k], "new_contacts": contacts[k],
+                          "joined": 0, "slaves_missing": missing.get(node.swarm_pan, 0), "active": 1}
+    return out
+
+
+def drained(robots: list) -> list:
+    """The robots whose battery is empty and not yet a ``battery`` fault (sim/battery.py)."""
+    out = []
+    for robot in robots:
+        if robot.battery.empty and "battery" not in robot.health.active:
+            out.append(robot)
+    return out

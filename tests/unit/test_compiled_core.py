@@ -235,3 +235,16 @@ def test_the_interpreted_form_gives_the_same_rewards_infos_and_summary_bit_for_b
     summary = json.loads(out["0"][1])
     assert summary["faults_injected"] == 2 and summary["collisions"]["robot_robot"] + summary["collisions"]["robot_user"] > 0
     assert out["1"] == out["0"]
+
+
+def test_the_action_clip_takes_only_finite_actions():
+    import numpy as np
+
+    from petswarm_env.step_kernel import clip_finite
+
+    arr = np.array([[2.0, -3.0, 0.5], [-0.0, 1.0, -1.5]], np.float32)
+    assert clip_finite(arr)
+    assert arr.tolist() == [[1.0, -1.0, 0.5], [-0.0, 1.0, -1.0]]
+    bad = np.array([[2.0, 0.0, 0.0], [0.0, np.nan, 0.0]], np.float32)
+    assert not clip_finite(bad)
+    assert bad[0, 0] == 2.0  # left as it was: the caller names the agent

@@ -124,6 +124,38 @@ def test_the_faulty_robot_drives_out_of_the_formation_and_the_rest_re_form(kind)
     assert r["reformed"], f"largest live-slave error {r['largest_error_m']:.2f} m 10 s after the detection"
 
 
+@pytest.mark.parametrize("mode, seed, robot", [("following", 1, 2), ("leading", 101, 3)])
+def test_the_faulty_robot_stops_once_it_is_out_on_its_own_clock(mode, seed, robot):
+    """The move out runs on the robot's own MCU clock (seed 000 §3.3), which is offset from the world's by up
+    to ``robot.clock_offset_max_s``: it ends once the wheels counted the sideways distance (or its time ran
+    out), and the robot then stands. Before, the move read the world's time against its plan's local time:
+    it never timed out and its first odometry step counted the clocks' offset, so the robot drove sideways
+    for the rest of the episode (leading seed 101: 12 m, dragging the member that took its place along)."""
+    from petswarm.experiments import sensor_faults
+    from petswarm_env.middleware.recovery import CLEAR_SPEED_MPS, CLEAR_TIMEOUT
+
+    seen: dict = {}
+
+    def watch(env):
+        ep = env.episode
+        rec, body = ep.fleet.nodes[robot].recovery, ep.world.robots[robot].body
+        if rec.clear_out is not None and "plan" not in seen:
+            seen["plan"], seen["t0"] = rec.clear_out, ep.world.now
+        elif "plan" in seen and rec.clear_out is None and "end" not in seen:
+            seen["end"], seen["at"] = ep.world.now, tuple(body.position)
+        elif "end" in seen and ep.world.now >= seen["end"] + 3.0 and "later" not in seen:
+            seen["later"] = tuple(body.position)
+
+    overrides = {} if mode == "following" else {"swarm.mode": mode}
+    r = sensor_faults.run("ahrs", seed, overrides=overrides, on_step=watch)
+    assert r["robot"] == robot and "plan" in seen
+    out_m = seen["plan"][3]
+    assert "end" in seen, "the faulty robot never ended its move out"
+    assert seen["end"] - seen["t0"] <= CLEAR_TIMEOUT * out_m / CLEAR_SPEED_MPS + 0.2
+    (x0, y0), (x1, y1) = seen["at"], seen["later"]
+    assert ((x1 - x0) ** 2 + (y1 - y0) ** 2) ** 0.5 < 0.3, "the robot drove on after its move out ended"
+
+
 def test_a_master_whose_ir_breaks_hands_its_user_over_by_table_3_and_the_swarm_goes_on():
     """The master finds its IR module broken (its slaves lose their fix of it): it hands the user over to
     the robot closest to the user by what it knows (Table 3, following: its last IR fixes, else the

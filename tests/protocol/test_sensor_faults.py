@@ -193,3 +193,26 @@ def test_a_master_whose_ultrasonic_or_ahrs_breaks_finds_it_and_keeps_its_user(ki
     assert r["handovers"] == [] and r["master_after"] == 0 and not r["bid_request"] and r["other_detections"] == []
     assert r["session_state"] == "following" and r["user_distance_end_m"] <= sensor_faults.USER_FOLLOWED_M
     assert r["reformed"]
+
+
+@pytest.mark.parametrize("seed", [104, 114])
+def test_after_a_handover_the_new_masters_tracker_takes_only_its_own_lf_fixes(seed):
+    """An LF fix is stamped on the clock of the robot that burst it (seed 000 §3.3: each robot its own
+    clock) and taken only by that robot's tracker; the first one replaces the new master's own guess of its
+    user. Before, a burst of the handover's takeover was stamped on the old master's clock and taken by the
+    new master's tracker (seed 104: a user velocity of thousands of m/s), and the first fix was blended with
+    the guess (seed 114: a sideways velocity that took the new master off its user's line): in both the new
+    master lost its user (emergency, 20-23 m behind at the end)."""
+    from petswarm.experiments import sensor_faults
+
+    fastest: list[float] = []
+
+    def watch(env):
+        session = env.episode.sessions[0]
+        if session.tracker_node.node_id != 0 and session.tracker.pos is not None:
+            fastest.append(max(abs(v) for v in session.tracker.vel))
+
+    r = sensor_faults.run("ir", seed, target="master", on_step=watch)
+    assert r["master_after"] != 0 and fastest
+    assert max(fastest) < 5.0, f"the new master's tracker put its user at {max(fastest):.0f} m/s"
+    assert r["session_state"] == "following" and r["user_distance_end_m"] <= 2.0

@@ -216,3 +216,22 @@ def test_after_a_handover_the_new_masters_tracker_takes_only_its_own_lf_fixes(se
     assert r["master_after"] != 0 and fastest
     assert max(fastest) < 5.0, f"the new master's tracker put its user at {max(fastest):.0f} m/s"
     assert r["session_state"] == "following" and r["user_distance_end_m"] <= 2.0
+
+
+@pytest.mark.parametrize("seed, loss", [(19, 0.0), (7, 0.3)])
+def test_a_new_master_searching_among_bodies_keeps_its_ir_and_a_dead_robot_diagnoses_nothing(seed, loss):
+    """Leading, the master dies at 20 s: the new master searches for its user among its swarm, the user and
+    the dead robot, which hide the ring's holders from its IR for a second or two. Five misses from three
+    holders within 0.8-1.1 s found its working IR module broken (seed 19 at loss 0, seed 7 at loss 0.3) and
+    it handed the role on; a streak must now span diagnosis.IR_MISS_SPAN_S. A robot that is off runs no
+    diagnosis (before: the dead master's unchanging AHRS readings were found frozen)."""
+    env = petswarm_env.parallel_env(**{"user.scenario": "straight", "max_cycles": 500, "swarm.mode": "leading",
+                                       "radio.loss_prob": loss, "faults": [{"at_s": 20.0, "robot": "master", "kind": "dead"}]})
+    obs, _ = env.reset(seed=seed)
+    policy = make_policy("scripted", PolicySpec.from_env(env), seed=seed)
+    while env.agents:
+        obs, *_ = env.step(policy.act_all({a: obs[a] for a in env.active_agents}))
+    ep = env.episode
+    found = [(i, part) for i, n in ep.fleet.nodes.items() for _, part in n.diagnosis.detected]
+    assert found == [], f"found broken, with no sensor fault: {found}"
+    assert ep.swarms[0].fault_handovers == []

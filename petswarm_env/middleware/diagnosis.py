@@ -9,8 +9,8 @@ All three checks run on the robot's MCU, on its own readings:
 * **IR module** (seed 000 §3.3): the token ring announces every IR slot by radio (the holder's
   transmission-start sign, :mod:`.token_ring`), with its RSSI range. A slot whose announcer the
   RSSI puts within :data:`IR_EXPECT_RANGE_M` should give an IR fix of it; :data:`IR_MISSES` such
-  slots in a row without a fix, while their radio frames keep arriving, is a broken IR module
-  (receiver; the same module transmits). A fix after that clears it (a transient fault's end).
+  slots in a row without a fix, spanning at least :data:`IR_MISS_SPAN_S`, while their radio frames
+  keep arriving, is a broken IR module (receiver; the same module transmits). A fix after that clears it (a transient fault's end).
 * **ultrasonic ring**, two checks. (1) The driver's self-test (chosen: the transducer diagnosis of
   ultrasonic front-ends, which listen to each transducer ringing down after its own burst, the ring-down
   that sets every ultrasonic sensor's minimum range): :data:`US_SILENT_BURSTS` readings in a row whose
@@ -61,6 +61,10 @@ COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py c
 # 2.4-2.8 m, config ir.max_range_m; the RSSI range is off by ~10 % at 1 dB shadowing)
 IR_EXPECT_RANGE_M = 1.6
 IR_MISSES = 5  # chosen: announced slots in a row without a fix -> IR module broken (a live module misses a few by occlusion)
+# chosen: ... and they span at least this long since the first of them: a body passing between (a new master
+# searching among its swarm and its user, leading seeds 7 and 19) hides the holders for about a second and a fix
+# ends the streak; a broken module misses every slot on (before: 5 misses in 0.8-1.1 s found a working module broken)
+IR_MISS_SPAN_S = 1.5
 IR_SOURCES = 3  # chosen: ... of this many holders (our own slot counts as one; fewer if fewer are in range, at least 2): occlusion hides one or two
 # chosen: an IR-placed neighbour this close to a ring sensor's ray (perpendicular, m) must echo: a robot is 0.2 m
 # in radius and the IR bearing is good to ~6° (seed 000 Table 4), 0.1 m at 1 m
@@ -104,6 +108,7 @@ class Diagnosis:
     _ir_seen = cython.declare(dict)
     _ir_miss = cython.declare(cython.int)
     _ir_missed_from = cython.declare(set)
+    _ir_first_miss_s = cython.declare(cython.double)
     _own_seen = cython.declare(cython.double)
     _ahrs_noisy = cython.declare(cython.bint)
     _yaw_last = cython.declare(object)
@@ -138,6 +143,7 @@ class Diagnosis:
         self._ir_seen = {}  # announcer -> start of its latest slot evaluated
         self._ir_miss = 0
         self._ir_missed_from = set()  # the slots' holders of the misses since the last fix
+        self._ir_first_miss_s = -math.inf  # the first of those misses
         self._own_seen = -math.inf  # start of our own latest slot evaluated
         self._ahrs_noisy = cfg.robot.ahrs_noise_deg > 0 or cfg.robot.ahrs_drift_dps > 0
         self._yaw_last = None  # (time, value) of the last reading
@@ -162,7 +168,10 @@ class Diagnosis:
         self._check_ring(ranges, present, now_s, rang)
 
     def on_ahrs(self, now_s: cython.double, yaw: cython.double) -> None:
-        """Every AHRS reading the robot takes (its MCU's, the observation's)."""
+        """Every AHRS reading the robot takes (its MCU's, the observation's); none while it is off (before,
+        a dead robot's unchanging readings were found a frozen AHRS)."""
+        if not self.robot.health.powered:
+            return
         last = self._yaw_last
         if last is not None and now_s > last[0]:
             if yaw == last[1]:
@@ -222,9 +231,11 @@ class Diagnosis:
     def _ir_missed(self, now_s: cython.double, src: object) -> cython.void:
         """A slot that should have given an IR fix (``src``: its announcer) or a heading report
         (``src`` = us: our own slot) gave none."""
+        if self._ir_miss == 0:
+            self._ir_first_miss_s = now_s
         self._ir_miss += 1
         self._ir_missed_from.add(src)
-        if self._ir_miss < IR_MISSES or "ir" in self.failed:
+        if self._ir_miss < IR_MISSES or "ir" in self.failed or now_s - self._ir_first_miss_s < IR_MISS_SPAN_S:
             return
         members = self._know_of().members.values()
         near = {n for n, r in self.ring.slot_range_m.items() if r <= IR_EXPECT_RANGE_M and n in members} | {self.node_id}

@@ -472,17 +472,22 @@ class RecoveryManager:
         out_m = outermost - lateral * side + 2.0 * node.cfg.robot.radius_m + margin
         status = node.know.status  # the master's pace; a master that handed its user over and heard none yet: its own
         vx = float(status.velocity[0]) if status is not None else float(node.odometry.read()[0])
-        ahead = 0.0 if self._was_master else CLEAR_AHEAD_MPS
+        ahead = 0.0 if self._was_master else math.copysign(CLEAR_AHEAD_MPS, vx)  # ahead the way the swarm walks
         self.clear_out = (node.clock.now, vx + ahead, side * CLEAR_SPEED_MPS, out_m)
         self._cleared = (node.clock.now, 0.0)
 
-    def leaving_command(self, now_s: float) -> tuple[float, float, float] | None:
+    def leaving_command(self, now_s: float | None = None) -> tuple[float, float, float] | None:
         """The body-frame command of the move out of the formation (:meth:`_plan_clear_out`) until its
         wheel odometry counts the sideways distance (or :data:`CLEAR_TIMEOUT` times the time it takes at
-        the commanded speed passed), (0, 0, 0) once, then None (nothing to drive)."""
+        the commanded speed passed), (0, 0, 0) once, then None (nothing to drive). It runs on the robot's
+        own MCU clock (seed 000 §3.3: each robot its own clock), as the plan did; ``now_s``, the caller's
+        time, is not read (before, the episode's true time against the plan's local time: the move never
+        timed out, and its first odometry step counted the clocks' offset, so a leaving robot drove
+        sideways for the rest of the episode)."""
         c = self.clear_out
         if c is None:
             return None
+        now_s = self.node.clock.now
         t0, vx, vy, out_m = c
         last_s, done_m = self._cleared
         done_m += abs(self.node.odometry.read()[1]) * (now_s - last_s)  # the wheels' sideways travel since

@@ -78,6 +78,14 @@ SEARCH_WALK_M = 1.4
 SEARCH_PLACES = 13
 SEARCH_STAND_M = 0.2
 SEARCH_DETOUR = 0.5
+# the new master's approach to its user (user_session._successor_command):
+APPROACH_SLACK_M = 0.15  # chosen: a new master bursts its wake-up pattern once this near its approach distance ...
+STALLED_MPS = 0.05  # chosen: ... or once its own odometry says it stands (it can get no closer)
+BLOCKED_S = 2.0  # chosen: ... or once it has come no closer (PROGRESS_M) for this long (something stands in its way)
+PROGRESS_M = 0.1  # chosen: a new master comes closer to where it drives by at least this per BLOCKED_S, or it is blocked
+# chosen: after a handover for a broken part the user walks on once the new master's LF fix puts them this near its
+# distance (the first fix came at the 2 m edge of the LF range, seed 002 §3.3: the user walked off out of range)
+RESUME_SLACK_M = 0.5
 
 
 def search_places(origin: tuple[float, float], way: tuple[float, float], spacing_m: float = SEARCH_SPACING_M,

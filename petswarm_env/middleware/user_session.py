@@ -48,7 +48,8 @@ from petswarm_env.middleware.formation import formation_for_mode, user_position_
 from petswarm_env.middleware.knowledge import FRESH_IR_S
 from petswarm_env.middleware.modes import measured_geometry
 from petswarm_env.middleware.station import mcu_clock
-from petswarm_env.middleware.succession import SEARCH_STAND_M, own_user_estimate, search_step
+from petswarm_env.middleware.succession import (APPROACH_SLACK_M, BLOCKED_S, PROGRESS_M, RESUME_SLACK_M, SEARCH_STAND_M,
+                                                 STALLED_MPS, own_user_estimate, search_step)
 from petswarm_env.middleware.swarm import Swarm
 from petswarm_env.sim.geometry import wrap_angle
 from petswarm_env.sim.user import User
@@ -61,11 +62,6 @@ DRIVING_STATES = ("following", "leading", "remote")
 MOVING_ACTIVITIES = ("walk", "run")  # the belt's activities (seed 002 Table 2) in which the user moves
 MODE_SETTLE_S = 5.0  # chosen: after a mode change the re-forming swarm raises no obstacle exception
 LEADING_LF_MARGIN_M = 0.3  # chosen: a leading master stays this far inside its LF range
-APPROACH_SLACK_M = 0.15  # chosen: a new master bursts its wake-up pattern once this near its approach distance ...
-STALLED_MPS = 0.05  # chosen: ... or once its own odometry says it stands (it can get no closer)
-BLOCKED_S = 2.0  # chosen: ... or once it has come no closer (PROGRESS_M) for this long (something stands in its way)
-PROGRESS_M = 0.1  # chosen: a new master comes closer to where it drives by at least this per BLOCKED_S, or it is blocked
-
 
 
 def master_distance_m(cfg: Config, formation, mode: str) -> float:
@@ -127,6 +123,7 @@ class UserSession:
         self._emergency_since = 0.0
         self._gestures: list[str] = []  # gestures the user is about to perform, one stroke at a time
         self._watch_free_s = -math.inf
+        self._guess_only = False  # the tracker holds only a new master's own guess of its user, no LF fix yet
         self.fault_pause_s: float | None = None  # the user stopped at a master's handover for a broken part, since
         self.paused = False  # the user stopped after losing their master (the belt's alert), until paired with an organized swarm
         self.link_ack_s = -math.inf  # the belt last heard the connected robot's BLE link layer
@@ -352,13 +349,15 @@ class UserSession:
             c, s = math.cos(robot.heading), math.sin(robot.heading)
             fix = lf.locate(cfg.lf, c * dx + s * dy, -s * dx + c * dy, self.rng_lf)
             if fix.valid:  # the belt heard both antennas; RSSIs go back over BLE
-                t_burst = self.tracker_node.clock.now  # stamped on the clock of the robot whose tracker takes it
+                t_burst = self.swarm.master.clock.now  # stamped on the clock of the robot that burst (seed 000 §3.3)
                 self.clock.later(cfg.ble.latency_s, self._on_fix, tx, fix, t_burst)
         self.swarm.master.clock.later(period, self._lf_burst)  # the master's burst period, on its own clock
 
     def _on_fix(self, tx: int, fix: lf.LFFix, t_burst: float) -> None:
-        if self.connected_robot != tx or self.swarm.master.node_id != tx:
-            return  # the link moved to another robot meanwhile (master change)
+        if self.connected_robot != tx or self.swarm.master.node_id != tx or self.tracker_node.node_id != tx:
+            return  # the link or the tracker is another robot's now (master change): a fix on tx's clock is tx's
+        if self._guess_only:  # the first LF fix replaces the new master's guess (a blend: a velocity spike)
+            self.tracker.pos, self.tracker.vel, self._guess_only = None, [0.0, 0.0], False
         self.tracker.fix((fix.x_fwd, fix.y_left), t_burst)
 
     # -- belt reports (seed 002 §3.4) -------------------------------------------------------------
@@ -471,9 +470,10 @@ class UserSession:
         now = self.clock.now
         user = self.user
         self._check_release(now)
-        if self.fault_pause_s is not None and self.tracker.last_fix_s > self.fault_pause_s:
+        if self.fault_pause_s is not None and self.tracker.last_fix_s > self.fault_pause_s and \
+                math.hypot(*self.tracker.user_body(self.tracker_node.clock.now)[0]) <= self.target_distance_m() + RESUME_SLACK_M:
             self.fault_pause_s = None
-            user.walking = True  # the new master located the user: they walk on
+            user.walking = True  # the new master located the user by its own LF fix, near enough: they walk on
         if self.paused and self.swarm.organized and self.state in ("following", "leading"):
             self.paused = False
             user.walking = True  # paired again with an organized swarm: the user walks on
@@ -589,6 +589,7 @@ class UserSession:
         est = own_user_estimate(new, now, old.node_id)
         if est is not None:
             self.tracker.fix(est, now)
+            self._guess_only = True
         handovers = self.swarm.fault_handovers
         if handovers and handovers[-1][1] == old.node_id and handovers[-1][2] == new.node_id and self.user.walking:
             # a master that hands the user over for a broken part (swarm.hand_over_for_fault) alerts the belt

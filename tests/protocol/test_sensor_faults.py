@@ -124,6 +124,38 @@ def test_the_faulty_robot_drives_out_of_the_formation_and_the_rest_re_form(kind)
     assert r["reformed"], f"largest live-slave error {r['largest_error_m']:.2f} m 10 s after the detection"
 
 
+@pytest.mark.parametrize("mode, seed, robot", [("following", 1, 2), ("leading", 101, 3)])
+def test_the_faulty_robot_stops_once_it_is_out_on_its_own_clock(mode, seed, robot):
+    """The move out runs on the robot's own MCU clock (seed 000 §3.3), which is offset from the world's by up
+    to ``robot.clock_offset_max_s``: it ends once the wheels counted the sideways distance (or its time ran
+    out), and the robot then stands. Before, the move read the world's time against its plan's local time:
+    it never timed out and its first odometry step counted the clocks' offset, so the robot drove sideways
+    for the rest of the episode (leading seed 101: 12 m, dragging the member that took its place along)."""
+    from petswarm.experiments import sensor_faults
+    from petswarm_env.middleware.recovery import CLEAR_SPEED_MPS, CLEAR_TIMEOUT
+
+    seen: dict = {}
+
+    def watch(env):
+        ep = env.episode
+        rec, body = ep.fleet.nodes[robot].recovery, ep.world.robots[robot].body
+        if rec.clear_out is not None and "plan" not in seen:
+            seen["plan"], seen["t0"] = rec.clear_out, ep.world.now
+        elif "plan" in seen and rec.clear_out is None and "end" not in seen:
+            seen["end"], seen["at"] = ep.world.now, tuple(body.position)
+        elif "end" in seen and ep.world.now >= seen["end"] + 3.0 and "later" not in seen:
+            seen["later"] = tuple(body.position)
+
+    overrides = {} if mode == "following" else {"swarm.mode": mode}
+    r = sensor_faults.run("ahrs", seed, overrides=overrides, on_step=watch)
+    assert r["robot"] == robot and "plan" in seen
+    out_m = seen["plan"][3]
+    assert "end" in seen, "the faulty robot never ended its move out"
+    assert seen["end"] - seen["t0"] <= CLEAR_TIMEOUT * out_m / CLEAR_SPEED_MPS + 0.2
+    (x0, y0), (x1, y1) = seen["at"], seen["later"]
+    assert ((x1 - x0) ** 2 + (y1 - y0) ** 2) ** 0.5 < 0.3, "the robot drove on after its move out ended"
+
+
 def test_a_master_whose_ir_breaks_hands_its_user_over_by_table_3_and_the_swarm_goes_on():
     """The master finds its IR module broken (its slaves lose their fix of it): it hands the user over to
     the robot closest to the user by what it knows (Table 3, following: its last IR fixes, else the
@@ -161,3 +193,45 @@ def test_a_master_whose_ultrasonic_or_ahrs_breaks_finds_it_and_keeps_its_user(ki
     assert r["handovers"] == [] and r["master_after"] == 0 and not r["bid_request"] and r["other_detections"] == []
     assert r["session_state"] == "following" and r["user_distance_end_m"] <= sensor_faults.USER_FOLLOWED_M
     assert r["reformed"]
+
+
+@pytest.mark.parametrize("seed", [104, 114])
+def test_after_a_handover_the_new_masters_tracker_takes_only_its_own_lf_fixes(seed):
+    """An LF fix is stamped on the clock of the robot that burst it (seed 000 §3.3: each robot its own
+    clock) and taken only by that robot's tracker; the first one replaces the new master's own guess of its
+    user. Before, a burst of the handover's takeover was stamped on the old master's clock and taken by the
+    new master's tracker (seed 104: a user velocity of thousands of m/s), and the first fix was blended with
+    the guess (seed 114: a sideways velocity that took the new master off its user's line): in both the new
+    master lost its user (emergency, 20-23 m behind at the end)."""
+    from petswarm.experiments import sensor_faults
+
+    fastest: list[float] = []
+
+    def watch(env):
+        session = env.episode.sessions[0]
+        if session.tracker_node.node_id != 0 and session.tracker.pos is not None:
+            fastest.append(max(abs(v) for v in session.tracker.vel))
+
+    r = sensor_faults.run("ir", seed, target="master", on_step=watch)
+    assert r["master_after"] != 0 and fastest
+    assert max(fastest) < 5.0, f"the new master's tracker put its user at {max(fastest):.0f} m/s"
+    assert r["session_state"] == "following" and r["user_distance_end_m"] <= 2.0
+
+
+@pytest.mark.parametrize("seed, loss", [(19, 0.0), (7, 0.3)])
+def test_a_new_master_searching_among_bodies_keeps_its_ir_and_a_dead_robot_diagnoses_nothing(seed, loss):
+    """Leading, the master dies at 20 s: the new master searches for its user among its swarm, the user and
+    the dead robot, which hide the ring's holders from its IR for a second or two. Five misses from three
+    holders within 0.8-1.1 s found its working IR module broken (seed 19 at loss 0, seed 7 at loss 0.3) and
+    it handed the role on; a streak must now span diagnosis.IR_MISS_SPAN_S. A robot that is off runs no
+    diagnosis (before: the dead master's unchanging AHRS readings were found frozen)."""
+    env = petswarm_env.parallel_env(**{"user.scenario": "straight", "max_cycles": 500, "swarm.mode": "leading",
+                                       "radio.loss_prob": loss, "faults": [{"at_s": 20.0, "robot": "master", "kind": "dead"}]})
+    obs, _ = env.reset(seed=seed)
+    policy = make_policy("scripted", PolicySpec.from_env(env), seed=seed)
+    while env.agents:
+        obs, *_ = env.step(policy.act_all({a: obs[a] for a in env.active_agents}))
+    ep = env.episode
+    found = [(i, part) for i, n in ep.fleet.nodes.items() for _, part in n.diagnosis.detected]
+    assert found == [], f"found broken, with no sensor fault: {found}"
+    assert ep.swarms[0].fault_handovers == []

@@ -149,6 +149,15 @@ def test_the_long_config_differs_from_the_committed_one_only_where_it_says():
     assert same == base.model_dump()
 
 
+def test_the_validated_config_is_the_long_one_with_a_split_and_early_stopping_only():
+    long, val = load_train_config("configs/train/recurrent_long.yaml"), load_train_config("configs/train/recurrent_val.yaml")
+    r = val.recurrent
+    assert (r.validation_fraction, r.validation_every, r.early_stopping, r.encoder_dropout, r.weight_decay) == (0.2, 25, True, 0.2, 0.0)
+    changed = {"validation_fraction", "validation_every", "early_stopping", "encoder_dropout"}
+    same = {**val.model_dump(), "recurrent": {k: v for k, v in val.model_dump()["recurrent"].items() if k not in changed}}
+    assert same == {**long.model_dump(), "recurrent": {k: v for k, v in long.model_dump()["recurrent"].items() if k not in changed}}
+
+
 def test_a_residual_recurrent_policy_corrects_the_scripted_reference(spec, tmp_path):
     from petswarm.baselines.learned import Residual
     from petswarm.baselines.registry import make_policy

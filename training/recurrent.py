@@ -28,6 +28,13 @@ time grows linearly with it. After every ``recurrent.eval_every_rounds`` rounds 
 evaluated against the scripted reference on the evaluation seeds (:func:`petswarm.training.callbacks.evaluate_and_keep`):
 the best evaluation is ``policy.npz``, the last round's student ``last.npz``.
 
+Generalization inside the fit: with ``recurrent.validation_fraction`` a share of each round's episodes
+(every robot's sequence of them) is never fitted; the loss on them and on as many fitted sequences is
+logged after each round, and with ``validation_every`` also within it (the round's ``curve`` in the
+train log). With ``early_stopping`` a round ends with the weights of its lowest held-out loss (Prechelt
+1998), and the next round's student is that one; ``weight_decay`` (AdamW) and ``encoder_dropout`` are
+the fit's other regularizers. All four are off by default.
+
 With ``residual_of: scripted`` the GRU learns a correction of the scripted reference's action
 (residual policy learning, as training/residual.py, ``residual_scale`` its bound): its targets are
 ``clip((teacher − reference) / residual_scale, −1, 1)``, so the reference's precise holding is where

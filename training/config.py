@@ -122,8 +122,18 @@ class RecurrentConfig(Section):
     building_weight: float = Field(3.0, ge=0, le=1000.0, description="extra loss weight of a building step")
     lost_weight: float = Field(5.0, ge=0, le=1000.0, description="extra loss weight of a step without a fresh IR fix (search, lost)")
     eval_every_rounds: int = Field(1, ge=1, le=1_000_000, description="evaluate (and keep the best as policy.npz) every this many rounds")
-    validation_fraction: float = Field(0.0, ge=0.0, lt=1.0, description="share of each round's sequences held out of the fit: "
-                                                                        "their loss and explained share are logged (0: none)")
+    validation_fraction: float = Field(0.0, ge=0.0, lt=1.0, description="share of each round's episodes whose sequences are held "
+                                                                        "out of the fit: their loss and explained share are logged "
+                                                                        "(0: none)")
+    validation_every: int = Field(0, ge=0, le=1_000_000, description="with validation_fraction: also measure the held-out loss "
+                                                                     "every this many gradient steps within a round, logged as "
+                                                                     "the round's curve (0: after the round only)")
+    early_stopping: bool = Field(False, description="with validation_fraction: each round ends with the weights of the lowest "
+                                                    "held-out loss among the round's measurements (its start and every "
+                                                    "validation_every steps), not the last step's")
+    weight_decay: float = Field(0.0, ge=0.0, le=1.0, description="decoupled weight decay of the fit (AdamW; 0: Adam, as before)")
+    encoder_dropout: float = Field(0.0, ge=0.0, lt=1.0, description="dropout after each encoder layer during the fit (none at "
+                                                                    "validation, evaluation and in the exported policy)")
     target: Literal["action", "estimate"] = Field(
         "action", description="action: the GRU learns the teacher's action (or, with residual_of, its correction); estimate: "
                               "it learns what the teacher reads (offset to the reference point, its velocity, the heading error, "
@@ -132,6 +142,13 @@ class RecurrentConfig(Section):
                                                                    "this (beyond it the teacher's approach runs at full speed)")
     estimate_gain: float = Field(4.0, gt=0, le=1000.0, description="target: estimate: the law's approach gain near the point "
                                                                     "(1/s; the teacher's is 4)")
+
+    @model_validator(mode="after")
+    def _check_validation(self) -> RecurrentConfig:
+        if (self.early_stopping or self.validation_every) and self.validation_fraction == 0.0:
+            raise ValueError("recurrent.early_stopping and recurrent.validation_every need held-out sequences; set "
+                             "recurrent.validation_fraction (e.g. 0.2)")
+        return self
 
 
 class TrainConfig(Section):

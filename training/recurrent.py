@@ -28,6 +28,13 @@ time grows linearly with it. After every ``recurrent.eval_every_rounds`` rounds 
 evaluated against the scripted reference on the evaluation seeds (:func:`petswarm.training.callbacks.evaluate_and_keep`):
 the best evaluation is ``policy.npz``, the last round's student ``last.npz``.
 
+Generalization inside the fit: with ``recurrent.validation_fraction`` a share of each round's episodes
+(every robot's sequence of them) is never fitted; the loss on them and on as many fitted sequences is
+logged after each round, and with ``validation_every`` also within it (the round's ``curve`` in the
+train log). With ``early_stopping`` a round ends with the weights of its lowest held-out loss (Prechelt
+1998), and the next round's student is that one; ``weight_decay`` (AdamW) and ``encoder_dropout`` are
+the fit's other regularizers. All four are off by default.
+
 With ``residual_of: scripted`` the GRU learns a correction of the scripted reference's action
 (residual policy learning, as training/residual.py, ``residual_scale`` its bound): its targets are
 ``clip((teacher − reference) / residual_scale, −1, 1)``, so the reference's precise holding is where
@@ -74,17 +81,19 @@ ALGORITHM_ESTIMATE = "recurrent estimator (GRU) of what the privileged teacher r
 
 class RecurrentActor(torch.nn.Module):
     """Encoder MLP -> GRU -> head MLP on ``[encoding, hidden state]`` -> 3 action means, or with
-    ``outputs`` another count (an estimate: module docstring)."""
+    ``outputs`` another count (an estimate: module docstring). ``dropout`` after each encoder layer
+    acts only in training mode (Srivastava et al. 2014; torch's inverted dropout, so the exported
+    weights need no rescaling)."""
 
     def __init__(self, obs_size: int, encoder: list[int], hidden_size: int, head: list[int], activation: str = "tanh",
-                 outputs: int = 3):
+                 outputs: int = 3, dropout: float = 0.0):
         super().__init__()
         act = torch.nn.Tanh if activation == "tanh" else torch.nn.ReLU
         self.activation = activation
         mods: list[torch.nn.Module] = []
         width = obs_size
         for n in encoder:
-            mods += [torch.nn.Linear(width, n), act()]
+            mods += [torch.nn.Linear(width, n), act()] + ([torch.nn.Dropout(dropout)] if dropout > 0.0 else [])
             width = n
         self.encoder = torch.nn.Sequential(*mods)
         self.gru = torch.nn.GRU(width, hidden_size, batch_first=True)
@@ -116,7 +125,7 @@ def build_actor(cfg: TrainConfig, obs_size: int) -> RecurrentActor:
     first policy is the base itself."""
     r = cfg.recurrent
     outputs = len(OUTPUTS) if r.target == "estimate" else 3
-    actor = RecurrentActor(obs_size, list(r.encoder), r.hidden_size, list(r.head), cfg.ppo.activation, outputs)
+    actor = RecurrentActor(obs_size, list(r.encoder), r.hidden_size, list(r.head), cfg.ppo.activation, outputs, r.encoder_dropout)
     if cfg.residual_of:
         with torch.no_grad():
             actor.head[-1].weight.zero_()
@@ -158,6 +167,7 @@ class Sequence:
     obs: np.ndarray
     act: np.ndarray
     weight: np.ndarray
+    episode: int = 0  # the episode's index in its round's collection (a validation split holds whole episodes out)
 
 
 def collect_sequences(env, samples: int, seed: int, cfg: TrainConfig, driver: RecurrentPolicy | None,
@@ -196,7 +206,7 @@ def collect_sequences(env, samples: int, seed: int, cfg: TrainConfig, driver: Re
         while env.agents:
             live = [a for a in env.agents if infos[a]["active"]]
             for a in [a for a in open_ if a not in live]:  # stopped driving: its sequence is complete
-                out.append(_sequence(open_.pop(a)))
+                out.append(_sequence(open_.pop(a), episode))
             if not live:
                 rows, _, _, _, infos = env.step({})
                 continue
@@ -225,13 +235,22 @@ def collect_sequences(env, samples: int, seed: int, cfg: TrainConfig, driver: Re
                 open_.setdefault(a, []).append((rows[a], learn[a], w))
             counts["samples"] += len(live)
             rows, _, _, _, infos = env.step(noisy)
-        out.extend(_sequence(steps) for steps in open_.values())
+        out.extend(_sequence(steps, episode) for steps in open_.values())
     return out, counts
 
 
-def _sequence(steps: list[tuple[np.ndarray, np.ndarray, float]]) -> Sequence:
+def _sequence(steps: list[tuple[np.ndarray, np.ndarray, float]], episode: int) -> Sequence:
     return Sequence(np.stack([s[0] for s in steps]).astype(np.float32), np.stack([s[1] for s in steps]).astype(np.float32),
-                    np.array([s[2] for s in steps], dtype=np.float32))
+                    np.array([s[2] for s in steps], dtype=np.float32), episode)
+
+
+def split_episodes(seqs: list[Sequence], fraction: float, rng: np.random.Generator) -> tuple[list[Sequence], list[Sequence]]:
+    """(fitted, held out): each episode's sequences go together to the held-out side with probability
+    ``fraction`` — whole episodes, since a robot's neighbours in the same episode (the same user path,
+    the same formation) are not new to a network that fitted them."""
+    episodes = sorted({s.episode for s in seqs})
+    out = {e for e, u in zip(episodes, rng.random(len(episodes))) if u < fraction}
+    return [s for s in seqs if s.episode not in out], [s for s in seqs if s.episode in out]
 
 
 def batch(seqs: list[Sequence]) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
@@ -247,12 +266,35 @@ def batch(seqs: list[Sequence]) -> tuple[torch.Tensor, torch.Tensor, torch.Tenso
 
 
 def fit(actor: RecurrentActor, opt: torch.optim.Optimizer, data: list[Sequence], updates: int, batch_sequences: int,
-        rng: np.random.Generator) -> float:
+        rng: np.random.Generator, held_out: list[Sequence] | None = None, every: int = 0,
+        keep_best: bool = False) -> tuple[float, list[dict[str, float]]]:
     """``updates`` gradient steps of the weighted MSE to the teacher's actions, each on
     ``batch_sequences`` sequences drawn from ``data`` (backpropagation through time over whole
-    sequences); the mean loss of the last tenth of the steps."""
+    sequences). Returns the mean loss of the last tenth of the steps and the round's curve: with
+    ``held_out`` sequences (never fitted), at the start, every ``every`` steps (0: none between) and
+    at the end, the loss of :func:`validation_loss` on them and on as many fitted sequences (the same
+    weights, no dropout: the two are comparable). With ``keep_best`` the actor ends with the weights of
+    the curve's lowest held-out loss (early stopping; Prechelt 1998) and ``kept`` marks that point."""
+    curve: list[dict[str, float]] = []
+    best: tuple[float, dict[str, torch.Tensor]] | None = None
+    if held_out:  # a fixed sample of the fitted sequences, as many as are held out (each check's cost stays that of two sets)
+        seen = [data[i] for i in sorted(np.random.default_rng(len(data)).choice(len(data), min(len(held_out), len(data)),
+                                                                               replace=False))]
+
+    def check(step: int) -> None:
+        nonlocal best
+        val, zero = validation_loss(actor, held_out, batch_sequences)
+        fitted, _ = validation_loss(actor, seen, batch_sequences)
+        curve.append({"update": step, "fit_loss": fitted, "validation_loss": val,
+                      "validation_explained": 1.0 - val / zero if zero > 0 else float("nan")})
+        if keep_best and (best is None or val < best[0]):
+            best = (val, {k: v.detach().clone() for k, v in actor.state_dict().items()})
+
+    if held_out and (every or keep_best):
+        check(0)
     losses = []
-    for _ in range(updates):
+    actor.train()
+    for step in range(1, updates + 1):
         idx = rng.choice(len(data), size=min(batch_sequences, len(data)), replace=False)
         x, y, w = batch([data[i] for i in idx])
         pred, _ = actor(x)
@@ -262,8 +304,15 @@ def fit(actor: RecurrentActor, opt: torch.optim.Optimizer, data: list[Sequence],
         torch.nn.utils.clip_grad_norm_(actor.parameters(), 1.0)
         opt.step()
         losses.append(float(loss.detach()))
+        if held_out and (step == updates or (every and step % every == 0)):
+            check(step)
+    actor.eval()
+    if best is not None:
+        actor.load_state_dict(best[1])
+        kept = min(range(len(curve)), key=lambda i: (curve[i]["validation_loss"], i))
+        curve[kept]["kept"] = 1.0
     tail = losses[-max(1, len(losses) // 10):]
-    return float(sum(tail) / len(tail))
+    return float(sum(tail) / len(tail)), curve
 
 
 def validation_loss(actor: RecurrentActor, data: list[Sequence], batch_sequences: int) -> tuple[float, float]:
@@ -271,6 +320,8 @@ def validation_loss(actor: RecurrentActor, data: list[Sequence], batch_sequences
     output (the base's action, with a residual); ``1 - loss / zero`` is the share of the target the
     actor explains on new episodes."""
     loss = zero = weight = 0.0
+    mode = actor.training
+    actor.eval()  # no dropout
     with torch.no_grad():
         for i in range(0, len(data), batch_sequences):
             x, y, w = batch(data[i:i + batch_sequences])
@@ -278,7 +329,17 @@ def validation_loss(actor: RecurrentActor, data: list[Sequence], batch_sequences
             loss += float((w * ((pred - y) ** 2).sum(-1)).sum())
             zero += float((w * (y ** 2).sum(-1)).sum())
             weight += float(w.gt(0).sum())
+    actor.train(mode)
     return loss / max(weight, 1.0), zero / max(weight, 1.0)
+
+
+def optimizer(cfg: TrainConfig, actor: RecurrentActor) -> torch.optim.Optimizer:
+    """The fit's optimizer: Adam, or with ``recurrent.weight_decay`` AdamW (decoupled weight decay,
+    Loshchilov & Hutter 2019), at round 0's learning rate."""
+    r = cfg.recurrent
+    if r.weight_decay > 0.0:
+        return torch.optim.AdamW(actor.parameters(), lr=r.learning_rate, weight_decay=r.weight_decay)
+    return torch.optim.Adam(actor.parameters(), lr=r.learning_rate)
 
 
 def rounds_for(cfg: TrainConfig) -> int:
@@ -319,9 +380,9 @@ def train(cfg: TrainConfig, out_dir: str | os.PathLike, command: str = "", progr
     r = cfg.recurrent
     env = training_env(env_cfg, cfg.randomize, cfg.env, False)
     actor = build_actor(cfg, layout.size)
-    opt = torch.optim.Adam(actor.parameters(), lr=r.learning_rate)
+    opt = optimizer(cfg, actor)
     data: list[Sequence] = []
-    held_out: list[Sequence] = []  # recurrent.validation_fraction of each round's sequences, never fitted
+    held_out: list[Sequence] = []  # the sequences of recurrent.validation_fraction of each round's episodes, never fitted
     split_rng = np.random.default_rng(cfg.seed + 1)  # its own stream: without a split the run is as before
     rounds = rounds_for(cfg)
     try:
@@ -331,22 +392,22 @@ def train(cfg: TrainConfig, out_dir: str | os.PathLike, command: str = "", progr
             seqs, counts = collect_sequences(env, r.samples_per_round, cfg.seed + 100_000 + 10_000 * k, cfg, driver,
                                              r.teacher_noise_std if k == 0 else r.student_noise_std, r.teacher_mix ** k)
             if r.validation_fraction > 0.0:
-                out_of_fit = split_rng.random(len(seqs)) < r.validation_fraction
-                held_out.extend(s for s, v in zip(seqs, out_of_fit) if v)
-                seqs = [s for s, v in zip(seqs, out_of_fit) if not v]
+                seqs, held = split_episodes(seqs, r.validation_fraction, split_rng)
+                held_out.extend(held)
             data.extend(seqs)
             t1 = time.time()
             for group in opt.param_groups:
                 group["lr"] = round_learning_rate(cfg, k, rounds)
-            loss = fit(actor, opt, data, r.updates_per_round, r.batch_sequences, rng)
+            loss, curve = fit(actor, opt, data, r.updates_per_round, r.batch_sequences, rng, held_out, r.validation_every,
+                              r.early_stopping)
             log["timesteps"] += counts["samples"]
             log["wall_time_s"] = time.time() - log["_start"]
             record = {"round": k, "driver": "teacher" if k == 0 else "student", "beta": r.teacher_mix ** k, "learning_rate": opt.param_groups[0]["lr"], **counts, "sequences": len(data),
                       "loss": loss, "collect_s": round(t1 - t0, 1), "fit_s": round(time.time() - t1, 1)}
-            if held_out:
-                val, zero = validation_loss(actor, held_out, r.batch_sequences)
-                record.update(validation_loss=val, validation_explained=1.0 - val / zero if zero > 0 else float("nan"),
-                              validation_sequences=len(held_out))
+            if held_out:  # the round's end (with early_stopping, the kept weights')
+                end = next((c for c in curve if c.get("kept")), curve[-1])
+                record.update(validation_loss=end["validation_loss"], validation_explained=end["validation_explained"],
+                              fit_loss=end["fit_loss"], validation_sequences=len(held_out), curve=curve)
             log["rounds"].append(record)
             info = policy_info(cfg, log, ALGORITHM if r.target == "action" else ALGORITHM_ESTIMATE)
             export_actor(actor, out / LAST_POLICY, layout, info, cfg.residual(), estimator)
@@ -361,8 +422,10 @@ def train(cfg: TrainConfig, out_dir: str | os.PathLike, command: str = "", progr
             if progress:
                 ev = log["evaluations"][-1] if log["evaluations"] and log["evaluations"][-1].get("round") == k else None
                 progress(f"round {k + 1}/{rounds} ({record['driver']} drove): {log['timesteps']} samples, loss {loss:.4f}"
-                         + (f", held-out loss {record['validation_loss']:.4f} (explained {record['validation_explained']:+.2f})"
-                            if held_out else "")
+                         + (f", fitted/held-out loss {record['fit_loss']:.4f}/{record['validation_loss']:.4f} (explained "
+                            f"{record['validation_explained']:+.2f}"
+                            + (f", kept step {next(c['update'] for c in curve if c.get('kept'))}" if r.early_stopping else "")
+                            + ")" if held_out else "")
                          + (f", eval median {cfg.eval.metric} ratio {ev['median_ratio']:.2f} (not built {ev['not_built']})" if ev else "")
                          + f", {log['wall_time_s']:.0f} s")
     finally:

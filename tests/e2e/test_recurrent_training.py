@@ -62,10 +62,16 @@ def test_a_recurrent_run_is_not_resumed_nor_overwritten(run):
 
 def test_a_validation_split_is_held_out_of_the_fit_and_logged(tmp_path):
     out = tmp_path / "val"
-    short = [s for s in SHORT if not s.startswith("recurrent.samples_per_round")] + [
-        "recurrent.samples_per_round=600", "recurrent.validation_fraction=0.5"]
-    assert train_command("configs/train/recurrent.yaml", short, 1200, str(out), False, False, "") == 0
-    rounds = json.loads((out / "train_log.json").read_text())["rounds"]
+    short = [s for s in SHORT if not s.startswith(("recurrent.samples_per_round", "recurrent.updates_per_round"))] + [
+        "recurrent.samples_per_round=600", "recurrent.updates_per_round=4", "recurrent.validation_fraction=0.5",
+        "recurrent.validation_every=2", "recurrent.early_stopping=true"]
+    assert train_command("configs/train/recurrent.yaml", short, 1800, str(out), False, False, "") == 0
+    rounds = [r for r in json.loads((out / "train_log.json").read_text())["rounds"] if "validation_sequences" in r]
     held = [r["validation_sequences"] for r in rounds]
-    assert 0 < held[0] <= held[-1] and all(r["sequences"] + r["validation_sequences"] > r["sequences"] for r in rounds)
+    assert held and 0 < held[0] <= held[-1] and all(r["sequences"] + r["validation_sequences"] > r["sequences"] for r in rounds)
     assert all(np.isfinite(r["validation_loss"]) and r["validation_explained"] <= 1.0 for r in rounds)
+    for r in rounds:  # the round's curve: its start, every 2 steps, its end; the kept point is the lowest held-out loss
+        assert [c["update"] for c in r["curve"]] == [0, 2, 4]
+        kept = [c for c in r["curve"] if c.get("kept")]
+        assert len(kept) == 1 and kept[0]["validation_loss"] == min(c["validation_loss"] for c in r["curve"])
+        assert r["validation_loss"] == kept[0]["validation_loss"] and np.isfinite(r["fit_loss"])

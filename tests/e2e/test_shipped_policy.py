@@ -26,7 +26,8 @@ def test_shipped_policy_records_how_it_was_trained():
     committed = load_train_config("configs/train/recurrent_long.yaml").model_dump(mode="json")
     trained = yaml.safe_load(yaml.safe_dump(meta["info"]["train_config"]))
     added = set(committed["recurrent"]) - set(trained["recurrent"])
-    defaults = {"validation_fraction": 0.0, "target": "action", "estimate_clip_m": 1.5, "estimate_gain": 4.0}
+    defaults = {"validation_fraction": 0.0, "target": "action", "estimate_clip_m": 1.5, "estimate_gain": 4.0,
+                "validation_every": 0, "early_stopping": False, "weight_decay": 0.0, "encoder_dropout": 0.0}
     assert added <= set(defaults) and all(committed["recurrent"][k] == defaults[k] for k in added)
     assert trained == {**committed, "recurrent": {k: v for k, v in committed["recurrent"].items() if k not in added}}
 

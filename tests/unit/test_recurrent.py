@@ -149,6 +149,15 @@ def test_the_long_config_differs_from_the_committed_one_only_where_it_says():
     assert same == base.model_dump()
 
 
+def test_the_validated_config_is_the_long_one_with_a_split_and_early_stopping_only():
+    long, val = load_train_config("configs/train/recurrent_long.yaml"), load_train_config("configs/train/recurrent_val.yaml")
+    r = val.recurrent
+    assert (r.validation_fraction, r.validation_every, r.early_stopping, r.encoder_dropout, r.weight_decay) == (0.2, 25, True, 0.2, 0.0)
+    changed = {"validation_fraction", "validation_every", "early_stopping", "encoder_dropout"}
+    same = {**val.model_dump(), "recurrent": {k: v for k, v in val.model_dump()["recurrent"].items() if k not in changed}}
+    assert same == {**long.model_dump(), "recurrent": {k: v for k, v in long.model_dump()["recurrent"].items() if k not in changed}}
+
+
 def test_a_residual_recurrent_policy_corrects_the_scripted_reference(spec, tmp_path):
     from petswarm.baselines.learned import Residual
     from petswarm.baselines.registry import make_policy
@@ -210,3 +219,72 @@ def test_the_validation_loss_of_a_zero_output_explains_nothing(spec):
     assert loss == pytest.approx(zero) and zero > 0
     y = np.concatenate([s.act for s in seqs]); w = np.concatenate([s.weight for s in seqs])
     assert zero == pytest.approx(float((w * (y ** 2).sum(1)).sum() / len(w)), rel=1e-5)
+
+
+def _random_sequences(spec, lengths, seed):
+    from petswarm.training.recurrent import Sequence
+
+    rng = np.random.default_rng(seed)
+    return [Sequence(rng.uniform(-1, 1, (n, spec.layout.size)).astype(np.float32), rng.uniform(-1, 1, (n, 3)).astype(np.float32),
+                     np.ones(n, np.float32), e) for e, n in enumerate(lengths)]
+
+
+def test_early_stopping_keeps_the_weights_of_the_lowest_held_out_loss(spec):
+    from petswarm.training.recurrent import fit, validation_loss
+
+    # noise targets: what the fit learns of 6 sequences does not carry to 6 others, so the held-out loss rises
+    data, held = _random_sequences(spec, [30] * 6, 1), _random_sequences(spec, [30] * 6, 2)
+    for keep in (False, True):
+        actor = _actor(spec, seed=3)
+        opt = torch.optim.Adam(actor.parameters(), lr=3e-3)
+        loss, curve = fit(actor, opt, data, 60, 4, np.random.default_rng(0), held, every=10, keep_best=keep)
+        assert [c["update"] for c in curve] == [0, 10, 20, 30, 40, 50, 60]
+        assert curve[-1]["fit_loss"] < curve[0]["fit_loss"] and np.isfinite(loss)  # the fit learns its own sequences
+        end, _ = validation_loss(actor, held, 4)
+        best = min(c["validation_loss"] for c in curve)
+        assert best < curve[-1]["validation_loss"]  # the check is not vacuous: the last step is not the best
+        if keep:
+            assert end == pytest.approx(best, rel=1e-5) and sum(c.get("kept", 0) for c in curve) == 1
+        else:
+            assert end == pytest.approx(curve[-1]["validation_loss"], rel=1e-5) and not any("kept" in c for c in curve)
+
+
+def test_encoder_dropout_acts_in_the_fit_only_and_the_export_equals_the_actor(spec):
+    torch.manual_seed(0)
+    actor = RecurrentActor(spec.layout.size, [32], 12, [16], dropout=0.5)
+    x = torch.as_tensor(np.random.default_rng(4).uniform(-1, 1, (1, 20, spec.layout.size)), dtype=torch.float32)
+    actor.train()
+    with torch.no_grad():
+        assert not torch.allclose(actor(x)[0], actor(x)[0])  # two draws of the mask
+    actor.eval()
+    policy = numpy_policy(actor, spec)
+    policy.reset(0)
+    got = np.stack([policy.act_all({"robot_1": x[0, t].numpy()})["robot_1"] for t in range(20)])
+    assert np.abs(got - _torch_actions(actor, x[0].numpy())).max() < 1e-5
+
+
+def test_weight_decay_and_early_stopping_are_opt_in_and_checked():
+    from petswarm.training.recurrent import optimizer
+
+    base = load_train_config("configs/train/recurrent_long.yaml")
+    r = base.recurrent
+    assert (r.validation_every, r.early_stopping, r.weight_decay, r.encoder_dropout) == (0, False, 0.0, 0.0)
+    actor = RecurrentActor(10, [8], 4, [4])
+    assert type(optimizer(base, actor)) is torch.optim.Adam
+    decayed = base.model_copy(update={"recurrent": r.model_copy(update={"weight_decay": 0.01})})
+    opt = optimizer(decayed, actor)
+    assert isinstance(opt, torch.optim.AdamW) and opt.param_groups[0]["weight_decay"] == 0.01
+    with pytest.raises(ConfigError, match="validation_fraction"):
+        load_train_config("configs/train/recurrent_long.yaml", {"recurrent.early_stopping": True})
+
+
+def test_a_validation_split_holds_whole_episodes_out(spec):
+    from petswarm.training.recurrent import split_episodes
+
+    seqs = _random_sequences(spec, [5] * 40, 0)
+    for i, s in enumerate(seqs):
+        s.episode = i // 4  # 10 episodes of 4 robots' sequences
+    fitted, held = split_episodes(seqs, 0.4, np.random.default_rng(1))
+    assert len(fitted) + len(held) == 40 and fitted and held
+    assert not {s.episode for s in fitted} & {s.episode for s in held}
+    assert len(held) % 4 == 0  # every sequence of a held-out episode

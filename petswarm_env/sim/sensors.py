@@ -272,9 +272,10 @@ def _readings(d: cython.double[:, ::1], rims: cython.double[::1], normals: Norma
 
 class Sensors:
     """The sensors of every robot of a world as the env reads them, from the env's sensor stream:
-    :meth:`read_rings` after every advance of the world (all robots in one cast and one noise
-    draw), :meth:`odometry` for one robot (three draws, or ones drawn already by
-    :meth:`odometry_noise` for many robots at once). The AHRS is per robot (``robot.ahrs``).
+    :meth:`read_rings` after every advance of the world (all robots in one cast, their noise the
+    stream's next draws), :meth:`odometry` for one robot (three draws, or ones drawn already by
+    :meth:`odometry_noise` for many robots at once); every draw through :class:`NormalStream`.
+    The AHRS is per robot (``robot.ahrs``).
 
     Heterogeneous bodies (seed 001's middle layer, :mod:`petswarm_env.middle_layer`): each robot
     reads its own DISTANCE sensors (its type's angles and radii; one cast and one noise draw per
@@ -403,8 +404,8 @@ class Sensors:
             [0.0 if (k % self.ring.count) + 1 in off else 1.0 for k in range(2 * self.ring.count)]
 
     def odometry_noise(self, n: int) -> list[list[float]] | None:
-        """The relative odometry errors of ``n`` readings in one draw, (n, 3) (the same numbers as
-        ``n`` draws of 3); None when the odometry is noiseless."""
+        """The relative odometry errors of ``n`` readings, (n, 3): the stream's next 3·n draws (the
+        same numbers as ``n`` draws of 3); None when the odometry is noiseless."""
         k = self.odometry_noise_rel
         if k <= 0:
             return None

@@ -20,11 +20,15 @@ It reads only the observation, like a learned policy. Per step:
    neighbour gives a target: (1b) the master in IR sight — our reference location from the
    master's fix turned by an anchor member's (the observation's ``anchor.*``: another member seen,
    standing at its slot's distance from the master), or, with no anchor, orbit the master at our
-   reference's distance (odd members counter-clockwise) until one shows; the correction's speed is
-   capped at ``approach_mps``; (1c) nobody in sight but the master's status heard — back toward the
-   master's last fix at ``rejoin_mps`` relative to the swarm (the swarm walked out of our IR's
-   reach); (1d) nobody ever seen (the user or a robot between us and the swarm) — circle the
-   nearest ultrasonic echo at ``search_mps``;
+   reference's distance, at most ``orbit_max_m`` (2.2 m: the IR's detection fades at 2.4-2.8 m, seed
+   000 Table 4 as calibrated; chosen), until one shows (odd members counter-clockwise); the correction's
+   speed is capped at ``approach_mps``. Orbiting a rear slot's distance (up to 4.3 m in 1 + 16) took
+   the slave out of the master's IR reach: its fix went stale, step 1c drove it back, 1b out again,
+   and no anchor came while it see-sawed 3-4 m out (1 + 16, seed 40: 6-7 m off its slot for 25 s);
+   (1c) nobody in sight but the master's status heard — back toward the master's last fix at
+   ``rejoin_mps`` relative to the swarm (the swarm walked out of our IR's reach); (1d) nobody ever
+   seen (the user or a robot between us and the swarm) — circle the nearest ultrasonic echo at
+   ``search_mps``;
 2. revise ``Vx, Vy`` with the master's broadcast driving speed (feed-forward that compensates the
    update delay of the sequential IR ring). Chosen reading of "driving speed": the velocity the
    master's motion gives the reference location — the master's translation plus its rotation ω
@@ -33,7 +37,11 @@ It reads only the observation, like a learned policy. Per step:
 3. estimate the twisted heading Δθ = θ_neighbour − θ_self from the heading exchange and correct
    it with ω until it is inside the error band. Chosen: only an exchange within the observation's
    age range (2 s) counts; Δθ is the mean over those, and a link without one places its step-1
-   target by that mean. An older one is carried over our own rotation only, and the neighbour may
+   target by that mean. With none, Δθ is the rotation of the formation frame into ours that the
+   master's fix and an anchor's give (step 1b's two fixes; the formation frame is the master's
+   heading, and the neighbours stand about in it), else 0 (chosen: a slave whose neighbours had not
+   exchanged headings with it since a renumbering stood 120° off for 25 s and placed its targets
+   turned by as much). An older one is carried over our own rotation only, and the neighbour may
    have turned any amount since (while building, a whole row turns): averaged with a fresh one it
    cancelled it, and a slave stood 80-90° off its neighbours, its targets turned with it (1 + 16,
    seeds 0-19: built 15 → 19 of 20);
@@ -93,6 +101,8 @@ class LeaderFollowerPolicy(Policy):
         orbit_mps: float = 0.8,
         rejoin_mps: float = 0.5,
         search_mps: float = 0.5,
+        orbit_max_m: float = 2.2,
+        anchor_heading: bool = True,
     ):
         super().__init__(spec)
         self.kp = position_gain
@@ -106,6 +116,8 @@ class LeaderFollowerPolicy(Policy):
         self.anchor_tol = anchor_tolerance_m  # an anchor this close to its slot's distance from the master places ours
         self.orbit = orbit_mps  # step 1b: the master seen, no member: orbit it at this speed
         self.search = search_mps  # step 1d: nothing in IR sight, circle the nearest echo at this speed
+        self.orbit_max = orbit_max_m  # step 1b: the master seen, no member: orbit it no farther out than this
+        self.anchor_heading = anchor_heading  # step 3: no fresh heading exchange: Δθ from the master's and an anchor's fix
         self.rejoin = rejoin_mps  # step 1c: lost, toward the master's last fix at this speed (relative to the swarm)
         st = {name: sl.start for name, sl in spec.layout.slices.items()}
         self._links = [
@@ -180,7 +192,29 @@ class LeaderFollowerPolicy(Policy):
                 dth = math.atan2(o[sincos], o[sincos + 1]) + mv2 * o[h_age] * AGE_SCALE_S
                 dthetas.append(dth)
             links.append((dth, ir_valid, ir_age, nb_xy, off_xy))
-        dth_mean = sum(dthetas, 0.0) / len(dthetas) if dthetas else 0.0
+        # the master's fix and an anchor's (another member seen, standing at its slot's distance from
+        # the master): the rotation ``phi`` that carries the formation frame into ours (steps 1b and 3)
+        master_fix, phi = None, None
+        if o[self._j_mir_valid] > 0.5 and o[self._j_mir_age] < 1.0:
+            j = self._j_mir_xy
+            age = s[self._j_mir_age]
+            mx, my = s[j] - odo_x * age, s[j + 1] - odo_y * age
+            master_fix = (mx, my)
+            j = self._j_anchor
+            if o[j] > 0.5 and o[j + 3] < 1.0:
+                age = s[j + 3]
+                kx, ky = s[j + 1] - odo_x * age - mx, s[j + 2] - odo_y * age - my
+                ax_, ay_ = s[j + 4], s[j + 5]
+                if abs(math.hypot(kx, ky) - math.hypot(ax_, ay_)) < self.anchor_tol:
+                    phi = math.atan2(ky, kx) - math.atan2(ay_, ax_)
+        if dthetas:
+            dth_mean = sum(dthetas, 0.0) / len(dthetas)
+        elif phi is not None and self.anchor_heading and not any(o[v] > 0.5 and o[a] < 1.0 for _, v, a, _, _ in links):
+            # no heading exchange within the age range: the formation frame's rotation is θ_master − θ_self,
+            # and the neighbours stand (about) in the master's heading
+            dth_mean = math.atan2(math.sin(phi), math.cos(phi))
+        else:
+            dth_mean = 0.0
         for dth, ir_valid, ir_age, nb_xy, off_xy in links:
             if dth is None:
                 dth = dth_mean
@@ -232,26 +266,18 @@ class LeaderFollowerPolicy(Policy):
                         dx, dy = -ux / norm, -uy / norm
                     tx, ty = ux + dx * self.user_keep_out, uy + dy * self.user_keep_out
             vx, vy = vx + self.kp * tx, vy + self.kp * ty
-        elif o[self._j_mir_valid] > 0.5 and o[self._j_mir_age] < 1.0:
+        elif master_fix is not None:
             # step 1b, building (no reference neighbour in sight: a scattered start): our reference
-            # location from the master's fix and an anchor's (another member seen, standing at its
-            # slot's distance from the master): the two fixes turn the formation frame into ours;
-            # with the master alone, orbit it at our reference's distance until a member shows up
-            j = self._j_mir_xy
-            age = s[self._j_mir_age]
-            mx, my = s[j] - odo_x * age, s[j + 1] - odo_y * age
+            # location from the master's fix and an anchor's: the two fixes turn the formation frame
+            # into ours (``phi``); with the master alone, orbit it at our reference's distance (within
+            # the IR's reach) until a member shows up
+            mx, my = master_fix
             goal = None
-            j = self._j_anchor
-            if o[j] > 0.5 and o[j + 3] < 1.0:
-                age = s[j + 3]
-                kx, ky = s[j + 1] - odo_x * age - mx, s[j + 2] - odo_y * age - my
-                ax_, ay_ = s[j + 4], s[j + 5]
-                if abs(math.hypot(kx, ky) - math.hypot(ax_, ay_)) < self.anchor_tol:
-                    phi = math.atan2(ky, kx) - math.atan2(ay_, ax_)
-                    c_, s_ = math.cos(phi), math.sin(phi)
-                    goal = (mx + c_ * refx - s_ * refy, my + s_ * refx + c_ * refy)
+            if phi is not None:
+                c_, s_ = math.cos(phi), math.sin(phi)
+                goal = (mx + c_ * refx - s_ * refy, my + s_ * refx + c_ * refy)
             if goal is None:
-                dist, reach = max(math.hypot(mx, my), 1e-9), math.hypot(refx, refy)
+                dist, reach = max(math.hypot(mx, my), 1e-9), min(math.hypot(refx, refy), self.orbit_max)
                 goal = (mx * (1.0 - reach / dist), my * (1.0 - reach / dist))
                 turn = self.orbit if o[self._j_member] * 16.0 % 2.0 > 0.5 else -self.orbit  # odd members counter-clockwise
                 vx, vy = vx + turn * my / dist, vy - turn * mx / dist

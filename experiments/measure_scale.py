@@ -18,7 +18,14 @@ zigzag, 60 s) with the scripted reference. Per case it prints:
 * ``stale``: the mean slave-seconds per episode without a fresh IR fix of a reference neighbour;
 * ``astray``: members the master removed as astray (``middleware/recovery.py``: its RSSI range of
   them beyond their slot's distance plus a margin, no IR fix of them, for 3 s), summed over the
-  episodes: each renumbers the swarm, and its formation is re-built.
+  episodes: each renumbers the swarm, and its formation is re-built;
+* ``full``: episodes built with every slave still in the swarm (a member removed as astray or lost
+  leaves a smaller formation to build, which counts as built too);
+* ``standing``: episodes built before their user walked off (the user stands until the formation is
+  built, ``user.formation_wait_s`` at most, petswarm_env/episode.py); of the others, ``off@walk``: the
+  mean number of slaves farther than 0.3 m from their reference point when the user walked off, and
+  ``worst@walk_m``: the mean of the largest such error (one straggler far off, or many slaves just
+  short).
 
 ``--set KEY=VALUE`` overrides any config key (``--set swarm.formation=column``).
 """
@@ -36,6 +43,7 @@ from petswarm.baselines.policy import PolicySpec
 from petswarm.baselines.registry import make_policy
 from petswarm.experiments.measure_succession import parse_seeds
 from petswarm_env.config import parse_override
+from petswarm_env.metrics import BUILT_WITHIN_M
 from petswarm_env.middleware import messages as msg
 
 
@@ -74,8 +82,18 @@ def episode(slaves: int, loss: float, seed: int, overrides: dict[str, Any]) -> d
     before = (st.receptions, st.frames_collided)
     policy = make_policy("scripted", PolicySpec.from_env(env), seed=seed)
     policy.reset(seed)
+    walk_s, off_at_walk, worst_at_walk = math.nan, 0, 0.0
+    built_with = 0  # how many slaves the swarm had when its formation was built
     while env.agents:
         obs, _, terms, truncs, _ = env.step(policy.act_all({a: obs[a] for a in env.agents}))
+        if not built_with and math.isfinite(ep.metrics.building_time_s):
+            built_with = len(ep.swarms[0].slave_ids())
+        if math.isnan(walk_s) and any(se.user.walking for se in ep.sessions):
+            # the user walks off (the formation built, or user.formation_wait_s over): who is still off
+            walk_s = ep.world.now - organized_s
+            errors, _ = ep.experimenter.formation_errors(list(env.agents))
+            off_at_walk = sum(e > BUILT_WITHIN_M for e in errors.values())
+            worst_at_walk = max(errors.values(), default=0.0)
         if all(terms.values()) or all(truncs.values()):
             break
     s = env.episode_summary()
@@ -89,6 +107,8 @@ def episode(slaves: int, loss: float, seed: int, overrides: dict[str, Any]) -> d
         "collided": collided / receptions if receptions else math.nan,
         "stale_fix_s": s["stale_fix_s"],
         "astray": sum(len(node.recovery.astray) for node in ep.fleet.nodes.values()),
+        "walk_s": walk_s, "off_at_walk": off_at_walk, "worst_at_walk_m": worst_at_walk,
+        "built_full": bool(built_with) and built_with == slaves,
     }
 
 
@@ -99,12 +119,16 @@ def summarize(rows: list[dict[str, Any]]) -> dict[str, Any]:
 
     ran = [r for r in rows if r["organized"]]
     built = [r for r in ran if math.isfinite(r["building_time_s"])]
+    standing = [r for r in built if r["building_time_s"] <= r["walk_s"] + 1e-9]
+    missed = [r for r in ran if r not in standing]
     return {
         "episodes": len(rows), "joined": sum(r["joined"] for r in rows), "built": len(built),
         "building_s": mean("building_time_s", built), "hold_rmse_m": mean("hold_rmse_m", built),
         "rmse_m": mean("rmse_m", ran), "contacts": sum(r["contacts"] for r in ran),
         "round_s": mean("round_s", ran), "collided": mean("collided", ran), "stale_fix_s": mean("stale_fix_s", ran),
         "astray": sum(r["astray"] for r in ran),
+        "standing": len(standing), "full": sum(r.get("built_full", False) for r in built),
+        "off_at_walk": mean("off_at_walk", missed), "worst_at_walk_m": mean("worst_at_walk_m", missed),
     }
 
 
@@ -119,7 +143,8 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     overrides = dict(parse_override(item) for item in args.set)
     seeds = parse_seeds(args.seeds)
-    print("slaves  loss  episodes  joined  built  building_s  hold_m  rmse_m  contacts  round_s  collided  stale_s  astray")
+    print("slaves  loss  episodes  joined  built  full  standing  building_s  hold_m  rmse_m  contacts  round_s  collided  stale_s  astray"
+          "  off@walk  worst@walk_m")
     for slaves in args.slaves:
         for loss in args.loss:
             rows = []
@@ -128,9 +153,10 @@ def main(argv: list[str] | None = None) -> int:
                 if args.verbose:
                     print("   ", rows[-1], flush=True)
             s = summarize(rows)
-            print(f"{slaves:6d} {loss:5.2f} {s['episodes']:9d} {s['joined']:7d} {s['built']:6d} {s['building_s']:11.1f} "
-                  f"{s['hold_rmse_m']:7.3f} {s['rmse_m']:7.3f} {s['contacts']:9d} {s['round_s']:8.2f} "
-                  f"{100 * s['collided']:8.1f}% {s['stale_fix_s']:8.1f} {s['astray']:7d}", flush=True)
+            print(f"{slaves:6d} {loss:5.2f} {s['episodes']:9d} {s['joined']:7d} {s['built']:6d} {s['full']:5d} {s['standing']:9d} "
+                  f"{s['building_s']:11.1f} {s['hold_rmse_m']:7.3f} {s['rmse_m']:7.3f} {s['contacts']:9d} {s['round_s']:8.2f} "
+                  f"{100 * s['collided']:8.1f}% {s['stale_fix_s']:8.1f} {s['astray']:7d} {s['off_at_walk']:9.1f} "
+                  f"{s['worst_at_walk_m']:13.2f}", flush=True)
     return 0
 
 

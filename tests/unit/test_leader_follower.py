@@ -29,7 +29,25 @@ def numpy_act(p: LeaderFollowerPolicy, obs: np.ndarray) -> np.ndarray:
         if obs[sl[q + "heading_valid"]][0] > 0.5 and obs[sl[q + "heading_age"]][0] < 1.0:
             own[k] = math.atan2(s, c) + mv[2] * obs[sl[q + "heading_age"]][0] * AGE_SCALE_S
             dthetas.append(own[k])
-    mean_dth = float(np.mean(dthetas)) if dthetas else 0.0
+    # the master's fix and an anchor's: the formation frame's rotation into ours (steps 1b and 3)
+    m, phi = None, None
+    if obs[sl["master.ir_valid"]][0] > 0.5 and obs[sl["master.ir_age"]][0] < 1.0:
+        age = obs[sl["master.ir_age"]][0] * AGE_SCALE_S
+        m = obs[sl["master.ir_xy"]] * POS_SCALE_M - odo[:2] * age
+        if obs[sl["anchor.ir_valid"]][0] > 0.5 and obs[sl["anchor.ir_age"]][0] < 1.0:
+            age = obs[sl["anchor.ir_age"]][0] * AGE_SCALE_S
+            k = obs[sl["anchor.ir_xy"]] * POS_SCALE_M - odo[:2] * age - m
+            a = obs[sl["anchor.slot_xy"]] * POS_SCALE_M
+            if abs(math.hypot(*k) - math.hypot(*a)) < p.anchor_tol:
+                phi = math.atan2(k[1], k[0]) - math.atan2(a[1], a[0])
+    if dthetas:
+        mean_dth = float(np.mean(dthetas))
+    elif phi is not None and p.anchor_heading and not any(
+            obs[sl[f"link{k}.present"]][0] > 0.5 and obs[sl[f"link{k}.ir_valid"]][0] > 0.5 and obs[sl[f"link{k}.ir_age"]][0] < 1.0
+            for k in range(2)):
+        mean_dth = math.atan2(math.sin(phi), math.cos(phi))
+    else:
+        mean_dth = 0.0
     for k in range(2):
         q = f"link{k}."
         if obs[sl[q + "present"]][0] < 0.5:
@@ -62,20 +80,13 @@ def numpy_act(p: LeaderFollowerPolicy, obs: np.ndarray) -> np.ndarray:
             if gap < p.user_keep_out:
                 target = user + (away / gap if gap > 1e-6 else -user / max(float(np.hypot(*user)), 1e-6)) * p.user_keep_out
         v = v + p.kp * target
-    elif obs[sl["master.ir_valid"]][0] > 0.5 and obs[sl["master.ir_age"]][0] < 1.0:  # step 1b, building
-        age = obs[sl["master.ir_age"]][0] * AGE_SCALE_S
-        m = obs[sl["master.ir_xy"]] * POS_SCALE_M - odo[:2] * age
+    elif m is not None:  # step 1b, building
         goal = None
-        if obs[sl["anchor.ir_valid"]][0] > 0.5 and obs[sl["anchor.ir_age"]][0] < 1.0:
-            age = obs[sl["anchor.ir_age"]][0] * AGE_SCALE_S
-            k = obs[sl["anchor.ir_xy"]] * POS_SCALE_M - odo[:2] * age - m
-            a = obs[sl["anchor.slot_xy"]] * POS_SCALE_M
-            if abs(math.hypot(*k) - math.hypot(*a)) < p.anchor_tol:
-                phi = math.atan2(k[1], k[0]) - math.atan2(a[1], a[0])
-                c, s = np.float64(math.cos(phi)), np.float64(math.sin(phi))
-                goal = np.array([m[0] + c * ref[0] - s * ref[1], m[1] + s * ref[0] + c * ref[1]])
+        if phi is not None:
+            c, s = np.float64(math.cos(phi)), np.float64(math.sin(phi))
+            goal = np.array([m[0] + c * ref[0] - s * ref[1], m[1] + s * ref[0] + c * ref[1]])
         if goal is None:
-            dist, reach = max(math.hypot(*m), 1e-9), math.hypot(*ref)
+            dist, reach = max(math.hypot(*m), 1e-9), min(math.hypot(*ref), p.orbit_max)
             goal = m * (1.0 - reach / dist)
             turn = p.orbit if obs[sl["self.member"]][0] * 16.0 % 2.0 > 0.5 else -p.orbit
             v = v + np.array([turn * float(m[1]) / dist, -(turn * float(m[0])) / dist])
@@ -198,3 +209,62 @@ def test_a_stale_heading_does_not_cancel_a_fresh_one():
     want = np.clip(np.array([policy.kp * tx, policy.kp * ty]) / policy.spec.max_speed_mps, -1, 1)
     assert act[:2] == pytest.approx(want, abs=1e-5)
     assert act.tobytes() == numpy_act(policy, obs).tobytes()
+
+
+def _building_obs(policy: LeaderFollowerPolicy) -> np.ndarray:
+    """A slave with no reference neighbour in sight and the master's status heard (step 1b's case)."""
+    sl = policy.spec.layout.slices
+    obs = np.zeros(policy.spec.layout.size, np.float32)
+    obs[sl["self.ultrasonic"]] = 1.0
+    obs[sl["master.valid"]] = 1.0
+    obs[sl["master.ir_valid"]] = 1.0
+    obs[sl["master.ir_age"]] = 0.1
+    return obs
+
+
+def test_orbit_stays_within_the_ir_reach():
+    """Step 1b without an anchor: a slave 3 m from the master whose slot lies 4.3 m from it orbits
+    within the IR's reach (``orbit_max_m``), so it closes in on the master instead of driving out
+    to where the master's IR no longer reaches it; a slot nearer than that is orbited at its distance."""
+    env = petswarm_env.parallel_env(**{"swarm.num_slaves": 16})
+    policy = LeaderFollowerPolicy(PolicySpec.from_env(env))
+    sl = policy.spec.layout.slices
+    obs = _building_obs(policy)
+    obs[sl["master.ir_xy"]] = (3.0 / POS_SCALE_M, 0.0)  # the master 3 m ahead
+    obs[sl["self.offset_from_master_xy"]] = (-4.33 / POS_SCALE_M, 0.5 / POS_SCALE_M)
+    inward = policy.act("robot_1", obs)[0]
+    assert inward > 0.1  # toward the master, to orbit at 2.2 m
+    far = LeaderFollowerPolicy(PolicySpec.from_env(env), orbit_max_m=math.inf).act("robot_1", obs)[0]
+    assert far < -0.1  # out to the slot's distance, beyond the IR's reach
+    obs[sl["self.offset_from_master_xy"]] = (-1.73 / POS_SCALE_M, 1.0 / POS_SCALE_M)  # a slot 2 m from the master
+    assert policy.act("robot_1", obs).tobytes() == \
+        LeaderFollowerPolicy(PolicySpec.from_env(env), orbit_max_m=math.inf).act("robot_1", obs).tobytes()
+    assert policy.act("robot_1", obs).tobytes() == numpy_act(policy, obs).tobytes()
+
+
+@pytest.mark.parametrize("phi", [0.8, -2.5])
+def test_heading_from_the_master_and_an_anchor(phi):
+    """Step 3 with no heading exchange within the age range: the master's fix and an anchor's (a
+    member standing at its slot's distance from the master) give the rotation of the formation frame
+    into ours, θ_master − θ_self; the slave turns by it (and not at all without the anchor)."""
+    env = petswarm_env.parallel_env(**{"swarm.num_slaves": 9})
+    policy = LeaderFollowerPolicy(PolicySpec.from_env(env))
+    sl = policy.spec.layout.slices
+    obs = _building_obs(policy)
+    c, s = math.cos(phi), math.sin(phi)
+    master = np.array([1.5, 0.5])
+    slot = np.array([-0.87, 0.5])  # the anchor's slot relative to the master, formation frame
+    anchor = master + np.array([c * slot[0] - s * slot[1], s * slot[0] + c * slot[1]])
+    obs[sl["master.ir_xy"]] = master / POS_SCALE_M
+    obs[sl["anchor.ir_valid"]] = 1.0
+    obs[sl["anchor.ir_xy"]] = anchor / POS_SCALE_M
+    obs[sl["anchor.ir_age"]] = 0.1
+    obs[sl["anchor.slot_xy"]] = slot / POS_SCALE_M
+    obs[sl["self.offset_from_master_xy"]] = (-0.87 / POS_SCALE_M, -0.5 / POS_SCALE_M)
+    act = policy.act("robot_1", obs)
+    want = float(np.clip(policy.kh * phi / policy.spec.max_omega_rps, -1.0, 1.0))
+    assert act[2] == pytest.approx(want, abs=1e-4)
+    assert act.tobytes() == numpy_act(policy, obs).tobytes()
+    assert LeaderFollowerPolicy(PolicySpec.from_env(env), anchor_heading=False).act("robot_1", obs)[2] == 0.0
+    obs[sl["anchor.ir_valid"]] = 0.0
+    assert policy.act("robot_1", obs)[2] == 0.0

@@ -229,7 +229,8 @@ class Diagnosis:
         me = self.node_id
         know = None
         t0: cython.double
-        for src, start in ring.slot_starts.items():
+        starts: dict = ring.slot_starts
+        for src, start in starts.items():
             t0 = start
             if now_s - t0 < over:
                 continue  # not over yet
@@ -239,10 +240,12 @@ class Diagnosis:
             seen[src] = start
             if know is None:
                 know = self._know_of()
-            fix = know.ir.get(src)
+            fixes: dict = know.ir
+            ranges_m: dict = ring.slot_range_m
+            fix = fixes.get(src)
             if fix is not None and fix.time_s >= t0:
                 self._ir_hit()
-            elif ring.slot_range_m.get(src, math.inf) <= IR_EXPECT_RANGE_M and src in know.members.values():
+            elif ranges_m.get(src, math.inf) <= IR_EXPECT_RANGE_M and src in know.members.values():
                 self._ir_missed(now_s, src)
 
     @cython.cfunc

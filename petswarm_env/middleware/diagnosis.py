@@ -48,6 +48,7 @@ typed attributes, its checks C functions (not replaceable from Python).
 from __future__ import annotations
 
 import math
+from collections import deque
 from collections.abc import Callable
 
 import cython
@@ -97,7 +98,8 @@ class Diagnosis:
     _know_of = cython.declare(object)
     _us_max = cython.declare(cython.double)
     _us_angles = cython.declare(list)
-    _us_rays = cython.declare(list)
+    _us_cos = cython.declare(list)
+    _us_sin = cython.declare(list)
     _radius = cython.declare(cython.double)
     _us_reach = cython.declare(cython.double)
     _us_miss = cython.declare(cython.int)
@@ -110,12 +112,18 @@ class Diagnosis:
     _ir_missed_from = cython.declare(set)
     _ir_first_miss_s = cython.declare(cython.double)
     _own_seen = cython.declare(cython.double)
+    _ir_off = cython.declare(cython.bint)  # "ir" in failed (kept with it by _detect, _clear, _reboot)
+    _us_off = cython.declare(cython.bint)  # "ultrasonic" in failed
+    _ahrs_off = cython.declare(cython.bint)  # "ahrs" in failed
     _ahrs_noisy = cython.declare(cython.bint)
-    _yaw_last = cython.declare(object)
+    _yaw_read = cython.declare(cython.bint)  # a reading was taken (since power-on)
+    _yaw_last_s = cython.declare(cython.double)  # ... its time
+    _yaw_last = cython.declare(cython.double)  # ... its value
     _yaw_same = cython.declare(cython.int)
-    _yaw_hist = cython.declare(list)
+    _yaw_hist = cython.declare(object)  # deque of (time, AHRS yaw, commanded rotation since start); the noiseless AHRS's check
     _turned = cython.declare(cython.double)
-    _tick_s = cython.declare(object)
+    _ticked = cython.declare(cython.bint)  # a ring reading was taken (since power-on)
+    _tick_s = cython.declare(cython.double)  # ... its time
 
     def __init__(self, node_id, cfg, robot, know_of: Callable[[], object], ring) -> None:
         self.node_id = node_id
@@ -129,7 +137,8 @@ class Diagnosis:
         us = cfg.robot.ultrasonic
         self._us_max = us.max_range_m
         self._us_angles = [2.0 * math.pi * k / us.count for k in range(us.count)]
-        self._us_rays = [(k, math.cos(a), math.sin(a)) for k, a in enumerate(self._us_angles)]  # (slot, cos, sin) of each ray
+        self._us_cos = [math.cos(a) for a in self._us_angles]  # each ray's direction (slot k)
+        self._us_sin = [math.sin(a) for a in self._us_angles]
         self._radius = cfg.robot.radius_m
         self._us_reach = self._us_max - US_MARGIN_M  # a neighbour's near rim closer than this must echo
         self._us_miss = 0
@@ -145,12 +154,13 @@ class Diagnosis:
         self._ir_missed_from = set()  # the slots' holders of the misses since the last fix
         self._ir_first_miss_s = -math.inf  # the first of those misses
         self._own_seen = -math.inf  # start of our own latest slot evaluated
+        self._ir_off, self._us_off, self._ahrs_off = False, False, False
         self._ahrs_noisy = cfg.robot.ahrs_noise_deg > 0 or cfg.robot.ahrs_drift_dps > 0
-        self._yaw_last = None  # (time, value) of the last reading
+        self._yaw_read, self._yaw_last_s, self._yaw_last = False, 0.0, 0.0  # the last reading
         self._yaw_same = 0
-        self._yaw_hist = []  # (time, AHRS yaw, commanded rotation since start)
+        self._yaw_hist = deque()
         self._turned = 0.0  # the commanded rotation integrated (rad)
-        self._tick_s = None
+        self._ticked, self._tick_s = False, 0.0
 
     # -- the checks ---------------------------------------------------------------------------------
     def on_ring(self, ranges, present, now_s: cython.double, rang: cython.bint = True) -> None:
@@ -158,12 +168,12 @@ class Diagnosis:
         every control period, and its self-test (``rang``: the transducers rang down after their
         bursts): the ring and IR checks, and the commanded rotation's integral."""
         if not self.robot.health.powered:
-            if self.failed or self._tick_s is not None:
+            if self.failed or self._ticked:
                 self._reboot()
             return
-        dt = 0.0 if self._tick_s is None else now_s - self._tick_s
+        dt: cython.double = now_s - self._tick_s if self._ticked else 0.0
         self._turned += self.robot.command[2] * dt
-        self._tick_s = now_s
+        self._ticked, self._tick_s = True, now_s
         self._check_ir(now_s)
         self._check_ring(ranges, present, now_s, rang)
 
@@ -172,59 +182,77 @@ class Diagnosis:
         a dead robot's unchanging readings were found a frozen AHRS)."""
         if not self.robot.health.powered:
             return
-        last = self._yaw_last
-        if last is not None and now_s > last[0]:
-            if yaw == last[1]:
+        if self._yaw_read and now_s > self._yaw_last_s:
+            if yaw == self._yaw_last:
                 self._yaw_same += 1
             else:
                 self._yaw_same = 0
-                if "ahrs" in self.failed:
+                if self._ahrs_off:
                     self._clear("ahrs")
-            hist = self._yaw_hist
-            hist.append((now_s, yaw, self._turned))
-            while hist and now_s - hist[0][0] > AHRS_WINDOW_S:
-                hist.pop(0)
-            if "ahrs" not in self.failed:
-                if self._ahrs_noisy:
-                    if self._yaw_same >= AHRS_FROZEN - 1:
-                        self._detect("ahrs", now_s)
-                elif hist and now_s - hist[0][0] >= 0.5 * AHRS_WINDOW_S:
-                    turned = self._turned - hist[0][2]
-                    seen = abs(wrap_angle(yaw - hist[0][1]))
-                    if abs(turned) > AHRS_TURN_RAD and seen < AHRS_STILL_RAD:
-                        self._detect("ahrs", now_s)
-        if last is None or now_s > last[0]:
-            self._yaw_last = (now_s, yaw)
+            if not self._ahrs_noisy:
+                self._check_turn(now_s, yaw)
+            elif not self._ahrs_off and self._yaw_same >= AHRS_FROZEN - 1:
+                self._detect("ahrs", now_s)
+        if not self._yaw_read or now_s > self._yaw_last_s:
+            self._yaw_read, self._yaw_last_s, self._yaw_last = True, now_s, yaw
+
+    @cython.cfunc
+    def _check_turn(self, now_s: cython.double, yaw: cython.double) -> cython.void:
+        """An AHRS without noise or drift: the rotation commanded over the window against the AHRS's (the
+        window's history is kept for this check only)."""
+        hist = self._yaw_hist
+        hist.append((now_s, yaw, self._turned))
+        while hist and now_s - hist[0][0] > AHRS_WINDOW_S:
+            hist.popleft()
+        if not self._ahrs_off and hist and now_s - hist[0][0] >= 0.5 * AHRS_WINDOW_S:
+            turned = self._turned - hist[0][2]
+            seen = abs(wrap_angle(yaw - hist[0][1]))
+            if abs(turned) > AHRS_TURN_RAD and seen < AHRS_STILL_RAD:
+                self._detect("ahrs", now_s)
 
     @cython.cfunc
     def _check_ir(self, now_s: cython.double) -> cython.void:
-        know = self._know_of()
         ring = self.ring
-        ranges = ring.slot_range_m
+        over: cython.double = self._slot_over_s
         own = ring.own_slot
-        over = self._slot_over_s
-        if own is not None and own[0] > self._own_seen and now_s - own[0] >= over:
-            self._own_seen = own[0]
-            if ring.report_s >= own[0]:
-                self._ir_hit()
-            elif any(ranges.get(n, math.inf) <= IR_EXPECT_RANGE_M for n in own[1]):
-                self._ir_missed(now_s, self.node_id)  # near neighbours heard our start sign, none reported seeing our IR
-        seen, me = self._ir_seen, self.node_id
-        for src, t0 in ring.slot_starts.items():
-            if t0 <= seen.get(src, -math.inf) or src == me or now_s - t0 < over:
-                continue  # evaluated already (the most frequent), our own, or not over yet
-            seen[src] = t0
-            fix = know.ir.get(src)
+        if own is not None:
+            own_s: cython.double = own[0]
+            if own_s > self._own_seen and now_s - own_s >= over:
+                self._own_seen = own_s
+                if ring.report_s >= own_s:
+                    self._ir_hit()
+                else:
+                    ranges = ring.slot_range_m
+                    if any(ranges.get(n, math.inf) <= IR_EXPECT_RANGE_M for n in own[1]):
+                        self._ir_missed(now_s, self.node_id)  # near neighbours heard our start sign, none reported seeing our IR
+        seen: dict = self._ir_seen
+        me = self.node_id
+        know = None
+        t0: cython.double
+        starts: dict = ring.slot_starts
+        for src, start in starts.items():
+            t0 = start
+            if now_s - t0 < over:
+                continue  # not over yet
+            last = seen.get(src)
+            if (last is not None and t0 <= cython.cast(cython.double, last)) or src == me:
+                continue  # evaluated already (the most frequent), or our own
+            seen[src] = start
+            if know is None:
+                know = self._know_of()
+            fixes: dict = know.ir
+            ranges_m: dict = ring.slot_range_m
+            fix = fixes.get(src)
             if fix is not None and fix.time_s >= t0:
                 self._ir_hit()
-            elif ranges.get(src, math.inf) <= IR_EXPECT_RANGE_M and src in know.members.values():
+            elif ranges_m.get(src, math.inf) <= IR_EXPECT_RANGE_M and src in know.members.values():
                 self._ir_missed(now_s, src)
 
     @cython.cfunc
     def _ir_hit(self) -> cython.void:
         self._ir_miss = 0
         self._ir_missed_from.clear()
-        if "ir" in self.failed:
+        if self._ir_off:
             self._clear("ir")
 
     @cython.cfunc
@@ -235,7 +263,7 @@ class Diagnosis:
             self._ir_first_miss_s = now_s
         self._ir_miss += 1
         self._ir_missed_from.add(src)
-        if self._ir_miss < IR_MISSES or "ir" in self.failed or now_s - self._ir_first_miss_s < IR_MISS_SPAN_S:
+        if self._ir_miss < IR_MISSES or self._ir_off or now_s - self._ir_first_miss_s < IR_MISS_SPAN_S:
             return
         members = self._know_of().members.values()
         near = {n for n, r in self.ring.slot_range_m.items() if r <= IR_EXPECT_RANGE_M and n in members} | {self.node_id}
@@ -244,53 +272,78 @@ class Diagnosis:
 
     @cython.cfunc
     def _check_ring(self, ranges, present, now_s: cython.double, rang: cython.bint) -> cython.void:
-        if not any(present):
+        rs: list = ranges if type(ranges) is list else (ranges.tolist() if isinstance(ranges, np.ndarray) else list(ranges))
+        ps: list = present if type(present) is list else list(present)
+        n_present: cython.Py_ssize_t = len(ps)
+        k: cython.Py_ssize_t
+        p: cython.double
+        body = False
+        for k in range(n_present):
+            p = ps[k]
+            if p != 0.0:
+                body = True
+                break
+        if not body:
             return  # a body without an ultrasonic sensor: nothing to judge
-        top = self._us_max - self._us_echo_margin  # a reading this short is an echo; a healthy "nothing" reads max ± noise
+        top: cython.double = self._us_max - self._us_echo_margin  # a reading this short is an echo; a healthy "nothing" reads max ± noise
         echo = False
-        for r, p in zip(ranges.tolist() if isinstance(ranges, np.ndarray) else ranges, present):
-            if p and r < top:
+        for k in range(min(len(rs), n_present)):
+            p = ps[k]
+            if p != 0.0 and cython.cast(cython.double, rs[k]) < top:
                 echo = True
                 break
         self._us_silent = 0 if rang else self._us_silent + 1
         if rang and (echo or self._us_by_self_test):  # an echo, or the self-test that found it passes again
             self._us_miss = 0
-            if "ultrasonic" in self.failed:
+            if self._us_off:
                 self._clear("ultrasonic")
             if echo:
                 return
-        if "ultrasonic" in self.failed:
+        if self._us_off:
             return
         if self._us_silent >= US_SILENT_BURSTS:
             self._us_by_self_test = True
             self._detect("ultrasonic", now_s)
             return
-        if echo:
-            return
-        know = self._know_of()
-        yaw = self.robot.ahrs._last_yaw  # the last AHRS reading the robot took (no new draw)
-        r = self._radius
-        wide, reach, n_present = r - US_RAY_MARGIN_M, self._us_reach, len(present)
-        on_ray = False
-        for fix in know.ir.values():
-            if now_s - fix.time_s > US_FIX_AGE_S:
-                continue
-            x, y = fix.position_now(yaw)
-            for k, c, s in self._us_rays:
-                if k >= n_present or not present[k]:
-                    continue
-                along = x * c + y * s
-                across = abs(-x * s + y * c)
-                # the neighbour (a body of our radius) across the ray, its near rim within reach
-                if across < wide and 0 < along - 2 * r < reach:
-                    on_ray = True
-                    break
-            if on_ray:
-                break
-        if on_ray:
+        if not echo and self._on_ray(ps, now_s):
             self._us_miss += 1
             if self._us_miss >= US_MISSES:
                 self._detect("ultrasonic", now_s)
+
+    @cython.cfunc
+    def _on_ray(self, present: list, now_s: cython.double) -> cython.bint:
+        """A neighbour that the robot's own fresh IR fix places on a ring sensor's ray, within its reach."""
+        yaw: cython.double = self.robot.ahrs._last_yaw  # the last AHRS reading the robot took (no new draw)
+        r: cython.double = self._radius
+        wide: cython.double = r - US_RAY_MARGIN_M
+        reach: cython.double = self._us_reach
+        n: cython.Py_ssize_t = min(len(present), len(self._us_cos))
+        k: cython.Py_ssize_t
+        b: cython.double
+        d: cython.double
+        x: cython.double
+        y: cython.double
+        c: cython.double
+        s: cython.double
+        along: cython.double
+        p: cython.double
+        for fix in self._know_of().ir.values():
+            if now_s - cython.cast(cython.double, fix.time_s) > US_FIX_AGE_S:
+                continue
+            # the neighbour in our body frame now (IRMeasurement.position_now, written out on C doubles)
+            b = fix.bearing_rad - (yaw - cython.cast(cython.double, fix.own_yaw_rad))
+            d = fix.distance_m
+            x, y = d * math.cos(b), d * math.sin(b)
+            for k in range(n):
+                p = present[k]
+                if p == 0.0:
+                    continue
+                c, s = self._us_cos[k], self._us_sin[k]
+                along = x * c + y * s
+                # the neighbour (a body of our radius) across the ray, its near rim within reach
+                if abs(-x * s + y * c) < wide and 0 < along - 2 * r < reach:
+                    return True
+        return False
 
     @cython.cfunc
     def _reboot(self) -> cython.void:
@@ -298,16 +351,18 @@ class Diagnosis:
         for part in sorted(self.failed):
             self._mark(part, True)
         self.failed.clear()
+        self._ir_off, self._us_off, self._ahrs_off = False, False, False
         self._us_miss, self._us_silent, self._ir_miss, self._yaw_same = 0, 0, 0, 0
         self._us_by_self_test = False
         self._ir_missed_from.clear()
-        self._yaw_last, self._tick_s = None, None
+        self._yaw_read, self._ticked = False, False
         self._yaw_hist.clear()
 
     # -- results ------------------------------------------------------------------------------------
     @cython.cfunc
     def _detect(self, part: str, now_s: cython.double) -> cython.void:
         self.failed.add(part)
+        self._set_off(part, True)
         self.detected.append((now_s, part))
         self._mark(part, False)
         if self.on_detect is not None:
@@ -316,6 +371,7 @@ class Diagnosis:
     @cython.cfunc
     def _clear(self, part: str) -> cython.void:
         self.failed.discard(part)
+        self._set_off(part, False)
         if part == "ultrasonic":
             self._us_miss = 0
             self._us_by_self_test = False
@@ -324,6 +380,16 @@ class Diagnosis:
             self._ir_missed_from.clear()
         self._yaw_same = 0 if part == "ahrs" else self._yaw_same
         self._mark(part, True)
+
+    @cython.cfunc
+    def _set_off(self, part: str, off: cython.bint) -> cython.void:
+        """The flags that mirror ``failed`` (read by every check)."""
+        if part == "ir":
+            self._ir_off = off
+        elif part == "ultrasonic":
+            self._us_off = off
+        elif part == "ahrs":
+            self._ahrs_off = off
 
     @cython.cfunc
     def _mark(self, part: str, working: cython.bint) -> cython.void:

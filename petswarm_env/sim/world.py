@@ -137,19 +137,21 @@ class World:
         steps = self.substeps.steps  # Space.step calls so far: the truth arrays are valid for one value
         if self._truth_at == steps and self._truth is not None:
             return self._truth
-        n = len(self.robots)
+        robots = self.robots
+        n = len(robots)
         centers = np.empty((n + len(self.users), 2))
         headings = np.empty(n)
-        read_poses(self.robots, centers, 0, headings)
+        read_poses(robots, centers, 0, headings)
         read_poses(self.users, centers, n)
-        if self._truth is None or len(self._truth[1]) != len(centers):
+        truth = self._truth
+        if truth is None or len(truth[1]) != len(centers):
             radii = np.full(len(centers), self.cfg.user.radius_m)
-            radii[: len(self.robots)] = [r.radius_m for r in self.robots]
-            radii.flags.writeable = False
+            radii[:n] = [r.radius_m for r in robots]
+            radii.setflags(write=False)
         else:
-            radii = self._truth[1]
-        centers.flags.writeable = False
-        headings.flags.writeable = False
+            radii = truth[1]
+        centers.setflags(write=False)  # (setflags: one call, not a flags object per array)
+        headings.setflags(write=False)
         self._truth = (centers, radii, headings)
         self._truth_at = steps
         return self._truth

@@ -115,3 +115,31 @@ def test_switched_off_the_robot_forgets_what_it_found():
     robot.health.set("dead", True)
     d.on_ring([MAX] * 8, [1.0] * 8, 5.0)
     assert d.failed == set()
+
+
+def test_a_noiseless_ahrs_that_stays_still_while_the_wheels_turn_is_found_and_a_change_clears_it():
+    """An AHRS without noise or drift is judged by the rotation commanded over the window against its own:
+    a robot that turns on command while its AHRS reads the same yaw has a broken AHRS; a straight drive
+    with the same still AHRS does not."""
+    quiet = load_config(overrides={"robot.ahrs_noise_deg": 0.0, "robot.ahrs_drift_dps": 0.0})
+    present, silent = [1.0] * 8, [MAX] * 8
+
+    def run(omega):
+        robot = SimpleNamespace(health=FaultState(), command=(0.0, 0.0, omega), ahrs=SimpleNamespace(_last_yaw=0.0),
+                                spec=None, sensors_off=set())
+        ring = SimpleNamespace(slot_starts={}, slot_range_m={}, own_slot=None, report_s=-1.0)
+        know = Knowledge(member=1, members={0: 0, 1: 1})
+        d = D.Diagnosis(1, quiet, robot, lambda: know, ring)
+        found = []
+        d.on_detect = found.append
+        for k in range(int(D.AHRS_WINDOW_S / 0.1) + 2):
+            d.on_ring(silent, present, 10.0 + 0.1 * k, True)
+            d.on_ahrs(10.0 + 0.1 * k, 0.3)
+        return d, found
+
+    _, found = run(0.0)
+    assert found == []
+    d, found = run(1.0)  # 1 rad/s commanded for over half the window, the AHRS still
+    assert found == ["ahrs"] and "ahrs" in d.failed
+    d.on_ahrs(20.0, 0.9)
+    assert "ahrs" not in d.failed

@@ -15,6 +15,23 @@ from petswarm_env import _core
 ROOT = Path(__file__).resolve().parents[2]
 
 
+def in_both_forms(function: str) -> dict:
+    """``function`` of this module run in a child process compiled (``"0"``) and interpreted (``"1"``,
+    ``PETSWARM_PURE_PYTHON=1``): its JSON results by form."""
+    from tests.golden.episodes import portable_environ
+
+    code = f"import json; from tests.unit.test_compiled_core import {function}; print(json.dumps({function}()))"
+    out = {}
+    for pure in ("0", "1"):
+        env = dict(portable_environ(), **{_core.PURE_ENV: pure})
+        env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
+        run = subprocess.run([sys.executable, "-c", code], cwd=ROOT, env=env, capture_output=True, text=True,
+                             check=False, timeout=300)
+        assert run.returncode == 0, run.stderr[-2000:]
+        out[pure] = json.loads(run.stdout.strip().splitlines()[-1])
+    return out
+
+
 @pytest.mark.skipif(_core.pure(), reason="PETSWARM_PURE_PYTHON is set: this run tests the interpreted form")
 def test_every_core_module_runs_compiled():
     assert _core.compiled_modules() == {m: True for m in _core.COMPILED}
@@ -89,17 +106,7 @@ def test_the_interpreted_form_finds_the_same_sensor_faults_bit_for_bit():
     """The self-diagnosis (compiled since its checks run for every reading) finds the same faults at
     the same times in both forms, and the episodes are the same to the bit (the golden cases have
     no faults)."""
-    from tests.golden.episodes import portable_environ
-
-    code = "import json; from tests.unit.test_compiled_core import fault_episode; print(json.dumps(fault_episode()))"
-    out = {}
-    for pure in ("0", "1"):
-        env = dict(portable_environ(), **{_core.PURE_ENV: pure})
-        env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
-        run = subprocess.run([sys.executable, "-c", code], cwd=ROOT, env=env, capture_output=True, text=True,
-                             check=False, timeout=300)
-        assert run.returncode == 0, run.stderr[-2000:]
-        out[pure] = json.loads(run.stdout.strip().splitlines()[-1])
+    out = in_both_forms("fault_episode")
     detected, _ = out["0"]
     assert {part for parts in detected.values() for _, part in parts} == {"ultrasonic", "ir", "ahrs"}
     assert out["1"] == out["0"]
@@ -133,17 +140,7 @@ def ir_slots() -> list:
 def test_the_interpreted_form_measures_the_same_ir_slots_bit_for_bit():
     """The IR medium's measurement of a slot (compiled: it runs for every slot of every ring) gives
     the same distances, bearings and validity to the bit in both forms."""
-    from tests.golden.episodes import portable_environ
-
-    code = "import json; from tests.unit.test_compiled_core import ir_slots; print(json.dumps(ir_slots()))"
-    out = {}
-    for pure in ("0", "1"):
-        env = dict(portable_environ(), **{_core.PURE_ENV: pure})
-        env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
-        run = subprocess.run([sys.executable, "-c", code], cwd=ROOT, env=env, capture_output=True, text=True,
-                             check=False, timeout=300)
-        assert run.returncode == 0, run.stderr[-2000:]
-        out[pure] = json.loads(run.stdout.strip().splitlines()[-1])
+    out = in_both_forms("ir_slots")
     valid = [v for slot in out["0"] for v in slot[2]]
     assert float.fromhex("0x1.0p+0").hex() in valid and float.fromhex("0x0.0p+0").hex() in valid  # both kinds
     assert out["1"] == out["0"]
@@ -177,17 +174,7 @@ def test_the_interpreted_form_gives_the_heterogeneous_ring_and_the_drive_bit_for
     """Each body type's own ring (one cast and one noise draw per type) and the drive's C triples
     (command, achieved velocity, wheels) with a battery that empties: the same episode to the bit in
     both forms."""
-    from tests.golden.episodes import portable_environ
-
-    code = "import json; from tests.unit.test_compiled_core import heterogeneous_episode; print(json.dumps(heterogeneous_episode()))"
-    out = {}
-    for pure in ("0", "1"):
-        env = dict(portable_environ(), **{_core.PURE_ENV: pure})
-        env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
-        run = subprocess.run([sys.executable, "-c", code], cwd=ROOT, env=env, capture_output=True, text=True,
-                             check=False, timeout=300)
-        assert run.returncode == 0, run.stderr[-2000:]
-        out[pure] = json.loads(run.stdout.strip().splitlines()[-1])
+    out = in_both_forms("heterogeneous_episode")
     assert "True" in out["0"][1]  # the battery did empty
     assert out["1"] == out["0"]
 
@@ -221,17 +208,7 @@ def frame_episode() -> list:
 def test_the_interpreted_form_gives_the_same_rewards_infos_and_summary_bit_for_bit():
     """The per-step loops (the slaves' commands, the move out of a slot, the contacts, the stale
     fixes, the infos, the drained batteries, the rewards) give the same episode in both forms."""
-    from tests.golden.episodes import portable_environ
-
-    code = "import json; from tests.unit.test_compiled_core import frame_episode; print(json.dumps(frame_episode()))"
-    out = {}
-    for pure in ("0", "1"):
-        env = dict(portable_environ(), **{_core.PURE_ENV: pure})
-        env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
-        run = subprocess.run([sys.executable, "-c", code], cwd=ROOT, env=env, capture_output=True, text=True,
-                             check=False, timeout=300)
-        assert run.returncode == 0, run.stderr[-2000:]
-        out[pure] = json.loads(run.stdout.strip().splitlines()[-1])
+    out = in_both_forms("frame_episode")
     summary = json.loads(out["0"][1])
     assert summary["faults_injected"] == 2 and summary["collisions"]["robot_robot"] + summary["collisions"]["robot_user"] > 0
     assert out["1"] == out["0"]

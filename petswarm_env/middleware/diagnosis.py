@@ -319,8 +319,6 @@ class Diagnosis:
         reach: cython.double = self._us_reach
         n: cython.Py_ssize_t = min(len(present), len(self._us_cos))
         k: cython.Py_ssize_t
-        b: cython.double
-        d: cython.double
         x: cython.double
         y: cython.double
         c: cython.double
@@ -330,10 +328,7 @@ class Diagnosis:
         for fix in self._know_of().ir.values():
             if now_s - cython.cast(cython.double, fix.time_s) > US_FIX_AGE_S:
                 continue
-            # the neighbour in our body frame now (IRMeasurement.position_now, written out on C doubles)
-            b = fix.bearing_rad - (yaw - cython.cast(cython.double, fix.own_yaw_rad))
-            d = fix.distance_m
-            x, y = d * math.cos(b), d * math.sin(b)
+            x, y = fix.position_now(yaw)  # the neighbour in our body frame now
             for k in range(n):
                 p = present[k]
                 if p == 0.0:

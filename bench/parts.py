@@ -70,6 +70,7 @@ MODULE_PARTS: dict[str, str | None] = {
     "petswarm_env.wearables.belt": "user_sensing",  # the belt's IMU and recognition, every control period
     "petswarm_env.wearables.belt_window": "user_sensing",  # the belt's window statistics, every accelerometer sample
     "petswarm_env.control": "control",  # master-role controller, control arbiter
+    "petswarm_env.control.master": "control",  # the master-role controller and its user tracker, every control period
     "petswarm_env.observe": "observation",
     "petswarm_env.mapping": "observation",  # seed 001's sensor/behaviour mapper between a body and the layout
     "petswarm_env.middle_layer": "observation",  # the mapper wired: each body type's table onto the virtual ring

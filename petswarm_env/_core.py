@@ -42,6 +42,7 @@ COMPILED: tuple[str, ...] = (
     "petswarm_env.middleware.fleet",
     "petswarm_env.middleware.diagnosis",
     "petswarm_env.control.arbiter",
+    "petswarm_env.control.master",
     "petswarm_env.sim.robot",
     "petswarm_env.references",
     "petswarm_env.reward",

@@ -27,28 +27,56 @@ BLE, and its own odometry. The control system of Fig. 13, in order:
 
 Every robot faces its user in both modes (the LF antennas must see the belt inside ±25°); a leading
 robot drives backwards, which a mecanum robot does as easily as forwards.
+
+A module of the compiled core (``petswarm_env/_core.py``, Cython's pure-Python mode): the belt's view,
+the tracker and the controller are typed classes whose arithmetic runs on C doubles (the master, every
+control period). cos, sin, atan2 and sqrt are the C library's, as ``math``'s are; ``math.hypot`` is
+CPython's own algorithm (not the C library's hypot), so it stays a call of ``math.hypot``.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+
+import cython
+from cython.cimports.libc.math import atan2 as _c_atan2
+from cython.cimports.libc.math import cos as _c_cos
+from cython.cimports.libc.math import sin as _c_sin
+from cython.cimports.libc.math import sqrt as _c_sqrt
 
 from petswarm_env.config import MasterConfig
 from petswarm_env.sim.geometry import wrap_angle
 
+COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
 
-@dataclass
+_hypot = math.hypot  # CPython's own (not the C library's hypot)
+_PI = math.pi
+
+
+@cython.cclass
 class BeltView:
     """What the master last heard from the belt over BLE (seed 002 §3.4)."""
 
-    activity: str = "stop"
-    rotating: bool = False
-    angular_speed_rps: float = 0.0
-    accumulated_angle_rad: float = 0.0
-    time_s: float = 0.0
+    activity = cython.declare(str, visibility="public")
+    rotating = cython.declare(cython.bint, visibility="public")
+    angular_speed_rps = cython.declare(cython.double, visibility="public")
+    accumulated_angle_rad = cython.declare(cython.double, visibility="public")
+    time_s = cython.declare(cython.double, visibility="public")
+
+    def __init__(self, activity: str = "stop", rotating: bool = False, angular_speed_rps: float = 0.0,
+                 accumulated_angle_rad: float = 0.0, time_s: float = 0.0):
+        self.activity = activity
+        self.rotating = rotating
+        self.angular_speed_rps = angular_speed_rps
+        self.accumulated_angle_rad = accumulated_angle_rad
+        self.time_s = time_s
+
+    def __repr__(self) -> str:
+        return (f"BeltView(activity={self.activity!r}, rotating={self.rotating!r}, angular_speed_rps={self.angular_speed_rps!r}, "
+                f"accumulated_angle_rad={self.accumulated_angle_rad!r}, time_s={self.time_s!r})")
 
 
+@cython.cclass
 class UserTracker:
     """Alpha–beta tracker of the user in the robot's odometry frame.
 
@@ -57,6 +85,14 @@ class UserTracker:
     velocity between fixes. Queries return the user's predicted position and velocity in the body
     frame now.
     """
+
+    alpha = cython.declare(cython.double, visibility="public")
+    beta = cython.declare(cython.double, visibility="public")
+    pose = cython.declare(list, visibility="public")  # own x, y (odometry frame) and AHRS yaw
+    pos = cython.declare(object, visibility="public")  # [x, y] of the user (odometry frame), None before a fix
+    vel = cython.declare(list, visibility="public")  # [vx, vy] of the user (odometry frame)
+    t_fix = cython.declare(cython.double, visibility="public")
+    last_fix_s = cython.declare(cython.double, visibility="public")
 
     def __init__(self, alpha: float, beta: float):
         self.alpha, self.beta = alpha, beta
@@ -67,72 +103,152 @@ class UserTracker:
         (the AHRS counts from its own power-on heading: a fix taken before the next :meth:`move`
         must be placed with the robot's current reading, not with 0)."""
         self.pose = [0.0, 0.0, yaw_rad]  # own x, y (odometry frame) and AHRS yaw
-        self.pos: list[float] | None = None
+        self.pos = None
         self.vel = [0.0, 0.0]
         self.t_fix = 0.0
         self.last_fix_s = -math.inf
 
-    def move(self, odometry: tuple[float, float, float], yaw: float, dt: float) -> None:
+    def move(self, odometry, yaw: float, dt: cython.double) -> None:
         """Dead-reckon own pose over one control period (odometry in the body frame)."""
-        c, s = math.cos(self.pose[2]), math.sin(self.pose[2])
-        vx, vy, _ = odometry
-        self.pose[0] += (c * vx - s * vy) * dt
-        self.pose[1] += (s * vx + c * vy) * dt
-        self.pose[2] = yaw
+        pose: list = self.pose
+        x: cython.double = pose[0]
+        y: cython.double = pose[1]
+        th: cython.double = pose[2]
+        c: cython.double = _c_cos(th)
+        s: cython.double = _c_sin(th)
+        vx: cython.double = odometry[0]
+        vy: cython.double = odometry[1]
+        pose[0] = x + (c * vx - s * vy) * dt
+        pose[1] = y + (s * vx + c * vy) * dt
+        pose[2] = yaw
 
-    def fix(self, body_xy: tuple[float, float], t: float, weight: float = 1.0) -> None:
+    def fix(self, body_xy, t: cython.double, weight: cython.double = 1.0) -> None:
         """Take an LF fix (body frame) made at ``t``; ``weight`` < 1 trusts a noisier fix less."""
-        c, s = math.cos(self.pose[2]), math.sin(self.pose[2])
-        z = (self.pose[0] + c * body_xy[0] - s * body_xy[1], self.pose[1] + s * body_xy[0] + c * body_xy[1])
+        pose: list = self.pose
+        x: cython.double = pose[0]
+        y: cython.double = pose[1]
+        th: cython.double = pose[2]
+        c: cython.double = _c_cos(th)
+        s: cython.double = _c_sin(th)
+        bx: cython.double = body_xy[0]
+        by: cython.double = body_xy[1]
+        zx: cython.double = x + c * bx - s * by
+        zy: cython.double = y + s * bx + c * by
         if self.pos is None:
-            self.pos = list(z)
+            self.pos = [zx, zy]
         else:
-            dt = max(t - self.t_fix, 1e-3)
-            px, py = self.pos[0] + self.vel[0] * dt, self.pos[1] + self.vel[1] * dt
-            rx, ry = z[0] - px, z[1] - py
-            a, b = self.alpha * weight, self.beta * weight
+            dt: cython.double = max(t - self.t_fix, 1e-3)
+            vx: cython.double = self.vel[0]
+            vy: cython.double = self.vel[1]
+            ux: cython.double = self.pos[0]
+            uy: cython.double = self.pos[1]
+            px: cython.double = ux + vx * dt
+            py: cython.double = uy + vy * dt
+            rx: cython.double = zx - px
+            ry: cython.double = zy - py
+            a: cython.double = self.alpha * weight
+            b: cython.double = self.beta * weight
             self.pos = [px + a * rx, py + a * ry]
-            self.vel = [self.vel[0] + b * rx / dt, self.vel[1] + b * ry / dt]
+            self.vel = [vx + b * rx / dt, vy + b * ry / dt]
         self.t_fix = t
         self.last_fix_s = t
 
-    def user_body(self, t: float) -> tuple[tuple[float, float], tuple[float, float]] | None:
+    def user_body(self, t: cython.double):
         """(position, velocity) of the user in the body frame now, or None before the first fix."""
         if self.pos is None:
             return None
-        dt = t - self.t_fix
-        wx, wy = self.pos[0] + self.vel[0] * dt - self.pose[0], self.pos[1] + self.vel[1] * dt - self.pose[1]
-        c, s = math.cos(self.pose[2]), math.sin(self.pose[2])
-        pos = (c * wx + s * wy, -s * wx + c * wy)
-        vel = (c * self.vel[0] + s * self.vel[1], -s * self.vel[0] + c * self.vel[1])
-        return pos, vel
+        pose: list = self.pose
+        x: cython.double = pose[0]
+        y: cython.double = pose[1]
+        th: cython.double = pose[2]
+        ux: cython.double = self.pos[0]
+        uy: cython.double = self.pos[1]
+        vx: cython.double = self.vel[0]
+        vy: cython.double = self.vel[1]
+        dt: cython.double = t - self.t_fix
+        wx: cython.double = ux + vx * dt - x
+        wy: cython.double = uy + vy * dt - y
+        c: cython.double = _c_cos(th)
+        s: cython.double = _c_sin(th)
+        return (c * wx + s * wy, -s * wx + c * wy), (c * vx + s * vy, -s * vx + c * vy)
 
 
+@cython.cfunc
+@cython.inline
+def _beyond(a: cython.double, band: cython.double) -> cython.double:
+    """An angle beyond the deadband ``±band``."""
+    return a - max(-band, min(band, a))
+
+
+@cython.cclass
 class MasterController:
     """Seed 002 Fig. 13 for one robot: ``command`` maps the tracked user and the belt's report to
     (Vx, Vy, ω) in the body frame. State: the walking direction ψ (body frame) and the belt's
     accumulated angle at the last step."""
+
+    _cfg = cython.declare(object)
+    half_angle = cython.declare(cython.double, visibility="public")
+    # the configuration's gains as C doubles (a MasterConfig is frozen; set again with ``cfg``)
+    _walk_speed = cython.declare(cython.double)
+    _blend = cython.declare(cython.double)
+    _band = cython.declare(cython.double)  # the rotate deadband, rad
+    _acc_band = cython.declare(cython.double)
+    _distance_gain = cython.declare(cython.double)
+    _speed_gain = cython.declare(cython.double)
+    _arc_gain = cython.declare(cython.double)
+    _trail = cython.declare(cython.double)
+    _sideways_gain = cython.declare(cython.double)
+    _rotate_gain = cython.declare(cython.double)
+    _settle = cython.declare(cython.double)  # arc_sync_done_deg, rad
+    _sync_gain = cython.declare(cython.double)
+    _brake = cython.declare(cython.double)
+    # state
+    _walk_dir = cython.declare(cython.double)  # ψ: the user's walking direction, body frame
+    _has_walk_dir = cython.declare(cython.bint)  # ψ is set (not before the first command)
+    _trusted = cython.declare(cython.bint)  # ψ steers: tracked, or guessed while the user stood still (not mid-turn)
+    _belt_angle = cython.declare(cython.double)  # the belt's accumulated angle at the last step (current rotation)
+    _was_rotating = cython.declare(cython.bint)
+    _syncing = cython.declare(cython.bint)  # a leading arc of the current rotation runs: its share and the arc done
+    _share = cython.declare(cython.double)
+    _done = cython.declare(cython.double)
+    _was_rotating_arc = cython.declare(cython.bint)
 
     def __init__(self, cfg: MasterConfig, reliable_half_angle_rad: float):
         self.cfg = cfg
         self.half_angle = reliable_half_angle_rad
         self.reset()
 
+    @property
+    def cfg(self) -> MasterConfig:
+        return self._cfg
+
+    @cfg.setter
+    def cfg(self, cfg: MasterConfig) -> None:
+        self._cfg = cfg
+        self._walk_speed, self._blend = cfg.walk_speed_mps, cfg.heading_blend_rps
+        self._band, self._acc_band = math.radians(cfg.rotate_deadband_deg), cfg.acc_band_m
+        self._distance_gain, self._speed_gain = cfg.distance_gain, cfg.speed_gain
+        self._arc_gain, self._trail, self._sideways_gain = cfg.arc_gain, cfg.trail_rps, cfg.sideways_gain
+        self._rotate_gain = cfg.rotate_gain
+        self._settle, self._sync_gain = math.radians(cfg.arc_sync_done_deg), cfg.arc_sync_gain
+        self._brake = cfg.arc_brake_mps2
+
     def reset(self) -> None:
-        self._walk_dir: float | None = None  # ψ: the user's walking direction, body frame
-        self._trusted = False  # ψ steers: tracked, or guessed while the user stood still (not mid-turn)
-        self._belt_angle = 0.0  # the belt's accumulated angle at the last step (current rotation)
+        self._walk_dir, self._has_walk_dir = 0.0, False
+        self._trusted = False
+        self._belt_angle = 0.0
         self._was_rotating = False
-        self._sync: list[float] | None = None  # leading arc of the current rotation: [share, arc done]
+        self._syncing, self._share, self._done = False, 0.0, 0.0
         self._was_rotating_arc = False
 
     @property
     def walk_direction_rad(self) -> float | None:
         """ψ, the user's walking direction in the body frame (None before the first command)."""
-        return self._walk_dir
+        return self._walk_dir if self._has_walk_dir else None
 
-    def user_velocity(self, user_vel: tuple[float, float], belt: BeltView, own_omega: float, mode: str,
-                      bearing: float, dt: float) -> tuple[tuple[float, float], bool]:
+    @cython.ccall
+    def user_velocity(self, user_vel, belt: BeltView, own_omega: cython.double, mode: str,
+                      bearing: cython.double, dt: cython.double) -> tuple:
         """The user's velocity (body frame) and whether they walk.
 
         While the belt says Walk / Run: the tracked speed along ψ, a complementary filter — ψ turns
@@ -143,124 +259,139 @@ class MasterController:
         user stands — unless the track's component along the line of sight (the accurate LF range)
         is already walking speed: the belt's activity window lags the start of a walk by about a
         second."""
-        cfg = self.cfg
-        speed = math.hypot(*user_vel)
-        if self._walk_dir is None:
-            self._walk_dir = wrap_angle(bearing + math.pi) if mode == "leading" else bearing
+        vx: cython.double = user_vel[0]
+        vy: cython.double = user_vel[1]
+        speed: cython.double = _hypot(vx, vy)
+        if not self._has_walk_dir:
+            self._walk_dir = wrap_angle(bearing + _PI) if mode == "leading" else bearing
+            self._has_walk_dir = True
             self._trusted = belt.activity in ("stop", "rest") and not belt.rotating
-        turn = 0.0
+        turn: cython.double = 0.0
         if belt.rotating:  # the belt's accumulated angle restarts at 0 with every rotation
             turn = belt.accumulated_angle_rad - (self._belt_angle if self._was_rotating else 0.0)
             self._belt_angle = belt.accumulated_angle_rad
         self._was_rotating = belt.rotating
         self._walk_dir = wrap_angle(self._walk_dir + turn - own_omega * dt)
         if belt.activity in ("stop", "rest"):
-            c, s = math.cos(bearing), math.sin(bearing)
-            radial = user_vel[0] * c + user_vel[1] * s
-            if abs(radial) < cfg.walk_speed_mps:
+            c: cython.double = _c_cos(bearing)
+            s: cython.double = _c_sin(bearing)
+            radial: cython.double = vx * c + vy * s
+            if abs(radial) < self._walk_speed:
                 return (0.0, 0.0), False
             return (radial * c, radial * s), True
-        if speed > cfg.walk_speed_mps and not belt.rotating:
-            track = math.atan2(user_vel[1], user_vel[0])
-            k = min(1.0, cfg.heading_blend_rps * dt) if self._trusted else 1.0
+        if speed > self._walk_speed and not belt.rotating:
+            track: cython.double = _c_atan2(vy, vx)
+            k: cython.double = min(1.0, self._blend * dt) if self._trusted else 1.0
             self._walk_dir = wrap_angle(self._walk_dir + k * wrap_angle(track - self._walk_dir))
             self._trusted = True
-        return (speed * math.cos(self._walk_dir), speed * math.sin(self._walk_dir)), True
+        return (speed * _c_cos(self._walk_dir), speed * _c_sin(self._walk_dir)), True
 
-    def _arc_in_place(self, belt: BeltView, off: float, user_pos: tuple[float, float],
-                      own_velocity: tuple[float, float, float], dt: float) -> float | None:
+    @cython.cfunc
+    def _arc_in_place(self, belt: BeltView, off: cython.double, ux: cython.double, uy: cython.double,
+                      own_velocity, dt: cython.double):
         """Leading, the user turning on the spot: the moving arc that synchronises the robot with the
         rotation (seed 002 §3.4: "the robot must know the rotation state, angular speed, and
         accumulated angle of the human to synchronize with their rotation"; §4.3, Table 4). While the
-        belt reports a rotation the robot's place about the user turns at the user's angular speed,
-        and the arc it has made so far (dead-reckoned from its odometry about the tracked user) is
-        closed on the belt's accumulated angle at ``arc_sync_gain``; once the rotation ends, the rest
-        of the accumulated angle is closed the same way, until the arc comes to rest. The arc is never
-        faster than the robot can stop within the rest of the angle at ``arc_brake_mps2``: the robot
-        arcs at ~1 m/s when the user stops, and the belt's filtered rate keeps feeding the arc for
-        half a second, so unplanned it passed the angle by ~6° on a 90° turn and came back, ending
-        on the far side (the simulated robot over-rotated where the paper's under-rotates). A robot ahead of
-        its user turns with them; one beside or behind is met by the turn (its share ``max(0, cos
-        off)`` is fixed when the rotation starts). None when there is no such rotation, and as soon as
-        the belt says the user walks: the arc about a walking user cannot be dead-reckoned from the
-        robot's own motion, and the LF track and the walking direction take over."""
-        cfg = self.cfg
+        belt reports a rotation the robot's place about the user (at ``(ux, uy)``) turns at the user's
+        angular speed, and the arc it has made so far (dead-reckoned from its odometry about the
+        tracked user) is closed on the belt's accumulated angle at ``arc_sync_gain``; once the
+        rotation ends, the rest of the accumulated angle is closed the same way, until the arc comes
+        to rest. The arc is never faster than the robot can stop within the rest of the angle at
+        ``arc_brake_mps2``: the robot arcs at ~1 m/s when the user stops, and the belt's filtered rate
+        keeps feeding the arc for half a second, so unplanned it passed the angle by ~6° on a 90° turn
+        and came back, ending on the far side (the simulated robot over-rotated where the paper's
+        under-rotates). A robot ahead of its user turns with them; one beside or behind is met by the
+        turn (its share ``max(0, cos off)`` is fixed when the rotation starts). None when there is no
+        such rotation, and as soon as the belt says the user walks: the arc about a walking user
+        cannot be dead-reckoned from the robot's own motion, and the LF track and the walking
+        direction take over."""
         if belt.activity in ("walk", "run"):
-            self._sync, self._was_rotating_arc = None, belt.rotating
+            self._syncing, self._was_rotating_arc = False, belt.rotating
             return None
-        if belt.rotating and not (self._sync is not None and self._was_rotating_arc):
+        if belt.rotating and not (self._syncing and self._was_rotating_arc):
             # a new rotation (the belt's angle restarts at 0): the robot's place before it (ψ has turned already)
-            self._sync = [max(0.0, math.cos(off + belt.accumulated_angle_rad)), 0.0]
+            self._syncing = True
+            self._share, self._done = max(0.0, _c_cos(off + belt.accumulated_angle_rad)), 0.0
         self._was_rotating_arc = belt.rotating
-        if self._sync is None:
+        if not self._syncing:
             return None
-        share, done = self._sync
-        ux, uy = user_pos
-        rate = (uy * own_velocity[0] - ux * own_velocity[1]) / (ux * ux + uy * uy)  # place −user_pos: p × v / |p|²
-        done += rate * dt
-        self._sync[1] = done
-        gap = share * belt.accumulated_angle_rad - done
-        settle = math.radians(cfg.arc_sync_done_deg)
-        if not belt.rotating and abs(gap) < settle and abs(rate) < cfg.arc_sync_gain * settle:
-            self._sync = None  # synchronised: at the accumulated angle, and the arc has come to rest
+        ox: cython.double = own_velocity[0]
+        oy: cython.double = own_velocity[1]
+        rate: cython.double = (uy * ox - ux * oy) / (ux * ux + uy * uy)  # place −user_pos: p × v / |p|²
+        self._done += rate * dt
+        gap: cython.double = self._share * belt.accumulated_angle_rad - self._done
+        settle: cython.double = self._settle
+        if not belt.rotating and abs(gap) < settle and abs(rate) < self._sync_gain * settle:
+            self._syncing = False  # synchronised: at the accumulated angle, and the arc has come to rest
             return None
-        rate_cmd = share * (belt.angular_speed_rps if belt.rotating else 0.0) + cfg.arc_sync_gain * gap
+        rate_cmd: cython.double = self._share * (belt.angular_speed_rps if belt.rotating else 0.0) + self._sync_gain * gap
         # never faster than the arc can still stop within the gap: v² = 2·a·s, s = r·|gap|, rate = v / r
-        brake = math.sqrt(2.0 * cfg.arc_brake_mps2 * abs(gap) / math.hypot(ux, uy))
+        brake: cython.double = _c_sqrt(2.0 * self._brake * abs(gap) / _hypot(ux, uy))
         return min(rate_cmd, brake) if gap >= 0.0 else max(rate_cmd, -brake)
 
     def command(
         self,
-        user_pos: tuple[float, float],
-        user_vel: tuple[float, float],
+        user_pos,
+        user_vel,
         belt: BeltView,
-        own_velocity: tuple[float, float, float],
+        own_velocity,
         mode: str,
-        target_distance_m: float,
-        dt: float,
-    ) -> tuple[float, float, float]:
+        target_distance_m: cython.double,
+        dt: cython.double,
+    ) -> tuple:
         """(Vx, Vy, ω) body-frame command. ``user_pos``/``user_vel`` in the body frame (tracker),
         ``own_velocity`` the robot's odometry (Vx, Vy, ω)."""
-        cfg = self.cfg
-        ux, uy = user_pos
-        r = math.hypot(ux, uy)
+        ux: cython.double = user_pos[0]
+        uy: cython.double = user_pos[1]
+        r: cython.double = _hypot(ux, uy)
         if r < 1e-6:
             return 0.0, 0.0, 0.0
-        nx, ny = ux / r, uy / r  # unit vector toward the user
-        bearing = math.atan2(uy, ux)
+        nx: cython.double = ux / r  # unit vector toward the user
+        ny: cython.double = uy / r
+        bearing: cython.double = _c_atan2(uy, ux)
         (wx, wy), walking = self.user_velocity(user_vel, belt, own_velocity[2], mode, bearing, dt)
-        psi = self._walk_dir
-        band = math.radians(cfg.rotate_deadband_deg)
+        return self._command(ux, uy, r, nx, ny, bearing, wx, wy, walking, belt, own_velocity, mode == "leading",
+                             target_distance_m, dt)
 
-        def beyond(a: float) -> float:  # an angle beyond the deadband
-            return a - max(-band, min(band, a))
-
+    @cython.cfunc
+    def _command(self, ux: cython.double, uy: cython.double, r: cython.double, nx: cython.double, ny: cython.double,
+                 bearing: cython.double, wx: cython.double, wy: cython.double, walking: cython.bint, belt: BeltView,
+                 own_velocity, leading: cython.bint, target_distance_m: cython.double, dt: cython.double) -> tuple:
+        """Fig. 13's three stages on the user's place (``ux, uy``: at ``r``, along ``nx, ny``, at ``bearing``) and
+        velocity (``wx, wy``) in the body frame."""
+        psi: cython.double = self._walk_dir
+        band: cython.double = self._band
         # 1. ACC: keep pace with the user; distance control far from the target, gentle near it
-        err = r - target_distance_m
-        gain = cfg.distance_gain if abs(err) > cfg.acc_band_m else cfg.speed_gain
-        vx, vy = wx + gain * err * nx, wy + gain * err * ny
+        err: cython.double = r - target_distance_m
+        gain: cython.double = self._distance_gain if abs(err) > self._acc_band else self._speed_gain
+        vx: cython.double = wx + gain * err * nx
+        vy: cython.double = wy + gain * err * ny
         # 2. per mode: the robot's place about the user turns at ``swing`` (rad/s, CCW)
-        arc = swing = 0.0
-        if mode == "leading":  # straight ahead of the user
-            off = wrap_angle(bearing + math.pi - psi)  # the robot's place about the user from straight ahead
-            sync = self._arc_in_place(belt, off, (ux, uy), own_velocity, dt) if self._trusted else None
+        arc: cython.double = 0.0
+        swing: cython.double = 0.0
+        if leading:  # straight ahead of the user
+            off: cython.double = wrap_angle(bearing + _PI - psi)  # the robot's place about the user from straight ahead
+            sync = self._arc_in_place(belt, off, ux, uy, own_velocity, dt) if self._trusted else None
             if sync is not None:  # the user turns on the spot: the arc closes on the accumulated angle
                 arc = swing = sync
             elif self._trusted:
                 if belt.rotating:  # the arc: a robot ahead of its user turns with the user; one beside
-                    arc = belt.angular_speed_rps * max(0.0, math.cos(off))  # or behind is met by the turn
-                swing = arc - cfg.arc_gain * math.sin(beyond(off))  # and closes on straight ahead
+                    arc = belt.angular_speed_rps * max(0.0, _c_cos(off))  # or behind is met by the turn
+                swing = arc - self._arc_gain * _c_sin(_beyond(off, band))  # and closes on straight ahead
         elif walking:  # following: drift in behind the walking user
-            swing = -cfg.trail_rps * math.sin(wrap_angle(bearing - psi))
+            swing = -self._trail * _c_sin(wrap_angle(bearing - psi))
         vx += swing * uy  # the robot's place relative to the user, −user_pos, turns at ``swing``
         vy += -swing * ux
-        if mode == "leading" and not belt.rotating and abs(bearing) > self.half_angle:
-            vy += cfg.sideways_gain * uy  # move sideways until the user is back inside ±25°
+        if leading and not belt.rotating and abs(bearing) > self.half_angle:
+            vy += self._sideways_gain * uy  # move sideways until the user is back inside ±25°
         # 3. heading: face the user
-        if mode == "leading":  # drive backwards along the user's walk, the user kept inside the region
-            lim = self.half_angle - band
-            w = arc + cfg.rotate_gain * min(bearing + lim, max(bearing - lim, beyond(wrap_angle(psi - math.pi))))
+        w: cython.double
+        if leading:  # drive backwards along the user's walk, the user kept inside the region
+            lim: cython.double = self.half_angle - band
+            w = arc + self._rotate_gain * min(bearing + lim, max(bearing - lim, _beyond(wrap_angle(psi - _PI), band)))
         else:  # turn with the line of sight (from the odometry) and correct beyond the deadband
-            w = (ux * (wy - own_velocity[1]) - uy * (wx - own_velocity[0])) / (r * r)
-            w += cfg.rotate_gain * beyond(bearing)
+            ox: cython.double = own_velocity[0]
+            oy: cython.double = own_velocity[1]
+            w = (ux * (wy - oy) - uy * (wx - ox)) / (r * r)
+            w += self._rotate_gain * _beyond(bearing, band)
         return vx, vy, w

@@ -225,3 +225,50 @@ def test_the_action_clip_takes_only_finite_actions():
     bad = np.array([[2.0, 0.0, 0.0], [0.0, np.nan, 0.0]], np.float32)
     assert not clip_finite(bad)
     assert bad[0, 0] == 2.0  # left as it was: the caller names the agent
+
+
+def master_drive() -> list:
+    """The master-role controller and its user tracker (control/master.py) on random tracker fixes,
+    odometry, belt reports (stop / walk, rotating or not) and both modes, and on seed 002 Table 4's
+    turn on the spot (the leading arc): every command, track and walking direction as exact hex
+    strings."""
+    import math
+
+    import numpy as np
+
+    from petswarm_env.config import load_config
+    from petswarm_env.control.master import BeltView, MasterController, UserTracker
+    from tests.unit.test_master import _arc_in_place
+
+    cfg = load_config()
+    rng = np.random.default_rng(7)
+    out = []
+    for mode in ("following", "leading"):
+        ctrl = MasterController(cfg.master, math.radians(cfg.lf.reliable_half_angle_deg))
+        tracker = UserTracker(cfg.master.tracker_alpha, cfg.master.tracker_beta)
+        tracker.reset(float(rng.uniform(-3.0, 3.0)))
+        angle = 0.0
+        for k in range(400):
+            odo = tuple(rng.normal(0.0, 0.4, 3).tolist())
+            tracker.move(odo, float(rng.uniform(-3.0, 3.0)), 0.1)
+            if k % 4 == 0:
+                tracker.fix(tuple(rng.normal((1.0, 0.0), 0.5).tolist()), 0.1 * k, float(rng.uniform(0.5, 1.0)))
+            rotating = bool((k // 25) % 2)
+            angle = angle + 0.05 if rotating else 0.0
+            belt = BeltView(("stop", "walk", "rest", "run")[(k // 40) % 4], rotating, 0.5 if rotating else 0.0, angle)
+            est = tracker.user_body(0.1 * k + 0.05)
+            cmd = ctrl.command(est[0], est[1], belt, odo, mode, 1.0, 0.1)
+            out.append([float(v).hex() for v in (*cmd, *est[0], *est[1], ctrl.walk_direction_rad)])
+    for target in (90.0, -45.0):
+        trace: list = []
+        _arc_in_place(target, 3, None, trace)
+        out.append([float(v).hex() for step in trace for v in step])
+    return out
+
+
+def test_the_interpreted_form_gives_the_same_master_commands_bit_for_bit():
+    """The master-role controller (compiled: it runs every control period) gives the same commands,
+    tracks and walking directions to the bit in both forms."""
+    out = in_both_forms("master_drive")
+    assert len(out["0"]) == 802
+    assert out["1"] == out["0"]

@@ -69,6 +69,7 @@ MODULE_PARTS: dict[str, str | None] = {
     "petswarm_env.wearables": "user_sensing",
     "petswarm_env.wearables.belt": "user_sensing",  # the belt's IMU and recognition, every control period
     "petswarm_env.wearables.belt_window": "user_sensing",  # the belt's window statistics, every accelerometer sample
+    "petswarm_env.wearables.lf": "user_sensing",  # the LF localisation, every burst of the master
     "petswarm_env.control": "control",  # master-role controller, control arbiter
     "petswarm_env.control.master": "control",  # the master-role controller and its user tracker, every control period
     "petswarm_env.observe": "observation",

@@ -37,6 +37,7 @@ COMPILED: tuple[str, ...] = (
     "petswarm_env.observe",
     "petswarm_env.wearables.belt_window",
     "petswarm_env.wearables.belt",
+    "petswarm_env.wearables.lf",
     "petswarm_env.comms.ir_channel",
     "petswarm_env.middleware.node",
     "petswarm_env.middleware.fleet",

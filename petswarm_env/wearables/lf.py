@@ -39,6 +39,10 @@ libm's while math.hypot has its own algorithm. ``math`` is used only for the cor
 and for degrees/radians (the single products x·(180/π), x·(π/180) of np.rad2deg/np.deg2rad);
 ``round`` is half-to-even like np.round.
 
+A module of the compiled core (``petswarm_env/_core.py``, Cython's pure-Python mode: the master's
+burst every 350 ms): the same chain on C doubles around the same numpy calls; hypot is the C
+library's in the compiled form (numpy's hypot is the C library's), ``math.sqrt`` the C library's sqrt.
+
 Frames. The paper's Eqs. 2–3 use a frame centred between the antennas with x along the baseline
 from the left antenna to the right one (the robot's right) and y forward; θ = atan(x/y) is positive
 to the right. Our body frame has +x forward and +y left, bearings counter-clockwise from +x. The
@@ -57,13 +61,29 @@ import math
 from bisect import bisect_right
 from typing import Any, NamedTuple
 
+import cython
 import numpy as np
+from cython.cimports.libc.math import hypot as _c_hypot
+from cython.cimports.libc.math import sqrt as _c_sqrt
 
 from petswarm_env.config import LFConfig
 from petswarm_env.sim.geometry import wrap_angle
 
+COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
+
 # Distances are clamped to at least this (m) so that log10 of a zero distance cannot occur.
 _MIN_DISTANCE_M = 0.01
+_round = round  # Python's (half-to-even, to an int), called as it is in both forms
+
+
+@cython.cfunc
+@cython.inline
+def _hypot(a: cython.double, b: cython.double) -> cython.double:
+    """numpy's hypot, which is the C library's (not Python's ``math.hypot``: the two differ in the
+    last bit now and then)."""
+    if cython.compiled:
+        return _c_hypot(a, b)
+    return float(np.hypot(a, b))
 
 
 
@@ -94,8 +114,10 @@ def antenna_positions(cfg: LFConfig) -> tuple[tuple[float, float], tuple[float, 
 def calibration_curve(cfg: LFConfig, distance_m: float) -> float:
     """Noiseless RSSI (dB) at ``distance_m`` from one antenna: 1/r³ near field, 60 dB/decade
     (distances clamped to 1 cm, nan kept)."""
-    d = _MIN_DISTANCE_M if distance_m < _MIN_DISTANCE_M else distance_m
-    return cfg.rssi_at_1m_db - cfg.falloff_db_per_decade * float(np.log10(d))
+    d: cython.double = _MIN_DISTANCE_M if distance_m < _MIN_DISTANCE_M else distance_m
+    at_1m: cython.double = cfg.rssi_at_1m_db
+    falloff: cython.double = cfg.falloff_db_per_decade
+    return at_1m - falloff * float(np.log10(d))
 
 
 def lf_rssi(cfg: LFConfig, x: float, y: float, rng: np.random.Generator) -> tuple[float, float, bool]:
@@ -104,33 +126,37 @@ def lf_rssi(cfg: LFConfig, x: float, y: float, rng: np.random.Generator) -> tupl
     when the carrier is below the sensitivity. Draws 5 normals whatever is received (reproducible):
     [common, own left, own right, scatter left, scatter right]."""
     # seed 002 §3.3: two antennas 20 cm apart send in turn; the belt measures each RSSI.
-    fwd = cfg.antenna_forward_m
-    half = 0.5 * cfg.antenna_spacing_m  # antenna_positions(): left at +half, right at -half
-    dx = x - fwd
-    d_l = float(np.hypot(dx, y - half))
-    d_r = float(np.hypot(dx, y - -half))
+    fwd: cython.double = cfg.antenna_forward_m
+    half: cython.double = 0.5 * cfg.antenna_spacing_m  # antenna_positions(): left at +half, right at -half
+    dx: cython.double = x - fwd
+    d_l: cython.double = _hypot(dx, y - half)
+    d_r: cython.double = _hypot(dx, y - -half)
     # Angular distortion beyond the reliable region (seed 002 §3.5, Fig. 11), bearing from the midpoint.
-    bearing_deg = math.degrees(float(np.arctan2(y, dx)))
-    excess_deg = abs(bearing_deg) - cfg.reliable_half_angle_deg
+    bearing_deg: cython.double = math.degrees(float(np.arctan2(y, dx)))
+    excess_deg: cython.double = abs(bearing_deg) - cfg.reliable_half_angle_deg
     excess_deg = 0.0 if excess_deg <= 0.0 else excess_deg  # max(0, ·), nan kept
-    carrier_l, carrier_r = calibration_curve(cfg, d_l), calibration_curve(cfg, d_r)
+    carrier_l: cython.double = calibration_curve(cfg, d_l)
+    carrier_r: cython.double = calibration_curve(cfg, d_r)
+    loss: cython.double = cfg.distortion_loss_db_per_deg
     if bearing_deg > 0.0:  # user on the left → the right antenna is the far one
-        carrier_r = carrier_r - cfg.distortion_loss_db_per_deg * excess_deg
+        carrier_r = carrier_r - loss * excess_deg
     else:
-        carrier_l = carrier_l - cfg.distortion_loss_db_per_deg * excess_deg
+        carrier_l = carrier_l - loss * excess_deg
     # seed 002 §3.3: beyond the receiver's sensitivity the RSSI cannot be calculated.
-    received = carrier_l >= cfg.sensitivity_db and carrier_r >= cfg.sensitivity_db
+    sensitivity: cython.double = cfg.sensitivity_db
+    received: cython.bint = carrier_l >= sensitivity and carrier_r >= sensitivity
     z_common, z_own_l, z_own_r, z_scat_l, z_scat_r = rng.standard_normal(5).tolist()
     if not received:
         return math.nan, math.nan, False
-    common = cfg.noise_common_db * z_common
-    scatter_sigma = cfg.distortion_noise_db_per_deg * excess_deg
-    rssi_l = carrier_l + common + cfg.noise_antenna_db * z_own_l + scatter_sigma * z_scat_l
-    rssi_r = carrier_r + common + cfg.noise_antenna_db * z_own_r + scatter_sigma * z_scat_r
-    step = cfg.rssi_step_db
+    common: cython.double = cfg.noise_common_db * z_common
+    scatter_sigma: cython.double = cfg.distortion_noise_db_per_deg * excess_deg
+    own: cython.double = cfg.noise_antenna_db
+    rssi_l: cython.double = carrier_l + common + own * z_own_l + scatter_sigma * z_scat_l
+    rssi_r: cython.double = carrier_r + common + own * z_own_r + scatter_sigma * z_scat_r
+    step: cython.double = cfg.rssi_step_db
     if step > 0.0:  # round() is half-to-even
-        rssi_l = round(rssi_l / step) * step
-        rssi_r = round(rssi_r / step) * step
+        rssi_l = _round(rssi_l / step) * step
+        rssi_r = _round(rssi_r / step) * step
     return rssi_l, rssi_r, True
 
 
@@ -155,21 +181,28 @@ def rssi_to_distance(cfg: LFConfig, rssi_db: float) -> float:
     formula of ``np.interp`` (numpy's arr_interp, its result to the bit): the row j with
     xp[j] <= v < xp[j+1], fp[j] on an exact hit, else slope·(v − xp[j]) + fp[j] with
     slope = (fp[j+1] − fp[j]) / (xp[j+1] − xp[j])."""
+    xp: tuple
+    fp: tuple
     xp, fp = rssi_table(cfg)
-    v = rssi_db
-    if v > xp[-1]:
-        return fp[-1]
+    v: cython.double = rssi_db
+    last: cython.Py_ssize_t = len(xp) - 1
+    if v > xp[last]:
+        return fp[last]
     if v < xp[0]:
         return fp[0]
-    j = bisect_right(xp, v) - 1
-    if j == len(xp) - 1 or xp[j] == v:
+    j: cython.Py_ssize_t = bisect_right(xp, v) - 1
+    if j == last or xp[j] == v:
         return fp[j]
-    return (fp[j + 1] - fp[j]) / (xp[j + 1] - xp[j]) * (v - xp[j]) + fp[j]
+    x0: cython.double = xp[j]
+    x1: cython.double = xp[j + 1]
+    f0: cython.double = fp[j]
+    f1: cython.double = fp[j + 1]
+    return (f1 - f0) / (x1 - x0) * (v - x0) + f0
 
 
 def triangle_formed(dl: float, dr: float, dw: float) -> bool:
     """Seed 002, Eq. 1: d_B + d_C > d_A, d_A the longest of the three sides (dl, dr, dw)."""
-    longest = dl if dl >= dr else dr
+    longest: cython.double = dl if dl >= dr else dr
     longest = longest if longest >= dw else dw
     return (dl + dr + dw) - longest > longest
 
@@ -190,21 +223,21 @@ def position_from_distances(cfg: LFConfig, dl: float, dr: float) -> LFFix:
     x = dl·cos α − dw/2, y = dl·sin α (Eq. 2); d = √(x² + y²), θ = atan(x/y) (Eq. 3); then the
     paper's frame is mapped to the body frame.
     """
-    dw = cfg.antenna_spacing_m
+    dw = cfg.antenna_spacing_m  # (a Python float: dw**2 is Python's float power in both forms)
     if not triangle_formed(dl, dr, dw):  # seed 002, Eq. 1
         return _NO_FIX
     # seed 002, Eq. 2 (the clip guards rounding)
-    cos_alpha = (dl * dl + dw**2 - dr * dr) / (2.0 * dl * dw)
+    cos_alpha: cython.double = (dl * dl + dw**2 - dr * dr) / (2.0 * dl * dw)
     cos_alpha = -1.0 if cos_alpha < -1.0 else (1.0 if cos_alpha > 1.0 else cos_alpha)
-    alpha = float(np.arccos(cos_alpha))
-    x_p = dl * float(np.cos(alpha)) - dw / 2.0
-    y_p = dl * float(np.sin(alpha))
+    alpha: cython.double = float(np.arccos(cos_alpha))
+    x_p: cython.double = dl * float(np.cos(alpha)) - dw / 2.0
+    y_p: cython.double = dl * float(np.sin(alpha))
     # seed 002, Eq. 3 (a formed triangle has sin α > 0, so y > 0; should rounding give y = 0,
     # x/y is ±inf as numpy's division gives it)
-    d = math.sqrt(x_p * x_p + y_p * y_p)
-    theta_p = float(np.arctan(x_p / y_p if y_p != 0.0 else np.float64(x_p) / y_p))
+    d: cython.double = _c_sqrt(x_p * x_p + y_p * y_p)
+    theta_p: cython.double = float(np.arctan(x_p / y_p if y_p != 0.0 else np.float64(x_p) / y_p))
     x_fwd, y_left, direction = _paper_to_body(cfg, x_p, y_p, theta_p)
-    reliable = d <= cfg.reliable_range_m and abs(direction) <= math.radians(cfg.reliable_half_angle_deg)
+    reliable: cython.bint = d <= cfg.reliable_range_m and abs(direction) <= math.radians(cfg.reliable_half_angle_deg)
     return LFFix(x_fwd, y_left, d, direction, True, reliable)
 
 

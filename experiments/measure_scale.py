@@ -27,6 +27,18 @@ zigzag, 60 s) with the scripted reference. Per case it prints:
   ``worst@walk_m``: the mean of the largest such error (one straggler far off, or many slaves just
   short).
 
+``why``: for each episode not built with every slave (the target: built, all still members), the
+first of these that fits (:func:`cause`), counted per case:
+
+* ``unjoined``: the reset did not organize, or not every slave joined;
+* ``cascade``: the master removed :data:`CASCADE` or more members as astray (each removal renumbers
+  the swarm and re-plans its slots, and the members then take new references);
+* ``removed``: built, but only after one or two members were removed (a smaller formation);
+* ``straggler``: when the user walked off, at most :data:`FEW` slaves were off their point and the
+  worst more than :data:`FAR_M` (the rest stood at their slots);
+* ``short``: never built otherwise: more slaves off, or the few off nearer than that (the
+  formation was still building when the user walked off, and did not build while walking).
+
 ``--set KEY=VALUE`` overrides any config key (``--set swarm.formation=column``).
 """
 
@@ -34,6 +46,7 @@ from __future__ import annotations
 
 import argparse
 import math
+from collections import Counter
 from typing import Any
 
 import numpy as np
@@ -63,6 +76,26 @@ class _RingTrace:
 
     def busy(self, now: float, station: int, frame) -> None:
         pass
+
+
+CASCADE = 3  # astray removals in one episode from which its failure counts as a cascade of them
+FEW = 2  # slaves off when the user walked off, at most, for a straggler case
+FAR_M = 1.5  # the worst slave's error when the user walked off, beyond which it is a straggler
+
+
+def cause(row: dict[str, Any]) -> str | None:
+    """Why an episode was not built with every slave (the module docstring's ``why``), or None if it was."""
+    if not row.get("organized") or not row.get("joined"):
+        return "unjoined"
+    if row.get("built_full"):
+        return None
+    if row["astray"] >= CASCADE:
+        return "cascade"
+    if math.isfinite(row["building_time_s"]):
+        return "removed"
+    if row["off_at_walk"] <= FEW and row["worst_at_walk_m"] > FAR_M:
+        return "straggler"
+    return "short"
 
 
 def episode(slaves: int, loss: float, seed: int, overrides: dict[str, Any]) -> dict[str, Any]:
@@ -112,6 +145,11 @@ def episode(slaves: int, loss: float, seed: int, overrides: dict[str, Any]) -> d
     }
 
 
+def _with_cause(row: dict[str, Any]) -> dict[str, Any]:
+    row["cause"] = cause(row)
+    return row
+
+
 def summarize(rows: list[dict[str, Any]]) -> dict[str, Any]:
     def mean(key: str, among: list[dict[str, Any]]) -> float:
         vals = [r[key] for r in among if math.isfinite(r.get(key, math.nan))]
@@ -129,6 +167,7 @@ def summarize(rows: list[dict[str, Any]]) -> dict[str, Any]:
         "astray": sum(r["astray"] for r in ran),
         "standing": len(standing), "full": sum(r.get("built_full", False) for r in built),
         "off_at_walk": mean("off_at_walk", missed), "worst_at_walk_m": mean("worst_at_walk_m", missed),
+        "why": dict(sorted(Counter(c for c in map(cause, rows) if c is not None).items())),
     }
 
 
@@ -144,19 +183,19 @@ def main(argv: list[str] | None = None) -> int:
     overrides = dict(parse_override(item) for item in args.set)
     seeds = parse_seeds(args.seeds)
     print("slaves  loss  episodes  joined  built  full  standing  building_s  hold_m  rmse_m  contacts  round_s  collided  stale_s  astray"
-          "  off@walk  worst@walk_m")
+          "  off@walk  worst@walk_m  why")
     for slaves in args.slaves:
         for loss in args.loss:
             rows = []
             for seed in seeds:
-                rows.append(episode(slaves, loss, seed, overrides))
+                rows.append(_with_cause(episode(slaves, loss, seed, overrides)))
                 if args.verbose:
                     print("   ", rows[-1], flush=True)
             s = summarize(rows)
             print(f"{slaves:6d} {loss:5.2f} {s['episodes']:9d} {s['joined']:7d} {s['built']:6d} {s['full']:5d} {s['standing']:9d} "
                   f"{s['building_s']:11.1f} {s['hold_rmse_m']:7.3f} {s['rmse_m']:7.3f} {s['contacts']:9d} {s['round_s']:8.2f} "
                   f"{100 * s['collided']:8.1f}% {s['stale_fix_s']:8.1f} {s['astray']:7d} {s['off_at_walk']:9.1f} "
-                  f"{s['worst_at_walk_m']:13.2f}", flush=True)
+                  f"{s['worst_at_walk_m']:13.2f}  " + (" ".join(f"{k} {v}" for k, v in s["why"].items()) or "-"), flush=True)
     return 0
 
 

@@ -144,6 +144,23 @@ def ring_readings(cfg: IRConfig, distance_m: list, bearing_rad: list, occluded: 
             out[i, j] = x
 
 
+@cython.ccall
+def measure_rows(cfg: IRConfig, distance_m: list, bearing_rad: list, occluded: list,
+                 z: cython.double[:, :, ::1]) -> tuple:
+    """:func:`ring_readings` then :func:`estimate_rows` for M pairs whose receiver noise is ``z``
+    (2, M, K): their ``(distance_m, bearing_rad, valid)``, three lists of M. What the IR channel
+    calls for a slot: one call, the readings and the estimates in two arrays of this call."""
+    m: cython.Py_ssize_t = len(distance_m)
+    strengths: cython.double[:, ::1] = np.empty((m, cfg.num_receivers))
+    ring_readings(cfg, distance_m, bearing_rad, occluded, z, strengths)
+    est: cython.double[:, ::1] = np.empty((2, m))  # distance, bearing
+    valid: cython.uchar[::1] = np.empty(m, np.uint8)
+    estimate_rows(cfg, strengths, est[0], est[1], valid)
+    i: cython.Py_ssize_t
+    return ([float(est[0, i]) for i in range(m)], [float(est[1, i]) for i in range(m)],
+            [bool(valid[i]) for i in range(m)])
+
+
 def estimate(cfg: IRConfig, strengths: list[list[float]]) -> tuple[list[float], list[float], list[bool]]:
     """The paper's estimator: distance and direction of the source from the ring readings.
 

@@ -93,13 +93,9 @@ class IRChannel:
         if any(opaque):  # no light reaches these receivers: as from a source beyond range
             distance = [math.inf if o else d for d, o in zip(distance, opaque)]
         # ir.estimate(cfg, ir.received_strengths(cfg, distance, bearing, occluded, rng)), on arrays
-        cfg, m = self.cfg, len(distance)
-        z = self.rng.standard_normal((2, m, cfg.num_receivers))  # the slot's receiver noise
-        strengths = np.empty((m, cfg.num_receivers))
-        ir.ring_readings(cfg, distance, bearing, occluded, z, strengths)
-        dist, bear, valid = np.empty(m), np.empty(m), np.empty(m, np.uint8)
-        ir.estimate_rows(cfg, strengths, dist, bear, valid)
-        return dist.tolist(), bear.tolist(), valid.view(np.bool_).tolist()
+        cfg = self.cfg
+        z = self.rng.standard_normal((2, len(distance), cfg.num_receivers))  # the slot's receiver noise
+        return ir.measure_rows(cfg, distance, bearing, occluded, z)
 
     def _walls_near(self, cl: list, tx_index: int, rx_indices: list[int]) -> list[tuple[float, float, float, float]]:
         """The wall and box segments whose bounding box overlaps the slot's (the transmitter's and

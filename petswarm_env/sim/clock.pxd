@@ -43,4 +43,8 @@ cdef class LocalClock:
     cdef Clock _clock
 
     cdef void call_later(self, double delay, object fn, tuple args)
+    cdef void call_due(self, double delay, Due due)
+    cdef void call_start(self, object fn, tuple args)
+    cdef void call_soon(self, object fn, tuple args)
+    cdef double local_now(self)
     cpdef double local(self, double t_true)

@@ -287,6 +287,11 @@ class LocalClock:
         """This clock's reading now (local seconds)."""
         return self.offset_s + self._rate * self._clock.now
 
+    @cython.cfunc
+    def local_now(self) -> cython.double:
+        """:attr:`now` (a C call in the compiled form, ``clock.pxd``)."""
+        return self.offset_s + self._rate * self._clock.now
+
     @cython.ccall
     def local(self, t_true: cython.double) -> cython.double:
         """This clock's reading at true time ``t_true`` (for what a sensor hands its MCU at ``t_true``)."""
@@ -313,6 +318,21 @@ class LocalClock:
     def call_later(self, delay: cython.double, fn: object, args: tuple) -> cython.void:
         """:meth:`later` with the arguments in a tuple (:meth:`Clock.call_later`)."""
         self._clock._push(self._clock.now + delay / self._rate, NORMAL, fn, args)
+
+    @cython.cfunc
+    def call_due(self, delay: cython.double, due: Due) -> cython.void:
+        """:meth:`Clock.call_due`, ``delay`` in this clock's seconds."""
+        self._clock.call_due(delay / self._rate, due)
+
+    @cython.cfunc
+    def call_start(self, fn: object, args: tuple) -> cython.void:
+        """:meth:`start` with the arguments in a tuple (a C call in the compiled form)."""
+        self._clock._push(self._clock.now, URGENT, fn, args)
+
+    @cython.cfunc
+    def call_soon(self, fn: object, args: tuple) -> cython.void:
+        """:meth:`soon` with the arguments in a tuple (a C call in the compiled form)."""
+        self._clock._push(self._clock.now, NORMAL, fn, args)
 
     def start(self, fn, *args) -> None:
         """:meth:`Clock.start` (no delay: the same on every clock)."""

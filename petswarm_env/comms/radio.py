@@ -327,7 +327,7 @@ class RadioMedium:
     @cython.cfunc
     def _done(self, port: _Port) -> cython.void:
         queue: list = port.queue
-        queue.pop(0)
+        del queue[0]  # the frame just sent or given up
         if queue:
             self._start(port, queue[0])
 

@@ -154,6 +154,7 @@ class RadioTrace(Protocol):
 
 
 @cython.final
+@cython.freelist(64)  # one for every frame event: reused, not allocated
 @cython.cclass
 class _Tx(Due):
     """One transmission: its frame, its time on the air, the sender's antenna position; on the
@@ -177,6 +178,7 @@ class _Tx(Due):
 
 
 @cython.final
+@cython.freelist(64)  # one for every frame event: reused, not allocated
 @cython.cclass
 class _Cca(Due):
     """A frame's clear-channel assessment after its backoff, on the clock (``run``:

@@ -91,6 +91,7 @@ class OwnClock:
 
 
 @cython.final
+@cython.freelist(64)  # one for every frame event: reused, not allocated
 @cython.cclass
 class _Handling(Due):
     """A received frame's handling after the MCU's processing delay (:meth:`Station.receive`): on

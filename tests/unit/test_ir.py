@@ -313,8 +313,12 @@ def test_measure_rows_is_the_readings_then_the_estimate_to_the_bit():
     distance = [0.3, 1.2, 2.9, 9.0, 0.005, 1.5]
     bearing = [0.0, 1.1, -2.8, 0.4, 3.0, -1.2]
     occluded = [False, True, False, False, False, True]
-    want = ir.estimate(cfg, ir.received_strengths(cfg, distance, bearing, occluded, np.random.default_rng(4)))
-    z = np.random.default_rng(4).standard_normal((2, len(distance), cfg.num_receivers))
-    got = ir.measure_rows(cfg, distance, bearing, occluded, z)
-    assert [type(v) for v in got[2]] == [bool] * len(distance) and False in got[2] and True in got[2]
-    assert [[float(v).hex() for v in col] for col in got] == [[float(v).hex() for v in col] for col in want]
+    optics = ir.Optics(cfg)  # one for every slot, as the IR channel keeps it: its scratch grows with the slots
+    for n in (2, 6, 18, 5):
+        d, b, o = (distance * 3)[:n], (bearing * 3)[:n], (occluded * 3)[:n]
+        want = ir.estimate(cfg, ir.received_strengths(cfg, d, b, o, np.random.default_rng(n)))
+        z = np.random.default_rng(n).standard_normal((2, n, cfg.num_receivers))
+        got = ir.measure_rows(optics, d, b, o, z)
+        assert [type(v) for v in got[2]] == [bool] * n and True in got[2]
+        assert [[float(v).hex() for v in col] for col in got] == [[float(v).hex() for v in col] for col in want]
+    assert optics.k == cfg.num_receivers

@@ -48,6 +48,10 @@ COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py c
 # Distances are clamped to at least this (m) so a degenerate zero distance cannot produce inf·0.
 _MIN_DISTANCE_M = 0.01
 
+_PI = cython.declare(cython.double, math.pi)
+_NAN = cython.declare(cython.double, math.nan)
+_wrap_angle = geometry.wrap_angle  # the project's one angle wrap (a module global: no module attribute per row)
+
 
 @cython.cfunc
 @cython.inline
@@ -97,21 +101,74 @@ def received_strengths(
     return out.tolist()
 
 
+@cython.final
+@cython.cclass
+class Optics:
+    """An IR configuration's constants as C doubles (sections are frozen, so they stay valid), with
+    the scratch rows of a slot (:func:`measure_rows`): what the IR channel keeps for its configuration."""
+
+    cfg = cython.declare(object, visibility="readonly")
+    k = cython.declare(cython.Py_ssize_t, visibility="readonly")  # receivers on the ring
+    delta = cython.declare(cython.double)  # the ring's spacing Δ, cos Δ, sin Δ
+    cos_d = cython.declare(cython.double)
+    sin_d = cython.declare(cython.double)
+    s1 = cython.declare(cython.double)
+    att = cython.declare(cython.double)
+    far = cython.declare(cython.double)
+    exponent = cython.declare(cython.double)
+    rel = cython.declare(cython.double)
+    add = cython.declare(cython.double)
+    sat = cython.declare(cython.double)
+    threshold = cython.declare(cython.double)
+    rows = cython.declare(cython.Py_ssize_t)  # how many pairs the scratch holds
+    strengths = cython.declare(cython.double[:, ::1])  # (rows, K) readings
+    est = cython.declare(cython.double[:, ::1])  # (2, rows): distance, bearing
+    valid = cython.declare(cython.uchar[::1])  # (rows,)
+
+    def __init__(self, cfg: IRConfig):
+        self.cfg = cfg
+        self.k = cfg.num_receivers
+        _, self.delta, self.cos_d, self.sin_d = _ring(self.k)
+        self.s1, self.att, self.far = cfg.strength_at_1m, cfg.occlusion_attenuation, cfg.max_range_m
+        self.exponent, self.rel, self.add, self.sat = cfg.lobe_exponent, cfg.noise_rel, cfg.noise_abs, cfg.saturation
+        self.threshold = cfg.detect_threshold
+        self.rows = 0
+
+    def __reduce__(self):
+        return Optics, (self.cfg,)
+
+    @cython.cfunc
+    def reserve(self, m: cython.Py_ssize_t) -> cython.void:
+        """Scratch for at least ``m`` pairs."""
+        if m > self.rows:
+            self.rows = max(m, 2 * self.rows, 8)
+            self.strengths = np.empty((self.rows, self.k))
+            self.est = np.empty((2, self.rows))
+            self.valid = np.empty(self.rows, np.uint8)
+
+
 @cython.ccall
 def ring_readings(cfg: IRConfig, distance_m: list, bearing_rad: list, occluded: list, z: cython.double[:, :, ::1],
                   out: cython.double[:, ::1]) -> cython.void:
     """:func:`received_strengths` with its noise given: ``z`` (2, M, K), the multiplicative then the
     additive standard normals of every receiver; the readings written into ``out`` (M, K). Typed
-    loops over C arrays: what the IR channel calls for a slot (no Python float per reading)."""
-    k: cython.Py_ssize_t = cfg.num_receivers
-    delta: cython.double = _ring(k)[1]
-    s1: cython.double = cfg.strength_at_1m
-    att: cython.double = cfg.occlusion_attenuation
-    far: cython.double = cfg.max_range_m
-    exponent: cython.double = cfg.lobe_exponent
-    rel: cython.double = cfg.noise_rel
-    add: cython.double = cfg.noise_abs
-    sat: cython.double = cfg.saturation
+    loops over C arrays (no Python float per reading)."""
+    _readings(Optics(cfg), distance_m, bearing_rad, occluded, z, out)
+
+
+@cython.cfunc
+def _readings(o: Optics, distance_m: list, bearing_rad: list, occluded: list, z: cython.double[:, :, ::1],
+              out: cython.double[:, ::1]) -> cython.void:
+    """:func:`ring_readings` with the configuration's constants in ``o``."""
+    k: cython.Py_ssize_t = o.k
+    delta: cython.double = o.delta
+    s1: cython.double = o.s1
+    att: cython.double = o.att
+    far: cython.double = o.far
+    exponent: cython.double = o.exponent
+    rel: cython.double = o.rel
+    add: cython.double = o.add
+    sat: cython.double = o.sat
     m: cython.Py_ssize_t = len(distance_m)
     i: cython.Py_ssize_t
     j: cython.Py_ssize_t
@@ -142,6 +199,24 @@ def ring_readings(cfg: IRConfig, distance_m: list, bearing_rad: list, occluded: 
             elif x > sat:
                 x = sat
             out[i, j] = x
+
+
+@cython.ccall
+def measure_rows(optics: Optics, distance_m: list, bearing_rad: list, occluded: list,
+                 z: cython.double[:, :, ::1]) -> tuple:
+    """:func:`ring_readings` then :func:`estimate_rows` for M pairs whose receiver noise is ``z``
+    (2, M, K), with the constants and the scratch of ``optics``: their ``(distance_m, bearing_rad,
+    valid)``, three lists of M. What the IR channel calls for a slot (one call, no array made)."""
+    m: cython.Py_ssize_t = len(distance_m)
+    optics.reserve(m)
+    strengths: cython.double[:, ::1] = optics.strengths[:m]
+    _readings(optics, distance_m, bearing_rad, occluded, z, strengths)
+    est: cython.double[:, ::1] = optics.est
+    valid: cython.uchar[::1] = optics.valid
+    _estimates(optics, strengths, est[0], est[1], valid)
+    i: cython.Py_ssize_t
+    return ([float(est[0, i]) for i in range(m)], [float(est[1, i]) for i in range(m)],
+            [bool(valid[i]) for i in range(m)])
 
 
 def estimate(cfg: IRConfig, strengths: list[list[float]]) -> tuple[list[float], list[float], list[bool]]:
@@ -176,17 +251,23 @@ def estimate(cfg: IRConfig, strengths: list[list[float]]) -> tuple[list[float], 
 def estimate_rows(cfg: IRConfig, strengths: cython.double[:, ::1], distance: cython.double[::1],
                   bearing: cython.double[::1], valid: cython.uchar[::1]) -> cython.void:
     """:func:`estimate` on an (M, K) array of readings, into ``distance``, ``bearing`` and ``valid``
-    (M each): typed loops, what the IR channel calls for a slot."""
+    (M each): typed loops."""
+    _estimates(Optics(cfg), strengths, distance, bearing, valid)
+
+
+@cython.cfunc
+def _estimates(o: Optics, strengths: cython.double[:, ::1], distance: cython.double[::1],
+               bearing: cython.double[::1], valid: cython.uchar[::1]) -> cython.void:
+    """:func:`estimate_rows` with the configuration's constants in ``o``."""
     # seed 000, §3.3, Eqs. 1–3 (text garbled in the extraction; reconstructed as above)
-    k: cython.Py_ssize_t = cfg.num_receivers
-    ring = _ring(k)
-    delta: cython.double = ring[1]
-    cos_d: cython.double = ring[2]
-    sin_d: cython.double = ring[3]
+    k: cython.Py_ssize_t = o.k
+    delta: cython.double = o.delta
+    cos_d: cython.double = o.cos_d
+    sin_d: cython.double = o.sin_d
     den_a: cython.double = 1.0 + 2.0 * cos_d**2
     den_b: cython.double = 2.0 * sin_d**2
-    threshold: cython.double = cfg.detect_threshold
-    s1: cython.double = cfg.strength_at_1m
+    threshold: cython.double = o.threshold
+    s1: cython.double = o.s1
     i: cython.Py_ssize_t
     j: cython.Py_ssize_t
     s0: cython.double
@@ -214,8 +295,8 @@ def estimate_rows(cfg: IRConfig, strengths: cython.double[:, ::1], distance: cyt
         if ok:
             distance[row] = _c_sqrt(s1 / r)
             theta = _c_atan2(b, a) + i * delta
-            w: cython.double = -geometry.wrap_angle(-theta)  # to (−π, π]: π − (π − θ) mod 2π, to the bit
-            bearing[row] = w + 2.0 * math.pi if w <= -math.pi else w
+            w: cython.double = -_wrap_angle(-theta)  # to (−π, π]: π − (π − θ) mod 2π, to the bit
+            bearing[row] = w + 2.0 * _PI if w <= -_PI else w
         else:
-            distance[row] = math.nan
-            bearing[row] = math.nan
+            distance[row] = _NAN
+            bearing[row] = _NAN

@@ -61,6 +61,7 @@ class IRChannel:
         self.rng = rng
         self.walls = SegmentSet(world.wall_a, world.wall_b, 0.0)  # walls and box edges, with their bounding boxes
         self._wall_ends = [(*a, *b) for a, b in zip(world.wall_a.tolist(), world.wall_b.tolist())]
+        self._optics = None  # ir.Optics of cfg, made at the first slot
 
     def measure(self, tx_index: int, rx_indices: list[int]) -> tuple[list[float], list[float], list[bool]]:
         """Receivers ``rx_indices`` measure the IR of robot ``tx_index``.
@@ -93,13 +94,11 @@ class IRChannel:
         if any(opaque):  # no light reaches these receivers: as from a source beyond range
             distance = [math.inf if o else d for d, o in zip(distance, opaque)]
         # ir.estimate(cfg, ir.received_strengths(cfg, distance, bearing, occluded, rng)), on arrays
-        cfg, m = self.cfg, len(distance)
-        z = self.rng.standard_normal((2, m, cfg.num_receivers))  # the slot's receiver noise
-        strengths = np.empty((m, cfg.num_receivers))
-        ir.ring_readings(cfg, distance, bearing, occluded, z, strengths)
-        dist, bear, valid = np.empty(m), np.empty(m), np.empty(m, np.uint8)
-        ir.estimate_rows(cfg, strengths, dist, bear, valid)
-        return dist.tolist(), bear.tolist(), valid.view(np.bool_).tolist()
+        optics = self._optics
+        if optics is None or optics.cfg is not self.cfg:  # the configuration's constants (sections are frozen)
+            optics = self._optics = ir.Optics(self.cfg)
+        z = self.rng.standard_normal((2, len(distance), optics.k))  # the slot's receiver noise
+        return ir.measure_rows(optics, distance, bearing, occluded, z)
 
     def _walls_near(self, cl: list, tx_index: int, rx_indices: list[int]) -> list[tuple[float, float, float, float]]:
         """The wall and box segments whose bounding box overlaps the slot's (the transmitter's and

@@ -49,9 +49,9 @@ from petswarm_env.config import RadioConfig
 from petswarm_env.sim.draws import Draws
 
 if cython.compiled:  # the clock's C methods (sim/clock.pxd): the medium schedules by a C call
-    from cython.cimports.petswarm_env.sim.clock import Clock
+    from cython.cimports.petswarm_env.sim.clock import Clock, Due
 else:
-    from petswarm_env.sim.clock import Clock
+    from petswarm_env.sim.clock import Clock, Due
 
 COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
 
@@ -154,18 +154,46 @@ class RadioTrace(Protocol):
 
 
 @cython.final
+@cython.freelist(64)  # one for every frame event: reused, not allocated
 @cython.cclass
-class _Tx:
-    """One transmission: its frame, its time on the air, the sender's antenna position."""
+class _Tx(Due):
+    """One transmission: its frame, its time on the air, the sender's antenna position; on the
+    clock, its delivery when it has left the air (:meth:`RadioMedium._deliver`, ``run``)."""
 
     frame = cython.declare(Frame)
     start = cython.declare(cython.double)
     end = cython.declare(cython.double)
     x = cython.declare(cython.double)
     y = cython.declare(cython.double)
+    medium = cython.declare(object)  # the RadioMedium that carries it
+    sender = cython.declare(object)  # the sender's _Port
 
     def __init__(self, frame: Frame, start: cython.double, end: cython.double, x: cython.double, y: cython.double):
         self.frame, self.start, self.end, self.x, self.y = frame, start, end, x, y
+
+    @cython.cfunc
+    def run(self) -> cython.void:
+        medium: RadioMedium = self.medium
+        medium._deliver(self, self.sender)
+
+
+@cython.final
+@cython.freelist(64)  # one for every frame event: reused, not allocated
+@cython.cclass
+class _Cca(Due):
+    """A frame's clear-channel assessment after its backoff, on the clock (``run``:
+    :meth:`RadioMedium._cca`); a busy channel schedules the same object again with its counts raised."""
+
+    medium = cython.declare(object)  # the RadioMedium
+    port = cython.declare(object)  # the sender's _Port
+    frame = cython.declare(Frame)
+    nb = cython.declare(cython.int)  # busy assessments so far
+    be = cython.declare(cython.int)  # the backoff exponent
+
+    @cython.cfunc
+    def run(self) -> cython.void:
+        medium: RadioMedium = self.medium
+        medium._cca(self)
 
 
 @cython.cfunc
@@ -294,13 +322,14 @@ class RadioMedium:
     @cython.cfunc
     def _start(self, port: _Port, frame: Frame) -> cython.void:
         """The MAC takes the first frame of the station's queue: driver latency, first backoff."""
-        be: cython.int = self._min_be
-        self._clock.call_later(self._latency_s + self._backoff(be), self._cca, (port, frame, 0, be))
+        cca: _Cca = _Cca.__new__(_Cca)
+        cca.medium, cca.port, cca.frame, cca.nb, cca.be = self, port, frame, 0, self._min_be
+        self._clock.call_due(self._latency_s + self._backoff(cca.be), cca)
 
     @cython.cfunc
     def _done(self, port: _Port) -> cython.void:
         queue: list = port.queue
-        queue.pop(0)
+        del queue[0]  # the frame just sent or given up
         if queue:
             self._start(port, queue[0])
 
@@ -310,7 +339,13 @@ class RadioMedium:
         u: cython.double = self._mac_uniform()
         return cython.cast(cython.long, u * (1 << be)) * self._backoff_slot_s
 
-    def _cca(self, port: _Port, frame: Frame, nb: cython.int, be: cython.int) -> None:
+    @cython.cfunc
+    def _cca(self, cca: _Cca) -> cython.void:
+        """The clear-channel assessment of ``cca.frame`` (module docstring): busy, back off again or
+        give up; clear, on the air."""
+        port: _Port = cca.port
+        frame: Frame = cca.frame
+        nb: cython.int = cca.nb
         now: cython.double = self._clock.now
         x: cython.double
         y: cython.double
@@ -325,8 +360,9 @@ class RadioMedium:
                         self.trace.busy(now, port.node_id, frame)
                     self._done(port)
                     return
-                be = min(be + 1, self._max_be)
-                self._clock.call_later(self._backoff(be), self._cca, (port, frame, nb + 1, be))
+                cca.be = min(cca.be + 1, self._max_be)
+                cca.nb = nb + 1
+                self._clock.call_due(self._backoff(cca.be), cca)
                 return
         # clear: on the air after the RX-to-TX turnaround, which the CCA of others cannot sense
         start: cython.double = now + self._turnaround_s
@@ -335,10 +371,12 @@ class RadioMedium:
         self.stats.frames_sent += 1
         if self.trace is not None:
             self.trace.on_air(now, port.node_id, frame, start, tx.end)
-        self._clock.call_later(tx.end - now, self._deliver, (tx, port))
+        tx.medium, tx.sender = self, port
+        self._clock.call_due(tx.end - now, tx)
 
     # -- receiving ------------------------------------------------------------------------------
-    def _deliver(self, tx: _Tx, sender: _Port) -> None:
+    @cython.cfunc
+    def _deliver(self, tx: _Tx, sender: _Port) -> cython.void:
         """The frame has left the air: every station in range gets it now, unless it collided.
         One function on purpose: the loop over the receivers runs on typed locals for every frame."""
         self._done(sender)

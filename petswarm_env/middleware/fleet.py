@@ -76,10 +76,14 @@ class Fleet:
         if not holder.health.ir_ok:  # the IR module is off (a fault): no transmission, nothing measured
             return []
         # in the order of the member number each receiver holds (its own table's; the order of the draws)
-        receivers = sorted((n for n, node in nodes.items() if n != own and node.swarm_pan == pan and node.health.ir_ok),
-                           key=lambda n: (nodes[n].know.member, n))
-        if not receivers:
+        order: list = []
+        for n, node in nodes.items():
+            if n != own and node.swarm_pan == pan and node.health.ir_ok:
+                order.append((node.know.member, n))
+        if not order:
             return []
+        order.sort()
+        receivers: list = [n for _, n in order]
         dist, bearing, valid = self.ir_channel.measure(own, receivers)
         for rid, d, b, ok in zip(receivers, dist, bearing, valid):
             if ok:

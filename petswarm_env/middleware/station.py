@@ -42,9 +42,9 @@ from petswarm_env.middleware.knowledge import IRMeasurement, Knowledge
 from petswarm_env.sim.clock import Clock
 
 if cython.compiled:  # the MCU clock's C methods (sim/clock.pxd): a received frame is scheduled by a C call
-    from cython.cimports.petswarm_env.sim.clock import LocalClock
+    from cython.cimports.petswarm_env.sim.clock import Due, LocalClock
 else:
-    from petswarm_env.sim.clock import LocalClock
+    from petswarm_env.sim.clock import Due, LocalClock
 from petswarm_env.sim.draws import Draws
 from petswarm_env.sim.sensors import Odometry
 
@@ -88,6 +88,23 @@ class OwnClock:
     def ahrs(self, now_s, yaw) -> None:
         """``ahrs.on_reading(now_s, yaw)``: one AHRS reading."""
         self._on_ahrs(self._clock.local(now_s), yaw)
+
+
+@cython.final
+@cython.freelist(64)  # one for every frame event: reused, not allocated
+@cython.cclass
+class _Handling(Due):
+    """A received frame's handling after the MCU's processing delay (:meth:`Station.receive`): on
+    the clock it calls the station's ``_handle`` (looked up then, so a subclass or a test may replace
+    it) with the frame and the handler registered for its kind."""
+
+    station = cython.declare(object)
+    handler = cython.declare(object)
+    frame = cython.declare(object)
+
+    @cython.cfunc
+    def run(self) -> cython.void:
+        self.station._handle(self.handler, self.frame)
 
 
 class Signal:
@@ -170,7 +187,9 @@ class Station:
         if handler is None or not self.health.radio_ok:
             return
         u: cython.double = self._uniform()  # processing_delay(), inlined: called for every reception
-        self._mcu.call_later(self._processing_s + self._jitter_s * u, self._handle, (handler, frame))
+        handling: _Handling = _Handling.__new__(_Handling)
+        handling.station, handling.handler, handling.frame = self, handler, frame
+        self._mcu.call_due(self._processing_s + self._jitter_s * u, handling)
 
     def processing_delay(self) -> float:
         """MCU time to handle a received frame before it can answer (``processing_s`` plus a

@@ -69,16 +69,26 @@ from petswarm_env.middleware import messages as msg
 from petswarm_env.middleware.knowledge import HeadingEstimate
 from petswarm_env.sim.geometry import wrap_angle
 
-if cython.compiled:  # a station's typed attributes (middleware/station.pxd): read by a C read for every ring frame
+if cython.compiled:  # a station's typed attributes (middleware/station.pxd), the MCU clock's C methods (sim/clock.pxd)
     from cython.cimports.petswarm_env.middleware.station import Station
+    from cython.cimports.petswarm_env.sim.clock import LocalClock
 else:
     from petswarm_env.middleware.station import Station
+    from petswarm_env.sim.clock import LocalClock
 
 COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
 
 # chosen: a holder announced this long ago (its start sign, sync or the token to it) still transmits: the slot's
 # acknowledgement wait and its IR transmission (protocol.ring_response_timeout_s 0.05 + ir_tx_s 0.04) with room
 ANNOUNCE_S = 0.12
+
+# the ring's frame kinds, read for every ring frame (a C global, not an attribute of the messages module)
+_TX_START = cython.declare(str, msg.TX_START)
+_TX_START_ACK = cython.declare(str, msg.TX_START_ACK)
+_TOKEN = cython.declare(str, msg.TOKEN)
+_TOKEN_ACK = cython.declare(str, msg.TOKEN_ACK)
+_SYNC = cython.declare(str, msg.SYNC)
+_HEADING = cython.declare(str, msg.HEADING)
 
 
 class RingPlan(NamedTuple):
@@ -158,7 +168,7 @@ class TokenRing:
     lost_handler = cython.declare(object, visibility="public")
     _declared = cython.declare(set)
     _plan = cython.declare(object)
-    _clock = cython.declare(object)  # the robot's own MCU clock (Station.clock)
+    _clock = cython.declare(LocalClock)  # the robot's own MCU clock (Station.clock)
 
     def __init__(self, node: Station):
         self.node = node
@@ -201,6 +211,11 @@ class TokenRing:
 
     def plan(self) -> RingPlan:
         """The ring's plan for the swarm as this robot's tables count it (:func:`ring_plan`)."""
+        return self._current_plan()
+
+    @cython.cfunc
+    def _current_plan(self):
+        """:meth:`plan` (a C call from the ring's own handlers)."""
         total = self.node.know.total_members
         if self._plan is None or self._plan[0] != total:
             self._plan = (total, ring_plan(self.node.cfg, total))
@@ -226,18 +241,18 @@ class TokenRing:
         wait: _Wait = _Wait(slot)
         self._acks_event = wait
         wait.armed = True
-        self._clock.later(self.node.cfg.protocol.ring_response_timeout_s, self._wait_over, wait)
+        self._clock.call_later(self.node.cfg.protocol.ring_response_timeout_s, self._wait_over, (wait,))
 
     def _wait_over(self, wait: _Wait) -> None:
         """The first of a wait's two ends (its event, or its timeout) resumes its slot; the later one is nothing."""
         if wait.done or not wait.armed:
             return
         wait.done = True
-        self._clock.soon(wait.slot.resume)
+        self._clock.call_soon(wait.slot.resume, ())
 
     def _on_ack(self, frame: Frame) -> None:
         src = frame.src
-        self.heard[src] = self._clock.now  # an acknowledgement to another holder, overheard, is a sign of life too
+        self.heard[src] = self._clock.local_now()  # an acknowledgement to another holder, overheard, is a sign of life too
         if frame.dst != self.node.node_id:
             return
         self._acks.add(src)
@@ -246,7 +261,7 @@ class TokenRing:
         if wait is not None and not wait.triggered and self._acks_needed <= self._acks:
             wait.triggered = True
             if wait.armed:
-                self._clock.soon(self._wait_over, wait)
+                self._clock.call_soon(self._wait_over, (wait,))
 
     def hold(self, seq: int) -> None:
         """Become the holder of token ``seq`` and run its slot (:class:`_Slot`): start sign, IR
@@ -292,46 +307,46 @@ class TokenRing:
     def start_as_master(self) -> None:
         """The master starts the ring (with a fresh token) and its watchdog."""
         node = self.node
-        self.round_start_s = self.started_s = self._clock.now  # every member's first round counts from now
+        self.round_start_s = self.started_s = self._clock.local_now()  # every member's first round counts from now
         self.silent_rounds = {}
         self.rounds = 0
         if node.know.total_members > 1:
             self.token_seq += 1000  # supersede any token still in flight
-            self._clock.start(self.hold, self.token_seq)
-            self._clock.start(self._watch)
+            self._clock.call_start(self.hold, (self.token_seq,))
+            self._clock.call_start(self._watch, ())
 
     def _begin(self, seq: int) -> None:
         """Become the holder: send the sync message, switch IR to transmit, run the slot."""
-        self.node.send(msg.SYNC, seq=seq)
+        self.node.send(_SYNC, seq=seq)
         self.hold(seq)
 
     # -- everyone ---------------------------------------------------------------------------------
     def _on_tx_start(self, frame: Frame) -> None:
         node: Station = self.node
-        src, now = frame.src, self._clock.now
+        src, now = frame.src, self._clock.local_now()
         self.last_activity_s = self._slot_start[src] = self.heard[src] = now
         self.holder_heard = (src, now)
         self.slot_range_m[src] = frame.rx_distance_est_m  # the announcer's RSSI range (the IR self-check)
         seq = frame.payload["seq"]
         self.token_seq = max(seq, self.token_seq)
-        slot = self.plan().answer_slot_s
+        slot = self._current_plan().answer_slot_s
         holder = next((m for m, n in node.know.members.items() if n == src), None) if slot > 0 else None
         if holder is None:
-            node.send(msg.TX_START_ACK, src)
+            node.send(_TX_START_ACK, src)
         else:  # crowded ring: in member order after the holder
             rank = (node.know.member - holder - 1) % node.know.total_members
-            node.later(rank * slot, node.send, msg.TX_START_ACK, src)
+            node.later(rank * slot, node.send, _TX_START_ACK, src)
 
     def _on_token(self, frame: Frame) -> None:
         node: Station = self.node
-        src, now, payload = frame.src, self._clock.now, frame.payload
+        src, now, payload = frame.src, self._clock.local_now(), frame.payload
         self.last_activity_s = self.heard[src] = now
         nxt = node.know.members.get(payload["next"])
         if nxt is not None:
             self.token_to = (nxt, now)
         named = nxt == node.node_id
-        if named or self.plan().all_answer_token:
-            node.send(msg.TOKEN_ACK, src)
+        if named or self._current_plan().all_answer_token:
+            node.send(_TOKEN_ACK, src)
         seq = payload["seq"]
         if seq <= self.token_seq or not named:
             return
@@ -339,10 +354,10 @@ class TokenRing:
         if self.drop_next_token:
             self.drop_next_token = False
             return
-        self._clock.start(self._begin, seq)
+        self._clock.call_start(self._begin, (seq,))
 
     def _on_sync(self, frame: Frame) -> None:
-        src, now = frame.src, self._clock.now
+        src, now = frame.src, self._clock.local_now()
         self.last_activity_s = self.heard[src] = now
         self.holder_heard = (src, now)
         self.token_seq = max(self.token_seq, frame.payload["seq"])
@@ -354,7 +369,7 @@ class TokenRing:
         None: it heard no announcement and cannot say whose IR it measured (the measurement is
         dropped). Chosen order: a token's "next" names a member by the receiver's own table and a
         token may be passed on again (its acknowledgement lost) while the first robot holds."""
-        now = self._clock.now
+        now = self._clock.local_now()
         for holder, t in (self.holder_heard, self.token_to):
             if now - t <= ANNOUNCE_S:
                 return holder
@@ -364,7 +379,7 @@ class TokenRing:
         """The IR medium asks a neighbour of the transmitter ``holder`` at the end of its slot: if
         we measured it in this slot, we report the bearing we saw it at (Fig. 9)."""
         seen = self.node.know.ir.get(holder)
-        if seen is None or seen.time_s != self._clock.now:
+        if seen is None or seen.time_s != self._clock.local_now():
             return False
         self.send_heading(holder, seen.bearing_rad)
         return True
@@ -373,27 +388,27 @@ class TokenRing:
         """Neighbour of the transmitter: report the bearing at which we saw it (Fig. 9), after the
         MCU has processed the measurement."""
         node = self.node
-        node.later(node.processing_delay(), lambda: node.send(msg.HEADING, dst=holder, bearing=bearing_rad))
+        node.later(node.processing_delay(), lambda: node.send(_HEADING, dst=holder, bearing=bearing_rad))
 
     def _on_heading(self, frame: Frame) -> None:
         node: Station = self.node
         if frame.dst != node.node_id:
             return
-        self.report_s = self._clock.now
+        self.report_s = self._clock.local_now()
         seen = node.know.ir.get(frame.src)
         if seen is not None and seen.time_s >= self._slot_start.get(frame.src, -math.inf):
             # our bearing of the sender dates from its slot: carry it over our own rotation since (AHRS)
             yaw = node.ahrs_yaw()
             bearing_now = seen.bearing_rad - (yaw - seen.own_yaw_rad)
             rel = relative_heading(bearing_now, frame.payload["bearing"])
-            node.know.heading[frame.src] = HeadingEstimate(rel, self._clock.now, yaw)
+            node.know.heading[frame.src] = HeadingEstimate(rel, self._clock.local_now(), yaw)
         # else we missed the sender's latest slot: no pair of bearings from this round
         self._headings_expected.discard(frame.src)
         wait: _Wait = self._headings_event
         if wait is not None and not wait.triggered and not self._headings_expected:
             wait.triggered = True
             if wait.armed:
-                self._clock.soon(self._wait_over, wait)
+                self._clock.call_soon(self._wait_over, (wait,))
 
     # -- master: watchdog -------------------------------------------------------------------------
     def _watch(self) -> None:
@@ -401,16 +416,16 @@ class TokenRing:
         ``token_timeout_s / 2`` of its own clock while it is the master."""
         node = self.node
         if node.state == "master":
-            self._clock.later(node.cfg.protocol.token_timeout_s / 2, self._watchdog)
+            self._clock.call_later(node.cfg.protocol.token_timeout_s / 2, self._watchdog, ())
 
     def _watchdog(self) -> None:
         node = self.node
         if node.state != "master":
             return
-        if not self.holding and self._clock.now - self.last_activity_s > node.cfg.protocol.token_timeout_s:
+        if not self.holding and self._clock.local_now() - self.last_activity_s > node.cfg.protocol.token_timeout_s:
             self.recoveries += 1
             self.token_seq += 1000  # supersede any stale holder
-            self._clock.start(self.hold, self.token_seq)
+            self._clock.call_start(self.hold, (self.token_seq,))
         self._watch()
 
 
@@ -452,10 +467,10 @@ class _Slot:
         node = ring.node
         ring.holding = True
         ring.token_seq = self.seq
-        ring.last_activity_s = ring._clock.now
+        ring.last_activity_s = ring._clock.local_now()
         self.peers = ring._ring_peers()
-        self.slot_start = ring._clock.now
-        node.send(msg.TX_START, seq=self.seq)
+        self.slot_start = ring._clock.local_now()
+        node.send(_TX_START, seq=self.seq)
         self.step = _ACKED
         ring._wait_acks(self.peers, self)
 
@@ -481,7 +496,7 @@ class _Slot:
         if node.state == "master" and node.know is self.know:
             ring._count_silent(self.peers, self.slot_start)
         self.step = _IR_DONE
-        ring._clock.later(ring.plan().ir_tx_s, self.resume)
+        ring._clock.call_later(ring._current_plan().ir_tx_s, self.resume, ())
 
     @cython.cfunc
     def _ir_done(self):
@@ -500,10 +515,10 @@ class _Slot:
         ring._headings_expected = set(reporters)
         wait: _Wait = _Wait(self)
         ring._headings_event = wait
-        if reporters and ring.plan().wait_headings:  # else the reports are paired as they come (crowded ring)
+        if reporters and ring._current_plan().wait_headings:  # else the reports are paired as they come (crowded ring)
             wait.armed = True
             self.step = _HEADINGS
-            ring._clock.later(node.cfg.protocol.ring_response_timeout_s, ring._wait_over, wait)
+            ring._clock.call_later(node.cfg.protocol.ring_response_timeout_s, ring._wait_over, (wait,))
             return
         self._pass_token()
 
@@ -540,7 +555,7 @@ class _Slot:
     @cython.cfunc
     def _send_token(self):
         self.attempts_left -= 1
-        self.ring.node.send(msg.TOKEN, seq=self.seq + 1, next=self.nxt)
+        self.ring.node.send(_TOKEN, seq=self.seq + 1, next=self.nxt)
         self.step = _TOKEN_ACKED
         self.ring._wait_acks({self.target}, self)
 
@@ -563,6 +578,6 @@ class _Slot:
     def _finish(self):
         ring: TokenRing = self.ring
         ring.holding = False
-        ring.last_activity_s = ring._clock.now
+        ring.last_activity_s = ring._clock.local_now()
         if self.nxt == self.member:  # nobody else answered: keep the token
-            ring._clock.start(ring._begin, self.seq + 1)
+            ring._clock.call_start(ring._begin, (self.seq + 1,))

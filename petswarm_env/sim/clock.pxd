@@ -13,6 +13,11 @@ cdef class _Entry:
     cdef long long eid
     cdef object event  # the event, or the callback's function
     cdef tuple args  # the callback's arguments; None for an event
+    cdef bint due  # event is a Due: its run() is called
+
+
+cdef class Due:
+    cdef void run(self)
 
 
 cdef class Clock:
@@ -22,9 +27,11 @@ cdef class Clock:
     cdef public object _active_proc  # SimPy's Process sets it while it runs
 
     cdef void _push(self, double t, int prio, object event, tuple args)
+    cdef void _insert(self, _Entry entry)
     cdef _Entry _pop(self)
     cdef void _process(self, event)
     cdef void call_later(self, double delay, object fn, tuple args)
+    cdef void call_due(self, double delay, Due due)
     cpdef run_until(self, double t)
 
 
@@ -36,4 +43,8 @@ cdef class LocalClock:
     cdef Clock _clock
 
     cdef void call_later(self, double delay, object fn, tuple args)
+    cdef void call_due(self, double delay, Due due)
+    cdef void call_start(self, object fn, tuple args)
+    cdef void call_soon(self, object fn, tuple args)
+    cdef double local_now(self)
     cpdef double local(self, double t_true)

@@ -55,6 +55,19 @@ class _Entry:
     Its typed fields are declared in ``clock.pxd``: ``t``, ``prio``, ``eid``, ``event``, ``args``."""
 
 
+@cython.cclass
+class Due:
+    """Work the clock runs at its time by one C call (its :meth:`run`), for the modules of the
+    compiled core that schedule something for every frame (the radio's clear-channel assessment and
+    delivery): the object carries its own arguments, so no callback's bound method nor argument
+    tuple is made, and the loop calls it directly. Keyed like :meth:`Clock.later` (``Clock.call_due``):
+    it runs exactly where ``later(delay, fn, *args)`` would have run ``fn(*args)``."""
+
+    @cython.cfunc
+    def run(self) -> cython.void:
+        raise NotImplementedError(f"{type(self).__name__} gives no run()")
+
+
 @cython.cfunc
 @cython.inline
 def _before(a: _Entry, b: _Entry) -> cython.bint:
@@ -80,13 +93,19 @@ class Clock:
     # -- the queue: a binary heap of entries (heapq's algorithm, typed) ----------------------------
     @cython.cfunc
     def _push(self, t: cython.double, prio: cython.int, event: object, args: Optional[tuple]) -> cython.void:
-        heap: list = self._heap
         entry: _Entry = _Entry.__new__(_Entry)  # no __init__: the fields are set here
         entry.t = t
         entry.prio = prio
-        entry.eid = self._eid
         entry.event = event
         entry.args = args
+        entry.due = False
+        self._insert(entry)
+
+    @cython.cfunc
+    def _insert(self, entry: _Entry) -> cython.void:
+        """Put ``entry`` on the heap with the next insertion id."""
+        heap: list = self._heap
+        entry.eid = self._eid
         self._eid += 1
         heap.append(entry)
         pos: cython.Py_ssize_t = len(heap) - 1
@@ -158,6 +177,18 @@ class Clock:
         call (a C call in the compiled form, ``clock.pxd``)."""
         self._push(self.now + delay, NORMAL, fn, args)
 
+    @cython.cfunc
+    def call_due(self, delay: cython.double, due: Due) -> cython.void:
+        """Run ``due.run()`` after ``delay`` seconds of clock time: one entry keyed as :meth:`later`'s
+        (a C call in the compiled form, ``clock.pxd``)."""
+        entry: _Entry = _Entry.__new__(_Entry)
+        entry.t = self.now + delay
+        entry.prio = NORMAL
+        entry.event = due
+        entry.args = None
+        entry.due = True
+        self._insert(entry)
+
     def start(self, fn, *args) -> None:
         """Run ``fn(*args)`` now, before the events due now: where SimPy runs the first step of a
         process started now (its ``Initialize`` event is urgent)."""
@@ -180,7 +211,10 @@ class Clock:
                 break
             entry = self._pop()
             self.now = entry.t
-            if entry.args is not None:  # a bare callback: no event machinery
+            if entry.due:  # work that runs itself: one C call
+                due: Due = entry.event
+                due.run()
+            elif entry.args is not None:  # a bare callback: no event machinery
                 entry.event(*entry.args)
             else:
                 self._process(entry.event)
@@ -253,6 +287,11 @@ class LocalClock:
         """This clock's reading now (local seconds)."""
         return self.offset_s + self._rate * self._clock.now
 
+    @cython.cfunc
+    def local_now(self) -> cython.double:
+        """:attr:`now` (a C call in the compiled form, ``clock.pxd``)."""
+        return self.offset_s + self._rate * self._clock.now
+
     @cython.ccall
     def local(self, t_true: cython.double) -> cython.double:
         """This clock's reading at true time ``t_true`` (for what a sensor hands its MCU at ``t_true``)."""
@@ -279,6 +318,21 @@ class LocalClock:
     def call_later(self, delay: cython.double, fn: object, args: tuple) -> cython.void:
         """:meth:`later` with the arguments in a tuple (:meth:`Clock.call_later`)."""
         self._clock._push(self._clock.now + delay / self._rate, NORMAL, fn, args)
+
+    @cython.cfunc
+    def call_due(self, delay: cython.double, due: Due) -> cython.void:
+        """:meth:`Clock.call_due`, ``delay`` in this clock's seconds."""
+        self._clock.call_due(delay / self._rate, due)
+
+    @cython.cfunc
+    def call_start(self, fn: object, args: tuple) -> cython.void:
+        """:meth:`start` with the arguments in a tuple (a C call in the compiled form)."""
+        self._clock._push(self._clock.now, URGENT, fn, args)
+
+    @cython.cfunc
+    def call_soon(self, fn: object, args: tuple) -> cython.void:
+        """:meth:`soon` with the arguments in a tuple (a C call in the compiled form)."""
+        self._clock._push(self._clock.now, NORMAL, fn, args)
 
     def start(self, fn, *args) -> None:
         """:meth:`Clock.start` (no delay: the same on every clock)."""

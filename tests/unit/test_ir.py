@@ -303,3 +303,22 @@ def test_a_box_beside_the_line_of_sight_does_not_block():
     assert all(_two_robots_measured({"world.obstacles": [beside]}))
     corner = {"center_m": [0.25, 0.25], "size_m": [0.5, 0.5]}  # corner at (0, 0), on the line
     assert all(_two_robots_measured({"world.obstacles": [corner]}))
+
+
+def test_measure_rows_is_the_readings_then_the_estimate_to_the_bit():
+    """``ir.measure_rows`` (what the IR channel calls for a slot) gives exactly what
+    ``received_strengths`` then ``estimate`` give from the same noise: near, far (invalid),
+    occluded and behind-the-robot pairs, compared as hex strings (NaN included)."""
+    cfg = calibrated_config()
+    distance = [0.3, 1.2, 2.9, 9.0, 0.005, 1.5]
+    bearing = [0.0, 1.1, -2.8, 0.4, 3.0, -1.2]
+    occluded = [False, True, False, False, False, True]
+    optics = ir.Optics(cfg)  # one for every slot, as the IR channel keeps it: its scratch grows with the slots
+    for n in (2, 6, 18, 5):
+        d, b, o = (distance * 3)[:n], (bearing * 3)[:n], (occluded * 3)[:n]
+        want = ir.estimate(cfg, ir.received_strengths(cfg, d, b, o, np.random.default_rng(n)))
+        z = np.random.default_rng(n).standard_normal((2, n, cfg.num_receivers))
+        got = ir.measure_rows(optics, d, b, o, z)
+        assert [type(v) for v in got[2]] == [bool] * n and True in got[2]
+        assert [[float(v).hex() for v in col] for col in got] == [[float(v).hex() for v in col] for col in want]
+    assert optics.k == cfg.num_receivers

@@ -314,6 +314,10 @@ def _memory_markdown(mem: dict) -> list[str]:
     return out
 
 
+def _percent(share: float | None) -> str:
+    return "–" if share is None else f"{100 * share:.0f} %"
+
+
 def _training_markdown(tr: dict) -> list[str]:
     """Training throughput: PPO samples/s per vector env and worker setting."""
     out = ["## Training throughput", ""]
@@ -323,14 +327,15 @@ def _training_markdown(tr: dict) -> list[str]:
         out += [
             f"PPO (stable-baselines3), {tr['env']}, net {tr['net_arch']}, torch threads {tr['torch_threads']}.",
             "",
-            "| vector env | num_envs | processes | vector rows | n_steps | rollout | batch | epochs | samples | s | samples/s | samples per CPU-s |",
-            "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
+            "| vector env | num_envs | processes | vector rows | n_steps | rollout | batch | epochs | samples | s | samples/s | samples per CPU-s | env share |",
+            "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
         ]
         for r in tr["runs"]:
             out.append(
                 f"| {r.get('path', 'supersuit')} | {r['num_envs']} | {r['num_cpus']} | {r['vector_rows']} | {r['n_steps']} | "
                 f"{r['rollout_samples']} | {r['batch_size']} | {r['n_epochs']} | {r['samples']:,} | {r['wall_s']:.1f} | "
-                f"{r['samples_per_s']:,.0f} | {fmt(r.get('samples_per_cpu_s'), ',.0f')} |"
+                f"{r['samples_per_s']:,.0f} | {fmt(r.get('samples_per_cpu_s'), ',.0f')} | "
+                f"{_percent(r.get('env_cpu_share'))} |"
             )
         out += ["", tr["method"]]
     out.append("")

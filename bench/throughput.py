@@ -75,10 +75,11 @@ def _one_run(path: str, k: int, s: BenchSettings, p: Any, env_cfg: Any, slaves: 
         venv = make_vec_env(env_cfg, num_envs, num_cpus, s.seed, vec_env=path)
     try:
         model = build_model(p, venv, s.seed, n_steps=n_steps, batch_size=batch)
+        env_cpu = _time_step_wait(venv.venv)
         c0 = _cpu()
-        t0 = time.perf_counter()
+        t0, thread0 = time.perf_counter(), time.thread_time()
         model.learn(total_timesteps=s.training_samples, progress_bar=False)
-        wall = time.perf_counter() - t0
+        wall, thread = time.perf_counter() - t0, time.thread_time() - thread0
         samples = int(model.num_timesteps)
     finally:
         venv.close()
@@ -98,7 +99,25 @@ def _one_run(path: str, k: int, s: BenchSettings, p: Any, env_cfg: Any, slaves: 
         "cpu_s": cpu,
         "samples_per_s": samples / wall,
         "samples_per_cpu_s": samples / cpu if cpu > 0 else None,
+        "env_cpu_share": env_cpu[0] / thread if thread > 0 else None,
     }
+
+
+def _time_step_wait(vec: Any) -> list[float]:
+    """Count this thread's CPU time in ``vec.step_wait`` (the vector env under SB3's VecMonitor, that the
+    learner waits on each step) into the returned one-item list: over the thread's CPU time in
+    ``learn()`` the env's share of it (in this process: with worker processes only the waiting)."""
+    spent, step_wait = [0.0], vec.step_wait
+
+    def timed():
+        t = time.thread_time()
+        try:
+            return step_wait()
+        finally:
+            spent[0] += time.thread_time() - t
+
+    vec.step_wait = timed
+    return spent
 
 
 def _cpu() -> float:

@@ -42,22 +42,6 @@ from petswarm_env.episode import Episode
 SEED_BOUND = 2**31  # the episode seeds are drawn in [0, SEED_BOUND)
 
 
-class _Gathered:
-    """(copy, slot) -> value entries of one step, for one indexed write per array."""
-
-    __slots__ = ("copies", "slots", "items")
-
-    def __init__(self):
-        self.copies: list[int] = []
-        self.slots: list[int] = []
-        self.items: list = []
-
-    def add(self, n: int, j: int, value) -> None:
-        self.copies.append(n)
-        self.slots.append(j)
-        self.items.append(value)
-
-
 class VectorEnv:
     """``num_envs`` copies of the env of one config (module docstring)."""
 
@@ -80,6 +64,7 @@ class VectorEnv:
         self.episode_seeds = np.zeros(self.num_envs, np.int64)
         self.active = np.zeros((self.num_envs, self.max_agents), bool)
         self._rng: np.random.Generator | None = None
+        self._rows_cache: dict[tuple, list[int]] = {}
 
     # -- the episodes ------------------------------------------------------------------------------
     def _next_seed(self) -> int:
@@ -105,6 +90,16 @@ class VectorEnv:
         for a in agents:
             self.active[n, slot[a]] = True
 
+    def _rows_of(self, n: int, agents) -> list[int]:
+        """The rows ``n · max_agents + slot`` of ``agents`` (names, in their order) of copy ``n``
+        (cached per copy and agent list: they change seldom)."""
+        key = (n, *agents)
+        rows = self._rows_cache.get(key)
+        if rows is None:
+            slot, base = self._slot, n * self.max_agents
+            rows = self._rows_cache[key] = [base + slot[a] for a in agents]
+        return rows
+
     def reset(self, seed: int | None = None, options: dict | None = None) -> tuple[np.ndarray, list[dict[str, Any]]]:
         """Every copy's next episode; the seeds drawn from ``seed`` (module docstring; None: the
         config's ``seed`` on the first reset, else the generator goes on)."""
@@ -128,50 +123,58 @@ class VectorEnv:
         if acts.shape != shape or acts.dtype.kind not in "iuf":
             raise ValueError(f"actions must be numbers of shape {shape} (num_envs, max_agents, Vx/Vy/ω), "
                              f"got {acts.dtype} of shape {acts.shape}")
-        acts = acts.astype(np.float32)
-        if not np.isfinite(acts[self.active]).all():
+        n_envs, m = self.num_envs, self.max_agents
+        # the agents' actions of every copy, in each copy's agent order, gathered by one flat index
+        # (row n·m + slot of acts[n_envs·m, 3]); copy n's are the rows bounds[n]:bounds[n + 1]
+        flat, bounds = [], [0]
+        for n, episode in enumerate(self.episodes):
+            flat += self._rows_of(n, episode.agents)
+            bounds.append(len(flat))
+        picked = acts.reshape(-1, 3)[np.array(flat, np.intp)].astype(np.float32, copy=False)  # (a new array)
+        if not np.isfinite(picked).all():
             bad = np.argwhere(~np.isfinite(acts).all(axis=2) & self.active)[0]
             raise ValueError(f"the action of copy {bad[0]}'s {self.possible_agents[bad[1]]} contains NaN or inf; actions must be finite")
-        np.minimum(acts, 1.0, out=acts)  # clipped to [-1, 1] (np.clip's values, without its wrapper)
-        np.maximum(acts, -1.0, out=acts)
-        n_envs, m = self.num_envs, self.max_agents
+        np.minimum(picked, 1.0, out=picked)  # clipped to [-1, 1] (np.clip's values, without its wrapper)
+        np.maximum(picked, -1.0, out=picked)
         obs = np.zeros((n_envs, m, self.obs_dim), np.float32)
         rewards = np.zeros((n_envs, m), np.float32)
         terminated = np.zeros((n_envs, m), bool)
         truncated = np.zeros((n_envs, m), bool)
         infos: list[dict[str, Any]] = [{} for _ in range(n_envs)]
-        slot = self._slot
-        # every copy's results gathered as (copy, slot) lists and written with one indexed
-        # assignment per array after the loop (a numpy item write per agent costs more)
-        at, values, ended = _Gathered(), _Gathered(), []
+        # every copy's results gathered as flat row lists (n·m + slot) and written with one
+        # indexed assignment per array after the loop (a numpy item write per agent costs more)
+        at, r_v, te_v, tr_v, seen, ob_v, live, ended = [], [], [], [], [], [], [], []
         for n, episode in enumerate(self.episodes):
-            row = acts[n]
-            observations, rew, term, trunc, _ = episode.advance(row[[slot[a] for a in episode.agents]])  # (a new array)
-            for a, r in rew.items():
-                at.add(n, slot[a], (r, term[a], trunc[a]))
-            for a, o in observations.items():
-                values.add(n, slot[a], o)
-            if not episode.agents:  # the episode is over: its last arrays below, then the next episode
+            # each copy's rows of picked: a slice, its own array for the episode to keep as its last actions
+            observations, rew, term, trunc, _ = episode.advance(picked[bounds[n]:bounds[n + 1]])
+            rows = self._rows_of(n, rew)
+            at += rows
+            r_v += rew.values()
+            te_v += [term[a] for a in rew]
+            tr_v += [trunc[a] for a in rew]
+            seen += rows if observations.keys() == rew.keys() else self._rows_of(n, observations)
+            ob_v += observations.values()
+            if episode.agents:
+                live += self._rows_of(n, episode.agents)
+            else:  # the episode is over: its last arrays below, then the next episode
                 ended.append((n, observations))
-        if at.copies:
-            r, te, tr = zip(*at.items)
-            rewards[at.copies, at.slots], terminated[at.copies, at.slots], truncated[at.copies, at.slots] = r, te, tr
-        if values.copies:
-            obs[values.copies, values.slots] = values.items
+        if at:
+            at = np.array(at, np.intp)
+            rewards.reshape(-1)[at] = np.array(r_v, np.float32)
+            terminated.reshape(-1)[at] = te_v
+            truncated.reshape(-1)[at] = tr_v
+        if seen:
+            obs.reshape(-1, self.obs_dim)[np.array(seen, np.intp)] = np.array(ob_v)
         self.active[:] = False
-        live = _Gathered()
-        for n, episode in enumerate(self.episodes):
-            for a in episode.agents:
-                live.add(n, slot[a], True)
+        if live:
+            self.active.reshape(-1)[np.array(live, np.intp)] = True
         for n, observations in ended:
             episode = self.episodes[n]
             observed = np.zeros(m, bool)
-            observed[[slot[a] for a in observations]] = True
+            observed[self._rows_of(0, observations)] = True
             infos[n] = {"final_observation": obs[n].copy(), "final_active": observed, "final_state": episode.state(),
                         "episode_summary": episode.summary(), "finished_seed": int(self.episode_seeds[n])}
             infos[n].update(self._start(n, obs))  # the next episode's first row of obs and active
-        if live.copies:
-            self.active[live.copies, live.slots] = True
         return obs, rewards, terminated, truncated, infos
 
     def state(self) -> np.ndarray:

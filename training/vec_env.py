@@ -110,6 +110,10 @@ class PetswarmVecEnv(VecEnv):
         state = self.venv.state() if state is None else state
         return np.concatenate([rows, np.repeat(state, self.slots, axis=0)], axis=1)
 
+    def _row_infos(self) -> list[dict[str, Any]]:
+        """Every row's ``{"active": 0 or 1}`` (one ``tolist`` of the mask: Python ints, no per-row conversion)."""
+        return [{"active": a} for a in self.venv.active.reshape(-1).view(np.uint8).tolist()]
+
     def seed(self, seed: int | None = None):
         """Kept for the next ``reset`` (SB3 calls it with the model's seed): the copies' episode
         seeds are drawn from it (:mod:`petswarm_env.vector`)."""
@@ -119,7 +123,7 @@ class PetswarmVecEnv(VecEnv):
     def reset(self):
         obs, _ = self.venv.reset(seed=self._next_seed)
         self._next_seed = None
-        self.reset_infos = [{"active": int(a)} for a in self.venv.active.reshape(-1)]
+        self.reset_infos = self._row_infos()
         return self._rows(obs)
 
     def step_async(self, actions: np.ndarray) -> None:
@@ -130,8 +134,7 @@ class PetswarmVecEnv(VecEnv):
         ended = np.array(["final_observation" in i for i in infos])
         dones = np.repeat(ended, self.slots)
         out = self._rows(obs)
-        active = self.venv.active.reshape(-1)
-        row_infos: list[dict[str, Any]] = [{"active": int(a)} for a in active]
+        row_infos = self._row_infos()
         for n in np.flatnonzero(ended):
             info = infos[n]
             last = info["final_observation"][None]

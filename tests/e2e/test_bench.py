@@ -258,6 +258,7 @@ def test_vector_envs_side_by_side_and_training_paths(bench):
     tr = result["training"]
     if "skipped" not in tr:
         assert {r["path"] for r in tr["runs"]} == {"supersuit", "petswarm"}
+        assert all(0.0 < r["env_cpu_share"] < 1.0 for r in tr["runs"])  # the env's share of learn()'s CPU time
         assert _positive(tr["vector_vs_supersuit_1"])
         assert "| petswarm | 1 | 0 |" in md_path.read_text()
 

@@ -84,3 +84,17 @@ def test_bad_actions_are_refused_with_the_shape_named():
     acts[1, np.flatnonzero(venv.active[1])[0], 0] = np.inf
     with pytest.raises(ValueError, match="copy 1"):
         venv.step(acts)
+
+
+def test_float64_actions_step_as_their_float32_values_and_the_callers_array_stays_as_given():
+    a, b = petswarm_env.vector_env(2, max_cycles=20), petswarm_env.vector_env(2, max_cycles=20)
+    a.reset(seed=4)
+    b.reset(seed=4)
+    rng = np.random.default_rng(2)
+    for _ in range(5):
+        wide = rng.uniform(-1.5, 1.5, (2, a.max_agents, 3))  # float64, out of range: clipped after the float32 cast
+        given = wide.copy()
+        out_a, out_b = a.step(wide), b.step(wide.astype(np.float32))
+        np.testing.assert_array_equal(wide, given)  # the clip works on the env's own copy
+        for x, y in zip(out_a[:4], out_b[:4]):
+            np.testing.assert_array_equal(x, y)

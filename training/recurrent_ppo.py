@@ -351,6 +351,36 @@ def iterations_for(cfg: TrainConfig) -> int:
     return max(1, cfg.timesteps // cfg.finetune.rollout_steps)
 
 
+def _start(cfg: TrainConfig, layout: ObservationLayout):
+    """``finetune.policy``'s file, its torch actor and its residual (which the config must name)."""
+    start = policy_path(cfg.finetune.policy)
+    actor, meta = load_actor(start, layout)
+    residual = residual_of_meta(meta)
+    if residual is None or cfg.residual() != residual:
+        raise ConfigError(f"finetune.policy '{start}' is a correction of {residual}, the config's residual_of/residual_scale "
+                          f"say {cfg.residual()}; set them to the file's")
+    return start, actor, residual
+
+
+def _bc_batch(cfg: TrainConfig, env, anchor: RecurrentActor, residual, log: dict[str, Any]) -> list[Sequence]:
+    """``finetune.bc_samples`` of the teacher's DAgger labels on states the distilled policy drives into
+    (:func:`petswarm.training.recurrent.collect_sequences`, its noise ``recurrent.student_noise_std``)."""
+    t0 = time.time()
+    driver = numpy_policy(anchor, PolicySpec.from_env(PetSwarmEnv(cfg.env_config())), residual)  # the env's speed limits
+    bc, counts = collect_sequences(env, cfg.finetune.bc_samples, cfg.seed + 900_000, cfg, driver, cfg.recurrent.student_noise_std)
+    log["bc"] = {**counts, "sequences": len(bc), "collect_s": round(time.time() - t0, 1)}
+    return bc
+
+
+def _line(cfg: TrainConfig, log: dict[str, Any], record: dict[str, Any], iterations: int, ev: dict[str, Any] | None) -> str:
+    """An iteration's progress line."""
+    return (f"iteration {record['iteration'] + 1}/{iterations}: {log['timesteps']} agent-steps, mean reward "
+            f"{record['mean_reward']:.4f}, anchor {record['anchor_weight']:.3g} (KL {record['anchor']:.4f}), clip "
+            f"{record['clip_fraction']:.2f}, kl {record['approx_kl']:.4f}, value loss {record['value_loss']:.4f}"
+            + (f", eval median {cfg.eval.metric} ratio {ev['median_ratio']:.2f} (not built {ev['not_built']})" if ev else "")
+            + f", {log['wall_time_s']:.0f} s")
+
+
 def train(cfg: TrainConfig, out_dir: str | os.PathLike, command: str = "", progress=print) -> dict[str, Any]:
     """Fine-tune ``finetune.policy`` in the run folder ``out_dir`` (module docstring); returns the train
     log. The folder gets train_config.yaml, env_config.yaml, policy.npz (the best evaluation, possibly
@@ -363,12 +393,7 @@ def train(cfg: TrainConfig, out_dir: str | os.PathLike, command: str = "", progr
         raise ConfigError(f"'{out}' already holds a run; choose another --out (a recurrent_ppo run is not resumable)")
     env_cfg = cfg.env_config()
     layout = PetSwarmEnv(env_cfg).layout
-    start = policy_path(f.policy)
-    actor, meta = load_actor(start, layout)
-    residual = residual_of_meta(meta)
-    if residual is None or cfg.residual() != residual:
-        raise ConfigError(f"finetune.policy '{start}' is a correction of {residual}, the config's residual_of/residual_scale "
-                          f"say {cfg.residual()}; set them to the file's")
+    start, actor, residual = _start(cfg, layout)
     out.mkdir(parents=True, exist_ok=True)
     torch.set_num_threads(1)  # reproducible CPU math on a shared machine
     torch.manual_seed(cfg.seed)
@@ -379,9 +404,7 @@ def train(cfg: TrainConfig, out_dir: str | os.PathLike, command: str = "", progr
                            "command": command, "start_policy": str(start), "iterations": [], "wall_time_before_s": 0.0,
                            "_start": time.time()}
     scripted_reference(cfg, log)
-    anchor = copy.deepcopy(actor)
-    for p in anchor.parameters():
-        p.requires_grad_(False)
+    anchor = copy.deepcopy(actor).requires_grad_(False)  # the distilled actor, frozen
     log_std = torch.nn.Parameter(torch.full((3,), f.log_std_init), requires_grad=f.learn_log_std)
     opt = torch.optim.Adam(list(actor.parameters()) + ([log_std] if f.learn_log_std else []), lr=f.learning_rate)
     env = training_env(env_cfg, cfg.randomize, cfg.env, False)
@@ -395,12 +418,7 @@ def train(cfg: TrainConfig, out_dir: str | os.PathLike, command: str = "", progr
                                  {"iteration": k})
 
     try:
-        bc: list[Sequence] = []
-        if f.bc_samples:
-            t0 = time.time()
-            driver = numpy_policy(anchor, PolicySpec.from_env(PetSwarmEnv(env_cfg)), residual)  # the env's speed limits
-            bc, counts = collect_sequences(env, f.bc_samples, cfg.seed + 900_000, cfg, driver, cfg.recurrent.student_noise_std)
-            log["bc"] = {**counts, "sequences": len(bc), "collect_s": round(time.time() - t0, 1)}
+        bc = _bc_batch(cfg, env, anchor, residual, log) if f.bc_samples else []
         ev = evaluate(0)  # the distilled policy itself competes
         if progress:
             progress(f"distilled policy {start.name}: eval median {cfg.eval.metric} ratio {ev['median_ratio']:.2f} "
@@ -436,11 +454,7 @@ def train(cfg: TrainConfig, out_dir: str | os.PathLike, command: str = "", progr
             log["wall_time_s"] = time.time() - log["_start"]
             write_json_atomic(out / "train_log.json", public_log(log))
             if progress:
-                progress(f"iteration {k + 1}/{iterations}: {log['timesteps']} agent-steps, mean reward {counts['mean_reward']:.4f}, "
-                         f"anchor {lam:.3g} (mean sq. {stats['anchor']:.4f}), clip {stats['clip_fraction']:.2f}, "
-                         f"kl {stats['approx_kl']:.4f}, value loss {stats['value_loss']:.4f}"
-                         + (f", eval median {cfg.eval.metric} ratio {ev['median_ratio']:.2f} (not built {ev['not_built']})" if ev else "")
-                         + f", {log['wall_time_s']:.0f} s")
+                progress(_line(cfg, log, record, iterations, ev))
     finally:
         env.close()
     log["wall_time_s"] = time.time() - log["_start"]

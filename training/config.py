@@ -151,6 +151,44 @@ class RecurrentConfig(Section):
         return self
 
 
+class FinetuneConfig(Section):
+    """``algorithm: recurrent_ppo`` (training/recurrent_ppo.py): PPO fine-tuning of a distilled recurrent
+    policy, anchored to it. ``timesteps`` is the budget: agent-steps of the PPO rollouts,
+    ``rollout_steps`` per iteration."""
+
+    policy: str = Field("baselines/models/recurrent_long.npz", min_length=1, description=(
+        "the distilled recurrent policy (.npz) to start from and anchor to: a path, a shipped model "
+        "(baselines/models/NAME.npz), or learned"))
+    rollout_steps: int = Field(6_000, ge=8, le=MAX_ROLLOUT * 16, description="agent-steps collected per PPO iteration")
+    chunk: int = Field(32, ge=1, le=10_000, description="steps of a training chunk (BPTT from the stored hidden state at its start)")
+    chunks_per_batch: int = Field(32, ge=1, le=MAX_ROLLOUT, description="chunks per gradient step")
+    epochs: int = Field(4, ge=1, le=1000, description="passes over each iteration's chunks")
+    learning_rate: float = Field(1e-4, ge=0, le=1.0, description="the actor's Adam step size (0: the actor never moves)")
+    critic_learning_rate: float = Field(1e-3, gt=0, le=1.0, description="the critic's Adam step size")
+    critic_net: list[Annotated[int, Field(ge=1, le=MAX_WIDTH)]] = Field(
+        default_factory=lambda: [256, 256], min_length=1, max_length=16, description="the critic MLP on [observation, state()]")
+    critic_warmup_epochs: int = Field(10, ge=0, le=10_000, description="value-only passes over the first rollout before the actor moves")
+    gamma: float = Field(0.98, gt=0, le=1)
+    gae_lambda: float = Field(0.95, gt=0, le=1)
+    clip_range: float = Field(0.2, gt=0, le=10.0)
+    log_std_init: float = Field(-3.0, ge=-20.0, le=5.0, description="log sigma of the Gaussian head at the start, in the actor's "
+                                                                     "output units (-3: 0.05)")
+    learn_log_std: bool = Field(True, description="the log sigma is a learned parameter (per action value)")
+    anchor_start: float = Field(1.0, ge=0, le=1e9, description="weight of the anchor at the first iteration: the KL from the "
+                                                               "distilled policy's Gaussian of the same sigma, E||mu - mu_distilled||^2 / 2 sigma^2")
+    anchor_end: float = Field(0.1, ge=0, le=1e9, description="... at the last (geometric decay between them)")
+    bc_samples: int = Field(0, ge=0, le=MAX_SAMPLES, description="teacher-labelled agent-samples collected once with the distilled "
+                                                                 "policy driving (DAgger's labels) and kept as a BC batch (0: none)")
+    bc_coef: float = Field(0.5, ge=0, le=1e6, description="weight of the BC batch's loss")
+    bc_sequences: int = Field(4, ge=1, le=MAX_ROLLOUT, description="BC sequences per gradient step")
+    reward: Literal["own", "team"] = Field("own", description="own: each slave's env reward; team: the mean over the live slaves")
+    max_grad_norm: float = Field(1.0, gt=0, le=1e6)
+    target_kl: float = Field(0.0, ge=0, le=100.0, description="an iteration's epochs stop once the mean approximate KL of its "
+                                                              "steps exceeds this (0: never)")
+    eval_every: int = Field(2, ge=1, le=1_000_000, description="evaluate (and keep the best as policy.npz) every this many "
+                                                              "iterations, after the last, and the distilled policy before the first")
+
+
 class TrainConfig(Section):
     seed: int = Field(ge=0, le=2**63 - 1)
     timesteps: int = Field(ge=0, le=MAX_STEPS, description="PPO's budget in agent-steps (rows); 0 = the warm start alone (pretrain:)")
@@ -169,10 +207,12 @@ class TrainConfig(Section):
         None, description="scripted: the policy learns a correction added to the scripted reference's action "
                           "(training/residual.py); null: the policy is the action")
     residual_scale: float = Field(1.0, gt=0, le=1, description="with residual_of: the correction's bound in action units")
-    algorithm: Literal["ppo", "recurrent"] = Field(
+    algorithm: Literal["ppo", "recurrent", "recurrent_ppo"] = Field(
         "ppo", description="ppo: PPO (the ppo: and pretrain: sections); recurrent: a GRU actor distilled from the privileged "
-                           "teacher by DAgger (the recurrent: section, training/recurrent.py)")
+                           "teacher by DAgger (the recurrent: section, training/recurrent.py); recurrent_ppo: PPO fine-tuning "
+                           "of a distilled GRU actor, anchored to it (the finetune: section, training/recurrent_ppo.py)")
     recurrent: RecurrentConfig = Field(default_factory=RecurrentConfig)
+    finetune: FinetuneConfig = Field(default_factory=FinetuneConfig)
 
     @model_validator(mode="after")
     def _check_rollout(self) -> TrainConfig:
@@ -261,6 +301,13 @@ def load_train_config(path: str | os.PathLike | None = None, overrides: dict[str
     if cfg.algorithm == "recurrent" and cfg.timesteps == 0:
         raise ConfigError("algorithm: recurrent distils the teacher in rounds of DAgger whose labelled samples are timesteps: give "
                           f"timesteps > 0 (got {cfg.timesteps})")
+    if cfg.algorithm == "recurrent_ppo" and cfg.timesteps < cfg.finetune.rollout_steps:
+        raise ConfigError(f"algorithm: recurrent_ppo fine-tunes in iterations of finetune.rollout_steps "
+                          f"({cfg.finetune.rollout_steps}) agent-steps, but timesteps is {cfg.timesteps}: give timesteps >= "
+                          "finetune.rollout_steps")
+    if cfg.algorithm == "recurrent_ppo" and cfg.finetune.anchor_end > cfg.finetune.anchor_start:
+        raise ConfigError(f"finetune.anchor_end ({cfg.finetune.anchor_end}) is above finetune.anchor_start "
+                          f"({cfg.finetune.anchor_start}): the anchor decays; swap them")
     if cfg.algorithm == "ppo" and cfg.timesteps == 0 and cfg.pretrain.samples == 0:
         raise ConfigError("timesteps: 0 trains by the warm start alone, but pretrain.samples is 0 too: nothing would be trained; "
                           "give timesteps > 0 (PPO) or pretrain.samples > 0 (imitation)")

@@ -231,6 +231,8 @@ def train_command(config: str | None, settings: list[str], timesteps: int | None
     cfg = load_train_config(config, overrides, base=saved if resume and saved.is_file() else None)
     if cfg.algorithm == "recurrent":  # DAgger from the privileged teacher into a GRU actor (training/recurrent.py)
         return _recurrent_command(cfg, out, resume, run, command)
+    if cfg.algorithm == "recurrent_ppo":  # PPO fine-tuning of a distilled GRU actor (training/recurrent_ppo.py)
+        return _recurrent_ppo_command(cfg, out, resume, run, command)
     log = (run or train)(cfg, out, resume=resume, progress_bar=progress_bar, command=command, **run_options)
     if log.get("finished"):
         print(f"run '{out}' is already finished: {log['timesteps']} agent-steps trained, its budget is {log['budget']}; "
@@ -271,5 +273,27 @@ def _recurrent_command(cfg: TrainConfig, out: str, resume: bool, run, command: s
               f"to scripted {best['median_ratio']:.2f}, {best['not_built']} formations not built that scripted built)"
               if best else f"policy: {out}/policy.npz")
     print(f"trained {log['timesteps']} labelled agent-samples in {len(log['rounds'])} DAgger rounds, {log['wall_time_s']:.0f} s; "
+          f"{chosen}; the last: {out}/last.npz")
+    return 0
+
+
+def _recurrent_ppo_command(cfg: TrainConfig, out: str, resume: bool, run, command: str) -> int:
+    """``petswarm train`` of a config with ``algorithm: recurrent_ppo``: :func:`petswarm.training.recurrent_ppo.train`
+    and one summary line."""
+    from petswarm.training.recurrent_ppo import iterations_for
+    from petswarm.training.recurrent_ppo import train as train_finetune
+
+    if resume:
+        raise ConfigError("algorithm: recurrent_ppo runs are not resumable; drop --resume and start a new run with another --out")
+    if run is not None:
+        raise ConfigError("algorithm: recurrent_ppo trains with torch in this process (training/recurrent_ppo.py); drop --backend rllib")
+    print(f"PPO fine-tuning of {cfg.finetune.policy}, anchored to it: {iterations_for(cfg)} iterations of "
+          f"{cfg.finetune.rollout_steps} agent-steps (timesteps {cfg.timesteps})", flush=True)
+    log = train_finetune(cfg, out, command=command, progress=lambda line: print(line, flush=True))
+    best = log.get("best")
+    chosen = (f"policy: {out}/policy.npz, the best evaluation (after {best['timesteps']} agent-steps, median {best['metric']} "
+              f"ratio to scripted {best['median_ratio']:.2f}, {best['not_built']} formations not built that scripted built)"
+              if best else f"policy: {out}/policy.npz")
+    print(f"fine-tuned {log['timesteps']} agent-steps in {len(log['iterations'])} iterations, {log['wall_time_s']:.0f} s; "
           f"{chosen}; the last: {out}/last.npz")
     return 0

@@ -110,6 +110,7 @@ class RecoveryManager:
         # (start, vx, vy, distance): the move out of the formation (_plan_clear_out)
         self.clear_out: tuple[float, float, float, float] | None = None
         self._cleared = (0.0, 0.0)  # (time, sideways metres the wheels counted) of that move
+        self.pace_until_m = math.inf  # the sideways metres of that move it keeps the swarm's pace for
         node.on(msg.MEMBER_UPDATE, self._on_update)
         node.on(msg.MEMBER_UPDATE_ACK, self._on_ack)
         node.on(msg.BID_REQUEST, self._on_bid_request)
@@ -452,12 +453,16 @@ class RecoveryManager:
         """The robot leaves its slot for its own fault (seed 003 Algorithm 2 step 5: "the faulty robot
         leaves"): it drives out of the formation, sideways in its own frame, away from the formation's
         axis (its slot's side; the left for a slot on the axis), until it stands beyond the formation's
-        outermost slot by its diameter and :data:`CLEAR_MARGIN_M`, keeping the swarm's pace from the
-        master's last status broadcast and :data:`CLEAR_AHEAD_MPS` more meanwhile (a master that handed its
-        user over: its own pace, :data:`CLEAR_MARGIN_MASTER_M`), then stops (chosen: a robot that stops where it was
-        stands in the path of the member that takes its place and of the members behind it, which the
-        walking formation drives into). The command is its middleware's (:meth:`leaving_command`); it
-        needs no sensor that may have failed: the wheels alone."""
+        outermost slot by its diameter and :data:`CLEAR_MARGIN_M`. It keeps the swarm's pace from the
+        master's last status broadcast and :data:`CLEAR_AHEAD_MPS` more (a master that handed its user
+        over: its own pace) only until a gap of :data:`CLEAR_LANE_GAP_M` lies between it and the outermost
+        slot's lane (:attr:`pace_until_m`, sideways metres); the rest of the way it moves sideways only,
+        standing along the walk, so the swarm walks past it; then it stops (chosen: a robot that stops
+        where it was stands in the path of the member that takes its place and of the members behind
+        it, which the walking formation drives into; one that keeps the swarm's pace all the way holds
+        a fixed direction while the swarm may turn — on a zigzag walk it cut across the formation or
+        stopped beside it where the next turn brought the swarm onto it). The command is its
+        middleware's (:meth:`leaving_command`); it needs no sensor that may have failed: the wheels alone."""
         node = self.node
         if node.formation is None:
             return
@@ -468,8 +473,9 @@ class RecoveryManager:
         lateral = float(pos[member][1])
         side = 1.0 if lateral >= 0 else -1.0
         outermost = max((float(p[1]) * side for p in pos), default=0.0)
-        margin = CLEAR_MARGIN_MASTER_M if self._was_master else CLEAR_MARGIN_M
-        out_m = outermost - lateral * side + 2.0 * node.cfg.robot.radius_m + margin
+        clear_m = outermost - lateral * side + 2.0 * node.cfg.robot.radius_m  # beside the outermost slot's robot
+        out_m = clear_m + CLEAR_MARGIN_M
+        self.pace_until_m = clear_m + CLEAR_LANE_GAP_M
         status = node.know.status  # the master's pace; a master that handed its user over and heard none yet: its own
         vx = float(status.velocity[0]) if status is not None else float(node.odometry.read()[0])
         ahead = 0.0 if self._was_master else math.copysign(CLEAR_AHEAD_MPS, vx)  # ahead the way the swarm walks
@@ -493,7 +499,7 @@ class RecoveryManager:
         done_m += abs(self.node.odometry.read()[1]) * (now_s - last_s)  # the wheels' sideways travel since
         self._cleared = (now_s, done_m)
         if done_m < out_m and now_s - t0 < CLEAR_TIMEOUT * out_m / abs(vy) and self.node.state == "waiting":
-            return (vx, vy, 0.0)
+            return (vx if done_m < self.pace_until_m else 0.0, vy, 0.0)  # out of the lanes: the swarm walks past
         self.clear_out = None
         return (0.0, 0.0, 0.0)
 
@@ -509,12 +515,18 @@ CLEAR_TIMEOUT = 3.0  # chosen: the move out gives up after three times its time 
 # chosen: a slave also drives ahead of the swarm's pace, out of the way of the member behind it that moves up
 # (a master that handed its user over does not: the user and the new master are ahead of it)
 CLEAR_AHEAD_MPS = 0.25
-# chosen: its clearance beyond the formation's outermost slot (a formation drifts sideways by half a spacing as it re-forms)
-CLEAR_MARGIN_M = 1.0
-# chosen: a master that handed its user over clears further: its formation then re-centres on the new master, which
-# drives onto the user's line, half a spacing or more sideways (IR on the master, seeds 20-39: re-formed 14/20 with
-# 1.0 m, 17/20 with 1.5 m; seeds 0-19: 18/20 with both)
-CLEAR_MARGIN_MASTER_M = 1.5
+# chosen: its clearance beyond the formation's outermost slot (a formation drifts sideways by half a spacing as it
+# re-forms; a master that handed its user over: its formation then re-centres on the new master, which drives onto
+# the user's line, half a spacing or more sideways — IR on the master, seeds 20-39: re-formed 14/20 with 1.0 m,
+# 17/20 with 1.5 m). A slave's was 1.0 m while it kept the swarm's pace all the way; standing along the walk for the
+# last part, it stands clear of the passing swarm at 1.5 m as the master did (slave faults on a zigzag walk, seeds
+# 100-119: re-formed 18/18/20 of 20 against 18/17/17 at 1.0 m; docs/faults.md)
+CLEAR_MARGIN_M = 1.5
+# chosen: the leaving robot keeps the swarm's pace until this gap (one robot diameter at the shipped 0.2 m radius)
+# lies between it and the robot of the outermost slot's lane; the member behind it in its lane can no longer run
+# into it there (slave faults, seeds 200-219: zigzag re-formed 19/18/18 of 20, before 17/16/16; straight 20/20/19,
+# before 19/20/20 — calibrated on those seeds, and noisy: 0.6 m read 19/16/13 on the zigzag)
+CLEAR_LANE_GAP_M = 0.4
 
 
 def least_total(cost: list[list[float]]) -> list[int]:

@@ -156,6 +156,39 @@ def test_the_faulty_robot_stops_once_it_is_out_on_its_own_clock(mode, seed, robo
     assert ((x1 - x0) ** 2 + (y1 - y0) ** 2) ** 0.5 < 0.3, "the robot drove on after its move out ended"
 
 
+def test_the_faulty_robot_keeps_the_swarms_pace_only_until_it_is_out_of_the_lanes():
+    """Zigzag walk, seed 213 (the ultrasonic ring of robot 1, the rear slave on the right, breaks as the
+    swarm nears a turn). A leaving robot that kept the swarm's pace for its whole move out held a fixed
+    direction while the swarm turned: it cut across the formation and stopped beside it, where the
+    formation ran onto it (largest live-slave error 1.65 m 10 s after the detection). Now it keeps the
+    pace only until it is out of the formation's outermost lane by ``CLEAR_LANE_GAP_M``, then moves
+    sideways standing along the walk, and the swarm walks past it."""
+    import math
+
+    from petswarm.experiments import sensor_faults
+
+    seen: dict = {"pacing": [], "standing": []}
+
+    def watch(env):
+        ep = env.episode
+        rec, body = ep.fleet.nodes[1].recovery, ep.world.robots[1].body
+        if rec.clear_out is None:
+            return
+        seen.setdefault("plan", (rec.clear_out, rec.pace_until_m))
+        done = rec._cleared[1]
+        along = body.velocity.x * math.cos(body.angle) + body.velocity.y * math.sin(body.angle)  # its own x
+        (seen["pacing"] if done < rec.pace_until_m - 0.1 else seen["standing"] if done > rec.pace_until_m + 0.1
+         else []).append(along)
+
+    r = sensor_faults.run("ultrasonic", 213, overrides={"user.scenario": "zigzag"}, on_step=watch)
+    assert r["robot"] == 1 and "plan" in seen
+    (_, vx, _, out_m), pace_until = seen["plan"]
+    assert vx > 0.5 and 0 < pace_until < out_m  # the swarm's pace first, and then a part of the way standing
+    assert max(seen["pacing"]) > 0.5, "it did not keep the swarm's pace while in the lanes"
+    assert seen["standing"] and max(abs(v) for v in seen["standing"][3:]) < 0.15, "it kept driving ahead"
+    assert r["reformed"], f"largest live-slave error {r['largest_error_m']:.2f} m 10 s after the detection"
+
+
 def test_a_master_whose_ir_breaks_hands_its_user_over_by_table_3_and_the_swarm_goes_on():
     """The master finds its IR module broken (its slaves lose their fix of it): it hands the user over to
     the robot closest to the user by what it knows (Table 3, following: its last IR fixes, else the

@@ -21,11 +21,19 @@ from petswarm_env.middle_layer import BodyMap, MiddleLayer
 from petswarm_env.sim import geometry
 from petswarm_env.sim.body import Body
 
-if cython.compiled:  # the body's heading as a C call (sim/body.pxd): the AHRS reads it for every reading
+if cython.compiled:  # the body's heading and wheels as C reads (sim/body.pxd): the AHRS and the odometry, every reading
     from cython.cimports.petswarm_env.sim.body import Body as _CBody
+    from cython.cimports.petswarm_env.sim.body import DrivenBody as _CDriven
 else:
+    from petswarm_env.sim.body import DrivenBody as _CDriven
+
     _CBody = Body
 from petswarm_env.sim.draws import Draws
+
+if cython.compiled:  # the ring's ray cast as a C call (sim/geometry.pxd): every robot's ring at every step
+    from cython.cimports.petswarm_env.sim.geometry import ring_cast as _ring_cast
+else:
+    _ring_cast = geometry.ring_cast
 
 
 COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
@@ -139,6 +147,21 @@ def noisy_odometry(velocity_body: tuple[float, float, float], errors) -> tuple[f
     return vx * (1 + ex), vy * (1 + ey), w * (1 + ew)
 
 
+@cython.cfunc
+@cython.exceptval(check=False)
+def wheel_odometry(robot: _CDriven, ex: cython.double, ey: cython.double, ew: cython.double) -> tuple[cython.double, cython.double, cython.double]:
+    """:func:`noisy_odometry` of what a robot's wheels turn (``Robot.wheel_velocity``: the motors'
+    speed times ``wheel_gain``) with the errors ``ex``, ``ey``, ``ew``, as C doubles: the same
+    arithmetic in the same order (the observation's call, for every slave at every step)."""
+    vx: cython.double = robot._wx
+    vy: cython.double = robot._wy
+    w: cython.double = robot._ww
+    g: cython.double = robot.wheel_gain
+    if g != 1.0:
+        vx, vy, w = vx * g, vy * g, w * g
+    return vx * (1 + ex), vy * (1 + ey), w * (1 + ew)
+
+
 @cython.cclass
 class NormalStream:
     """One generator's standard normals z, drawn ``block`` at a time (``standard_normal``) and
@@ -207,10 +230,28 @@ class Odometry:
         return body.velocity_body if wheels is None else wheels
 
 
+@cython.cclass
 class UltrasonicRing:
     """``count`` range sensors on the robot's rim, sensor 0 forward, counter-clockwise: ray casts
     against every round body and every wall (:func:`~.geometry.ring_first_hits`), from the rim,
-    with Gaussian noise, clipped to [min_range, max_range]."""
+    with Gaussian noise, clipped to [min_range, max_range].
+
+    A typed class of the compiled core: its directions, rims and walls are held as C arrays, and
+    the cast (:func:`~.geometry.ring_cast`) and the readings (:func:`_readings`) are C calls, for
+    every robot's ring at every step."""
+
+    count = cython.declare(cython.Py_ssize_t, visibility="readonly")
+    min_range_m = cython.declare(cython.double, visibility="readonly")
+    max_range_m = cython.declare(cython.double, visibility="readonly")
+    noise_m = cython.declare(cython.double, visibility="readonly")
+    reach_m = cython.declare(cython.double, visibility="readonly")  # from the centre
+    radius_m = cython.declare(object, visibility="readonly")
+    angles = cython.declare(object, visibility="readonly")
+    walls = cython.declare(object, visibility="readonly")
+    _rims = cython.declare(object)  # each sensor's distance from the centre
+    _angles_c = cython.declare(cython.double[::1])  # the same three as C doubles (held: no conversion per cast)
+    _rims_c = cython.declare(cython.double[::1])
+    _walls_c = cython.declare(cython.double[::1])
 
     def __init__(self, cfg: RobotConfig, wall_a: np.ndarray, wall_b: np.ndarray,
                  angles_rad: list[float] | None = None, radii_m: list[float] | None = None):
@@ -219,31 +260,53 @@ class UltrasonicRing:
         self.min_range_m, self.max_range_m, self.noise_m = us.min_range_m, us.max_range_m, us.noise_m
         self.radius_m = cfg.radius_m if radii_m is None else np.asarray(radii_m, float)
         self.angles = np.arange(us.count) * (2 * math.pi / max(us.count, 1)) if angles_rad is None else np.asarray(angles_rad, float)
-        self._rims = np.broadcast_to(self.radius_m, (self.count,)).astype(float)  # each sensor's distance from the centre
+        self._rims = np.broadcast_to(self.radius_m, (self.count,)).astype(float)
         rim = cfg.radius_m if radii_m is None else max(radii_m, default=0.0)
-        self.reach_m = us.max_range_m + rim  # from the centre
+        self.reach_m = us.max_range_m + rim
         self.walls = geometry.SegmentSet(wall_a, wall_b, self.reach_m)
+        self._angles_c = np.ascontiguousarray(self.angles, dtype=float)
+        self._rims_c = self._rims
+        self._walls_c = self.walls.table
 
     def ranges(self, world: Truth, indices: list[int], rng) -> np.ndarray:
         """Readings (m) of the robots ``indices``: (len(indices), count); the noise is the next
         len(indices)·count draws of ``rng`` (a :class:`NormalStream`, or a generator: one
         ``normal`` call's numbers)."""
-        n = self.count
-        if n == 0 or not len(indices):
-            return np.zeros((len(indices), n))
+        n: cython.Py_ssize_t = len(indices)
+        if self.count == 0 or n == 0:
+            return np.zeros((n, self.count))
         centers, radii, headings = world.truth_arrays()
         if isinstance(indices, list) and indices == list(range(len(world.robots))):
-            pos, th = centers, headings  # every robot, in order (the env's call): the first rows
+            return self._read(centers, radii, headings, centers, headings, n, rng)  # every robot, in order: the first rows
+        return self._read(centers, radii, headings, centers[indices], headings[indices], n, rng)
+
+    @cython.cfunc
+    def _read(self, centers, radii, headings, pos, th, n: cython.Py_ssize_t, rng) -> object:
+        """:meth:`ranges` of the first ``n`` rows of ``pos`` (their headings ``th``) among the truth
+        arrays (``centers``, ``radii``, ``headings``)."""
+        d = np.empty((n, self.count))
+        out: cython.double[:, ::1] = d
+        c: cython.const[cython.double][:, ::1] = centers
+        o: cython.const[cython.double][:, ::1]
+        if pos is centers:  # every robot, in order (the env's call): one conversion
+            o = c
         else:
-            pos, th = centers[indices], headings[indices]
-        d = np.empty((len(indices), n))
-        geometry.ring_cast(pos, len(indices), th, self.angles, centers, radii, self.walls.table, self.reach_m, d)
+            o = pos
+        _ring_cast(o, n, th, self._angles_c, c, radii, self._walls_c, self.reach_m, out)
         if self.noise_m > 0:
-            normals = rng if isinstance(rng, NormalStream) else NormalStream(rng, d.size)  # (a generator: exactly d.size draws)
-            _readings(d, self._rims, normals, self.noise_m, self.min_range_m, self.max_range_m)
+            normals = rng if isinstance(rng, NormalStream) else NormalStream(rng, n * self.count)  # (a generator: exactly d.size draws)
+            _readings(out, self._rims_c, normals, self.noise_m, self.min_range_m, self.max_range_m)
         else:
-            _readings(d, self._rims, None, 0.0, self.min_range_m, self.max_range_m)
+            _readings(out, self._rims_c, None, 0.0, self.min_range_m, self.max_range_m)
         return d
+
+    def read_all(self, world: Truth, rng: NormalStream) -> np.ndarray:
+        """:meth:`ranges` of every robot of ``world``, in order (the env's call)."""
+        n: cython.Py_ssize_t = len(world.robots)
+        if self.count == 0 or n == 0:
+            return np.zeros((n, self.count))
+        centers, radii, headings = world.truth_arrays()
+        return self._read(centers, radii, headings, centers, headings, n, rng)
 
 
 @cython.cfunc
@@ -340,7 +403,7 @@ class Sensors:
         self._follow_faults()
         robots = self.world.robots
         if not self._groups:
-            self.ranges = self.ring.ranges(self.world, list(range(len(robots))), self._normals)
+            self.ranges = self.ring.read_all(self.world, self._normals)
         else:
             ranges = np.full((len(robots), self.ring.count), self.ring.max_range_m)
             for indices, ring, virt, cols in self._groups:
@@ -415,9 +478,9 @@ class Sensors:
     def odometry(self, index: int, noise: list[float] | None = None) -> tuple[float, float, float]:
         """Wheel odometry of robot ``index``: what its wheels turn ``(vx, vy, ω)`` (``Robot.wheel_velocity``) with relative
         noise (``noise``: the three N(0, odometry_noise_rel) errors when drawn already, else drawn here)."""
-        robot = self.world.robots[index]
-        velocity = robot.wheel_velocity  # the wheel encoders: the motors' speed, not the body's (a shove turns no wheel)
+        robot = self.world.robots[index]  # the wheel encoders: the motors' speed, not the body's (a shove turns no wheel)
         k = self.odometry_noise_rel
         if k > 0:
-            return noisy_odometry(velocity, self._normals.normal(k, 3) if noise is None else noise)
-        return velocity
+            e = self._normals.normal(k, 3) if noise is None else noise
+            return wheel_odometry(robot, e[0], e[1], e[2])
+        return robot.wheel_velocity

@@ -483,6 +483,11 @@ def _fill(plan: _Plan, v: cython.double[::1], know, links, now: cython.double, o
             v[k] = 1.0
 
 
+def _as_dict(mapping) -> dict:
+    """``mapping`` itself when it is a dict, else a dict of it."""
+    return mapping if isinstance(mapping, dict) else dict(mapping)
+
+
 _NO_ACTION = np.zeros(3, np.float32)  # the last action of an agent that has not acted yet (read only)
 _NO_ACTION.flags.writeable = False
 
@@ -520,7 +525,11 @@ class Observer:
         agent -> the action applied last step; none yet reads as zeros). The odometry noise of all
         agents is one draw, in the agents' order. Each agent's readings go to the builder as they
         are gathered (:func:`build_observation`'s body, without a :class:`Readings` per agent)."""
-        sensors, nodes, agent_index, ahrs, layout = self.sensors, self.nodes, self.agent_index, self.ahrs, self.layout
+        sensors, ahrs, layout = self.sensors, self.ahrs, self.layout
+        nodes: dict = _as_dict(self.nodes)  # (dicts, looked up in C)
+        agent_index: dict = _as_dict(self.agent_index)
+        last_by: dict = _as_dict(last_actions)
+        levels: dict
         plan: _Plan = self._plan
         if plan is None:
             raise ValueError("Observer needs a layout with limits and us_max_range_m (the robot's scales)")
@@ -554,7 +563,7 @@ class Observer:
                 else:
                     slots, levels = hit[1], hit[2]
                 level, offset = levels.get(member, 0), slots[member]
-            last = last_actions.get(agent)
+            last = last_by.get(agent)
             robot = robots[idx]  # its wheel odometry (Sensors.odometry's model, sim/sensors.py)
             if noise is not None:
                 e = noise[i]

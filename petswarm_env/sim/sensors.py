@@ -51,6 +51,53 @@ class Truth(Protocol):
 
 
 @cython.cclass
+class NormalStream:
+    """One generator's standard normals z, drawn ``block`` at a time (``standard_normal``) and
+    handed out in order: numpy's ``normal(0.0, σ, size)`` is ``0.0 + σ·z`` of the next ``size``
+    of them, so ``0.0 + σ·z`` taken here is the number that call gives, and the stream's draws are
+    the generator's draws in the order they were asked for. Every draw of the generator must come
+    through the stream (the env's sensor stream in :class:`Sensors`; a smart belt's). Read per
+    reading in C. ``last_first``: each block is handed out from its last z to its first (the order
+    of :class:`~.draws.Draws`' normals, an AHRS's)."""
+
+    rng = cython.declare(object, visibility="readonly")
+    block = cython.declare(cython.Py_ssize_t, visibility="readonly")
+    _block = cython.declare(object)  # the block (float64 array), refilled in place
+    _z = cython.declare(cython.double[::1])  # the same, as C doubles
+    _i = cython.declare(cython.Py_ssize_t)  # how many z's of the block are used (``block``: all)
+    _last_first = cython.declare(cython.bint)
+
+    def __init__(self, rng: np.random.Generator, block: int = 256, last_first: bool = False):
+        self.rng = rng
+        self.block = max(int(block), 1)
+        self._block = np.empty(self.block)
+        self._z = self._block
+        self._i = self.block
+        self._last_first = last_first
+
+    @cython.cfunc
+    def next(self) -> cython.double:
+        """The next z."""
+        if self._i == self.block:
+            self.rng.standard_normal(out=self._block)
+            self._i = 0
+        at: cython.Py_ssize_t = self.block - 1 - self._i if self._last_first else self._i
+        z: cython.double = float(self._z[at])  # (a Python float in the interpreted form too)
+        self._i += 1
+        return z
+
+    def normal(self, scale: cython.double, size: cython.Py_ssize_t) -> list:
+        """``size`` draws of N(0, ``scale``): ``rng.normal(0.0, scale, size).tolist()``'s numbers."""
+        k: cython.Py_ssize_t
+        return [0.0 + scale * self.next() for k in range(size)]
+
+    def standard_normal(self, size: cython.Py_ssize_t) -> list:
+        """The next ``size`` z's: ``rng.standard_normal(size).tolist()``'s numbers."""
+        k: cython.Py_ssize_t
+        return [self.next() for k in range(size)]
+
+
+@cython.cclass
 class AHRS:
     """Yaw (rad) of one body relative to its own power-on heading: truth − the heading at power-on
     + a slowly drifting bias (a random walk in time) + white noise.
@@ -77,8 +124,7 @@ class AHRS:
     _heading = cython.declare(object)
     _body = cython.declare(_CBody)  # the body when it is a Body (its heading a C call), else None
     _health = cython.declare(object)
-    _draws = cython.declare(object)
-    _normal = cython.declare(object)
+    _normals = cython.declare(NormalStream)  # its noise stream's normals, in blocks
 
     def __init__(self, body: Body, cfg: RobotConfig, rng: np.random.Generator | None = None):
         self.body = body
@@ -104,13 +150,13 @@ class AHRS:
 
     @property
     def rng(self) -> np.random.Generator:
-        """The noise stream; its normals are drawn in blocks (:class:`~.draws.Draws`)."""
-        return self._draws.rng
+        """The noise stream; its normals are drawn in blocks of 256, each handed out from its last
+        to its first (:class:`NormalStream`, as :class:`~.draws.Draws` hands them out)."""
+        return self._normals.rng
 
     @rng.setter
     def rng(self, rng: np.random.Generator) -> None:
-        self._draws = Draws(rng)
-        self._normal = self._draws.normal
+        self._normals = NormalStream(rng, 256, True)
 
     def yaw(self, now_s: cython.double) -> float:
         """The reading at clock time ``now_s``: the bias walks over the time since the last reading
@@ -120,15 +166,15 @@ class AHRS:
             if self.on_reading is not None:
                 self.on_reading(now_s, self._last_yaw)
             return self._last_yaw  # no new yaw: the last reading repeats
-        normal = self._normal
+        normals: NormalStream = self._normals
         dt: cython.double = now_s - self.time_s
         z: cython.double
         if dt > 0:
-            z = normal()
+            z = normals.next()
             self.bias_rad += self.drift_rad * _c_sqrt(dt) * z
             self.time_s = now_s
         heading: cython.double = self._body._read_heading() if self._body is not None else self._heading()
-        z = normal()
+        z = normals.next()
         yaw: cython.double = heading - self.power_on_heading_rad + self.bias_rad + self.noise_rad * z
         self._last_yaw = yaw
         if self.on_reading is not None:
@@ -160,49 +206,6 @@ def wheel_odometry(robot: _CDriven, ex: cython.double, ey: cython.double, ew: cy
     if g != 1.0:
         vx, vy, w = vx * g, vy * g, w * g
     return vx * (1 + ex), vy * (1 + ey), w * (1 + ew)
-
-
-@cython.cclass
-class NormalStream:
-    """One generator's standard normals z, drawn ``block`` at a time (``standard_normal``) and
-    handed out in order: numpy's ``normal(0.0, σ, size)`` is ``0.0 + σ·z`` of the next ``size``
-    of them, so ``0.0 + σ·z`` taken here is the number that call gives, and the stream's draws are
-    the generator's draws in the order they were asked for. Every draw of the generator must come
-    through the stream (the env's sensor stream in :class:`Sensors`; a smart belt's). Read per
-    reading in C."""
-
-    rng = cython.declare(object, visibility="readonly")
-    block = cython.declare(cython.Py_ssize_t, visibility="readonly")
-    _block = cython.declare(object)  # the block (float64 array), refilled in place
-    _z = cython.declare(cython.double[::1])  # the same, as C doubles
-    _i = cython.declare(cython.Py_ssize_t)  # the next z's index (``block``: used up)
-
-    def __init__(self, rng: np.random.Generator, block: int = 256):
-        self.rng = rng
-        self.block = max(int(block), 1)
-        self._block = np.empty(self.block)
-        self._z = self._block
-        self._i = self.block
-
-    @cython.cfunc
-    def next(self) -> cython.double:
-        """The next z."""
-        if self._i == self.block:
-            self.rng.standard_normal(out=self._block)
-            self._i = 0
-        z: cython.double = float(self._z[self._i])  # (a Python float in the interpreted form too)
-        self._i += 1
-        return z
-
-    def normal(self, scale: cython.double, size: cython.Py_ssize_t) -> list:
-        """``size`` draws of N(0, ``scale``): ``rng.normal(0.0, scale, size).tolist()``'s numbers."""
-        k: cython.Py_ssize_t
-        return [0.0 + scale * self.next() for k in range(size)]
-
-    def standard_normal(self, size: cython.Py_ssize_t) -> list:
-        """The next ``size`` z's: ``rng.standard_normal(size).tolist()``'s numbers."""
-        k: cython.Py_ssize_t
-        return [self.next() for k in range(size)]
 
 
 class Odometry:

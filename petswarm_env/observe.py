@@ -24,10 +24,12 @@ from cython.cimports.libc.math import sin as _sin
 from petswarm_env.middleware.formation import MAX_LINKS, Formation, user_position_in_formation
 from petswarm_env.scenarios import ACTIVITIES
 
-if cython.compiled:  # a robot's wheels and their odometry as C reads (sim/body.pxd, sim/sensors.pxd)
+if cython.compiled:  # a robot's wheels, their odometry and its node's knowledge as C reads (the .pxd files)
+    from cython.cimports.petswarm_env.middleware.station import Station
     from cython.cimports.petswarm_env.sim.body import DrivenBody
     from cython.cimports.petswarm_env.sim.sensors import wheel_odometry
 else:
+    from petswarm_env.middleware.station import Station
     from petswarm_env.sim.body import DrivenBody
     from petswarm_env.sim.sensors import wheel_odometry
 
@@ -536,6 +538,7 @@ class Observer:
         noise = sensors.odometry_noise(len(agents))
         robots = sensors.world.robots
         robot: DrivenBody
+        node: Station
         ovx: cython.double
         ovy: cython.double
         ow: cython.double

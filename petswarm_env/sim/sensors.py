@@ -403,32 +403,38 @@ class Sensors:
         each robot's software gets its reading (a list of floats) and the self-test's result (``robot.on_ring(ranges,
         present, now, rang)``, its self-diagnosis: middleware/diagnosis.py), then the sensors it
         knows to be off (``robot.sensors_off``) read ``max_range`` with presence 0 (:meth:`sensor_off`)."""
-        self._follow_faults()
-        robots = self.world.robots
+        if self._changed:
+            self._follow_faults()
+        world = self.world
+        robots: list = world.robots
+        ring: UltrasonicRing = self.ring
         if not self._groups:
-            self.ranges = self.ring.read_all(self.world, self._normals)
+            ranges = ring.read_all(world, self._normals)
         else:
-            ranges = np.full((len(robots), self.ring.count), self.ring.max_range_m)
-            for indices, ring, virt, cols in self._groups:
-                own = ring.ranges(self.world, indices, self._normals)
+            ranges = np.full((len(robots), ring.count), ring.max_range_m)
+            for indices, own_ring, virt, cols in self._groups:
+                own = own_ring.ranges(world, indices, self._normals)
                 if virt:
                     ranges[np.ix_(indices, virt)] = own[:, cols]
-            self.ranges = ranges
-        faulted = self._ring_faulted
+        self.ranges = ranges
+        faulted: set = self._ring_faulted
         for i in faulted:  # no echo: "nothing in range" on every sensor (sim/faults.py)
-            self.ranges[i, :] = self.ring.max_range_m
+            ranges[i, :] = ring.max_range_m
         now = None
-        rows = self.ranges.tolist()  # each robot's reading as Python floats, for its software
-        present, known_off = self._present, self._off
-        for i, robot in enumerate(robots):
+        rows: list = ranges.tolist()  # each robot's reading as Python floats, for its software
+        present: list = self._present
+        known_off: dict = self._off
+        k: cython.Py_ssize_t
+        for k in range(len(robots)):
+            robot = robots[k]
             listener = getattr(robot, "on_ring", None)
             if listener is not None:
                 if now is None:
-                    now = self.world.clock.now
-                listener(rows[i], present[i], now, i not in faulted)
+                    now = world.clock.now
+                listener(rows[k], present[k], now, k not in faulted)
             off = robot.sensors_off  # the robot's own record of its broken sensors
-            if (off != known_off[i]) if i in known_off else off:
-                self.sensor_off(i, set(off))
+            if (off != known_off[k]) if k in known_off else off:
+                self.sensor_off(k, set(off))
         if self._off:
             for i, off in self._off.items():
                 for k, f in enumerate(self.flags[i][: self.ring.count]):

@@ -373,23 +373,10 @@ def _fill(plan: _Plan, v: cython.double[::1], know, links, now: cython.double, o
             else:
                 v[base + 8] = 1.0
                 v[base + 10] = 1.0
-    i: cython.Py_ssize_t
-    activity: cython.Py_ssize_t
-    rotating: cython.Py_ssize_t
-    turn_rate: cython.Py_ssize_t
-    leading: cython.Py_ssize_t
-    user_xy: cython.Py_ssize_t
-    master_ir: cython.Py_ssize_t
-    anchor: cython.Py_ssize_t
-    odo: cython.Py_ssize_t
-    yaw: cython.Py_ssize_t
-    last: cython.Py_ssize_t
-    offset: cython.Py_ssize_t
-    us: cython.Py_ssize_t
-    hierarchy: cython.Py_ssize_t
-    members_at: cython.Py_ssize_t
-    member_at: cython.Py_ssize_t
-    flags_at: cython.Py_ssize_t
+    cython.declare(i=cython.Py_ssize_t, activity=cython.Py_ssize_t, rotating=cython.Py_ssize_t, turn_rate=cython.Py_ssize_t,
+                   leading=cython.Py_ssize_t, user_xy=cython.Py_ssize_t, master_ir=cython.Py_ssize_t, anchor=cython.Py_ssize_t,
+                   odo=cython.Py_ssize_t, yaw=cython.Py_ssize_t, last=cython.Py_ssize_t, offset=cython.Py_ssize_t, us=cython.Py_ssize_t,
+                   hierarchy=cython.Py_ssize_t, members_at=cython.Py_ssize_t, member_at=cython.Py_ssize_t, flags_at=cython.Py_ssize_t)
     i = plan.master
     activity, rotating, turn_rate, leading, user_xy = plan.activity, plan.rotating, plan.turn_rate, plan.leading, plan.user_xy
     master_ir, anchor, odo, yaw, last, offset, us = plan.master_ir, plan.anchor, plan.odo, plan.yaw, plan.last, plan.offset, plan.us
@@ -574,7 +561,11 @@ class Observer:
             else:
                 ovx, ovy, ow = wheel_odometry(robot, 0.0, 0.0, 0.0)  # noiseless: the wheels' own values, exactly
             yaw = ahrs[idx](now_s)  # the sensor's physics at true time
-            _fill(plan, v, know, node.reference_links(), node.clock.now, ovx, ovy, ow, yaw,  # ages on its own clock
+            table = node.formation  # its reference links (Station.reference_links, read here)
+            own = node.know.member
+            table_links: dict = table.links if table is not None and own > 0 else None
+            links = table_links.get(own, ()) if table_links is not None else ()
+            _fill(plan, v, know, links, node.clock.now, ovx, ovy, ow, yaw,  # ages on its own clock
                   last if last is not None else _NO_ACTION, ranges[idx], level, offset, slots, flags[idx])
             if cython.compiled:  # float64 -> float32 rounding, as astype(np.float32)
                 for k in range(size):

@@ -86,11 +86,13 @@ class NormalStream:
         self._i += 1
         return z
 
+    @cython.ccall
     def normal(self, scale: cython.double, size: cython.Py_ssize_t) -> list:
         """``size`` draws of N(0, ``scale``): ``rng.normal(0.0, scale, size).tolist()``'s numbers."""
         k: cython.Py_ssize_t
         return [0.0 + scale * self.next() for k in range(size)]
 
+    @cython.ccall
     def standard_normal(self, size: cython.Py_ssize_t) -> list:
         """The next ``size`` z's: ``rng.standard_normal(size).tolist()``'s numbers."""
         k: cython.Py_ssize_t
@@ -481,8 +483,9 @@ class Sensors:
         k = self.odometry_noise_rel
         if k <= 0:
             return None
-        normal = self._normals.normal
-        return [normal(k, 3) for _ in range(n)]
+        normals: NormalStream = self._normals  # (its draws as C calls)
+        i: cython.Py_ssize_t
+        return [normals.normal(k, 3) for i in range(n)]
 
     def odometry(self, index: int, noise: list[float] | None = None) -> tuple[float, float, float]:
         """Wheel odometry of robot ``index``: what its wheels turn ``(vx, vy, ω)`` (``Robot.wheel_velocity``) with relative

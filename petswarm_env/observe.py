@@ -24,6 +24,15 @@ from cython.cimports.libc.math import sin as _sin
 from petswarm_env.middleware.formation import MAX_LINKS, Formation, user_position_in_formation
 from petswarm_env.scenarios import ACTIVITIES
 
+if cython.compiled:  # a robot's wheels, their odometry and its node's knowledge as C reads (the .pxd files)
+    from cython.cimports.petswarm_env.middleware.station import Station
+    from cython.cimports.petswarm_env.sim.body import DrivenBody
+    from cython.cimports.petswarm_env.sim.sensors import wheel_odometry
+else:
+    from petswarm_env.middleware.station import Station
+    from petswarm_env.sim.body import DrivenBody
+    from petswarm_env.sim.sensors import wheel_odometry
+
 if TYPE_CHECKING:
     from petswarm_env.middleware.node import Knowledge, Node
     from petswarm_env.sim.sensors import Sensors
@@ -246,12 +255,32 @@ def build_observation(layout: ObservationLayout, readings: Readings, out: np.nda
         raise ValueError("build_observation needs a layout with limits and us_max_range_m (the robot's scales)")
     r = readings
     buf = layout._scratch
-    _fill(layout, buf, r.know, r.links, r.now_s, r.odometry, r.yaw_rad, r.last_action, r.ultrasonic_m,
+    ovx, ovy, ow = r.odometry
+    _fill(_Plan(layout), buf, r.know, r.links, r.now_s, ovx, ovy, ow, r.yaw_rad, r.last_action, r.ultrasonic_m,
           r.hierarchy_level, r.offset_from_master_m, r.member_slots, r.ultrasonic_flags)
     if out is None:
         return buf.astype(np.float32)
     out[:] = buf
     return out
+
+
+@cython.cclass
+class _Plan:
+    """Where :func:`_fill` writes each field and by what it scales the robot's own values: the
+    layout's start offsets and scales as C values (typed in observe.pxd), read from the layout once
+    (per :class:`Observer`), not per observation."""
+
+    def __init__(self, layout: ObservationLayout):
+        lim = layout.limits
+        self.vmax, self.wmax, self.us_max = lim[0], lim[2], layout.us_max_range_m
+        starts = layout._link_starts
+        self.link0, self.max_links = starts[0], len(starts)
+        self.link_size = starts[1] - starts[0] if len(starts) > 1 else 0
+        if any(starts[k] != self.link0 + k * self.link_size for k in range(len(starts))):
+            raise ValueError("the links' fields must be equal blocks one after the other (observe.FIELDS)")
+        (self.master, self.activity, self.rotating, self.turn_rate, self.leading, self.user_xy, self.master_ir,
+         self.anchor, self.odo, self.yaw, self.last, self.offset, self.us, self.hierarchy, self.members, self.member,
+         self.flags) = layout._starts
 
 
 @cython.cfunc
@@ -269,13 +298,14 @@ def _age(age: cython.double) -> cython.double:
 
 
 @cython.cfunc
-def _fill(layout: ObservationLayout, v: cython.double[::1], know, links, now: cython.double, odometry,
-          yaw_rad: cython.double, last_action, ultrasonic_m, hierarchy_level: cython.double, offset_from_master,
-          member_slots, flags) -> cython.void:
-    """The observation of one slave (:class:`Readings`' fields) in float64 into ``v``
-    (layout.size,), the fields written in the layout's order. One function on purpose: it runs for
-    every slave at every step (typed: C doubles in the compiled core, Python floats interpreted;
-    the same IEEE operations in the same order, so the same bits)."""
+def _fill(plan: _Plan, v: cython.double[::1], know, links, now: cython.double, ovx: cython.double, ovy: cython.double,
+          ow: cython.double, yaw_rad: cython.double, last_action, ultrasonic_m, hierarchy_level: cython.double,
+          offset_from_master, member_slots, flags) -> cython.void:
+    """The observation of one slave (:class:`Readings`' fields; the odometry as ``ovx, ovy, ow``) in
+    float64 into ``v`` (layout.size,), the fields written in the layout's order at ``plan``'s
+    offsets. One function on purpose: it runs for every slave at every step (typed: C doubles in
+    the compiled core, Python floats interpreted; the same IEEE operations in the same order, so
+    the same bits)."""
     k: cython.Py_ssize_t
     n: cython.Py_ssize_t = v.shape[0]
     for k in range(n):
@@ -284,9 +314,8 @@ def _fill(layout: ObservationLayout, v: cython.double[::1], know, links, now: cy
     age_scale: cython.double = AGE_SCALE_S
     clip: cython.double = CLIP
     user_clip: cython.double = USER_CLIP
-    lim = layout.limits
-    vmax: cython.double = lim[0]
-    wmax: cython.double = lim[2]
+    vmax: cython.double = plan.vmax
+    wmax: cython.double = plan.wmax
     b: cython.double
     age: cython.double
     dist: cython.double
@@ -305,17 +334,19 @@ def _fill(layout: ObservationLayout, v: cython.double[::1], know, links, now: cy
     uy: cython.double
     sx: cython.double
     sy: cython.double
-    ovx: cython.double
-    ovy: cython.double
-    ow: cython.double
     a0: cython.double
     a1: cython.double
     a2: cython.double
     members: dict = know.members
     irs: dict = know.ir
-    if links:
+    nl: cython.Py_ssize_t = len(links)
+    if nl > plan.max_links:
+        nl = plan.max_links
+    if nl > 0:
         heads: dict = know.heading
-        for base, link in zip(layout._link_starts, links):
+        for k in range(nl):
+            base = plan.link0 + k * plan.link_size
+            link = links[k]
             v[base] = 1.0
             nb = members.get(link.neighbour)
             m = irs.get(nb)
@@ -342,25 +373,14 @@ def _fill(layout: ObservationLayout, v: cython.double[::1], know, links, now: cy
             else:
                 v[base + 8] = 1.0
                 v[base + 10] = 1.0
-    i: cython.Py_ssize_t
-    activity: cython.Py_ssize_t
-    rotating: cython.Py_ssize_t
-    turn_rate: cython.Py_ssize_t
-    leading: cython.Py_ssize_t
-    user_xy: cython.Py_ssize_t
-    master_ir: cython.Py_ssize_t
-    anchor: cython.Py_ssize_t
-    odo: cython.Py_ssize_t
-    yaw: cython.Py_ssize_t
-    last: cython.Py_ssize_t
-    offset: cython.Py_ssize_t
-    us: cython.Py_ssize_t
-    hierarchy: cython.Py_ssize_t
-    members_at: cython.Py_ssize_t
-    member_at: cython.Py_ssize_t
-    flags_at: cython.Py_ssize_t
-    (i, activity, rotating, turn_rate, leading, user_xy, master_ir, anchor, odo, yaw, last, offset, us,
-     hierarchy, members_at, member_at, flags_at) = layout._starts
+    cython.declare(i=cython.Py_ssize_t, activity=cython.Py_ssize_t, rotating=cython.Py_ssize_t, turn_rate=cython.Py_ssize_t,
+                   leading=cython.Py_ssize_t, user_xy=cython.Py_ssize_t, master_ir=cython.Py_ssize_t, anchor=cython.Py_ssize_t,
+                   odo=cython.Py_ssize_t, yaw=cython.Py_ssize_t, last=cython.Py_ssize_t, offset=cython.Py_ssize_t, us=cython.Py_ssize_t,
+                   hierarchy=cython.Py_ssize_t, members_at=cython.Py_ssize_t, member_at=cython.Py_ssize_t, flags_at=cython.Py_ssize_t)
+    i = plan.master
+    activity, rotating, turn_rate, leading, user_xy = plan.activity, plan.rotating, plan.turn_rate, plan.leading, plan.user_xy
+    master_ir, anchor, odo, yaw, last, offset, us = plan.master_ir, plan.anchor, plan.odo, plan.yaw, plan.last, plan.offset, plan.us
+    hierarchy, members_at, member_at, flags_at = plan.hierarchy, plan.members, plan.member, plan.flags
     v[leading] = 1.0 if know.mode == "leading" else 0.0  # from the joining / mode-change frames
     st = know.status
     if st is not None:
@@ -418,7 +438,6 @@ def _fill(layout: ObservationLayout, v: cython.double[::1], know, links, now: cy
         v[anchor + 3] = (now - mt) / age_scale
         v[anchor + 4] = sx / pos_scale
         v[anchor + 5] = sy / pos_scale
-    ovx, ovy, ow = odometry
     v[odo] = _clip(ovx / vmax, clip)
     v[odo + 1] = _clip(ovy / vmax, clip)
     v[odo + 2] = _clip(ow / wmax, clip)
@@ -431,7 +450,7 @@ def _fill(layout: ObservationLayout, v: cython.double[::1], know, links, now: cy
     ox, oy = offset_from_master
     v[offset] = ox / pos_scale
     v[offset + 1] = oy / pos_scale
-    us_max: cython.double = layout.us_max_range_m
+    us_max: cython.double = plan.us_max
     ring = ultrasonic_m.tolist() if isinstance(ultrasonic_m, np.ndarray) else ultrasonic_m
     r: cython.double
     k = us
@@ -453,6 +472,11 @@ def _fill(layout: ObservationLayout, v: cython.double[::1], know, links, now: cy
             v[k] = 1.0
 
 
+def _as_dict(mapping) -> dict:
+    """``mapping`` itself when it is a dict, else a dict of it."""
+    return mapping if isinstance(mapping, dict) else dict(mapping)
+
+
 _NO_ACTION = np.zeros(3, np.float32)  # the last action of an agent that has not acted yet (read only)
 _NO_ACTION.flags.writeable = False
 
@@ -471,6 +495,8 @@ class Observer:
         self.agent_index = agent_index
         self.master_distance_m = master_distance_m
         self._formation_cache: dict[int, tuple[Formation, list[tuple[float, float]], dict[int, int]]] = {}
+        scaled = layout.limits is not None and layout.us_max_range_m is not None
+        self._plan = _Plan(layout) if scaled else None  # the builder's offsets and scales, read once
 
     def formation_geometry(self, formation: Formation) -> tuple[list[tuple[float, float]], dict[int, int]]:
         """Slot positions and hierarchy levels of a neighbour table (cached per table)."""
@@ -488,10 +514,21 @@ class Observer:
         agent -> the action applied last step; none yet reads as zeros). The odometry noise of all
         agents is one draw, in the agents' order. Each agent's readings go to the builder as they
         are gathered (:func:`build_observation`'s body, without a :class:`Readings` per agent)."""
-        sensors, nodes, agent_index, ahrs, layout = self.sensors, self.nodes, self.agent_index, self.ahrs, self.layout
-        if layout.limits is None or layout.us_max_range_m is None:
+        sensors, ahrs, layout = self.sensors, self.ahrs, self.layout
+        nodes: dict = _as_dict(self.nodes)  # (dicts, looked up in C)
+        agent_index: dict = _as_dict(self.agent_index)
+        last_by: dict = _as_dict(last_actions)
+        levels: dict
+        plan: _Plan = self._plan
+        if plan is None:
             raise ValueError("Observer needs a layout with limits and us_max_range_m (the robot's scales)")
         noise = sensors.odometry_noise(len(agents))
+        robots = sensors.world.robots
+        robot: DrivenBody
+        node: Station
+        ovx: cython.double
+        ovy: cython.double
+        ow: cython.double
         ranges = sensors.ranges.tolist()  # every robot's ring as Python floats, in one conversion
         flags = sensors.flags  # every robot's ring flags (the middle layer's presence and location-known)
         cache: dict = self._formation_cache
@@ -516,10 +553,19 @@ class Observer:
                 else:
                     slots, levels = hit[1], hit[2]
                 level, offset = levels.get(member, 0), slots[member]
-            last = last_actions.get(agent)
-            odometry = sensors.odometry(idx, noise[i] if noise is not None else None)
+            last = last_by.get(agent)
+            robot = robots[idx]  # its wheel odometry (Sensors.odometry's model, sim/sensors.py)
+            if noise is not None:
+                e = noise[i]
+                ovx, ovy, ow = wheel_odometry(robot, e[0], e[1], e[2])
+            else:
+                ovx, ovy, ow = wheel_odometry(robot, 0.0, 0.0, 0.0)  # noiseless: the wheels' own values, exactly
             yaw = ahrs[idx](now_s)  # the sensor's physics at true time
-            _fill(layout, v, know, node.reference_links(), node.clock.now, odometry, yaw,  # ages on its own clock
+            table = node.formation  # its reference links (Station.reference_links, read here)
+            own = node.know.member
+            table_links: dict = table.links if table is not None and own > 0 else None
+            links = table_links.get(own, ()) if table_links is not None else ()
+            _fill(plan, v, know, links, node.clock.now, ovx, ovy, ow, yaw,  # ages on its own clock
                   last if last is not None else _NO_ACTION, ranges[idx], level, offset, slots, flags[idx])
             if cython.compiled:  # float64 -> float32 rounding, as astype(np.float32)
                 for k in range(size):

@@ -41,6 +41,7 @@ cdef class DrivenBody(Body):
     cdef readonly double _max_dv  # read by Robot.apply (the wheels follow the command under the same limits)
     cdef readonly double _max_dw
     cdef public Battery battery
+    cdef public double wheel_gain  # the wheels' view of the motion over the body's (a robot's 1 / (1 − slip))
 
     cdef _drive(self, double dt)
     cdef _apply(self, double dt)

@@ -279,6 +279,7 @@ class DrivenBody(Body):
         self._max_dv = self._max_dw = 0.0
         self._wheels = (0.0, 0.0, 0.0)  # the motors' own-frame speed (a robot's wheel_velocity)
         self.battery = None  # a robot's Battery (robot.py), drained at every substep
+        self.wheel_gain = 1.0  # what the wheel encoders count over the motors' speed (a slipping robot's 1 / (1 − slip), robot.py)
 
     # The three velocity triples live in C doubles (read and written at every substep); Python sees
     # each as a tuple of floats, and setting one sets its three values.

@@ -57,10 +57,16 @@ def saturate_command(vx: cython.double, vy: cython.double, omega: cython.double,
     command keeps its direction). ``min`` and ``max`` written out as Python's builtins give them
     (the first of equals; a NaN ω clips to the limit).
     """
-    limit: cython.double = cfg.max_omega_rps
+    return _saturate(vx, vy, omega, cfg.max_omega_rps, cfg.wheel_lever_m, cfg.max_speed_mps)
+
+
+@cython.cfunc
+def _saturate(vx: cython.double, vy: cython.double, omega: cython.double, limit: cython.double, lever: cython.double,
+              max_speed: cython.double) -> tuple:
+    """:func:`saturate_command` with the config's limits given (ω limit, wheel lever, wheel speed
+    limit): a robot reads them from its config once, not at every command."""
     omega = omega if omega < limit else limit  # max(-limit, min(limit, ω))
     omega = omega if omega > -limit else -limit
-    lever: cython.double = cfg.wheel_lever_m
     # max |wheel| of _INV @ (vx, vy, Lω) without building arrays (hot path)
     a: cython.double = vx + vy
     b: cython.double = vx - vy
@@ -75,7 +81,6 @@ def saturate_command(vx: cython.double, vy: cython.double, omega: cython.double,
     wheel = abs(b + lw)
     if wheel > peak:
         peak = wheel
-    max_speed: cython.double = cfg.max_speed_mps
     k: cython.double
     if peak > max_speed:
         k = max_speed / peak
@@ -135,7 +140,8 @@ class Robot(DrivenBody):
             v, w = differential_move(float(vx), float(vy), float(omega), self._differential)
             cmd = (v, 0.0, w)
         else:
-            cmd = saturate_command(float(vx), float(vy), float(omega), self.cfg)
+            limit, lever, max_speed = self._wheel_limits
+            cmd = _saturate(float(vx), float(vy), float(omega), limit, lever, max_speed)
         keep = self._keep
         self.command = cmd if keep == 1.0 else (cmd[0] * keep, cmd[1] * keep, cmd[2] * keep)
 
@@ -147,6 +153,16 @@ class Robot(DrivenBody):
         v = self._wheels
         g = self.wheel_gain
         return v if g == 1.0 else (v[0] * g, v[1] * g, v[2] * g)
+
+    @property
+    def cfg(self) -> RobotConfig:
+        """The robot's config (its type's); setting it sets the wheel limits :meth:`set_command` reads."""
+        return self._cfg
+
+    @cfg.setter
+    def cfg(self, cfg: RobotConfig) -> None:
+        self._cfg = cfg
+        self._wheel_limits = (cfg.max_omega_rps, cfg.wheel_lever_m, cfg.max_speed_mps)  # (a config is frozen)
 
     def own_status(self) -> dict:
         """This robot's own status from its own body only (seed 003's β_i = <id, w_i, P_rem_i> and

@@ -21,11 +21,19 @@ from petswarm_env.middle_layer import BodyMap, MiddleLayer
 from petswarm_env.sim import geometry
 from petswarm_env.sim.body import Body
 
-if cython.compiled:  # the body's heading as a C call (sim/body.pxd): the AHRS reads it for every reading
+if cython.compiled:  # the body's heading and wheels as C reads (sim/body.pxd): the AHRS and the odometry, every reading
     from cython.cimports.petswarm_env.sim.body import Body as _CBody
+    from cython.cimports.petswarm_env.sim.body import DrivenBody as _CDriven
 else:
+    from petswarm_env.sim.body import DrivenBody as _CDriven
+
     _CBody = Body
 from petswarm_env.sim.draws import Draws
+
+if cython.compiled:  # the ring's ray cast as a C call (sim/geometry.pxd): every robot's ring at every step
+    from cython.cimports.petswarm_env.sim.geometry import ring_cast as _ring_cast
+else:
+    _ring_cast = geometry.ring_cast
 
 
 COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
@@ -40,6 +48,55 @@ class Truth(Protocol):
     wall_b: np.ndarray
 
     def truth_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]: ...
+
+
+@cython.cclass
+class NormalStream:
+    """One generator's standard normals z, drawn ``block`` at a time (``standard_normal``) and
+    handed out in order: numpy's ``normal(0.0, σ, size)`` is ``0.0 + σ·z`` of the next ``size``
+    of them, so ``0.0 + σ·z`` taken here is the number that call gives, and the stream's draws are
+    the generator's draws in the order they were asked for. Every draw of the generator must come
+    through the stream (the env's sensor stream in :class:`Sensors`; a smart belt's). Read per
+    reading in C. ``last_first``: each block is handed out from its last z to its first (the order
+    of :class:`~.draws.Draws`' normals, an AHRS's)."""
+
+    rng = cython.declare(object, visibility="readonly")
+    block = cython.declare(cython.Py_ssize_t, visibility="readonly")
+    _block = cython.declare(object)  # the block (float64 array), refilled in place
+    _z = cython.declare(cython.double[::1])  # the same, as C doubles
+    _i = cython.declare(cython.Py_ssize_t)  # how many z's of the block are used (``block``: all)
+    _last_first = cython.declare(cython.bint)
+
+    def __init__(self, rng: np.random.Generator, block: int = 256, last_first: bool = False):
+        self.rng = rng
+        self.block = max(int(block), 1)
+        self._block = np.empty(self.block)
+        self._z = self._block
+        self._i = self.block
+        self._last_first = last_first
+
+    @cython.cfunc
+    def next(self) -> cython.double:
+        """The next z."""
+        if self._i == self.block:
+            self.rng.standard_normal(out=self._block)
+            self._i = 0
+        at: cython.Py_ssize_t = self.block - 1 - self._i if self._last_first else self._i
+        z: cython.double = float(self._z[at])  # (a Python float in the interpreted form too)
+        self._i += 1
+        return z
+
+    @cython.ccall
+    def normal(self, scale: cython.double, size: cython.Py_ssize_t) -> list:
+        """``size`` draws of N(0, ``scale``): ``rng.normal(0.0, scale, size).tolist()``'s numbers."""
+        k: cython.Py_ssize_t
+        return [0.0 + scale * self.next() for k in range(size)]
+
+    @cython.ccall
+    def standard_normal(self, size: cython.Py_ssize_t) -> list:
+        """The next ``size`` z's: ``rng.standard_normal(size).tolist()``'s numbers."""
+        k: cython.Py_ssize_t
+        return [self.next() for k in range(size)]
 
 
 @cython.cclass
@@ -69,8 +126,7 @@ class AHRS:
     _heading = cython.declare(object)
     _body = cython.declare(_CBody)  # the body when it is a Body (its heading a C call), else None
     _health = cython.declare(object)
-    _draws = cython.declare(object)
-    _normal = cython.declare(object)
+    _normals = cython.declare(NormalStream)  # its noise stream's normals, in blocks
 
     def __init__(self, body: Body, cfg: RobotConfig, rng: np.random.Generator | None = None):
         self.body = body
@@ -96,13 +152,13 @@ class AHRS:
 
     @property
     def rng(self) -> np.random.Generator:
-        """The noise stream; its normals are drawn in blocks (:class:`~.draws.Draws`)."""
-        return self._draws.rng
+        """The noise stream; its normals are drawn in blocks of 256, each handed out from its last
+        to its first (:class:`NormalStream`, as :class:`~.draws.Draws` hands them out)."""
+        return self._normals.rng
 
     @rng.setter
     def rng(self, rng: np.random.Generator) -> None:
-        self._draws = Draws(rng)
-        self._normal = self._draws.normal
+        self._normals = NormalStream(rng, 256, True)
 
     def yaw(self, now_s: cython.double) -> float:
         """The reading at clock time ``now_s``: the bias walks over the time since the last reading
@@ -112,15 +168,15 @@ class AHRS:
             if self.on_reading is not None:
                 self.on_reading(now_s, self._last_yaw)
             return self._last_yaw  # no new yaw: the last reading repeats
-        normal = self._normal
+        normals: NormalStream = self._normals
         dt: cython.double = now_s - self.time_s
         z: cython.double
         if dt > 0:
-            z = normal()
+            z = normals.next()
             self.bias_rad += self.drift_rad * _c_sqrt(dt) * z
             self.time_s = now_s
         heading: cython.double = self._body._read_heading() if self._body is not None else self._heading()
-        z = normal()
+        z = normals.next()
         yaw: cython.double = heading - self.power_on_heading_rad + self.bias_rad + self.noise_rad * z
         self._last_yaw = yaw
         if self.on_reading is not None:
@@ -139,47 +195,19 @@ def noisy_odometry(velocity_body: tuple[float, float, float], errors) -> tuple[f
     return vx * (1 + ex), vy * (1 + ey), w * (1 + ew)
 
 
-@cython.cclass
-class NormalStream:
-    """One generator's standard normals z, drawn ``block`` at a time (``standard_normal``) and
-    handed out in order: numpy's ``normal(0.0, σ, size)`` is ``0.0 + σ·z`` of the next ``size``
-    of them, so ``0.0 + σ·z`` taken here is the number that call gives, and the stream's draws are
-    the generator's draws in the order they were asked for. Every draw of the generator must come
-    through the stream (the env's sensor stream in :class:`Sensors`; a smart belt's). Read per
-    reading in C."""
-
-    rng = cython.declare(object, visibility="readonly")
-    block = cython.declare(cython.Py_ssize_t, visibility="readonly")
-    _block = cython.declare(object)  # the block (float64 array), refilled in place
-    _z = cython.declare(cython.double[::1])  # the same, as C doubles
-    _i = cython.declare(cython.Py_ssize_t)  # the next z's index (``block``: used up)
-
-    def __init__(self, rng: np.random.Generator, block: int = 256):
-        self.rng = rng
-        self.block = max(int(block), 1)
-        self._block = np.empty(self.block)
-        self._z = self._block
-        self._i = self.block
-
-    @cython.cfunc
-    def next(self) -> cython.double:
-        """The next z."""
-        if self._i == self.block:
-            self.rng.standard_normal(out=self._block)
-            self._i = 0
-        z: cython.double = float(self._z[self._i])  # (a Python float in the interpreted form too)
-        self._i += 1
-        return z
-
-    def normal(self, scale: cython.double, size: cython.Py_ssize_t) -> list:
-        """``size`` draws of N(0, ``scale``): ``rng.normal(0.0, scale, size).tolist()``'s numbers."""
-        k: cython.Py_ssize_t
-        return [0.0 + scale * self.next() for k in range(size)]
-
-    def standard_normal(self, size: cython.Py_ssize_t) -> list:
-        """The next ``size`` z's: ``rng.standard_normal(size).tolist()``'s numbers."""
-        k: cython.Py_ssize_t
-        return [self.next() for k in range(size)]
+@cython.cfunc
+@cython.exceptval(check=False)
+def wheel_odometry(robot: _CDriven, ex: cython.double, ey: cython.double, ew: cython.double) -> tuple[cython.double, cython.double, cython.double]:
+    """:func:`noisy_odometry` of what a robot's wheels turn (``Robot.wheel_velocity``: the motors'
+    speed times ``wheel_gain``) with the errors ``ex``, ``ey``, ``ew``, as C doubles: the same
+    arithmetic in the same order (the observation's call, for every slave at every step)."""
+    vx: cython.double = robot._wx
+    vy: cython.double = robot._wy
+    w: cython.double = robot._ww
+    g: cython.double = robot.wheel_gain
+    if g != 1.0:
+        vx, vy, w = vx * g, vy * g, w * g
+    return vx * (1 + ex), vy * (1 + ey), w * (1 + ew)
 
 
 class Odometry:
@@ -207,10 +235,28 @@ class Odometry:
         return body.velocity_body if wheels is None else wheels
 
 
+@cython.cclass
 class UltrasonicRing:
     """``count`` range sensors on the robot's rim, sensor 0 forward, counter-clockwise: ray casts
     against every round body and every wall (:func:`~.geometry.ring_first_hits`), from the rim,
-    with Gaussian noise, clipped to [min_range, max_range]."""
+    with Gaussian noise, clipped to [min_range, max_range].
+
+    A typed class of the compiled core: its directions, rims and walls are held as C arrays, and
+    the cast (:func:`~.geometry.ring_cast`) and the readings (:func:`_readings`) are C calls, for
+    every robot's ring at every step."""
+
+    count = cython.declare(cython.Py_ssize_t, visibility="readonly")
+    min_range_m = cython.declare(cython.double, visibility="readonly")
+    max_range_m = cython.declare(cython.double, visibility="readonly")
+    noise_m = cython.declare(cython.double, visibility="readonly")
+    reach_m = cython.declare(cython.double, visibility="readonly")  # from the centre
+    radius_m = cython.declare(object, visibility="readonly")
+    angles = cython.declare(object, visibility="readonly")
+    walls = cython.declare(object, visibility="readonly")
+    _rims = cython.declare(object)  # each sensor's distance from the centre
+    _angles_c = cython.declare(cython.double[::1])  # the same three as C doubles (held: no conversion per cast)
+    _rims_c = cython.declare(cython.double[::1])
+    _walls_c = cython.declare(cython.double[::1])
 
     def __init__(self, cfg: RobotConfig, wall_a: np.ndarray, wall_b: np.ndarray,
                  angles_rad: list[float] | None = None, radii_m: list[float] | None = None):
@@ -219,31 +265,53 @@ class UltrasonicRing:
         self.min_range_m, self.max_range_m, self.noise_m = us.min_range_m, us.max_range_m, us.noise_m
         self.radius_m = cfg.radius_m if radii_m is None else np.asarray(radii_m, float)
         self.angles = np.arange(us.count) * (2 * math.pi / max(us.count, 1)) if angles_rad is None else np.asarray(angles_rad, float)
-        self._rims = np.broadcast_to(self.radius_m, (self.count,)).astype(float)  # each sensor's distance from the centre
+        self._rims = np.broadcast_to(self.radius_m, (self.count,)).astype(float)
         rim = cfg.radius_m if radii_m is None else max(radii_m, default=0.0)
-        self.reach_m = us.max_range_m + rim  # from the centre
+        self.reach_m = us.max_range_m + rim
         self.walls = geometry.SegmentSet(wall_a, wall_b, self.reach_m)
+        self._angles_c = np.ascontiguousarray(self.angles, dtype=float)
+        self._rims_c = self._rims
+        self._walls_c = self.walls.table
 
     def ranges(self, world: Truth, indices: list[int], rng) -> np.ndarray:
         """Readings (m) of the robots ``indices``: (len(indices), count); the noise is the next
         len(indices)·count draws of ``rng`` (a :class:`NormalStream`, or a generator: one
         ``normal`` call's numbers)."""
-        n = self.count
-        if n == 0 or not len(indices):
-            return np.zeros((len(indices), n))
+        n: cython.Py_ssize_t = len(indices)
+        if self.count == 0 or n == 0:
+            return np.zeros((n, self.count))
         centers, radii, headings = world.truth_arrays()
         if isinstance(indices, list) and indices == list(range(len(world.robots))):
-            pos, th = centers, headings  # every robot, in order (the env's call): the first rows
+            return self._read(centers, radii, headings, centers, headings, n, rng)  # every robot, in order: the first rows
+        return self._read(centers, radii, headings, centers[indices], headings[indices], n, rng)
+
+    @cython.cfunc
+    def _read(self, centers, radii, headings, pos, th, n: cython.Py_ssize_t, rng) -> object:
+        """:meth:`ranges` of the first ``n`` rows of ``pos`` (their headings ``th``) among the truth
+        arrays (``centers``, ``radii``, ``headings``)."""
+        d = np.empty((n, self.count))
+        out: cython.double[:, ::1] = d
+        c: cython.const[cython.double][:, ::1] = centers
+        o: cython.const[cython.double][:, ::1]
+        if pos is centers:  # every robot, in order (the env's call): one conversion
+            o = c
         else:
-            pos, th = centers[indices], headings[indices]
-        d = np.empty((len(indices), n))
-        geometry.ring_cast(pos, len(indices), th, self.angles, centers, radii, self.walls.table, self.reach_m, d)
+            o = pos
+        _ring_cast(o, n, th, self._angles_c, c, radii, self._walls_c, self.reach_m, out)
         if self.noise_m > 0:
-            normals = rng if isinstance(rng, NormalStream) else NormalStream(rng, d.size)  # (a generator: exactly d.size draws)
-            _readings(d, self._rims, normals, self.noise_m, self.min_range_m, self.max_range_m)
+            normals = rng if isinstance(rng, NormalStream) else NormalStream(rng, n * self.count)  # (a generator: exactly d.size draws)
+            _readings(out, self._rims_c, normals, self.noise_m, self.min_range_m, self.max_range_m)
         else:
-            _readings(d, self._rims, None, 0.0, self.min_range_m, self.max_range_m)
+            _readings(out, self._rims_c, None, 0.0, self.min_range_m, self.max_range_m)
         return d
+
+    def read_all(self, world: Truth, rng: NormalStream) -> np.ndarray:
+        """:meth:`ranges` of every robot of ``world``, in order (the env's call)."""
+        n: cython.Py_ssize_t = len(world.robots)
+        if self.count == 0 or n == 0:
+            return np.zeros((n, self.count))
+        centers, radii, headings = world.truth_arrays()
+        return self._read(centers, radii, headings, centers, headings, n, rng)
 
 
 @cython.cfunc
@@ -337,32 +405,38 @@ class Sensors:
         each robot's software gets its reading (a list of floats) and the self-test's result (``robot.on_ring(ranges,
         present, now, rang)``, its self-diagnosis: middleware/diagnosis.py), then the sensors it
         knows to be off (``robot.sensors_off``) read ``max_range`` with presence 0 (:meth:`sensor_off`)."""
-        self._follow_faults()
-        robots = self.world.robots
+        if self._changed:
+            self._follow_faults()
+        world = self.world
+        robots: list = world.robots
+        ring: UltrasonicRing = self.ring
         if not self._groups:
-            self.ranges = self.ring.ranges(self.world, list(range(len(robots))), self._normals)
+            ranges = ring.read_all(world, self._normals)
         else:
-            ranges = np.full((len(robots), self.ring.count), self.ring.max_range_m)
-            for indices, ring, virt, cols in self._groups:
-                own = ring.ranges(self.world, indices, self._normals)
+            ranges = np.full((len(robots), ring.count), ring.max_range_m)
+            for indices, own_ring, virt, cols in self._groups:
+                own = own_ring.ranges(world, indices, self._normals)
                 if virt:
                     ranges[np.ix_(indices, virt)] = own[:, cols]
-            self.ranges = ranges
-        faulted = self._ring_faulted
+        self.ranges = ranges
+        faulted: set = self._ring_faulted
         for i in faulted:  # no echo: "nothing in range" on every sensor (sim/faults.py)
-            self.ranges[i, :] = self.ring.max_range_m
+            ranges[i, :] = ring.max_range_m
         now = None
-        rows = self.ranges.tolist()  # each robot's reading as Python floats, for its software
-        present, known_off = self._present, self._off
-        for i, robot in enumerate(robots):
+        rows: list = ranges.tolist()  # each robot's reading as Python floats, for its software
+        present: list = self._present
+        known_off: dict = self._off
+        k: cython.Py_ssize_t
+        for k in range(len(robots)):
+            robot = robots[k]
             listener = getattr(robot, "on_ring", None)
             if listener is not None:
                 if now is None:
-                    now = self.world.clock.now
-                listener(rows[i], present[i], now, i not in faulted)
+                    now = world.clock.now
+                listener(rows[k], present[k], now, k not in faulted)
             off = robot.sensors_off  # the robot's own record of its broken sensors
-            if (off != known_off[i]) if i in known_off else off:
-                self.sensor_off(i, set(off))
+            if (off != known_off[k]) if k in known_off else off:
+                self.sensor_off(k, set(off))
         if self._off:
             for i, off in self._off.items():
                 for k, f in enumerate(self.flags[i][: self.ring.count]):
@@ -409,15 +483,16 @@ class Sensors:
         k = self.odometry_noise_rel
         if k <= 0:
             return None
-        normal = self._normals.normal
-        return [normal(k, 3) for _ in range(n)]
+        normals: NormalStream = self._normals  # (its draws as C calls)
+        i: cython.Py_ssize_t
+        return [normals.normal(k, 3) for i in range(n)]
 
     def odometry(self, index: int, noise: list[float] | None = None) -> tuple[float, float, float]:
         """Wheel odometry of robot ``index``: what its wheels turn ``(vx, vy, ω)`` (``Robot.wheel_velocity``) with relative
         noise (``noise``: the three N(0, odometry_noise_rel) errors when drawn already, else drawn here)."""
-        robot = self.world.robots[index]
-        velocity = robot.wheel_velocity  # the wheel encoders: the motors' speed, not the body's (a shove turns no wheel)
+        robot = self.world.robots[index]  # the wheel encoders: the motors' speed, not the body's (a shove turns no wheel)
         k = self.odometry_noise_rel
         if k > 0:
-            return noisy_odometry(velocity, self._normals.normal(k, 3) if noise is None else noise)
-        return velocity
+            e = self._normals.normal(k, 3) if noise is None else noise
+            return wheel_odometry(robot, e[0], e[1], e[2])
+        return robot.wheel_velocity

@@ -184,6 +184,19 @@ class SmartBelt:
     _rotation_since = cython.declare(cython.double)
     _omega_f = cython.declare(cython.double)
     _angle = cython.declare(cython.double)
+    # the config's numbers read at every control period, read once (a config is frozen)
+    _gyro_dt = cython.declare(cython.double)
+    _acc_noise = cython.declare(cython.double)
+    _walk_bounce = cython.declare(cython.double)
+    _run_bounce = cython.declare(cython.double)
+    _gait_jitter = cython.declare(cython.double)
+    _rest_hz = cython.declare(cython.double)
+    _rest_amp = cython.declare(cython.double)
+    _rest_jitter = cython.declare(cython.double)
+    _deadband = cython.declare(cython.double)
+    _min_changes = cython.declare(cython.int)
+    _level2 = cython.declare(cython.double)
+    _level3 = cython.declare(cython.double)
 
     def __init__(self, cfg: BeltConfig, rng: np.random.Generator, t0_s: float = 0.0):
         self.cfg = cfg
@@ -205,6 +218,11 @@ class SmartBelt:
         self._off_rps = math.radians(cfg.rotation_off_dps)
         self._gyro_noise_rps = math.radians(cfg.gyro_noise_dps)
         self._wobble_rad = math.radians(cfg.gait_yaw_wobble_deg)
+        self._gyro_dt, self._acc_noise = cfg.gyro_period_s, cfg.accel_noise_mps2
+        self._walk_bounce, self._run_bounce, self._gait_jitter = cfg.walk_bounce_m, cfg.run_bounce_m, cfg.gait_phase_jitter
+        self._rest_hz, self._rest_amp, self._rest_jitter = cfg.rest_sway_hz, cfg.rest_sway_mps2, cfg.rest_phase_jitter
+        self._deadband, self._min_changes = cfg.sign_deadband_mps2, cfg.min_sign_changes
+        self._level2, self._level3 = cfg.sma_level2_mps2, cfg.sma_level3_mps2
         self._cadence = (None, math.nan, math.nan)  # (posture, speed, cadence) of the last gait: the user's state holds for many periods
         # the belt's knowledge
         self._activity = 0
@@ -244,7 +262,7 @@ class SmartBelt:
         while self._n_acc < n_target:
             n = min(self._w, n_target - self._n_acc)
             self._accel_chunk(n, speed_mps, posture)
-        m_target: cython.Py_ssize_t = math.floor((t_end - self._t0) / self.cfg.gyro_period_s + _EPS_S)
+        m_target: cython.Py_ssize_t = math.floor((t_end - self._t0) / self._gyro_dt + _EPS_S)
         if m_target > self._n_gyro:
             self._gyro_samples(m_target - self._n_gyro, speed_mps, turn_rate_rps, posture)
         self._t = max(self._t, float(t_end))
@@ -276,17 +294,16 @@ class SmartBelt:
     @cython.ccall
     def _synth_accel(self, n: cython.Py_ssize_t, speed_mps: cython.double, posture: str) -> list:
         """n vertical-acceleration samples (m/s², gravity included) of the waist."""
-        cfg = self.cfg
         dt: cython.double = self._acc_dt
         f: cython.double
         amp: cython.double
         jitter: cython.double
         if posture in ("walk", "run"):
             f = self._cadence_hz(posture, speed_mps)
-            bounce: cython.double = cfg.run_bounce_m if posture == "run" else cfg.walk_bounce_m
-            amp, jitter = (2.0 * math.pi * f) ** 2 * bounce, cfg.gait_phase_jitter
+            bounce: cython.double = self._run_bounce if posture == "run" else self._walk_bounce
+            amp, jitter = (2.0 * math.pi * f) ** 2 * bounce, self._gait_jitter
         elif posture == "rest":
-            f, amp, jitter = cfg.rest_sway_hz, cfg.rest_sway_mps2, cfg.rest_phase_jitter
+            f, amp, jitter = self._rest_hz, self._rest_amp, self._rest_jitter
         else:  # stop: the body is still
             f, amp, jitter = 0.0, 0.0, 0.0
         # plain Python on the handful of samples of one control period: the same operations, in the
@@ -295,7 +312,7 @@ class SmartBelt:
         step: cython.double = 2.0 * math.pi * f * dt
         jitter_step: cython.double = jitter * math.sqrt(dt) if jitter > 0.0 and amp > 0.0 else 0.0
         phase0: cython.double = self._gait_phase
-        noise: cython.double = cfg.accel_noise_mps2
+        noise: cython.double = self._acc_noise
         out: list = []
         turned: cython.double = 0.0
         dphi: cython.double
@@ -325,13 +342,12 @@ class SmartBelt:
         first: cython.Py_ssize_t = self._n_acc  # index (0-based) of the first new sample
         valid_from: cython.Py_ssize_t = max(0, (w - 1) - first)  # windows need W samples since power-on
         if valid_from < n:
-            cfg = self.cfg
             # window j = h[j : j + W], the one ending at new sample j
-            changes, sma = window_stats(h, valid_from, n, w, cfg.sign_deadband_mps2)
+            changes, sma = window_stats(h, valid_from, n, w, self._deadband)
             t_first: cython.double = self._t0 + self._acc_dt * (first + 1 + valid_from)
-            min_changes: cython.int = cfg.min_sign_changes
-            level2: cython.double = cfg.sma_level2_mps2
-            level3: cython.double = cfg.sma_level3_mps2
+            min_changes: cython.int = self._min_changes
+            level2: cython.double = self._level2
+            level3: cython.double = self._level3
             code: cython.int
             for j in range(len(sma)):  # Table 2 on the window ending at each new sample
                 code = classify(changes[j] >= min_changes, _level(sma[j], level2, level3))
@@ -348,8 +364,7 @@ class SmartBelt:
     @cython.cfunc
     def _gyro_samples(self, m: cython.Py_ssize_t, speed_mps: cython.double, turn_rate_rps: cython.double, posture: str):
         """Sample m gyro values (every 70 ms, seed 002 §3.4), filter them, update the rotation state."""
-        cfg = self.cfg
-        dt: cython.double = cfg.gyro_period_s
+        dt: cython.double = self._gyro_dt
         f_stride: cython.double
         wobble_rps: cython.double
         if posture in ("walk", "run"):
@@ -359,7 +374,7 @@ class SmartBelt:
             f_stride, wobble_rps = 0.0, 0.0
         sigma: cython.double = self._gyro_noise_rps
         noise: list = [sigma * z for z in self._normals.standard_normal(m)]
-        n_ma: cython.Py_ssize_t = cfg.ma_samples
+        n_ma: cython.Py_ssize_t = len(self._ma)  # cfg.ma_samples
         k: cython.Py_ssize_t
         filled: cython.Py_ssize_t
         raw: cython.double

@@ -195,6 +195,37 @@ def test_the_interpreted_form_carries_the_same_frames_bit_for_bit():
     assert out["1"] == out["0"]
 
 
+def ring_readings() -> list:
+    """The ultrasonic rings of a crowd beside a box (every robot in one cast, then a subset in
+    another order), noisy, and a slipping robot's noisy odometry: exact hex strings."""
+    import numpy as np
+
+    from petswarm_env.config import load_config
+    from petswarm_env.scenarios import SCENARIOS
+    from petswarm_env.sim.sensors import Sensors
+    from petswarm_env.sim.world import World
+
+    cfg = load_config(overrides={"world.obstacles": [{"center_m": [1.5, 0.5], "size_m": [0.6, 0.8]}]})
+    world = World(cfg, SCENARIOS["straight"].script(cfg.user, np.random.default_rng(0)))
+    rng = np.random.default_rng(4)
+    for p, th in zip(rng.uniform(-2.0, 2.0, (7, 2)), rng.uniform(-3.0, 3.0, 7)):
+        world.add_robot(p, th)
+    sensors = Sensors(world, cfg.robot, np.random.default_rng(12))
+    world.robots[3].wheel_gain = 1.0 / 0.9
+    world.robots[3]._wheels = (0.31, -0.12, 0.45)
+    rings = [sensors.read_rings().tolist(), sensors.ring.ranges(world, [5, 1, 2], np.random.default_rng(3)).tolist()]
+    odometry = [sensors.odometry(3), sensors.odometry(3, [0.01, -0.02, 0.03])]
+    return [[[[float(v).hex() for v in row] for row in ring] for ring in rings], [[v.hex() for v in o] for o in odometry]]
+
+
+def test_the_interpreted_form_reads_the_same_rings_and_odometry_bit_for_bit():
+    """The ring's cast and readings (compiled: every robot's ring at every step) and the wheel
+    odometry (a slipping robot's) give the same values to the bit in both forms."""
+    out = in_both_forms("ring_readings")
+    assert any(v != out["0"][0][0][0][0] for row in out["0"][0][0] for v in row)  # not all one value
+    assert out["1"] == out["0"]
+
+
 def heterogeneous_episode() -> list:
     """The heterogeneous pool (seed 001: each type casts its own ring, mapped onto the virtual one)
     with one slave's battery nearly empty (the drive stops it mid-episode): a hash of every

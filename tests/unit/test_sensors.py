@@ -136,3 +136,31 @@ def test_the_sensor_stream_hands_out_the_generators_normals_in_order():
     for size, scale in [(3, 0.1), (10, 0.02), (1, 1.0), (15, 0.5), (0, 0.3), (7, 2.0)]:
         assert stream.normal(scale, size) == rng.normal(0.0, scale, size).tolist()
         assert stream.standard_normal(size + 2) == rng.standard_normal(size + 2).tolist()
+
+
+def test_an_ahrs_stream_hands_each_block_out_last_first_as_draws_does():
+    """The AHRS's normals come from a NormalStream that hands each block out from its last z to its
+    first: the numbers, in the order, of :class:`~petswarm_env.sim.draws.Draws`' normals (its former
+    stream), across block boundaries."""
+    from petswarm_env.sim.draws import Draws
+
+    stream = NormalStream(np.random.default_rng(9), 256, True)
+    draws = Draws(np.random.default_rng(9))
+    assert stream.standard_normal(600) == [draws.normal() for _ in range(600)]
+
+
+def test_the_odometry_of_a_slipping_robot_is_its_wheels_view_with_the_noise():
+    """Sensors.odometry (the observation's C reading of the wheels) equals noisy_odometry of
+    Robot.wheel_velocity, slip (wheel_gain ≠ 1) or none, bit for bit."""
+    from petswarm_env.sim.sensors import noisy_odometry
+
+    cfg = load_config()
+    world = _world(cfg, [((0.0, 0.0), 0.0), ((1.0, 0.0), math.pi)])
+    sensors = Sensors(world, cfg.robot, np.random.default_rng(7))
+    slipping, plain = world.robots
+    slipping.wheel_gain = 1.0 / 0.85  # a body that keeps 85 % of what its wheels turn
+    for r, v in ((slipping, (0.3, -0.1, 0.7)), (plain, (-0.2, 0.05, -0.4))):
+        r._wheels = v
+        e = [0.013, -0.021, 0.008]
+        assert sensors.odometry(r.index, e) == noisy_odometry(r.wheel_velocity, e)
+    assert slipping.wheel_velocity != slipping._wheels

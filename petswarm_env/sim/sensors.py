@@ -189,9 +189,14 @@ def noisy_odometry(velocity_body: tuple[float, float, float], errors) -> tuple[f
     """The wheel-odometry model: the wheels' velocity ``(vx, vy, ω)`` in the body frame, each
     component with its relative error (``errors``: three draws of N(0, ``odometry_noise_rel``))."""
     vx, vy, w = velocity_body
-    ex: cython.double = errors[0]
-    ey: cython.double = errors[1]
-    ew: cython.double = errors[2]
+    return _with_errors(vx, vy, w, errors[0], errors[1], errors[2])
+
+
+@cython.cfunc
+@cython.exceptval(check=False)
+def _with_errors(vx: cython.double, vy: cython.double, w: cython.double, ex: cython.double, ey: cython.double,
+                 ew: cython.double) -> tuple[cython.double, cython.double, cython.double]:
+    """The odometry's relative errors on the wheels' ``(vx, vy, ω)`` (one formula for both readers)."""
     return vx * (1 + ex), vy * (1 + ey), w * (1 + ew)
 
 
@@ -207,7 +212,7 @@ def wheel_odometry(robot: _CDriven, ex: cython.double, ey: cython.double, ew: cy
     g: cython.double = robot.wheel_gain
     if g != 1.0:
         vx, vy, w = vx * g, vy * g, w * g
-    return vx * (1 + ex), vy * (1 + ey), w * (1 + ew)
+    return _with_errors(vx, vy, w, ex, ey, ew)
 
 
 class Odometry:

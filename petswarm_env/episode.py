@@ -174,7 +174,7 @@ class Episode:
 
         ids = self._ids
         truth = self.experimenter.step(agents, ids)  # formation and heading errors, contacts (metrics.py)
-        if not all(session.user.walking for session in self.sessions):  # only while a user still stands
+        if not step_kernel.all_walking(self.sessions):  # only while a user still stands
             self._start_walks(dict(zip(agents, truth.formation_error_m)))
         infos = step_kernel.infos(agents, ids, self.fleet.nodes, self.missing_by_pan, truth.formation_error_m,
                                   truth.new_contacts)
@@ -396,17 +396,8 @@ class Episode:
         world = self.world
         robots, arbiters, nodes = world.robots, self.arbiters, self.fleet.nodes
         ranges = self.sensors.ranges
-        masters = set()
-        for session in self.sessions:
-            idx = session.swarm.master.node_id
-            masters.add(idx)
-            policy, user_cmd, stop = session.step(self.sensors.odometry(idx), ranges[idx])
-            cmd, _ = arbiters[idx].decide(policy, user_cmd, ranges[idx], stop)
-            robot = robots[idx]
-            if robot.health.powered:
-                robot.set_command(*cmd)
-            else:  # a master that is off (a fault): motors off
-                robot.set_command(0.0, 0.0, 0.0)
+        # each master from its user session; a master that is off (a fault): motors off
+        masters = step_kernel.command_masters(self.sessions, self.sensors, ranges, arbiters, robots)
         if acts is None:
             return
         # a robot leaving its slot for its own fault drives out of the way
@@ -437,7 +428,7 @@ class Episode:
                 user.script_time_s = min(waited, self.cfg.user.start_delay_s)
 
     def _current_slaves(self) -> list[int]:
-        return sorted(i for sw in self.swarms for i in sw.slave_ids())
+        return step_kernel.current_slaves(self.swarms)  # every swarm's slave_ids(), sorted
 
 
 class Truth:

@@ -76,6 +76,7 @@ WAKE_PATTERN = 0x5A00  # user u's belt and robot share the LF wake-up pattern WA
 # slave-role driving, 0 for an agent of the env waiting to join (its observation is zeros: env.py)
 INFO_DEFAULTS: dict[str, float | int] = {"member": -1, "formation_error_m": 0.0, "new_contacts": 0, "joined": 0,
                                          "slaves_missing": 0, "active": 0}
+_LIVE_INFO = {**INFO_DEFAULTS, "active": 1}  # an agent in slave-role driving: step_kernel.infos fills in its figures
 
 StepResult = tuple[dict[str, np.ndarray], dict[str, float], dict[str, bool], dict[str, bool], dict[str, dict]]
 
@@ -177,7 +178,7 @@ class Episode:
         if not step_kernel.all_walking(self.sessions):  # only while a user still stands
             self._start_walks(dict(zip(agents, truth.formation_error_m)))
         infos = step_kernel.infos(agents, ids, self.fleet.nodes, self.missing_by_pan, truth.formation_error_m,
-                                  truth.new_contacts)
+                                  truth.new_contacts, _LIVE_INFO)
         # every slave's reward in one pass over the slaves (reward.py); the last actions are the
         # last step's array while the agents are the same
         if self._last_agents == agents:
@@ -387,7 +388,7 @@ class Episode:
         and new contacts, none of them joined in this step (:func:`.step_kernel.infos`)."""
         index = self.agent_index
         return step_kernel.infos(agents, [index[a] for a in agents], self.fleet.nodes, self.missing_by_pan, errors_m,
-                                 contacts)
+                                 contacts, _LIVE_INFO)
 
     def _control(self, acts: np.ndarray | None) -> None:
         """One command per robot through its arbiter (seed 001): masters from their user session,

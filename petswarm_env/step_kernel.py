@@ -26,6 +26,9 @@ from petswarm_env.sim.body import read_poses
 COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
 
 _STOP = (0.0, 0.0, 0.0)
+_ndarray = np.ndarray
+_array = np.array
+_float32 = np.float32
 _builtin_sum = sum  # called as the builtin (not inlined): its rule of adding floats is the interpreter's
 
 
@@ -57,11 +60,11 @@ def stack_actions(actions: dict, agents: list):
     values = []
     for a in agents:
         v = actions.get(a)
-        if type(v) is not np.ndarray or v.dtype.kind != "f":
+        if type(v) is not _ndarray or v.dtype.kind != "f":
             return None
         values.append(v)
     try:
-        arr = np.array(values, dtype=np.float32)
+        arr = _array(values, _float32)
     except ValueError:  # ragged shapes
         return None
     if arr.shape != (len(agents), 3) or not clip_finite(arr):  # a NaN or an infinity: not clipped
@@ -228,15 +231,20 @@ def stale_fixes(robot_ids: list, nodes: dict, start_s: float, age_s: float) -> c
     return stale
 
 
-def infos(agents: list, robot_ids: list, nodes: dict, missing: dict, errors_m: list, contacts: list) -> dict:
+def infos(agents: list, robot_ids: list, nodes: dict, missing: dict, errors_m: list, contacts: list, live: dict) -> dict:
     """The infos of ``agents`` (robots ``robot_ids``; the keys of ``episode.INFO_DEFAULTS``) with
-    their formation errors and new contacts, none of them joined in this step."""
+    their formation errors and new contacts, none of them joined in this step: each a copy of
+    ``live`` (the infos of an agent in slave-role driving) with its figures."""
     out = {}
     k: cython.Py_ssize_t
     for k in range(len(agents)):
         node = nodes[robot_ids[k]]
-        out[agents[k]] = {"member": node.know.member, "formation_error_m": errors_m[k], "new_contacts": contacts[k],
-                          "joined": 0, "slaves_missing": missing.get(node.swarm_pan, 0), "active": 1}
+        info = live.copy()  # (a copy of a dict of these keys: no insertion, no resize)
+        info["member"] = node.know.member
+        info["formation_error_m"] = errors_m[k]
+        info["new_contacts"] = contacts[k]
+        info["slaves_missing"] = missing.get(node.swarm_pan, 0)
+        out[agents[k]] = info
     return out
 
 

@@ -1,8 +1,9 @@
 """The episode's per-step bookkeeping around the physics and the middleware, as typed loops: the
-actions' clip (``PetSwarmEnv._validate``), the slaves' commands through their arbiters (seed 001;
-``Episode._control``), the contacts each robot began and the slaves without a fresh IR fix (the
-experimenter's step, :mod:`petswarm_env.metrics`), the agents' infos (``Episode._infos``) and the
-drained batteries (:meth:`petswarm_env.runtime.Runtime.check_batteries`).
+actions' stack and clip (``PetSwarmEnv._validate``), the masters' and the slaves' commands through
+their arbiters (seed 001; ``Episode._control``), the true centres and headings
+(``World.truth_arrays``), the formation errors, the contacts each robot began and the slaves
+without a fresh IR fix (the experimenter's step, :mod:`petswarm_env.metrics`), the agents' infos
+(``Episode._infos``) and the drained batteries (:meth:`petswarm_env.runtime.Runtime.check_batteries`).
 
 Each function does what the interpreted lines it replaced did, in the same order and with the same
 arithmetic: the action scale is one float32 product per value (a float32 action times a float32

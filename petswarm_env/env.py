@@ -67,7 +67,7 @@ from petswarm_env.observe import OBS_VERSION, ObservationLayout, observation_bou
 from petswarm_env.robot_types import DEFAULT_TYPE, episode_scenarios, max_pool_size, pool_problem, pool_types
 from petswarm_env.robot_types import resolve as resolve_type
 from petswarm_env.scenarios import SCENARIOS
-from petswarm_env.step_kernel import clip_finite
+from petswarm_env.step_kernel import stack_actions
 from petswarm_env.state import StateLayout
 
 ENV_NAME = "petswarm_v1"
@@ -190,7 +190,7 @@ class PetSwarmEnv(ParallelEnv):
         ep = self.episode
         live = len(ep.agents)  # the episode's agents come first in self.agents (_present)
         waiting = self.agents[live:]  # present, not (yet) in slave-role driving: their actions are ignored
-        observations, rewards, terminations, truncations, infos = ep.advance(acts[:live])
+        observations, rewards, terminations, truncations, infos = ep.advance(acts if live == len(acts) else acts[:live])
         truncated = ep.num_cycles >= self.cfg.max_cycles
         for a in waiting:
             if a not in rewards:  # still waiting (one that joined in this step has the episode's own entries)
@@ -206,6 +206,8 @@ class PetSwarmEnv(ParallelEnv):
         episode's order), then the possible agents waiting to join (in ``possible_agents`` order):
         neither an agent now nor one that left (a terminated agent never comes back)."""
         ep = self.episode
+        if len(ep.agents) == len(self.possible_agents) and self._possible.issuperset(ep.agents):
+            return list(ep.agents)  # every possible agent is live (none waits)
         live = set(ep.agents)
         return list(ep.agents) + [a for a in self.possible_agents if a not in live and a not in ep.left]
 
@@ -258,21 +260,11 @@ class PetSwarmEnv(ParallelEnv):
         if not self._possible.issuperset(actions):
             unknown = [a for a in actions if a not in self._possible]
             raise KeyError(f"actions for agents not in the episode: {sorted(map(str, unknown))}; live agents: {self.agents}")
-        # the common case in one numpy pass: a float array for every agent, all finite, shape (3,)
+        # the common case in one pass (step_kernel.py): a float numpy array of shape (3,) for every
+        # agent, all finite, clipped to [-1, 1] (np.clip's values); anything else takes the loop below
         if len(actions) >= len(self.agents):
-            values = [actions.get(a) for a in self.agents]
-            arr = None
-            for v in values:
-                if type(v) is not np.ndarray or v.dtype.kind != "f":
-                    break
-            else:
-                try:
-                    arr = np.array(values, dtype=np.float32)
-                except ValueError:  # ragged shapes: the loop below names the agent
-                    arr = None
-            # finite: a NaN or an infinity makes the sum one (a sum that overflows float32 takes the loop below)
-            # all finite: clipped to [-1, 1] in place (np.clip's values; a NaN or an infinity takes the loop below)
-            if arr is not None and arr.shape == (len(self.agents), 3) and clip_finite(arr):
+            arr = stack_actions(actions, self.agents)
+            if arr is not None:
                 return arr
         out = np.zeros((len(self.agents), 3), np.float32)  # a missing action means "stand still"
         for k, agent in enumerate(self.agents):

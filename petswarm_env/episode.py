@@ -76,6 +76,7 @@ WAKE_PATTERN = 0x5A00  # user u's belt and robot share the LF wake-up pattern WA
 # slave-role driving, 0 for an agent of the env waiting to join (its observation is zeros: env.py)
 INFO_DEFAULTS: dict[str, float | int] = {"member": -1, "formation_error_m": 0.0, "new_contacts": 0, "joined": 0,
                                          "slaves_missing": 0, "active": 0}
+_LIVE_INFO = {**INFO_DEFAULTS, "active": 1}  # an agent in slave-role driving: step_kernel.infos fills in its figures
 
 StepResult = tuple[dict[str, np.ndarray], dict[str, float], dict[str, bool], dict[str, bool], dict[str, dict]]
 
@@ -174,10 +175,10 @@ class Episode:
 
         ids = self._ids
         truth = self.experimenter.step(agents, ids)  # formation and heading errors, contacts (metrics.py)
-        if not all(session.user.walking for session in self.sessions):  # only while a user still stands
+        if not step_kernel.all_walking(self.sessions):  # only while a user still stands
             self._start_walks(dict(zip(agents, truth.formation_error_m)))
         infos = step_kernel.infos(agents, ids, self.fleet.nodes, self.missing_by_pan, truth.formation_error_m,
-                                  truth.new_contacts)
+                                  truth.new_contacts, _LIVE_INFO)
         # every slave's reward in one pass over the slaves (reward.py); the last actions are the
         # last step's array while the agents are the same
         if self._last_agents == agents:
@@ -387,7 +388,7 @@ class Episode:
         and new contacts, none of them joined in this step (:func:`.step_kernel.infos`)."""
         index = self.agent_index
         return step_kernel.infos(agents, [index[a] for a in agents], self.fleet.nodes, self.missing_by_pan, errors_m,
-                                 contacts)
+                                 contacts, _LIVE_INFO)
 
     def _control(self, acts: np.ndarray | None) -> None:
         """One command per robot through its arbiter (seed 001): masters from their user session,
@@ -396,17 +397,8 @@ class Episode:
         world = self.world
         robots, arbiters, nodes = world.robots, self.arbiters, self.fleet.nodes
         ranges = self.sensors.ranges
-        masters = set()
-        for session in self.sessions:
-            idx = session.swarm.master.node_id
-            masters.add(idx)
-            policy, user_cmd, stop = session.step(self.sensors.odometry(idx), ranges[idx])
-            cmd, _ = arbiters[idx].decide(policy, user_cmd, ranges[idx], stop)
-            robot = robots[idx]
-            if robot.health.powered:
-                robot.set_command(*cmd)
-            else:  # a master that is off (a fault): motors off
-                robot.set_command(0.0, 0.0, 0.0)
+        # each master from its user session; a master that is off (a fault): motors off
+        masters = step_kernel.command_masters(self.sessions, self.sensors, ranges, arbiters, robots)
         if acts is None:
             return
         # a robot leaving its slot for its own fault drives out of the way
@@ -437,7 +429,7 @@ class Episode:
                 user.script_time_s = min(waited, self.cfg.user.start_delay_s)
 
     def _current_slaves(self) -> list[int]:
-        return sorted(i for sw in self.swarms for i in sw.slave_ids())
+        return step_kernel.current_slaves(self.swarms)  # every swarm's slave_ids(), sorted
 
 
 class Truth:

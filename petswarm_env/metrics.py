@@ -58,7 +58,7 @@ from petswarm_env.control.arbiter import SOURCES
 from petswarm_env.observe import AGE_SCALE_S
 from petswarm_env.references import ReferenceTable
 from petswarm_env.render import RobotView, Scene
-from petswarm_env.step_kernel import new_contacts
+from petswarm_env.step_kernel import slave_truth, sum_squares
 from petswarm_env.step_kernel import stale_fixes as _stale_fixes
 
 if TYPE_CHECKING:
@@ -108,7 +108,7 @@ class EpisodeMetrics:
         self.steps += 1
         self.emergency_steps += emergencies
         counted = errors_m if counted_m is None else counted_m
-        sq = sum(e * e for e in counted)
+        sq = sum_squares(counted)  # sum(e * e for e in counted), in one typed loop (step_kernel.py)
         if counted:
             self.sq_error_sum += sq
             self.error_count += len(counted)
@@ -227,22 +227,23 @@ class Experimenter:
         """The step's truth for ``agents`` (robots ``robot_ids``, their indices, if the caller has
         them): formation and heading errors, contacts each robot began since the last step; adds
         the step to :attr:`metrics`."""
-        agent_index = self.agent_index
+        agent_index, world = self.agent_index, self.world
         if robot_ids is None:
             robot_ids = [agent_index[a] for a in agents]
-        errs, heads, has = self._errors(agents, robot_ids)
-        errors = {a: e for a, e, h in zip(agents, errs, has) if h}
-        contacts = new_contacts(robot_ids, self.world.collisions.per_robot, self._contacts_seen)
+        centers, _, headings = world.truth_arrays()
+        self._table.update(self.swarms)
+        errors, errs, heads, contacts, worst = slave_truth(self._table, centers, headings, agents, robot_ids,
+                                                           world.collisions.per_robot, self._contacts_seen)
         m = self.metrics
-        if errors and math.isnan(m.building_time_s) and max(errors.values()) <= BUILT_WITHIN_M:
-            m.building_time_s = self.world.now - self._start_s
+        if worst is not None and math.isnan(m.building_time_s) and worst <= BUILT_WITHIN_M:
+            m.building_time_s = world.now - self._start_s
         parked = [se.swarm for se in self.sessions if se.state == "emergency"]
         if parked:  # the slaves of a swarm in emergency stand still: their errors do not count
             stopped = {i for sw in parked for i in sw.slave_ids()}
             counted = [e for agent, e in errors.items() if agent_index[agent] not in stopped]
-            m.add_step(list(errors.values()), counted, len(parked), end_s=self.world.now)
+            m.add_step(list(errors.values()), counted, len(parked), end_s=world.now)
         else:
-            m.add_step(list(errors.values()), end_s=self.world.now)
+            m.add_step(list(errors.values()), end_s=world.now)
         m.stale_fix_s += self.cfg.control_period_s * _stale_fixes(robot_ids, self.fleet.nodes, self._start_s, AGE_SCALE_S)
         missing = self.cfg.world.num_users * self.cfg.swarm.num_slaves - len(agents)
         if missing > 0:

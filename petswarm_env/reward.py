@@ -34,10 +34,11 @@ def slave_rewards(
     last_actions,  # (n, 3) float32
 ) -> list:
     """The reward of n slaves at once (module docstring): lists of n errors and contact counts,
-    ``actions`` and ``last_actions`` (n, 3). The squared action changes by ``np.vecdot``, which sums
-    as ``a @ a`` does (``tests/oracles.py`` keeps the one-slave form it equals)."""
-    da = np.asarray(actions) - np.asarray(last_actions)
-    smooth = np.vecdot(da, da).tolist() if len(da) else []
+    ``actions`` and ``last_actions`` (n, 3) float32. The squared action change ‖a_t − a_{t−1}‖² is
+    numpy's float32 ``da @ da`` (:func:`_smoothness`; ``tests/oracles.py`` keeps the one-slave form
+    it equals)."""
+    a: cython.float[:, :] = actions
+    b: cython.float[:, :] = last_actions
     wf: cython.double = cfg.formation
     wh: cython.double = cfg.heading
     wc: cython.double = cfg.collision
@@ -47,9 +48,27 @@ def slave_rewards(
     c: cython.double
     q: cython.double
     k: cython.Py_ssize_t
-    n: cython.Py_ssize_t = min(len(formation_errors_m), len(heading_errors_rad), len(new_contacts), len(smooth))
+    n: cython.Py_ssize_t = min(len(formation_errors_m), len(heading_errors_rad), len(new_contacts), a.shape[0], b.shape[0])
     out = []
     for k in range(n):
-        e, h, c, q = formation_errors_m[k], heading_errors_rad[k], new_contacts[k], smooth[k]
+        e, h, c = formation_errors_m[k], heading_errors_rad[k], new_contacts[k]
+        q = _smoothness(a[k, 0] - b[k, 0], a[k, 1] - b[k, 1], a[k, 2] - b[k, 2])
         out.append(float(-wf * e - wh * (1.0 - _c_cos(h)) - wc * c - ws * q))
     return out
+
+
+@cython.cfunc
+@cython.inline
+def _smoothness(d0: cython.float, d1: cython.float, d2: cython.float) -> cython.double:
+    """‖d‖² of a float32 difference as numpy's float32 ``d @ d`` gives it (its dot of float32 is
+    BLAS's sdot, summed in a double): each square a float32 product, their sum in order in a double,
+    rounded to float32. (The differences and squares are float32 arithmetic in both forms: C floats
+    compiled, numpy float32 scalars interpreted.)"""
+    p0: cython.float = d0 * d0
+    p1: cython.float = d1 * d1
+    p2: cython.float = d2 * d2
+    s: cython.double = float(p0) + float(p1) + float(p2)
+    if cython.compiled:
+        r: cython.float = s  # C's double -> float: round to nearest
+        return r
+    return float(np.float32(s))

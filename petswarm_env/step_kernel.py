@@ -1,8 +1,9 @@
 """The episode's per-step bookkeeping around the physics and the middleware, as typed loops: the
-actions' clip (``PetSwarmEnv._validate``), the slaves' commands through their arbiters (seed 001;
-``Episode._control``), the contacts each robot began and the slaves without a fresh IR fix (the
-experimenter's step, :mod:`petswarm_env.metrics`), the agents' infos (``Episode._infos``) and the
-drained batteries (:meth:`petswarm_env.runtime.Runtime.check_batteries`).
+actions' stack and clip (``PetSwarmEnv._validate``), the masters' and the slaves' commands through
+their arbiters (seed 001; ``Episode._control``), the true centres and headings
+(``World.truth_arrays``), the formation errors, the contacts each robot began and the slaves
+without a fresh IR fix (the experimenter's step, :mod:`petswarm_env.metrics`), the agents' infos
+(``Episode._infos``) and the drained batteries (:meth:`petswarm_env.runtime.Runtime.check_batteries`).
 
 Each function does what the interpreted lines it replaced did, in the same order and with the same
 arithmetic: the action scale is one float32 product per value (a float32 action times a float32
@@ -18,11 +19,18 @@ interpreted form is the oracle the tests hold the compiled form to.
 from __future__ import annotations
 
 import cython
+import numpy as np
 from cython.cimports.libc.math import isfinite as _c_isfinite
+
+from petswarm_env.sim.body import read_poses
 
 COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
 
 _STOP = (0.0, 0.0, 0.0)
+_ndarray = np.ndarray
+_array = np.array
+_float32 = np.float32
+_builtin_sum = sum  # called as the builtin (not inlined): its rule of adding floats is the interpreter's
 
 
 def clip_finite(arr) -> bool:
@@ -43,6 +51,51 @@ def clip_finite(arr) -> bool:
                 a[i, j] = 1.0
             elif v < -1.0:
                 a[i, j] = -1.0
+    return True
+
+
+def stack_actions(actions: dict, agents: list):
+    """The actions of ``agents`` (``actions``: agent -> action) as one new float32 array ``(n, 3)``
+    clipped to [-1, 1], when every agent has a float numpy array of shape (3,) with finite values;
+    otherwise None (the caller checks them one by one and names the agent)."""
+    values = []
+    for a in agents:
+        v = actions.get(a)
+        if type(v) is not _ndarray or v.dtype.kind != "f":
+            return None
+        values.append(v)
+    try:
+        arr = _array(values, _float32)
+    except ValueError:  # ragged shapes
+        return None
+    if arr.shape != (len(agents), 3) or not clip_finite(arr):  # a NaN or an infinity: not clipped
+        return None
+    return arr
+
+
+def command_masters(sessions: list, sensors, ranges, arbiters: dict, robots: list) -> set:
+    """Each user's master commanded from its user session (its odometry and ring in, the session's
+    policy command, the user's command and the emergency stop out) through its arbiter (seed
+    001); a master that is off (a fault) has its motors off. Returns the masters' robot indices."""
+    masters = set()
+    for session in sessions:
+        idx = session.swarm.master.node_id
+        masters.add(idx)
+        policy, user_cmd, stop = session.step(sensors.odometry(idx), ranges[idx])
+        cmd = arbiters[idx].decide(policy, user_cmd, ranges[idx], stop)[0]
+        robot = robots[idx]
+        if robot.health.powered:
+            robot.set_command(cmd[0], cmd[1], cmd[2])
+        else:
+            robot.set_command(0.0, 0.0, 0.0)
+    return masters
+
+
+def all_walking(sessions: list) -> bool:
+    """Whether every session's user walks."""
+    for session in sessions:
+        if not session.user.walking:
+            return False
     return True
 
 
@@ -99,6 +152,60 @@ def new_contacts(robot_ids: list, per_robot: dict, seen: dict) -> list:
     return out
 
 
+def slave_truth(table, centers, headings, agents: list, robot_ids: list, per_robot: dict, seen: dict) -> tuple:
+    """One step's truth for ``agents`` (robots ``robot_ids``) from the true centres and headings
+    and the reference table (:class:`petswarm_env.references.ReferenceTable`, updated): every agent's
+    formation and heading errors (0.0 without a reference point), the errors of the agents with
+    one (agent -> error), the largest of those (``max``'s, None without any) and the contacts each
+    robot began (:func:`new_contacts`)."""
+    errs, heads, has = table.errors(centers.tolist(), headings.tolist(), robot_ids)
+    errors = {}
+    worst = None
+    k: cython.Py_ssize_t
+    for k in range(len(agents)):
+        if has[k]:
+            e = errs[k]
+            errors[agents[k]] = e
+            if worst is None or e > worst:  # (max's rule: a later value replaces only a greater-than)
+                worst = e
+    return errors, errs, heads, new_contacts(robot_ids, per_robot, seen), worst
+
+
+def current_slaves(swarms: list) -> list:
+    """The robots in slave-role driving of every swarm (each swarm's ``slave_ids()``), sorted."""
+    out = []
+    for swarm in swarms:
+        out.extend(swarm.slave_ids())
+    out.sort()
+    return out
+
+
+def sum_squares(values: list) -> float:
+    """``sum(v * v for v in values)`` as the builtin ``sum`` adds them (its own rule, in order)."""
+    squares = []
+    for v in values:
+        squares.append(v * v)
+    return _builtin_sum(squares)
+
+
+def read_truth(robots: list, users: list, user_radius_m: float, radii):
+    """Every body's true centre (robots, then users), the radii and the robots' headings, read from
+    Chipmunk (:func:`petswarm_env.sim.body.read_poses`) into new read-only arrays; ``radii`` (the
+    last read's) is kept while the bodies are the same."""
+    n: cython.Py_ssize_t = len(robots)
+    centers = np.empty((n + len(users), 2))
+    headings = np.empty(n)
+    read_poses(robots, centers, 0, headings)
+    read_poses(users, centers, n)
+    if radii is None or len(radii) != len(centers):
+        radii = np.full(len(centers), user_radius_m)
+        radii[:n] = [r.radius_m for r in robots]
+        radii.setflags(write=False)
+    centers.setflags(write=False)  # (setflags: one call, not a flags object per array)
+    headings.setflags(write=False)
+    return centers, radii, headings
+
+
 def stale_fixes(robot_ids: list, nodes: dict, start_s: float, age_s: float) -> cython.long:
     """How many of the robots ``robot_ids`` have no IR fix of any reference neighbour younger than
     ``age_s`` on their own clock (none yet counts from ``start_s``, the episode's start)."""
@@ -125,15 +232,20 @@ def stale_fixes(robot_ids: list, nodes: dict, start_s: float, age_s: float) -> c
     return stale
 
 
-def infos(agents: list, robot_ids: list, nodes: dict, missing: dict, errors_m: list, contacts: list) -> dict:
+def infos(agents: list, robot_ids: list, nodes: dict, missing: dict, errors_m: list, contacts: list, live: dict) -> dict:
     """The infos of ``agents`` (robots ``robot_ids``; the keys of ``episode.INFO_DEFAULTS``) with
-    their formation errors and new contacts, none of them joined in this step."""
+    their formation errors and new contacts, none of them joined in this step: each a copy of
+    ``live`` (the infos of an agent in slave-role driving) with its figures."""
     out = {}
     k: cython.Py_ssize_t
     for k in range(len(agents)):
         node = nodes[robot_ids[k]]
-        out[agents[k]] = {"member": node.know.member, "formation_error_m": errors_m[k], "new_contacts": contacts[k],
-                          "joined": 0, "slaves_missing": missing.get(node.swarm_pan, 0), "active": 1}
+        info = live.copy()  # (a copy of a dict of these keys: no insertion, no resize)
+        info["member"] = node.know.member
+        info["formation_error_m"] = errors_m[k]
+        info["new_contacts"] = contacts[k]
+        info["slaves_missing"] = missing.get(node.swarm_pan, 0)
+        out[agents[k]] = info
     return out
 
 

@@ -17,10 +17,11 @@ from petswarm_env.config import Config
 from petswarm_env.robot_types import DEFAULT_TYPE
 from petswarm_env.robot_types import resolve as resolve_type
 from petswarm_env.scenarios import ScenarioScript
-from petswarm_env.sim.body import COLLISION_ROBOT, COLLISION_USER, COLLISION_WALL, Substeps, read_poses
+from petswarm_env.sim.body import COLLISION_ROBOT, COLLISION_USER, COLLISION_WALL, Substeps
 from petswarm_env.sim.clock import Clock
 from petswarm_env.sim.robot import Robot
 from petswarm_env.sim.user import User
+from petswarm_env.step_kernel import read_truth
 
 
 @dataclass
@@ -137,22 +138,8 @@ class World:
         steps = self.substeps.steps  # Space.step calls so far: the truth arrays are valid for one value
         if self._truth_at == steps and self._truth is not None:
             return self._truth
-        robots = self.robots
-        n = len(robots)
-        centers = np.empty((n + len(self.users), 2))
-        headings = np.empty(n)
-        read_poses(robots, centers, 0, headings)
-        read_poses(self.users, centers, n)
         truth = self._truth
-        if truth is None or len(truth[1]) != len(centers):
-            radii = np.full(len(centers), self.cfg.user.radius_m)
-            radii[:n] = [r.radius_m for r in robots]
-            radii.setflags(write=False)
-        else:
-            radii = truth[1]
-        centers.setflags(write=False)  # (setflags: one call, not a flags object per array)
-        headings.setflags(write=False)
-        self._truth = (centers, radii, headings)
+        self._truth = read_truth(self.robots, self.users, self.cfg.user.radius_m, None if truth is None else truth[1])
         self._truth_at = steps
         return self._truth
 

@@ -382,3 +382,27 @@ def test_the_interpreted_form_gives_the_same_lf_fixes_bit_for_bit():
     valid = [fix[4] for fix in out["0"] if isinstance(fix, list)]
     assert valid.count(float(True).hex()) > 100 and valid.count(float(False).hex()) > 100
     assert out["1"] == out["0"]
+
+
+def test_the_actions_stack_takes_only_float_arrays_of_three_finite_values():
+    """step_kernel.stack_actions (env._validate's fast path): a new clipped float32 array in the
+    agents' order, or None for anything the checked loop must name (env.py)."""
+    import numpy as np
+
+    from petswarm_env.step_kernel import stack_actions
+
+    acts = {"a": np.array([2.0, -0.5, 0.25]), "b": np.array([0.1, 0.2, -7.0], np.float32)}
+    arr = stack_actions(acts, ["b", "a"])
+    assert arr.dtype == np.float32 and arr.tolist() == [[np.float32(0.1), np.float32(0.2), -1.0], [1.0, -0.5, 0.25]]
+    assert acts["a"][0] == 2.0  # the caller's arrays are left as they were
+    for bad in (np.array([1, 0, 0]), np.array([0.0, 0.0]), np.array([[0.0, 0.0, 0.0]]), np.array([0.0, np.inf, 0.0]),
+                [0.0, 0.0, 0.0], None):
+        assert stack_actions({"a": acts["a"], "b": bad}, ["a", "b"]) is None
+
+
+def test_the_sum_of_squares_is_the_builtin_sums():
+    from petswarm_env.step_kernel import sum_squares
+
+    values = [0.1, 1e-17, 3.0, 0.7, 1e16, -2.5]
+    assert sum_squares(values) == sum(v * v for v in values)
+    assert sum_squares([]) == 0 and type(sum_squares([])) is int

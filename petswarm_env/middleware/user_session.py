@@ -522,7 +522,9 @@ class UserSession:
         if self.state in ("following", "leading"):
             if est is None:
                 return zero, None, False
-            return self.ctrl.command(est[0], est[1], self.belt_view, odometry, self.state, self.target_distance_m(),
+            # the user stands at the alert of a handover for a broken part (the belt's activity window still says walk)
+            belt = self.belt_view if self.fault_pause_s is None else BeltView("stop", False, 0.0, 0.0, self.belt_view.time_s)
+            return self.ctrl.command(est[0], est[1], belt, odometry, self.state, self.target_distance_m(),
                                      cfg.control_period_s), None, False
         if self.state in ("remote", "exception"):
             return zero, self.remote.command(now, yaw), False

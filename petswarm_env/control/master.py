@@ -246,6 +246,15 @@ class MasterController:
         """ψ, the user's walking direction in the body frame (None before the first command)."""
         return self._walk_dir if self._has_walk_dir else None
 
+    def know_walk_direction(self, walk_dir_rad: float) -> None:
+        """Start from ψ = ``walk_dir_rad`` (body frame), a direction the robot knows itself — a new
+        leading master's own estimate of the way its user walks (seed 002 §3.4: the old master drove
+        backwards along it; :func:`~petswarm_env.middleware.succession.leading_walk_direction`) —
+        instead of the first command's guess (that the user faces the robot). It steers at once (the
+        leading robot closes its place on straight ahead); the LF track then pulls it at
+        ``heading_blend_rps``."""
+        self._walk_dir, self._has_walk_dir, self._trusted = wrap_angle(walk_dir_rad), True, True
+
     @cython.ccall
     def user_velocity(self, user_vel, belt: BeltView, own_omega: cython.double, mode: str,
                       bearing: cython.double, dt: cython.double) -> tuple:

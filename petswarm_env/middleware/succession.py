@@ -86,6 +86,10 @@ PROGRESS_M = 0.1  # chosen: a new master comes closer to where it drives by at l
 # chosen: after a handover for a broken part the user walks on once the new master's LF fix puts them this near its
 # distance (the first fix came at the 2 m edge of the LF range, seed 002 §3.3: the user walked off out of range)
 RESUME_SLACK_M = 0.5
+# chosen: ... and, leading, once the new master has come to rest at its place ahead of them (its own odometry): its
+# LF track of a standing user is steady only then (swinging in, the tracker read the robot's arc as the user's walk)
+SETTLED_MPS = 0.15
+SETTLED_RPS = 0.2
 
 
 def search_places(origin: tuple[float, float], way: tuple[float, float], spacing_m: float = SEARCH_SPACING_M,
@@ -182,6 +186,23 @@ def user_travel(user: tuple[float, float], master: tuple[float, float], mode: st
     return (dx / d, dy / d) if mode == "following" else (-dx / d, -dy / d)
 
 
+def master_heading_offset(node: Station, master: int) -> float:
+    """θ_master − θ_self as this robot knows it: its heading-exchange estimate of the master's heading,
+    else aligned with it (0: the scripted slaves hold the master's heading in formation)."""
+    head = node.know.heading.get(master)
+    return head.relative_rad - wrap_angle(node.ahrs_yaw() - head.own_yaw_rad) if head is not None else 0.0
+
+
+def leading_walk_direction(node: Station, master: int) -> float:
+    """The way a leading master's user walks, in this robot's body frame: the master drives backwards
+    along its user's walking direction, facing them (seed 002 §3.4), so the user walks where the
+    master's back points — its heading as this robot knows it (:func:`master_heading_offset`) plus π.
+    Measured over seeds 200-219 at an IR-fault handover (leading): 7.5° mean error, against 13° for the direction
+    from where it puts the user to where it puts the master (:func:`user_travel`: two IR-placed points
+    1.6 m apart)."""
+    return wrap_angle(master_heading_offset(node, master) + math.pi)
+
+
 def own_user_and_master(node: Station, now_s: float, master: int | None = None
                         ) -> tuple[tuple[float, float], tuple[float, float]] | None:
     """:func:`own_user_estimate` and where this slave puts the master itself (its IR fix, else its
@@ -194,8 +215,7 @@ def own_user_and_master(node: Station, now_s: float, master: int | None = None
     if status is None or master is None:
         return None
     yaw = node.ahrs_yaw()
-    head = know.heading.get(master)
-    phi = head.relative_rad - wrap_angle(yaw - head.own_yaw_rad) if head is not None else 0.0  # θ_master − θ_self
+    phi = master_heading_offset(node, master)
     c, s = math.cos(phi), math.sin(phi)
     seen = know.ir.get(master)
     if seen is not None and now_s - seen.time_s <= FRESH_IR_S:

@@ -49,7 +49,8 @@ from petswarm_env.middleware.knowledge import FRESH_IR_S
 from petswarm_env.middleware.modes import measured_geometry
 from petswarm_env.middleware.station import mcu_clock
 from petswarm_env.middleware.succession import (APPROACH_SLACK_M, BLOCKED_S, PROGRESS_M, RESUME_SLACK_M, SEARCH_STAND_M,
-                                                 STALLED_MPS, own_user_estimate, search_step)
+                                                 SETTLED_MPS, SETTLED_RPS,
+                                                 STALLED_MPS, leading_walk_direction, own_user_estimate, search_step)
 from petswarm_env.middleware.swarm import Swarm
 from petswarm_env.sim.geometry import wrap_angle
 from petswarm_env.sim.user import User
@@ -470,11 +471,10 @@ class UserSession:
         now = self.clock.now
         user = self.user
         self._check_release(now)
-        if self.fault_pause_s is not None and self.tracker.last_fix_s > self.fault_pause_s and \
-                math.hypot(*self.tracker.user_body(self.tracker_node.clock.now)[0]) <= self.target_distance_m() + RESUME_SLACK_M:
-            self.fault_pause_s = None
+        if self.fault_pause_s is not None and self._in_place_to_resume(odometry):
+            self.fault_pause_s, self.paused = None, False
             user.walking = True  # the new master located the user by its own LF fix, near enough: they walk on
-        if self.paused and self.swarm.organized and self.state in ("following", "leading"):
+        if self.paused and self.fault_pause_s is None and self.swarm.organized and self.state in ("following", "leading"):
             self.paused = False
             user.walking = True  # paired again with an organized swarm: the user walks on
         seg = user.segment
@@ -522,13 +522,37 @@ class UserSession:
         if self.state in ("following", "leading"):
             if est is None:
                 return zero, None, False
-            return self.ctrl.command(est[0], est[1], self.belt_view, odometry, self.state, self.target_distance_m(),
+            # the user stands at the alert of a handover for a broken part (the belt's activity window still says walk)
+            belt = self.belt_view if self.fault_pause_s is None else BeltView("stop", False, 0.0, 0.0, self.belt_view.time_s)
+            return self.ctrl.command(est[0], est[1], belt, odometry, self.state, self.target_distance_m(),
                                      cfg.control_period_s), None, False
         if self.state in ("remote", "exception"):
             return zero, self.remote.command(now, yaw), False
         if self.state == "waiting_user" and master.state == "master" and master.connected_user is None:
             return self._successor_command(master, odometry), None, False
         return zero, None, self.state == "emergency"
+
+    def _in_place_to_resume(self, odometry: tuple[float, float, float]) -> bool:
+        """After a handover for a broken part: the new master's own LF fix puts its user near enough
+        (``RESUME_SLACK_M`` beyond its distance) and, leading, its place ahead of them — the user inside
+        the reliable ±``lf.reliable_half_angle_deg`` of straight behind it, by its own walking direction
+        ψ (seed 002 §3.4: the leading robot keeps its user behind it). A leading robot beside its user
+        must out-pace them to regain that place, with the wheels it also needs to keep pace; standing,
+        the user lets it swing in first (chosen)."""
+        now = self.tracker_node.clock.now  # the new master's own clock
+        if self.tracker.last_fix_s <= self.fault_pause_s:
+            return False
+        user_body = self.tracker.user_body(now)[0]
+        r, target = math.hypot(*user_body), self.target_distance_m()
+        if r > target + RESUME_SLACK_M:
+            return False
+        psi = self.ctrl.walk_direction_rad
+        if self.state != "leading" or psi is None:
+            return True
+        off = wrap_angle(math.atan2(user_body[1], user_body[0]) + math.pi - psi)  # its place about the user from straight ahead
+        lim = math.radians(self.cfg.lf.reliable_half_angle_deg - self.cfg.master.rotate_deadband_deg)
+        settled = math.hypot(odometry[0], odometry[1]) < SETTLED_MPS and abs(odometry[2]) < SETTLED_RPS
+        return abs(off) <= lim and r >= target - RESUME_SLACK_M and settled
 
     def _check_release(self, now: float) -> None:
         """The connected master cut off from its swarm (:meth:`~.sequence.SequenceManager.cut_off`:
@@ -586,15 +610,25 @@ class UserSession:
         self.tracker_node = new
         self.ctrl.reset()
         now = new.clock.now  # the new master's own clock
+        handovers = self.swarm.fault_handovers
+        for_fault = bool(handovers) and handovers[-1][1] == old.node_id and handovers[-1][2] == new.node_id
         est = own_user_estimate(new, now, old.node_id)
         if est is not None:
             self.tracker.fix(est, now)
             self._guess_only = True
-        handovers = self.swarm.fault_handovers
-        if handovers and handovers[-1][1] == old.node_id and handovers[-1][2] == new.node_id and self.user.walking:
+            if for_fault and self.swarm.mode == "leading":
+                # the way its user walks, from its own estimate of the old master's heading (seed 002 §3.4:
+                # the leading master drives backwards along it; not at a mode change, where the old master
+                # drove in the other mode): without it the controller guessed that the user faces the new
+                # master (seed 000 Table 3 leading: the highest level, often beside the user), turned the
+                # robot up to 80° off the walk, and, facing its user diagonally, its mecanum wheels could
+                # barely out-pace them to regain its place ahead
+                self.ctrl.know_walk_direction(leading_walk_direction(new, old.node_id))
+        if for_fault and self.user.walking:
             # a master that hands the user over for a broken part (swarm.hand_over_for_fault) alerts the belt
             # first (chosen, as the belt's alert of a lost master): the user stops until the new master's own
             # LF fix of them (its estimate above is the old master's last broadcast, a second old)
             self.user.walking = False
+            self.paused = True  # the user stands until then: not the script's start (the episode's start of walks)
             self.events["alerts_to_belt"] += 1
             self.fault_pause_s = now

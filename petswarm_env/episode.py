@@ -56,7 +56,8 @@ from petswarm_env.middleware.join import OrganizeError, organize_obstacle
 from petswarm_env.middleware.fleet import Fleet
 from petswarm_env.middleware.formation import formation_for_mode, user_position_in_formation
 from petswarm_env.middleware.swarm import Swarm
-from petswarm_env.middleware.user_session import UserSession, master_distance_m
+from petswarm_env.middleware.master_role import master_distance_m
+from petswarm_env.middleware.user_session import UserSession
 from petswarm_env.observe import ObservationLayout, Observer
 from petswarm_env.reward import slave_rewards
 from petswarm_env.robot_types import body_plan, placement_config

@@ -38,19 +38,17 @@ relative to the transmitting robot; the belt needs the user's true motion), like
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 
 from petswarm_env.config import Config
 from petswarm_env.control.master import BeltView, MasterController, UserTracker
-from petswarm_env.middleware.formation import formation_for_mode, user_position_in_formation
-from petswarm_env.middleware.knowledge import FRESH_IR_S
+from petswarm_env.middleware.master_role import UserView, can_be_master, master_distance_m
 from petswarm_env.middleware.modes import measured_geometry
 from petswarm_env.middleware.station import mcu_clock
-from petswarm_env.middleware.succession import (APPROACH_SLACK_M, BLOCKED_S, PROGRESS_M, RESUME_SLACK_M, SEARCH_STAND_M,
-                                                 SETTLED_MPS, SETTLED_RPS,
-                                                 STALLED_MPS, leading_walk_direction, own_user_estimate, search_step)
+from petswarm_env.middleware.succession import (APPROACH_SLACK_M, BLOCKED_S, PROGRESS_M, SEARCH_STAND_M, STALLED_MPS,
+                                                 in_place_to_resume, leading_walk_direction, own_user_estimate,
+                                                 search_step)
 from petswarm_env.middleware.swarm import Swarm
 from petswarm_env.sim.geometry import wrap_angle
 from petswarm_env.sim.user import User
@@ -62,34 +60,6 @@ from petswarm_env.wearables.watch import Command, RemoteDriver, Watch
 DRIVING_STATES = ("following", "leading", "remote")
 MOVING_ACTIVITIES = ("walk", "run")  # the belt's activities (seed 002 Table 2) in which the user moves
 MODE_SETTLE_S = 5.0  # chosen: after a mode change the re-forming swarm raises no obstacle exception
-LEADING_LF_MARGIN_M = 0.3  # chosen: a leading master stays this far inside its LF range
-
-
-def master_distance_m(cfg: Config, formation, mode: str) -> float:
-    """The master's distance to its user: ``master.distance_m`` in following; in leading beyond the
-    formation's depth (the planned one while not organized), capped inside the LF range."""
-    d = cfg.master.distance_m
-    if mode != "leading":
-        return d
-    if formation is None:
-        formation = formation_for_mode(cfg.swarm, cfg.swarm.num_slaves + 1, "leading")
-    return min(user_position_in_formation(formation, d)[0], cfg.lf.reliable_range_m - LEADING_LF_MARGIN_M)
-
-
-def can_be_master(robot) -> bool:
-    """Whether a robot's body carries the two LF antennas a master bursts LF with (robot_types; a
-    robot built without a type is a petbot, which does)."""
-    return robot.spec is None or robot.spec.can_be_master
-
-
-@dataclass
-class UserView:
-    """The master's current knowledge of its user, as it broadcasts it to the slaves."""
-
-    activity: str
-    user_turn_rate_rps: float
-    user_rotating: bool
-    user_position_m: tuple[float, float]
 
 
 class UserSession:
@@ -533,26 +503,10 @@ class UserSession:
         return zero, None, self.state == "emergency"
 
     def _in_place_to_resume(self, odometry: tuple[float, float, float]) -> bool:
-        """After a handover for a broken part: the new master's own LF fix puts its user near enough
-        (``RESUME_SLACK_M`` beyond its distance) and, leading, its place ahead of them — the user inside
-        the reliable ±``lf.reliable_half_angle_deg`` of straight behind it, by its own walking direction
-        ψ (seed 002 §3.4: the leading robot keeps its user behind it). A leading robot beside its user
-        must out-pace them to regain that place, with the wheels it also needs to keep pace; standing,
-        the user lets it swing in first (chosen)."""
-        now = self.tracker_node.clock.now  # the new master's own clock
-        if self.tracker.last_fix_s <= self.fault_pause_s:
-            return False
-        user_body = self.tracker.user_body(now)[0]
-        r, target = math.hypot(*user_body), self.target_distance_m()
-        if r > target + RESUME_SLACK_M:
-            return False
-        psi = self.ctrl.walk_direction_rad
-        if self.state != "leading" or psi is None:
-            return True
-        off = wrap_angle(math.atan2(user_body[1], user_body[0]) + math.pi - psi)  # its place about the user from straight ahead
-        lim = math.radians(self.cfg.lf.reliable_half_angle_deg - self.cfg.master.rotate_deadband_deg)
-        settled = math.hypot(odometry[0], odometry[1]) < SETTLED_MPS and abs(odometry[2]) < SETTLED_RPS
-        return abs(off) <= lim and r >= target - RESUME_SLACK_M and settled
+        """After a handover for a broken part: whether the user may walk on (:func:`~.succession.in_place_to_resume`)."""
+        return in_place_to_resume(self.tracker, self.ctrl.walk_direction_rad, self.tracker_node.clock.now,
+                                  self.fault_pause_s, self.target_distance_m(), self.state == "leading", self.cfg,
+                                  odometry)
 
     def _check_release(self, now: float) -> None:
         """The connected master cut off from its swarm (:meth:`~.sequence.SequenceManager.cut_off`:

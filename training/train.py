@@ -255,45 +255,40 @@ def train_command(config: str | None, settings: list[str], timesteps: int | None
     return 0
 
 
-def _recurrent_command(cfg: TrainConfig, out: str, resume: bool, run, command: str) -> int:
-    """``petswarm train`` of a config with ``algorithm: recurrent``: :func:`petswarm.training.recurrent.train`
-    and one summary line."""
-    from petswarm.training.recurrent import rounds_for
-    from petswarm.training.recurrent import train as train_recurrent_run
-
+def _in_process_command(cfg: TrainConfig, out: str, resume: bool, run, command: str, header: str, train_run,
+                        what: str, steps: str) -> int:
+    """``petswarm train`` of an algorithm that trains with torch in this process (``train_run(cfg, out,
+    command=, progress=)``, not resumable, no RLlib): the ``header`` line, the run, one summary line
+    (``what`` it did, counted in ``steps``: the log's key of its rounds or iterations)."""
+    algorithm = cfg.algorithm
     if resume:
-        raise ConfigError("algorithm: recurrent runs are not resumable; drop --resume and start a new run with another --out")
+        raise ConfigError(f"algorithm: {algorithm} runs are not resumable; drop --resume and start a new run with another --out")
     if run is not None:
-        raise ConfigError("algorithm: recurrent trains with torch in this process (DAgger, training/recurrent.py); drop --backend rllib")
-    print(f"recurrent actor by DAgger from the privileged teacher: {rounds_for(cfg)} rounds of {cfg.recurrent.samples_per_round} "
-          f"labelled agent-samples (timesteps {cfg.timesteps})", flush=True)
-    log = train_recurrent_run(cfg, out, command=command, progress=lambda line: print(line, flush=True))
+        raise ConfigError(f"algorithm: {algorithm} trains with torch in this process (training/{algorithm}.py); drop --backend rllib")
+    print(header, flush=True)
+    log = train_run(cfg, out, command=command, progress=lambda line: print(line, flush=True))
     best = log.get("best")
     chosen = (f"policy: {out}/policy.npz, the best evaluation (after {best['timesteps']} samples, median {best['metric']} ratio "
               f"to scripted {best['median_ratio']:.2f}, {best['not_built']} formations not built that scripted built)"
               if best else f"policy: {out}/policy.npz")
-    print(f"trained {log['timesteps']} labelled agent-samples in {len(log['rounds'])} DAgger rounds, {log['wall_time_s']:.0f} s; "
+    print(f"{what} {log['timesteps']} agent-samples in {len(log[steps])} {steps}, {log['wall_time_s']:.0f} s; "
           f"{chosen}; the last: {out}/last.npz")
     return 0
+
+
+def _recurrent_command(cfg: TrainConfig, out: str, resume: bool, run, command: str) -> int:
+    """``algorithm: recurrent``: :func:`petswarm.training.recurrent.train` (DAgger from the privileged teacher)."""
+    from petswarm.training.recurrent import rounds_for, train
+
+    header = (f"recurrent actor by DAgger from the privileged teacher: {rounds_for(cfg)} rounds of "
+              f"{cfg.recurrent.samples_per_round} labelled agent-samples (timesteps {cfg.timesteps})")
+    return _in_process_command(cfg, out, resume, run, command, header, train, "trained on", "rounds")
 
 
 def _recurrent_ppo_command(cfg: TrainConfig, out: str, resume: bool, run, command: str) -> int:
-    """``petswarm train`` of a config with ``algorithm: recurrent_ppo``: :func:`petswarm.training.recurrent_ppo.train`
-    and one summary line."""
-    from petswarm.training.recurrent_ppo import iterations_for
-    from petswarm.training.recurrent_ppo import train as train_finetune
+    """``algorithm: recurrent_ppo``: :func:`petswarm.training.recurrent_ppo.train` (PPO anchored to a distilled policy)."""
+    from petswarm.training.recurrent_ppo import iterations_for, train
 
-    if resume:
-        raise ConfigError("algorithm: recurrent_ppo runs are not resumable; drop --resume and start a new run with another --out")
-    if run is not None:
-        raise ConfigError("algorithm: recurrent_ppo trains with torch in this process (training/recurrent_ppo.py); drop --backend rllib")
-    print(f"PPO fine-tuning of {cfg.finetune.policy}, anchored to it: {iterations_for(cfg)} iterations of "
-          f"{cfg.finetune.rollout_steps} agent-steps (timesteps {cfg.timesteps})", flush=True)
-    log = train_finetune(cfg, out, command=command, progress=lambda line: print(line, flush=True))
-    best = log.get("best")
-    chosen = (f"policy: {out}/policy.npz, the best evaluation (after {best['timesteps']} agent-steps, median {best['metric']} "
-              f"ratio to scripted {best['median_ratio']:.2f}, {best['not_built']} formations not built that scripted built)"
-              if best else f"policy: {out}/policy.npz")
-    print(f"fine-tuned {log['timesteps']} agent-steps in {len(log['iterations'])} iterations, {log['wall_time_s']:.0f} s; "
-          f"{chosen}; the last: {out}/last.npz")
-    return 0
+    header = (f"PPO fine-tuning of {cfg.finetune.policy}, anchored to it: {iterations_for(cfg)} iterations of "
+              f"{cfg.finetune.rollout_steps} agent-steps (timesteps {cfg.timesteps})")
+    return _in_process_command(cfg, out, resume, run, command, header, train, "fine-tuned on", "iterations")

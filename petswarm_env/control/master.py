@@ -49,6 +49,15 @@ from petswarm_env.sim.geometry import wrap_angle
 
 COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
 
+
+@cython.cfunc
+def _pose_axes(pose: list) -> tuple[cython.double, cython.double, cython.double, cython.double]:
+    """Own dead-reckoned position and the cosine and sine of own heading, from ``pose`` (x, y, yaw)."""
+    th: cython.double = pose[2]
+    x: cython.double = pose[0]
+    y: cython.double = pose[1]
+    return x, y, _c_cos(th), _c_sin(th)
+
 _hypot = math.hypot  # CPython's own (not the C library's hypot)
 _PI = math.pi
 
@@ -111,11 +120,11 @@ class UserTracker:
     def move(self, odometry, yaw: float, dt: cython.double) -> None:
         """Dead-reckon own pose over one control period (odometry in the body frame)."""
         pose: list = self.pose
-        x: cython.double = pose[0]
-        y: cython.double = pose[1]
-        th: cython.double = pose[2]
-        c: cython.double = _c_cos(th)
-        s: cython.double = _c_sin(th)
+        x: cython.double
+        y: cython.double
+        c: cython.double
+        s: cython.double
+        x, y, c, s = _pose_axes(pose)
         vx: cython.double = odometry[0]
         vy: cython.double = odometry[1]
         pose[0] = x + (c * vx - s * vy) * dt
@@ -124,12 +133,11 @@ class UserTracker:
 
     def fix(self, body_xy, t: cython.double, weight: cython.double = 1.0) -> None:
         """Take an LF fix (body frame) made at ``t``; ``weight`` < 1 trusts a noisier fix less."""
-        pose: list = self.pose
-        x: cython.double = pose[0]
-        y: cython.double = pose[1]
-        th: cython.double = pose[2]
-        c: cython.double = _c_cos(th)
-        s: cython.double = _c_sin(th)
+        x: cython.double
+        y: cython.double
+        c: cython.double
+        s: cython.double
+        x, y, c, s = _pose_axes(self.pose)
         bx: cython.double = body_xy[0]
         by: cython.double = body_xy[1]
         zx: cython.double = x + c * bx - s * by
@@ -157,10 +165,11 @@ class UserTracker:
         """(position, velocity) of the user in the body frame now, or None before the first fix."""
         if self.pos is None:
             return None
-        pose: list = self.pose
-        x: cython.double = pose[0]
-        y: cython.double = pose[1]
-        th: cython.double = pose[2]
+        x: cython.double
+        y: cython.double
+        c: cython.double
+        s: cython.double
+        x, y, c, s = _pose_axes(self.pose)
         ux: cython.double = self.pos[0]
         uy: cython.double = self.pos[1]
         vx: cython.double = self.vel[0]
@@ -168,8 +177,6 @@ class UserTracker:
         dt: cython.double = t - self.t_fix
         wx: cython.double = ux + vx * dt - x
         wy: cython.double = uy + vy * dt - y
-        c: cython.double = _c_cos(th)
-        s: cython.double = _c_sin(th)
         return (c * wx + s * wy, -s * wx + c * wy), (c * vx + s * vy, -s * vx + c * vy)
 
 

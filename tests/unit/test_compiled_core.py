@@ -79,27 +79,35 @@ def test_a_missing_build_is_one_line_naming_the_fix(tmp_path, monkeypatch):
     assert ok.returncode == 0, ok.stderr[-2000:]
 
 
-def fault_episode() -> list:
-    """A walk in which three robots' sensors break (ultrasonic, IR, AHRS): every robot's own
-    detections (middleware/diagnosis.py, on its own clock) and a hash of every observation."""
+def scripted_observations_hash(env, obs: dict, seed: int) -> str:
+    """``env``, just reset to ``obs``, driven to its end by the scripted reference (``seed``): a SHA-256
+    of every agent's observation at every step."""
     import hashlib
 
-    import petswarm_env
     from petswarm.baselines.policy import PolicySpec
     from petswarm.baselines.registry import make_policy
 
-    faults = [{"at_s": 3.0, "robot": 3, "kind": "ultrasonic"}, {"at_s": 4.0, "robot": 2, "kind": "ir"},
-              {"at_s": 5.0, "robot": 4, "kind": "ahrs"}]
-    env = petswarm_env.parallel_env(**{"user.scenario": "straight", "max_cycles": 110, "faults": faults})
-    obs, _ = env.reset(seed=0)
-    policy = make_policy("scripted", PolicySpec.from_env(env), seed=0)
+    policy = make_policy("scripted", PolicySpec.from_env(env), seed=seed)
     h = hashlib.sha256()
     while env.agents:
         obs, *_ = env.step(policy.act_all({a: obs[a] for a in env.agents}))
         for a in sorted(obs):
             h.update(a.encode() + obs[a].tobytes())
+    return h.hexdigest()
+
+
+def fault_episode() -> list:
+    """A walk in which three robots' sensors break (ultrasonic, IR, AHRS): every robot's own
+    detections (middleware/diagnosis.py, on its own clock) and a hash of every observation."""
+    import petswarm_env
+
+    faults = [{"at_s": 3.0, "robot": 3, "kind": "ultrasonic"}, {"at_s": 4.0, "robot": 2, "kind": "ir"},
+              {"at_s": 5.0, "robot": 4, "kind": "ahrs"}]
+    env = petswarm_env.parallel_env(**{"user.scenario": "straight", "max_cycles": 110, "faults": faults})
+    obs, _ = env.reset(seed=0)
+    digest = scripted_observations_hash(env, obs, seed=0)
     detected = {str(n): [[t, part] for t, part in node.diagnosis.detected] for n, node in env.episode.fleet.nodes.items()}
-    return [detected, h.hexdigest()]
+    return [detected, digest]
 
 
 def test_the_interpreted_form_finds_the_same_sensor_faults_bit_for_bit():
@@ -230,24 +238,15 @@ def heterogeneous_episode() -> list:
     """The heterogeneous pool (seed 001: each type casts its own ring, mapped onto the virtual one)
     with one slave's battery nearly empty (the drive stops it mid-episode): a hash of every
     observation and of every robot's drive triples and charge at the end."""
-    import hashlib
-
     import petswarm_env
-    from petswarm.baselines.policy import PolicySpec
-    from petswarm.baselines.registry import make_policy
 
     env = petswarm_env.parallel_env(**{"user.scenario": "heterogeneous", "max_cycles": 90})
     obs, _ = env.reset(seed=2)
     robots = env.episode.world.robots
     robots[2].battery.set_remaining(0.02)  # mAh: empties within the episode
-    policy = make_policy("scripted", PolicySpec.from_env(env), seed=2)
-    h = hashlib.sha256()
-    while env.agents:
-        obs, *_ = env.step(policy.act_all({a: obs[a] for a in env.agents}))
-        for a in sorted(obs):
-            h.update(a.encode() + obs[a].tobytes())
+    digest = scripted_observations_hash(env, obs, seed=2)
     ends = [[r.command, r.velocity_body, r.wheel_velocity, r.battery.remaining_mah, r.battery.empty] for r in robots]
-    return [h.hexdigest(), repr(ends)]
+    return [digest, repr(ends)]
 
 
 def test_the_interpreted_form_gives_the_heterogeneous_ring_and_the_drive_bit_for_bit():

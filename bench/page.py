@@ -352,17 +352,19 @@ def _vector_markdown(vec: dict | None) -> list[str]:
         (f"Side by side in one run: {vec['rounds']} rounds of one {vec['burst_s']:g} s burst of step time per system, "
          "the order rotating from round to round; uniform random actions drawn outside the timed call; one thread "
          "each. *env-steps*: steps of one env copy (a `vector_env(64).step` is 64). The vector env's auto-resets "
-         "are inside its step; the single env's resets are timed apart; VMAS is never reset. *per CPU-s*: over "
+         "are inside its step (*auto-resets*: their CPU µs per env-step, in the timed steps); the single env's "
+         "resets are timed apart; VMAS is never reset. *per CPU-s*: over "
          "`time.process_time`, which the other processes' load disturbs less than wall time."),
         "",
-        "| system | envs | env-steps/s | env-steps per CPU-s | µs per env-step | vs parallel_env (wall) | vs parallel_env (CPU) | per round (wall) | reset s |",
-        "|---|---:|---:|---:|---:|---:|---:|---|---:|",
+        "| system | envs | env-steps/s | env-steps per CPU-s | µs per env-step | auto-resets µs | vs parallel_env (wall) | vs parallel_env (CPU) | per round (wall) | reset s |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|---|---:|",
     ]
     for r in vec["rows"]:
         pr = r["per_round_vs_single"]
         out.append(
             f"| {r['label']} | {r['num_envs']} | {r['env_steps_per_s']:,.0f} | {fmt(r['env_steps_per_cpu_s'], ',.0f')} | "
-            f"{r['us_per_env_step']:.1f} | {r['vs_single']:.2f}× | {fmt(r['vs_single_cpu'])}× | "
+            f"{r['us_per_env_step']:.1f} | {fmt(r.get('auto_reset_cpu_us_per_env_step'), '.1f')} | "
+            f"{r['vs_single']:.2f}× | {fmt(r['vs_single_cpu'])}× | "
             f"{min(pr):.2f}–{max(pr):.2f}× | {fmt(r.get('reset_s'), '.1f')} |")
     if vec.get("vmas_skipped"):
         out += ["", f"VMAS: skipped: {vec['vmas_skipped']}"]

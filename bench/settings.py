@@ -32,7 +32,7 @@ class BenchSettings:
     training_samples: int = 8192  # PPO samples (agent-steps) timed per worker setting
     training_rollout: int = 1024  # samples per PPO rollout (n_steps = rollout / vector rows)
     training_workers: tuple[int, ...] = (1, 2)  # SuperSuit's path: 1 = in-process, k >= 2 = k worker processes
-    training_vector_envs: tuple[int, ...] = (1, 8)  # the batched vector env's path: this many copies, in-process
+    training_vector_envs: tuple[int, ...] = (1, 8, 16)  # the batched vector env's path: this many copies, in-process
     vector_envs: tuple[int, ...] = (1, 64, 256)  # vector_env sizes timed side by side with the single env
     vmas_envs: int = 64  # VMAS simple_spread N=6 with this many envs beside them (0: not measured)
     vector_rounds: int = 6  # rotating rounds of one burst per system

@@ -100,6 +100,17 @@ class VectorEnv(_Burst):
         t0 = time.perf_counter()
         obs, _ = self.venv.reset(seed=seed)
         self.reset_s = time.perf_counter() - t0
+        self.auto_reset_cpu_s = 0.0  # the CPU time of the auto-resets inside the timed steps
+        start = self.venv._start
+
+        def timed_start(n, obs):
+            c0 = time.process_time()
+            try:
+                return start(n, obs)
+            finally:
+                self.auto_reset_cpu_s += time.process_time() - c0
+
+        self.venv._start = timed_start
         self.rng = np.random.default_rng(seed)
         self.shape = obs.shape[:2] + (3,)
         self.label = f"petswarm vector_env({num_envs}) 1+{num_slaves}"
@@ -111,6 +122,10 @@ class VectorEnv(_Burst):
 
     def _one(self) -> None:
         self.venv.step(self._actions)
+
+    def clear(self) -> None:
+        super().clear()
+        self.auto_reset_cpu_s = 0.0
 
     def close(self) -> None:
         self.venv.close()
@@ -188,6 +203,9 @@ def bench_vector_side_by_side(s: BenchSettings, verbose: bool = False) -> dict[s
                               if sys_.cpu_s > 0 and single.cpu_s > 0 else None),
             "per_round_vs_single": [r[sys_.label] / r[single.label] for r in per_round],
             "reset_s": reset_s.get(sys_.label),
+            # the auto-resets' share of the CPU time per env-step (the vector env's step includes them)
+            "auto_reset_cpu_us_per_env_step": (1e6 * sys_.auto_reset_cpu_s / sys_.env_steps
+                                               if isinstance(sys_, VectorEnv) else None),
         })
         sys_.close()
     out: dict[str, Any] = {"rows": rows, "rounds": s.vector_rounds, "burst_s": s.vector_burst_s}

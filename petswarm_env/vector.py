@@ -65,6 +65,7 @@ class VectorEnv:
         self.active = np.zeros((self.num_envs, self.max_agents), bool)
         self._rng: np.random.Generator | None = None
         self._rows_cache: dict[tuple, list[int]] = {}
+        self._agent_rows: tuple[list[list[str]], np.ndarray, list[int]] | None = None  # (_gather)
 
     # -- the episodes ------------------------------------------------------------------------------
     def _next_seed(self) -> int:
@@ -100,6 +101,18 @@ class VectorEnv:
             rows = self._rows_cache[key] = [base + slot[a] for a in agents]
         return rows
 
+    def _gather(self) -> tuple[list[list[str]], np.ndarray, list[int]]:
+        """The copies' agents now, the flat rows of all of them (copy ``n``'s are
+        ``rows[bounds[n]:bounds[n + 1]]``) and the bounds; kept until an agent list changes."""
+        if self._agent_rows is None:
+            agents = [list(episode.agents) for episode in self.episodes]
+            flat, bounds = [], [0]
+            for n, names in enumerate(agents):
+                flat += self._rows_of(n, names)
+                bounds.append(len(flat))
+            self._agent_rows = agents, np.array(flat, np.intp), bounds
+        return self._agent_rows
+
     def reset(self, seed: int | None = None, options: dict | None = None) -> tuple[np.ndarray, list[dict[str, Any]]]:
         """Every copy's next episode; the seeds drawn from ``seed`` (module docstring; None: the
         config's ``seed`` on the first reset, else the generator goes on)."""
@@ -111,6 +124,7 @@ class VectorEnv:
             self._rng = np.random.default_rng(self.cfg.seed)
         obs = np.zeros((self.num_envs, self.max_agents, self.obs_dim), np.float32)
         infos = [self._start(n, obs) for n in range(self.num_envs)]
+        self._agent_rows = None
         return obs, infos
 
     def step(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, list[dict[str, Any]]]:
@@ -126,11 +140,8 @@ class VectorEnv:
         n_envs, m = self.num_envs, self.max_agents
         # the agents' actions of every copy, in each copy's agent order, gathered by one flat index
         # (row n·m + slot of acts[n_envs·m, 3]); copy n's are the rows bounds[n]:bounds[n + 1]
-        flat, bounds = [], [0]
-        for n, episode in enumerate(self.episodes):
-            flat += self._rows_of(n, episode.agents)
-            bounds.append(len(flat))
-        picked = acts.reshape(-1, 3)[np.array(flat, np.intp)].astype(np.float32, copy=False)  # (a new array)
+        agents, flat, bounds = self._gather()
+        picked = acts.reshape(-1, 3)[flat].astype(np.float32, copy=False)  # (a new array)
         if not np.isfinite(picked).all():
             bad = np.argwhere(~np.isfinite(acts).all(axis=2) & self.active)[0]
             raise ValueError(f"the action of copy {bad[0]}'s {self.possible_agents[bad[1]]} contains NaN or inf; actions must be finite")
@@ -141,12 +152,42 @@ class VectorEnv:
         terminated = np.zeros((n_envs, m), bool)
         truncated = np.zeros((n_envs, m), bool)
         infos: list[dict[str, Any]] = [{} for _ in range(n_envs)]
-        # every copy's results gathered as flat row lists (n·m + slot) and written with one
-        # indexed assignment per array after the loop (a numpy item write per agent costs more)
-        at, r_v, te_v, tr_v, seen, ob_v, live, ended = [], [], [], [], [], [], [], []
+        results, r_v, ob_v = [], [], []
+        same = True  # every copy kept its agents: rewards and observations on the rows of flat, none ended
         for n, episode in enumerate(self.episodes):
             # each copy's rows of picked: a slice, its own array for the episode to keep as its last actions
-            observations, rew, term, trunc, _ = episode.advance(picked[bounds[n]:bounds[n + 1]])
+            result = episode.advance(picked[bounds[n]:bounds[n + 1]])
+            results.append(result)
+            if same:
+                observations, rew, term, trunc, _ = result
+                same = (episode.agents == agents[n] == list(rew) == list(observations)
+                        and not any(term.values()) and not any(trunc.values()))
+                r_v += rew.values()
+                ob_v += observations.values()
+        if same:  # the common step: the rows of the last step, written by one indexed assignment each
+            if len(flat):
+                rewards.reshape(-1)[flat] = np.array(r_v, np.float32)
+                obs.reshape(-1, self.obs_dim)[flat] = np.array(ob_v)
+        else:
+            self._agent_rows = None
+            ended = self._write(results, obs, rewards, terminated, truncated)
+            for n, observations in ended:
+                episode = self.episodes[n]
+                observed = np.zeros(m, bool)
+                observed[self._rows_of(0, observations)] = True
+                infos[n] = {"final_observation": obs[n].copy(), "final_active": observed, "final_state": episode.state(),
+                            "episode_summary": episode.summary(), "finished_seed": int(self.episode_seeds[n])}
+                infos[n].update(self._start(n, obs))  # the next episode's first row of obs and active
+        return obs, rewards, terminated, truncated, infos
+
+    def _write(self, results: list, obs: np.ndarray, rewards: np.ndarray, terminated: np.ndarray,
+               truncated: np.ndarray) -> list[tuple[int, dict[str, np.ndarray]]]:
+        """Every copy's ``results`` (its ``Episode.advance``) into the arrays and ``active``, gathered
+        as flat row lists (n·m + slot) and written with one indexed assignment per array (a numpy
+        item write per agent costs more); returns the copies whose episode is over, with their
+        last observations."""
+        at, r_v, te_v, tr_v, seen, ob_v, live, ended = [], [], [], [], [], [], [], []
+        for n, (episode, (observations, rew, term, trunc, _)) in enumerate(zip(self.episodes, results)):
             rows = self._rows_of(n, rew)
             at += rows
             r_v += rew.values()
@@ -156,7 +197,7 @@ class VectorEnv:
             ob_v += observations.values()
             if episode.agents:
                 live += self._rows_of(n, episode.agents)
-            else:  # the episode is over: its last arrays below, then the next episode
+            else:  # the episode is over: its last arrays, then the next episode (step)
                 ended.append((n, observations))
         if at:
             at = np.array(at, np.intp)
@@ -168,14 +209,7 @@ class VectorEnv:
         self.active[:] = False
         if live:
             self.active.reshape(-1)[np.array(live, np.intp)] = True
-        for n, observations in ended:
-            episode = self.episodes[n]
-            observed = np.zeros(m, bool)
-            observed[self._rows_of(0, observations)] = True
-            infos[n] = {"final_observation": obs[n].copy(), "final_active": observed, "final_state": episode.state(),
-                        "episode_summary": episode.summary(), "finished_seed": int(self.episode_seeds[n])}
-            infos[n].update(self._start(n, obs))  # the next episode's first row of obs and active
-        return obs, rewards, terminated, truncated, infos
+        return ended
 
     def state(self) -> np.ndarray:
         """Every copy's global state now (``state_space``; docs/state.md): ``[num_envs, state_dim]``."""

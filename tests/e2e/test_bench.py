@@ -248,12 +248,14 @@ def test_vector_envs_side_by_side_and_training_paths(bench):
         assert _positive(r["env_steps_per_s"]) and _positive(r["us_per_env_step"])
         assert r["env_steps"] == r["calls"] * r["num_envs"]
         assert len(r["per_round_vs_single"]) == vec["rounds"]
+        resets = r["auto_reset_cpu_us_per_env_step"]  # the vector env's auto-resets, timed inside its step
+        assert resets is None if r["label"].startswith(("petswarm parallel_env", "VMAS")) else 0.0 <= resets
     assert vec["rows"][0]["vs_single"] == pytest.approx(1.0)
     if importlib.util.find_spec("vmas") is not None:
         assert any(lb.startswith("VMAS simple_spread N=6") for lb in labels)
     else:
         assert "vmas is not installed" in vec["vmas_skipped"]
-    assert "## Many envs in one process" in md_path.read_text()
+    assert "## Many envs in one process" in md_path.read_text() and "auto-resets µs" in md_path.read_text()
     assert "vector envs side by side" in format_report(result)
     tr = result["training"]
     if "skipped" not in tr:

@@ -98,3 +98,35 @@ def test_float64_actions_step_as_their_float32_values_and_the_callers_array_stay
         np.testing.assert_array_equal(wide, given)  # the clip works on the env's own copy
         for x, y in zip(out_a[:4], out_b[:4]):
             np.testing.assert_array_equal(x, y)
+
+
+def test_copies_that_lose_agents_at_different_steps_stay_the_parallel_env():
+    """Random actions lose slaves (terminated one by one, at different steps in different copies):
+    the steps where some copies keep their agents and others change are bit for bit the
+    ParallelEnv's too, and so are the steady steps between them."""
+    num_envs, overrides = 3, {"swarm.num_slaves": 5, "max_cycles": 420}
+    venv = petswarm_env.vector_env(num_envs, **overrides)
+    obs, infos = venv.reset(seed=11)
+    refs = [petswarm_env.parallel_env(**overrides) for _ in range(num_envs)]
+    for ref, info in zip(refs, infos):
+        ref.reset(seed=info["episode_seed"])
+    rng = np.random.default_rng(3)
+    mixed = 0  # steps where some copies lost an agent and others did not
+    for _ in range(overrides["max_cycles"]):
+        actions = rng.uniform(-1, 1, (num_envs, venv.max_agents, 3)).astype(np.float32)
+        obs, rewards, terminated, truncated, infos = venv.step(actions)
+        lost = []
+        for n, ref in enumerate(refs):
+            o, r, term, trunc, _ = ref.step({a: actions[n, venv.possible_agents.index(a)] for a in ref.agents})
+            expect = np.zeros((3, venv.max_agents), np.float32)
+            for a in r:
+                expect[:, venv.possible_agents.index(a)] = (r[a], term[a], trunc[a])
+            np.testing.assert_array_equal(np.stack([rewards[n], terminated[n], truncated[n]]), expect)
+            if ref.agents:
+                np.testing.assert_array_equal(obs[n], _slots(venv, o))
+                assert venv.active[n].tolist() == [a in ref.agents for a in venv.possible_agents]
+            else:  # truncated: the copy's next episode has started, the last observation is in its infos
+                np.testing.assert_array_equal(infos[n]["final_observation"], _slots(venv, o))
+            lost.append(any(term.values()))
+        mixed += any(lost) and not all(lost)
+    assert mixed >= 2

@@ -5,10 +5,11 @@ side by side in rotating bursts (:func:`bench_vector_side_by_side`).
 Every system is driven by uniform random actions drawn outside the timed call (VMAS's own
 benchmarks do the same), one thread each (``torch.set_num_threads(1)`` for VMAS), and counted in
 *env-steps*: one step of one env copy, so a ``vector_env(64).step`` is 64 env-steps. The vector
-env's auto-resets happen inside its ``step`` and are timed with it; the single env's resets are
-timed apart, as in the other measurements; VMAS is never reset (its episodes have no end here).
-Per-core figures divide by this process's CPU time (``time.process_time``), which other
-processes' load disturbs less than wall time.
+env's auto-resets happen inside its ``step`` and are timed with it (their CPU time is also counted
+apart: ``auto_reset_cpu_us_per_env_step``); the single env's resets are timed apart, as in the
+other measurements; VMAS is never reset (its episodes have no end here). Per-core figures divide
+by this process's CPU time (``time.process_time``), which other processes' load disturbs less
+than wall time.
 """
 
 from __future__ import annotations

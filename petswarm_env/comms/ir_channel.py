@@ -54,11 +54,19 @@ def _atan2(y: cython.double, x: cython.double) -> cython.double:
     return math.atan2(y, x)
 
 
+_NOISE_BLOCK = 2048  # receiver noise drawn at once (standard normals): about 30 slots of 1 + 4
+
+
 class IRChannel:
+    """The IR optical path of every slot (module docstring). ``rng`` is the channel's own stream: the
+    receivers' noise is drawn from it in blocks (:meth:`_slot_noise`), so nothing else may draw from it."""
+
     def __init__(self, world: World, cfg: ir.IRConfig, rng: np.random.Generator):
         self.world = world
         self.cfg = cfg
         self.rng = rng
+        self._noise = np.empty(0)  # the normals of rng drawn so far, ``_noise_used`` of them handed out
+        self._noise_used = 0
         self.walls = SegmentSet(world.wall_a, world.wall_b, 0.0)  # walls and box edges, with their bounding boxes
         self._wall_ends = [(*a, *b) for a, b in zip(world.wall_a.tolist(), world.wall_b.tolist())]
         self._optics = None  # ir.Optics of cfg, made at the first slot
@@ -97,8 +105,23 @@ class IRChannel:
         optics = self._optics
         if optics is None or optics.cfg is not self.cfg:  # the configuration's constants (sections are frozen)
             optics = self._optics = ir.Optics(self.cfg)
-        z = self.rng.standard_normal((2, len(distance), optics.k))  # the slot's receiver noise
+        z = self._slot_noise(len(distance), optics.k)  # the slot's receiver noise
         return ir.measure_rows(optics, distance, bearing, occluded, z)
+
+    def _slot_noise(self, m: cython.Py_ssize_t, k: cython.Py_ssize_t):
+        """The next ``2·m·k`` standard normals of ``rng`` as a (2, m, k) array: the numbers
+        ``rng.standard_normal((2, m, k))`` gives (numpy fills an array from the generator in order),
+        taken from a block drawn at once (a numpy call per slot costs more than its draws)."""
+        need: cython.Py_ssize_t = 2 * m * k
+        used: cython.Py_ssize_t = self._noise_used
+        left: cython.Py_ssize_t = len(self._noise) - used
+        if need > left:  # the block's rest first, then the generator's next draws
+            block = np.empty(max(_NOISE_BLOCK, need))
+            block[:left] = self._noise[used:]
+            self.rng.standard_normal(out=block[left:])
+            self._noise, used = block, 0
+        self._noise_used = used + need
+        return self._noise[used:used + need].reshape(2, m, k)
 
     def _walls_near(self, cl: list, tx_index: int, rx_indices: list[int]) -> list[tuple[float, float, float, float]]:
         """The wall and box segments whose bounding box overlaps the slot's (the transmitter's and

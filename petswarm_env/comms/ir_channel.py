@@ -77,10 +77,7 @@ class IRChannel:
         Returns estimated distance (m), bearing of the transmitter in each receiver's body frame
         (rad), and validity, one entry per receiver (nan where not valid).
         """
-        centers, radii, headings = self.world.truth_arrays()
-        cl: list = centers.tolist()
-        rl: list = radii.tolist()
-        hl: list = headings.tolist()
+        cl, rl, hl = self.world.truth_lists()  # the true centres, radii and headings as Python floats
         tx: cython.Py_ssize_t = tx_index
         r: cython.Py_ssize_t
         tx_x: cython.double = cl[tx][0]
@@ -129,10 +126,38 @@ class IRChannel:
         the arena and away from boxes, none (a few comparisons per slot)."""
         if not self._wall_ends or not rx_indices:
             return []
-        xs = [cl[i][0] for i in rx_indices]
-        ys = [cl[i][1] for i in rx_indices]
-        tx_x, tx_y = cl[tx_index]
-        near = self.walls.near_box(min(min(xs), tx_x), min(min(ys), tx_y), max(max(xs), tx_x), max(max(ys), tx_y))
+        # the box of the centres: min(min(xs), tx_x) ... as the builtins take them (a later value
+        # replaces only a smaller, or a greater, one), on typed locals
+        x0: cython.double = 0.0
+        y0: cython.double = 0.0
+        x1: cython.double = 0.0
+        y1: cython.double = 0.0
+        x: cython.double
+        y: cython.double
+        k: cython.Py_ssize_t
+        for k in range(len(rx_indices)):
+            x, y = cl[rx_indices[k]][0], cl[rx_indices[k]][1]
+            if k == 0:
+                x0, y0, x1, y1 = x, y, x, y
+                continue
+            if x < x0:
+                x0 = x
+            if y < y0:
+                y0 = y
+            if x > x1:
+                x1 = x
+            if y > y1:
+                y1 = y
+        x, y = cl[tx_index][0], cl[tx_index][1]
+        if x < x0:
+            x0 = x
+        if y < y0:
+            y0 = y
+        if x > x1:
+            x1 = x
+        if y > y1:
+            y1 = y
+        near = self.walls.near_box(x0, y0, x1, y1)
         return [self._wall_ends[i] for i in near]
 
 

@@ -231,8 +231,7 @@ class TokenRing:
 
     @cython.cfunc
     def _neighbour_members(self, formation, member) -> tuple:
-        """``formation.neighbours(member)`` in its order, kept while the table and the member
-        number are the same (a formation is never changed in place: a new table is a new one)."""
+        """``formation.neighbours(member)`` in its order, kept while the table (never changed in place) and number stay."""
         kept: tuple = self._neighbours
         if kept[0] is not formation or kept[1] != member:
             kept = (formation, member, tuple(formation.neighbours(member)))
@@ -308,14 +307,11 @@ class TokenRing:
         peers = self._ring_peers()
         if not peers:
             return None
-        heard: dict = self.heard
-        t: cython.double
-        latest: cython.double = 0.0
-        first: cython.bint = True
-        for p in peers:  # max(...) of the peers' times, as the builtin takes it: a later one replaces only a greater one
-            t = heard.get(p, -math.inf)
-            if first or t > latest:
-                latest, first = t, False
+        latest: cython.double = -math.inf
+        for k, p in enumerate(peers):  # max(...) as the builtin takes it: a later time replaces only a greater one
+            t: cython.double = self.heard.get(p, -math.inf)
+            if k == 0 or t > latest:
+                latest = t
         return latest if latest > self.started_s else self.started_s  # max(self.started_s, latest)
 
     def forget(self, node_id: int) -> None:

@@ -24,6 +24,13 @@ from cython.cimports.libc.math import isfinite as _c_isfinite
 
 from petswarm_env.sim.body import read_poses
 
+if cython.compiled:  # a station's typed attributes (middleware/station.pxd), the MCU clock's C methods (sim/clock.pxd)
+    from cython.cimports.petswarm_env.middleware.station import Station
+    from cython.cimports.petswarm_env.sim.clock import LocalClock
+else:
+    from petswarm_env.middleware.station import Station
+    from petswarm_env.sim.clock import LocalClock
+
 COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
 
 _STOP = (0.0, 0.0, 0.0)
@@ -206,6 +213,22 @@ def read_truth(robots: list, users: list, user_radius_m: float, radii):
     return centers, radii, headings
 
 
+def read_truth_lists(robots: list, users: list, user_radius_m: float) -> tuple:
+    """:func:`read_truth`'s values as lists, read body by body without an array: every centre as
+    an ``(x, y)`` pair (robots, then users), the radii and the robots' headings, Python floats."""
+    centers = []
+    radii = []
+    headings = []
+    for robot in robots:
+        centers.append(robot.read_position())
+        radii.append(float(robot.radius_m))
+        headings.append(robot.heading)
+    for user in users:
+        centers.append(user.read_position())
+        radii.append(float(user_radius_m))
+    return centers, radii, headings
+
+
 def stale_fixes(robot_ids: list, nodes: dict, start_s: float, age_s: float) -> cython.long:
     """How many of the robots ``robot_ids`` have no IR fix of any reference neighbour younger than
     ``age_s`` on their own clock (none yet counts from ``start_s``, the episode's start)."""
@@ -213,13 +236,16 @@ def stale_fixes(robot_ids: list, nodes: dict, start_s: float, age_s: float) -> c
     t: cython.double
     newest: cython.double
     found: cython.bint
+    node: Station
+    clock: LocalClock
     for idx in robot_ids:
         node = nodes[idx]
         know = node.know
         irs, members = know.ir, know.members
         found = False  # the newest fix's time: max(...) as the builtin gives it (the first of equals)
         newest = 0.0
-        for lk in node.reference_links():
+        formation, member = node.formation, know.member  # its reference links (Station.reference_links, read here)
+        for lk in (formation.links.get(member, ()) if formation is not None and member > 0 else ()):
             nb = members.get(lk.neighbour)
             if nb in irs:
                 t = irs[nb].time_s
@@ -227,7 +253,7 @@ def stale_fixes(robot_ids: list, nodes: dict, start_s: float, age_s: float) -> c
                     newest, found = t, True
         clock = node.clock
         # the fixes' times are on the robot's own clock (its MCU's): compared on that clock
-        if (newest if found else clock.local(start_s)) < clock.now - age_s:
+        if (newest if found else clock.local(start_s)) < clock.local_now() - age_s:
             stale += 1
     return stale
 

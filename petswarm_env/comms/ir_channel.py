@@ -54,11 +54,19 @@ def _atan2(y: cython.double, x: cython.double) -> cython.double:
     return math.atan2(y, x)
 
 
+_NOISE_BLOCK = 2048  # receiver noise drawn at once (standard normals): about 30 slots of 1 + 4
+
+
 class IRChannel:
+    """The IR optical path of every slot (module docstring). ``rng`` is the channel's own stream: the
+    receivers' noise is drawn from it in blocks (:meth:`_slot_noise`), so nothing else may draw from it."""
+
     def __init__(self, world: World, cfg: ir.IRConfig, rng: np.random.Generator):
         self.world = world
         self.cfg = cfg
         self.rng = rng
+        self._noise = np.empty(0)  # the normals of rng drawn so far, ``_noise_used`` of them handed out
+        self._noise_used = 0
         self.walls = SegmentSet(world.wall_a, world.wall_b, 0.0)  # walls and box edges, with their bounding boxes
         self._wall_ends = [(*a, *b) for a, b in zip(world.wall_a.tolist(), world.wall_b.tolist())]
         self._optics = None  # ir.Optics of cfg, made at the first slot
@@ -69,10 +77,7 @@ class IRChannel:
         Returns estimated distance (m), bearing of the transmitter in each receiver's body frame
         (rad), and validity, one entry per receiver (nan where not valid).
         """
-        centers, radii, headings = self.world.truth_arrays()
-        cl: list = centers.tolist()
-        rl: list = radii.tolist()
-        hl: list = headings.tolist()
+        cl, rl, hl = self.world.truth_lists()  # the true centres, radii and headings as Python floats
         tx: cython.Py_ssize_t = tx_index
         r: cython.Py_ssize_t
         tx_x: cython.double = cl[tx][0]
@@ -97,8 +102,23 @@ class IRChannel:
         optics = self._optics
         if optics is None or optics.cfg is not self.cfg:  # the configuration's constants (sections are frozen)
             optics = self._optics = ir.Optics(self.cfg)
-        z = self.rng.standard_normal((2, len(distance), optics.k))  # the slot's receiver noise
+        z = self._slot_noise(len(distance), optics.k)  # the slot's receiver noise
         return ir.measure_rows(optics, distance, bearing, occluded, z)
+
+    def _slot_noise(self, m: cython.Py_ssize_t, k: cython.Py_ssize_t):
+        """The next ``2·m·k`` standard normals of ``rng`` as a (2, m, k) array: the numbers
+        ``rng.standard_normal((2, m, k))`` gives (numpy fills an array from the generator in order),
+        taken from a block drawn at once (a numpy call per slot costs more than its draws)."""
+        need: cython.Py_ssize_t = 2 * m * k
+        used: cython.Py_ssize_t = self._noise_used
+        left: cython.Py_ssize_t = len(self._noise) - used
+        if need > left:  # the block's rest first, then the generator's next draws
+            block = np.empty(max(_NOISE_BLOCK, need))
+            block[:left] = self._noise[used:]
+            self.rng.standard_normal(out=block[left:])
+            self._noise, used = block, 0
+        self._noise_used = used + need
+        return self._noise[used:used + need].reshape(2, m, k)
 
     def _walls_near(self, cl: list, tx_index: int, rx_indices: list[int]) -> list[tuple[float, float, float, float]]:
         """The wall and box segments whose bounding box overlaps the slot's (the transmitter's and
@@ -106,10 +126,38 @@ class IRChannel:
         the arena and away from boxes, none (a few comparisons per slot)."""
         if not self._wall_ends or not rx_indices:
             return []
-        xs = [cl[i][0] for i in rx_indices]
-        ys = [cl[i][1] for i in rx_indices]
-        tx_x, tx_y = cl[tx_index]
-        near = self.walls.near_box(min(min(xs), tx_x), min(min(ys), tx_y), max(max(xs), tx_x), max(max(ys), tx_y))
+        # the box of the centres: min(min(xs), tx_x) ... as the builtins take them (a later value
+        # replaces only a smaller, or a greater, one), on typed locals
+        x0: cython.double = 0.0
+        y0: cython.double = 0.0
+        x1: cython.double = 0.0
+        y1: cython.double = 0.0
+        x: cython.double
+        y: cython.double
+        k: cython.Py_ssize_t
+        for k in range(len(rx_indices)):
+            x, y = cl[rx_indices[k]][0], cl[rx_indices[k]][1]
+            if k == 0:
+                x0, y0, x1, y1 = x, y, x, y
+                continue
+            if x < x0:
+                x0 = x
+            if y < y0:
+                y0 = y
+            if x > x1:
+                x1 = x
+            if y > y1:
+                y1 = y
+        x, y = cl[tx_index][0], cl[tx_index][1]
+        if x < x0:
+            x0 = x
+        if y < y0:
+            y0 = y
+        if x > x1:
+            x1 = x
+        if y > y1:
+            y1 = y
+        near = self.walls.near_box(x0, y0, x1, y1)
         return [self._wall_ends[i] for i in near]
 
 

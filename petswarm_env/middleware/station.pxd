@@ -33,3 +33,5 @@ cdef class Station:
     cdef object _uniform
     cdef double _processing_s
     cdef double _jitter_s
+
+    cdef void _handle_frame(self, object handler, object frame)

@@ -104,7 +104,11 @@ class _Handling(Due):
 
     @cython.cfunc
     def run(self) -> cython.void:
-        self.station._handle(self.handler, self.frame)
+        station: Station = self.station
+        if type(station)._handle is _STATION_HANDLE:  # not replaced: the same method, by a C call
+            station._handle_frame(self.handler, self.frame)
+        else:
+            station._handle(self.handler, self.frame)
 
 
 class Signal:
@@ -198,6 +202,12 @@ class Station:
         return self._processing_s + self._jitter_s * u
 
     def _handle(self, handler: Callable[[Frame], None], frame: Frame) -> None:
+        self._handle_frame(handler, frame)
+
+    @cython.cfunc
+    def _handle_frame(self, handler, frame) -> cython.void:
+        """:meth:`_handle` (a C call from the frame's handling, :class:`_Handling`, while no subclass
+        or test replaced ``_handle``)."""
         pan = frame.pan
         if pan not in self.pans:  # the PAN changed while the frame was being processed
             return
@@ -257,3 +267,6 @@ class Station:
 
     def _ir_not_wired(self, neighbours: list[int | None]) -> list[int]:
         raise RuntimeError(f"robot {self.node_id}'s IR module is not wired to an IR medium (Fleet.add_node wires it)")
+
+
+_STATION_HANDLE = Station._handle  # the handling every station runs unless a subclass or a test replaced it

@@ -168,6 +168,7 @@ class TokenRing:
     lost_handler = cython.declare(object, visibility="public")
     _declared = cython.declare(set)
     _plan = cython.declare(object)
+    _neighbours = cython.declare(tuple)  # (formation, member, its neighbours' member numbers): _Slot._ir_done's
     _clock = cython.declare(LocalClock)  # the robot's own MCU clock (Station.clock)
 
     def __init__(self, node: Station):
@@ -197,6 +198,7 @@ class TokenRing:
         self.lost_handler = None  # master: called with the node id of a member declared lost (Node wires it)
         self._declared = set()
         self._plan = None  # (total members, its plan)
+        self._neighbours = (None, -1, ())
         node.on(msg.TX_START, self._on_tx_start)
         node.on(msg.TOKEN, self._on_token)
         node.on(msg.SYNC, self._on_sync)
@@ -226,6 +228,15 @@ class TokenRing:
     def _next_member(self, member):
         total = self.node.know.total_members
         return (member + 1) % total if total else 0
+
+    @cython.cfunc
+    def _neighbour_members(self, formation, member) -> tuple:
+        """``formation.neighbours(member)`` in its order, kept while the table (never changed in place) and number stay."""
+        kept: tuple = self._neighbours
+        if kept[0] is not formation or kept[1] != member:
+            kept = (formation, member, tuple(formation.neighbours(member)))
+            self._neighbours = kept
+        return kept[2]
 
     @cython.cfunc
     def _ring_peers(self) -> set:
@@ -296,7 +307,12 @@ class TokenRing:
         peers = self._ring_peers()
         if not peers:
             return None
-        return max(self.started_s, max(self.heard.get(p, -math.inf) for p in peers))
+        latest: cython.double = -math.inf
+        for k, p in enumerate(peers):  # max(...) as the builtin takes it: a later time replaces only a greater one
+            t: cython.double = self.heard.get(p, -math.inf)
+            if k == 0 or t > latest:
+                latest = t
+        return latest if latest > self.started_s else self.started_s  # max(self.started_s, latest)
 
     def forget(self, node_id: int) -> None:
         """Master: ``node_id`` left the tables (or joined them anew): its count starts over."""
@@ -508,7 +524,7 @@ class _Slot:
         # every other member measures our IR now; our neighbours (by our neighbour table, in its
         # order) that saw us report the bearing they saw us at (Fig. 9): wait for them before passing on
         formation = node.formation
-        neighbours = [know.members.get(m) for m in formation.neighbours(know.member)] if formation is not None else []
+        neighbours = [know.members.get(m) for m in ring._neighbour_members(formation, know.member)] if formation is not None else []
         # our own slot as our IR self-check sees it: the neighbours that acknowledged our start sign (middleware/diagnosis.py)
         ring.own_slot = (self.slot_start, frozenset(n for n in neighbours if n in ring._acks))
         reporters = node.transmit_ir(neighbours)

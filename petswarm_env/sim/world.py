@@ -21,7 +21,7 @@ from petswarm_env.sim.body import COLLISION_ROBOT, COLLISION_USER, COLLISION_WAL
 from petswarm_env.sim.clock import Clock
 from petswarm_env.sim.robot import Robot
 from petswarm_env.sim.user import User
-from petswarm_env.step_kernel import read_truth
+from petswarm_env.step_kernel import read_truth, read_truth_lists
 
 
 @dataclass
@@ -50,6 +50,8 @@ class World:
         self.dt_sub = cfg.control_period_s / cfg.physics_substeps
         self._truth_at = -1  # substeps.steps when the truth arrays were read (-1: stale)
         self._truth: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        self._lists_at = -1  # the same for the truth as lists (truth_lists)
+        self._lists: tuple[list, list, list] | None = None
         self.robots: list[Robot] = []
         # each robot's type, by index in the order add_robot is called (the env sets it before the
         # scenario places the robots); beyond it, and by default, the petbot (robot_types.py)
@@ -90,7 +92,7 @@ class World:
         user = User(self.cfg.user, self.space, script, position, heading_rad)
         user.index = len(self.users)
         self.users.append(user)
-        self._truth_at = -1
+        self._truth_at = self._lists_at = -1
         return user
 
     def add_robot(self, position, heading_rad: float) -> Robot:
@@ -98,7 +100,7 @@ class World:
         body = self.body_plan[i] if i < len(self.body_plan) else self.default_body
         robot = Robot(i, self.cfg.robot, self.space, position, heading_rad, body)
         self.robots.append(robot)
-        self._truth_at = -1
+        self._truth_at = self._lists_at = -1
         return robot
 
     # -- collisions (experimenter's view) ------------------------------------------------------
@@ -129,7 +131,7 @@ class World:
     # -- truth arrays (for sensor models, metrics, rendering) ------------------------------------
     def invalidate_truth(self) -> None:
         """Forget the truth arrays: call after moving a body by hand (outside :meth:`advance`)."""
-        self._truth_at = -1
+        self._truth_at = self._lists_at = -1
 
     def truth_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Centres of every round body (robots, then the users), their radii and the robots'
@@ -142,6 +144,21 @@ class World:
         self._truth = read_truth(self.robots, self.users, self.cfg.user.radius_m, None if truth is None else truth[1])
         self._truth_at = steps
         return self._truth
+
+    def truth_lists(self) -> tuple[list, list, list]:
+        """:meth:`truth_arrays`' values as lists of Python floats (a centre as an ``(x, y)`` pair):
+        what an IR slot reads. From the arrays when they are current, else read straight from
+        Chipmunk without making them (a slot falls between physics steps, where nothing else reads
+        the truth)."""
+        steps = self.substeps.steps
+        if self._lists_at != steps or self._lists is None:
+            if self._truth_at == steps and self._truth is not None:
+                centers, radii, headings = self._truth
+                self._lists = (centers.tolist(), radii.tolist(), headings.tolist())
+            else:
+                self._lists = read_truth_lists(self.robots, self.users, self.cfg.user.radius_m)
+            self._lists_at = steps
+        return self._lists
 
     def robot_positions(self) -> np.ndarray:
         """(N, 2) true robot positions (read-only)."""

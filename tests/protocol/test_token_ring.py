@@ -388,3 +388,58 @@ def test_a_ring_of_seventeen_revisits_every_member_within_the_fix_freshness(seed
     fresh = fresh_measurements(before, ir_times(env))
     assert {tx for _, tx in fresh} == set(sw.master.know.members.values())
     assert sw.token_recoveries() == 0
+
+
+def test_the_master_last_heard_its_ring_at_the_latest_of_its_members_frames_or_its_start():
+    """``TokenRing.last_heard_s`` (the cut-off's clock): the latest time any member of the tables was
+    heard, a member never heard counting as never, and the ring's start when that is later; None
+    without a member."""
+    env = run_env(steps=5)
+    ring = env.episode.swarm.master.ring
+    peers = [n for n in ring.node.know.members.values() if n != ring.node.node_id]
+    assert len(peers) >= 2
+    heard = dict(ring.heard)
+    try:
+        ring.heard.clear()
+        ring.heard[peers[0]] = ring.started_s + 2.5
+        ring.heard[peers[1]] = ring.started_s + 4.0
+        assert ring.last_heard_s() == ring.started_s + 4.0
+        ring.heard.clear()  # nobody heard yet: the start counts
+        assert ring.last_heard_s() == ring.started_s
+        ring.heard[peers[0]] = ring.started_s - 1.0  # heard before the ring (re)started: the start counts
+        assert ring.last_heard_s() == ring.started_s
+    finally:
+        ring.heard.clear()
+        ring.heard.update(heard)
+    know, members = ring.node.know, ring.node.know.members
+    try:
+        ring.node.know.members = {0: ring.node.node_id}
+        assert ring.last_heard_s() is None
+    finally:
+        know.members = members
+
+
+def test_the_holders_neighbours_follow_its_table_and_member_number():
+    """The holder asks its neighbours for heading reports in the order of ``Formation.neighbours``
+    of its table and member number, whichever table it holds now (a new table, a new number)."""
+    from petswarm_env.middleware.formation import Formation, Link, formation_for_mode
+
+    env = run_env(steps=5)
+    sw = env.episode.swarm
+    holder = sw.nodes[sw.slave_ids()[0]]
+    asked = []
+    holder.transmit_ir = lambda neighbours: asked.append(list(neighbours)) or []
+
+    know = holder.know
+    members = {m: 100 + m for m in range(5)}
+    know.members = members
+    first = formation_for_mode(env.cfg.swarm, 5, "following")
+    second = Formation("line", {m: (Link(m - 1, (-0.5, 0.0)),) for m in range(1, 5)})  # a column: 3 between 2 and 4
+    assert first.neighbours(3) != second.neighbours(3) and first.neighbours(1) != first.neighbours(3)
+    for formation, member in [(first, 1), (first, 1), (first, 3), (second, 3), (first, 1)]:
+        holder.formation, know.member = formation, member
+        before = len(asked)
+        holder.ring.hold(holder.ring.token_seq + 1000)  # the slot's start; its IR end comes on the clock
+        env.episode.world.clock.run_until(env.episode.world.now + 0.2)
+        assert len(asked) == before + 1, "the slot reached its IR transmission"
+        assert asked[-1] == [members.get(m) for m in formation.neighbours(member)]

@@ -322,3 +322,21 @@ def test_measure_rows_is_the_readings_then_the_estimate_to_the_bit():
         assert [type(v) for v in got[2]] == [bool] * n and True in got[2]
         assert [[float(v).hex() for v in col] for col in got] == [[float(v).hex() for v in col] for col in want]
     assert optics.k == cfg.num_receivers
+
+
+def test_a_slots_noise_is_the_generators_next_normals_across_blocks():
+    """The IR channel draws its receivers' noise in blocks: every slot gets exactly what
+    ``rng.standard_normal((2, m, k))`` called for that slot gives, in order, across the block's
+    ends (a slot larger than a block too)."""
+    from petswarm_env.comms import ir_channel
+
+    cfg = load_config()
+    world = World(cfg, SCENARIOS["straight"].script(cfg.user, np.random.default_rng(0)))
+    channel = IRChannel(world, cfg.ir, np.random.default_rng(9))
+    want = np.random.default_rng(9)
+    k = cfg.ir.num_receivers
+    sizes = [4, 1, 9, 4] * 40 + [ir_channel._NOISE_BLOCK // k, 3]  # beyond two blocks; one slot larger than a block
+    for m in sizes:
+        z = channel._slot_noise(m, k)
+        assert z.shape == (2, m, k)
+        assert z.tobytes() == want.standard_normal((2, m, k)).tobytes()

@@ -102,6 +102,35 @@ def test_truth_arrays_follow_the_physics_and_are_read_only():
     assert world.robot_positions()[0].tolist() == [9.0, 9.0]
 
 
+def test_truth_lists_are_the_truth_arrays_values_read_either_way():
+    """``World.truth_lists`` (what an IR slot reads) gives the truth arrays' values as Python floats,
+    read straight from the bodies when the arrays are stale and from the arrays when they are
+    current; a new body and a body moved by hand (told) are seen."""
+    cfg = load_config()
+    world = World(cfg, SCENARIOS["straight"].script(cfg.user, np.random.default_rng(0)))
+    robot = world.add_robot((1.0, 2.0), 0.5)
+    world.add_robot((-0.3, 0.7), -2.0).set_command(0.4, -0.2, 0.8)
+    robot.set_command(1.0, 0.0, 1.0)
+
+    def as_arrays(lists):
+        return [[list(c) for c in lists[0]], list(lists[1]), list(lists[2])]
+
+    for steps in (3, 1, 2):
+        world.advance(steps)
+        direct = world.truth_lists()  # the arrays are stale: read from the bodies
+        centers, radii, headings = world.truth_arrays()
+        want = [centers.tolist(), radii.tolist(), headings.tolist()]
+        assert as_arrays(direct) == want and all(type(v) is float for v in direct[1] + direct[2])
+        world.advance(1)
+        world.truth_arrays()
+        assert as_arrays(world.truth_lists()) == [a.tolist() for a in world.truth_arrays()]  # from the current arrays
+    world.add_robot((3.0, -1.0), 1.0)
+    assert len(world.truth_lists()[0]) == 4 and world.truth_lists()[0][2] == (3.0, -1.0)
+    robot.body.position = (9.0, 9.0)
+    world.invalidate_truth()
+    assert tuple(world.truth_lists()[0][0]) == (9.0, 9.0)
+
+
 def _pushing_world():
     """A robot driving into another one at 1 m/s: contacts every substep."""
     cfg = load_config()

@@ -458,8 +458,12 @@ class UserSession:
         # from here on the clock of the robot whose tracker this is: the master's own (the belt and the
         # user above: physics); between a handover's takeover and its end, still the old master's
         now = self.tracker_node.clock.now
-        yaw = master.ahrs_yaw()
-        self.tracker.move(odometry, yaw, cfg.control_period_s)
+        if "ahrs" in master.diagnosis.failed:  # its own diagnosis found the AHRS broken: its wheels' ω turns the frame
+            self.tracker.move_without_ahrs(odometry, cfg.control_period_s)
+            yaw = self.tracker.pose[2]
+        else:
+            yaw = master.ahrs_yaw()
+            self.tracker.move(odometry, yaw, cfg.control_period_s)
         est = self.tracker.user_body(now)
         # emergency: the user is out of the reliable range (no fix) for too long (the link came up
         # at an event of the master's own BLE radio: it knows that moment on its own clock)

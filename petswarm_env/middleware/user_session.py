@@ -47,8 +47,8 @@ from petswarm_env.middleware.master_role import UserView, can_be_master, master_
 from petswarm_env.middleware.modes import measured_geometry
 from petswarm_env.middleware.station import mcu_clock
 from petswarm_env.middleware.succession import (APPROACH_SLACK_M, BLOCKED_S, PROGRESS_M, SEARCH_STAND_M, STALLED_MPS,
-                                                 in_place_to_resume, leading_walk_direction, own_user_estimate,
-                                                 resume_pace, search_step)
+                                                 expect_walk_on, in_place_to_resume, leading_walk_direction,
+                                                 own_user_estimate, resume_pace, search_step)
 from petswarm_env.middleware.swarm import Swarm
 from petswarm_env.sim.geometry import wrap_angle
 from petswarm_env.sim.user import User
@@ -514,16 +514,10 @@ class UserSession:
 
     def _walk_on(self) -> None:
         """After a handover for a broken part, the new master in place tells the belt that its user may
-        walk on (the end of the alert, chosen). A leading master knows its user walks toward it now, and at
-        what pace (``_resume_pace``: its own knowledge, :func:`~.succession.resume_pace`): its track starts
-        at that pace along its walking direction ψ, so it keeps its distance from the first step (seed 002
-        §3.4: it keeps pace with its user), instead of waiting a second for the belt's activity window and
-        the track while the user closes in on it, then out-running its slaves to regain its distance."""
+        walk on (the end of the alert, chosen); leading, it expects that walk (:func:`~.succession.expect_walk_on`)."""
         self.fault_pause_s, self.paused = None, False
         self.user.walking = True
-        psi = self.ctrl.walk_direction_rad
-        if self.state == "leading" and psi is not None and self._resume_pace > self.cfg.master.walk_speed_mps:
-            self.tracker.expect_walk(self._resume_pace, psi)
+        expect_walk_on(self.tracker, self.ctrl.walk_direction_rad, self._resume_pace, self.state == "leading", self.cfg)
 
     def _check_release(self, now: float) -> None:
         """The connected master cut off from its swarm (:meth:`~.sequence.SequenceManager.cut_off`:

@@ -139,12 +139,6 @@ class UserTracker:
         th: cython.double = self.pose[2]
         self.move(odometry, th + w * dt, dt)
 
-    def expect_walk(self, speed_mps: cython.double, walk_dir_rad: cython.double) -> None:
-        """The user is about to walk at ``speed_mps`` along ``walk_dir_rad`` (body frame): the track's
-        velocity starts there instead of at rest (its position stays); the next fixes correct it."""
-        a: cython.double = self.pose[2] + walk_dir_rad
-        self.vel = [speed_mps * _c_cos(a), speed_mps * _c_sin(a)]
-
     def fix(self, body_xy, t: cython.double, weight: cython.double = 1.0) -> None:
         """Take an LF fix (body frame) made at ``t``; ``weight`` < 1 trusts a noisier fix less."""
         x: cython.double

@@ -217,25 +217,6 @@ def in_place_to_resume(tracker, psi: float | None, now: float, fault_pause_s: fl
     return abs(off) <= lim and r >= target_m - RESUME_SLACK_M and settled
 
 
-def resume_pace(node: Station) -> float:
-    """The pace at which a new master expects its user to walk on after the stop of a handover for a
-    broken part: the speed of the old master in its last status broadcast (its own velocity, seed 000 §3.5:
-    the status carries it), which kept pace with its walking user (seed 002 §3.4, ACC); 0 without one."""
-    status = node.know.status
-    return math.hypot(status.velocity[0], status.velocity[1]) if status is not None else 0.0
-
-
-def expect_walk_on(tracker, psi: float | None, pace_mps: float, leading: bool, cfg) -> None:
-    """A leading new master that tells its user to walk on after a handover for a broken part knows the
-    user walks toward it now, at about ``pace_mps`` (:func:`resume_pace`): its track (``tracker``) starts at
-    that pace along its walking direction ``psi``, so it keeps its distance from the first step (seed 002
-    §3.4: it keeps pace with its user), instead of waiting a second for the belt's activity window and the
-    track while the user closes in on it, then out-running its slaves to regain its distance. Nothing in
-    following mode (the user walks away from the master) or at a pace below ``master.walk_speed_mps``."""
-    if leading and psi is not None and pace_mps > cfg.master.walk_speed_mps:
-        tracker.expect_walk(pace_mps, psi)
-
-
 def leading_walk_direction(node: Station, master: int) -> float:
     """The way a leading master's user walks, in this robot's body frame: the master drives backwards
     along its user's walking direction, facing them (seed 002 §3.4), so the user walks where the

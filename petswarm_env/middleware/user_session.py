@@ -47,8 +47,8 @@ from petswarm_env.middleware.master_role import UserView, can_be_master, master_
 from petswarm_env.middleware.modes import measured_geometry
 from petswarm_env.middleware.station import mcu_clock
 from petswarm_env.middleware.succession import (APPROACH_SLACK_M, BLOCKED_S, PROGRESS_M, SEARCH_STAND_M, STALLED_MPS,
-                                                 expect_walk_on, in_place_to_resume, leading_walk_direction,
-                                                 own_user_estimate, resume_pace, search_step)
+                                                 in_place_to_resume, leading_walk_direction, own_user_estimate,
+                                                 search_step)
 from petswarm_env.middleware.swarm import Swarm
 from petswarm_env.sim.geometry import wrap_angle
 from petswarm_env.sim.user import User
@@ -95,7 +95,6 @@ class UserSession:
         self._gestures: list[str] = []  # gestures the user is about to perform, one stroke at a time
         self._watch_free_s = -math.inf
         self._guess_only = False  # the tracker holds only a new master's own guess of its user, no LF fix yet
-        self._resume_pace = 0.0  # the pace a new master expects its user to walk on at after that stop (succession.resume_pace)
         self.fault_pause_s: float | None = None  # the user stopped at a master's handover for a broken part, since
         self.paused = False  # the user stopped after losing their master (the belt's alert), until paired with an organized swarm
         self.link_ack_s = -math.inf  # the belt last heard the connected robot's BLE link layer
@@ -443,7 +442,8 @@ class UserSession:
         user = self.user
         self._check_release(now)
         if self.fault_pause_s is not None and self._in_place_to_resume(odometry):
-            self._walk_on()  # the new master located the user by its own LF fix, near enough: they walk on
+            self.fault_pause_s, self.paused = None, False
+            user.walking = True  # the new master located the user by its own LF fix, near enough: they walk on
         if self.paused and self.fault_pause_s is None and self.swarm.organized and self.state in ("following", "leading"):
             self.paused = False
             user.walking = True  # paired again with an organized swarm: the user walks on
@@ -512,13 +512,6 @@ class UserSession:
                                   self.fault_pause_s, self.target_distance_m(), self.state == "leading", self.cfg,
                                   odometry)
 
-    def _walk_on(self) -> None:
-        """After a handover for a broken part, the new master in place tells the belt that its user may
-        walk on (the end of the alert, chosen); leading, it expects that walk (:func:`~.succession.expect_walk_on`)."""
-        self.fault_pause_s, self.paused = None, False
-        self.user.walking = True
-        expect_walk_on(self.tracker, self.ctrl.walk_direction_rad, self._resume_pace, self.state == "leading", self.cfg)
-
     def _check_release(self, now: float) -> None:
         """The connected master cut off from its swarm (:meth:`~.sequence.SequenceManager.cut_off`:
         no ring frame of any member for ``protocol.status_timeout_s``) alerts the belt over BLE and
@@ -578,7 +571,6 @@ class UserSession:
         handovers = self.swarm.fault_handovers
         for_fault = bool(handovers) and handovers[-1][1] == old.node_id and handovers[-1][2] == new.node_id
         est = own_user_estimate(new, now, old.node_id)
-        self._resume_pace = resume_pace(new)
         if est is not None:
             self.tracker.fix(est, now)
             self._guess_only = True

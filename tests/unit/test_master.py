@@ -209,17 +209,3 @@ def test_a_robot_without_its_ahrs_turns_its_odometry_frame_by_its_wheels():
         pos, _ = tracker.user_body(0.0)
         expect = (1.0, 0.0) if frozen else (0.0, -1.0)
         assert pos == pytest.approx(expect, abs=1e-9)
-
-
-def test_a_tracker_told_of_a_walk_starts_at_its_pace_and_keeps_its_place():
-    """``UserTracker.expect_walk``: the track's velocity starts at the given pace along the given body-frame
-    direction, turned into the odometry frame by the robot's heading; its position stays."""
-    tracker = UserTracker(CFG.master.tracker_alpha, CFG.master.tracker_beta)
-    tracker.reset(0.7)
-    tracker.fix((1.6, 0.1), 0.0)
-    before, _ = tracker.user_body(0.0)
-    tracker.expect_walk(1.0, math.pi)  # the user walks toward the robot (leading: it faces them)
-    pos, vel = tracker.user_body(0.0)
-    assert pos == pytest.approx(before, abs=1e-12)
-    assert vel == pytest.approx((-1.0, 0.0), abs=1e-12)
-    assert tracker.user_body(0.5)[0] == pytest.approx((1.1, 0.1), abs=1e-12)

@@ -578,7 +578,7 @@ class UserSession:
                 # the way its user walks, from its own estimate of the old master's heading (seed 002 §3.4:
                 # the leading master drives backwards along it; not at a mode change, where the old master
                 # drove in the other mode): without it the controller guessed that the user faces the new
-                # master (seed 000 Table 3 leading: the highest level, often beside the user), turned the
+                # master (seed 000 Table 3 leading: the highest level, at its takeover still off straight ahead), turned the
                 # robot up to 80° off the walk, and, facing its user diagonally, its mecanum wheels could
                 # barely out-pace them to regain its place ahead
                 self.ctrl.know_walk_direction(leading_walk_direction(new, old.node_id))

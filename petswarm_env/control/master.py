@@ -131,6 +131,14 @@ class UserTracker:
         pose[1] = y + (s * vx + c * vy) * dt
         pose[2] = yaw
 
+    def move_without_ahrs(self, odometry, dt: cython.double) -> None:
+        """:meth:`move` for a robot that found its AHRS broken (middleware/diagnosis.py): its heading
+        dead-reckoned from its wheel odometry's ω (seed 001's mecanum odometry; a frozen AHRS would
+        leave the odometry frame unturned while the robot turns, and the user's track with it)."""
+        w: cython.double = odometry[2]
+        th: cython.double = self.pose[2]
+        self.move(odometry, th + w * dt, dt)
+
     def fix(self, body_xy, t: cython.double, weight: cython.double = 1.0) -> None:
         """Take an LF fix (body frame) made at ``t``; ``weight`` < 1 trusts a noisier fix less."""
         x: cython.double

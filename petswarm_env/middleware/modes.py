@@ -79,6 +79,11 @@ class SwarmGeometry:
         x, y = self.positions[member]
         return math.hypot(x - self.user_xy[0], y - self.user_xy[1])
 
+    def ahead_of_user(self, member: int) -> float:
+        """How far ``member`` stands ahead of the user along a leading master's walk: the master faces its
+        user and drives backwards along the walk (seed 002 §3.4), so the walk is its own −x."""
+        return self.user_xy[0] - self.positions[member][0]
+
 
 def measured_geometry(formation: Formation, know: Knowledge, yaw_rad: float, now_s: float,
                       user_xy: tuple[float, float] | None, user_distance_m: float) -> SwarmGeometry:
@@ -143,7 +148,8 @@ def plan_master_handover(formation: Formation, members: dict[int, int], mode: st
                          lf_members: frozenset[int] | None = None) -> ModeChangePlan | None:
     """A master that can no longer do its job (its IR module broke: its slaves lose their fix of it,
     middleware/diagnosis.py) hands its user over by Table 3's rule for the mode it drives — following:
-    the robot closest to the user, leading: the farthest (the highest hierarchical level) — among the
+    the robot closest to the user, leading: the highest hierarchical level, the farthest ahead of the user
+    along the walk (:meth:`SwarmGeometry.ahead_of_user`: the levels of Fig. 10) — among the
     others that may be master (``lf_members``), from what it knows (``geometry``: with its IR broken its
     members stand at their slots, :func:`measured_geometry`). As Table 3's master change, the references
     are kept (the table re-rooted at the new master); the old master is a slave at the new master's old
@@ -154,9 +160,12 @@ def plan_master_handover(formation: Formation, members: dict[int, int], mode: st
     able = [m for m in range(1, formation.size) if m in members and (lf_members is None or members[m] in lf_members)]
     if not able:
         return None
-    distance = geometry.user_distance
-    sign = 1.0 if mode == "following" else -1.0  # following: the closest; leading: the farthest
-    new_root = min(able, key=lambda m: (sign * round(distance(m), 9), m))
+    # following: the closest; leading: the farthest ahead along the walk (Fig. 10's levels run along the leading
+    # layout; by distance alone a robot beside its user could be "farthest" and must first swing round them)
+    if mode == "following":
+        new_root = min(able, key=lambda m: (round(geometry.user_distance(m), 9), m))
+    else:
+        new_root = min(able, key=lambda m: (-round(geometry.ahead_of_user(m), 9), m))
     new_formation, renumber = formation.rerooted(new_root)
     new_members = {renumber[m]: node for m, node in members.items()}
     return ModeChangePlan(mode, dict(sorted(new_members.items())), new_formation, True, False)

@@ -458,8 +458,12 @@ class UserSession:
         # from here on the clock of the robot whose tracker this is: the master's own (the belt and the
         # user above: physics); between a handover's takeover and its end, still the old master's
         now = self.tracker_node.clock.now
-        yaw = master.ahrs_yaw()
-        self.tracker.move(odometry, yaw, cfg.control_period_s)
+        if "ahrs" in master.diagnosis.failed:  # its own diagnosis found the AHRS broken: its wheels' ω turns the frame
+            self.tracker.move_without_ahrs(odometry, cfg.control_period_s)
+            yaw = self.tracker.pose[2]
+        else:
+            yaw = master.ahrs_yaw()
+            self.tracker.move(odometry, yaw, cfg.control_period_s)
         est = self.tracker.user_body(now)
         # emergency: the user is out of the reliable range (no fix) for too long (the link came up
         # at an event of the master's own BLE radio: it knows that moment on its own clock)
@@ -574,7 +578,7 @@ class UserSession:
                 # the way its user walks, from its own estimate of the old master's heading (seed 002 §3.4:
                 # the leading master drives backwards along it; not at a mode change, where the old master
                 # drove in the other mode): without it the controller guessed that the user faces the new
-                # master (seed 000 Table 3 leading: the highest level, often beside the user), turned the
+                # master (seed 000 Table 3 leading: the highest level, at its takeover still off straight ahead), turned the
                 # robot up to 80° off the walk, and, facing its user diagonally, its mecanum wheels could
                 # barely out-pace them to regain its place ahead
                 self.ctrl.know_walk_direction(leading_walk_direction(new, old.node_id))

@@ -4,6 +4,8 @@ to the holder each receiver heard announced (middleware/fleet.py)."""
 
 from __future__ import annotations
 
+import math
+
 import pytest
 
 import petswarm_env
@@ -226,6 +228,57 @@ def test_a_master_whose_ultrasonic_or_ahrs_breaks_finds_it_and_keeps_its_user(ki
     assert r["handovers"] == [] and r["master_after"] == 0 and not r["bid_request"] and r["other_detections"] == []
     assert r["session_state"] == "following" and r["user_distance_end_m"] <= sensor_faults.USER_FOLLOWED_M
     assert r["reformed"]
+
+
+def test_a_master_whose_ahrs_breaks_tracks_its_user_by_its_wheels_through_the_turns():
+    """A master's AHRS freezes on a zigzag walk (seed 101): once its own diagnosis found it broken, its user
+    tracker turns its odometry frame by the wheel odometry's ω (``UserTracker.move_without_ahrs``). Before,
+    the frozen reading left the frame unturned at every turn of the walk; the track put the user 17 m off
+    (95th percentile) and the master lost its user (emergency, 10.7 m away at the end)."""
+    from petswarm.experiments import sensor_faults
+
+    off: list[float] = []
+
+    def watch(env):
+        ep = env.episode
+        session = ep.sessions[0]
+        node = session.tracker_node
+        est = session.tracker.user_body(node.clock.now)
+        if est is None or "ahrs" not in node.diagnosis.failed:
+            return
+        robot, user = ep.world.robots[node.node_id], ep.world.users[0]
+        dx, dy = user.body.position[0] - robot.position[0], user.body.position[1] - robot.position[1]
+        c, s = math.cos(robot.heading), math.sin(robot.heading)
+        off.append(math.hypot(est[0][0] - (c * dx + s * dy), est[0][1] - (-s * dx + c * dy)))
+
+    r = sensor_faults.run("ahrs", 101, target="master", overrides={"user.scenario": "zigzag"}, on_step=watch)
+    assert r["handovers"] == [] and len(off) > 100
+    assert max(off) < 1.0, f"the master's track put its user {max(off):.1f} m off"
+    assert r["session_state"] == "following" and r["user_distance_end_m"] <= sensor_faults.USER_FOLLOWED_M
+
+
+@pytest.mark.parametrize("seed", [113, 118])
+def test_a_leading_master_hands_its_user_to_the_robot_farthest_ahead_along_the_walk(seed):
+    """Leading, the master's IR breaks: Table 3's "highest hierarchical level" is read along the leading layout
+    (seed 000 Fig. 10: the levels run from the user forward), the robot farthest ahead of the user along the walk
+    by the master's own view (``modes.SwarmGeometry.ahead_of_user``). By distance alone the farthest robot was one
+    beside the user (seeds 113 and 118: 85° and 82° from the walk), which had to swing round its user to its place
+    ahead while its slaves re-formed on it: 4.7 m and 1.0 m off 10 s after the detection."""
+    from petswarm.experiments import sensor_faults
+
+    seen: dict[str, float] = {}
+
+    def watch(env):
+        ep = env.episode
+        swarm, user = ep.swarms[0], ep.world.users[0]
+        if swarm.fault_handovers and "angle" not in seen:
+            robot = ep.world.robots[swarm.fault_handovers[0][2]]
+            bearing = math.atan2(robot.position[1] - user.body.position[1], robot.position[0] - user.body.position[0])
+            seen["angle"] = abs(math.degrees(math.remainder(bearing - user.heading, 2.0 * math.pi)))
+
+    r = sensor_faults.run("ir", seed, target="master", overrides={"swarm.mode": "leading"}, on_step=watch)
+    assert r["master_after"] != 0 and seen["angle"] < 45.0, f"the new master stood {seen['angle']:.0f}° from the walk"
+    assert r["reformed"] and r["session_state"] == "leading"
 
 
 @pytest.mark.parametrize("seed", [104, 114])

@@ -189,3 +189,23 @@ def test_a_tracker_reset_counts_from_the_robots_own_ahrs_reading():
         tracker.move((0.0, 0.0, 0.0), yaw, 0.1)
         pos, _ = tracker.user_body(0.0)
         assert pos == pytest.approx((1.0, 0.3), abs=1e-12)
+
+
+def test_a_robot_without_its_ahrs_turns_its_odometry_frame_by_its_wheels():
+    """A master that found its AHRS broken (a frozen reading) dead-reckons its heading from its wheel
+    odometry's ω (:meth:`UserTracker.move_without_ahrs`): turning on the spot by 90° in front of a standing
+    user, it puts them where they are (to its right); fed the frozen reading, the frame stays unturned and
+    the user turns with the robot (still straight ahead)."""
+    dt, w = 0.1, math.pi / 2 / 10
+    for frozen in (False, True):
+        tracker = UserTracker(CFG.master.tracker_alpha, CFG.master.tracker_beta)
+        tracker.reset(0.4)
+        tracker.fix((1.0, 0.0), 0.0)
+        for _ in range(10):  # 90° counter-clockwise in 1 s
+            if frozen:
+                tracker.move((0.0, 0.0, w / dt), 0.4, dt)
+            else:
+                tracker.move_without_ahrs((0.0, 0.0, w / dt), dt)
+        pos, _ = tracker.user_body(0.0)
+        expect = (1.0, 0.0) if frozen else (0.0, -1.0)
+        assert pos == pytest.approx(expect, abs=1e-9)

@@ -438,7 +438,7 @@ class RecoveryManager:
         members = {int(m): n for m, n in p["members"].items()}
         if node.node_id not in members.values():  # removed: not a member any more
             if self._asked_out:
-                self._plan_clear_out()
+                self._plan_clear_out(members, Formation.from_links_payload(p["shape"], p["links"]))
             self._asked_out = self._was_master = False
             self._leave()
             return
@@ -449,7 +449,7 @@ class RecoveryManager:
         know.mode = p["mode"]
         node.formation = Formation.from_links_payload(p["shape"], p["links"])
 
-    def _plan_clear_out(self) -> None:
+    def _plan_clear_out(self, members: dict[int, int] | None = None, formation: Formation | None = None) -> None:
         """The robot leaves its slot for its own fault (seed 003 Algorithm 2 step 5: "the faulty robot
         leaves"): it drives out of the formation, sideways in its own frame, away from the formation's
         axis (its slot's side; the left for a slot on the axis), until it stands beyond the formation's
@@ -462,7 +462,13 @@ class RecoveryManager:
         it, which the walking formation drives into; one that keeps the swarm's pace all the way holds
         a fixed direction while the swarm may turn — on a zigzag walk it cut across the formation or
         stopped beside it where the next turn brought the swarm onto it). The command is its
-        middleware's (:meth:`leaving_command`); it needs no sensor that may have failed: the wheels alone."""
+        middleware's (:meth:`leaving_command`); it needs no sensor that may have failed: the wheels alone.
+
+        A robot in nobody's way stops where it stands instead (:meth:`in_the_way`, on ``members`` and
+        ``formation``, the tables of the member update that removed it): the swarm walks on away from it
+        (chosen: the rear robot of a wedge's arm, moving out at the swarm's pace while the swarm turned
+        toward its side, was carried ahead into the lane of the front robot of its arm, which then ran
+        into it as it stood — slave faults on the zigzag walk; docs/faults.md)."""
         node = self.node
         if node.formation is None:
             return
@@ -470,17 +476,45 @@ class RecoveryManager:
         member = node.know.member
         if not 0 < member < len(pos):
             return
+        status = node.know.status  # the master's pace; a master that handed its user over and heard none yet: its own
+        vx = float(status.velocity[0]) if status is not None else float(node.odometry.read()[0])
         lateral = float(pos[member][1])
         side = 1.0 if lateral >= 0 else -1.0
+        if members is not None and formation is not None and not self._was_master \
+                and not self.in_the_way(members, formation, 1.0 if vx >= 0 else -1.0):
+            self.clear_out = (node.clock.now, 0.0, side * CLEAR_SPEED_MPS, 0.0)  # (0, 0, 0) at the next step
+            self._cleared = (node.clock.now, 0.0)
+            return
         outermost = max((float(p[1]) * side for p in pos), default=0.0)
         clear_m = outermost - lateral * side + 2.0 * node.cfg.robot.radius_m  # beside the outermost slot's robot
         out_m = clear_m + CLEAR_MARGIN_M
         self.pace_until_m = clear_m + CLEAR_LANE_GAP_M
-        status = node.know.status  # the master's pace; a master that handed its user over and heard none yet: its own
-        vx = float(status.velocity[0]) if status is not None else float(node.odometry.read()[0])
         ahead = 0.0 if self._was_master else math.copysign(CLEAR_AHEAD_MPS, vx)  # ahead the way the swarm walks
         self.clear_out = (node.clock.now, vx + ahead, side * CLEAR_SPEED_MPS, out_m)
         self._cleared = (node.clock.now, 0.0)
+
+    def in_the_way(self, members: dict[int, int], formation: Formation, walk: float) -> bool:
+        """Whether this robot, standing at the slot it held, is in a remaining member's way: within its
+        diameter and :data:`CLEAR_LANE_GAP_M` of the straight move of a member from the slot it held to the
+        slot ``formation`` gives it (``members``: member number -> node id, of the member update), or of
+        the lane of a new slot behind it the way the swarm walks (``walk``, +1 or -1 along the formation's
+        x: such a member walks into a robot that stands). In the formation's frame, from the tables the
+        master sent (seed 000 Fig. 8: the member and neighbour tables); no sensor is read."""
+        node = self.node
+        old = node.formation.slot_positions()
+        new = formation.slot_positions()
+        me = old[node.know.member]
+        near = 2.0 * node.cfg.robot.radius_m + CLEAR_LANE_GAP_M
+        held = {n: m for m, n in node.know.members.items()}
+        for m, n in members.items():
+            if m == 0 or m >= len(new):
+                continue
+            if (float(new[m][0]) - me[0]) * walk < 0 and abs(float(new[m][1]) - me[1]) < near:
+                return True  # its lane passes here
+            a = held.get(n)
+            if a is not None and a < len(old) and _segment_distance(me, old[a], new[m]) < near:
+                return True  # it moves through here
+        return False
 
     def leaving_command(self, now_s: float | None = None) -> tuple[float, float, float] | None:
         """The body-frame command of the move out of the formation (:meth:`_plan_clear_out`) until its
@@ -527,6 +561,15 @@ CLEAR_MARGIN_M = 1.5
 # into it there (slave faults, seeds 200-219: zigzag re-formed 19/18/18 of 20, before 17/16/16; straight 20/20/19,
 # before 19/20/20 — calibrated on those seeds, and noisy: 0.6 m read 19/16/13 on the zigzag)
 CLEAR_LANE_GAP_M = 0.4
+
+
+def _segment_distance(p, a, b) -> float:
+    """The distance from point ``p`` to the segment from ``a`` to ``b`` (2-D)."""
+    ax, ay, bx, by = float(a[0]), float(a[1]), float(b[0]), float(b[1])
+    dx, dy = bx - ax, by - ay
+    n2 = dx * dx + dy * dy
+    t = 0.0 if n2 == 0.0 else min(1.0, max(0.0, ((float(p[0]) - ax) * dx + (float(p[1]) - ay) * dy) / n2))
+    return math.hypot(float(p[0]) - ax - t * dx, float(p[1]) - ay - t * dy)
 
 
 def least_total(cost: list[list[float]]) -> list[int]:

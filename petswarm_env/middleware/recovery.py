@@ -243,7 +243,8 @@ class RecoveryManager:
         places a member, in its own frame (the formation frame: x along its heading): where its IR
         fix puts it when the fix is fresh (:data:`~.knowledge.FRESH_IR_S`); else at the slot it
         holds (it drives there) unless the RSSI range of its latest ring frame disagrees with that
-        slot's distance by more than :data:`OFF_SLOT_M` — then r from the master, bearing unknown
+        slot's distance by more than :data:`OFF_SLOT_M` — then on that slot's bearing at the RSSI range r;
+        a member holding no slot of the table, at r with the bearing unknown
         (:func:`~.assignment.slot_distance`). Equal totals keep the robots in member order."""
         return self._least_move(members, formation)[1]
 
@@ -266,7 +267,12 @@ class RecoveryManager:
             if fix is not None and now - fix.time_s <= FRESH_IR_S:
                 at = fix.position_now(yaw)
             elif at is not None and math.isfinite(r) and abs(r - math.hypot(*at)) > OFF_SLOT_M:
-                at = None  # not at its slot by the RSSI
+                # not at its slot by the RSSI: on its slot's bearing (where it steers) at the RSSI range (chosen:
+                # with the bearing unknown, sqrt(r² + a²) grows with the slot's distance a whatever r says, so a
+                # member the RSSI put beyond its rear slot was sent to a front slot, swapping places with the
+                # member there — 2 m of moves where none was needed; leading AHRS faults, seeds 200-219)
+                a = math.hypot(*at)
+                at = (at[0] * r / a, at[1] * r / a) if a > 0 else None
             if at is not None:
                 cost.append([math.hypot(at[0] - sx, at[1] - sy) for sx, sy in slots])
             elif math.isfinite(r):

@@ -72,3 +72,15 @@ def test_a_loss_the_standard_table_serves_as_well_keeps_it():
     standard = formation_for_mode(CFG.swarm, 4, "following")
     table, formation, mirrored = rm.removal_plan(remaining, standard)
     assert not mirrored and formation is standard and table == {0: 0, 1: 11, 2: 12, 3: 13}
+
+
+def test_a_member_the_rssi_puts_beyond_its_slot_stays_on_its_slots_bearing():
+    """Robot 13 (rear slot, left) has no fresh fix and its RSSI range reads 2.9 m (its slot is 2.0 m away):
+    placed on its slot's bearing at that range it is nearest its own slot. With the bearing unknown
+    (sqrt(r² + a²), growing with the slot's distance a whatever r says) it was sent to the front slot and
+    robot 11, standing between the two, to the rear: both moved 1 m where neither needed to (leading AHRS
+    fault, seed 210)."""
+    members = {0: 0, 1: 11, 2: 12, 3: 13, 4: 14}
+    rm = _manager(members, {11: (-1.25, 0.72), 12: (-0.87, -0.5)}, ranges={13: 2.9})
+    remaining = {m: n for m, n in members.items() if n != 14}
+    assert rm.nearest_slots(remaining, formation_for_mode(CFG.swarm, 4, "following")) == {0: 0, 1: 11, 2: 12, 3: 13}

@@ -279,7 +279,10 @@ class RecoveryManager:
                 cost.append([assignment.slot_distance(r, math.hypot(sx, sy)) for sx, sy in slots])
             else:
                 cost.append([0.0] * len(slots))  # nothing known: any slot
-        order = least_total(cost)
+        # among equal totals, the one with the shortest longest moves (each distance d counts d + TIE_SQUARE·d²):
+        # on a line — a column, or any robots all beyond their slots — every assignment moves the same total, and
+        # the order of the robots along it is the one with no robot passing another
+        order = least_total([[d + TIE_SQUARE * d * d for d in row] for row in cost])
         out = {0: members[0]}
         for i, n in enumerate(slaves):
             out[order[i] + 1] = n
@@ -550,6 +553,11 @@ class RecoveryManager:
 # antennas locate its user, seed 002 §3.2-3.4, and the slaves see its IR; handing over measured worse: re-formed
 # 18/20 and the user lost in 3 of 40 runs, against 19/20 and none kept — docs/faults.md)
 MASTER_NEEDS = frozenset({"ir"})
+# chosen: the weight of the squared distances that breaks ties between equal total moves (:meth:`RecoveryManager.
+# _least_move`): 1 mm per m² — below the IR's and the RSSI's resolution, so it never outweighs a measured difference
+# (a column that lost its second member sent its tail robot through the third to the open slot: the same total;
+# it stopped against the third, and both lost the IR's reach of the robots ahead — column, seed 1)
+TIE_SQUARE = 1e-3
 CLEAR_SPEED_MPS = 0.5  # chosen: the sideways speed of a faulty robot leaving the formation (a third of the top speed)
 CLEAR_TIMEOUT = 3.0  # chosen: the move out gives up after three times its time at the commanded speed (a robot held by a contact)
 # chosen: a slave also drives ahead of the swarm's pace, out of the way of the member behind it that moves up

@@ -380,6 +380,9 @@ class RecoveryManager:
         if frame.dst != node.node_id or node.state != "master":
             return
         node.send(msg.BID_REQUEST_ACK, dst=frame.src, seq=frame.payload["seq"])
+        diagnosis = getattr(node, "diagnosis", None)
+        if diagnosis is not None and not frame.payload["sensors"] & assignment.SENSOR_BITS["IR"]:
+            diagnosis.neighbour_ir_broken()  # the misses of our own IR checks so far are its module's doing
         if frame.src in node.know.members.values():
             self.member_lost(frame.src)
 

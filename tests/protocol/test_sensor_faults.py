@@ -311,3 +311,16 @@ def test_a_new_master_searching_among_bodies_keeps_its_ir_and_a_dead_robot_diagn
     found = [(i, part) for i, n in ep.fleet.nodes.items() for _, part in n.diagnosis.detected]
     assert found == [], f"found broken, with no sensor fault: {found}"
     assert ep.swarms[0].fault_handovers == []
+
+
+def test_a_column_master_whose_only_near_neighbours_ir_breaks_keeps_its_own_module_and_role():
+    """Column, seed 14: the IR module of member 1, the master's one neighbour within IR_EXPECT_RANGE_M, breaks.
+    The master's own slot and that member's slot give no fix or report — two holders, enough for the master
+    to find its own (working) module broken, and it handed its user over. The member's bid request lists
+    the sensors that work: its IR missing explains the misses, and the master's streak starts over."""
+    from petswarm.experiments import sensor_faults
+
+    r = sensor_faults.run("ir", 14, overrides={"swarm.formation": "column"})
+    assert r["robot"] == 1 and r["detection_s"] is not None and r["bid_request"]
+    assert r["other_detections"] == [] and r["handovers"] == [], (r["other_detections"], r["handovers"])
+    assert r["reformed"], f"largest live-slave error {r['largest_error_m']:.2f} m 10 s after the detection"

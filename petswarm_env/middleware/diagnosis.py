@@ -248,6 +248,16 @@ class Diagnosis:
             elif ranges_m.get(src, math.inf) <= IR_EXPECT_RANGE_M and src in know.members.values():
                 self._ir_missed(now_s, src)
 
+    def neighbour_ir_broken(self) -> None:
+        """A neighbour reported its own IR module broken (its bid request lists the sensors that work,
+        seed 003 Algorithm 2 step 5): the misses counted so far are explained by its module, not ours, and
+        the streak starts over (chosen: a column's master has one neighbour within
+        :data:`IR_EXPECT_RANGE_M`, its first member; when that member's IR broke, the master's own slot
+        and the member's slot gave no fix or report — two holders, enough — and it found its own working
+        module broken and handed its user over: column, IR fault on a slave, seeds 8, 14, 16 of 0-19)."""
+        self._ir_miss = 0
+        self._ir_missed_from.clear()
+
     @cython.cfunc
     def _ir_hit(self) -> cython.void:
         self._ir_miss = 0

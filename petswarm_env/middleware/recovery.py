@@ -55,6 +55,7 @@ from petswarm_env.middleware import messages as msg
 from petswarm_env.middleware.formation import Formation, formation_for_mode
 from petswarm_env.middleware.knowledge import FRESH_IR_S
 from petswarm_env.middleware.join import JoinManager, OrganizeResult
+from petswarm_env.middleware.matching import least_total
 from petswarm_env.middleware.station import Station
 
 
@@ -243,7 +244,8 @@ class RecoveryManager:
         places a member, in its own frame (the formation frame: x along its heading): where its IR
         fix puts it when the fix is fresh (:data:`~.knowledge.FRESH_IR_S`); else at the slot it
         holds (it drives there) unless the RSSI range of its latest ring frame disagrees with that
-        slot's distance by more than :data:`OFF_SLOT_M` — then r from the master, bearing unknown
+        slot's distance by more than :data:`OFF_SLOT_M` — then on that slot's bearing at the RSSI range r;
+        a member holding no slot of the table, at r with the bearing unknown
         (:func:`~.assignment.slot_distance`). Equal totals keep the robots in member order."""
         return self._least_move(members, formation)[1]
 
@@ -266,14 +268,22 @@ class RecoveryManager:
             if fix is not None and now - fix.time_s <= FRESH_IR_S:
                 at = fix.position_now(yaw)
             elif at is not None and math.isfinite(r) and abs(r - math.hypot(*at)) > OFF_SLOT_M:
-                at = None  # not at its slot by the RSSI
+                # not at its slot by the RSSI: on its slot's bearing (where it steers) at the RSSI range (chosen:
+                # with the bearing unknown, sqrt(r² + a²) grows with the slot's distance a whatever r says, so a
+                # member the RSSI put beyond its rear slot was sent to a front slot, swapping places with the
+                # member there — 2 m of moves where none was needed; leading AHRS faults, seeds 200-219)
+                a = math.hypot(*at)
+                at = (at[0] * r / a, at[1] * r / a) if a > 0 else None
             if at is not None:
                 cost.append([math.hypot(at[0] - sx, at[1] - sy) for sx, sy in slots])
             elif math.isfinite(r):
                 cost.append([assignment.slot_distance(r, math.hypot(sx, sy)) for sx, sy in slots])
             else:
                 cost.append([0.0] * len(slots))  # nothing known: any slot
-        order = least_total(cost)
+        # among equal totals, the one with the shortest longest moves (each distance d counts d + TIE_SQUARE·d²):
+        # on a line — a column, or any robots all beyond their slots — every assignment moves the same total, and
+        # the order of the robots along it is the one with no robot passing another
+        order = least_total([[d + TIE_SQUARE * d * d for d in row] for row in cost])
         out = {0: members[0]}
         for i, n in enumerate(slaves):
             out[order[i] + 1] = n
@@ -371,6 +381,9 @@ class RecoveryManager:
         if frame.dst != node.node_id or node.state != "master":
             return
         node.send(msg.BID_REQUEST_ACK, dst=frame.src, seq=frame.payload["seq"])
+        diagnosis = getattr(node, "diagnosis", None)
+        if diagnosis is not None and not frame.payload["sensors"] & assignment.SENSOR_BITS["IR"]:
+            diagnosis.neighbour_ir_broken()  # the misses of our own IR checks so far are its module's doing
         if frame.src in node.know.members.values():
             self.member_lost(frame.src)
 
@@ -438,7 +451,7 @@ class RecoveryManager:
         members = {int(m): n for m, n in p["members"].items()}
         if node.node_id not in members.values():  # removed: not a member any more
             if self._asked_out:
-                self._plan_clear_out()
+                self._plan_clear_out(members, Formation.from_links_payload(p["shape"], p["links"]))
             self._asked_out = self._was_master = False
             self._leave()
             return
@@ -449,7 +462,7 @@ class RecoveryManager:
         know.mode = p["mode"]
         node.formation = Formation.from_links_payload(p["shape"], p["links"])
 
-    def _plan_clear_out(self) -> None:
+    def _plan_clear_out(self, members: dict[int, int] | None = None, formation: Formation | None = None) -> None:
         """The robot leaves its slot for its own fault (seed 003 Algorithm 2 step 5: "the faulty robot
         leaves"): it drives out of the formation, sideways in its own frame, away from the formation's
         axis (its slot's side; the left for a slot on the axis), until it stands beyond the formation's
@@ -462,7 +475,13 @@ class RecoveryManager:
         it, which the walking formation drives into; one that keeps the swarm's pace all the way holds
         a fixed direction while the swarm may turn — on a zigzag walk it cut across the formation or
         stopped beside it where the next turn brought the swarm onto it). The command is its
-        middleware's (:meth:`leaving_command`); it needs no sensor that may have failed: the wheels alone."""
+        middleware's (:meth:`leaving_command`); it needs no sensor that may have failed: the wheels alone.
+
+        A robot in nobody's way stops where it stands instead (:meth:`in_the_way`, on ``members`` and
+        ``formation``, the tables of the member update that removed it): the swarm walks on away from it
+        (chosen: the rear robot of a wedge's arm, moving out at the swarm's pace while the swarm turned
+        toward its side, was carried ahead into the lane of the front robot of its arm, which then ran
+        into it as it stood — slave faults on the zigzag walk; docs/faults.md)."""
         node = self.node
         if node.formation is None:
             return
@@ -470,17 +489,45 @@ class RecoveryManager:
         member = node.know.member
         if not 0 < member < len(pos):
             return
+        status = node.know.status  # the master's pace; a master that handed its user over and heard none yet: its own
+        vx = float(status.velocity[0]) if status is not None else float(node.odometry.read()[0])
         lateral = float(pos[member][1])
         side = 1.0 if lateral >= 0 else -1.0
+        if members is not None and formation is not None and not self._was_master \
+                and not self.in_the_way(members, formation, 1.0 if vx >= 0 else -1.0):
+            self.clear_out = (node.clock.now, 0.0, side * CLEAR_SPEED_MPS, 0.0)  # (0, 0, 0) at the next step
+            self._cleared = (node.clock.now, 0.0)
+            return
         outermost = max((float(p[1]) * side for p in pos), default=0.0)
         clear_m = outermost - lateral * side + 2.0 * node.cfg.robot.radius_m  # beside the outermost slot's robot
         out_m = clear_m + CLEAR_MARGIN_M
         self.pace_until_m = clear_m + CLEAR_LANE_GAP_M
-        status = node.know.status  # the master's pace; a master that handed its user over and heard none yet: its own
-        vx = float(status.velocity[0]) if status is not None else float(node.odometry.read()[0])
         ahead = 0.0 if self._was_master else math.copysign(CLEAR_AHEAD_MPS, vx)  # ahead the way the swarm walks
         self.clear_out = (node.clock.now, vx + ahead, side * CLEAR_SPEED_MPS, out_m)
         self._cleared = (node.clock.now, 0.0)
+
+    def in_the_way(self, members: dict[int, int], formation: Formation, walk: float) -> bool:
+        """Whether this robot, standing at the slot it held, is in a remaining member's way: within its
+        diameter and :data:`CLEAR_LANE_GAP_M` of the straight move of a member from the slot it held to the
+        slot ``formation`` gives it (``members``: member number -> node id, of the member update), or of
+        the lane of a new slot behind it the way the swarm walks (``walk``, +1 or -1 along the formation's
+        x: such a member walks into a robot that stands). In the formation's frame, from the tables the
+        master sent (seed 000 Fig. 8: the member and neighbour tables); no sensor is read."""
+        node = self.node
+        old = node.formation.slot_positions()
+        new = formation.slot_positions()
+        me = old[node.know.member]
+        near = 2.0 * node.cfg.robot.radius_m + CLEAR_LANE_GAP_M
+        held = {n: m for m, n in node.know.members.items()}
+        for m, n in members.items():
+            if m == 0 or m >= len(new):
+                continue
+            if (float(new[m][0]) - me[0]) * walk < 0 and abs(float(new[m][1]) - me[1]) < near:
+                return True  # its lane passes here
+            a = held.get(n)
+            if a is not None and a < len(old) and _segment_distance(me, old[a], new[m]) < near:
+                return True  # it moves through here
+        return False
 
     def leaving_command(self, now_s: float | None = None) -> tuple[float, float, float] | None:
         """The body-frame command of the move out of the formation (:meth:`_plan_clear_out`) until its
@@ -510,6 +557,11 @@ class RecoveryManager:
 # antennas locate its user, seed 002 §3.2-3.4, and the slaves see its IR; handing over measured worse: re-formed
 # 18/20 and the user lost in 3 of 40 runs, against 19/20 and none kept — docs/faults.md)
 MASTER_NEEDS = frozenset({"ir"})
+# chosen: the weight of the squared distances that breaks ties between equal total moves (:meth:`RecoveryManager.
+# _least_move`): 1 mm per m² — below the IR's and the RSSI's resolution, so it never outweighs a measured difference
+# (a column that lost its second member sent its tail robot through the third to the open slot: the same total;
+# it stopped against the third, and both lost the IR's reach of the robots ahead — column, seed 1)
+TIE_SQUARE = 1e-3
 CLEAR_SPEED_MPS = 0.5  # chosen: the sideways speed of a faulty robot leaving the formation (a third of the top speed)
 CLEAR_TIMEOUT = 3.0  # chosen: the move out gives up after three times its time at the commanded speed (a robot held by a contact)
 # chosen: a slave also drives ahead of the swarm's pace, out of the way of the member behind it that moves up
@@ -529,45 +581,10 @@ CLEAR_MARGIN_M = 1.5
 CLEAR_LANE_GAP_M = 0.4
 
 
-def least_total(cost: list[list[float]]) -> list[int]:
-    """The assignment of rows to columns of the square ``cost`` matrix with the least total (the
-    Hungarian method, O(n³); row i -> column ``out[i]``). Among equal totals, the one the method
-    reaches first from the diagonal (a robot keeps the column of its own index when nothing is gained)."""
-    n = len(cost)
-    if n == 0:
-        return []
-    inf = math.inf
-    u, v = [0.0] * (n + 1), [0.0] * (n + 1)
-    p, way = [0] * (n + 1), [0] * (n + 1)  # p[j]: the row on column j (1-based, 0 = none)
-    for i in range(1, n + 1):
-        p[0] = i
-        j0 = 0
-        minv = [inf] * (n + 1)
-        used = [False] * (n + 1)
-        while True:
-            used[j0] = True
-            i0, delta, j1 = p[j0], inf, 0
-            for j in range(1, n + 1):
-                if not used[j]:
-                    cur = cost[i0 - 1][j - 1] - u[i0] - v[j]
-                    if cur < minv[j] - 1e-12:
-                        minv[j], way[j] = cur, j0
-                    if minv[j] < delta:
-                        delta, j1 = minv[j], j
-            for j in range(n + 1):
-                if used[j]:
-                    u[p[j]] += delta
-                    v[j] -= delta
-                else:
-                    minv[j] -= delta
-            j0 = j1
-            if p[j0] == 0:
-                break
-        while j0:
-            j1 = way[j0]
-            p[j0] = p[j1]
-            j0 = j1
-    out = [0] * n
-    for j in range(1, n + 1):
-        out[p[j] - 1] = j - 1
-    return out
+def _segment_distance(p, a, b) -> float:
+    """The distance from point ``p`` to the segment from ``a`` to ``b`` (2-D)."""
+    ax, ay, bx, by = float(a[0]), float(a[1]), float(b[0]), float(b[1])
+    dx, dy = bx - ax, by - ay
+    n2 = dx * dx + dy * dy
+    t = 0.0 if n2 == 0.0 else min(1.0, max(0.0, ((float(p[0]) - ax) * dx + (float(p[1]) - ay) * dy) / n2))
+    return math.hypot(float(p[0]) - ax - t * dx, float(p[1]) - ay - t * dy)

@@ -159,11 +159,12 @@ def test_the_faulty_robot_stops_once_it_is_out_on_its_own_clock(mode, seed, robo
 
 
 def test_the_faulty_robot_keeps_the_swarms_pace_only_until_it_is_out_of_the_lanes():
-    """Zigzag walk, seed 213 (the ultrasonic ring of robot 1, the rear slave on the right, breaks as the
-    swarm nears a turn). A leaving robot that kept the swarm's pace for its whole move out held a fixed
-    direction while the swarm turned: it cut across the formation and stopped beside it, where the
-    formation ran onto it (largest live-slave error 1.65 m 10 s after the detection). Now it keeps the
-    pace only until it is out of the formation's outermost lane by ``CLEAR_LANE_GAP_M``, then moves
+    """Zigzag walk, seed 205 (the ultrasonic ring of robot 1, a front slave, breaks as the swarm nears a
+    turn; the rear robot of its arm moves up, so it must drive out). A leaving robot that kept the swarm's
+    pace for its whole move out held a fixed direction while the swarm turned: it cut across the formation
+    and stopped beside it, where the formation ran onto it (seed 213, then the rear slave on the right:
+    1.65 m 10 s after the detection; a rear slave now stops where it stands, the test below). Now it keeps
+    the pace only until it is out of the formation's outermost lane by ``CLEAR_LANE_GAP_M``, then moves
     sideways standing along the walk, and the swarm walks past it."""
     import math
 
@@ -182,12 +183,54 @@ def test_the_faulty_robot_keeps_the_swarms_pace_only_until_it_is_out_of_the_lane
         (seen["pacing"] if done < rec.pace_until_m - 0.1 else seen["standing"] if done > rec.pace_until_m + 0.1
          else []).append(along)
 
-    r = sensor_faults.run("ultrasonic", 213, overrides={"user.scenario": "zigzag"}, on_step=watch)
+    r = sensor_faults.run("ultrasonic", 205, overrides={"user.scenario": "zigzag"}, on_step=watch)
     assert r["robot"] == 1 and "plan" in seen
     (_, vx, _, out_m), pace_until = seen["plan"]
     assert vx > 0.5 and 0 < pace_until < out_m  # the swarm's pace first, and then a part of the way standing
     assert max(seen["pacing"]) > 0.5, "it did not keep the swarm's pace while in the lanes"
     assert seen["standing"] and max(abs(v) for v in seen["standing"][3:]) < 0.15, "it kept driving ahead"
+    assert r["reformed"], f"largest live-slave error {r['largest_error_m']:.2f} m 10 s after the detection"
+
+
+@pytest.mark.parametrize("front", [True, False])
+def test_a_leaving_robot_is_in_the_way_only_where_a_remaining_member_moves_or_walks(front):
+    """1 + 4 wedge: a robot leaving a front slot of an arm stands in the lane of the rear robot of that arm,
+    which moves up (it must drive out); one leaving a rear slot is in nobody's way (the others keep their
+    slots or move ahead of it: it stops where it stands). Judged from the member update's tables only."""
+    from petswarm_env.middleware.formation import formation_for_mode
+
+    env = petswarm_env.parallel_env(**{"user.scenario": "straight"})
+    env.reset(seed=0)
+    ep = env.episode
+    master = ep.fleet.nodes[ep.swarm.master.node_id]
+    pos = master.formation.slot_positions()
+    members = dict(master.know.members)
+    leaving_member = max((m for m in members if m), key=lambda m: (-pos[m][0] if not front else pos[m][0]))
+    leaving = members.pop(leaving_member)
+    kept, formation, _ = master.recovery.removal_plan(
+        members, formation_for_mode(ep.cfg.swarm, len(members), master.know.mode))
+    assert ep.fleet.nodes[leaving].recovery.in_the_way(kept, formation, 1.0) is front
+
+
+def test_a_robot_leaving_a_rear_slot_stops_and_the_swarm_turning_toward_it_walks_on():
+    """Zigzag walk, seed 104 (the ultrasonic ring of robot 3, the rear slave on the right, breaks as the
+    swarm nears a right turn). Moving out at the swarm's pace, it held a fixed direction while the swarm
+    turned toward its side: it was carried ahead into the lane of the front robot on the right, which ran
+    into it as it stood (largest live-slave error 2.0 m 10 s after the detection). In nobody's way, it now
+    stops where it stands and the swarm walks on away from it."""
+    from petswarm.experiments import sensor_faults
+
+    seen: dict = {}
+
+    def watch(env):
+        rec = env.episode.fleet.nodes[3].recovery
+        if rec.clear_out is not None and "plan" not in seen:
+            seen["plan"] = rec.clear_out
+
+    r = sensor_faults.run("ultrasonic", 104, overrides={"user.scenario": "zigzag"}, on_step=watch)
+    assert r["robot"] == 3 and "plan" in seen
+    _, vx, _, out_m = seen["plan"]
+    assert vx == 0.0 and out_m == 0.0, "a robot in nobody's way drove out"
     assert r["reformed"], f"largest live-slave error {r['largest_error_m']:.2f} m 10 s after the detection"
 
 
@@ -321,3 +364,16 @@ def test_a_new_master_searching_among_bodies_keeps_its_ir_and_a_dead_robot_diagn
     found = [(i, part) for i, n in ep.fleet.nodes.items() for _, part in n.diagnosis.detected]
     assert found == [], f"found broken, with no sensor fault: {found}"
     assert ep.swarms[0].fault_handovers == []
+
+
+def test_a_column_master_whose_only_near_neighbours_ir_breaks_keeps_its_own_module_and_role():
+    """Column, seed 14: the IR module of member 1, the master's one neighbour within IR_EXPECT_RANGE_M, breaks.
+    The master's own slot and that member's slot give no fix or report — two holders, enough for the master
+    to find its own (working) module broken, and it handed its user over. The member's bid request lists
+    the sensors that work: its IR missing explains the misses, and the master's streak starts over."""
+    from petswarm.experiments import sensor_faults
+
+    r = sensor_faults.run("ir", 14, overrides={"swarm.formation": "column"})
+    assert r["robot"] == 1 and r["detection_s"] is not None and r["bid_request"]
+    assert r["other_detections"] == [] and r["handovers"] == [], (r["other_detections"], r["handovers"])
+    assert r["reformed"], f"largest live-slave error {r['largest_error_m']:.2f} m 10 s after the detection"

@@ -72,3 +72,29 @@ def test_a_loss_the_standard_table_serves_as_well_keeps_it():
     standard = formation_for_mode(CFG.swarm, 4, "following")
     table, formation, mirrored = rm.removal_plan(remaining, standard)
     assert not mirrored and formation is standard and table == {0: 0, 1: 11, 2: 12, 3: 13}
+
+
+def test_a_member_the_rssi_puts_beyond_its_slot_stays_on_its_slots_bearing():
+    """Robot 13 (rear slot, left) has no fresh fix and its RSSI range reads 2.9 m (its slot is 2.0 m away):
+    placed on its slot's bearing at that range it is nearest its own slot. With the bearing unknown
+    (sqrt(r² + a²), growing with the slot's distance a whatever r says) it was sent to the front slot and
+    robot 11, standing between the two, to the rear: both moved 1 m where neither needed to (leading AHRS
+    fault, seed 210)."""
+    members = {0: 0, 1: 11, 2: 12, 3: 13, 4: 14}
+    rm = _manager(members, {11: (-1.25, 0.72), 12: (-0.87, -0.5)}, ranges={13: 2.9})
+    remaining = {m: n for m, n in members.items() if n != 14}
+    assert rm.nearest_slots(remaining, formation_for_mode(CFG.swarm, 4, "following")) == {0: 0, 1: 11, 2: 12, 3: 13}
+
+
+def test_a_column_that_lost_a_member_keeps_the_robots_behind_in_their_order():
+    """Column 1 + 4 that lost member 2 (2 m behind the master): the master sees only member 1 (the others are
+    behind it on the same line) and places members 3 and 4 at their slots, 3 and 4 m back. Every assignment of
+    them to the slots 2 and 3 m back moves 2 m in total; the tail robot sent to 2 m stopped against the robot
+    at 3 m, and both lost the IR's reach of the robots ahead (column, seed 1). Each moves up one place."""
+    cfg = load_config(overrides={"swarm.formation": "column"})
+    members = {0: 0, 1: 11, 2: 12, 3: 13, 4: 14}
+    rm = _manager(members, {11: (-1.0, 0.0)}, ranges={13: 3.1, 14: 3.8})
+    rm.node.cfg, rm.node.formation = cfg, formation_for_mode(cfg.swarm, 5, "following")
+    remaining = {m: n for m, n in members.items() if n != 12}
+    table, _, _ = rm.removal_plan(remaining, formation_for_mode(cfg.swarm, 4, "following"))
+    assert table == {0: 0, 1: 11, 2: 13, 3: 14}

@@ -177,7 +177,6 @@ class LeaderFollowerPolicy(Policy):
         where a helper call costs more than the arithmetic it would hold (see "Arithmetic" above)."""
         r32 = _r32
         vmax, wmax = self._vmax, self._wmax
-        odo_x, odo_y = o[self._j_odo] * vmax, o[self._j_odo + 1] * vmax
         have_status = o[self._j_mvalid] > 0.5
         j = self._j_mvel
         mv0, mv1, mv2 = (o[j] * vmax, o[j + 1] * vmax, o[j + 2] * wmax) if have_status else (0.0, 0.0, 0.0)
@@ -197,13 +196,11 @@ class LeaderFollowerPolicy(Policy):
         master_fix, phi = None, None
         if o[self._j_mir_valid] > 0.5 and o[self._j_mir_age] < 1.0:
             j = self._j_mir_xy
-            age = s[self._j_mir_age]
-            mx, my = s[j] - odo_x * age, s[j + 1] - odo_y * age
+            mx, my = s[j], s[j + 1]  # (carried over our own motion in the observation)
             master_fix = (mx, my)
             j = self._j_anchor
             if o[j] > 0.5 and o[j + 3] < 1.0:
-                age = s[j + 3]
-                kx, ky = s[j + 1] - odo_x * age - mx, s[j + 2] - odo_y * age - my
+                kx, ky = s[j + 1] - mx, s[j + 2] - my
                 ax_, ay_ = s[j + 4], s[j + 5]
                 if abs(math.hypot(kx, ky) - math.hypot(ax_, ay_)) < self.anchor_tol:
                     phi = math.atan2(ky, kx) - math.atan2(ay_, ax_)
@@ -221,11 +218,10 @@ class LeaderFollowerPolicy(Policy):
             if o[ir_valid] < 0.5 or o[ir_age] >= 1.0:
                 continue  # no measurement, or one older than the observation's age range: move with the swarm
             nbx, nby = s[nb_xy], s[nb_xy + 1]
-            age = s[ir_age]
             cd, sd = math.cos(dth), math.sin(dth)
-            # the neighbour moved with the swarm (master speed, formation frame) and we moved (odometry)
-            now_x = nbx + (cd * mv0 - sd * mv1 - odo_x) * age
-            now_y = nby + (sd * mv0 + cd * mv1 - odo_y) * age
+            # the observation carried the fix over our own motion relative to the swarm since
+            # (odometry less the master's driving speed: the neighbour moved with the swarm)
+            now_x, now_y = nbx, nby
             offx, offy = s[off_xy], s[off_xy + 1]
             ref_dists.append(math.hypot(offx, offy))
             cd, sd = r32(cd), r32(sd)

@@ -3,15 +3,16 @@
 It reads only the observation, like a learned policy. Per step:
 
 1. ``Vx, Vy`` from the reference location minus the actual location: for each reference
-   neighbour, the IR-measured neighbour position (propagated over the measurement's age with the
-   master's broadcast speed and the robot's own odometry) plus the reference offset rotated by the
+   neighbour, the IR-measured neighbour position (the observation carries it over the robot's own
+   motion in the swarm since: its wheel odometry less the master's broadcast driving speed, turned
+   by its AHRS, middleware/knowledge.py) plus the reference offset rotated by the
    twisted heading Δθ gives where the robot should be, in its own frame. Chosen: a reference
    location closer than ``user_keep_out_m`` to the user (the master's broadcast user position) is
    moved out to that distance — a formation that lags its user's turn must not put a robot on the
    user's path. A neighbour whose fix is stale — no measurement, or one at the end of the
    observation's age range (2 s): occluded, beyond the IR's reach, or the ring lost its slots — gives
-   no target (chosen): the slave cannot know where that neighbour is now (its last fix is
-   carried over its own rotation only, and the age no longer grows), so it keeps moving with the
+   no target (chosen): the slave cannot know where that neighbour is now (it may have left its
+   place in the swarm since), so it keeps moving with the
    swarm (step 2's feed-forward, step 3's heading) and takes the position correction up again with
    the next fix. It neither stops (the swarm would walk away from it) nor chases the last fix (a
    target that does not recede as it drives would run it off). The episode summary counts that
@@ -26,7 +27,10 @@ It reads only the observation, like a learned policy. Per step:
    the slave out of the master's IR reach: its fix went stale, step 1c drove it back, 1b out again,
    and no anchor came while it see-sawed 3-4 m out (1 + 16, seed 40: 6-7 m off its slot for 25 s);
    (1c) nobody in sight but the master's status heard — back toward the master's last fix at
-   ``rejoin_mps`` relative to the swarm (the swarm walked out of our IR's reach); (1d) nobody ever
+   ``rejoin_mps`` relative to the swarm (the swarm walked out of our IR's reach, or the crowd pushed
+   us out of it; the fix is carried over our own motion in the swarm, so it recedes as we drive:
+   before it was carried over our rotation only, and a slave pushed aside drove off sideways
+   after a place that did not recede); (1d) nobody ever
    seen (the user or a robot between us and the swarm) — circle the nearest ultrasonic echo at
    ``search_mps``;
 2. revise ``Vx, Vy`` with the master's broadcast driving speed (feed-forward that compensates the
@@ -282,8 +286,8 @@ class LeaderFollowerPolicy(Policy):
         elif have_status and o[self._j_mir_valid] > 0.5:
             # step 1c, lost (no fix of anyone within the age range: the swarm walked out of our IR's
             # reach): back toward where we last saw the master, relative to the swarm we keep moving
-            # with (the bearing is carried over our rotation, the swarm's motion is step 2's
-            # feed-forward), until its IR reaches us again
+            # with (the fix is carried over our own motion in the swarm, the swarm's motion is step
+            # 2's feed-forward), until its IR reaches us again
             j = self._j_mir_xy
             mx, my = s[j], s[j + 1]
             dist = max(math.hypot(mx, my), 1e-9)

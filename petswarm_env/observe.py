@@ -274,8 +274,7 @@ class _Plan:
 
     def __init__(self, layout: ObservationLayout):
         lim = layout.limits
-        self.vmax, self.wmax, self.us_max = lim[0], lim[2], layout.us_max_range_m
-        self.ir_max = layout.ir_max_m
+        self.vmax, self.wmax, self.us_max, self.ir_max = lim[0], lim[2], layout.us_max_range_m, layout.ir_max_m
         starts = layout._link_starts
         self.link0, self.max_links = starts[0], len(starts)
         self.link_size = starts[1] - starts[0] if len(starts) > 1 else 0
@@ -301,28 +300,19 @@ def _age(age: cython.double) -> cython.double:
 
 
 @cython.cfunc
-def _put_fix(v: cython.double[::1], at: cython.Py_ssize_t, m, yaw_rad: cython.double, x_m: cython.double,
-             y_m: cython.double, reach: cython.double, pos_scale: cython.double) -> cython.void:
-    """IR fix ``m`` (:class:`~.middleware.knowledge.IRMeasurement`) into ``v[at], v[at + 1]``, scaled:
-    where the other robot stood when measured, in the body frame now, carried over own rotation (AHRS
-    ``yaw_rad``) and own motion in the swarm (the dead-reckoned ``x_m, y_m``; ``IRMeasurement.carried``);
-    farther than ``reach`` (the estimator's largest distance, the field's bound): at that distance,
-    in its direction."""
+def _put_fix(v: cython.double[::1], at: cython.Py_ssize_t, m, yaw: cython.double, know, reach: cython.double,
+             pos_scale: cython.double) -> cython.void:
+    """Fix ``m`` into ``v[at:at + 2]``, scaled: ``IRMeasurement.carried``, at most ``reach`` (the bound) away."""
+    x0: cython.double = know.odometry_xy[0]  # own motion in the swarm (dead-reckoned)
+    y0: cython.double = know.odometry_xy[1]
     a: cython.double = m.own_yaw_rad + m.bearing_rad  # the bearing in the odometry frame
-    dist: cython.double = m.distance_m
-    ox: cython.double = m.own_x_m
-    oy: cython.double = m.own_y_m
-    px: cython.double = ox + dist * _cos(a) - x_m
-    py: cython.double = oy + dist * _sin(a) - y_m
-    c: cython.double = _cos(yaw_rad)
-    s: cython.double = _sin(yaw_rad)
-    x: cython.double = c * px + s * py
-    y: cython.double = c * py - s * px
-    d: cython.double = _sqrt(x * x + y * y)
-    if d > reach:
-        x, y = x * (reach / d), y * (reach / d)
-    v[at] = x / pos_scale
-    v[at + 1] = y / pos_scale
+    d: cython.double = m.distance_m
+    px: cython.double = m.own_x_m + d * _cos(a) - x0
+    py: cython.double = m.own_y_m + d * _sin(a) - y0
+    x: cython.double = _cos(yaw) * px + _sin(yaw) * py
+    y: cython.double = _cos(yaw) * py - _sin(yaw) * px
+    d = reach / _sqrt(x * x + y * y) if x * x + y * y > reach * reach else 1.0
+    v[at], v[at + 1] = x * d / pos_scale, y * d / pos_scale
 
 
 @cython.cfunc
@@ -344,9 +334,7 @@ def _fill(plan: _Plan, v: cython.double[::1], know, links, now: cython.double, o
     user_clip: cython.double = USER_CLIP
     vmax: cython.double = plan.vmax
     wmax: cython.double = plan.wmax
-    b: cython.double
     age: cython.double
-    dist: cython.double
     rel: cython.double
     base: cython.Py_ssize_t
     mb: cython.double  # a measurement's bearing (or relative heading), own yaw and time, as C doubles
@@ -367,10 +355,6 @@ def _fill(plan: _Plan, v: cython.double[::1], know, links, now: cython.double, o
     a2: cython.double
     members: dict = know.members
     irs: dict = know.ir
-    kx: cython.double  # own dead-reckoned position (the fixes are carried over it)
-    ky: cython.double
-    kx, ky = know.odometry_xy
-    reach: cython.double = plan.ir_max
     nl: cython.Py_ssize_t = len(links)
     if nl > plan.max_links:
         nl = plan.max_links
@@ -385,7 +369,7 @@ def _fill(plan: _Plan, v: cython.double[::1], know, links, now: cython.double, o
             if m is not None:  # carried over own rotation (AHRS) and translation (odometry) since the measurement
                 mt = m.time_s
                 v[base + 1] = 1.0
-                _put_fix(v, base + 2, m, yaw_rad, kx, ky, reach, pos_scale)
+                _put_fix(v, base + 2, m, yaw_rad, know, plan.ir_max, pos_scale)
                 v[base + 4] = _age((now - mt) / age_scale)
             else:
                 v[base + 4] = 1.0
@@ -436,7 +420,7 @@ def _fill(plan: _Plan, v: cython.double[::1], know, links, now: cython.double, o
     if m is not None:
         mt = m.time_s
         v[master_ir] = 1.0
-        _put_fix(v, master_ir + 1, m, yaw_rad, kx, ky, reach, pos_scale)
+        _put_fix(v, master_ir + 1, m, yaw_rad, know, plan.ir_max, pos_scale)
         v[master_ir + 3] = _age((now - mt) / age_scale)
     else:
         v[master_ir + 3] = 1.0
@@ -460,7 +444,7 @@ def _fill(plan: _Plan, v: cython.double[::1], know, links, now: cython.double, o
         mt = m.time_s
         sx, sy = member_slots[first]
         v[anchor] = 1.0
-        _put_fix(v, anchor + 1, m, yaw_rad, kx, ky, reach, pos_scale)
+        _put_fix(v, anchor + 1, m, yaw_rad, know, plan.ir_max, pos_scale)
         v[anchor + 3] = (now - mt) / age_scale
         v[anchor + 4] = sx / pos_scale
         v[anchor + 5] = sy / pos_scale

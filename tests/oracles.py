@@ -342,10 +342,8 @@ def build_observation(layout: ObservationLayout, r: Readings) -> list[float]:
 
     def fix_xy(m):  # carried over own rotation and motion in the swarm, within the estimator's reach
         x, y = m.carried(yaw_rad, *know.odometry_xy)
-        d = math.sqrt(x * x + y * y)
-        if d > layout.ir_max_m:
-            x, y = x * (layout.ir_max_m / d), y * (layout.ir_max_m / d)
-        return x / POS_SCALE_M, y / POS_SCALE_M
+        f = layout.ir_max_m / math.sqrt(x * x + y * y) if x * x + y * y > layout.ir_max_m * layout.ir_max_m else 1.0
+        return x * f / POS_SCALE_M, y * f / POS_SCALE_M
 
     now, odometry, yaw_rad, last_action, ultrasonic_m = r.now_s, r.odometry, r.yaw_rad, r.last_action, r.ultrasonic_m
     hierarchy_level, offset_from_master, us_max_range_m = r.hierarchy_level, r.offset_from_master_m, layout.us_max_range_m

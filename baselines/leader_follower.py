@@ -3,15 +3,16 @@
 It reads only the observation, like a learned policy. Per step:
 
 1. ``Vx, Vy`` from the reference location minus the actual location: for each reference
-   neighbour, the IR-measured neighbour position (propagated over the measurement's age with the
-   master's broadcast speed and the robot's own odometry) plus the reference offset rotated by the
+   neighbour, the IR-measured neighbour position (the observation carries it over the robot's own
+   motion in the swarm since: its wheel odometry less the master's broadcast driving speed, turned
+   by its AHRS, middleware/knowledge.py) plus the reference offset rotated by the
    twisted heading Δθ gives where the robot should be, in its own frame. Chosen: a reference
    location closer than ``user_keep_out_m`` to the user (the master's broadcast user position) is
    moved out to that distance — a formation that lags its user's turn must not put a robot on the
    user's path. A neighbour whose fix is stale — no measurement, or one at the end of the
    observation's age range (2 s): occluded, beyond the IR's reach, or the ring lost its slots — gives
-   no target (chosen): the slave cannot know where that neighbour is now (its last fix is
-   carried over its own rotation only, and the age no longer grows), so it keeps moving with the
+   no target (chosen): the slave cannot know where that neighbour is now (it may have left its
+   place in the swarm since), so it keeps moving with the
    swarm (step 2's feed-forward, step 3's heading) and takes the position correction up again with
    the next fix. It neither stops (the swarm would walk away from it) nor chases the last fix (a
    target that does not recede as it drives would run it off). The episode summary counts that
@@ -26,7 +27,10 @@ It reads only the observation, like a learned policy. Per step:
    the slave out of the master's IR reach: its fix went stale, step 1c drove it back, 1b out again,
    and no anchor came while it see-sawed 3-4 m out (1 + 16, seed 40: 6-7 m off its slot for 25 s);
    (1c) nobody in sight but the master's status heard — back toward the master's last fix at
-   ``rejoin_mps`` relative to the swarm (the swarm walked out of our IR's reach); (1d) nobody ever
+   ``rejoin_mps`` relative to the swarm (the swarm walked out of our IR's reach, or the crowd pushed
+   us out of it; the fix is carried over our own motion in the swarm, so it recedes as we drive:
+   before it was carried over our rotation only, and a slave pushed aside drove off sideways
+   after a place that did not recede); (1d) nobody ever
    seen (the user or a robot between us and the swarm) — circle the nearest ultrasonic echo at
    ``search_mps``;
 2. revise ``Vx, Vy`` with the master's broadcast driving speed (feed-forward that compensates the
@@ -177,7 +181,6 @@ class LeaderFollowerPolicy(Policy):
         where a helper call costs more than the arithmetic it would hold (see "Arithmetic" above)."""
         r32 = _r32
         vmax, wmax = self._vmax, self._wmax
-        odo_x, odo_y = o[self._j_odo] * vmax, o[self._j_odo + 1] * vmax
         have_status = o[self._j_mvalid] > 0.5
         j = self._j_mvel
         mv0, mv1, mv2 = (o[j] * vmax, o[j + 1] * vmax, o[j + 2] * wmax) if have_status else (0.0, 0.0, 0.0)
@@ -197,13 +200,11 @@ class LeaderFollowerPolicy(Policy):
         master_fix, phi = None, None
         if o[self._j_mir_valid] > 0.5 and o[self._j_mir_age] < 1.0:
             j = self._j_mir_xy
-            age = s[self._j_mir_age]
-            mx, my = s[j] - odo_x * age, s[j + 1] - odo_y * age
+            mx, my = s[j], s[j + 1]  # (carried over our own motion in the observation)
             master_fix = (mx, my)
             j = self._j_anchor
             if o[j] > 0.5 and o[j + 3] < 1.0:
-                age = s[j + 3]
-                kx, ky = s[j + 1] - odo_x * age - mx, s[j + 2] - odo_y * age - my
+                kx, ky = s[j + 1] - mx, s[j + 2] - my
                 ax_, ay_ = s[j + 4], s[j + 5]
                 if abs(math.hypot(kx, ky) - math.hypot(ax_, ay_)) < self.anchor_tol:
                     phi = math.atan2(ky, kx) - math.atan2(ay_, ax_)
@@ -221,11 +222,10 @@ class LeaderFollowerPolicy(Policy):
             if o[ir_valid] < 0.5 or o[ir_age] >= 1.0:
                 continue  # no measurement, or one older than the observation's age range: move with the swarm
             nbx, nby = s[nb_xy], s[nb_xy + 1]
-            age = s[ir_age]
             cd, sd = math.cos(dth), math.sin(dth)
-            # the neighbour moved with the swarm (master speed, formation frame) and we moved (odometry)
-            now_x = nbx + (cd * mv0 - sd * mv1 - odo_x) * age
-            now_y = nby + (sd * mv0 + cd * mv1 - odo_y) * age
+            # the observation carried the fix over our own motion relative to the swarm since
+            # (odometry less the master's driving speed: the neighbour moved with the swarm)
+            now_x, now_y = nbx, nby
             offx, offy = s[off_xy], s[off_xy + 1]
             ref_dists.append(math.hypot(offx, offy))
             cd, sd = r32(cd), r32(sd)
@@ -286,8 +286,8 @@ class LeaderFollowerPolicy(Policy):
         elif have_status and o[self._j_mir_valid] > 0.5:
             # step 1c, lost (no fix of anyone within the age range: the swarm walked out of our IR's
             # reach): back toward where we last saw the master, relative to the swarm we keep moving
-            # with (the bearing is carried over our rotation, the swarm's motion is step 2's
-            # feed-forward), until its IR reaches us again
+            # with (the fix is carried over our own motion in the swarm, the swarm's motion is step
+            # 2's feed-forward), until its IR reaches us again
             j = self._j_mir_xy
             mx, my = s[j], s[j + 1]
             dist = max(math.hypot(mx, my), 1e-9)

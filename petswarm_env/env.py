@@ -63,7 +63,7 @@ from petswarm_env.config import DRIVING_MODES, Config, ConfigError, arrival_slot
 from petswarm_env.episode import INFO_DEFAULTS, OTHER_USER_ID, SWARM_PAN, WAKE_PATTERN, Episode, Setup  # noqa: F401 (re-exported)
 from petswarm_env.inputs import check_reset_options, checked_action
 from petswarm_env.middleware.formation import formation_for_mode, user_position_in_formation
-from petswarm_env.observe import OBS_VERSION, ObservationLayout, observation_bounds
+from petswarm_env.observe import OBS_VERSION, ObservationLayout, ir_distance_bound, observation_bounds
 from petswarm_env.robot_types import DEFAULT_TYPE, episode_scenarios, max_pool_size, pool_problem, pool_types
 from petswarm_env.robot_types import resolve as resolve_type
 from petswarm_env.scenarios import SCENARIOS
@@ -133,7 +133,8 @@ class PetSwarmEnv(ParallelEnv):
                 raise ConfigError(problem)
         self.agents: list[str] = []
         self._limits = (cfg.robot.max_speed_mps, cfg.robot.max_speed_mps, cfg.robot.max_omega_rps)
-        self.layout = ObservationLayout(cfg.robot.ultrasonic.count, self._limits, cfg.robot.ultrasonic.max_range_m)
+        self.layout = ObservationLayout(cfg.robot.ultrasonic.count, self._limits, cfg.robot.ultrasonic.max_range_m,
+                                        ir_distance_bound(cfg.ir))
         self._obs_space = gymnasium.spaces.Box(*observation_bounds(self.layout, cfg), dtype=np.float32)
         self._act_space = gymnasium.spaces.Box(-1.0, 1.0, (3,), np.float32)
         self._zero = np.zeros(self._obs_space.shape, np.float32)  # a waiting agent's observation (module docstring)

@@ -20,6 +20,7 @@ import cython
 import numpy as np
 from cython.cimports.libc.math import cos as _cos
 from cython.cimports.libc.math import sin as _sin
+from cython.cimports.libc.math import sqrt as _sqrt
 
 from petswarm_env.middleware.formation import MAX_LINKS, Formation, user_position_in_formation
 from petswarm_env.scenarios import ACTIVITIES
@@ -67,7 +68,7 @@ def _link_fields(k: int) -> list[Field]:
     return [
         Field(p + "present", 1, "0/1", f"reference link {k} exists (slot 0 = primary neighbour, 1 = second, grid)"),
         Field(p + "ir_valid", 1, "0/1", "an IR measurement of that neighbour has been received"),
-        Field(p + "neighbour_xy", 2, f"m / {POS_SCALE_M}", "IR-estimated position of the neighbour in own body frame (x forward, y left), carried over own rotation since (AHRS)",
+        Field(p + "neighbour_xy", 2, f"m / {POS_SCALE_M}", "IR-estimated position of the neighbour in own body frame (x forward, y left) when measured, carried over own rotation (AHRS) and own motion in the swarm (wheel odometry less the master's broadcast driving speed) since; at most the estimator's largest distance",
               "ir", "± the estimator's largest distance: readings in [0, saturation] and the strongest ≥ ir.detect_threshold give "
               "r ≥ threshold·(1 + 2·min(cos Δ, 0)) / (1 + 2·cos²Δ), d = sqrt(strength_at_1m / r)"),
         Field(p + "ir_age", 1, f"s / {AGE_SCALE_S}, clipped to 1", "age of that IR measurement", (0.0, 1.0), "an age ≥ 0, clipped to 1"),
@@ -94,11 +95,11 @@ FIELDS: list[Field] = [
     Field("master.user_xy", 2, f"m / {POS_SCALE_M}", "user position relative to the master, master's frame, as broadcast",
           (-USER_CLIP, USER_CLIP), f"clipped to ±{USER_CLIP} ({USER_CLIP * POS_SCALE_M:g} m; the master's track of a user out of LF range drifts)"),
     Field("master.ir_valid", 1, "0/1", "an IR measurement of the master has been received (every member measures every token holder)"),
-    Field("master.ir_xy", 2, f"m / {POS_SCALE_M}", "IR-estimated position of the master in own body frame (x forward, y left), carried over own rotation since (AHRS)",
+    Field("master.ir_xy", 2, f"m / {POS_SCALE_M}", "IR-estimated position of the master in own body frame (x forward, y left), carried as link0.neighbour_xy",
           "ir", "± the estimator's largest distance (as link0.neighbour_xy)"),
     Field("master.ir_age", 1, f"s / {AGE_SCALE_S}, clipped to 1", "age of that IR measurement", (0.0, 1.0), "an age ≥ 0, clipped to 1"),
     Field("anchor.ir_valid", 1, "0/1", f"an IR measurement younger than {AGE_SCALE_S} s of another slave of the swarm (the anchor: the lowest member number with one)"),
-    Field("anchor.ir_xy", 2, f"m / {POS_SCALE_M}", "IR-estimated position of the anchor in own body frame, carried over own rotation since (AHRS)",
+    Field("anchor.ir_xy", 2, f"m / {POS_SCALE_M}", "IR-estimated position of the anchor in own body frame, carried as link0.neighbour_xy",
           "ir", "± the estimator's largest distance (as link0.neighbour_xy)"),
     Field("anchor.ir_age", 1, f"s / {AGE_SCALE_S}, clipped to 1", "age of that IR measurement", (0.0, 1.0), "an age in [0, 1): only a fix younger than the age scale is an anchor"),
     Field("anchor.slot_xy", 2, f"m / {POS_SCALE_M}", "the anchor's reference position relative to the master, formation frame (from the neighbour table)",
@@ -138,9 +139,10 @@ class ObservationLayout:
     a layout made only to read observations needs neither)."""
 
     def __init__(self, num_ultrasonic: int, limits: tuple[float, float, float] | None = None,
-                 us_max_range_m: float | None = None):
+                 us_max_range_m: float | None = None, ir_max_m: float = math.inf):
         self.limits = limits
         self.us_max_range_m = us_max_range_m
+        self.ir_max_m = ir_max_m  # the IR estimator's largest distance (ir_distance_bound): a carried fix's bound
         self.slices: dict[str, slice] = {}
         self.fields: list[Field] = []
         i = 0
@@ -180,7 +182,7 @@ def markdown_table(layout: ObservationLayout, bounds: tuple[np.ndarray, np.ndarr
     return "\n".join(rows)
 
 
-def _ir_distance_bound(ir) -> float:
+def ir_distance_bound(ir) -> float:
     """The largest distance the IR estimator returns (:func:`petswarm_env.comms.ir.estimate`):
     the readings are clipped to [0, saturation] and the strongest S0 is ≥ the threshold, so
     a = (S0 + (S+ + S−)·cos Δ) / (1 + 2·cos²Δ) ≥ S0·(1 + 2·min(cos Δ, 0)) / (1 + 2·cos²Δ) and
@@ -218,7 +220,7 @@ def observation_bounds(layout: ObservationLayout, cfg) -> tuple[np.ndarray, np.n
     derived ones from ``cfg`` (a :class:`~.config.Config`): the IR estimator's largest distance
     and the configured formation's extents, over :data:`POS_SCALE_M`."""
     link, slot = formation_extents(cfg.swarm)
-    derived = {"ir": _ir_distance_bound(cfg.ir) / POS_SCALE_M, "link_offset": link / POS_SCALE_M, "slot": slot / POS_SCALE_M}
+    derived = {"ir": ir_distance_bound(cfg.ir) / POS_SCALE_M, "link_offset": link / POS_SCALE_M, "slot": slot / POS_SCALE_M}
     low, high = np.zeros(layout.size, np.float64), np.zeros(layout.size, np.float64)
     for f in layout.fields:
         s = layout.slices[f.name]
@@ -272,7 +274,7 @@ class _Plan:
 
     def __init__(self, layout: ObservationLayout):
         lim = layout.limits
-        self.vmax, self.wmax, self.us_max = lim[0], lim[2], layout.us_max_range_m
+        self.vmax, self.wmax, self.us_max, self.ir_max = lim[0], lim[2], layout.us_max_range_m, layout.ir_max_m
         starts = layout._link_starts
         self.link0, self.max_links = starts[0], len(starts)
         self.link_size = starts[1] - starts[0] if len(starts) > 1 else 0
@@ -298,6 +300,22 @@ def _age(age: cython.double) -> cython.double:
 
 
 @cython.cfunc
+def _put_fix(v: cython.double[::1], at: cython.Py_ssize_t, m, yaw: cython.double, know, reach: cython.double,
+             pos_scale: cython.double) -> cython.void:
+    """Fix ``m`` into ``v[at:at + 2]``, scaled: ``IRMeasurement.carried``, at most ``reach`` (the bound) away."""
+    x0: cython.double = know.odometry_xy[0]  # own motion in the swarm (dead-reckoned)
+    y0: cython.double = know.odometry_xy[1]
+    a: cython.double = m.own_yaw_rad + m.bearing_rad  # the bearing in the odometry frame
+    d: cython.double = m.distance_m
+    px: cython.double = m.own_x_m + d * _cos(a) - x0
+    py: cython.double = m.own_y_m + d * _sin(a) - y0
+    x: cython.double = _cos(yaw) * px + _sin(yaw) * py
+    y: cython.double = _cos(yaw) * py - _sin(yaw) * px
+    d = reach / _sqrt(x * x + y * y) if x * x + y * y > reach * reach else 1.0
+    v[at], v[at + 1] = x * d / pos_scale, y * d / pos_scale
+
+
+@cython.cfunc
 def _fill(plan: _Plan, v: cython.double[::1], know, links, now: cython.double, ovx: cython.double, ovy: cython.double,
           ow: cython.double, yaw_rad: cython.double, last_action, ultrasonic_m, hierarchy_level: cython.double,
           offset_from_master, member_slots, flags) -> cython.void:
@@ -316,9 +334,7 @@ def _fill(plan: _Plan, v: cython.double[::1], know, links, now: cython.double, o
     user_clip: cython.double = USER_CLIP
     vmax: cython.double = plan.vmax
     wmax: cython.double = plan.wmax
-    b: cython.double
     age: cython.double
-    dist: cython.double
     rel: cython.double
     base: cython.Py_ssize_t
     mb: cython.double  # a measurement's bearing (or relative heading), own yaw and time, as C doubles
@@ -350,12 +366,10 @@ def _fill(plan: _Plan, v: cython.double[::1], know, links, now: cython.double, o
             v[base] = 1.0
             nb = members.get(link.neighbour)
             m = irs.get(nb)
-            if m is not None:  # bearing carried over own rotation since the measurement (AHRS)
-                mb, my, mt, dist = m.bearing_rad, m.own_yaw_rad, m.time_s, m.distance_m
-                b = mb - (yaw_rad - my)
+            if m is not None:  # carried over own rotation (AHRS) and translation (odometry) since the measurement
+                mt = m.time_s
                 v[base + 1] = 1.0
-                v[base + 2] = dist * _cos(b) / pos_scale
-                v[base + 3] = dist * _sin(b) / pos_scale
+                _put_fix(v, base + 2, m, yaw_rad, know, plan.ir_max, pos_scale)
                 v[base + 4] = _age((now - mt) / age_scale)
             else:
                 v[base + 4] = 1.0
@@ -402,13 +416,11 @@ def _fill(plan: _Plan, v: cython.double[::1], know, links, now: cython.double, o
         v[user_xy + 1] = _clip(uy / pos_scale, user_clip)
     else:
         v[i + 1] = 1.0
-    m = irs.get(members.get(0))  # the master's IR fix (member 0), carried over own rotation (AHRS)
+    m = irs.get(members.get(0))  # the master's IR fix (member 0), carried over own rotation and translation
     if m is not None:
-        mb, my, mt, dist = m.bearing_rad, m.own_yaw_rad, m.time_s, m.distance_m
-        b = mb - (yaw_rad - my)
+        mt = m.time_s
         v[master_ir] = 1.0
-        v[master_ir + 1] = dist * _cos(b) / pos_scale
-        v[master_ir + 2] = dist * _sin(b) / pos_scale
+        _put_fix(v, master_ir + 1, m, yaw_rad, know, plan.ir_max, pos_scale)
         v[master_ir + 3] = _age((now - mt) / age_scale)
     else:
         v[master_ir + 3] = 1.0
@@ -429,12 +441,10 @@ def _fill(plan: _Plan, v: cython.double[::1], know, links, now: cython.double, o
                 first, fix = member, m
     if fix is not None:
         m = fix
-        mb, my, mt, dist = m.bearing_rad, m.own_yaw_rad, m.time_s, m.distance_m
-        b = mb - (yaw_rad - my)
+        mt = m.time_s
         sx, sy = member_slots[first]
         v[anchor] = 1.0
-        v[anchor + 1] = dist * _cos(b) / pos_scale
-        v[anchor + 2] = dist * _sin(b) / pos_scale
+        _put_fix(v, anchor + 1, m, yaw_rad, know, plan.ir_max, pos_scale)
         v[anchor + 3] = (now - mt) / age_scale
         v[anchor + 4] = sx / pos_scale
         v[anchor + 5] = sy / pos_scale
@@ -561,6 +571,7 @@ class Observer:
             else:
                 ovx, ovy, ow = wheel_odometry(robot, 0.0, 0.0, 0.0)  # noiseless: the wheels' own values, exactly
             yaw = ahrs[idx](now_s)  # the sensor's physics at true time
+            know.dead_reckon(node.clock.now, ovx, ovy, yaw)  # own position from own odometry, on its own clock
             table = node.formation  # its reference links (Station.reference_links, read here)
             own = node.know.member
             table_links: dict = table.links if table is not None and own > 0 else None

@@ -340,6 +340,11 @@ def build_observation(layout: ObservationLayout, r: Readings) -> list[float]:
     def clip_age(age, scale):
         return min(age / scale, 1.0)
 
+    def fix_xy(m):  # carried over own rotation and motion in the swarm, within the estimator's reach
+        x, y = m.carried(yaw_rad, *know.odometry_xy)
+        f = layout.ir_max_m / math.sqrt(x * x + y * y) if x * x + y * y > layout.ir_max_m * layout.ir_max_m else 1.0
+        return x * f / POS_SCALE_M, y * f / POS_SCALE_M
+
     now, odometry, yaw_rad, last_action, ultrasonic_m = r.now_s, r.odometry, r.yaw_rad, r.last_action, r.ultrasonic_m
     hierarchy_level, offset_from_master, us_max_range_m = r.hierarchy_level, r.offset_from_master_m, layout.us_max_range_m
     v = [0.0] * layout.size
@@ -351,10 +356,8 @@ def build_observation(layout: ObservationLayout, r: Readings) -> list[float]:
         nb = know.members.get(link.neighbour)
         m = know.ir.get(nb)
         if m is not None:
-            b = m.bearing_rad - (yaw_rad - m.own_yaw_rad)
             v[base + 1] = 1.0
-            v[base + 2] = m.distance_m * math.cos(b) / POS_SCALE_M
-            v[base + 3] = m.distance_m * math.sin(b) / POS_SCALE_M
+            v[base + 2], v[base + 3] = fix_xy(m)
             v[base + 4] = clip_age(now - m.time_s, AGE_SCALE_S)
         else:
             v[base + 4] = 1.0
@@ -390,10 +393,8 @@ def build_observation(layout: ObservationLayout, r: Readings) -> list[float]:
     m = know.ir.get(know.members.get(0))
     j = o["master.ir_valid"]
     if m is not None:
-        b = m.bearing_rad - (yaw_rad - m.own_yaw_rad)
         v[j] = 1.0
-        v[j + 1] = m.distance_m * math.cos(b) / POS_SCALE_M
-        v[j + 2] = m.distance_m * math.sin(b) / POS_SCALE_M
+        v[j + 1], v[j + 2] = fix_xy(m)
         v[j + 3] = clip_age(now - m.time_s, AGE_SCALE_S)
     else:
         v[j + 3] = 1.0
@@ -403,10 +404,8 @@ def build_observation(layout: ObservationLayout, r: Readings) -> list[float]:
         m = know.ir.get(know.members[member])
         if member in (0, know.member) or member >= len(r.member_slots) or m is None or now - m.time_s >= AGE_SCALE_S:
             continue
-        b = m.bearing_rad - (yaw_rad - m.own_yaw_rad)
         v[j] = 1.0
-        v[j + 1] = m.distance_m * math.cos(b) / POS_SCALE_M
-        v[j + 2] = m.distance_m * math.sin(b) / POS_SCALE_M
+        v[j + 1], v[j + 2] = fix_xy(m)
         v[j + 3] = clip_age(now - m.time_s, AGE_SCALE_S)
         v[j + 4], v[j + 5] = r.member_slots[member][0] / POS_SCALE_M, r.member_slots[member][1] / POS_SCALE_M
         break

@@ -31,8 +31,20 @@ def _env(scenario: str, kind: str, max_cycles: int = MAX_CYCLES, *, earlier: flo
                                         "max_cycles": max_cycles, **overrides})
 
 
+# chosen: an arrival's recruitment takes up to this long. In the matrix's arrival case the formation
+# builds in ~3.6 s and the user walks off before the arrival turns up (5 s); a walking master recruits
+# only within the organize's region around itself (middleware/recovery.py, refill_region_m), so the
+# arrival joins ~4 s after it turns up, once the walking swarm comes near (when the formation built in
+# ~4.8 s and the user walked off ~1.2 s later, it joined ~1 s after it turned up, within the 8 s)
+ARRIVAL_JOIN_S = 6.0
+
+
 def _matrix_cycles(scenario: str) -> int:
-    return 200 if SCENARIOS[scenario].changes_master else MAX_CYCLES  # mode_change hands over at ~17 s
+    sc = SCENARIOS[scenario]
+    if sc.changes_master:
+        return 200  # mode_change hands over at ~17 s
+    last = max((a["at_s"] / EARLIER for a in sc.arrivals), default=0.0)
+    return max(MAX_CYCLES, int(round((last + ARRIVAL_JOIN_S) / 0.1)))
 
 
 def _torchrl_rollout(raw, steps: int):

@@ -53,7 +53,9 @@ def test_observation_builder_equals_the_oracle_bit_for_bit(overrides):
     pol.reset(1)
     checked, clipped, two_links = 0, 0, 0
     rng = np.random.default_rng(0)
-    layouts = [ObservationLayout(env.cfg.robot.ultrasonic.count, env._limits, r) for r in (env.cfg.robot.ultrasonic.max_range_m, 2.7)]
+    # the env's layout, and one whose IR reach (a carried fix's bound) is short enough to clip fixes
+    layouts = [ObservationLayout(env.cfg.robot.ultrasonic.count, env._limits, r, ir)
+               for r, ir in ((env.cfg.robot.ultrasonic.max_range_m, env.layout.ir_max_m), (2.7, 1.0))]
     while env.agents:
         for agent in env.agents:
             idx = env.episode.agent_index[agent]

@@ -16,7 +16,6 @@ def numpy_act(p: LeaderFollowerPolicy, obs: np.ndarray) -> np.ndarray:
     """The controller's first form (numpy on the observation's float32 slices), kept as the reference."""
     sl = p.spec.layout.slices
     vmax, wmax = p.spec.max_speed_mps, p.spec.max_omega_rps
-    odo = obs[sl["self.odometry"]] * np.array([vmax, vmax, wmax])
     have_status = obs[sl["master.valid"]][0] > 0.5
     mv = obs[sl["master.velocity"]] * np.array([vmax, vmax, wmax]) if have_status else np.zeros(3)
     targets, dthetas, ref_dists = [], [], []
@@ -32,11 +31,10 @@ def numpy_act(p: LeaderFollowerPolicy, obs: np.ndarray) -> np.ndarray:
     # the master's fix and an anchor's: the formation frame's rotation into ours (steps 1b and 3)
     m, phi = None, None
     if obs[sl["master.ir_valid"]][0] > 0.5 and obs[sl["master.ir_age"]][0] < 1.0:
-        age = obs[sl["master.ir_age"]][0] * AGE_SCALE_S
-        m = obs[sl["master.ir_xy"]] * POS_SCALE_M - odo[:2] * age
+        # the fixes come carried over our own motion relative to the swarm (observe.py)
+        m = (obs[sl["master.ir_xy"]] * POS_SCALE_M).astype(np.float64)
         if obs[sl["anchor.ir_valid"]][0] > 0.5 and obs[sl["anchor.ir_age"]][0] < 1.0:
-            age = obs[sl["anchor.ir_age"]][0] * AGE_SCALE_S
-            k = obs[sl["anchor.ir_xy"]] * POS_SCALE_M - odo[:2] * age - m
+            k = obs[sl["anchor.ir_xy"]] * POS_SCALE_M - m
             a = obs[sl["anchor.slot_xy"]] * POS_SCALE_M
             if abs(math.hypot(*k) - math.hypot(*a)) < p.anchor_tol:
                 phi = math.atan2(k[1], k[0]) - math.atan2(a[1], a[0])
@@ -55,11 +53,8 @@ def numpy_act(p: LeaderFollowerPolicy, obs: np.ndarray) -> np.ndarray:
         dth = own.get(k, mean_dth)
         if obs[sl[q + "ir_valid"]][0] < 0.5 or obs[sl[q + "ir_age"]][0] >= 1.0:
             continue
-        nb = obs[sl[q + "neighbour_xy"]] * POS_SCALE_M
-        age = obs[sl[q + "ir_age"]][0] * AGE_SCALE_S
+        nb_now = (obs[sl[q + "neighbour_xy"]] * POS_SCALE_M).astype(np.float64)  # carried over our motion in the swarm
         cd, sd = math.cos(dth), math.sin(dth)
-        nb_v = np.array([cd * mv[0] - sd * mv[1], sd * mv[0] + cd * mv[1]])
-        nb_now = nb + (nb_v - odo[:2]) * age
         off = obs[sl[q + "offset_xy"]] * POS_SCALE_M
         ref_dists.append(math.hypot(off[0], off[1]))
         targets.append(nb_now + np.array([cd * off[0] - sd * off[1], sd * off[0] + cd * off[1]]))

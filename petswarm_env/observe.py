@@ -40,7 +40,7 @@ if TYPE_CHECKING:
 
 COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
 
-OBS_VERSION = 3  # 3: the ring's presence and location-known flags (seed 001's middle layer: heterogeneous bodies); 2: the master's IR fix (master.ir_*) and an anchor member's (anchor.*): a slave finds its slot from a scattered start
+OBS_VERSION = 4  # 4: the same layout, the IR fixes (links, master, anchor) carried over the slave's own odometry less the master's broadcast speed (seed 000 §3.5); 3: the ring's presence and location-known flags (seed 001's middle layer: heterogeneous bodies); 2: the master's IR fix (master.ir_*) and an anchor member's (anchor.*): a slave finds its slot from a scattered start
 POS_SCALE_M = 3.0
 AGE_SCALE_S = 2.0
 

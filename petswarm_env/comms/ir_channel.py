@@ -135,8 +135,11 @@ class IRChannel:
         x: cython.double
         y: cython.double
         k: cython.Py_ssize_t
-        for k in range(len(rx_indices)):
-            x, y = cl[rx_indices[k]][0], cl[rx_indices[k]][1]
+        j: cython.Py_ssize_t
+        n: cython.Py_ssize_t = len(rx_indices)
+        for k in range(n + 1):  # the receivers, then the transmitter
+            j = rx_indices[k] if k < n else tx_index
+            x, y = cl[j][0], cl[j][1]
             if k == 0:
                 x0, y0, x1, y1 = x, y, x, y
                 continue
@@ -148,15 +151,6 @@ class IRChannel:
                 x1 = x
             if y > y1:
                 y1 = y
-        x, y = cl[tx_index][0], cl[tx_index][1]
-        if x < x0:
-            x0 = x
-        if y < y0:
-            y0 = y
-        if x > x1:
-            x1 = x
-        if y > y1:
-            y1 = y
         near = self.walls.near_box(x0, y0, x1, y1)
         return [self._wall_ends[i] for i in near]
 

@@ -302,7 +302,7 @@ def _age(age: cython.double) -> cython.double:
 @cython.cfunc
 def _put_fix(v: cython.double[::1], at: cython.Py_ssize_t, m, yaw: cython.double, know, reach: cython.double,
              pos_scale: cython.double) -> cython.void:
-    """Fix ``m`` into ``v[at:at + 2]``, scaled: ``IRMeasurement.carried``, at most ``reach`` (the bound) away."""
+    """Fix ``m`` into ``v[at:at + 2]``, scaled, carried (oracle: tests/oracles.py ``carried_fix``), at most ``reach`` away."""
     x0: cython.double = know.odometry_xy[0]  # own motion in the swarm (dead-reckoned)
     y0: cython.double = know.odometry_xy[1]
     a: cython.double = m.own_yaw_rad + m.bearing_rad  # the bearing in the odometry frame

@@ -332,6 +332,17 @@ def slave_reward(cfg: RewardConfig, formation_error_m: float, heading_error_rad:
 
 
 # -- observation builder (petswarm_env/observe.py) ---------------------------------------------------
+def carried_fix(m, yaw_rad: float, x_m: float, y_m: float) -> tuple[float, float]:
+    """IR fix ``m`` (``knowledge.IRMeasurement``: where the other robot stood when measured) in this
+    robot's body frame now, at its AHRS reading ``yaw_rad`` and dead-reckoned position ``(x_m, y_m)``:
+    carried over this robot's own rotation and translation since (the oracle of ``observe._put_fix``)."""
+    a = m.own_yaw_rad + m.bearing_rad  # the bearing in the odometry frame
+    px = m.own_x_m + m.distance_m * math.cos(a) - x_m
+    py = m.own_y_m + m.distance_m * math.sin(a) - y_m
+    c, s = math.cos(yaw_rad), math.sin(yaw_rad)
+    return c * px + s * py, c * py - s * px
+
+
 def build_observation(layout: ObservationLayout, r: Readings) -> list[float]:
     """:func:`petswarm_env.observe.build_observation` as it was before its lookups were resolved
     once (offsets by name, ``min`` for the age clip, numpy for the ultrasonic scaling); the values
@@ -341,7 +352,7 @@ def build_observation(layout: ObservationLayout, r: Readings) -> list[float]:
         return min(age / scale, 1.0)
 
     def fix_xy(m):  # carried over own rotation and motion in the swarm, within the estimator's reach
-        x, y = m.carried(yaw_rad, *know.odometry_xy)
+        x, y = carried_fix(m, yaw_rad, *know.odometry_xy)
         f = layout.ir_max_m / math.sqrt(x * x + y * y) if x * x + y * y > layout.ir_max_m * layout.ir_max_m else 1.0
         return x * f / POS_SCALE_M, y * f / POS_SCALE_M
 

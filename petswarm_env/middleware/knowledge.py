@@ -29,17 +29,6 @@ class IRMeasurement:
         b = self.bearing_rad - (yaw_rad - self.own_yaw_rad)
         return self.distance_m * math.cos(b), self.distance_m * math.sin(b)
 
-    def carried(self, yaw_rad: float, x_m: float, y_m: float) -> tuple[float, float]:
-        """Where the other robot stood when measured, in this robot's body frame now, at its AHRS
-        reading ``yaw_rad`` and dead-reckoned position ``(x_m, y_m)``: the fix carried over this
-        robot's own rotation and translation since (its odometry; the other robot's motion is not
-        known)."""
-        a = self.own_yaw_rad + self.bearing_rad  # the bearing in the odometry frame
-        px = self.own_x_m + self.distance_m * math.cos(a) - x_m
-        py = self.own_y_m + self.distance_m * math.sin(a) - y_m
-        c, s = math.cos(yaw_rad), math.sin(yaw_rad)
-        return c * px + s * py, c * py - s * px
-
 
 @dataclass
 class HeadingEstimate:
@@ -84,7 +73,7 @@ class Knowledge:
         ring's update delay; taken in our own frame, the formation's heading being the master's),
         turned into the odometry frame by own AHRS yaw ``yaw_rad`` (the frame where the robot was,
         and its AHRS read zero, when the count began). An IR fix carried over it
-        (:meth:`IRMeasurement.carried`) stays where the swarm carried the measured robot, had it
+        (the observation's ``observe._put_fix``) stays where the swarm carried the measured robot, had it
         kept its place in it: while the swarm stands, where it stood."""
         dt = now_s - self.odometry_s
         self.odometry_s = now_s

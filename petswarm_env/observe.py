@@ -44,7 +44,6 @@ OBS_VERSION = 4  # 4: the same layout, the IR fixes (links, master, anchor) carr
 POS_SCALE_M = 3.0
 AGE_SCALE_S = 2.0
 
-
 CLIP = 1.5  # the bound of the fields clipped at the builder (velocities, turn rate), in scaled units
 USER_CLIP = 3.0  # the bound of master.user_xy (9 m), clipped at the builder
 
@@ -556,13 +555,14 @@ class Observer:
             member = know.member
             level, offset, slots = 0, (0.0, 0.0), ()
             formation = node.formation
-            if formation is not None and 0 <= member < formation.size:
+            if formation is not None and member >= 0:
                 hit = cache.get(id(formation))  # formation_geometry's cache, read here
                 if hit is None or hit[0] is not formation:
-                    slots, levels = self.formation_geometry(formation)
+                    table_slots, levels = self.formation_geometry(formation)
                 else:
-                    slots, levels = hit[1], hit[2]
-                level, offset = levels.get(member, 0), slots[member]
+                    table_slots, levels = hit[1], hit[2]
+                if member < len(table_slots):  # one slot per member of the table (its size)
+                    level, offset, slots = levels.get(member, 0), table_slots[member], table_slots
             last = last_by.get(agent)
             robot = robots[idx]  # its wheel odometry (Sensors.odometry's model, sim/sensors.py)
             if noise is not None:

@@ -36,14 +36,21 @@ COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py c
 _STOP = (0.0, 0.0, 0.0)
 _ndarray = np.ndarray
 _array = np.array
+_empty = np.empty
 _float32 = np.float32
+_F32 = np.dtype(np.float32)  # the dtype of a native float32 array (one object)
 _builtin_sum = sum  # called as the builtin (not inlined): its rule of adding floats is the interpreter's
 
 
 def clip_finite(arr) -> bool:
     """Clip a float32 ``(n, 3)`` array of actions to [-1, 1] in place if every value is finite
     (True); otherwise leave it as it is (False: the caller names the agent)."""
-    a: cython.float[:, :] = arr
+    return _clip_finite(arr)
+
+
+@cython.cfunc
+def _clip_finite(a: cython.float[:, :]) -> cython.bint:
+    """:func:`clip_finite` on the array's values (a C call on a view already taken)."""
     i: cython.Py_ssize_t
     j: cython.Py_ssize_t
     v: cython.float
@@ -64,7 +71,34 @@ def clip_finite(arr) -> bool:
 def stack_actions(actions: dict, agents: list):
     """The actions of ``agents`` (``actions``: agent -> action) as one new float32 array ``(n, 3)``
     clipped to [-1, 1], when every agent has a float numpy array of shape (3,) with finite values;
-    otherwise None (the caller checks them one by one and names the agent)."""
+    otherwise None (the caller checks them one by one and names the agent). The values of float32
+    arrays (what the policies give) are written into the new array one by one; any other float
+    dtype takes numpy's cast (:func:`_stack_cast`)."""
+    n: cython.Py_ssize_t = len(agents)
+    out = _empty((n, 3), _float32)
+    o: cython.float[:, :] = out
+    k: cython.Py_ssize_t
+    j: cython.Py_ssize_t
+    x: cython.double  # a float32 value, exactly (its list's Python float)
+    for k in range(n):
+        v = actions.get(agents[k])
+        if type(v) is not _ndarray:
+            return None
+        if v.dtype is not _F32:
+            return _stack_cast(actions, agents)
+        if v.ndim != 1:
+            return None
+        values: list = v.tolist()
+        if len(values) != 3:
+            return None
+        for j in range(3):
+            x = values[j]
+            o[k, j] = x
+    return out if _clip_finite(o) else None  # a NaN or an infinity: not clipped
+
+
+def _stack_cast(actions: dict, agents: list):
+    """:func:`stack_actions` through numpy's array from the values (any float dtype, cast to float32)."""
     values = []
     for a in agents:
         v = actions.get(a)

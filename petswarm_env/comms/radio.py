@@ -48,12 +48,16 @@ from cython.cimports.libc.math import sqrt as _c_sqrt
 from petswarm_env.config import RadioConfig
 from petswarm_env.sim.draws import Draws
 
-if cython.compiled:  # the clock's C methods (sim/clock.pxd): the medium schedules by a C call
+if cython.compiled:  # the clock's C methods (sim/clock.pxd): the medium schedules by a C call; a body's position as a C read (sim/body.pxd)
+    from cython.cimports.petswarm_env.sim.body import Body, _cp_get_position, cpVect
     from cython.cimports.petswarm_env.sim.clock import Clock, Due
 else:
+    from petswarm_env.sim.body import Body
     from petswarm_env.sim.clock import Clock, Due
 
 COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
+
+_READ_POSITION = Body.read_position  # a body's own position reader (a station's antenna: its robot's)
 
 __all__ = ["BROADCAST", "COLLIDED", "DELIVERED", "FILTERED", "LOST", "OUTCOMES", "PAN_WAITING", "Frame", "RadioMedium",
            "RadioStats", "RadioTrace", "Station"]
@@ -213,13 +217,29 @@ class _Port:
     node_id = cython.declare(cython.long)
     station = cython.declare(object)
     position = cython.declare(object)
+    body = cython.declare(Body)  # the body whose own reader ``position`` is (read from Chipmunk by a C call), else None
     queue = cython.declare(list)
 
     def __init__(self, node_id: cython.long, station: object):
         self.node_id = node_id
         self.station = station
-        self.position = station.position
+        self.read_by(station.position)
         self.queue = []
+
+    def read_by(self, position) -> None:
+        """The antenna's position reader: ``position()`` gives ``(x, y)``."""
+        self.position = position
+        owner = getattr(position, "__self__", None)
+        own = isinstance(owner, Body) and getattr(position, "__func__", None) is _READ_POSITION
+        self.body = owner if own else None
+
+    @cython.cfunc
+    def xy(self) -> tuple[cython.double, cython.double]:
+        """``position()``: Chipmunk's position of the body by a C call when it is the body's own reader."""
+        if cython.compiled and self.body is not None:
+            p: cpVect = _cp_get_position(cython.cast(cython.p_void, self.body._cp))
+            return p.x, p.y
+        return self.position()
 
 
 @cython.cclass
@@ -286,7 +306,7 @@ class RadioMedium:
         if node_id in self._ports:  # attached again: the new station replaces the old one in place
             port: _Port = self._ports[node_id]
             port.station = station
-            port.position = station.position
+            port.read_by(station.position)
             port.queue = []
         else:
             port = _Port(node_id, station)
@@ -349,7 +369,7 @@ class RadioMedium:
         now: cython.double = self._clock.now
         x: cython.double
         y: cython.double
-        x, y = port.position()
+        x, y = port.xy()
         r2: cython.double = self._range2
         tx: _Tx
         for tx in self._air:
@@ -432,7 +452,7 @@ class RadioMedium:
             if node_id == src:
                 continue
             st = p.station
-            rx, ry = p.position()
+            rx, ry = p.xy()
             d2 = (rx - tx_x) ** 2 + (ry - tx_y) ** 2
             if d2 > r2:
                 continue

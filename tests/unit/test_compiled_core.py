@@ -383,20 +383,52 @@ def test_the_interpreted_form_gives_the_same_lf_fixes_bit_for_bit():
     assert out["1"] == out["0"]
 
 
-def test_the_actions_stack_takes_only_float_arrays_of_three_finite_values():
-    """step_kernel.stack_actions (env._validate's fast path): a new clipped float32 array in the
-    agents' order, or None for anything the checked loop must name (env.py)."""
+def actions_stacks() -> list:
+    """step_kernel.stack_actions (env._validate's fast path) on float32 actions (copied value by
+    value), float64 and float16 ones (numpy's cast), a mix, read-only and strided arrays, values
+    beyond [-1, 1] and beyond float32, and what it must refuse: each result as hex strings, or None."""
     import numpy as np
 
     from petswarm_env.step_kernel import stack_actions
 
-    acts = {"a": np.array([2.0, -0.5, 0.25]), "b": np.array([0.1, 0.2, -7.0], np.float32)}
-    arr = stack_actions(acts, ["b", "a"])
-    assert arr.dtype == np.float32 and arr.tolist() == [[np.float32(0.1), np.float32(0.2), -1.0], [1.0, -0.5, 0.25]]
-    assert acts["a"][0] == 2.0  # the caller's arrays are left as they were
-    for bad in (np.array([1, 0, 0]), np.array([0.0, 0.0]), np.array([[0.0, 0.0, 0.0]]), np.array([0.0, np.inf, 0.0]),
-                [0.0, 0.0, 0.0], None):
-        assert stack_actions({"a": acts["a"], "b": bad}, ["a", "b"]) is None
+    f32 = np.array([[2.0, -0.5, 0.25], [0.1, 0.2, -7.0], [1e-30, -1.0, 1.0]], np.float32)
+    ro = f32[1].copy()
+    ro.flags.writeable = False
+    cases = [{"a": f32[0], "b": f32[1], "c": f32[2]},  # rows of one array (views)
+             {"a": np.array([0.3, 1.5, -0.1]), "b": f32[1], "c": np.array([0.5, 0.5, 0.5], np.float16)},
+             {"a": f32[0], "b": ro, "c": f32[:, 1]},  # read-only, strided
+             {"a": f32[0], "b": np.array([1e39, 0.0, 0.0]), "c": f32[2]},  # beyond float32: inf, refused
+             {"a": f32[0], "b": np.array([0.0, np.nan, 0.0], np.float32), "c": f32[2]},
+             {"a": f32[0], "b": np.array([1, 0, 0]), "c": f32[2]},
+             {"a": f32[0], "b": np.zeros(2, np.float32), "c": f32[2]},
+             {"a": f32[0], "b": np.zeros((1, 3), np.float32), "c": f32[2]},
+             {"a": f32[0], "b": np.zeros((3, 1), np.float32), "c": f32[2]},
+             {"a": f32[0], "b": np.float32(0.0), "c": f32[2]},
+             {"a": f32[0], "b": [0.0, 0.0, 0.0], "c": f32[2]},
+             {"a": f32[0], "c": f32[2]}]
+    out = []
+    for acts in cases:
+        values = lambda: {k: [float(x).hex() for x in np.ravel(v)] for k, v in acts.items() if isinstance(v, np.ndarray)}  # noqa: E731
+        before = values()
+        arr = stack_actions(acts, ["c", "a", "b"])
+        assert values() == before  # the caller's arrays are left as they were
+        out.append(None if arr is None else [arr.dtype.str, list(arr.shape), [float(v).hex() for v in arr.ravel()]])
+    return out
+
+
+def test_the_actions_stack_takes_only_float_arrays_of_three_finite_values():
+    """step_kernel.stack_actions: a new clipped float32 array in the agents' order, or None for
+    anything the checked loop must name (env.py); the same in both forms."""
+    import numpy as np
+
+    out = in_both_forms("actions_stacks")
+    assert out["1"] == out["0"]
+    stacks = out["0"]
+    first = [float(np.float32(v)).hex() for v in (1e-30, -1.0, 1.0, 1.0, -0.5, 0.25, 0.1, 0.2, -1.0)]
+    assert stacks[0] == ["<f4", [3, 3], first]
+    assert stacks[1] is not None and stacks[2] is not None
+    assert stacks[2][2][:3] == [float(np.float32(v)).hex() for v in (-0.5, 0.2, -1.0)]  # the strided column
+    assert stacks[3:] == [None] * 9
 
 
 def test_the_sum_of_squares_is_the_builtin_sums():

@@ -571,12 +571,12 @@ class Observer:
             else:
                 ovx, ovy, ow = wheel_odometry(robot, 0.0, 0.0, 0.0)  # noiseless: the wheels' own values, exactly
             yaw = ahrs[idx](now_s)  # the sensor's physics at true time
-            know.dead_reckon(node.clock.now, ovx, ovy, yaw)  # own position from own odometry, on its own clock
+            know.dead_reckon(node._mcu.local_now(), ovx, ovy, yaw)  # own position from own odometry, on its own clock
             table = node.formation  # its reference links (Station.reference_links, read here)
             own = node.know.member
             table_links: dict = table.links if table is not None and own > 0 else None
             links = table_links.get(own, ()) if table_links is not None else ()
-            _fill(plan, v, know, links, node.clock.now, ovx, ovy, ow, yaw,  # ages on its own clock
+            _fill(plan, v, know, links, node._mcu.local_now(), ovx, ovy, ow, yaw,  # ages on its own clock
                   last if last is not None else _NO_ACTION, ranges[idx], level, offset, slots, flags[idx])
             if cython.compiled:  # float64 -> float32 rounding, as astype(np.float32)
                 for k in range(size):

@@ -153,12 +153,13 @@ def command_slaves(robot_ids: list, acts, scale, masters: set, nodes: dict, robo
     vy: cython.float
     omega: cython.float
     k: cython.Py_ssize_t
+    node: Station
     for k in range(len(robot_ids)):
         idx = robot_ids[k]
         if idx in masters:
             continue
         node = nodes[idx]
-        if node.seq.master_lost(node.clock.now):
+        if node.seq.master_lost(node._mcu.local_now()):  # on its own clock (``node.clock.now``)
             robots[idx].set_command(0.0, 0.0, 0.0)
             continue
         st = node.know.status
@@ -285,7 +286,7 @@ def stale_fixes(robot_ids: list, nodes: dict, start_s: float, age_s: float) -> c
                 t = irs[nb].time_s
                 if not found or t > newest:
                     newest, found = t, True
-        clock = node.clock
+        clock = node._mcu  # (``node.clock``)
         # the fixes' times are on the robot's own clock (its MCU's): compared on that clock
         if (newest if found else clock.local(start_s)) < clock.local_now() - age_s:
             stale += 1
@@ -298,6 +299,7 @@ def infos(agents: list, robot_ids: list, nodes: dict, missing: dict, errors_m: l
     ``live`` (the infos of an agent in slave-role driving) with its figures."""
     out = {}
     k: cython.Py_ssize_t
+    node: Station
     for k in range(len(agents)):
         node = nodes[robot_ids[k]]
         info = live.copy()  # (a copy of a dict of these keys: no insertion, no resize)

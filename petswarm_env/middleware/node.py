@@ -36,6 +36,11 @@ from petswarm_env.middleware.succession import SuccessionManager
 from petswarm_env.middleware.token_ring import TokenRing
 from petswarm_env.sim.clock import Clock
 
+if cython.compiled:  # a station's typed attributes (station.pxd): its MCU clock by a C read
+    from cython.cimports.petswarm_env.middleware.station import Station as _Typed
+else:
+    _Typed = Station
+
 if TYPE_CHECKING:
     from petswarm_env.sim.robot import Robot
 
@@ -78,5 +83,6 @@ class Node(Station):
     def _on_status(self, frame: Frame) -> None:
         """The master's periodic broadcast (seed 000 §3.5, Fig. 9): keep the latest."""
         p = frame.payload
+        station: _Typed = self
         self.know.status = MasterStatus(p["velocity"], p["activity"], p["mode"], p["turn_rate"], p["user"],
-                                        self.clock.now, p["rotating"])
+                                        station._mcu.local_now(), p["rotating"])  # on its own clock (``clock.now``)

@@ -264,7 +264,7 @@ class Station:
         """The IR module measured robot ``other``'s transmission (the IR medium calls it)."""
         if math.isfinite(distance_m):
             x, y = self.know.odometry_xy  # own dead-reckoned position (advanced each control step)
-            self.know.ir[other] = IRMeasurement(distance_m, bearing_rad, self.clock.now, self.ahrs_yaw(), x, y)
+            self.know.ir[other] = IRMeasurement(distance_m, bearing_rad, self._mcu.local_now(), self.ahrs_yaw(), x, y)
 
     def _ir_not_wired(self, neighbours: list[int | None]) -> list[int]:
         raise RuntimeError(f"robot {self.node_id}'s IR module is not wired to an IR medium (Fleet.add_node wires it)")

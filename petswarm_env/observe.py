@@ -299,11 +299,9 @@ def _age(age: cython.double) -> cython.double:
 
 
 @cython.cfunc
-def _put_fix(v: cython.double[::1], at: cython.Py_ssize_t, m, yaw: cython.double, know, reach: cython.double,
-             pos_scale: cython.double) -> cython.void:
-    """Fix ``m`` into ``v[at:at + 2]``, scaled, carried (oracle: tests/oracles.py ``carried_fix``), at most ``reach`` away."""
-    x0: cython.double = know.odometry_xy[0]  # own motion in the swarm (dead-reckoned)
-    y0: cython.double = know.odometry_xy[1]
+def _put_fix(v: cython.double[::1], at: cython.Py_ssize_t, m, yaw: cython.double, x0: cython.double, y0: cython.double,
+             reach: cython.double, pos_scale: cython.double) -> cython.void:
+    """Fix ``m`` into ``v[at:at + 2]``, scaled, carried to ``know.odometry_xy`` = ``(x0, y0)`` (oracle: ``carried_fix``), at most ``reach`` away."""
     a: cython.double = m.own_yaw_rad + m.bearing_rad  # the bearing in the odometry frame
     d: cython.double = m.distance_m
     px: cython.double = m.own_x_m + d * _cos(a) - x0
@@ -354,6 +352,8 @@ def _fill(plan: _Plan, v: cython.double[::1], know, links, now: cython.double, o
     a2: cython.double
     members: dict = know.members
     irs: dict = know.ir
+    ox0: cython.double = know.odometry_xy[0]  # own motion in the swarm (dead-reckoned): every fix is carried over it
+    oy0: cython.double = know.odometry_xy[1]
     nl: cython.Py_ssize_t = len(links)
     if nl > plan.max_links:
         nl = plan.max_links
@@ -368,7 +368,7 @@ def _fill(plan: _Plan, v: cython.double[::1], know, links, now: cython.double, o
             if m is not None:  # carried over own rotation (AHRS) and translation (odometry) since the measurement
                 mt = m.time_s
                 v[base + 1] = 1.0
-                _put_fix(v, base + 2, m, yaw_rad, know, plan.ir_max, pos_scale)
+                _put_fix(v, base + 2, m, yaw_rad, ox0, oy0, plan.ir_max, pos_scale)
                 v[base + 4] = _age((now - mt) / age_scale)
             else:
                 v[base + 4] = 1.0
@@ -419,7 +419,7 @@ def _fill(plan: _Plan, v: cython.double[::1], know, links, now: cython.double, o
     if m is not None:
         mt = m.time_s
         v[master_ir] = 1.0
-        _put_fix(v, master_ir + 1, m, yaw_rad, know, plan.ir_max, pos_scale)
+        _put_fix(v, master_ir + 1, m, yaw_rad, ox0, oy0, plan.ir_max, pos_scale)
         v[master_ir + 3] = _age((now - mt) / age_scale)
     else:
         v[master_ir + 3] = 1.0
@@ -443,7 +443,7 @@ def _fill(plan: _Plan, v: cython.double[::1], know, links, now: cython.double, o
         mt = m.time_s
         sx, sy = member_slots[first]
         v[anchor] = 1.0
-        _put_fix(v, anchor + 1, m, yaw_rad, know, plan.ir_max, pos_scale)
+        _put_fix(v, anchor + 1, m, yaw_rad, ox0, oy0, plan.ir_max, pos_scale)
         v[anchor + 3] = (now - mt) / age_scale
         v[anchor + 4] = sx / pos_scale
         v[anchor + 5] = sy / pos_scale

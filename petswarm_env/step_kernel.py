@@ -273,14 +273,18 @@ def stale_fixes(robot_ids: list, nodes: dict, start_s: float, age_s: float) -> c
     found: cython.bint
     node: Station
     clock: LocalClock
+    irs: dict
+    members: dict
+    links: dict
     for idx in robot_ids:
         node = nodes[idx]
         know = node.know
-        irs, members = know.ir, know.members
+        irs, members = know.ir, know.members  # (dicts, looked up in C)
         found = False  # the newest fix's time: max(...) as the builtin gives it (the first of equals)
         newest = 0.0
         formation, member = node.formation, know.member  # its reference links (Station.reference_links, read here)
-        for lk in (formation.links.get(member, ()) if formation is not None and member > 0 else ()):
+        links = formation.links if formation is not None and member > 0 else None
+        for lk in (links.get(member, ()) if links is not None else ()):
             nb = members.get(lk.neighbour)
             if nb in irs:
                 t = irs[nb].time_s

@@ -74,6 +74,8 @@ from petswarm.baselines.policy import Policy, PolicySpec
 from petswarm_env.observe import AGE_SCALE_S, MAX_LINKS, POS_SCALE_M
 
 _F32 = array("f", [0.0])
+_COS45 = math.cos(math.pi / 4)
+_RIM_M = 0.25  # step 1d: a body's radius taken from its echo to its centre (a Pet-Bot's ~0.2 m, a person's ~0.25 m; chosen)
 
 
 def _r32(x: float) -> float:
@@ -107,6 +109,8 @@ class LeaderFollowerPolicy(Policy):
         search_mps: float = 0.5,
         orbit_max_m: float = 2.2,
         anchor_heading: bool = True,
+        detour_m: float = 1.0,
+        scan_rps: float = 0.3,
     ):
         super().__init__(spec)
         self.kp = position_gain
@@ -122,6 +126,8 @@ class LeaderFollowerPolicy(Policy):
         self.search = search_mps  # step 1d: nothing in IR sight, circle the nearest echo at this speed
         self.orbit_max = orbit_max_m  # step 1b: the master seen, no member: orbit it no farther out than this
         self.anchor_heading = anchor_heading  # step 3: no fresh heading exchange: Δθ from the master's and an anchor's fix
+        self.detour = detour_m  # step 1c: an echo this close toward the master's last fix is passed by its side (0: off)
+        self.scan = scan_rps  # step 1d: no echo in range, turn on the spot at this rate; with one, turn with its circle (0: neither)
         self.rejoin = rejoin_mps  # step 1c: lost, toward the master's last fix at this speed (relative to the swarm)
         st = {name: sl.start for name, sl in spec.layout.slices.items()}
         self._links = [
@@ -187,6 +193,7 @@ class LeaderFollowerPolicy(Policy):
 
         targets, dthetas, ref_dists = [], [], []
         links = []
+        search_turn = 0.0
         for present, sincos, h_valid, h_age, ir_valid, ir_age, nb_xy, off_xy in self._links:
             if o[present] < 0.5:
                 continue
@@ -287,26 +294,42 @@ class LeaderFollowerPolicy(Policy):
             # step 1c, lost (no fix of anyone within the age range: the swarm walked out of our IR's
             # reach): back toward where we last saw the master, relative to the swarm we keep moving
             # with (the fix is carried over our own motion in the swarm, the swarm's motion is step
-            # 2's feed-forward), until its IR reaches us again
+            # 2's feed-forward), until its IR reaches us again; an echo in the way (within
+            # ``detour_m``, less than 45° off the master's direction: the user or a robot between us,
+            # whose body also blocks the IR) is rounded clockwise (chosen: by the side nearer the
+            # master's direction, a slave straight behind its user dithered from side to side)
             j = self._j_mir_xy
             mx, my = s[j], s[j + 1]
             dist = max(math.hypot(mx, my), 1e-9)
-            vx, vy = vx + self.rejoin * mx / dist, vy + self.rejoin * my / dist
+            dx, dy = mx / dist, my / dist
+            if self.detour > 0:
+                k, ux_k, uy_k = min(self._us_rays, key=lambda r: o[r[0]])
+                if s[k] < min(self.detour, dist) and ux_k * dx + uy_k * dy > _COS45:
+                    dx, dy = uy_k, -ux_k  # round it clockwise, as step 1d circles an echo
+            vx, vy = vx + self.rejoin * dx, vy + self.rejoin * dy
         else:
             # step 1d, nothing in IR sight yet (the user or a robot may stand between us and the
-            # swarm): circle the nearest ultrasonic echo, clockwise, until an IR fix comes
-            near = min(zip(self._us, self._us_dirs), key=lambda kd: o[kd[0]], default=None)
-            if near is not None and o[near[0]] < 1.0:
-                (ux_k, uy_k) = near[1]
+            # swarm): circle the nearest ultrasonic echo, clockwise, until an IR fix comes. The
+            # ring's rays are 45° apart and a body 1 m off fills ±12° of them, so the robot turns
+            # with its circle (the echo stays on its ray); with no echo in range it turns on the spot
+            # at ``scan_rps``, sweeping the rays over the gaps between them (chosen: a slave in its
+            # user's IR shadow, 1 m beyond the user, found no echo and stood there 20-35 s)
+            k, ux_k, uy_k = min(self._us_rays, key=lambda r: o[r[0]])
+            if o[k] < 1.0:
                 vx, vy = vx + self.search * uy_k, vy - self.search * ux_k
+                if self.scan > 0:
+                    search_turn = -self.search / (s[k] + _RIM_M)
+            else:
+                search_turn = -self.scan
         # step 4: leading mode arc driving on user rotation
         if leading_turn:
             turn = s[self._j_turn]
             rx, ry = r32(refx - user_x), r32(refy - user_y)
             ax, ay = r32(-turn * ry), r32(turn * rx)
             vx, vy = vx + r32(r32(cd32 * ax) - r32(sd32 * ay)), vy + r32(r32(sd32 * ax) + r32(cd32 * ay))
-        # step 3: twisted-heading correction inside an error band, plus the swarm's rotation
-        omega = mv2 + (self.kh * dth if abs(dth) > self.band else 0.0)
+        # step 3: twisted-heading correction inside an error band, plus the swarm's rotation (and
+        # step 1d's turn while searching)
+        omega = mv2 + (self.kh * dth if abs(dth) > self.band else 0.0) + search_turn
         # step 5: ultrasonic keep-out (shrunk for tight formations: never beyond 85 % of the rim-to-rim
         # gap the formation itself asks for, taking 0.4 m for two robot radii)
         keep_out = self.keep_out

@@ -131,3 +131,19 @@ def test_nine_slaves_build_their_filled_wedge_from_a_scattered_start(seed):
     s = _run(env)
     assert s["slaves"] == 9 and s["slaves_missing"] == 0
     assert s["building_time_s"] <= 25.0
+
+
+@pytest.mark.parametrize("seed", [42, 412])
+def test_a_slave_in_the_users_shadow_finds_the_swarm(seed):
+    """A slave that starts about 1 m beyond its user (the master stands 1 m behind the user, so the
+    user's body blocks the master's IR and the ultrasonic ring's rays miss the user between them)
+    searches (step 1d turns on the spot, then circles the user's echo) until the master's IR reaches
+    it, and the formation is built within 15 s of organizing (it stood there 29-35 s before the
+    search turned; `python -m petswarm.experiments.measure_building --seeds 0-199 --set user.scenario=straight`)."""
+    env = petswarm_env.parallel_env(**{"user.scenario": "straight", "max_cycles": 250})
+    policy = LeaderFollowerPolicy(PolicySpec.from_env(env))
+    obs, _ = env.reset(seed=seed)
+    start = env.episode.world.now
+    while env.agents and not math.isfinite(env.episode.metrics.building_time_s) and env.episode.world.now - start < 15.0:
+        obs, *_ = env.step(policy.act_all({a: obs[a] for a in env.agents}))
+    assert env.episode.metrics.building_time_s <= 15.0

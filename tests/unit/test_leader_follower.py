@@ -19,6 +19,7 @@ def numpy_act(p: LeaderFollowerPolicy, obs: np.ndarray) -> np.ndarray:
     have_status = obs[sl["master.valid"]][0] > 0.5
     mv = obs[sl["master.velocity"]] * np.array([vmax, vmax, wmax]) if have_status else np.zeros(3)
     targets, dthetas, ref_dists = [], [], []
+    search_turn = 0.0
     own = {}  # link -> its heading difference, from a heading exchange within the age range
     for k in range(2):
         q = f"link{k}."
@@ -89,18 +90,29 @@ def numpy_act(p: LeaderFollowerPolicy, obs: np.ndarray) -> np.ndarray:
     elif have_status and obs[sl["master.ir_valid"]][0] > 0.5:  # step 1c, lost
         m = [float(x) for x in obs[sl["master.ir_xy"]] * POS_SCALE_M]
         dist = max(math.hypot(*m), 1e-9)
-        v = v + np.array([p.rejoin * m[0] / dist, p.rejoin * m[1] / dist])
-    else:  # step 1d, nothing in IR sight: circle the nearest echo
+        d = np.array([m[0] / dist, m[1] / dist])
         us = obs[sl["self.ultrasonic"]]
-        if len(us) and us[int(np.argmin(us))] < 1.0:
-            ux, uy = p._us_dirs[int(np.argmin(us))]
+        k = int(np.argmin(us))
+        u = np.array(p._us_dirs[k])
+        if p.detour > 0 and float(us[k] * np.float32(p.spec.us_max_range_m)) < min(p.detour, dist) and float(u @ d) > math.cos(math.pi / 4):
+            d = np.array([u[1], -u[0]])  # an echo in the way: round it clockwise
+        v = v + p.rejoin * d
+    else:  # step 1d, nothing in IR sight: circle the nearest echo, turning with the circle; none: turn on the spot
+        us = obs[sl["self.ultrasonic"]]
+        k = int(np.argmin(us))
+        if us[k] < 1.0:
+            ux, uy = p._us_dirs[k]
             v = v + np.array([p.search * uy, -(p.search * ux)])
+            if p.scan > 0:
+                search_turn = -p.search / (float(us[k] * np.float32(p.spec.us_max_range_m)) + 0.25)
+        else:
+            search_turn = -p.scan
     turn = obs[sl["master.turn_rate"]][0] * wmax
     if leading_turn:
         r = ref - obs[sl["master.user_xy"]] * POS_SCALE_M
         arc = np.array([-turn * r[1], turn * r[0]])
         v = v + np.array([cd * arc[0] - sd * arc[1], sd * arc[0] + cd * arc[1]])
-    omega = mv[2] + (p.kh * dth if abs(dth) > p.band else 0.0)
+    omega = mv[2] + (p.kh * dth if abs(dth) > p.band else 0.0) + search_turn
     keep_out = p.keep_out
     if ref_dists:
         keep_out = min(keep_out, max(0.1, 0.85 * (min(ref_dists) - 0.4)))
@@ -263,3 +275,61 @@ def test_heading_from_the_master_and_an_anchor(phi):
     assert LeaderFollowerPolicy(PolicySpec.from_env(env), anchor_heading=False).act("robot_1", obs)[2] == 0.0
     obs[sl["anchor.ir_valid"]] = 0.0
     assert policy.act("robot_1", obs)[2] == 0.0
+
+
+def _lost_obs(policy: LeaderFollowerPolicy, master_fix: bool) -> np.ndarray:
+    """A slave that hears the master's status but has no fresh IR fix of anyone: step 1c with an old
+    fix of the master (``master_fix``), else step 1d."""
+    sl = policy.spec.layout.slices
+    obs = np.zeros(policy.spec.layout.size, np.float32)
+    obs[sl["self.ultrasonic"]] = 1.0
+    obs[sl["master.valid"]] = 1.0
+    if master_fix:
+        obs[sl["master.ir_valid"]] = 1.0
+        obs[sl["master.ir_age"]] = 1.0  # at the end of the age range: step 1c
+    return obs
+
+
+def test_search_circles_the_echo_turning_with_it():
+    """Step 1d: an echo in range is circled clockwise, the robot turning with its circle (the echo
+    stays on its ray); with no echo in range the robot turns on the spot, sweeping its rays over the
+    gaps between them, instead of standing still (a slave in the user's IR shadow stood 20 s and more)."""
+    env = petswarm_env.parallel_env()
+    policy = LeaderFollowerPolicy(PolicySpec.from_env(env))
+    sl = policy.spec.layout.slices
+    obs = _lost_obs(policy, master_fix=False)
+    quiet = policy.act("robot_1", obs)
+    assert quiet[0] == quiet[1] == 0.0 and quiet[2] < -0.1  # no echo: turn on the spot
+    assert LeaderFollowerPolicy(PolicySpec.from_env(env), scan_rps=0.0).act("robot_1", obs)[2] == 0.0
+    us = sl["self.ultrasonic"].start
+    obs[us + 2] = 0.8 / policy.spec.us_max_range_m  # an echo 0.8 m off on the left ray (90°)
+    act = policy.act("robot_1", obs)
+    assert act[0] > 0.1 and abs(act[1]) < 1e-6  # clockwise about it: forward, the echo on the left
+    assert act[2] < -0.1  # turning clockwise with the circle
+    assert act.tobytes() == numpy_act(policy, obs).tobytes()
+    assert quiet.tobytes() == numpy_act(policy, _lost_obs(policy, master_fix=False)).tobytes()
+
+
+def test_lost_slave_passes_an_echo_in_its_way():
+    """Step 1c: toward the master's last fix, but an echo in the way (the user between us and the
+    master, whose body also blocks the IR) is rounded clockwise, whichever side the master lies a
+    little to (a slave straight behind its user does not dither), instead of pushing against it;
+    an echo off the way changes nothing."""
+    env = petswarm_env.parallel_env()
+    policy = LeaderFollowerPolicy(PolicySpec.from_env(env))
+    sl = policy.spec.layout.slices
+    obs = _lost_obs(policy, master_fix=True)
+    obs[sl["master.ir_xy"]] = (2.0 / POS_SCALE_M, 0.3 / POS_SCALE_M)  # the master 2 m ahead, a little left
+    straight = policy.act("robot_1", obs)
+    us = sl["self.ultrasonic"].start
+    obs[us + 0] = 0.7 / policy.spec.us_max_range_m  # an echo 0.7 m dead ahead (ray 0)
+    act = policy.act("robot_1", obs)
+    assert abs(act[0]) < 1e-6 and act[1] < -0.1  # sideways, rounding it clockwise
+    assert act.tobytes() == numpy_act(policy, obs).tobytes()
+    assert LeaderFollowerPolicy(PolicySpec.from_env(env), detour_m=0.0).act("robot_1", obs)[0] > 0.1  # into the echo
+    obs[sl["master.ir_xy"]] = (2.0 / POS_SCALE_M, -0.3 / POS_SCALE_M)  # the master a little right: the same side
+    assert policy.act("robot_1", obs).tobytes() == act.tobytes()
+    obs[sl["master.ir_xy"]] = (2.0 / POS_SCALE_M, 0.3 / POS_SCALE_M)
+    obs[us + 0] = 1.0
+    obs[us + 4] = 0.7 / policy.spec.us_max_range_m  # behind us: not in the way
+    assert policy.act("robot_1", obs).tobytes() == straight.tobytes()

@@ -69,7 +69,7 @@ _PI = math.pi
 # walking a turn at 60°/s, 1 m/s (radius 0.95 m) asks 2.0 m/s of the master and of the outer rear
 # slave (1.95 m from the turn's centre) and 1.75 m/s of the outer front slave, beyond the 1.5 m/s
 # wheels (|Vx| + |Vy| + L·|ω|). Asked anyway, every wheel command is scaled down together: the master
-# lost its pace with the user too, who walked into the formation (0.3-0.6 m from the master's
+# lost its pace with the user too, who walked into the formation (0.3-0.7 m inside the master's
 # distance), and the slaves, arcing at the full rate, outran the master's frame. At 0.3 rad/s the outer
 # robots add about 0.6 m/s across the walk. Measured on the zigzag (leading, seeds 200-219 and
 # 100-119, docs/faults.md): formation hold RMSE 0.35 and 0.37 m at the belt's full rate.

@@ -51,7 +51,10 @@ It reads only the observation, like a learned policy. Per step:
    seeds 0-19: built 15 → 19 of 20);
 4. on user rotation: leading mode → arc driving (the velocity a point at the robot's distance
    from the user has when the formation turns with the user); following mode → just keep moving
-   toward the reference location;
+   toward the reference location. Chosen: about a walking user the formation turns at the belt's
+   rate up to ``LEADING_ARC_MAX_RPS`` (control/master.py, where the master's own arc is capped
+   alike: the wedge's outer robots cannot drive a 60°/s walking turn 2 m out); a user turning on the
+   spot, at the belt's rate (the master synchronises its arc with the belt's accumulated angle);
 5. ultrasonic ranges push the robot away from anything closer than the keep-out distance.
 
 Arithmetic. The controller runs once per slave and step on a few dozen numbers, so it is written on
@@ -71,7 +74,9 @@ from array import array
 import numpy as np
 
 from petswarm.baselines.policy import Policy, PolicySpec
+from petswarm_env.control.master import LEADING_ARC_MAX_RPS
 from petswarm_env.observe import AGE_SCALE_S, MAX_LINKS, POS_SCALE_M
+from petswarm_env.scenarios import ACTIVITIES
 
 _F32 = array("f", [0.0])
 _COS45 = math.cos(math.pi / 4)
@@ -144,6 +149,9 @@ class LeaderFollowerPolicy(Policy):
         self._j_odo, self._j_mvalid, self._j_mvel = st["self.odometry"], st["master.valid"], st["master.velocity"]
         self._j_ref, self._j_user, self._j_turn = st["self.offset_from_master_xy"], st["master.user_xy"], st["master.turn_rate"]
         self._j_leading, self._j_rotating, self._j_member = st["master.leading"], st["master.rotating"], st["self.member"]
+        act = st["master.activity"]  # one-hot over scenarios.ACTIVITIES: stop, rest, walk, run
+        self._j_walking = (act + ACTIVITIES.index("walk"), act + ACTIVITIES.index("run"))
+        self.arc_max = _r32(LEADING_ARC_MAX_RPS)  # step 4: the formation's turn about a walking user, at most (rad/s)
         self._j_mir_valid, self._j_mir_xy, self._j_mir_age = st["master.ir_valid"], st["master.ir_xy"], st["master.ir_age"]
         self._j_anchor = st["anchor.ir_valid"]  # then anchor.ir_xy (+1, +2), anchor.ir_age (+3), anchor.slot_xy (+4, +5)
         if [st[f"anchor.{f}"] - self._j_anchor for f in ("ir_xy", "ir_age", "slot_xy")] != [1, 3, 4]:
@@ -324,6 +332,8 @@ class LeaderFollowerPolicy(Policy):
         # step 4: leading mode arc driving on user rotation
         if leading_turn:
             turn = s[self._j_turn]
+            if o[self._j_walking[0]] > 0.5 or o[self._j_walking[1]] > 0.5:  # a walking turn: as the master's arc
+                turn = max(-self.arc_max, min(self.arc_max, turn))
             rx, ry = r32(refx - user_x), r32(refy - user_y)
             ax, ay = r32(-turn * ry), r32(turn * rx)
             vx, vy = vx + r32(r32(cd32 * ax) - r32(sd32 * ay)), vy + r32(r32(sd32 * ax) + r32(cd32 * ay))

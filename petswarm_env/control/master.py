@@ -15,7 +15,8 @@ BLE, and its own odometry. The control system of Fig. 13, in order:
    ``trail_rps`` (a bounded swing the formation can follow), and rotates toward the user once they
    leave a small deadband, keeping them well inside the reliable ±25° region. *Leading*: straight
    ahead of the user. While the belt reports a rotation, a robot ahead of its user moves along the
-   arc about the user at the user's angular speed (seed 002 §3.4, Table 4); for a user turning on
+   arc about the user at the user's angular speed (seed 002 §3.4, Table 4; a walking user's, at most
+   :data:`LEADING_ARC_MAX_RPS`, the rate its formation can follow); for a user turning on
    the spot, the arc it has made is closed on the belt's accumulated angle at ``arc_sync_gain``,
    never faster than it can stop within the rest of that angle (``arc_brake_mps2``)
    (:meth:`MasterController._arc_in_place`); otherwise a remaining angle between its place and
@@ -60,6 +61,19 @@ def _pose_axes(pose: list) -> tuple[cython.double, cython.double, cython.double,
 
 _hypot = math.hypot  # CPython's own (not the C library's hypot)
 _PI = math.pi
+
+# Chosen: the fastest a leading swarm turns about its WALKING user (rad/s): the master's arc and the
+# slaves' arc driving (seed 000 §3.6.3, baselines/leader_follower.py step 4) follow the belt's rate up
+# to this, and the rest of the turn is closed afterwards (``arc_gain``). The leading wedge stands up to
+# 2 m from its user (the master at 1.7 m, the arms' rear ends 1 m to either side of the user): a user
+# walking a turn at 60°/s, 1 m/s (radius 0.95 m) asks 2.0 m/s of the master and of the outer rear
+# slave (1.95 m from the turn's centre) and 1.75 m/s of the outer front slave, beyond the 1.5 m/s
+# wheels (|Vx| + |Vy| + L·|ω|). Asked anyway, every wheel command is scaled down together: the master
+# lost its pace with the user too, who walked into the formation (0.3-0.7 m inside the master's
+# distance), and the slaves, arcing at the full rate, outran the master's frame. At 0.3 rad/s the outer
+# robots add about 0.6 m/s across the walk. Measured on the zigzag (leading, seeds 200-219 and
+# 100-119, docs/faults.md): formation hold RMSE 0.35 and 0.37 m at the belt's full rate.
+LEADING_ARC_MAX_RPS = 0.3
 
 
 @cython.cclass
@@ -399,8 +413,9 @@ class MasterController:
             if sync is not None:  # the user turns on the spot: the arc closes on the accumulated angle
                 arc = swing = sync
             elif self._trusted:
-                if belt.rotating:  # the arc: a robot ahead of its user turns with the user; one beside
-                    arc = belt.angular_speed_rps * max(0.0, _c_cos(off))  # or behind is met by the turn
+                if belt.rotating:  # the arc: a robot ahead of its user turns with the user (at most at
+                    rate: cython.double = max(-LEADING_ARC_MAX_RPS, min(LEADING_ARC_MAX_RPS, belt.angular_speed_rps))
+                    arc = rate * max(0.0, _c_cos(off))  # the rate its formation can follow); one beside or behind is met by the turn
                 swing = arc - self._arc_gain * _c_sin(_beyond(off, band))  # and closes on straight ahead
         elif walking:  # following: drift in behind the walking user
             swing = -self._trail * _c_sin(wrap_angle(bearing - psi))

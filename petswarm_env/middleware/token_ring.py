@@ -286,8 +286,8 @@ class TokenRing:
         in a row (module docstring)."""
         since, heard, silent = self.round_start_s, self.heard, self.silent_rounds
         need = self.node.cfg.protocol.lost_after_rounds
-        if since == self.started_s and slot_start == since:
-            return  # the ring's first slot: no round has passed yet (only the start sign's acknowledgements)
+        if (since == self.started_s and slot_start == since) or slot_start < self.started_s:
+            return  # the ring's first slot (no round has passed yet: only the start sign's acknowledgements), or one it began as a slave holding the token as it took the master's role over
         for peer in peers:
             if heard.get(peer, -math.inf) >= since:
                 silent[peer] = 0

@@ -71,3 +71,22 @@ def test_after_a_leading_masters_ir_fault_the_user_walks_on_only_with_the_new_ma
     assert seen.get("paused") and seen["resumed"] is not None
     assert abs(seen["resumed"]) < 35.0, f"the user walked on with the new master {seen['resumed']:.0f}° off straight ahead"
     assert r["reformed"], f"largest live-slave error {r['largest_error_m']:.2f} m 10 s after the detection"
+
+
+def test_the_new_masters_ring_counts_no_round_it_did_not_run():
+    """Leading, IR fault on the master, seed 215: the robot that takes the role over holds the token of
+    its own slot as it does (a slave's slot). That slot's end is no round of its ring as master (it
+    restarted the ring, token_ring.start_as_master): counted as one, every member it had not heard
+    since was one round silent, and the new slot's count made it two — a live slave was declared lost
+    and left the swarm with the faulty old master (before: re-formed only after a refill, 1.6 m off
+    10 s after the detection). Only the old master, which asked to leave, is removed."""
+    from petswarm.experiments import sensor_faults
+
+    holder = {}
+    row = sensor_faults.run("ir", 215, 20.0, "master", {"swarm.mode": "leading"},
+                            on_step=lambda env: holder.setdefault("env", env))
+    swarm = holder["env"].episode.swarms[0]
+    (_, old, new, _), = swarm.fault_handovers
+    lost = [n for _, event, ids in swarm.member_log if event == "lost" for n in ids]
+    assert lost == [old], (swarm.member_log, old, new)
+    assert row["reformed"], row

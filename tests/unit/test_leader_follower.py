@@ -9,6 +9,7 @@ import pytest
 import petswarm_env
 from petswarm.baselines.leader_follower import LeaderFollowerPolicy
 from petswarm.baselines.policy import PolicySpec
+from petswarm_env.control.master import LEADING_ARC_MAX_RPS
 from petswarm_env.observe import AGE_SCALE_S, POS_SCALE_M
 
 
@@ -108,6 +109,9 @@ def numpy_act(p: LeaderFollowerPolicy, obs: np.ndarray) -> np.ndarray:
         else:
             search_turn = -p.scan
     turn = obs[sl["master.turn_rate"]][0] * wmax
+    act = obs[sl["master.activity"]]  # stop, rest, walk, run
+    if leading_turn and (act[2] > 0.5 or act[3] > 0.5):  # a walking turn: at most the formation's rate
+        turn = np.clip(turn, -np.float32(LEADING_ARC_MAX_RPS), np.float32(LEADING_ARC_MAX_RPS))
     if leading_turn:
         r = ref - obs[sl["master.user_xy"]] * POS_SCALE_M
         arc = np.array([-turn * r[1], turn * r[0]])

@@ -209,3 +209,20 @@ def test_a_robot_without_its_ahrs_turns_its_odometry_frame_by_its_wheels():
         pos, _ = tracker.user_body(0.0)
         expect = (1.0, 0.0) if frozen else (0.0, -1.0)
         assert pos == pytest.approx(expect, abs=1e-9)
+
+
+@pytest.mark.parametrize("belt_rps", [0.2, -0.2, math.radians(60.0), -math.radians(60.0)])
+def test_a_leading_master_turns_about_its_walking_user_at_most_at_the_formations_rate(belt_rps):
+    """A walking turn (seed 002 §3.4): the master straight ahead of its user, facing them, arcs about
+    them at the belt's rate up to LEADING_ARC_MAX_RPS (the wedge's outer robots cannot drive a 60°/s
+    walking turn 2 m out); its heading turns with its arc."""
+    from petswarm_env.control.master import LEADING_ARC_MAX_RPS
+
+    ctrl = _controller()
+    ctrl.know_walk_direction(math.pi)  # the user walks toward the robot's back: it drives backwards ahead of them
+    view = BeltView("walk", True, belt_rps, 0.0)
+    vx, vy, w = ctrl.command((1.7, 0.0), (-1.0, 0.0), view, (-1.0, 0.0, 0.0), "leading", 1.7, 0.1)
+    expected = max(-LEADING_ARC_MAX_RPS, min(LEADING_ARC_MAX_RPS, belt_rps))
+    assert LEADING_ARC_MAX_RPS < math.radians(60.0)
+    assert w == pytest.approx(expected, abs=1e-9)
+    assert vy == pytest.approx(-expected * 1.7, abs=1e-9)  # its place, 1.7 m ahead, swings at that rate

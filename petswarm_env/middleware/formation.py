@@ -42,7 +42,15 @@ class Formation:
                                       for m, links in self.links.items()})
 
     def slot_positions(self) -> np.ndarray:
-        """Reference position of every member in the formation frame, master at the origin."""
+        """Reference position of every member in the formation frame, master at the origin (a new
+        array each call, computed once per table: the table is frozen)."""
+        cached = self.__dict__.get("_slots")
+        if cached is None:
+            cached = self._solve_slots()
+            object.__setattr__(self, "_slots", cached)
+        return cached.copy()
+
+    def _solve_slots(self) -> np.ndarray:
         pos = {0: np.zeros(2)}
         pending = dict(self.links)
         while pending:

@@ -47,6 +47,21 @@ def test_slot_positions(shape):
     np.testing.assert_allclose(f.slot_positions(), np.array(EXPECTED_SLOTS[shape], float), atol=1e-12)
 
 
+@pytest.mark.parametrize("shape", SHAPES)
+def test_slot_positions_solved_once_give_a_new_array_each_call(shape):
+    import copy
+    import pickle
+    f = formation(shape)
+    first = f.slot_positions()
+    assert np.array_equal(first, f._solve_slots())
+    first += 100.0  # a caller that changes its copy changes no later answer
+    again = f.slot_positions()
+    assert again is not first and np.array_equal(again, f._solve_slots())
+    for twin in (copy.deepcopy(f), pickle.loads(pickle.dumps(f))):
+        assert twin == f and np.array_equal(twin.slot_positions(), again)
+    assert np.array_equal(f.rotated(0.3).slot_positions(), f.rotated(0.3)._solve_slots())
+
+
 def test_wedge_robot_1_behind_left_of_master():
     slots = formation("wedge").slot_positions()
     assert slots[1] == pytest.approx((-0.866, 0.5), abs=1e-3)

@@ -154,6 +154,7 @@ def command_slaves(robot_ids: list, acts, scale, masters: set, nodes: dict, robo
     omega: cython.float
     k: cython.Py_ssize_t
     node: Station
+    rows: list = ranges.tolist()  # each robot's ring as Python floats (the values of ``ranges[idx]``)
     for k in range(len(robot_ids)):
         idx = robot_ids[k]
         if idx in masters:
@@ -165,7 +166,7 @@ def command_slaves(robot_ids: list, acts, scale, masters: set, nodes: dict, robo
         st = node.know.status
         stop = st is not None and st.mode == "emergency"
         vx, vy, omega = a[k, 0] * sx, a[k, 1] * sy, a[k, 2] * sw  # float32 products, as numpy's
-        cmd = arbiters[idx].decide((float(vx), float(vy), float(omega)), None, ranges[idx], stop)[0]
+        cmd = arbiters[idx].decide((float(vx), float(vy), float(omega)), None, rows[idx], stop)[0]
         robots[idx].set_command(cmd[0], cmd[1], cmd[2])
 
 

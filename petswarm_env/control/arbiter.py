@@ -77,7 +77,8 @@ class SafetyStage:
         stop: cython.double = self.stop
         two_a: cython.double = self.two_a
         half: cython.double = 0.5 * stop
-        rs: list = ranges.tolist() if isinstance(ranges, np.ndarray) else [float(r) for r in ranges]
+        rs: list = ranges if type(ranges) is list else (  # a list of floats (a ring's row): read as it is
+            ranges.tolist() if isinstance(ranges, np.ndarray) else [float(r) for r in ranges])
         n: cython.Py_ssize_t = len(rs)
         k: cython.Py_ssize_t
         r: cython.double

@@ -437,3 +437,29 @@ def test_the_sum_of_squares_is_the_builtin_sums():
     values = [0.1, 1e-17, 3.0, 0.7, 1e16, -2.5]
     assert sum_squares(values) == sum(v * v for v in values)
     assert sum_squares([]) == 0 and type(sum_squares([])) is int
+
+
+def safety_rows() -> list:
+    """The arbiter's safety stage on a ring as a numpy row and as the row's list of floats (the
+    kernel's form, step_kernel.command_slaves): each result as hex strings, or None."""
+    import numpy as np
+
+    from petswarm_env.control.arbiter import ControlArbiter, SafetyStage
+
+    rng = np.random.default_rng(11)
+    arbiter = ControlArbiter(SafetyStage(8, 0.35, 0.3, 2.0))
+    rings = np.where(rng.random((300, 8)) < 0.6, rng.uniform(0.05, 2.0, (300, 8)), 2.0)
+    out = []
+    for k, row in enumerate(rings.tolist()):
+        cmd = tuple(float(v) for v in rng.uniform(-1.5, 1.5, 3))
+        got = [arbiter.decide(cmd, None, ring, k % 50 == 0) for ring in (rings[k], row)]
+        assert got[0] == got[1]
+        out.append([[float(v).hex() for v in got[1][0]], got[1][1]])
+    return out
+
+
+def test_the_safety_stage_reads_a_ring_row_list_as_its_array():
+    out = in_both_forms("safety_rows")
+    assert out["1"] == out["0"]
+    sources = [source for _, source in out["0"]]
+    assert 30 < sources.count("safety") < 270 and "policy" in sources

@@ -214,6 +214,18 @@ def slave_truth(table, centers, headings, agents: list, robot_ids: list, per_rob
     return errors, errs, heads, new_contacts(robot_ids, per_robot, seen), worst
 
 
+def slaves_of(nodes: dict, pan) -> list:
+    """The node ids of ``nodes`` (node id -> station) in slave-role driving in the swarm of PAN ID
+    ``pan``, sorted (``Swarm.slave_ids``: each station's state and swarm PAN a C read)."""
+    out = []
+    node: Station
+    for n, node in nodes.items():
+        if node.state == "slave" and node.swarm_pan == pan:
+            out.append(n)
+    out.sort()
+    return out
+
+
 def current_slaves(swarms: list) -> list:
     """The robots in slave-role driving of every swarm (each swarm's ``slave_ids()``), sorted."""
     out = []

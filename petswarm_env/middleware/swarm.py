@@ -24,6 +24,7 @@ from petswarm_env.middleware.modes import (ModeChangePlan, SwarmGeometry, measur
 from petswarm_env.middleware.node import Node
 from petswarm_env.sim.clock import Clock
 from petswarm_env.sim.world import World
+from petswarm_env.step_kernel import slaves_of
 
 
 class FleetView(Protocol):
@@ -108,7 +109,7 @@ class Swarm:
 
     def slave_ids(self) -> list[int]:
         """Node ids of the robots in slave-role driving in this swarm."""
-        return sorted(n for n, node in self.nodes.items() if node.state == "slave" and node.swarm_pan == self.pan)
+        return slaves_of(self.nodes, self.pan)
 
     def slaves_missing(self) -> int:
         """The user-required number of slaves minus the robots in slave-role driving (a swarm that

@@ -463,3 +463,28 @@ def test_the_safety_stage_reads_a_ring_row_list_as_its_array():
     assert out["1"] == out["0"]
     sources = [source for _, source in out["0"]]
     assert 30 < sources.count("safety") < 270 and "policy" in sources
+
+
+def slave_lists() -> list:
+    """step_kernel.slaves_of (``Swarm.slave_ids``) over a two-user episode's steps: each swarm's list,
+    checked against the stations' own state and swarm PAN read one by one."""
+    import numpy as np
+
+    import petswarm_env
+    from petswarm_env.step_kernel import slaves_of
+
+    env = petswarm_env.parallel_env(**{"world.num_users": 2, "max_cycles": 40})
+    env.reset(seed=1)
+    out = []
+    while env.agents:
+        for sw in env.episode.swarms:
+            got = slaves_of(sw.nodes, sw.pan)
+            assert got == sorted(n for n, nd in sw.nodes.items() if nd.state == "slave" and nd.swarm_pan == sw.pan)
+            out.append(got)
+        env.step({a: np.zeros(3, np.float32) for a in env.agents})
+    return out
+
+
+def test_the_slave_lists_are_the_stations_in_slave_role_of_the_swarm():
+    out = in_both_forms("slave_lists")
+    assert out["1"] == out["0"] and any(out["0"])

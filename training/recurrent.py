@@ -20,7 +20,11 @@ time over whole sequences (one robot's stretch of driving, from its hidden state
 with no fresh IR fix of anyone is labelled by the scripted reference's rejoin and search instead
 (:class:`petswarm.training.warm_start.TeacherLabels`: no observation could follow the teacher
 there). Rare states weigh more in the loss: building (the robot's true formation error above
-``recurrent.building_error_m``, a label, never an input) and lost (no fresh fix).
+``recurrent.building_error_m``, a label, never an input) and lost (no fresh fix); and, where contacts
+happen, near (the robot's true gap to another robot or a user below ``recurrent.near_m``: where the
+teacher's avoidance acts) and the ``recurrent.contact_window`` steps that led into a contact the robot
+began (the env's ``new_contacts``: the teacher's way out of the states the driver ran into). Ground
+truth is a loss weight only, as the building weight.
 
 The budget: ``timesteps`` labelled agent-samples in all, ``recurrent.samples_per_round`` per round,
 so the number of rounds scales with ``--timesteps``; the gradient steps per round are fixed, so the
@@ -51,6 +55,7 @@ Entry point for other tools: :func:`train_recurrent` ``(config, timesteps, seed,
 
 from __future__ import annotations
 
+import math
 import os
 import time
 from dataclasses import dataclass
@@ -179,14 +184,15 @@ def collect_sequences(env, samples: int, seed: int, cfg: TrainConfig, driver: Re
     live robot's step is labelled by the teacher; a seed whose start-up fails in the env's reset (a
     swarm that does not organize, a belt that never wakes) is skipped (counted as ``unorganized``). Returns the
     sequences (a robot's sequence ends when it stops driving; a new one starts when it rejoins) and
-    counts of building and lost steps. With ``recurrent.target: estimate`` the targets are what the
+    counts of building, lost and near steps and of contacts (a contact's window of steps weighs more:
+    ``recurrent.contact_window``). With ``recurrent.target: estimate`` the targets are what the
     teacher reads (:class:`petswarm.training.estimator.EstimateLabels`), and a step without them (no
     reference point, or lost: the law does not act there) weighs zero — the GRU still reads it."""
     r = cfg.recurrent
     residual = cfg.residual()
     rng = np.random.default_rng(seed)
     out: list[Sequence] = []
-    counts = {"samples": 0, "building": 0, "lost": 0, "unorganized": 0}
+    counts = {"samples": 0, "building": 0, "lost": 0, "near": 0, "contacts": 0, "unorganized": 0}
     episode = 0
     while counts["samples"] < samples:
         episode += 1
@@ -224,10 +230,13 @@ def collect_sequences(env, samples: int, seed: int, cfg: TrainConfig, driver: Re
                 learn = {a: np.clip((target[a] - base_act[a]) / residual.scale, -1.0, 1.0) for a in live}
             else:
                 learn = target
+            gaps = nearest_gaps(env, live) if r.near_m > 0 else {}
             for a in live:
                 lost = label.lost(rows[a])
                 building = infos[a]["formation_error_m"] > r.building_error_m  # ground truth as a loss weight, never an input
-                w = 1.0 + r.lost_weight * lost + r.building_weight * building
+                near = gaps.get(a, math.inf) < r.near_m  # the same: where the teacher's avoidance acts
+                w = 1.0 + r.lost_weight * lost + r.building_weight * building + r.near_weight * near
+                counts["near"] += int(near)
                 if estimates is not None and not read[a][1]:
                     w = 0.0
                 counts["lost"] += int(lost)
@@ -235,8 +244,30 @@ def collect_sequences(env, samples: int, seed: int, cfg: TrainConfig, driver: Re
                 open_.setdefault(a, []).append((rows[a], learn[a], w))
             counts["samples"] += len(live)
             rows, _, _, _, infos = env.step(noisy)
+            if r.contact_window > 0:  # the steps that led into a contact this robot began weigh more (their labels are
+                for a in live:        # the teacher's way out of the states the driver ran into)
+                    if a in open_ and infos.get(a, {}).get("new_contacts", 0) > 0:
+                        counts["contacts"] += 1
+                        steps = open_[a]
+                        for j in range(max(0, len(steps) - r.contact_window), len(steps)):
+                            o, t, w = steps[j]
+                            steps[j] = (o, t, w + r.contact_weight if w > 0 else w)
         out.extend(_sequence(steps, episode) for steps in open_.values())
     return out, counts
+
+
+def nearest_gaps(env, agents: list[str]) -> dict[str, float]:
+    """Each agent's true rim-to-rim gap to the nearest other body (robot or user) of ``env``'s world:
+    ground truth, for a loss weight only (``recurrent.near_m``)."""
+    centers, radii, _ = env.truth.truth_arrays()
+    centers, radii = np.asarray(centers, float), np.asarray(radii, float)
+    out = {}
+    for a in agents:
+        i = env.agent_robot(a)
+        gap = np.hypot(*(centers - centers[i]).T) - radii - radii[i]
+        gap[i] = math.inf
+        out[a] = float(gap.min()) if len(gap) > 1 else math.inf
+    return out
 
 
 def _sequence(steps: list[tuple[np.ndarray, np.ndarray, float]], episode: int) -> Sequence:

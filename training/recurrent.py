@@ -173,6 +173,7 @@ class Sequence:
     act: np.ndarray
     weight: np.ndarray
     episode: int = 0  # the episode's index in its round's collection (a validation split holds whole episodes out)
+    toward: np.ndarray | None = None  # (T, 2): a near step's unit vector to the nearest body in the robot's frame, else 0
 
 
 def collect_sequences(env, samples: int, seed: int, cfg: TrainConfig, driver: RecurrentPolicy | None,
@@ -230,7 +231,7 @@ def collect_sequences(env, samples: int, seed: int, cfg: TrainConfig, driver: Re
                 learn = {a: np.clip((target[a] - base_act[a]) / residual.scale, -1.0, 1.0) for a in live}
             else:
                 learn = target
-            gaps = nearest_gaps(env, live) if r.near_m > 0 else {}
+            gaps, toward = nearest_bodies(env, live) if r.near_m > 0 else ({}, {})
             for a in live:
                 lost = label.lost(rows[a])
                 building = infos[a]["formation_error_m"] > r.building_error_m  # ground truth as a loss weight, never an input
@@ -241,7 +242,7 @@ def collect_sequences(env, samples: int, seed: int, cfg: TrainConfig, driver: Re
                     w = 0.0
                 counts["lost"] += int(lost)
                 counts["building"] += int(building)
-                open_.setdefault(a, []).append((rows[a], learn[a], w))
+                open_.setdefault(a, []).append((rows[a], learn[a], w, toward[a] if near else _NOT_NEAR))
             counts["samples"] += len(live)
             rows, _, _, _, infos = env.step(noisy)
             if r.contact_window > 0:  # the steps that led into a contact this robot began weigh more (their labels are
@@ -250,29 +251,48 @@ def collect_sequences(env, samples: int, seed: int, cfg: TrainConfig, driver: Re
                         counts["contacts"] += 1
                         steps = open_[a]
                         for j in range(max(0, len(steps) - r.contact_window), len(steps)):
-                            o, t, w = steps[j]
-                            steps[j] = (o, t, w + r.contact_weight if w > 0 else w)
+                            o, t, w, u = steps[j]
+                            steps[j] = (o, t, w + r.contact_weight if w > 0 else w, u)
         out.extend(_sequence(steps, episode) for steps in open_.values())
     return out, counts
 
 
+_NOT_NEAR = np.zeros(2, np.float32)
+
+
 def nearest_gaps(env, agents: list[str]) -> dict[str, float]:
     """Each agent's true rim-to-rim gap to the nearest other body (robot or user) of ``env``'s world:
-    ground truth, for a loss weight only (``recurrent.near_m``)."""
-    centers, radii, _ = env.truth.truth_arrays()
+    ground truth, for the loss only (``recurrent.near_m``)."""
+    return nearest_bodies(env, agents)[0]
+
+
+def nearest_bodies(env, agents: list[str]) -> tuple[dict[str, float], dict[str, np.ndarray]]:
+    """Each agent's true rim-to-rim gap to the nearest other body (robot or user) and the unit vector
+    toward that body's centre in the robot's own frame (x forward, y left): ground truth, for the
+    loss only (``recurrent.near_m``, ``recurrent.closing_weight``)."""
+    centers, radii, headings = env.truth.truth_arrays()
     centers, radii = np.asarray(centers, float), np.asarray(radii, float)
-    out = {}
+    gaps, toward = {}, {}
     for a in agents:
         i = env.agent_robot(a)
-        gap = np.hypot(*(centers - centers[i]).T) - radii - radii[i]
+        d = centers - centers[i]
+        dist = np.hypot(d[:, 0], d[:, 1])
+        gap = dist - radii - radii[i]
         gap[i] = math.inf
-        out[a] = float(gap.min()) if len(gap) > 1 else math.inf
-    return out
+        j = int(np.argmin(gap))
+        if j == i or not math.isfinite(gap[j]):
+            gaps[a], toward[a] = math.inf, _NOT_NEAR
+            continue
+        c, s = math.cos(headings[i]), math.sin(headings[i])
+        ux, uy = d[j] / max(dist[j], 1e-9)
+        gaps[a], toward[a] = float(gap[j]), np.array([c * ux + s * uy, -s * ux + c * uy], np.float32)
+    return gaps, toward
 
 
-def _sequence(steps: list[tuple[np.ndarray, np.ndarray, float]], episode: int) -> Sequence:
+def _sequence(steps: list[tuple[np.ndarray, np.ndarray, float, np.ndarray]], episode: int) -> Sequence:
     return Sequence(np.stack([s[0] for s in steps]).astype(np.float32), np.stack([s[1] for s in steps]).astype(np.float32),
-                    np.array([s[2] for s in steps], dtype=np.float32), episode)
+                    np.array([s[2] for s in steps], dtype=np.float32), episode,
+                    np.stack([s[3] for s in steps]).astype(np.float32))
 
 
 def split_episodes(seqs: list[Sequence], fraction: float, rng: np.random.Generator) -> tuple[list[Sequence], list[Sequence]]:
@@ -296,9 +316,25 @@ def batch(seqs: list[Sequence]) -> tuple[torch.Tensor, torch.Tensor, torch.Tenso
     return torch.from_numpy(x), torch.from_numpy(y), torch.from_numpy(w)
 
 
+def batch_toward(seqs: list[Sequence]) -> torch.Tensor:
+    """The sequences' ``toward`` vectors padded as :func:`batch` pads (B, T, 2; zero where none)."""
+    n = max(len(s.obs) for s in seqs)
+    u = np.zeros((len(seqs), n, 2), np.float32)
+    for i, s in enumerate(seqs):
+        if s.toward is not None:
+            u[i, :len(s.toward)] = s.toward
+    return torch.from_numpy(u)
+
+
+def closing_excess(pred: torch.Tensor, y: torch.Tensor, toward: torch.Tensor) -> torch.Tensor:
+    """How much more the predicted translation closes on the nearest body than the target's (B, T;
+    ≥ 0; zero where ``toward`` is zero): the asymmetric part of the loss with ``recurrent.closing_weight``."""
+    return torch.relu(((pred[..., :2] - y[..., :2]) * toward).sum(-1))
+
+
 def fit(actor: RecurrentActor, opt: torch.optim.Optimizer, data: list[Sequence], updates: int, batch_sequences: int,
         rng: np.random.Generator, held_out: list[Sequence] | None = None, every: int = 0,
-        keep_best: bool = False) -> tuple[float, list[dict[str, float]]]:
+        keep_best: bool = False, closing_weight: float = 0.0) -> tuple[float, list[dict[str, float]]]:
     """``updates`` gradient steps of the weighted MSE to the teacher's actions, each on
     ``batch_sequences`` sequences drawn from ``data`` (backpropagation through time over whole
     sequences). Returns the mean loss of the last tenth of the steps and the round's curve: with
@@ -327,9 +363,13 @@ def fit(actor: RecurrentActor, opt: torch.optim.Optimizer, data: list[Sequence],
     actor.train()
     for step in range(1, updates + 1):
         idx = rng.choice(len(data), size=min(batch_sequences, len(data)), replace=False)
-        x, y, w = batch([data[i] for i in idx])
+        chosen = [data[i] for i in idx]
+        x, y, w = batch(chosen)
         pred, _ = actor(x)
-        loss = (w * ((pred - y) ** 2).sum(-1)).sum() / w.gt(0).sum().clamp(min=1)
+        per_step = ((pred - y) ** 2).sum(-1)
+        if closing_weight > 0.0:  # near another body, closing on it faster than the label asks costs more than the reverse
+            per_step = per_step + closing_weight * closing_excess(pred, y, batch_toward(chosen)) ** 2
+        loss = (w * per_step).sum() / w.gt(0).sum().clamp(min=1)
         opt.zero_grad()
         loss.backward()
         torch.nn.utils.clip_grad_norm_(actor.parameters(), 1.0)
@@ -430,7 +470,7 @@ def train(cfg: TrainConfig, out_dir: str | os.PathLike, command: str = "", progr
             for group in opt.param_groups:
                 group["lr"] = round_learning_rate(cfg, k, rounds)
             loss, curve = fit(actor, opt, data, r.updates_per_round, r.batch_sequences, rng, held_out, r.validation_every,
-                              r.early_stopping)
+                              r.early_stopping, r.closing_weight)
             log["timesteps"] += counts["samples"]
             log["wall_time_s"] = time.time() - log["_start"]
             record = {"round": k, "driver": "teacher" if k == 0 else "student", "beta": r.teacher_mix ** k, "learning_rate": opt.param_groups[0]["lr"], **counts, "sequences": len(data),

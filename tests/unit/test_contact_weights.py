@@ -89,3 +89,22 @@ def test_the_steps_that_led_into_a_contact_weigh_more():
     (d,) = touched
     hit = np.flatnonzero(d)
     assert np.allclose(d[hit], 3.0) and len(hit) == 5 and hit[-1] - hit[0] == 4  # the five steps before it, in a row
+
+
+def test_the_closing_term_costs_only_closing_faster_than_the_label_near_a_body():
+    import torch
+
+    from petswarm.training.recurrent import closing_excess
+
+    y = torch.zeros(1, 3, 3)
+    toward = torch.tensor([[[1.0, 0.0], [1.0, 0.0], [0.0, 0.0]]])  # a body ahead at steps 0 and 1; none near at step 2
+    pred = torch.tensor([[[0.3, 0.5, 0.0], [-0.3, 0.0, 0.0], [0.9, 0.0, 0.0]]])
+    assert closing_excess(pred, y, toward)[0].tolist() == pytest.approx([0.3, 0.0, 0.0])  # toward it: costs; away, or far: free
+
+
+def test_near_steps_carry_the_direction_to_the_nearest_body_in_the_robot_frame():
+    seqs, counts = _collect({"recurrent.near_m": 100.0, "recurrent.closing_weight": 1.0})
+    u = np.concatenate([s.toward for s in seqs])
+    assert counts["near"] == len(u) and np.allclose(np.hypot(u[:, 0], u[:, 1]), 1.0, atol=1e-5)
+    plain, _ = _collect({})
+    assert all(not np.any(s.toward) for s in plain)

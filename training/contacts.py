@@ -156,6 +156,24 @@ def tally(eps: list[dict[str, Any]]) -> Counter:
     return c
 
 
+def paired_difference(cells: list[dict[str, Any]], candidate: str, reference: str, resamples: int = 10_000,
+                      seed: int = 0) -> dict[str, Any]:
+    """The candidate's contacts less the reference's over all cells' episodes (each episode pairs the
+    two on one seed) and its 95 % stratified-bootstrap interval (episodes resampled within each cell,
+    as the grid's intervals are): whether a difference of counts is more than the episodes' draw."""
+    diffs = [np.array([e["collisions"] - r["collisions"] for e, r in zip(c["policies"][candidate], c["policies"][reference])], float)
+             for c in cells]
+    rng = np.random.default_rng(seed)
+    boot = np.zeros(resamples)
+    for d in diffs:
+        if len(d):
+            boot += d[rng.integers(0, len(d), (resamples, len(d)))].sum(1)
+    total = int(sum(d.sum() for d in diffs))
+    lo, hi = np.percentile(boot, [2.5, 97.5])
+    return {"candidate": candidate, "reference": reference, "difference": total, "ci95": [float(lo), float(hi)],
+            "episodes": int(sum(len(d) for d in diffs))}
+
+
 def format_cell(row: dict[str, Any]) -> str:
     parts = []
     for policy, eps in row["policies"].items():
@@ -171,7 +189,8 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m petswarm.training.contacts", description=__doc__.split("\n\n")[0])
     ap.add_argument("--grid", default="configs/eval/heldout_recurrent.yaml")
     ap.add_argument("--policies", default="scripted,learned", help="comma-separated policy names or files "
-                                                                 "(privileged-teacher: the teacher)")
+                                                                 "(privileged-teacher: the teacher); the first is the reference "
+                                                                 "the others' paired differences are taken to")
     ap.add_argument("--episodes", type=int, default=None, help="seeds per cell (default: the grid's)")
     ap.add_argument("--seed", type=int, default=None)
     ap.add_argument("--json", default=None)
@@ -182,6 +201,11 @@ def main(argv: list[str] | None = None) -> int:
     for p, t in totals.items():
         print(f"all cells, {p}: {sum(t.values())} contacts: "
               + " ".join(f"{k}/{ph}:{n}" for (k, ph), n in sorted(t.items(), key=lambda x: -x[1])))
+    for p in policies[1:]:
+        diff = paired_difference(out["cells"], p, policies[0])
+        out.setdefault("differences", []).append(diff)
+        print(f"{p} less {policies[0]}: {diff['difference']:+d} contacts over {diff['episodes']} paired episodes, "
+              f"95 % CI [{diff['ci95'][0]:+.0f}, {diff['ci95'][1]:+.0f}] (stratified bootstrap over the episodes)")
     if a.json:
         with open(a.json, "w") as f:
             json.dump(out, f, indent=1)

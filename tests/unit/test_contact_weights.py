@@ -108,3 +108,17 @@ def test_near_steps_carry_the_direction_to_the_nearest_body_in_the_robot_frame()
     assert counts["near"] == len(u) and np.allclose(np.hypot(u[:, 0], u[:, 1]), 1.0, atol=1e-5)
     plain, _ = _collect({})
     assert all(not np.any(s.toward) for s in plain)
+
+
+def test_the_paired_difference_counts_and_its_interval_covers_the_draw():
+    from petswarm.training.contacts import paired_difference
+
+    def cell(cand, ref):
+        return {"policies": {"a": [{"collisions": c} for c in cand], "b": [{"collisions": r} for r in ref]}}
+
+    same = paired_difference([cell([1, 2, 0], [1, 2, 0]), cell([3], [3])], "a", "b")
+    assert same["difference"] == 0 and same["ci95"] == [0.0, 0.0] and same["episodes"] == 4
+    more = paired_difference([cell([2, 2, 2, 2], [0, 0, 0, 0])], "a", "b")
+    assert more["difference"] == 8 and more["ci95"] == [8.0, 8.0]  # the same difference in every episode: no doubt
+    mixed = paired_difference([cell([4, 0, 0, 0], [0, 0, 0, 0])], "a", "b")
+    assert mixed["difference"] == 4 and mixed["ci95"][0] == 0.0 < 4.0 < mixed["ci95"][1]  # one episode's 4: could be none

@@ -174,6 +174,17 @@ def paired_difference(cells: list[dict[str, Any]], candidate: str, reference: st
             "episodes": int(sum(len(d) for d in diffs))}
 
 
+def hold_ratios(cells: list[dict[str, Any]], candidate: str, reference: str) -> list[float]:
+    """Each cell's ratio of the candidate's mean ``formation_hold_rmse_m`` to the reference's over the
+    episodes where both built (as the grid scores a cell); NaN for a cell with none."""
+    out = []
+    for c in cells:
+        pairs = [(e["formation_hold_rmse_m"], r["formation_hold_rmse_m"]) for e, r in zip(c["policies"][candidate], c["policies"][reference])]
+        pairs = [(x, y) for x, y in pairs if x is not None and y is not None and math.isfinite(x) and math.isfinite(y)]
+        out.append(sum(x for x, _ in pairs) / sum(y for _, y in pairs) if pairs else math.nan)
+    return out
+
+
 def format_cell(row: dict[str, Any]) -> str:
     parts = []
     for policy, eps in row["policies"].items():
@@ -204,8 +215,11 @@ def main(argv: list[str] | None = None) -> int:
     for p in policies[1:]:
         diff = paired_difference(out["cells"], p, policies[0])
         out.setdefault("differences", []).append(diff)
+        ratios = [r for r in hold_ratios(out["cells"], p, policies[0]) if math.isfinite(r)]
+        diff["hold_ratio_median"] = float(np.median(ratios)) if ratios else math.nan
         print(f"{p} less {policies[0]}: {diff['difference']:+d} contacts over {diff['episodes']} paired episodes, "
-              f"95 % CI [{diff['ci95'][0]:+.0f}, {diff['ci95'][1]:+.0f}] (stratified bootstrap over the episodes)")
+              f"95 % CI [{diff['ci95'][0]:+.0f}, {diff['ci95'][1]:+.0f}] (stratified bootstrap over the episodes); "
+              f"hold ratio median over the cells {diff['hold_ratio_median']:.2f}")
     if a.json:
         with open(a.json, "w") as f:
             json.dump(out, f, indent=1)

@@ -122,3 +122,11 @@ def test_the_paired_difference_counts_and_its_interval_covers_the_draw():
     assert more["difference"] == 8 and more["ci95"] == [8.0, 8.0]  # the same difference in every episode: no doubt
     mixed = paired_difference([cell([4, 0, 0, 0], [0, 0, 0, 0])], "a", "b")
     assert mixed["difference"] == 4 and mixed["ci95"][0] == 0.0 < 4.0 < mixed["ci95"][1]  # one episode's 4: could be none
+
+
+def test_hold_ratios_pair_the_episodes_where_both_built():
+    from petswarm.training.contacts import hold_ratios
+
+    cell = {"policies": {"a": [{"formation_hold_rmse_m": 0.2}, {"formation_hold_rmse_m": 0.4}, {"formation_hold_rmse_m": None}],
+                         "b": [{"formation_hold_rmse_m": 0.4}, {"formation_hold_rmse_m": float("nan")}, {"formation_hold_rmse_m": 0.1}]}}
+    assert hold_ratios([cell], "a", "b") == [pytest.approx(0.5)]  # only the first episode pairs

@@ -121,6 +121,16 @@ class RecurrentConfig(Section):
                                                                       "error (ground truth, a label only) exceeds this")
     building_weight: float = Field(3.0, ge=0, le=1000.0, description="extra loss weight of a building step")
     lost_weight: float = Field(5.0, ge=0, le=1000.0, description="extra loss weight of a step without a fresh IR fix (search, lost)")
+    near_m: float = Field(0.0, ge=0, le=100.0, description="a step counts as near while the robot's true rim-to-rim gap to another "
+                                                          "robot or a user (ground truth, a loss weight only) is below this (0: off)")
+    near_weight: float = Field(0.0, ge=0, le=1000.0, description="extra loss weight of a near step (where the teacher's avoidance acts)")
+    closing_weight: float = Field(0.0, ge=0, le=1000.0, description="near another body, the square of how much faster the "
+                                                                    "student's translation closes on it than the label's costs "
+                                                                    "this much more (an asymmetric loss: imperfect imitation "
+                                                                    "errs away from bodies; 0: off)")
+    contact_window: int = Field(0, ge=0, le=1000, description="the steps up to this many before a contact the robot began (the env's "
+                                                              "new_contacts) weigh contact_weight more (0: off)")
+    contact_weight: float = Field(0.0, ge=0, le=1000.0, description="extra loss weight of a step in a contact's window")
     eval_every_rounds: int = Field(1, ge=1, le=1_000_000, description="evaluate (and keep the best as policy.npz) every this many rounds")
     validation_fraction: float = Field(0.0, ge=0.0, lt=1.0, description="share of each round's episodes whose sequences are held "
                                                                         "out of the fit: their loss and explained share are logged "

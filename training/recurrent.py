@@ -20,7 +20,11 @@ time over whole sequences (one robot's stretch of driving, from its hidden state
 with no fresh IR fix of anyone is labelled by the scripted reference's rejoin and search instead
 (:class:`petswarm.training.warm_start.TeacherLabels`: no observation could follow the teacher
 there). Rare states weigh more in the loss: building (the robot's true formation error above
-``recurrent.building_error_m``, a label, never an input) and lost (no fresh fix).
+``recurrent.building_error_m``, a label, never an input) and lost (no fresh fix); and, where contacts
+happen, near (the robot's true gap to another robot or a user below ``recurrent.near_m``: where the
+teacher's avoidance acts) and the ``recurrent.contact_window`` steps that led into a contact the robot
+began (the env's ``new_contacts``: the teacher's way out of the states the driver ran into). Ground
+truth is a loss weight only, as the building weight.
 
 The budget: ``timesteps`` labelled agent-samples in all, ``recurrent.samples_per_round`` per round,
 so the number of rounds scales with ``--timesteps``; the gradient steps per round are fixed, so the
@@ -51,6 +55,7 @@ Entry point for other tools: :func:`train_recurrent` ``(config, timesteps, seed,
 
 from __future__ import annotations
 
+import math
 import os
 import time
 from dataclasses import dataclass
@@ -168,6 +173,7 @@ class Sequence:
     act: np.ndarray
     weight: np.ndarray
     episode: int = 0  # the episode's index in its round's collection (a validation split holds whole episodes out)
+    toward: np.ndarray | None = None  # (T, 2): a near step's unit vector to the nearest body in the robot's frame, else 0
 
 
 def collect_sequences(env, samples: int, seed: int, cfg: TrainConfig, driver: RecurrentPolicy | None,
@@ -179,14 +185,15 @@ def collect_sequences(env, samples: int, seed: int, cfg: TrainConfig, driver: Re
     live robot's step is labelled by the teacher; a seed whose start-up fails in the env's reset (a
     swarm that does not organize, a belt that never wakes) is skipped (counted as ``unorganized``). Returns the
     sequences (a robot's sequence ends when it stops driving; a new one starts when it rejoins) and
-    counts of building and lost steps. With ``recurrent.target: estimate`` the targets are what the
+    counts of building, lost and near steps and of contacts (a contact's window of steps weighs more:
+    ``recurrent.contact_window``). With ``recurrent.target: estimate`` the targets are what the
     teacher reads (:class:`petswarm.training.estimator.EstimateLabels`), and a step without them (no
     reference point, or lost: the law does not act there) weighs zero — the GRU still reads it."""
     r = cfg.recurrent
     residual = cfg.residual()
     rng = np.random.default_rng(seed)
     out: list[Sequence] = []
-    counts = {"samples": 0, "building": 0, "lost": 0, "unorganized": 0}
+    counts = {"samples": 0, "building": 0, "lost": 0, "near": 0, "contacts": 0, "unorganized": 0}
     episode = 0
     while counts["samples"] < samples:
         episode += 1
@@ -224,24 +231,68 @@ def collect_sequences(env, samples: int, seed: int, cfg: TrainConfig, driver: Re
                 learn = {a: np.clip((target[a] - base_act[a]) / residual.scale, -1.0, 1.0) for a in live}
             else:
                 learn = target
+            gaps, toward = nearest_bodies(env, live) if r.near_m > 0 else ({}, {})
             for a in live:
                 lost = label.lost(rows[a])
                 building = infos[a]["formation_error_m"] > r.building_error_m  # ground truth as a loss weight, never an input
-                w = 1.0 + r.lost_weight * lost + r.building_weight * building
+                near = gaps.get(a, math.inf) < r.near_m  # the same: where the teacher's avoidance acts
+                w = 1.0 + r.lost_weight * lost + r.building_weight * building + r.near_weight * near
+                counts["near"] += int(near)
                 if estimates is not None and not read[a][1]:
                     w = 0.0
                 counts["lost"] += int(lost)
                 counts["building"] += int(building)
-                open_.setdefault(a, []).append((rows[a], learn[a], w))
+                open_.setdefault(a, []).append((rows[a], learn[a], w, toward[a] if near else _NOT_NEAR))
             counts["samples"] += len(live)
             rows, _, _, _, infos = env.step(noisy)
+            if r.contact_window > 0:  # the steps that led into a contact this robot began weigh more (their labels are
+                for a in live:        # the teacher's way out of the states the driver ran into)
+                    if a in open_ and infos.get(a, {}).get("new_contacts", 0) > 0:
+                        counts["contacts"] += 1
+                        steps = open_[a]
+                        for j in range(max(0, len(steps) - r.contact_window), len(steps)):
+                            o, t, w, u = steps[j]
+                            steps[j] = (o, t, w + r.contact_weight if w > 0 else w, u)
         out.extend(_sequence(steps, episode) for steps in open_.values())
     return out, counts
 
 
-def _sequence(steps: list[tuple[np.ndarray, np.ndarray, float]], episode: int) -> Sequence:
+_NOT_NEAR = np.zeros(2, np.float32)
+
+
+def nearest_gaps(env, agents: list[str]) -> dict[str, float]:
+    """Each agent's true rim-to-rim gap to the nearest other body (robot or user) of ``env``'s world:
+    ground truth, for the loss only (``recurrent.near_m``)."""
+    return nearest_bodies(env, agents)[0]
+
+
+def nearest_bodies(env, agents: list[str]) -> tuple[dict[str, float], dict[str, np.ndarray]]:
+    """Each agent's true rim-to-rim gap to the nearest other body (robot or user) and the unit vector
+    toward that body's centre in the robot's own frame (x forward, y left): ground truth, for the
+    loss only (``recurrent.near_m``, ``recurrent.closing_weight``)."""
+    centers, radii, headings = env.truth.truth_arrays()
+    centers, radii = np.asarray(centers, float), np.asarray(radii, float)
+    gaps, toward = {}, {}
+    for a in agents:
+        i = env.agent_robot(a)
+        d = centers - centers[i]
+        dist = np.hypot(d[:, 0], d[:, 1])
+        gap = dist - radii - radii[i]
+        gap[i] = math.inf
+        j = int(np.argmin(gap))
+        if j == i or not math.isfinite(gap[j]):
+            gaps[a], toward[a] = math.inf, _NOT_NEAR
+            continue
+        c, s = math.cos(headings[i]), math.sin(headings[i])
+        ux, uy = d[j] / max(dist[j], 1e-9)
+        gaps[a], toward[a] = float(gap[j]), np.array([c * ux + s * uy, -s * ux + c * uy], np.float32)
+    return gaps, toward
+
+
+def _sequence(steps: list[tuple[np.ndarray, np.ndarray, float, np.ndarray]], episode: int) -> Sequence:
     return Sequence(np.stack([s[0] for s in steps]).astype(np.float32), np.stack([s[1] for s in steps]).astype(np.float32),
-                    np.array([s[2] for s in steps], dtype=np.float32), episode)
+                    np.array([s[2] for s in steps], dtype=np.float32), episode,
+                    np.stack([s[3] for s in steps]).astype(np.float32))
 
 
 def split_episodes(seqs: list[Sequence], fraction: float, rng: np.random.Generator) -> tuple[list[Sequence], list[Sequence]]:
@@ -265,9 +316,25 @@ def batch(seqs: list[Sequence]) -> tuple[torch.Tensor, torch.Tensor, torch.Tenso
     return torch.from_numpy(x), torch.from_numpy(y), torch.from_numpy(w)
 
 
+def batch_toward(seqs: list[Sequence]) -> torch.Tensor:
+    """The sequences' ``toward`` vectors padded as :func:`batch` pads (B, T, 2; zero where none)."""
+    n = max(len(s.obs) for s in seqs)
+    u = np.zeros((len(seqs), n, 2), np.float32)
+    for i, s in enumerate(seqs):
+        if s.toward is not None:
+            u[i, :len(s.toward)] = s.toward
+    return torch.from_numpy(u)
+
+
+def closing_excess(pred: torch.Tensor, y: torch.Tensor, toward: torch.Tensor) -> torch.Tensor:
+    """How much more the predicted translation closes on the nearest body than the target's (B, T;
+    ≥ 0; zero where ``toward`` is zero): the asymmetric part of the loss with ``recurrent.closing_weight``."""
+    return torch.relu(((pred[..., :2] - y[..., :2]) * toward).sum(-1))
+
+
 def fit(actor: RecurrentActor, opt: torch.optim.Optimizer, data: list[Sequence], updates: int, batch_sequences: int,
         rng: np.random.Generator, held_out: list[Sequence] | None = None, every: int = 0,
-        keep_best: bool = False) -> tuple[float, list[dict[str, float]]]:
+        keep_best: bool = False, closing_weight: float = 0.0) -> tuple[float, list[dict[str, float]]]:
     """``updates`` gradient steps of the weighted MSE to the teacher's actions, each on
     ``batch_sequences`` sequences drawn from ``data`` (backpropagation through time over whole
     sequences). Returns the mean loss of the last tenth of the steps and the round's curve: with
@@ -296,9 +363,13 @@ def fit(actor: RecurrentActor, opt: torch.optim.Optimizer, data: list[Sequence],
     actor.train()
     for step in range(1, updates + 1):
         idx = rng.choice(len(data), size=min(batch_sequences, len(data)), replace=False)
-        x, y, w = batch([data[i] for i in idx])
+        chosen = [data[i] for i in idx]
+        x, y, w = batch(chosen)
         pred, _ = actor(x)
-        loss = (w * ((pred - y) ** 2).sum(-1)).sum() / w.gt(0).sum().clamp(min=1)
+        per_step = ((pred - y) ** 2).sum(-1)
+        if closing_weight > 0.0:  # near another body, closing on it faster than the label asks costs more than the reverse
+            per_step = per_step + closing_weight * closing_excess(pred, y, batch_toward(chosen)) ** 2
+        loss = (w * per_step).sum() / w.gt(0).sum().clamp(min=1)
         opt.zero_grad()
         loss.backward()
         torch.nn.utils.clip_grad_norm_(actor.parameters(), 1.0)
@@ -399,7 +470,7 @@ def train(cfg: TrainConfig, out_dir: str | os.PathLike, command: str = "", progr
             for group in opt.param_groups:
                 group["lr"] = round_learning_rate(cfg, k, rounds)
             loss, curve = fit(actor, opt, data, r.updates_per_round, r.batch_sequences, rng, held_out, r.validation_every,
-                              r.early_stopping)
+                              r.early_stopping, r.closing_weight)
             log["timesteps"] += counts["samples"]
             log["wall_time_s"] = time.time() - log["_start"]
             record = {"round": k, "driver": "teacher" if k == 0 else "student", "beta": r.teacher_mix ** k, "learning_rate": opt.param_groups[0]["lr"], **counts, "sequences": len(data),

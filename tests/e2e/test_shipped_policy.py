@@ -22,12 +22,13 @@ def test_shipped_policy_records_how_it_was_trained():
     assert layers[-1][0].shape[0] == 3
     # the committed config is the one it was trained with: `petswarm train --config recurrent_long` runs the same
     # (keys added to the schema since, at their defaults, change nothing: recurrent.validation_fraction 0, the action
-    # target, whose estimate_clip_m is not read)
+    # target, whose estimate_clip_m is not read, the contact loss weights 0)
     committed = load_train_config("configs/train/recurrent_long.yaml").model_dump(mode="json")
     trained = yaml.safe_load(yaml.safe_dump(meta["info"]["train_config"]))
     added = set(committed["recurrent"]) - set(trained["recurrent"])
     defaults = {"validation_fraction": 0.0, "target": "action", "estimate_clip_m": 1.5, "estimate_gain": 4.0,
-                "validation_every": 0, "early_stopping": False, "weight_decay": 0.0, "encoder_dropout": 0.0}
+                "validation_every": 0, "early_stopping": False, "weight_decay": 0.0, "encoder_dropout": 0.0,
+                "near_m": 0.0, "near_weight": 0.0, "contact_window": 0, "contact_weight": 0.0, "closing_weight": 0.0}
     assert added <= set(defaults) and all(committed["recurrent"][k] == defaults[k] for k in added)
     # the finetune: section (algorithm: recurrent_ppo) came later and algorithm: recurrent does not read it
     sections = {k: v for k, v in committed.items() if k in trained or k != "finetune"}

@@ -288,3 +288,16 @@ def test_a_validation_split_holds_whole_episodes_out(spec):
     assert len(fitted) + len(held) == 40 and fitted and held
     assert not {s.episode for s in fitted} & {s.episode for s in held}
     assert len(held) % 4 == 0  # every sequence of a held-out episode
+
+
+def test_the_contact_and_last_round_configs_differ_only_where_they_say():
+    long, near = load_train_config("configs/train/recurrent_long.yaml"), load_train_config("configs/train/recurrent_near.yaml")
+    weights = {"near_m": 0.3, "near_weight": 2.0, "contact_window": 10, "contact_weight": 4.0}
+    assert {k: getattr(near.recurrent, k) for k in weights} == weights
+    assert {**near.model_dump(), "recurrent": {**near.model_dump()["recurrent"], **{k: getattr(long.recurrent, k) for k in weights}}} \
+        == long.model_dump()
+    val, last = load_train_config("configs/train/recurrent_val.yaml"), load_train_config("configs/train/recurrent_last.yaml")
+    assert (last.recurrent.eval_every_rounds, last.recurrent.validation_every) == (100, 50)
+    assert rounds_for(last) < last.recurrent.eval_every_rounds  # one periodic evaluation: after the last round
+    same = {**last.model_dump(), "recurrent": {**last.model_dump()["recurrent"], "eval_every_rounds": 2, "validation_every": 25}}
+    assert same == val.model_dump()

@@ -31,6 +31,7 @@ from petswarm.experiments.measure_succession import parse_seeds
 from petswarm_env.config_yaml import parse_override
 from petswarm_env.metrics import BUILT_WITHIN_M
 from petswarm_env.observe import MAX_LINKS
+from petswarm_env.files import write_json_atomic
 
 
 def branch(spec: PolicySpec, o) -> str:
@@ -104,8 +105,7 @@ def main(argv: list[str] | None = None) -> int:
           f"{len(built)}/{len(rows)}; building time median {statistics.median(times):.1f} s, 90th percentile {q90:.1f} s, "
           f"max {max(times):.1f} s, mean {statistics.fmean(min(t, args.until) for t in times):.2f} s (never built: {args.until:g} s); late seeds by their worst slave's step: {dict(steps)}")
     if args.json:
-        with open(args.json, "w") as f:
-            json.dump(rows, f, indent=1)
+        write_json_atomic(args.json, rows)
     return 0
 
 

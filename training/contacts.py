@@ -21,7 +21,6 @@ for training (docs/training.md), not a benchmark.
 from __future__ import annotations
 
 import argparse
-import json
 import math
 from collections import Counter
 from typing import Any
@@ -35,6 +34,7 @@ from petswarm.training.warm_start import TeacherLabels
 from petswarm_env.config import load_config
 from petswarm_env.env import PetSwarmEnv
 from petswarm_env.sim.body import COLLISION_ROBOT, COLLISION_USER, COLLISION_WALL
+from petswarm_env.files import write_json_atomic
 
 PHASE_ORDER = ("holding", "building", "lost")
 
@@ -221,8 +221,7 @@ def main(argv: list[str] | None = None) -> int:
               f"95 % CI [{diff['ci95'][0]:+.0f}, {diff['ci95'][1]:+.0f}] (stratified bootstrap over the episodes); "
               f"hold ratio median over the cells {diff['hold_ratio_median']:.2f}")
     if a.json:
-        with open(a.json, "w") as f:
-            json.dump(out, f, indent=1)
+        write_json_atomic(a.json, out)
     return 0
 
 

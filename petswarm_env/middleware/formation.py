@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -44,11 +45,11 @@ class Formation:
     def slot_positions(self) -> np.ndarray:
         """Reference position of every member in the formation frame, master at the origin (a new
         array each call, computed once per table: the table is frozen)."""
-        cached = self.__dict__.get("_slots")
-        if cached is None:
-            cached = self._solve_slots()
-            object.__setattr__(self, "_slots", cached)
-        return cached.copy()
+        return self._solved_slots.copy()
+
+    @cached_property  # (written into the instance's __dict__: a frozen dataclass allows it)
+    def _solved_slots(self) -> np.ndarray:
+        return self._solve_slots()
 
     def _solve_slots(self) -> np.ndarray:
         pos = {0: np.zeros(2)}

@@ -27,6 +27,7 @@ from pathlib import Path
 COMPILED: tuple[str, ...] = (
     "petswarm_env.sim.clock",
     "petswarm_env.comms.radio",
+    "petswarm_env.middleware.knowledge",
     "petswarm_env.middleware.station",
     "petswarm_env.middleware.token_ring",
     "petswarm_env.sim.battery",

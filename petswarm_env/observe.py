@@ -26,16 +26,18 @@ from petswarm_env.middleware.formation import MAX_LINKS, Formation, user_positio
 from petswarm_env.scenarios import ACTIVITIES
 
 if cython.compiled:  # a robot's wheels, their odometry and its node's knowledge as C reads (the .pxd files)
+    from cython.cimports.petswarm_env.middleware.knowledge import HeadingEstimate, IRMeasurement, Knowledge, MasterStatus
     from cython.cimports.petswarm_env.middleware.station import Station
     from cython.cimports.petswarm_env.sim.body import DrivenBody
     from cython.cimports.petswarm_env.sim.sensors import wheel_odometry
 else:
+    from petswarm_env.middleware.knowledge import HeadingEstimate, IRMeasurement, Knowledge, MasterStatus
     from petswarm_env.middleware.station import Station
     from petswarm_env.sim.body import DrivenBody
     from petswarm_env.sim.sensors import wheel_odometry
 
 if TYPE_CHECKING:
-    from petswarm_env.middleware.node import Knowledge, Node
+    from petswarm_env.middleware.node import Node
     from petswarm_env.sim.sensors import Sensors
 
 COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
@@ -299,7 +301,7 @@ def _age(age: cython.double) -> cython.double:
 
 
 @cython.cfunc
-def _put_fix(v: cython.double[::1], at: cython.Py_ssize_t, m, yaw: cython.double, x0: cython.double, y0: cython.double,
+def _put_fix(v: cython.double[::1], at: cython.Py_ssize_t, m: IRMeasurement, yaw: cython.double, x0: cython.double, y0: cython.double,
              reach: cython.double, pos_scale: cython.double) -> cython.void:
     """Fix ``m`` into ``v[at:at + 2]``, scaled, carried to ``know.odometry_xy`` = ``(x0, y0)`` (oracle: ``carried_fix``), at most ``reach`` away."""
     a: cython.double = m.own_yaw_rad + m.bearing_rad  # the bearing in the odometry frame
@@ -313,7 +315,7 @@ def _put_fix(v: cython.double[::1], at: cython.Py_ssize_t, m, yaw: cython.double
 
 
 @cython.cfunc
-def _fill(plan: _Plan, v: cython.double[::1], know, links, now: cython.double, ovx: cython.double, ovy: cython.double,
+def _fill(plan: _Plan, v: cython.double[::1], know: Knowledge, links, now: cython.double, ovx: cython.double, ovy: cython.double,
           ow: cython.double, yaw_rad: cython.double, last_action, ultrasonic_m, hierarchy_level: cython.double,
           offset_from_master, member_slots, flags) -> cython.void:
     """The observation of one slave (:class:`Readings`' fields; the odometry as ``ovx, ovy, ow``) in
@@ -350,6 +352,10 @@ def _fill(plan: _Plan, v: cython.double[::1], know, links, now: cython.double, o
     a0: cython.double
     a1: cython.double
     a2: cython.double
+    m: IRMeasurement  # a fix (or None)
+    fix: IRMeasurement
+    h: HeadingEstimate
+    st: MasterStatus
     members: dict = know.members
     irs: dict = know.ir
     ox0: cython.double = know.odometry_xy[0]  # own motion in the swarm (dead-reckoned): every fix is carried over it
@@ -551,7 +557,7 @@ class Observer:
         for i, agent in enumerate(agents):
             idx = agent_index[agent]
             node = nodes[idx]
-            know = node.know
+            know: Knowledge = node.know
             member = know.member
             level, offset, slots = 0, (0.0, 0.0), ()
             formation = node.formation

@@ -27,7 +27,6 @@ from petswarm_env.config import Config
 from petswarm_env.middleware import messages as msg
 from petswarm_env.middleware.diagnosis import Diagnosis
 from petswarm_env.middleware.join import JoinManager
-from petswarm_env.middleware.knowledge import MasterStatus
 from petswarm_env.middleware.modes import ModeManager
 from petswarm_env.middleware.recovery import RecoveryManager
 from petswarm_env.middleware.sequence import SequenceManager
@@ -36,9 +35,12 @@ from petswarm_env.middleware.succession import SuccessionManager
 from petswarm_env.middleware.token_ring import TokenRing
 from petswarm_env.sim.clock import Clock
 
-if cython.compiled:  # a station's typed attributes (station.pxd): its MCU clock by a C read
+if cython.compiled:  # a station's typed attributes (station.pxd): its MCU clock by a C read; the master's status as a
+    # typed record (knowledge.pxd)
+    from cython.cimports.petswarm_env.middleware.knowledge import MasterStatus
     from cython.cimports.petswarm_env.middleware.station import Station as _Typed
 else:
+    from petswarm_env.middleware.knowledge import MasterStatus
     _Typed = Station
 
 if TYPE_CHECKING:

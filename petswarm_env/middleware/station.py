@@ -38,12 +38,14 @@ from petswarm_env.comms.radio import BROADCAST, PAN_WAITING, Frame, RadioMedium
 from petswarm_env.config import Config
 from petswarm_env.middleware import messages as msg
 from petswarm_env.middleware.formation import Formation
-from petswarm_env.middleware.knowledge import IRMeasurement, Knowledge
 from petswarm_env.sim.clock import Clock
 
-if cython.compiled:  # the MCU clock's C methods (sim/clock.pxd): a received frame is scheduled by a C call
+if cython.compiled:  # the MCU clock's C methods (sim/clock.pxd): a received frame is scheduled by a C call; what the
+    # robot knows as typed records (middleware/knowledge.pxd)
+    from cython.cimports.petswarm_env.middleware.knowledge import IRMeasurement, Knowledge
     from cython.cimports.petswarm_env.sim.clock import Due, LocalClock
 else:
+    from petswarm_env.middleware.knowledge import IRMeasurement, Knowledge
     from petswarm_env.sim.clock import Due, LocalClock
 from petswarm_env.sim.draws import Draws
 from petswarm_env.sim.sensors import Odometry
@@ -263,8 +265,9 @@ class Station:
     def store_ir(self, other: int, distance_m: float, bearing_rad: float) -> None:
         """The IR module measured robot ``other``'s transmission (the IR medium calls it)."""
         if math.isfinite(distance_m):
-            x, y = self.know.odometry_xy  # own dead-reckoned position (advanced each control step)
-            self.know.ir[other] = IRMeasurement(distance_m, bearing_rad, self._mcu.local_now(), self.ahrs_yaw(), x, y)
+            know: Knowledge = self.know
+            x, y = know.odometry_xy  # own dead-reckoned position (advanced each control step)
+            know.ir[other] = IRMeasurement(distance_m, bearing_rad, self._mcu.local_now(), self.ahrs_yaw(), x, y)
 
     def _ir_not_wired(self, neighbours: list[int | None]) -> list[int]:
         raise RuntimeError(f"robot {self.node_id}'s IR module is not wired to an IR medium (Fleet.add_node wires it)")

@@ -66,13 +66,15 @@ import cython
 from petswarm_env.comms.radio import Frame
 from petswarm_env.config import Config
 from petswarm_env.middleware import messages as msg
-from petswarm_env.middleware.knowledge import HeadingEstimate
 from petswarm_env.sim.geometry import wrap_angle
 
-if cython.compiled:  # a station's typed attributes (middleware/station.pxd), the MCU clock's C methods (sim/clock.pxd)
+if cython.compiled:  # a station's typed attributes (middleware/station.pxd), the MCU clock's C methods (sim/clock.pxd),
+    # what a robot knows as typed records (middleware/knowledge.pxd)
+    from cython.cimports.petswarm_env.middleware.knowledge import HeadingEstimate, IRMeasurement
     from cython.cimports.petswarm_env.middleware.station import Station
     from cython.cimports.petswarm_env.sim.clock import LocalClock
 else:
+    from petswarm_env.middleware.knowledge import HeadingEstimate, IRMeasurement
     from petswarm_env.middleware.station import Station
     from petswarm_env.sim.clock import LocalClock
 
@@ -411,7 +413,7 @@ class TokenRing:
         if frame.dst != node.node_id:
             return
         self.report_s = self._clock.local_now()
-        seen = node.know.ir.get(frame.src)
+        seen: IRMeasurement = node.know.ir.get(frame.src)
         if seen is not None and seen.time_s >= self._slot_start.get(frame.src, -math.inf):
             # our bearing of the sender dates from its slot: carry it over our own rotation since (AHRS)
             yaw = node.ahrs_yaw()

@@ -70,11 +70,11 @@ from petswarm_env.sim.geometry import wrap_angle
 
 if cython.compiled:  # a station's typed attributes (middleware/station.pxd), the MCU clock's C methods (sim/clock.pxd),
     # what a robot knows as typed records (middleware/knowledge.pxd)
-    from cython.cimports.petswarm_env.middleware.knowledge import HeadingEstimate, IRMeasurement
+    from cython.cimports.petswarm_env.middleware.knowledge import HeadingEstimate, IRMeasurement, Knowledge
     from cython.cimports.petswarm_env.middleware.station import Station
     from cython.cimports.petswarm_env.sim.clock import LocalClock
 else:
-    from petswarm_env.middleware.knowledge import HeadingEstimate, IRMeasurement
+    from petswarm_env.middleware.knowledge import HeadingEstimate, IRMeasurement, Knowledge
     from petswarm_env.middleware.station import Station
     from petswarm_env.sim.clock import LocalClock
 
@@ -242,7 +242,9 @@ class TokenRing:
 
     @cython.cfunc
     def _ring_peers(self) -> set:
-        return {n for n in self.node.know.members.values() if n != self.node.node_id}
+        know: Knowledge = self.node.know
+        own = self.node.node_id
+        return {n for n in know.members.values() if n != own}
 
     # -- holder -----------------------------------------------------------------------------------
     @cython.cfunc

@@ -70,6 +70,11 @@ class ScenarioScript:
         self._i = i
         return self.segments[i]
 
+    def segment_end_s(self) -> float:
+        """The script time at which the segment :meth:`at` returned last ends: until then :meth:`at`
+        returns that segment again (the last segment repeats: inf)."""
+        return self.ends[self._i] if self._i < self._last else math.inf
+
 
 @dataclass(frozen=True)
 class Arena:

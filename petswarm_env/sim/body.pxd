@@ -53,6 +53,8 @@ cdef class WalkingBody(Body):
     cdef public double script_time_s
     cdef public bint walking
     cdef public list pending_commands
+    cdef object _seg_script, _seg
+    cdef double _seg_end_s, _seg_speed, _seg_w
 
     cdef _apply(self, double dt)
 

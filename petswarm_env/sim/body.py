@@ -415,6 +415,13 @@ class WalkingBody(Body):
         self.script_time_s = 0.0
         self.walking = False  # the script starts when the swarm is organized
         self.pending_commands = []  # commands the user issued (wearables pick them up)
+        # the segment last taken from the script, until the script time at which it ends (ScenarioScript.segment_end_s),
+        # with its speed and turn rate (rad/s): the script is asked again only then (or when script or segment is replaced)
+        self._seg_script = None
+        self._seg = None
+        self._seg_end_s = -math.inf
+        self._seg_speed = 0.0
+        self._seg_w = 0.0
 
     def apply(self, dt: float) -> None:
         """One substep of the walk (:meth:`_apply`), for a Python caller."""
@@ -434,16 +441,20 @@ class WalkingBody(Body):
             if _omega(self) != 0.0:
                 _set_omega(self, 0.0)
             return
-        seg = self.script.at(self.script_time_s)
-        if seg is not self.segment and seg.command:
-            self.pending_commands.append(seg.command)
-        self.segment = seg
+        script = self.script
+        if self.script_time_s >= self._seg_end_s or script is not self._seg_script or self.segment is not self._seg:
+            seg = script.at(self.script_time_s)
+            if seg is not self.segment and seg.command:
+                self.pending_commands.append(seg.command)
+            self.segment = seg
+            self._seg_script, self._seg, self._seg_end_s = script, seg, script.segment_end_s()
+            self._seg_speed, self._seg_w = seg.speed_mps, _radians(seg.turn_rate_dps)
         self.script_time_s += dt
         th: cython.double = _angle(self)
-        speed: cython.double = seg.speed_mps
+        speed: cython.double = self._seg_speed
         vx: cython.double = speed * _c_cos(th)  # the C library's, as math.cos
         vy: cython.double = speed * _c_sin(th)
-        w: cython.double = _radians(seg.turn_rate_dps)
+        w: cython.double = self._seg_w
         wx, wy = _vel(self)
         if vx != wx or vy != wy:
             _set_vel(self, vx, vy)

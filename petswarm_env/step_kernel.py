@@ -24,10 +24,13 @@ from cython.cimports.libc.math import isfinite as _c_isfinite
 
 from petswarm_env.sim.body import read_poses
 
-if cython.compiled:  # a station's typed attributes (middleware/station.pxd), the MCU clock's C methods (sim/clock.pxd)
+if cython.compiled:  # a station's typed attributes (middleware/station.pxd), the MCU clock's C methods (sim/clock.pxd),
+    # what a robot knows (middleware/knowledge.pxd)
+    from cython.cimports.petswarm_env.middleware.knowledge import IRMeasurement, Knowledge, MasterStatus
     from cython.cimports.petswarm_env.middleware.station import Station
     from cython.cimports.petswarm_env.sim.clock import LocalClock
 else:
+    from petswarm_env.middleware.knowledge import IRMeasurement, Knowledge, MasterStatus
     from petswarm_env.middleware.station import Station
     from petswarm_env.sim.clock import LocalClock
 
@@ -163,7 +166,8 @@ def command_slaves(robot_ids: list, acts, scale, masters: set, nodes: dict, robo
         if node.seq.master_lost(node._mcu.local_now()):  # on its own clock (``node.clock.now``)
             robots[idx].set_command(0.0, 0.0, 0.0)
             continue
-        st = node.know.status
+        know: Knowledge = node.know
+        st: MasterStatus = know.status
         stop = st is not None and st.mode == "emergency"
         vx, vy, omega = a[k, 0] * sx, a[k, 1] * sy, a[k, 2] * sw  # float32 products, as numpy's
         cmd = arbiters[idx].decide((float(vx), float(vy), float(omega)), None, rows[idx], stop)[0]
@@ -289,6 +293,8 @@ def stale_fixes(robot_ids: list, nodes: dict, start_s: float, age_s: float) -> c
     irs: dict
     members: dict
     links: dict
+    know: Knowledge
+    fix: IRMeasurement
     for idx in robot_ids:
         node = nodes[idx]
         know = node.know
@@ -300,7 +306,8 @@ def stale_fixes(robot_ids: list, nodes: dict, start_s: float, age_s: float) -> c
         for lk in (links.get(member, ()) if links is not None else ()):
             nb = members.get(lk.neighbour)
             if nb in irs:
-                t = irs[nb].time_s
+                fix = irs[nb]
+                t = fix.time_s
                 if not found or t > newest:
                     newest, found = t, True
         clock = node._mcu  # (``node.clock``)
@@ -317,10 +324,12 @@ def infos(agents: list, robot_ids: list, nodes: dict, missing: dict, errors_m: l
     out = {}
     k: cython.Py_ssize_t
     node: Station
+    know: Knowledge
     for k in range(len(agents)):
         node = nodes[robot_ids[k]]
+        know = node.know
         info = live.copy()  # (a copy of a dict of these keys: no insertion, no resize)
-        info["member"] = node.know.member
+        info["member"] = know.member
         info["formation_error_m"] = errors_m[k]
         info["new_contacts"] = contacts[k]
         info["slaves_missing"] = missing.get(node.swarm_pan, 0)

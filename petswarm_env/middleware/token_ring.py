@@ -220,7 +220,8 @@ class TokenRing:
     @cython.cfunc
     def _current_plan(self):
         """:meth:`plan` (a C call from the ring's own handlers)."""
-        total = self.node.know.total_members
+        know: Knowledge = self.node.know
+        total = know.total_members
         if self._plan is None or self._plan[0] != total:
             self._plan = (total, ring_plan(self.node.cfg, total))
         return self._plan[1]
@@ -228,7 +229,8 @@ class TokenRing:
     # -- ring order -----------------------------------------------------------------------------
     @cython.cfunc
     def _next_member(self, member):
-        total = self.node.know.total_members
+        know: Knowledge = self.node.know
+        total = know.total_members
         return (member + 1) % total if total else 0
 
     @cython.cfunc
@@ -350,18 +352,20 @@ class TokenRing:
         seq = frame.payload["seq"]
         self.token_seq = max(seq, self.token_seq)
         slot = self._current_plan().answer_slot_s
-        holder = next((m for m, n in node.know.members.items() if n == src), None) if slot > 0 else None
+        know: Knowledge = node.know
+        holder = next((m for m, n in know.members.items() if n == src), None) if slot > 0 else None
         if holder is None:
             node.send(_TX_START_ACK, src)
         else:  # crowded ring: in member order after the holder
-            rank = (node.know.member - holder - 1) % node.know.total_members
+            rank = (know.member - holder - 1) % know.total_members
             node.later(rank * slot, node.send, _TX_START_ACK, src)
 
     def _on_token(self, frame: Frame) -> None:
         node: Station = self.node
         src, now, payload = frame.src, self._clock.local_now(), frame.payload
         self.last_activity_s = self.heard[src] = now
-        nxt = node.know.members.get(payload["next"])
+        know: Knowledge = node.know
+        nxt = know.members.get(payload["next"])
         if nxt is not None:
             self.token_to = (nxt, now)
         named = nxt == node.node_id
@@ -398,7 +402,8 @@ class TokenRing:
     def report_heading(self, holder: int) -> bool:
         """The IR medium asks a neighbour of the transmitter ``holder`` at the end of its slot: if
         we measured it in this slot, we report the bearing we saw it at (Fig. 9)."""
-        seen = self.node.know.ir.get(holder)
+        know: Knowledge = self.node.know
+        seen: IRMeasurement = know.ir.get(holder)
         if seen is None or seen.time_s != self._clock.local_now():
             return False
         self.send_heading(holder, seen.bearing_rad)

@@ -69,11 +69,17 @@ def replay(path: Path, n: int) -> None:
         env.step({agents[i]: actions[k, i] for i in np.flatnonzero(acting[k])})
 
 
+# the child's settings that make its count repeat to the instruction: OpenBLAS's idle worker threads spin
+# (blas_thread_server) for as long as the scheduler lets them under valgrind, which moved the count of
+# the same replay by up to ~35 k instructions per step from run to run; and one hash seed
+REPEATABLE = {"OPENBLAS_NUM_THREADS": "1", "PYTHONHASHSEED": "0"}
+
+
 def _callgrind_total(path: Path, n: int, out_dir: Path) -> int:
     out = subprocess.run(
         ["valgrind", "--tool=callgrind", f"--callgrind-out-file={out_dir / f'cg.{n}'}", sys.executable, "-m",
          "petswarm.bench.instructions", "replay", str(path), str(n)],
-        cwd=ROOT, capture_output=True, text=True, check=False, env=dict(os.environ, PYTHONPATH=str(ROOT)))
+        cwd=ROOT, capture_output=True, text=True, check=False, env=dict(os.environ, PYTHONPATH=str(ROOT), **REPEATABLE))
     found = re.search(r"Collected : (\d+)", out.stderr)
     if out.returncode != 0 or not found:
         raise RuntimeError(f"callgrind of the replay failed:\n{out.stderr[-2000:]}")

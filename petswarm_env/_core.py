@@ -29,6 +29,7 @@ COMPILED: tuple[str, ...] = (
     "petswarm_env.comms.radio",
     "petswarm_env.middleware.knowledge",
     "petswarm_env.middleware.station",
+    "petswarm_env.middleware.sequence",
     "petswarm_env.middleware.token_ring",
     "petswarm_env.sim.battery",
     "petswarm_env.sim.body",

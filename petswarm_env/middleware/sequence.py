@@ -10,10 +10,21 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
+import cython
+
 from petswarm_env.comms.radio import PAN_WAITING, Frame
 from petswarm_env.middleware import messages as msg
-from petswarm_env.middleware.knowledge import Knowledge
 from petswarm_env.middleware.station import Station
+
+if cython.compiled:  # a station's typed attributes (station.pxd) and what it knows (knowledge.pxd): the per-step
+    # checks of a slave's master and of a master's ring read them by C reads
+    from cython.cimports.petswarm_env.middleware.knowledge import Knowledge, MasterStatus
+    from cython.cimports.petswarm_env.middleware.station import Station as _Typed
+else:
+    from petswarm_env.middleware.knowledge import Knowledge, MasterStatus
+    _Typed = Station
+
+COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
 
 
 class SequenceManager:
@@ -47,14 +58,16 @@ class SequenceManager:
         ``protocol.organize_timeout_s`` (the master broadcasts only once the join protocol ended,
         which takes that long at most: a robot that joined early in a long organize must not
         time out before the master's first broadcast)."""
-        node = self.node
+        node: _Typed = self.node
         if node.state != "slave":
             return False
         if self.successor is not None and self.successor.electing:
             if not self.successor.master_heard_again():
                 return True
         cfg = node.cfg.protocol
-        status, last = node.know.status, node.joined_s
+        know: Knowledge = node.know
+        status: MasterStatus = know.status
+        last: cython.double = node.joined_s
         if status is not None and status.time_s >= last:
             last = status.time_s
         else:
@@ -73,9 +86,10 @@ class SequenceManager:
         (its radio failed, or every member did) is cut off from its swarm: the same rule as its
         slaves' status timeout, from the other end. Its user session then releases the user
         (an alert to the belt; the slaves choose a new master, :mod:`.succession`)."""
-        node = self.node
+        node: _Typed = self.node
         ring = self.ring_heard()
-        if node.state != "master" or node.know.total_members <= 1 or ring is None:
+        know: Knowledge = node.know
+        if node.state != "master" or know.total_members <= 1 or ring is None:
             return False
         return now_s - ring > node.cfg.protocol.status_timeout_s
 

@@ -336,9 +336,7 @@ def _fill(plan: _Plan, v: cython.double[::1], know: Knowledge, links, now: cytho
     age: cython.double
     rel: cython.double
     base: cython.Py_ssize_t
-    mb: cython.double  # a measurement's bearing (or relative heading), own yaw and time, as C doubles
-    my: cython.double
-    mt: cython.double
+    cython.declare(mb=cython.double, my=cython.double, mt=cython.double)  # a measurement's bearing (or relative heading), own yaw and time
     # unpacked pairs and triples as C doubles (Python floats: their division is the same IEEE one)
     ox: cython.double
     oy: cython.double
@@ -349,13 +347,8 @@ def _fill(plan: _Plan, v: cython.double[::1], know: Knowledge, links, now: cytho
     uy: cython.double
     sx: cython.double
     sy: cython.double
-    a0: cython.double
-    a1: cython.double
-    a2: cython.double
-    m: IRMeasurement  # a fix (or None)
-    fix: IRMeasurement
-    h: HeadingEstimate
-    st: MasterStatus
+    cython.declare(a0=cython.double, a1=cython.double, a2=cython.double)
+    cython.declare(m=IRMeasurement, fix=IRMeasurement, h=HeadingEstimate, st=MasterStatus)  # fixes (or None), typed records
     members: dict = know.members
     irs: dict = know.ir
     ox0: cython.double = know.odometry_xy[0]  # own motion in the swarm (dead-reckoned): every fix is carried over it

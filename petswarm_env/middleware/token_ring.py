@@ -68,8 +68,7 @@ from petswarm_env.config import Config
 from petswarm_env.middleware import messages as msg
 from petswarm_env.sim.geometry import wrap_angle
 
-if cython.compiled:  # a station's typed attributes (middleware/station.pxd), the MCU clock's C methods (sim/clock.pxd),
-    # what a robot knows as typed records (middleware/knowledge.pxd)
+if cython.compiled:  # a station's typed attributes (middleware/station.pxd), the MCU clock's C methods (sim/clock.pxd), what a robot knows (middleware/knowledge.pxd)
     from cython.cimports.petswarm_env.middleware.knowledge import HeadingEstimate, IRMeasurement, Knowledge
     from cython.cimports.petswarm_env.middleware.station import Station
     from cython.cimports.petswarm_env.sim.clock import LocalClock
@@ -220,8 +219,7 @@ class TokenRing:
     @cython.cfunc
     def _current_plan(self):
         """:meth:`plan` (a C call from the ring's own handlers)."""
-        know: Knowledge = self.node.know
-        total = know.total_members
+        total = cython.cast(Knowledge, self.node.know, typecheck=True).total_members
         if self._plan is None or self._plan[0] != total:
             self._plan = (total, ring_plan(self.node.cfg, total))
         return self._plan[1]
@@ -229,8 +227,7 @@ class TokenRing:
     # -- ring order -----------------------------------------------------------------------------
     @cython.cfunc
     def _next_member(self, member):
-        know: Knowledge = self.node.know
-        total = know.total_members
+        total = cython.cast(Knowledge, self.node.know, typecheck=True).total_members
         return (member + 1) % total if total else 0
 
     @cython.cfunc
@@ -244,9 +241,7 @@ class TokenRing:
 
     @cython.cfunc
     def _ring_peers(self) -> set:
-        know: Knowledge = self.node.know
-        own = self.node.node_id
-        return {n for n in know.members.values() if n != own}
+        return {n for n in cython.cast(Knowledge, self.node.know, typecheck=True).members.values() if n != self.node.node_id}
 
     # -- holder -----------------------------------------------------------------------------------
     @cython.cfunc
@@ -352,20 +347,18 @@ class TokenRing:
         seq = frame.payload["seq"]
         self.token_seq = max(seq, self.token_seq)
         slot = self._current_plan().answer_slot_s
-        know: Knowledge = node.know
-        holder = next((m for m, n in know.members.items() if n == src), None) if slot > 0 else None
+        holder = next((m for m, n in node.know.members.items() if n == src), None) if slot > 0 else None
         if holder is None:
             node.send(_TX_START_ACK, src)
         else:  # crowded ring: in member order after the holder
-            rank = (know.member - holder - 1) % know.total_members
+            rank = (node.know.member - holder - 1) % node.know.total_members
             node.later(rank * slot, node.send, _TX_START_ACK, src)
 
     def _on_token(self, frame: Frame) -> None:
         node: Station = self.node
         src, now, payload = frame.src, self._clock.local_now(), frame.payload
         self.last_activity_s = self.heard[src] = now
-        know: Knowledge = node.know
-        nxt = know.members.get(payload["next"])
+        nxt = cython.cast(Knowledge, node.know, typecheck=True).members.get(payload["next"])
         if nxt is not None:
             self.token_to = (nxt, now)
         named = nxt == node.node_id
@@ -402,8 +395,7 @@ class TokenRing:
     def report_heading(self, holder: int) -> bool:
         """The IR medium asks a neighbour of the transmitter ``holder`` at the end of its slot: if
         we measured it in this slot, we report the bearing we saw it at (Fig. 9)."""
-        know: Knowledge = self.node.know
-        seen: IRMeasurement = know.ir.get(holder)
+        seen: IRMeasurement = cython.cast(Knowledge, self.node.know, typecheck=True).ir.get(holder)
         if seen is None or seen.time_s != self._clock.local_now():
             return False
         self.send_heading(holder, seen.bearing_rad)

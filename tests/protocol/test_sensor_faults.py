@@ -265,6 +265,36 @@ def test_a_master_whose_ir_breaks_hands_its_user_over_by_table_3_and_the_swarm_g
     assert r["reformed"]
 
 
+@pytest.mark.parametrize("mode, seed", [("following", 718), ("leading", 2)])
+def test_the_old_master_of_a_following_swarm_moves_out_sideways_and_back_at_the_wheels_top_speed(mode, seed):
+    """Zigzag walk, seed 718 (the master's IR breaks; the user stops at the alert for about half a second). The
+    old master, a slave now, kept its own pace while it moved out at 0.5 m/s: carried 3 m along beside the swarm's
+    front for 4.5 s, it stopped where the next turn brought the swarm onto it, and the rear slave on that side
+    stood behind it (1.12 m off 10 s after the detection). Now it moves out sideways and back against the walk
+    at the wheels' top speed, and is left behind the swarm. A leading swarm's old master (its user stands until
+    the new master is in place) keeps its own pace and the slow move out."""
+    from petswarm.experiments import sensor_faults
+    from petswarm_env.middleware.recovery import CLEAR_SPEED_MPS, HANDOVER_BACK_MPS, HANDOVER_SIDE_MPS
+
+    seen: dict = {}
+
+    def watch(env):
+        rec = env.episode.fleet.nodes[0].recovery
+        if rec.clear_out is not None and "plan" not in seen:
+            seen["plan"] = rec.clear_out
+
+    overrides = {"user.scenario": "zigzag"} if mode == "following" else {"swarm.mode": mode}
+    r = sensor_faults.run("ir", seed, target="master", overrides=overrides, on_step=watch)
+    assert r["robot"] == 0 and r["master_after"] != 0 and "plan" in seen
+    _, vx, vy, out_m = seen["plan"]
+    if mode == "following":
+        assert (vx, abs(vy)) == (-HANDOVER_BACK_MPS, HANDOVER_SIDE_MPS) and out_m > 1.0
+        assert r["reformed"], f"largest live-slave error {r['largest_error_m']:.2f} m 10 s after the detection"
+        assert r["session_state"] == "following" and r["user_distance_end_m"] <= sensor_faults.USER_FOLLOWED_M
+    else:
+        assert abs(vy) == CLEAR_SPEED_MPS
+
+
 @pytest.mark.parametrize("kind", ["ultrasonic", "ahrs"])
 def test_a_master_whose_ultrasonic_or_ahrs_breaks_finds_it_and_keeps_its_user(kind):
     """The master's ultrasonic ring or AHRS: found by its own diagnosis like a slave's, and the master keeps its

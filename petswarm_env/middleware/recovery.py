@@ -481,11 +481,8 @@ class RecoveryManager:
         ``formation``, the tables of the member update that removed it): the swarm walks on away from it
         (chosen: the rear robot of a wedge's arm, moving out at the swarm's pace while the swarm turned
         toward its side, was carried ahead into the lane of the front robot of its arm, which then ran
-        into it as it stood — slave faults on the zigzag walk; docs/faults.md).
-
-        The old master of a following swarm (it handed its user over, :meth:`after_handover`) moves out
-        sideways at :data:`HANDOVER_SIDE_MPS` and back against the walk at :data:`HANDOVER_BACK_MPS`
-        all the way (chosen; the comment at those constants)."""
+        into it as it stood — slave faults on the zigzag walk; docs/faults.md). The old master of a
+        following swarm moves out sideways and back against the walk (:data:`HANDOVER_SIDE_MPS`)."""
         node = self.node
         if node.formation is None:
             return
@@ -506,8 +503,7 @@ class RecoveryManager:
         clear_m = outermost - lateral * side + 2.0 * node.cfg.robot.radius_m  # beside the outermost slot's robot
         out_m = clear_m + CLEAR_MARGIN_M
         if self._was_master and node.know.mode == "following":
-            # the old master of a following swarm: out at the wheels' top speed, sideways and back against the
-            # walk (its +x: it faced its user) all the way (HANDOVER_SIDE_MPS, HANDOVER_BACK_MPS)
+            # the old master of a following swarm: sideways and back against the walk (its +x: it faced its user)
             self.pace_until_m = out_m
             self.clear_out = (node.clock.now, -HANDOVER_BACK_MPS, side * HANDOVER_SIDE_MPS, out_m)
             self._cleared = (node.clock.now, 0.0)
@@ -578,20 +574,9 @@ CLEAR_TIMEOUT = 3.0  # chosen: the move out gives up after three times its time 
 # chosen: a slave also drives ahead of the swarm's pace, out of the way of the member behind it that moves up
 # (a master that handed its user over does not: the user and the new master are ahead of it)
 CLEAR_AHEAD_MPS = 0.25
-# chosen: the old master of a following swarm (it handed its user over for its broken IR, swarm.hand_over_for_fault)
-# moves out sideways at HANDOVER_SIDE_MPS and back against the walk at HANDOVER_BACK_MPS, together the wheels' top
-# speed (|Vx| + |Vy| <= 1.5 m/s, a Pet-Bot's), all the way out, instead of its own pace and CLEAR_SPEED_MPS. It stood
-# on its user's line 1 m behind them, where the new master drives to; the user stops at the belt's alert only until
-# the new master's first LF fix, 0.4-1.4 s (succession.RESUME_SLACK_M), and walks on. Keeping its pace while it moved
-# out at 0.5 m/s, it was carried 3-4 m along beside the swarm's front for 4-6 s, and on a zigzag walk a turn toward its
-# side brought the swarm onto it where it stopped (the rear slave or the new master held behind it by the safety
-# stage, 0.5-3.8 m off; the new master lost its user); moving back, the swarm passes it sooner and it is left behind
-# the swarm's tail, where a walk ahead leads away from it. IR on the master, following zigzag, re-formed: seeds
-# 300-399 84 -> 96 of 100, seeds 1000-1099 88 -> 100 (0 m/s back at 1.0 sideways: 92, 94; 0.3 back at 1.0: 98, 98;
-# 0.75 at 1.0: 97, 94; 0.5 at 0.75: 94, 93). Leading keeps its own pace and CLEAR_SPEED_MPS: its user stands until the
-# new master is in place (seconds), and this move measured worse there (straight, seeds 300-339: 36 -> 28 of 40)
-HANDOVER_SIDE_MPS = 1.0
-HANDOVER_BACK_MPS = 0.5
+# chosen: the old master of a following swarm (swarm.hand_over_for_fault) moves out sideways and back against the walk,
+# together the wheels' top speed (a Pet-Bot's), all the way: its own pace carried it into a zigzag's turn (docs/faults.md)
+HANDOVER_SIDE_MPS, HANDOVER_BACK_MPS = 1.0, 0.5
 # chosen: its clearance beyond the formation's outermost slot (a formation drifts sideways by half a spacing as it
 # re-forms; a master that handed its user over: its formation then re-centres on the new master, which drives onto
 # the user's line, half a spacing or more sideways — IR on the master, seeds 20-39: re-formed 14/20 with 1.0 m,

@@ -217,14 +217,15 @@ def in_place_to_resume(tracker, psi: float | None, now: float, fault_pause_s: fl
     return abs(off) <= lim and r >= target_m - RESUME_SLACK_M and settled
 
 
-def leading_walk_direction(node: Station, master: int) -> float:
-    """The way a leading master's user walks, in this robot's body frame: the master drives backwards
-    along its user's walking direction, facing them (seed 002 §3.4), so the user walks where the
-    master's back points — its heading as this robot knows it (:func:`master_heading_offset`) plus π.
-    Measured over seeds 200-219 at an IR-fault handover (leading): 7.5° mean error, against 13° for the direction
-    from where it puts the user to where it puts the master (:func:`user_travel`: two IR-placed points
-    1.6 m apart)."""
-    return wrap_angle(master_heading_offset(node, master) + math.pi)
+def walk_direction(node: Station, master: int, mode: str) -> float:
+    """The way the user of a ``mode`` master walks, in this robot's body frame, from the master's heading
+    as this robot knows it (:func:`master_heading_offset`). Leading: the master drives backwards along
+    its user's walking direction, facing them (seed 002 §3.4), so the user walks where the master's back
+    points (its heading plus π); measured over seeds 200-219 at an IR-fault handover: 7.5° mean error,
+    against 13° for the direction from where it puts the user to where it puts the master
+    (:func:`user_travel`: two IR-placed points 1.6 m apart). Following: the master drives behind its
+    user, facing them (seed 002 §3.3), so the user walks where its front points (its heading)."""
+    return wrap_angle(master_heading_offset(node, master) + (math.pi if mode == "leading" else 0.0))
 
 
 def own_user_and_master(node: Station, now_s: float, master: int | None = None

@@ -295,6 +295,33 @@ def test_the_old_master_of_a_following_swarm_moves_out_sideways_and_back_at_the_
         assert abs(vy) == CLEAR_SPEED_MPS
 
 
+def test_a_new_following_master_starts_from_the_old_masters_heading_as_its_users_walk():
+    """Zigzag walk, seed 217 (the master's IR breaks; a front slave takes over). The new master's controller
+    guessed that its user walks away along its line of sight (from a front slot, half a spacing beside the old
+    master) and its LF track pulled that round slowly: it trailed its user 1.7-2.3 m and lost them (emergency
+    at the end). Now it starts from its own estimate of the old master's heading (seed 002 §3.3: the following
+    master faces the way its user walks, ``succession.walk_direction``), and drives its user to the end."""
+    import petswarm_env.middleware.user_session as us
+    from petswarm.experiments import sensor_faults
+
+    estimates: list = []
+    seen: dict = {}
+
+    def watch(env):
+        if estimates and "psi" not in seen:  # the step of the new master's start
+            seen["psi"] = env.episode.sessions[0].ctrl.walk_direction_rad
+
+    real = us.walk_direction
+    us.walk_direction = lambda node, master, mode: estimates.append(real(node, master, mode)) or estimates[-1]
+    try:
+        r = sensor_faults.run("ir", 217, target="master", overrides={"user.scenario": "zigzag"}, on_step=watch)
+    finally:
+        us.walk_direction = real
+    assert r["master_after"] != 0 and len(estimates) == 1
+    assert seen["psi"] == pytest.approx(estimates[0], abs=0.05)
+    assert r["session_state"] == "following" and r["user_distance_end_m"] <= sensor_faults.USER_FOLLOWED_M
+
+
 @pytest.mark.parametrize("kind", ["ultrasonic", "ahrs"])
 def test_a_master_whose_ultrasonic_or_ahrs_breaks_finds_it_and_keeps_its_user(kind):
     """The master's ultrasonic ring or AHRS: found by its own diagnosis like a slave's, and the master keeps its

@@ -491,6 +491,7 @@ class UserSession:
             self.belt_view.angular_speed_rps,
             self.belt_view.rotating,
             tuple(est[0]) if est is not None else (cfg.master.distance_m, 0.0),
+            self.ctrl.walk_direction_rad,
         )
         zero = (0.0, 0.0, 0.0)
         if self.state in ("following", "leading"):
@@ -585,7 +586,7 @@ class UserSession:
                 # on a zigzag often mid-turn; its LF track pulled that guess round at heading_blend_rps while
                 # it trailed its user 1.2-2 m (IR on the master, following zigzag: the user lost at the end in
                 # 10 of 320 runs, now 4; docs/faults.md)
-                self.ctrl.know_walk_direction(walk_direction(new, old.node_id, self.swarm.mode))
+                self.ctrl.know_walk_direction(walk_direction(new, old.node_id, self.swarm.mode, new.modes.told_walk_rad))
         if for_fault and self.user.walking:
             # a master that hands the user over for a broken part (swarm.hand_over_for_fault) alerts the belt
             # first (chosen, as the belt's alert of a lost master): the user stops until the new master's own

@@ -312,7 +312,7 @@ def test_a_new_following_master_starts_from_the_old_masters_heading_as_its_users
             seen["psi"] = env.episode.sessions[0].ctrl.walk_direction_rad
 
     real = us.walk_direction
-    us.walk_direction = lambda node, master, mode: estimates.append(real(node, master, mode)) or estimates[-1]
+    us.walk_direction = lambda *args: estimates.append(real(*args)) or estimates[-1]
     try:
         r = sensor_faults.run("ir", 217, target="master", overrides={"user.scenario": "zigzag"}, on_step=watch)
     finally:
@@ -320,6 +320,30 @@ def test_a_new_following_master_starts_from_the_old_masters_heading_as_its_users
     assert r["master_after"] != 0 and len(estimates) == 1
     assert seen["psi"] == pytest.approx(estimates[0], abs=0.05)
     assert r["session_state"] == "following" and r["user_distance_end_m"] <= sensor_faults.USER_FOLLOWED_M
+
+
+def test_a_leading_master_that_hands_over_mid_turn_tells_the_new_master_the_way_its_user_walks():
+    """Leading zigzag walk, seed 304: the master's IR breaks just after a turn, its back still 50° off the way its
+    user walks (its controller's ψ 2.25 rad, not π). The new master took the walk from the old master's back: up to
+    80° off, it drove off its user's line and lost them (emergency at the end). Now the handover frame carries the
+    old master's ψ (2 bytes more, ``messages.WALK_BYTES``), and the new master takes it when it is over
+    ``TOLD_WALK_OFF_DEG`` off the old master's back (``succession.walk_direction``): it drives its user to the end."""
+    from petswarm.experiments import sensor_faults
+    from petswarm_env.middleware.succession import TOLD_WALK_OFF_DEG
+
+    told: dict = {}
+
+    def watch(env):
+        for i, n in env.episode.fleet.nodes.items():
+            if n.modes.told_walk_rad is not None:
+                told.setdefault(i, n.modes.told_walk_rad)
+
+    r = sensor_faults.run("ir", 304, target="master", overrides={"user.scenario": "zigzag", "swarm.mode": "leading"},
+                          on_step=watch)
+    assert list(told) == [r["master_after"]] and r["master_after"] != 0  # told to the new master only
+    assert abs(math.remainder(told[r["master_after"]] - math.pi, 2 * math.pi)) > math.radians(TOLD_WALK_OFF_DEG)
+    assert r["session_state"] == "leading" and r["user_distance_end_m"] <= sensor_faults.USER_FOLLOWED_M
+    assert msg.payload_bytes(msg.HANDOVER, {"walk_rad": 0.1}) == msg.payload_bytes(msg.HANDOVER, {}) + msg.WALK_BYTES
 
 
 @pytest.mark.parametrize("kind", ["ultrasonic", "ahrs"])

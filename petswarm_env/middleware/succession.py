@@ -94,7 +94,7 @@ SETTLED_RPS = 0.2
 # axis (its back, leading; its front, following) when the two part by more than this: on a zigzag the old master's
 # heading lags the walk after a turn (leading: up to 80°, its arc capped at LEADING_ARC_MAX_RPS); within it, its heading
 # (steady) did better than its ψ (the LF track's, noisy): IR on the master, leading straight, seeds 100-119, 200-219 and
-# 300-379, re-formed 106/120 with it, 95 with ψ always; leading zigzag in emergency at the end 64 -> 6 of 120 (docs/faults.md)
+# 300-379, re-formed 106/120 with it, 95 with ψ always; leading zigzag in emergency at the end 64 -> 10 of 120 (docs/faults.md)
 TOLD_WALK_OFF_DEG = 25.0
 
 

@@ -585,7 +585,7 @@ class UserSession:
                 # away along its line of sight: from a front slot, half a spacing beside the old master, and
                 # on a zigzag often mid-turn; its LF track pulled that guess round at heading_blend_rps while
                 # it trailed its user 1.2-2 m (IR on the master, following zigzag: the user lost at the end in
-                # 10 of 320 runs, now 4; docs/faults.md)
+                # 10 of 320 runs, now 4; with the told walk, 2: docs/faults.md)
                 self.ctrl.know_walk_direction(walk_direction(new, old.node_id, self.swarm.mode, new.modes.told_walk_rad))
         if for_fault and self.user.walking:
             # a master that hands the user over for a broken part (swarm.hand_over_for_fault) alerts the belt

@@ -277,10 +277,10 @@ class MasterController:
 
     def know_walk_direction(self, walk_dir_rad: float) -> None:
         """Start from ψ = ``walk_dir_rad`` (body frame), a direction the robot knows itself — a new
-        leading master's own estimate of the way its user walks (seed 002 §3.4: the old master drove
-        backwards along it; :func:`~petswarm_env.middleware.succession.leading_walk_direction`) —
-        instead of the first command's guess (that the user faces the robot). It steers at once (the
-        leading robot closes its place on straight ahead); the LF track then pulls it at
+        master's own estimate of the way its user walks (seed 002 §3.3-3.4: the old master drove along
+        it; :func:`~petswarm_env.middleware.succession.walk_direction`) — instead of the first command's
+        guess (that the user faces the robot in leading, walks away from it in following). It steers at
+        once (the leading robot closes its place on straight ahead); the LF track then pulls it at
         ``heading_blend_rps``."""
         self._walk_dir, self._has_walk_dir, self._trusted = wrap_angle(walk_dir_rad), True, True
 

@@ -31,9 +31,11 @@ def can_be_master(robot) -> bool:
 
 @dataclass
 class UserView:
-    """The master's current knowledge of its user, as it broadcasts it to the slaves."""
+    """The master's current knowledge of its user, as it broadcasts it to the slaves (and, the way the user
+    walks, as it hands them over for a broken part: modes.ModeManager.change)."""
 
     activity: str
     user_turn_rate_rps: float
     user_rotating: bool
     user_position_m: tuple[float, float]
+    walk_direction_rad: float | None = None  # ψ, its controller's estimate of the user's walk (body frame)

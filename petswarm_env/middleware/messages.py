@@ -100,6 +100,7 @@ SLOT_ENTRY_BYTES = 6
 BID_ENTRY_BYTES = 5  # member number 1, the utility 4 (float32)
 
 
+WALK_BYTES = 2  # a handover for a broken part: the way the user walks (int16 mrad; modes.ModeManager.change)
 REGION_BYTES = 2  # a refill's joining query: its available region (a distance, int16 cm; recovery.RecoveryManager.refill_region_m)
 
 
@@ -119,6 +120,7 @@ PER_ENTRY_BYTES = {
     MODE_CHANGE: _table_bytes,
     TAKEOVER: _table_bytes,
     MEMBER_UPDATE: _table_bytes,
+    HANDOVER: lambda p: WALK_BYTES * ("walk_rad" in p),
 }
 
 # The largest MAC payload of one 802.15.4 frame (aMaxPHYPacketSize 127 − 11 bytes of MAC header and

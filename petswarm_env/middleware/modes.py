@@ -181,15 +181,18 @@ class ModeManager:
         self._sent_seq = 0  # own count of the plans this robot announced as master
         self._acks: set[int] = set()
         self.handover_acked = False
+        self.told_walk_rad: float | None = None  # the way the user walks, as the master that handed them over told it
         node.on(msg.MODE_CHANGE, self._on_mode_change)
         node.on(msg.MODE_CHANGE_ACK, self._on_ack)
         node.on(msg.HANDOVER, self._on_handover)
         node.on(msg.HANDOVER_ACK, self._on_handover_ack)
 
     # -- master side ------------------------------------------------------------------------------
-    def change(self, plan: ModeChangePlan, result: dict):
+    def change(self, plan: ModeChangePlan, result: dict, walk_rad: float | None = None):
         """Master process: announce the plan until acknowledged, then hand the user over. The plan's
-        number is this master's own count: a slave compares it only with the same master's."""
+        number is this master's own count: a slave compares it only with the same master's. ``walk_rad``:
+        a master handing over for a broken part tells the new master the way its user walks (its body
+        frame, 2 bytes more: ``messages.WALK_BYTES``; chosen, succession.walk_direction)."""
         self._sent_seq += 1
         seq = self._sent_seq
         node = self.node
@@ -215,8 +218,9 @@ class ModeManager:
             retries = 0
             self.handover_acked = False
             while True:
+                told = {} if walk_rad is None else {"walk_rad": round(walk_rad, 3)}  # int16 mrad
                 node.send(msg.HANDOVER, dst=new_master, seq=seq, user=node.connected_user,
-                          previous=node.previous_driving_state)
+                          previous=node.previous_driving_state, **told)
                 yield clock.timeout(cfg.response_timeout_s)
                 if self.handover_acked or retries >= cfg.max_retries:
                     break
@@ -277,5 +281,6 @@ class ModeManager:
             node.state = "master"
             node.connected_user = frame.payload["user"]  # its wearables reconnect over BLE
             node.previous_driving_state = frame.payload["previous"]
+            self.told_walk_rad = frame.payload.get("walk_rad")  # the old master's ψ, its body frame (None: not told)
             node.pans = frozenset({node.swarm_pan})
             node.took_over.emit()

@@ -481,7 +481,8 @@ class RecoveryManager:
         ``formation``, the tables of the member update that removed it): the swarm walks on away from it
         (chosen: the rear robot of a wedge's arm, moving out at the swarm's pace while the swarm turned
         toward its side, was carried ahead into the lane of the front robot of its arm, which then ran
-        into it as it stood — slave faults on the zigzag walk; docs/faults.md)."""
+        into it as it stood — slave faults on the zigzag walk; docs/faults.md). The old master of a
+        following swarm moves out sideways and back against the walk (:data:`HANDOVER_SIDE_MPS`)."""
         node = self.node
         if node.formation is None:
             return
@@ -501,6 +502,12 @@ class RecoveryManager:
         outermost = max((float(p[1]) * side for p in pos), default=0.0)
         clear_m = outermost - lateral * side + 2.0 * node.cfg.robot.radius_m  # beside the outermost slot's robot
         out_m = clear_m + CLEAR_MARGIN_M
+        if self._was_master and node.know.mode == "following":
+            # the old master of a following swarm: sideways and back against the walk (its +x: it faced its user)
+            self.pace_until_m = out_m
+            self.clear_out = (node.clock.now, -HANDOVER_BACK_MPS, side * HANDOVER_SIDE_MPS, out_m)
+            self._cleared = (node.clock.now, 0.0)
+            return
         self.pace_until_m = clear_m + CLEAR_LANE_GAP_M
         ahead = 0.0 if self._was_master else math.copysign(CLEAR_AHEAD_MPS, vx)  # ahead the way the swarm walks
         self.clear_out = (node.clock.now, vx + ahead, side * CLEAR_SPEED_MPS, out_m)
@@ -567,6 +574,9 @@ CLEAR_TIMEOUT = 3.0  # chosen: the move out gives up after three times its time 
 # chosen: a slave also drives ahead of the swarm's pace, out of the way of the member behind it that moves up
 # (a master that handed its user over does not: the user and the new master are ahead of it)
 CLEAR_AHEAD_MPS = 0.25
+# chosen: the old master of a following swarm (swarm.hand_over_for_fault) moves out sideways and back against the walk,
+# together the wheels' top speed (a Pet-Bot's), all the way: its own pace carried it into a zigzag's turn (docs/faults.md)
+HANDOVER_SIDE_MPS, HANDOVER_BACK_MPS = 1.0, 0.5
 # chosen: its clearance beyond the formation's outermost slot (a formation drifts sideways by half a spacing as it
 # re-forms; a master that handed its user over: its formation then re-centres on the new master, which drives onto
 # the user's line, half a spacing or more sideways — IR on the master, seeds 20-39: re-formed 14/20 with 1.0 m,

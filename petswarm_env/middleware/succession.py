@@ -90,6 +90,12 @@ RESUME_SLACK_M = 0.5
 # LF track of a standing user is steady only then (swinging in, the tracker read the robot's arc as the user's walk)
 SETTLED_MPS = 0.15
 SETTLED_RPS = 0.2
+# chosen: a new master takes the way its user walks as the old master told it (its controller's ψ) over the old master's
+# axis (its back, leading; its front, following) when the two part by more than this: on a zigzag the old master's
+# heading lags the walk after a turn (leading: up to 80°, its arc capped at LEADING_ARC_MAX_RPS); within it, its heading
+# (steady) did better than its ψ (the LF track's, noisy): IR on the master, leading straight, seeds 100-119, 200-219 and
+# 300-379, re-formed 106/120 with it, 95 with ψ always; leading zigzag in emergency at the end 64 -> 10 of 120 (docs/faults.md)
+TOLD_WALK_OFF_DEG = 25.0
 
 
 def search_places(origin: tuple[float, float], way: tuple[float, float], spacing_m: float = SEARCH_SPACING_M,
@@ -217,14 +223,21 @@ def in_place_to_resume(tracker, psi: float | None, now: float, fault_pause_s: fl
     return abs(off) <= lim and r >= target_m - RESUME_SLACK_M and settled
 
 
-def leading_walk_direction(node: Station, master: int) -> float:
-    """The way a leading master's user walks, in this robot's body frame: the master drives backwards
-    along its user's walking direction, facing them (seed 002 §3.4), so the user walks where the
-    master's back points — its heading as this robot knows it (:func:`master_heading_offset`) plus π.
-    Measured over seeds 200-219 at an IR-fault handover (leading): 7.5° mean error, against 13° for the direction
-    from where it puts the user to where it puts the master (:func:`user_travel`: two IR-placed points
-    1.6 m apart)."""
-    return wrap_angle(master_heading_offset(node, master) + math.pi)
+def walk_direction(node: Station, master: int, mode: str, told: float | None = None) -> float:
+    """The way the user of a ``mode`` master walks, in this robot's body frame, from the master's heading
+    as this robot knows it (:func:`master_heading_offset`). Leading: the master drives backwards along
+    its user's walking direction, facing them (seed 002 §3.4), so the user walks where the master's back
+    points (its heading plus π); measured over seeds 200-219 at an IR-fault handover: 7.5° mean error,
+    against 13° for the direction from where it puts the user to where it puts the master
+    (:func:`user_travel`: two IR-placed points 1.6 m apart). Following: the master drives behind its
+    user, facing them (seed 002 §3.3), so the user walks where its front points (its heading). ``told``: the
+    way the user walks in the master's own frame, as it told it in the handover (its controller's ψ): taken
+    instead when over ``TOLD_WALK_OFF_DEG`` off that axis — the master had not swung round after a turn."""
+    axis = math.pi if mode == "leading" else 0.0
+    off = master_heading_offset(node, master)
+    if told is not None and abs(wrap_angle(told - axis)) > math.radians(TOLD_WALK_OFF_DEG):
+        return wrap_angle(off + told)
+    return wrap_angle(off + axis)
 
 
 def own_user_and_master(node: Station, now_s: float, master: int | None = None

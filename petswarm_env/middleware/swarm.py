@@ -182,7 +182,8 @@ class Swarm:
         self.last_geometry = geometry
         self.mode_change_result = {"reason": part}
         self.fault_handovers.append((self.clock.now, master.node_id, plan.members[0], part))
-        self.clock.process(master.modes.change(plan, self.mode_change_result))
+        walk = view.walk_direction_rad if view is not None else None  # the way its user walks, as it knows it
+        self.clock.process(master.modes.change(plan, self.mode_change_result, walk))
         return plan
 
     # -- what the robots signal (forwarded by the fleet to the swarm the robot is in) ---------------

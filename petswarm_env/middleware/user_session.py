@@ -47,8 +47,8 @@ from petswarm_env.middleware.master_role import UserView, can_be_master, master_
 from petswarm_env.middleware.modes import measured_geometry
 from petswarm_env.middleware.station import mcu_clock
 from petswarm_env.middleware.succession import (APPROACH_SLACK_M, BLOCKED_S, PROGRESS_M, SEARCH_STAND_M, STALLED_MPS,
-                                                 in_place_to_resume, leading_walk_direction, own_user_estimate,
-                                                 search_step)
+                                                 in_place_to_resume, own_user_estimate, search_step,
+                                                 walk_direction)
 from petswarm_env.middleware.swarm import Swarm
 from petswarm_env.sim.geometry import wrap_angle
 from petswarm_env.sim.user import User
@@ -491,6 +491,7 @@ class UserSession:
             self.belt_view.angular_speed_rps,
             self.belt_view.rotating,
             tuple(est[0]) if est is not None else (cfg.master.distance_m, 0.0),
+            self.ctrl.walk_direction_rad,
         )
         zero = (0.0, 0.0, 0.0)
         if self.state in ("following", "leading"):
@@ -574,14 +575,18 @@ class UserSession:
         if est is not None:
             self.tracker.fix(est, now)
             self._guess_only = True
-            if for_fault and self.swarm.mode == "leading":
-                # the way its user walks, from its own estimate of the old master's heading (seed 002 §3.4:
-                # the leading master drives backwards along it; not at a mode change, where the old master
-                # drove in the other mode): without it the controller guessed that the user faces the new
+            if for_fault and self.swarm.mode in ("following", "leading"):
+                # the way its user walks, from its own estimate of the old master's heading (seed 002 §3.3-3.4:
+                # the master drives along it facing its user; not at a mode change, where the old master
+                # drove in the other mode). Leading, without it the controller guessed that the user faces the new
                 # master (seed 000 Table 3 leading: the highest level, at its takeover still off straight ahead), turned the
                 # robot up to 80° off the walk, and, facing its user diagonally, its mecanum wheels could
-                # barely out-pace them to regain its place ahead
-                self.ctrl.know_walk_direction(leading_walk_direction(new, old.node_id))
+                # barely out-pace them to regain its place ahead. Following, it guessed that the user walks
+                # away along its line of sight: from a front slot, half a spacing beside the old master, and
+                # on a zigzag often mid-turn; its LF track pulled that guess round at heading_blend_rps while
+                # it trailed its user 1.2-2 m (IR on the master, following zigzag: the user lost at the end in
+                # 10 of 320 runs, now 4; with the told walk, 2: docs/faults.md)
+                self.ctrl.know_walk_direction(walk_direction(new, old.node_id, self.swarm.mode, new.modes.told_walk_rad))
         if for_fault and self.user.walking:
             # a master that hands the user over for a broken part (swarm.hand_over_for_fault) alerts the belt
             # first (chosen, as the belt's alert of a lost master): the user stops until the new master's own

@@ -265,6 +265,87 @@ def test_a_master_whose_ir_breaks_hands_its_user_over_by_table_3_and_the_swarm_g
     assert r["reformed"]
 
 
+@pytest.mark.parametrize("mode, seed", [("following", 718), ("leading", 2)])
+def test_the_old_master_of_a_following_swarm_moves_out_sideways_and_back_at_the_wheels_top_speed(mode, seed):
+    """Zigzag walk, seed 718 (the master's IR breaks; the user stops at the alert for about half a second). The
+    old master, a slave now, kept its own pace while it moved out at 0.5 m/s: carried 3 m along beside the swarm's
+    front for 4.5 s, it stopped where the next turn brought the swarm onto it, and the rear slave on that side
+    stood behind it (1.12 m off 10 s after the detection). Now it moves out sideways and back against the walk
+    at the wheels' top speed, and is left behind the swarm. A leading swarm's old master (its user stands until
+    the new master is in place) keeps its own pace and the slow move out."""
+    from petswarm.experiments import sensor_faults
+    from petswarm_env.middleware.recovery import CLEAR_SPEED_MPS, HANDOVER_BACK_MPS, HANDOVER_SIDE_MPS
+
+    seen: dict = {}
+
+    def watch(env):
+        rec = env.episode.fleet.nodes[0].recovery
+        if rec.clear_out is not None and "plan" not in seen:
+            seen["plan"] = rec.clear_out
+
+    overrides = {"user.scenario": "zigzag"} if mode == "following" else {"swarm.mode": mode}
+    r = sensor_faults.run("ir", seed, target="master", overrides=overrides, on_step=watch)
+    assert r["robot"] == 0 and r["master_after"] != 0 and "plan" in seen
+    _, vx, vy, out_m = seen["plan"]
+    if mode == "following":
+        assert (vx, abs(vy)) == (-HANDOVER_BACK_MPS, HANDOVER_SIDE_MPS) and out_m > 1.0
+        assert r["reformed"], f"largest live-slave error {r['largest_error_m']:.2f} m 10 s after the detection"
+        assert r["session_state"] == "following" and r["user_distance_end_m"] <= sensor_faults.USER_FOLLOWED_M
+    else:
+        assert abs(vy) == CLEAR_SPEED_MPS
+
+
+def test_a_new_following_master_starts_from_the_old_masters_heading_as_its_users_walk():
+    """Zigzag walk, seed 217 (the master's IR breaks; a front slave takes over). The new master's controller
+    guessed that its user walks away along its line of sight (from a front slot, half a spacing beside the old
+    master) and its LF track pulled that round slowly: it trailed its user 1.7-2.3 m and lost them (emergency
+    at the end). Now it starts from its own estimate of the old master's heading (seed 002 §3.3: the following
+    master faces the way its user walks, ``succession.walk_direction``), and drives its user to the end."""
+    import petswarm_env.middleware.user_session as us
+    from petswarm.experiments import sensor_faults
+
+    estimates: list = []
+    seen: dict = {}
+
+    def watch(env):
+        if estimates and "psi" not in seen:  # the step of the new master's start
+            seen["psi"] = env.episode.sessions[0].ctrl.walk_direction_rad
+
+    real = us.walk_direction
+    us.walk_direction = lambda *args: estimates.append(real(*args)) or estimates[-1]
+    try:
+        r = sensor_faults.run("ir", 217, target="master", overrides={"user.scenario": "zigzag"}, on_step=watch)
+    finally:
+        us.walk_direction = real
+    assert r["master_after"] != 0 and len(estimates) == 1
+    assert seen["psi"] == pytest.approx(estimates[0], abs=0.05)
+    assert r["session_state"] == "following" and r["user_distance_end_m"] <= sensor_faults.USER_FOLLOWED_M
+
+
+def test_a_leading_master_that_hands_over_mid_turn_tells_the_new_master_the_way_its_user_walks():
+    """Leading zigzag walk, seed 304: the master's IR breaks just after a turn, its back still 50° off the way its
+    user walks (its controller's ψ 2.25 rad, not π). The new master took the walk from the old master's back: up to
+    80° off, it drove off its user's line and lost them (emergency at the end). Now the handover frame carries the
+    old master's ψ (2 bytes more, ``messages.WALK_BYTES``), and the new master takes it when it is over
+    ``TOLD_WALK_OFF_DEG`` off the old master's back (``succession.walk_direction``): it drives its user to the end."""
+    from petswarm.experiments import sensor_faults
+    from petswarm_env.middleware.succession import TOLD_WALK_OFF_DEG
+
+    told: dict = {}
+
+    def watch(env):
+        for i, n in env.episode.fleet.nodes.items():
+            if n.modes.told_walk_rad is not None:
+                told.setdefault(i, n.modes.told_walk_rad)
+
+    r = sensor_faults.run("ir", 304, target="master", overrides={"user.scenario": "zigzag", "swarm.mode": "leading"},
+                          on_step=watch)
+    assert list(told) == [r["master_after"]] and r["master_after"] != 0  # told to the new master only
+    assert abs(math.remainder(told[r["master_after"]] - math.pi, 2 * math.pi)) > math.radians(TOLD_WALK_OFF_DEG)
+    assert r["session_state"] == "leading" and r["user_distance_end_m"] <= sensor_faults.USER_FOLLOWED_M
+    assert msg.payload_bytes(msg.HANDOVER, {"walk_rad": 0.1}) == msg.payload_bytes(msg.HANDOVER, {}) + msg.WALK_BYTES
+
+
 @pytest.mark.parametrize("kind", ["ultrasonic", "ahrs"])
 def test_a_master_whose_ultrasonic_or_ahrs_breaks_finds_it_and_keeps_its_user(kind):
     """The master's ultrasonic ring or AHRS: found by its own diagnosis like a slave's, and the master keeps its

@@ -22,7 +22,7 @@ from cython.cimports.libc.math import cos as _cos
 from cython.cimports.libc.math import sin as _sin
 from cython.cimports.libc.math import sqrt as _sqrt
 
-from petswarm_env.middleware.formation import MAX_LINKS, Formation, leading_user, user_position_in_formation
+from petswarm_env.middleware.formation import MAX_LINKS, Formation, formation_for_mode, leading_user, user_position_in_formation
 from petswarm_env.scenarios import ACTIVITIES
 
 if cython.compiled:  # a robot's wheels, their odometry and its node's knowledge as C reads (the .pxd files)
@@ -201,8 +201,6 @@ def formation_extents(swarm_cfg, user: tuple[float, float]) -> tuple[float, floa
     so a slot is bounded by the table's extent along each axis, not by its distance from member 0).
     A custom formation has one table: ``swarm.custom_links`` name exactly num_slaves + 1 members.
     ``user``: where a leading layout's user stands (:func:`~.middleware.formation.leading_user`)."""
-    from petswarm_env.middleware.formation import formation_for_mode
-
     link = slot = 0.0
     full = swarm_cfg.num_slaves + swarm_cfg.spares + 1
     for n in [full] if swarm_cfg.formation == "custom" else range(2, full + 1):

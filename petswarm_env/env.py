@@ -62,7 +62,7 @@ from petswarm_env.config_yaml import dotted_keywords
 from petswarm_env.config import DRIVING_MODES, Config, ConfigError, arrival_slots, describe_value, flatten_dotted, load_config
 from petswarm_env.episode import INFO_DEFAULTS, OTHER_USER_ID, SWARM_PAN, WAKE_PATTERN, Episode, Setup  # noqa: F401 (re-exported)
 from petswarm_env.inputs import check_reset_options, checked_action
-from petswarm_env.middleware.formation import formation_for_mode, user_position_in_formation
+from petswarm_env.middleware.formation import formation_for_mode, leading_user, user_position_in_formation
 from petswarm_env.observe import OBS_VERSION, ObservationLayout, ir_distance_bound, observation_bounds
 from petswarm_env.robot_types import DEFAULT_TYPE, episode_scenarios, max_pool_size, pool_problem, pool_types
 from petswarm_env.robot_types import resolve as resolve_type
@@ -80,7 +80,7 @@ def _swarm_reach_m(cfg: Config) -> float | None:
     reach = 0.0
     for mode in DRIVING_MODES:
         try:
-            plan = formation_for_mode(cfg.swarm, cfg.swarm.num_slaves + 1, mode)
+            plan = formation_for_mode(cfg.swarm, cfg.swarm.num_slaves + 1, mode, leading_user(cfg))
         except ValueError:
             return None
         ux, uy = user_position_in_formation(plan, cfg.master.distance_m)

@@ -22,7 +22,7 @@ from cython.cimports.libc.math import cos as _cos
 from cython.cimports.libc.math import sin as _sin
 from cython.cimports.libc.math import sqrt as _sqrt
 
-from petswarm_env.middleware.formation import MAX_LINKS, Formation, user_position_in_formation
+from petswarm_env.middleware.formation import MAX_LINKS, Formation, formation_for_mode, leading_user, user_position_in_formation
 from petswarm_env.scenarios import ACTIVITIES
 
 if cython.compiled:  # a robot's wheels, their odometry and its node's knowledge as C reads (the .pxd files)
@@ -195,20 +195,19 @@ def ir_distance_bound(ir) -> float:
     return math.sqrt(ir.strength_at_1m / r_min)
 
 
-def formation_extents(swarm_cfg) -> tuple[float, float]:
+def formation_extents(swarm_cfg, user: tuple[float, float]) -> tuple[float, float]:
     """The largest |component| of a link offset and of a slot position (m) over every neighbour
     table of the configured shape a swarm can hold: 2 … num_slaves + spares + 1 members (the join and
     the mode change build them so, :func:`~.middleware.formation.formation_for_mode`), both modes,
     rooted at any member (a mode change with master change re-roots the table at the new master,
     so a slot is bounded by the table's extent along each axis, not by its distance from member 0).
-    A custom formation has one table: ``swarm.custom_links`` name exactly num_slaves + 1 members."""
-    from petswarm_env.middleware.formation import formation_for_mode
-
+    A custom formation has one table: ``swarm.custom_links`` name exactly num_slaves + 1 members.
+    ``user``: where a leading layout's user stands (:func:`~.middleware.formation.leading_user`)."""
     link = slot = 0.0
     full = swarm_cfg.num_slaves + swarm_cfg.spares + 1
     for n in [full] if swarm_cfg.formation == "custom" else range(2, full + 1):
         for mode in ("following", "leading"):
-            formation = formation_for_mode(swarm_cfg, n, mode)
+            formation = formation_for_mode(swarm_cfg, n, mode, user)
             offsets = [abs(c) for links in formation.links.values() for lk in links for c in lk.offset_m]
             link = max(link, *offsets, 0.0)
             pos = formation.slot_positions()  # a mode change re-roots the table at any member (modes.py)
@@ -220,7 +219,7 @@ def observation_bounds(layout: ObservationLayout, cfg) -> tuple[np.ndarray, np.n
     """(low, high) of every observation value, float32, from each field's declared bounds; the
     derived ones from ``cfg`` (a :class:`~.config.Config`): the IR estimator's largest distance
     and the configured formation's extents, over :data:`POS_SCALE_M`."""
-    link, slot = formation_extents(cfg.swarm)
+    link, slot = formation_extents(cfg.swarm, leading_user(cfg))
     derived = {"ir": ir_distance_bound(cfg.ir) / POS_SCALE_M, "link_offset": link / POS_SCALE_M, "slot": slot / POS_SCALE_M}
     low, high = np.zeros(layout.size, np.float64), np.zeros(layout.size, np.float64)
     for f in layout.fields:

@@ -140,19 +140,79 @@ def user_position_in_formation(formation: Formation, distance_m: float) -> tuple
     return (distance_m + max(0.0, float(slots[:, 0].max())), 0.0)
 
 
-def formation_for_mode(cfg: SwarmConfig, num_members: int, mode: str) -> Formation:
+LEADING_LF_MARGIN_M = 0.3  # chosen: a leading master stays this far inside its LF range
+# chosen: no leading slot nearer to where the user stands (body contact is at 0.45 m, robot 0.20 +
+# user 0.25; a slave counts as in place within 0.3 m of its slot). Below the 0.97 m of the 4-slave
+# wedge's rear arms, whose layout it keeps; the scripted slave holds its target 1.1 m off the user.
+LEADING_CLEARANCE_M = 0.9
+
+
+def leading_user(cfg) -> tuple[float, float]:
+    """What a leading layout needs to know of where its user stands (``cfg``: a :class:`Config`):
+    the standard distance beyond the formation (``master.distance_m``) and the farthest the master
+    keeps its user, ``LEADING_LF_MARGIN_M`` inside its LF range (seed 002 §3.3)."""
+    return cfg.master.distance_m, cfg.lf.reliable_range_m - LEADING_LF_MARGIN_M
+
+
+def leading_user_x(depth_m: float, user: tuple[float, float]) -> float:
+    """How far ahead of a leading master its user stands: ``user`` (:func:`leading_user`)'s
+    distance beyond a formation ``depth_m`` deep, capped at the master's reach."""
+    return min(user[0] + max(0.0, depth_m), user[1])
+
+
+def formation_for_mode(cfg: SwarmConfig, num_members: int, mode: str,
+                       user: tuple[float, float] | None = None) -> Formation:
     """The standard neighbour table of the configured shape, laid out for a driving mode.
 
     Every robot faces its user (the LF antennas must see the belt within ±25°, seed 002 §3.3), so
     the swarm heading is the master's heading toward the user. Following: the formation trails
     behind the master, which is closest to the user. Leading: the master is farthest from the user
-    (seed 000 §3.5, Fig. 10) and the formation lies between it and the user — the same table
-    turned by 180°."""
-    formation = build_formation(cfg, num_members)
-    return formation.rotated(math.pi) if mode == "leading" else formation
+    (seed 000 §3.5, Fig. 10) and the formation lies between it and the user as far as the LF range
+    allows (``user``: :func:`leading_user`, required in leading) — the same table turned by 180°,
+    except that no slot is nearer than ``LEADING_CLEARANCE_M`` to where the user stands: the wedge
+    leaves such a place free and takes the next (its places' order), every other shape steps such a
+    slot sideways, off the user's line, to the clearance (:func:`_aside_of_user`)."""
+    if mode != "leading":
+        return build_formation(cfg, num_members)
+    if user is None:
+        raise ValueError("formation_for_mode: a leading layout needs where the user stands: pass user=leading_user(cfg)")
+    if cfg.formation == "wedge":
+        return Formation("wedge", _wedge_links(cfg.spacing_m, num_members, user)).rotated(math.pi)
+    return _aside_of_user(build_formation(cfg, num_members).rotated(math.pi), user)
 
 
-def _wedge_links(s: float, n: int) -> dict[int, tuple[Link, ...]]:
+def _aside_of_user(formation: Formation, user: tuple[float, float]) -> Formation:
+    """A leading table (x toward the user) whose slots nearer than ``LEADING_CLEARANCE_M`` to the
+    user step sideways, away from the user's line, to the clearance; a slot on the line steps away
+    from the side the table's slots lie on (left if centred). Slots are placed in the table's order,
+    each from its (already stepped) neighbours, so the members beyond a stepped one follow it: a
+    column bends round the user and runs on beside; the grid parts round the user's line. The same
+    table when no slot is that near."""
+    slots = formation.slot_positions()
+    ux = leading_user_x(float(slots[:, 0].max()), user)  # stepping sideways keeps every x: the same place
+    c = LEADING_CLEARANCE_M
+    if float(np.hypot(slots[:, 0] - ux, slots[:, 1]).min()) >= c:
+        return formation
+    away = -1.0 if float(slots[:, 1].mean()) > 1e-9 else 1.0
+    pos = {0: np.zeros(2)}
+    pending = dict(formation.links)
+    while pending:
+        for m, links in list(pending.items()):
+            if all(lk.neighbour in pos for lk in links):
+                p = np.mean([pos[lk.neighbour] + np.asarray(lk.offset_m) for lk in links], axis=0)
+                dx = float(p[0]) - ux
+                if math.hypot(dx, float(p[1])) < c:
+                    side = math.copysign(1.0, float(p[1])) if abs(float(p[1])) > 1e-9 else away
+                    p = np.array([p[0], side * math.sqrt(c * c - dx * dx)])
+                pos[m] = p
+                del pending[m]
+    links = {m: tuple(Link(lk.neighbour, (round(float(pos[m][0] - pos[lk.neighbour][0]), 12),
+                                         round(float(pos[m][1] - pos[lk.neighbour][1]), 12))) for lk in lks)
+             for m, lks in formation.links.items()}
+    return Formation(formation.shape, links)
+
+
+def _wedge_links(s: float, n: int, user: tuple[float, float] | None = None) -> dict[int, tuple[Link, ...]]:
     """The wedge: a V opening backwards, its two arms 30° off the back axis, filled row by row.
 
     Row r (r ≥ 1) lies r·s·cos 30° behind the master and holds r + 1 places, s apart across it
@@ -167,17 +227,35 @@ def _wedge_links(s: float, n: int) -> dict[int, tuple[Link, ...]]:
     first, left before right (chosen: 16 slaves fill 5 rows, 4.3 m deep, each reference
     neighbour 1 m away; two 8-robot arms reach 7 m behind the master, far beyond the IR's 2.4-2.8 m
     reach from every robot but its chain neighbours, with one reference each, and no formation of
-    them was built from a scattered start)."""
+    them was built from a scattered start). Leading (``user``: :func:`leading_user`): a place nearer
+    than ``LEADING_CLEARANCE_M`` to where the user stands stays free, the next place in this order
+    is taken (1 + 5: row 2's centre, 0.03 m from the user, gives way to row 3's left of centre)."""
     back, half = s * math.cos(math.radians(30)), s * math.sin(math.radians(30))
-    places = [(1, 1), (1, -1), (2, 2), (2, -2)]
+    first = [(1, 1), (1, -1), (2, 2), (2, -2)]
     rows = 1
     while (rows + 1) * (rows + 2) // 2 - 1 < n - 1:  # rows 1..rows hold 2 + 3 + ... places
         rows += 1
-    rest = [(r, k) for r in range(1, rows + 1) for k in range(r, -r - 1, -2) if (r, k) not in places]
-    places += sorted(rest, key=lambda rk: (round(0.75 * rk[0] ** 2 + 0.25 * rk[1] ** 2, 9), -rk[1]))
+    while True:
+        rest = [(r, k) for r in range(1, rows + 1) for k in range(r, -r - 1, -2) if (r, k) not in first]
+        order = first + sorted(rest, key=lambda rk: (round(0.75 * rk[0] ** 2 + 0.25 * rk[1] ** 2, 9), -rk[1]))
+        if user is None:
+            places = order[: n - 1]
+            break
+        places, depth = [], 0.0  # leading: leave free a place too near where the user stands
+        for r, k in order:
+            if len(places) == n - 1:
+                break
+            ux = leading_user_x(max(depth, r * back), user)  # the user, in this (following) frame at (-ux, 0)
+            held = r == 1 or (r - 1, k - 1) in places or (r - 1, k + 1) in places  # a place in front of it
+            if held and math.hypot(r * back - ux, k * half) >= LEADING_CLEARANCE_M:
+                places.append((r, k))
+                depth = max(depth, r * back)
+        if len(places) == n - 1:
+            break
+        rows += 1
     member = {(0, 0): 0}
     links: dict[int, tuple[Link, ...]] = {}
-    for m, (r, k) in enumerate(places[: n - 1], start=1):
+    for m, (r, k) in enumerate(places, start=1):
         front = [(0, 0)] if r == 1 else [p for p in ((r - 1, k - 1), (r - 1, k + 1)) if p in member]
         if r > 1 and len(front) == 1 and (r, k - 2 if k > 0 else k + 2) in member:
             front.append((r, k - 2 if k > 0 else k + 2))  # the V's edge: the place beside it, inward, as well

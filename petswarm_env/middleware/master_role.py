@@ -7,9 +7,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from petswarm_env.config import Config
-from petswarm_env.middleware.formation import formation_for_mode, user_position_in_formation
-
-LEADING_LF_MARGIN_M = 0.3  # chosen: a leading master stays this far inside its LF range
+from petswarm_env.middleware.formation import formation_for_mode, leading_user, leading_user_x
 
 
 def master_distance_m(cfg: Config, formation, mode: str) -> float:
@@ -19,8 +17,8 @@ def master_distance_m(cfg: Config, formation, mode: str) -> float:
     if mode != "leading":
         return d
     if formation is None:
-        formation = formation_for_mode(cfg.swarm, cfg.swarm.num_slaves + 1, "leading")
-    return min(user_position_in_formation(formation, d)[0], cfg.lf.reliable_range_m - LEADING_LF_MARGIN_M)
+        formation = formation_for_mode(cfg.swarm, cfg.swarm.num_slaves + 1, "leading", leading_user(cfg))
+    return leading_user_x(float(formation.slot_positions()[:, 0].max()), leading_user(cfg))
 
 
 def can_be_master(robot) -> bool:

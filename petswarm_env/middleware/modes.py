@@ -120,10 +120,12 @@ def plan_mode_change(
     master_change: bool,
     geometry: SwarmGeometry,
     lf_members: frozenset[int] | None = None,
+    user: tuple[float, float] | None = None,
 ) -> ModeChangePlan:
     """Apply Table 3 to the current swarm, the closest / farthest robot from ``geometry`` (what the
     master knows: :func:`measured_geometry`), among the robots that may be master (``lf_members``:
-    the node ids whose bodies carry LF antennas, from the joining answers; None = every robot).
+    the node ids whose bodies carry LF antennas, from the joining answers; None = every robot);
+    ``user`` (:func:`~.formation.leading_user`): where a leading layout's user stands.
 
     Changes between a Table 3 mode and remote control keep master and references (the table has no
     row for them).
@@ -132,7 +134,7 @@ def plan_mode_change(
         return ModeChangePlan(new_mode, dict(members), formation, False, False)
     n = formation.size
     if not master_change:  # keep the master, change the references: the standard layout of the new mode
-        return ModeChangePlan(new_mode, dict(members), formation_for_mode(cfg, n, new_mode), False, True)
+        return ModeChangePlan(new_mode, dict(members), formation_for_mode(cfg, n, new_mode, user), False, True)
     distance = geometry.user_distance
     able = [m for m in range(n) if m == 0 or lf_members is None or members.get(m) in lf_members]
     if new_mode == "following":  # leading → following: the closest robot

@@ -52,7 +52,7 @@ from collections.abc import Callable
 from petswarm_env.comms.radio import Frame
 from petswarm_env.middleware import assignment, ruta
 from petswarm_env.middleware import messages as msg
-from petswarm_env.middleware.formation import Formation, formation_for_mode
+from petswarm_env.middleware.formation import Formation, formation_for_mode, leading_user
 from petswarm_env.middleware.knowledge import FRESH_IR_S
 from petswarm_env.middleware.join import JoinManager, OrganizeResult
 from petswarm_env.middleware.matching import least_total
@@ -212,7 +212,7 @@ class RecoveryManager:
             return
         del members[lost]
         try:
-            formation = formation_for_mode(node.cfg.swarm, len(members), know.mode)
+            formation = formation_for_mode(node.cfg.swarm, len(members), know.mode, leading_user(node.cfg))
         except ValueError:  # a custom table fixes its size: the loss is detected, the tables stay
             return
         members, formation, self.mirrored = self.removal_plan(members, formation)
@@ -300,7 +300,7 @@ class RecoveryManager:
         if new is None or node.state != "master":
             return
         added = [n for m, n in new.items() if know.members.get(m) != n]
-        formation = formation_for_mode(node.cfg.swarm, len(new), know.mode)
+        formation = formation_for_mode(node.cfg.swarm, len(new), know.mode, leading_user(node.cfg))
         if self.mirrored:  # the table the removal mirrored stays so: the members hold their sides
             formation = formation.mirrored()
         self._commit(new, formation)

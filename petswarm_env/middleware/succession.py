@@ -55,7 +55,7 @@ import numpy as np
 from petswarm_env.comms.radio import Frame
 from petswarm_env.config import CustomLink
 from petswarm_env.middleware import messages as msg
-from petswarm_env.middleware.formation import Formation, formation_for_mode
+from petswarm_env.middleware.formation import Formation, formation_for_mode, leading_user
 from petswarm_env.middleware.knowledge import FRESH_IR_S
 from petswarm_env.middleware.station import Station
 from petswarm_env.sim.geometry import wrap_angle
@@ -298,14 +298,14 @@ def least_move(current: dict[int, np.ndarray], slots: dict[int, np.ndarray]) -> 
 
 
 def succession_plan(formation: Formation, members: dict[int, int], new_root: int, mode: str,
-                    swarm_cfg) -> tuple[dict[int, int], Formation]:
+                    swarm_cfg, user: tuple[float, float] | None = None) -> tuple[dict[int, int], Formation]:
     """The new tables when member ``new_root`` takes the lost master's (member 0's) place: the
     standard table of the known shape (``swarm_cfg``: :func:`adopted_swarm_config`) for one member
-    less, laid out for ``mode``, anchored where the lost master stood; the new master is member 0,
+    less, laid out for ``mode`` (``user``: :func:`~.formation.leading_user`, in leading), anchored where the lost master stood; the new master is member 0,
     the other members take its slots by the least total move from their slots of the old table.
     Returns (member number -> node id, formation)."""
     n = len(members) - 1
-    new = formation_for_mode(swarm_cfg, n, mode)
+    new = formation_for_mode(swarm_cfg, n, mode, user)
     old_slots = formation.slot_positions()
     new_slots = new.slot_positions()
     rest = {m: old_slots[m] for m in members if m not in (0, new_root)}
@@ -421,7 +421,8 @@ class SuccessionManager:
         self.user_estimate = placed[0] if placed is not None else None
         self.user_travel = user_travel(*placed, know.mode) if placed is not None else None
         adopted = adopted_swarm_config(node)
-        table, formation = succession_plan(node.formation, know.members, old_member, know.mode, adopted.swarm)
+        table, formation = succession_plan(node.formation, know.members, old_member, know.mode, adopted.swarm,
+                                           leading_user(adopted))
         self._seq += 1  # own count: only the acknowledgements carry it back
         seq = self._seq
         self.accepted = key

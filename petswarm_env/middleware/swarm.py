@@ -16,7 +16,7 @@ from typing import Protocol
 
 from petswarm_env.config import Config
 from petswarm_env.middleware import messages as msg
-from petswarm_env.middleware.formation import Formation
+from petswarm_env.middleware.formation import Formation, leading_user
 from petswarm_env.middleware.join import OrganizeResult
 from petswarm_env.middleware.knowledge import MasterStatus
 from petswarm_env.middleware.modes import (ModeChangePlan, SwarmGeometry, measured_geometry, plan_master_handover,
@@ -156,7 +156,7 @@ class Swarm:
         geometry = measured_geometry(self.formation, master.know, master.ahrs_yaw(), master.clock.now, user_xy,
                                      self.cfg.master.distance_m)
         plan = plan_mode_change(self.cfg.swarm, self.formation, master.know.members, self.mode, new_mode,
-                                master_change, geometry, master.know.lf_members)
+                                master_change, geometry, master.know.lf_members, leading_user(self.cfg))
         self.last_geometry = geometry
         self.mode_change_result: dict = {}
         self.clock.process(master.modes.change(plan, self.mode_change_result))

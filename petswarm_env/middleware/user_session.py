@@ -15,8 +15,9 @@ master of their swarm:
   Eqs. 1–3 and tracks the user between fixes. A leading master is farthest from the user (seed 000
   Fig. 10) yet must stay inside its own LF range (2 m, seed 002 §3.3): it keeps the standard
   distance beyond the whole formation, capped ``LEADING_LF_MARGIN_M`` inside the LF range, so a deep
-  formation takes the user between its rear members (chosen; the papers do not say how a leading
-  master beyond 2 m would keep its user);
+  formation takes the user between its rear members, no slot nearer than ``LEADING_CLEARANCE_M``
+  (:func:`~.formation.formation_for_mode`) (chosen; the papers do not say how a leading master beyond
+  2 m would keep its user);
 * **user motion** (seed 002 §3.4): the belt's activity and rotation reports over BLE;
 * the **robot states** of seed 002 Fig. 4: waiting-user → command-waiting → following / leading /
   remote; Circle → command-waiting; leading with an obstacle in the travel direction → *exception*

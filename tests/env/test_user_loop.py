@@ -14,7 +14,7 @@ from petswarm_env.comms.radio import RadioMedium
 from petswarm_env.config import load_config
 from petswarm_env.control.arbiter import ControlArbiter, SafetyStage
 from petswarm_env.middleware import node as node_mod
-from petswarm_env.middleware.formation import formation_for_mode, user_position_in_formation
+from petswarm_env.middleware.formation import formation_for_mode, leading_user, user_position_in_formation
 from petswarm_env.middleware.modes import nominal_geometry, plan_mode_change
 from petswarm_env.middleware.fleet import Fleet
 from petswarm_env.middleware.swarm import Swarm
@@ -253,7 +253,7 @@ def _assert_geometry_kept(formation, members, plan):
 @pytest.mark.parametrize("shape", ["wedge", "column", "grid", "row"])
 def test_table3_leading_to_following_with_change_takes_the_closest_robot_and_keeps_references(shape):
     cfg = load_config(overrides={"swarm.formation": shape}).swarm
-    f = formation_for_mode(cfg, 5, "leading")
+    f = formation_for_mode(cfg, 5, "leading", leading_user(load_config()))
     members = {m: 10 + m for m in range(5)}
     geometry = nominal_geometry(f, 1.0)
     plan = plan_mode_change(cfg, f, members, "leading", "following", True, geometry)
@@ -274,7 +274,8 @@ def test_table3_following_to_leading_with_change_takes_the_top_of_the_hierarchy_
     cfg = load_config(overrides={"swarm.formation": shape}).swarm
     f = formation_for_mode(cfg, 5, "following")
     members = {m: 10 + m for m in range(5)}
-    plan = plan_mode_change(cfg, f, members, "following", "leading", True, nominal_geometry(f, 1.0))
+    plan = plan_mode_change(cfg, f, members, "following", "leading", True, nominal_geometry(f, 1.0),
+                            user=leading_user(load_config()))
     levels = _levels(f)
     top = min(range(5), key=lambda m: (levels[m], m))
     assert levels[top] == 1  # the robot farthest from the user
@@ -285,11 +286,11 @@ def test_table3_following_to_leading_with_change_takes_the_top_of_the_hierarchy_
 
 @pytest.mark.parametrize("old, new", [("following", "leading"), ("leading", "following")])
 def test_table3_without_master_change_keeps_the_master_and_changes_references(old, new):
-    f = formation_for_mode(CFG.swarm, 5, old)
+    f = formation_for_mode(CFG.swarm, 5, old, leading_user(CFG))
     members = {m: 10 + m for m in range(5)}
-    plan = plan_mode_change(CFG.swarm, f, members, old, new, False, nominal_geometry(f, 1.0))
+    plan = plan_mode_change(CFG.swarm, f, members, old, new, False, nominal_geometry(f, 1.0), user=leading_user(CFG))
     assert plan.members == members and not plan.master_changed and plan.references_changed
-    assert plan.formation.links == formation_for_mode(CFG.swarm, 5, new).links
+    assert plan.formation.links == formation_for_mode(CFG.swarm, 5, new, leading_user(CFG)).links
     assert plan.formation.links != f.links
 
 

@@ -11,7 +11,7 @@ import pytest
 
 import petswarm_env
 from petswarm_env.middleware import succession as su
-from petswarm_env.middleware.formation import formation_for_mode
+from petswarm_env.middleware.formation import formation_for_mode, leading_user
 from petswarm_env.middleware.modes import nominal_geometry, plan_mode_change
 
 from tests.protocol.still import assert_tables_agree, make, run
@@ -133,7 +133,7 @@ def test_least_move_assignment_keeps_the_robots_that_need_not_move():
 
 def test_table3_picks_no_robot_without_lf_antennas():
     cfg = petswarm_env.load_config().swarm
-    f = formation_for_mode(cfg, 5, "leading")
+    f = formation_for_mode(cfg, 5, "leading", leading_user(petswarm_env.load_config()))
     members = {0: 0, 1: 1, 2: 2, 3: 3, 4: 4}
     free = plan_mode_change(cfg, f, members, "leading", "following", True, nominal_geometry(f, 1.0))
     assert free.master_changed

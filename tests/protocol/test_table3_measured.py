@@ -14,7 +14,7 @@ import pytest
 
 import petswarm_env
 from petswarm_env.config import load_config
-from petswarm_env.middleware.formation import formation_for_mode
+from petswarm_env.middleware.formation import formation_for_mode, leading_user
 from petswarm_env.middleware.knowledge import FRESH_IR_S, IRMeasurement, Knowledge
 from petswarm_env.middleware.modes import measured_geometry, nominal_geometry, plan_mode_change
 
@@ -33,16 +33,16 @@ def _know(positions, now=10.0, yaw=0.3):
 
 @pytest.mark.parametrize("old, new", [("following", "leading"), ("leading", "following")])
 def test_the_measured_geometry_picks_where_the_nominal_one_would_not(old, new):
-    f = formation_for_mode(CFG.swarm, 5, old)
+    f = formation_for_mode(CFG.swarm, 5, old, leading_user(CFG))
     members = {m: 10 + m for m in range(5)}
     slots = f.slot_positions()
-    nominal = plan_mode_change(CFG.swarm, f, members, old, new, True, nominal_geometry(f, 1.0))
+    nominal = plan_mode_change(CFG.swarm, f, members, old, new, True, nominal_geometry(f, 1.0), user=leading_user(CFG))
     picked = next(m for m, n in members.items() if n == nominal.members[0])
     # the nominal pick stands, in truth, beside the master: neither closest to nor farthest from the user
     moved = {m: (tuple(slots[m]) if m != picked else (0.0, 1.2 if slots[m][1] >= 0 else -1.2)) for m in range(1, 5)}
     geometry = measured_geometry(f, _know(moved), 0.3, 10.0, None, 1.0)
     assert geometry.measured == frozenset(range(1, 5))
-    plan = plan_mode_change(CFG.swarm, f, members, old, new, True, geometry)
+    plan = plan_mode_change(CFG.swarm, f, members, old, new, True, geometry, user=leading_user(CFG))
     distance = {m: geometry.user_distance(m) for m in range(5)}
     want = (max if new == "leading" else min)(distance, key=lambda m: (distance[m], -m if new == "leading" else m))
     assert plan.members[0] == members[want] != nominal.members[0]

@@ -272,3 +272,41 @@ def test_bad_custom_links_refused_by_the_env():
 def test_custom_link_member_numbers_validated_by_config():
     with pytest.raises(ConfigError, match="robot"):
         load_config(overrides={"swarm.formation": "custom", "swarm.custom_links": [{"robot": 0, "neighbour": 0, "offset_m": [1, 0]}]})
+
+
+@pytest.mark.parametrize("shape", ["wedge", "column", "grid", "row"])
+def test_no_leading_slot_stands_on_the_user(shape):
+    # seed 000 §3.5: leading, the formation lies between the master and the user as far as the LF
+    # range allows; a deep table must not put a slot where the user stands
+    from petswarm_env.middleware.formation import LEADING_CLEARANCE_M, formation_for_mode, leading_user
+    from petswarm_env.middleware.master_role import master_distance_m
+
+    for slaves in range(1, 17):
+        cfg = load_config(overrides={"swarm.formation": shape, "swarm.num_slaves": slaves})
+        f = formation_for_mode(cfg.swarm, slaves + 1, "leading", leading_user(cfg))
+        slots = f.slot_positions()
+        ux = master_distance_m(cfg, f, "leading")
+        assert np.hypot(slots[1:, 0] - ux, slots[1:, 1]).min() >= LEADING_CLEARANCE_M - 1e-9, (shape, slaves)
+        assert (slots[:, 0] >= -1e-9).all()  # still laid out toward the user, the master farthest back
+        gaps = np.hypot(*(slots[:, None] - slots[None]).transpose(2, 0, 1)) + np.eye(len(slots)) * 9
+        assert gaps.min() >= cfg.swarm.spacing_m - 1e-9  # no two slots nearer than a spacing
+
+
+def test_leading_layouts_keep_the_turned_table_where_no_slot_is_near_the_user():
+    from petswarm_env.middleware.formation import formation_for_mode, leading_user
+
+    cfg = load_config()
+    user = leading_user(cfg)
+    for shape, slaves in [("wedge", 2), ("wedge", 4), ("row", 4), ("row", 9), ("grid", 1)]:
+        c = load_config(overrides={"swarm.formation": shape, "swarm.num_slaves": slaves})
+        assert formation_for_mode(c.swarm, slaves + 1, "leading", user).links == \
+            build_formation(c.swarm, slaves + 1).rotated(math.pi).links
+    # 1 + 5: row 2's centre (1.73 m out, the user at 1.7 m) stays free; member 5 takes row 3's left of centre
+    c = load_config(overrides={"swarm.num_slaves": 5})
+    slots = formation_for_mode(c.swarm, 6, "leading", user).slot_positions()
+    np.testing.assert_allclose(slots[5], [3 * math.cos(math.radians(30)), -0.5], atol=1e-9)
+    for shape in ("column", "grid", "wedge"):
+        c = load_config(overrides={"swarm.formation": shape, "swarm.num_slaves": 6})
+        assert formation_for_mode(c.swarm, 7, "following").links == build_formation(c.swarm, 7).links
+    with pytest.raises(ValueError, match="leading_user"):
+        formation_for_mode(cfg.swarm, 5, "leading")

@@ -9,7 +9,7 @@ import pytest
 import petswarm_env
 from petswarm_env import scenarios
 from petswarm_env.config import ConfigError, load_config
-from petswarm_env.middleware.formation import formation_for_mode, user_position_in_formation
+from petswarm_env.middleware.formation import formation_for_mode, leading_user, user_position_in_formation
 from petswarm_env.scenarios import SCENARIOS, Placement, Scenario, Segment
 from petswarm_env.sim.world import World
 
@@ -34,7 +34,7 @@ def test_every_scenario_builds_its_script_and_places_its_robots(name, mode):
     assert all(s.duration_s > 0 and s.activity in scenarios.ACTIVITIES for s in segs)
     assert all(not s.command or s.command in scenarios.USER_COMMANDS for s in segs)
     world = World(cfg, scenario.script(cfg.user, np.random.default_rng(0)))
-    plan = formation_for_mode(cfg.swarm, cfg.swarm.num_slaves + 1, mode)
+    plan = formation_for_mode(cfg.swarm, cfg.swarm.num_slaves + 1, mode, leading_user(cfg))
     placed = scenario.place(world, cfg, plan.slot_positions(), user_position_in_formation(plan, cfg.master.distance_m)[0],
                             np.random.default_rng(1))
     assert isinstance(placed, Placement) and len(placed.pools) == 2
@@ -52,7 +52,7 @@ def test_every_scenario_builds_its_script_and_places_its_robots(name, mode):
 
 def test_the_placement_draws_only_from_its_stream():
     cfg = load_config()
-    plan = formation_for_mode(cfg.swarm, cfg.swarm.num_slaves + 1, cfg.swarm.mode)
+    plan = formation_for_mode(cfg.swarm, cfg.swarm.num_slaves + 1, cfg.swarm.mode, leading_user(cfg))
     worlds = []
     for _ in range(2):
         world = World(cfg, SCENARIOS["straight"].script(cfg.user, np.random.default_rng(0)))

@@ -305,7 +305,14 @@ def succession_plan(formation: Formation, members: dict[int, int], new_root: int
     the other members take its slots by the least total move from their slots of the old table.
     Returns (member number -> node id, formation)."""
     n = len(members) - 1
-    new = formation_for_mode(swarm_cfg, n, mode, user)
+    try:
+        new = formation_for_mode(swarm_cfg, n, mode, user)
+    except ValueError:
+        # a custom table that cannot be cut to one member less (a member it keeps refers only to members beyond
+        # the new size): the table keeps its size, as the recovery keeps a custom table at a loss, turned about the
+        # new master (Formation.rerooted: the slots stand where they stood); the lost master's slot stays open
+        new, renumber = formation.rerooted(new_root)
+        return dict(sorted((renumber[m], node) for m, node in members.items() if m != 0)), new
     old_slots = formation.slot_positions()
     new_slots = new.slot_positions()
     rest = {m: old_slots[m] for m in members if m not in (0, new_root)}

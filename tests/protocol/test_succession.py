@@ -408,3 +408,29 @@ def test_a_new_master_that_hands_over_before_its_user_paired_hands_over_no_user(
     assert swarm.master is not first
     (_, robot), = session.pairings
     assert robot == swarm.master.node_id
+
+
+def test_a_custom_table_that_cannot_lose_a_member_keeps_its_size_about_the_new_master():
+    """A custom table whose member 1 refers only to member 3 cannot be cut to three members (the standard
+    table of one member less drops that link and raises): the successor keeps the table turned about
+    itself, every slot where it stood, the lost master's slot open (a student policy drove a mode change
+    of a custom swarm with a dead slave into this)."""
+    from petswarm_env.config import CustomLink
+    from petswarm_env.middleware.formation import Formation, Link
+
+    links = {1: (Link(3, (0.0, 1.0)),), 2: (Link(0, (-1.0, 0.0)),), 3: (Link(2, (-1.0, 0.0)),)}
+    formation = Formation("custom", links)
+    swarm_cfg = petswarm_env.load_config().swarm.model_copy(update={
+        "formation": "custom", "num_slaves": 3,
+        "custom_links": [CustomLink(robot=m, neighbour=lk.neighbour, offset_m=list(lk.offset_m))
+                         for m, lks in links.items() for lk in lks]})
+    with pytest.raises(ValueError):
+        formation_for_mode(swarm_cfg, 3, "following")
+    members = {0: 10, 1: 11, 2: 12, 3: 13}
+    table, new = su.succession_plan(formation, members, 2, "following", swarm_cfg)
+    assert table[0] == 12 and sorted(table.values()) == [11, 12, 13] and new.size == 4
+    old, moved = formation.slot_positions(), new.slot_positions()
+    number = {node: m for m, node in table.items()}
+    for m, node in members.items():
+        if node in number:  # each live member's slot, seen from the new master, is where it stood
+            assert np.allclose(moved[number[node]], old[m] - old[2])

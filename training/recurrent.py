@@ -57,7 +57,6 @@ from __future__ import annotations
 
 import math
 import os
-import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -194,7 +193,7 @@ def collect_sequences(env, samples: int, seed: int, cfg: TrainConfig, driver: Re
     residual = cfg.residual()
     rng = np.random.default_rng(seed)
     out: list[Sequence] = []
-    counts = {"samples": 0, "building": 0, "lost": 0, "near": 0, "contacts": 0, "unorganized": 0, "failed": 0}
+    counts = {"samples": 0, "building": 0, "lost": 0, "near": 0, "contacts": 0, "unorganized": 0}
     episode = 0
     while counts["samples"] < samples:
         episode += 1
@@ -245,12 +244,7 @@ def collect_sequences(env, samples: int, seed: int, cfg: TrainConfig, driver: Re
                 counts["building"] += int(building)
                 open_.setdefault(a, []).append((rows[a], learn[a], w, toward[a] if near else _NOT_NEAR))
             counts["samples"] += len(live)
-            try:
-                rows, _, _, _, infos = env.step(noisy)
-            except (RuntimeError, ValueError) as exc:  # the env failed within the episode (a state its middleware
-                counts["failed"] += 1                    # cannot settle): its steps so far stand, the next seed
-                progress_failed(seed + episode - 1, exc)
-                break
+            rows, _, _, _, infos = env.step(noisy)
             if r.contact_window > 0:  # the steps that led into a contact this robot began weigh more (their labels are
                 for a in live:        # the teacher's way out of the states the driver ran into)
                     if a in open_ and infos.get(a, {}).get("new_contacts", 0) > 0:
@@ -264,12 +258,6 @@ def collect_sequences(env, samples: int, seed: int, cfg: TrainConfig, driver: Re
 
 
 _NOT_NEAR = np.zeros(2, np.float32)
-
-
-def progress_failed(seed: int, exc: Exception) -> None:
-    """One line on stderr for an episode the env could not continue (counted as ``failed``; a bug of the
-    env to fix, not of the training): its seed and the env's message."""
-    print(f"collection: episode seed {seed} stopped, the env raised {type(exc).__name__}: {exc}", file=sys.stderr)
 
 
 def nearest_gaps(env, agents: list[str]) -> dict[str, float]:

@@ -205,41 +205,6 @@ def test_a_draw_that_never_organizes_is_skipped_not_fatal():
     assert env.seeds[:3] == [7, 8, 9]  # the next seed, not the same one again
 
 
-class _FifthStepFails:
-    """A training env whose first episode's fifth step raises the ValueError a custom table's re-plan can
-    (petswarm_env/middleware/formation.py: links missing for a member)."""
-
-    def __init__(self, env):
-        self._env, self.seeds, self.steps = env, [], 0
-
-    def __getattr__(self, name):
-        return getattr(self._env, name)
-
-    def reset(self, seed=None, options=None):
-        self.seeds.append(seed)
-        return self._env.reset(seed=seed, options=options)
-
-    def step(self, actions):
-        self.steps += 1
-        if self.steps == 5:
-            raise ValueError("swarm.custom_links must give links for members [1, 2, 3], got [2, 3] (a test)")
-        return self._env.step(actions)
-
-
-def test_an_episode_the_env_cannot_continue_is_counted_and_its_steps_so_far_kept(capsys):
-    from petswarm.training.recurrent import collect_sequences
-    from petswarm.training.vec_env import training_env
-
-    cfg = load_train_config("configs/train/recurrent.yaml", {"env.max_cycles": 40})
-    env = _FifthStepFails(training_env(cfg.env_config(), cfg.randomize, cfg.env, False))
-    seqs, counts = collect_sequences(env, 50, 7, cfg, None, 0.0)
-    assert counts["failed"] == 1 and counts["samples"] >= 50
-    assert env.seeds[:2] == [7, 8]  # the next seed after the failed episode
-    first = [s for s in seqs if s.episode == 1]
-    assert first and sum(len(s.obs) for s in first) <= 5 * 8  # the failed episode's labelled steps before the failure
-    assert "episode seed 7 stopped, the env raised ValueError" in capsys.readouterr().err
-
-
 def test_the_validation_loss_of_a_zero_output_explains_nothing(spec):
     from petswarm.training.recurrent import Sequence, validation_loss
 

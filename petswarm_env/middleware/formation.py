@@ -52,17 +52,7 @@ class Formation:
         return self._solve_slots()
 
     def _solve_slots(self) -> np.ndarray:
-        pos = {0: np.zeros(2)}
-        pending = dict(self.links)
-        while pending:
-            progressed = False
-            for m, links in list(pending.items()):
-                if all(link.neighbour in pos for link in links):
-                    pos[m] = np.mean([pos[lk.neighbour] + np.asarray(lk.offset_m) for lk in links], axis=0)
-                    del pending[m]
-                    progressed = True
-            if not progressed:
-                raise ValueError(f"formation links do not reach the master from members {sorted(pending)}")
+        pos = _place(self.links)
         return np.array([pos[m] for m in range(self.size)])
 
     def links_payload(self) -> dict[int, list[tuple[int, tuple[float, float]]]]:
@@ -132,6 +122,24 @@ class Formation:
         return {m: i + 1 for i, m in enumerate(order)}
 
 
+def _place(links: dict[int, tuple[Link, ...]], adjust=None) -> dict[int, np.ndarray]:
+    """Every member's slot in the master's frame (member 0 at the origin): a member is placed, in the
+    table's order, once all its reference neighbours are, at the mean of their slots plus its offsets;
+    ``adjust(slot)`` may move a slot before the members that refer to it are placed."""
+    pos = {0: np.zeros(2)}
+    pending = dict(links)
+    while pending:
+        progressed = False
+        for m, lks in list(pending.items()):
+            if all(lk.neighbour in pos for lk in lks):
+                p = np.mean([pos[lk.neighbour] + np.asarray(lk.offset_m) for lk in lks], axis=0)
+                pos[m] = p if adjust is None else adjust(p)
+                del pending[m]
+                progressed = True
+        if not progressed:
+            raise ValueError(f"formation links do not reach the master from members {sorted(pending)}")
+    return pos
+
 def user_position_in_formation(formation: Formation, distance_m: float) -> tuple[float, float]:
     """Where the user stands in the master's frame for a formation laid out for its mode: the
     formation lies behind the master (following, x ≤ 0) or between the master and the user
@@ -194,18 +202,15 @@ def _aside_of_user(formation: Formation, user: tuple[float, float]) -> Formation
     if float(np.hypot(slots[:, 0] - ux, slots[:, 1]).min()) >= c:
         return formation
     away = -1.0 if float(slots[:, 1].mean()) > 1e-9 else 1.0
-    pos = {0: np.zeros(2)}
-    pending = dict(formation.links)
-    while pending:
-        for m, links in list(pending.items()):
-            if all(lk.neighbour in pos for lk in links):
-                p = np.mean([pos[lk.neighbour] + np.asarray(lk.offset_m) for lk in links], axis=0)
-                dx = float(p[0]) - ux
-                if math.hypot(dx, float(p[1])) < c:
-                    side = math.copysign(1.0, float(p[1])) if abs(float(p[1])) > 1e-9 else away
-                    p = np.array([p[0], side * math.sqrt(c * c - dx * dx)])
-                pos[m] = p
-                del pending[m]
+
+    def aside(p: np.ndarray) -> np.ndarray:
+        dx = float(p[0]) - ux
+        if math.hypot(dx, float(p[1])) >= c:
+            return p
+        side = math.copysign(1.0, float(p[1])) if abs(float(p[1])) > 1e-9 else away
+        return np.array([p[0], side * math.sqrt(c * c - dx * dx)])
+
+    pos = _place(formation.links, aside)
     links = {m: tuple(Link(lk.neighbour, (round(float(pos[m][0] - pos[lk.neighbour][0]), 12),
                                          round(float(pos[m][1] - pos[lk.neighbour][1]), 12))) for lk in lks)
              for m, lks in formation.links.items()}

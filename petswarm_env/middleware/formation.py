@@ -151,7 +151,7 @@ def user_position_in_formation(formation: Formation, distance_m: float) -> tuple
 LEADING_LF_MARGIN_M = 0.3  # chosen: a leading master stays this far inside its LF range
 # chosen: no leading slot nearer to where the user stands (body contact is at 0.45 m, robot 0.20 +
 # user 0.25; a slave counts as in place within 0.3 m of its slot). Below the 0.97 m of the 4-slave
-# wedge's rear arms, whose layout it keeps; the scripted slave holds its target 1.1 m off the user.
+# wedge's rear arms, whose layout it keeps; the scripted slave holds its target 1.0 m off a leading user.
 LEADING_CLEARANCE_M = 0.9
 
 

@@ -407,8 +407,9 @@ def test_a_leading_master_hands_its_user_to_the_robot_farthest_ahead_along_the_w
             seen["angle"] = abs(math.degrees(math.remainder(bearing - user.heading, 2.0 * math.pi)))
 
     r = sensor_faults.run("ir", seed, target="master", overrides={"swarm.mode": "leading"}, on_step=watch)
-    # (50°: with the scripted reference's step 1d search, seed 113's new master stood 45.2° off, against 82-85° by distance)
-    assert r["master_after"] != 0 and seen["angle"] < 50.0, f"the new master stood {seen['angle']:.0f}° from the walk"
+    # (60°: seed 113's new master stood 45.2° off with the scripted reference's step 1d search, 50.3° since its slaves
+    # keep 1.0 m off a leading user walking straight on; by distance 82-85°)
+    assert r["master_after"] != 0 and seen["angle"] < 60.0, f"the new master stood {seen['angle']:.0f}° from the walk"
     assert r["reformed"] and r["session_state"] == "leading"
 
 

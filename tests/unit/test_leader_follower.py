@@ -69,13 +69,15 @@ def numpy_act(p: LeaderFollowerPolicy, obs: np.ndarray) -> np.ndarray:
     v = np.array([cd * fx - sd * fy, sd * fx + cd * fy])
     if targets:
         target = np.mean(targets, axis=0)
-        if have_status and p.user_keep_out > 0:
+        walking = have_status and math.hypot(mv[0], mv[1]) > p.walking_mps and obs[sl["master.rotating"]][0] < 0.5
+        keep_out = p.leading_user_keep_out if walking and obs[sl["master.leading"]][0] > 0.5 else p.user_keep_out
+        if have_status and keep_out > 0:
             du = obs[sl["master.user_xy"]] * POS_SCALE_M - ref
             user = target + np.array([cd * du[0] - sd * du[1], sd * du[0] + cd * du[1]])
             away = target - user
             gap = float(np.hypot(*away))
-            if gap < p.user_keep_out:
-                target = user + (away / gap if gap > 1e-6 else -user / max(float(np.hypot(*user)), 1e-6)) * p.user_keep_out
+            if gap < keep_out:
+                target = user + (away / gap if gap > 1e-6 else -user / max(float(np.hypot(*user)), 1e-6)) * keep_out
         v = v + p.kp * target
     elif m is not None:  # step 1b, building
         goal = None

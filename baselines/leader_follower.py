@@ -9,13 +9,13 @@ It reads only the observation, like a learned policy. Per step:
    twisted heading Δθ gives where the robot should be, in its own frame. Chosen: a reference
    location closer than ``user_keep_out_m`` to the user (the master's broadcast user position) is
    moved out to that distance — a formation that lags its user's turn must not put a robot on the
-   user's path. While the master leads its walking user straight on (its broadcast driving speed above
-   ``walking_mps``, not rotating), ``leading_user_keep_out_m`` (1.0 m, chosen): a leading layout stands
-   its rear slots 0.9-1.0 m from the user (middleware/formation.py ``LEADING_CLEARANCE_M``; the 4-slave
-   wedge's rear arms 0.97 m), and 1.1 m held each of them 0.1-0.2 m off its slot for good. While the swarm
-   stands (slaves crossing to their slots past the user) or turns, 1.1 m: 1.0 m throughout built slower
-   and touched the user more (leading, straight, seeds 920-949: robot-user contacts 5 -> 15, 2 formations
-   never built against 1; walking only: hold RMSE 0.191 -> 0.152 m, 7 contacts, 1 never built). A neighbour whose fix is stale — no measurement, or one at the end of the
+   user's path. While the master leads its user walking straight on (the broadcast activity walk or run,
+   not rotating), ``leading_user_keep_out_m`` (1.0 m, chosen): a leading layout stands its rear slots
+   0.9-1.0 m from the user (middleware/formation.py ``LEADING_CLEARANCE_M``; the 4-slave wedge's rear arms
+   0.97 m), and 1.1 m held each of them 0.1-0.2 m off its slot for good. While the user stands (slaves
+   crossing to their slots past them) or turns, 1.1 m: 1.0 m throughout built slower and touched the user
+   more (leading, straight, seeds 920-949: robot-user contacts 5 -> 15, 2 formations never built against
+   1; while walking straight only: hold RMSE 0.191 -> 0.154 m, 5 contacts, 1 never built). A neighbour whose fix is stale — no measurement, or one at the end of the
    observation's age range (2 s): occluded, beyond the IR's reach, or the ring lost its slots — gives
    no target (chosen): the slave cannot know where that neighbour is now (it may have left its
    place in the swarm since), so it keeps moving with the
@@ -114,7 +114,6 @@ class LeaderFollowerPolicy(Policy):
         carry_rotation: bool = True,
         user_keep_out_m: float = 1.1,
         leading_user_keep_out_m: float = 1.0,
-        walking_mps: float = 0.2,
         approach_mps: float = 1.0,
         anchor_tolerance_m: float = 0.4,
         orbit_mps: float = 0.8,
@@ -133,8 +132,7 @@ class LeaderFollowerPolicy(Policy):
         self.krep = repulsion_gain
         self.carry = carry_rotation
         self.user_keep_out = user_keep_out_m
-        self.leading_user_keep_out = leading_user_keep_out_m  # the same, while the master leads a walk straight on
-        self.walking_mps = walking_mps  # the master's broadcast driving speed above which its swarm walks
+        self.leading_user_keep_out = leading_user_keep_out_m  # the same, while the master leads a user walking straight on
         self.approach = approach_mps  # cap of step 1b's correction speed (the feed-forward comes on top)
         self.anchor_tol = anchor_tolerance_m  # an anchor this close to its slot's distance from the master places ours
         self.orbit = orbit_mps  # step 1b: the master seen, no member: orbit it at this speed
@@ -277,7 +275,7 @@ class LeaderFollowerPolicy(Policy):
         if targets:
             tx = sum([t[0] for t in targets], 0.0) / len(targets)  # their mean
             ty = sum([t[1] for t in targets], 0.0) / len(targets)
-            walking = have_status and math.hypot(mv0, mv1) > self.walking_mps and o[self._j_rotating] < 0.5
+            walking = have_status and (o[self._j_walking[0]] > 0.5 or o[self._j_walking[1]] > 0.5) and o[self._j_rotating] < 0.5
             keep_out = self.leading_user_keep_out if walking and o[self._j_leading] > 0.5 else self.user_keep_out
             if have_status and keep_out > 0:
                 dux, duy = r32(user_x - refx), r32(user_y - refy)  # user relative to our reference

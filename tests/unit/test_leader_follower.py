@@ -69,7 +69,8 @@ def numpy_act(p: LeaderFollowerPolicy, obs: np.ndarray) -> np.ndarray:
     v = np.array([cd * fx - sd * fy, sd * fx + cd * fy])
     if targets:
         target = np.mean(targets, axis=0)
-        walking = have_status and math.hypot(mv[0], mv[1]) > p.walking_mps and obs[sl["master.rotating"]][0] < 0.5
+        act = obs[sl["master.activity"]]  # one-hot: stop, rest, walk, run
+        walking = have_status and (act[2] > 0.5 or act[3] > 0.5) and obs[sl["master.rotating"]][0] < 0.5
         keep_out = p.leading_user_keep_out if walking and obs[sl["master.leading"]][0] > 0.5 else p.user_keep_out
         if have_status and keep_out > 0:
             du = obs[sl["master.user_xy"]] * POS_SCALE_M - ref

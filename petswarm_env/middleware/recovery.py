@@ -55,6 +55,7 @@ from petswarm_env.middleware import messages as msg
 from petswarm_env.middleware.formation import Formation, formation_for_mode, leading_user
 from petswarm_env.middleware.knowledge import FRESH_IR_S
 from petswarm_env.middleware.join import JoinManager, OrganizeResult
+from petswarm_env.middleware.leaving import Leaving
 from petswarm_env.middleware.matching import least_total
 from petswarm_env.middleware.station import Station
 
@@ -78,7 +79,7 @@ ASTRAY_REACHES = 1.5
 STANDING_MPS = 0.1
 
 
-class RecoveryManager:
+class RecoveryManager(Leaving):
     """Both sides of member removal and refill on one robot."""
 
     def __init__(self, node: Station, join: JoinManager, forget: Callable[[int], None], leave: Callable[[], None]):
@@ -462,102 +463,6 @@ class RecoveryManager:
         know.mode = p["mode"]
         node.formation = Formation.from_links_payload(p["shape"], p["links"])
 
-    def _plan_clear_out(self, members: dict[int, int] | None = None, formation: Formation | None = None) -> None:
-        """The robot leaves its slot for its own fault (seed 003 Algorithm 2 step 5: "the faulty robot
-        leaves"): it drives out of the formation, sideways in its own frame, away from the formation's
-        axis (its slot's side; the left for a slot on the axis), until it stands beyond the formation's
-        outermost slot by its diameter and :data:`CLEAR_MARGIN_M`. It keeps the swarm's pace from the
-        master's last status broadcast and :data:`CLEAR_AHEAD_MPS` more (a master that handed its user
-        over: its own pace) only until a gap of :data:`CLEAR_LANE_GAP_M` lies between it and the outermost
-        slot's lane (:attr:`pace_until_m`, sideways metres); the rest of the way it moves sideways only,
-        standing along the walk, so the swarm walks past it; then it stops (chosen: a robot that stops
-        where it was stands in the path of the member that takes its place and of the members behind
-        it, which the walking formation drives into; one that keeps the swarm's pace all the way holds
-        a fixed direction while the swarm may turn — on a zigzag walk it cut across the formation or
-        stopped beside it where the next turn brought the swarm onto it). The command is its
-        middleware's (:meth:`leaving_command`); it needs no sensor that may have failed: the wheels alone.
-
-        A robot in nobody's way stops where it stands instead (:meth:`in_the_way`, on ``members`` and
-        ``formation``, the tables of the member update that removed it): the swarm walks on away from it
-        (chosen: the rear robot of a wedge's arm, moving out at the swarm's pace while the swarm turned
-        toward its side, was carried ahead into the lane of the front robot of its arm, which then ran
-        into it as it stood — slave faults on the zigzag walk; docs/faults.md). The old master of a
-        following swarm moves out sideways and back against the walk (:data:`HANDOVER_SIDE_MPS`)."""
-        node = self.node
-        if node.formation is None:
-            return
-        pos = node.formation.slot_positions()
-        member = node.know.member
-        if not 0 < member < len(pos):
-            return
-        status = node.know.status  # the master's pace; a master that handed its user over and heard none yet: its own
-        vx = float(status.velocity[0]) if status is not None else float(node.odometry.read()[0])
-        lateral = float(pos[member][1])
-        side = 1.0 if lateral >= 0 else -1.0
-        if members is not None and formation is not None and not self._was_master \
-                and not self.in_the_way(members, formation, 1.0 if vx >= 0 else -1.0):
-            self.clear_out = (node.clock.now, 0.0, side * CLEAR_SPEED_MPS, 0.0)  # (0, 0, 0) at the next step
-            self._cleared = (node.clock.now, 0.0)
-            return
-        outermost = max((float(p[1]) * side for p in pos), default=0.0)
-        clear_m = outermost - lateral * side + 2.0 * node.cfg.robot.radius_m  # beside the outermost slot's robot
-        out_m = clear_m + CLEAR_MARGIN_M
-        if self._was_master and node.know.mode == "following":
-            # the old master of a following swarm: sideways and back against the walk (its +x: it faced its user)
-            self.pace_until_m = out_m
-            self.clear_out = (node.clock.now, -HANDOVER_BACK_MPS, side * HANDOVER_SIDE_MPS, out_m)
-            self._cleared = (node.clock.now, 0.0)
-            return
-        self.pace_until_m = clear_m + CLEAR_LANE_GAP_M
-        ahead = 0.0 if self._was_master else math.copysign(CLEAR_AHEAD_MPS, vx)  # ahead the way the swarm walks
-        self.clear_out = (node.clock.now, vx + ahead, side * CLEAR_SPEED_MPS, out_m)
-        self._cleared = (node.clock.now, 0.0)
-
-    def in_the_way(self, members: dict[int, int], formation: Formation, walk: float) -> bool:
-        """Whether this robot, standing at the slot it held, is in a remaining member's way: within its
-        diameter and :data:`CLEAR_LANE_GAP_M` of the straight move of a member from the slot it held to the
-        slot ``formation`` gives it (``members``: member number -> node id, of the member update), or of
-        the lane of a new slot behind it the way the swarm walks (``walk``, +1 or -1 along the formation's
-        x: such a member walks into a robot that stands). In the formation's frame, from the tables the
-        master sent (seed 000 Fig. 8: the member and neighbour tables); no sensor is read."""
-        node = self.node
-        old = node.formation.slot_positions()
-        new = formation.slot_positions()
-        me = old[node.know.member]
-        near = 2.0 * node.cfg.robot.radius_m + CLEAR_LANE_GAP_M
-        held = {n: m for m, n in node.know.members.items()}
-        for m, n in members.items():
-            if m == 0 or m >= len(new):
-                continue
-            if (float(new[m][0]) - me[0]) * walk < 0 and abs(float(new[m][1]) - me[1]) < near:
-                return True  # its lane passes here
-            a = held.get(n)
-            if a is not None and a < len(old) and _segment_distance(me, old[a], new[m]) < near:
-                return True  # it moves through here
-        return False
-
-    def leaving_command(self, now_s: float | None = None) -> tuple[float, float, float] | None:
-        """The body-frame command of the move out of the formation (:meth:`_plan_clear_out`) until its
-        wheel odometry counts the sideways distance (or :data:`CLEAR_TIMEOUT` times the time it takes at
-        the commanded speed passed), (0, 0, 0) once, then None (nothing to drive). It runs on the robot's
-        own MCU clock (seed 000 §3.3: each robot its own clock), as the plan did; ``now_s``, the caller's
-        time, is not read (before, the episode's true time against the plan's local time: the move never
-        timed out, and its first odometry step counted the clocks' offset, so a leaving robot drove
-        sideways for the rest of the episode)."""
-        c = self.clear_out
-        if c is None:
-            return None
-        now_s = self.node.clock.now
-        t0, vx, vy, out_m = c
-        last_s, done_m = self._cleared
-        done_m += abs(self.node.odometry.read()[1]) * (now_s - last_s)  # the wheels' sideways travel since
-        self._cleared = (now_s, done_m)
-        if done_m < out_m and now_s - t0 < CLEAR_TIMEOUT * out_m / abs(vy) and self.node.state == "waiting":
-            return (vx if done_m < self.pace_until_m else 0.0, vy, 0.0)  # out of the lanes: the swarm walks past
-        self.clear_out = None
-        return (0.0, 0.0, 0.0)
-
-
 # the parts a master's job needs (chosen): its IR module — every slave locates it by its IR (seed 000 §3.3,
 # the master's slot of the ring) and it measures the heading exchange's bearings; a master whose IR broke
 # hands its user over (swarm.hand_over_for_fault). Its ultrasonic ring and AHRS: recorded, no handover (the LF
@@ -569,32 +474,3 @@ MASTER_NEEDS = frozenset({"ir"})
 # (a column that lost its second member sent its tail robot through the third to the open slot: the same total;
 # it stopped against the third, and both lost the IR's reach of the robots ahead — column, seed 1)
 TIE_SQUARE = 1e-3
-CLEAR_SPEED_MPS = 0.5  # chosen: the sideways speed of a faulty robot leaving the formation (a third of the top speed)
-CLEAR_TIMEOUT = 3.0  # chosen: the move out gives up after three times its time at the commanded speed (a robot held by a contact)
-# chosen: a slave also drives ahead of the swarm's pace, out of the way of the member behind it that moves up
-# (a master that handed its user over does not: the user and the new master are ahead of it)
-CLEAR_AHEAD_MPS = 0.25
-# chosen: the old master of a following swarm (swarm.hand_over_for_fault) moves out sideways and back against the walk,
-# together the wheels' top speed (a Pet-Bot's), all the way: its own pace carried it into a zigzag's turn (docs/faults.md)
-HANDOVER_SIDE_MPS, HANDOVER_BACK_MPS = 1.0, 0.5
-# chosen: its clearance beyond the formation's outermost slot (a formation drifts sideways by half a spacing as it
-# re-forms; a master that handed its user over: its formation then re-centres on the new master, which drives onto
-# the user's line, half a spacing or more sideways — IR on the master, seeds 20-39: re-formed 14/20 with 1.0 m,
-# 17/20 with 1.5 m). A slave's was 1.0 m while it kept the swarm's pace all the way; standing along the walk for the
-# last part, it stands clear of the passing swarm at 1.5 m as the master did (slave faults on a zigzag walk, seeds
-# 100-119: re-formed 18/18/20 of 20 against 18/17/17 at 1.0 m; docs/faults.md)
-CLEAR_MARGIN_M = 1.5
-# chosen: the leaving robot keeps the swarm's pace until this gap (one robot diameter at the shipped 0.2 m radius)
-# lies between it and the robot of the outermost slot's lane; the member behind it in its lane can no longer run
-# into it there (slave faults, seeds 200-219: zigzag re-formed 19/18/18 of 20, before 17/16/16; straight 20/20/19,
-# before 19/20/20 — calibrated on those seeds, and noisy: 0.6 m read 19/16/13 on the zigzag)
-CLEAR_LANE_GAP_M = 0.4
-
-
-def _segment_distance(p, a, b) -> float:
-    """The distance from point ``p`` to the segment from ``a`` to ``b`` (2-D)."""
-    ax, ay, bx, by = float(a[0]), float(a[1]), float(b[0]), float(b[1])
-    dx, dy = bx - ax, by - ay
-    n2 = dx * dx + dy * dy
-    t = 0.0 if n2 == 0.0 else min(1.0, max(0.0, ((float(p[0]) - ax) * dx + (float(p[1]) - ay) * dy) / n2))
-    return math.hypot(float(p[0]) - ax - t * dx, float(p[1]) - ay - t * dy)

@@ -263,7 +263,10 @@ class Scenario:
         heading = math.pi if leading else 0.0  # every robot faces its user
         c, s = math.cos(heading), math.sin(heading)
         world_slots = np.stack([c * slots[:, 0] - s * slots[:, 1], s * slots[:, 0] + c * slots[:, 1]], axis=1)
-        final = np.array([user_ahead_m, 0.0]) * (1 if leading else -1)
+        # where the master organizes (a leading master's distance is capped inside its LF range, so a deep
+        # leading layout's slots lie about that spot, not about one beyond the whole formation)
+        master_at = user_ahead_m if master_distance_m is None else master_distance_m
+        final = np.array([master_at, 0.0]) * (1 if leading else -1)
         depth = float(np.abs(world_slots[:, 0]).max())
         jitter = cfg.swarm.spawn_jitter_m
         ahead = 1.0 if leading else -1.0  # where the master stands: ahead of its user (leading) or behind
@@ -274,8 +277,7 @@ class Scenario:
         others = [final + np.array([-0.6 * k, -1.8 - 0.2 * (k % 2)]) for k in range(cfg.swarm.other_user_robots)]
         scattered = None
         if cfg.swarm.spawn == "scattered":
-            shift = user_ahead_m if master_distance_m is None else master_distance_m
-            centres = [b + np.array([ahead * shift, 0.0]) for b in bases]
+            centres = [b + np.array([ahead * master_at, 0.0]) for b in bases]
             scattered = self.scatter(cfg, bases, list(zip(starts, centres)), [p for e in extras for p in e] + others, rng)
         pools = []
         for u, base in enumerate(bases):

@@ -61,6 +61,26 @@ def test_at_slots_keeps_the_old_start_and_is_built_at_once():
     assert s["building_time_s"] <= 3.0
 
 
+@pytest.mark.parametrize("shape, slaves", [("wedge", 4), ("column", 4), ("column", 8), ("grid", 16)])
+def test_a_leading_layout_starts_at_its_slots_about_where_its_master_organizes(shape, slaves):
+    """``at_slots`` in leading: the robots stand about the master's organizing spot (its distance to its user
+    capped inside the LF range, seed 002 §3.3), not about a spot beyond the whole formation. Before (seeds 0-4),
+    the 4-slave wedge and column stood 1.2-1.4 and 1.7-3.6 m off their references at the first step (now
+    0.6-0.7 and 0.7-1.0 m), and a column of 8 or a grid of 16 stood outside the 3 m join region (seed 000
+    Table 1): no reset organized. Slots beyond the region still start inside it (``SPAWN_REACH``), and a
+    candidate whose RSSI range reads beyond it stays out (Table 1), so a deep layout starts short of some."""
+    env = petswarm_env.parallel_env(**{"swarm.mode": "leading", "swarm.formation": shape, "swarm.spawn": "at_slots",
+                                       "swarm.num_slaves": slaves, "max_cycles": 5})
+    env.reset(seed=0)  # organizes (raised OrganizeError before for 8 and 16)
+    truth = env.episode.truth
+    assert truth.swarms[0].organized
+    off = [math.dist(truth.robots[idx].position, p) for idx, p in truth.reference_positions().items()]  # robot -> reference
+    if slaves == 4:
+        assert len(off) == slaves and max(off) < 1.0, off
+    else:
+        assert len(off) >= slaves - 3, off
+
+
 def test_member_numbers_follow_the_masters_estimated_distances(monkeypatch):
     """Table 2 by estimated distance: the closest candidate is member 1, and so on; not robot ids."""
     seen = []

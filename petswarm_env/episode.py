@@ -341,10 +341,10 @@ class Episode:
             if all(sw.organized for sw in self.swarms):
                 break
         for u, (session, swarm) in enumerate(zip(self.sessions, self.swarms)):
-            if session.connected_robot is None:
-                raise RuntimeError(
-                    f"user {u}'s belt never woke up: its robot must start within lf.wake_range_m={cfg.lf.wake_range_m} m "
-                    "and burst the belt's wake-up pattern")
+            if session.connected_robot is None:  # a start-up that failed, as a swarm that did not organize: a run goes on
+                cause = (f"user {u}'s belt never woke up: its robot must start within lf.wake_range_m={cfg.lf.wake_range_m} m "
+                         "and burst the belt's wake-up pattern")
+                raise OrganizeError(f"seed {self.seed}: {cause}", self.seed, cause)
             if not swarm.organized or not swarm.slave_ids():
                 cause = organize_obstacle(cfg)
                 raise OrganizeError(f"seed {self.seed}: user {u}'s swarm did not organize within protocol.organize_timeout_s="

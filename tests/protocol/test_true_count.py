@@ -68,3 +68,17 @@ def test_an_unorganizable_episode_is_recorded_and_the_run_goes_on():
     assert s["episodes"] == 2 and s["unorganized"] == 1 and s["unorganized_seeds"] == [213]
     assert s["formation_rmse_m"] == pytest.approx(first["formation_rmse_m"])  # the means leave it out
     assert summarize([second])["unorganized"] == 1
+
+
+def test_a_belt_that_never_woke_up_is_recorded_as_a_start_up_that_failed_and_the_run_goes_on():
+    """Two users at loss 0.5, leading rows from the slots (a random-config sweep, seed 5685): user 1's robot was
+    pushed from 0.8 m to 1.02 m off its user, beyond the 1 m LF wake-up range, before its belt woke. The reset
+    raised a bare RuntimeError, which a run did not catch; now it is an ``OrganizeError`` that names the seed."""
+    overrides = {"max_cycles": 20, "user.scenario": "zigzag", "swarm.num_slaves": 2, "world.num_users": 2,
+                 "radio.loss_prob": 0.5, "swarm.mode": "leading", "swarm.formation": "row", "swarm.spawn": "at_slots",
+                 "swarm.assignment": "ruta_decentralized"}
+    with pytest.raises(OrganizeError, match="seed 5685: user 1's belt never woke up"):
+        petswarm_env.parallel_env(**overrides).reset(seed=5685)
+    result = run(petswarm_env.load_config(overrides=overrides), "scripted", episodes=1, seed=5685)
+    (episode,) = result["episodes"]
+    assert episode["organized"] is False and "belt never woke up" in episode["organize_problem"]

@@ -77,6 +77,9 @@ ASTRAY_REACHES = 1.5
 # chosen: a master whose own odometry reads less than this stands (a refill may recruit from beyond the organize's
 # region: RecoveryManager.refill_region_m); a master holding its distance to a standing user creeps below it
 STANDING_MPS = 0.1
+# chosen: a leading master renumbers its members while building only when that saves at least this much of their
+# total move (its IR fixes' errors and the robots' own motion toward their slots stay well below it)
+REPLAN_GAIN_M = 1.0
 
 
 class RecoveryManager(Leaving):
@@ -102,6 +105,7 @@ class RecoveryManager(Leaving):
         self._organized_slaves = 0  # master: the slaves it drove with when its periodic scan started (places)
         self.pool_heard = 0  # master: the joining candidates its organize's scans heard (places; set by the swarm)
         self.astray: list[tuple[float, int]] = []  # master: (time, node id) of each member removed as astray
+        self.replans: list[tuple[float, bool]] = []  # master: (time, mirrored) of each renumbering while building (replan_building)
         self._astray_since: dict[int, float] = {}  # master: member -> since when its range has said astray
         self.bid_requests: list[tuple[float, str]] = []  # member: (time, the part that failed) of each bid request started
         self._request_seq = -1
@@ -158,6 +162,7 @@ class RecoveryManager(Leaving):
             if node.state != "master" or node.swarm_pan != pan:
                 return
             self.check_astray()
+            self.replan_building()
             if not self.busy and self.open_members():
                 self.busy = True
                 yield from self._refill()
@@ -250,8 +255,53 @@ class RecoveryManager(Leaving):
         (:func:`~.assignment.slot_distance`). Equal totals keep the robots in member order."""
         return self._least_move(members, formation)[1]
 
+    def replan_building(self) -> None:
+        """Master, leading, while it stands with its user for the building (seed 000 Fig. 10): when its IR fixes of
+        every member place them so that the standard table or its mirror image, slots given by the least total move
+        (:meth:`removal_plan`), would save at least :data:`REPLAN_GAIN_M` over their numbers, it renumbers them on
+        that table (an acknowledged member update, :meth:`reassign`). Table 2 numbers the joining robots by their
+        RSSI distances, blind to the side each stands on, and in leading the user stands among the rear slots: a
+        slave given a slot on the other side had to pass its user and the robots beside them, and stalled there
+        (chosen; leading straight, seeds 1200-1239: 4 formations never built, 2 after 20 s)."""
+        node = self.node
+        know = node.know
+        if self.busy or node.formation is None or know.mode != "leading" or node.cfg.swarm.formation == "custom":
+            return
+        vx, vy, _ = node.odometry.read()
+        now = node.clock.now
+        slaves = [n for m, n in know.members.items() if m != 0]
+        if math.hypot(vx, vy) >= STANDING_MPS or not slaves \
+                or any(n not in know.ir or now - know.ir[n].time_s > FRESH_IR_S for n in slaves):
+            return
+        members = dict(know.members)
+        standard = formation_for_mode(node.cfg.swarm, len(members), know.mode, leading_user(node.cfg))
+        held, cost = self._move_costs(members, standard.mirrored() if self.mirrored else standard)
+        if any(not 0 < m <= len(row) for m, row in zip(held, cost)):
+            return  # numbers with a gap (a removal under way)
+        now_total = sum(row[m - 1] for m, row in zip(held, cost))
+        table, formation, mirrored = self.removal_plan(members, standard)
+        if self._least_move(table, formation)[0] < now_total - REPLAN_GAIN_M:
+            self.mirrored = mirrored
+            self.replans.append((now, mirrored))
+            self.reassign(table, formation)
+            node.members_changed.emit("renumbered", [])  # the swarm's tables (and the experimenter's references) follow
+
     def _least_move(self, members: dict[int, int], formation: Formation) -> tuple[float, dict[int, int]]:
         """:meth:`nearest_slots` and the total distance of its assignment (m, as the master estimates it)."""
+        held, cost = self._move_costs(members, formation)
+        slaves = [n for m, n in sorted(members.items()) if m != 0]
+        # among equal totals, the one with the shortest longest moves (each distance d counts d + TIE_SQUARE·d²):
+        # on a line — a column, or any robots all beyond their slots — every assignment moves the same total, and
+        # the order of the robots along it is the one with no robot passing another
+        order = least_total([[d + TIE_SQUARE * d * d for d in row] for row in cost])
+        out = {0: members[0]}
+        for i, n in enumerate(slaves):
+            out[order[i] + 1] = n
+        return sum(cost[i][order[i]] for i in range(len(slaves))), dict(sorted(out.items()))
+
+    def _move_costs(self, members: dict[int, int], formation: Formation) -> tuple[list[int], list[list[float]]]:
+        """The slaves of ``members`` in member order: the member number each holds, and the distance (m, as the
+        master estimates it, :meth:`nearest_slots`) from where each is to each of the slots 1..n of ``formation``."""
         node = self.node
         know = node.know
         slaves = [n for m, n in sorted(members.items()) if m != 0]
@@ -281,14 +331,7 @@ class RecoveryManager(Leaving):
                 cost.append([assignment.slot_distance(r, math.hypot(sx, sy)) for sx, sy in slots])
             else:
                 cost.append([0.0] * len(slots))  # nothing known: any slot
-        # among equal totals, the one with the shortest longest moves (each distance d counts d + TIE_SQUARE·d²):
-        # on a line — a column, or any robots all beyond their slots — every assignment moves the same total, and
-        # the order of the robots along it is the one with no robot passing another
-        order = least_total([[d + TIE_SQUARE * d * d for d in row] for row in cost])
-        out = {0: members[0]}
-        for i, n in enumerate(slaves):
-            out[order[i] + 1] = n
-        return sum(cost[i][order[i]] for i in range(len(slaves))), dict(sorted(out.items()))
+        return [holds[n] for n in slaves], cost
 
     def _refill(self):
         node = self.node

@@ -98,7 +98,8 @@ class Swarm:
         self.clock.process(master.recovery.maintain(self.pan))  # the periodic scan while a slot is open
 
     def members_changed(self, node: Node, event: str, node_ids: list[int]) -> None:
-        """The master removed (``lost``) or recruited (``joined``) members (middleware/recovery.py)."""
+        """The master removed (``lost``), recruited (``joined``) or renumbered (``renumbered``, on the mirror image of
+        its table while building: recovery.RecoveryManager.replan_building) members (middleware/recovery.py)."""
         if node is self.master:
             self.formation = node.formation
             self.member_log.append((self.clock.now, event, list(node_ids)))

@@ -167,3 +167,20 @@ def test_a_slave_in_the_users_shadow_finds_the_swarm(seed):
     while env.agents and not math.isfinite(env.episode.metrics.building_time_s) and env.episode.world.now - start < 15.0:
         obs, *_ = env.step(policy.act_all({a: obs[a] for a in env.agents}))
     assert env.episode.metrics.building_time_s <= 15.0
+
+
+def test_a_leading_master_renumbers_its_members_on_the_mirror_image_when_their_sides_cross_its_user():
+    """Leading, straight walk, seed 1200 (seed 000 Table 2 numbers the joining robots by RSSI distance, blind to
+    their sides): two slaves stood on the sides opposite their slots, with the user among the rear slots between;
+    they stalled 1.0-1.2 m off and the formation never built in 60 s (seeds 1200-1239: 4 never, 2 after 20 s).
+    The master, standing with its user, renumbers its members on the mirror image of its table once its IR fixes
+    show that saves at least ``REPLAN_GAIN_M`` of their total move; the experimenter's references follow the
+    swarm's tables. A following swarm is never renumbered so (the crossing passes behind the master)."""
+    env = petswarm_env.parallel_env(**{"swarm.mode": "leading", "user.scenario": "straight", "seed": 1200})
+    s = _run(env)
+    master = env.episode.truth.swarms[0].master
+    assert [m for _, m in master.recovery.replans] == [True] and master.recovery.mirrored
+    assert math.isfinite(s["building_time_s"]) and s["building_time_s"] < 15.0, s["building_time_s"]
+    following = petswarm_env.parallel_env(**{"user.scenario": "straight", "seed": 1200})
+    _run(following)
+    assert following.episode.truth.swarms[0].master.recovery.replans == []

@@ -19,8 +19,7 @@ class Leaving:
         leaves"): it drives out of the formation, sideways in its own frame, away from the formation's
         axis (its slot's side; the left for a slot on the axis), until it stands beyond the formation's
         outermost slot by its diameter and :data:`CLEAR_MARGIN_M`. It keeps the swarm's pace from the
-        master's last status broadcast and :data:`CLEAR_AHEAD_MPS` more (a master that handed its user
-        over: its own pace) only until a gap of :data:`CLEAR_LANE_GAP_M` lies between it and the outermost
+        master's last status broadcast and :data:`CLEAR_AHEAD_MPS` more only until a gap of :data:`CLEAR_LANE_GAP_M` lies between it and the outermost
         slot's lane (:attr:`pace_until_m`, sideways metres); the rest of the way it moves sideways only,
         standing along the walk, so the swarm walks past it; then it stops (chosen: a robot that stops
         where it was stands in the path of the member that takes its place and of the members behind
@@ -46,7 +45,7 @@ class Leaving:
         member = node.know.member
         if not 0 < member < len(pos):
             return
-        status = node.know.status  # the master's pace; a master that handed its user over and heard none yet: its own
+        status = node.know.status  # the master's pace (none heard yet: its own)
         vx = float(status.velocity[0]) if status is not None else float(node.odometry.read()[0])
         lateral = float(pos[member][1])
         side = 1.0 if lateral >= 0 else -1.0

@@ -259,7 +259,8 @@ class RecoveryManager(Leaving):
         """Master, leading, while it stands with its user for the building (seed 000 Fig. 10): when its IR fixes of
         every member place them so that the standard table or its mirror image, slots given by the least total move
         (:meth:`removal_plan`), would save at least :data:`REPLAN_GAIN_M` over their numbers, it renumbers them on
-        that table (an acknowledged member update, :meth:`reassign`). Table 2 numbers the joining robots by their
+        that table (an acknowledged member update, :meth:`reassign`; a table re-rooted by a master change is kept,
+        Table 3). Table 2 numbers the joining robots by their
         RSSI distances, blind to the side each stands on, and in leading the user stands among the rear slots: a
         slave given a slot on the other side had to pass its user and the robots beside them, and stalled there
         (chosen; leading straight, seeds 1200-1239: 4 formations never built, 2 after 20 s)."""
@@ -275,7 +276,9 @@ class RecoveryManager(Leaving):
             return
         members = dict(know.members)
         standard = formation_for_mode(node.cfg.swarm, len(members), know.mode, leading_user(node.cfg))
-        held, cost = self._move_costs(members, standard.mirrored() if self.mirrored else standard)
+        if node.formation != standard and node.formation != standard.mirrored():
+            return  # a table re-rooted by a master change keeps its references (Table 3)
+        held, cost = self._move_costs(members, node.formation)
         if any(not 0 < m <= len(row) for m, row in zip(held, cost)):
             return  # numbers with a gap (a removal under way)
         now_total = sum(row[m - 1] for m, row in zip(held, cost))

@@ -54,7 +54,7 @@ from petswarm_env.control.arbiter import ControlArbiter, SafetyStage
 from petswarm_env.metrics import BUILT_WITHIN_M, Experimenter
 from petswarm_env.middleware.join import OrganizeError, organize_obstacle
 from petswarm_env.middleware.fleet import Fleet
-from petswarm_env.middleware.formation import formation_for_mode, leading_user, user_position_in_formation
+from petswarm_env.middleware.formation import formation_for_mode, leading_user
 from petswarm_env.middleware.swarm import Swarm
 from petswarm_env.middleware.master_role import master_distance_m
 from petswarm_env.middleware.user_session import UserSession
@@ -279,8 +279,7 @@ class Episode:
         for u in range(1, cfg.world.num_users):
             world.add_user(scripts[u], (0.0, u * cfg.world.user_spacing_m), 0.0)
         plan = formation_for_mode(cfg.swarm, cfg.swarm.num_slaves + 1, cfg.swarm.mode, leading_user(cfg))
-        placement = scenario.place(world, place_cfg, plan.slot_positions(), user_position_in_formation(plan, cfg.master.distance_m)[0],
-                                   rng_world, master_distance_m(cfg, None, cfg.swarm.mode))
+        placement = scenario.place(world, place_cfg, plan.slot_positions(), master_distance_m(cfg, None, cfg.swarm.mode), rng_world)
         self.other_user_robots = placement.other_user_robots
         self.radio = RadioMedium(world.clock, cfg.radio, rng_radio)
         self.radio.trace = radio_trace

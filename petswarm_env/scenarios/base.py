@@ -244,13 +244,13 @@ class Scenario:
         ``TURN_BACK_CLEARANCE_M``."""
         return reach_m + 2.0 * turn_back_radius_m(user) + TURN_BACK_CLEARANCE_M
 
-    def place(self, world: Any, cfg: Any, slots: np.ndarray, user_ahead_m: float, rng: np.random.Generator,
-              master_distance_m: float | None = None) -> Placement:
+    def place(self, world: Any, cfg: Any, slots: np.ndarray, master_distance_m: float,
+              rng: np.random.Generator) -> Placement:
         """Add the robots to ``world`` (``world.add_robot(position, heading)``) for the config
         ``cfg``, given the planned formation for the configured driving mode: ``slots`` (members,
-        2), the slot positions in the master's frame, ``user_ahead_m``, where the user stands
-        ahead of the master in that frame, and ``master_distance_m``, how far from its user the
-        master organizes the swarm after its start-up shift (default ``user_ahead_m``).
+        2), the slot positions in the master's frame, and ``master_distance_m``, how far from its
+        user the master organizes the swarm after its start-up shift
+        (:func:`~petswarm_env.middleware.master_role.master_distance_m`).
 
         Per user: the user's own robot close to the user (to pair), facing them — behind the user
         in following, ahead in leading; its waiting robots by ``swarm.spawn``: ``scattered``
@@ -265,8 +265,7 @@ class Scenario:
         world_slots = np.stack([c * slots[:, 0] - s * slots[:, 1], s * slots[:, 0] + c * slots[:, 1]], axis=1)
         # where the master organizes (a leading master's distance is capped inside its LF range, so a deep
         # leading layout's slots lie about that spot, not about one beyond the whole formation)
-        master_at = user_ahead_m if master_distance_m is None else master_distance_m
-        final = np.array([master_at, 0.0]) * (1 if leading else -1)
+        final = np.array([master_distance_m, 0.0]) * (1 if leading else -1)
         depth = float(np.abs(world_slots[:, 0]).max())
         jitter = cfg.swarm.spawn_jitter_m
         ahead = 1.0 if leading else -1.0  # where the master stands: ahead of its user (leading) or behind
@@ -277,7 +276,7 @@ class Scenario:
         others = [final + np.array([-0.6 * k, -1.8 - 0.2 * (k % 2)]) for k in range(cfg.swarm.other_user_robots)]
         scattered = None
         if cfg.swarm.spawn == "scattered":
-            centres = [b + np.array([ahead * master_at, 0.0]) for b in bases]
+            centres = [b + np.array([ahead * master_distance_m, 0.0]) for b in bases]
             scattered = self.scatter(cfg, bases, list(zip(starts, centres)), [p for e in extras for p in e] + others, rng)
         pools = []
         for u, base in enumerate(bases):

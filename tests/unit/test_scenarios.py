@@ -9,7 +9,8 @@ import pytest
 import petswarm_env
 from petswarm_env import scenarios
 from petswarm_env.config import ConfigError, load_config
-from petswarm_env.middleware.formation import formation_for_mode, leading_user, user_position_in_formation
+from petswarm_env.middleware.formation import formation_for_mode, leading_user
+from petswarm_env.middleware.master_role import master_distance_m
 from petswarm_env.scenarios import SCENARIOS, Placement, Scenario, Segment
 from petswarm_env.sim.world import World
 
@@ -35,8 +36,7 @@ def test_every_scenario_builds_its_script_and_places_its_robots(name, mode):
     assert all(not s.command or s.command in scenarios.USER_COMMANDS for s in segs)
     world = World(cfg, scenario.script(cfg.user, np.random.default_rng(0)))
     plan = formation_for_mode(cfg.swarm, cfg.swarm.num_slaves + 1, mode, leading_user(cfg))
-    placed = scenario.place(world, cfg, plan.slot_positions(), user_position_in_formation(plan, cfg.master.distance_m)[0],
-                            np.random.default_rng(1))
+    placed = scenario.place(world, cfg, plan.slot_positions(), master_distance_m(cfg, None, mode), np.random.default_rng(1))
     assert isinstance(placed, Placement) and len(placed.pools) == 2
     n = cfg.swarm.num_slaves + cfg.swarm.extra_robots
     indices = [i for master, pool in placed.pools for i in (master, *pool)] + placed.other_user_robots

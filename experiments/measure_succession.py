@@ -1,11 +1,14 @@
 """The swarm outlives its master (middleware/succession.py): the master dies or goes radio-silent
 at ``--at`` s of a straight walk; per seed, when a slave took its place, when the belt paired with
-it, whether the episode ran to ``max_cycles``, and the formation error afterwards.
+it, whether the episode ran to ``max_cycles``, whether the new master drives its user at the end (its
+session following or leading, the robot within 2 m of the user: a swarm that stopped in an emergency
+or an obstacle exception while its user walked on runs to ``max_cycles`` too), and the formation error
+afterwards.
 
     python -m petswarm.experiments.measure_succession --seeds 0-19 --kinds dead radio_silent
 
 Times are seconds after the fault. Targets: a new master within 5 s, the belt paired again, the
-episode to ``max_cycles``, in every seed. The robots learn of the loss only from their radio (the
+episode to ``max_cycles`` with the new master driving its user, in every seed. The robots learn of the loss only from their radio (the
 slaves' status timeout, the master's cut-off) and the belt from its BLE supervision timeout.
 """
 
@@ -18,6 +21,9 @@ import statistics
 from petswarm.baselines.policy import PolicySpec
 from petswarm.baselines.registry import make_policy
 import petswarm_env
+
+
+DRIVING_M = 2.0  # the new master within this of its user at the end (as experiments/sensor_faults.py)
 
 
 def parse_seeds(text: str) -> list[int]:
@@ -47,8 +53,11 @@ def run(kind: str, seed: int, at_s: float, max_cycles: int, overrides: dict) -> 
     t_fault = t0 + at_s
     new_master = min((t for _, t, _, _ in elections), default=math.inf) - t_fault
     paired = min((t for t, _ in session.pairings), default=math.inf) - t_fault
+    ep = env.episode
+    user_xy, master_xy = ep.world.users[0].body.position, ep.world.robots[ep.swarms[0].master.node_id].body.position
+    driving = session.state in ("following", "leading") and math.dist(user_xy, master_xy) <= DRIVING_M
     return {"seed": seed, "new_master_s": new_master, "paired_s": paired, "cycles": env.num_cycles,
-            "full": env.num_cycles == max_cycles, "successions": len(elections),
+            "full": env.num_cycles == max_cycles, "driving_user": driving, "successions": len(elections),
             "rmse_after_m": math.sqrt(statistics.fmean(e * e for e in errors_after)) if errors_after else math.nan}
 
 
@@ -68,11 +77,13 @@ def main(argv: list[str] | None = None) -> int:
         rows = [run(kind, seed, args.at, args.max_cycles, overrides) for seed in parse_seeds(args.seeds)]
         for r in rows:
             print(f"{kind:12s} seed {r['seed']:3d}: new master {r['new_master_s']:5.2f} s, paired {r['paired_s']:5.2f} s, "
-                  f"cycles {r['cycles']}, formation RMSE 15 s on {r['rmse_after_m']:.2f} m")
-        ok = [r for r in rows if r["new_master_s"] <= 5.0 and math.isfinite(r["paired_s"]) and r["full"]]
+                  f"cycles {r['cycles']}, driving its user {'yes' if r['driving_user'] else 'NO'}, "
+                  f"formation RMSE 15 s on {r['rmse_after_m']:.2f} m")
+        ok = [r for r in rows if r["new_master_s"] <= 5.0 and math.isfinite(r["paired_s"]) and r["full"] and r["driving_user"]]
         finite = [r["paired_s"] for r in rows if math.isfinite(r["paired_s"])]
         print(f"{kind}: {len(ok)} of {len(rows)} seeds meet the target (new master within 5 s, paired, "
-              f"{args.max_cycles} cycles); "
+              f"{args.max_cycles} cycles, driving its user at the end); "
+              f"driving its user at the end in {sum(r['driving_user'] for r in rows)} of {len(rows)}; "
               f"new master median {statistics.median(r['new_master_s'] for r in rows):.2f} s, "
               f"paired median {statistics.median(finite) if finite else math.nan:.2f} s (max {max(finite) if finite else math.nan:.2f}), "
               f"RMSE 15 s on median {statistics.median(r['rmse_after_m'] for r in rows):.2f} m; "

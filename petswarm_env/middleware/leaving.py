@@ -14,7 +14,8 @@ from petswarm_env.middleware.formation import Formation
 class Leaving:
     """The move out of the formation, on a :class:`~.recovery.RecoveryManager`."""
 
-    def _plan_clear_out(self, members: dict[int, int] | None = None, formation: Formation | None = None) -> None:
+    def _plan_clear_out(self, members: dict[int, int] | None = None, formation: Formation | None = None,
+                        cut_off: bool = False) -> None:
         """The robot leaves its slot for its own fault (seed 003 Algorithm 2 step 5: "the faulty robot
         leaves"): it drives out of the formation, sideways in its own frame, away from the formation's
         axis (its slot's side; the left for a slot on the axis), until it stands beyond the formation's
@@ -27,6 +28,9 @@ class Leaving:
         a fixed direction while the swarm may turn — on a zigzag walk it cut across the formation or
         stopped beside it where the next turn brought the swarm onto it). The command is its
         middleware's (:meth:`leaving_command`); it needs no sensor that may have failed: the wheels alone.
+
+        ``cut_off``: the robot is the master itself, cut off from its swarm (:meth:`plan_clear_out_cut_off`),
+        and leaves as a master that handed its user over.
 
         A robot in nobody's way stops where it stands instead (:meth:`in_the_way`, on ``members`` and
         ``formation``, the tables of the member update that removed it): the swarm walks on away from it
@@ -43,13 +47,14 @@ class Leaving:
             return
         pos = node.formation.slot_positions()
         member = node.know.member
-        if not 0 < member < len(pos):
+        was_master = self._was_master or cut_off
+        if not (0 < member or cut_off) or member >= len(pos):
             return
         status = node.know.status  # the master's pace (none heard yet: its own)
         vx = float(status.velocity[0]) if status is not None else float(node.odometry.read()[0])
         lateral = float(pos[member][1])
         side = 1.0 if lateral >= 0 else -1.0
-        if members is not None and formation is not None and not self._was_master \
+        if members is not None and formation is not None and not was_master \
                 and not self.in_the_way(members, formation, 1.0 if vx >= 0 else -1.0):
             self.clear_out = (node.clock.now, 0.0, side * CLEAR_SPEED_MPS, 0.0)  # (0, 0, 0) at the next step
             self._cleared = (node.clock.now, 0.0)
@@ -57,13 +62,13 @@ class Leaving:
         outermost = max((float(p[1]) * side for p in pos), default=0.0)
         clear_m = outermost - lateral * side + 2.0 * node.cfg.robot.radius_m  # beside the outermost slot's robot
         out_m = clear_m + CLEAR_MARGIN_M
-        if self._was_master and node.know.mode == "following":
+        if was_master and node.know.mode == "following":
             # the old master of a following swarm: sideways and back against the walk (its +x: it faced its user)
             self.pace_until_m = out_m
             self.clear_out = (node.clock.now, -HANDOVER_BACK_MPS, side * HANDOVER_SIDE_MPS, out_m)
             self._cleared = (node.clock.now, 0.0)
             return
-        if self._was_master:
+        if was_master:
             # the old master of a leading swarm (its front; the swarm walks the way its back faces): straight out
             # sideways, keeping no pace, so the swarm it led walks past it at once
             self.pace_until_m = 0.0
@@ -74,6 +79,17 @@ class Leaving:
         ahead = math.copysign(CLEAR_AHEAD_MPS, vx)  # ahead the way the swarm walks
         self.clear_out = (node.clock.now, vx + ahead, side * CLEAR_SPEED_MPS, out_m)
         self._cleared = (node.clock.now, 0.0)
+
+    def plan_clear_out_cut_off(self) -> None:
+        """A master cut off from its swarm (its radio silent: no ring frame of any member,
+        :meth:`~.sequence.SequenceManager.cut_off`) releases its user and returns to waiting; first it plans
+        the move out of its formation that a master handing its user over makes (:meth:`_plan_clear_out`: the
+        slaves choose a new master among themselves, which drives to where it stands). Chosen: standing, it was
+        in the leading successor's travel direction and that robot's obstacle exception stopped it while its
+        user walked on alone (leading, the master radio-silent at 20 s, seeds 1300-1319: the user driven to the
+        end in 12 of 20 with the successor's walk direction and place rule, 20 with the move out; seeds 0-39:
+        24 -> 40 of 40). From its own tables and wheels; no radio is needed."""
+        self._plan_clear_out(cut_off=True)
 
     def in_the_way(self, members: dict[int, int], formation: Formation, walk: float) -> bool:
         """Whether this robot, standing at the slot it held, is in a remaining member's way: within its

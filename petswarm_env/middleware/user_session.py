@@ -98,6 +98,8 @@ class UserSession:
         self._guess_only = False  # the tracker holds only a new master's own guess of its user, no LF fix yet
         self.fault_pause_s: float | None = None  # the user stopped at a master's handover for a broken part, since
         self.paused = False  # the user stopped after losing their master (the belt's alert), until paired with an organized swarm
+        self._succeeded = False  # a slave took the lost master's place (_on_succession) since the user stopped
+        self._succession_walk: float | None = None  # its walk direction of the user, tracker frame (_on_succession)
         self.link_ack_s = -math.inf  # the belt last heard the connected robot's BLE link layer
         self.released_by: set[int | None] = set()  # robots whose link the belt lost (it does not pair with them again)
         self.link_losses: list[tuple[float, str]] = []  # (time, supervision_timeout | released)
@@ -184,11 +186,22 @@ class UserSession:
         self.tracker.reset(node.ahrs_yaw())
         self.tracker_node = node
         self.ctrl.reset()
+        self._succeeded = True
         self._search = None
         self._search_yaw = self.tracker.pose[2]
         if est is not None:
             self.tracker.fix(est, node.clock.now)
         self._search_way = way  # the way its user walked (own body frame at its takeover)
+        # the way its user walks as it knows it, from its own estimate of the lost master's heading (as at a
+        # handover for a broken part, seed 002 §3.3-3.4: the master drove along it facing its user), kept in its
+        # tracker's frame until the user's mode command starts its controller (chosen: without it the controller
+        # guessed that a leading user faces the robot; the robot, beside its user at its slot, stood while the
+        # user walked off, and lost its LF fix: leading, the master dead at 20 s, seeds 1300-1319: the user
+        # driven to the end in 14 of 20, 20 with it and the place rule of step())
+        lost = node.succession.lost
+        self._succession_walk = None
+        if est is not None and lost is not None and self.swarm.mode in ("following", "leading"):
+            self._succession_walk = walk_direction(node, lost, self.swarm.mode) + self.tracker.pose[2]
         self._wake_next_s = -math.inf
         self._stalled_since: float | None = None
         self._progress = (math.inf, 0.0)
@@ -374,6 +387,9 @@ class UserSession:
             if mode != "remote":
                 self.previous_mode = mode
             self.ctrl.reset()
+            if self._succession_walk is not None and mode in ("following", "leading"):
+                self.ctrl.know_walk_direction(wrap_angle(self._succession_walk - self.tracker.pose[2]))  # body frame now
+                self._succession_walk = None
         elif command == "organize":
             if not swarm.organized and swarm.master.state != "organizing" and self.state in DRIVING_STATES:
                 swarm.start_organize()
@@ -445,9 +461,13 @@ class UserSession:
         if self.fault_pause_s is not None and self._in_place_to_resume(odometry):
             self.fault_pause_s, self.paused = None, False
             user.walking = True  # the new master located the user by its own LF fix, near enough: they walk on
-        if self.paused and self.fault_pause_s is None and self.swarm.organized and self.state in ("following", "leading"):
-            self.paused = False
-            user.walking = True  # paired again with an organized swarm: the user walks on
+        if self.paused and self.fault_pause_s is None and self.swarm.organized and self.state in ("following", "leading") \
+                and (self.state == "following" or not self._succeeded or self._in_place_after_pairing(odometry)):
+            # paired again with an organized swarm: the user walks on; after a leading master's succession once
+            # its successor stands ahead of them (the rule after a handover, succession.in_place_to_resume: a
+            # successor paired from its slot beside or behind its user must out-pace a walking user to get there)
+            self.paused = self._succeeded = False
+            user.walking = True
         seg = user.segment
         moving = user.walking
         t_fed, heading_fed = self._belt_fed  # the waist's mean yaw rate over the period (the gyro integrates
@@ -508,6 +528,13 @@ class UserSession:
             return self._successor_command(master, odometry), None, False
         return zero, None, self.state == "emergency"
 
+    def _in_place_after_pairing(self, odometry: tuple[float, float, float]) -> bool:
+        """After a succession in leading mode: whether the user may walk on (:func:`~.succession.in_place_to_resume`,
+        its own LF fix newer than the pairing)."""
+        return in_place_to_resume(self.tracker, self.ctrl.walk_direction_rad, self.tracker_node.clock.now,
+                                  self.tracker_node.clock.local(self.paired_at_s), self.target_distance_m(), True, self.cfg,
+                                  odometry)
+
     def _in_place_to_resume(self, odometry: tuple[float, float, float]) -> bool:
         """After a handover for a broken part: whether the user may walk on (:func:`~.succession.in_place_to_resume`)."""
         return in_place_to_resume(self.tracker, self.ctrl.walk_direction_rad, self.tracker_node.clock.now,
@@ -523,6 +550,7 @@ class UserSession:
             return
         node = self.swarm.nodes[idx]
         if node.seq.cut_off(node.clock.now):  # the robot's own timeout, on its own clock
+            node.recovery.plan_clear_out_cut_off()  # it moves out of its swarm's way, as after a handover
             node.seq.leave_swarm()
             node.connected_user = None
             self._link_lost("released")

@@ -434,3 +434,33 @@ def test_a_custom_table_that_cannot_lose_a_member_keeps_its_size_about_the_new_m
     for m, node in members.items():
         if node in number:  # each live member's slot, seen from the new master, is where it stood
             assert np.allclose(moved[number[node]], old[m] - old[2])
+
+
+@pytest.mark.parametrize("kind,seed", [("dead", 1304), ("radio_silent", 1309)])
+def test_a_leading_successor_drives_its_user_on_to_the_end(kind, seed):
+    """Leading, a straight walk, the master lost at 20 s: the successor starts its controller from the
+    walk direction it knows, the user walks on only once it stands ahead of them, and a radio-silent old
+    master moves out of its way (before: the successor, beside its user, stood while they walked off and
+    raised its emergency (1304), or stopped in its obstacle exception behind the silent old master (1309);
+    the user ended 30 m away in both)."""
+    from petswarm.experiments.measure_succession import run as measure
+
+    r = measure(kind, seed, 20.0, 600, {"swarm.mode": "leading"})
+    assert r["full"] and r["new_master_s"] <= 5.0 and math.isfinite(r["paired_s"])
+    assert r["driving_user"]
+    assert r["rmse_after_m"] < 0.5
+
+
+def test_a_master_cut_off_from_its_swarm_moves_out_of_its_formation():
+    """A radio-silent master releases its user and, from its own tables and wheels, drives out of the
+    formation sideways (as a master that handed its user over), then stands."""
+    env = make(0, faults=[{"at_s": 1.0, "robot": "master", "kind": "radio_silent"}])
+    old = env.episode.swarm.master
+    body = env.episode.world.robots[old.node_id].body
+    start = tuple(body.position)
+    run(env, 3.0)
+    assert env.episode.sessions[0].link_losses and old.state == "waiting"
+    assert old.recovery.clear_out is not None  # planned at its release
+    run(env, 8.0)
+    assert old.recovery.clear_out is None  # arrived: it stands
+    assert math.dist(start, tuple(body.position)) >= 1.5

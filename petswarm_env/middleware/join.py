@@ -153,6 +153,7 @@ class JoinManager:
         self._auction_won: dict[int, int] = {}  # the last auction's outcome: member number -> robot id
         self._query_range_m: float | None = None  # candidate side: its RSSI range estimate of the joining query
         self.replans = 0  # master: member updates sent by replan_by_fixes (the slots re-planned after the ring's first round)
+        self._replan_due = False  # master: it organized its swarm itself (Table 2's blind numbers): replan_by_fixes once
         node.on(msg.SCAN, self._on_scan)
         node.on(msg.JOIN_QUERY, self._on_query)
         node.on(msg.STATUS_QUERY, self._on_query)
@@ -205,6 +206,7 @@ class JoinManager:
         node = self.node
         t0 = node.clock.now
         self.opened_s = t0
+        self.replan_after_first_round()
         self._deadline = t0 + node.cfg.protocol.organize_timeout_s  # the whole protocol ends by then
         # the master forms the PAN from now on: it listens there for the acknowledgements of robots
         # that already moved to it (a retried joining notification), its own PAN's frames
@@ -366,6 +368,11 @@ class JoinManager:
             if not missing:
                 return  # every free robot bid: a slot still open has no robot able to take it
 
+    def replan_after_first_round(self) -> None:
+        """Master: its table is its own plan (its organize, Table 2's blind numbers; a succession's table from
+        its own knowledge): :meth:`replan_by_fixes` re-plans it once its ring has gone round."""
+        self._replan_due = True
+
     def replan_by_fixes(self) -> None:
         """Master, once its IR token ring has gone round after organizing (chosen, not in the papers):
         which member takes which slot, re-planned by what it measured. Step 3 numbers the members
@@ -375,10 +382,19 @@ class JoinManager:
         the members take the slots by the least total distance it estimates
         (:meth:`~.recovery.RecoveryManager.nearest_slots`, the same rule as a refill), and it
         broadcasts the member update with the new member table when that differs. From
-        ``protocol.replan_min_slaves`` slaves on (the default 1 + 4 keeps its numbering, frame for frame)."""
+        ``protocol.replan_min_slaves`` slaves on (the default 1 + 4 keeps its numbering, frame for frame).
+        Only after the master's own organize or a succession (:meth:`replan_after_first_round`): a robot
+        handed the master's role over restarts the ring too, but its table is its predecessor's, renumbered
+        already, re-rooted at it (Table 3) and re-planned from its place when the old master leaves (:meth:`~.recovery.RecoveryManager.removal_plan`); planned
+        again from where it stood beside its old slot, before it drove to its place, the rear members of a
+        large wedge crossed the formation (the master's IR fault, 1 + 8, seeds 1300-1319: re-formed 7 of
+        20; docs/faults.md)."""
         node = self.node
         know = node.know
         formation = node.formation
+        due, self._replan_due = self._replan_due, False
+        if not due:
+            return  # a master that took its role over (a handover, a succession) keeps the table it took
         if node.state != "master" or formation is None or know.total_members - 1 < node.cfg.protocol.replan_min_slaves:
             return
         recovery = node.recovery

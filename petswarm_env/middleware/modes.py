@@ -184,6 +184,7 @@ class ModeManager:
         self._acks: set[int] = set()
         self.handover_acked = False
         self.told_walk_rad: float | None = None  # the way the user walks, as the master that handed them over told it
+        self.handed_from: int | None = None  # the robot that handed its user over to this one (RecoveryManager._remove)
         node.on(msg.MODE_CHANGE, self._on_mode_change)
         node.on(msg.MODE_CHANGE_ACK, self._on_ack)
         node.on(msg.HANDOVER, self._on_handover)
@@ -284,5 +285,6 @@ class ModeManager:
             node.connected_user = frame.payload["user"]  # its wearables reconnect over BLE
             node.previous_driving_state = frame.payload["previous"]
             self.told_walk_rad = frame.payload.get("walk_rad")  # the old master's ψ, its body frame (None: not told)
+            self.handed_from = frame.src  # the robot that handed its user over (a member of its table still)
             node.pans = frozenset({node.swarm_pan})
             node.took_over.emit()

@@ -98,6 +98,7 @@ class RecoveryManager(Leaving):
         self._needed: set[int] = set()
         self._event = None
         self._lost: list[int] = []
+        self._leaving_master: int | None = None  # master: the robot that handed its user over to it, asking to leave (_remove)
         self.busy = False
         self.mirrored = False  # master: the last removal chose the mirror image of the standard table
         self.update_retries = 0  # master: member-update broadcasts repeated for a missing acknowledgement
@@ -216,12 +217,19 @@ class RecoveryManager(Leaving):
         lost = next((m for m, n in members.items() if n == node_id), None)
         if lost is None or lost == 0:
             return
+        # the robot that handed its user over to this master leaves for its fault (its bid request): the master
+        # will stand where that robot stood, on its user's line (the handover's table re-rooted it here, beside it)
+        held = node.formation.slot_positions() if node.formation is not None else None
+        shift = None
+        if node_id == self._leaving_master and held is not None and lost < len(held):
+            shift = (float(held[lost][0]), float(held[lost][1]))
+        self._leaving_master = None
         del members[lost]
         try:
             formation = formation_for_mode(node.cfg.swarm, len(members), know.mode, leading_user(node.cfg))
         except ValueError:  # a custom table fixes its size: the loss is detected, the tables stay
             return
-        members, formation, self.mirrored = self.removal_plan(members, formation)
+        members, formation, self.mirrored = self.removal_plan(members, formation, shift)
         self._commit(members, formation)
         self._forget(node_id)
         node.members_changed.emit("lost", [node_id])
@@ -230,15 +238,18 @@ class RecoveryManager(Leaving):
         node.clock.process(self._announce(members, formation))
         yield node.clock.timeout(0.0)
 
-    def removal_plan(self, members: dict[int, int], formation: Formation) -> tuple[dict[int, int], Formation, bool]:
+    def removal_plan(self, members: dict[int, int], formation: Formation,
+                     shift: tuple[float, float] | None = None) -> tuple[dict[int, int], Formation, bool]:
         """The remaining members (``members``, the lost one out) on ``formation`` (the standard table one
         smaller) or on its mirror image, whichever the least total move (:meth:`nearest_slots`) makes
         shorter (chosen: a wedge that lost a front slave on one arm is refilled from the other arm's rear
         otherwise, that robot crossing the formation through its neighbours; equal totals keep the
-        standard table). Returns (member number -> node id, the formation, whether it is the mirror)."""
+        standard table). ``shift``: where the master will stand, in its frame (the slots are laid out about
+        that place; None: where it stands). Returns (member number -> node id, the formation, whether it is
+        the mirror)."""
         mirror = formation.mirrored()
-        total, table = self._least_move(members, formation)
-        total_m, table_m = self._least_move(members, mirror)
+        total, table = self._least_move(members, formation, shift)
+        total_m, table_m = self._least_move(members, mirror, shift)
         if total_m < total - 1e-9:
             return table_m, mirror, True
         return table, formation, False
@@ -289,9 +300,10 @@ class RecoveryManager(Leaving):
             self.reassign(table, formation)
             node.members_changed.emit("renumbered", [])  # the swarm's tables (and the experimenter's references) follow
 
-    def _least_move(self, members: dict[int, int], formation: Formation) -> tuple[float, dict[int, int]]:
+    def _least_move(self, members: dict[int, int], formation: Formation,
+                    shift: tuple[float, float] | None = None) -> tuple[float, dict[int, int]]:
         """:meth:`nearest_slots` and the total distance of its assignment (m, as the master estimates it)."""
-        held, cost = self._move_costs(members, formation)
+        held, cost = self._move_costs(members, formation, shift)
         slaves = [n for m, n in sorted(members.items()) if m != 0]
         # among equal totals, the one with the shortest longest moves (each distance d counts d + TIE_SQUARE·d²):
         # on a line — a column, or any robots all beyond their slots — every assignment moves the same total, and
@@ -302,15 +314,19 @@ class RecoveryManager(Leaving):
             out[order[i] + 1] = n
         return sum(cost[i][order[i]] for i in range(len(slaves))), dict(sorted(out.items()))
 
-    def _move_costs(self, members: dict[int, int], formation: Formation) -> tuple[list[int], list[list[float]]]:
+    def _move_costs(self, members: dict[int, int], formation: Formation,
+                    shift: tuple[float, float] | None = None) -> tuple[list[int], list[list[float]]]:
         """The slaves of ``members`` in member order: the member number each holds, and the distance (m, as the
-        master estimates it, :meth:`nearest_slots`) from where each is to each of the slots 1..n of ``formation``."""
+        master estimates it, :meth:`nearest_slots`) from where each is to each of the slots 1..n of ``formation``
+        laid out about the master's place ``shift`` (None: where it stands)."""
         node = self.node
         know = node.know
         slaves = [n for m, n in sorted(members.items()) if m != 0]
         holds = {n: m for m, n in members.items()}
         held = node.formation.slot_positions().tolist() if node.formation is not None else []
         slots = formation.slot_positions().tolist()[1: len(slaves) + 1]
+        if shift is not None:
+            slots = [(sx + shift[0], sy + shift[1]) for sx, sy in slots]
         yaw = node.ahrs_yaw()
         now = node.clock.now
         ranges = node.ring.slot_range_m if hasattr(node, "ring") else {}
@@ -432,6 +448,9 @@ class RecoveryManager(Leaving):
         if diagnosis is not None and not frame.payload["sensors"] & assignment.SENSOR_BITS["IR"]:
             diagnosis.neighbour_ir_broken()  # the misses of our own IR checks so far are its module's doing
         if frame.src in node.know.members.values():
+            # the robot that handed its user over to this one asks to leave (after_handover): its removal
+            # plans the slots from its place, where this master drives (_remove)
+            self._leaving_master = frame.src if frame.src == node.modes.handed_from else None
             self.member_lost(frame.src)
 
     def _on_bid_request_ack(self, frame: Frame) -> None:

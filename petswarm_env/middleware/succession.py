@@ -470,6 +470,7 @@ class SuccessionManager:
         know.status = None
         node.formation = formation
         node.state = "master"
+        node.join.replan_after_first_round()  # its table is its own plan: re-planned by its IR fixes (join.py)
         node.connected_user = None  # the user's belt pairs with us by the wake-up procedure (user session)
         node.pans = frozenset({node.swarm_pan})
         self.elections.append((self._noticed_s, node.clock.now, lost, node.node_id))

@@ -470,3 +470,16 @@ def test_a_column_master_whose_only_near_neighbours_ir_breaks_keeps_its_own_modu
     assert r["robot"] == 1 and r["detection_s"] is not None and r["bid_request"]
     assert r["other_detections"] == [] and r["handovers"] == [], (r["other_detections"], r["handovers"])
     assert r["reformed"], f"largest live-slave error {r['largest_error_m']:.2f} m 10 s after the detection"
+
+
+@pytest.mark.parametrize("seed", [1300, 1302])
+def test_a_large_wedge_re_forms_after_its_masters_ir_fault_from_the_new_masters_place(seed):
+    """1 + 8, the master's IR broken at 20 s: the new master keeps the table it took (no re-plan after its
+    ring's first round, which planned from beside its old slot) and plans the old master's removal from
+    the old master's place, where it drives (before: a rear member crossed the wedge, fell 3 m behind
+    its slot and out of its reference's IR reach)."""
+    from petswarm.experiments.sensor_faults import run as measure
+
+    r = measure("ir", seed, target="master", overrides={"swarm.num_slaves": 8})
+    assert r["handovers"] and r["detection_s"] is not None and r["detection_s"] <= 3.0
+    assert r["reformed"], r["largest_error_m"]

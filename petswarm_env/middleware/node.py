@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING
 import cython
 import numpy as np
 
-from petswarm_env.comms.radio import Frame, RadioMedium
+from petswarm_env.comms.radio import RadioMedium
 from petswarm_env.config import Config
 from petswarm_env.middleware import messages as msg
 from petswarm_env.middleware.diagnosis import Diagnosis
@@ -37,9 +37,11 @@ from petswarm_env.sim.clock import Clock
 
 if cython.compiled:  # a station's typed attributes (station.pxd): its MCU clock by a C read; the master's status as a
     # typed record (knowledge.pxd)
+    from cython.cimports.petswarm_env.comms.radio import Frame  # a frame's fields as C reads (comms/radio.pxd)
     from cython.cimports.petswarm_env.middleware.knowledge import MasterStatus
     from cython.cimports.petswarm_env.middleware.station import Station as _Typed
 else:
+    from petswarm_env.comms.radio import Frame
     from petswarm_env.middleware.knowledge import MasterStatus
     _Typed = Station
 

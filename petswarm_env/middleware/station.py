@@ -34,7 +34,7 @@ from typing import TYPE_CHECKING, Any
 import cython
 import numpy as np
 
-from petswarm_env.comms.radio import BROADCAST, PAN_WAITING, Frame, RadioMedium
+from petswarm_env.comms.radio import BROADCAST, PAN_WAITING, RadioMedium
 from petswarm_env.config import Config
 from petswarm_env.middleware import messages as msg
 from petswarm_env.middleware.formation import Formation
@@ -42,9 +42,11 @@ from petswarm_env.sim.clock import Clock
 
 if cython.compiled:  # the MCU clock's C methods (sim/clock.pxd): a received frame is scheduled by a C call; what the
     # robot knows as typed records (middleware/knowledge.pxd)
+    from cython.cimports.petswarm_env.comms.radio import Frame  # a received frame's fields as C reads (comms/radio.pxd)
     from cython.cimports.petswarm_env.middleware.knowledge import IRMeasurement, Knowledge
     from cython.cimports.petswarm_env.sim.clock import Due, LocalClock
 else:
+    from petswarm_env.comms.radio import Frame
     from petswarm_env.middleware.knowledge import IRMeasurement, Knowledge
     from petswarm_env.sim.clock import Due, LocalClock
 from petswarm_env.sim.draws import Draws
@@ -210,7 +212,8 @@ class Station:
     def _handle_frame(self, handler, frame) -> cython.void:
         """:meth:`_handle` (a C call from the frame's handling, :class:`_Handling`, while no subclass
         or test replaced ``_handle``)."""
-        pan = frame.pan
+        f: Frame = frame
+        pan = f.pan
         if pan not in self.pans:  # the PAN changed while the frame was being processed
             return
         if pan != PAN_WAITING and pan != self.swarm_pan:

@@ -63,16 +63,17 @@ from typing import NamedTuple
 
 import cython
 
-from petswarm_env.comms.radio import Frame
 from petswarm_env.config import Config
 from petswarm_env.middleware import messages as msg
 from petswarm_env.sim.geometry import wrap_angle
 
 if cython.compiled:  # a station's typed attributes (middleware/station.pxd), the MCU clock's C methods (sim/clock.pxd), what a robot knows (middleware/knowledge.pxd)
+    from cython.cimports.petswarm_env.comms.radio import Frame  # a ring frame's fields as C reads (comms/radio.pxd)
     from cython.cimports.petswarm_env.middleware.knowledge import HeadingEstimate, IRMeasurement, Knowledge
     from cython.cimports.petswarm_env.middleware.station import Station
     from cython.cimports.petswarm_env.sim.clock import LocalClock
 else:
+    from petswarm_env.comms.radio import Frame
     from petswarm_env.middleware.knowledge import HeadingEstimate, IRMeasurement, Knowledge
     from petswarm_env.middleware.station import Station
     from petswarm_env.sim.clock import LocalClock

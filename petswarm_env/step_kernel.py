@@ -25,12 +25,14 @@ from cython.cimports.libc.math import isfinite as _c_isfinite
 from petswarm_env.sim.body import read_poses
 
 if cython.compiled:  # a station's typed attributes (middleware/station.pxd), the MCU clock's C methods (sim/clock.pxd),
-    # what a robot knows (middleware/knowledge.pxd)
+    # what a robot knows (middleware/knowledge.pxd), a slave's master check (middleware/sequence.pxd)
     from cython.cimports.petswarm_env.middleware.knowledge import IRMeasurement, Knowledge, MasterStatus
+    from cython.cimports.petswarm_env.middleware.sequence import SequenceManager
     from cython.cimports.petswarm_env.middleware.station import Station
     from cython.cimports.petswarm_env.sim.clock import LocalClock
 else:
     from petswarm_env.middleware.knowledge import IRMeasurement, Knowledge, MasterStatus
+    from petswarm_env.middleware.sequence import SequenceManager
     from petswarm_env.middleware.station import Station
     from petswarm_env.sim.clock import LocalClock
 
@@ -159,12 +161,14 @@ def command_slaves(robot_ids: list, acts, scale, masters: set, nodes: dict, robo
     omega: cython.float
     k: cython.Py_ssize_t
     node: Station
+    seq: SequenceManager
     for k in range(len(robot_ids)):
         idx = robot_ids[k]
         if idx in masters:
             continue
         node = nodes[idx]
-        if node.seq.master_lost(node._mcu.local_now()):  # on its own clock (``node.clock.now``)
+        seq = node.seq
+        if seq.master_lost(node._mcu.local_now()):  # on its own clock (``node.clock.now``)
             robots[idx].set_command(0.0, 0.0, 0.0)
             continue
         know: Knowledge = node.know

@@ -71,7 +71,7 @@ class Node(Station):
         # a master that handed its user over is a slave: a part it found broken may leave it unable to hold its slot
         self.handed_over.connect(lambda _new_master: self.recovery.after_handover(frozenset(self.diagnosis.failed)))
         # the sensors hand their readings to the MCU, which stamps them with its own clock
-        stamp = OwnClock(self.clock, self.diagnosis.on_ring, self.diagnosis.on_ahrs)
+        stamp = OwnClock(self.clock, self.diagnosis)
         robot.on_ring = stamp.ring
         robot.ahrs.on_reading = stamp.ahrs
         self.succession = SuccessionManager(self, self.seq.leave_swarm)

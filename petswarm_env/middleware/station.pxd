@@ -4,14 +4,14 @@
 
 cimport cython
 
+from petswarm_env.middleware.diagnosis cimport Diagnosis
 from petswarm_env.sim.clock cimport LocalClock
 
 
 @cython.final
 cdef class OwnClock:
     cdef LocalClock _clock  # the MCU's clock (its ``local`` a C call)
-    cdef object _on_ring
-    cdef object _on_ahrs
+    cdef Diagnosis _diagnosis  # the robot's self-diagnosis (its ``on_ring`` and ``on_ahrs`` C calls)
 
 
 cdef class Station:

@@ -43,10 +43,12 @@ from petswarm_env.sim.clock import Clock
 if cython.compiled:  # the MCU clock's C methods (sim/clock.pxd): a received frame is scheduled by a C call; what the
     # robot knows as typed records (middleware/knowledge.pxd)
     from cython.cimports.petswarm_env.comms.radio import Frame  # a received frame's fields as C reads (comms/radio.pxd)
+    from cython.cimports.petswarm_env.middleware.diagnosis import Diagnosis  # its listeners as C calls (diagnosis.pxd)
     from cython.cimports.petswarm_env.middleware.knowledge import IRMeasurement, Knowledge
     from cython.cimports.petswarm_env.sim.clock import Due, LocalClock
 else:
     from petswarm_env.comms.radio import Frame
+    from petswarm_env.middleware.diagnosis import Diagnosis
     from petswarm_env.middleware.knowledge import IRMeasurement, Knowledge
     from petswarm_env.sim.clock import Due, LocalClock
 from petswarm_env.sim.draws import Draws
@@ -76,22 +78,21 @@ class OwnClock:
     """The robot's sensors hand their readings to its software (its self-diagnosis), which stamps
     them with its MCU's own clock (seed 000 §3.3: independent clocks): :meth:`ring` and :meth:`ahrs`
     are the ultrasonic ring's and the AHRS's listeners, called for every reading with the true time,
-    and call ``on_ring`` / ``on_ahrs`` with the MCU's reading of it (``clock.local``)."""
+    and call the diagnosis's ``on_ring`` / ``on_ahrs`` with the MCU's reading of it (``clock.local``)."""
 
-    # its typed attributes (``_clock``, ``_on_ring``, ``_on_ahrs``) are declared in ``station.pxd``
+    # its typed attributes (``_clock``, ``_diagnosis``) are declared in ``station.pxd``
 
-    def __init__(self, clock: LocalClock, on_ring: Callable[..., None], on_ahrs: Callable[..., None]):
+    def __init__(self, clock: LocalClock, diagnosis: Diagnosis):
         self._clock = clock
-        self._on_ring = on_ring
-        self._on_ahrs = on_ahrs
+        self._diagnosis = diagnosis
 
     def ring(self, ranges, present, now_s, rang=True) -> None:
         """``robot.on_ring(ranges, present, now_s, rang)``: the ring's reading and self-test."""
-        self._on_ring(ranges, present, self._clock.local(now_s), rang)
+        self._diagnosis.on_ring(ranges, present, self._clock.local(now_s), rang)
 
     def ahrs(self, now_s, yaw) -> None:
         """``ahrs.on_reading(now_s, yaw)``: one AHRS reading."""
-        self._on_ahrs(self._clock.local(now_s), yaw)
+        self._diagnosis.on_ahrs(self._clock.local(now_s), yaw)
 
 
 @cython.final

@@ -51,9 +51,11 @@ from petswarm_env.sim.draws import Draws
 if cython.compiled:  # the clock's C methods (sim/clock.pxd): the medium schedules by a C call; a body's position as a C read (sim/body.pxd)
     from cython.cimports.petswarm_env.sim.body import Body, _cp_get_position, cpVect
     from cython.cimports.petswarm_env.sim.clock import Clock, Due
+    from cython.cimports.petswarm_env.sim.draws import Stream  # a draw by a C call (sim/draws.pxd)
 else:
     from petswarm_env.sim.body import Body
     from petswarm_env.sim.clock import Clock, Due
+    from petswarm_env.sim.draws import Stream
 
 COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
 
@@ -254,9 +256,9 @@ class RadioMedium:
     drop_filter = cython.declare(object, visibility="public")  # fault injection (tests)
     trace = cython.declare(object, visibility="public")  # the experimenter's trace hook (module docstring)
     _clock = cython.declare(Clock)  # the same clock, typed
-    _mac_uniform = cython.declare(object)
-    _rx_uniform = cython.declare(object)
-    _rx_normal = cython.declare(object)
+    _mac_uniform = cython.declare(Stream)
+    _rx_uniform = cython.declare(Stream)
+    _rx_normal = cython.declare(Stream)
     _ports = cython.declare(dict)  # node id -> _Port
     _port_list = cython.declare(list)  # the _Ports in the order they attached (= stations' order)
     _air = cython.declare(list)  # transmissions that may still overlap something
@@ -356,7 +358,7 @@ class RadioMedium:
     @cython.cfunc
     def _backoff(self, be: cython.int) -> cython.double:
         """Random backoff of 0 … 2^BE − 1 unit periods."""
-        u: cython.double = self._mac_uniform()
+        u: cython.double = self._mac_uniform.next()
         return cython.cast(cython.long, u * (1 << be)) * self._backoff_slot_s
 
     @cython.cfunc
@@ -473,7 +475,7 @@ class RadioMedium:
                     trace.reception(now, frame, node_id, COLLIDED, math.nan)
                 continue
             if loss > 0:
-                u = self._rx_uniform()
+                u = self._rx_uniform.next()
                 if u < loss:
                     stats.frames_lost += 1
                     if trace is not None:
@@ -484,7 +486,7 @@ class RadioMedium:
             if d < 0.1:  # max(d, 0.1)
                 d = 0.1
             if shadow_k > 0:
-                z = self._rx_normal()
+                z = self._rx_normal.next()
                 est = d * 10.0 ** (shadow_k * z)
             else:
                 est = d

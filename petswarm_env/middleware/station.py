@@ -195,7 +195,7 @@ class Station:
         handler = self.handlers.get(frame.kind)
         if handler is None or not self.health.radio_ok:
             return
-        u: cython.double = self._uniform()  # processing_delay(), inlined: called for every reception
+        u: cython.double = self._uniform.next()  # processing_delay(), inlined: called for every reception
         handling: _Handling = _Handling.__new__(_Handling)
         handling.station, handling.handler, handling.frame = self, handler, frame
         self._mcu.call_due(self._processing_s + self._jitter_s * u, handling)
@@ -203,7 +203,7 @@ class Station:
     def processing_delay(self) -> float:
         """MCU time to handle a received frame before it can answer (``processing_s`` plus a
         uniform jitter of up to ``processing_jitter_s``)."""
-        u: cython.double = self._uniform()
+        u: cython.double = self._uniform.next()
         return self._processing_s + self._jitter_s * u
 
     def _handle(self, handler: Callable[[Frame], None], frame: Frame) -> None:

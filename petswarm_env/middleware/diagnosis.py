@@ -54,7 +54,11 @@ from collections.abc import Callable
 import cython
 import numpy as np
 
-from petswarm_env.sim.geometry import wrap_angle
+if cython.compiled:  # the angle wrap of one float as a C call (sim/geometry.pxd)
+    from cython.cimports.petswarm_env.sim.geometry import wrap_float
+else:
+    from petswarm_env.sim.geometry import wrap_float
+
 
 COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
 
@@ -173,7 +177,7 @@ class Diagnosis:
             hist.popleft()
         if not self._ahrs_off and hist and now_s - hist[0][0] >= 0.5 * AHRS_WINDOW_S:
             turned = self._turned - hist[0][2]
-            seen = abs(wrap_angle(yaw - hist[0][1]))
+            seen = abs(wrap_float(yaw - hist[0][1]))
             if abs(turned) > AHRS_TURN_RAD and seen < AHRS_STILL_RAD:
                 self._detect("ahrs", now_s)
 

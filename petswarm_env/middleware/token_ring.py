@@ -65,7 +65,11 @@ import cython
 
 from petswarm_env.config import Config
 from petswarm_env.middleware import messages as msg
-from petswarm_env.sim.geometry import wrap_angle
+
+if cython.compiled:  # the angle wrap of one float as a C call (sim/geometry.pxd)
+    from cython.cimports.petswarm_env.sim.geometry import wrap_float
+else:
+    from petswarm_env.sim.geometry import wrap_float
 
 if cython.compiled:  # a station's typed attributes (middleware/station.pxd), the MCU clock's C methods (sim/clock.pxd), what a robot knows (middleware/knowledge.pxd)
     from cython.cimports.petswarm_env.comms.radio import Frame  # a ring frame's fields as C reads (comms/radio.pxd)
@@ -114,7 +118,7 @@ def ring_plan(cfg: Config, total_members: int) -> RingPlan:
 
 def relative_heading(bearing_self_sees_other: float, bearing_other_sees_self: float) -> float:
     """θ_other − θ_self from the two mutual IR bearings (seed 000 §3.5; SPEC §3.4)."""
-    return wrap_angle(bearing_self_sees_other - bearing_other_sees_self + math.pi)
+    return wrap_float(bearing_self_sees_other - bearing_other_sees_self + math.pi)
 
 
 @cython.final

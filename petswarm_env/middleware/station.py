@@ -43,12 +43,14 @@ from petswarm_env.sim.clock import Clock
 if cython.compiled:  # the MCU clock's C methods (sim/clock.pxd): a received frame is scheduled by a C call; what the
     # robot knows as typed records (middleware/knowledge.pxd)
     from cython.cimports.petswarm_env.comms.radio import Frame  # a received frame's fields as C reads (comms/radio.pxd)
+    from cython.cimports.petswarm_env.comms.radio import RadioMedium as _Medium  # a frame sent by a C call
     from cython.cimports.petswarm_env.middleware.diagnosis import Diagnosis  # its listeners as C calls (diagnosis.pxd)
     from cython.cimports.petswarm_env.middleware.knowledge import IRMeasurement, Knowledge
     from cython.cimports.petswarm_env.sim.clock import Due, LocalClock
 else:
     from petswarm_env.comms.radio import Frame
     from petswarm_env.middleware.diagnosis import Diagnosis
+    _Medium = RadioMedium
     from petswarm_env.middleware.knowledge import IRMeasurement, Knowledge
     from petswarm_env.sim.clock import Due, LocalClock
 from petswarm_env.sim.draws import Draws
@@ -188,7 +190,8 @@ class Station:
         size = _FIXED_BYTES.get(kind)  # a frame without a list or table: its kind's size
         if size is None:
             size = msg.payload_bytes(kind, payload)
-        self.radio.transmit(kind, self.node_id, dst, pan, payload, size)  # radio.send(self, Frame(...))
+        radio: _Medium = self.radio
+        radio.transmit(kind, self.node_id, dst, pan, payload, size)  # radio.send(self, Frame(...))
 
     def receive(self, frame: Frame) -> None:
         """Called by the medium for every frame its MAC accepted; handled after MCU processing."""

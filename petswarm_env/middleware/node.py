@@ -38,11 +38,11 @@ from petswarm_env.sim.clock import Clock
 if cython.compiled:  # a station's typed attributes (station.pxd): its MCU clock by a C read; the master's status as a
     # typed record (knowledge.pxd)
     from cython.cimports.petswarm_env.comms.radio import Frame  # a frame's fields as C reads (comms/radio.pxd)
-    from cython.cimports.petswarm_env.middleware.knowledge import MasterStatus
+    from cython.cimports.petswarm_env.middleware.knowledge import Knowledge, new_status
     from cython.cimports.petswarm_env.middleware.station import Station as _Typed
 else:
     from petswarm_env.comms.radio import Frame
-    from petswarm_env.middleware.knowledge import MasterStatus
+    from petswarm_env.middleware.knowledge import Knowledge, new_status
     _Typed = Station
 
 if TYPE_CHECKING:
@@ -88,5 +88,6 @@ class Node(Station):
         """The master's periodic broadcast (seed 000 §3.5, Fig. 9): keep the latest."""
         p = frame.payload
         station: _Typed = self
-        self.know.status = MasterStatus(p["velocity"], p["activity"], p["mode"], p["turn_rate"], p["user"],
-                                        station._mcu.local_now(), p["rotating"])  # on its own clock (``clock.now``)
+        know: Knowledge = station.know
+        know.status = new_status(p["velocity"], p["activity"], p["mode"], p["turn_rate"], p["user"],
+                                 station._mcu.local_now(), p["rotating"])  # on its own clock (``clock.now``)

@@ -26,6 +26,7 @@ from pathlib import Path
 # the modules compiled to C, in the order they are built
 COMPILED: tuple[str, ...] = (
     "petswarm_env.sim.clock",
+    "petswarm_env.sim.draws",
     "petswarm_env.comms.radio",
     "petswarm_env.middleware.knowledge",
     "petswarm_env.middleware.station",

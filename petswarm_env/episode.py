@@ -396,20 +396,20 @@ class Episode:
         when their master broadcasts an emergency."""
         world = self.world
         robots, arbiters, nodes = world.robots, self.arbiters, self.fleet.nodes
-        ranges = self.sensors.ranges
+        rows = self.sensors.range_rows()  # every robot's last ring as Python floats
         # each master from its user session; a master that is off (a fault): motors off
-        masters = step_kernel.command_masters(self.sessions, self.sensors, ranges, arbiters, robots)
+        masters = step_kernel.command_masters(self.sessions, self.sensors, rows, arbiters, robots)
         if acts is None:
             return
         # a robot leaving its slot for its own fault drives out of the way
-        step_kernel.command_leaving(nodes, masters, robots, arbiters, ranges, world.now)
+        step_kernel.command_leaving(nodes, masters, robots, arbiters, rows, world.now)
         if self.left:  # a robot recruited again after it left the agents has no driver (module docstring): held still
             for idx in self.slave_ids:
                 if f"robot_{idx}" in self.left and idx not in masters:
                     robots[idx].set_command(0.0, 0.0, 0.0)
         # the agents' actions times the action scale (float32 products), through their arbiters;
         # a slave whose master is lost (on its own clock) or in emergency stops
-        step_kernel.command_slaves(self._ids, acts, self._scale, masters, nodes, robots, arbiters, ranges)
+        step_kernel.command_slaves(self._ids, acts, self._scale, masters, nodes, robots, arbiters, rows)
 
     def _start_walks(self, errors_m: dict[str, float]) -> None:
         """Start the script of each user who has stood long enough (chosen): once their swarm is

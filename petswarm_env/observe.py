@@ -536,7 +536,7 @@ class Observer:
         ovx: cython.double
         ovy: cython.double
         ow: cython.double
-        ranges = sensors.ranges.tolist()  # every robot's ring as Python floats, in one conversion
+        ranges = sensors.range_rows()  # every robot's ring as Python floats, converted once per reading
         flags = sensors.flags  # every robot's ring flags (the middle layer's presence and location-known)
         cache: dict = self._formation_cache
         v: cython.double[::1] = layout._scratch  # the builder's float64 values, one agent at a time

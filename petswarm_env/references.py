@@ -26,7 +26,11 @@ import numpy as np
 from cython.cimports.libc.math import cos as _c_cos
 from cython.cimports.libc.math import sin as _c_sin
 
-from petswarm_env.sim.geometry import wrap_angle
+if cython.compiled:  # the angle wrap of one float as a C call (sim/geometry.pxd)
+    from cython.cimports.petswarm_env.sim.geometry import wrap_float
+else:
+    from petswarm_env.sim.geometry import wrap_float
+
 
 COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
 
@@ -148,7 +152,7 @@ class ReferenceTable:
             self._point(e, xy, th)
             px, py = xy[idx]
             errs.append(_hypot(px - self._px, py - self._py))
-            heads.append(wrap_angle(th[idx] - self._pt))
+            heads.append(wrap_float(th[idx] - self._pt))
             has.append(True)
         return errs, heads, has
 

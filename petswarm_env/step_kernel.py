@@ -25,12 +25,14 @@ from cython.cimports.libc.math import isfinite as _c_isfinite
 from petswarm_env.sim.body import read_poses
 
 if cython.compiled:  # a station's typed attributes (middleware/station.pxd), the MCU clock's C methods (sim/clock.pxd),
-    # what a robot knows (middleware/knowledge.pxd)
+    # what a robot knows (middleware/knowledge.pxd), a slave's master check (middleware/sequence.pxd)
     from cython.cimports.petswarm_env.middleware.knowledge import IRMeasurement, Knowledge, MasterStatus
+    from cython.cimports.petswarm_env.middleware.sequence import SequenceManager
     from cython.cimports.petswarm_env.middleware.station import Station
     from cython.cimports.petswarm_env.sim.clock import LocalClock
 else:
     from petswarm_env.middleware.knowledge import IRMeasurement, Knowledge, MasterStatus
+    from petswarm_env.middleware.sequence import SequenceManager
     from petswarm_env.middleware.station import Station
     from petswarm_env.sim.clock import LocalClock
 
@@ -117,16 +119,17 @@ def _stack_cast(actions: dict, agents: list):
     return arr
 
 
-def command_masters(sessions: list, sensors, ranges, arbiters: dict, robots: list) -> set:
+def command_masters(sessions: list, sensors, rows: list, arbiters: dict, robots: list) -> set:
     """Each user's master commanded from its user session (its odometry and ring in, the session's
     policy command, the user's command and the emergency stop out) through its arbiter (seed
-    001); a master that is off (a fault) has its motors off. Returns the masters' robot indices."""
+    001); a master that is off (a fault) has its motors off. ``rows``: every robot's ring as Python floats
+    (``Sensors.range_rows``). Returns the masters' robot indices."""
     masters = set()
     for session in sessions:
         idx = session.swarm.master.node_id
         masters.add(idx)
-        policy, user_cmd, stop = session.step(sensors.odometry(idx), ranges[idx])
-        cmd = arbiters[idx].decide(policy, user_cmd, ranges[idx], stop)[0]
+        policy, user_cmd, stop = session.step(sensors.odometry(idx), rows[idx])
+        cmd = arbiters[idx].decide(policy, user_cmd, rows[idx], stop)[0]
         robot = robots[idx]
         if robot.health.powered:
             robot.set_command(cmd[0], cmd[1], cmd[2])
@@ -143,11 +146,12 @@ def all_walking(sessions: list) -> bool:
     return True
 
 
-def command_slaves(robot_ids: list, acts, scale, masters: set, nodes: dict, robots: list, arbiters: dict, ranges) -> None:
+def command_slaves(robot_ids: list, acts, scale, masters: set, nodes: dict, robots: list, arbiters: dict, rows: list) -> None:
     """Each agent's command (``robot_ids[k]``'s action ``acts[k]``, float32, scaled by ``scale``:
     action 1 -> Vx, Vy, ω) through its arbiter to its motors; a robot that drives a user
     (``masters``) is skipped; a slave whose master is lost (on its own clock: no status broadcast for
-    ``protocol.status_timeout_s``) stops, waiting; the master's emergency broadcast stops it."""
+    ``protocol.status_timeout_s``) stops, waiting; the master's emergency broadcast stops it. ``rows``: every
+    robot's ring as Python floats (``Sensors.range_rows``)."""
     a: cython.float[:, :] = acts
     sx: cython.float = scale[0]
     sy: cython.float = scale[1]
@@ -157,13 +161,14 @@ def command_slaves(robot_ids: list, acts, scale, masters: set, nodes: dict, robo
     omega: cython.float
     k: cython.Py_ssize_t
     node: Station
-    rows: list = ranges.tolist()  # each robot's ring as Python floats (the values of ``ranges[idx]``)
+    seq: SequenceManager
     for k in range(len(robot_ids)):
         idx = robot_ids[k]
         if idx in masters:
             continue
         node = nodes[idx]
-        if node.seq.master_lost(node._mcu.local_now()):  # on its own clock (``node.clock.now``)
+        seq = node.seq
+        if seq.master_lost(node._mcu.local_now()):  # on its own clock (``node.clock.now``)
             robots[idx].set_command(0.0, 0.0, 0.0)
             continue
         know: Knowledge = node.know
@@ -174,7 +179,7 @@ def command_slaves(robot_ids: list, acts, scale, masters: set, nodes: dict, robo
         robots[idx].set_command(cmd[0], cmd[1], cmd[2])
 
 
-def command_leaving(nodes: dict, masters: set, robots: list, arbiters: dict, ranges, now_s: float) -> None:
+def command_leaving(nodes: dict, masters: set, robots: list, arbiters: dict, rows: list, now_s: float) -> None:
     """A robot leaving its slot for its own fault drives out of the way (the recovery's move out,
     middleware/recovery.py), through its arbiter; a master or a robot that is off is not driven."""
     for idx, node in nodes.items():
@@ -183,7 +188,7 @@ def command_leaving(nodes: dict, masters: set, robots: list, arbiters: dict, ran
             continue
         move = recovery.leaving_command(now_s)
         if move is not None and idx not in masters and robots[idx].health.powered:
-            cmd = arbiters[idx].decide(move, None, ranges[idx], False)[0]
+            cmd = arbiters[idx].decide(move, None, rows[idx], False)[0]
             robots[idx].set_command(cmd[0], cmd[1], cmd[2])
 
 

@@ -41,7 +41,11 @@ from cython.cimports.libc.math import pow as _c_pow
 from cython.cimports.libc.math import sqrt as _c_sqrt
 
 from petswarm_env.config import IRConfig
-from petswarm_env.sim import geometry
+
+if cython.compiled:  # the project's one angle wrap, of one float, as a C call (sim/geometry.pxd)
+    from cython.cimports.petswarm_env.sim.geometry import wrap_float
+else:
+    from petswarm_env.sim.geometry import wrap_float
 
 COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
 
@@ -50,7 +54,6 @@ _MIN_DISTANCE_M = 0.01
 
 _PI = cython.declare(cython.double, math.pi)
 _NAN = cython.declare(cython.double, math.nan)
-_wrap_angle = geometry.wrap_angle  # the project's one angle wrap (a module global: no module attribute per row)
 
 
 @cython.cfunc
@@ -295,7 +298,7 @@ def _estimates(o: Optics, strengths: cython.double[:, ::1], distance: cython.dou
         if ok:
             distance[row] = _c_sqrt(s1 / r)
             theta = _c_atan2(b, a) + i * delta
-            w: cython.double = -_wrap_angle(-theta)  # to (−π, π]: π − (π − θ) mod 2π, to the bit
+            w: cython.double = -wrap_float(-theta)  # to (−π, π]: π − (π − θ) mod 2π, to the bit
             bearing[row] = w + 2.0 * _PI if w <= -_PI else w
         else:
             distance[row] = _NAN

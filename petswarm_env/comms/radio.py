@@ -51,9 +51,11 @@ from petswarm_env.sim.draws import Draws
 if cython.compiled:  # the clock's C methods (sim/clock.pxd): the medium schedules by a C call; a body's position as a C read (sim/body.pxd)
     from cython.cimports.petswarm_env.sim.body import Body, _cp_get_position, cpVect
     from cython.cimports.petswarm_env.sim.clock import Clock, Due
+    from cython.cimports.petswarm_env.sim.draws import Stream  # a draw by a C call (sim/draws.pxd)
 else:
     from petswarm_env.sim.body import Body
     from petswarm_env.sim.clock import Clock, Due
+    from petswarm_env.sim.draws import Stream
 
 COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
 
@@ -111,12 +113,7 @@ class Station(Protocol):
 class RadioStats:
     """The medium's counters (typed: the medium adds to them for every frame and reception)."""
 
-    frames_sent = cython.declare(cython.long, visibility="public")
-    frames_dropped_busy = cython.declare(cython.long, visibility="public")  # CSMA gave up
-    receptions = cython.declare(cython.long, visibility="public")
-    frames_lost = cython.declare(cython.long, visibility="public")  # random loss at a receiver
-    frames_collided = cython.declare(cython.long, visibility="public")  # receptions destroyed by overlap
-    foreign_pan_dropped = cython.declare(cython.long, visibility="public")  # filtered by the MAC
+    # its typed attributes are declared in ``radio.pxd``
 
     def __init__(self, frames_sent: int = 0, frames_dropped_busy: int = 0, receptions: int = 0, frames_lost: int = 0,
                  frames_collided: int = 0, foreign_pan_dropped: int = 0):
@@ -164,13 +161,7 @@ class _Tx(Due):
     """One transmission: its frame, its time on the air, the sender's antenna position; on the
     clock, its delivery when it has left the air (:meth:`RadioMedium._deliver`, ``run``)."""
 
-    frame = cython.declare(Frame)
-    start = cython.declare(cython.double)
-    end = cython.declare(cython.double)
-    x = cython.declare(cython.double)
-    y = cython.declare(cython.double)
-    medium = cython.declare(object)  # the RadioMedium that carries it
-    sender = cython.declare(object)  # the sender's _Port
+    # its typed attributes are declared in ``radio.pxd``
 
     def __init__(self, frame: Frame, start: cython.double, end: cython.double, x: cython.double, y: cython.double):
         self.frame, self.start, self.end, self.x, self.y = frame, start, end, x, y
@@ -188,11 +179,7 @@ class _Cca(Due):
     """A frame's clear-channel assessment after its backoff, on the clock (``run``:
     :meth:`RadioMedium._cca`); a busy channel schedules the same object again with its counts raised."""
 
-    medium = cython.declare(object)  # the RadioMedium
-    port = cython.declare(object)  # the sender's _Port
-    frame = cython.declare(Frame)
-    nb = cython.declare(cython.int)  # busy assessments so far
-    be = cython.declare(cython.int)  # the backoff exponent
+    # its typed attributes are declared in ``radio.pxd``
 
     @cython.cfunc
     def run(self) -> cython.void:
@@ -214,11 +201,7 @@ class _Port:
     """An attached station as the medium reads it: its id, its station, its antenna's position reader
     (``station.position``, read for every frame it sends or hears), its MAC's queue of frames."""
 
-    node_id = cython.declare(cython.long)
-    station = cython.declare(object)
-    position = cython.declare(object)
-    body = cython.declare(Body)  # the body whose own reader ``position`` is (read from Chipmunk by a C call), else None
-    queue = cython.declare(list)
+    # its typed attributes are declared in ``radio.pxd``
 
     def __init__(self, node_id: cython.long, station: object):
         self.node_id = node_id
@@ -246,31 +229,7 @@ class _Port:
 class RadioMedium:
     """One shared channel; stations attach, then send frames."""
 
-    clock = cython.declare(object, visibility="public")
-    cfg = cython.declare(object, visibility="public")
-    rng = cython.declare(object, visibility="public")
-    stations = cython.declare(dict, visibility="public")
-    stats = cython.declare(RadioStats, visibility="public")
-    drop_filter = cython.declare(object, visibility="public")  # fault injection (tests)
-    trace = cython.declare(object, visibility="public")  # the experimenter's trace hook (module docstring)
-    _clock = cython.declare(Clock)  # the same clock, typed
-    _mac_uniform = cython.declare(object)
-    _rx_uniform = cython.declare(object)
-    _rx_normal = cython.declare(object)
-    _ports = cython.declare(dict)  # node id -> _Port
-    _port_list = cython.declare(list)  # the _Ports in the order they attached (= stations' order)
-    _air = cython.declare(list)  # transmissions that may still overlap something
-    _range2 = cython.declare(cython.double)
-    _shadow_k = cython.declare(cython.double)
-    _overhead_bytes = cython.declare(cython.double)
-    _bitrate_bps = cython.declare(cython.double)
-    _latency_s = cython.declare(cython.double)
-    _turnaround_s = cython.declare(cython.double)
-    _backoff_slot_s = cython.declare(cython.double)
-    _loss_prob = cython.declare(cython.double)
-    _min_be = cython.declare(cython.int)
-    _max_be = cython.declare(cython.int)
-    _max_backoffs = cython.declare(cython.int)
+    # its typed attributes are declared in ``radio.pxd``
 
     def __init__(self, clock: Clock, cfg: RadioConfig, rng: np.random.Generator):
         self.clock = clock
@@ -356,7 +315,7 @@ class RadioMedium:
     @cython.cfunc
     def _backoff(self, be: cython.int) -> cython.double:
         """Random backoff of 0 … 2^BE − 1 unit periods."""
-        u: cython.double = self._mac_uniform()
+        u: cython.double = self._mac_uniform.next()
         return cython.cast(cython.long, u * (1 << be)) * self._backoff_slot_s
 
     @cython.cfunc
@@ -473,7 +432,7 @@ class RadioMedium:
                     trace.reception(now, frame, node_id, COLLIDED, math.nan)
                 continue
             if loss > 0:
-                u = self._rx_uniform()
+                u = self._rx_uniform.next()
                 if u < loss:
                     stats.frames_lost += 1
                     if trace is not None:
@@ -484,7 +443,7 @@ class RadioMedium:
             if d < 0.1:  # max(d, 0.1)
                 d = 0.1
             if shadow_k > 0:
-                z = self._rx_normal()
+                z = self._rx_normal.next()
                 est = d * 10.0 ** (shadow_k * z)
             else:
                 est = d

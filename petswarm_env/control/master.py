@@ -46,7 +46,11 @@ from cython.cimports.libc.math import sin as _c_sin
 from cython.cimports.libc.math import sqrt as _c_sqrt
 
 from petswarm_env.config import MasterConfig
-from petswarm_env.sim.geometry import wrap_angle
+
+if cython.compiled:  # the angle wrap of one float as a C call (sim/geometry.pxd)
+    from cython.cimports.petswarm_env.sim.geometry import wrap_float
+else:
+    from petswarm_env.sim.geometry import wrap_float
 
 COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
 
@@ -282,7 +286,7 @@ class MasterController:
         guess (that the user faces the robot in leading, walks away from it in following). It steers at
         once (the leading robot closes its place on straight ahead); the LF track then pulls it at
         ``heading_blend_rps``."""
-        self._walk_dir, self._has_walk_dir, self._trusted = wrap_angle(walk_dir_rad), True, True
+        self._walk_dir, self._has_walk_dir, self._trusted = wrap_float(walk_dir_rad), True, True
 
     @cython.ccall
     def user_velocity(self, user_vel, belt: BeltView, own_omega: cython.double, mode: str,
@@ -301,7 +305,7 @@ class MasterController:
         vy: cython.double = user_vel[1]
         speed: cython.double = _hypot(vx, vy)
         if not self._has_walk_dir:
-            self._walk_dir = wrap_angle(bearing + _PI) if mode == "leading" else bearing
+            self._walk_dir = wrap_float(bearing + _PI) if mode == "leading" else bearing
             self._has_walk_dir = True
             self._trusted = belt.activity in ("stop", "rest") and not belt.rotating
         turn: cython.double = 0.0
@@ -309,7 +313,7 @@ class MasterController:
             turn = belt.accumulated_angle_rad - (self._belt_angle if self._was_rotating else 0.0)
             self._belt_angle = belt.accumulated_angle_rad
         self._was_rotating = belt.rotating
-        self._walk_dir = wrap_angle(self._walk_dir + turn - own_omega * dt)
+        self._walk_dir = wrap_float(self._walk_dir + turn - own_omega * dt)
         if belt.activity in ("stop", "rest"):
             c: cython.double = _c_cos(bearing)
             s: cython.double = _c_sin(bearing)
@@ -320,7 +324,7 @@ class MasterController:
         if speed > self._walk_speed and not belt.rotating:
             track: cython.double = _c_atan2(vy, vx)
             k: cython.double = min(1.0, self._blend * dt) if self._trusted else 1.0
-            self._walk_dir = wrap_angle(self._walk_dir + k * wrap_angle(track - self._walk_dir))
+            self._walk_dir = wrap_float(self._walk_dir + k * wrap_float(track - self._walk_dir))
             self._trusted = True
         return (speed * _c_cos(self._walk_dir), speed * _c_sin(self._walk_dir)), True
 
@@ -408,7 +412,7 @@ class MasterController:
         arc: cython.double = 0.0
         swing: cython.double = 0.0
         if leading:  # straight ahead of the user
-            off: cython.double = wrap_angle(bearing + _PI - psi)  # the robot's place about the user from straight ahead
+            off: cython.double = wrap_float(bearing + _PI - psi)  # the robot's place about the user from straight ahead
             sync = self._arc_in_place(belt, off, ux, uy, own_velocity, dt) if self._trusted else None
             if sync is not None:  # the user turns on the spot: the arc closes on the accumulated angle
                 arc = swing = sync
@@ -418,7 +422,7 @@ class MasterController:
                     arc = rate * max(0.0, _c_cos(off))  # the rate its formation can follow); one beside or behind is met by the turn
                 swing = arc - self._arc_gain * _c_sin(_beyond(off, band))  # and closes on straight ahead
         elif walking:  # following: drift in behind the walking user
-            swing = -self._trail * _c_sin(wrap_angle(bearing - psi))
+            swing = -self._trail * _c_sin(wrap_float(bearing - psi))
         vx += swing * uy  # the robot's place relative to the user, −user_pos, turns at ``swing``
         vy += -swing * ux
         if leading and not belt.rotating and abs(bearing) > self.half_angle:
@@ -427,7 +431,7 @@ class MasterController:
         w: cython.double
         if leading:  # drive backwards along the user's walk, the user kept inside the region
             lim: cython.double = self.half_angle - band
-            w = arc + self._rotate_gain * min(bearing + lim, max(bearing - lim, _beyond(wrap_angle(psi - _PI), band)))
+            w = arc + self._rotate_gain * min(bearing + lim, max(bearing - lim, _beyond(wrap_float(psi - _PI), band)))
         else:  # turn with the line of sight (from the odometry) and correct beyond the deadband
             ox: cython.double = own_velocity[0]
             oy: cython.double = own_velocity[1]

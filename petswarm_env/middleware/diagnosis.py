@@ -54,7 +54,11 @@ from collections.abc import Callable
 import cython
 import numpy as np
 
-from petswarm_env.sim.geometry import wrap_angle
+if cython.compiled:  # the angle wrap of one float as a C call (sim/geometry.pxd)
+    from cython.cimports.petswarm_env.sim.geometry import wrap_float
+else:
+    from petswarm_env.sim.geometry import wrap_float
+
 
 COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
 
@@ -88,42 +92,7 @@ class Diagnosis:
     (its periodic tick), :meth:`on_ahrs` with every AHRS reading. ``know`` and ``ring`` are the
     node's knowledge and token ring (the IR fixes it stored, the slots it heard announced)."""
 
-    node_id = cython.declare(object, visibility="public")
-    cfg = cython.declare(object, visibility="public")
-    robot = cython.declare(object, visibility="public")
-    ring = cython.declare(object, visibility="public")
-    failed = cython.declare(set, visibility="public")
-    detected = cython.declare(list, visibility="public")
-    on_detect = cython.declare(object, visibility="public")
-    _know_of = cython.declare(object)
-    _us_max = cython.declare(cython.double)
-    _us_angles = cython.declare(list)
-    _us_cos = cython.declare(list)
-    _us_sin = cython.declare(list)
-    _radius = cython.declare(cython.double)
-    _us_reach = cython.declare(cython.double)
-    _us_miss = cython.declare(cython.int)
-    _us_silent = cython.declare(cython.int)
-    _us_by_self_test = cython.declare(cython.bint)
-    _us_echo_margin = cython.declare(cython.double)
-    _slot_over_s = cython.declare(cython.double)
-    _ir_seen = cython.declare(dict)
-    _ir_miss = cython.declare(cython.int)
-    _ir_missed_from = cython.declare(set)
-    _ir_first_miss_s = cython.declare(cython.double)
-    _own_seen = cython.declare(cython.double)
-    _ir_off = cython.declare(cython.bint)  # "ir" in failed (kept with it by _detect, _clear, _reboot)
-    _us_off = cython.declare(cython.bint)  # "ultrasonic" in failed
-    _ahrs_off = cython.declare(cython.bint)  # "ahrs" in failed
-    _ahrs_noisy = cython.declare(cython.bint)
-    _yaw_read = cython.declare(cython.bint)  # a reading was taken (since power-on)
-    _yaw_last_s = cython.declare(cython.double)  # ... its time
-    _yaw_last = cython.declare(cython.double)  # ... its value
-    _yaw_same = cython.declare(cython.int)
-    _yaw_hist = cython.declare(object)  # deque of (time, AHRS yaw, commanded rotation since start); the noiseless AHRS's check
-    _turned = cython.declare(cython.double)
-    _ticked = cython.declare(cython.bint)  # a ring reading was taken (since power-on)
-    _tick_s = cython.declare(cython.double)  # ... its time
+    # its typed attributes are declared in ``diagnosis.pxd``
 
     def __init__(self, node_id, cfg, robot, know_of: Callable[[], object], ring) -> None:
         self.node_id = node_id
@@ -163,7 +132,8 @@ class Diagnosis:
         self._ticked, self._tick_s = False, 0.0
 
     # -- the checks ---------------------------------------------------------------------------------
-    def on_ring(self, ranges, present, now_s: cython.double, rang: cython.bint = True) -> None:
+    @cython.ccall
+    def on_ring(self, ranges, present, now_s: cython.double, rang: cython.bint = True):
         """The ultrasonic ring's reading (virtual-ring order, ``present``: which slots the body has),
         every control period, and its self-test (``rang``: the transducers rang down after their
         bursts): the ring and IR checks, and the commanded rotation's integral."""
@@ -177,7 +147,8 @@ class Diagnosis:
         self._check_ir(now_s)
         self._check_ring(ranges, present, now_s, rang)
 
-    def on_ahrs(self, now_s: cython.double, yaw: cython.double) -> None:
+    @cython.ccall
+    def on_ahrs(self, now_s: cython.double, yaw: cython.double):
         """Every AHRS reading the robot takes (its MCU's, the observation's); none while it is off (before,
         a dead robot's unchanging readings were found a frozen AHRS)."""
         if not self.robot.health.powered:
@@ -206,7 +177,7 @@ class Diagnosis:
             hist.popleft()
         if not self._ahrs_off and hist and now_s - hist[0][0] >= 0.5 * AHRS_WINDOW_S:
             turned = self._turned - hist[0][2]
-            seen = abs(wrap_angle(yaw - hist[0][1]))
+            seen = abs(wrap_float(yaw - hist[0][1]))
             if abs(turned) > AHRS_TURN_RAD and seen < AHRS_STILL_RAD:
                 self._detect("ahrs", now_s)
 

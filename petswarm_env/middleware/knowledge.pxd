@@ -22,6 +22,10 @@ cdef class MasterStatus:
     cdef public bint user_rotating
 
 
+cdef MasterStatus new_status(object velocity, object activity, object mode, double user_turn_rate_rps,
+                             object user_position_m, double time_s, bint user_rotating)
+
+
 cdef class Knowledge:
     cdef public long member, total_members
     cdef public object members, mode, ir, heading, lf_members, odometry_xy

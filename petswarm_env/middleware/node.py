@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING
 import cython
 import numpy as np
 
-from petswarm_env.comms.radio import Frame, RadioMedium
+from petswarm_env.comms.radio import RadioMedium
 from petswarm_env.config import Config
 from petswarm_env.middleware import messages as msg
 from petswarm_env.middleware.diagnosis import Diagnosis
@@ -37,10 +37,12 @@ from petswarm_env.sim.clock import Clock
 
 if cython.compiled:  # a station's typed attributes (station.pxd): its MCU clock by a C read; the master's status as a
     # typed record (knowledge.pxd)
-    from cython.cimports.petswarm_env.middleware.knowledge import MasterStatus
+    from cython.cimports.petswarm_env.comms.radio import Frame  # a frame's fields as C reads (comms/radio.pxd)
+    from cython.cimports.petswarm_env.middleware.knowledge import Knowledge, new_status
     from cython.cimports.petswarm_env.middleware.station import Station as _Typed
 else:
-    from petswarm_env.middleware.knowledge import MasterStatus
+    from petswarm_env.comms.radio import Frame
+    from petswarm_env.middleware.knowledge import Knowledge, new_status
     _Typed = Station
 
 if TYPE_CHECKING:
@@ -69,7 +71,7 @@ class Node(Station):
         # a master that handed its user over is a slave: a part it found broken may leave it unable to hold its slot
         self.handed_over.connect(lambda _new_master: self.recovery.after_handover(frozenset(self.diagnosis.failed)))
         # the sensors hand their readings to the MCU, which stamps them with its own clock
-        stamp = OwnClock(self.clock, self.diagnosis.on_ring, self.diagnosis.on_ahrs)
+        stamp = OwnClock(self.clock, self.diagnosis)
         robot.on_ring = stamp.ring
         robot.ahrs.on_reading = stamp.ahrs
         self.succession = SuccessionManager(self, self.seq.leave_swarm)
@@ -86,5 +88,6 @@ class Node(Station):
         """The master's periodic broadcast (seed 000 §3.5, Fig. 9): keep the latest."""
         p = frame.payload
         station: _Typed = self
-        self.know.status = MasterStatus(p["velocity"], p["activity"], p["mode"], p["turn_rate"], p["user"],
-                                        station._mcu.local_now(), p["rotating"])  # on its own clock (``clock.now``)
+        know: Knowledge = station.know
+        know.status = new_status(p["velocity"], p["activity"], p["mode"], p["turn_rate"], p["user"],
+                                 station._mcu.local_now(), p["rotating"])  # on its own clock (``clock.now``)

@@ -27,9 +27,14 @@ else:
 COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
 
 
+@cython.cclass
 class SequenceManager:
+    """One robot's sequence manager (module docstring). A typed class (``sequence.pxd``): its
+    attributes are declared there."""
+
     def __init__(self, node: Station):
         self.node = node
+        self._cfg = None  # the protocol's timeouts are read at the first check (:meth:`_timeouts`)
         node.on(msg.DISPERSE, self._on_disperse)
         node.on(msg.DISPERSE_ACK, self._on_disperse_ack)
         self._acks: set[int] = set()
@@ -49,7 +54,8 @@ class SequenceManager:
         node.formation = None
         node.know = Knowledge()
 
-    def master_lost(self, now_s: float) -> bool:
+    @cython.ccall
+    def master_lost(self, now_s: cython.double) -> cython.bint:
         """Whether this slave has no master now (the caller's emergency stop). A slave that heard
         no status broadcast of its master for ``protocol.status_timeout_s`` has lost it (docs/faults.md):
         it records the loss and starts choosing a new master among the slaves
@@ -64,22 +70,33 @@ class SequenceManager:
         if self.successor is not None and self.successor.electing:
             if not self.successor.master_heard_again():
                 return True
-        cfg = node.cfg.protocol
+        if node.cfg is not self._cfg:
+            self._timeouts()
         know: Knowledge = node.know
         status: MasterStatus = know.status
         last: cython.double = node.joined_s
         if status is not None and status.time_s >= last:
             last = status.time_s
         else:
-            last += cfg.organize_timeout_s
-        if now_s - last <= cfg.status_timeout_s:
+            last += self._organize_timeout_s
+        if now_s - last <= self._status_timeout_s:
             return False
-        self.master_lost_at.append((now_s, node.member_node(0), last + cfg.status_timeout_s))
+        self.master_lost_at.append((now_s, node.member_node(0), last + self._status_timeout_s))
         if self.successor is None:
             self.leave_swarm()
             return True
         self.successor.start(now_s)
         return True
+
+    @cython.cfunc
+    def _timeouts(self) -> cython.void:
+        """The protocol's organize and status timeouts, read from the station's config (read anew
+        when the station is given another config: a takeover adopts its master's)."""
+        node: _Typed = self.node
+        cfg = node.cfg
+        self._organize_timeout_s = cfg.protocol.organize_timeout_s
+        self._status_timeout_s = cfg.protocol.status_timeout_s
+        self._cfg = cfg
 
     def cut_off(self, now_s: float) -> bool:
         """A master that heard no ring frame of any of its members for ``protocol.status_timeout_s``

@@ -4,14 +4,15 @@
 
 cimport cython
 
+from petswarm_env.middleware.diagnosis cimport Diagnosis
 from petswarm_env.sim.clock cimport LocalClock
+from petswarm_env.sim.draws cimport Stream
 
 
 @cython.final
 cdef class OwnClock:
     cdef LocalClock _clock  # the MCU's clock (its ``local`` a C call)
-    cdef object _on_ring
-    cdef object _on_ahrs
+    cdef Diagnosis _diagnosis  # the robot's self-diagnosis (its ``on_ring`` and ``on_ahrs`` C calls)
 
 
 cdef class Station:
@@ -30,7 +31,7 @@ cdef class Station:
     cdef public object later
     cdef public object radio
     cdef LocalClock _mcu  # ``clock``, typed
-    cdef object _uniform
+    cdef Stream _uniform  # the MCU's jitter draws (a C call)
     cdef double _processing_s
     cdef double _jitter_s
 

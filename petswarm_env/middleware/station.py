@@ -34,7 +34,7 @@ from typing import TYPE_CHECKING, Any
 import cython
 import numpy as np
 
-from petswarm_env.comms.radio import BROADCAST, PAN_WAITING, Frame, RadioMedium
+from petswarm_env.comms.radio import BROADCAST, PAN_WAITING, RadioMedium
 from petswarm_env.config import Config
 from petswarm_env.middleware import messages as msg
 from petswarm_env.middleware.formation import Formation
@@ -42,9 +42,15 @@ from petswarm_env.sim.clock import Clock
 
 if cython.compiled:  # the MCU clock's C methods (sim/clock.pxd): a received frame is scheduled by a C call; what the
     # robot knows as typed records (middleware/knowledge.pxd)
+    from cython.cimports.petswarm_env.comms.radio import Frame  # a received frame's fields as C reads (comms/radio.pxd)
+    from cython.cimports.petswarm_env.comms.radio import RadioMedium as _Medium  # a frame sent by a C call
+    from cython.cimports.petswarm_env.middleware.diagnosis import Diagnosis  # its listeners as C calls (diagnosis.pxd)
     from cython.cimports.petswarm_env.middleware.knowledge import IRMeasurement, Knowledge
     from cython.cimports.petswarm_env.sim.clock import Due, LocalClock
 else:
+    from petswarm_env.comms.radio import Frame
+    from petswarm_env.middleware.diagnosis import Diagnosis
+    _Medium = RadioMedium
     from petswarm_env.middleware.knowledge import IRMeasurement, Knowledge
     from petswarm_env.sim.clock import Due, LocalClock
 from petswarm_env.sim.draws import Draws
@@ -74,22 +80,21 @@ class OwnClock:
     """The robot's sensors hand their readings to its software (its self-diagnosis), which stamps
     them with its MCU's own clock (seed 000 §3.3: independent clocks): :meth:`ring` and :meth:`ahrs`
     are the ultrasonic ring's and the AHRS's listeners, called for every reading with the true time,
-    and call ``on_ring`` / ``on_ahrs`` with the MCU's reading of it (``clock.local``)."""
+    and call the diagnosis's ``on_ring`` / ``on_ahrs`` with the MCU's reading of it (``clock.local``)."""
 
-    # its typed attributes (``_clock``, ``_on_ring``, ``_on_ahrs``) are declared in ``station.pxd``
+    # its typed attributes (``_clock``, ``_diagnosis``) are declared in ``station.pxd``
 
-    def __init__(self, clock: LocalClock, on_ring: Callable[..., None], on_ahrs: Callable[..., None]):
+    def __init__(self, clock: LocalClock, diagnosis: Diagnosis):
         self._clock = clock
-        self._on_ring = on_ring
-        self._on_ahrs = on_ahrs
+        self._diagnosis = diagnosis
 
     def ring(self, ranges, present, now_s, rang=True) -> None:
         """``robot.on_ring(ranges, present, now_s, rang)``: the ring's reading and self-test."""
-        self._on_ring(ranges, present, self._clock.local(now_s), rang)
+        self._diagnosis.on_ring(ranges, present, self._clock.local(now_s), rang)
 
     def ahrs(self, now_s, yaw) -> None:
         """``ahrs.on_reading(now_s, yaw)``: one AHRS reading."""
-        self._on_ahrs(self._clock.local(now_s), yaw)
+        self._diagnosis.on_ahrs(self._clock.local(now_s), yaw)
 
 
 @cython.final
@@ -185,14 +190,15 @@ class Station:
         size = _FIXED_BYTES.get(kind)  # a frame without a list or table: its kind's size
         if size is None:
             size = msg.payload_bytes(kind, payload)
-        self.radio.transmit(kind, self.node_id, dst, pan, payload, size)  # radio.send(self, Frame(...))
+        radio: _Medium = self.radio
+        radio.transmit(kind, self.node_id, dst, pan, payload, size)  # radio.send(self, Frame(...))
 
     def receive(self, frame: Frame) -> None:
         """Called by the medium for every frame its MAC accepted; handled after MCU processing."""
         handler = self.handlers.get(frame.kind)
         if handler is None or not self.health.radio_ok:
             return
-        u: cython.double = self._uniform()  # processing_delay(), inlined: called for every reception
+        u: cython.double = self._uniform.next()  # processing_delay(), inlined: called for every reception
         handling: _Handling = _Handling.__new__(_Handling)
         handling.station, handling.handler, handling.frame = self, handler, frame
         self._mcu.call_due(self._processing_s + self._jitter_s * u, handling)
@@ -200,7 +206,7 @@ class Station:
     def processing_delay(self) -> float:
         """MCU time to handle a received frame before it can answer (``processing_s`` plus a
         uniform jitter of up to ``processing_jitter_s``)."""
-        u: cython.double = self._uniform()
+        u: cython.double = self._uniform.next()
         return self._processing_s + self._jitter_s * u
 
     def _handle(self, handler: Callable[[Frame], None], frame: Frame) -> None:
@@ -210,7 +216,8 @@ class Station:
     def _handle_frame(self, handler, frame) -> cython.void:
         """:meth:`_handle` (a C call from the frame's handling, :class:`_Handling`, while no subclass
         or test replaced ``_handle``)."""
-        pan = frame.pan
+        f: Frame = frame
+        pan = f.pan
         if pan not in self.pans:  # the PAN changed while the frame was being processed
             return
         if pan != PAN_WAITING and pan != self.swarm_pan:

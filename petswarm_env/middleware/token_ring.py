@@ -12,15 +12,13 @@ Robots have independent clocks, so IR transmission is sequenced by a token:
 A lost token must not stall the ring (SPEC §3.3, chosen): the master watches the ring and, after
 ``token_timeout_s`` of silence, regenerates the token and transmits itself.
 
-A member that stops answering (chosen): the holder before it retries the token
-``token_retries`` times, then skips it, every round. The master counts, at the start of each of
-its own slots (one round of the ring), the members it heard no ring frame from since the start of
-its previous slot — their acknowledgements of its start sign and token (and those it overhears,
-addressed to other holders), their own start signs, tokens and sync messages; the ring's first
-slot counts nothing (no round has passed) (a live member sends several each round, so loss alone rarely silences
-one: at ``radio.loss_prob`` 0.3, five frames all lost is 0.2 %) — and declares a member *lost*
-after ``protocol.lost_after_rounds`` such rounds in a row: ``lost_handler(node_id)``, the
-recovery manager (:mod:`.recovery`), removes it from the tables.
+A member that stops answering (chosen): the holder before it retries the token ``token_retries`` times, then skips it, every
+round. The master counts, at the start of each of its own slots (one round of the ring), the members it heard no ring frame
+from since the start of its previous slot — their acknowledgements of its start sign and token (and those it overhears,
+addressed to other holders), their own start signs, tokens and sync messages; the ring's first slot counts nothing (no round
+has passed) (a live member sends several each round, so loss alone rarely silences one: at ``radio.loss_prob`` 0.3, five
+frames all lost is 0.2 %) — and declares a member *lost* after ``protocol.lost_after_rounds`` such rounds in a row:
+``lost_handler(node_id)``, the recovery manager (:mod:`.recovery`), removes it from the tables.
 
 A crowded ring (chosen; seed 000 gives the sequence of Fig. 7, not its timing for many robots): the
 answers to one ring frame all leave after one MCU processing delay, spread only by its jitter
@@ -63,19 +61,21 @@ from typing import NamedTuple
 
 import cython
 
-from petswarm_env.comms.radio import Frame
 from petswarm_env.config import Config
 from petswarm_env.middleware import messages as msg
-from petswarm_env.sim.geometry import wrap_angle
 
-if cython.compiled:  # a station's typed attributes (middleware/station.pxd), the MCU clock's C methods (sim/clock.pxd), what a robot knows (middleware/knowledge.pxd)
+if cython.compiled:  # C reads and calls: station.pxd, clock.pxd (the MCU's), knowledge.pxd, radio.pxd (frames), geometry.pxd
+    from cython.cimports.petswarm_env.comms.radio import Frame
     from cython.cimports.petswarm_env.middleware.knowledge import HeadingEstimate, IRMeasurement, Knowledge
     from cython.cimports.petswarm_env.middleware.station import Station
     from cython.cimports.petswarm_env.sim.clock import LocalClock
+    from cython.cimports.petswarm_env.sim.geometry import wrap_float
 else:
+    from petswarm_env.comms.radio import Frame
     from petswarm_env.middleware.knowledge import HeadingEstimate, IRMeasurement, Knowledge
     from petswarm_env.middleware.station import Station
     from petswarm_env.sim.clock import LocalClock
+    from petswarm_env.sim.geometry import wrap_float
 
 COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
 
@@ -113,7 +113,7 @@ def ring_plan(cfg: Config, total_members: int) -> RingPlan:
 
 def relative_heading(bearing_self_sees_other: float, bearing_other_sees_self: float) -> float:
     """θ_other − θ_self from the two mutual IR bearings (seed 000 §3.5; SPEC §3.4)."""
-    return wrap_angle(bearing_self_sees_other - bearing_other_sees_self + math.pi)
+    return wrap_float(bearing_self_sees_other - bearing_other_sees_self + math.pi)
 
 
 @cython.final

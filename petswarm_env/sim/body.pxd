@@ -3,6 +3,7 @@
 # module gives; body.py reads them only when compiled, the interpreter calls them through cffi).
 
 from petswarm_env.sim.battery cimport Battery
+from petswarm_env.sim.clock cimport Clock
 
 ctypedef struct cpVect:  # Chipmunk's cpVect (cpFloat is double in pymunk's build)
     double x
@@ -61,7 +62,10 @@ cdef class WalkingBody(Body):
 
 cdef class Substeps:
     cdef readonly object space
-    cdef object _run_until
+    cdef Clock _clock  # its run_until by a C call
+    # pymunk's containers that its Space.step reads around Chipmunk's step (made once by the space, changed in place)
+    cdef object _bodies_to_check, _removed_shapes, _add_later, _remove_later, _post_step_callbacks
+    cdef bint _threaded
     cdef readonly list robots
     cdef readonly list users
     cdef readonly double dt

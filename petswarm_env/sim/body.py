@@ -41,6 +41,11 @@ _set_angular_velocity = pymunk.cp.cpBodySetAngularVelocity
 _radians = math.radians
 _hypot = math.hypot  # Python's own (CPython's hypot is not the C library's): the interpreted form's, _py_hypot's oracle
 
+if cython.compiled:  # the clock's run_until by a C call (sim/clock.pxd)
+    from cython.cimports.petswarm_env.sim.clock import Clock
+else:
+    from petswarm_env.sim.clock import Clock
+
 if cython.compiled:  # Chipmunk's accessors by their C addresses (declared in body.pxd)
     def _address(name: str) -> int:
         return int(pymunk.ffi.cast("uintptr_t", pymunk.ffi.addressof(pymunk.cp, name)))
@@ -475,9 +480,14 @@ class Substeps:
     ``Space.step`` does around it (its lock while Chipmunk runs the collision callbacks, then what
     they deferred): the same physics, without the wrapper's per-call Python work."""
 
-    def __init__(self, space: pymunk.Space, run_until, robots: list, users: list, dt: float):
+    def __init__(self, space: pymunk.Space, clock: Clock, robots: list, users: list, dt: float):
         self.space = space
-        self._run_until = run_until
+        self._clock = clock
+        # what Space.step reads of the space besides Chipmunk's step: the space's own containers, made once in
+        # its __init__ and changed in place (pymunk 7's space.py), and its threading, fixed at its creation
+        self._bodies_to_check, self._removed_shapes = space._bodies_to_check, space._removed_shapes
+        self._add_later, self._remove_later = space._add_later, space._remove_later
+        self._post_step_callbacks, self._threaded = space._post_step_callbacks, space.threaded
         self.robots = robots
         self.users = users
         self.dt = dt
@@ -495,7 +505,7 @@ class Substeps:
         u: WalkingBody
         for k in range(n):
             self.done += 1
-            self._run_until(self.done * dt)
+            self._clock.run_until(self.done * dt)
             for r in self.robots:
                 r._apply(dt)
             for u in self.users:
@@ -507,17 +517,17 @@ class Substeps:
     def _step(self, dt: cython.double) -> cython.void:
         """One step of the space: pymunk's ``Space.step`` (see the class docstring)."""
         space = self.space
-        if not cython.compiled or space._bodies_to_check or space.threaded:
+        if not cython.compiled or self._bodies_to_check or self._threaded:
             space.step(dt)  # pymunk's own (it checks the bodies added since its last step)
             return
         space._locked = True
         try:
             _cp_space_step(cython.cast(cython.p_void, self._cspace), dt)
-            if space._removed_shapes:
-                space._removed_shapes.clear()
+            if self._removed_shapes:
+                self._removed_shapes.clear()
         finally:
             space._locked = False
-        if space._add_later or space._remove_later or space._post_step_callbacks:
+        if self._add_later or self._remove_later or self._post_step_callbacks:
             _after_step(space)
 
 

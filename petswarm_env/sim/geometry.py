@@ -26,6 +26,8 @@ COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py c
 _INF = math.inf
 _PI = math.pi
 _TWO_PI = 2.0 * math.pi
+_C_PI = cython.declare(cython.double, _PI)  # the same two as C doubles (wrap_float)
+_C_TWO_PI = cython.declare(cython.double, _TWO_PI)
 
 
 def wrap_angle(angle_rad):
@@ -34,8 +36,16 @@ def wrap_angle(angle_rad):
     Works on a Python float and on a numpy array alike (Python's ``%`` and numpy's ``remainder``
     round the same way). Rounding of ``a + π`` can put a value within an ulp of −π at +π. Where a
     bearing belongs to (−π, π] (the IR estimator), ``−wrap_angle(−a)`` is ``π − (π − a) mod 2π``
-    to the bit."""
+    to the bit. :func:`wrap_float` is the same for one float, a C call for the compiled modules."""
     return (angle_rad + _PI) % _TWO_PI - _PI
+
+
+@cython.ccall
+def wrap_float(angle_rad: cython.double) -> cython.double:
+    """:func:`wrap_angle` of one float: a C call from the compiled modules (``geometry.pxd``), on C doubles
+    with Python's ``%`` (the remainder takes the divisor's sign; Cython's ``%`` of doubles is Python's), so
+    the same number to the bit."""
+    return (angle_rad + _C_PI) % _C_TWO_PI - _C_PI
 
 # Denominators smaller than this (in m for cross products of a unit vector with a segment) are
 # treated as "ray parallel to segment": such a segment is never hit.

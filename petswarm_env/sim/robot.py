@@ -24,6 +24,11 @@ from petswarm_env.sim.body import _get_position  # noqa: F401  read here by midd
 from petswarm_env.sim.faults import FaultState
 from petswarm_env.sim.sensors import AHRS
 
+if cython.compiled:  # a driven body's command and battery as C reads and writes (sim/body.pxd)
+    from cython.cimports.petswarm_env.sim.body import DrivenBody as _Driven
+else:
+    _Driven = DrivenBody
+
 COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
 
 # Wheel order: front-left, front-right, rear-left, rear-right. Linear wheel-rim speeds (m/s).
@@ -133,17 +138,22 @@ class Robot(DrivenBody):
         applies here. Stored as Python floats: a float32 action would otherwise carry numpy-scalar
         arithmetic (slow, and rounded to float32) into every substep of the drive. An empty
         battery ignores it (the robot stops)."""
-        if self.battery.empty:
-            self.command = (0.0, 0.0, 0.0)
+        me: _Driven = self  # (its command and battery by C reads and writes: what ``command``'s setter writes)
+        if me.battery.empty:
+            me._cx, me._cy, me._cw = 0.0, 0.0, 0.0
             return
+        cmd: tuple
         if self._differential is not None:
             v, w = differential_move(float(vx), float(vy), float(omega), self._differential)
             cmd = (v, 0.0, w)
         else:
             limit, lever, max_speed = self._wheel_limits
             cmd = _saturate(float(vx), float(vy), float(omega), limit, lever, max_speed)
-        keep = self._keep
-        self.command = cmd if keep == 1.0 else (cmd[0] * keep, cmd[1] * keep, cmd[2] * keep)
+        keep: cython.double = self._keep
+        if keep == 1.0:
+            me._cx, me._cy, me._cw = cmd[0], cmd[1], cmd[2]
+        else:
+            me._cx, me._cy, me._cw = cmd[0] * keep, cmd[1] * keep, cmd[2] * keep
 
     @property
     def wheel_velocity(self) -> tuple[float, float, float]:

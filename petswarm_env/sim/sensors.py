@@ -369,6 +369,7 @@ class Sensors:
         self._changed: set[int] = set()  # robots whose health changed since the last reading (fault_changed)
         self.refresh()
         self.ranges = np.zeros((0, self.ring.count))  # every robot's last ring, (robots, count) m
+        self._rows, self._rows_of = [], self.ranges  # :meth:`range_rows` and the array they were made of
         self.read_rings()
 
     @property
@@ -447,7 +448,17 @@ class Sensors:
                 for k, f in enumerate(self.flags[i][: self.ring.count]):
                     if f == 0.0:
                         self.ranges[i, k] = self.ring.max_range_m
+            rows = self.ranges.tolist()
+        self._rows, self._rows_of = rows, self.ranges
         return self.ranges
+
+    def range_rows(self) -> list:
+        """:attr:`ranges` as one list of Python floats per robot (``ranges.tolist()``), made once per
+        reading (:meth:`read_rings`) for its readers in the step (the commands, the observation); a
+        new array put in its place is converted anew. Read-only."""
+        if self._rows_of is not self.ranges:
+            self._rows, self._rows_of = self.ranges.tolist(), self.ranges
+        return self._rows
 
     def fault_changed(self, robot: int, kind: str, on: bool) -> None:
         """A ``Faults.on_change`` callback (petswarm_env/runtime.py registers it): the robot's

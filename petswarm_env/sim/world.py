@@ -58,7 +58,7 @@ class World:
         self.body_plan: list = []
         self.default_body = resolve_type(cfg, DEFAULT_TYPE)
         self.users: list[User] = []
-        self.substeps = Substeps(self.space, self.clock.run_until, self.robots, self.users, self.dt_sub)  # advance()
+        self.substeps = Substeps(self.space, self.clock, self.robots, self.users, self.dt_sub)  # advance()
         self.user = self.add_user(script, (0.0, 0.0), 0.0)  # the first user (user 0)
         self.collisions = CollisionCounts()
         self.wall_a, self.wall_b = self._build_static()

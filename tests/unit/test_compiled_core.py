@@ -488,3 +488,48 @@ def slave_lists() -> list:
 def test_the_slave_lists_are_the_stations_in_slave_role_of_the_swarm():
     out = in_both_forms("slave_lists")
     assert out["1"] == out["0"] and any(out["0"])
+
+
+def angle_wraps() -> list:
+    """``geometry.wrap_float`` (the compiled modules' C call) against ``wrap_angle`` on the same floats
+    (the edges of the wrap among them): each as a hex string."""
+    import math
+
+    import numpy as np
+
+    from petswarm_env.sim.geometry import wrap_angle, wrap_float
+
+    edges = [0.0, -0.0, math.pi, -math.pi, 2 * math.pi, -2 * math.pi, 3 * math.pi, -3 * math.pi, 1e6, -1e6,
+             math.nextafter(-math.pi, 0.0), math.nextafter(-math.pi, -4.0), math.nextafter(math.pi, 4.0)]
+    out = []
+    for v in edges + np.random.default_rng(5).uniform(-50.0, 50.0, 3000).tolist():
+        got = wrap_float(v)
+        assert type(got) is float and got.hex() == wrap_angle(v).hex(), v
+        out.append(got.hex())
+    return out
+
+
+def test_the_float_angle_wrap_is_wrap_angle_bit_for_bit():
+    out = in_both_forms("angle_wraps")
+    assert out["1"] == out["0"]
+
+
+def stream_draws() -> list:
+    """A ``Draws``' uniforms then normals (blocks of 16) against numpy's blocks of the same seed, each
+    handed out last first: each as a hex string."""
+    import numpy as np
+
+    from petswarm_env.sim.draws import Draws
+
+    draws = Draws(np.random.default_rng(4), block=16)
+    got = [draws.uniform() for _ in range(40)] + [draws.normal() for _ in range(20)]
+    ref = np.random.default_rng(4)  # the uniform stream's three blocks come first, then the normal one's two
+    want = np.concatenate([ref.random(16)[::-1] for _ in range(3)])[:40].tolist()
+    want += np.concatenate([ref.standard_normal(16)[::-1] for _ in range(2)])[:20].tolist()
+    assert all(type(v) is float for v in got) and got == want
+    return [v.hex() for v in got]
+
+
+def test_the_draw_streams_hand_out_numpy_blocks_last_first_in_both_forms():
+    out = in_both_forms("stream_draws")
+    assert out["1"] == out["0"]

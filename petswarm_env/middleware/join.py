@@ -385,10 +385,10 @@ class JoinManager:
         ``protocol.replan_min_slaves`` slaves on (the default 1 + 4 keeps its numbering, frame for frame).
         Only after the master's own organize or a succession (:meth:`replan_after_first_round`): a robot
         handed the master's role over restarts the ring too, but its table is its predecessor's, renumbered
-        already, re-rooted at it (Table 3) and re-planned from its place when the old master leaves (:meth:`~.recovery.RecoveryManager.removal_plan`); planned
-        again from where it stood beside its old slot, before it drove to its place, the rear members of a
-        large wedge crossed the formation (the master's IR fault, 1 + 8, seeds 1300-1319: re-formed 7 of
-        20; docs/faults.md)."""
+        already, re-rooted at it (Table 3) and re-planned from its place when the old master leaves
+        (:meth:`~.recovery.RecoveryManager.removal_plan`); planned again from where it stood beside its old
+        slot, before it drove to its place, the rear members of a large wedge crossed the formation (the
+        master's IR fault, 1 + 8, seeds 1300-1319: re-formed 7 of 20; docs/faults.md)."""
         node = self.node
         know = node.know
         formation = node.formation

@@ -175,6 +175,8 @@ class Experimenter:
         self.runtime = None  # the episode's faults and arrivals (petswarm_env/runtime.py), set by the env
         self.organized_at_s = world.now
         self._table = ReferenceTable()  # the swarms' reference links as C arrays (references.py)
+        # plain copies of the config's values that every step reads (the config is frozen)
+        self._period_s, self._slots = cfg.control_period_s, cfg.world.num_users * cfg.swarm.num_slaves
 
     # -- reference points and errors -------------------------------------------------------------
     def reference_positions(self) -> dict[int, np.ndarray]:
@@ -235,19 +237,25 @@ class Experimenter:
         errors, errs, heads, contacts, worst = slave_truth(self._table, centers, headings, agents, robot_ids,
                                                            world.collisions.per_robot, self._contacts_seen)
         m = self.metrics
+        now = world.now
         if worst is not None and math.isnan(m.building_time_s) and worst <= BUILT_WITHIN_M:
-            m.building_time_s = world.now - self._start_s
-        parked = [se.swarm for se in self.sessions if se.state == "emergency"]
+            m.building_time_s = now - self._start_s
+        parked = None
+        for se in self.sessions:
+            if se.state == "emergency":
+                parked = [se.swarm for se in self.sessions if se.state == "emergency"]
+                break
         if parked:  # the slaves of a swarm in emergency stand still: their errors do not count
             stopped = {i for sw in parked for i in sw.slave_ids()}
             counted = [e for agent, e in errors.items() if agent_index[agent] not in stopped]
-            m.add_step(list(errors.values()), counted, len(parked), end_s=world.now)
+            m.add_step(list(errors.values()), counted, len(parked), end_s=now)
         else:
-            m.add_step(list(errors.values()), end_s=world.now)
-        m.stale_fix_s += self.cfg.control_period_s * _stale_fixes(robot_ids, self.fleet.nodes, self._start_s, AGE_SCALE_S)
-        missing = self.cfg.world.num_users * self.cfg.swarm.num_slaves - len(agents)
+            m.add_step(list(errors.values()), end_s=now)
+        period = self._period_s
+        m.stale_fix_s += period * _stale_fixes(robot_ids, self.fleet.nodes, self._start_s, AGE_SCALE_S)
+        missing = self._slots - len(agents)
         if missing > 0:
-            m.slots_unfilled_s += missing * self.cfg.control_period_s
+            m.slots_unfilled_s += missing * period
         return SlaveTruth(errors, errs, heads, contacts)
 
     def stale_fixes(self, agents: list[str]) -> int:

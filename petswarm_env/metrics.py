@@ -109,17 +109,18 @@ class EpisodeMetrics:
         self.emergency_steps += emergencies
         counted = errors_m if counted_m is None else counted_m
         sq = sum_squares(counted)  # sum(e * e for e in counted), in one typed loop (step_kernel.py)
-        if counted:
+        n = len(counted)
+        if n:
             self.sq_error_sum += sq
-            self.error_count += len(counted)
+            self.error_count += n
             self.rmse_steps += 1
             if not math.isnan(self.building_time_s):
                 self.hold_sq_error_sum += sq
-                self.hold_error_count += len(counted)
+                self.hold_error_count += n
                 self.hold_steps += 1
         self.step_end_s.append(end_s)
         self.step_sq.append(sq)
-        self.step_n.append(len(counted))
+        self.step_n.append(n)
         if errors_m:
             self.error_trace.append(sum(errors_m) / len(errors_m))
 

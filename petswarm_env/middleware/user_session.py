@@ -87,6 +87,7 @@ class UserSession(SuccessorSide):
         # plain copies of the config's values that every step reads (the config is frozen)
         self._period_s, self._lost_user_s = cfg.control_period_s, cfg.master.lost_user_s
         self._distance_m = cfg.master.distance_m
+        self._report_period_s, self._ble_latency_s = cfg.ble.report_period_s, cfg.ble.latency_s
         self.belt_view = BeltView()
         self.connected_robot: int | None = None  # node id the belt is connected to over BLE
         self.paired_at_s: float | None = None
@@ -261,14 +262,14 @@ class UserSession(SuccessorSide):
     # -- belt reports (seed 002 §3.4) -------------------------------------------------------------
     def _belt_reports(self) -> None:
         """The belt reports the user's motion every ``ble.report_period_s`` of its own clock."""
-        self.belt_clock.later(self.cfg.ble.report_period_s, self._belt_report)
+        self.belt_clock.later(self._report_period_s, self._belt_report)
 
     def _belt_report(self) -> None:
         self._ble_supervision()
         if self.connected_robot is not None and self.clock.now >= self.link_since_s:
             r = self.belt.reading()
             view = BeltView(r.activity, r.rotating, r.angular_speed_rps, r.accumulated_angle_rad, self.belt_clock.now)
-            self.clock.later(self.cfg.ble.latency_s, setattr, self, "belt_view", view)
+            self.clock.later(self._ble_latency_s, setattr, self, "belt_view", view)
         self._belt_reports()  # the belt's report period, on its own clock
 
     # -- commands (seed 002 §2, Table 1, Fig. 4) ----------------------------------------------------
@@ -333,13 +334,12 @@ class UserSession(SuccessorSide):
         now = self.clock.now
         if self.connected_robot is not None and self.startup and self._ready_for(self.startup[0]):
             user.pending_commands.insert(0, self.startup.pop(0))
-        delay = self.cfg.watch.recognition_delay_s
         while user.pending_commands:
             cmd = user.pending_commands.pop(0)
             if cmd.startswith("gesture:"):
                 self._gestures.append(cmd.split(":", 1)[1])
             else:  # a menu selection on the watch (chosen: recognised after the same delay)
-                self._deliver(self.handle_command, cmd, delay)
+                self._deliver(self.handle_command, cmd, self.cfg.watch.recognition_delay_s)
         while self._gestures and now >= self._watch_free_s:
             self.watch.perform(self._gestures.pop(0), now)
             self._watch_free_s = now + self.cfg.watch.gesture_duration_s
@@ -361,8 +361,10 @@ class UserSession(SuccessorSide):
     def target_distance_m(self) -> float:
         """Standard distance (following), or beyond the whole formation (leading master), inside the
         LF range (seed 000 §3.5: the leading master shifts there before the formation is built)."""
-        return master_distance_m(self.cfg, self.swarm.formation if self.swarm.organized else None,
-                                 "leading" if "leading" in (self.state, self.swarm.mode) else "following")
+        swarm = self.swarm
+        mode = "leading" if "leading" in (self.state, swarm.mode) else "following"
+        # (the formation counts only in leading)
+        return master_distance_m(self.cfg, swarm.formation if mode == "leading" and swarm.organized else None, mode)
 
     def step(self, odometry: tuple[float, float, float], ranges: np.ndarray):
         """Before a control period: advance the belt, take the user's commands, check the exception

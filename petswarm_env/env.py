@@ -207,10 +207,11 @@ class PetSwarmEnv(ParallelEnv):
         episode's order), then the possible agents waiting to join (in ``possible_agents`` order):
         neither an agent now nor one that left (a terminated agent never comes back)."""
         ep = self.episode
-        if len(ep.agents) == len(self.possible_agents) and self._possible.issuperset(ep.agents):
-            return list(ep.agents)  # every possible agent is live (none waits)
-        live = set(ep.agents)
-        return list(ep.agents) + [a for a in self.possible_agents if a not in live and a not in ep.left]
+        agents, possible = ep.agents, self.possible_agents
+        if len(agents) == len(possible) and self._possible.issuperset(agents):
+            return list(agents)  # every possible agent is live (none waits)
+        live, left = set(agents), ep.left
+        return agents + [a for a in possible if a not in live and a not in left]  # (a new list)
 
     def render(self, mode: str | None = None):
         """The current frame (``rgb_array``) or the window (``human``) of the env's ``render_mode``.

@@ -177,19 +177,20 @@ class Episode:
         self.num_cycles += 1
 
         ids = self._ids
-        truth = self.experimenter.step(agents, ids)  # formation and heading errors, contacts (metrics.py)
+        # formation and heading errors, contacts (metrics.py's SlaveTruth)
+        _, formation_error_m, heading_error_rad, new_contacts = self.experimenter.step(agents, ids)
         if not step_kernel.all_walking(self.sessions):  # only while a user still stands
-            self._start_walks(dict(zip(agents, truth.formation_error_m)))
-        infos = step_kernel.infos(agents, ids, self.fleet.nodes, self.missing_by_pan, truth.formation_error_m,
-                                  truth.new_contacts, _LIVE_INFO)
+            self._start_walks(dict(zip(agents, formation_error_m)))
+        infos = step_kernel.infos(agents, ids, self.fleet.nodes, self.missing_by_pan, formation_error_m,
+                                  new_contacts, _LIVE_INFO)
         # every slave's reward in one pass over the slaves (reward.py); the last actions are the
         # last step's array while the agents are the same
         if self._last_agents == agents:
             last_acts = self._last_acts
         else:
             last_acts = np.array([self.last_action[a] for a in agents], dtype=np.float32).reshape(-1, 3)
-        rewards = dict(zip(agents, slave_rewards(self._reward_cfg, truth.formation_error_m, truth.heading_error_rad,
-                                                 truth.new_contacts, acts, last_acts)))
+        rewards = dict(zip(agents, slave_rewards(self._reward_cfg, formation_error_m, heading_error_rad,
+                                                 new_contacts, acts, last_acts)))
         self.last_action.update(zip(agents, acts))
         self._last_agents, self._last_acts = agents, acts
         return self._lifecycle(rewards, infos)
@@ -405,7 +406,7 @@ class Episode:
         if acts is None:
             return
         # a robot leaving its slot for its own fault drives out of the way
-        step_kernel.command_leaving(nodes, masters, robots, arbiters, rows, world.now)
+        step_kernel.command_leaving(nodes, masters, robots, arbiters, rows, world.clock.now)
         if self.left:  # a robot recruited again after it left the agents has no driver (module docstring): held still
             for idx in self.slave_ids:
                 if f"robot_{idx}" in self.left and idx not in masters:

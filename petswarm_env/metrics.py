@@ -238,7 +238,7 @@ class Experimenter:
         errors, errs, heads, contacts, worst = slave_truth(self._table, centers, headings, agents, robot_ids,
                                                            world.collisions.per_robot, self._contacts_seen)
         m = self.metrics
-        now = world.now
+        now = world.clock.now
         if worst is not None and math.isnan(m.building_time_s) and worst <= BUILT_WITHIN_M:
             m.building_time_s = now - self._start_s
         parked = None

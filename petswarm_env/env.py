@@ -107,6 +107,7 @@ class PetSwarmEnv(ParallelEnv):
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"unknown render_mode '{render_mode}'; allowed: human, rgb_array, or None")
         self.cfg = cfg
+        self._max_cycles = cfg.max_cycles  # read every step (the config is frozen)
         self.render_mode = render_mode
         self.metadata = dict(self.metadata, render_fps=cfg.render.fps)
         self._bodies = {name: resolve_type(cfg, name) for name in cfg.robot_types}  # each robot type, resolved once
@@ -192,7 +193,7 @@ class PetSwarmEnv(ParallelEnv):
         live = len(ep.agents)  # the episode's agents come first in self.agents (_present)
         waiting = self.agents[live:]  # present, not (yet) in slave-role driving: their actions are ignored
         observations, rewards, terminations, truncations, infos = ep.advance(acts if live == len(acts) else acts[:live])
-        truncated = ep.num_cycles >= self.cfg.max_cycles
+        truncated = ep.num_cycles >= self._max_cycles
         for a in waiting:
             if a not in rewards:  # still waiting (one that joined in this step has the episode's own entries)
                 observations[a], infos[a] = self._zero.copy(), dict(INFO_DEFAULTS)

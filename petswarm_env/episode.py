@@ -209,7 +209,7 @@ class Episode:
             observations = self.observer.observe(agents, self.last_action, self.world.clock.now)
             terminations = dict.fromkeys(agents, False)
             self.agents = list(agents)  # (the same robots: _ids stands)
-            return observations, rewards, terminations, dict(terminations), infos
+            return observations, rewards, terminations, terminations.copy(), infos
         world, fleet, agent_index = self.world, self.fleet, self.agent_index
         live = {f"robot_{i}" for i in slaves}
         terminations = {a: a not in live for a in self.agents}

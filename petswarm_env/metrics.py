@@ -106,7 +106,8 @@ class EpisodeMetrics:
         users were in emergency and the clock time at the step's end (``end_s``). A step added
         once ``building_time_s`` is set counts toward the hold RMSE too."""
         self.steps += 1
-        self.emergency_steps += emergencies
+        if emergencies:
+            self.emergency_steps += emergencies
         counted = errors_m if counted_m is None else counted_m
         sq = sum_squares(counted)  # sum(e * e for e in counted), in one typed loop (step_kernel.py)
         n = len(counted)

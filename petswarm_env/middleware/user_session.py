@@ -88,6 +88,7 @@ class UserSession(SuccessorSide):
         self._period_s, self._lost_user_s = cfg.control_period_s, cfg.master.lost_user_s
         self._distance_m = cfg.master.distance_m
         self._report_period_s, self._ble_latency_s = cfg.ble.report_period_s, cfg.ble.latency_s
+        self._lf_period_s = cfg.lf.burst_period_s
         self.belt_view = BeltView()
         self.connected_robot: int | None = None  # node id the belt is connected to over BLE
         self.paired_at_s: float | None = None
@@ -235,7 +236,7 @@ class UserSession(SuccessorSide):
 
     def _lf_burst(self) -> None:
         cfg = self.cfg
-        period = cfg.lf.burst_period_s
+        period = self._lf_period_s
         if self.connected_robot is not None and self.state in ("following", "leading", "emergency") \
                 and self.clock.now >= self.link_since_s:
             tx = self.swarm.master.node_id
@@ -249,7 +250,7 @@ class UserSession(SuccessorSide):
             fix = lf.locate(cfg.lf, c * dx + s * dy, -s * dx + c * dy, self.rng_lf)
             if fix.valid:  # the belt heard both antennas; RSSIs go back over BLE
                 t_burst = self.swarm.master.clock.now  # stamped on the clock of the robot that burst (seed 000 §3.3)
-                self.clock.later(cfg.ble.latency_s, self._on_fix, tx, fix, t_burst)
+                self.clock.later(self._ble_latency_s, self._on_fix, tx, fix, t_burst)
         self.swarm.master.clock.later(period, self._lf_burst)  # the master's burst period, on its own clock
 
     def _on_fix(self, tx: int, fix: lf.LFFix, t_burst: float) -> None:

@@ -155,6 +155,9 @@ class SlaveTruth(NamedTuple):
     new_contacts: list[int]
 
 
+_new_tuple = tuple.__new__
+
+
 class Experimenter:
     """The experimenter's view of one episode of a world, its swarms and users: built at the end of
     ``reset`` (the episode's counts start there), then asked once per step (:meth:`step`)."""
@@ -258,7 +261,7 @@ class Experimenter:
         missing = self._slots - len(agents)
         if missing > 0:
             m.slots_unfilled_s += missing * period
-        return SlaveTruth(errors, errs, heads, contacts)
+        return _new_tuple(SlaveTruth, (errors, errs, heads, contacts))  # SlaveTruth(...) without its Python __new__
 
     def stale_fixes(self, agents: list[str]) -> int:
         """How many of ``agents`` have no IR fix of any reference neighbour younger than the

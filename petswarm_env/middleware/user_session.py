@@ -389,11 +389,8 @@ class UserSession(SuccessorSide):
         heading = user.heading
         turn = (heading - heading_fed) / (now - t_fed) if now > t_fed else 0.0  # the true rotation)
         self._belt_fed = (now, heading)
-        if moving:
-            seg = user.segment
-            self.belt.advance(now, seg.speed_mps, turn, seg.activity)
-        else:
-            self.belt.advance(now, 0.0, turn, "stop")
+        seg = user.segment
+        self.belt.advance(now, seg.speed_mps if moving else 0.0, turn, seg.activity if moving else "stop")
         self._pick_up_user_commands()
         swarm = self.swarm
         master = swarm.master
@@ -433,13 +430,8 @@ class UserSession(SuccessorSide):
             self.events["alerts_to_belt"] += 1
             self._remote_stop()
         ctrl = self.ctrl
-        swarm.user_view = UserView(
-            view.activity,
-            view.angular_speed_rps,
-            view.rotating,
-            tuple(est[0]) if est is not None else (self._distance_m, 0.0),
-            ctrl.walk_direction_rad,
-        )
+        swarm.user_view = UserView(view.activity, view.angular_speed_rps, view.rotating,
+                                   tuple(est[0]) if est is not None else (self._distance_m, 0.0), ctrl.walk_direction_rad)
         zero = (0.0, 0.0, 0.0)
         if state == "following" or state == "leading":
             if est is None:

@@ -107,6 +107,7 @@ class PetSwarmEnv(ParallelEnv):
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"unknown render_mode '{render_mode}'; allowed: human, rgb_array, or None")
         self.cfg = cfg
+        self._max_cycles = cfg.max_cycles  # read every step (the config is frozen)
         self.render_mode = render_mode
         self.metadata = dict(self.metadata, render_fps=cfg.render.fps)
         self._bodies = {name: resolve_type(cfg, name) for name in cfg.robot_types}  # each robot type, resolved once
@@ -192,7 +193,7 @@ class PetSwarmEnv(ParallelEnv):
         live = len(ep.agents)  # the episode's agents come first in self.agents (_present)
         waiting = self.agents[live:]  # present, not (yet) in slave-role driving: their actions are ignored
         observations, rewards, terminations, truncations, infos = ep.advance(acts if live == len(acts) else acts[:live])
-        truncated = ep.num_cycles >= self.cfg.max_cycles
+        truncated = ep.num_cycles >= self._max_cycles
         for a in waiting:
             if a not in rewards:  # still waiting (one that joined in this step has the episode's own entries)
                 observations[a], infos[a] = self._zero.copy(), dict(INFO_DEFAULTS)
@@ -207,10 +208,11 @@ class PetSwarmEnv(ParallelEnv):
         episode's order), then the possible agents waiting to join (in ``possible_agents`` order):
         neither an agent now nor one that left (a terminated agent never comes back)."""
         ep = self.episode
-        if len(ep.agents) == len(self.possible_agents) and self._possible.issuperset(ep.agents):
-            return list(ep.agents)  # every possible agent is live (none waits)
-        live = set(ep.agents)
-        return list(ep.agents) + [a for a in self.possible_agents if a not in live and a not in ep.left]
+        agents, possible = ep.agents, self.possible_agents
+        if len(agents) == len(possible) and self._possible.issuperset(agents):
+            return list(agents)  # every possible agent is live (none waits)
+        live, left = set(agents), ep.left
+        return agents + [a for a in possible if a not in live and a not in left]  # (a new list)
 
     def render(self, mode: str | None = None):
         """The current frame (``rgb_array``) or the window (``human``) of the env's ``render_mode``.

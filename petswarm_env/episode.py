@@ -109,6 +109,8 @@ class Episode:
         self.seed = seed  # the reset's seed, named when the swarm cannot organize
         self.setup = setup
         self.cfg = cfg = setup.cfg
+        # plain copies of the config's values that every step reads (the config is frozen)
+        self._substeps, self._max_cycles, self._reward_cfg = cfg.physics_substeps, cfg.max_cycles, cfg.reward
         self.streams = streams  # the reset's seed sequences (each one's entropy is the reset's seed)
         rngs = [np.random.default_rng(s) for s in streams]
         self._build(*rngs[:7], radio_trace)
@@ -175,19 +177,20 @@ class Episode:
         self.num_cycles += 1
 
         ids = self._ids
-        truth = self.experimenter.step(agents, ids)  # formation and heading errors, contacts (metrics.py)
+        # formation and heading errors, contacts (metrics.py's SlaveTruth)
+        _, formation_error_m, heading_error_rad, new_contacts = self.experimenter.step(agents, ids)
         if not step_kernel.all_walking(self.sessions):  # only while a user still stands
-            self._start_walks(dict(zip(agents, truth.formation_error_m)))
-        infos = step_kernel.infos(agents, ids, self.fleet.nodes, self.missing_by_pan, truth.formation_error_m,
-                                  truth.new_contacts, _LIVE_INFO)
+            self._start_walks(dict(zip(agents, formation_error_m)))
+        infos = step_kernel.infos(agents, ids, self.fleet.nodes, self.missing_by_pan, formation_error_m,
+                                  new_contacts, _LIVE_INFO)
         # every slave's reward in one pass over the slaves (reward.py); the last actions are the
         # last step's array while the agents are the same
         if self._last_agents == agents:
             last_acts = self._last_acts
         else:
             last_acts = np.array([self.last_action[a] for a in agents], dtype=np.float32).reshape(-1, 3)
-        rewards = dict(zip(agents, slave_rewards(self.cfg.reward, truth.formation_error_m, truth.heading_error_rad,
-                                                 truth.new_contacts, acts, last_acts)))
+        rewards = dict(zip(agents, slave_rewards(self._reward_cfg, formation_error_m, heading_error_rad,
+                                                 new_contacts, acts, last_acts)))
         self.last_action.update(zip(agents, acts))
         self._last_agents, self._last_acts = agents, acts
         return self._lifecycle(rewards, infos)
@@ -196,17 +199,18 @@ class Episode:
         """Who is an agent after this step (module docstring): agents follow the middleware — a
         robot that left slave-role driving is terminated (for the rest of the episode), a robot
         that became a slave for the first time joins; every agent is truncated at ``max_cycles``."""
-        world, fleet, agent_index = self.world, self.fleet, self.agent_index
-        truncated = self.num_cycles >= self.cfg.max_cycles
-        slaves = self._current_slaves()
+        truncated = self.num_cycles >= self._max_cycles
+        slaves = step_kernel.current_slaves(self.swarms)  # (_current_slaves)
         if slaves == self.slave_ids and not truncated:
             # the slaves of the last step: every agent is one of them and none joins (the agents
             # after the last step are those slaves that are agents), so what follows gives
             # every agent its observation and no termination
-            observations = self.observer.observe(self.agents, self.last_action, world.now)
-            terminations = dict.fromkeys(self.agents, False)
-            self.agents = list(self.agents)  # (the same robots: _ids stands)
-            return observations, rewards, terminations, dict(terminations), infos
+            agents = self.agents
+            observations = self.observer.observe(agents, self.last_action, self.world.clock.now)
+            terminations = dict.fromkeys(agents, False)
+            self.agents = list(agents)  # (the same robots: _ids stands)
+            return observations, rewards, terminations, terminations.copy(), infos
+        world, fleet, agent_index = self.world, self.fleet, self.agent_index
         live = {f"robot_{i}" for i in slaves}
         terminations = {a: a not in live for a in self.agents}
         for a, done in terminations.items():  # a robot that left slave-role driving and drives no user stands still
@@ -240,7 +244,7 @@ class Episode:
         :meth:`advance` is the env's step; this alone serves the start-up and tools that watch the
         world go on after an episode ended (evaluation/faults_figures.py)."""
         self._control(acts)
-        self.world.advance(self.cfg.physics_substeps)
+        self.world.advance(self._substeps)
         self.sensors.read_rings()
 
     # -- views -----------------------------------------------------------------------------------
@@ -402,7 +406,7 @@ class Episode:
         if acts is None:
             return
         # a robot leaving its slot for its own fault drives out of the way
-        step_kernel.command_leaving(nodes, masters, robots, arbiters, rows, world.now)
+        step_kernel.command_leaving(nodes, masters, robots, arbiters, rows, world.clock.now)
         if self.left:  # a robot recruited again after it left the agents has no driver (module docstring): held still
             for idx in self.slave_ids:
                 if f"robot_{idx}" in self.left and idx not in masters:

@@ -106,20 +106,22 @@ class EpisodeMetrics:
         users were in emergency and the clock time at the step's end (``end_s``). A step added
         once ``building_time_s`` is set counts toward the hold RMSE too."""
         self.steps += 1
-        self.emergency_steps += emergencies
+        if emergencies:
+            self.emergency_steps += emergencies
         counted = errors_m if counted_m is None else counted_m
         sq = sum_squares(counted)  # sum(e * e for e in counted), in one typed loop (step_kernel.py)
-        if counted:
+        n = len(counted)
+        if n:
             self.sq_error_sum += sq
-            self.error_count += len(counted)
+            self.error_count += n
             self.rmse_steps += 1
             if not math.isnan(self.building_time_s):
                 self.hold_sq_error_sum += sq
-                self.hold_error_count += len(counted)
+                self.hold_error_count += n
                 self.hold_steps += 1
         self.step_end_s.append(end_s)
         self.step_sq.append(sq)
-        self.step_n.append(len(counted))
+        self.step_n.append(n)
         if errors_m:
             self.error_trace.append(sum(errors_m) / len(errors_m))
 
@@ -153,6 +155,9 @@ class SlaveTruth(NamedTuple):
     new_contacts: list[int]
 
 
+_new_tuple = tuple.__new__
+
+
 class Experimenter:
     """The experimenter's view of one episode of a world, its swarms and users: built at the end of
     ``reset`` (the episode's counts start there), then asked once per step (:meth:`step`)."""
@@ -175,6 +180,8 @@ class Experimenter:
         self.runtime = None  # the episode's faults and arrivals (petswarm_env/runtime.py), set by the env
         self.organized_at_s = world.now
         self._table = ReferenceTable()  # the swarms' reference links as C arrays (references.py)
+        # plain copies of the config's values that every step reads (the config is frozen)
+        self._period_s, self._slots = cfg.control_period_s, cfg.world.num_users * cfg.swarm.num_slaves
 
     # -- reference points and errors -------------------------------------------------------------
     def reference_positions(self) -> dict[int, np.ndarray]:
@@ -235,20 +242,26 @@ class Experimenter:
         errors, errs, heads, contacts, worst = slave_truth(self._table, centers, headings, agents, robot_ids,
                                                            world.collisions.per_robot, self._contacts_seen)
         m = self.metrics
+        now = world.clock.now
         if worst is not None and math.isnan(m.building_time_s) and worst <= BUILT_WITHIN_M:
-            m.building_time_s = world.now - self._start_s
-        parked = [se.swarm for se in self.sessions if se.state == "emergency"]
+            m.building_time_s = now - self._start_s
+        parked = None
+        for se in self.sessions:
+            if se.state == "emergency":
+                parked = [se.swarm for se in self.sessions if se.state == "emergency"]
+                break
         if parked:  # the slaves of a swarm in emergency stand still: their errors do not count
             stopped = {i for sw in parked for i in sw.slave_ids()}
             counted = [e for agent, e in errors.items() if agent_index[agent] not in stopped]
-            m.add_step(list(errors.values()), counted, len(parked), end_s=world.now)
+            m.add_step(list(errors.values()), counted, len(parked), end_s=now)
         else:
-            m.add_step(list(errors.values()), end_s=world.now)
-        m.stale_fix_s += self.cfg.control_period_s * _stale_fixes(robot_ids, self.fleet.nodes, self._start_s, AGE_SCALE_S)
-        missing = self.cfg.world.num_users * self.cfg.swarm.num_slaves - len(agents)
+            m.add_step(list(errors.values()), end_s=now)
+        period = self._period_s
+        m.stale_fix_s += period * _stale_fixes(robot_ids, self.fleet.nodes, self._start_s, AGE_SCALE_S)
+        missing = self._slots - len(agents)
         if missing > 0:
-            m.slots_unfilled_s += missing * self.cfg.control_period_s
-        return SlaveTruth(errors, errs, heads, contacts)
+            m.slots_unfilled_s += missing * period
+        return _new_tuple(SlaveTruth, (errors, errs, heads, contacts))  # SlaveTruth(...) without its Python __new__
 
     def stale_fixes(self, agents: list[str]) -> int:
         """How many of ``agents`` have no IR fix of any reference neighbour younger than the

@@ -108,7 +108,9 @@ class SequenceManager:
         know: Knowledge = node.know
         if node.state != "master" or know.total_members <= 1 or ring is None:
             return False
-        return now_s - ring > node.cfg.protocol.status_timeout_s
+        if node.cfg is not self._cfg:
+            self._timeouts()
+        return now_s - ring > self._status_timeout_s
 
     def power_off(self) -> None:
         """The robot is off (a ``dead`` or ``battery`` fault, sim/faults.py): its middleware stops,

@@ -50,6 +50,8 @@ class Swarm:
         cfg = fleet.cfg
         self.fleet = fleet
         self.cfg = cfg
+        # plain copies of the config's values that the status broadcast reads (the config is frozen)
+        self._broadcast_period_s, self._distance_m = cfg.protocol.broadcast_period_s, cfg.master.distance_m
         self.world = fleet.world
         self.clock = fleet.clock
         self.user_id = user_id
@@ -126,17 +128,21 @@ class Swarm:
         if master.state != "master" or self.master is not master:
             return
         view = self.user_view
+        if view is not None:
+            activity, turn_rate, rotating, user = view.activity, view.user_turn_rate_rps, view.user_rotating, view.user_position_m
+        else:
+            activity, turn_rate, rotating, user = "stop", 0.0, False, (self._distance_m, 0.0)
         master.send(
             msg.STATUS,
             velocity=master.odometry.read(),  # (vx, vy, ω): what its own wheels measure, noise and all
-            activity=view.activity if view else "stop",
-            mode=self.broadcast_mode(),
-            turn_rate=view.user_turn_rate_rps if view else 0.0,
-            rotating=view.user_rotating if view else False,
-            user=view.user_position_m if view else (self.cfg.master.distance_m, 0.0),
+            activity=activity,
+            mode="emergency" if self.emergency else self.mode,  # (broadcast_mode)
+            turn_rate=turn_rate,
+            rotating=rotating,
+            user=user,
         )
         # the master's own clock (seed 000 §3.3: independent clocks)
-        master.clock.later(self.cfg.protocol.broadcast_period_s, self._broadcast_status, master)
+        master.clock.later(self._broadcast_period_s, self._broadcast_status, master)
 
     def broadcast_mode(self) -> str:
         """The mode the slaves hear: the driving mode, or ``emergency`` while the user is lost."""

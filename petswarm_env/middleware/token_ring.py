@@ -20,38 +20,34 @@ has passed) (a live member sends several each round, so loss alone rarely silenc
 frames all lost is 0.2 %) — and declares a member *lost* after ``protocol.lost_after_rounds`` such rounds in a row:
 ``lost_handler(node_id)``, the recovery manager (:mod:`.recovery`), removes it from the tables.
 
-A crowded ring (chosen; seed 000 gives the sequence of Fig. 7, not its timing for many robots): the
-answers to one ring frame all leave after one MCU processing delay, spread only by its jitter
-(``radio.processing_jitter_s``), and CSMA cannot tell apart two senders whose assessments fall
-within one turnaround, so once the answers need more air than the jitter spreads them over —
-``(members − 1) × (an answer's airtime + turnaround) > processing_jitter_s``, from 7 slaves on with
-the defaults — most of them collide (1 master + 16 slaves: 60 % of the token answers, 3.7 tokens per
-hand-over). :func:`ring_plan` then runs the ring as (:class:`RingPlan`):
+A crowded ring (chosen; seed 000 gives the sequence of Fig. 7, not its timing for many robots): the answers to one ring frame
+all leave after one MCU processing delay, spread only by its jitter (``radio.processing_jitter_s``), and CSMA cannot tell apart
+two senders whose assessments fall within one turnaround, so once the answers need more air than the jitter spreads them over —
+``(members − 1) × (an answer's airtime + turnaround) > processing_jitter_s``, from 7 slaves on with the defaults — most of them
+collide (1 master + 16 slaves: 60 % of the token answers, 3.7 tokens per hand-over). :func:`ring_plan` then runs the ring as
+(:class:`RingPlan`):
 
-- the members answer a start sign in member order after the holder, ``protocol.ring_answer_slot_s``
-  apart (802.15.4's own remedy, a backoff, made deterministic by the member number every robot holds);
-- only the robot a token names answers it (the one answer the holder waits for; the others' sign of
-  life is their answer to every start sign);
-- the holder passes the token at its IR deadline instead of waiting for its neighbours' heading
-  reports, which it pairs when they arrive (during the next slot): a round of N slots must revisit
-  every member within the IR fix's freshness (:data:`~.knowledge.FRESH_IR_S`, 2 s), and 17 slots of
-  0.16 s (with the wait) take 2.7 s, 17 of 0.11 s 1.9 s;
-- the holder transmits IR ``protocol.ring_ir_tx_crowded_s`` (15 ms) instead of ``protocol.ir_tx_s``
-  (40 ms): the rest of a slot — the answers to its start sign (~50 ms) and the token's hand-over
-  (~25 ms), MCU processing delays — stays, so this is what shortens the round (1 + 16: 1.75 → 1.42 s,
-  one missed slot then leaves a fix about 3 s old instead of 3.5 s).
+- the members answer a start sign in member order after the holder, ``protocol.ring_answer_slot_s`` apart (802.15.4's own
+  remedy, a backoff, made deterministic by the member number every robot holds);
+- only the robot a token names answers it (the one answer the holder waits for; the others' sign of life is their answer to
+  every start sign);
+- the holder passes the token at its IR deadline instead of waiting for its neighbours' heading reports, which it pairs when
+  they arrive (during the next slot): a round of N slots must revisit every member within the IR fix's freshness
+  (:data:`~.knowledge.FRESH_IR_S`, 2 s), and 17 slots of 0.16 s (with the wait) take 2.7 s, 17 of 0.11 s 1.9 s;
+- the holder transmits IR ``protocol.ring_ir_tx_crowded_s`` (15 ms) instead of ``protocol.ir_tx_s`` (40 ms): the rest of a slot
+  — the answers to its start sign (~50 ms) and the token's hand-over (~25 ms), MCU processing delays — stays, so this is what
+  shortens the round (1 + 16: 1.75 → 1.42 s, one missed slot then leaves a fix about 3 s old instead of 3.5 s).
 
-After its ring's first round the master has measured every member in its IR reach: it hands the
-round to the join manager, which may re-plan which member takes which slot
-(:meth:`~.join.JoinManager.replan_by_fixes`, from ``protocol.replan_min_slaves`` slaves on).
+After its ring's first round the master has measured every member in its IR reach: it hands the round to the join manager, which
+may re-plan which member takes which slot (:meth:`~.join.JoinManager.replan_by_fixes`, from ``protocol.replan_min_slaves``
+slaves on).
 
 A ring that is not crowded (the default 1 + 4) runs as before, frame for frame.
 
-Heading exchange: robot j saw robot i at bearing φ_ji (in j's frame); i saw j at φ_ij. Then
-θ_j − θ_i = φ_ij − φ_ji + π (SPEC §3.4), with no compass. The two bearings must come from the same
-round of the ring: i pairs j's report with its own measurement of j's latest slot, and drops the
-report when it missed that slot (j occluded or out of range) — a bearing from an older round, with
-both robots moved since, would give a wrong heading.
+Heading exchange: robot j saw robot i at bearing φ_ji (in j's frame); i saw j at φ_ij. Then θ_j − θ_i = φ_ij − φ_ji + π (SPEC
+§3.4), with no compass. The two bearings must come from the same round of the ring: i pairs j's report with its own measurement
+of j's latest slot, and drops the report when it missed that slot (j occluded or out of range) — a bearing from an older round,
+with both robots moved since, would give a wrong heading.
 """
 
 from __future__ import annotations
@@ -102,8 +98,8 @@ class RingPlan(NamedTuple):
 
 
 def ring_plan(cfg: Config, total_members: int) -> RingPlan:
-    """The ring's plan for ``total_members`` robots (master included): crowded when the answers to
-    one ring frame need more air than the MCU's response jitter spreads them over."""
+    """The ring's plan for ``total_members`` robots (master included): crowded when the answers to one ring frame need more
+    air than the MCU's response jitter spreads them over."""
     radio = cfg.radio
     answer_air_s = (radio.frame_overhead_bytes + msg.SIZE_BYTES[msg.TX_START_ACK]) * 8.0 / radio.bitrate_bps
     if (total_members - 1) * (answer_air_s + radio.turnaround_s) <= radio.processing_jitter_s:
@@ -119,12 +115,11 @@ def relative_heading(bearing_self_sees_other: float, bearing_other_sees_self: fl
 @cython.final
 @cython.cclass
 class _Wait:
-    """What the holder waits for — every acknowledgement it needs, or its neighbours' heading
-    reports — with the response timeout: the first of the two resumes its slot (seed 000 Fig. 7:
-    "waits for the responses"). ``triggered``: what it waited for came; ``armed``: the slot waits on
-    it (the heading reports are waited for only in a ring that is not crowded); ``done``: the slot
-    resumed. Its steps are keyed on the clock where SimPy put the same wait written as
-    ``AnyOf(event, timeout)`` in a process: the event, then the condition, each one step later."""
+    """What the holder waits for — every acknowledgement it needs, or its neighbours' heading reports — with the response
+    timeout: the first of the two resumes its slot (seed 000 Fig. 7: "waits for the responses"). ``triggered``: what it waited
+    for came; ``armed``: the slot waits on it (the heading reports are waited for only in a ring that is not crowded);
+    ``done``: the slot resumed. Its steps are keyed on the clock where SimPy put the same wait written as ``AnyOf(event,
+    timeout)`` in a process: the event, then the condition, each one step later."""
 
     slot = cython.declare(object)  # the _Slot it resumes
     triggered = cython.declare(cython.bint)
@@ -133,9 +128,7 @@ class _Wait:
 
     def __init__(self, slot):
         self.slot = slot
-        self.triggered = False
-        self.armed = False
-        self.done = False
+        self.triggered = self.armed = self.done = False
 
 
 @cython.cclass
@@ -171,6 +164,7 @@ class TokenRing:
     _plan = cython.declare(object)
     _neighbours = cython.declare(tuple)  # (formation, member, its neighbours' member numbers): _Slot._ir_done's
     _clock = cython.declare(LocalClock)  # the robot's own MCU clock (Station.clock)
+    _times = cython.declare(tuple)  # (the station's config, three of its protocol times): _protocol
 
     def __init__(self, node: Station):
         self.node = node
@@ -199,7 +193,7 @@ class TokenRing:
         self.lost_handler = None  # master: called with the node id of a member declared lost (Node wires it)
         self._declared = set()
         self._plan = None  # (total members, its plan)
-        self._neighbours = (None, -1, ())
+        self._neighbours, self._times = (None, -1, ()), None
         node.on(msg.TX_START, self._on_tx_start)
         node.on(msg.TOKEN, self._on_token)
         node.on(msg.SYNC, self._on_sync)
@@ -223,6 +217,15 @@ class TokenRing:
         if self._plan is None or self._plan[0] != total:
             self._plan = (total, ring_plan(self.node.cfg, total))
         return self._plan[1]
+
+    @cython.cfunc
+    def _protocol(self) -> tuple:
+        """(config, ring_response_timeout_s, token_timeout_s, token_retries): the station's, read anew for another config."""
+        cfg = self.node.cfg
+        if self._times is None or self._times[0] is not cfg:
+            p = cfg.protocol
+            self._times = (cfg, p.ring_response_timeout_s, p.token_timeout_s, p.token_retries)
+        return self._times
 
     # -- ring order -----------------------------------------------------------------------------
     @cython.cfunc
@@ -253,7 +256,7 @@ class TokenRing:
         wait: _Wait = _Wait(slot)
         self._acks_event = wait
         wait.armed = True
-        self._clock.call_later(self.node.cfg.protocol.ring_response_timeout_s, self._wait_over, (wait,))
+        self._clock.call_later(self._protocol()[1], self._wait_over, (wait,))
 
     def _wait_over(self, wait: _Wait) -> None:
         """The first of a wait's two ends (its event, or its timeout) resumes its slot; the later one is nothing."""
@@ -276,15 +279,13 @@ class TokenRing:
                 self._clock.call_soon(self._wait_over, (wait,))
 
     def hold(self, seq: int) -> None:
-        """Become the holder of token ``seq`` and run its slot (:class:`_Slot`): start sign, IR
-        transmission, token hand-over."""
+        """Become the holder of token ``seq`` and run its slot (:class:`_Slot`): start sign, IR transmission, token hand-over."""
         _Slot(self, seq).start()
 
     @cython.cfunc
     def _count_silent(self, peers: set, slot_start: cython.double):
-        """Master, at the start of its slot: a round has passed since its previous slot; count the
-        members not heard in it, and declare lost those silent ``protocol.lost_after_rounds`` rounds
-        in a row (module docstring)."""
+        """Master, at the start of its slot: a round has passed since its previous slot; count the members not heard in it,
+        and declare lost those silent ``protocol.lost_after_rounds`` rounds in a row (module docstring)."""
         since, heard, silent = self.round_start_s, self.heard, self.silent_rounds
         need = self.node.cfg.protocol.lost_after_rounds
         if (since == self.started_s and slot_start == since) or slot_start < self.started_s:
@@ -380,12 +381,11 @@ class TokenRing:
         self.token_seq = max(self.token_seq, frame.payload["seq"])
 
     def announced_holder(self) -> int | None:
-        """Who transmits the IR we measure now, as this robot knows it: the sender of the latest
-        start sign or sync it heard (the holder's own frames), else the robot the latest token it
-        heard was passed to, if that frame is recent enough to be this slot's (:data:`ANNOUNCE_S`);
-        None: it heard no announcement and cannot say whose IR it measured (the measurement is
-        dropped). Chosen order: a token's "next" names a member by the receiver's own table and a
-        token may be passed on again (its acknowledgement lost) while the first robot holds."""
+        """Who transmits the IR we measure now, as this robot knows it: the sender of the latest start sign or sync it heard
+        (the holder's own frames), else the robot the latest token it heard was passed to, if that frame is recent enough to
+        be this slot's (:data:`ANNOUNCE_S`); None: it heard no announcement and cannot say whose IR it measured (the
+        measurement is dropped). Chosen order: a token's "next" names a member by the receiver's own table and a token may be
+        passed on again (its acknowledgement lost) while the first robot holds."""
         now = self._clock.local_now()
         for holder, t in (self.holder_heard, self.token_to):
             if now - t <= ANNOUNCE_S:
@@ -433,13 +433,13 @@ class TokenRing:
         ``token_timeout_s / 2`` of its own clock while it is the master."""
         node = self.node
         if node.state == "master":
-            self._clock.call_later(node.cfg.protocol.token_timeout_s / 2, self._watchdog, ())
+            self._clock.call_later(self._protocol()[2] / 2, self._watchdog, ())
 
     def _watchdog(self) -> None:
         node = self.node
         if node.state != "master":
             return
-        if not self.holding and self._clock.local_now() - self.last_activity_s > node.cfg.protocol.token_timeout_s:
+        if not self.holding and self._clock.local_now() - self.last_activity_s > self._protocol()[2]:
             self.recoveries += 1
             self.token_seq += 1000  # supersede any stale holder
             self._clock.call_start(self.hold, (self.token_seq,))
@@ -535,7 +535,7 @@ class _Slot:
         if reporters and ring._current_plan().wait_headings:  # else the reports are paired as they come (crowded ring)
             wait.armed = True
             self.step = _HEADINGS
-            ring._clock.call_later(node.cfg.protocol.ring_response_timeout_s, ring._wait_over, (wait,))
+            ring._clock.call_later(ring._protocol()[1], ring._wait_over, (wait,))
             return
         self._pass_token()
 
@@ -564,7 +564,7 @@ class _Slot:
                 self.nxt = ring._next_member(self.nxt)
                 continue
             self.target = target
-            self.attempts_left = ring.node.cfg.protocol.token_retries + 1
+            self.attempts_left = ring._protocol()[3] + 1
             self._send_token()
             return
         self._finish()

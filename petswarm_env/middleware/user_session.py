@@ -84,6 +84,11 @@ class UserSession(SuccessorSide):
         self.robot_pattern = robot_pattern  # what the user's robot bursts
         self.state = "waiting_user"
         self.previous_mode = cfg.swarm.mode
+        # plain copies of the config's values that every step reads (the config is frozen)
+        self._period_s, self._lost_user_s = cfg.control_period_s, cfg.master.lost_user_s
+        self._distance_m = cfg.master.distance_m
+        self._report_period_s, self._ble_latency_s = cfg.ble.report_period_s, cfg.ble.latency_s
+        self._lf_period_s = cfg.lf.burst_period_s
         self.belt_view = BeltView()
         self.connected_robot: int | None = None  # node id the belt is connected to over BLE
         self.paired_at_s: float | None = None
@@ -231,7 +236,7 @@ class UserSession(SuccessorSide):
 
     def _lf_burst(self) -> None:
         cfg = self.cfg
-        period = cfg.lf.burst_period_s
+        period = self._lf_period_s
         if self.connected_robot is not None and self.state in ("following", "leading", "emergency") \
                 and self.clock.now >= self.link_since_s:
             tx = self.swarm.master.node_id
@@ -245,7 +250,7 @@ class UserSession(SuccessorSide):
             fix = lf.locate(cfg.lf, c * dx + s * dy, -s * dx + c * dy, self.rng_lf)
             if fix.valid:  # the belt heard both antennas; RSSIs go back over BLE
                 t_burst = self.swarm.master.clock.now  # stamped on the clock of the robot that burst (seed 000 §3.3)
-                self.clock.later(cfg.ble.latency_s, self._on_fix, tx, fix, t_burst)
+                self.clock.later(self._ble_latency_s, self._on_fix, tx, fix, t_burst)
         self.swarm.master.clock.later(period, self._lf_burst)  # the master's burst period, on its own clock
 
     def _on_fix(self, tx: int, fix: lf.LFFix, t_burst: float) -> None:
@@ -258,14 +263,14 @@ class UserSession(SuccessorSide):
     # -- belt reports (seed 002 §3.4) -------------------------------------------------------------
     def _belt_reports(self) -> None:
         """The belt reports the user's motion every ``ble.report_period_s`` of its own clock."""
-        self.belt_clock.later(self.cfg.ble.report_period_s, self._belt_report)
+        self.belt_clock.later(self._report_period_s, self._belt_report)
 
     def _belt_report(self) -> None:
         self._ble_supervision()
         if self.connected_robot is not None and self.clock.now >= self.link_since_s:
             r = self.belt.reading()
             view = BeltView(r.activity, r.rotating, r.angular_speed_rps, r.accumulated_angle_rad, self.belt_clock.now)
-            self.clock.later(self.cfg.ble.latency_s, setattr, self, "belt_view", view)
+            self.clock.later(self._ble_latency_s, setattr, self, "belt_view", view)
         self._belt_reports()  # the belt's report period, on its own clock
 
     # -- commands (seed 002 §2, Table 1, Fig. 4) ----------------------------------------------------
@@ -330,13 +335,12 @@ class UserSession(SuccessorSide):
         now = self.clock.now
         if self.connected_robot is not None and self.startup and self._ready_for(self.startup[0]):
             user.pending_commands.insert(0, self.startup.pop(0))
-        delay = self.cfg.watch.recognition_delay_s
         while user.pending_commands:
             cmd = user.pending_commands.pop(0)
             if cmd.startswith("gesture:"):
                 self._gestures.append(cmd.split(":", 1)[1])
             else:  # a menu selection on the watch (chosen: recognised after the same delay)
-                self._deliver(self.handle_command, cmd, delay)
+                self._deliver(self.handle_command, cmd, self.cfg.watch.recognition_delay_s)
         while self._gestures and now >= self._watch_free_s:
             self.watch.perform(self._gestures.pop(0), now)
             self._watch_free_s = now + self.cfg.watch.gesture_duration_s
@@ -358,8 +362,10 @@ class UserSession(SuccessorSide):
     def target_distance_m(self) -> float:
         """Standard distance (following), or beyond the whole formation (leading master), inside the
         LF range (seed 000 §3.5: the leading master shifts there before the formation is built)."""
-        return master_distance_m(self.cfg, self.swarm.formation if self.swarm.organized else None,
-                                 "leading" if "leading" in (self.state, self.swarm.mode) else "following")
+        swarm = self.swarm
+        mode = "leading" if "leading" in (self.state, swarm.mode) else "following"
+        # (the formation counts only in leading)
+        return master_distance_m(self.cfg, swarm.formation if mode == "leading" and swarm.organized else None, mode)
 
     def step(self, odometry: tuple[float, float, float], ranges: np.ndarray):
         """Before a control period: advance the belt, take the user's commands, check the exception
@@ -378,65 +384,66 @@ class UserSession(SuccessorSide):
             # successor paired from its slot beside or behind its user must out-pace a walking user to get there)
             self.paused = self._succeeded = False
             user.walking = True
-        seg = user.segment
         moving = user.walking
         t_fed, heading_fed = self._belt_fed  # the waist's mean yaw rate over the period (the gyro integrates
-        turn = (user.heading - heading_fed) / (now - t_fed) if now > t_fed else 0.0  # the true rotation)
-        self._belt_fed = (now, user.heading)
+        heading = user.heading
+        turn = (heading - heading_fed) / (now - t_fed) if now > t_fed else 0.0  # the true rotation)
+        self._belt_fed = (now, heading)
+        seg = user.segment
         self.belt.advance(now, seg.speed_mps if moving else 0.0, turn, seg.activity if moving else "stop")
         self._pick_up_user_commands()
-        master = self.swarm.master
+        swarm = self.swarm
+        master = swarm.master
+        tracker, tracker_node, period = self.tracker, self.tracker_node, self._period_s
         # from here on the clock of the robot whose tracker this is: the master's own (the belt and the
         # user above: physics); between a handover's takeover and its end, still the old master's
-        now = self.tracker_node.clock.now
+        now = tracker_node.clock.now
         if "ahrs" in master.diagnosis.failed:  # its own diagnosis found the AHRS broken: its wheels' ω turns the frame
-            self.tracker.move_without_ahrs(odometry, cfg.control_period_s)
-            yaw = self.tracker.pose[2]
+            tracker.move_without_ahrs(odometry, period)
+            yaw = tracker.pose[2]
         else:
             yaw = master.ahrs_yaw()
-            self.tracker.move(odometry, yaw, cfg.control_period_s)
-        est = self.tracker.user_body(now)
+            tracker.move(odometry, yaw, period)
+        est = tracker.user_body(now)
         # emergency: the user is out of the reliable range (no fix) for too long (the link came up
         # at an event of the master's own BLE radio: it knows that moment on its own clock)
-        if self.state in ("following", "leading") and now - max(self.tracker.last_fix_s, self.tracker_node.clock.local(self.link_since_s)) > cfg.master.lost_user_s:
-            self.state = "emergency"
+        state = self.state
+        if (state == "following" or state == "leading") \
+                and now - max(tracker.last_fix_s, tracker_node.clock.local(self.link_since_s)) > self._lost_user_s:
+            self.state = state = "emergency"
             self._emergency_since = now
             self.events["emergencies"] += 1
             self.events["alerts_to_belt"] += 1
-        elif self.state == "emergency" and self.tracker.last_fix_s > self._emergency_since:
-            self.state = self.previous_mode
-        self.swarm.emergency = self.state == "emergency"
+        elif state == "emergency" and tracker.last_fix_s > self._emergency_since:
+            self.state = state = self.previous_mode
+        swarm.emergency = state == "emergency"
         # exception: an obstacle in the leading robot's travel direction (behind it: it faces the user) while it
         # travels — its user walks or runs by the belt's report (seed 002 §3.4); a leading robot whose user stands
         # has no travel direction (chosen: during the building of seed 000 Fig. 10 the slaves cross behind the
         # master before its IR has fixed them, and the exception they raised was never returned from by a user
         # who then walked off: 8 of 20 leading straight walks, seeds 0-19, ended 22-38 m from their master)
-        if self.state == "leading" and self.belt_view.activity in MOVING_ACTIVITIES and ranges is not None \
+        view = self.belt_view
+        if state == "leading" and view.activity in MOVING_ACTIVITIES and ranges is not None \
                 and len(ranges) and self._obstacle_behind(ranges):
-            self.state = "exception"
+            self.state = state = "exception"
             self.events["exceptions"] += 1
             self.events["alerts_to_belt"] += 1
             self._remote_stop()
-        self.swarm.user_view = UserView(
-            self.belt_view.activity,
-            self.belt_view.angular_speed_rps,
-            self.belt_view.rotating,
-            tuple(est[0]) if est is not None else (cfg.master.distance_m, 0.0),
-            self.ctrl.walk_direction_rad,
-        )
+        ctrl = self.ctrl
+        swarm.user_view = UserView(view.activity, view.angular_speed_rps, view.rotating,
+                                   tuple(est[0]) if est is not None else (self._distance_m, 0.0), ctrl.walk_direction_rad)
         zero = (0.0, 0.0, 0.0)
-        if self.state in ("following", "leading"):
+        if state == "following" or state == "leading":
             if est is None:
                 return zero, None, False
             # the user stands at the alert of a handover for a broken part (the belt's activity window still says walk)
-            belt = self.belt_view if self.fault_pause_s is None else BeltView("stop", False, 0.0, 0.0, self.belt_view.time_s)
-            return self.ctrl.command(est[0], est[1], belt, odometry, self.state, self.target_distance_m(),
-                                     cfg.control_period_s), None, False
-        if self.state in ("remote", "exception"):
+            belt = view if self.fault_pause_s is None else BeltView("stop", False, 0.0, 0.0, view.time_s)
+            return ctrl.command(est[0], est[1], belt, odometry, state, self.target_distance_m(), period), None, False
+        if state == "remote" or state == "exception":
             return zero, self.remote.command(now, yaw), False
-        if self.state == "waiting_user" and master.state == "master" and master.connected_user is None:
+        if state == "waiting_user" and master.state == "master" and master.connected_user is None:
             return self._successor_command(master, odometry), None, False
-        return zero, None, self.state == "emergency"
+        return zero, None, state == "emergency"
 
     def _in_place_to_resume(self, odometry: tuple[float, float, float]) -> bool:
         """After a handover for a broken part: whether the user may walk on (:func:`~.succession.in_place_to_resume`)."""

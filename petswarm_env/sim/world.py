@@ -43,6 +43,7 @@ class World:
 
     def __init__(self, cfg: Config, script: ScenarioScript):
         self.cfg = cfg
+        self._user_radius_m = cfg.user.radius_m  # read by every truth read (the config is frozen)
         self.clock = Clock()
         self.space = pymunk.Space()
         self.space.gravity = (0.0, 0.0)  # top view
@@ -141,7 +142,7 @@ class World:
         if self._truth_at == steps and self._truth is not None:
             return self._truth
         truth = self._truth
-        self._truth = read_truth(self.robots, self.users, self.cfg.user.radius_m, None if truth is None else truth[1])
+        self._truth = read_truth(self.robots, self.users, self._user_radius_m, None if truth is None else truth[1])
         self._truth_at = steps
         return self._truth
 
@@ -156,7 +157,7 @@ class World:
                 centers, radii, headings = self._truth
                 self._lists = (centers.tolist(), radii.tolist(), headings.tolist())
             else:
-                self._lists = read_truth_lists(self.robots, self.users, self.cfg.user.radius_m)
+                self._lists = read_truth_lists(self.robots, self.users, self._user_radius_m)
             self._lists_at = steps
         return self._lists
 

@@ -451,6 +451,7 @@ class RecoveryManager(Leaving):
             # the robot that handed its user over to this one asks to leave (after_handover): its removal
             # plans the slots from its place, where this master drives (_remove)
             self._leaving_master = frame.src if frame.src == node.modes.handed_from else None
+            node.modes.handed_from = None  # once: a later request of the same robot is a slave's
             self.member_lost(frame.src)
 
     def _on_bid_request_ack(self, frame: Frame) -> None:

@@ -1,7 +1,7 @@
 """The robot side of a user session after its master was lost (seed 002 §3.2, Fig. 4; middleware/succession.py):
 the slave that took the lost master's place starts its user tracker from its own estimate, looks for its
-user and bursts its wake-up pattern until the belt pairs (:meth:`SuccessorSide._successor_command`), and,
-leading, lets its user walk on only once it stands ahead of them. A mixin of
+user and bursts its wake-up pattern until the belt pairs (:meth:`SuccessorSide._successor_command`) (leading,
+its user walks on only once it stands ahead of them: ``UserSession.step``). A mixin of
 :class:`~.user_session.UserSession`, whose state (tracker, controller, belt view, search) it reads."""
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 
 from petswarm_env.middleware.succession import (APPROACH_SLACK_M, BLOCKED_S, PROGRESS_M, SEARCH_STAND_M, STALLED_MPS,
-                                                 in_place_to_resume, search_step, walk_direction)
+                                                 search_step, walk_direction)
 
 
 class SuccessorSide:
@@ -103,10 +103,3 @@ class SuccessorSide:
         stand = SEARCH_STAND_M if self._search is not None else cfg.succession.approach_m
         return self.ctrl.command(est[0], (0.0, 0.0), self.belt_view, odometry, "following", stand,
                                  cfg.control_period_s)
-
-    def _in_place_after_pairing(self, odometry: tuple[float, float, float]) -> bool:
-        """After a succession in leading mode: whether the user may walk on (:func:`~.succession.in_place_to_resume`,
-        its own LF fix newer than the pairing)."""
-        return in_place_to_resume(self.tracker, self.ctrl.walk_direction_rad, self.tracker_node.clock.now,
-                                  self.tracker_node.clock.local(self.paired_at_s), self.target_distance_m(), True, self.cfg,
-                                  odometry)

@@ -374,11 +374,12 @@ class UserSession(SuccessorSide):
         now = self.clock.now
         user = self.user
         self._check_release(now)
-        if self.fault_pause_s is not None and self._in_place_to_resume(odometry):
+        if self.fault_pause_s is not None and self._in_place_to_resume(odometry, self.fault_pause_s):
             self.fault_pause_s, self.paused = None, False
             user.walking = True  # the new master located the user by its own LF fix, near enough: they walk on
         if self.paused and self.fault_pause_s is None and self.swarm.organized and self.state in ("following", "leading") \
-                and (self.state == "following" or not self._succeeded or self._in_place_after_pairing(odometry)):
+                and (self.state == "following" or not self._succeeded
+                     or self._in_place_to_resume(odometry, self.tracker_node.clock.local(self.paired_at_s))):
             # paired again with an organized swarm: the user walks on; after a leading master's succession once
             # its successor stands ahead of them (the rule after a handover, succession.in_place_to_resume: a
             # successor paired from its slot beside or behind its user must out-pace a walking user to get there)
@@ -445,11 +446,11 @@ class UserSession(SuccessorSide):
             return self._successor_command(master, odometry), None, False
         return zero, None, state == "emergency"
 
-    def _in_place_to_resume(self, odometry: tuple[float, float, float]) -> bool:
-        """After a handover for a broken part: whether the user may walk on (:func:`~.succession.in_place_to_resume`)."""
+    def _in_place_to_resume(self, odometry: tuple[float, float, float], since_s: float) -> bool:
+        """After a handover for a broken part, or a leading master's succession: whether the user may walk on
+        (:func:`~.succession.in_place_to_resume`, the new master's own LF fix newer than ``since_s``, its clock)."""
         return in_place_to_resume(self.tracker, self.ctrl.walk_direction_rad, self.tracker_node.clock.now,
-                                  self.fault_pause_s, self.target_distance_m(), self.state == "leading", self.cfg,
-                                  odometry)
+                                  since_s, self.target_distance_m(), self.state == "leading", self.cfg, odometry)
 
     def _check_release(self, now: float) -> None:
         """The connected master cut off from its swarm (:meth:`~.sequence.SequenceManager.cut_off`:

@@ -199,17 +199,17 @@ def master_heading_offset(node: Station, master: int) -> float:
     return head.relative_rad - wrap_angle(node.ahrs_yaw() - head.own_yaw_rad) if head is not None else 0.0
 
 
-def in_place_to_resume(tracker, psi: float | None, now: float, fault_pause_s: float, target_m: float, leading: bool,
+def in_place_to_resume(tracker, psi: float | None, now: float, alert_pause_s: float, target_m: float, leading: bool,
                        cfg, odometry: tuple[float, float, float]) -> bool:
     """After a handover for a broken part, whether the user may walk on: the new master's own LF fix
-    (``tracker``, newer than the pause at ``fault_pause_s``; ``now`` on its own clock) puts its user
+    (``tracker``, newer than the pause at ``alert_pause_s``; ``now`` on its own clock) puts its user
     near enough (``RESUME_SLACK_M`` beyond its distance ``target_m``) and, ``leading``, its place ahead
     of them — the user inside the reliable ±``lf.reliable_half_angle_deg`` of straight behind it, by its
     own walking direction ``psi`` (seed 002 §3.4: the leading robot keeps its user behind it), the
     robot at rest by its ``odometry``. A leading robot beside its user must out-pace them to regain
     that place, with the wheels it also needs to keep pace; standing, the user lets it swing in first
     (chosen)."""
-    if tracker.last_fix_s <= fault_pause_s:
+    if tracker.last_fix_s <= alert_pause_s:
         return False
     user_body = tracker.user_body(now)[0]
     r = math.hypot(*user_body)

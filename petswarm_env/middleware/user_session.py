@@ -23,7 +23,8 @@ master of their swarm:
   remote; Circle → command-waiting; leading with an obstacle in the travel direction → *exception*
   (remote control by gestures until the user's return command, then the previous mode); no fix
   for ``master.lost_user_s`` → *emergency* (alert to the belt, every robot of the swarm stops;
-  chosen: it clears by itself when the user is back inside the reliable range);
+  chosen: it clears by itself when the user is back inside the reliable range, and a walking user
+  stops at the alert and steps back toward their robot, :meth:`UserSession._walk_back`);
 * the **master-role controller** (:mod:`petswarm_env.control.master`) that drives the master.
 
 Clocks (seed 000 §3.3: independent clocks): what the robot side does runs on the current master's
@@ -60,6 +61,7 @@ from petswarm_env.wearables.watch import Command, RemoteDriver, Watch
 DRIVING_STATES = ("following", "leading", "remote")
 MOVING_ACTIVITIES = ("walk", "run")  # the belt's activities (seed 002 Table 2) in which the user moves
 MODE_SETTLE_S = 5.0  # chosen: after a mode change the re-forming swarm raises no obstacle exception
+RETURN_MPS = 0.5  # chosen: a user whose belt alerts that their robot lost them steps back toward it at a slow walk
 
 
 class UserSession(SuccessorSide):
@@ -100,7 +102,8 @@ class UserSession(SuccessorSide):
         self._gestures: list[str] = []  # gestures the user is about to perform, one stroke at a time
         self._watch_free_s = -math.inf
         self._guess_only = False  # the tracker holds only a new master's own guess of its user, no LF fix yet
-        self.fault_pause_s: float | None = None  # the user stopped at a master's handover for a broken part, since
+        self.alert_pause_s: float | None = None  # the user stopped at a belt's alert (a handover for a broken part, an emergency), since
+        self._returning = False  # the user steps back toward their robot after an emergency's alert (_walk_back)
         self.paused = False  # the user stopped after losing their master (the belt's alert), until paired with an organized swarm
         self._succeeded = False  # a slave took the lost master's place (_on_succession) since the user stopped
         self._succession_walk: float | None = None  # its walk direction of the user, tracker frame (_on_succession)
@@ -155,6 +158,7 @@ class UserSession(SuccessorSide):
         self.events["alerts_to_belt"] += 1
         self.link_losses.append((self.clock.now, reason))
         self.user.walking = False  # the user stops at the alert
+        self.user.returning = self._returning = False
         self.paused = True
         self.ctrl.reset()
         self.belt_view = BeltView()  # nothing more from the belt until a link carries it
@@ -374,10 +378,11 @@ class UserSession(SuccessorSide):
         now = self.clock.now
         user = self.user
         self._check_release(now)
-        if self.fault_pause_s is not None and self._in_place_to_resume(odometry, self.fault_pause_s):
-            self.fault_pause_s, self.paused = None, False
-            user.walking = True  # the new master located the user by its own LF fix, near enough: they walk on
-        if self.paused and self.fault_pause_s is None and self.swarm.organized and self.state in ("following", "leading") \
+        if self.alert_pause_s is not None and self.state != "emergency" and self._in_place_to_resume(odometry, self.alert_pause_s):
+            self.alert_pause_s, self.paused = None, False
+            user.returning = self._returning = False
+            user.walking = True  # the (new) master located the user by its own LF fix, near enough: they walk on
+        if self.paused and self.alert_pause_s is None and self.swarm.organized and self.state in ("following", "leading") \
                 and (self.state == "following" or not self._succeeded
                      or self._in_place_to_resume(odometry, self.tracker_node.clock.local(self.paired_at_s))):
             # paired again with an organized swarm: the user walks on; after a leading master's succession once
@@ -385,13 +390,18 @@ class UserSession(SuccessorSide):
             # successor paired from its slot beside or behind its user must out-pace a walking user to get there)
             self.paused = self._succeeded = False
             user.walking = True
+        if self._returning:
+            self._walk_back()
         moving = user.walking
         t_fed, heading_fed = self._belt_fed  # the waist's mean yaw rate over the period (the gyro integrates
         heading = user.heading
         turn = (heading - heading_fed) / (now - t_fed) if now > t_fed else 0.0  # the true rotation)
         self._belt_fed = (now, heading)
         seg = user.segment
-        self.belt.advance(now, seg.speed_mps if moving else 0.0, turn, seg.activity if moving else "stop")
+        if user.returning:  # stepping back to their robot: the belt feels a walk
+            self.belt.advance(now, RETURN_MPS, turn, "walk")
+        else:
+            self.belt.advance(now, seg.speed_mps if moving else 0.0, turn, seg.activity if moving else "stop")
         self._pick_up_user_commands()
         swarm = self.swarm
         master = swarm.master
@@ -415,6 +425,10 @@ class UserSession(SuccessorSide):
             self._emergency_since = now
             self.events["emergencies"] += 1
             self.events["alerts_to_belt"] += 1
+            if user.walking:  # the belt's alert: the user stops and steps back toward their robot (_walk_back)
+                user.walking = False
+                self.paused = self._returning = True
+                self.alert_pause_s = now  # they walk on at the master's own LF fix of them in place (_in_place_to_resume)
         elif state == "emergency" and tracker.last_fix_s > self._emergency_since:
             self.state = state = self.previous_mode
         swarm.emergency = state == "emergency"
@@ -438,13 +452,31 @@ class UserSession(SuccessorSide):
             if est is None:
                 return zero, None, False
             # the user stands at the alert of a handover for a broken part (the belt's activity window still says walk)
-            belt = view if self.fault_pause_s is None else BeltView("stop", False, 0.0, 0.0, view.time_s)
+            belt = view if self.alert_pause_s is None else BeltView("stop", False, 0.0, 0.0, view.time_s)
             return ctrl.command(est[0], est[1], belt, odometry, state, self.target_distance_m(), period), None, False
         if state == "remote" or state == "exception":
             return zero, self.remote.command(now, yaw), False
         if state == "waiting_user" and master.state == "master" and master.connected_user is None:
             return self._successor_command(master, odometry), None, False
         return zero, None, state == "emergency"
+
+    def _walk_back(self) -> None:
+        """After an emergency's alert (no LF fix of the user for ``master.lost_user_s``, seed 002 Fig. 4: the
+        robot alerts the belt and every robot of the swarm stops) the user steps back toward their robot,
+        which they see, at :data:`RETURN_MPS` with their heading kept, until they stand the master's distance
+        from it; they walk on once its own LF fix puts them in place again (:meth:`_in_place_to_resume`).
+        Chosen: the papers alert the user and say no more, and a swarm that stands while its user walks
+        on has lost them for good."""
+        user = self.user
+        idx = self.connected_robot
+        if idx is None:
+            user.returning = self._returning = False
+            return
+        rx, ry = self.world.robots[idx].body.position
+        ux, uy = user.body.position
+        user.returning = far = math.hypot(rx - ux, ry - uy) > self.target_distance_m()
+        if far:
+            user.toward_x, user.toward_y, user.toward_mps = rx, ry, RETURN_MPS
 
     def _in_place_to_resume(self, odometry: tuple[float, float, float], since_s: float) -> bool:
         """After a handover for a broken part, or a leading master's succession: whether the user may walk on
@@ -534,4 +566,4 @@ class UserSession(SuccessorSide):
             self.user.walking = False
             self.paused = True  # the user stands until then: not the script's start (the episode's start of walks)
             self.events["alerts_to_belt"] += 1
-            self.fault_pause_s = now
+            self.alert_pause_s = now

@@ -56,8 +56,11 @@ cdef class WalkingBody(Body):
     cdef public list pending_commands
     cdef object _seg_script, _seg
     cdef double _seg_end_s, _seg_speed, _seg_w
+    cdef public bint returning
+    cdef public double toward_x, toward_y, toward_mps
 
     cdef _apply(self, double dt)
+    cdef _step_toward(self)
 
 
 cdef class Substeps:

@@ -419,6 +419,10 @@ class WalkingBody(Body):
         self.segment = script.segments[0]
         self.script_time_s = 0.0
         self.walking = False  # the script starts when the swarm is organized
+        # not walking the script: stepping toward a point (toward_x, toward_y) at toward_mps, the heading kept
+        # (a user going back to their robot at its alert, middleware/user_session.py)
+        self.returning = False
+        self.toward_x = self.toward_y = self.toward_mps = 0.0
         self.pending_commands = []  # commands the user issued (wearables pick them up)
         # the segment last taken from the script, until the script time at which it ends (ScenarioScript.segment_end_s),
         # with its speed and turn rate (rad/s): the script is asked again only then (or when script or segment is replaced)
@@ -440,6 +444,9 @@ class WalkingBody(Body):
         wx: cython.double
         wy: cython.double
         if not self.walking:
+            if self.returning:
+                self._step_toward()
+                return
             wx, wy = _vel(self)
             if wx != 0.0 or wy != 0.0:
                 _set_vel(self, 0.0, 0.0)
@@ -465,6 +472,23 @@ class WalkingBody(Body):
             _set_vel(self, vx, vy)
         if w != _omega(self):
             _set_omega(self, w)
+
+
+    @cython.cfunc
+    def _step_toward(self):
+        """Not walking the script: this substep's velocity toward ``(toward_x, toward_y)`` at ``toward_mps``,
+        the heading kept (no turn)."""
+        px, py = _pos(self)
+        dx: cython.double = self.toward_x - px
+        dy: cython.double = self.toward_y - py
+        d: cython.double = _py_hypot(dx, dy)
+        vx: cython.double = 0.0
+        vy: cython.double = 0.0
+        if d > 1e-9:
+            vx, vy = self.toward_mps * dx / d, self.toward_mps * dy / d
+        _set_vel(self, vx, vy)
+        if _omega(self) != 0.0:
+            _set_omega(self, 0.0)
 
 
 @cython.cclass

@@ -419,3 +419,39 @@ def test_user_disperse_request_sends_robots_back_and_ends_their_agency():
     for _ in range(5):  # the master's disperse process ends after its last acknowledgement window
         env.episode.world.advance(env.cfg.physics_substeps)
     assert env.episode.swarm.master.state == "following" and env.episode.session.state == "following"
+
+
+def test_a_walking_user_alerted_by_an_emergency_steps_back_to_their_robot_and_walks_on():
+    """The belt's emergency alert (seed 002 Fig. 4) stops a walking user, who steps back toward their robot
+    (heading kept) until its own LF fix of them puts them in place; then they walk on (user_session._walk_back)."""
+    env = petswarm_env.parallel_env(**{"user.scenario": "straight"})
+    env.reset(seed=0)
+    pol = make_policy("scripted", PolicySpec.from_env(env))
+    user, se = env.episode.world.user, env.episode.session
+    for _ in range(600):
+        run(env, 1, pol)
+        if user.walking:
+            break
+    run(env, 20, pol)
+    assert user.walking and se.state == "following"
+    heading = user.heading
+    user.body.position = (user.position[0] + 2.5 * math.cos(heading), user.position[1] + 2.5 * math.sin(heading))
+    seen = {"stopped": False, "returned": False}
+    for _ in range(int(env.cfg.master.lost_user_s / env.cfg.control_period_s) + 60):
+        run(env, 1, pol)
+        if se.state == "emergency":
+            seen["stopped"] |= not user.walking
+            if user.returning:
+                m = env.episode.world.robots[se.connected_robot].position
+                to_m = math.atan2(m[1] - user.position[1], m[0] - user.position[0])
+                vx, vy = user.body.velocity
+                assert math.hypot(vx, vy) == pytest.approx(0.5)
+                assert abs(math.atan2(vy, vx) - to_m) < 0.2  # toward the robot (it stands: the swarm's emergency stop)
+                assert user.heading == pytest.approx(heading)  # stepping back, not turning round
+                seen["returned"] = True
+        elif seen["returned"] and user.walking:
+            break
+    assert se.events["emergencies"] == 1 and seen["stopped"] and seen["returned"]
+    assert se.state == "following" and user.walking and not user.returning
+    m = env.episode.world.robots[se.connected_robot].position
+    assert math.hypot(m[0] - user.position[0], m[1] - user.position[1]) < 2.0

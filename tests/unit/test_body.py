@@ -66,3 +66,20 @@ def test_the_drives_hypot_is_pythons_bit_for_bit():
     values = [(x, y) for arr in pairs for x, y in arr.tolist()]
     values += [(0.0, 0.0), (-0.0, 0.0), (3.0, 4.0), (1e308, 1e308), (5e-324, 5e-324), (math.inf, math.nan), (math.nan, 1.0), (-math.inf, 2.0)]
     assert [repr(hypot(x, y)) for x, y in values] == [repr(math.hypot(x, y)) for x, y in values]
+
+
+def test_a_walking_body_not_on_its_script_steps_toward_a_point_without_turning():
+    cfg = load_config()
+    world = World(cfg, SCENARIOS["straight"].script(cfg.user, np.random.default_rng(0)))
+    user = world.user
+    user.walking, user.returning = False, True
+    x0, y0 = user.position
+    heading = user.heading
+    user.toward_x, user.toward_y, user.toward_mps = x0 + 3.0, y0 + 4.0, 0.5
+    user.apply(0.02)
+    assert tuple(user.body.velocity) == pytest.approx((0.3, 0.4)) and user.body.angular_velocity == 0.0
+    world.space.step(1.0)
+    assert user.position == pytest.approx((x0 + 0.3, y0 + 0.4)) and user.heading == heading
+    user.returning = False
+    user.apply(0.02)
+    assert tuple(user.body.velocity) == (0.0, 0.0)

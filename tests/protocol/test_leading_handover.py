@@ -59,7 +59,7 @@ def test_after_a_leading_masters_ir_fault_the_user_walks_on_only_with_the_new_ma
     def watch(env):
         ep = env.episode
         session, user = ep.sessions[0], ep.world.users[0]
-        if session.fault_pause_s is not None:
+        if session.alert_pause_s is not None:
             seen["paused"] = True
         elif seen.get("paused") and seen["resumed"] is None and user.walking:
             robot = ep.world.robots[session.swarm.master.node_id].body

@@ -392,16 +392,7 @@ class UserSession(SuccessorSide):
             user.walking = True
         if self._returning:
             self._walk_back()
-        moving = user.walking
-        t_fed, heading_fed = self._belt_fed  # the waist's mean yaw rate over the period (the gyro integrates
-        heading = user.heading
-        turn = (heading - heading_fed) / (now - t_fed) if now > t_fed else 0.0  # the true rotation)
-        self._belt_fed = (now, heading)
-        seg = user.segment
-        if user.returning:  # stepping back to their robot: the belt feels a walk
-            self.belt.advance(now, RETURN_MPS, turn, "walk")
-        else:
-            self.belt.advance(now, seg.speed_mps if moving else 0.0, turn, seg.activity if moving else "stop")
+        self._feed_belt(now)
         self._pick_up_user_commands()
         swarm = self.swarm
         master = swarm.master
@@ -422,13 +413,7 @@ class UserSession(SuccessorSide):
         if (state == "following" or state == "leading") \
                 and now - max(tracker.last_fix_s, tracker_node.clock.local(self.link_since_s)) > self._lost_user_s:
             self.state = state = "emergency"
-            self._emergency_since = now
-            self.events["emergencies"] += 1
-            self.events["alerts_to_belt"] += 1
-            if user.walking:  # the belt's alert: the user stops and steps back toward their robot (_walk_back)
-                user.walking = False
-                self.paused = self._returning = True
-                self.alert_pause_s = now  # they walk on at the master's own LF fix of them in place (_in_place_to_resume)
+            self._alert_emergency(now)
         elif state == "emergency" and tracker.last_fix_s > self._emergency_since:
             self.state = state = self.previous_mode
         swarm.emergency = state == "emergency"
@@ -459,6 +444,34 @@ class UserSession(SuccessorSide):
         if state == "waiting_user" and master.state == "master" and master.connected_user is None:
             return self._successor_command(master, odometry), None, False
         return zero, None, state == "emergency"
+
+    def _feed_belt(self, now: float) -> None:
+        """The belt's sensors over the period just ended: the user's walk (or stand) and the waist's mean yaw
+        rate over the period (the gyro integrates the true rotation)."""
+        user = self.user
+        t_fed, heading_fed = self._belt_fed
+        heading = user.heading
+        turn = (heading - heading_fed) / (now - t_fed) if now > t_fed else 0.0
+        self._belt_fed = (now, heading)
+        if user.returning:  # stepping back to their robot: the belt feels a walk
+            self.belt.advance(now, RETURN_MPS, turn, "walk")
+        elif user.walking:
+            seg = user.segment
+            self.belt.advance(now, seg.speed_mps, turn, seg.activity)
+        else:
+            self.belt.advance(now, 0.0, turn, "stop")
+
+    def _alert_emergency(self, now: float) -> None:
+        """No LF fix of the user for ``master.lost_user_s``: the belt's alert (seed 002 Fig. 4). A walking user
+        stops and steps back toward their robot (:meth:`_walk_back`); ``now``: the master's own clock."""
+        self._emergency_since = now
+        self.events["emergencies"] += 1
+        self.events["alerts_to_belt"] += 1
+        user = self.user
+        if user.walking:
+            user.walking = False
+            self.paused = self._returning = True
+            self.alert_pause_s = now  # they walk on at the master's own LF fix of them in place (_in_place_to_resume)
 
     def _walk_back(self) -> None:
         """After an emergency's alert (no LF fix of the user for ``master.lost_user_s``, seed 002 Fig. 4: the

@@ -201,8 +201,8 @@ def master_heading_offset(node: Station, master: int) -> float:
 
 def in_place_to_resume(tracker, psi: float | None, now: float, alert_pause_s: float, target_m: float, leading: bool,
                        cfg, odometry: tuple[float, float, float]) -> bool:
-    """After a handover for a broken part, whether the user may walk on: the new master's own LF fix
-    (``tracker``, newer than the pause at ``alert_pause_s``; ``now`` on its own clock) puts its user
+    """After a belt's alert (a handover for a broken part, an emergency), whether the user may walk on: the
+    (new) master's own LF fix (``tracker``, newer than the pause at ``alert_pause_s``; ``now`` on its own clock) puts its user
     near enough (``RESUME_SLACK_M`` beyond its distance ``target_m``) and, ``leading``, its place ahead
     of them — the user inside the reliable ±``lf.reliable_half_angle_deg`` of straight behind it, by its
     own walking direction ``psi`` (seed 002 §3.4: the leading robot keeps its user behind it), the

@@ -102,7 +102,7 @@ class UserSession(SuccessorSide):
         self._gestures: list[str] = []  # gestures the user is about to perform, one stroke at a time
         self._watch_free_s = -math.inf
         self._guess_only = False  # the tracker holds only a new master's own guess of its user, no LF fix yet
-        self.alert_pause_s: float | None = None  # the user stopped at a belt's alert (a handover for a broken part, an emergency), since
+        self.alert_pause_s: float | None = None  # the user stopped at a belt's alert (a broken part's handover, an emergency), since
         self._returning = False  # the user steps back toward their robot after an emergency's alert (_walk_back)
         self.paused = False  # the user stopped after losing their master (the belt's alert), until paired with an organized swarm
         self._succeeded = False  # a slave took the lost master's place (_on_succession) since the user stopped
@@ -378,7 +378,8 @@ class UserSession(SuccessorSide):
         now = self.clock.now
         user = self.user
         self._check_release(now)
-        if self.alert_pause_s is not None and self.state != "emergency" and self._in_place_to_resume(odometry, self.alert_pause_s):
+        if self.alert_pause_s is not None and self.state != "emergency" \
+                and self._in_place_to_resume(odometry, self.alert_pause_s):
             self.alert_pause_s, self.paused = None, False
             user.returning = self._returning = False
             user.walking = True  # the (new) master located the user by its own LF fix, near enough: they walk on
@@ -492,7 +493,7 @@ class UserSession(SuccessorSide):
             user.toward_x, user.toward_y, user.toward_mps = rx, ry, RETURN_MPS
 
     def _in_place_to_resume(self, odometry: tuple[float, float, float], since_s: float) -> bool:
-        """After a handover for a broken part, or a leading master's succession: whether the user may walk on
+        """After a handover for a broken part, an emergency's alert or a leading master's succession: whether the user may walk on
         (:func:`~.succession.in_place_to_resume`, the new master's own LF fix newer than ``since_s``, its clock)."""
         return in_place_to_resume(self.tracker, self.ctrl.walk_direction_rad, self.tracker_node.clock.now,
                                   since_s, self.target_distance_m(), self.state == "leading", self.cfg, odometry)

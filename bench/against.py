@@ -50,8 +50,12 @@ def _child(root: str) -> None:
                 systems[name] = __import__(f"{pkg}.vector", fromlist=["VectorEnv"]).VectorEnv(VECTOR_ENVS, SLAVES, SEED)
                 systems[name].burst(0.2)
             else:
-                systems[name] = loops.EnvLoop(SLAVES, name.split("_")[1], SEED)
-                systems[name].run(steps=50)
+                systems[name] = loop = loops.EnvLoop(SLAVES, name.split("_")[1], SEED)
+                # actions only for the agents still in the episode (an older EnvLoop gave one to an agent that
+                # had just left, which env.step rejects); outside the timed call
+                chosen = loop._actions
+                loop._actions = lambda loop=loop, chosen=chosen: {a: x for a, x in chosen().items() if a in loop.env.agents}
+                loop.run(steps=50)
             reply: dict[str, Any] = {"ok": name}
         elif cmd["op"] == "burst":
             reply = _burst(systems[cmd["system"]], cmd["seconds"])

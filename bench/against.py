@@ -1,6 +1,6 @@
 """This checkout against another one (an older commit), side by side in one run.
 
-    python -m petswarm.bench.against --other-python /work/wt/filing/.venv/bin/python --other-root /work/wt/filing [--json out.json]
+    python -m petswarm.bench.against --other-python OTHER/.venv/bin/python --other-root OTHER [--json out.json]
 
 One long-lived child process per checkout (its own Python, its own code), fed bursts in turn, so
 that a change of the shared machine's speed during the run falls on both:
@@ -181,7 +181,8 @@ def main(argv: list[str] | None = None) -> dict:
         for c in children.values():
             c.close()
     rate = lambda bs, per: sum(x["steps"] for x in bs) / sum(x[per] for x in bs)  # noqa: E731
-    out: dict[str, Any] = {"args": vars(args), "commits": {w: _commit(r) for w, r in (("other", args.other_root), ("this", HERE))},
+    commits = {"other": _commit(args.other_root), "this": _commit(HERE)}
+    out: dict[str, Any] = {"args": vars(args), "commits": commits,
                            "bursts": bursts, "training": training, "rates": {}, "ratios": {}}
     for name, bs in bursts.items():
         out["rates"][name] = {"steps_per_s": rate(bs, "wall"), "steps_per_cpu_s": rate(bs, "cpu")}

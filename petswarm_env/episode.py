@@ -120,6 +120,7 @@ class Episode:
         self.agents: list[str] = []  # the robots in slave-role driving (module docstring), from start() on
         self.left: set[str] = set()  # agents terminated in this episode: never agents again in it (module docstring)
         self.num_cycles = 0
+        self.steady = False  # the last step kept every agent, with none terminated or truncated (_lifecycle)
 
     # -- the start, the first observation and one step -------------------------------------------
     def start(self) -> tuple[dict[str, np.ndarray], dict[str, dict]]:
@@ -209,7 +210,9 @@ class Episode:
             observations = self.observer.observe(agents, self.last_action, self.world.clock.now)
             terminations = dict.fromkeys(agents, False)
             self.agents = list(agents)  # (the same robots: _ids stands)
+            self.steady = True
             return observations, rewards, terminations, terminations.copy(), infos
+        self.steady = False
         world, fleet, agent_index = self.world, self.fleet, self.agent_index
         live = {f"robot_{i}" for i in slaves}
         terminations = {a: a not in live for a in self.agents}

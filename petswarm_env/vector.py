@@ -155,7 +155,7 @@ class VectorEnv:
         for n, episode in enumerate(self.episodes):
             # each copy's rows of picked: a slice, its own array for the episode to keep as its last actions
             lo, hi = bounds[n], bounds[n + 1]
-            observations, rew, term, trunc, _ = episode.advance(picked[lo:hi])
+            observations, rew, term, trunc, _ = episode.advance(picked[lo:hi], with_infos=False)  # (it reports none)
             if episode.steady:  # the common step (Episode._lifecycle): the gathered agents, none ended
                 if hi > lo:  # its observations are the rows of one block, in its agents' order (Observer.observe)
                     blocks.append(next(iter(observations.values())).base)

@@ -213,3 +213,67 @@ def bench_vector_side_by_side(s: BenchSettings, verbose: bool = False) -> dict[s
     if not ok:
         out["vmas_skipped"] = reason
     return out
+
+
+def vector_on_same_episodes(num_envs: int, rounds: int, seed: int = 0, steps: int | None = None) -> list[dict[str, float]]:
+    """Like with like: ``vector_env(num_envs)`` 1+5 for ``steps`` calls (default: ``max_cycles``, a
+    whole episode of every copy; the auto-resets timed apart), then one ``parallel_env`` replaying
+    each copy's episodes (their seeds, the copy's actions, from the step each started) one copy after
+    the other, its resets outside the timing; uniform random actions. Per round (seeds ``seed``, ``seed + 1``, ...): CPU µs per
+    env-step of each without resets, and the auto-resets' apart."""
+    import petswarm_env
+
+    venv = petswarm_env.vector_env(num_envs, **{"swarm.num_slaves": 5})
+    env = petswarm_env.parallel_env(**{"swarm.num_slaves": 5})
+    steps = steps or venv.cfg.max_cycles
+    auto, start, cpu = [0.0], venv._start, time.process_time
+
+    def timed_start(n, obs):
+        c0 = cpu()
+        try:
+            return start(n, obs)
+        finally:
+            auto[0] += cpu() - c0
+
+    venv._start = timed_start
+    out = []
+    for r in range(rounds):
+        venv.reset(seed=seed + r)
+        seeds = venv.episode_seeds.copy()
+        acts = np.random.default_rng(seed + r).uniform(-1, 1, (steps, num_envs, venv.max_agents, 3)).astype(np.float32)
+        starts = [{0: int(s)} for s in seeds]  # per copy: step -> the seed of the episode starting there
+        auto[0] = vec_s = 0.0
+        for k in range(steps):
+            c0 = cpu()
+            *_, infos = venv.step(acts[k])
+            vec_s += cpu() - c0
+            for n, info in enumerate(infos):
+                if "finished_seed" in info:
+                    starts[n][k + 1] = info["episode_seed"]
+        vec_s, auto_s = vec_s - auto[0], auto[0]
+        single_s, single_steps = 0.0, 0
+        for n in range(num_envs):
+            for k in range(steps):
+                if k in starts[n]:
+                    env.reset(seed=starts[n][k])
+                action = {a: acts[k, n, venv._slot[a]] for a in env.agents}
+                c0 = cpu()
+                env.step(action)
+                single_s += cpu() - c0
+                single_steps += 1
+        out.append({"vector_us": 1e6 * vec_s / (steps * num_envs), "auto_reset_us": 1e6 * auto_s / (steps * num_envs),
+                    "single_us": 1e6 * single_s / single_steps, "single_steps": single_steps,
+                    "ratio": (single_s / single_steps) / (vec_s / (steps * num_envs))})
+    venv.close()
+    return out
+
+
+if __name__ == "__main__":  # python -m petswarm.bench.vector NUM_ENVS [ROUNDS]
+    import sys
+
+    if len(sys.argv) not in (2, 3) or not all(x.isdigit() and int(x) > 0 for x in sys.argv[1:]):
+        sys.exit("usage: python -m petswarm.bench.vector NUM_ENVS [ROUNDS] (positive integers)")
+    for r, row in enumerate(vector_on_same_episodes(int(sys.argv[1]), int(sys.argv[2]) if len(sys.argv) == 3 else 2)):
+        print(f"round {r}: vector_env({sys.argv[1]}) {row['vector_us']:.1f} us CPU per env-step without its auto-resets "
+              f"({row['auto_reset_us']:.1f} apart); parallel_env on the same episodes and actions {row['single_us']:.1f} us "
+              f"({row['single_steps']} steps): vector / single env-steps per CPU-s {row['ratio']:.3f}", flush=True)

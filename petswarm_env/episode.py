@@ -120,6 +120,7 @@ class Episode:
         self.agents: list[str] = []  # the robots in slave-role driving (module docstring), from start() on
         self.left: set[str] = set()  # agents terminated in this episode: never agents again in it (module docstring)
         self.num_cycles = 0
+        self.steady = False  # the last step kept every agent, with none terminated or truncated (_lifecycle)
 
     # -- the start, the first observation and one step -------------------------------------------
     def start(self) -> tuple[dict[str, np.ndarray], dict[str, dict]]:
@@ -162,13 +163,14 @@ class Episode:
         infos = self._infos(self.agents, [errors.get(a, 0.0) for a in self.agents], [0] * len(self.agents))
         return observations, infos
 
-    def advance(self, acts: dict[str, np.ndarray] | np.ndarray) -> StepResult:
+    def advance(self, acts: dict[str, np.ndarray] | np.ndarray, with_infos: bool = True) -> StepResult:
         """One control step with ``acts``, a valid action in [-1, 1]^3 for every agent: agent ->
         action, or one float32 array ``(len(agents), 3)`` in the order of ``agents``
         (``PetSwarmEnv._validate``'s output; the episode keeps it as the agents' last actions, so
         the caller passes a new one every step): every robot's command through its arbiter, the
         clock for one control period, the sensors; then the truth, the rewards and the agent
-        lifecycle."""
+        lifecycle. ``with_infos=False``: no agent's infos are made (None in their place; the vector
+        env reports none), the rest of the step as with them."""
         agents = self.agents
         if isinstance(acts, dict):
             acts = np.array([acts[a] for a in agents], dtype=np.float32).reshape(-1, 3)
@@ -182,7 +184,7 @@ class Episode:
         if not step_kernel.all_walking(self.sessions):  # only while a user still stands
             self._start_walks(dict(zip(agents, formation_error_m)))
         infos = step_kernel.infos(agents, ids, self.fleet.nodes, self.missing_by_pan, formation_error_m,
-                                  new_contacts, _LIVE_INFO)
+                                  new_contacts, _LIVE_INFO) if with_infos else None
         # every slave's reward in one pass over the slaves (reward.py); the last actions are the
         # last step's array while the agents are the same
         if self._last_agents == agents:
@@ -195,7 +197,7 @@ class Episode:
         self._last_agents, self._last_acts = agents, acts
         return self._lifecycle(rewards, infos)
 
-    def _lifecycle(self, rewards: dict[str, float], infos: dict[str, dict]) -> StepResult:
+    def _lifecycle(self, rewards: dict[str, float], infos: dict[str, dict] | None) -> StepResult:
         """Who is an agent after this step (module docstring): agents follow the middleware — a
         robot that left slave-role driving is terminated (for the rest of the episode), a robot
         that became a slave for the first time joins; every agent is truncated at ``max_cycles``."""
@@ -209,7 +211,9 @@ class Episode:
             observations = self.observer.observe(agents, self.last_action, self.world.clock.now)
             terminations = dict.fromkeys(agents, False)
             self.agents = list(agents)  # (the same robots: _ids stands)
+            self.steady = True
             return observations, rewards, terminations, terminations.copy(), infos
+        self.steady = False
         world, fleet, agent_index = self.world, self.fleet, self.agent_index
         live = {f"robot_{i}" for i in slaves}
         terminations = {a: a not in live for a in self.agents}
@@ -232,9 +236,11 @@ class Episode:
         observations = {a: o for a, o in observed.items() if not terminations.get(a, False)}
         for a in joined:
             rewards[a], terminations[a], truncations[a] = 0.0, False, truncated
-            infos[a] = self._infos([a], [0.0], [0])[a]
-            infos[a]["joined"] = 1
-        infos = {a: infos[a] for a in observations}
+            if infos is not None:
+                infos[a] = self._infos([a], [0.0], [0])[a]
+                infos[a]["joined"] = 1
+        if infos is not None:
+            infos = {a: infos[a] for a in observations}
         return observations, rewards, terminations, truncations, infos
 
     def tick(self, acts: np.ndarray | None = None) -> None:

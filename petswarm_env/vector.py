@@ -38,6 +38,7 @@ import numpy as np
 from petswarm_env.config import Config
 from petswarm_env.env import PetSwarmEnv, _checked_seed
 from petswarm_env.episode import Episode
+from petswarm_env.step_kernel import clip_finite
 
 SEED_BOUND = 2**31  # the episode seeds are drawn in [0, SEED_BOUND)
 
@@ -142,37 +143,31 @@ class VectorEnv:
         # (row n·m + slot of acts[n_envs·m, 3]); copy n's are the rows bounds[n]:bounds[n + 1]
         agents, flat, bounds, flat_rows = self._gather()
         picked = acts.reshape(-1, 3)[flat].astype(np.float32, copy=False)  # (a new array)
-        if not np.isfinite(picked).all():
+        if not clip_finite(picked):  # clipped to [-1, 1] in place (np.clip's values) when all are finite
             bad = np.argwhere(~np.isfinite(acts).all(axis=2) & self.active)[0]
             raise ValueError(f"the action of copy {bad[0]}'s {self.possible_agents[bad[1]]} contains NaN or inf; actions must be finite")
-        np.minimum(picked, 1.0, out=picked)  # clipped to [-1, 1] (np.clip's values, without its wrapper)
-        np.maximum(picked, -1.0, out=picked)
         obs = np.zeros((n_envs, m, self.obs_dim), np.float32)
         rewards = np.zeros((n_envs, m), np.float32)
         terminated = np.zeros((n_envs, m), bool)
         truncated = np.zeros((n_envs, m), bool)
         infos: list[dict[str, Any]] = [{} for _ in range(n_envs)]
-        obs_rows = obs.reshape(-1, self.obs_dim)
-        r_v, steady, changed, ended = [], [], False, []
+        blocks, r_v, steady, changed, ended = [], [], [], False, []
         for n, episode in enumerate(self.episodes):
             # each copy's rows of picked: a slice, its own array for the episode to keep as its last actions
             lo, hi = bounds[n], bounds[n + 1]
-            observations, rew, term, trunc, _ = episode.advance(picked[lo:hi])
-            # written at once, so that the dicts and arrays of one copy's step are freed before the next
-            # copy steps: kept over all copies they grow the working set, which is what a vector env's
-            # step costs beyond one env's (held until the loop's end: about +9 % per env-step at 64 copies)
-            if (episode.agents == agents[n] == list(rew) == list(observations)
-                    and not any(term.values()) and not any(trunc.values())):  # the common step: the gathered rows
-                for row, o in zip(flat_rows[lo:hi], observations.values()):
-                    obs_rows[row] = o
-                r_v += rew.values()
-                steady.append(n)
+            observations, rew, term, trunc, _ = episode.advance(picked[lo:hi], with_infos=False)  # (it reports none)
+            if episode.steady:  # the common step (Episode._lifecycle): the gathered agents, none ended
+                if hi > lo:  # its observations are the rows of one block, in its agents' order (Observer.observe)
+                    blocks.append(next(iter(observations.values())).base)
+                    r_v += rew.values()
+                    steady.append(n)
             else:
                 changed = True
                 if self._write(n, observations, rew, term, trunc, obs, rewards, terminated, truncated):
                     ended.append((n, observations))
-        if r_v:  # the steady copies' rewards by one indexed assignment (the floats are small to keep)
+        if r_v:  # the steady copies' observations and rewards by one indexed assignment each
             rows = [row for n in steady for row in flat_rows[bounds[n]:bounds[n + 1]]] if changed else flat
+            obs.reshape(-1, self.obs_dim)[rows] = np.concatenate(blocks)
             rewards.reshape(-1)[rows] = np.array(r_v, np.float32)
         if changed:
             self._agent_rows = None

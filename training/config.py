@@ -132,6 +132,8 @@ class RecurrentConfig(Section):
                                                               "new_contacts) weigh contact_weight more (0: off)")
     contact_weight: float = Field(0.0, ge=0, le=1000.0, description="extra loss weight of a step in a contact's window")
     eval_every_rounds: int = Field(1, ge=1, le=1_000_000, description="evaluate (and keep the best as policy.npz) every this many rounds")
+    members: int = Field(1, ge=1, le=16, description="train this many students of this config, seeds seed, seed + 1, ..., and ship "
+                                                     "their mean as one network (training/ensemble.py; 1: one student)")
     validation_fraction: float = Field(0.0, ge=0.0, lt=1.0, description="share of each round's episodes whose sequences are held "
                                                                         "out of the fit: their loss and explained share are logged "
                                                                         "(0: none)")

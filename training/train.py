@@ -282,6 +282,11 @@ def _recurrent_command(cfg: TrainConfig, out: str, resume: bool, run, command: s
 
     header = (f"recurrent actor by DAgger from the privileged teacher: {rounds_for(cfg)} rounds of "
               f"{cfg.recurrent.samples_per_round} labelled agent-samples (timesteps {cfg.timesteps})")
+    if cfg.recurrent.members > 1:  # the mean of several students, one network (training/ensemble.py)
+        from petswarm.training.ensemble import train_ensemble
+
+        header = f"{cfg.recurrent.members} students, seeds {cfg.seed}-{cfg.seed + cfg.recurrent.members - 1}, each a " + header
+        train = train_ensemble
     return _in_process_command(cfg, out, resume, run, command, header, train, "trained on", "rounds")
 
 

@@ -75,3 +75,23 @@ def test_a_validation_split_is_held_out_of_the_fit_and_logged(tmp_path):
         kept = [c for c in r["curve"] if c.get("kept")]
         assert len(kept) == 1 and kept[0]["validation_loss"] == min(c["validation_loss"] for c in r["curve"])
         assert r["validation_loss"] == kept[0]["validation_loss"] and np.isfinite(r["fit_loss"])
+
+
+def test_a_run_of_two_students_ships_their_mean(tmp_path):
+    """recurrent.members: 2 trains two students (seeds 0 and 1, each a run of its own in member_k/) and
+    writes their mean as one recurrent network: policy.npz (the members' best) and last.npz."""
+    out = tmp_path / "ens"
+    assert train_command("configs/train/recurrent.yaml", SHORT + ["recurrent.members=2"], 600, str(out), False, False, "") == 0
+    log = json.loads((out / "train_log.json").read_text())
+    assert [m["seed"] for m in log["members"]] == [0, 1] and len(log["evaluations"]) == 1
+    for k in range(2):
+        member = json.loads((out / f"member_{k}" / "train_log.json").read_text())
+        assert member["timesteps"] >= 600 and (out / f"member_{k}" / "policy.npz").is_file()
+    env = parallel_env(**{"max_cycles": 60})
+    spec = PolicySpec.from_env(env)
+    for name in ("policy.npz", "last.npz"):
+        policy = LearnedPolicy.load(out / name, spec)
+        assert isinstance(policy, RecurrentPolicy) and policy.cell.hidden_size == 16  # two GRUs of 8
+    assert read_policy_file(out / "policy.npz")[0]["info"]["members"] == 2
+    with pytest.raises(ConfigError, match="already holds a run"):
+        train_command("configs/train/recurrent.yaml", SHORT + ["recurrent.members=2"], 600, str(out), False, False, "")

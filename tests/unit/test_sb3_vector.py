@@ -44,3 +44,32 @@ def test_ppo_with_a_seed_learns_on_the_vector_env(with_state):
     model.learn(320)
     assert model.num_timesteps >= 320 and venv.num_envs == 8
     assert venv.observation_space.shape[0] == 83 + (venv.venv.venv.state_dim if with_state else 0)
+
+
+def test_build_models_ppo_learns_sb3s_numbers_bit_for_bit():
+    """``build_model``'s PPO (training/train.py UncheckedPPO: no torch.distributions checks during
+    ``learn``) ends with the parameters SB3's own ``learn`` (checks on) gives the same seed, and
+    leaves the checks on after."""
+    import torch
+    from stable_baselines3.common.utils import set_random_seed
+    from torch.distributions import Normal
+
+    from petswarm.training.config import load_train_config
+    from petswarm.training.train import UncheckedPPO, build_model
+
+    cfg = load_config(overrides={"max_cycles": 30})
+    params = lambda model: [t.detach().numpy().copy() for t in model.policy.state_dict().values()]  # noqa: E731
+    learned = []
+    for learn in (UncheckedPPO.learn, PPO.learn):
+        set_random_seed(0)
+        venv = make_vec_env(cfg, 2, 0, 0)
+        model = build_model(load_train_config().ppo, venv, 0, n_steps=16, batch_size=64)
+        start = params(model)
+        learn(model, 256)
+        learned.append(params(model))
+        venv.close()
+        assert any((a != b).any() for a, b in zip(start, learned[-1]))  # it learned
+    for a, b in zip(*learned):
+        np.testing.assert_array_equal(a, b)
+    with pytest.raises(ValueError):
+        Normal(torch.zeros(1), -torch.ones(1))  # the checks are back on

@@ -156,9 +156,10 @@ class PolicyVersionWarning(UserWarning):
 
 
 def shipped_policy_path() -> Path:
-    """The learned policy shipped with the package (``petswarm run/eval --policy learned``): the
-    recurrent student of the privileged teacher (``petswarm train --config recurrent_long``, docs/training.md)."""
-    return Path(str(resources.files("petswarm.baselines") / "models" / "recurrent_long.npz"))
+    """The learned policy shipped with the package (``petswarm run/eval --policy learned``): the mean of
+    three recurrent students of the privileged teacher, one network (``petswarm train --config
+    recurrent_ensemble``, training/ensemble.py, docs/training.md)."""
+    return Path(str(resources.files("petswarm.baselines") / "models" / "recurrent_ensemble.npz"))
 
 
 def feed_forward_policy_path() -> Path:

@@ -430,7 +430,8 @@ def round_learning_rate(cfg: TrainConfig, k: int, rounds: int) -> float:
 def train(cfg: TrainConfig, out_dir: str | os.PathLike, command: str = "", progress=print) -> dict[str, Any]:
     """Distil the teacher into a recurrent actor in the run folder ``out_dir`` (module docstring);
     returns the train log. The folder gets train_config.yaml, env_config.yaml, policy.npz (the best
-    evaluation), last.npz (the last round's student) and train_log.json."""
+    evaluation), last.npz (the last round's student) and train_log.json. One student: ``recurrent.members``
+    is :func:`~petswarm.training.ensemble.train_ensemble`'s (it runs this once per member)."""
     if cfg.algorithm != "recurrent":
         raise ConfigError(f"training/recurrent.py trains algorithm: recurrent, the config says {cfg.algorithm!r}")
     out = Path(out_dir)
@@ -524,5 +525,10 @@ def train_recurrent(config: TrainConfig | str | os.PathLike | None, timesteps: i
     cfg = TrainConfig.model_validate(cfg.model_dump())
     if cfg.algorithm != "recurrent":
         cfg = TrainConfig.model_validate({**cfg.model_dump(), "algorithm": "recurrent"})
-    train(cfg, out_dir, command=command, progress=progress)
+    if cfg.recurrent.members > 1:  # several students, their mean shipped (training/ensemble.py)
+        from petswarm.training.ensemble import train_ensemble
+
+        train_ensemble(cfg, out_dir, command=command, progress=progress)
+    else:
+        train(cfg, out_dir, command=command, progress=progress)
     return Path(out_dir) / "policy.npz"

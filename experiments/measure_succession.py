@@ -26,6 +26,18 @@ import petswarm_env
 DRIVING_M = 2.0  # the new master within this of its user at the end (as experiments/sensor_faults.py)
 
 
+def master_user_distance(truth) -> float:
+    """The true distance from user 0's master to the user (``env.episode.truth``; no robot reads it)."""
+    user_xy = truth.users[0].position
+    master_xy = truth.robots[truth.swarms[0].master.node_id].position
+    return math.dist(user_xy, master_xy)
+
+
+def drives_its_user(truth) -> bool:
+    """Whether user 0's master drives its user: its session following or leading, within ``DRIVING_M`` of them."""
+    return truth.sessions[0].state in ("following", "leading") and master_user_distance(truth) <= DRIVING_M
+
+
 def parse_seeds(text: str) -> list[int]:
     """Seeds from ``0-19``, ``3,5,8`` or both (``0-2,5``)."""
     out: list[int] = []
@@ -53,9 +65,7 @@ def run(kind: str, seed: int, at_s: float, max_cycles: int, overrides: dict) -> 
     t_fault = t0 + at_s
     new_master = min((t for _, t, _, _ in elections), default=math.inf) - t_fault
     paired = min((t for t, _ in session.pairings), default=math.inf) - t_fault
-    ep = env.episode
-    user_xy, master_xy = ep.world.users[0].body.position, ep.world.robots[ep.swarms[0].master.node_id].body.position
-    driving = session.state in ("following", "leading") and math.dist(user_xy, master_xy) <= DRIVING_M
+    driving = drives_its_user(env.episode.truth)
     return {"seed": seed, "new_master_s": new_master, "paired_s": paired, "cycles": env.num_cycles,
             "full": env.num_cycles == max_cycles, "driving_user": driving, "successions": len(elections),
             "rmse_after_m": math.sqrt(statistics.fmean(e * e for e in errors_after)) if errors_after else math.nan}

@@ -14,13 +14,12 @@ emergency that the user's return at the alert clears (docs/configuration.md).
 from __future__ import annotations
 
 import argparse
-import math
 import statistics
 
 import petswarm_env
 from petswarm.baselines.policy import PolicySpec
 from petswarm.baselines.registry import make_policy
-from petswarm.experiments.measure_succession import DRIVING_M, parse_seeds
+from petswarm.experiments.measure_succession import DRIVING_M, drives_its_user, master_user_distance, parse_seeds
 from petswarm_env.config import parse_override
 
 
@@ -31,12 +30,9 @@ def run(scenario: str, seed: int, mode: str, max_cycles: int, overrides: dict) -
     while env.agents:
         obs, *_ = env.step(policy.act_all({a: obs[a] for a in env.active_agents}))
     truth = env.episode.truth
-    session, swarm, user = truth.sessions[0], truth.swarms[0], truth.users[0]
-    master = truth.robots[swarm.master.node_id].position
-    distance = math.hypot(master[0] - user.position[0], master[1] - user.position[1])
-    summary = env.episode.summary()
-    return {"seed": seed, "state": session.state, "distance_m": distance, "emergency_s": summary["emergency_s"],
-            "script_s": user.script_time_s, "driven": session.state in ("following", "leading") and distance <= DRIVING_M}
+    return {"seed": seed, "state": truth.sessions[0].state, "distance_m": master_user_distance(truth),
+            "emergency_s": env.episode.summary()["emergency_s"], "script_s": truth.users[0].script_time_s,
+            "driven": drives_its_user(truth)}
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -140,9 +140,14 @@ def train_ensemble(cfg: TrainConfig, out_dir: str | Path, command: str = "", pro
             "train_config": cfg.model_dump(mode="json"), "command": command}
     write_merged([out / f"member_{m}" / LAST_POLICY for m in range(members)], out / LAST_POLICY, layout, info)
     best = [out / f"member_{m}" / "policy.npz" for m in range(members)]
+    scratch = out / ".mean_for_evaluation.npz"  # the mean the evaluation drives, written once
+    write_merged(best, scratch, layout, info)
     scripted_reference(cfg, log)
-    evaluate_and_keep(cfg, out, log, lambda spec: _load(best, layout, info, out, spec), log["timesteps"],
-                      lambda path, i: write_merged(best, path, layout, {**info, **i}), ALGORITHM)
+    try:
+        evaluate_and_keep(cfg, out, log, lambda spec: LearnedPolicy.load(scratch, spec), log["timesteps"],
+                          lambda path, i: write_merged(best, path, layout, {**info, **i}), ALGORITHM)
+    finally:
+        scratch.unlink(missing_ok=True)
     log["wall_time_s"] = time.time() - start
     write_json_atomic(out / "train_log.json", public_log(log))
     if progress:
@@ -151,12 +156,3 @@ def train_ensemble(cfg: TrainConfig, out_dir: str | Path, command: str = "", pro
                  f"(not built {ev['not_built']}), {log['wall_time_s']:.0f} s")
     return public_log(log)
 
-
-def _load(paths: list[Path], layout, info: dict[str, Any], out: Path, spec) -> LearnedPolicy:
-    """The members' mean as the policy the evaluation drives (written once to a scratch file of the run folder)."""
-    scratch = out / ".mean_for_evaluation.npz"
-    write_merged(paths, scratch, layout, info)
-    try:
-        return LearnedPolicy.load(scratch, spec)
-    finally:
-        scratch.unlink(missing_ok=True)

@@ -31,15 +31,17 @@ slave-role driving is *active* (``infos[a]["active"]`` 1, its own observation; `
 one not (yet) in it — a master that may hand over, an arrival not yet switched on or joining, a
 slave the swarm did not recruit — *waits*: a zero observation (never a real one: its yaw sin/cos lie
 on the unit circle), ``active`` 0, reward 0.0, its action checked and ignored; it turns active under
-the same id when it becomes a slave. Agents leave with the middleware, by the lifecycle of
-:mod:`petswarm_env.episode`: a robot that stops being a slave (it became the master, the swarm
-dispersed, it died) is terminated and never comes back in that episode. The experimenter's tools read the ground truth through ``env.truth``
+the same id whenever it becomes a slave. Agents follow the middleware, by the lifecycle of
+:mod:`petswarm_env.episode`: a robot that stops being a slave (it became the master, its master
+lost it, a transient fault) waits again, and turns active again if it is recruited again; only a
+robot off for good (a permanent ``dead`` or ``battery`` fault) is terminated, and never comes back
+in that episode. The experimenter's tools read the ground truth through ``env.truth``
 (:class:`~petswarm_env.episode.Truth`, read-only); a policy reads only its observation.
 
 Runtime changes (docs/faults.md; none by default): ``faults`` break parts of robots and
 ``arrivals`` switch robots on mid-episode (:mod:`petswarm_env.runtime`); a dead slave is
-terminated, a slave that lost its master (no status broadcast for ``protocol.status_timeout_s``)
-stops and is terminated, an arrival waits until it joins (``possible_agents`` ends with the arrival
+terminated (a transient one waits), a slave that lost its master (no status broadcast for
+``protocol.status_timeout_s``) stops and waits, an arrival waits until it joins (``possible_agents`` ends with the arrival
 robots).
 
 Spaces: observation ``Box(low, high, (N,), float32)`` with values scaled to about [-1, 1] and each
@@ -190,8 +192,9 @@ class PetSwarmEnv(ParallelEnv):
             raise RuntimeError("the episode is over (no live agents); call reset()")
         acts = self._validate(actions)
         ep = self.episode
+        before = self.agents
         live = len(ep.agents)  # the episode's agents come first in self.agents (_present)
-        waiting = self.agents[live:]  # present, not (yet) in slave-role driving: their actions are ignored
+        waiting = before[live:]  # present, not (yet) in slave-role driving: their actions are ignored
         observations, rewards, terminations, truncations, infos = ep.advance(acts if live == len(acts) else acts[:live])
         truncated = ep.num_cycles >= self._max_cycles
         for a in waiting:
@@ -199,6 +202,10 @@ class PetSwarmEnv(ParallelEnv):
                 observations[a], infos[a] = self._zero.copy(), dict(INFO_DEFAULTS)
                 rewards[a], terminations[a], truncations[a] = 0.0, False, truncated
         self.agents = [] if truncated else self._present()
+        if not ep.steady:  # an agent that left slave-role driving in this step waits from now on (zeros)
+            for a in (before if truncated else self.agents):
+                if a not in observations and not terminations.get(a, False):
+                    observations[a], infos[a] = self._zero.copy(), dict(INFO_DEFAULTS)
         if self.render_mode == "human":
             self.render()
         return observations, rewards, terminations, truncations, infos
@@ -206,7 +213,7 @@ class PetSwarmEnv(ParallelEnv):
     def _present(self) -> list[str]:
         """The agents after a reset or a step: the episode's agents in slave-role driving (in the
         episode's order), then the possible agents waiting to join (in ``possible_agents`` order):
-        neither an agent now nor one that left (a terminated agent never comes back)."""
+        neither an agent now nor one that left for good (a terminated agent never comes back)."""
         ep = self.episode
         agents, possible = ep.agents, self.possible_agents
         if len(agents) == len(possible) and self._possible.issuperset(agents):

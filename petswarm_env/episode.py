@@ -13,22 +13,27 @@ episode's dynamics are in this module only.
 
 **The agent lifecycle** (:meth:`Episode._lifecycle`, the one place that decides who is an agent):
 the agents are the robots in slave-role driving. A robot that leaves it (it became the master, its
-swarm dispersed, it died, its master lost it) is *terminated* and stays out of ``agents`` until the
-next episode: an agent id is one robot's single stay as a slave, never revived in that episode. A
-robot the middleware recruits again later in the episode (a transient fault's end reboots it into
-waiting and the master's scan may take it back; a second master change makes the master a slave
-again) is a member of its swarm that the env holds still (motors commanded to zero), an obstacle
-the agents drive around — it has no driver until the next episode. A robot that becomes a slave
+master lost it, it left its slot for its own fault, a transient fault took it out) *waits*: it is out
+of ``agents``, its motors commanded to zero unless it drives a user, and it becomes an agent again,
+under the same id and driven by the same policy, when the middleware makes it a slave again (the
+master's scan recruits it after a reboot, a second master change makes the master a slave again).
+Only a robot that is off for good (a permanent ``dead`` or ``battery`` fault, :mod:`.sim.faults`)
+is *terminated*: it stays out of ``agents`` (``left``) for the rest of the episode. (A member that
+no policy drove would stand in its slot as an obstacle its neighbours follow, and fall behind a
+walking swarm: loss 0.3, a slave the ring lost at 4 s and recruited again at 12 s stood until its
+master removed it and the neighbour that kept its distance from it.) A robot that becomes a slave
 for the first time (the old master after a master change, an arrival) joins ``agents``. (The env
-puts the possible agents that have not joined yet in its own ``agents`` from reset on, waiting with
-a zero observation, so no adapter sees an agent appear: :mod:`petswarm_env.env`.)
+puts the possible agents that are not live in its own ``agents``, waiting with a zero observation,
+so no adapter sees an agent appear or come back: :mod:`petswarm_env.env`.) The episode is over
+(:attr:`Episode.over`) at ``max_cycles``, or when every possible agent is off for good.
 
 What a step returns: ``rewards``, ``terminations`` and ``truncations`` for every agent that acted
 in it and every agent that joined in it; ``observations`` and ``infos`` for the agents live after
 it (``agents``) and, on the step that truncates the episode, for the truncated ones (their last
-observation, for bootstrapping). An agent terminated in the step gets its reward and its
-termination, but no observation: nothing comes after it, and a loop that feeds every observation
-back as actions (``env.step(policy.act_all(observations))``) passes actions only for live agents.
+observation, for bootstrapping). An agent that left in the step gets its reward and its
+termination (True only when it is off for good), but no observation: a loop that feeds every
+observation back as actions (``env.step(policy.act_all(observations))``) passes actions only for
+live agents.
 
 **The truth view** (:class:`Truth`, ``episode.truth``): what the experimenter's tools may read of
 the ground truth — the evaluation runner, the metrics, the renderer, the replay and pcap writers,
@@ -118,7 +123,7 @@ class Episode:
                                rngs[7], on_change=self.sensors.fault_changed)
         self.truth = Truth(self)
         self.agents: list[str] = []  # the robots in slave-role driving (module docstring), from start() on
-        self.left: set[str] = set()  # agents terminated in this episode: never agents again in it (module docstring)
+        self.left: set[str] = set()  # agents terminated in this episode (off for good): never agents again in it
         self.num_cycles = 0
         self.steady = False  # the last step kept every agent, with none terminated or truncated (_lifecycle)
 
@@ -199,8 +204,8 @@ class Episode:
 
     def _lifecycle(self, rewards: dict[str, float], infos: dict[str, dict] | None) -> StepResult:
         """Who is an agent after this step (module docstring): agents follow the middleware — a
-        robot that left slave-role driving is terminated (for the rest of the episode), a robot
-        that became a slave for the first time joins; every agent is truncated at ``max_cycles``."""
+        robot that left slave-role driving waits (terminated only when it is off for good), a robot
+        that became a slave (again) joins; every agent is truncated at ``max_cycles``."""
         truncated = self.num_cycles >= self._max_cycles
         slaves = step_kernel.current_slaves(self.swarms)  # (_current_slaves)
         if slaves == self.slave_ids and not truncated:
@@ -214,14 +219,18 @@ class Episode:
             self.steady = True
             return observations, rewards, terminations, terminations.copy(), infos
         self.steady = False
-        world, fleet, agent_index = self.world, self.fleet, self.agent_index
+        world, fleet, agent_index, faults = self.world, self.fleet, self.agent_index, self.runtime.faults
         live = {f"robot_{i}" for i in slaves}
-        terminations = {a: a not in live for a in self.agents}
-        for a, done in terminations.items():  # a robot that left slave-role driving and drives no user stands still
-            if done:
+        terminations = dict.fromkeys(self.agents, False)
+        for a in self.agents:
+            if a in live:
+                continue
+            idx = agent_index[a]
+            if fleet.nodes[idx].state != "master":  # a robot that left slave-role driving and drives no user stands still
+                world.robots[idx].set_command(0.0, 0.0, 0.0)
+            if faults.off_for_good(idx):
+                terminations[a] = True
                 self.left.add(a)
-                if fleet.nodes[agent_index[a]].state != "master":
-                    world.robots[agent_index[a]].set_command(0.0, 0.0, 0.0)
         truncations = {a: truncated for a in self.agents}
         joined = [a for a in (f"robot_{i}" for i in slaves)
                   if a not in self.agents and a in self.setup.possible and a not in self.left]
@@ -231,9 +240,9 @@ class Episode:
         before = list(self.agents)
         self._set_agents([a for a in before if a in live and not truncated] + ([] if truncated else joined))
         # observed in the order of before (the odometry noise is one draw over them, observe.py);
-        # an agent terminated now gets no observation (module docstring)
+        # an agent that left now gets no observation (module docstring)
         observed = self.observer.observe(before + [a for a in joined if a not in before], self.last_action, world.now)
-        observations = {a: o for a, o in observed.items() if not terminations.get(a, False)}
+        observations = {a: o for a, o in observed.items() if a in live}
         for a in joined:
             rewards[a], terminations[a], truncations[a] = 0.0, False, truncated
             if infos is not None:
@@ -254,6 +263,12 @@ class Episode:
         self.sensors.read_rings()
 
     # -- views -----------------------------------------------------------------------------------
+    @property
+    def over(self) -> bool:
+        """Whether the episode has ended (module docstring): ``max_cycles`` reached, or every
+        possible agent off for good. The env's ``agents`` and the vector env's auto-reset both end on it."""
+        return self.num_cycles >= self._max_cycles or len(self.left) == len(self.setup.possible)
+
     def state(self) -> np.ndarray:
         """The global state (:func:`petswarm_env.state.build_state`; docs/state.md)."""
         return build_state(self.setup.state_layout, self)
@@ -413,10 +428,6 @@ class Episode:
             return
         # a robot leaving its slot for its own fault drives out of the way
         step_kernel.command_leaving(nodes, masters, robots, arbiters, rows, world.clock.now)
-        if self.left:  # a robot recruited again after it left the agents has no driver (module docstring): held still
-            for idx in self.slave_ids:
-                if f"robot_{idx}" in self.left and idx not in masters:
-                    robots[idx].set_command(0.0, 0.0, 0.0)
         # the agents' actions times the action scale (float32 products), through their arbiters;
         # a slave whose master is lost (on its own clock) or in emergency stops
         step_kernel.command_slaves(self._ids, acts, self._scale, masters, nodes, robots, arbiters, rows)

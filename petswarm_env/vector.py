@@ -15,9 +15,9 @@
   observation is zeros, as :class:`~petswarm_env.wrappers.FixedAgents` pads the dict env.
 - ``rewards[n, j]``, ``terminated[n, j]``, ``truncated[n, j]``: what copy ``n``'s episode gave
   agent ``j`` in this step (0 / False for a slot that did not act in it). ``terminated`` marks an
-  agent that left slave-role driving in this step; ``truncated`` the agents of an episode that
-  reached ``max_cycles``.
-- **Auto-reset**: a copy whose episode has no agent left after a step starts its next episode in
+  agent whose robot went off for good in this step (one that only left slave-role driving waits:
+  inactive, not terminated); ``truncated`` the agents of an episode that reached ``max_cycles``.
+- **Auto-reset**: a copy whose episode is over after a step (``Episode.over``) starts its next episode in
   the same call; its row of ``obs`` and ``active`` is then the new episode's first, and
   ``infos[n]`` holds the finished episode's ``final_observation``, ``final_active`` and
   ``final_state`` (the arrays of its last step), ``episode_summary`` and ``finished_seed``, and the
@@ -192,10 +192,10 @@ class VectorEnv:
         truncated[n, cols] = [trunc[a] for a in rew]
         for a, o in observations.items():
             obs[n, slot[a]] = o
-        agents = self.episodes[n].agents
+        episode = self.episodes[n]
         self.active[n] = False
-        self.active[n, [slot[a] for a in agents]] = True
-        return not agents
+        self.active[n, [slot[a] for a in episode.agents]] = True
+        return episode.over
 
     def state(self) -> np.ndarray:
         """Every copy's global state now (``state_space``; docs/state.md): ``[num_envs, state_dim]``."""

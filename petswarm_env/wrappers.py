@@ -2,9 +2,10 @@
 
 The env's agents (:mod:`petswarm_env.env`, the lifecycle of :mod:`petswarm_env.episode`): every
 possible agent is an agent from reset on (one not yet in slave-role driving waits with a zero
-observation, ``active`` 0), and agents leave with the middleware: in a mode change with master
-change the farthest slave becomes the master (*terminated*); a dispersed swarm's slaves all leave;
-a dead slave leaves. The raw env passes PettingZoo's ``parallel_api_test`` and drives RLlib's
+observation, ``active`` 0), and agents follow the middleware: one that leaves slave-role driving
+(in a mode change with master change the farthest slave becomes the master; a dispersed swarm's
+slaves; a lost member) waits again, inactive, until it is a slave again; a slave off for good is
+terminated. The raw env passes PettingZoo's ``parallel_api_test`` and drives RLlib's
 ``ParallelPettingZooEnv`` (with RLlib's own episode bookkeeping) and TorchRL's ``PettingZooWrapper``
 with ``use_mask=True`` on every scenario and fault kind (tests/env/test_lifecycle.py). Adapters
 that assume every possible agent is present until the episode's end need :class:`FixedAgents`:
@@ -40,10 +41,10 @@ class FixedAgents(BaseParallelWrapper):
     - *Actions*: passed on only for the env's live agents; those of the other possible agents are
       ignored (missing ones too: standing still); an id that is not a possible agent is refused.
     - *Rewards*: the env's, as Python floats; 0.0 for an inactive robot.
-    - *Episode end*: for every agent at once when the env's episode ends (no live agent left:
-      truncation at ``max_cycles``, or a dispersed swarm). A robot the env terminated on that step is
-      terminated, every other one truncated; a robot that left mid-episode (it became the master)
-      stays in, inactive, until then.
+    - *Episode end*: for every agent at once when the env's episode ends (no agent left:
+      truncation at ``max_cycles``, or every robot off for good). A robot the env terminated on that
+      step is terminated, every other one truncated; a robot that left mid-episode stays in,
+      inactive, until then.
     - ``state()``/``state_space``, ``render()`` (with RLlib's positional mode), ``episode_summary()``,
       ``organize_summary()`` and every other public attribute are the env's.
     """

@@ -11,7 +11,7 @@ The layout is VMAS's in TorchRL: one agent group, ``"robot"`` (the slots ``possi
 - ``("robot", "reward")`` ``[num_envs, max_agents, 1]``,
 - ``("robot", "mask")`` ``[num_envs, max_agents]``: the slots in slave-role driving (``vector_env.active``),
 - ``"state"`` ``[num_envs, state_dim]`` (``return_state=True``): ``state()``, a centralized critic's input,
-- ``"done"``, ``"terminated"``, ``"truncated"`` ``[num_envs, 1]``: a copy's episode is over (no agent left;
+- ``"done"``, ``"terminated"``, ``"truncated"`` ``[num_envs, 1]``: a copy's episode is over (``Episode.over``: every robot off for good;
   truncated when it reached ``max_cycles``).
 
 The vector env starts a finished copy's next episode inside its own ``step``; here the step returns

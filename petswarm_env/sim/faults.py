@@ -82,6 +82,7 @@ class Faults:
     def __init__(self, states: list[FaultState]):
         self.states = states  # each robot's own (Robot.health), in robot order
         self.log: list[FaultRecord] = []
+        self._permanent: set[tuple[int, str]] = set()  # (robot, kind) of the faults that never clear
         self.on_change: list[Callable[[int, str, bool], None]] = []
 
     def of(self, robot: int) -> FaultState:
@@ -90,6 +91,8 @@ class Faults:
     def inject(self, robot: int, kind: str, now_s: float, role: str = "", duration_s: float | None = None) -> None:
         """Fault ``kind`` starts on ``robot`` now (logged)."""
         self.log.append(FaultRecord(now_s, robot, kind, role, duration_s))
+        if duration_s is None:
+            self._permanent.add((robot, kind))
         self._set(robot, kind, True)
 
     def clear(self, robot: int, kind: str) -> None:
@@ -106,6 +109,12 @@ class Faults:
 
     def powered(self, robot: int) -> bool:
         return self.states[robot].powered
+
+    def off_for_good(self, robot: int) -> bool:
+        """Whether robot ``robot`` is off and stays off for the rest of the episode (a permanent
+        ``dead`` or ``battery`` fault): the env's agent lifecycle (petswarm_env/episode.py), never a robot's
+        knowledge."""
+        return not self.states[robot].powered and any((robot, k) in self._permanent for k in POWER_KINDS)
 
     def ultrasonic_ok(self, robot: int) -> bool:
         """Whether robot ``robot``'s ultrasonic ring delivers readings (the observation's presence flag)."""

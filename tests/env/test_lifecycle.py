@@ -1,7 +1,8 @@
 """The agent lifecycle (petswarm_env/episode.py, env.py): every possible agent is an agent from
-reset — a robot not (yet) in slave-role driving waits with a zero observation and ``active`` 0 —
-an agent that is terminated never comes back under the same id in that episode, and the
-observations after a step hold only agents a caller may act for. On every shipped scenario × every
+reset — a robot not (yet, or no longer) in slave-role driving waits with a zero observation and
+``active`` 0, and turns active under the same id whenever it is a slave again — only a robot off for
+good is terminated (it never comes back in that episode), and the observations after a step hold
+only agents a caller may act for. On every shipped scenario × every
 fault kind, without wrappers: PettingZoo's ``parallel_api_test``, the README's loop, TorchRL's
 ``PettingZooWrapper`` (``use_mask=True``, its setting for a varying agent set) and RLlib's
 ``ParallelPettingZooEnv`` with RLlib's own episode bookkeeping."""
@@ -126,34 +127,53 @@ def _run(env, seed=0):
 
 
 @pytest.mark.parametrize("kind", ["dead", "radio_silent"])
-def test_a_slave_back_from_a_transient_fault_stays_out_of_the_agents_and_stands_still(kind):
+def test_a_slave_back_from_a_transient_fault_is_an_agent_again_under_its_own_id(kind):
+    """The faulty slave leaves slave-role driving without a termination, waits (zeros, ``active``
+    0), and once the master's scan recruits it again it is active again and driven by the policy:
+    a member nobody drove stood in its slot as an obstacle its neighbours followed."""
     env = _env("straight", kind, max_cycles=150)
     steps = _run(env)
     ep = env.episode
-    gone = [a for before, after, _, _, terms, truncs, _ in steps for a in before if terms[a] and not truncs[a]]
-    assert len(gone) == 1  # the faulty slave left the agents
-    robot = env.agent_robot(gone[0])
-    assert robot in ep.swarm.slave_ids()  # the swarm recruited it again after the reboot ...
-    assert all(gone[0] not in after for _, after, *_ in steps[next(i for i, s in enumerate(steps) if gone[0] in s[4] and s[4][gone[0]]):])
-    assert np.allclose(env.truth.robots[robot].velocity_body, 0.0, atol=1e-6)  # ... and holds it still: no driver
-    assert gone[0] in ep.left
+    left = [(i, a) for i, (before, after, obs, _, terms, truncs, infos) in enumerate(steps)
+            for a in before if a in after and infos[a]["active"] == 0 and (i == 0 or steps[i - 1][6][a]["active"] == 1)]
+    assert len(left) == 1  # the faulty slave left slave-role driving ...
+    i, agent = left[0]
+    assert not steps[i][4][agent]  # ... not terminated: it waits
+    assert not steps[i][2][agent].any()  # with a zero observation
+    back = [k for k in range(i + 1, len(steps)) if steps[k][6][agent]["active"] == 1]
+    assert back, "the swarm recruited it again after the reboot"
+    robot = env.agent_robot(agent)
+    assert robot in ep.swarm.slave_ids() and steps[-1][6][agent]["active"] == 1 and not ep.left
+    assert np.abs(steps[back[-1]][2][agent]).sum() > 0  # its own observation again
 
 
-def test_terminated_agents_get_reward_and_termination_but_no_observation():
-    """mode_change: the slave that becomes the master is terminated; the step gives its reward and
-    termination, and observations and infos only for the agents a caller may act for."""
+def test_a_robot_off_for_good_is_terminated_and_never_returns():
+    env = petswarm_env.parallel_env(**{"user.scenario": "straight", "max_cycles": 150,
+                                       "faults": [{"at_s": 1.0, "robot": "random_slave", "kind": "dead"}]})
+    steps = _run(env)
+    ended = [(i, a) for i, (before, _, _, _, terms, truncs, _) in enumerate(steps) for a in before if terms[a]]
+    assert len(ended) == 1
+    i, agent = ended[0]
+    assert agent not in steps[i][2] and all(agent not in after for _, after, *_ in steps[i:])
+    assert env.episode.left == {agent}
+
+
+def test_an_agent_that_becomes_the_master_waits_with_its_reward_and_no_termination():
+    """mode_change: the slave that becomes the master leaves slave-role driving; the step gives its
+    reward and no termination (it may be a slave again after another change), and from then on a
+    zero observation with ``active`` 0; observations and infos hold exactly the agents a caller may
+    act for (every agent in ``agents``; on the last step every truncated one)."""
     env = petswarm_env.parallel_env(**{"user.scenario": "mode_change", "max_cycles": 400})
-    ended = 0
+    left = []
     for before, after, obs, rewards, terms, truncs, infos in _run(env):
         joined = set(after) - set(before)
         assert set(rewards) == set(terms) == set(truncs) == set(before) | joined
         truncated = all(truncs.values())
         assert set(obs) == set(infos) == (set(before) | joined if truncated else set(after))
-        for a in before:
-            if terms[a]:
-                ended += 1
-                assert a not in obs and isinstance(rewards[a], float)
-    assert ended == 1  # the new master
+        assert not any(terms.values())
+        left += [a for a in before if a in after and infos[a]["active"] == 0 and isinstance(rewards[a], float)
+                 and a in env.possible_agents and np.abs(obs[a]).sum() == 0 and a not in left and a != "robot_0"]
+    assert len(left) == 1  # the new master
     assert env.episode_summary()["events"]["master_changes"] == 1
 
 
@@ -169,8 +189,8 @@ def test_rllibs_parallel_pettingzoo_env_and_its_episode_bookkeeping_take_the_raw
 
 def test_torchrls_pettingzoo_wrapper_sees_the_waiting_agent_join():
     """mode_change: robot_0 (the master at reset) is a waiting agent (zeros, active 0, its actions
-    ignored) until the master change makes it a slave; the slave that became the master is masked
-    out from then on and never comes back."""
+    ignored) until the master change makes it a slave; the slave that became the master waits
+    from then on (inactive, still in the agents: TorchRL's mask stays full)."""
     pytest.importorskip("torchrl")
     raw = petswarm_env.parallel_env(**{"user.scenario": "mode_change", "max_cycles": 250})
     td = _torchrl_rollout(raw, 250)
@@ -178,7 +198,8 @@ def test_torchrls_pettingzoo_wrapper_sees_the_waiting_agent_join():
     active, mask = td["next", "robot", "info", "active"].bool(), td["next", "robot", "mask"]
     joined = int(active[:, row].float().argmax())
     assert 100 < joined < 249 and not active[:joined, row].any() and active[joined:-1, row].all()
-    assert int(mask[-2].sum()) == len(raw.possible_agents) - 1  # the new master left the agents
+    assert int(mask[-2].sum()) == len(raw.possible_agents)  # nobody left the agents
+    assert int(active[-2].sum()) == len(raw.possible_agents) - 1  # the new master waits
 
 
 def test_the_benchs_loop_acts_only_for_live_agents_past_a_slave_leaving():

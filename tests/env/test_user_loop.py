@@ -307,8 +307,9 @@ def test_mode_change_scenario_changes_master_over_the_radio():
     assert sw.mode == "leading" and sw.events["mode_changes"] == 1 and sw.events["master_changes"] == 1
     assert sw.master.node_id == top_node != old_master
     assert sw.master.state == "master" and sw.master.connected_user == 0 and env.episode.session.connected_robot == top_node
-    # the old master is a slave now (an agent), the new one left the agents
-    assert f"robot_{old_master}" in env.agents and f"robot_{top_node}" not in env.agents
+    # the old master is a slave now (an active agent), the new one left slave-role driving: it waits
+    assert f"robot_{old_master}" in env.active_agents and f"robot_{top_node}" not in env.active_agents
+    assert f"robot_{top_node}" in env.agents and infos[f"robot_{top_node}"]["active"] == 0
     members = sw.master.know.members
     for m, nid in members.items():  # everybody agrees on the new tables
         assert env.episode.fleet.nodes[nid].know.members == members
@@ -406,16 +407,17 @@ def test_a_robot_connected_to_another_user_declines_to_join():
     assert declined >= 1
 
 
-def test_user_disperse_request_sends_robots_back_and_ends_their_agency():
+def test_user_disperse_request_sends_robots_back_and_makes_their_agents_wait():
     env = petswarm_env.parallel_env(**{"user.scenario": "straight", "user.start_delay_s": 100.0})
     env.reset(seed=0)
     slaves = env.episode.swarm.slave_ids()
     env.episode.world.user.pending_commands.append("disperse")
     infos = run(env, 30)
-    assert env.agents == []  # every slave left slave-role driving: terminated
+    assert env.active_agents == []  # every slave left slave-role driving: it waits (not terminated)
     for i in slaves:
         assert env.episode.fleet.nodes[i].state == "waiting" and env.episode.fleet.nodes[i].swarm_pan is None
-    assert infos == {} and not env.agents  # every agent terminated (no observation or info after its last step): the episode is over
+    assert sorted(env.agents) == sorted(f"robot_{i}" for i in slaves)  # the episode goes on, every agent waiting
+    assert all(infos[a]["active"] == 0 for a in env.agents)
     for _ in range(5):  # the master's disperse process ends after its last acknowledgement window
         env.episode.world.advance(env.cfg.physics_substeps)
     assert env.episode.swarm.master.state == "following" and env.episode.session.state == "following"

@@ -37,12 +37,12 @@ def test_a_slave_takes_the_lost_masters_place_and_the_episode_goes_on(kind, seed
     assert env.episode.swarm.slave_ids() == sorted(set(slaves) - {new})  # every other slave stays, under the new master
     assert old not in env.episode.swarm.master.know.members.values()
     assert_tables_agree(env, totals=False)
-    assert sorted(env.agents) == sorted(f"robot_{i}" for i in env.episode.swarm.slave_ids())  # the new master left the agents
+    assert sorted(env.active_agents) == sorted(f"robot_{i}" for i in env.episode.swarm.slave_ids())  # the new master waits
     run(env, 10.0)
     session = env.episode.sessions[0]
     assert session.connected_robot == new and session.pairings and session.pairings[0][1] == new
-    assert session.state == env.episode.swarm.mode and env.agents
-    assert f"robot_{new}" not in env.agents  # terminated, never back under its id
+    assert session.state == env.episode.swarm.mode and env.active_agents
+    assert f"robot_{new}" not in env.active_agents and f"robot_{new}" in env.agents  # it waits (not terminated)
 
 
 def test_following_chooses_the_slave_closest_to_the_user_by_its_own_measurement():
@@ -96,7 +96,7 @@ def test_no_successor_without_lf_antennas_the_slaves_return_to_waiting():
     env = make(0, faults=[{"at_s": 1.0, "robot": "master", "kind": "dead"}], **{"swarm.pool": [{"type": "mybot", "count": 4}]})
     slaves = env.episode.swarm.slave_ids()
     run(env, 6.0)
-    assert not successions(env) and not env.agents
+    assert not successions(env) and not env.active_agents
     assert all(env.episode.fleet.nodes[i].state == "waiting" for i in slaves)
 
 

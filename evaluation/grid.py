@@ -13,14 +13,15 @@ The result (``petswarm eval --grid FILE --json OUT``), in the style of ``petswar
                 "mix_robots_ratio", "ratio_ci95", "hold_ratio", "building_ratio", "settle_ratio", "mix_robots_hold_ratio",
                 "others_hold_ratio", "others_ratio" (each NAME_ratio with NAME_ratio_ci95),
                 "score_metric", "score_ratio", "score_ratio_ci95", "score_pairs", "p_improvement",
-                "collisions_not_more", "built_not_fewer", "others_no_worse", "meets_target", "wall_s"}],
+                "collisions_not_more", "built_not_fewer", "others_no_worse", "lost_only_candidate", "no_new_lost",
+                "meets_target", "wall_s"}],
      "summary": {...}, "episodes": []}
 
 where a RUN is ``{"label", "episodes", "formation_rmse_m", "formation_rmse_ci95",
 "formation_hold_rmse_m", "formation_hold_rmse_ci95", "formations_built", "building_time_s",
 "refill_settle_rmse_m", "refills_settled", "collisions", "robot_robot", "robot_user", "robot_wall",
-"emergencies", "slaves_missing", "mix_robots_rmse_m", "per_episode": [{"seed", "formation_rmse_m",
-"collisions", "slaves_missing", "building_time_s", "formation_hold_rmse_m", "refill_settle_rmse_m"
+"emergencies", "slaves_missing", "mix_robots_rmse_m", "lost_episodes", "per_episode": [{"seed", "formation_rmse_m",
+"collisions", "slaves_missing", "building_time_s", "formation_hold_rmse_m", "refill_settle_rmse_m", "lost_robot_s"
 (and in a mixed cell "mix_robots_rmse_m", "mix_robots_hold_rmse_m", "others_rmse_m",
 "others_hold_rmse_m")}]}``. The hold and building figures of a RUN are means over the episodes that
 built their formation (``formations_built`` of them), the settle figure over the episodes with a
@@ -42,7 +43,10 @@ little): the ``mix`` robots' when the candidate drives them, the other slaves' w
 drives the team and the reference the ``mix`` robots; ``p_improvement`` the probability that a
 candidate episode scores below a reference episode. It *meets the target* when ``score_ratio`` is
 at most ``target_ratio``, the candidate collided no more often than the reference, built its
-formation in no fewer episodes, and in a mixed cell the robots the reference drives held no worse
+formation in no fewer episodes, had no lost-robot episode the reference did not also have on the
+same seed (``lost_only_candidate``: those seeds, a slave at least ``metrics.LOST_M`` from its
+reference point for ``metrics.LOST_S`` without a break once built, :mod:`petswarm_env.metrics`;
+``no_new_lost``: none), and in a mixed cell the robots the reference drives held no worse
 than in the reference's own run (``others_no_worse``: their ratio at most 1 + ``others_tolerance``). ``episodes`` is empty: the
 per-episode figures are inside the cells (so ``petswarm report`` tells the file from an ``eval``
 result and draws the grid's heatmap).
@@ -66,7 +70,7 @@ from petswarm.evaluation.stats import as_number, mean_ci95, paired_ratio, probab
 from petswarm_env.config import Config, load_config
 from petswarm_env.env import PetSwarmEnv
 from petswarm_env.files import write_json_atomic
-from petswarm_env.metrics import REFILL_SETTLE_S
+from petswarm_env.metrics import LOST_S, REFILL_SETTLE_S
 
 GRID_KIND = "grid"
 RUN_VERSION = 2  # the RUN record's fields (2: hold, building, settle, the mix robots' and the others' figures per episode)
@@ -134,6 +138,7 @@ def run_team(cfg: Config, policy: str, mix: dict[str, str], seeds: list[int], wa
             "seed": ep["seed"], "formation_rmse_m": ep["formation_rmse_m"], "collisions": ep["collisions"],
             "slaves_missing": ep.get("slaves_missing", 0), "building_time_s": ep["building_time_s"],
             "formation_hold_rmse_m": ep["formation_hold_rmse_m"], "refill_settle_rmse_m": ep["refill_settle_rmse_m"],
+            "lost_robot_s": ep.get("lost_robot_s", math.nan),
             **({"mix_robots_rmse_m": _rms(*acc["mix"]), "mix_robots_hold_rmse_m": _rms(*acc["mix_hold"]),
                 "others_rmse_m": _rms(*acc["others"]), "others_hold_rmse_m": _rms(*acc["others_hold"])} if watched else {})})
     env.close()
@@ -158,6 +163,7 @@ def run_team(cfg: Config, policy: str, mix: dict[str, str], seeds: list[int], wa
         "emergencies": sum(e.get("events", {}).get("emergencies", 0) for e in episodes),
         "slaves_missing": sum(e.get("slaves_missing", 0) for e in episodes),
         "mix_robots_rmse_m": math.sqrt(sq / n) if n else math.nan,
+        "lost_episodes": sum(e.get("lost_robot_s", 0.0) >= LOST_S for e in episodes),
         "unorganized": [e["organize_problem"] for e in episodes if e.get("organized") is False],
         "per_episode": per_episode,
     }
@@ -206,6 +212,7 @@ def compare_runs(cand: dict[str, Any], ref: dict[str, Any], mixed: bool, metric:
     built_not_fewer = cand.get("formations_built", 0) >= ref.get("formations_built", 0)
     others = paired_ratio(_values(cand, others_key), _values(ref, others_key))["ratio"] if mixed else math.nan
     others_ok = (not mixed) or (math.isfinite(others) and others <= 1.0 + others_tolerance)
+    lost_only = lost_only_candidate(cand, ref)
     return {**out,
             "score_metric": key,
             "score_ratio": scored["ratio"],
@@ -215,8 +222,21 @@ def compare_runs(cand: dict[str, Any], ref: dict[str, Any], mixed: bool, metric:
             "collisions_not_more": not_more,
             "built_not_fewer": built_not_fewer,
             "others_no_worse": others_ok if mixed else None,
+            "lost_only_candidate": lost_only,
+            "no_new_lost": not lost_only,
             "meets_target": bool(math.isfinite(scored["ratio"]) and scored["ratio"] <= target and not_more and built_not_fewer
-                                 and others_ok)}
+                                 and others_ok and not lost_only)}
+
+
+def lost_only_candidate(cand: dict[str, Any], ref: dict[str, Any]) -> list[int]:
+    """The seeds of the candidate's lost-robot episodes (``lost_robot_s`` >= ``LOST_S``,
+    :mod:`petswarm_env.metrics`) on which the reference lost no robot (a record without the figure
+    counts as none lost)."""
+    def lost(run: dict[str, Any]) -> list[int]:  # (a record without seeds pairs its episodes by their order)
+        return [e.get("seed", i) for i, e in enumerate(run["per_episode"]) if as_number(e.get("lost_robot_s", 0.0)) >= LOST_S]
+
+    ref_lost = set(lost(ref))
+    return [s for s in lost(cand) if s not in ref_lost]
 
 
 def _candidate_in_mix(grid: Grid, cell: Cell) -> bool:
@@ -306,6 +326,9 @@ def summarize_grid(cells: list[dict[str, Any]], target: float, worst: int = 5) -
         "building_time_reference_s": _mean_of(c["reference"].get("building_time_s") for c in cells),
         "formations_built": [sum(c["candidate"].get("formations_built", 0) for c in cells),
                              sum(c["reference"].get("formations_built", 0) for c in cells)],
+        "lost_episodes": [sum(c["candidate"].get("lost_episodes", 0) for c in cells),
+                          sum(c["reference"].get("lost_episodes", 0) for c in cells)],
+        "lost_only_candidate": sum(len(c.get("lost_only_candidate", [])) for c in cells),
         "collisions_candidate": sum(c["candidate"]["collisions"] for c in cells),
         "collisions_reference": sum(c["reference"]["collisions"] for c in cells),
         "worst": [{"name": c["name"], "ratio": as_number(c.get("score_ratio")), "metric": c.get("score_metric"),
@@ -412,7 +435,7 @@ def format_grid_summary(result: dict[str, Any]) -> str:
         f"{result['seed'] + result['episodes_per_cell'] - 1}), {s['wall_s']:.0f} s of cell time",
         f"judged on {metric} (mixed cells: the candidate robots' own, the others within +{result.get('others_tolerance', 0):.0%}): "
         f"ratio <= {t:.2f} in {s['score_at_or_below_target']} of {s['cells_with_score']} cells, <= 1 in {s['score_at_or_below_1']}; "
-        f"target met (and no more collisions, no fewer formations built): {s['meets_target']} of {s['cells']}; ratio min "
+        f"target met (and no more collisions, no fewer formations built, no new lost robot): {s['meets_target']} of {s['cells']}; ratio min "
         f"{_f(s['score_ratio_min'], 2)} median {_f(s['score_ratio_median'], 2)} max {_f(s['score_ratio_max'], 2)}; "
         f"IQM {_f(s['score_ratio_iqm'], 2)} {_ci(s['score_ratio_iqm_ci95'])}; probability of improvement "
         f"{_f(s['p_improvement'], 2)} {_ci(s['p_improvement_ci95'])} (95 % stratified bootstrap)",
@@ -420,7 +443,9 @@ def format_grid_summary(result: dict[str, Any]) -> str:
         f"median {_f(s['ratio_median'], 2)}; hold ratio median {_f(s['hold_ratio_median'], 2)}; settle-after-refill ratio median "
         f"{_f(s['settle_ratio_median'], 2)} ({s['cells_with_settle']} cells); building {_f(s['building_time_candidate_s'], 1)} s vs "
         f"{_f(s['building_time_reference_s'], 1)} s, built {s['formations_built'][0]} vs {s['formations_built'][1]}; "
-        f"collisions {s['collisions_candidate']} vs {s['collisions_reference']}",
+        f"collisions {s['collisions_candidate']} vs {s['collisions_reference']}; lost-robot episodes "
+        f"{s.get('lost_episodes', [0, 0])[0]} vs {s.get('lost_episodes', [0, 0])[1]} ({s.get('lost_only_candidate', 0)} on seeds "
+        f"where the reference lost none)",
         f"seed by seed: the candidate's RMSE is lower in {s['episodes_better']} of {s['episodes']} episodes; median ratio <= {t:.2f} in "
         f"{s['median_ratio_at_or_below_target']} cells",
         "worst cells: " + "; ".join(f"{w['name']} {_f(w['ratio'], 2)} ({w['collisions'][0]} vs {w['collisions'][1]} collisions)"

@@ -11,6 +11,7 @@ from petswarm.baselines.registry import make_policy
 from petswarm_env import PetSwarmEnv
 from petswarm_env.config import Config
 from petswarm_env.files import raise_pending_signal
+from petswarm_env.metrics import LOST_S
 from petswarm_env.middleware.join import OrganizeError
 
 TRAJECTORY_EVERY = 5  # record positions every 5 steps (0.5 s)
@@ -113,7 +114,7 @@ def unorganized_episode(env: PetSwarmEnv, seed: int, problem: str) -> dict[str, 
     reason in ``organize_problem``): no figure of a formation, every required slave missing."""
     return {"seed": seed, "organized": False, "organize_problem": problem, "scenario": getattr(env, "scenario", None),
             "slaves": 0, "formation_rmse_m": math.nan, "building_time_s": math.nan, "organize_time_s": math.nan,
-            "formation_hold_rmse_m": math.nan, "formation_hold_steps": 0, "refill_settle_rmse_m": math.nan,
+            "formation_hold_rmse_m": math.nan, "formation_hold_steps": 0, "refill_settle_rmse_m": math.nan, "lost_robot_s": math.nan,
             "join_retries": 0, "token_recoveries": 0, "slaves_missing": env.cfg.swarm.num_slaves * env.cfg.world.num_users,
             "collisions": {"robot_robot": 0, "robot_user": 0, "robot_wall": 0}, "frames": {"sent": 0, "lost": 0, "collided": 0},
             "events": {}}
@@ -126,7 +127,9 @@ def summarize(episodes: list[dict[str, Any]]) -> dict[str, Any]:
     Building and holding apart (:mod:`petswarm_env.metrics`): ``formation_hold_rmse_m`` is the mean
     of the episodes' hold RMSEs over the episodes that built their formation (the others have none:
     ``formations_built`` says how many did, so an episode that never built is never hidden), and
-    ``refill_settle_rmse_m`` the mean over the episodes with a refill (``refills_settled`` of them).
+    ``refill_settle_rmse_m`` the mean over the episodes with a refill (``refills_settled`` of them);
+    ``lost_robot_episodes``: the episodes in which a slave stayed ``LOST_M`` from its reference point for
+    ``LOST_S`` without a break once built (``lost_robot_s``).
     The episodes whose swarm could not organize are counted (``unorganized``, their seeds in
     ``unorganized_seeds``) and left out of the means."""
     unorganized = [e for e in episodes if e.get("organized") is False]
@@ -150,6 +153,7 @@ def summarize(episodes: list[dict[str, Any]]) -> dict[str, Any]:
         "formations_built": built,
         "refill_settle_rmse_m": settle,  # over the episodes with a refill
         "refills_settled": settled,
+        "lost_robot_episodes": sum(e.get("lost_robot_s", 0.0) >= LOST_S for e in episodes),  # petswarm_env/metrics.py
         "unorganized": len(unorganized),
         "unorganized_seeds": [e["seed"] for e in unorganized],
     }

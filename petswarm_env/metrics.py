@@ -38,6 +38,13 @@ squared error falls in the first seconds, while the slaves drive to their slots)
   whose end ``building_time_s`` was reached and every later step; NaN when the formation was never
   built. Whatever happens after building (a turn, a dropout and its refill, a lost robot) counts.
   ``formation_hold_steps``: the steps it covers.
+* ``lost_robot_s``: the longest time a slave stayed at least ``LOST_M`` from its reference point
+  without a break, counted from the step the formation was built on (0.0 before or without it). An
+  episode with ``lost_robot_s >= LOST_S`` is a *lost-robot episode*: a slave left its formation
+  (drove off, fell behind a walking swarm, was left standing) for longer than a turn or a refill
+  lets one lag; a robot its master removes as astray was that far for at least 3 s before
+  (``middleware/recovery.py``). Judged seed by seed against a reference in the comparison grid
+  (``evaluation/grid.py``: a lost-robot episode the reference does not also have).
 * ``refill_settle_rmse_m``: the RMS of the same counted errors over the ``REFILL_SETTLE_S`` seconds
   after each refill (a slave fault detected and its swarm back to as many members as before: the
   end of ``reassignment_time_s``), i.e. the steps ending in ``(t_refill, t_refill + REFILL_SETTLE_S]``,
@@ -70,6 +77,12 @@ if TYPE_CHECKING:
     from petswarm_env.sim.world import World
 
 BUILT_WITHIN_M = 0.3  # the formation is built once every slave is this close to its reference point (chosen)
+# a lost robot (chosen): this far from its reference point (about the IR's detection range, 2.4-2.8 m, less
+# a slot's distance: where its fixes of its neighbours stop), for this long without a break (a u-turn's or a
+# refill's lag stays shorter: of the scripted reference's 240 episodes of configs/eval/heldout_recurrent.yaml on
+# seeds 920000000, 931000000, 950000000 and 960000000, three ran 5.0-9.7 s, two users or loss 0.3, the others <= 2.9 s)
+LOST_M = 2.0
+LOST_S = 5.0
 # the settle window after a refill: 10 s, the settling the fault figures allow (docs/faults.md
 # judges the dropout's largest error from 10 s after the refill on; this scores the 10 s before)
 REFILL_SETTLE_S = 10.0
@@ -93,6 +106,7 @@ class EpisodeMetrics:
     hold_sq_error_sum: float = 0.0  # the counted errors from the step the formation was built on
     hold_error_count: int = 0
     hold_steps: int = 0
+    lost_robot_s: float = 0.0  # the longest run of a slave at least LOST_M from its reference point, once built
     # every step's end time (s, the clock's) and its counted errors' squared sum and number: the
     # settle windows after refills (REFILL_SETTLE_S) are cut from them once the episode is over
     step_end_s: list[float] = field(default_factory=list)
@@ -170,6 +184,7 @@ class Experimenter:
         self.other_user_robots = other_user_robots
         c, st = world.collisions, radio.stats
         self._contacts_seen = dict(c.per_robot)
+        self._far_s: dict[str, float] = {}  # each slave's run of steps at least LOST_M from its reference point, once built
         self._collisions_at_start = (c.robot_robot, c.robot_user, c.robot_wall)
         self._events_at_start = self.event_counts()
         self.metrics = EpisodeMetrics(organize_time_s=swarms[0].organize_result.elapsed_s,
@@ -245,6 +260,12 @@ class Experimenter:
         now = world.clock.now
         if worst is not None and math.isnan(m.building_time_s) and worst <= BUILT_WITHIN_M:
             m.building_time_s = now - self._start_s
+        if worst is not None and worst >= LOST_M and not math.isnan(m.building_time_s):
+            far, period = self._far_s, self._period_s
+            self._far_s = far = {a: far.get(a, 0.0) + period for a, e in errors.items() if e >= LOST_M}
+            m.lost_robot_s = max(m.lost_robot_s, max(far.values()))
+        elif self._far_s:
+            self._far_s = {}
         parked = None
         for se in self.sessions:
             if se.state == "emergency":
@@ -311,6 +332,7 @@ class Experimenter:
             "building_time_s": m.building_time_s,
             "formation_hold_rmse_m": m.formation_hold_rmse_m,
             "formation_hold_steps": m.hold_steps,
+            "lost_robot_s": round(m.lost_robot_s, 6),
             "join_retries": m.join_retries,
             "slaves_missing": m.slaves_missing,
             "stale_fix_s": round(m.stale_fix_s, 6),

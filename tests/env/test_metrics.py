@@ -188,3 +188,31 @@ def test_the_settle_window_after_a_refill():
     quiet = petswarm_env.parallel_env(**{"max_cycles": 50})
     _errors_by_step(quiet, make_policy("scripted", PolicySpec.from_env(quiet)), 0)
     assert math.isnan(quiet.episode_summary()["refill_settle_rmse_m"])  # no refill, no window
+
+
+def test_a_slave_driven_off_after_building_makes_a_lost_robot_episode():
+    """lost_robot_s: the longest run of a slave at least LOST_M from its reference point once the
+    formation was built. The scripted swarm keeps it at 0 (seed 0); the same swarm with robot_1
+    driven sideways at full speed once built gets a run that grows with every step it stays away."""
+    from petswarm_env.metrics import LOST_M, LOST_S
+
+    env = petswarm_env.parallel_env(**{"max_cycles": 300})
+    obs, _ = env.reset(seed=0)
+    scripted = make_policy("scripted", PolicySpec.from_env(env))
+    run, longest, built_at = 0, 0, None
+    while env.agents:
+        acts = scripted.act_all({a: obs[a] for a in env.active_agents})
+        if built_at is not None and "robot_1" in acts:
+            acts["robot_1"] = np.array([0.0, 1.0, 0.0], np.float32)  # sideways, full speed
+        obs, _, _, _, infos = env.step(acts)
+        if built_at is None and math.isfinite(env.episode.metrics.building_time_s):
+            built_at = env.num_cycles
+        elif built_at is not None:  # (until its master removes it as astray: then it waits, no error)
+            run = run + 1 if infos["robot_1"]["active"] and infos["robot_1"]["formation_error_m"] >= LOST_M else 0
+            longest = max(longest, run)
+    s = env.episode_summary()
+    assert built_at is not None and longest * env.cfg.control_period_s >= LOST_S
+    assert s["lost_robot_s"] == pytest.approx(longest * env.cfg.control_period_s)
+    quiet = petswarm_env.parallel_env(**{"max_cycles": 300})
+    _errors_by_step(quiet, make_policy("scripted", PolicySpec.from_env(quiet)), 0)
+    assert quiet.episode_summary()["lost_robot_s"] == 0.0

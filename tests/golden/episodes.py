@@ -45,7 +45,7 @@ RUNTIME_SUMMARY_KEYS = frozenset({"faults_injected", "faults_detected", "detecti
                                   "reassignment_time_s", "slots_unfilled_s", "arrivals_joined"})
 # Summary keys added later without any change of behaviour (building and holding measured apart,
 # petswarm_env/metrics.py): left out of ``layout2_sha256`` like the keys above.
-FIGURE_SUMMARY_KEYS = frozenset({"formation_hold_rmse_m", "formation_hold_steps", "refill_settle_rmse_m"})
+FIGURE_SUMMARY_KEYS = frozenset({"formation_hold_rmse_m", "formation_hold_steps", "refill_settle_rmse_m", "lost_robot_s"})
 
 # name -> (config overrides, policy, seed, steps)
 CASES: dict[str, tuple[dict[str, Any], str, int, int]] = {

@@ -97,3 +97,16 @@ def test_the_building_time_has_its_ratio_and_interval_on_the_seeds_where_both_bu
     v = compare_runs(cand, ref, False, "formation_hold_rmse_m", 0.8, 0.1)
     assert v["building_ratio"] == pytest.approx(0.5)  # (4 + 6) / (8 + 12): the third seed has no pair
     assert v["building_ratio_ci95"] == pytest.approx([0.5, 0.5])  # both pairs are 0.5: every resample is
+
+
+def test_a_lost_robot_episode_the_reference_does_not_also_have_fails_the_cell():
+    """A slave LOST_S or longer at least LOST_M from its reference point (petswarm_env/metrics.py) on a
+    seed where the reference lost none: listed, and the cell misses its target whatever its ratio."""
+    ref = _run([0.1, 0.1, 0.1], lost_robot_s=[0.0, 6.0, 0.0], seed=[7, 8, 9])
+    both = _run([0.05, 0.05, 0.05], lost_robot_s=[0.0, 9.0, 4.9], seed=[7, 8, 9])  # lost on 8, as the reference was
+    v = compare_runs(both, ref, False, "formation_hold_rmse_m", 0.8, 0.1)
+    assert v["lost_only_candidate"] == [] and v["no_new_lost"] and v["meets_target"]
+    new = _run([0.05, 0.05, 0.05], lost_robot_s=[5.0, 0.0, 0.0], seed=[7, 8, 9])
+    v = compare_runs(new, ref, False, "formation_hold_rmse_m", 0.8, 0.1)
+    assert v["lost_only_candidate"] == [7] and not v["no_new_lost"] and not v["meets_target"]
+    assert v["score_ratio"] == pytest.approx(0.5)

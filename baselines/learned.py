@@ -484,7 +484,9 @@ class RecurrentPolicy(LearnedPolicy):
     mean action, clipped (with ``residual_of``: the correction of the base policy's action, as
     :class:`Residual`). It keeps one hidden state per agent: zero at :meth:`reset` (the start of
     an episode) and for an agent that did not act on the step before (it just joined, or rejoined,
-    slave-role driving). A step is one :meth:`act_all` call, or a round of :meth:`act` calls in
+    slave-role driving); a waiting agent's zero observation (the env's padding, never a real one: a
+    real observation's yaw sin/cos lie on the unit circle) does not count as acting, so a loop that
+    passes every agent of ``env.agents`` starts a returning robot's memory again too. A step is one :meth:`act_all` call, or a round of :meth:`act` calls in
     which no agent is asked twice."""
 
     def __init__(self, spec: PolicySpec, layers: list[tuple[np.ndarray, np.ndarray]], activation: str,
@@ -540,8 +542,13 @@ class RecurrentPolicy(LearnedPolicy):
         h = np.stack([self._hidden[a] if self._last.get(a) == self._step - 1 else zero for a in agents])
         out, h = self.step_batch(np.stack(observations), h)
         out = np.clip(out, -1.0, 1.0).astype(np.float32)
+        padding = ~np.asarray(observations).any(axis=1)  # a waiting agent's zeros
         for i, a in enumerate(agents):
-            self._hidden[a], self._last[a] = h[i], self._step
+            if padding[i]:
+                self._last.pop(a, None)
+                self._hidden.pop(a, None)
+            else:
+                self._hidden[a], self._last[a] = h[i], self._step
             self._asked.add(a)
         if self.base is not None:  # a residual recurrent policy: the memory corrects the base policy's action
             return {a: self.residual.apply(self.base.act(a, observations[i]), out[i]) for i, a in enumerate(agents)}

@@ -69,6 +69,13 @@ def test_the_memory_matters_and_restarts_at_reset_and_when_a_robot_rejoins(spec)
     assert np.abs(np.stack([x["robot_1"] for x in steps]) - fresh[:6]).max() < 1e-5
     # the same frame after a different history gives another action: the policy remembers
     assert np.abs(again[0] - fresh[6]).max() > 1e-3
+    # the same with robot_1 passed as the env pads a waiting agent (zeros) instead of left out
+    policy.reset(3)
+    for t in range(6):
+        policy.act_all({"robot_1": s[t], "robot_2": s[t]})
+    policy.act_all({"robot_1": np.zeros_like(s[0]), "robot_2": s[6]})
+    padded = [policy.act_all({"robot_1": s[t], "robot_2": s[t]})["robot_1"] for t in range(6, 12)]
+    assert np.abs(np.stack(padded) - np.stack(again)).max() < 1e-6
     policy.reset(1)
     assert np.abs(policy.act_all({"robot_2": s[0]})["robot_2"] - fresh[0]).max() < 1e-5
     # act(), robot by robot: a round in which no robot is asked twice is one step

@@ -172,6 +172,15 @@ def _ci_pair(ci: Any) -> str:
     return f"[{_fmt(lo, 2)}, {_fmt(hi, 2)}]"
 
 
+def _lost(s: dict[str, Any]) -> str:
+    """The summary's lost-robot episodes (petswarm_env/metrics.py), where the grid result has them."""
+    lost = s.get("lost_episodes")
+    if not isinstance(lost, list) or len(lost) != 2:
+        return ""
+    return (f"; lost-robot episodes {escape(lost[0])} vs {escape(lost[1])} ({escape(s.get('lost_only_candidate', NA))} on seeds "
+            "where the reference lost none)")
+
+
 def grid_section(data: dict[str, Any], label: str, number: int) -> str:
     """The report's section of one grid result: summary, heatmap, table of every cell."""
     cells = [c for c in data["cells"] if isinstance(c, dict)]
@@ -191,14 +200,15 @@ def grid_section(data: dict[str, Any], label: str, number: int) -> str:
         head += (f"Judged on <code>{escape(metric)}</code> (in mixed cells the candidate robots' own error; the other robots "
                  f"may hold at most {1 + as_number(data.get('others_tolerance', 0)):.2f}× worse): ratio ≤ {target:g} in "
                  f"<b>{escape(s.get('score_at_or_below_target', NA))} of {escape(s.get('cells_with_score', NA))}</b> cells, ≤ 1 in "
-                 f"{escape(s.get('score_at_or_below_1', NA))}; target met (and no more collisions, no fewer formations built): "
+                 f"{escape(s.get('score_at_or_below_1', NA))}; target met (and no more collisions, no fewer formations built, no new "
+                 f"lost-robot episode): "
                  f"<b>{escape(s.get('meets_target', NA))} of {len(cells)}</b>; ratio median {_fmt(s.get('score_ratio_median'), 2)}, "
                  f"worst {_fmt(s.get('score_ratio_max'), 2)}; interquartile mean {_fmt(s.get('score_ratio_iqm'), 2)} "
                  f"{_ci_pair(s.get('score_ratio_iqm_ci95'))}, probability of improvement {_fmt(s.get('p_improvement'), 2)} "
                  f"{_ci_pair(s.get('p_improvement_ci95'))} (95 % stratified bootstrap over the cells' episodes). Whole-episode "
                  f"RMSE ratio median {_fmt(s.get('ratio_median'), 2)}; building time {_fmt(s.get('building_time_candidate_s'), 1)} s "
                  f"(candidate) vs {_fmt(s.get('building_time_reference_s'), 1)} s; collisions "
-                 f"{escape(s.get('collisions_candidate', NA))} vs {escape(s.get('collisions_reference', NA))}.</p>")
+                 f"{escape(s.get('collisions_candidate', NA))} vs {escape(s.get('collisions_reference', NA))}{_lost(s)}.</p>")
     else:
         head += (f"Ratio ≤ {target:g}: <b>{escape(s.get('ratio_at_or_below_target', NA))} of {escape(s.get('cells_with_ratio', NA))}</b> "
                  f"cells; target met (ratio ≤ {target:g} and no more collisions): <b>{escape(s.get('meets_target', NA))} of "

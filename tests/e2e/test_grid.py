@@ -51,11 +51,11 @@ def test_tiny_grid_end_to_end_json_resume_and_report_heatmap(tmp_path, capsys):
         assert c["score_metric"] == ("mix_robots_hold_rmse_m" if c["team"]["mix"] else "formation_hold_rmse_m")  # the mix: learned
         guards = (c["candidate"]["collisions"] <= c["reference"]["collisions"]
                   and c["candidate"]["formations_built"] >= c["reference"]["formations_built"]
-                  and c["others_no_worse"] is not False)
-        assert c["meets_target"] == bool(c["score_ratio"] <= 0.8 and guards)
+                  and c["others_no_worse"] is not False and c["no_new_lost"] == (c["lost_only_candidate"] == []))
+        assert c["meets_target"] == bool(c["score_ratio"] <= 0.8 and guards and c["no_new_lost"])
         assert len(c["ratio_ci95"]) == 2 and len(c["score_ratio_ci95"]) == 2
         for e in c["candidate"]["per_episode"]:
-            assert {"formation_hold_rmse_m", "building_time_s", "refill_settle_rmse_m"} <= set(e)
+            assert {"formation_hold_rmse_m", "building_time_s", "refill_settle_rmse_m", "lost_robot_s"} <= set(e)
     mixed = data["cells"][2]
     assert mixed["team"] == {"policy": "scripted", "mix": {"robot_2": "learned"}}
     assert mixed["reference"]["label"] == "scripted" and mixed["mix_robots_ratio"] > 0
@@ -72,7 +72,7 @@ def test_tiny_grid_end_to_end_json_resume_and_report_heatmap(tmp_path, capsys):
     # the report: the grid's section with its heatmap (one embedded PNG) and its table
     assert main(["report", str(out), "--out", str(html)]) == 0
     page = html.read_text()
-    assert "Comparison grid" in page and "comparison grid heatmap" in page
+    assert "Comparison grid" in page and "comparison grid heatmap" in page and "lost-robot episodes" in page
     assert len(re.findall(r"data:image/png;base64,", page)) == 1
     assert "shapes formation=column" in page
     assert not list(tmp_path.glob(".*"))  # no temp files left behind
@@ -122,7 +122,7 @@ def test_grid_refuses_options_it_does_not_use(tmp_path, capsys):
     assert "--resume belongs to --grid" in capsys.readouterr().err
 
 
-def test_the_committed_grid_has_40_cells_over_every_value_of_issue_16():
+def test_the_committed_grid_has_40_cells_over_every_value_it_names():
     grid = load_grid(str(COMMITTED))
     assert len(grid.cells) >= 40
     assert grid.seed >= 900_000_000  # far from every seed training uses (docs/training.md, held-out seeds)

@@ -42,8 +42,8 @@ squared error falls in the first seconds, while the slaves drive to their slots)
   without a break, counted from the step the formation was built on (0.0 before or without it). An
   episode with ``lost_robot_s >= LOST_S`` is a *lost-robot episode*: a slave left its formation
   (drove off, fell behind a walking swarm, was left standing) for longer than a turn or a refill
-  lets one lag; a robot its master removes as astray was that far for at least 3 s before
-  (``middleware/recovery.py``). Judged seed by seed against a reference in the comparison grid
+  lets one lag (a robot its master removes as astray, ``middleware/recovery.py``, is usually one: it
+  had no fresh IR fix for 3 s and stood beyond 1.5 IR reaches from its master). Judged seed by seed against a reference in the comparison grid
   (``evaluation/grid.py``: a lost-robot episode the reference does not also have).
 * ``refill_settle_rmse_m``: the RMS of the same counted errors over the ``REFILL_SETTLE_S`` seconds
   after each refill (a slave fault detected and its swarm back to as many members as before: the

@@ -12,6 +12,7 @@ from petswarm.evaluation.report import write_report
 from petswarm.evaluation.runner import run
 from petswarm_env.config import Config, ConfigError
 from petswarm_env.files import JsonLines, check_output_path, jsonl_path, write_json_atomic
+from petswarm_env.metrics import LOST_M, LOST_S
 
 
 def format_run_table(result: dict[str, Any]) -> str:
@@ -34,7 +35,7 @@ def format_run_table(result: dict[str, Any]) -> str:
         f"and formation_hold_rmse_m {s['formation_hold_rmse_m']:.3f} ({s['formations_built']} of {s['episodes']} built; hold: from "
         f"the moment built){settle}, collisions {s['collisions']} (robot-robot {s['robot_robot_collisions']}), organize_time_s "
         f"{s['organize_time_s']:.2f}, join_retries {s['join_retries']}"
-        + (f", {s['lost_robot_episodes']} lost-robot episode(s) (a slave >= 2 m from its slot for >= 5 s once built)"
+        + (f", {s['lost_robot_episodes']} lost-robot episode(s) (a slave >= {LOST_M:g} m from its slot for >= {LOST_S:g} s once built)"
            if s.get("lost_robot_episodes") else "")
         + (f", {s['unorganized']} not organized (seeds {s['unorganized_seeds']})" if s.get("unorganized") else "")
     )

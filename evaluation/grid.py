@@ -70,7 +70,7 @@ from petswarm.evaluation.stats import as_number, mean_ci95, paired_ratio, probab
 from petswarm_env.config import Config, load_config
 from petswarm_env.env import PetSwarmEnv
 from petswarm_env.files import write_json_atomic
-from petswarm_env.metrics import LOST_S, REFILL_SETTLE_S
+from petswarm_env.metrics import REFILL_SETTLE_S, lost_robot_episode
 
 GRID_KIND = "grid"
 RUN_VERSION = 2  # the RUN record's fields (2: hold, building, settle, the mix robots' and the others' figures per episode)
@@ -163,7 +163,7 @@ def run_team(cfg: Config, policy: str, mix: dict[str, str], seeds: list[int], wa
         "emergencies": sum(e.get("events", {}).get("emergencies", 0) for e in episodes),
         "slaves_missing": sum(e.get("slaves_missing", 0) for e in episodes),
         "mix_robots_rmse_m": math.sqrt(sq / n) if n else math.nan,
-        "lost_episodes": sum(e.get("lost_robot_s", 0.0) >= LOST_S for e in episodes),
+        "lost_episodes": sum(map(lost_robot_episode, episodes)),
         "unorganized": [e["organize_problem"] for e in episodes if e.get("organized") is False],
         "per_episode": per_episode,
     }
@@ -233,7 +233,7 @@ def lost_only_candidate(cand: dict[str, Any], ref: dict[str, Any]) -> list[int]:
     :mod:`petswarm_env.metrics`) on which the reference lost no robot (a record without the figure
     counts as none lost)."""
     def lost(run: dict[str, Any]) -> list[int]:  # (a record without seeds pairs its episodes by their order)
-        return [e.get("seed", i) for i, e in enumerate(run["per_episode"]) if as_number(e.get("lost_robot_s", 0.0)) >= LOST_S]
+        return [e.get("seed", i) for i, e in enumerate(run["per_episode"]) if lost_robot_episode(e)]
 
     ref_lost = set(lost(ref))
     return [s for s in lost(cand) if s not in ref_lost]

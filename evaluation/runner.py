@@ -11,7 +11,7 @@ from petswarm.baselines.registry import make_policy
 from petswarm_env import PetSwarmEnv
 from petswarm_env.config import Config
 from petswarm_env.files import raise_pending_signal
-from petswarm_env.metrics import LOST_S
+from petswarm_env.metrics import lost_robot_episode
 from petswarm_env.middleware.join import OrganizeError
 
 TRAJECTORY_EVERY = 5  # record positions every 5 steps (0.5 s)
@@ -153,7 +153,7 @@ def summarize(episodes: list[dict[str, Any]]) -> dict[str, Any]:
         "formations_built": built,
         "refill_settle_rmse_m": settle,  # over the episodes with a refill
         "refills_settled": settled,
-        "lost_robot_episodes": sum(e.get("lost_robot_s", 0.0) >= LOST_S for e in episodes),  # petswarm_env/metrics.py
+        "lost_robot_episodes": sum(map(lost_robot_episode, episodes)),
         "unorganized": len(unorganized),
         "unorganized_seeds": [e["seed"] for e in unorganized],
     }

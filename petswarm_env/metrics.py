@@ -83,6 +83,13 @@ BUILT_WITHIN_M = 0.3  # the formation is built once every slave is this close to
 # seeds 920000000, 931000000, 950000000 and 960000000, three ran 5.0-9.7 s, two users or loss 0.3, the others <= 2.9 s)
 LOST_M = 2.0
 LOST_S = 5.0
+
+
+def lost_robot_episode(record: dict[str, Any]) -> bool:
+    """Whether an episode record (a summary, or a grid's per-episode record) is a lost-robot episode
+    (module docstring: ``lost_robot_s`` >= ``LOST_S``); a record without the figure is not."""
+    lost_s = record.get("lost_robot_s")
+    return isinstance(lost_s, (int, float)) and lost_s >= LOST_S
 # the settle window after a refill: 10 s, the settling the fault figures allow (docs/faults.md
 # judges the dropout's largest error from 10 s after the refill on; this scores the 10 s before)
 REFILL_SETTLE_S = 10.0

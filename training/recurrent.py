@@ -525,10 +525,15 @@ def train_recurrent(config: TrainConfig | str | os.PathLike | None, timesteps: i
     cfg = TrainConfig.model_validate(cfg.model_dump())
     if cfg.algorithm != "recurrent":
         cfg = TrainConfig.model_validate({**cfg.model_dump(), "algorithm": "recurrent"})
-    if cfg.recurrent.members > 1:  # several students, their mean shipped (training/ensemble.py)
+    train_students(cfg, out_dir, command=command, progress=progress)
+    return Path(out_dir) / "policy.npz"
+
+
+def train_students(cfg: TrainConfig, out_dir: str | os.PathLike, command: str = "", progress=print) -> dict[str, Any]:
+    """What a recurrent config asks for: one student (:func:`train`), or with ``recurrent.members`` > 1
+    the mean of several, one network (:func:`petswarm.training.ensemble.train_ensemble`); returns the train log."""
+    if cfg.recurrent.members > 1:
         from petswarm.training.ensemble import train_ensemble
 
-        train_ensemble(cfg, out_dir, command=command, progress=progress)
-    else:
-        train(cfg, out_dir, command=command, progress=progress)
-    return Path(out_dir) / "policy.npz"
+        return train_ensemble(cfg, out_dir, command=command, progress=progress)
+    return train(cfg, out_dir, command=command, progress=progress)

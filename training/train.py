@@ -296,17 +296,15 @@ def _in_process_command(cfg: TrainConfig, out: str, resume: bool, run, command: 
 
 
 def _recurrent_command(cfg: TrainConfig, out: str, resume: bool, run, command: str) -> int:
-    """``algorithm: recurrent``: :func:`petswarm.training.recurrent.train` (DAgger from the privileged teacher)."""
-    from petswarm.training.recurrent import rounds_for, train
+    """``algorithm: recurrent``: :func:`petswarm.training.recurrent.train_students` (DAgger from the privileged
+    teacher: one student, or the mean of several)."""
+    from petswarm.training.recurrent import rounds_for, train_students
 
     header = (f"recurrent actor by DAgger from the privileged teacher: {rounds_for(cfg)} rounds of "
               f"{cfg.recurrent.samples_per_round} labelled agent-samples (timesteps {cfg.timesteps})")
     if cfg.recurrent.members > 1:  # the mean of several students, one network (training/ensemble.py)
-        from petswarm.training.ensemble import train_ensemble
-
         header = f"{cfg.recurrent.members} students, seeds {cfg.seed}-{cfg.seed + cfg.recurrent.members - 1}, each a " + header
-        train = train_ensemble
-    return _in_process_command(cfg, out, resume, run, command, header, train, "trained on", "rounds")
+    return _in_process_command(cfg, out, resume, run, command, header, train_students, "trained on", "rounds")
 
 
 def _recurrent_ppo_command(cfg: TrainConfig, out: str, resume: bool, run, command: str) -> int:

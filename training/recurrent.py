@@ -204,7 +204,7 @@ def collect_sequences(env, samples: int, seed: int, cfg: TrainConfig, driver: Re
             if counts["unorganized"] == episode >= 20:
                 raise ConfigError(f"none of seeds {seed}..{seed + episode - 1} organized a swarm; check the env config and randomize pools")
             continue
-        label = TeacherLabels(env)  # after the reset: the episode's env
+        label = TeacherLabels(env, gains=r.teacher_gains())  # after the reset: the episode's env
         estimates = EstimateLabels(env, r.estimate_clip_m) if r.target == "estimate" else None
         base = residual.base_policy(PolicySpec.from_env(env)) if residual else None  # a residual's target: teacher - base
         if driver is not None:

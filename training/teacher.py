@@ -57,6 +57,7 @@ class TeacherGains:
     heading_gain: float = 2.0  # 1/s on the heading error from the master's heading
     sonar_keep_out_m: float = 0.5  # the robot's own ultrasonic ranges push it off anything this close (0 = off)
     sonar_gain: float = 5.0  # 1/s per metre inside the keep-out (the scripted slave's step 5)
+    orphan_to_slot: bool = False  # a slave whose reference neighbour is off follows its slot about the master instead
 
 
 class PrivilegedTeacher:
@@ -97,6 +98,8 @@ class PrivilegedTeacher:
         centers, radii, headings = env.truth.truth_arrays()
         xy = [tuple(p) for p in centers.tolist()]
         refs = env.truth.references()
+        if self.g.orphan_to_slot:
+            self._orphans_to_slots(refs, centers, headings)
         if self._at is None or len(self._xy) != len(xy):
             vel = [(0.0, 0.0)] * len(xy)
             ref_vel = {}
@@ -112,6 +115,34 @@ class PrivilegedTeacher:
                         ref_vel[i] = v
         self._at, self._xy, self._vel, self._refs, self._ref_vel = now, xy, vel, refs, ref_vel
         self._rad, self._th = radii.tolist(), headings.tolist()
+
+    def _orphans_to_slots(self, refs: dict, centers: np.ndarray, headings: np.ndarray) -> None:
+        """Step 1's exception: a slave with a reference neighbour that is off (dead, a drained battery)
+        gets its formation slot about its master's true pose as its reference point. Its own point
+        follows the dead body, which stands, while its swarm walks on until the master removes it and
+        re-plans (seed 003: the fittest takes the subtask over; middleware/recovery.py), and the re-plan
+        keeps each member near its slot: a teacher that stops with the dead neighbour is a whole walk
+        behind when the new table arrives."""
+        robots = self.env.truth.robots
+        for swarm in self.env.truth.swarms:
+            formation = swarm.formation
+            if formation is None or not swarm.organized:
+                continue
+            members = swarm.master.know.members
+            slots = None
+            for m, links in formation.links.items():
+                idx = members.get(m)
+                if idx not in refs or all(robots[members[link.neighbour]].health.powered for link in links):
+                    continue
+                if slots is None:
+                    slots = formation.slot_positions()
+                    i_m = swarm.master.node_id
+                    mx, my = float(centers[i_m, 0]), float(centers[i_m, 1])
+                    th_m = float(headings[i_m])
+                    c, s = math.cos(th_m), math.sin(th_m)
+                if m < len(slots):
+                    sx, sy = float(slots[m][0]), float(slots[m][1])
+                    refs[idx] = (mx + c * sx - s * sy, my + s * sx + c * sy, th_m)
 
     def act_all(self, agents: list[str], sonar: dict[str, np.ndarray] | None = None) -> dict[str, np.ndarray]:
         """The teacher's action in [-1, 1]³ for each of ``agents`` (zeros for one with no

@@ -22,7 +22,7 @@ from petswarm_env.env import PetSwarmEnv
 from petswarm_env.observe import MAX_LINKS
 from petswarm_env.wrappers import FixedAgents
 from petswarm.training.config import TrainConfig
-from petswarm.training.teacher import PrivilegedTeacher
+from petswarm.training.teacher import PrivilegedTeacher, TeacherGains
 
 
 def discounted_returns(rewards: list[float], gamma: float) -> list[float]:
@@ -55,8 +55,8 @@ class TeacherLabels:
     so such a row is labelled with the scripted reference's action instead (its rejoin and search,
     leader_follower.py steps 1c and 1d)."""
 
-    def __init__(self, env, lost_to_reference: bool = True):
-        self.teacher = PrivilegedTeacher(env)
+    def __init__(self, env, lost_to_reference: bool = True, gains: TeacherGains | None = None):
+        self.teacher = PrivilegedTeacher(env, gains)
         self.reference = ScriptedLabels(env) if lost_to_reference else None
         sl = env.layout.slices
         self.sonar = sl["self.ultrasonic"]

@@ -2,6 +2,7 @@
 reads ground truth — never a policy a robot runs."""
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -146,3 +147,56 @@ def test_a_robot_that_cannot_know_where_its_swarm_is_is_labelled_with_the_refere
     assert np.array_equal(teacher_only({agent: lost})[agent], teacher_only.teacher.act_all(
         [agent], {agent: lost[sl["self.ultrasonic"]] * env.cfg.robot.ultrasonic.max_range_m})[agent])
     assert not np.array_equal(label({agent: seen})[agent], ScriptedLabels(env)({agent: seen})[agent])
+
+
+def _until_a_member_is_dead(env, teacher):
+    """Drive with ``teacher`` until a member of the master's table is off (dropout: a slave dies at 20 s,
+    the master removes it about 1.5 s later); returns that robot's index."""
+    obs, _ = env.reset(seed=0)  # (robot 3 dies, member 4's reference neighbour)
+    truth = env.episode.truth
+    teacher.reset()
+    while env.agents:
+        members = truth.swarms[0].master.know.members
+        dead = [i for i in members.values() if not truth.robots[i].health.powered]
+        if dead:
+            return dead[0]
+        acts = teacher.act_all(env.agents)
+        obs, *_ = env.step(acts)
+    raise AssertionError("no member died while still in the table")
+
+
+RECURRENT = Path(__file__).resolve().parents[2] / "configs" / "train" / "recurrent.yaml"
+
+
+@pytest.mark.parametrize("orphan_to_slot", [False, True])
+def test_a_slave_whose_reference_neighbour_died_follows_its_slot_about_the_master(orphan_to_slot):
+    env = parallel_env(**{"user.scenario": "dropout", "swarm.num_slaves": 4, "max_cycles": 300})
+    teacher = PrivilegedTeacher(env, TeacherGains(orphan_to_slot=orphan_to_slot))
+    dead = _until_a_member_is_dead(env, teacher)
+    truth = env.episode.truth
+    swarm = truth.swarms[0]
+    members, formation = swarm.master.know.members, swarm.formation
+    orphans = [(m, members[m]) for m, links in formation.links.items()
+               if members.get(m) not in (None, dead) and any(members[link.neighbour] == dead for link in links)]
+    assert orphans, "the dead member is some live member's reference neighbour"
+    teacher.act_all(env.agents)  # reads the truth of this instant
+    experimenter = truth.references()
+    mx, my = truth.robots[swarm.master.node_id].position
+    th = truth.robots[swarm.master.node_id].heading
+    slots = formation.slot_positions()
+    for m, idx in orphans:
+        sx, sy = slots[m]
+        slot = (mx + math.cos(th) * sx - math.sin(th) * sy, my + math.sin(th) * sx + math.cos(th) * sy)
+        want = slot if orphan_to_slot else experimenter[idx][:2]
+        assert teacher._refs[idx][:2] == pytest.approx(want, abs=1e-9)
+        assert math.dist(slot, experimenter[idx][:2]) > 1e-6  # the two differ: the dead body is not at its slot's place
+
+
+def test_a_recurrent_config_sets_the_labelling_teachers_constants():
+    cfg = load_train_config(RECURRENT, overrides={"recurrent.teacher_push": 0.5, "recurrent.teacher_user_keep_out_m": 0.9,
+                                                    "recurrent.teacher_orphan_to_slot": True})
+    gains = cfg.recurrent.teacher_gains()
+    assert (gains.push, gains.user_keep_out_m, gains.orphan_to_slot) == (0.5, 0.9, True)
+    assert gains.gain == TeacherGains().gain  # the rest are the teacher's defaults
+    default = load_train_config(RECURRENT).recurrent.teacher_gains()
+    assert default == TeacherGains()

@@ -23,14 +23,14 @@ def test_shipped_policy_records_how_it_was_trained():
     assert layers[-1][0].shape[0] == 3
     # the committed config is the one it was trained with: `petswarm train --config recurrent_ensemble` runs the same
     # (keys added to the schema since, at their defaults, change nothing: recurrent.validation_fraction 0, the action
-    # target, whose estimate_clip_m is not read, the contact loss weights 0)
+    # target, whose estimate_clip_m is not read, the contact loss weights 0, the labelling teacher's own defaults)
     committed = load_train_config("configs/train/recurrent_ensemble.yaml").model_dump(mode="json")
     trained = yaml.safe_load(yaml.safe_dump(meta["info"]["train_config"]))
     added = set(committed["recurrent"]) - set(trained["recurrent"])
     defaults = {"validation_fraction": 0.0, "target": "action", "estimate_clip_m": 1.5, "estimate_gain": 4.0,
                 "validation_every": 0, "early_stopping": False, "weight_decay": 0.0, "encoder_dropout": 0.0,
                 "near_m": 0.0, "near_weight": 0.0, "contact_window": 0, "contact_weight": 0.0, "closing_weight": 0.0,
-                "members": 1}
+                "members": 1, "teacher_push": 1.5, "teacher_user_keep_out_m": 1.1, "teacher_orphan_to_slot": False}
     assert added <= set(defaults) and all(committed["recurrent"][k] == defaults[k] for k in added)
     # the finetune: section (algorithm: recurrent_ppo) came later and algorithm: recurrent does not read it
     sections = {k: v for k, v in committed.items() if k in trained or k != "finetune"}

@@ -13,7 +13,8 @@ The teacher's control law, per slave and step (world frame, then into the robot'
 
 1. *reference point*: the experimenter's (:meth:`.metrics.Experimenter.references`: the
    neighbours' true positions plus the offsets turned by the master's true heading) and its
-   velocity (its change over the last step);
+   velocity (its change over the last step); with ``orphan_to_slot``, a slave whose reference
+   neighbour is off takes its slot about the master's true pose instead;
 2. *keep out of the users' way*: a reference point closer than ``user_keep_out_m`` to a user is
    moved out to that distance (as the scripted reference does with the broadcast user position);
 3. *time-optimal approach*: the reference point's velocity plus a correction toward it of speed
@@ -117,12 +118,12 @@ class PrivilegedTeacher:
         self._rad, self._th = radii.tolist(), headings.tolist()
 
     def _orphans_to_slots(self, refs: dict, centers: np.ndarray, headings: np.ndarray) -> None:
-        """Step 1's exception: a slave with a reference neighbour that is off (dead, a drained battery)
-        gets its formation slot about its master's true pose as its reference point. Its own point
-        follows the dead body, which stands, while its swarm walks on until the master removes it and
-        re-plans (seed 003: the fittest takes the subtask over; middleware/recovery.py), and the re-plan
-        keeps each member near its slot: a teacher that stops with the dead neighbour is a whole walk
-        behind when the new table arrives."""
+        """Step 1's exception (``orphan_to_slot``): a slave with a reference neighbour that is off (dead, a
+        drained battery) gets its formation slot about its master's true pose as its reference point.
+        Without it, its reference point (the neighbour's position plus the link's offset) stands with
+        the dead body while the swarm walks on, until the master removes the dead member and re-plans
+        (middleware/recovery.py); the re-plan keeps each member near its slot, so a teacher that stopped
+        with the dead neighbour is a walk's length behind when the new table arrives."""
         robots = self.env.truth.robots
         for swarm in self.env.truth.swarms:
             formation = swarm.formation

@@ -53,7 +53,8 @@ class TeacherLabels:
     no IR fix younger than the observation's age range — of a reference neighbour or of the master
     — cannot know where its swarm is: no action of the student's could follow the teacher's there,
     so such a row is labelled with the scripted reference's action instead (its rejoin and search,
-    leader_follower.py steps 1c and 1d)."""
+    leader_follower.py steps 1c and 1d). ``gains``: the teacher's constants (None: its defaults;
+    ``recurrent.teacher_*`` of a recurrent run)."""
 
     def __init__(self, env, lost_to_reference: bool = True, gains: TeacherGains | None = None):
         self.teacher = PrivilegedTeacher(env, gains)

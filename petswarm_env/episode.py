@@ -468,6 +468,11 @@ class Truth:
       index -> its control arbiter and its win counts), ``member_log`` (user 0's swarm);
     - ``faults`` (the fault log, :mod:`.sim.faults`), ``arrivals`` / ``arrived`` / ``parked()``
       (:mod:`.runtime`), ``other_user_robots``.
+
+    Read tables, knowledge and states through it, not a robot's sensors: a sensor read such as a
+    node's ``ahrs_yaw()``, or a master's ``odometry.read()``, draws that sensor's noise from the
+    episode's streams, so a tool that calls it shifts every later draw and the episode is no longer
+    the one its seed gives (the true velocity and heading are ``robots[i]``'s).
     """
 
     __slots__ = ("_episode",)

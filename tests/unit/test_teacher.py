@@ -200,3 +200,6 @@ def test_a_recurrent_config_sets_the_labelling_teachers_constants():
     assert gains.gain == TeacherGains().gain  # the rest are the teacher's defaults
     default = load_train_config(RECURRENT).recurrent.teacher_gains()
     assert default == TeacherGains()
+    # the committed config of docs/training.md's "A teacher that holds better"
+    slot_teacher = load_train_config(RECURRENT.with_name("recurrent_slot_teacher.yaml")).recurrent.teacher_gains()
+    assert slot_teacher == TeacherGains(push=0.5, user_keep_out_m=0.9, orphan_to_slot=True)

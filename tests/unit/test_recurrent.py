@@ -308,3 +308,24 @@ def test_the_contact_and_last_round_configs_differ_only_where_they_say():
     assert rounds_for(last) < last.recurrent.eval_every_rounds  # one periodic evaluation: after the last round
     same = {**last.model_dump(), "recurrent": {**last.model_dump()["recurrent"], "eval_every_rounds": 2, "validation_every": 25}}
     assert same == val.model_dump()
+
+
+def test_the_labelling_teacher_takes_the_configs_constants(monkeypatch):
+    import petswarm.training.recurrent as recurrent
+    from petswarm.training.vec_env import training_env
+    from petswarm.training.warm_start import TeacherLabels
+
+    built = []
+
+    class Recording(TeacherLabels):
+        def __init__(self, env, *args, **kwargs):
+            super().__init__(env, *args, **kwargs)
+            built.append(self.teacher.g)
+
+    monkeypatch.setattr(recurrent, "TeacherLabels", Recording)
+    cfg = load_train_config("configs/train/recurrent.yaml", {"env.max_cycles": 30, "recurrent.teacher_push": 0.5,
+                                                             "recurrent.teacher_orphan_to_slot": True})
+    env = training_env(cfg.env_config(), cfg.randomize, cfg.env, False)
+    recurrent.collect_sequences(env, 20, 7, cfg, None, 0.0)
+    assert built and all(g == cfg.recurrent.teacher_gains() for g in built)
+    assert built[0].push == 0.5 and built[0].orphan_to_slot and built[0].user_keep_out_m == 1.1

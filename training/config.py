@@ -155,12 +155,16 @@ class RecurrentConfig(Section):
                                                                    "this (beyond it the teacher's approach runs at full speed)")
     estimate_gain: float = Field(4.0, gt=0, le=1000.0, description="target: estimate: the law's approach gain near the point "
                                                                     "(1/s; the teacher's is 4)")
-    teacher_push: float = Field(1.5, ge=0, le=100.0, description="the labelling teacher's avoidance push (TeacherGains.push, m/s per "
-                                                                 "unit of missing clearance)")
-    teacher_user_keep_out_m: float = Field(1.1, ge=0, le=10.0, description="the labelling teacher's keep-out of its reference "
-                                                                          "points from every user (TeacherGains.user_keep_out_m)")
-    teacher_orphan_to_slot: bool = Field(False, description="the labelling teacher drives a slave whose reference neighbour is off to "
-                                                            "its slot about the master (TeacherGains.orphan_to_slot)")
+    teacher_push: float = Field(
+        TeacherGains.push, ge=0, le=100.0,
+        description="the labelling teacher's avoidance push (TeacherGains.push, m/s per unit of missing clearance)")
+    teacher_user_keep_out_m: float = Field(
+        TeacherGains.user_keep_out_m, ge=0, le=10.0,
+        description="the labelling teacher's keep-out of its reference points from every user (TeacherGains.user_keep_out_m)")
+    teacher_orphan_to_slot: bool = Field(
+        TeacherGains.orphan_to_slot,
+        description="the labelling teacher drives a slave whose reference neighbour is off to its slot about the master "
+                    "(TeacherGains.orphan_to_slot)")
 
     def teacher_gains(self) -> TeacherGains:
         """The labelling teacher's constants: its defaults with the three above."""

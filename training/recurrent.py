@@ -191,6 +191,7 @@ def collect_sequences(env, samples: int, seed: int, cfg: TrainConfig, driver: Re
     reference point, or lost: the law does not act there) weighs zero — the GRU still reads it."""
     r = cfg.recurrent
     residual = cfg.residual()
+    gains = r.teacher_gains()  # the labelling teacher's constants
     rng = np.random.default_rng(seed)
     out: list[Sequence] = []
     counts = {"samples": 0, "building": 0, "lost": 0, "near": 0, "contacts": 0, "unorganized": 0}
@@ -204,7 +205,7 @@ def collect_sequences(env, samples: int, seed: int, cfg: TrainConfig, driver: Re
             if counts["unorganized"] == episode >= 20:
                 raise ConfigError(f"none of seeds {seed}..{seed + episode - 1} organized a swarm; check the env config and randomize pools")
             continue
-        label = TeacherLabels(env, gains=r.teacher_gains())  # after the reset: the episode's env
+        label = TeacherLabels(env, gains=gains)  # after the reset: the episode's env
         estimates = EstimateLabels(env, r.estimate_clip_m) if r.target == "estimate" else None
         base = residual.base_policy(PolicySpec.from_env(env)) if residual else None  # a residual's target: teacher - base
         if driver is not None:

@@ -23,7 +23,9 @@ was the robot that died and the user's count held without it); the members the m
 slaves at the end; robot-robot contacts.
 
 Targets (docs/results.md): no slave >= 5 m from its slot after 60 s in every run; the spare refills
-the dead member's place in >= 19 of 20.
+the dead member's place in >= 19 of 20. The spare refills when it walks with the swarm (``--spares 1``): the
+mixed pool builds its formation in 11-19 s and its user walks off before the slave dies, so a spare left
+waiting where it started (``--spares 0``, seed 000 Table 2) is 5-15 m behind by then.
 """
 
 from __future__ import annotations

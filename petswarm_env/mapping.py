@@ -356,8 +356,8 @@ MOVE_DIFFERENTIAL = Behaviour("MOVE", ("vx", "omega"))  # a differential body: n
 class DifferentialLimits:
     """A differential body's MOVE module: ``max_speed_mps`` (|v|), ``max_omega_rad_s`` (|ω|) and
     ``lookahead_m``, the distance ahead of the wheel axle of the point that follows (Vx, Vy);
-    ``heading_yield_mps`` > 0: the policy's own ω yields to the translation, scaled by
-    max(0, 1 − |(Vx, Vy)| / heading_yield_mps) (0: always added whole)."""
+    ``heading_yield_mps`` > 0: the policy's own ω yields to a sideways request, scaled by
+    max(0, 1 − |Vy| / heading_yield_mps) (0: always added whole)."""
 
     max_speed_mps: float
     max_omega_rad_s: float
@@ -393,8 +393,11 @@ def differential_move(vx_mps: float, vy_mps: float, omega_rad_s: float,
 
     The policy's ω and the turn toward (Vx, Vy) may cancel (a policy holding its heading while it
     asks to move sideways): with ``limits.heading_yield_mps`` > 0 the policy's ω is scaled by
-    max(0, 1 − |(Vx, Vy)| / heading_yield_mps), so the body moves first and turns to the asked
-    heading once it (nearly) stands.
+    max(0, 1 − |Vy| / heading_yield_mps), so a body asked to move sideways turns toward where it
+    is asked to go first and turns to the asked heading once nothing sideways is asked (it stands,
+    or it drives straight on). Chosen: the sideways speed, not the whole speed: scaled by the whole
+    speed the policy's ω was gone while the body drove on with its swarm, the swarm's turn with it
+    (heterogeneous pools from their slots, seeds 2000-2014: hold RMSE 0.16 m against 0.13).
 
     Limits: when |v| or |ω_body| exceeds its limit, both are scaled by the same factor, so the body
     keeps the commanded path curvature ω_body / v and slows down along it.
@@ -403,7 +406,7 @@ def differential_move(vx_mps: float, vy_mps: float, omega_rad_s: float,
     vy = _finite("vy", vy_mps)
     w_cmd = _finite("omega", omega_rad_s)
     if limits.heading_yield_mps > 0.0:
-        w_cmd *= max(0.0, 1.0 - math.hypot(vx, vy) / limits.heading_yield_mps)
+        w_cmd *= max(0.0, 1.0 - abs(vy) / limits.heading_yield_mps)
     v = vx
     w = w_cmd + vy / limits.lookahead_m
     scale = 1.0

@@ -55,7 +55,7 @@ class RobotTypeConfig(Section):
     max_accel_mps2: float | None = Field(None, gt=0, le=ACCEL_MPS2)
     max_alpha_rps2: float | None = Field(None, gt=0, le=10 * ACCEL_MPS2)
     lookahead_m: float | None = Field(None, gt=0, le=10.0, description="differential MOVE: the point ahead of the axle that follows (Vx, Vy)")
-    heading_yield_mps: float | None = Field(None, ge=0, le=FAST_MPS, description="differential MOVE: the policy's ω fades out as the asked speed reaches this (0: never)")
+    heading_yield_mps: float | None = Field(None, ge=0, le=FAST_MPS, description="differential MOVE: the policy's ω fades out as the asked sideways speed reaches this (0: never)")
     wheel_slip_pct: float | None = Field(None, ge=0, lt=100, description="seed 003's w, % of the wheels' motion lost")
     sensors: list[SensorEntry] | None = Field(None, max_length=64)
     behaviours: list[str] | None = Field(None, max_length=64, description="behaviour modules besides MOVE (seed 001 §IV)")

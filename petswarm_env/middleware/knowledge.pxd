@@ -33,3 +33,4 @@ cdef class Knowledge:
     cdef public double odometry_s
 
     cpdef void dead_reckon(self, double now_s, double vx, double vy, double yaw_rad)
+    cpdef double formation_offset(self, double now_s, double yaw_rad, double fresh_s)

@@ -14,6 +14,11 @@ import cython
 from cython.cimports.libc.math import cos as _cos
 from cython.cimports.libc.math import sin as _sin
 
+if cython.compiled:  # a C call (geometry.pxd)
+    from cython.cimports.petswarm_env.sim.geometry import wrap_float as _wrap
+else:
+    from petswarm_env.sim.geometry import wrap_float as _wrap
+
 COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
 
 # chosen: own odometry is counted at every control step while the robot drives as a slave (0.1 s); a
@@ -139,6 +144,22 @@ class Knowledge:
             y: cython.double
             x, y = self.odometry_xy
             self.odometry_xy = (x + (c * vx - s * vy) * dt, y + (s * vx + c * vy) * dt)
+
+    @cython.ccall
+    def formation_offset(self, now_s: cython.double, yaw_rad: cython.double, fresh_s: cython.double) -> cython.double:
+        """ψ = θ_master − θ_self on a slave from its heading exchange with the master (member 0), carried over our own
+        rotation since (``yaw_rad``, own AHRS) and the formation's turn since (the master's broadcast ω, seed 000 §3.5);
+        nan when that exchange is older than ``fresh_s`` (or none). ``now_s``: own clock. Only the master's: a relayed
+        estimate passed on again by robots that relay each other has nothing holding it to the master's heading (two r1s
+        out of the master's IR sight drove off together, docs/results.md)."""
+        h: HeadingEstimate = self.heading.get(self.members.get(0))
+        if h is None or now_s - h.time_s >= fresh_s:
+            return math.nan
+        turn: cython.double = 0.0
+        st: MasterStatus = self.status
+        if st is not None:
+            turn = st.velocity[2]
+        return _wrap(h.relative_rad - (yaw_rad - h.own_yaw_rad) + turn * (now_s - h.time_s))
 
     def __repr__(self) -> str:
         return (f"Knowledge(member={self.member!r}, total_members={self.total_members!r}, members={self.members!r}, "

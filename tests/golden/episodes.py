@@ -57,6 +57,8 @@ CASES: dict[str, tuple[dict[str, Any], str, int, int]] = {
     "mode_change": ({"user.scenario": "mode_change"}, "scripted", 0, 400),
     "nine_slaves_u_turn": ({"swarm.num_slaves": 9, "user.scenario": "u_turn"}, "scripted", 0, 300),
     "two_users": ({"world.num_users": 2}, "scripted", 0, 300),
+    # differential bodies (their MOVE module, their relayed heading exchange: middleware/token_ring.py)
+    "heterogeneous": ({"user.scenario": "heterogeneous"}, "scripted", 0, 400),
 }
 
 

@@ -42,13 +42,16 @@ def test_a_refill_reaches_the_robot_left_waiting_at_the_rim():
 
 @pytest.mark.parametrize("assignment", ["closest", "ruta_decentralized"])
 def test_the_mixed_pools_spare_fills_the_dead_slaves_place(assignment):
-    """The heterogeneous pool with one more r1 waiting (``swarm.spares`` 0), a slave dead at 20 s,
-    an r1 arriving at 25 s: seed 5 (closest) and seed 7 (ruta_decentralized) took the arrival
-    while the spare, 3.0 m from the master, declined every refill query by its own RSSI estimate
-    (3.05-3.45 m) against the organize's 3 m region."""
-    ns = argparse.Namespace(max_cycles=700, fault_at=20.0, arrivals=[25.0, 35.0], spares=0, spare_type="r1",
+    """The heterogeneous pool with one more r1, a slave dead at 20 s, an r1 arriving at 25 s (seed 5, closest; seed 7,
+    ruta_decentralized). Left waiting where it started (``swarm.spares`` 0) the spare is behind the walking swarm when
+    the slave dies, and the arrival takes the place 7 s later; recruited at the organize (``swarm.spares`` 1) it walks
+    with the swarm and holds the user's count again within 2-3 s of the death (docs/results.md, mixed bodies)."""
+    ns = argparse.Namespace(max_cycles=700, fault_at=20.0, arrivals=[25.0, 35.0], spares=1, spare_type="r1",
                             judge_at=60.0)
     seed = 5 if assignment == "closest" else 7
     row = measure_mixed.run(seed, "spare", assignment, ns)
-    assert row["by_spare"] and row["refill_s"] <= measure_mixed.REFILL_WITHIN_S
+    assert row["by_spare"] and row["by_pool"] and row["refill_s"] <= 5.0
     assert row["worst_late_m"] < measure_mixed.FAR_M
+    ns.spares = 0
+    waiting = measure_mixed.run(seed, "spare", assignment, ns)
+    assert not waiting["by_spare"] and waiting["refill_s"] > row["refill_s"]

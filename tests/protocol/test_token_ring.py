@@ -72,8 +72,39 @@ def test_slaves_measure_their_reference_neighbours(seed):
         assert abs(wrap(m.bearing_rad - true_b)) < math.radians(20)
         h = node.know.heading.get(ref)
         assert h is not None, f"slave {n} has no heading estimate of {ref}"
-        true_rel = wrap(robots[ref].heading - robots[n].heading)
+        true_rel = wrap(robots[ref].heading - robots[n].heading)  # petbots report their own heading (seed 000 §3.5)
         assert abs(wrap(h.relative_rad - true_rel)) < math.radians(25)
+
+
+def sw_master(env):
+    return env.episode.swarm.master.node_id
+
+
+@pytest.mark.parametrize("seed", [0, 1, 3])
+def test_a_differential_slave_relays_the_formations_heading_not_its_own(seed):
+    """A differential body reports the bearing it saw the token holder at from the formation's heading as it knows it
+    (TokenRing.send_heading, Knowledge.formation_offset): in a standing swarm of r2s whose robots face every way, every
+    slave's estimate via another slave gives the master's heading relative to its own, not that slave's (it fails with
+    the bearing reported from the body's own heading, as a petbot reports it)."""
+    env = petswarm_env.parallel_env(**{"user.start_delay_s": 100.0, "swarm.pool": [{"type": "r2", "count": 4}]})
+    env.reset(seed=seed)
+    for _ in range(60):
+        env.step({})
+    robots = env.episode.world.robots
+    master = sw_master(env)
+    checked = 0
+    for n in env.episode.swarm.slave_ids():
+        node = env.episode.swarm.nodes[n]
+        for other, h in node.know.heading.items():
+            if other == master or not 0.0 <= node.clock.now - h.time_s < 2.0:
+                continue
+            body_rel = wrap(robots[other].heading - robots[n].heading)
+            frame_rel = wrap(robots[master].heading - robots[n].heading)
+            assert abs(wrap(h.relative_rad - frame_rel)) < math.radians(35), (n, other)
+            if abs(wrap(body_rel - frame_rel)) > math.radians(60):
+                assert abs(wrap(h.relative_rad - body_rel)) > math.radians(30), (n, other)
+                checked += 1
+    assert checked > 0  # some slave faced far from the master's heading: the relay was tested, not assumed
 
 
 def test_ring_runs_through_every_member_without_recovery():

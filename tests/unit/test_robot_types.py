@@ -235,9 +235,11 @@ def test_the_heading_yield_lets_a_differential_body_move_first():
     on = DifferentialLimits(1.0, 2.0, 0.5, heading_yield_mps=0.4)
     # a policy holding its heading while asking to move right: the two turns cancel without the yield
     assert differential_move(0.0, -0.5, 1.0, off) == (0.0, pytest.approx(0.0))
-    assert differential_move(0.0, -0.5, 1.0, on) == (0.0, pytest.approx(-1.0))  # |V| >= 0.4: ω yields whole
+    assert differential_move(0.0, -0.5, 1.0, on) == (0.0, pytest.approx(-1.0))  # |Vy| >= 0.4: ω yields whole
     assert differential_move(0.0, 0.0, 1.0, on) == (0.0, 1.0)  # standing: the policy's ω whole
-    assert differential_move(0.2, 0.0, 1.0, on) == (0.2, pytest.approx(0.5))
+    assert differential_move(0.0, 0.2, 1.0, on) == (0.0, pytest.approx(0.5 + 0.2 / 0.5))  # half the sideways yield
+    # driving straight on (its swarm's walk): the policy's ω whole, whatever the speed (the swarm's turn with it)
+    assert differential_move(0.9, 0.0, 1.0, on) == (0.9, 1.0)
     with pytest.raises(ValueError, match="heading_yield_mps"):
         DifferentialLimits(1.0, 2.0, 0.5, heading_yield_mps=-1.0)
 

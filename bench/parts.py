@@ -67,6 +67,7 @@ MODULE_PARTS: dict[str, str | None] = {
     "petswarm_env.middleware.diagnosis": "radio_middleware",  # each robot's sensor self-diagnosis, every ring and AHRS reading
     "petswarm_env.middleware.user_session": "user_sensing",  # the master's wearables chain (LF, belt)
     "petswarm_env.middleware.successor_side": "user_sensing",  # the user session of a new master after a succession
+    "petswarm_env.middleware.pairing": "user_sensing",  # the user session's pairing of the belt with a robot
     "petswarm_env.wearables": "user_sensing",
     "petswarm_env.wearables.belt": "user_sensing",  # the belt's IMU and recognition, every control period
     "petswarm_env.wearables.belt_window": "user_sensing",  # the belt's window statistics, every accelerometer sample

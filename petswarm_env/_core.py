@@ -47,6 +47,7 @@ COMPILED: tuple[str, ...] = (
     "petswarm_env.middleware.diagnosis",
     "petswarm_env.control.arbiter",
     "petswarm_env.control.master",
+    "petswarm_env.middleware.user_session",
     "petswarm_env.sim.robot",
     "petswarm_env.references",
     "petswarm_env.reward",

@@ -33,6 +33,8 @@ A module of the compiled core (``petswarm_env/_core.py``, Cython's pure-Python m
 the tracker and the controller are typed classes whose arithmetic runs on C doubles (the master, every
 control period). cos, sin, atan2 and sqrt are the C library's, as ``math``'s are; ``math.hypot`` is
 CPython's own algorithm (not the C library's hypot), so it stays a call of ``math.hypot``.
+The three classes are declared in ``master.pxd``: the user session (``middleware/user_session.py``) reads
+and calls them by C reads and C calls.
 """
 
 from __future__ import annotations
@@ -84,11 +86,7 @@ LEADING_ARC_MAX_RPS = 0.3
 class BeltView:
     """What the master last heard from the belt over BLE (seed 002 §3.4)."""
 
-    activity = cython.declare(str, visibility="public")
-    rotating = cython.declare(cython.bint, visibility="public")
-    angular_speed_rps = cython.declare(cython.double, visibility="public")
-    accumulated_angle_rad = cython.declare(cython.double, visibility="public")
-    time_s = cython.declare(cython.double, visibility="public")
+    # its typed attributes are declared in ``master.pxd``
 
     def __init__(self, activity: str = "stop", rotating: bool = False, angular_speed_rps: float = 0.0,
                  accumulated_angle_rad: float = 0.0, time_s: float = 0.0):
@@ -113,19 +111,14 @@ class UserTracker:
     frame now.
     """
 
-    alpha = cython.declare(cython.double, visibility="public")
-    beta = cython.declare(cython.double, visibility="public")
-    pose = cython.declare(list, visibility="public")  # own x, y (odometry frame) and AHRS yaw
-    pos = cython.declare(object, visibility="public")  # [x, y] of the user (odometry frame), None before a fix
-    vel = cython.declare(list, visibility="public")  # [vx, vy] of the user (odometry frame)
-    t_fix = cython.declare(cython.double, visibility="public")
-    last_fix_s = cython.declare(cython.double, visibility="public")
+    # its typed attributes are declared in ``master.pxd``
 
     def __init__(self, alpha: float, beta: float):
         self.alpha, self.beta = alpha, beta
         self.reset()
 
-    def reset(self, yaw_rad: float = 0.0) -> None:
+    @cython.ccall
+    def reset(self, yaw_rad: cython.double = 0.0):
         """Forget the user; the odometry frame starts here, at the robot's AHRS reading ``yaw_rad``
         (the AHRS counts from its own power-on heading: a fix taken before the next :meth:`move`
         must be placed with the robot's current reading, not with 0)."""
@@ -135,7 +128,8 @@ class UserTracker:
         self.t_fix = 0.0
         self.last_fix_s = -math.inf
 
-    def move(self, odometry, yaw: float, dt: cython.double) -> None:
+    @cython.ccall
+    def move(self, odometry, yaw: cython.double, dt: cython.double):
         """Dead-reckon own pose over one control period (odometry in the body frame)."""
         pose: list = self.pose
         x: cython.double
@@ -149,7 +143,8 @@ class UserTracker:
         pose[1] = y + (s * vx + c * vy) * dt
         pose[2] = yaw
 
-    def move_without_ahrs(self, odometry, dt: cython.double) -> None:
+    @cython.ccall
+    def move_without_ahrs(self, odometry, dt: cython.double):
         """:meth:`move` for a robot that found its AHRS broken (middleware/diagnosis.py): its heading
         dead-reckoned from its wheel odometry's ω (seed 001's mecanum odometry; a frozen AHRS would
         leave the odometry frame unturned while the robot turns, and the user's track with it)."""
@@ -157,7 +152,8 @@ class UserTracker:
         th: cython.double = self.pose[2]
         self.move(odometry, th + w * dt, dt)
 
-    def fix(self, body_xy, t: cython.double, weight: cython.double = 1.0) -> None:
+    @cython.ccall
+    def fix(self, body_xy, t: cython.double, weight: cython.double = 1.0):
         """Take an LF fix (body frame) made at ``t``; ``weight`` < 1 trusts a noisier fix less."""
         x: cython.double
         y: cython.double
@@ -187,6 +183,7 @@ class UserTracker:
         self.t_fix = t
         self.last_fix_s = t
 
+    @cython.ccall
     def user_body(self, t: cython.double):
         """(position, velocity) of the user in the body frame now, or None before the first fix."""
         if self.pos is None:
@@ -219,32 +216,7 @@ class MasterController:
     (Vx, Vy, ω) in the body frame. State: the walking direction ψ (body frame) and the belt's
     accumulated angle at the last step."""
 
-    _cfg = cython.declare(object)
-    half_angle = cython.declare(cython.double, visibility="public")
-    # the configuration's gains as C doubles (a MasterConfig is frozen; set again with ``cfg``)
-    _walk_speed = cython.declare(cython.double)
-    _blend = cython.declare(cython.double)
-    _band = cython.declare(cython.double)  # the rotate deadband, rad
-    _acc_band = cython.declare(cython.double)
-    _distance_gain = cython.declare(cython.double)
-    _speed_gain = cython.declare(cython.double)
-    _arc_gain = cython.declare(cython.double)
-    _trail = cython.declare(cython.double)
-    _sideways_gain = cython.declare(cython.double)
-    _rotate_gain = cython.declare(cython.double)
-    _settle = cython.declare(cython.double)  # arc_sync_done_deg, rad
-    _sync_gain = cython.declare(cython.double)
-    _brake = cython.declare(cython.double)
-    # state
-    _walk_dir = cython.declare(cython.double)  # ψ: the user's walking direction, body frame
-    _has_walk_dir = cython.declare(cython.bint)  # ψ is set (not before the first command)
-    _trusted = cython.declare(cython.bint)  # ψ steers: tracked, or guessed while the user stood still (not mid-turn)
-    _belt_angle = cython.declare(cython.double)  # the belt's accumulated angle at the last step (current rotation)
-    _was_rotating = cython.declare(cython.bint)
-    _syncing = cython.declare(cython.bint)  # a leading arc of the current rotation runs: its share and the arc done
-    _share = cython.declare(cython.double)
-    _done = cython.declare(cython.double)
-    _was_rotating_arc = cython.declare(cython.bint)
+    # its typed attributes are declared in ``master.pxd``
 
     def __init__(self, cfg: MasterConfig, reliable_half_angle_rad: float):
         self.cfg = cfg
@@ -266,7 +238,8 @@ class MasterController:
         self._settle, self._sync_gain = math.radians(cfg.arc_sync_done_deg), cfg.arc_sync_gain
         self._brake = cfg.arc_brake_mps2
 
-    def reset(self) -> None:
+    @cython.ccall
+    def reset(self):
         self._walk_dir, self._has_walk_dir = 0.0, False
         self._trusted = False
         self._belt_angle = 0.0
@@ -371,6 +344,7 @@ class MasterController:
         brake: cython.double = _c_sqrt(2.0 * self._brake * abs(gap) / _hypot(ux, uy))
         return min(rate_cmd, brake) if gap >= 0.0 else max(rate_cmd, -brake)
 
+    @cython.ccall
     def command(
         self,
         user_pos,

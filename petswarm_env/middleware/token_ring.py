@@ -301,8 +301,8 @@ class TokenRing:
             return None
         latest: cython.double = -math.inf
         for k, p in enumerate(peers):  # max(...) as the builtin takes it: a later time replaces only a greater one
-            t: cython.double = self.heard.get(p, -math.inf)
-            if k == 0 or t > latest:
+            t = self.heard.get(p)  # a peer never heard counts -inf, which replaces nothing
+            if t is not None and (k == 0 or float(t) > latest):
                 latest = t
         return latest if latest > self.started_s else self.started_s  # max(self.started_s, latest)
 

@@ -154,49 +154,10 @@ class SmartBelt:
     window the activity is Stop (nothing recognised yet).
 
     A typed class of the compiled core (Cython's pure-Python mode, ``petswarm_env/_core.py``): it
-    runs for every control period.
+    runs for every control period, advanced and read by the user session by C calls (``belt.pxd``).
     """
 
-    __dict__ = cython.declare(dict)
-    cfg = cython.declare(object, visibility="public")
-    _normals = cython.declare(object)  # the stream's normals after power-on, in blocks (sim/sensors.NormalStream)
-    _t0 = cython.declare(cython.double)
-    _t = cython.declare(cython.double)
-    _acc_dt = cython.declare(cython.double)
-    _w = cython.declare(cython.Py_ssize_t)
-    _n_acc = cython.declare(cython.Py_ssize_t)
-    _hist = cython.declare(object)  # array("d")
-    _gait_phase = cython.declare(cython.double, visibility="public")
-    _n_gyro = cython.declare(cython.Py_ssize_t)
-    _stride_phase = cython.declare(cython.double)
-    _bias_rps = cython.declare(cython.double)
-    _ma = cython.declare(list)
-    _on_rps = cython.declare(cython.double)
-    _off_rps = cython.declare(cython.double)
-    _gyro_noise_rps = cython.declare(cython.double)
-    _wobble_rad = cython.declare(cython.double)
-    _cadence = cython.declare(tuple)
-    _activity = cython.declare(cython.int)
-    _activity_since = cython.declare(cython.double)
-    _sign_changes = cython.declare(object)
-    _sma = cython.declare(cython.double)
-    _rotating = cython.declare(cython.bint)
-    _rotation_since = cython.declare(cython.double)
-    _omega_f = cython.declare(cython.double)
-    _angle = cython.declare(cython.double)
-    # the config's numbers read at every control period, read once (a config is frozen)
-    _gyro_dt = cython.declare(cython.double)
-    _acc_noise = cython.declare(cython.double)
-    _walk_bounce = cython.declare(cython.double)
-    _run_bounce = cython.declare(cython.double)
-    _gait_jitter = cython.declare(cython.double)
-    _rest_hz = cython.declare(cython.double)
-    _rest_amp = cython.declare(cython.double)
-    _rest_jitter = cython.declare(cython.double)
-    _deadband = cython.declare(cython.double)
-    _min_changes = cython.declare(cython.int)
-    _level2 = cython.declare(cython.double)
-    _level3 = cython.declare(cython.double)
+    # its typed attributes are declared in ``belt.pxd``
 
     def __init__(self, cfg: BeltConfig, rng: np.random.Generator, t0_s: float = 0.0):
         self.cfg = cfg
@@ -247,7 +208,8 @@ class SmartBelt:
     def rng(self, rng: np.random.Generator) -> None:
         self._normals = NormalStream(rng)
 
-    def advance(self, t_end: float, speed_mps: float, turn_rate_rps: float, posture: str) -> None:
+    @cython.ccall
+    def advance(self, t_end: cython.double, speed_mps: cython.double, turn_rate_rps: cython.double, posture: str):
         """Sample and process the IMU up to ``t_end`` (s), the user's state constant since the last call.
 
         ``speed_mps`` and ``turn_rate_rps`` (CCW positive) are the user's true motion; ``posture`` is
@@ -267,7 +229,9 @@ class SmartBelt:
             self._gyro_samples(m_target - self._n_gyro, speed_mps, turn_rate_rps, posture)
         self._t = max(self._t, float(t_end))
 
-    def reading(self) -> BeltReading:
+    @cython.ccall
+    def reading(self):
+        """The belt's current knowledge, a :class:`BeltReading`."""
         return BeltReading(
             activity=ACTIVITIES[self._activity],
             rotating=self._rotating,

@@ -533,3 +533,67 @@ def stream_draws() -> list:
 def test_the_draw_streams_hand_out_numpy_blocks_last_first_in_both_forms():
     out = in_both_forms("stream_draws")
     assert out["1"] == out["0"]
+
+
+def _session_trace(env, obs: dict, steps: int, at_step=None) -> list:
+    """``env`` driven ``steps`` steps by the scripted reference (``at_step(k)`` before step ``k``): per step,
+    the first session's state, the master's command and the user's true position as exact hex strings,
+    then the session's events, lost links and pairings."""
+    from petswarm.baselines.policy import PolicySpec
+    from petswarm.baselines.registry import make_policy
+
+    policy = make_policy("scripted", PolicySpec.from_env(env), seed=0)
+    episode = env.episode
+    session = episode.sessions[0]
+    out = []
+    for k in range(steps):
+        if at_step is not None:
+            at_step(k)
+        if not env.agents:
+            break
+        obs, *_ = env.step(policy.act_all({a: obs[a] for a in env.agents}))
+        robot = episode.world.robots[episode.swarm.master.node_id]
+        out.append([session.state, session.paused, [float(v).hex() for v in (*robot.command, *episode.world.user.position)]])
+    out.append([session.events, session.link_losses, session.pairings, session.commands_received])
+    return out
+
+
+def session_episodes() -> list:
+    """The user session (middleware/user_session.py, compiled: it runs every control period) on the paths the
+    golden cases do not take: a radio-silent master that releases its user (cut off), a dead leading master
+    (the belt's supervision timeout, the successor's search and pairing), a master whose AHRS breaks (its
+    tracker turned by its wheels), and an emergency whose alert makes the user step back (``_walk_back``)."""
+    import math
+
+    import petswarm_env
+
+    out = []
+    for overrides in ({"faults": [{"at_s": 1.0, "robot": "master", "kind": "radio_silent"}]},
+                      {"swarm.mode": "leading", "faults": [{"at_s": 1.0, "robot": "master", "kind": "dead"}]},
+                      {"user.scenario": "zigzag", "faults": [{"at_s": 2.0, "robot": "master", "kind": "ahrs"}]}):
+        env = petswarm_env.parallel_env(**{"max_cycles": 400, **overrides})
+        obs, _ = env.reset(seed=1)
+        out.append(_session_trace(env, obs, 300))
+    env = petswarm_env.parallel_env(**{"user.scenario": "straight", "max_cycles": 400})
+    obs, _ = env.reset(seed=0)
+    user = env.episode.world.user
+
+    def displace(k: int) -> None:  # the walking user 2.5 m ahead at once, out of the master's reliable range
+        if k == 100:
+            h = user.heading
+            user.body.position = (user.position[0] + 2.5 * math.cos(h), user.position[1] + 2.5 * math.sin(h))
+
+    out.append(_session_trace(env, obs, 300, displace))
+    return out
+
+
+def test_the_interpreted_form_drives_the_same_user_sessions_bit_for_bit():
+    """The user session gives the same states, master commands and user walks to the bit in both forms, on a
+    release, a dead leading master's succession, a broken AHRS and an emergency with the user stepping back."""
+    out = in_both_forms("session_episodes")
+    released, succeeded, ahrs, emergency = out["0"]
+    assert [r for _, r in released[-1][1]] == ["released"] and released[-1][2]  # cut off, then paired again
+    assert [r for _, r in succeeded[-1][1]] == ["supervision_timeout"] and succeeded[-1][2]
+    assert any(s == "leading" for s, *_ in succeeded[:-1])
+    assert emergency[-1][0]["emergencies"] == 1 and any(paused for s, paused, _ in emergency[:-1] if s == "emergency")
+    assert out["1"] == out["0"]

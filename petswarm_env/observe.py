@@ -42,7 +42,7 @@ if TYPE_CHECKING:
 
 COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
 
-OBS_VERSION = 5  # 5: the same layout, a link's heading is the formation's heading as that neighbour relays it (middleware/token_ring.py TokenRing.send_heading), not the neighbour's body heading; 4: the same layout, the IR fixes (links, master, anchor) carried over the slave's own odometry less the master's broadcast speed (seed 000 §3.5); 3: the ring's presence and location-known flags (seed 001's middle layer: heterogeneous bodies); 2: the master's IR fix (master.ir_*) and an anchor member's (anchor.*): a slave finds its slot from a scattered start
+OBS_VERSION = 5  # 5: the same layout, a differential neighbour relays the master's heading in its link's heading (middleware/token_ring.py TokenRing.send_heading); 4: the same layout, the IR fixes (links, master, anchor) carried over the slave's own odometry less the master's broadcast speed (seed 000 §3.5); 3: the ring's presence and location-known flags (seed 001's middle layer: heterogeneous bodies); 2: the master's IR fix (master.ir_*) and an anchor member's (anchor.*): a slave finds its slot from a scattered start
 POS_SCALE_M = 3.0
 AGE_SCALE_S = 2.0
 
@@ -75,7 +75,7 @@ def _link_fields(k: int) -> list[Field]:
         Field(p + "ir_age", 1, f"s / {AGE_SCALE_S}, clipped to 1", "age of that IR measurement", (0.0, 1.0), "an age ≥ 0, clipped to 1"),
         Field(p + "offset_xy", 2, f"m / {POS_SCALE_M}", "own reference offset from the neighbour, formation frame (x = swarm heading)",
               "link_offset", "± the largest offset of any neighbour table of the configured shape (2 … num_slaves + 1 members, both modes)"),
-        Field(p + "heading_sincos", 2, "-", "sin, cos of θ_formation − θ_self from the heading exchange with that neighbour, which relays the formation's (the master's) heading as it knows it (the neighbour's θ_neighbour − θ_self when it holds the formation's heading), carried over own rotation since (AHRS); (0, 1) if unknown",
+        Field(p + "heading_sincos", 2, "-", "sin, cos of θ_neighbour − θ_self from the heading exchange, carried over own rotation since (AHRS); a differential neighbour with a fresh exchange with the master reports the master's heading instead of its own (middleware/token_ring.py), giving θ_master − θ_self; (0, 1) if unknown",
               (-1.0, 1.0), "a unit vector"),
         Field(p + "heading_valid", 1, "0/1", "a heading exchange with that neighbour has happened"),
         Field(p + "heading_age", 1, f"s / {AGE_SCALE_S}, clipped to 1", "age of the heading estimate", (0.0, 1.0), "an age ≥ 0, clipped to 1"),

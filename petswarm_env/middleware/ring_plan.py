@@ -12,7 +12,8 @@ from petswarm_env.middleware import messages as msg
 class RingPlan(NamedTuple):
     """How the ring runs for a swarm of a given size (token_ring.py's module docstring, "A crowded ring")."""
 
-    answer_slot_s: float  # 0: every member answers a start sign at once (after its MCU delay); else in member order, this far apart
+    answer_slot_s: float  # 0: every member answers a start sign at once (after its MCU delay); else in member order,
+    # this far apart
     all_answer_token: bool  # every member answers a token (True), or only the robot it names
     wait_headings: bool  # the holder waits for its neighbours' heading reports before passing the token
     ir_tx_s: float  # how long the holder transmits IR (protocol.ir_tx_s; a crowded ring: protocol.ring_ir_tx_crowded_s)

@@ -49,11 +49,13 @@ Heading exchange: robot j saw robot i at bearing φ_ji (in j's frame); i saw j a
 of j's latest slot, and drops the report when it missed that slot (j occluded or out of range) — a bearing from an older round,
 with both robots moved since, would give a wrong heading.
 
-Relayed (chosen, not in seed 000): a differential body j with a fresh exchange with the master reports φ_ji less ψ_j =
-θ_master − θ_j from it, so i's θ_j − θ_i comes out as θ_master − θ_i, the formation's heading (:meth:`TokenRing.send_heading`). Seed 000's holonomic robots hold the formation's
-heading and report their own, as there; a differential body points where it drives, and its neighbours placed their slots
-turned by as much (docs/results.md, the heterogeneous swarm). Relayed by every robot, 1 + 16 petbots built their formation
-in 54 of 60 episodes against 56: the relays' errors add up along a deep formation.
+Relayed (chosen, not in seed 000): a differential body j with a fresh exchange with the master reports φ_ji less
+ψ_j = θ_master − θ_j from it, so i's θ_j − θ_i comes out as θ_master − θ_i, the formation's heading
+(:meth:`TokenRing.send_heading`). Seed 000's holonomic robots hold the formation's heading and report their own, as there; a
+differential body points where it drives, and its neighbours placed their slots turned by as much (docs/results.md, the
+heterogeneous swarm). Relayed by every robot, 1 + 16 petbots built their formation in 54 of 60 episodes against 56 (the
+relays' errors add up along a deep formation); relayed again from relays, two differential bodies relaying each other
+had nothing holding them to the master's heading.
 """
 
 from __future__ import annotations

@@ -65,7 +65,7 @@ import math
 import cython
 
 from petswarm_env.middleware import messages as msg
-from petswarm_env.middleware.ring_plan import RingPlan, ring_plan  # noqa: F401 (ring_plan: tests read it here)
+from petswarm_env.middleware.ring_plan import RingPlan, ring_plan
 
 if cython.compiled:  # C reads and calls: station.pxd, clock.pxd (the MCU's), knowledge.pxd, radio.pxd (frames), geometry.pxd
     from cython.cimports.petswarm_env.comms.radio import Frame

@@ -363,7 +363,7 @@ def test_a_robot_built_alone_has_its_own_managers_and_an_unwired_ir_port_says_so
 # -- a crowded ring (module docstring of middleware/token_ring.py) ------------------------------------
 def test_ring_plan_is_crowded_only_when_the_answers_outgrow_the_mcu_jitter():
     from petswarm_env.config import load_config
-    from petswarm_env.middleware.token_ring import ring_plan
+    from petswarm_env.middleware.ring_plan import ring_plan
 
     cfg = load_config()
     for slaves in range(1, 7):  # the default 1 + 4 among them: the ring as seed 000 Fig. 7 runs it, frame for frame

@@ -399,7 +399,7 @@ class JoinManager:
             return
         recovery = node.recovery
         members = dict(know.members)
-        table = recovery.nearest_slots(members, formation)
+        table = recovery.nearest_slots(members, formation, building=True)
         if table == members:
             return
         self.replans += 1

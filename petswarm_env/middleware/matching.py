@@ -1,9 +1,37 @@
-"""The least-total assignment of robots to places (the Hungarian method): the removal's re-plan
-(:meth:`~.recovery.RecoveryManager.nearest_slots`) puts the remaining members on the slots by it."""
+"""The least-total assignment of robots to places (the Hungarian method) and what a move costs in it: the
+removal's re-plan (:meth:`~.recovery.RecoveryManager.nearest_slots`) and a successor's tables
+(:func:`~.succession.succession_plan`) put the members on the slots by it."""
 
 from __future__ import annotations
 
 import math
+
+# chosen: what a move of d metres costs in the slots' assignment of a formation that stands (a removal's re-plan,
+# :meth:`~.recovery.RecoveryManager.removal_plan`; a successor's tables, :func:`~.succession.least_move`): d + d²·1/m.
+# By metres alone one robot sent across the formation costs no more than a chain of robots each moving up one slot
+# (the triangle inequality), and the plans took it: a new master that leaves its slot for the old master's place
+# gave that slot to the rear robot of the other arm, 3 m through its neighbours and out of their IR reach (1 + 8,
+# the master's IR fault, seed 101: 3.2 m off its slot 10 s later). The square makes long moves dear: the least
+# total of squared moves gives paths that do not cross (concurrent assignment of straight-line moves), and the
+# linear term keeps the fewest metres among plans of equal squares (on a line every assignment of the robots behind
+# a lost member moves the same total: the order with no robot passing another). Re-formed within 10 s of the
+# master's IR fault, by metres alone -> this (seeds 100-119, 200-219; `sensor_faults --kinds ir --target master`):
+# 1 + 8 11 -> 15 and 17 -> 17 of 20, leading 17 -> 18 and 18 -> 18; a slave's IR fault, 1 + 8 18 -> 18 and
+# 17 -> 20, 1 + 6 18 -> 19 and 19 -> 20; the default 1 + 4 (straight, zigzag, loss 0.3) unchanged (docs/faults.md).
+MOVE_SQUARE_PER_M = 1.0
+# chosen: the same while a formation builds (the organize's re-plan by the master's fixes, a leading swarm's
+# renumbering while it stands): the robots come from anywhere and every metre is traffic, so metres count, the square
+# only breaking ties (1 mm per m², below the IR's and the RSSI's resolution). With MOVE_SQUARE_PER_M there, 1 + 16 at
+# loss 0 built its formation in 109 of 120 resets against 113, with 1,275 robot-robot contacts against 1,199
+# (`measure_scale --slaves 16 --loss 0`, seeds 100-119, 200-219, 300-339, 400-439).
+TIE_SQUARE_PER_M = 1e-3
+
+
+def move_cost(distance_m: float, building: bool = False) -> float:
+    """What moving a robot ``distance_m`` metres costs in an assignment: :data:`MOVE_SQUARE_PER_M` for a
+    formation that stands, :data:`TIE_SQUARE_PER_M` while it builds (``building``)."""
+    square = TIE_SQUARE_PER_M if building else MOVE_SQUARE_PER_M
+    return distance_m + square * distance_m * distance_m
 
 
 def least_total(cost: list[list[float]]) -> list[int]:

@@ -9,9 +9,11 @@ Both sides run on one robot's station, like the other managers:
   removes it from its tables; the formation is the standard one of the master's shape for one
   member less (:func:`~.formation.formation_for_mode`; chosen: every member number stays in 1..n,
   so every rule that numbers the members — the ring order, the neighbour tables, Table 3 — works
-  as before), and the remaining members take its slots by the least total distance the master
+  as before), and the remaining members take its slots by the least total move the master
   estimates from its IR fixes and RSSI ranges (:meth:`RecoveryManager.nearest_slots`: the robots
-  near a slot fill it, so the loss moves the fewest metres). It broadcasts the *member update* frame — new total, member table, neighbour table,
+  near a slot fill it, so the loss moves the fewest metres; a long move counts its square too,
+  :func:`~.matching.move_cost`, so no robot is sent across the formation). It broadcasts the
+  *member update* frame — new total, member table, neighbour table,
   mode (:mod:`.messages`) — until every remaining member acknowledged it (a lost update or a lost
   acknowledgement → broadcast again, within ``protocol.max_retries``; a member that never heard
   it keeps its old tables until the next update, and if it was the one renumbered, the ring does
@@ -56,7 +58,7 @@ from petswarm_env.middleware.formation import Formation, formation_for_mode, lea
 from petswarm_env.middleware.knowledge import FRESH_IR_S
 from petswarm_env.middleware.join import JoinManager, OrganizeResult
 from petswarm_env.middleware.leaving import Leaving
-from petswarm_env.middleware.matching import least_total
+from petswarm_env.middleware.matching import least_total, move_cost
 from petswarm_env.middleware.station import Station
 
 
@@ -238,33 +240,34 @@ class RecoveryManager(Leaving):
         node.clock.process(self._announce(members, formation))
         yield node.clock.timeout(0.0)
 
-    def removal_plan(self, members: dict[int, int], formation: Formation,
-                     shift: tuple[float, float] | None = None) -> tuple[dict[int, int], Formation, bool]:
+    def removal_plan(self, members: dict[int, int], formation: Formation, shift: tuple[float, float] | None = None,
+                     building: bool = False) -> tuple[dict[int, int], Formation, bool]:
         """The remaining members (``members``, the lost one out) on ``formation`` (the standard table one
         smaller) or on its mirror image, whichever the least total move (:meth:`nearest_slots`) makes
         shorter (chosen: a wedge that lost a front slave on one arm is refilled from the other arm's rear
         otherwise, that robot crossing the formation through its neighbours; equal totals keep the
         standard table). ``shift``: where the master will stand, in its frame (the slots are laid out about
-        that place; None: where it stands). Returns (member number -> node id, the formation, whether it is
-        the mirror)."""
+        that place; None: where it stands); ``building``: while the formation builds (:func:`~.matching.move_cost`).
+        Returns (member number -> node id, the formation, whether it is the mirror)."""
         mirror = formation.mirrored()
-        total, table = self._least_move(members, formation, shift)
-        total_m, table_m = self._least_move(members, mirror, shift)
+        total, table = self._least_move(members, formation, shift, building)
+        total_m, table_m = self._least_move(members, mirror, shift, building)
         if total_m < total - 1e-9:
             return table_m, mirror, True
         return table, formation, False
 
-    def nearest_slots(self, members: dict[int, int], formation: Formation) -> dict[int, int]:
+    def nearest_slots(self, members: dict[int, int], formation: Formation, building: bool = False) -> dict[int, int]:
         """The remaining slaves (``members``: member number -> node id, the lost one out) on the slots
-        1..n of ``formation`` by the least total distance the master estimates (chosen: the slots fill
-        with the robots already near them, so a loss moves the fewest metres). Where the master
+        1..n of ``formation`` by the least total move the master estimates (:func:`~.matching.move_cost`, ``building``
+        while the formation builds; chosen: the slots fill with the robots already near them, so a loss moves the
+        fewest metres, and no robot crosses the formation). Where the master
         places a member, in its own frame (the formation frame: x along its heading): where its IR
         fix puts it when the fix is fresh (:data:`~.knowledge.FRESH_IR_S`); else at the slot it
         holds (it drives there) unless the RSSI range of its latest ring frame disagrees with that
         slot's distance by more than :data:`OFF_SLOT_M` — then on that slot's bearing at the RSSI range r;
         a member holding no slot of the table, at r with the bearing unknown
         (:func:`~.assignment.slot_distance`). Equal totals keep the robots in member order."""
-        return self._least_move(members, formation)[1]
+        return self._least_move(members, formation, None, building)[1]
 
     def replan_building(self) -> None:
         """Master, leading, while it stands with its user for the building (seed 000 Fig. 10): when its IR fixes of
@@ -293,22 +296,22 @@ class RecoveryManager(Leaving):
         if any(not 0 < m <= len(row) for m, row in zip(held, cost)):
             return  # numbers with a gap (a removal under way)
         now_total = sum(row[m - 1] for m, row in zip(held, cost))
-        table, formation, mirrored = self.removal_plan(members, standard)
-        if self._least_move(table, formation)[0] < now_total - REPLAN_GAIN_M:
+        table, formation, mirrored = self.removal_plan(members, standard, building=True)
+        if self._least_move(table, formation, None, True)[0] < now_total - REPLAN_GAIN_M:
             self.mirrored = mirrored
             self.replans.append((now, mirrored))
             self.reassign(table, formation)
             node.members_changed.emit("renumbered", [])  # the swarm's tables (and the experimenter's references) follow
 
-    def _least_move(self, members: dict[int, int], formation: Formation,
-                    shift: tuple[float, float] | None = None) -> tuple[float, dict[int, int]]:
+    def _least_move(self, members: dict[int, int], formation: Formation, shift: tuple[float, float] | None = None,
+                    building: bool = False) -> tuple[float, dict[int, int]]:
         """:meth:`nearest_slots` and the total distance of its assignment (m, as the master estimates it)."""
         held, cost = self._move_costs(members, formation, shift)
         slaves = [n for m, n in sorted(members.items()) if m != 0]
-        # among equal totals, the one with the shortest longest moves (each distance d counts d + TIE_SQUARE·d²):
-        # on a line — a column, or any robots all beyond their slots — every assignment moves the same total, and
-        # the order of the robots along it is the one with no robot passing another
-        order = least_total([[d + TIE_SQUARE * d * d for d in row] for row in cost])
+        # each move of d metres counts d + d²·1/m (matching.move_cost; building: the square only breaks ties): of two
+        # plans of about the same metres, the one without a long move; on a line — a column, or any robots all beyond
+        # their slots — every assignment moves the same metres, and the order with no robot passing another is taken
+        order = least_total([[move_cost(d, building) for d in row] for row in cost])
         out = {0: members[0]}
         for i, n in enumerate(slaves):
             out[order[i] + 1] = n
@@ -535,8 +538,3 @@ class RecoveryManager(Leaving):
 # antennas locate its user, seed 002 §3.2-3.4, and the slaves see its IR; handing over measured worse: re-formed
 # 18/20 and the user lost in 3 of 40 runs, against 19/20 and none kept — docs/faults.md)
 MASTER_NEEDS = frozenset({"ir"})
-# chosen: the weight of the squared distances that breaks ties between equal total moves (:meth:`RecoveryManager.
-# _least_move`): 1 mm per m² — below the IR's and the RSSI's resolution, so it never outweighs a measured difference
-# (a column that lost its second member sent its tail robot through the third to the open slot: the same total;
-# it stopped against the third, and both lost the IR's reach of the robots ahead — column, seed 1)
-TIE_SQUARE = 1e-3

@@ -46,7 +46,6 @@ over, the shape and spacing are those of the neighbour table it holds (:func:`ad
 
 from __future__ import annotations
 
-import itertools
 import math
 from collections.abc import Callable
 
@@ -57,11 +56,11 @@ from petswarm_env.config import CustomLink
 from petswarm_env.middleware import messages as msg
 from petswarm_env.middleware.formation import Formation, formation_for_mode, leading_user
 from petswarm_env.middleware.knowledge import FRESH_IR_S
+from petswarm_env.middleware.matching import least_total, move_cost
 from petswarm_env.middleware.station import Station
 from petswarm_env.sim.geometry import wrap_angle
 
 LF_ANTENNAS = 2  # a master locates its user with two LF antennas (seed 002 §3.3)
-EXACT_ASSIGNMENT_UP_TO = 7  # chosen: the least-move assignment is exact up to this many members (7! orders), greedy beyond
 
 
 # chosen: where a new master looks for its user after an unanswered wake-up burst (seed 002 has no
@@ -280,21 +279,12 @@ def claim_key(distance_m: float, mode: str, member: int) -> tuple[int, int]:
 
 def least_move(current: dict[int, np.ndarray], slots: dict[int, np.ndarray]) -> dict[int, int]:
     """Slot -> member: each member of ``current`` (member -> position) to one slot of ``slots``
-    (slot -> position, as many), the least total distance (exact for small swarms, greedy beyond;
-    ties by number)."""
+    (slot -> position, as many) by the least total move (the Hungarian method on
+    :func:`~.matching.move_cost`, as a removal's re-plan; among equal totals each member keeps the slot
+    of its own rank)."""
     members, targets = sorted(current), sorted(slots)
-    cost = {(m, k): float(np.hypot(*(current[m] - slots[k]))) for m in members for k in targets}
-    if len(members) <= EXACT_ASSIGNMENT_UP_TO:
-        def total(perm: tuple[int, ...]) -> tuple[float, tuple[int, ...]]:
-            return round(sum(cost[m, k] for m, k in zip(members, perm)), 9), perm
-
-        best = min(itertools.permutations(targets), key=total)
-        return {k: m for m, k in zip(members, best)}
-    out: dict[int, int] = {}
-    for (m, k) in sorted(cost, key=lambda mk: (round(cost[mk], 9), mk)):
-        if m not in out.values() and k not in out:
-            out[k] = m
-    return out
+    order = least_total([[move_cost(float(np.hypot(*(current[m] - slots[k])))) for k in targets] for m in members])
+    return {targets[order[i]]: m for i, m in enumerate(members)}
 
 
 def succession_plan(formation: Formation, members: dict[int, int], new_root: int, mode: str,

@@ -41,8 +41,13 @@ def test_the_member_nearest_the_open_slot_takes_it_not_the_highest_number():
     members = {0: 0, 1: 11, 2: 12, 3: 13, 4: 14}
     rm = _manager(members, {12: (-0.87, -0.5), 13: (-0.95, 0.6), 14: (-1.73, -1.0)})
     remaining = {m: n for m, n in members.items() if n != 11}
-    got = rm.nearest_slots(remaining, formation_for_mode(CFG.swarm, 4, "following"))
-    assert got == {0: 0, 1: 13, 2: 12, 3: 14}  # the old rule gave robot 14 number 1 (1.7 m) and 13 number 3 (1.0 m)
+    table = formation_for_mode(CFG.swarm, 4, "following")
+    # building (metres; the old rule gave robot 14 number 1, 1.7 m, and 13 number 3, 1.0 m): 13 takes slot 1, 12 keeps
+    # slot 2, 14 drives 2.0 m across the rear to slot 3
+    assert rm.nearest_slots(remaining, table, building=True) == {0: 0, 1: 13, 2: 12, 3: 14}
+    # a formation that stands (matching.move_cost: d + d²): no move of 2 m, three of at most one spacing (12 to the
+    # front-left slot, 14 up its arm to 12's, 13 back to the rear-left one)
+    assert rm.nearest_slots(remaining, table) == {0: 0, 1: 12, 2: 14, 3: 13}
 
 
 def test_members_at_their_slots_keep_them_and_without_a_fix_the_held_slot_counts():

@@ -262,3 +262,22 @@ def test_without_spares_the_extra_robot_stays_waiting_and_a_short_pool_organizes
     spare = make(**{"swarm.extra_robots": 1, "swarm.spares": 2})  # one robot to spare: one spare place, not two
     recovery = spare.episode.swarm.master.recovery
     assert recovery.pool_heard == 5 and recovery.places == 5
+
+
+def test_a_member_that_fell_back_to_waiting_rejoins_under_its_own_number_not_twice():
+    """Loss 0.3, the master's IR fault (seed 115): after the handover one slave missed its new master's frames,
+    fell back to waiting and answered the refill's query while the master still held it as a member. It takes its
+    own number back; given the open one too, it stood in the table twice and steered by the other number's
+    references (join.JoinManager.refill)."""
+    from petswarm.experiments.sensor_faults import run as run_fault
+
+    tables, rejoined = [], []
+
+    def watch(env):
+        sw = env.episode.swarms[0]
+        tables.append(list(sw.master.know.members.values()))
+        rejoined.extend(r for r in sw.master.recovery.refills if r.members)
+
+    run_fault("ir", 115, 20.0, "master", {"radio.loss_prob": 0.3}, on_step=watch)
+    assert rejoined, "the case lost its refill: the test no longer covers a rejoin"
+    assert all(len(set(t)) == len(t) for t in tables)

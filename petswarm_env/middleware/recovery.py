@@ -127,9 +127,13 @@ class RecoveryManager(Leaving):
 
     # -- master side ----------------------------------------------------------------------------
     def member_lost(self, node_id: int) -> None:
-        """The ring declared ``node_id`` lost: remove it (then refill), one loss after another."""
+        """The ring declared ``node_id`` lost: remove it (then refill), one loss after another. Only the master its own
+        table names: a master that committed a handover's table (Table 3, modes.py) is still "master" until the new one
+        acknowledges the handover, and under loss that takes retries; its ring, no longer followed, declared a member
+        lost and its update took that member out of the new master's swarm (chosen; loss 0.3, the master's IR fault,
+        seed 115)."""
         node = self.node
-        if node.state != "master" or node_id in self._lost:
+        if node.state != "master" or node.know.members.get(0) != node.node_id or node_id in self._lost:
             return
         self._lost.append(node_id)
         if not self.busy:  # busy from now on, not from when the process first runs: one recovery at a time
@@ -206,7 +210,7 @@ class RecoveryManager(Leaving):
         when it was started, so no refill of the periodic scan or second recovery runs beside it:
         they would share the join manager's answers)."""
         self.busy = True
-        while self._lost and self.node.state == "master":
+        while self._lost and self.node.state == "master" and self.node.know.members.get(0) == self.node.node_id:
             yield from self._remove(self._lost.pop(0))
             if not self._lost and self.open_members():
                 yield from self._refill()
@@ -519,6 +523,8 @@ class RecoveryManager(Leaving):
             return  # an older update of the same master
         self.last_seq, self._last_src = p["seq"], frame.src
         members = {int(m): n for m, n in p["members"].items()}
+        if members.get(0) != frame.src:
+            return  # a member update comes from the master its table names (chosen: see :meth:`member_lost`)
         if node.node_id not in members.values():  # removed: not a member any more
             if self._asked_out:
                 self._plan_clear_out(members, Formation.from_links_payload(p["shape"], p["links"]))

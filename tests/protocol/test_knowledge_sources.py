@@ -120,8 +120,9 @@ def test_a_slave_compares_a_plans_or_updates_number_only_with_the_same_masters()
     def plan(src, seq, mode):
         return Frame("mode_change", src, BROADCAST, node.swarm_pan, dict(base, seq=seq, mode=mode, lf=[]))
 
-    def update(src, seq, mode):
-        return Frame("member_update", src, BROADCAST, node.swarm_pan, dict(base, seq=seq, mode=mode))
+    def update(src, seq, mode):  # an update comes from the master its table names (recovery.RecoveryManager._on_update)
+        table = {m: (src if n == master.node_id else master.node_id if n == src else n) for m, n in members.items()}
+        return Frame("member_update", src, BROADCAST, node.swarm_pan, dict(base, members=table, seq=seq, mode=mode))
 
     for make_frame, handle in ((plan, node.modes._on_mode_change), (update, node.recovery._on_update)):
         handle(make_frame(master.node_id, 7, "leading"))

@@ -265,10 +265,9 @@ def test_without_spares_the_extra_robot_stays_waiting_and_a_short_pool_organizes
 
 
 def test_a_member_that_fell_back_to_waiting_rejoins_under_its_own_number_not_twice():
-    """Loss 0.3, the master's IR fault (seed 115): after the handover one slave missed its new master's frames,
-    fell back to waiting and answered the refill's query while the master still held it as a member. It takes its
-    own number back; given the open one too, it stood in the table twice and steered by the other number's
-    references (join.JoinManager.refill)."""
+    """Loss 0.5 (seed 126): a slave missed its master's frames, fell back to waiting and answered the refill's query
+    while the master still held it as a member. It takes its own number back; given the open one too, it stood in
+    the table twice and steered by the other number's references (join.JoinManager.refill)."""
     from petswarm.experiments.sensor_faults import run as run_fault
 
     tables, rejoined = [], []
@@ -278,6 +277,26 @@ def test_a_member_that_fell_back_to_waiting_rejoins_under_its_own_number_not_twi
         tables.append(list(sw.master.know.members.values()))
         rejoined.extend(r for r in sw.master.recovery.refills if r.members)
 
-    run_fault("ir", 115, 20.0, "master", {"radio.loss_prob": 0.3}, on_step=watch)
+    run_fault("ir", 126, 20.0, "random_slave", {"radio.loss_prob": 0.5}, on_step=watch)
     assert rejoined, "the case lost its refill: the test no longer covers a rejoin"
     assert all(len(set(t)) == len(t) for t in tables)
+
+
+def test_a_master_that_handed_its_user_over_removes_no_member():
+    """Loss 0.3, the master's IR fault (seed 115): the old master committed the handover's table and waits for the
+    new master's acknowledgement; its ring, no longer followed, declared a slave lost. Neither may its removal
+    run (the table names another master) nor may a slave take a member update from a robot that is not the master
+    the update names: the slave stays in the swarm (recovery.RecoveryManager.member_lost, _on_update)."""
+    from petswarm.experiments.sensor_faults import run as run_fault
+
+    states = []
+
+    def watch(env):
+        ep = env.episode
+        if ep.swarms[0].fault_handovers:
+            states.append(sorted(i for i, n in ep.fleet.nodes.items() if n.state == "slave"))
+
+    out = run_fault("ir", 115, 20.0, "master", {"radio.loss_prob": 0.3}, on_step=watch)
+    assert out["robot"] == 0 and out["master_after"] not in (None, 0) and states
+    kept = {1, 2, 3, 4} - {out["master_after"]}  # the 1 + 4 swarm's other slaves, every step after the handover
+    assert all(kept <= set(s) for s in states)

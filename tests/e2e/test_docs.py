@@ -15,8 +15,22 @@ def test_observation_doc_matches_the_layout():
     layout = ObservationLayout(cfg.robot.ultrasonic.count)
     doc = (ROOT / "docs" / "observation.md").read_text()
     table = markdown_table(layout, observation_bounds(layout, cfg))
-    assert table in doc, "regenerate with: python -m petswarm_env.observe > docs/observation.md"
+    assert table in doc, "regenerate with: python -m petswarm_env.observation_page > docs/observation.md"
     assert f"{layout.size} values" in doc
+
+
+def test_the_observation_page_command_the_doc_names_writes_the_doc():
+    """The page's own command runs with the compiled core (``python -m`` of a compiled module cannot) and prints
+    the page as it is."""
+    import subprocess
+    import sys
+
+    doc = (ROOT / "docs" / "observation.md").read_text()
+    assert "`python -m petswarm_env.observation_page`" in doc
+    out = subprocess.run([sys.executable, "-m", "petswarm_env.observation_page"], cwd=ROOT, capture_output=True,
+                         text=True, timeout=120)
+    assert out.returncode == 0, out.stderr[-500:]
+    assert out.stdout == doc
 
 
 def test_state_doc_matches_the_state_layout():

@@ -15,9 +15,9 @@ import math
 # total of squared moves gives paths that do not cross (concurrent assignment of straight-line moves), and the
 # linear term keeps the fewest metres among plans of equal squares (on a line every assignment of the robots behind
 # a lost member moves the same total: the order with no robot passing another). Re-formed within 10 s of the
-# master's IR fault, by metres alone -> this (seeds 100-119, 200-219; `sensor_faults --kinds ir --target master`):
-# 1 + 8 11 -> 15 and 17 -> 17 of 20, leading 17 -> 18 and 18 -> 18; a slave's IR fault, 1 + 8 18 -> 18 and
-# 17 -> 20, 1 + 6 18 -> 19 and 19 -> 20; the default 1 + 4 (straight, zigzag, loss 0.3) unchanged (docs/faults.md).
+# fault, by metres alone -> this, seeds 100-119 / 200-219 / 1300-1319 (`sensor_faults --kinds ir [--target master]`):
+# the master's IR fault, 1 + 8 11/17/15 -> 15/17/12 of 20, 1 + 6 16/17/16 -> 16/17/18, leading 17/18/16 -> 18/18/16;
+# a slave's, 1 + 8 18/17/19 -> 18/20/19, 1 + 6 18/19/18 -> 19/20/20; the default 1 + 4 unchanged (docs/faults.md).
 MOVE_SQUARE_PER_M = 1.0
 # chosen: the same while a formation builds (the organize's re-plan by the master's fixes, a leading swarm's
 # renumbering while it stands): the robots come from anywhere and every metre is traffic, so metres count, the square

@@ -75,6 +75,7 @@ MODULE_PARTS: dict[str, str | None] = {
     "petswarm_env.control": "control",  # master-role controller, control arbiter
     "petswarm_env.control.master": "control",  # the master-role controller and its user tracker, every control period
     "petswarm_env.observe": "observation",
+    "petswarm_env.observation_page": "other",  # docs/observation.md generated (not in step)
     "petswarm_env.mapping": "observation",  # seed 001's sensor/behaviour mapper between a body and the layout
     "petswarm_env.middle_layer": "observation",  # the mapper wired: each body type's table onto the virtual ring
     "petswarm_env.reward": "reward_metrics",

@@ -5,7 +5,7 @@
 cimport cython
 
 from petswarm_env.middleware.diagnosis cimport Diagnosis
-from petswarm_env.sim.clock cimport LocalClock
+from petswarm_env.sim.clock cimport Clock, LocalClock
 from petswarm_env.sim.draws cimport Stream
 
 
@@ -31,6 +31,8 @@ cdef class Station:
     cdef public object later
     cdef public object radio
     cdef LocalClock _mcu  # ``clock``, typed
+    cdef Clock _true_clock  # the true clock (the body's sensors run on it)
+    cdef object _ahrs_read  # the robot's ``ahrs_yaw``
     cdef Stream _uniform  # the MCU's jitter draws (a C call)
     cdef double _processing_s
     cdef double _jitter_s

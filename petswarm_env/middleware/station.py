@@ -156,6 +156,7 @@ class Station:
         self.clock = mcu_clock(clock, cfg, rng.spawn(1)[0])
         self._mcu = self.clock
         self._true_clock = clock
+        self._ahrs_read = robot.ahrs_yaw  # the AHRS's reading (ahrs_yaw): bound once, read for every IR fix and report
         self.later = self.clock.later  # later(delay, fn, *args): a call after ``delay`` seconds of the MCU's clock
         # the antenna's position, for the radio's propagation model (not the middleware): the body's
         # reader bound once (a radio station reads it for every frame it sends or receives)
@@ -187,7 +188,8 @@ class Station:
         if not self.health.radio_ok:  # radio off (a fault): nothing leaves
             return
         pan = self.swarm_pan if pan is None else pan
-        size = _FIXED_BYTES.get(kind)  # a frame without a list or table: its kind's size
+        fixed: dict = _FIXED_BYTES
+        size = fixed.get(kind)  # a frame without a list or table: its kind's size (a C lookup of the typed dict)
         if size is None:
             size = msg.payload_bytes(kind, payload)
         radio: _Medium = self.radio
@@ -261,7 +263,7 @@ class Station:
     # -- own sensors and the IR module ------------------------------------------------------------
     def ahrs_yaw(self) -> float:
         """Own AHRS reading (an own sensor: noisy, drifting)."""
-        return self._robot.ahrs_yaw(self._true_clock.now)  # the sensor's physics runs on true time
+        return self._ahrs_read(self._true_clock.now)  # the sensor's physics runs on true time
 
     def own_body_status(self) -> dict | None:
         """Own body's status report for RUTA (type, battery, slip, draws, sensors), when the body

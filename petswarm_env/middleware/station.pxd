@@ -7,10 +7,11 @@ cimport cython
 from petswarm_env.middleware.diagnosis cimport Diagnosis
 from petswarm_env.sim.clock cimport Clock, LocalClock
 from petswarm_env.sim.draws cimport Stream
+from petswarm_env.sim.sensors cimport Readings
 
 
 @cython.final
-cdef class OwnClock:
+cdef class OwnClock(Readings):
     cdef LocalClock _clock  # the MCU's clock (its ``local`` a C call)
     cdef Diagnosis _diagnosis  # the robot's self-diagnosis (its ``on_ring`` and ``on_ahrs`` C calls)
 

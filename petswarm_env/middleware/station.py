@@ -55,6 +55,10 @@ else:
     from petswarm_env.sim.clock import Due, LocalClock
 from petswarm_env.sim.draws import Draws
 from petswarm_env.sim.sensors import Odometry
+if cython.compiled:  # what the robot's sensors hand its software, by C calls (sim/sensors.pxd)
+    from cython.cimports.petswarm_env.sim.sensors import Readings
+else:
+    from petswarm_env.sim.sensors import Readings
 
 if TYPE_CHECKING:
     from petswarm_env.sim.robot import Robot
@@ -76,7 +80,7 @@ def mcu_clock(clock: Clock, cfg: Config, rng: np.random.Generator) -> LocalClock
 
 @cython.final
 @cython.cclass
-class OwnClock:
+class OwnClock(Readings):
     """The robot's sensors hand their readings to its software (its self-diagnosis), which stamps
     them with its MCU's own clock (seed 000 §3.3: independent clocks): :meth:`ring` and :meth:`ahrs`
     are the ultrasonic ring's and the AHRS's listeners, called for every reading with the true time,
@@ -88,12 +92,14 @@ class OwnClock:
         self._clock = clock
         self._diagnosis = diagnosis
 
-    def ring(self, ranges, present, now_s, rang=True) -> None:
-        """``robot.on_ring(ranges, present, now_s, rang)``: the ring's reading and self-test."""
+    @cython.ccall
+    def ring(self, ranges, present, now_s: cython.double, rang: cython.bint):
+        """``robot.readings.ring(ranges, present, now_s, rang)``: the ring's reading and self-test."""
         self._diagnosis.on_ring(ranges, present, self._clock.local(now_s), rang)
 
-    def ahrs(self, now_s, yaw) -> None:
-        """``ahrs.on_reading(now_s, yaw)``: one AHRS reading."""
+    @cython.ccall
+    def ahrs(self, now_s: cython.double, yaw: cython.double):
+        """``ahrs.readings.ahrs(now_s, yaw)``: one AHRS reading."""
         self._diagnosis.on_ahrs(self._clock.local(now_s), yaw)
 
 

@@ -100,6 +100,22 @@ class NormalStream:
 
 
 @cython.cclass
+class Readings:
+    """What a robot's software gets of its own sensors (its MCU's clock stamp, which feeds its self-diagnosis:
+    middleware/station.py ``OwnClock``): the ultrasonic ring's reading and self-test after every reading
+    (:meth:`Sensors.read_rings`) and every AHRS reading (:meth:`AHRS.yaw`), by C calls in the compiled form
+    (sim/sensors.pxd). This base ignores them."""
+
+    @cython.ccall
+    def ring(self, ranges, present, now_s: cython.double, rang: cython.bint):
+        """The ring's reading (a list of floats), which slots the body has, the true time, whether its bursts rang down."""
+
+    @cython.ccall
+    def ahrs(self, now_s: cython.double, yaw: cython.double):
+        """One AHRS reading at true time ``now_s``."""
+
+
+@cython.cclass
 class AHRS:
     """Yaw (rad) of one body relative to its own power-on heading: truth − the heading at power-on
     + a slowly drifting bias (a random walk in time) + white noise.
@@ -122,7 +138,7 @@ class AHRS:
     power_on_heading_rad = cython.declare(cython.double, visibility="public")  # the heading its readings count from
     time_s = cython.declare(cython.double, visibility="public")  # clock time of the last bias step
     _last_yaw = cython.declare(cython.double, visibility="public")  # the last reading (a frozen AHRS repeats it)
-    on_reading = cython.declare(object, visibility="public")  # the robot's software sees every reading (its self-diagnosis): on_reading(now_s, yaw)
+    readings = cython.declare(Readings, visibility="public")  # the robot's software sees every reading (its self-diagnosis)
     _heading = cython.declare(object)
     _body = cython.declare(_CBody)  # the body when it is a Body (its heading a C call), else None
     _health = cython.declare(object)
@@ -140,7 +156,7 @@ class AHRS:
         self.rng = np.random.default_rng(0) if rng is None else rng  # (the env gives every robot its own stream)
         self._health = getattr(body, "health", None)  # an AHRS fault freezes the output (sim/faults.py)
         self._last_yaw = 0.0
-        self.on_reading = None
+        self.readings = None
 
     def power_on(self, rng: np.random.Generator, now_s: float = 0.0) -> None:
         """Switch on at clock time ``now_s`` with the noise stream ``rng`` (its first draw is the
@@ -164,9 +180,10 @@ class AHRS:
         """The reading at clock time ``now_s``: the bias walks over the time since the last reading
         (one normal), then one normal of white noise."""
         health = self._health
+        readings: Readings = self.readings
         if health is not None and not health.ahrs_ok:
-            if self.on_reading is not None:
-                self.on_reading(now_s, self._last_yaw)
+            if readings is not None:
+                readings.ahrs(now_s, self._last_yaw)
             return self._last_yaw  # no new yaw: the last reading repeats
         normals: NormalStream = self._normals
         dt: cython.double = now_s - self.time_s
@@ -179,8 +196,8 @@ class AHRS:
         z = normals.next()
         yaw: cython.double = heading - self.power_on_heading_rad + self.bias_rad + self.noise_rad * z
         self._last_yaw = yaw
-        if self.on_reading is not None:
-            self.on_reading(now_s, yaw)
+        if readings is not None:
+            readings.ahrs(now_s, yaw)
         return yaw
 
 
@@ -408,7 +425,7 @@ class Sensors:
         """Read every robot's ultrasonic ring now; also kept as :attr:`ranges`. A ring with an
         ``ultrasonic`` fault reads the maximum range on every sensor and its transducers do not ring
         down after their bursts (the driver's self-test, chosen: a dead ring driver sends no burst);
-        each robot's software gets its reading (a list of floats) and the self-test's result (``robot.on_ring(ranges,
+        each robot's software gets its reading (a list of floats) and the self-test's result (``robot.readings.ring(ranges,
         present, now, rang)``, its self-diagnosis: middleware/diagnosis.py), then the sensors it
         knows to be off (``robot.sensors_off``) read ``max_range`` with presence 0 (:meth:`sensor_off`)."""
         if self._changed:
@@ -435,11 +452,11 @@ class Sensors:
         k: cython.Py_ssize_t
         for k in range(len(robots)):
             robot = robots[k]
-            listener = getattr(robot, "on_ring", None)
+            listener: Readings = getattr(robot, "readings", None)
             if listener is not None:
                 if now is None:
                     now = world.clock.now
-                listener(rows[k], present[k], now, k not in faulted)
+                listener.ring(rows[k], present[k], now, k not in faulted)
             off = robot.sensors_off  # the robot's own record of its broken sensors
             if (off != known_off[k]) if k in known_off else off:
                 self.sensor_off(k, set(off))

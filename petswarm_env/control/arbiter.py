@@ -27,6 +27,7 @@ import numpy as np
 
 COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
 _sqrt = math.sqrt  # (the C library's sqrt in the compiled form: correctly rounded, the same value)
+_INF = cython.declare(cython.double, math.inf)  # (a C constant: read for every filtered command)
 
 SOURCES = ("safety", "user", "policy")  # seed 001: self-protection > user > software agent
 
@@ -82,7 +83,7 @@ class SafetyStage:
         n: cython.Py_ssize_t = len(rs)
         k: cython.Py_ssize_t
         r: cython.double
-        nearest: cython.double = math.inf
+        nearest: cython.double = _INF
         for k in range(n):  # min(rs, default=inf)
             r = rs[k]
             if k == 0 or r < nearest:

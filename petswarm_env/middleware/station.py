@@ -33,6 +33,7 @@ from typing import TYPE_CHECKING, Any
 
 import cython
 import numpy as np
+from cython.cimports.libc.math import isfinite as _isfinite
 
 from petswarm_env.comms.radio import BROADCAST, PAN_WAITING, RadioMedium
 from petswarm_env.config import Config
@@ -277,9 +278,9 @@ class Station:
         report = getattr(self._robot, "own_status", None)
         return report() if report is not None else None
 
-    def store_ir(self, other: int, distance_m: float, bearing_rad: float) -> None:
+    def store_ir(self, other: int, distance_m: cython.double, bearing_rad: cython.double) -> None:
         """The IR module measured robot ``other``'s transmission (the IR medium calls it)."""
-        if math.isfinite(distance_m):
+        if _isfinite(distance_m):
             know: Knowledge = self.know
             x, y = know.odometry_xy  # own dead-reckoned position (advanced each control step)
             know.ir[other] = IRMeasurement(distance_m, bearing_rad, self._mcu.local_now(), self.ahrs_yaw(), x, y)

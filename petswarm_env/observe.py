@@ -458,7 +458,8 @@ def _fill(plan: _Plan, v: cython.double[::1], know: Knowledge, links, now: cytho
     v[offset] = ox / pos_scale
     v[offset + 1] = oy / pos_scale
     us_max: cython.double = plan.us_max
-    ring = ultrasonic_m.tolist() if isinstance(ultrasonic_m, np.ndarray) else ultrasonic_m
+    ring = ultrasonic_m if type(ultrasonic_m) is list else (  # a ring's row of Python floats (range_rows): as it is
+        ultrasonic_m.tolist() if isinstance(ultrasonic_m, np.ndarray) else ultrasonic_m)
     r: cython.double
     k = us
     for r in ring:  # Python's division rounds as numpy's float64 one

@@ -26,11 +26,13 @@ from petswarm_env.sim.body import read_poses
 
 if cython.compiled:  # a station's typed attributes (middleware/station.pxd), the MCU clock's C methods (sim/clock.pxd),
     # what a robot knows (middleware/knowledge.pxd), a slave's master check (middleware/sequence.pxd)
+    from cython.cimports.petswarm_env.control.arbiter import ControlArbiter  # its decide a C call (control/arbiter.pxd)
     from cython.cimports.petswarm_env.middleware.knowledge import IRMeasurement, Knowledge, MasterStatus
     from cython.cimports.petswarm_env.middleware.sequence import SequenceManager
     from cython.cimports.petswarm_env.middleware.station import Station
     from cython.cimports.petswarm_env.sim.clock import LocalClock
 else:
+    from petswarm_env.control.arbiter import ControlArbiter
     from petswarm_env.middleware.knowledge import IRMeasurement, Knowledge, MasterStatus
     from petswarm_env.middleware.sequence import SequenceManager
     from petswarm_env.middleware.station import Station
@@ -125,11 +127,13 @@ def command_masters(sessions: list, sensors, rows: list, arbiters: dict, robots:
     001); a master that is off (a fault) has its motors off. ``rows``: every robot's ring as Python floats
     (``Sensors.range_rows``). Returns the masters' robot indices."""
     masters = set()
+    arb: ControlArbiter
     for session in sessions:
         idx = session.swarm.master.node_id
         masters.add(idx)
         policy, user_cmd, stop = session.step(sensors.odometry(idx), rows[idx])
-        cmd = arbiters[idx].decide(policy, user_cmd, rows[idx], stop)[0]
+        arb = arbiters[idx]
+        cmd = arb.decide(policy, user_cmd, rows[idx], stop)[0]
         robot = robots[idx]
         if robot.health.powered:
             robot.set_command(cmd[0], cmd[1], cmd[2])
@@ -162,6 +166,7 @@ def command_slaves(robot_ids: list, acts, scale, masters: set, nodes: dict, robo
     k: cython.Py_ssize_t
     node: Station
     seq: SequenceManager
+    arb: ControlArbiter
     for k in range(len(robot_ids)):
         idx = robot_ids[k]
         if idx in masters:
@@ -175,20 +180,23 @@ def command_slaves(robot_ids: list, acts, scale, masters: set, nodes: dict, robo
         st: MasterStatus = know.status
         stop = st is not None and st.mode == "emergency"
         vx, vy, omega = a[k, 0] * sx, a[k, 1] * sy, a[k, 2] * sw  # float32 products, as numpy's
-        cmd = arbiters[idx].decide((float(vx), float(vy), float(omega)), None, rows[idx], stop)[0]
+        arb = arbiters[idx]
+        cmd = arb.decide((float(vx), float(vy), float(omega)), None, rows[idx], stop)[0]
         robots[idx].set_command(cmd[0], cmd[1], cmd[2])
 
 
 def command_leaving(nodes: dict, masters: set, robots: list, arbiters: dict, rows: list, now_s: float) -> None:
     """A robot leaving its slot for its own fault drives out of the way (the recovery's move out,
     middleware/recovery.py), through its arbiter; a master or a robot that is off is not driven."""
+    arb: ControlArbiter
     for idx, node in nodes.items():
         recovery = node.recovery
         if recovery.clear_out is None:
             continue
         move = recovery.leaving_command(now_s)
         if move is not None and idx not in masters and robots[idx].health.powered:
-            cmd = arbiters[idx].decide(move, None, rows[idx], False)[0]
+            arb = arbiters[idx]
+            cmd = arb.decide(move, None, rows[idx], False)[0]
             robots[idx].set_command(cmd[0], cmd[1], cmd[2])
 
 

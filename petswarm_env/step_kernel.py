@@ -30,12 +30,14 @@ if cython.compiled:  # a station's typed attributes (middleware/station.pxd), th
     from cython.cimports.petswarm_env.middleware.knowledge import IRMeasurement, Knowledge, MasterStatus
     from cython.cimports.petswarm_env.middleware.sequence import SequenceManager
     from cython.cimports.petswarm_env.middleware.station import Station
+    from cython.cimports.petswarm_env.sim.health import FaultState
     from cython.cimports.petswarm_env.sim.clock import LocalClock
 else:
     from petswarm_env.control.arbiter import ControlArbiter
     from petswarm_env.middleware.knowledge import IRMeasurement, Knowledge, MasterStatus
     from petswarm_env.middleware.sequence import SequenceManager
     from petswarm_env.middleware.station import Station
+    from petswarm_env.sim.health import FaultState
     from petswarm_env.sim.clock import LocalClock
 
 COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
@@ -128,6 +130,7 @@ def command_masters(sessions: list, sensors, rows: list, arbiters: dict, robots:
     (``Sensors.range_rows``). Returns the masters' robot indices."""
     masters = set()
     arb: ControlArbiter
+    health: FaultState
     for session in sessions:
         idx = session.swarm.master.node_id
         masters.add(idx)
@@ -135,7 +138,8 @@ def command_masters(sessions: list, sensors, rows: list, arbiters: dict, robots:
         arb = arbiters[idx]
         cmd = arb.decide(policy, user_cmd, rows[idx], stop)[0]
         robot = robots[idx]
-        if robot.health.powered:
+        health = robot.health
+        if health.powered:
             robot.set_command(cmd[0], cmd[1], cmd[2])
         else:
             robot.set_command(0.0, 0.0, 0.0)

@@ -7,6 +7,7 @@ cimport cython
 from petswarm_env.middleware.diagnosis cimport Diagnosis
 from petswarm_env.sim.clock cimport Clock, LocalClock
 from petswarm_env.sim.draws cimport Stream
+from petswarm_env.sim.health cimport FaultState
 from petswarm_env.sim.sensors cimport Readings
 
 
@@ -24,7 +25,7 @@ cdef class Station:
     cdef public dict handlers
     cdef long _frames_handled
     cdef long _foreign_pan_frames_processed
-    cdef public object health
+    cdef public FaultState health  # the robot's (sim/health.pxd): its radio_ok a C read
     cdef public object cfg  # may be replaced (tests): read, never cached
     cdef public object state  # the sequence manager's state
     cdef public object know  # read by every manager, the observation and the metrics

@@ -24,8 +24,10 @@ from petswarm_env.sim.body import Body
 if cython.compiled:  # the body's heading and wheels as C reads (sim/body.pxd): the AHRS and the odometry, every reading
     from cython.cimports.petswarm_env.sim.body import Body as _CBody
     from cython.cimports.petswarm_env.sim.body import DrivenBody as _CDriven
+    from cython.cimports.petswarm_env.sim.health import FaultState  # its flags as C reads (sim/health.pxd)
 else:
     from petswarm_env.sim.body import DrivenBody as _CDriven
+    from petswarm_env.sim.health import FaultState
 
     _CBody = Body
 from petswarm_env.sim.draws import Draws
@@ -141,7 +143,7 @@ class AHRS:
     readings = cython.declare(Readings, visibility="public")  # the robot's software sees every reading (its self-diagnosis)
     _heading = cython.declare(object)
     _body = cython.declare(_CBody)  # the body when it is a Body (its heading a C call), else None
-    _health = cython.declare(object)
+    _health = cython.declare(FaultState)  # the body's health (its ahrs_ok a C read), or None
     _normals = cython.declare(NormalStream)  # its noise stream's normals, in blocks
 
     def __init__(self, body: Body, cfg: RobotConfig, rng: np.random.Generator | None = None):

@@ -34,7 +34,7 @@ config's faults on the clock and resolves ``master`` / ``random_slave`` at the f
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 from petswarm_env.sim.health import KINDS, POWER_KINDS, FaultState  # (one robot's health: sim/health.py, compiled)
 

@@ -30,6 +30,7 @@ if cython.compiled:  # a station's typed attributes (middleware/station.pxd), th
     from cython.cimports.petswarm_env.middleware.knowledge import IRMeasurement, Knowledge, MasterStatus
     from cython.cimports.petswarm_env.middleware.sequence import SequenceManager
     from cython.cimports.petswarm_env.middleware.station import Station
+    from cython.cimports.petswarm_env.sim.body import DrivenBody  # a robot's battery as a C read (sim/body.pxd)
     from cython.cimports.petswarm_env.sim.health import FaultState
     from cython.cimports.petswarm_env.sim.clock import LocalClock
 else:
@@ -37,6 +38,7 @@ else:
     from petswarm_env.middleware.knowledge import IRMeasurement, Knowledge, MasterStatus
     from petswarm_env.middleware.sequence import SequenceManager
     from petswarm_env.middleware.station import Station
+    from petswarm_env.sim.body import DrivenBody
     from petswarm_env.sim.health import FaultState
     from petswarm_env.sim.clock import LocalClock
 
@@ -357,7 +359,9 @@ def infos(agents: list, robot_ids: list, nodes: dict, missing: dict, errors_m: l
 def drained(robots: list) -> list:
     """The robots whose battery is empty and not yet a ``battery`` fault (sim/battery.py)."""
     out = []
+    body: DrivenBody
     for robot in robots:
-        if robot.battery.empty and "battery" not in robot.health.active:
+        body = robot
+        if body.battery.empty and "battery" not in robot.health.active:
             out.append(robot)
     return out

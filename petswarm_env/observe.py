@@ -12,7 +12,7 @@ them for the env's agents and builds their observations.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -29,12 +29,12 @@ if cython.compiled:  # a robot's wheels, their odometry and its node's knowledge
     from cython.cimports.petswarm_env.middleware.knowledge import HeadingEstimate, IRMeasurement, Knowledge, MasterStatus
     from cython.cimports.petswarm_env.middleware.station import Station
     from cython.cimports.petswarm_env.sim.body import DrivenBody
-    from cython.cimports.petswarm_env.sim.sensors import wheel_odometry
+    from cython.cimports.petswarm_env.sim.sensors import AHRS, wheel_odometry
 else:
     from petswarm_env.middleware.knowledge import HeadingEstimate, IRMeasurement, Knowledge, MasterStatus
     from petswarm_env.middleware.station import Station
     from petswarm_env.sim.body import DrivenBody
-    from petswarm_env.sim.sensors import wheel_odometry
+    from petswarm_env.sim.sensors import AHRS, wheel_odometry
 
 if TYPE_CHECKING:
     from petswarm_env.middleware.node import Node
@@ -495,11 +495,11 @@ class Observer:
     (``agent_index``: name -> robot index)."""
 
     def __init__(self, layout: ObservationLayout, nodes: dict[int, Node], sensors: Sensors,
-                 ahrs: list[Callable[[float], float]], agent_index: dict[str, int], master_distance_m: float):
+                 ahrs: list[AHRS], agent_index: dict[str, int], master_distance_m: float):
         self.layout = layout
         self.nodes = nodes
         self.sensors = sensors
-        self.ahrs = ahrs  # each robot's AHRS reading, ahrs[index](now_s)
+        self.ahrs = ahrs  # each robot's AHRS (sim/sensors.py): its reading ahrs[index].yaw(now_s), a C call
         self.agent_index = agent_index
         self.master_distance_m = master_distance_m
         self._formation_cache: dict[int, tuple[Formation, list[tuple[float, float]], dict[int, int]]] = {}
@@ -569,7 +569,8 @@ class Observer:
                 ovx, ovy, ow = wheel_odometry(robot, e[0], e[1], e[2])
             else:
                 ovx, ovy, ow = wheel_odometry(robot, 0.0, 0.0, 0.0)  # noiseless: the wheels' own values, exactly
-            yaw = ahrs[idx](now_s)  # the sensor's physics at true time
+            sensor: AHRS = ahrs[idx]
+            yaw = sensor.yaw(now_s)  # the sensor's physics at true time
             know.dead_reckon(node._mcu.local_now(), ovx, ovy, yaw)  # own position from own odometry, on its own clock
             table = node.formation  # its reference links (Station.reference_links, read here)
             own = node.know.member

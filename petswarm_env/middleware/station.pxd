@@ -8,7 +8,7 @@ from petswarm_env.middleware.diagnosis cimport Diagnosis
 from petswarm_env.sim.clock cimport Clock, LocalClock
 from petswarm_env.sim.draws cimport Stream
 from petswarm_env.sim.health cimport FaultState
-from petswarm_env.sim.sensors cimport Readings
+from petswarm_env.sim.sensors cimport AHRS, Readings
 
 
 @cython.final
@@ -35,7 +35,7 @@ cdef class Station:
     cdef public object radio
     cdef LocalClock _mcu  # ``clock``, typed
     cdef Clock _true_clock  # the true clock (the body's sensors run on it)
-    cdef object _ahrs_read  # the robot's ``ahrs_yaw``
+    cdef AHRS _ahrs  # the robot's AHRS (its yaw a C call)
     cdef Stream _uniform  # the MCU's jitter draws (a C call)
     cdef double _processing_s
     cdef double _jitter_s

@@ -56,10 +56,10 @@ else:
     from petswarm_env.sim.clock import Due, LocalClock
 from petswarm_env.sim.draws import Draws
 from petswarm_env.sim.sensors import Odometry
-if cython.compiled:  # what the robot's sensors hand its software, by C calls (sim/sensors.pxd)
-    from cython.cimports.petswarm_env.sim.sensors import Readings
+if cython.compiled:  # what the robot's sensors hand its software, and its AHRS's reading, by C calls (sim/sensors.pxd)
+    from cython.cimports.petswarm_env.sim.sensors import AHRS, Readings
 else:
-    from petswarm_env.sim.sensors import Readings
+    from petswarm_env.sim.sensors import AHRS, Readings
 
 if TYPE_CHECKING:
     from petswarm_env.sim.robot import Robot
@@ -163,7 +163,7 @@ class Station:
         self.clock = mcu_clock(clock, cfg, rng.spawn(1)[0])
         self._mcu = self.clock
         self._true_clock = clock
-        self._ahrs_read = robot.ahrs_yaw  # the AHRS's reading (ahrs_yaw): bound once, read for every IR fix and report
+        self._ahrs = robot.ahrs  # its AHRS: read for every IR fix and heading report (yaw, a C call)
         self.later = self.clock.later  # later(delay, fn, *args): a call after ``delay`` seconds of the MCU's clock
         # the antenna's position, for the radio's propagation model (not the middleware): the body's
         # reader bound once (a radio station reads it for every frame it sends or receives)
@@ -270,7 +270,7 @@ class Station:
     # -- own sensors and the IR module ------------------------------------------------------------
     def ahrs_yaw(self) -> float:
         """Own AHRS reading (an own sensor: noisy, drifting)."""
-        return self._ahrs_read(self._true_clock.now)  # the sensor's physics runs on true time
+        return self._ahrs.yaw(self._true_clock.now)  # the sensor's physics runs on true time
 
     def own_body_status(self) -> dict | None:
         """Own body's status report for RUTA (type, battery, slip, draws, sensors), when the body

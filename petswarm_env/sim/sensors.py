@@ -133,18 +133,11 @@ class AHRS:
     A typed class of the compiled core: read for every frame a robot's middleware stamps and every
     observation."""
 
-    body = cython.declare(object, visibility="public")
-    noise_rad = cython.declare(cython.double, visibility="public")  # σ of the white noise
-    drift_rad = cython.declare(cython.double, visibility="public")  # σ of the bias walk over one second
-    bias_rad = cython.declare(cython.double, visibility="public")
-    power_on_heading_rad = cython.declare(cython.double, visibility="public")  # the heading its readings count from
-    time_s = cython.declare(cython.double, visibility="public")  # clock time of the last bias step
-    _last_yaw = cython.declare(cython.double, visibility="public")  # the last reading (a frozen AHRS repeats it)
-    readings = cython.declare(Readings, visibility="public")  # the robot's software sees every reading (its self-diagnosis)
-    _heading = cython.declare(object)
-    _body = cython.declare(_CBody)  # the body when it is a Body (its heading a C call), else None
-    _health = cython.declare(FaultState)  # the body's health (its ahrs_ok a C read), or None
-    _normals = cython.declare(NormalStream)  # its noise stream's normals, in blocks
+    # its typed attributes are declared in ``sensors.pxd`` (the station and the observation read it by C calls of
+    # :meth:`yaw`): the body, the noise and drift σ, the bias, the power-on heading, the last bias step's time, the
+    # last reading (a frozen AHRS repeats it), ``readings`` (the robot's software sees every reading: its
+    # self-diagnosis), the body's heading reader and the body when it is a Body (its heading a C call), the body's
+    # health (its ahrs_ok a C read) and its noise stream's normals, in blocks
 
     def __init__(self, body: Body, cfg: RobotConfig, rng: np.random.Generator | None = None):
         self.body = body
@@ -178,7 +171,8 @@ class AHRS:
     def rng(self, rng: np.random.Generator) -> None:
         self._normals = NormalStream(rng, 256, True)
 
-    def yaw(self, now_s: cython.double) -> float:
+    @cython.ccall
+    def yaw(self, now_s: cython.double) -> cython.double:
         """The reading at clock time ``now_s``: the bias walks over the time since the last reading
         (one normal), then one normal of white noise."""
         health = self._health

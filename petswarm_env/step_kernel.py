@@ -32,6 +32,7 @@ if cython.compiled:  # a station's typed attributes (middleware/station.pxd), th
     from cython.cimports.petswarm_env.middleware.station import Station
     from cython.cimports.petswarm_env.sim.body import DrivenBody  # a robot's battery as a C read (sim/body.pxd)
     from cython.cimports.petswarm_env.sim.health import FaultState
+    from cython.cimports.petswarm_env.sim.robot import drive_command  # a robot's command, a C call (sim/robot.pxd)
     from cython.cimports.petswarm_env.sim.clock import LocalClock
 else:
     from petswarm_env.control.arbiter import ControlArbiter
@@ -40,6 +41,7 @@ else:
     from petswarm_env.middleware.station import Station
     from petswarm_env.sim.body import DrivenBody
     from petswarm_env.sim.health import FaultState
+    from petswarm_env.sim.robot import drive_command
     from petswarm_env.sim.clock import LocalClock
 
 COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
@@ -142,9 +144,9 @@ def command_masters(sessions: list, sensors, rows: list, arbiters: dict, robots:
         robot = robots[idx]
         health = robot.health
         if health.powered:
-            robot.set_command(cmd[0], cmd[1], cmd[2])
+            drive_command(robot, cmd[0], cmd[1], cmd[2])
         else:
-            robot.set_command(0.0, 0.0, 0.0)
+            drive_command(robot, 0.0, 0.0, 0.0)
     return masters
 
 
@@ -180,7 +182,7 @@ def command_slaves(robot_ids: list, acts, scale, masters: set, nodes: dict, robo
         node = nodes[idx]
         seq = node.seq
         if seq.master_lost(node._mcu.local_now()):  # on its own clock (``node.clock.now``)
-            robots[idx].set_command(0.0, 0.0, 0.0)
+            drive_command(robots[idx], 0.0, 0.0, 0.0)
             continue
         know: Knowledge = node.know
         st: MasterStatus = know.status
@@ -188,7 +190,7 @@ def command_slaves(robot_ids: list, acts, scale, masters: set, nodes: dict, robo
         vx, vy, omega = a[k, 0] * sx, a[k, 1] * sy, a[k, 2] * sw  # float32 products, as numpy's
         arb = arbiters[idx]
         cmd = arb.decide((float(vx), float(vy), float(omega)), None, rows[idx], stop)[0]
-        robots[idx].set_command(cmd[0], cmd[1], cmd[2])
+        drive_command(robots[idx], cmd[0], cmd[1], cmd[2])
 
 
 def command_leaving(nodes: dict, masters: set, robots: list, arbiters: dict, rows: list, now_s: float) -> None:
@@ -203,7 +205,7 @@ def command_leaving(nodes: dict, masters: set, robots: list, arbiters: dict, row
         if move is not None and idx not in masters and robots[idx].health.powered:
             arb = arbiters[idx]
             cmd = arb.decide(move, None, rows[idx], False)[0]
-            robots[idx].set_command(cmd[0], cmd[1], cmd[2])
+            drive_command(robots[idx], cmd[0], cmd[1], cmd[2])
 
 
 def new_contacts(robot_ids: list, per_robot: dict, seen: dict) -> list:

@@ -43,6 +43,10 @@ cdef class DrivenBody(Body):
     cdef readonly double _max_dw
     cdef public Battery battery
     cdef public double wheel_gain  # the wheels' view of the motion over the body's (a robot's 1 / (1 − slip))
+    # a robot's MOVE module (sim/robot.py drive_command): a differential body's limits (else None), a mecanum
+    # body's wheel limits (ω limit, wheel lever, wheel speed), the body's share of the wheels' motion (1 − slip)
+    cdef object _differential
+    cdef double _limit, _lever, _max_speed, _keep
 
     cdef _drive(self, double dt)
     cdef _apply(self, double dt)

@@ -197,8 +197,10 @@ def command_leaving(nodes: dict, masters: set, robots: list, arbiters: dict, row
     """A robot leaving its slot for its own fault drives out of the way (the recovery's move out,
     middleware/recovery.py), through its arbiter; a master or a robot that is off is not driven."""
     arb: ControlArbiter
+    st: Station
     for idx, node in nodes.items():
-        recovery = node.recovery
+        st = node
+        recovery = st.recovery
         if recovery.clear_out is None:
             continue
         move = recovery.leaving_command(now_s)

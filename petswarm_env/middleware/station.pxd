@@ -31,6 +31,7 @@ cdef class Station:
     cdef public object know  # read by every manager, the observation and the metrics
     cdef public object formation
     cdef public object later
+    cdef public object recovery  # its RecoveryManager (middleware/recovery.py; the node sets it): read every step
     cdef public double joined_s  # when it last entered a swarm (a slave's status timeout counts from here)
     cdef public object radio
     cdef LocalClock _mcu  # ``clock``, typed

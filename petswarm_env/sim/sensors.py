@@ -446,14 +446,15 @@ class Sensors:
         present: list = self._present
         known_off: dict = self._off
         k: cython.Py_ssize_t
+        body: _CDriven
         for k in range(len(robots)):
-            robot = robots[k]
-            listener: Readings = getattr(robot, "readings", None)
+            body = robots[k]  # (its readings' listener and its record as C reads: sim/body.pxd)
+            listener: Readings = body.readings
             if listener is not None:
                 if now is None:
                     now = world.clock.now
                 listener.ring(rows[k], present[k], now, k not in faulted)
-            off = robot.sensors_off  # the robot's own record of its broken sensors
+            off = body.sensors_off  # the robot's own record of its broken sensors
             if (off != known_off[k]) if k in known_off else off:
                 self.sensor_off(k, set(off))
         if self._off:

@@ -356,6 +356,7 @@ def _readings(d: cython.double[:, ::1], rims: cython.double[::1], normals: Norma
             d[i, k] = x
 
 
+@cython.cclass
 class Sensors:
     """The sensors of every robot of a world as the env reads them, from the env's sensor stream:
     :meth:`read_rings` after every advance of the world (all robots in one cast, their noise the
@@ -369,7 +370,25 @@ class Sensors:
     mapped onto the virtual ring (an absent sensor reads ``max_range``); :attr:`flags` holds, per
     robot, the ring's presence and location-known flags. When every body carries the virtual
     ring itself (the petbot-only default) the one cast of the whole ring is all there is.
-    :meth:`sensor_off` is a sensor fault's seam: the sensors it names deliver nothing."""
+    :meth:`sensor_off` is a sensor fault's seam: the sensors it names deliver nothing.
+
+    A typed class of the compiled core: what :meth:`read_rings` and its readers read of it at every step are C reads."""
+
+    world = cython.declare(object, visibility="public")
+    ring = cython.declare(UltrasonicRing, visibility="public")
+    odometry_noise_rel = cython.declare(cython.double, visibility="public")
+    layer = cython.declare(object, visibility="public")  # the middle layer (None: bare bodies)
+    flags = cython.declare(list, visibility="public")  # per robot, the ring's presence and location-known flags
+    ranges = cython.declare(object, visibility="public")  # every robot's last ring, (robots, count) m
+    _normals = cython.declare(NormalStream)
+    _cfg = cython.declare(object)
+    _off = cython.declare(dict)
+    _ring_faulted = cython.declare(set)
+    _changed = cython.declare(set)
+    _groups = cython.declare(list)
+    _present = cython.declare(list)
+    _rows = cython.declare(list)
+    _rows_of = cython.declare(object)
 
     def __init__(self, world: Truth, cfg: RobotConfig, rng: np.random.Generator):
         self.world = world

@@ -489,10 +489,10 @@ _NO_ACTION = np.zeros(3, np.float32)  # the last action of an agent that has not
 _NO_ACTION.flags.writeable = False
 
 
+@cython.cclass
 class Observer:
-    """Every agent's observation, from its own robot's sensors and its node's middleware: the
-    readings gathered per agent, then :func:`build_observation`. Agents are ``robot_<index>``
-    (``agent_index``: name -> robot index)."""
+    """Every agent's observation, from its own robot's sensors and its node's middleware: the readings gathered per agent,
+    then :func:`build_observation`. Agents are ``robot_<index>`` (``agent_index``: name -> robot index). Typed (observe.pxd)."""
 
     def __init__(self, layout: ObservationLayout, nodes: dict[int, Node], sensors: Sensors,
                  ahrs: list[AHRS], agent_index: dict[str, int], master_distance_m: float):

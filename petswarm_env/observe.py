@@ -480,9 +480,9 @@ def _fill(plan: _Plan, v: cython.double[::1], know: Knowledge, links, now: cytho
             v[k] = 1.0
 
 
+@cython.cfunc
 def _as_dict(mapping) -> dict:
-    """``mapping`` itself when it is a dict, else a dict of it."""
-    return mapping if isinstance(mapping, dict) else dict(mapping)
+    return mapping if isinstance(mapping, dict) else dict(mapping)  # ``mapping`` itself when it is a dict, else a dict of it
 
 
 _NO_ACTION = np.zeros(3, np.float32)  # the last action of an agent that has not acted yet (read only)

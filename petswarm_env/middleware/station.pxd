@@ -42,3 +42,4 @@ cdef class Station:
     cdef double _jitter_s
 
     cdef void _handle_frame(self, object handler, object frame)
+    cdef double _own_yaw(self)

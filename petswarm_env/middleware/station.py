@@ -270,6 +270,11 @@ class Station:
     # -- own sensors and the IR module ------------------------------------------------------------
     def ahrs_yaw(self) -> float:
         """Own AHRS reading (an own sensor: noisy, drifting)."""
+        return self._own_yaw()
+
+    @cython.cfunc
+    def _own_yaw(self) -> cython.double:
+        """:meth:`ahrs_yaw` (a C call from the compiled managers: the token ring's heading exchange, the IR fixes)."""
         return self._ahrs.yaw(self._true_clock.now)  # the sensor's physics runs on true time
 
     def own_body_status(self) -> dict | None:
@@ -283,7 +288,7 @@ class Station:
         if _isfinite(distance_m):
             know: Knowledge = self.know
             x, y = know.odometry_xy  # own dead-reckoned position (advanced each control step)
-            know.ir[other] = IRMeasurement(distance_m, bearing_rad, self._mcu.local_now(), self.ahrs_yaw(), x, y)
+            know.ir[other] = IRMeasurement(distance_m, bearing_rad, self._mcu.local_now(), self._own_yaw(), x, y)
 
     def _ir_not_wired(self, neighbours: list[int | None]) -> list[int]:
         raise RuntimeError(f"robot {self.node_id}'s IR module is not wired to an IR medium (Fleet.add_node wires it)")

@@ -402,7 +402,7 @@ class TokenRing:
         if self.relays_heading and node.state != "master":
             know: Knowledge = cython.cast(Knowledge, node.know, typecheck=True)
             if know.heading:
-                psi: cython.double = know.formation_offset(self._clock.local_now(), node.ahrs_yaw(), RELAY_AGE_S)
+                psi: cython.double = know.formation_offset(self._clock.local_now(), node._own_yaw(), RELAY_AGE_S)
                 if psi == psi:  # a fresh exchange with the master: relay its heading, else report our own
                     bearing_rad = wrap_float(bearing_rad - psi)
         node.later(node.processing_delay(), lambda: node.send(_HEADING, dst=holder, bearing=bearing_rad))
@@ -415,7 +415,7 @@ class TokenRing:
         seen: IRMeasurement = node.know.ir.get(frame.src)
         if seen is not None and seen.time_s >= self._slot_start.get(frame.src, _NEG_INF):
             # our bearing of the sender dates from its slot: carry it over our own rotation since (AHRS)
-            yaw = node.ahrs_yaw()
+            yaw = node._own_yaw()  # (ahrs_yaw, a C call)
             bearing_now = seen.bearing_rad - (yaw - seen.own_yaw_rad)
             rel = relative_heading(bearing_now, frame.payload["bearing"])
             node.know.heading[frame.src] = HeadingEstimate(rel, self._clock.local_now(), yaw)

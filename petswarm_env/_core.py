@@ -27,6 +27,7 @@ from pathlib import Path
 COMPILED: tuple[str, ...] = (
     "petswarm_env.sim.clock",
     "petswarm_env.sim.draws",
+    "petswarm_env.sim.health",
     "petswarm_env.comms.radio",
     "petswarm_env.middleware.knowledge",
     "petswarm_env.middleware.station",

@@ -149,7 +149,7 @@ class Episode:
         self._last_agents: list[str] | None = None  # the agents of the last step and their actions (advance)
         self._last_acts = np.zeros((0, 3), np.float32)
         self._scale = np.array(self.setup.limits, np.float32)  # action 1 -> Vx, Vy, ω (as a float32 action times a float)
-        self.observer = Observer(self.setup.layout, self.fleet.nodes, self.sensors, [r.ahrs_yaw for r in world.robots],
+        self.observer = Observer(self.setup.layout, self.fleet.nodes, self.sensors, [r.ahrs for r in world.robots],
                                  self.agent_index, cfg.master.distance_m)
         self.experimenter = Experimenter(cfg, world, self.fleet, self.swarms, self.sessions, self.arbiters, self.radio,
                                          self.agent_index, self.other_user_robots)

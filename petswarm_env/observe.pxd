@@ -8,3 +8,14 @@ cdef class _Plan:
     # the starts of _BUILDER_FIELDS, in its order
     cdef Py_ssize_t master, activity, rotating, turn_rate, leading, user_xy, master_ir, anchor, odo, yaw, last
     cdef Py_ssize_t offset, us, hierarchy, members, member, flags
+
+
+cdef class Observer:
+    cdef public object layout
+    cdef public object nodes
+    cdef public object sensors
+    cdef public list ahrs
+    cdef public object agent_index
+    cdef public double master_distance_m
+    cdef dict _formation_cache
+    cdef _Plan _plan

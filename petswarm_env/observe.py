@@ -12,7 +12,7 @@ them for the env's agents and builds their observations.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -29,12 +29,12 @@ if cython.compiled:  # a robot's wheels, their odometry and its node's knowledge
     from cython.cimports.petswarm_env.middleware.knowledge import HeadingEstimate, IRMeasurement, Knowledge, MasterStatus
     from cython.cimports.petswarm_env.middleware.station import Station
     from cython.cimports.petswarm_env.sim.body import DrivenBody
-    from cython.cimports.petswarm_env.sim.sensors import wheel_odometry
+    from cython.cimports.petswarm_env.sim.sensors import AHRS, wheel_odometry
 else:
     from petswarm_env.middleware.knowledge import HeadingEstimate, IRMeasurement, Knowledge, MasterStatus
     from petswarm_env.middleware.station import Station
     from petswarm_env.sim.body import DrivenBody
-    from petswarm_env.sim.sensors import wheel_odometry
+    from petswarm_env.sim.sensors import AHRS, wheel_odometry
 
 if TYPE_CHECKING:
     from petswarm_env.middleware.node import Node
@@ -458,7 +458,8 @@ def _fill(plan: _Plan, v: cython.double[::1], know: Knowledge, links, now: cytho
     v[offset] = ox / pos_scale
     v[offset + 1] = oy / pos_scale
     us_max: cython.double = plan.us_max
-    ring = ultrasonic_m.tolist() if isinstance(ultrasonic_m, np.ndarray) else ultrasonic_m
+    ring = ultrasonic_m if type(ultrasonic_m) is list else (  # a ring's row of Python floats (range_rows): as it is
+        ultrasonic_m.tolist() if isinstance(ultrasonic_m, np.ndarray) else ultrasonic_m)
     r: cython.double
     k = us
     for r in ring:  # Python's division rounds as numpy's float64 one
@@ -479,26 +480,26 @@ def _fill(plan: _Plan, v: cython.double[::1], know: Knowledge, links, now: cytho
             v[k] = 1.0
 
 
+@cython.cfunc
 def _as_dict(mapping) -> dict:
-    """``mapping`` itself when it is a dict, else a dict of it."""
-    return mapping if isinstance(mapping, dict) else dict(mapping)
+    return mapping if isinstance(mapping, dict) else dict(mapping)  # ``mapping`` itself when it is a dict, else a dict of it
 
 
 _NO_ACTION = np.zeros(3, np.float32)  # the last action of an agent that has not acted yet (read only)
 _NO_ACTION.flags.writeable = False
 
 
+@cython.cclass
 class Observer:
-    """Every agent's observation, from its own robot's sensors and its node's middleware: the
-    readings gathered per agent, then :func:`build_observation`. Agents are ``robot_<index>``
-    (``agent_index``: name -> robot index)."""
+    """Every agent's observation, from its own robot's sensors and its node's middleware: the readings gathered per agent,
+    then :func:`build_observation`. Agents are ``robot_<index>`` (``agent_index``: name -> robot index). Typed (observe.pxd)."""
 
     def __init__(self, layout: ObservationLayout, nodes: dict[int, Node], sensors: Sensors,
-                 ahrs: list[Callable[[float], float]], agent_index: dict[str, int], master_distance_m: float):
+                 ahrs: list[AHRS], agent_index: dict[str, int], master_distance_m: float):
         self.layout = layout
         self.nodes = nodes
         self.sensors = sensors
-        self.ahrs = ahrs  # each robot's AHRS reading, ahrs[index](now_s)
+        self.ahrs = ahrs  # each robot's AHRS (sim/sensors.py): its reading ahrs[index].yaw(now_s), a C call
         self.agent_index = agent_index
         self.master_distance_m = master_distance_m
         self._formation_cache: dict[int, tuple[Formation, list[tuple[float, float]], dict[int, int]]] = {}
@@ -568,7 +569,8 @@ class Observer:
                 ovx, ovy, ow = wheel_odometry(robot, e[0], e[1], e[2])
             else:
                 ovx, ovy, ow = wheel_odometry(robot, 0.0, 0.0, 0.0)  # noiseless: the wheels' own values, exactly
-            yaw = ahrs[idx](now_s)  # the sensor's physics at true time
+            sensor: AHRS = ahrs[idx]
+            yaw = sensor.yaw(now_s)  # the sensor's physics at true time
             know.dead_reckon(node._mcu.local_now(), ovx, ovy, yaw)  # own position from own odometry, on its own clock
             table = node.formation  # its reference links (Station.reference_links, read here)
             own = node.know.member

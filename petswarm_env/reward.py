@@ -24,6 +24,9 @@ from petswarm_env.config import RewardConfig
 
 COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
 
+_weights_of: object = None  # the reward config whose weights _weights holds (slave_rewards)
+_weights: tuple = (0.0, 0.0, 0.0, 0.0)
+
 
 def slave_rewards(
     cfg: RewardConfig,
@@ -37,12 +40,16 @@ def slave_rewards(
     ``actions`` and ``last_actions`` (n, 3) float32. The squared action change ‖a_t − a_{t−1}‖² is
     numpy's float32 ``da @ da`` (:func:`_smoothness`; ``tests/oracles.py`` keeps the one-slave form
     it equals)."""
+    global _weights_of, _weights
     a: cython.float[:, :] = actions
     b: cython.float[:, :] = last_actions
-    wf: cython.double = cfg.formation
-    wh: cython.double = cfg.heading
-    wc: cython.double = cfg.collision
-    ws: cython.double = cfg.smoothness
+    if cfg is not _weights_of:  # the weights read once per reward config (a config is frozen), not at every step
+        _weights_of, _weights = cfg, (cfg.formation, cfg.heading, cfg.collision, cfg.smoothness)
+    wf: cython.double
+    wh: cython.double
+    wc: cython.double
+    ws: cython.double
+    wf, wh, wc, ws = _weights
     e: cython.double
     h: cython.double
     c: cython.double

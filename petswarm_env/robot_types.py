@@ -18,7 +18,7 @@ This module imports nothing of the package but the sections' base and the pure m
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, Literal
 
 from pydantic import Field
@@ -103,10 +103,12 @@ class BodySpec:
     def distance_sensors(self) -> tuple[Sensor, ...]:
         return tuple(s for s in self.sensors if s.type == DISTANCE)
 
-    @property
-    def can_be_master(self) -> bool:
-        """A master locates its user with two LF antennas (seed 002 §3.2)."""
-        return sum(s.type == LF for s in self.sensors) >= 2
+    # A master locates its user with two LF antennas (seed 002 §3.2): whether this body carries them (set once
+    # from ``sensors``; the master's LF burst reads it every 350 ms)
+    can_be_master: bool = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "can_be_master", sum(s.type == LF for s in self.sensors) >= 2)
 
     def differential_limits(self) -> DifferentialLimits:
         return DifferentialLimits(self.robot.max_speed_mps, self.robot.max_omega_rps, self.lookahead_m, self.heading_yield_mps)

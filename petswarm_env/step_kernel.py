@@ -26,14 +26,22 @@ from petswarm_env.sim.body import read_poses
 
 if cython.compiled:  # a station's typed attributes (middleware/station.pxd), the MCU clock's C methods (sim/clock.pxd),
     # what a robot knows (middleware/knowledge.pxd), a slave's master check (middleware/sequence.pxd)
+    from cython.cimports.petswarm_env.control.arbiter import ControlArbiter  # its decide a C call (control/arbiter.pxd)
     from cython.cimports.petswarm_env.middleware.knowledge import IRMeasurement, Knowledge, MasterStatus
     from cython.cimports.petswarm_env.middleware.sequence import SequenceManager
     from cython.cimports.petswarm_env.middleware.station import Station
+    from cython.cimports.petswarm_env.sim.body import DrivenBody  # a robot's battery as a C read (sim/body.pxd)
+    from cython.cimports.petswarm_env.sim.health import FaultState
+    from cython.cimports.petswarm_env.sim.robot import drive_command  # a robot's command, a C call (sim/robot.pxd)
     from cython.cimports.petswarm_env.sim.clock import LocalClock
 else:
+    from petswarm_env.control.arbiter import ControlArbiter
     from petswarm_env.middleware.knowledge import IRMeasurement, Knowledge, MasterStatus
     from petswarm_env.middleware.sequence import SequenceManager
     from petswarm_env.middleware.station import Station
+    from petswarm_env.sim.body import DrivenBody
+    from petswarm_env.sim.health import FaultState
+    from petswarm_env.sim.robot import drive_command
     from petswarm_env.sim.clock import LocalClock
 
 COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
@@ -125,16 +133,20 @@ def command_masters(sessions: list, sensors, rows: list, arbiters: dict, robots:
     001); a master that is off (a fault) has its motors off. ``rows``: every robot's ring as Python floats
     (``Sensors.range_rows``). Returns the masters' robot indices."""
     masters = set()
+    arb: ControlArbiter
+    health: FaultState
     for session in sessions:
         idx = session.swarm.master.node_id
         masters.add(idx)
         policy, user_cmd, stop = session.step(sensors.odometry(idx), rows[idx])
-        cmd = arbiters[idx].decide(policy, user_cmd, rows[idx], stop)[0]
+        arb = arbiters[idx]
+        cmd = arb.decide(policy, user_cmd, rows[idx], stop)[0]
         robot = robots[idx]
-        if robot.health.powered:
-            robot.set_command(cmd[0], cmd[1], cmd[2])
+        health = robot.health
+        if health.powered:
+            drive_command(robot, cmd[0], cmd[1], cmd[2])
         else:
-            robot.set_command(0.0, 0.0, 0.0)
+            drive_command(robot, 0.0, 0.0, 0.0)
     return masters
 
 
@@ -162,6 +174,7 @@ def command_slaves(robot_ids: list, acts, scale, masters: set, nodes: dict, robo
     k: cython.Py_ssize_t
     node: Station
     seq: SequenceManager
+    arb: ControlArbiter
     for k in range(len(robot_ids)):
         idx = robot_ids[k]
         if idx in masters:
@@ -169,27 +182,32 @@ def command_slaves(robot_ids: list, acts, scale, masters: set, nodes: dict, robo
         node = nodes[idx]
         seq = node.seq
         if seq.master_lost(node._mcu.local_now()):  # on its own clock (``node.clock.now``)
-            robots[idx].set_command(0.0, 0.0, 0.0)
+            drive_command(robots[idx], 0.0, 0.0, 0.0)
             continue
         know: Knowledge = node.know
         st: MasterStatus = know.status
         stop = st is not None and st.mode == "emergency"
         vx, vy, omega = a[k, 0] * sx, a[k, 1] * sy, a[k, 2] * sw  # float32 products, as numpy's
-        cmd = arbiters[idx].decide((float(vx), float(vy), float(omega)), None, rows[idx], stop)[0]
-        robots[idx].set_command(cmd[0], cmd[1], cmd[2])
+        arb = arbiters[idx]
+        cmd = arb.decide((float(vx), float(vy), float(omega)), None, rows[idx], stop)[0]
+        drive_command(robots[idx], cmd[0], cmd[1], cmd[2])
 
 
 def command_leaving(nodes: dict, masters: set, robots: list, arbiters: dict, rows: list, now_s: float) -> None:
     """A robot leaving its slot for its own fault drives out of the way (the recovery's move out,
     middleware/recovery.py), through its arbiter; a master or a robot that is off is not driven."""
+    arb: ControlArbiter
+    st: Station
     for idx, node in nodes.items():
-        recovery = node.recovery
+        st = node
+        recovery = st.recovery
         if recovery.clear_out is None:
             continue
         move = recovery.leaving_command(now_s)
         if move is not None and idx not in masters and robots[idx].health.powered:
-            cmd = arbiters[idx].decide(move, None, rows[idx], False)[0]
-            robots[idx].set_command(cmd[0], cmd[1], cmd[2])
+            arb = arbiters[idx]
+            cmd = arb.decide(move, None, rows[idx], False)[0]
+            drive_command(robots[idx], cmd[0], cmd[1], cmd[2])
 
 
 def new_contacts(robot_ids: list, per_robot: dict, seen: dict) -> list:
@@ -345,7 +363,9 @@ def infos(agents: list, robot_ids: list, nodes: dict, missing: dict, errors_m: l
 def drained(robots: list) -> list:
     """The robots whose battery is empty and not yet a ``battery`` fault (sim/battery.py)."""
     out = []
+    body: DrivenBody
     for robot in robots:
-        if robot.battery.empty and "battery" not in robot.health.active:
+        body = robot
+        if body.battery.empty and "battery" not in robot.health.active:
             out.append(robot)
     return out

@@ -27,6 +27,7 @@ import numpy as np
 
 COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
 _sqrt = math.sqrt  # (the C library's sqrt in the compiled form: correctly rounded, the same value)
+_INF = cython.declare(cython.double, math.inf)  # (a C constant: read for every filtered command)
 
 SOURCES = ("safety", "user", "policy")  # seed 001: self-protection > user > software agent
 
@@ -50,12 +51,8 @@ class SafetyStage:
     robot's own ultrasonic ring (its sensor), never ground truth.
     """
 
-    dirs = cython.declare(object, visibility="public")  # (n, 2): each sensor's direction, body frame
-    _dx = cython.declare(list)  # the same as Python floats
-    _dy = cython.declare(list)
-    stop = cython.declare(cython.double, visibility="public")
-    backoff = cython.declare(cython.double, visibility="public")
-    two_a = cython.declare(cython.double, visibility="public")
+    # its typed attributes (each sensor's direction as an array and as Python floats, the stop distance, the backoff
+    # speed, twice the braking limit) are declared in ``arbiter.pxd``
 
     def __init__(self, num_sensors: int, stop_distance_m: float, backoff_speed_mps: float, max_accel_mps2: float):
         ang = np.arange(num_sensors) * (2 * math.pi / max(num_sensors, 1))
@@ -82,7 +79,7 @@ class SafetyStage:
         n: cython.Py_ssize_t = len(rs)
         k: cython.Py_ssize_t
         r: cython.double
-        nearest: cython.double = math.inf
+        nearest: cython.double = _INF
         for k in range(n):  # min(rs, default=inf)
             r = rs[k]
             if k == 0 or r < nearest:
@@ -126,21 +123,18 @@ class SafetyStage:
 class ControlArbiter:
     """Per-robot priority arbitration: safety > user > policy (seed 001)."""
 
-    safety = cython.declare(SafetyStage, visibility="public")  # None: no ultrasonic stage
-    counts = cython.declare(object, visibility="public")  # ArbiterCounts: the wins of this episode
+    # its typed attributes (``safety``, None without an ultrasonic stage; ``counts``, the wins of this episode) are
+    # declared in ``arbiter.pxd``: the command loops (step_kernel.py) call :meth:`decide` by a C call
 
     def __init__(self, safety: SafetyStage | None):
         self.safety = safety
         self.counts = ArbiterCounts()
 
-    def decide(
-        self,
-        policy_cmd: tuple[float, float, float],
-        user_cmd: tuple[float, float, float] | None = None,
-        ranges: np.ndarray | None = None,
-        emergency_stop: bool = False,
-    ) -> tuple[tuple[float, float, float], str]:
-        """The one command for the motors this tick and the source that won.
+    @cython.ccall
+    def decide(self, policy_cmd, user_cmd=None, ranges=None, emergency_stop=False):
+        """The one command for the motors this tick and the source that won: ``((vx, vy, ω), source)``, from the
+        policy's and the user's body-frame commands (``(vx, vy, ω)``; ``user_cmd`` None: none) and the ring's
+        ``ranges`` (None: no reading).
 
         The emergency stop (user lost, seed 002 Fig. 4) is self-protection: it always wins, also
         with the ultrasonic stage switched off."""

@@ -1,6 +1,9 @@
 # The compiled form's declarations of diagnosis.py (Cython's augmenting .pxd): the diagnosis as a typed class that
 # the robot's own clock stamp (middleware/station.py OwnClock) calls by C calls for every ring and AHRS reading.
 
+from petswarm_env.sim.body cimport DrivenBody
+from petswarm_env.sim.health cimport FaultState
+
 
 cdef class Diagnosis:
     cdef public object node_id
@@ -11,6 +14,8 @@ cdef class Diagnosis:
     cdef public list detected
     cdef public object on_detect
     cdef object _know_of
+    cdef FaultState _health  # robot.health
+    cdef DrivenBody _body  # the robot when it is a DrivenBody (its command by C reads), else None
     cdef double _us_max
     cdef list _us_angles
     cdef list _us_cos

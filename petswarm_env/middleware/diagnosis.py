@@ -54,9 +54,11 @@ from collections.abc import Callable
 import cython
 import numpy as np
 
-if cython.compiled:  # the angle wrap of one float as a C call (sim/geometry.pxd)
+if cython.compiled:  # the angle wrap of one float as a C call (sim/geometry.pxd); a body's command by C reads (sim/body.pxd)
+    from cython.cimports.petswarm_env.sim.body import DrivenBody
     from cython.cimports.petswarm_env.sim.geometry import wrap_float
 else:
+    from petswarm_env.sim.body import DrivenBody
     from petswarm_env.sim.geometry import wrap_float
 
 
@@ -98,6 +100,8 @@ class Diagnosis:
         self.node_id = node_id
         self.cfg = cfg
         self.robot = robot
+        self._health = robot.health  # its parts' health (the same record for the robot's life: sim/faults.py)
+        self._body = robot if isinstance(robot, DrivenBody) else None  # its command by C reads (else robot.command)
         self._know_of = know_of  # the node replaces its Knowledge when it leaves a swarm: read it each time
         self.ring = ring
         self.failed = set()  # the parts found broken (and not found working again)
@@ -137,12 +141,13 @@ class Diagnosis:
         """The ultrasonic ring's reading (virtual-ring order, ``present``: which slots the body has),
         every control period, and its self-test (``rang``: the transducers rang down after their
         bursts): the ring and IR checks, and the commanded rotation's integral."""
-        if not self.robot.health.powered:
+        if not self._health.powered:
             if self.failed or self._ticked:
                 self._reboot()
             return
         dt: cython.double = now_s - self._tick_s if self._ticked else 0.0
-        self._turned += self.robot.command[2] * dt
+        body: DrivenBody = self._body
+        self._turned += (body._cw if body is not None else self.robot.command[2]) * dt
         self._ticked, self._tick_s = True, now_s
         self._check_ir(now_s)
         self._check_ring(ranges, present, now_s, rang)
@@ -151,7 +156,7 @@ class Diagnosis:
     def on_ahrs(self, now_s: cython.double, yaw: cython.double):
         """Every AHRS reading the robot takes (its MCU's, the observation's); none while it is off (before,
         a dead robot's unchanging readings were found a frozen AHRS)."""
-        if not self.robot.health.powered:
+        if not self._health.powered:
             return
         if self._yaw_read and now_s > self._yaw_last_s:
             if yaw == self._yaw_last:

@@ -25,6 +25,13 @@ from petswarm_env.middleware.node import Node
 from petswarm_env.middleware.swarm import Swarm
 from petswarm_env.sim.world import World
 
+if cython.compiled:  # a station's PAN, health and member number as C reads (middleware/station.pxd): every IR slot
+    from cython.cimports.petswarm_env.middleware.knowledge import Knowledge
+    from cython.cimports.petswarm_env.middleware.station import Station
+else:
+    from petswarm_env.middleware.knowledge import Knowledge
+    from petswarm_env.middleware.station import Station
+
 COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
 
 
@@ -72,14 +79,19 @@ class Fleet:
         ``neighbours`` (node ids, in the holder's order) that measured it in this slot reports the
         bearing it saw it at (heading exchange). Returns the reporters' ids, for which the holder waits."""
         nodes = self.nodes
-        own, pan = holder.node_id, holder.swarm_pan
-        if not holder.health.ir_ok:  # the IR module is off (a fault): no transmission, nothing measured
+        tx: Station = holder
+        own, pan = tx.node_id, tx.swarm_pan
+        if not tx.health.ir_ok:  # the IR module is off (a fault): no transmission, nothing measured
             return []
         # in the order of the member number each receiver holds (its own table's; the order of the draws)
         order: list = []
+        st: Station
+        know: Knowledge
         for n, node in nodes.items():
-            if n != own and node.swarm_pan == pan and node.health.ir_ok:
-                order.append((node.know.member, n))
+            st = node
+            if n != own and st.swarm_pan == pan and st.health.ir_ok:
+                know = st.know
+                order.append((know.member, n))
         if not order:
             return []
         order.sort()

@@ -28,7 +28,10 @@ cdef MasterStatus new_status(object velocity, object activity, object mode, doub
 
 cdef class Knowledge:
     cdef public long member, total_members
-    cdef public object members, mode, ir, heading, lf_members, odometry_xy
+    cdef public dict members  # member number -> node id (its lookups C calls for the ring's frames)
+    cdef public dict ir  # node id -> latest IR measurement
+    cdef public dict heading  # node id -> relative heading estimate
+    cdef public object mode, lf_members, odometry_xy
     cdef public MasterStatus status
     cdef public double odometry_s
 

@@ -72,8 +72,8 @@ class Node(Station):
         self.handed_over.connect(lambda _new_master: self.recovery.after_handover(frozenset(self.diagnosis.failed)))
         # the sensors hand their readings to the MCU, which stamps them with its own clock
         stamp = OwnClock(self.clock, self.diagnosis)
-        robot.on_ring = stamp.ring
-        robot.ahrs.on_reading = stamp.ahrs
+        robot.readings = stamp  # its ring's readings (Sensors.read_rings)
+        robot.ahrs.readings = stamp
         self.succession = SuccessionManager(self, self.seq.leave_swarm)
         self.seq.successor = self.succession
         self.seq.ring_heard = self.ring.last_heard_s

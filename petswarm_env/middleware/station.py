@@ -33,6 +33,7 @@ from typing import TYPE_CHECKING, Any
 
 import cython
 import numpy as np
+from cython.cimports.libc.math import isfinite as _isfinite
 
 from petswarm_env.comms.radio import BROADCAST, PAN_WAITING, RadioMedium
 from petswarm_env.config import Config
@@ -55,6 +56,10 @@ else:
     from petswarm_env.sim.clock import Due, LocalClock
 from petswarm_env.sim.draws import Draws
 from petswarm_env.sim.sensors import Odometry
+if cython.compiled:  # what the robot's sensors hand its software, and its AHRS's reading, by C calls (sim/sensors.pxd)
+    from cython.cimports.petswarm_env.sim.sensors import AHRS, Readings
+else:
+    from petswarm_env.sim.sensors import AHRS, Readings
 
 if TYPE_CHECKING:
     from petswarm_env.sim.robot import Robot
@@ -76,7 +81,7 @@ def mcu_clock(clock: Clock, cfg: Config, rng: np.random.Generator) -> LocalClock
 
 @cython.final
 @cython.cclass
-class OwnClock:
+class OwnClock(Readings):
     """The robot's sensors hand their readings to its software (its self-diagnosis), which stamps
     them with its MCU's own clock (seed 000 §3.3: independent clocks): :meth:`ring` and :meth:`ahrs`
     are the ultrasonic ring's and the AHRS's listeners, called for every reading with the true time,
@@ -88,12 +93,14 @@ class OwnClock:
         self._clock = clock
         self._diagnosis = diagnosis
 
-    def ring(self, ranges, present, now_s, rang=True) -> None:
-        """``robot.on_ring(ranges, present, now_s, rang)``: the ring's reading and self-test."""
+    @cython.ccall
+    def ring(self, ranges, present, now_s: cython.double, rang: cython.bint):
+        """``robot.readings.ring(ranges, present, now_s, rang)``: the ring's reading and self-test."""
         self._diagnosis.on_ring(ranges, present, self._clock.local(now_s), rang)
 
-    def ahrs(self, now_s, yaw) -> None:
-        """``ahrs.on_reading(now_s, yaw)``: one AHRS reading."""
+    @cython.ccall
+    def ahrs(self, now_s: cython.double, yaw: cython.double):
+        """``ahrs.readings.ahrs(now_s, yaw)``: one AHRS reading."""
         self._diagnosis.on_ahrs(self._clock.local(now_s), yaw)
 
 
@@ -156,6 +163,7 @@ class Station:
         self.clock = mcu_clock(clock, cfg, rng.spawn(1)[0])
         self._mcu = self.clock
         self._true_clock = clock
+        self._ahrs = robot.ahrs  # its AHRS: read for every IR fix and heading report (yaw, a C call)
         self.later = self.clock.later  # later(delay, fn, *args): a call after ``delay`` seconds of the MCU's clock
         # the antenna's position, for the radio's propagation model (not the middleware): the body's
         # reader bound once (a radio station reads it for every frame it sends or receives)
@@ -187,7 +195,8 @@ class Station:
         if not self.health.radio_ok:  # radio off (a fault): nothing leaves
             return
         pan = self.swarm_pan if pan is None else pan
-        size = _FIXED_BYTES.get(kind)  # a frame without a list or table: its kind's size
+        fixed: dict = _FIXED_BYTES
+        size = fixed.get(kind)  # a frame without a list or table: its kind's size (a C lookup of the typed dict)
         if size is None:
             size = msg.payload_bytes(kind, payload)
         radio: _Medium = self.radio
@@ -261,7 +270,12 @@ class Station:
     # -- own sensors and the IR module ------------------------------------------------------------
     def ahrs_yaw(self) -> float:
         """Own AHRS reading (an own sensor: noisy, drifting)."""
-        return self._robot.ahrs_yaw(self._true_clock.now)  # the sensor's physics runs on true time
+        return self._own_yaw()
+
+    @cython.cfunc
+    def _own_yaw(self) -> cython.double:
+        """:meth:`ahrs_yaw` (a C call from the compiled managers: the token ring's heading exchange, the IR fixes)."""
+        return self._ahrs.yaw(self._true_clock.now)  # the sensor's physics runs on true time
 
     def own_body_status(self) -> dict | None:
         """Own body's status report for RUTA (type, battery, slip, draws, sensors), when the body
@@ -269,12 +283,12 @@ class Station:
         report = getattr(self._robot, "own_status", None)
         return report() if report is not None else None
 
-    def store_ir(self, other: int, distance_m: float, bearing_rad: float) -> None:
+    def store_ir(self, other: int, distance_m: cython.double, bearing_rad: cython.double) -> None:
         """The IR module measured robot ``other``'s transmission (the IR medium calls it)."""
-        if math.isfinite(distance_m):
+        if _isfinite(distance_m):
             know: Knowledge = self.know
             x, y = know.odometry_xy  # own dead-reckoned position (advanced each control step)
-            know.ir[other] = IRMeasurement(distance_m, bearing_rad, self._mcu.local_now(), self.ahrs_yaw(), x, y)
+            know.ir[other] = IRMeasurement(distance_m, bearing_rad, self._mcu.local_now(), self._own_yaw(), x, y)
 
     def _ir_not_wired(self, neighbours: list[int | None]) -> list[int]:
         raise RuntimeError(f"robot {self.node_id}'s IR module is not wired to an IR medium (Fleet.add_node wires it)")

@@ -81,6 +81,7 @@ else:
     from petswarm_env.sim.geometry import wrap_float
 
 COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py checks it)
+_NEG_INF = cython.declare(cython.double, -math.inf)  # (a C constant: read for every heading report and cut-off check)
 
 # chosen: a holder announced this long ago (its start sign, sync or the token to it) still transmits: the slot's
 # acknowledgement wait and its IR transmission (protocol.ring_response_timeout_s 0.05 + ir_tx_s 0.04) with room
@@ -301,7 +302,7 @@ class TokenRing:
         peers = self._ring_peers()
         if not peers:
             return None
-        latest: cython.double = -math.inf
+        latest: cython.double = _NEG_INF
         for k, p in enumerate(peers):  # max(...) as the builtin takes it: a later time replaces only a greater one
             t = self.heard.get(p)  # a peer never heard counts -inf, which replaces nothing
             if t is not None and (k == 0 or float(t) > latest):
@@ -401,7 +402,7 @@ class TokenRing:
         if self.relays_heading and node.state != "master":
             know: Knowledge = cython.cast(Knowledge, node.know, typecheck=True)
             if know.heading:
-                psi: cython.double = know.formation_offset(self._clock.local_now(), node.ahrs_yaw(), RELAY_AGE_S)
+                psi: cython.double = know.formation_offset(self._clock.local_now(), node._own_yaw(), RELAY_AGE_S)
                 if psi == psi:  # a fresh exchange with the master: relay its heading, else report our own
                     bearing_rad = wrap_float(bearing_rad - psi)
         node.later(node.processing_delay(), lambda: node.send(_HEADING, dst=holder, bearing=bearing_rad))
@@ -412,9 +413,9 @@ class TokenRing:
             return
         self.report_s = self._clock.local_now()
         seen: IRMeasurement = node.know.ir.get(frame.src)
-        if seen is not None and seen.time_s >= self._slot_start.get(frame.src, -math.inf):
+        if seen is not None and seen.time_s >= self._slot_start.get(frame.src, _NEG_INF):
             # our bearing of the sender dates from its slot: carry it over our own rotation since (AHRS)
-            yaw = node.ahrs_yaw()
+            yaw = node._own_yaw()  # (ahrs_yaw, a C call)
             bearing_now = seen.bearing_rad - (yaw - seen.own_yaw_rad)
             rel = relative_heading(bearing_now, frame.payload["bearing"])
             node.know.heading[frame.src] = HeadingEstimate(rel, self._clock.local_now(), yaw)

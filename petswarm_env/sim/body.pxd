@@ -43,6 +43,14 @@ cdef class DrivenBody(Body):
     cdef readonly double _max_dw
     cdef public Battery battery
     cdef public double wheel_gain  # the wheels' view of the motion over the body's (a robot's 1 / (1 − slip))
+    # a robot's MOVE module (sim/robot.py drive_command): a differential body's limits (else None), a mecanum
+    # body's wheel limits (ω limit, wheel lever, wheel speed), the body's share of the wheels' motion (1 − slip)
+    cdef object _differential
+    cdef double _limit, _lever, _max_speed, _keep
+    # what a robot's software gets of its ring's readings (a sim/sensors.py Readings, or None) and the robot's own
+    # record of its broken sensors: read for every robot at every reading (Sensors.read_rings)
+    cdef public object readings
+    cdef public set sensors_off
 
     cdef _drive(self, double dt)
     cdef _apply(self, double dt)

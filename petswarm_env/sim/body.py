@@ -285,6 +285,7 @@ class DrivenBody(Body):
         self._wheels = (0.0, 0.0, 0.0)  # the motors' own-frame speed (a robot's wheel_velocity)
         self.battery = None  # a robot's Battery (robot.py), drained at every substep
         self.wheel_gain = 1.0  # what the wheel encoders count over the motors' speed (a slipping robot's 1 / (1 − slip), robot.py)
+        self.readings = None  # a robot's software's view of its ring's readings (middleware/node.py sets it)
 
     # The three velocity triples live in C doubles (read and written at every substep); Python sees
     # each as a tuple of floats, and setting one sets its three values.

@@ -34,35 +34,9 @@ config's faults on the clock and resolves ``master`` / ``random_slave`` at the f
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
-KINDS = ("dead", "radio_silent", "ir", "ultrasonic", "ahrs", "battery")  # = config.FAULT_KINDS
-POWER_KINDS = ("dead", "battery")  # the robot is off
-
-
-@dataclass
-class FaultState:
-    """One robot's active faults and the health of each part."""
-
-    active: set[str] = field(default_factory=set)
-    # cached health flags (read per frame and per step): recomputed by set/clear
-    powered: bool = True
-    radio_ok: bool = True
-    ir_ok: bool = True
-    ultrasonic_ok: bool = True
-    ahrs_ok: bool = True
-
-    def set(self, kind: str, on: bool) -> None:
-        """The one entry point: fault ``kind`` starts (``on``) or clears."""
-        if kind not in KINDS:
-            raise ValueError(f"unknown fault kind {kind!r}; one of {', '.join(KINDS)}")
-        (self.active.add if on else self.active.discard)(kind)
-        a = self.active
-        self.powered = not (a & set(POWER_KINDS))
-        self.radio_ok = self.powered and "radio_silent" not in a
-        self.ir_ok = self.powered and "ir" not in a
-        self.ultrasonic_ok = self.powered and "ultrasonic" not in a
-        self.ahrs_ok = self.powered and "ahrs" not in a
+from petswarm_env.sim.health import KINDS, POWER_KINDS, FaultState  # (one robot's health: sim/health.py, compiled)
 
 
 @dataclass(frozen=True)

@@ -93,6 +93,30 @@ def _saturate(vx: cython.double, vy: cython.double, omega: cython.double, limit:
     return vx, vy, omega
 
 
+@cython.cfunc
+def drive_command(body: _Driven, vx: cython.double, vy: cython.double, omega: cython.double) -> cython.void:
+    """A robot's body-frame command (m/s, m/s, rad/s) through its MOVE module (:meth:`Robot.set_command`; the
+    per-step command loops, step_kernel.py, call it directly): a differential body turns toward the commanded
+    direction (:func:`~petswarm_env.mapping.differential_move`), a mecanum body saturates its wheels
+    (:func:`saturate_command`); the body moves (1 − slip) of it. An empty battery stops it."""
+    if not cython.compiled:  # Python floats, as the compiled form's C doubles take them
+        vx, vy, omega = float(vx), float(vy), float(omega)
+    if body.battery.empty:
+        body._cx, body._cy, body._cw = 0.0, 0.0, 0.0
+        return
+    cmd: tuple
+    if body._differential is not None:
+        v, w = differential_move(vx, vy, omega, body._differential)
+        cmd = (v, 0.0, w)
+    else:
+        cmd = _saturate(vx, vy, omega, body._limit, body._lever, body._max_speed)
+    keep: cython.double = body._keep
+    if keep == 1.0:
+        body._cx, body._cy, body._cw = cmd[0], cmd[1], cmd[2]
+    else:
+        body._cx, body._cy, body._cw = cmd[0] * keep, cmd[1] * keep, cmd[2] * keep
+
+
 # a bare Robot without a type (tests; the world always gives one): a battery that never empties
 _PETBOT_BATTERY = BatterySpec(math.inf, 0.0, 0.0, 0.0)
 
@@ -129,31 +153,18 @@ class Robot(DrivenBody):
         self.battery = Battery(battery, rc.max_speed_mps, rc.max_omega_rps)  # DrivenBody.apply drains it every substep
         self.sensors_off: set[int] = set()  # ids of its sensors that are faulty (Sensors.sensor_off sets it)
         slip = body.slip if body is not None else 0.0
-        self._keep = 1.0 - slip  # the body's share of the wheels' motion
-        self.wheel_gain = 1.0 / self._keep
-        self._differential = body.differential_limits() if body is not None and body.drive == "differential" else None
+        me: _Driven = self  # (its MOVE module's values: typed attributes of the body, sim/body.pxd; drive_command reads them)
+        me._keep = 1.0 - slip  # the body's share of the wheels' motion
+        self.wheel_gain = 1.0 / me._keep
+        me._differential = body.differential_limits() if body is not None and body.drive == "differential" else None
 
     def set_command(self, vx: float, vy: float, omega: float) -> None:
         """Body-frame command (m/s, m/s, rad/s) through the body's MOVE module; wheel saturation
         applies here. Stored as Python floats: a float32 action would otherwise carry numpy-scalar
         arithmetic (slow, and rounded to float32) into every substep of the drive. An empty
-        battery ignores it (the robot stops)."""
-        me: _Driven = self  # (its command and battery by C reads and writes: what ``command``'s setter writes)
-        if me.battery.empty:
-            me._cx, me._cy, me._cw = 0.0, 0.0, 0.0
-            return
-        cmd: tuple
-        if self._differential is not None:
-            v, w = differential_move(float(vx), float(vy), float(omega), self._differential)
-            cmd = (v, 0.0, w)
-        else:
-            limit, lever, max_speed = self._wheel_limits
-            cmd = _saturate(float(vx), float(vy), float(omega), limit, lever, max_speed)
-        keep: cython.double = self._keep
-        if keep == 1.0:
-            me._cx, me._cy, me._cw = cmd[0], cmd[1], cmd[2]
-        else:
-            me._cx, me._cy, me._cw = cmd[0] * keep, cmd[1] * keep, cmd[2] * keep
+        battery ignores it (the robot stops). (:func:`drive_command`, which the per-step command
+        loops call directly.)"""
+        drive_command(self, float(vx), float(vy), float(omega))
 
     @property
     def wheel_velocity(self) -> tuple[float, float, float]:
@@ -172,18 +183,21 @@ class Robot(DrivenBody):
     @cfg.setter
     def cfg(self, cfg: RobotConfig) -> None:
         self._cfg = cfg
-        self._wheel_limits = (cfg.max_omega_rps, cfg.wheel_lever_m, cfg.max_speed_mps)  # (a config is frozen)
+        me: _Driven = self  # the wheel limits drive_command reads (a config is frozen)
+        me._limit, me._lever, me._max_speed = cfg.max_omega_rps, cfg.wheel_lever_m, cfg.max_speed_mps
 
     def own_status(self) -> dict:
         """This robot's own status from its own body only (seed 003's β_i = <id, w_i, P_rem_i> and
         the rates of §4.1.2), what its middleware may report (RUTA): type, drive, battery, slip,
         consumption rates and the registered sensors. No other robot's truth."""
         spec, b = self.spec, self.battery
+        me: _Driven = self
+        keep: cython.double = me._keep
         sensors = spec.sensors if spec is not None else ()
         rates = spec.battery if spec is not None else _PETBOT_BATTERY
         return {"id": self.index, "type": self.type_name, "drive": spec.drive if spec is not None else "mecanum",
                 "battery_mah": b.remaining_mah, "battery_capacity_mah": b.capacity_mah, "battery_fraction": b.fraction,
-                "battery_empty": b.empty, "wheel_slip_pct": 100.0 * (1.0 - self._keep),
+                "battery_empty": b.empty, "wheel_slip_pct": 100.0 * (1.0 - keep),
                 "servo_ma": rates.servo_ma, "actuator_ma": rates.actuator_ma, "sensing_ma": rates.sensing_ma,
                 "sensors": [{"id": s.id, "type": s.type, "radius_m": s.location.radius_m, "angle_deg": s.location.angle_deg,
                              "working": s.id not in self.sensors_off} for s in sensors]}

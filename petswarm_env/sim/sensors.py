@@ -24,8 +24,10 @@ from petswarm_env.sim.body import Body
 if cython.compiled:  # the body's heading and wheels as C reads (sim/body.pxd): the AHRS and the odometry, every reading
     from cython.cimports.petswarm_env.sim.body import Body as _CBody
     from cython.cimports.petswarm_env.sim.body import DrivenBody as _CDriven
+    from cython.cimports.petswarm_env.sim.health import FaultState  # its flags as C reads (sim/health.pxd)
 else:
     from petswarm_env.sim.body import DrivenBody as _CDriven
+    from petswarm_env.sim.health import FaultState
 
     _CBody = Body
 from petswarm_env.sim.draws import Draws
@@ -100,6 +102,22 @@ class NormalStream:
 
 
 @cython.cclass
+class Readings:
+    """What a robot's software gets of its own sensors (its MCU's clock stamp, which feeds its self-diagnosis:
+    middleware/station.py ``OwnClock``): the ultrasonic ring's reading and self-test after every reading
+    (:meth:`Sensors.read_rings`) and every AHRS reading (:meth:`AHRS.yaw`), by C calls in the compiled form
+    (sim/sensors.pxd). This base ignores them."""
+
+    @cython.ccall
+    def ring(self, ranges, present, now_s: cython.double, rang: cython.bint):
+        """The ring's reading (a list of floats), which slots the body has, the true time, whether its bursts rang down."""
+
+    @cython.ccall
+    def ahrs(self, now_s: cython.double, yaw: cython.double):
+        """One AHRS reading at true time ``now_s``."""
+
+
+@cython.cclass
 class AHRS:
     """Yaw (rad) of one body relative to its own power-on heading: truth − the heading at power-on
     + a slowly drifting bias (a random walk in time) + white noise.
@@ -115,18 +133,11 @@ class AHRS:
     A typed class of the compiled core: read for every frame a robot's middleware stamps and every
     observation."""
 
-    body = cython.declare(object, visibility="public")
-    noise_rad = cython.declare(cython.double, visibility="public")  # σ of the white noise
-    drift_rad = cython.declare(cython.double, visibility="public")  # σ of the bias walk over one second
-    bias_rad = cython.declare(cython.double, visibility="public")
-    power_on_heading_rad = cython.declare(cython.double, visibility="public")  # the heading its readings count from
-    time_s = cython.declare(cython.double, visibility="public")  # clock time of the last bias step
-    _last_yaw = cython.declare(cython.double, visibility="public")  # the last reading (a frozen AHRS repeats it)
-    on_reading = cython.declare(object, visibility="public")  # the robot's software sees every reading (its self-diagnosis): on_reading(now_s, yaw)
-    _heading = cython.declare(object)
-    _body = cython.declare(_CBody)  # the body when it is a Body (its heading a C call), else None
-    _health = cython.declare(object)
-    _normals = cython.declare(NormalStream)  # its noise stream's normals, in blocks
+    # its typed attributes are declared in ``sensors.pxd`` (the station and the observation read it by C calls of
+    # :meth:`yaw`): the body, the noise and drift σ, the bias, the power-on heading, the last bias step's time, the
+    # last reading (a frozen AHRS repeats it), ``readings`` (the robot's software sees every reading: its
+    # self-diagnosis), the body's heading reader and the body when it is a Body (its heading a C call), the body's
+    # health (its ahrs_ok a C read) and its noise stream's normals, in blocks
 
     def __init__(self, body: Body, cfg: RobotConfig, rng: np.random.Generator | None = None):
         self.body = body
@@ -140,7 +151,7 @@ class AHRS:
         self.rng = np.random.default_rng(0) if rng is None else rng  # (the env gives every robot its own stream)
         self._health = getattr(body, "health", None)  # an AHRS fault freezes the output (sim/faults.py)
         self._last_yaw = 0.0
-        self.on_reading = None
+        self.readings = None
 
     def power_on(self, rng: np.random.Generator, now_s: float = 0.0) -> None:
         """Switch on at clock time ``now_s`` with the noise stream ``rng`` (its first draw is the
@@ -160,13 +171,15 @@ class AHRS:
     def rng(self, rng: np.random.Generator) -> None:
         self._normals = NormalStream(rng, 256, True)
 
-    def yaw(self, now_s: cython.double) -> float:
+    @cython.ccall
+    def yaw(self, now_s: cython.double) -> cython.double:
         """The reading at clock time ``now_s``: the bias walks over the time since the last reading
         (one normal), then one normal of white noise."""
         health = self._health
+        readings: Readings = self.readings
         if health is not None and not health.ahrs_ok:
-            if self.on_reading is not None:
-                self.on_reading(now_s, self._last_yaw)
+            if readings is not None:
+                readings.ahrs(now_s, self._last_yaw)
             return self._last_yaw  # no new yaw: the last reading repeats
         normals: NormalStream = self._normals
         dt: cython.double = now_s - self.time_s
@@ -179,8 +192,8 @@ class AHRS:
         z = normals.next()
         yaw: cython.double = heading - self.power_on_heading_rad + self.bias_rad + self.noise_rad * z
         self._last_yaw = yaw
-        if self.on_reading is not None:
-            self.on_reading(now_s, yaw)
+        if readings is not None:
+            readings.ahrs(now_s, yaw)
         return yaw
 
 
@@ -343,6 +356,7 @@ def _readings(d: cython.double[:, ::1], rims: cython.double[::1], normals: Norma
             d[i, k] = x
 
 
+@cython.cclass
 class Sensors:
     """The sensors of every robot of a world as the env reads them, from the env's sensor stream:
     :meth:`read_rings` after every advance of the world (all robots in one cast, their noise the
@@ -356,7 +370,25 @@ class Sensors:
     mapped onto the virtual ring (an absent sensor reads ``max_range``); :attr:`flags` holds, per
     robot, the ring's presence and location-known flags. When every body carries the virtual
     ring itself (the petbot-only default) the one cast of the whole ring is all there is.
-    :meth:`sensor_off` is a sensor fault's seam: the sensors it names deliver nothing."""
+    :meth:`sensor_off` is a sensor fault's seam: the sensors it names deliver nothing.
+
+    A typed class of the compiled core: what :meth:`read_rings` and its readers read of it at every step are C reads."""
+
+    world = cython.declare(object, visibility="public")
+    ring = cython.declare(UltrasonicRing, visibility="public")
+    odometry_noise_rel = cython.declare(cython.double, visibility="public")
+    layer = cython.declare(object, visibility="public")  # the middle layer (None: bare bodies)
+    flags = cython.declare(list, visibility="public")  # per robot, the ring's presence and location-known flags
+    ranges = cython.declare(object, visibility="public")  # every robot's last ring, (robots, count) m
+    _normals = cython.declare(NormalStream)
+    _cfg = cython.declare(object)
+    _off = cython.declare(dict)
+    _ring_faulted = cython.declare(set)
+    _changed = cython.declare(set)
+    _groups = cython.declare(list)
+    _present = cython.declare(list)
+    _rows = cython.declare(list)
+    _rows_of = cython.declare(object)
 
     def __init__(self, world: Truth, cfg: RobotConfig, rng: np.random.Generator):
         self.world = world
@@ -408,7 +440,7 @@ class Sensors:
         """Read every robot's ultrasonic ring now; also kept as :attr:`ranges`. A ring with an
         ``ultrasonic`` fault reads the maximum range on every sensor and its transducers do not ring
         down after their bursts (the driver's self-test, chosen: a dead ring driver sends no burst);
-        each robot's software gets its reading (a list of floats) and the self-test's result (``robot.on_ring(ranges,
+        each robot's software gets its reading (a list of floats) and the self-test's result (``robot.readings.ring(ranges,
         present, now, rang)``, its self-diagnosis: middleware/diagnosis.py), then the sensors it
         knows to be off (``robot.sensors_off``) read ``max_range`` with presence 0 (:meth:`sensor_off`)."""
         if self._changed:
@@ -433,14 +465,15 @@ class Sensors:
         present: list = self._present
         known_off: dict = self._off
         k: cython.Py_ssize_t
+        body: _CDriven
         for k in range(len(robots)):
-            robot = robots[k]
-            listener = getattr(robot, "on_ring", None)
+            body = robots[k]  # (its readings' listener and its record as C reads: sim/body.pxd)
+            listener: Readings = body.readings
             if listener is not None:
                 if now is None:
                     now = world.clock.now
-                listener(rows[k], present[k], now, k not in faulted)
-            off = robot.sensors_off  # the robot's own record of its broken sensors
+                listener.ring(rows[k], present[k], now, k not in faulted)
+            off = body.sensors_off  # the robot's own record of its broken sensors
             if (off != known_off[k]) if k in known_off else off:
                 self.sensor_off(k, set(off))
         if self._off:

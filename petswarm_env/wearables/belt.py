@@ -53,7 +53,9 @@ from array import array
 import cython
 import numpy as np
 from cython.cimports.libc.math import cos as _cos
+from cython.cimports.libc.math import floor as _floor
 from cython.cimports.libc.math import sin as _sin
+from cython.cimports.libc.math import sqrt as _sqrt
 
 from petswarm_env.config import BeltConfig
 from petswarm_env.scenarios import ACTIVITIES  # seed 002 Table 2; index = activity code below
@@ -68,6 +70,7 @@ COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py c
 
 GRAVITY_MPS2 = cython.declare(cython.double, 9.80665)
 _EPS_S = cython.declare(cython.double, 1e-9)  # sample times are compared with this slack (float accumulation of 0.1 s steps)
+_PI = cython.declare(cython.double, math.pi)  # (math.pi as a C constant: read for every sample chunk)
 
 
 # --------------------------------------------------------------------------- recognition rules
@@ -219,12 +222,12 @@ class SmartBelt:
             raise ValueError(f"posture '{posture}' is not one of {', '.join(ACTIVITIES)}")
         if t_end < self._t - _EPS_S:
             raise ValueError(f"belt time runs forward: t_end {t_end} < {self._t}")
-        n_target: cython.Py_ssize_t = math.floor((t_end - self._t0) / self._acc_dt + _EPS_S)
+        n_target: cython.Py_ssize_t = cython.cast(cython.Py_ssize_t, _floor((t_end - self._t0) / self._acc_dt + _EPS_S))
         n: cython.Py_ssize_t
         while self._n_acc < n_target:
             n = min(self._w, n_target - self._n_acc)
             self._accel_chunk(n, speed_mps, posture)
-        m_target: cython.Py_ssize_t = math.floor((t_end - self._t0) / self._gyro_dt + _EPS_S)
+        m_target: cython.Py_ssize_t = cython.cast(cython.Py_ssize_t, _floor((t_end - self._t0) / self._gyro_dt + _EPS_S))
         if m_target > self._n_gyro:
             self._gyro_samples(m_target - self._n_gyro, speed_mps, turn_rate_rps, posture)
         self._t = max(self._t, float(t_end))
@@ -265,7 +268,7 @@ class SmartBelt:
         if posture in ("walk", "run"):
             f = self._cadence_hz(posture, speed_mps)
             bounce: cython.double = self._run_bounce if posture == "run" else self._walk_bounce
-            amp, jitter = (2.0 * math.pi * f) ** 2 * bounce, self._gait_jitter
+            amp, jitter = (2.0 * _PI * f) ** 2 * bounce, self._gait_jitter
         elif posture == "rest":
             f, amp, jitter = self._rest_hz, self._rest_amp, self._rest_jitter
         else:  # stop: the body is still
@@ -273,8 +276,8 @@ class SmartBelt:
         # plain Python on the handful of samples of one control period: the same operations, in the
         # same order, as the array expression G + amp·sin(φ0 + cumsum(dφ)) + σ·z (bit-identical)
         z: list = self._normals.standard_normal(2 * n)  # sensor noise, then phase jitter
-        step: cython.double = 2.0 * math.pi * f * dt
-        jitter_step: cython.double = jitter * math.sqrt(dt) if jitter > 0.0 and amp > 0.0 else 0.0
+        step: cython.double = 2.0 * _PI * f * dt
+        jitter_step: cython.double = jitter * _sqrt(dt) if jitter > 0.0 and amp > 0.0 else 0.0
         phase0: cython.double = self._gait_phase
         noise: cython.double = self._acc_noise
         out: list = []
@@ -291,7 +294,7 @@ class SmartBelt:
             turned = turned + dphi if k else dphi
             zk = z[k]
             out.append(GRAVITY_MPS2 + amp * _sin(phase0 + turned) + noise * zk)  # the C library's sin, as math.sin
-        self._gait_phase = (phase0 + turned) % (2.0 * math.pi)
+        self._gait_phase = (phase0 + turned) % (2.0 * _PI)
         return out
 
     @cython.cfunc
@@ -333,7 +336,7 @@ class SmartBelt:
         wobble_rps: cython.double
         if posture in ("walk", "run"):
             f_stride = 0.5 * self._cadence_hz(posture, speed_mps)  # one stride = two steps
-            wobble_rps = self._wobble_rad * 2.0 * math.pi * f_stride
+            wobble_rps = self._wobble_rad * 2.0 * _PI * f_stride
         else:
             f_stride, wobble_rps = 0.0, 0.0
         sigma: cython.double = self._gyro_noise_rps
@@ -346,7 +349,7 @@ class SmartBelt:
         omega: cython.double
         t_k: cython.double
         for k in range(m):
-            self._stride_phase = (self._stride_phase + 2.0 * math.pi * f_stride * dt) % (2.0 * math.pi)
+            self._stride_phase = (self._stride_phase + 2.0 * _PI * f_stride * dt) % (2.0 * _PI)
             nk = noise[k]
             raw = turn_rate_rps + wobble_rps * _cos(self._stride_phase) + self._bias_rps + nk  # the C library's cos, as math.cos
             self._ma[self._n_gyro % n_ma] = raw

@@ -105,6 +105,53 @@ class LFFix(NamedTuple):
     reliable: Any
 
 
+@cython.final
+@cython.cclass
+class _Plain:
+    """The LF config's values that every burst reads, as C doubles (read once per config: a config is
+    frozen; pydantic's field reads cost more than the arithmetic of a burst), and its RSSI table."""
+
+    forward = cython.declare(cython.double)
+    half = cython.declare(cython.double)
+    spacing = cython.declare(object)  # antenna_spacing_m, the Python float (dw**2 is Python's float power)
+    half_angle_deg = cython.declare(cython.double)
+    half_angle_rad = cython.declare(cython.double)
+    loss = cython.declare(cython.double)
+    sensitivity = cython.declare(cython.double)
+    common = cython.declare(cython.double)
+    scatter = cython.declare(cython.double)
+    own = cython.declare(cython.double)
+    step = cython.declare(cython.double)
+    at_1m = cython.declare(cython.double)
+    falloff = cython.declare(cython.double)
+    reliable_m = cython.declare(cython.double)
+    table = cython.declare(tuple)
+
+    def __init__(self, cfg: LFConfig):
+        self.forward, self.spacing = cfg.antenna_forward_m, cfg.antenna_spacing_m
+        self.half = 0.5 * cfg.antenna_spacing_m  # antenna_positions(): left at +half, right at -half
+        self.half_angle_deg = cfg.reliable_half_angle_deg
+        self.half_angle_rad = math.radians(cfg.reliable_half_angle_deg)
+        self.loss, self.sensitivity = cfg.distortion_loss_db_per_deg, cfg.sensitivity_db
+        self.common, self.scatter, self.own = cfg.noise_common_db, cfg.distortion_noise_db_per_deg, cfg.noise_antenna_db
+        self.step, self.at_1m, self.falloff = cfg.rssi_step_db, cfg.rssi_at_1m_db, cfg.falloff_db_per_decade
+        self.reliable_m = cfg.reliable_range_m
+        self.table = _table(cfg.rssi_at_1m_db, cfg.falloff_db_per_decade, cfg.table_min_m, cfg.table_max_m, cfg.table_step_m)
+
+
+_plain_of: object = None  # the config whose values _plain_last holds
+_plain_last: object = None
+
+
+@cython.cfunc
+def _plain(cfg) -> _Plain:
+    """``cfg``'s :class:`_Plain` (made anew for another config)."""
+    global _plain_of, _plain_last
+    if cfg is not _plain_of:
+        _plain_of, _plain_last = cfg, _Plain(cfg)
+    return _plain_last
+
+
 def antenna_positions(cfg: LFConfig) -> tuple[tuple[float, float], tuple[float, float]]:
     """Body-frame positions of the left and the right antenna, m (seed 002 §3.3, Fig. 6)."""
     half = 0.5 * cfg.antenna_spacing_m
@@ -115,9 +162,8 @@ def calibration_curve(cfg: LFConfig, distance_m: float) -> float:
     """Noiseless RSSI (dB) at ``distance_m`` from one antenna: 1/r³ near field, 60 dB/decade
     (distances clamped to 1 cm, nan kept)."""
     d: cython.double = _MIN_DISTANCE_M if distance_m < _MIN_DISTANCE_M else distance_m
-    at_1m: cython.double = cfg.rssi_at_1m_db
-    falloff: cython.double = cfg.falloff_db_per_decade
-    return at_1m - falloff * float(np.log10(d))
+    p: _Plain = _plain(cfg)
+    return p.at_1m - p.falloff * float(np.log10(d))
 
 
 def lf_rssi(cfg: LFConfig, x: float, y: float, rng: np.random.Generator) -> tuple[float, float, bool]:
@@ -126,34 +172,35 @@ def lf_rssi(cfg: LFConfig, x: float, y: float, rng: np.random.Generator) -> tupl
     when the carrier is below the sensitivity. Draws 5 normals whatever is received (reproducible):
     [common, own left, own right, scatter left, scatter right]."""
     # seed 002 §3.3: two antennas 20 cm apart send in turn; the belt measures each RSSI.
-    fwd: cython.double = cfg.antenna_forward_m
-    half: cython.double = 0.5 * cfg.antenna_spacing_m  # antenna_positions(): left at +half, right at -half
+    p: _Plain = _plain(cfg)
+    fwd: cython.double = p.forward
+    half: cython.double = p.half  # antenna_positions(): left at +half, right at -half
     dx: cython.double = x - fwd
     d_l: cython.double = _hypot(dx, y - half)
     d_r: cython.double = _hypot(dx, y - -half)
     # Angular distortion beyond the reliable region (seed 002 §3.5, Fig. 11), bearing from the midpoint.
     bearing_deg: cython.double = math.degrees(float(np.arctan2(y, dx)))
-    excess_deg: cython.double = abs(bearing_deg) - cfg.reliable_half_angle_deg
+    excess_deg: cython.double = abs(bearing_deg) - p.half_angle_deg
     excess_deg = 0.0 if excess_deg <= 0.0 else excess_deg  # max(0, ·), nan kept
     carrier_l: cython.double = calibration_curve(cfg, d_l)
     carrier_r: cython.double = calibration_curve(cfg, d_r)
-    loss: cython.double = cfg.distortion_loss_db_per_deg
+    loss: cython.double = p.loss
     if bearing_deg > 0.0:  # user on the left → the right antenna is the far one
         carrier_r = carrier_r - loss * excess_deg
     else:
         carrier_l = carrier_l - loss * excess_deg
     # seed 002 §3.3: beyond the receiver's sensitivity the RSSI cannot be calculated.
-    sensitivity: cython.double = cfg.sensitivity_db
+    sensitivity: cython.double = p.sensitivity
     received: cython.bint = carrier_l >= sensitivity and carrier_r >= sensitivity
     z_common, z_own_l, z_own_r, z_scat_l, z_scat_r = rng.standard_normal(5).tolist()
     if not received:
         return math.nan, math.nan, False
-    common: cython.double = cfg.noise_common_db * z_common
-    scatter_sigma: cython.double = cfg.distortion_noise_db_per_deg * excess_deg
-    own: cython.double = cfg.noise_antenna_db
+    common: cython.double = p.common * z_common
+    scatter_sigma: cython.double = p.scatter * excess_deg
+    own: cython.double = p.own
     rssi_l: cython.double = carrier_l + common + own * z_own_l + scatter_sigma * z_scat_l
     rssi_r: cython.double = carrier_r + common + own * z_own_r + scatter_sigma * z_scat_r
-    step: cython.double = cfg.rssi_step_db
+    step: cython.double = p.step
     if step > 0.0:  # round() is half-to-even
         rssi_l = _round(rssi_l / step) * step
         rssi_r = _round(rssi_r / step) * step
@@ -173,7 +220,8 @@ def rssi_table(cfg: LFConfig) -> tuple[tuple[float, ...], tuple[float, ...]]:
     """The robot's RSSI→distance table (seed 002 §3.3: "We created an RSSI value table using the
     distance"): the noiseless calibration curve on the configured distance grid, built once per
     parameter set and cached. Returns (rssi_db increasing, distance_m decreasing)."""
-    return _table(cfg.rssi_at_1m_db, cfg.falloff_db_per_decade, cfg.table_min_m, cfg.table_max_m, cfg.table_step_m)
+    p: _Plain = _plain(cfg)
+    return p.table
 
 
 def rssi_to_distance(cfg: LFConfig, rssi_db: float) -> float:
@@ -210,7 +258,8 @@ def triangle_formed(dl: float, dr: float, dw: float) -> bool:
 def _paper_to_body(cfg: LFConfig, x_p, y_p, theta_p):
     """The paper's frame (x right, y forward, θ clockwise, origin between the antennas) → body frame
     (x forward, y left, direction counter-clockwise, origin at the robot's centre)."""
-    return y_p + cfg.antenna_forward_m, -x_p, -theta_p
+    p: _Plain = _plain(cfg)
+    return y_p + p.forward, -x_p, -theta_p
 
 
 _NO_FIX = LFFix(math.nan, math.nan, math.nan, math.nan, False, False)
@@ -223,7 +272,8 @@ def position_from_distances(cfg: LFConfig, dl: float, dr: float) -> LFFix:
     x = dl·cos α − dw/2, y = dl·sin α (Eq. 2); d = √(x² + y²), θ = atan(x/y) (Eq. 3); then the
     paper's frame is mapped to the body frame.
     """
-    dw = cfg.antenna_spacing_m  # (a Python float: dw**2 is Python's float power in both forms)
+    p: _Plain = _plain(cfg)
+    dw = p.spacing  # (a Python float: dw**2 is Python's float power in both forms)
     if not triangle_formed(dl, dr, dw):  # seed 002, Eq. 1
         return _NO_FIX
     # seed 002, Eq. 2 (the clip guards rounding)
@@ -237,7 +287,7 @@ def position_from_distances(cfg: LFConfig, dl: float, dr: float) -> LFFix:
     d: cython.double = _c_sqrt(x_p * x_p + y_p * y_p)
     theta_p: cython.double = float(np.arctan(x_p / y_p if y_p != 0.0 else np.float64(x_p) / y_p))
     x_fwd, y_left, direction = _paper_to_body(cfg, x_p, y_p, theta_p)
-    reliable: cython.bint = d <= cfg.reliable_range_m and abs(direction) <= math.radians(cfg.reliable_half_angle_deg)
+    reliable: cython.bint = d <= p.reliable_m and abs(direction) <= p.half_angle_rad
     return LFFix(x_fwd, y_left, d, direction, True, reliable)
 
 

@@ -37,3 +37,4 @@ cdef class Knowledge:
 
     cpdef void dead_reckon(self, double now_s, double vx, double vy, double yaw_rad)
     cpdef double formation_offset(self, double now_s, double yaw_rad, double fresh_s)
+    cpdef object number_of(self, object node_id)

@@ -146,6 +146,14 @@ class Knowledge:
             self.odometry_xy = (x + (c * vx - s * vy) * dt, y + (s * vx + c * vy) * dt)
 
     @cython.ccall
+    def number_of(self, node_id) -> object:
+        """The member number of robot ``node_id`` in :attr:`members` (the first; None: not a member)."""
+        for m, n in self.members.items():
+            if n == node_id:
+                return m
+        return None
+
+    @cython.ccall
     def formation_offset(self, now_s: cython.double, yaw_rad: cython.double, fresh_s: cython.double) -> cython.double:
         """ψ = θ_master − θ_self on a slave from its heading exchange with the master (member 0), carried over our own
         rotation since (``yaw_rad``, own AHRS) and the formation's turn since (the master's broadcast ω, seed 000 §3.5);

@@ -341,12 +341,7 @@ class TokenRing:
         seq = frame.payload["seq"]
         self.token_seq = max(seq, self.token_seq)
         slot = self._current_plan().answer_slot_s
-        holder = None
-        if slot > 0:  # the holder's member number: a loop over the typed table, no generator object
-            for m, n in cython.cast(Knowledge, node.know, typecheck=True).members.items():
-                if n == src:
-                    holder = m
-                    break
+        holder = cython.cast(Knowledge, node.know, typecheck=True).number_of(src) if slot > 0 else None
         if holder is None:
             node.send(_TX_START_ACK, src)
         else:  # crowded ring: in member order after the holder

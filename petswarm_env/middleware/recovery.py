@@ -134,7 +134,7 @@ class RecoveryManager(Leaving):
         lost and its update took that member out of the new master's swarm (chosen; loss 0.3, the master's IR fault,
         seed 115)."""
         node = self.node
-        if node.state != "master" or node.know.members.get(0) != node.node_id or node_id in self._lost:
+        if node.state != "master" or node.member_node(0) != node.node_id or node_id in self._lost:
             return
         self._lost.append(node_id)
         if not self.busy:  # busy from now on, not from when the process first runs: one recovery at a time
@@ -211,7 +211,7 @@ class RecoveryManager(Leaving):
         when it was started, so no refill of the periodic scan or second recovery runs beside it:
         they would share the join manager's answers)."""
         self.busy = True
-        while self._lost and self.node.state == "master" and self.node.know.members.get(0) == self.node.node_id:
+        while self._lost and self.node.state == "master" and self.node.member_node(0) == self.node.node_id:
             yield from self._remove(self._lost.pop(0))
             if not self._lost and self.open_members():
                 yield from self._refill()
@@ -221,7 +221,7 @@ class RecoveryManager(Leaving):
         node = self.node
         know = node.know
         members = dict(know.members)
-        lost = next((m for m, n in members.items() if n == node_id), None)
+        lost = know.number_of(node_id)
         if lost is None or lost == 0:
             return
         # the robot that handed its user over to this master leaves for its fault (its bid request): the master

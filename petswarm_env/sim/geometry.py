@@ -193,7 +193,7 @@ def ring_first_hits(
     out = np.empty((len(o), len(ang)))
     table = walls.table if walls is not None else np.empty(0)
     ring_cast(o, len(o), th, ang, np.ascontiguousarray(_as_points(centers)),
-              np.ascontiguousarray(np.asarray(radii, dtype=float).reshape(-1)), table, max_range, out)
+              np.ascontiguousarray(np.asarray(radii, dtype=float).reshape(-1)), table, max_range, out, np.empty((len(ang), 2)))
     return out
 
 
@@ -201,18 +201,22 @@ def ring_cast(origins: cython.const[cython.double][:, ::1], n: cython.Py_ssize_t
               headings: cython.const[cython.double][::1], angles: cython.const[cython.double][::1],
               centers: cython.const[cython.double][:, ::1], radii: cython.const[cython.double][::1],
               walls: cython.const[cython.double][::1], max_range: cython.double,
-              out: cython.double[:, ::1]) -> None:
+              out: cython.double[:, ::1], dirs: cython.double[:, ::1]) -> None:
     """:func:`ring_first_hits` on float64 arrays, into ``out`` (n, K): the rays of the first ``n``
     origins (rows of ``origins``), ``walls`` a :attr:`SegmentSet.table` (segments whose grown box
-    misses every origin are left out: none of their hits is within reach). The env's ring calls it
-    on the world's truth arrays as they are (no conversion).
+    misses every origin are left out: none of their hits is within reach); ``dirs`` (K, 2) is
+    scratch for one origin's ray directions. The env's ring calls it on the world's truth arrays as
+    they are (no conversion).
 
-    A loop over (origin, ray, circle) in C doubles in the compiled core (a handful of robots: the
+    A loop over (origin, circle, ray) in C doubles in the compiled core (a handful of robots: the
     arithmetic is a few hundred operations, less than the numpy calls it replaced cost), the same
     IEEE operations in the same order as the numpy formulation: ``cc = |m|² − r²`` (the origin
     inside or on a circle: never seen), ``b = d·m``, ``disc = b² − cc`` (a miss when negative),
     the root ``t = −b − √disc`` kept negated, ``tn = b + √disc`` (rounding to nearest is symmetric,
     so ``−tn`` is ``t`` to the bit, up to the sign of a zero), and ``tn > 0``: behind the origin.
+    Each ray's nearest root is kept in its ``out`` cell while the circles go by in their order, so
+    a circle out of reach of the origin (or around it) is left out once for all its rays, not once
+    per ray: in a large swarm most pairs of robots are out of each other's reach.
     One function on purpose: its loop runs for every ray of every robot at every step, on C locals."""
     nk: cython.Py_ssize_t = angles.shape[0]
     nc: cython.Py_ssize_t = centers.shape[0]
@@ -242,7 +246,6 @@ def ring_cast(origins: cython.const[cython.double][:, ::1], n: cython.Py_ssize_t
     b: cython.double
     disc: cython.double
     tn: cython.double
-    best: cython.double
     denom: cython.double
     aox: cython.double
     aoy: cython.double
@@ -264,30 +267,34 @@ def ring_cast(origins: cython.const[cython.double][:, ::1], n: cython.Py_ssize_t
         for k in range(nk):
             ang_k = angles[k]
             ang_k = a + ang_k
-            dx = _c_cos(ang_k)
-            dy = _c_sin(ang_k)
-            best = -inf  # the largest tn: the nearest hit in front
-            for j in range(nc):
-                mx = ox - centers[j, 0]
-                my = oy - centers[j, 1]
-                rj = radii[j]
-                cc = mx * mx + my * my
-                lim = far + rj
-                if cc > lim * lim:
-                    continue  # every hit of it lies beyond reach (t >= |m| - r): it cannot be the answer
-                cc = cc - rj * rj
-                if cc <= 0.0:
-                    cc = inf
-                b = dx * mx + dy * my
+            dirs[k, 0] = _c_cos(ang_k)
+            dirs[k, 1] = _c_sin(ang_k)
+            out[i, k] = -inf  # the largest tn: the nearest hit in front
+        for j in range(nc):
+            mx = ox - centers[j, 0]
+            my = oy - centers[j, 1]
+            rj = radii[j]
+            cc = mx * mx + my * my
+            lim = far + rj
+            if cc > lim * lim:
+                continue  # every hit of it lies beyond reach (t >= |m| - r): it cannot be the answer
+            cc = cc - rj * rj
+            if cc <= 0.0:
+                continue  # the origin inside or on it: every ray's tn would be b + √inf, behind (-inf), never kept
+            for k in range(nk):
+                b = dirs[k, 0] * mx + dirs[k, 1] * my
                 disc = b * b - cc
                 if disc < 0.0:
                     disc = inf
                 tn = b + _c_sqrt(disc)
                 if tn > 0.0:
                     tn = -inf
-                if tn > best:
-                    best = tn
-            near = -best
+                if tn > out[i, k]:
+                    out[i, k] = tn
+        for k in range(nk):
+            dx = dirs[k, 0]
+            dy = dirs[k, 1]
+            near = -out[i, k]
             for j in range(nw):
                 w = 8 * j
                 if not (walls[w] <= x1 and walls[w + 1] <= y1 and walls[w + 2] >= x0 and walls[w + 3] >= y0):

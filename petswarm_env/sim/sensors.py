@@ -275,6 +275,7 @@ class UltrasonicRing:
     _angles_c = cython.declare(cython.double[::1])  # the same three as C doubles (held: no conversion per cast)
     _rims_c = cython.declare(cython.double[::1])
     _walls_c = cython.declare(cython.double[::1])
+    _dirs_c = cython.declare(cython.double[:, ::1])  # the cast's scratch: one robot's ray directions
 
     def __init__(self, cfg: RobotConfig, wall_a: np.ndarray, wall_b: np.ndarray,
                  angles_rad: list[float] | None = None, radii_m: list[float] | None = None):
@@ -290,6 +291,7 @@ class UltrasonicRing:
         self._angles_c = np.ascontiguousarray(self.angles, dtype=float)
         self._rims_c = self._rims
         self._walls_c = self.walls.table
+        self._dirs_c = np.empty((self.count, 2))
 
     def ranges(self, world: Truth, indices: list[int], rng) -> np.ndarray:
         """Readings (m) of the robots ``indices``: (len(indices), count); the noise is the next
@@ -315,7 +317,7 @@ class UltrasonicRing:
             o = c
         else:
             o = pos
-        _ring_cast(o, n, th, self._angles_c, c, radii, self._walls_c, self.reach_m, out)
+        _ring_cast(o, n, th, self._angles_c, c, radii, self._walls_c, self.reach_m, out, self._dirs_c)
         if self.noise_m > 0:
             normals = rng if isinstance(rng, NormalStream) else NormalStream(rng, n * self.count)  # (a generator: exactly d.size draws)
             _readings(out, self._rims_c, normals, self.noise_m, self.min_range_m, self.max_range_m)

@@ -28,6 +28,10 @@ cdef class Diagnosis:
     cdef double _us_echo_margin
     cdef double _slot_over_s
     cdef dict _ir_seen
+    cdef object _starts_of  # the ring whose slot_starts dict _starts is
+    cdef dict _starts
+    cdef list _seen_keys  # by place in _starts: its key, and the very start object found evaluated there
+    cdef list _seen_marks
     cdef int _ir_miss
     cdef set _ir_missed_from
     cdef double _ir_first_miss_s
@@ -49,6 +53,7 @@ cdef class Diagnosis:
     cpdef on_ahrs(self, double now_s, double yaw)
     cdef void _check_turn(self, double now_s, double yaw)
     cdef void _check_ir(self, double now_s)
+    cdef void _mark_seen(self, Py_ssize_t p, object src, object start)
     cdef void _ir_hit(self)
     cdef void _ir_missed(self, double now_s, object src)
     cdef void _check_ring(self, object ranges, object present, double now_s, bint rang)

@@ -123,6 +123,8 @@ class Diagnosis:
         p = cfg.protocol
         self._slot_over_s = p.ring_response_timeout_s * 2 + p.ir_tx_s + 0.02  # an IR slot is over by then
         self._ir_seen = {}  # announcer -> start of its latest slot evaluated
+        self._starts_of, self._starts = None, None  # the ring whose slot starts _starts is (ring.slot_starts)
+        self._seen_keys, self._seen_marks = [], []  # by place in that dict: its key and the start found evaluated there
         self._ir_miss = 0
         self._ir_missed_from = set()  # the slots' holders of the misses since the last fix
         self._ir_first_miss_s = -math.inf  # the first of those misses
@@ -205,15 +207,27 @@ class Diagnosis:
         me = self.node_id
         know = None
         t0: cython.double
-        starts: dict = ring.slot_starts
+        if self._starts_of is not ring:  # the ring's dict of slot starts (its one dict for its life), read once per ring
+            self._starts_of, self._starts = ring, ring.slot_starts
+        starts: dict = self._starts
+        keys: list = self._seen_keys
+        marks: list = self._seen_marks
+        n_marks: cython.Py_ssize_t = len(marks)
+        p: cython.Py_ssize_t = -1
         for src, start in starts.items():
+            p += 1
+            if p < n_marks and marks[p] is start and keys[p] is src:
+                continue  # this very start was found evaluated at this place of the dict: evaluated (the most frequent)
             t0 = start
             if now_s - t0 < over:
                 continue  # not over yet
             last = seen.get(src)
             if (last is not None and t0 <= cython.cast(cython.double, last)) or src == me:
-                continue  # evaluated already (the most frequent), or our own
+                if src != me:
+                    self._mark_seen(p, src, start)
+                continue  # evaluated already, or our own
             seen[src] = start
+            self._mark_seen(p, src, start)
             if know is None:
                 know = self._know_of()
             fixes: dict = know.ir
@@ -223,6 +237,18 @@ class Diagnosis:
                 self._ir_hit()
             elif ranges_m.get(src, math.inf) <= IR_EXPECT_RANGE_M and src in know.members.values():
                 self._ir_missed(now_s, src)
+
+    @cython.cfunc
+    def _mark_seen(self, p: cython.Py_ssize_t, src: object, start: object) -> cython.void:
+        """``start`` (the ring's very float object), the slot start of ``src`` at place ``p`` of the ring's dict, is
+        evaluated (``_ir_seen`` holds it or a later one): the next scans pass it by two identity tests instead of a
+        dictionary lookup (a later start of ``src`` is another object; a dict reordered, a key that is not ``src``)."""
+        keys: list = self._seen_keys
+        while len(keys) <= p:
+            keys.append(None)
+            self._seen_marks.append(None)
+        keys[p] = src
+        self._seen_marks[p] = start
 
     def neighbour_ir_broken(self) -> None:
         """A neighbour reported its own IR module broken (its bid request lists the sensors that work,

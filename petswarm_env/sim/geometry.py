@@ -283,6 +283,8 @@ def ring_cast(origins: cython.const[cython.double][:, ::1], n: cython.Py_ssize_t
                 continue  # the origin inside or on it: every ray's tn would be b + √inf, behind (-inf), never kept
             for k in range(nk):
                 b = dirs[k, 0] * mx + dirs[k, 1] * my
+                if b > 0.0:
+                    continue  # the circle behind the ray (tn = b + √disc > 0, or b + √inf): never kept
                 disc = b * b - cc
                 if disc < 0.0:
                     disc = inf

@@ -424,18 +424,21 @@ def _fill(plan: _Plan, v: cython.double[::1], know: Knowledge, links, now: cytho
     v[anchor + 3] = 1.0
     own: cython.Py_ssize_t = know.member
     nslots: cython.Py_ssize_t = len(member_slots)
-    # the anchor: the lowest other slave's member number with a fresh fix (one pass over the members)
+    # the anchor: the lowest other slave's member number with a fresh fix, below the formation's slot count. Member
+    # numbers are formation slots (0 the master, 1.. the slaves: Knowledge.members), so they are tried upwards from 1
+    # and the first with a fresh fix is the lowest (most slaves find one among the first few, not after all members)
     fix = None
     member: cython.Py_ssize_t
     first: cython.Py_ssize_t = nslots
-    for member, nid in members.items():
-        if member == 0 or member == own or member >= first:
+    for member in range(1, nslots):
+        if member == own:
             continue
-        m = irs.get(nid)
+        m = irs.get(members.get(member))
         if m is not None:
             mt = m.time_s
             if now - mt < age_scale:
                 first, fix = member, m
+                break
     if fix is not None:
         m = fix
         mt = m.time_s

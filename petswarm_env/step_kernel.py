@@ -327,9 +327,8 @@ def stale_fixes(robot_ids: list, nodes: dict, start_s: float, age_s: float) -> c
         formation, member = node.formation, know.member  # its reference links (Station.reference_links, read here)
         links = formation.links if formation is not None and member > 0 else None
         for lk in (links.get(member, ()) if links is not None else ()):
-            nb = members.get(lk.neighbour)
-            if nb in irs:
-                fix = irs[nb]
+            fix = irs.get(members.get(lk.neighbour))  # (a fix is never None: one lookup, not a test and a lookup)
+            if fix is not None:
                 t = fix.time_s
                 if not found or t > newest:
                     newest, found = t, True

@@ -289,6 +289,8 @@ class SessionCore:
             # paired again with an organized swarm: the user walks on; after a leading master's succession once
             # its successor stands ahead of them (the rule after a handover, succession.in_place_to_resume: a
             # successor paired from its slot beside or behind its user must out-pace a walking user to get there)
+            if self._succeeded:  # its swarm re-forms about it as the user walks on: as after a mode change, its
+                self.swarm.mode_changed_s = self.clock.now  # echoes are members for MODE_SETTLE_S (leading, seed 1301)
             self.paused = self._succeeded = False
             user.walking = True
         if self._returning:

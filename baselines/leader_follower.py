@@ -86,6 +86,7 @@ from petswarm_env.scenarios import ACTIVITIES
 
 _F32 = array("f", [0.0])
 _COS45 = math.cos(math.pi / 4)
+_TIE_SIN = math.sin(math.radians(10.0))  # step 1c: an echo this close to the master's direction is straight ahead (chosen)
 _RIM_M = 0.25  # step 1d: a body's radius taken from its echo to its centre (a Pet-Bot's ~0.2 m, a person's ~0.25 m; chosen)
 
 
@@ -314,8 +315,11 @@ class LeaderFollowerPolicy(Policy):
             # with (the fix is carried over our own motion in the swarm, the swarm's motion is step
             # 2's feed-forward), until its IR reaches us again; an echo in the way (within
             # ``detour_m``, less than 45° off the master's direction: the user or a robot between us,
-            # whose body also blocks the IR) is rounded clockwise (chosen: by the side nearer the
-            # master's direction, a slave straight behind its user dithered from side to side)
+            # whose body also blocks the IR) is rounded on the side away from it: an echo right of the
+            # master's direction is passed on our right; one within ``_TIE_SIN`` of it, clockwise
+            # (chosen: a slave straight behind its user dithered from side to side; always clockwise,
+            # a slave whose echo stood 40° right of the master's direction drove round the user's far
+            # side, lost the echo between two rays, came back, and stood in front of its user 20 s)
             j = self._j_mir_xy
             mx, my = s[j], s[j + 1]
             dist = max(math.hypot(mx, my), 1e-9)
@@ -323,7 +327,10 @@ class LeaderFollowerPolicy(Policy):
             if self.detour > 0:
                 k, ux_k, uy_k = min(self._us_rays, key=lambda r: o[r[0]])
                 if s[k] < min(self.detour, dist) and ux_k * dx + uy_k * dy > _COS45:
-                    dx, dy = uy_k, -ux_k  # round it clockwise, as step 1d circles an echo
+                    if dx * uy_k - dy * ux_k < -_TIE_SIN:
+                        dx, dy = -uy_k, ux_k  # the echo right of our way: round it counter-clockwise
+                    else:
+                        dx, dy = uy_k, -ux_k  # round it clockwise, as step 1d circles an echo
             vx, vy = vx + self.rejoin * dx, vy + self.rejoin * dy
         else:
             # step 1d, nothing in IR sight yet (the user or a robot may stand between us and the

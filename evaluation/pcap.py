@@ -296,6 +296,7 @@ class PcapRecorder:
         self._on_air: dict[int, tuple[Frame, bytes, int, float]] = {}  # id(frame) -> frame, packet, flags, end
         self.episode_start_s: float | None = None
         self.counts = {"sent": 0, "busy": 0, **{o: 0 for o in OUTCOMES}}  # records from the episode's start
+        self.never_sent = 0  # frames a MAC numbered that never went on the air, the whole recording
 
     def _next_dsn(self, station: int) -> int:
         dsn = self._dsn.get(station, -1) + 1
@@ -326,6 +327,7 @@ class PcapRecorder:
 
     def busy(self, now: float, station: int, frame: Frame) -> None:
         self._next_dsn(station)  # the MAC numbered it; it never went on the air
+        self.never_sent += 1
         if self.episode_start_s is not None:
             self.counts["busy"] += 1
 
@@ -347,7 +349,9 @@ class PcapRecorder:
         comment = (f"petswarm radio trace: scenario {env.scenario if env.episode is not None else '?'}, {n_robots} robots. The episode starts at "
                    f"t = {t0:.9f} s (the end of reset: pairing and organize come before it), with record {first}: "
                    f"the episode summary's frames count the records from frame.number {first} on: sent = outbound "
-                   "records, lost / collided = inbound records whose comment starts with 'lost ' / 'collided '.")
+                   "records, lost / collided = inbound records whose comment starts with 'lost ' / 'collided '. "
+                   f"{self.never_sent} frames were numbered by their MAC and never went on the air (the channel busy at "
+                   "every clear-channel assessment): their sequence numbers are missing from their robot's outbound records.")
         bitrate = env.cfg.radio.bitrate_bps
         head = section_header(comment) + b"".join(
             interface(f"robot_{i}", f"robot {i}'s 802.15.4 radio, short address 0x{i:04x}", bitrate) for i in range(n_robots))

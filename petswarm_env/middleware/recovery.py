@@ -275,23 +275,22 @@ class RecoveryManager(Leaving):
         return self._least_move(members, formation, None, building)[1]
 
     def replan_building(self) -> None:
-        """Master, leading, while it stands with its user for the building (seed 000 Fig. 10): when its IR fixes of
-        every member place them so that the standard table or its mirror image, slots given by the least total move
-        (:meth:`removal_plan`), would save at least :data:`REPLAN_GAIN_M` over their numbers, it renumbers them on
-        that table (an acknowledged member update, :meth:`reassign`; a table re-rooted by a master change is kept,
-        Table 3). Table 2 numbers the joining robots by their
-        RSSI distances, blind to the side each stands on, and in leading the user stands among the rear slots: a
-        slave given a slot on the other side had to pass its user and the robots beside them, and stalled there
-        (chosen; leading straight, seeds 1200-1239: 4 formations never built, 2 after 20 s)."""
+        """Master, while it stands for the building (seed 000 Fig. 10): when its IR fixes of every member place them
+        so that the standard table or its mirror image, slots given by the least total move (:meth:`removal_plan`),
+        would save at least :data:`REPLAN_GAIN_M` over their numbers, it renumbers them on that table (an
+        acknowledged member update, :meth:`reassign`; a table re-rooted by a master change is kept, Table 3).
+        Table 2 numbers the joining robots by their RSSI distances, blind to the side each stands on (chosen): in
+        leading the user stands among the rear slots, and a slave given a slot on the other side had to pass its
+        user and the robots beside them, and stalled there (leading straight, seeds 1200-1239: 4 formations never
+        built, 2 after 20 s); in following two slaves each on the other's side met head-on behind the master, their
+        keep-outs holding them apart, 0.8-1.0 m off for 40 s (1 + 4, seed 86)."""
         node = self.node
         know = node.know
-        if self.busy or node.formation is None or know.mode != "leading" or node.cfg.swarm.formation == "custom":
+        if self.busy or node.formation is None or node.cfg.swarm.formation == "custom":
             return
-        vx, vy, _ = node.odometry.read()
         now = node.clock.now
         slaves = [n for m, n in know.members.items() if m != 0]
-        if math.hypot(vx, vy) >= STANDING_MPS or not slaves \
-                or any(n not in know.ir or now - know.ir[n].time_s > FRESH_IR_S for n in slaves):
+        if not slaves or any(n not in know.ir or now - know.ir[n].time_s > FRESH_IR_S for n in slaves):
             return
         members = dict(know.members)
         standard = formation_for_mode(node.cfg.swarm, len(members), know.mode, leading_user(node.cfg))
@@ -302,7 +301,10 @@ class RecoveryManager(Leaving):
             return  # numbers with a gap (a removal under way)
         now_total = sum(row[m - 1] for m, row in zip(held, cost))
         table, formation, mirrored = self.removal_plan(members, standard, building=True)
-        if self._least_move(table, formation, None, True)[0] < now_total - REPLAN_GAIN_M:
+        if self._least_move(table, formation, None, True)[0] >= now_total - REPLAN_GAIN_M:
+            return
+        vx, vy, _ = node.odometry.read()  # (read last: each read draws the sensor's noise)
+        if math.hypot(vx, vy) < STANDING_MPS:
             self.mirrored = mirrored
             self.replans.append((now, mirrored))
             self.reassign(table, formation)

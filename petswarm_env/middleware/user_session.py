@@ -289,6 +289,8 @@ class SessionCore:
             # paired again with an organized swarm: the user walks on; after a leading master's succession once
             # its successor stands ahead of them (the rule after a handover, succession.in_place_to_resume: a
             # successor paired from its slot beside or behind its user must out-pace a walking user to get there)
+            if self._succeeded:  # its swarm re-forms about it as the user walks on: as after a mode change, its
+                self.swarm.mode_changed_s = self.clock.now  # echoes are members for MODE_SETTLE_S (leading, seed 1301)
             self.paused = self._succeeded = False
             user.walking = True
         if self._returning:
@@ -322,6 +324,8 @@ class SessionCore:
             self._alert_emergency(now)
         elif state == "emergency" and tracker.last_fix_s > self._emergency_since:
             self.state = state = self.previous_mode
+            if self.alert_pause_s is None:  # a user who stood at the alert stops stepping back at the fix
+                user.returning = self._returning = False
         swarm.emergency = state == "emergency"
         # exception: an obstacle in the leading robot's travel direction (behind it: it faces the user) while it
         # travels — its user walks or runs by the belt's report (seed 002 §3.4); a leading robot whose user stands
@@ -372,7 +376,10 @@ class SessionCore:
     @cython.cfunc
     def _alert_emergency(self, now: cython.double) -> cython.void:
         """No LF fix of the user for ``master.lost_user_s``: the belt's alert (seed 002 Fig. 4). A walking user
-        stops and steps back toward their robot (:meth:`_walk_back`); ``now``: the master's own clock."""
+        stops and steps back toward their robot (:meth:`_walk_back`); ``now``: the master's own clock. A user who
+        stood (a succession's pause, the building) steps back as well, until the master's fix ends the emergency
+        (chosen: standing 3.4 m from a leading successor that had swung in ahead of them, out of its LF reach,
+        the user and the stopped swarm waited for each other to the end; leading, seed 1327)."""
         self._emergency_since = now
         self.events["emergencies"] += 1
         self.events["alerts_to_belt"] += 1
@@ -381,6 +388,8 @@ class SessionCore:
             user.walking = False
             self.paused = self._returning = True
             self.alert_pause_s = now  # they walk on at the master's own LF fix of them in place (_in_place_to_resume)
+        else:
+            self._returning = True
 
     @cython.cfunc
     def _walk_back(self) -> cython.void:

@@ -174,12 +174,21 @@ def test_a_leading_master_renumbers_its_members_on_the_mirror_image_when_their_s
     they stalled 1.0-1.2 m off and the formation never built in 60 s (seeds 1200-1239: 4 never, 2 after 20 s).
     The master, standing with its user, renumbers its members on the mirror image of its table once its IR fixes
     show that saves at least ``REPLAN_GAIN_M`` of their total move; the experimenter's references follow the
-    swarm's tables. A following swarm is never renumbered so (the crossing passes behind the master)."""
+    swarm's tables."""
     env = petswarm_env.parallel_env(**{"swarm.mode": "leading", "user.scenario": "straight", "seed": 1200})
     s = _run(env)
     master = env.episode.truth.swarms[0].master
     assert [m for _, m in master.recovery.replans] == [True] and master.recovery.mirrored
     assert math.isfinite(s["building_time_s"]) and s["building_time_s"] < 15.0, s["building_time_s"]
-    following = petswarm_env.parallel_env(**{"user.scenario": "straight", "seed": 1200})
-    _run(following)
-    assert following.episode.truth.swarms[0].master.recovery.replans == []
+
+
+def test_a_following_master_renumbers_two_slaves_that_stand_on_each_others_sides():
+    """Following, straight walk, seed 86: Table 2 numbered two slaves each for the other's side; behind the master
+    they met head-on, their keep-outs holding them apart, 0.8-1.0 m off their slots, and the formation never built
+    in 40 s. The master, standing for the building, renumbers them on its table's mirror image by the least total
+    move its IR fixes measure, and the formation builds."""
+    env = petswarm_env.parallel_env(**{"user.scenario": "straight", "seed": 86})
+    s = _run(env)
+    master = env.episode.truth.swarms[0].master
+    assert [m for _, m in master.recovery.replans] == [True] and master.recovery.mirrored
+    assert math.isfinite(s["building_time_s"]) and s["building_time_s"] < 15.0, s["building_time_s"]

@@ -296,16 +296,21 @@ def test_table3_without_master_change_keeps_the_master_and_changes_references(ol
 
 def test_mode_change_scenario_changes_master_over_the_radio():
     env = petswarm_env.parallel_env(**{"user.scenario": "mode_change"})
-    env.reset(seed=0)
-    old_master = env.episode.swarm.master.node_id
-    f = env.episode.swarm.formation
-    levels = _levels(f)
-    top_node = env.episode.swarm.master.know.members[min(levels, key=lambda m: (levels[m], m))]
-    assert f"robot_{old_master}" in env.possible_agents  # it can become a slave
-    infos = run(env, 300)
+    obs, _ = env.reset(seed=0)
     sw = env.episode.swarm
+    old_master = sw.master.node_id
+    assert f"robot_{old_master}" in env.possible_agents  # it can become a slave
+    pol = make_policy("scripted", PolicySpec.from_env(env))
+    for _ in range(300):  # the tables as they stand at the change (the building may renumber the members)
+        if sw.master.node_id == old_master:  # Table 3: the robot farthest from the user (of equals, the one its
+            # master's fixes put farthest)
+            ux, uy = user_position_in_formation(sw.formation, 1.0)
+            far = {m: math.hypot(x - ux, y - uy) for m, (x, y) in enumerate(sw.formation.slot_positions().tolist())}
+            top_nodes = {sw.master.know.members[m] for m in far if far[m] > max(far.values()) - 1e-6}
+        obs, _, _, _, infos = env.step(pol.act_all({a: obs[a] for a in env.agents}))
+    top_node = sw.master.node_id
     assert sw.mode == "leading" and sw.events["mode_changes"] == 1 and sw.events["master_changes"] == 1
-    assert sw.master.node_id == top_node != old_master
+    assert top_node in top_nodes and top_node != old_master
     assert sw.master.state == "master" and sw.master.connected_user == 0 and env.episode.session.connected_robot == top_node
     # the old master is a slave now (an active agent), the new one left slave-role driving: it waits
     assert f"robot_{old_master}" in env.active_agents and f"robot_{top_node}" not in env.active_agents

@@ -455,6 +455,28 @@ def test_a_leading_successor_drives_its_user_on_to_the_end(kind, seed):
     assert r["rmse_after_m"] < 0.5
 
 
+def test_a_user_who_stood_at_the_emergency_alert_steps_back_to_the_master():
+    """Leading, the master dead at 20 s (seed 1327): the user stood (the succession's pause) when the successor,
+    which had swung in ahead, lost its LF fix of them 3.4 m away and raised its emergency (seed 002 Fig. 4:
+    every robot stops). Only a walking user stepped back at the alert, so user and swarm waited for each
+    other to the end; a standing one steps back too, until the master's fix ends the emergency."""
+    from petswarm.experiments.measure_succession import run as measure
+
+    r = measure("dead", 1327, 20.0, 600, {"swarm.mode": "leading"})
+    assert r["full"] and r["driving_user"]
+
+
+def test_a_leading_successor_takes_its_re_forming_swarms_echoes_for_members_as_its_user_walks_on():
+    """Leading, the master dead at 20 s (seed 1301): 1.1 s after its user walked on, the successor took a member
+    it had no fresh IR fix of for an obstacle in its travel direction and stopped in its exception (seed 002
+    §3.4) while the user walked away (the scripted user gives no gestures). As after a mode change, the swarm
+    re-forming about its new master raises no exception for ``MODE_SETTLE_S`` once the user walks on."""
+    from petswarm.experiments.measure_succession import run as measure
+
+    r = measure("dead", 1301, 20.0, 600, {"swarm.mode": "leading"})
+    assert r["full"] and r["driving_user"]
+
+
 def test_a_master_cut_off_from_its_swarm_moves_out_of_its_formation():
     """A radio-silent master releases its user and, from its own tables and wheels, drives out of the
     formation sideways (as a master that handed its user over), then stands."""

@@ -38,7 +38,7 @@ def test_at_loss_03_every_slave_that_joined_is_still_a_slave_1_s_after_reset(see
     for _ in range(10):
         env.step({a: np.zeros(3, np.float32) for a in env.agents})
     assert at_reset <= set(env.agents)
-    assert not env.episode.swarm.member_log
+    assert not [e for e in env.episode.swarm.member_log if e[1] != "renumbered"]  # no member lost (a renumbering keeps them)
 
 
 @pytest.mark.parametrize("overrides, cause", [

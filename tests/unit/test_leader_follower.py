@@ -99,7 +99,8 @@ def numpy_act(p: LeaderFollowerPolicy, obs: np.ndarray) -> np.ndarray:
         k = int(np.argmin(us))
         u = np.array(p._us_dirs[k])
         if p.detour > 0 and float(us[k] * np.float32(p.spec.us_max_range_m)) < min(p.detour, dist) and float(u @ d) > math.cos(math.pi / 4):
-            d = np.array([u[1], -u[0]])  # an echo in the way: round it clockwise
+            right = float(d[0] * u[1] - d[1] * u[0]) < -math.sin(math.radians(10.0))  # the echo right of our way
+            d = np.array([-u[1], u[0]]) if right else np.array([u[1], -u[0]])  # round it on the side away from it
         v = v + p.rejoin * d
     else:  # step 1d, nothing in IR sight: circle the nearest echo, turning with the circle; none: turn on the spot
         us = obs[sl["self.ultrasonic"]]
@@ -320,8 +321,8 @@ def test_search_circles_the_echo_turning_with_it():
 def test_lost_slave_passes_an_echo_in_its_way():
     """Step 1c: toward the master's last fix, but an echo in the way (the user between us and the
     master, whose body also blocks the IR) is rounded clockwise, whichever side the master lies a
-    little to (a slave straight behind its user does not dither), instead of pushing against it;
-    an echo off the way changes nothing."""
+    little to (a slave straight behind its user does not dither), instead of pushing against it; an
+    echo well right of the way is passed on our right; an echo off the way changes nothing."""
     env = petswarm_env.parallel_env()
     policy = LeaderFollowerPolicy(PolicySpec.from_env(env))
     sl = policy.spec.layout.slices
@@ -336,6 +337,12 @@ def test_lost_slave_passes_an_echo_in_its_way():
     assert LeaderFollowerPolicy(PolicySpec.from_env(env), detour_m=0.0).act("robot_1", obs)[0] > 0.1  # into the echo
     obs[sl["master.ir_xy"]] = (2.0 / POS_SCALE_M, -0.3 / POS_SCALE_M)  # the master a little right: the same side
     assert policy.act("robot_1", obs).tobytes() == act.tobytes()
+    obs[sl["master.ir_xy"]] = (2.0 / POS_SCALE_M, -0.9 / POS_SCALE_M)  # the master 24 degrees right
+    obs[us + 0], obs[us + 7] = 1.0, 0.7 / policy.spec.us_max_range_m  # an echo 45 degrees right (ray 7): right of our way
+    act = policy.act("robot_1", obs)
+    assert act[0] > 0.1 and act[1] > 0.1  # passed on our right: forward and left, not round its far side
+    assert act.tobytes() == numpy_act(policy, obs).tobytes()
+    obs[us + 7] = 1.0
     obs[sl["master.ir_xy"]] = (2.0 / POS_SCALE_M, 0.3 / POS_SCALE_M)
     obs[us + 0] = 1.0
     obs[us + 4] = 0.7 / policy.spec.us_max_range_m  # behind us: not in the way

@@ -40,6 +40,7 @@ cdef class SessionCore:
     cdef double _target_m(self)
     cdef void _feed_belt(self, double now)
     cdef void _alert_emergency(self, double now)
+    cdef str _end_emergency(self)
     cdef void _walk_back(self)
     cdef bint _in_place_to_resume(self, odometry, double since_s)
     cdef void _check_release(self)

@@ -286,11 +286,10 @@ class SessionCore:
         if self.paused and self.alert_pause_s is None and self.swarm.organized and self.state in ("following", "leading") \
                 and (self.state == "following" or not self._succeeded
                      or self._in_place_to_resume(odometry, self.tracker_node._mcu.local(self.paired_at_s))):
-            # paired again with an organized swarm: the user walks on; after a leading master's succession once
-            # its successor stands ahead of them (the rule after a handover, succession.in_place_to_resume: a
-            # successor paired from its slot beside or behind its user must out-pace a walking user to get there)
-            if self._succeeded:  # its swarm re-forms about it as the user walks on: as after a mode change, its
-                self.swarm.mode_changed_s = self.clock.now  # echoes are members for MODE_SETTLE_S (leading, seed 1301)
+            # paired again with an organized swarm: the user walks on; after a leading master's succession once its
+            # successor stands ahead of them (succession.in_place_to_resume), and its swarm re-forming about it takes
+            if self._succeeded:  # its echoes for members for MODE_SETTLE_S, as after a mode change (leading, seed 1301)
+                self.swarm.mode_changed_s = self.clock.now
             self.paused = self._succeeded = False
             user.walking = True
         if self._returning:
@@ -323,9 +322,7 @@ class SessionCore:
             self.state = state = "emergency"
             self._alert_emergency(now)
         elif state == "emergency" and tracker.last_fix_s > self._emergency_since:
-            self.state = state = self.previous_mode
-            if self.alert_pause_s is None:  # a user who stood at the alert stops stepping back at the fix
-                user.returning = self._returning = False
+            state = self._end_emergency()
         swarm.emergency = state == "emergency"
         # exception: an obstacle in the leading robot's travel direction (behind it: it faces the user) while it
         # travels — its user walks or runs by the belt's report (seed 002 §3.4); a leading robot whose user stands
@@ -390,6 +387,16 @@ class SessionCore:
             self.alert_pause_s = now  # they walk on at the master's own LF fix of them in place (_in_place_to_resume)
         else:
             self._returning = True
+
+    @cython.cfunc
+    def _end_emergency(self) -> str:
+        """The master's LF fix of its user again: the mode before the emergency; a user who stood at the alert stops
+        stepping back (a walking one stands until the fix puts them in place, :meth:`_in_place_to_resume`)."""
+        self.state = self.previous_mode
+        if self.alert_pause_s is None:
+            user: WalkingBody = self.user
+            user.returning = self._returning = False
+        return self.state
 
     @cython.cfunc
     def _walk_back(self) -> cython.void:

@@ -303,9 +303,9 @@ def test_mode_change_scenario_changes_master_over_the_radio():
     pol = make_policy("scripted", PolicySpec.from_env(env))
     for _ in range(300):  # the tables as they stand at the change (the building may renumber the members)
         if sw.master.node_id == old_master:  # Table 3: the robot farthest from the user (of equals, the one its
-            # master's fixes put farthest)
-            ux, uy = user_position_in_formation(sw.formation, 1.0)
-            far = {m: math.hypot(x - ux, y - uy) for m, (x, y) in enumerate(sw.formation.slot_positions().tolist())}
+            # master's fixes put farthest), by the slots' geometry (modes.nominal_geometry)
+            geometry = nominal_geometry(sw.formation, env.cfg.master.distance_m)
+            far = {m: geometry.user_distance(m) for m in range(sw.formation.size)}
             top_nodes = {sw.master.know.members[m] for m in far if far[m] > max(far.values()) - 1e-6}
         obs, _, _, _, infos = env.step(pol.act_all({a: obs[a] for a in env.agents}))
     top_node = sw.master.node_id

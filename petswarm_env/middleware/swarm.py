@@ -74,6 +74,7 @@ class Swarm:
         self.handing_over = False  # the master hands its user over for a broken part (hand_over_for_fault)
         self.fault_handovers: list[tuple[float, int, int, str]] = []  # (time, old master, new master, part)
         self.on_master_change = None  # callback(old_node, new_node), set by the user session
+        self._session_on: Node | None = self.master  # the master the user's session follows (_master_changed)
         self.on_succession = None  # callback(new_node): a slave took a lost master's place; set by the user session
         # members lost and recruited while organized (middleware/recovery.py): (time, "lost" | "joined", node ids)
         self.member_log: list[tuple[float, str, list[int]]] = []
@@ -203,9 +204,18 @@ class Swarm:
         self.formation = plan.formation
 
     def hand_over(self, old: Node, new: Node) -> None:
-        """The old master handed the user over and is a slave now."""
-        self.master = new  # takes effect for the swarm once the new master took over
+        """The old master handed the user over and is a slave now (its handover acknowledged, or its
+        retries spent)."""
         self.handing_over = False
+        self._master_changed(old, new)
+
+    def _master_changed(self, old: Node, new: Node) -> None:
+        """The user's session follows the new master once (:meth:`take_over` or :meth:`hand_over`, whichever
+        comes first)."""
+        self.master = new
+        if self._session_on is new:
+            return
+        self._session_on = new
         self.events["master_changes"] += 1
         if self.on_master_change is not None:
             self.on_master_change(old, new)
@@ -215,10 +225,18 @@ class Swarm:
         no handover preceded it — a slave took its lost master's place (middleware/succession.py):
         the user session then pairs the belt with it."""
         succession = node.connected_user is None  # a handover brought the user's id (modes.py); a succession none
+        if not succession and self.master is not node:
+            # the new master drives its user from now on (the session commands swarm.master): its session starts
+            # from its own estimate here, not after the old master's wait for the handover's acknowledgement
+            # (chosen: in between, the new master was driven on the old master's user track, in the old
+            # master's frame: a turn of up to 40° away from its user, the formation turning with it; IR on
+            # the master, 1 + 8, seed 5006)
+            self._master_changed(self.master, node)
         self.master = node
         self.formation = node.formation
         self._start_master_processes(node)
         if succession:
+            self._session_on = node  # the session pairs the belt with it (on_succession)
             self.events["successions"] += 1
             if self.on_succession is not None:
                 self.on_succession(node)

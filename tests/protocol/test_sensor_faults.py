@@ -488,3 +488,24 @@ def test_a_large_wedge_re_forms_after_its_masters_ir_fault_from_the_new_masters_
     r = measure("ir", seed, target="master", overrides={"swarm.num_slaves": 8})
     assert r["handovers"] and r["detection_s"] is not None and r["detection_s"] <= 3.0
     assert r["reformed"], r["largest_error_m"]
+
+
+def test_a_new_master_drives_its_user_on_its_own_track_from_the_moment_it_takes_them_over():
+    """1 + 8, the master's IR broken at 20 s, seed 5006: the new master drives its user (the session commands
+    ``swarm.master``) from the moment it takes the handover. Before, its session switched only when the old master
+    had waited out its handover's acknowledgement: for two control periods the new master was driven on the old
+    master's user track, in the old master's frame, turned 40° away from its user, and the formation, which
+    turns with it, was still 0.9 m off 10 s after the detection."""
+    from petswarm.experiments.sensor_faults import run as measure
+
+    on_other: list[tuple[float, int, int]] = []
+
+    def watch(env):
+        session, swarm = env.episode.sessions[0], env.episode.swarms[0]
+        if session.connected_robot is not None and session.tracker_node is not swarm.master:
+            on_other.append((env.episode.world.now, session.tracker_node.node_id, swarm.master.node_id))
+
+    r = measure("ir", 5006, target="master", overrides={"swarm.num_slaves": 8}, on_step=watch)
+    assert r["handovers"] and r["master_after"] != 0
+    assert on_other == [], f"(time, tracker's robot, commanded master): {on_other}"
+    assert r["reformed"], r["largest_error_m"]

@@ -27,15 +27,15 @@ import sys
 import warnings
 
 from petswarm import shipped, shipped_configs
+from petswarm.cli.errors import OneLineParser, run_program
 from petswarm_env.config import ConfigError, load_config, parse_override
-from petswarm_env.files import Terminated, check_distinct_paths, check_output_path, exit_cleanly_on_signals, jsonl_path
+from petswarm_env.files import check_distinct_paths, check_output_path, jsonl_path
 
 SHIPPED_GRID = shipped_configs() / "eval" / "grid.yaml"  # configs/eval/grid.yaml, shipped in the package
 
 
-class _Parser(argparse.ArgumentParser):
-    def error(self, message: str):  # one line, no traceback, exit 2
-        self.exit(2, f"petswarm: error: {message}\n")
+class _Parser(OneLineParser):
+    name = "petswarm"  # its subcommands' errors too
 
 
 def _int_at_least(minimum: int, what: str, maximum: int | None = None):
@@ -446,13 +446,6 @@ COMMANDS = {"run": _run, "train": _train, "eval": _eval, "report": _report, "ben
             "reproduce": _reproduce}
 
 
-def _one_line(exc: BaseException) -> str:
-    text = " ".join(str(exc).split()) or type(exc).__name__
-    if isinstance(exc, OSError) and exc.filename is not None and str(exc.filename) not in text:
-        text = f"{text} ('{exc.filename}')"
-    return text
-
-
 def _warn_in_one_line(message, category, filename, lineno, file=None, line=None) -> None:
     logging.getLogger("petswarm.warnings").warning(str(message))
 
@@ -481,23 +474,19 @@ def main(argv: list[str] | None = None) -> int:
     if own_command_line:
         _restart_with_fixed_hash(args)
     configure_logging(args.log_level)
-    try:
-        with exit_cleanly_on_signals(), warnings.catch_warnings():
-            warnings.showwarning = _warn_in_one_line
-            _check_paths(args)
-            return COMMANDS[args.command](args, argv)
-    except (ConfigError, ValueError, RuntimeError, OSError) as exc:
-        print(f"petswarm: error: {_one_line(exc)}", file=sys.stderr)
-        return 2
-    except Terminated as exc:
-        print(f"petswarm: {exc}", file=sys.stderr)
-        return exc.code
-    except ImportError as exc:
-        print(f"petswarm: error: {exc.name or exc} is not installed; set up the training stack with: bash scripts/setup.sh train", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
-        print("petswarm: interrupted", file=sys.stderr)
-        return 130
+
+    def command() -> int:
+        try:
+            with warnings.catch_warnings():
+                warnings.showwarning = _warn_in_one_line
+                _check_paths(args)
+                return COMMANDS[args.command](args, argv)
+        except ImportError as exc:
+            print(f"petswarm: error: {exc.name or exc} is not installed; set up the training stack with: bash scripts/setup.sh train",
+                  file=sys.stderr)
+            return 2
+
+    return run_program("petswarm", command)
 
 
 if __name__ == "__main__":

@@ -16,7 +16,6 @@ seed 003 has no formation, and its robots and radio are not ours.
 
 from __future__ import annotations
 
-import argparse
 import math
 from typing import Any
 
@@ -25,6 +24,7 @@ import numpy as np
 import petswarm_env
 from petswarm.baselines.policy import PolicySpec
 from petswarm.baselines.registry import make_policy
+from petswarm.cli.errors import OneLineParser, run_program
 from petswarm_env.config import ASSIGNMENTS, parse_override
 from petswarm_env.files import write_json_atomic
 from petswarm_env.middleware import messages as msg
@@ -92,7 +92,7 @@ def table(summary: dict[str, dict[str, float]]) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m petswarm.experiments.assignment_compare", description=__doc__.splitlines()[0])
+    ap = OneLineParser(prog="python -m petswarm.experiments.assignment_compare", description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=5)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--steps", type=int, default=600)
@@ -117,4 +117,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    raise SystemExit(run_program("python -m petswarm.experiments.assignment_compare", main))

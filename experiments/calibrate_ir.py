@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from petswarm.cli.errors import OneLineParser, run_program
 from petswarm.experiments import ir_accuracy as exp
 from petswarm_env.comms.ir import IRConfig
 from petswarm_env.config import default_config_path
@@ -32,7 +33,7 @@ def _fit_set(text: str) -> tuple[str, ...]:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = OneLineParser(prog="python -m petswarm.experiments.calibrate_ir", description=__doc__.splitlines()[0])
     parser.add_argument("config", nargs="?", default=default_config_path(), type=Path)
     parser.add_argument("--seeds", type=int, default=5, help="number of rng seeds (0..N-1) to run")
     parser.add_argument("--fit", type=_fit_set, default=exp.IR_FIT, metavar="FIGURE,...",
@@ -52,4 +53,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(run_program("python -m petswarm.experiments.calibrate_ir", main))

@@ -29,6 +29,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from petswarm.cli.errors import OneLineParser, run_program
 from petswarm.experiments.lf_accuracy import DIRECTION_GRIDS_DEG, EVAL_ANGLES_DEG, LF_FIT, PAPER_RMSE, PAPER_SAMPLES_PER_POINT, lf_accuracy_experiment
 from petswarm_env.config import default_config_path
 from petswarm_env.wearables.lf import LFConfig
@@ -94,7 +95,7 @@ def search(cfg: LFConfig, seeds: int, refine_seeds: int, grids: dict[str, np.nda
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = OneLineParser(prog="python -m petswarm.experiments.calibrate_lf", description=__doc__.splitlines()[0])
     parser.add_argument("config", nargs="?", default=default_config_path(), type=Path)
     parser.add_argument("--fit", type=_fit_set, default=LF_FIT, metavar="FIGURE,...",
                         help=f"figures of Table 3 the fit may use: {', '.join(FIGURES)} (default: "
@@ -126,4 +127,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(run_program("python -m petswarm.experiments.calibrate_lf", main))

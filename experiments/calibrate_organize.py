@@ -30,6 +30,7 @@ import time
 
 import yaml
 
+from petswarm.cli.errors import OneLineParser, run_program
 from petswarm.experiments.organize_time import (
     PAPER_MIN_ORGANIZE_S,
     PAPER_RETRY_PCT,
@@ -110,7 +111,7 @@ def sweep(grid: dict[str, list], fit: tuple[int, ...], trials: int, seed: int = 
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = OneLineParser(prog="python -m petswarm.experiments.calibrate_organize", description=__doc__.splitlines()[0])
     parser.add_argument("--fit", type=_counts, default=RETRY_FIT_COUNTS, metavar="N,N,...",
                         help=f"slave counts the fit may use (default {','.join(map(str, RETRY_FIT_COUNTS))}; the others are held out)")
     parser.add_argument("--set", type=_values, action="append", default=[], metavar="KEY=V1,V2,...",
@@ -124,4 +125,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(run_program("python -m petswarm.experiments.calibrate_organize", main))

@@ -17,7 +17,6 @@ Prints a line per late seed, then: built within ``--late`` s n/N, the building t
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import statistics
@@ -27,6 +26,7 @@ from typing import Any
 import petswarm_env
 from petswarm.baselines.policy import PolicySpec
 from petswarm.baselines.registry import make_policy
+from petswarm.cli.errors import OneLineParser, run_program
 from petswarm.experiments.measure_succession import parse_seeds
 from petswarm_env.config_yaml import parse_override
 from petswarm_env.metrics import BUILT_WITHIN_M
@@ -82,7 +82,7 @@ def episode(seed: int, overrides: dict[str, Any], late_s: float, until_s: float)
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m petswarm.experiments.measure_building", description=__doc__.splitlines()[0])
+    ap = OneLineParser(prog="python -m petswarm.experiments.measure_building", description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", default="0-199")
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
     ap.add_argument("--late", type=float, default=15.0, help="seconds after organizing beyond which a build is late")
@@ -110,4 +110,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    raise SystemExit(run_program("python -m petswarm.experiments.measure_building", main))

@@ -9,17 +9,17 @@ A reset that cannot organize is counted (``organized: false``), not raised.
 
 from __future__ import annotations
 
-import argparse
 
 import numpy as np
 
 import petswarm_env
+from petswarm.cli.errors import OneLineParser, run_program
 from petswarm.experiments.measure_succession import parse_seeds
 from petswarm_env.middleware.join import OrganizeError
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m petswarm.experiments.measure_count", description=__doc__.splitlines()[0])
+    parser = OneLineParser(prog="python -m petswarm.experiments.measure_count", description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", default="0-199")
     parser.add_argument("--loss", type=float, nargs="+", default=[0.3])
     parser.add_argument("--after", type=float, default=1.0, help="seconds after reset")
@@ -48,4 +48,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    raise SystemExit(run_program("python -m petswarm.experiments.measure_count", main))

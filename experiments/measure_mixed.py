@@ -30,13 +30,13 @@ waiting where it started (``--spares 0``, seed 000 Table 2) is 5-15 m behind by 
 
 from __future__ import annotations
 
-import argparse
 import math
 import statistics
 
 import petswarm_env
 from petswarm.baselines.policy import PolicySpec
 from petswarm.baselines.registry import make_policy
+from petswarm.cli.errors import OneLineParser, run_program
 from petswarm.experiments.measure_succession import parse_seeds
 
 FAR_M = 5.0  # the target's "left behind": a slave this far from its slot
@@ -121,7 +121,7 @@ def run(seed: int, variant: str, assignment: str, args) -> dict:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m petswarm.experiments.measure_mixed", description=__doc__.splitlines()[0])
+    parser = OneLineParser(prog="python -m petswarm.experiments.measure_mixed", description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", default="0-19")
     parser.add_argument("--variants", nargs="+", default=["plain", "spare"], choices=["plain", "spare"])
     parser.add_argument("--assignments", nargs="+", default=["closest", "ruta_centralized", "ruta_decentralized"])
@@ -159,4 +159,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    raise SystemExit(run_program("python -m petswarm.experiments.measure_mixed", main))

@@ -39,12 +39,13 @@ first of these that fits (:func:`cause`), counted per case:
 * ``short``: never built otherwise: more slaves off, or the few off nearer than that (the
   formation was still building when the user walked off, and did not build while walking).
 
-``--set KEY=VALUE`` overrides any config key (``--set swarm.formation=column``).
+``--set KEY=VALUE`` overrides any config key (``--set swarm.formation=column``). ``--json OUT`` writes
+every case's summary and its episodes' rows (the ``--verbose`` lines) to ``OUT`` (checked before the first
+episode, written atomically at the end).
 """
 
 from __future__ import annotations
 
-import argparse
 import math
 from collections import Counter
 from typing import Any
@@ -54,8 +55,10 @@ import numpy as np
 import petswarm_env
 from petswarm.baselines.policy import PolicySpec
 from petswarm.baselines.registry import make_policy
+from petswarm.cli.errors import OneLineParser, run_program
 from petswarm.experiments.measure_succession import parse_seeds
 from petswarm_env.config import parse_override
+from petswarm_env.files import check_output_path, write_json_atomic
 from petswarm_env.metrics import BUILT_WITHIN_M
 from petswarm_env.middleware import messages as msg
 
@@ -172,16 +175,19 @@ def summarize(rows: list[dict[str, Any]]) -> dict[str, Any]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m petswarm.experiments.measure_scale",
+    parser = OneLineParser(prog="python -m petswarm.experiments.measure_scale",
                                      description=__doc__.splitlines()[0])
     parser.add_argument("--slaves", type=int, nargs="+", default=[9, 16])
     parser.add_argument("--seeds", default="0-19", help="a range lo-hi (inclusive) or a comma list")
     parser.add_argument("--loss", type=float, nargs="+", default=[0.0])
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
     parser.add_argument("--verbose", action="store_true", help="a line per episode too")
+    parser.add_argument("--json", metavar="OUT", help="write every case's summary and episodes here")
     args = parser.parse_args(argv)
+    check_output_path(args.json, "--json")
     overrides = dict(parse_override(item) for item in args.set)
     seeds = parse_seeds(args.seeds)
+    cases = []
     print("slaves  loss  episodes  joined  built  full  standing  building_s  hold_m  rmse_m  contacts  round_s  collided  stale_s  astray"
           "  off@walk  worst@walk_m  why")
     for slaves in args.slaves:
@@ -192,12 +198,15 @@ def main(argv: list[str] | None = None) -> int:
                 if args.verbose:
                     print("   ", rows[-1], flush=True)
             s = summarize(rows)
+            cases.append({"slaves": slaves, "loss": loss, "summary": s, "episodes": rows})
             print(f"{slaves:6d} {loss:5.2f} {s['episodes']:9d} {s['joined']:7d} {s['built']:6d} {s['full']:5d} {s['standing']:9d} "
                   f"{s['building_s']:11.1f} {s['hold_rmse_m']:7.3f} {s['rmse_m']:7.3f} {s['contacts']:9d} {s['round_s']:8.2f} "
                   f"{100 * s['collided']:8.1f}% {s['stale_fix_s']:8.1f} {s['astray']:7d} {s['off_at_walk']:9.1f} "
                   f"{s['worst_at_walk_m']:13.2f}  " + (" ".join(f"{k} {v}" for k, v in s["why"].items()) or "-"), flush=True)
+    if args.json:
+        write_json_atomic(args.json, {"seeds": seeds, "overrides": overrides, "cases": cases})
     return 0
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    raise SystemExit(run_program("python -m petswarm.experiments.measure_scale", main))

@@ -14,13 +14,14 @@ slaves' status timeout, the master's cut-off) and the belt from its BLE supervis
 
 from __future__ import annotations
 
-import argparse
 import math
 import statistics
 
 from petswarm.baselines.policy import PolicySpec
 from petswarm.baselines.registry import make_policy
 import petswarm_env
+from petswarm.cli.errors import OneLineParser, run_program
+from petswarm_env.config import parse_override
 
 
 DRIVING_M = 2.0  # the new master within this of its user at the end (as experiments/sensor_faults.py)
@@ -39,10 +40,13 @@ def drives_its_user(truth) -> bool:
 
 
 def parse_seeds(text: str) -> list[int]:
-    """Seeds from ``0-19``, ``3,5,8`` or both (``0-2,5``)."""
+    """Seeds from ``0-19``, ``3,5,8`` or both (``0-2,5``); anything else is a ``ValueError`` naming the form."""
     out: list[int] = []
     for part in text.split(","):
-        lo, _, hi = part.partition("-")
+        lo, _, hi = part.strip().partition("-")
+        if not lo.isdigit() or not (hi or lo).isdigit() or int(hi or lo) < int(lo):
+            raise ValueError(f"--seeds '{text}': give whole numbers >= 0 as a range lo-hi (lo <= hi) or a comma list, "
+                             "e.g. --seeds 0-19 or --seeds 3,5,8")
         out += list(range(int(lo), int(hi or lo) + 1))
     return out
 
@@ -72,17 +76,14 @@ def run(kind: str, seed: int, at_s: float, max_cycles: int, overrides: dict) -> 
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m petswarm.experiments.measure_succession", description=__doc__.splitlines()[0])
+    parser = OneLineParser(prog="python -m petswarm.experiments.measure_succession", description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", default="0-19")
     parser.add_argument("--kinds", nargs="+", default=["dead", "radio_silent"])
     parser.add_argument("--at", type=float, default=20.0, help="episode time of the fault (s)")
     parser.add_argument("--max-cycles", type=int, default=600)
     parser.add_argument("--set", nargs="*", default=[], help="config overrides key=value")
     args = parser.parse_args(argv)
-    overrides = {}
-    for item in args.set:
-        key, value = item.split("=", 1)
-        overrides[key] = float(value) if value.replace(".", "", 1).isdigit() else value
+    overrides = dict(parse_override(item) for item in args.set)
     for kind in args.kinds:
         rows = [run(kind, seed, args.at, args.max_cycles, overrides) for seed in parse_seeds(args.seeds)]
         for r in rows:
@@ -102,4 +103,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    raise SystemExit(run_program("python -m petswarm.experiments.measure_succession", main))

@@ -13,12 +13,12 @@ emergency that the user's return at the alert clears (docs/configuration.md).
 
 from __future__ import annotations
 
-import argparse
 import statistics
 
 import petswarm_env
 from petswarm.baselines.policy import PolicySpec
 from petswarm.baselines.registry import make_policy
+from petswarm.cli.errors import OneLineParser, run_program
 from petswarm.experiments.measure_succession import DRIVING_M, drives_its_user, master_user_distance, parse_seeds
 from petswarm_env.config import parse_override
 
@@ -36,15 +36,15 @@ def run(scenario: str, seed: int, mode: str, max_cycles: int, overrides: dict) -
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m petswarm.experiments.measure_walks", description=__doc__.splitlines()[0])
+    parser = OneLineParser(prog="python -m petswarm.experiments.measure_walks", description=__doc__.splitlines()[0])
     parser.add_argument("--scenarios", nargs="+", default=["u_turn", "stop_and_go", "random_walk"])
     parser.add_argument("--mode", choices=["following", "leading"], default="leading")
     parser.add_argument("--seeds", default="0-19")
     parser.add_argument("--max-cycles", type=int, default=600)
-    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", type=parse_override)
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
     parser.add_argument("--verbose", action="store_true", help="a line per episode too")
     args = parser.parse_args(argv)
-    overrides = dict(args.set)
+    overrides = dict(parse_override(item) for item in args.set)
     for scenario in args.scenarios:
         rows = [run(scenario, seed, args.mode, args.max_cycles, overrides) for seed in parse_seeds(args.seeds)]
         if args.verbose:
@@ -59,4 +59,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    raise SystemExit(run_program("python -m petswarm.experiments.measure_walks", main))

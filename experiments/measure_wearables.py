@@ -10,12 +10,12 @@ the per-call cost of ``SmartBelt.advance``, and the watch's gesture recognition 
 
 from __future__ import annotations
 
-import argparse
 import math
 import time
 
 import numpy as np
 
+from petswarm.cli.errors import OneLineParser, run_program
 from petswarm_env.config import load_config
 from petswarm_env.wearables.belt import ACTIVITIES, BeltConfig, SmartBelt
 from petswarm_env.wearables.watch import GESTURES, gesture_trace, recognise_gesture
@@ -75,7 +75,7 @@ def _q(x):
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = OneLineParser(prog="python -m petswarm.experiments.measure_wearables", description=__doc__.splitlines()[0])
     parser.add_argument("--trials", type=int, default=200)
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args()
@@ -150,4 +150,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(run_program("python -m petswarm.experiments.measure_wearables", main))

@@ -18,7 +18,6 @@ Targets (chosen; seed 000 §4.5 retries until organized): every slave joins in a
 
 from __future__ import annotations
 
-import argparse
 import math
 import time
 from typing import Any
@@ -28,6 +27,7 @@ import numpy as np
 import petswarm_env
 from petswarm.baselines.policy import PolicySpec
 from petswarm.baselines.registry import make_policy
+from petswarm.cli.errors import OneLineParser, run_program
 from petswarm_env.config import load_config, parse_override
 from petswarm_env.files import write_json_atomic
 
@@ -104,7 +104,7 @@ def sweep(losses, resets: int, steps: int, seed: int, overrides: dict[str, Any])
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = OneLineParser(prog="python -m petswarm.experiments.organize_under_loss", description=__doc__.splitlines()[0])
     parser.add_argument("--resets", type=int, default=1000, help="resets per loss probability (default 1000)")
     parser.add_argument("--steps", type=int, default=50, help="scripted steps after each reset (default 50 = 5 s)")
     parser.add_argument("--loss", default=",".join(str(p) for p in DEFAULT_LOSSES), help="loss probabilities, comma-separated")
@@ -121,4 +121,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(run_program("python -m petswarm.experiments.organize_under_loss", main))

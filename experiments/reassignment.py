@@ -30,7 +30,6 @@ Standalone: ``python -m petswarm.experiments.reassignment [--quick] [--seed S] [
 
 from __future__ import annotations
 
-import argparse
 import math
 from typing import Any
 
@@ -39,6 +38,7 @@ import numpy as np
 import petswarm_env
 from petswarm.baselines.policy import PolicySpec
 from petswarm.baselines.registry import make_policy
+from petswarm.cli.errors import OneLineParser, run_program
 from petswarm.experiments.assignment_compare import ORGANIZE_KINDS
 from petswarm.experiments.results import Experiment, ExperimentResult, Progress, Row
 from petswarm_env.config import Config
@@ -167,7 +167,7 @@ def main(argv: list[str] | None = None) -> int:
     from petswarm_env.config import load_config
     from petswarm_env.files import write_json_atomic
 
-    ap = argparse.ArgumentParser(prog="python -m petswarm.experiments.reassignment", description=__doc__.splitlines()[0])
+    ap = OneLineParser(prog="python -m petswarm.experiments.reassignment", description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--json", metavar="OUT")
@@ -182,4 +182,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    raise SystemExit(run_program("python -m petswarm.experiments.reassignment", main))

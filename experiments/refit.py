@@ -22,8 +22,8 @@ Exit status: 0 when it got to the table, 1 when the fit moved (nothing re-run), 
 
 from __future__ import annotations
 
-import argparse
 
+from petswarm.cli.errors import OneLineParser, run_program
 from petswarm.experiments.calibrate_organize import sweep
 from petswarm.experiments.organize_time import RETRY_FIT_COUNTS
 from petswarm.experiments.registry import EXPERIMENTS
@@ -43,7 +43,7 @@ def refit_jitter(trials: int) -> tuple[float, float]:
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = OneLineParser(prog="python -m petswarm.experiments.refit", description=__doc__.splitlines()[0])
     parser.add_argument("--skip-fit", action="store_true", help="skip the re-fit of radio.processing_jitter_s")
     parser.add_argument("--trials", type=int, default=200, help="organizations per slave count in the fit (default 200)")
     parser.add_argument("--json", default="reproduce.json", help="the reproduce JSON (default reproduce.json)")
@@ -64,4 +64,4 @@ def main() -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    raise SystemExit(run_program("python -m petswarm.experiments.refit", main))

@@ -23,13 +23,15 @@ and in how many runs a robot found a part broken that was not the one injected (
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import statistics
 
 import petswarm_env
+from petswarm.cli.errors import OneLineParser, run_program
 from petswarm.experiments.measure_succession import parse_seeds
+from petswarm_env.config import parse_override
+from petswarm_env.files import check_output_path, write_json_atomic
 
 REFORM_AFTER_S = 10.0
 REFORM_ERROR_M = 0.3
@@ -83,21 +85,25 @@ def run(kind: str, seed: int, at_s: float = 20.0, target: str = "random_slave", 
             "rmse_m": math.sqrt(sum(sq) / len(sq)) if sq else math.nan}
 
 
+PROG = "python -m petswarm.experiments.sensor_faults"
+
+
 def main(argv: list[str] | None = None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = OneLineParser(prog=PROG, description=__doc__.splitlines()[0])
     ap.add_argument("--kinds", default="ir,ultrasonic,ahrs")
     ap.add_argument("--seeds", default="0-19")
     ap.add_argument("--at", type=float, default=20.0)
     ap.add_argument("--target", default="slave", choices=("slave", "master"))
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
-    ap.add_argument("--json")
+    ap.add_argument("--json", metavar="OUT", help="write every run's row here")
     args = ap.parse_args(argv)
-    overrides = {k: json.loads(v) if v[:1] in "[{0123456789-" or v in ("true", "false") else v
-                 for k, _, v in (s.partition("=") for s in args.set)}
+    check_output_path(args.json, "--json")
+    overrides = dict(parse_override(item) for item in args.set)
+    seeds = parse_seeds(args.seeds)
     target = "random_slave" if args.target == "slave" else "master"
     results = []
     for kind in args.kinds.split(","):
-        rows = [run(kind, s, args.at, target, overrides) for s in parse_seeds(args.seeds)]
+        rows = [run(kind, s, args.at, target, overrides) for s in seeds]
         for r in rows:
             print(json.dumps(r))
         rows = [r for r in rows if r["injected"]]
@@ -116,9 +122,8 @@ def main(argv: list[str] | None = None) -> None:
               f"{sum(bool(r['other_detections']) for r in rows)}/{len(rows)} runs")
         results += rows
     if args.json:
-        with open(args.json, "w") as f:
-            json.dump(results, f, indent=1)
+        write_json_atomic(args.json, results)
 
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(run_program(PROG, main))

@@ -1,7 +1,7 @@
 """A robot leaving its swarm's formation for its own fault (seed 003 Algorithm 2 step 5: "the faulty
 robot leaves"): where it drives, for how long, and whether it is in anyone's way. A mixin of
-:class:`~.recovery.RecoveryManager`, whose state (``clear_out``, ``pace_until_m``, ``_cleared``,
-``_was_master``) and robot (``node``) it reads; its command is the robot's middleware's, on its own
+:class:`~.recovery.RecoveryManager`, whose state (``clear_out``, ``pace_until_m``, ``back_after_m``,
+``_cleared``, ``_was_master``) and robot (``node``) it reads; its command is the robot's middleware's, on its own
 MCU clock, from its wheel odometry alone."""
 
 from __future__ import annotations
@@ -37,8 +37,12 @@ class Leaving:
         (chosen: the rear robot of a wedge's arm, moving out at the swarm's pace while the swarm turned
         toward its side, was carried ahead into the lane of the front robot of its arm, which then ran
         into it as it stood — slave faults on the zigzag walk; docs/faults.md). The old master of a
-        following swarm moves out sideways and back against the walk (:data:`HANDOVER_SIDE_MPS`); the old
-        master of a leading swarm moves out sideways at that speed without the swarm's pace (chosen: at a slave's
+        following swarm moves out sideways at the wheels' top speed (:data:`HANDOVER_SIDE_MPS`), keeping no pace,
+        until it is clear of the outermost slot's lane by :data:`CLEAR_LANE_GAP_M` (:attr:`back_after_m`), and
+        from there sideways and back against the walk (:data:`HANDOVER_BACK_MPS`), so that it is left behind the
+        swarm's tail (chosen: backing off from the start, it crossed the arm of a wedge behind it, whose robots stand
+        30° off the back axis, and ran into them; sideways alone, a zigzag turn toward its side brought the swarm
+        onto it; measured in docs/faults.md); the old master of a leading swarm moves out sideways at that speed without the swarm's pace (chosen: at a slave's
         pace and speed it stood beside the new master's lane when a zigzag turn brought the swarm onto it, the new
         master's obstacle exception stopped it and its user walked on alone; leading zigzag, seeds 300-339: the
         user driven to the end 16 -> 34 of 40; straight, seeds 200-239: re-formed 35 -> 38 of 40)."""
@@ -62,9 +66,12 @@ class Leaving:
         outermost = max((float(p[1]) * side for p in pos), default=0.0)
         clear_m = outermost - lateral * side + 2.0 * node.cfg.robot.radius_m  # beside the outermost slot's robot
         out_m = clear_m + CLEAR_MARGIN_M
+        self.back_after_m = math.inf
         if was_master and node.know.mode == "following":
-            # the old master of a following swarm: sideways and back against the walk (its +x: it faced its user)
-            self.pace_until_m = out_m
+            # the old master of a following swarm: sideways out of the lanes, then sideways and back against the walk
+            # (its +x: it faced its user)
+            self.pace_until_m = 0.0
+            self.back_after_m = clear_m + CLEAR_LANE_GAP_M
             self.clear_out = (node.clock.now, -HANDOVER_BACK_MPS, side * HANDOVER_SIDE_MPS, out_m)
             self._cleared = (node.clock.now, 0.0)
             return
@@ -131,7 +138,10 @@ class Leaving:
         done_m += abs(self.node.odometry.read()[1]) * (now_s - last_s)  # the wheels' sideways travel since
         self._cleared = (now_s, done_m)
         if done_m < out_m and now_s - t0 < CLEAR_TIMEOUT * out_m / abs(vy) and self.node.state == "waiting":
-            return (vx if done_m < self.pace_until_m else 0.0, vy, 0.0)  # out of the lanes: the swarm walks past
+            # the swarm's pace until out of the lanes, then standing along the walk (the swarm walks past); an old
+            # master of a following swarm backs off beyond the lanes
+            along = done_m < self.pace_until_m or done_m >= self.back_after_m
+            return (vx if along else 0.0, vy, 0.0)
         self.clear_out = None
         return (0.0, 0.0, 0.0)
 
@@ -141,9 +151,10 @@ CLEAR_TIMEOUT = 3.0  # chosen: the move out gives up after three times its time 
 # chosen: a slave also drives ahead of the swarm's pace, out of the way of the member behind it that moves up
 # (a master that handed its user over does not: the user and the new master are ahead of it)
 CLEAR_AHEAD_MPS = 0.25
-# chosen: the old master of a following swarm (swarm.hand_over_for_fault) moves out sideways and back against the walk,
-# together the wheels' top speed (a Pet-Bot's), all the way: its own pace carried it into a zigzag's turn (docs/faults.md);
-# the old master of a leading swarm sideways at HANDOVER_SIDE_MPS alone (RecoveryManager._plan_clear_out)
+# chosen: the old master of a following swarm (swarm.hand_over_for_fault) moves out sideways at the wheels' top speed (a
+# Pet-Bot's) with no pace, and once clear of the lanes sideways and back against the walk: its own pace carried it into
+# a zigzag's turn, and backing off from the start ran it into a wedge's arm (docs/faults.md); the old master of a
+# leading swarm sideways at HANDOVER_SIDE_MPS alone (RecoveryManager._plan_clear_out)
 HANDOVER_SIDE_MPS, HANDOVER_BACK_MPS = 1.0, 0.5
 # chosen: its clearance beyond the formation's outermost slot (a formation drifts sideways by half a spacing as it
 # re-forms; a master that handed its user over: its formation then re-centres on the new master, which drives onto

@@ -121,6 +121,7 @@ class RecoveryManager(Leaving):
         self.clear_out: tuple[float, float, float, float] | None = None
         self._cleared = (0.0, 0.0)  # (time, sideways metres the wheels counted) of that move
         self.pace_until_m = math.inf  # the sideways metres of that move it keeps the swarm's pace for
+        self.back_after_m = math.inf  # ... and beyond which it drives its along-walk speed again (an old master: back)
         node.on(msg.MEMBER_UPDATE, self._on_update)
         node.on(msg.MEMBER_UPDATE_ACK, self._on_ack)
         node.on(msg.BID_REQUEST, self._on_bid_request)

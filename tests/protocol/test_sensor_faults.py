@@ -13,6 +13,7 @@ from petswarm.baselines.policy import PolicySpec
 from petswarm.baselines.registry import make_policy
 from petswarm_env.middleware import assignment
 from petswarm_env.middleware import messages as msg
+from petswarm_env.middleware.leaving import HANDOVER_BACK_MPS, HANDOVER_SIDE_MPS
 
 FAULT_AT_S = 8.0
 
@@ -271,16 +272,15 @@ def test_a_master_whose_ir_breaks_hands_its_user_over_by_table_3_and_the_swarm_g
 
 
 @pytest.mark.parametrize("mode, seed", [("following", 718), ("leading", 2)])
-def test_the_old_master_of_a_following_swarm_moves_out_sideways_and_back_at_the_wheels_top_speed(mode, seed):
+def test_the_old_master_moves_out_sideways_at_the_wheels_top_speed_and_is_left_behind(mode, seed):
     """Zigzag walk, seed 718 (the master's IR breaks; the user stops at the alert for about half a second). The
     old master, a slave now, kept its own pace while it moved out at 0.5 m/s: carried 3 m along beside the swarm's
     front for 4.5 s, it stopped where the next turn brought the swarm onto it, and the rear slave on that side
-    stood behind it (1.12 m off 10 s after the detection). Now it moves out sideways and back against the walk
-    at the wheels' top speed, and is left behind the swarm. A leading swarm's old master (its user stands until
+    stood behind it (1.12 m off 10 s after the detection). Now it moves out sideways at the wheels' top speed, and
+    back against the walk once clear of the lanes, and is left behind the swarm. A leading swarm's old master (its user stands until
     the new master is in place; the swarm walks the way its back faces) moves out sideways at that speed, keeping
     no pace, so the swarm it led walks past it."""
     from petswarm.experiments import sensor_faults
-    from petswarm_env.middleware.leaving import HANDOVER_BACK_MPS, HANDOVER_SIDE_MPS
 
     seen: dict = {}
 
@@ -300,6 +300,37 @@ def test_the_old_master_of_a_following_swarm_moves_out_sideways_and_back_at_the_
     else:
         assert (vx, abs(vy)) == (0.0, HANDOVER_SIDE_MPS) and out_m > 1.0
         assert r["session_state"] == "leading" and r["user_distance_end_m"] <= sensor_faults.USER_FOLLOWED_M
+
+
+def test_the_old_master_of_a_wedge_backs_off_only_once_clear_of_its_lanes():
+    """1 + 8 wedge, straight walk, seed 7004 (the master's IR breaks; the front-left slave takes over). Backing off
+    from the start (sideways 1.0 m/s and back 0.5 m/s against a walk of 1 m/s), the old master crossed the wedge's
+    right arm, whose robots stand 30° off the back axis, and ran into the rear corner slave on its way to its new
+    slot: shoved back 1 m, at top speed it closed 0.2-0.4 m/s on the walking swarm, 1.01 m off 10 s after the
+    detection. Now it drives no speed along the walk until its wheels count it clear of the outermost lane, then
+    backs off: the swarm re-forms."""
+    from petswarm.experiments import sensor_faults
+
+    seen: dict = {"clearing": [], "backing": []}
+
+    def watch(env):
+        rec, body = env.episode.fleet.nodes[0].recovery, env.episode.world.robots[0].body
+        if rec.clear_out is None:
+            return
+        seen.setdefault("plan", (rec.clear_out, rec.pace_until_m, rec.back_after_m))
+        done = rec._cleared[1]
+        along = body.velocity.x * math.cos(body.angle) + body.velocity.y * math.sin(body.angle)  # its own x
+        back_after = rec.back_after_m
+        (seen["clearing"] if done < back_after - 0.2 else seen["backing"] if done > back_after + 0.2 else []).append(along)
+
+    r = sensor_faults.run("ir", 7004, target="master", overrides={"swarm.num_slaves": 8}, on_step=watch)
+    assert r["robot"] == 0 and r["master_after"] != 0 and "plan" in seen
+    (_, vx, vy, out_m), pace_until, back_after = seen["plan"]
+    assert (vx, abs(vy)) == (-HANDOVER_BACK_MPS, HANDOVER_SIDE_MPS) and pace_until == 0.0 and 1.0 < back_after < out_m
+    assert seen["clearing"] and seen["backing"]
+    assert max(abs(v) for v in seen["clearing"][3:]) < 0.2  # no speed along the walk while in the lanes (after the start)
+    assert min(seen["backing"][3:]) < -0.3  # backing off beyond them
+    assert r["reformed"], f"largest live-slave error {r['largest_error_m']:.2f} m 10 s after the detection"
 
 
 def test_a_new_following_master_starts_from_the_old_masters_heading_as_its_users_walk():

@@ -54,6 +54,7 @@ class Leaving:
         was_master = self._was_master or cut_off
         if not (0 < member or cut_off) or member >= len(pos):
             return
+        self.back_after_m = math.inf  # (an old master of a following swarm's move sets it below)
         status = node.know.status  # the master's pace (none heard yet: its own)
         vx = float(status.velocity[0]) if status is not None else float(node.odometry.read()[0])
         lateral = float(pos[member][1])
@@ -66,7 +67,6 @@ class Leaving:
         outermost = max((float(p[1]) * side for p in pos), default=0.0)
         clear_m = outermost - lateral * side + 2.0 * node.cfg.robot.radius_m  # beside the outermost slot's robot
         out_m = clear_m + CLEAR_MARGIN_M
-        self.back_after_m = math.inf
         if was_master and node.know.mode == "following":
             # the old master of a following swarm: sideways out of the lanes, then sideways and back against the walk
             # (its +x: it faced its user)

@@ -341,11 +341,21 @@ class RecoveryManager(Leaving):
         yaw = node.ahrs_yaw()
         now = node.clock.now
         ranges = node.ring.slot_range_m if hasattr(node, "ring") else {}
+        # a handover's plan (``shift``): a member out of IR sight is placed at its slot of the table with the table's
+        # frame fitted onto this master's own by the members it has fresh fixes of (the rigid motion that carries their
+        # slots onto their fixes, least squares; chosen). A new master's own frame need not be the table's: on 1 + 8,
+        # seed 7094, the table lay 31° round from it (5° of that its own turn since it took the user over), the slots
+        # unfitted put an unseen rear member 1 m from where it stood, and the plan sent another member across the
+        # wedge to the slot beside it (docs/faults.md)
+        fit = self._slots_onto_fixes(slaves, holds, held, yaw, now) if shift is not None else None
         cost = []
         for n in slaves:
             fix = know.ir.get(n)
             r = ranges.get(n, math.nan)
             at = held[holds[n]] if holds[n] < len(held) else None
+            if at is not None and fit is not None:
+                (c, s_), (tx, ty) = fit
+                at = (c * at[0] - s_ * at[1] + tx, s_ * at[0] + c * at[1] + ty)
             if fix is not None and now - fix.time_s <= FRESH_IR_S:
                 at = fix.position_now(yaw)
             elif at is not None and math.isfinite(r) and abs(r - math.hypot(*at)) > OFF_SLOT_M:
@@ -362,6 +372,27 @@ class RecoveryManager(Leaving):
             else:
                 cost.append([0.0] * len(slots))  # nothing known: any slot
         return [holds[n] for n in slaves], cost
+
+    def _slots_onto_fixes(self, slaves: list[int], holds: dict[int, int], held: list, yaw: float,
+                          now: float) -> tuple[tuple[float, float], tuple[float, float]] | None:
+        """The rigid motion (cos, sin of its turn; its shift) that carries the held slots of the members this master has
+        fresh IR fixes of onto those fixes, least squares (a shift alone from one fix; None from none): where the
+        table's frame lies in this master's own."""
+        pairs = []
+        for n in slaves:
+            fix = self.node.know.ir.get(n)
+            if fix is not None and now - fix.time_s <= FRESH_IR_S and holds[n] < len(held):
+                pairs.append((held[holds[n]], fix.position_now(yaw)))
+        if not pairs:
+            return None
+        k = len(pairs)
+        hx, hy = sum(h[0] for h, _ in pairs) / k, sum(h[1] for h, _ in pairs) / k
+        fx, fy = sum(f[0] for _, f in pairs) / k, sum(f[1] for _, f in pairs) / k
+        dot = sum((h[0] - hx) * (f[0] - fx) + (h[1] - hy) * (f[1] - fy) for h, f in pairs)
+        cross = sum((h[0] - hx) * (f[1] - fy) - (h[1] - hy) * (f[0] - fx) for h, f in pairs)
+        turn = math.atan2(cross, dot) if k > 1 and (dot or cross) else 0.0
+        c, s = math.cos(turn), math.sin(turn)
+        return (c, s), (fx - (c * hx - s * hy), fy - (s * hx + c * hy))
 
     def _refill(self):
         node = self.node

@@ -333,6 +333,20 @@ def test_the_old_master_of_a_wedge_backs_off_only_once_clear_of_its_lanes():
     assert r["reformed"], f"largest live-slave error {r['largest_error_m']:.2f} m 10 s after the detection"
 
 
+def test_a_handovers_plan_places_the_members_it_does_not_see_in_its_own_frame():
+    """1 + 8, straight walk, seed 7094 (the master's IR breaks; a front slave takes over). Its own frame lay 31° round
+    from its table's when it planned the members on the slots about the old master's place: a rear member it had no
+    fix of was costed at its slot of the table, 1.0 m from where it stood, and the plan sent another member 0.95 m to
+    the slot beside that member; held by a neighbour's keep-out, the other fell behind the walk (0.86 m off 10 s after
+    the detection). Now the table's frame is fitted onto the master's fixes
+    first (``RecoveryManager._slots_onto_fixes``), and the swarm re-forms."""
+    from petswarm.experiments import sensor_faults
+
+    r = sensor_faults.run("ir", 7094, target="master", overrides={"swarm.num_slaves": 8})
+    assert r["robot"] == 0 and r["master_after"] != 0 and len(r["handovers"]) == 1
+    assert r["reformed"], f"largest live-slave error {r['largest_error_m']:.2f} m 10 s after the detection"
+
+
 def test_a_new_following_master_starts_from_the_old_masters_heading_as_its_users_walk():
     """Zigzag walk, seed 217 (the master's IR breaks; a front slave takes over). The new master's controller
     guessed that its user walks away along its line of sight (from a front slot, half a spacing beside the old

@@ -482,8 +482,8 @@ def main(argv: list[str] | None = None) -> int:
                 _check_paths(args)
                 return COMMANDS[args.command](args, argv)
         except ImportError as exc:
-            print(f"petswarm: error: {exc.name or exc} is not installed; set up the training stack with: bash scripts/setup.sh train",
-                  file=sys.stderr)
+            print(f"petswarm: error: {exc.name or exc} is not installed; set up the training stack with: "
+                  "bash scripts/setup.sh train", file=sys.stderr)
             return 2
 
     return run_program("petswarm", command)

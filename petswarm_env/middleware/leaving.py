@@ -41,9 +41,9 @@ class Leaving:
         until it is clear of the outermost slot's lane by :data:`CLEAR_LANE_GAP_M` (:attr:`back_after_m`), and
         from there sideways and back against the walk (:data:`HANDOVER_BACK_MPS`), so that it is left behind the
         swarm's tail (chosen: backing off from the start, it crossed the arm of a wedge behind it, whose robots stand
-        30° off the back axis, and ran into them; sideways alone, a zigzag turn toward its side brought the swarm
-        onto it; measured in docs/faults.md); the old master of a leading swarm moves out sideways at that speed without the swarm's pace (chosen: at a slave's
-        pace and speed it stood beside the new master's lane when a zigzag turn brought the swarm onto it, the new
+        30° off the back axis, and ran into them; sideways alone, the zigzag walk re-formed less; docs/faults.md);
+        the old master of a leading swarm moves out sideways at that speed without the swarm's pace (chosen: at a
+        slave's pace and speed it stood beside the new master's lane when a zigzag turn brought the swarm onto it, the new
         master's obstacle exception stopped it and its user walked on alone; leading zigzag, seeds 300-339: the
         user driven to the end 16 -> 34 of 40; straight, seeds 200-239: re-formed 35 -> 38 of 40)."""
         node = self.node

@@ -277,9 +277,9 @@ def test_the_old_master_moves_out_sideways_at_the_wheels_top_speed_and_is_left_b
     old master, a slave now, kept its own pace while it moved out at 0.5 m/s: carried 3 m along beside the swarm's
     front for 4.5 s, it stopped where the next turn brought the swarm onto it, and the rear slave on that side
     stood behind it (1.12 m off 10 s after the detection). Now it moves out sideways at the wheels' top speed, and
-    back against the walk once clear of the lanes, and is left behind the swarm. A leading swarm's old master (its user stands until
-    the new master is in place; the swarm walks the way its back faces) moves out sideways at that speed, keeping
-    no pace, so the swarm it led walks past it."""
+    back against the walk once clear of the lanes, and is left behind the swarm. A leading swarm's old master (its
+    user stands until the new master is in place; the swarm walks the way its back faces) moves out sideways at that
+    speed, keeping no pace, so the swarm it led walks past it."""
     from petswarm.experiments import sensor_faults
 
     seen: dict = {}

@@ -116,7 +116,8 @@ def test_a_handovers_plan_places_an_unseen_member_by_the_tables_frame_fitted_ont
     slots = table.slot_positions()
     turn, shift = math.radians(30.0), (0.3, -0.1)
     c, s = math.cos(turn), math.sin(turn)
-    where = {10 + m: (c * slots[m][0] - s * slots[m][1] + shift[0], s * slots[m][0] + c * slots[m][1] + shift[1]) for m in range(1, 9)}
+    where = {10 + m: (c * slots[m][0] - s * slots[m][1] + shift[0], s * slots[m][0] + c * slots[m][1] + shift[1])
+             for m in range(1, 9)}
     seen = {n: where[n] for n in (11, 12, 15)}
     rm = _manager(members, seen)
     rm.node.formation = table

@@ -341,13 +341,17 @@ class RecoveryManager(Leaving):
         yaw = node.ahrs_yaw()
         now = node.clock.now
         ranges = node.ring.slot_range_m if hasattr(node, "ring") else {}
-        # a handover's plan (``shift``): a member out of IR sight is placed at its slot of the table with the table's
-        # frame fitted onto this master's own by the members it has fresh fixes of (the rigid motion that carries their
-        # slots onto their fixes, least squares; chosen). A new master's own frame need not be the table's: on 1 + 8,
-        # seed 7094, the table lay 31° round from it (5° of that its own turn since it took the user over), the slots
-        # unfitted put an unseen rear member 1 m from where it stood, and the plan sent another member across the
-        # wedge to the slot beside it (docs/faults.md)
+        # a handover's plan (``shift``): the table's frame fitted onto this master's own by the members it has fresh
+        # fixes of (the rigid motion that carries their slots onto their fixes, least squares; chosen) carries a member
+        # out of IR sight from its slot of the table, and the new slots about the old master's place (it stood on the
+        # table's axis, facing the user, where this master goes). A new master's own frame need not be the table's: on
+        # 1 + 8, seed 7094, the table lay 31° round from it (5° of that its own turn since it took the user over); the
+        # slots unfitted put an unseen rear member 1 m from where it stood, and the plan sent another member to the slot
+        # beside it (docs/faults.md)
         fit = self._slots_onto_fixes(slaves, holds, held, yaw, now) if shift is not None else None
+        if fit is not None:
+            (c, s_), (tx, ty) = fit
+            slots = [(c * sx - s_ * sy + tx, s_ * sx + c * sy + ty) for sx, sy in slots]
         cost = []
         for n in slaves:
             fix = know.ir.get(n)

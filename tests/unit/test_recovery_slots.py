@@ -105,12 +105,13 @@ def test_a_column_that_lost_a_member_keeps_the_robots_behind_in_their_order():
     assert table == {0: 0, 1: 11, 2: 13, 3: 14}
 
 
-def test_a_handovers_plan_places_an_unseen_member_by_the_tables_frame_fitted_onto_the_fixes():
+def test_a_handovers_plan_is_laid_in_the_tables_frame_fitted_onto_the_fixes():
     """1 + 8: the new master's own frame lies 30° round from its table's and 0.3 m off (it took the user over off the
     table's heading and moved toward its user): every slot of the table, turned by 30° and shifted, is where its member
-    stands. It sees members 1, 2 and 5; it does not see member 7 (robot 17). The fit is the 30° turn and the shift,
-    exactly, and a handover's plan costs robot 17 where it stands; a plan without a handover's place still costs it at
-    its slot of the table (1.6 m from where it stands here)."""
+    stands. It sees members 1, 2 and 5; it does not see the others. The fit is the 30° turn and the shift, exactly; a
+    handover's plan then costs every member, seen or not, as it stands in the table's frame against the new slots laid
+    in that frame. A plan without a handover's place is as before: a seen member where its fix puts it, in the
+    master's own frame."""
     members = {0: 0, **{m: 10 + m for m in range(1, 9)}}
     table = formation_for_mode(CFG.swarm, 9, "following")
     slots = table.slot_positions()
@@ -118,21 +119,17 @@ def test_a_handovers_plan_places_an_unseen_member_by_the_tables_frame_fitted_ont
     c, s = math.cos(turn), math.sin(turn)
     where = {10 + m: (c * slots[m][0] - s * slots[m][1] + shift[0], s * slots[m][0] + c * slots[m][1] + shift[1])
              for m in range(1, 9)}
-    seen = {n: where[n] for n in (11, 12, 15)}
-    rm = _manager(members, seen)
+    rm = _manager(members, {n: where[n] for n in (11, 12, 15)})
     rm.node.formation = table
     (fc, fs), (fx, fy) = rm._slots_onto_fixes([10 + m for m in range(1, 9)], {n: m for m, n in members.items()},
                                               slots.tolist(), 0.0, rm.node.clock.now)
     assert math.isclose(math.atan2(fs, fc), turn, abs_tol=1e-9) and math.isclose(fx, shift[0], abs_tol=1e-9)
     assert math.isclose(fy, shift[1], abs_tol=1e-9)
-    # the master leaves for robot 16's place (member 6 handed over, say), and the others go on the slots about it:
-    # robot 17 (unseen) is costed where it stands
-    held, cost = rm._move_costs({m: n for m, n in members.items() if n != 16}, formation_for_mode(CFG.swarm, 8, "following"),
-                                shift=(0.0, 0.0))
-    row = cost[held.index(7)]
-    slots8 = formation_for_mode(CFG.swarm, 8, "following").slot_positions()[1:]
-    assert min(range(len(row)), key=row.__getitem__) == min(range(len(slots8)), key=lambda k: math.dist(where[17], slots8[k]))
-    assert math.isclose(min(row), min(math.dist(where[17], p) for p in slots8), abs_tol=1e-9)
-    # without a handover's place (no shift) nothing is fitted: robot 17 is costed at its slot of the table
-    held, cost = rm._move_costs({m: n for m, n in members.items() if n != 16}, formation_for_mode(CFG.swarm, 8, "following"))
-    assert math.isclose(min(cost[held.index(7)]), min(math.dist(slots[7], p) for p in slots8), abs_tol=1e-9)
+    remaining = {m: n for m, n in members.items() if n != 16}  # the robot that handed over held slot 6, say
+    new = formation_for_mode(CFG.swarm, 8, "following").slot_positions()[1:]
+    held, cost = rm._move_costs(remaining, formation_for_mode(CFG.swarm, 8, "following"), shift=(0.0, 0.0))
+    for m, row in zip(held, cost):
+        assert all(math.isclose(d, math.dist(slots[m], p), abs_tol=1e-9) for d, p in zip(row, new)), m
+    held, cost = rm._move_costs(remaining, formation_for_mode(CFG.swarm, 8, "following"))
+    assert all(math.isclose(d, math.dist(where[11], p), abs_tol=1e-9) for d, p in zip(cost[held.index(1)], new))
+    assert all(math.isclose(d, math.dist(slots[7], p), abs_tol=1e-9) for d, p in zip(cost[held.index(7)], new))

@@ -351,15 +351,12 @@ class RecoveryManager(Leaving):
         fit = self._slots_onto_fixes(slaves, holds, held, yaw, now) if shift is not None else None
         if fit is not None:
             (c, s_), (tx, ty) = fit
-            slots = [(c * sx - s_ * sy + tx, s_ * sx + c * sy + ty) for sx, sy in slots]
+            held, slots = ([(c * x - s_ * y + tx, s_ * x + c * y + ty) for x, y in points] for points in (held, slots))
         cost = []
         for n in slaves:
             fix = know.ir.get(n)
             r = ranges.get(n, math.nan)
             at = held[holds[n]] if holds[n] < len(held) else None
-            if at is not None and fit is not None:
-                (c, s_), (tx, ty) = fit
-                at = (c * at[0] - s_ * at[1] + tx, s_ * at[0] + c * at[1] + ty)
             if fix is not None and now - fix.time_s <= FRESH_IR_S:
                 at = fix.position_now(yaw)
             elif at is not None and math.isfinite(r) and abs(r - math.hypot(*at)) > OFF_SLOT_M:

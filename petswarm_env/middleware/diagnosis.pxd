@@ -35,6 +35,9 @@ cdef class Diagnosis:
     cdef int _ir_miss
     cdef set _ir_missed_from
     cdef double _ir_first_miss_s
+    cdef int _ir_far_miss
+    cdef set _ir_far_from
+    cdef double _ir_far_first_s
     cdef double _own_seen
     cdef bint _ir_off  # "ir" in failed (kept with it by _detect, _clear, _reboot)
     cdef bint _us_off  # "ultrasonic" in failed
@@ -55,7 +58,8 @@ cdef class Diagnosis:
     cdef void _check_ir(self, double now_s)
     cdef void _mark_seen(self, Py_ssize_t p, object src, object start)
     cdef void _ir_hit(self)
-    cdef void _ir_missed(self, double now_s, object src)
+    cdef void _ir_streak_over(self)
+    cdef void _ir_missed(self, double now_s, object src, bint near)
     cdef void _check_ring(self, object ranges, object present, double now_s, bint rang)
     cdef bint _on_ray(self, list present, double now_s)
     cdef void _reboot(self)

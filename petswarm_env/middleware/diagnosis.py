@@ -11,6 +11,8 @@ All three checks run on the robot's MCU, on its own readings:
   RSSI puts within :data:`IR_EXPECT_RANGE_M` should give an IR fix of it; :data:`IR_MISSES` such
   slots in a row without a fix, spanning at least :data:`IR_MISS_SPAN_S`, while their radio frames
   keep arriving, is a broken IR module (receiver; the same module transmits). A fix after that clears it (a transient fault's end).
+  The master also counts slots announced within :data:`IR_FAR_EXPECT_M`, over the longer :data:`IR_FAR_SPAN_S` (its swarm
+  falls back from it when its IR breaks, out of the near range).
 * **ultrasonic ring**, two checks. (1) The driver's self-test (chosen: the transducer diagnosis of
   ultrasonic front-ends, which listen to each transducer ringing down after its own burst, the ring-down
   that sets every ultrasonic sensor's minimum range): :data:`US_SILENT_BURSTS` readings in a row whose
@@ -73,6 +75,16 @@ IR_MISSES = 5  # chosen: announced slots in a row without a fix -> IR module bro
 # ends the streak; a broken module misses every slot on (before: 5 misses in 0.8-1.1 s found a working module broken)
 IR_MISS_SPAN_S = 1.5
 IR_SOURCES = 3  # chosen: ... of this many holders (our own slot counts as one; fewer if fewer are in range, at least 2): occlusion hides one or two
+# chosen: a module that the swarm has drifted away from hears its holders announced beyond IR_EXPECT_RANGE_M only: its
+# slaves lost its fixes with the fault and fell back, 1.7-3 m off within seconds (the master's IR fault at loss 0.3, seeds
+# 5072, 8070: never found). Announced slots within this RSSI range (the IR detection fades out at 2.4-2.8 m, the RSSI
+# range ~10 % off) without a fix count too, for the master (member 0) only, with a longer streak: IR_MISSES of them from
+# IR_SOURCES holders (our own slot counts), none of any holder seen, over at least IR_FAR_SPAN_S. Not for a slave: one
+# building in its user's IR shadow, the user 0.5-1.2 m from it and its master and the master's near members beyond the
+# user, saw no holder for over 4 s (1 + 8 at loss 0.1, seed 6036; with 2 holders, 1 + 4 at loss 0.3, seed 5024); a
+# following master stands behind its user, its swarm on its other side
+IR_FAR_EXPECT_M = 2.2
+IR_FAR_SPAN_S = 4.0
 # chosen: an IR-placed neighbour this close to a ring sensor's ray (perpendicular, m) must echo: a robot is 0.2 m
 # in radius and the IR bearing is good to ~6° (seed 000 Table 4), 0.1 m at 1 m
 US_RAY_MARGIN_M = 0.1
@@ -128,6 +140,9 @@ class Diagnosis:
         self._ir_miss = 0
         self._ir_missed_from = set()  # the slots' holders of the misses since the last fix
         self._ir_first_miss_s = -math.inf  # the first of those misses
+        self._ir_far_miss = 0  # misses since the last fix of slots announced within IR_FAR_EXPECT_M (the near ones too)
+        self._ir_far_from = set()  # ... their holders
+        self._ir_far_first_s = -math.inf  # ... the first of them
         self._own_seen = -math.inf  # start of our own latest slot evaluated
         self._ir_off, self._us_off, self._ahrs_off = False, False, False
         self._ahrs_noisy = cfg.robot.ahrs_noise_deg > 0 or cfg.robot.ahrs_drift_dps > 0
@@ -201,8 +216,9 @@ class Diagnosis:
                     self._ir_hit()
                 else:
                     ranges = ring.slot_range_m
-                    if any(ranges.get(n, math.inf) <= IR_EXPECT_RANGE_M for n in own[1]):
-                        self._ir_missed(now_s, self.node_id)  # near neighbours heard our start sign, none reported seeing our IR
+                    closest: cython.double = min([ranges.get(n, math.inf) for n in own[1]], default=math.inf)
+                    if closest <= IR_FAR_EXPECT_M:  # neighbours heard our start sign, none reported seeing our IR
+                        self._ir_missed(now_s, self.node_id, closest <= IR_EXPECT_RANGE_M)
         seen: dict = self._ir_seen
         me = self.node_id
         know = None
@@ -235,8 +251,8 @@ class Diagnosis:
             fix = fixes.get(src)
             if fix is not None and fix.time_s >= t0:
                 self._ir_hit()
-            elif ranges_m.get(src, math.inf) <= IR_EXPECT_RANGE_M and src in know.members.values():
-                self._ir_missed(now_s, src)
+            elif ranges_m.get(src, math.inf) <= IR_FAR_EXPECT_M and src in know.members.values():
+                self._ir_missed(now_s, src, ranges_m.get(src, math.inf) <= IR_EXPECT_RANGE_M)
 
     @cython.cfunc
     def _mark_seen(self, p: cython.Py_ssize_t, src: object, start: object) -> cython.void:
@@ -257,29 +273,44 @@ class Diagnosis:
         :data:`IR_EXPECT_RANGE_M`, its first member; when that member's IR broke, the master's own slot
         and the member's slot gave no fix or report — two holders, enough — and it found its own working
         module broken and handed its user over: column, IR fault on a slave, seeds 8, 14, 16 of 0-19)."""
-        self._ir_miss = 0
+        self._ir_streak_over()
+
+    @cython.cfunc
+    def _ir_streak_over(self) -> cython.void:
+        self._ir_miss = self._ir_far_miss = 0
         self._ir_missed_from.clear()
+        self._ir_far_from.clear()
 
     @cython.cfunc
     def _ir_hit(self) -> cython.void:
-        self._ir_miss = 0
-        self._ir_missed_from.clear()
+        self._ir_streak_over()
         if self._ir_off:
             self._clear("ir")
 
     @cython.cfunc
-    def _ir_missed(self, now_s: cython.double, src: object) -> cython.void:
+    def _ir_missed(self, now_s: cython.double, src: object, near: cython.bint) -> cython.void:
         """A slot that should have given an IR fix (``src``: its announcer) or a heading report
-        (``src`` = us: our own slot) gave none."""
-        if self._ir_miss == 0:
-            self._ir_first_miss_s = now_s
-        self._ir_miss += 1
-        self._ir_missed_from.add(src)
-        if self._ir_miss < IR_MISSES or self._ir_off or now_s - self._ir_first_miss_s < IR_MISS_SPAN_S:
+        (``src`` = us: our own slot) gave none; ``near``: announced within :data:`IR_EXPECT_RANGE_M`
+        (else within :data:`IR_FAR_EXPECT_M`)."""
+        if self._ir_far_miss == 0:
+            self._ir_far_first_s = now_s
+        self._ir_far_miss += 1
+        self._ir_far_from.add(src)
+        if self._ir_off:
             return
-        members = self._know_of().members.values()
-        near = {n for n, r in self.ring.slot_range_m.items() if r <= IR_EXPECT_RANGE_M and n in members} | {self.node_id}
-        if len(self._ir_missed_from) >= max(2, min(IR_SOURCES, len(near))):
+        if near:
+            if self._ir_miss == 0:
+                self._ir_first_miss_s = now_s
+            self._ir_miss += 1
+            self._ir_missed_from.add(src)
+            if self._ir_miss >= IR_MISSES and now_s - self._ir_first_miss_s >= IR_MISS_SPAN_S:
+                members = self._know_of().members.values()
+                close = {n for n, r in self.ring.slot_range_m.items() if r <= IR_EXPECT_RANGE_M and n in members}
+                if len(self._ir_missed_from) >= max(2, min(IR_SOURCES, len(close | {self.node_id}))):
+                    self._detect("ir", now_s)
+                    return
+        if self._ir_far_miss >= IR_MISSES and now_s - self._ir_far_first_s >= IR_FAR_SPAN_S \
+                and len(self._ir_far_from) >= IR_SOURCES and self._know_of().member == 0:
             self._detect("ir", now_s)
 
     @cython.cfunc
@@ -359,9 +390,9 @@ class Diagnosis:
             self._mark(part, True)
         self.failed.clear()
         self._ir_off, self._us_off, self._ahrs_off = False, False, False
-        self._us_miss, self._us_silent, self._ir_miss, self._yaw_same = 0, 0, 0, 0
+        self._us_miss, self._us_silent, self._yaw_same = 0, 0, 0
         self._us_by_self_test = False
-        self._ir_missed_from.clear()
+        self._ir_streak_over()
         self._yaw_read, self._ticked = False, False
         self._yaw_hist.clear()
 
@@ -383,8 +414,7 @@ class Diagnosis:
             self._us_miss = 0
             self._us_by_self_test = False
         if part == "ir":
-            self._ir_miss = 0
-            self._ir_missed_from.clear()
+            self._ir_streak_over()
         self._yaw_same = 0 if part == "ahrs" else self._yaw_same
         self._mark(part, True)
 

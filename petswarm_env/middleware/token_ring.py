@@ -24,8 +24,7 @@ A crowded ring (chosen; seed 000 gives the sequence of Fig. 7, not its timing fo
 all leave after one MCU processing delay, spread only by its jitter (``radio.processing_jitter_s``), and CSMA cannot tell apart
 two senders whose assessments fall within one turnaround, so once the answers need more air than the jitter spreads them over —
 ``(members − 1) × (an answer's airtime + turnaround) > processing_jitter_s``, from 7 slaves on with the defaults — most of them
-collide (1 master + 16 slaves: 60 % of the token answers, 3.7 tokens per hand-over). :func:`ring_plan` then runs the ring as
-(:class:`RingPlan`):
+collide (1 + 16: 60 % of the token answers, 3.7 tokens per hand-over). :func:`ring_plan` then runs it as (:class:`RingPlan`):
 
 - the members answer a start sign in member order after the holder, ``protocol.ring_answer_slot_s`` apart (802.15.4's own
   remedy, a backoff, made deterministic by the member number every robot holds);
@@ -40,14 +39,14 @@ collide (1 master + 16 slaves: 60 % of the token answers, 3.7 tokens per hand-ov
 
 After its ring's first round the master has measured every member in its IR reach: it hands the round to the join manager, which
 may re-plan which member takes which slot (:meth:`~.join.JoinManager.replan_by_fixes`, from ``protocol.replan_min_slaves``
-slaves on).
-
-A ring that is not crowded (the default 1 + 4) runs as before, frame for frame.
+slaves on). A ring that is not crowded (the default 1 + 4) runs as before, frame for frame.
 
 Heading exchange: robot j saw robot i at bearing φ_ji (in j's frame); i saw j at φ_ij. Then θ_j − θ_i = φ_ij − φ_ji + π (SPEC
 §3.4), with no compass. The two bearings must come from the same round of the ring: i pairs j's report with its own measurement
-of j's latest slot, and drops the report when it missed that slot (j occluded or out of range) — a bearing from an older round,
-with both robots moved since, would give a wrong heading.
+of j's latest slot, and drops the report when it missed that slot (j occluded or out of range) or when its measurement is older
+than i's own previous slot (chosen: i missed j's start signs since, lost frames; at loss 0.3, two robots re-forming after a
+handover, such a pair put j's heading 56-62° off) — a bearing from an older round, with both robots moved since, would give a
+wrong heading.
 
 Relayed (chosen, not in seed 000): a differential body j with a fresh exchange with the master reports φ_ji less
 ψ_j = θ_master − θ_j from it, so i's θ_j − θ_i comes out as θ_master − θ_i, the formation's heading
@@ -139,6 +138,7 @@ class TokenRing:
     _headings_expected = cython.declare(set)
     _headings_event = cython.declare(_Wait)
     _slot_start = cython.declare(dict)
+    _own_starts = cython.declare(tuple)  # (previous, latest) start of our own slots
     holder_heard = cython.declare(tuple, visibility="public")
     token_to = cython.declare(tuple, visibility="public")
     own_slot = cython.declare(object, visibility="public")
@@ -173,6 +173,7 @@ class TokenRing:
         self._headings_expected = set()
         self._headings_event = None
         self._slot_start = {}  # robot -> start of its latest IR slot (its TX_START)
+        self._own_starts = (-math.inf, -math.inf)
         self.holder_heard = (None, -math.inf)  # (sender of the latest start sign or sync, when)
         self.token_to = (None, -math.inf)  # (the robot the latest token heard went to, when)
         self.own_slot = None  # (start, neighbours that acked) of our latest slot
@@ -195,8 +196,7 @@ class TokenRing:
         node.on(msg.TOKEN_ACK, self._on_ack)
 
     @property
-    def slot_starts(self) -> dict[int, float]:
-        """Robot -> when its latest IR slot began (its start sign heard): the IR self-check reads it."""
+    def slot_starts(self) -> dict[int, float]:  # robot -> when its latest IR slot began (its start sign heard): diagnosis.py
         return self._slot_start
 
     def plan(self) -> RingPlan:
@@ -204,8 +204,7 @@ class TokenRing:
         return self._current_plan()
 
     @cython.cfunc
-    def _current_plan(self):
-        """:meth:`plan` (a C call from the ring's own handlers)."""
+    def _current_plan(self):  # plan() as a C call from the ring's own handlers
         total = cython.cast(Knowledge, self.node.know, typecheck=True).total_members
         if self._plan is None or self._plan[0] != total:
             self._plan = (total, ring_plan(self.node.cfg, total))
@@ -413,13 +412,13 @@ class TokenRing:
             return
         self.report_s = self._clock.local_now()
         seen: IRMeasurement = node.know.ir.get(frame.src)
-        if seen is not None and seen.time_s >= self._slot_start.get(frame.src, _NEG_INF):
-            # our bearing of the sender dates from its slot: carry it over our own rotation since (AHRS)
+        if seen is not None and seen.time_s >= max(self._slot_start.get(frame.src, _NEG_INF), self._own_starts[0]):
+            # our bearing of the sender dates from its slot of this round (module docstring): carry it over our rotation since
             yaw = node._own_yaw()  # (ahrs_yaw, a C call)
             bearing_now = seen.bearing_rad - (yaw - seen.own_yaw_rad)
             rel = relative_heading(bearing_now, frame.payload["bearing"])
             node.know.heading[frame.src] = HeadingEstimate(rel, self._clock.local_now(), yaw)
-        # else we missed the sender's latest slot: no pair of bearings from this round
+        # else we missed the sender's latest slot, or its start signs since our previous slot: no pair from this round
         self._headings_expected.discard(frame.src)
         wait: _Wait = self._headings_event
         if wait is not None and not wait.triggered and not self._headings_expected:
@@ -487,6 +486,7 @@ class _Slot:
         ring.last_activity_s = ring._clock.local_now()
         self.peers = ring._ring_peers()
         self.slot_start = ring._clock.local_now()
+        ring._own_starts = (ring._own_starts[1], self.slot_start)
         node.send(_TX_START, seq=self.seq)
         self.step = _ACKED
         ring._wait_acks(self.peers, self)

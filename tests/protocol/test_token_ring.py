@@ -318,6 +318,45 @@ def test_heading_is_not_paired_with_a_measurement_from_an_older_round():
     assert node.know.heading[ref].time_s > node.clock.now - 1.5  # measuring again: paired again
 
 
+
+def test_heading_is_not_paired_with_a_bearing_from_before_its_own_previous_slot():
+    """A slave that no longer hears its reference neighbour's start signs (lost frames) keeps the start of the last slot
+    it heard, and its bearing from that slot passes the start-sign test however old it grows; paired with a fresh
+    report while the two move about each other, it gives a wrong heading. The bearing must also date from after the
+    slave's own previous slot began (this round): with the neighbour's IR hidden from it and its start signs and syncs
+    unheard, the estimate stops within a round, and it is paired again once it measures the neighbour."""
+    env = run_env(0, steps=30)
+    n, node, ref = next(reference_pairs(env))
+    store = node.store_ir
+    deaf = [True]
+
+    def store_ir(tx, d, b):
+        if not (deaf[0] and tx == ref):
+            store(tx, d, b)
+
+    node.store_ir = store_ir
+    for kind, handler in ((msg.TX_START, node.ring._on_tx_start), (msg.SYNC, node.ring._on_sync)):
+        node.on(kind, lambda frame, handler=handler: None if deaf[0] and frame.src == ref else handler(frame))
+    received = []
+    on_heading = node.ring._on_heading
+
+    def count(frame):
+        if frame.dst == n and frame.src == ref:
+            received.append(env.episode.world.now)
+        on_heading(frame)
+
+    node.on(msg.HEADING, count)
+    t_deaf = node.clock.now
+    for _ in range(30):
+        env.step({})
+    assert received, "the neighbour's heading reports must still arrive"
+    assert node.know.heading[ref].time_s <= t_deaf + 1.0  # at most the round in progress paired
+    deaf[0] = False
+    for _ in range(20):
+        env.step({})
+    assert node.know.heading[ref].time_s > node.clock.now - 1.5  # hearing and measuring again: paired again
+
+
 # -- the IR port: the holder's transmission through the IR medium (fleet) --------------------------
 def test_the_ir_medium_stores_every_measurement_before_asking_the_holders_neighbours_in_their_order():
     """Every member on the holder's PAN measures its IR first; then the holder's neighbours, in the

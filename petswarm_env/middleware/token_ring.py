@@ -13,14 +13,12 @@ A lost token must not stall the ring (SPEC §3.3, chosen): the master watches th
 ``token_timeout_s`` of silence, regenerates the token and transmits itself.
 
 A member that stops answering (chosen): the holder before it retries the token ``token_retries`` times, then skips it, every
-round; a start sign or sync overheard with its token's number is the token taken (chosen: the next robot took it, its
-acknowledgement lost, the holder skipped it and passed the same token on: two holders, IR credited to the wrong one).
-The master counts, at the start of each of its own slots (one round of the ring), the members it heard no ring frame from
-since the start of its previous slot — their acknowledgements of its start sign and token (and those it overhears,
-addressed to other holders), their own start signs, tokens and sync messages; the ring's first slot counts nothing (a live
-member sends several each round, so loss alone rarely silences one: at ``radio.loss_prob`` 0.3, five all lost is 0.2 %) —
-and declares a member *lost* after ``protocol.lost_after_rounds`` such rounds in a row: ``lost_handler(node_id)``, the
-recovery manager (:mod:`.recovery`), removes it from the tables.
+round. The master counts, at the start of each of its own slots (one round of the ring), the members it heard no ring frame
+from since the start of its previous slot — their acknowledgements of its start sign and token (and those it overhears,
+addressed to other holders), their own start signs, tokens and sync messages; the ring's first slot counts nothing (no round
+has passed) (a live member sends several each round, so loss alone rarely silences one: at ``radio.loss_prob`` 0.3, five
+frames all lost is 0.2 %) — and declares a member *lost* after ``protocol.lost_after_rounds`` such rounds in a row:
+``lost_handler(node_id)``, the recovery manager (:mod:`.recovery`), removes it from the tables.
 
 A crowded ring (chosen; seed 000 gives the sequence of Fig. 7, not its timing for many robots): the answers to one ring frame
 all leave after one MCU processing delay, spread only by its jitter (``radio.processing_jitter_s``), and CSMA cannot tell apart
@@ -243,7 +241,8 @@ class TokenRing:
     # -- holder -----------------------------------------------------------------------------------
     @cython.cfunc
     def _wait_acks(self, needed: set, slot: _Slot):
-        """The holder waits for acknowledgements from ``needed``, or the response timeout: ``slot`` resumes at the first."""
+        """The holder waits for acknowledgements from ``needed``, or the response timeout: ``slot``
+        resumes at the first of the two (:class:`_Wait`)."""
         self._acks = set()
         self._acks_needed = needed
         wait: _Wait = _Wait(slot)
@@ -251,7 +250,8 @@ class TokenRing:
         wait.armed = True
         self._clock.call_later(self._protocol()[1], self._wait_over, (wait,))
 
-    def _wait_over(self, wait: _Wait) -> None:  # the first of a wait's two ends (event, timeout) resumes its slot
+    def _wait_over(self, wait: _Wait) -> None:
+        """The first of a wait's two ends (its event, or its timeout) resumes its slot; the later one is nothing."""
         if wait.done or not wait.armed:
             return
         wait.done = True
@@ -296,8 +296,8 @@ class TokenRing:
             self.node.join.replan_by_fixes()
 
     def last_heard_s(self) -> float | None:
-        """Master: when it last heard a ring frame of a member of its tables, or started its ring (None without a
-        member): the sequence manager's cut-off (:meth:`~.sequence.SequenceManager.cut_off`)."""
+        """Master: when it last heard a ring frame of a member of its tables, or started its ring
+        (None without a member): the sequence manager's cut-off (:meth:`~.sequence.SequenceManager.cut_off`)."""
         peers = self._ring_peers()
         if not peers:
             return None
@@ -413,11 +413,12 @@ class TokenRing:
         self.report_s = self._clock.local_now()
         seen: IRMeasurement = node.know.ir.get(frame.src)
         if seen is not None and seen.time_s >= max(self._slot_start.get(frame.src, _NEG_INF), self._own_starts[0]):
-            # our bearing of the sender is of this round (module docstring; else no pair): carry it over our rotation since
+            # our bearing of the sender dates from its slot of this round (module docstring): carry it over our rotation since
             yaw = node._own_yaw()  # (ahrs_yaw, a C call)
             bearing_now = seen.bearing_rad - (yaw - seen.own_yaw_rad)
             rel = relative_heading(bearing_now, frame.payload["bearing"])
             node.know.heading[frame.src] = HeadingEstimate(rel, self._clock.local_now(), yaw)
+        # else we missed the sender's latest slot, or its start signs since our previous slot: no pair from this round
         self._headings_expected.discard(frame.src)
         wait: _Wait = self._headings_event
         if wait is not None and not wait.triggered and not self._headings_expected:
@@ -581,11 +582,10 @@ class _Slot:
         if ring.node.know is not self.know:
             self._end()
             return
-        taken = self.target in ring._acks or ring.token_seq > self.seq  # or a start sign or sync heard with its number
-        if not taken and self.attempts_left > 0:
+        if self.target not in ring._acks and self.attempts_left > 0:
             self._send_token()  # retry
             return
-        if taken or self.nxt == self.member:
+        if self.target in ring._acks or self.nxt == self.member:
             self._finish()
             return
         self.nxt = ring._next_member(self.nxt)  # skip a robot that does not answer

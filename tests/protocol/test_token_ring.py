@@ -135,9 +135,7 @@ def fresh_measurements(before, after):
 
 
 def test_dropped_token_is_recovered_by_the_master():
-    # seed 2 (1 before a token taken counted as acknowledged: there the holder missed the dropping robot's
-    # acknowledgements, skipped it and the ring went on, with nothing for the master to recover)
-    env = run_env(2, steps=5)
+    env = run_env(1, steps=5)
     sw = env.episode.swarm
     slave = sw.nodes[sw.master.know.members[2]]
     slave.ring.drop_next_token = True
@@ -420,16 +418,13 @@ class RingFrames:
         pass
 
 
-@pytest.mark.parametrize("seed", [0, 2])
+@pytest.mark.parametrize("seed", [0, 1])
 def test_a_ring_of_seventeen_revisits_every_member_within_the_fix_freshness(seed):
     """1 master + 16 slaves: every one joins, the ring's round stays well under the 2 s an IR fix stays
     fresh, every round (17 slots of 0.16 s took 2.6 s when every robot answered at once and the holder waited
     for the heading reports; 1.8-2.0 s with the 40 ms IR time of a small ring, ~1.55 s with the crowded
     ring's 15 ms), a token is answered at the first try (3.7 tokens per hand-over
-    before) and fewer of its answers collide (60 % before). Seeds 0 and 2: on seed 1 the master's re-plan
-    after its first round renumbers the members while the token goes round, the robots' tables disagree
-    for a slot or two, and the master regenerates the token once (before a token taken counted as
-    acknowledged it did not; seeds 0-5 give 1.26-1.51 tokens per hand-over, 1.55-1.70 before)."""
+    before) and fewer of its answers collide (60 % before)."""
     from petswarm_env.middleware.knowledge import FRESH_IR_S
 
     env = petswarm_env.parallel_env(**{"user.start_delay_s": 100.0, "swarm.num_slaves": 16})  # scattered: 16 slots do not fit the available region

@@ -251,8 +251,10 @@ class Diagnosis:
             fix = fixes.get(src)
             if fix is not None and fix.time_s >= t0:
                 self._ir_hit()
-            elif ranges_m.get(src, math.inf) <= IR_FAR_EXPECT_M and src in know.members.values():
-                self._ir_missed(now_s, src, ranges_m.get(src, math.inf) <= IR_EXPECT_RANGE_M)
+                continue
+            announced: cython.double = ranges_m.get(src, math.inf)
+            if announced <= IR_FAR_EXPECT_M and src in know.members.values():
+                self._ir_missed(now_s, src, announced <= IR_EXPECT_RANGE_M)
 
     @cython.cfunc
     def _mark_seen(self, p: cython.Py_ssize_t, src: object, start: object) -> cython.void:

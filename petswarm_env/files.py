@@ -23,6 +23,7 @@ import math
 import os
 import re
 import signal
+import sys
 import tempfile
 import threading
 import zipfile
@@ -317,20 +318,31 @@ class Terminated(SystemExit):
 
 
 # the exception of the last signal (exit_cleanly_on_signals): a signal that arrives while a C
-# library runs Python code for it (pymunk frees a space through a cffi callback when an episode's
-# world is dropped) has its exception printed and swallowed there ("Exception ignored from callback"),
-# so the loops that run episodes raise it again at their next step (raise_pending_signal)
+# library runs Python code for it (pymunk's cffi callbacks: a contact's begin, a space freed when an
+# episode's world is dropped) has its exception swallowed there, so the loops that run episodes raise
+# it again at their next step (raise_pending_signal); Python reports the swallowed one through
+# sys.unraisablehook ("Exception ignored from cffi callback", a traceback), which _quiet_unraisable
+# leaves out: the command's one line comes when it is raised again
 _PENDING: list[BaseException] = []
+
+
+def _quiet_unraisable(previous: Callable[[Any], None]) -> Callable[[Any], None]:
+    """An unraisable-exception hook that drops the pending signal's exception and hands any other to ``previous``."""
+    def hook(unraisable) -> None:
+        if _PENDING and unraisable.exc_value is _PENDING[0]:
+            return
+        previous(unraisable)
+    return hook
 
 
 def _raise_terminated(signum, frame) -> None:
     _PENDING[:] = [Terminated(signum)]
-    raise Terminated(signum)
+    raise _PENDING[0]
 
 
 def _raise_interrupt(signum, frame) -> None:
     _PENDING[:] = [KeyboardInterrupt()]
-    raise KeyboardInterrupt
+    raise _PENDING[0]
 
 
 def raise_pending_signal() -> None:
@@ -351,9 +363,11 @@ def exit_cleanly_on_signals() -> Iterator[None]:
         return
     previous = {sig: signal.signal(sig, _raise_terminated) for sig in (signal.SIGTERM, signal.SIGHUP)}
     previous[signal.SIGINT] = signal.signal(signal.SIGINT, _raise_interrupt)
+    unraisable_hook, sys.unraisablehook = sys.unraisablehook, _quiet_unraisable(sys.unraisablehook)
     try:
         yield
     finally:
         _PENDING.clear()
+        sys.unraisablehook = unraisable_hook
         for sig, handler in previous.items():
             signal.signal(sig, handler)

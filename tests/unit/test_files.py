@@ -205,3 +205,46 @@ def test_a_signal_swallowed_by_a_callback_is_raised_again_at_the_next_step():
             raise_pending_signal()
         assert info.value.code == 128 + signal.SIGTERM
     raise_pending_signal()  # the block's end forgets it
+
+
+def test_a_signal_swallowed_by_a_callback_is_not_printed_and_other_errors_still_are(monkeypatch):
+    """Python reports an exception that a callback swallows through sys.unraisablehook ("Exception ignored ...",
+    with a traceback): for the pending signal's exception that report is left out, the command's one line comes when
+    it is raised again (files.raise_pending_signal); any other swallowed exception reaches the hook that was there
+    before. A ``__del__`` stands for the callback (its exceptions go the same way)."""
+    import gc
+    import os
+    import signal
+    import sys
+
+    from petswarm_env.files import Terminated, exit_cleanly_on_signals
+
+    reported = []
+
+    def record(unraisable):
+        reported.append(unraisable.exc_value)
+
+    monkeypatch.setattr(sys, "unraisablehook", record)
+
+    class Swallows:
+        def __init__(self, exc):
+            self.exc = exc
+
+        def __del__(self):
+            raise self.exc
+
+    with exit_cleanly_on_signals():
+        try:
+            os.kill(os.getpid(), signal.SIGTERM)
+            for _ in range(1000):
+                pass
+        except Terminated as exc:
+            pending = exc
+        Swallows(pending)
+        gc.collect()
+        assert reported == []
+        real = ValueError("a real error")
+        Swallows(real)
+        gc.collect()
+        assert reported == [real]
+    assert sys.unraisablehook is record  # the block's end puts the previous hook back

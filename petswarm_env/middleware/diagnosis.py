@@ -11,6 +11,8 @@ All three checks run on the robot's MCU, on its own readings:
   RSSI puts within :data:`IR_EXPECT_RANGE_M` should give an IR fix of it; :data:`IR_MISSES` such
   slots in a row without a fix, spanning at least :data:`IR_MISS_SPAN_S`, while their radio frames
   keep arriving, is a broken IR module (receiver; the same module transmits). A fix after that clears it (a transient fault's end).
+  From two holders only (ours and one neighbour's) the streak must span :data:`IR_PAIR_SPAN_S`; a holder that left the
+  member table since ends it.
   The master also counts slots announced within :data:`IR_FAR_EXPECT_M`, over the longer :data:`IR_FAR_SPAN_S` (its swarm
   falls back from it when its IR breaks, out of the near range).
 * **ultrasonic ring**, two checks. (1) The driver's self-test (chosen: the transducer diagnosis of
@@ -75,6 +77,12 @@ IR_MISSES = 5  # chosen: announced slots in a row without a fix -> IR module bro
 # ends the streak; a broken module misses every slot on (before: 5 misses in 0.8-1.1 s found a working module broken)
 IR_MISS_SPAN_S = 1.5
 IR_SOURCES = 3  # chosen: ... of this many holders (our own slot counts as one; fewer if fewer are in range, at least 2): occlusion hides one or two
+# chosen: ... over at least this long when they are two, ours and one neighbour's: a pair that sees only each other cannot
+# tell which module broke, and the broken one, with its other neighbours' slots too, usually finds it first; its bid
+# request then starts our streak over (neighbour_ir_broken). With IR_MISS_SPAN_S a column's master or a row's outer
+# slave found its working module broken in 11 and 12 of 100 runs (seeds 0-99; 3 with 2.0 s, 1 now with the holder
+# rule of _ir_missed); it costs a column's broken master 1 s (median detection 2.4 -> 3.4 s)
+IR_PAIR_SPAN_S = 2.5
 # chosen: a module that the swarm has drifted away from hears its holders announced beyond IR_EXPECT_RANGE_M only: its
 # slaves lost its fixes with the fault and fell back, 1.7-3 m off within seconds (the master's IR fault at loss 0.3, seeds
 # 5072, 8070: never found). Announced slots within this RSSI range (the IR detection fades out at 2.4-2.8 m, the RSSI
@@ -294,6 +302,13 @@ class Diagnosis:
         """A slot that should have given an IR fix (``src``: its announcer) or a heading report
         (``src`` = us: our own slot) gave none; ``near``: announced within :data:`IR_EXPECT_RANGE_M`
         (else within :data:`IR_FAR_EXPECT_M`)."""
+        members = self._know_of().members.values()
+        for held in self._ir_far_from:  # (the near misses' holders are among these)
+            if held != self.node_id and held not in members:
+                # a holder that left the swarm since: its slots' misses may be its module's doing (a column's tail counted its
+                # broken front neighbour's slots, then its new front neighbour's while that one drove up: column, seed 50)
+                self._ir_streak_over()
+                break
         if self._ir_far_miss == 0:
             self._ir_far_first_s = now_s
         self._ir_far_miss += 1
@@ -306,9 +321,10 @@ class Diagnosis:
             self._ir_miss += 1
             self._ir_missed_from.add(src)
             if self._ir_miss >= IR_MISSES and now_s - self._ir_first_miss_s >= IR_MISS_SPAN_S:
-                members = self._know_of().members.values()
                 close = {n for n, r in self.ring.slot_range_m.items() if r <= IR_EXPECT_RANGE_M and n in members}
-                if len(self._ir_missed_from) >= max(2, min(IR_SOURCES, len(close | {self.node_id}))):
+                n_from: cython.Py_ssize_t = len(self._ir_missed_from)
+                if n_from >= max(2, min(IR_SOURCES, len(close | {self.node_id}))) \
+                        and (n_from > 2 or now_s - self._ir_first_miss_s >= IR_PAIR_SPAN_S):
                     self._detect("ir", now_s)
                     return
         if self._ir_far_miss >= IR_MISSES and now_s - self._ir_far_first_s >= IR_FAR_SPAN_S \

@@ -41,7 +41,8 @@ class Leaving:
         until it is clear of the outermost slot's lane by :data:`CLEAR_LANE_GAP_M` (:attr:`back_after_m`), and
         from there sideways and back against the walk (:data:`HANDOVER_BACK_MPS`), so that it is left behind the
         swarm's tail (chosen: backing off from the start, it crossed the arm of a wedge behind it, whose robots stand
-        30° off the back axis, and ran into them; sideways alone, the zigzag walk re-formed less; docs/faults.md);
+        30° off the back axis, and ran into them; sideways alone, the zigzag walk re-formed less; docs/faults.md); with
+        no slot behind its own (a row: its members stand beside it) it stops where it stands (:func:`_slot_behind`);
         the old master of a leading swarm moves out sideways at that speed without the swarm's pace (chosen: at a
         slave's pace and speed it stood beside the new master's lane when a zigzag turn brought the swarm onto it, the new
         master's obstacle exception stopped it and its user walked on alone; leading zigzag, seeds 300-339: the
@@ -67,6 +68,13 @@ class Leaving:
         outermost = max((float(p[1]) * side for p in pos), default=0.0)
         clear_m = outermost - lateral * side + 2.0 * node.cfg.robot.radius_m  # beside the outermost slot's robot
         out_m = clear_m + CLEAR_MARGIN_M
+        if was_master and node.know.mode == "following" and not _slot_behind(pos, 2.0 * node.cfg.robot.radius_m + CLEAR_LANE_GAP_M):
+            # the old master of a following swarm with no slot behind its own (a row): it stops, the swarm walks on past
+            # it (chosen: sideways it drove through the members beside it and carried the outer one off, 4 m and more:
+            # row, IR on the master, seeds 4400-4419, re-formed 12 of 20)
+            self.clear_out = (node.clock.now, 0.0, side * CLEAR_SPEED_MPS, 0.0)  # (0, 0, 0) at the next step
+            self._cleared = (node.clock.now, 0.0)
+            return
         if was_master and node.know.mode == "following":
             # the old master of a following swarm: sideways out of the lanes, then sideways and back against the walk
             # (its +x: it faced its user)
@@ -168,6 +176,13 @@ CLEAR_MARGIN_M = 1.5
 # into it there (slave faults, seeds 200-219: zigzag re-formed 19/18/18 of 20, before 17/16/16; straight 20/20/19,
 # before 19/20/20 — calibrated on those seeds, and noisy: 0.6 m read 19/16/13 on the zigzag)
 CLEAR_LANE_GAP_M = 0.4
+
+
+def _slot_behind(pos, near_m: float) -> bool:
+    """Whether a slot of the formation (``pos``: slot positions, the master's first) lies behind the master's
+    slot within ``near_m`` of its lane (the formation's frame: +x the way the master faces)."""
+    x0, y0 = float(pos[0][0]), float(pos[0][1])
+    return any(float(p[0]) < x0 and abs(float(p[1]) - y0) < near_m for p in pos[1:])
 
 
 def _segment_distance(p, a, b) -> float:

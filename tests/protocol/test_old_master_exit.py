@@ -1,0 +1,42 @@
+"""The old master's way out after it handed its user over for a broken part (middleware/leaving.py): following, it
+moves out sideways and then back against the walk, past the members behind it; a formation with no slot behind the
+master's (a row) has its members beside the master, so there it stops where it stands and the swarm walks on."""
+
+from __future__ import annotations
+
+import pytest
+
+import petswarm_env
+from petswarm_env.middleware.leaving import CLEAR_LANE_GAP_M, _slot_behind
+
+
+@pytest.mark.parametrize("shape, behind", [("wedge", True), ("column", True), ("grid", True), ("row", False)])
+def test_a_slot_behind_the_masters_lane_is_found_in_the_formations_own_frame(shape, behind):
+    env = petswarm_env.parallel_env(**{"swarm.formation": shape})
+    env.reset(seed=0)
+    ep = env.episode
+    node = ep.fleet.nodes[ep.swarms[0].master.node_id]
+    near = 2.0 * node.cfg.robot.radius_m + CLEAR_LANE_GAP_M
+    assert _slot_behind(node.formation.slot_positions(), near) is behind
+
+
+@pytest.mark.parametrize("seed", [4401, 4416])
+def test_a_rows_old_master_stops_and_the_members_beside_it_stay_in_their_slots(seed):
+    """Row, IR on the master at 20 s: the old master moved out sideways through the members on its side and carried
+    the outer one off with it (seed 4416: 4.9 m off its slot 7 s after the handover; 4401: 2.0 m at the 10 s mark).
+    Now its move out is a stop, the swarm walks on past it, and every slave is within 0.3 m of its slot 10 s after
+    the detection."""
+    from petswarm.experiments import sensor_faults
+
+    moves = []  # the old master's planned move out: (vx, vy, distance)
+
+    def watch(env):
+        old = env.episode.fleet.nodes[0]  # the master of these seeds
+        c = old.recovery.clear_out
+        if c is not None and env.episode.swarms[0].master is not old and (not moves or moves[-1] != c[1:]):
+            moves.append(c[1:])
+
+    r = sensor_faults.run("ir", seed, target="master", overrides={"swarm.formation": "row"}, on_step=watch)
+    assert r["handovers"] and r["handovers"][0][1] == 0, r["handovers"]
+    assert moves and moves[0][2] == 0.0, f"the old master's move out: {moves}"
+    assert r["reformed"], f"largest live-slave error {r['largest_error_m']:.2f} m 10 s after the detection"

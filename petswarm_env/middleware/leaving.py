@@ -68,7 +68,8 @@ class Leaving:
         outermost = max((float(p[1]) * side for p in pos), default=0.0)
         clear_m = outermost - lateral * side + 2.0 * node.cfg.robot.radius_m  # beside the outermost slot's robot
         out_m = clear_m + CLEAR_MARGIN_M
-        if was_master and node.know.mode == "following" and not _slot_behind(pos, 2.0 * node.cfg.robot.radius_m + CLEAR_LANE_GAP_M):
+        lane_m = 2.0 * node.cfg.robot.radius_m + CLEAR_LANE_GAP_M
+        if was_master and node.know.mode == "following" and not _slot_behind(pos, lane_m):
             # the old master of a following swarm with no slot behind its own (a row): it stops, the swarm walks on past
             # it (chosen: sideways it drove through the members beside it and carried the outer one off, 4 m and more:
             # row, IR on the master, seeds 4400-4419, re-formed 12 of 20)

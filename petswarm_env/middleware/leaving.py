@@ -9,6 +9,7 @@ from __future__ import annotations
 import math
 
 from petswarm_env.middleware.formation import Formation
+from petswarm_env.sim.geometry import wrap_angle
 
 
 class Leaving:
@@ -36,17 +37,8 @@ class Leaving:
         ``formation``, the tables of the member update that removed it): the swarm walks on away from it
         (chosen: the rear robot of a wedge's arm, moving out at the swarm's pace while the swarm turned
         toward its side, was carried ahead into the lane of the front robot of its arm, which then ran
-        into it as it stood — slave faults on the zigzag walk; docs/faults.md). The old master of a
-        following swarm moves out sideways at the wheels' top speed (:data:`HANDOVER_SIDE_MPS`), keeping no pace,
-        until it is clear of the outermost slot's lane by :data:`CLEAR_LANE_GAP_M` (:attr:`back_after_m`), and
-        from there sideways and back against the walk (:data:`HANDOVER_BACK_MPS`), so that it is left behind the
-        swarm's tail (chosen: backing off from the start, it crossed the arm of a wedge behind it, whose robots stand
-        30° off the back axis, and ran into them; sideways alone, the zigzag walk re-formed less; docs/faults.md); with
-        no slot behind its own (a row: its members stand beside it) it stops where it stands (:func:`_slot_behind`);
-        the old master of a leading swarm moves out sideways at that speed without the swarm's pace (chosen: at a
-        slave's pace and speed it stood beside the new master's lane when a zigzag turn brought the swarm onto it, the new
-        master's obstacle exception stopped it and its user walked on alone; leading zigzag, seeds 300-339: the
-        user driven to the end 16 -> 34 of 40; straight, seeds 200-239: re-formed 35 -> 38 of 40)."""
+        into it as it stood — slave faults on the zigzag walk; docs/faults.md). An old master's move:
+        :meth:`_plan_old_master`."""
         node = self.node
         if node.formation is None:
             return
@@ -56,6 +48,7 @@ class Leaving:
         if not (0 < member or cut_off) or member >= len(pos):
             return
         self.back_after_m = math.inf  # (an old master of a following swarm's move sets it below)
+        self._clear_dir = (0.0, 1.0)  # the move's progress is counted along this, body frame: sideways (across the walk: below)
         status = node.know.status  # the master's pace (none heard yet: its own)
         vx = float(status.velocity[0]) if status is not None else float(node.odometry.read()[0])
         lateral = float(pos[member][1])
@@ -68,33 +61,52 @@ class Leaving:
         outermost = max((float(p[1]) * side for p in pos), default=0.0)
         clear_m = outermost - lateral * side + 2.0 * node.cfg.robot.radius_m  # beside the outermost slot's robot
         out_m = clear_m + CLEAR_MARGIN_M
-        lane_m = 2.0 * node.cfg.robot.radius_m + CLEAR_LANE_GAP_M
-        if was_master and node.know.mode == "following" and not _slot_behind(pos, lane_m):
-            # the old master of a following swarm with no slot behind its own (a row): it stops, the swarm walks on past
-            # it (chosen: sideways it drove through the members beside it and carried the outer one off, 4 m and more:
-            # row, IR on the master, seeds 4400-4419, re-formed 12 of 20)
-            self.clear_out = (node.clock.now, 0.0, side * CLEAR_SPEED_MPS, 0.0)  # (0, 0, 0) at the next step
-            self._cleared = (node.clock.now, 0.0)
-            return
-        if was_master and node.know.mode == "following":
-            # the old master of a following swarm: sideways out of the lanes, then sideways and back against the walk
-            # (its +x: it faced its user)
-            self.pace_until_m = 0.0
-            self.back_after_m = clear_m + CLEAR_LANE_GAP_M
-            self.clear_out = (node.clock.now, -HANDOVER_BACK_MPS, side * HANDOVER_SIDE_MPS, out_m)
-            self._cleared = (node.clock.now, 0.0)
-            return
         if was_master:
-            # the old master of a leading swarm (its front; the swarm walks the way its back faces): straight out
-            # sideways, keeping no pace, so the swarm it led walks past it at once
-            self.pace_until_m = 0.0
-            self.clear_out = (node.clock.now, 0.0, side * HANDOVER_SIDE_MPS, out_m)
-            self._cleared = (node.clock.now, 0.0)
+            self._plan_old_master(pos, side, clear_m, out_m, cut_off)
             return
         self.pace_until_m = clear_m + CLEAR_LANE_GAP_M
         ahead = math.copysign(CLEAR_AHEAD_MPS, vx)  # ahead the way the swarm walks
         self.clear_out = (node.clock.now, vx + ahead, side * CLEAR_SPEED_MPS, out_m)
         self._cleared = (node.clock.now, 0.0)
+
+    def _plan_old_master(self, pos, side: float, clear_m: float, out_m: float, cut_off: bool) -> None:
+        """The move out of a master that handed its user over (or was cut off): ``pos`` its formation's slots,
+        ``side`` its slot's side, ``clear_m`` to beside the outermost slot's robot, ``out_m`` the whole move.
+
+        Following: sideways at the wheels' top speed (:data:`HANDOVER_SIDE_MPS`), keeping no pace, until it is clear
+        of the outermost slot's lane by :data:`CLEAR_LANE_GAP_M` (:attr:`back_after_m`), and from there sideways and
+        back against the walk (:data:`HANDOVER_BACK_MPS`), so that it is left behind the swarm's tail (chosen: backing
+        off from the start, it crossed the arm of a wedge behind it, whose robots stand 30° off the back axis, and ran
+        into them; sideways alone, the zigzag walk re-formed less; docs/faults.md). With no slot behind its own (a
+        row: its members stand beside it) it stops where it stands (:func:`_slot_behind`; chosen: sideways it drove
+        through the members beside it and carried the outer one off, 4 m and more: row, IR on the master, seeds
+        4400-4419, re-formed 12 of 20).
+
+        Leading: out at that speed without the swarm's pace (chosen: at a slave's pace and speed it stood beside the
+        new master's lane when a zigzag turn brought the swarm onto it, the new master's obstacle exception stopped it
+        and its user walked on alone; leading zigzag, seeds 300-339: the user driven to the end 16 -> 34 of 40;
+        straight, seeds 200-239: re-formed 35 -> 38 of 40), across the walk it told the new master (its ψ, carried
+        over its own turn since by its AHRS), else sideways (chosen: just after a zigzag's turn its back is up to 80°
+        off the walk, and sideways it drove along the new master's way ahead of their user, where that one's obstacle
+        exception stopped it: seeds 300-339, driven to the end 31 -> 40 of 40 with the new master's heading
+        estimates carried over the old master's broadcast turn, succession.master_turned)."""
+        node = self.node
+        now = node.clock.now
+        self.pace_until_m = 0.0
+        self._cleared = (now, 0.0)
+        if node.know.mode == "following" and not _slot_behind(pos, 2.0 * node.cfg.robot.radius_m + CLEAR_LANE_GAP_M):
+            self.clear_out = (now, 0.0, side * CLEAR_SPEED_MPS, 0.0)  # (0, 0, 0) at the next step
+        elif node.know.mode == "following":  # its +x: it faced its user
+            self.back_after_m = clear_m + CLEAR_LANE_GAP_M
+            self.clear_out = (now, -HANDOVER_BACK_MPS, side * HANDOVER_SIDE_MPS, out_m)
+        else:  # leading: its front; the swarm walks the way its back faces
+            told = None if cut_off else node.modes.walk_told
+            vx, vy = 0.0, side * HANDOVER_SIDE_MPS
+            if told is not None:
+                across = told[0] - wrap_angle(node.ahrs_yaw() - told[1]) - side * 0.5 * math.pi
+                self._clear_dir, self.back_after_m = (math.cos(across), math.sin(across)), 0.0
+                vx, vy = HANDOVER_SIDE_MPS * self._clear_dir[0], HANDOVER_SIDE_MPS * self._clear_dir[1]
+            self.clear_out = (now, vx, vy, out_m)
 
     def plan_clear_out_cut_off(self) -> None:
         """A master cut off from its swarm (its radio silent: no ring frame of any member,
@@ -144,9 +156,11 @@ class Leaving:
         now_s = self.node.clock.now
         t0, vx, vy, out_m = c
         last_s, done_m = self._cleared
-        done_m += abs(self.node.odometry.read()[1]) * (now_s - last_s)  # the wheels' sideways travel since
+        ox, oy, _ = self.node.odometry.read()
+        ux, uy = self._clear_dir
+        done_m += abs(ox * ux + oy * uy) * (now_s - last_s)  # the wheels' travel since, sideways (or across the walk)
         self._cleared = (now_s, done_m)
-        if done_m < out_m and now_s - t0 < CLEAR_TIMEOUT * out_m / abs(vy) and self.node.state == "waiting":
+        if done_m < out_m and now_s - t0 < CLEAR_TIMEOUT * out_m / abs(vx * ux + vy * uy) and self.node.state == "waiting":
             # the swarm's pace until out of the lanes, then standing along the walk (the swarm walks past); an old
             # master of a following swarm backs off beyond the lanes
             along = done_m < self.pace_until_m or done_m >= self.back_after_m

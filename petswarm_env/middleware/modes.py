@@ -184,6 +184,7 @@ class ModeManager:
         self._acks: set[int] = set()
         self.handover_acked = False
         self.told_walk_rad: float | None = None  # the way the user walks, as the master that handed them over told it
+        self.walk_told: tuple[float, float] | None = None  # what this master told, and its AHRS yaw then (leaving.py)
         self.handed_from: int | None = None  # the robot that handed its user over to this one (RecoveryManager._remove)
         node.on(msg.MODE_CHANGE, self._on_mode_change)
         node.on(msg.MODE_CHANGE_ACK, self._on_ack)
@@ -220,6 +221,7 @@ class ModeManager:
         if new_master != node.node_id:
             retries = 0
             self.handover_acked = False
+            self.walk_told = None if walk_rad is None else (walk_rad, node.ahrs_yaw())
             while True:
                 told = {} if walk_rad is None else {"walk_rad": round(walk_rad, 3)}  # int16 mrad
                 node.send(msg.HANDOVER, dst=new_master, seq=seq, user=node.connected_user,

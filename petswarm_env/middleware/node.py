@@ -91,3 +91,4 @@ class Node(Station):
         know: Knowledge = station.know
         know.status = new_status(p["velocity"], p["activity"], p["mode"], p["turn_rate"], p["user"],
                                  station._mcu.local_now(), p["rotating"])  # on its own clock (``clock.now``)
+        self.succession.heard_status(frame.src, know.status.time_s, p["velocity"][2])

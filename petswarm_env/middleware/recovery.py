@@ -120,6 +120,7 @@ class RecoveryManager(Leaving):
         # (start, vx, vy, distance): the move out of the formation (_plan_clear_out)
         self.clear_out: tuple[float, float, float, float] | None = None
         self._cleared = (0.0, 0.0)  # (time, sideways metres the wheels counted) of that move
+        self._clear_dir = (0.0, 1.0)  # the body-frame direction that move's progress is counted along (leaving.py)
         self.pace_until_m = math.inf  # the sideways metres of that move it keeps the swarm's pace for
         self.back_after_m = math.inf  # ... and beyond which it drives its along-walk speed again (an old master: back)
         node.on(msg.MEMBER_UPDATE, self._on_update)

@@ -47,6 +47,7 @@ over, the shape and spacing are those of the neighbour table it holds (:func:`ad
 from __future__ import annotations
 
 import math
+from collections import deque
 from collections.abc import Callable
 
 import numpy as np
@@ -95,6 +96,7 @@ SETTLED_RPS = 0.2
 # (steady) did better than its ψ (the LF track's, noisy): IR on the master, leading straight, seeds 100-119, 200-219 and
 # 300-379, re-formed 106/120 with it, 95 with ψ always; leading zigzag in emergency at the end 64 -> 10 of 120 (docs/faults.md)
 TOLD_WALK_OFF_DEG = 25.0
+MASTER_TURN_HISTORY = 600  # chosen: status broadcasts whose turn rates a slave keeps (SuccessionManager.heard_status)
 
 
 def search_places(origin: tuple[float, float], way: tuple[float, float], spacing_m: float = SEARCH_SPACING_M,
@@ -192,10 +194,15 @@ def user_travel(user: tuple[float, float], master: tuple[float, float], mode: st
 
 
 def master_heading_offset(node: Station, master: int) -> float:
-    """θ_master − θ_self as this robot knows it: its heading-exchange estimate of the master's heading,
-    else aligned with it (0: the scripted slaves hold the master's heading in formation)."""
+    """θ_master − θ_self as this robot knows it: its heading-exchange estimate of the master's heading, carried
+    over its own turn since (its AHRS) and the master's (the turn rates of the master's status broadcasts since,
+    :meth:`SuccessionManager.master_turned`); else aligned with it (0: the scripted slaves hold the master's heading
+    in formation)."""
     head = node.know.heading.get(master)
-    return head.relative_rad - wrap_angle(node.ahrs_yaw() - head.own_yaw_rad) if head is not None else 0.0
+    if head is None:
+        return 0.0
+    turned = node.succession.master_turned(master, head.time_s) if hasattr(node, "succession") else 0.0
+    return head.relative_rad + turned - wrap_angle(node.ahrs_yaw() - head.own_yaw_rad)
 
 
 def in_place_to_resume(tracker, psi: float | None, now: float, alert_pause_s: float, target_m: float, leading: bool,
@@ -347,9 +354,43 @@ class SuccessionManager:
         self._noticed_s = 0.0
         self._seq = -1
         self._acks: set[int] = set()
+        # the master's turn integrated from the turn rates of its status broadcasts: (time on own clock, radians since
+        # the first, that broadcast's rate), of the robot ``_turn_src`` (chosen: MASTER_TURN_HISTORY of them, 60 s at the
+        # shipped 0.1 s broadcast period)
+        self._turns: deque[tuple[float, float, float]] = deque(maxlen=MASTER_TURN_HISTORY)
+        self._turn_src: int | None = None
         node.on(msg.CANDIDACY, self._on_candidacy)
         node.on(msg.TAKEOVER, self._on_takeover)
         node.on(msg.TAKEOVER_ACK, self._on_ack)
+
+    # -- the master's turn since a heading exchange ---------------------------------------------------
+    def heard_status(self, src: int, now_s: float, turn_rate_rps: float) -> None:
+        """A status broadcast of ``src`` arrived at ``now_s`` (own clock) with the master's turn rate (seed 000 §3.5:
+        its (vx, vy, ω)): its turn since the last one, by the mean of the two rates, is added up."""
+        turns = self._turns
+        if src != self._turn_src or not turns:
+            self._turn_src = src
+            turns.clear()
+            turns.append((now_s, 0.0, turn_rate_rps))
+            return
+        t0, acc, rate0 = turns[-1]
+        turns.append((now_s, acc + 0.5 * (rate0 + turn_rate_rps) * (now_s - t0), turn_rate_rps))
+
+    def master_turned(self, master: int, since_s: float) -> float:
+        """How far ``master`` turned from ``since_s`` (own clock) to its latest status broadcast heard, by the turn
+        rates its broadcasts carried (0 where none of it reaches back there: another master's, or none heard). A
+        heading-exchange estimate of the master is carried over it (:func:`master_heading_offset`; chosen: with the
+        master's IR module broken, its slaves' estimates stood from before the fault, and where the user turned
+        about meanwhile the new master of the handover put its user 2-3 m off: u_turn, IR on the master)."""
+        turns = self._turns
+        if master != self._turn_src or not turns or turns[0][0] > since_s:
+            return 0.0
+        at = 0.0
+        for t, acc, rate in reversed(turns):
+            if t <= since_s:
+                at = acc + rate * (since_s - t)
+                break
+        return turns[-1][1] - at
 
     # -- a slave that lost its master -------------------------------------------------------------
     def start(self, now_s: float) -> None:

@@ -280,8 +280,8 @@ def test_the_old_master_moves_out_sideways_at_the_wheels_top_speed_and_is_left_b
     front for 4.5 s, it stopped where the next turn brought the swarm onto it, and the rear slave on that side
     stood behind it (1.12 m off 10 s after the detection). Now it moves out sideways at the wheels' top speed, and
     back against the walk once clear of the lanes, and is left behind the swarm. A leading swarm's old master (its
-    user stands until the new master is in place; the swarm walks the way its back faces) moves out sideways at that
-    speed, keeping no pace, so the swarm it led walks past it."""
+    user stands until the new master is in place; the swarm walks the way its back faces) moves out at that speed
+    across the walk it told the new master, keeping no pace, so the swarm it led walks past it."""
     from petswarm.experiments import sensor_faults
 
     seen: dict = {}
@@ -289,7 +289,7 @@ def test_the_old_master_moves_out_sideways_at_the_wheels_top_speed_and_is_left_b
     def watch(env):
         rec = env.episode.fleet.nodes[0].recovery
         if rec.clear_out is not None and "plan" not in seen:
-            seen["plan"] = rec.clear_out
+            seen["plan"], seen["told"] = rec.clear_out, env.episode.fleet.nodes[0].modes.walk_told
 
     overrides = {"user.scenario": "zigzag"} if mode == "following" else {"swarm.mode": mode}
     r = sensor_faults.run("ir", seed, target="master", overrides=overrides, on_step=watch)
@@ -300,7 +300,9 @@ def test_the_old_master_moves_out_sideways_at_the_wheels_top_speed_and_is_left_b
         assert r["reformed"], f"largest live-slave error {r['largest_error_m']:.2f} m 10 s after the detection"
         assert r["session_state"] == "following" and r["user_distance_end_m"] <= sensor_faults.USER_FOLLOWED_M
     else:
-        assert (vx, abs(vy)) == (0.0, HANDOVER_SIDE_MPS) and out_m > 1.0
+        assert math.hypot(vx, vy) == pytest.approx(HANDOVER_SIDE_MPS) and out_m > 1.0
+        walk = seen["told"][0]  # the walk it told, its body frame then (it turned a little since: its AHRS carries it)
+        assert abs(vx * math.cos(walk) + vy * math.sin(walk)) < 0.1 * HANDOVER_SIDE_MPS  # across the walk
         assert r["session_state"] == "leading" and r["user_distance_end_m"] <= sensor_faults.USER_FOLLOWED_M
 
 

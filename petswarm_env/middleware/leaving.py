@@ -62,16 +62,16 @@ class Leaving:
         clear_m = outermost - lateral * side + 2.0 * node.cfg.robot.radius_m  # beside the outermost slot's robot
         out_m = clear_m + CLEAR_MARGIN_M
         if was_master:
-            self._plan_old_master(pos, side, clear_m, out_m, cut_off)
+            self._plan_old_master(pos, member, side, clear_m, out_m, cut_off)
             return
         self.pace_until_m = clear_m + CLEAR_LANE_GAP_M
         ahead = math.copysign(CLEAR_AHEAD_MPS, vx)  # ahead the way the swarm walks
         self.clear_out = (node.clock.now, vx + ahead, side * CLEAR_SPEED_MPS, out_m)
         self._cleared = (node.clock.now, 0.0)
 
-    def _plan_old_master(self, pos, side: float, clear_m: float, out_m: float, cut_off: bool) -> None:
+    def _plan_old_master(self, pos, member: int, side: float, clear_m: float, out_m: float, cut_off: bool) -> None:
         """The move out of a master that handed its user over (or was cut off): ``pos`` its formation's slots,
-        ``side`` its slot's side, ``clear_m`` to beside the outermost slot's robot, ``out_m`` the whole move.
+        ``member`` its own, ``side`` its slot's side, ``clear_m`` to beside the outermost slot's robot, ``out_m`` the whole move.
 
         Following: sideways at the wheels' top speed (:data:`HANDOVER_SIDE_MPS`), keeping no pace, until it is clear
         of the outermost slot's lane by :data:`CLEAR_LANE_GAP_M` (:attr:`back_after_m`), and from there sideways and
@@ -94,7 +94,7 @@ class Leaving:
         now = node.clock.now
         self.pace_until_m = 0.0
         self._cleared = (now, 0.0)
-        if node.know.mode == "following" and not _slot_behind(pos, 2.0 * node.cfg.robot.radius_m + CLEAR_LANE_GAP_M):
+        if node.know.mode == "following" and not _slot_behind(pos, member, 2.0 * node.cfg.robot.radius_m + CLEAR_LANE_GAP_M):
             self.clear_out = (now, 0.0, side * CLEAR_SPEED_MPS, 0.0)  # (0, 0, 0) at the next step
         elif node.know.mode == "following":  # its +x: it faced its user
             self.back_after_m = clear_m + CLEAR_LANE_GAP_M
@@ -193,11 +193,12 @@ CLEAR_MARGIN_M = 1.5
 CLEAR_LANE_GAP_M = 0.4
 
 
-def _slot_behind(pos, near_m: float) -> bool:
-    """Whether a slot of the formation (``pos``: slot positions, the master's first) lies behind the master's
-    slot within ``near_m`` of its lane (the formation's frame: +x the way the master faces)."""
-    x0, y0 = float(pos[0][0]), float(pos[0][1])
-    return any(float(p[0]) < x0 and abs(float(p[1]) - y0) < near_m for p in pos[1:])
+def _slot_behind(pos, member: int, near_m: float) -> bool:
+    """Whether a slot of the formation (``pos``: slot positions) lies behind slot ``member`` within ``near_m`` of its
+    lane (the formation's frame: +x the way the master faces). An old master's slot of the table re-rooted at the new
+    master (modes.plan_master_handover) is where it stood about that one."""
+    x0, y0 = float(pos[member][0]), float(pos[member][1])
+    return any(k != member and float(p[0]) < x0 and abs(float(p[1]) - y0) < near_m for k, p in enumerate(pos))
 
 
 def _segment_distance(p, a, b) -> float:

@@ -4,19 +4,17 @@ turn rates of the master's status broadcasts (seed 000 §3.5: (vx, vy, ω)); mid
 from __future__ import annotations
 
 import math
+from collections import deque
 
 import pytest
 
-from petswarm_env.middleware.succession import SuccessionManager, master_heading_offset
+from petswarm_env.middleware.succession import MASTER_TURN_HISTORY, SuccessionManager, master_heading_offset
 from petswarm_env.sim.geometry import wrap_angle
 
 
 def _turns() -> SuccessionManager:
     """The turn record of a succession manager, without a robot (the record reads none)."""
     sm = SuccessionManager.__new__(SuccessionManager)
-    from collections import deque
-
-    from petswarm_env.middleware.succession import MASTER_TURN_HISTORY
     sm._turns, sm._turn_src = deque(maxlen=MASTER_TURN_HISTORY), None
     return sm
 

@@ -138,7 +138,7 @@ class Leaving:
             if (float(new[m][0]) - me[0]) * walk < 0 and abs(float(new[m][1]) - me[1]) < near:
                 return True  # its lane passes here
             a = held.get(n)
-            if a is not None and a < len(old) and _segment_distance(me, old[a], new[m]) < near:
+            if a is not None and a < len(old) and segment_distance(me, old[a], new[m]) < near:
                 return True  # it moves through here
         return False
 
@@ -201,7 +201,7 @@ def _slot_behind(pos, member: int, near_m: float) -> bool:
     return any(k != member and float(p[0]) < x0 and abs(float(p[1]) - y0) < near_m for k, p in enumerate(pos))
 
 
-def _segment_distance(p, a, b) -> float:
+def segment_distance(p, a, b) -> float:
     """The distance from point ``p`` to the segment from ``a`` to ``b`` (2-D)."""
     ax, ay, bx, by = float(a[0]), float(a[1]), float(b[0]), float(b[1])
     dx, dy = bx - ax, by - ay

@@ -27,6 +27,16 @@ MOVE_SQUARE_PER_M = 1.0
 TIE_SQUARE_PER_M = 1e-3
 
 
+# chosen: in a handover's plan (the new master goes to where the old one stood, :meth:`~.recovery.RecoveryManager._remove`)
+# a member's straight move that passes closer than two robot radii and a lane gap (leaving.CLEAR_LANE_GAP_M) to that
+# place counts this many metres more: the new master drives there and on with its user, and a member that meets it on
+# the way is held by its keep-out, both keep-outs crossing. In a grid that lost its front robot a plan sent the member
+# behind the new master's place diagonally across to the new master's old slot while the new master drove across its
+# way, and the two held each other 6-8 s (the tie with the member behind that slot moving straight up: the square
+# breaks neither); the master's IR fault, grid, seeds 4500-4549: re-formed 33 of 50 (docs/faults.md)
+PAST_MASTER_M = 1.0
+
+
 def move_cost(distance_m: float, building: bool = False) -> float:
     """What moving a robot ``distance_m`` metres costs in an assignment: :data:`MOVE_SQUARE_PER_M` for a
     formation that stands, :data:`TIE_SQUARE_PER_M` while it builds (``building``)."""

@@ -57,8 +57,8 @@ from petswarm_env.middleware import messages as msg
 from petswarm_env.middleware.formation import Formation, formation_for_mode, leading_user
 from petswarm_env.middleware.knowledge import FRESH_IR_S
 from petswarm_env.middleware.join import JoinManager, OrganizeResult
-from petswarm_env.middleware.leaving import Leaving
-from petswarm_env.middleware.matching import least_total, move_cost
+from petswarm_env.middleware.leaving import CLEAR_LANE_GAP_M, Leaving, segment_distance
+from petswarm_env.middleware.matching import PAST_MASTER_M, least_total, move_cost
 from petswarm_env.middleware.station import Station
 
 
@@ -350,9 +350,12 @@ class RecoveryManager(Leaving):
         # slots unfitted put an unseen rear member 1 m from where it stood, and the plan sent another member to the slot
         # beside it (docs/faults.md)
         fit = self._slots_onto_fixes(slaves, holds, held, yaw, now) if shift is not None else None
+        master_at = [shift] if shift is not None else []  # where the new master goes (matching.PAST_MASTER_M)
         if fit is not None:
             (c, s_), (tx, ty) = fit
-            held, slots = ([(c * x - s_ * y + tx, s_ * x + c * y + ty) for x, y in points] for points in (held, slots))
+            held, slots, master_at = ([(c * x - s_ * y + tx, s_ * x + c * y + ty) for x, y in points]
+                                      for points in (held, slots, master_at))
+        near = 2.0 * node.cfg.robot.radius_m + CLEAR_LANE_GAP_M
         cost = []
         for n in slaves:
             fix = know.ir.get(n)
@@ -368,7 +371,8 @@ class RecoveryManager(Leaving):
                 a = math.hypot(*at)
                 at = (at[0] * r / a, at[1] * r / a) if a > 0 else None
             if at is not None:
-                cost.append([math.hypot(at[0] - sx, at[1] - sy) for sx, sy in slots])
+                cost.append([math.hypot(at[0] - sx, at[1] - sy) + PAST_MASTER_M * any(
+                    segment_distance(p, at, (sx, sy)) < near for p in master_at) for sx, sy in slots])
             elif math.isfinite(r):
                 cost.append([assignment.slot_distance(r, math.hypot(sx, sy)) for sx, sy in slots])
             else:

@@ -11,6 +11,7 @@ from types import SimpleNamespace
 from petswarm_env.config import load_config
 from petswarm_env.middleware.formation import formation_for_mode
 from petswarm_env.middleware.knowledge import IRMeasurement, Knowledge
+from petswarm_env.middleware.leaving import CLEAR_LANE_GAP_M, segment_distance
 from petswarm_env.middleware.recovery import RecoveryManager, least_total
 
 CFG = load_config()  # wedge, spacing 1 m: slots 1 (-0.87, 0.5), 2 (-0.87, -0.5), 3 (-1.73, 1), 4 (-1.73, -1)
@@ -133,3 +134,31 @@ def test_a_handovers_plan_is_laid_in_the_tables_frame_fitted_onto_the_fixes():
     held, cost = rm._move_costs(remaining, formation_for_mode(CFG.swarm, 8, "following"))
     assert all(math.isclose(d, math.dist(where[11], p), abs_tol=1e-9) for d, p in zip(cost[held.index(1)], new))
     assert all(math.isclose(d, math.dist(slots[7], p), abs_tol=1e-9) for d, p in zip(cost[held.index(7)], new))
+
+
+def test_a_handovers_plan_sends_no_member_past_the_place_the_new_master_goes_to():
+    """Grid 1 + 4, the master's IR broken: the new master is member 1, beside it (spacing 1 m); it will stand where the
+    old master stood, 1 m to its left, and the old master's number is the one lost. Its old slot is open: the member
+    straight behind it (robot 13) and the one diagonally behind the old master's place (robot 12) are 1 m and 1.41 m
+    from it, and with the robot of the rear slot (14) moving up after either, the two plans cost the same
+    (matching.move_cost). The diagonal move passes 0.71 m from the place the new master drives to, inside two radii and
+    a lane gap, and the two held each other 6-8 s (seed 4515); with ``PAST_MASTER_M`` it costs more, and robot 13 moves
+    straight up while robot 14 takes its slot."""
+    cfg = load_config(overrides={"swarm.formation": "grid"})
+    old = formation_for_mode(cfg.swarm, 5, "following")
+    table, renumber = old.rerooted(1)
+    nodes = {0: 10, 1: 11, 2: 12, 3: 13, 4: 14}  # old member -> robot; robot 11 the new master
+    members = {renumber[m]: n for m, n in nodes.items()}
+    slots = old.slot_positions()
+    fixes = {n: (float(slots[m][0] - slots[1][0]), float(slots[m][1] - slots[1][1])) for m, n in nodes.items() if m > 1}
+    rm = _manager(members, fixes)
+    rm.node.cfg, rm.node.formation = cfg, table
+    lost = renumber[0]
+    shift = tuple(float(v) for v in table.slot_positions()[lost])
+    assert shift == (0.0, 1.0)
+    remaining = {m: n for m, n in members.items() if m != lost}
+    plan, formation, _ = rm.removal_plan(remaining, formation_for_mode(cfg.swarm, 4, "following"), shift)
+    new = {plan[m]: formation.slot_positions()[m] + shift for m in plan if m}
+    assert plan[1] == 13 and new[12].tolist() == [-1.0, 1.0], plan
+    for n, goal in new.items():
+        assert segment_distance(shift, fixes[n], goal) >= 2.0 * cfg.robot.radius_m + CLEAR_LANE_GAP_M, n

@@ -78,9 +78,10 @@ class Leaving:
         back against the walk (:data:`HANDOVER_BACK_MPS`), so that it is left behind the swarm's tail (chosen: backing
         off from the start, it crossed the arm of a wedge behind it, whose robots stand 30° off the back axis, and ran
         into them; sideways alone, the zigzag walk re-formed less; docs/faults.md). With no slot behind its own (a
-        row: its members stand beside it) it stops where it stands (:func:`_slot_behind`; chosen: sideways it drove
-        through the members beside it and carried the outer one off, 4 m and more: row, IR on the master, seeds
-        4400-4419, re-formed 12 of 20).
+        row: its members stand beside it) it backs straight off at :data:`BEHIND_ROW_MPS` for :data:`BEHIND_ROW_M` and
+        stops behind the row (:func:`_slot_behind`; chosen: sideways it drove through the members beside it and carried
+        the outer one off, 4 m and more: row, IR on the master, seeds 4400-4419, re-formed 12 of 20; standing where it
+        stood, the new master drove onto it on its way to its user's line and pushed it into the members' lane).
 
         Leading: out at that speed without the swarm's pace (chosen: at a slave's pace and speed it stood beside the
         new master's lane when a zigzag turn brought the swarm onto it, the new master's obstacle exception stopped it
@@ -95,7 +96,8 @@ class Leaving:
         self.pace_until_m = 0.0
         self._cleared = (now, 0.0)
         if node.know.mode == "following" and not _slot_behind(pos, member, 2.0 * node.cfg.robot.radius_m + CLEAR_LANE_GAP_M):
-            self.clear_out = (now, 0.0, side * CLEAR_SPEED_MPS, 0.0)  # (0, 0, 0) at the next step
+            self._clear_dir, self.back_after_m = (1.0, 0.0), 0.0  # straight back, counted along the walk
+            self.clear_out = (now, -BEHIND_ROW_MPS, 0.0, BEHIND_ROW_M)
         elif node.know.mode == "following":  # its +x: it faced its user
             self.back_after_m = clear_m + CLEAR_LANE_GAP_M
             self.clear_out = (now, -HANDOVER_BACK_MPS, side * HANDOVER_SIDE_MPS, out_m)
@@ -179,6 +181,12 @@ CLEAR_AHEAD_MPS = 0.25
 # a zigzag's turn, and backing off from the start ran it into a wedge's arm (docs/faults.md); the old master of a
 # leading swarm sideways at HANDOVER_SIDE_MPS alone (RecoveryManager._plan_clear_out)
 HANDOVER_SIDE_MPS, HANDOVER_BACK_MPS = 1.0, 0.5
+# chosen: the old master of a following row (no slot behind its own) backs straight off at a Pet-Bot's top speed
+# (robot.max_speed_mps; a slower body's wheels clip it) for a robot diameter and a lane gap and more, out of the row
+# before the new master, driving onto its user's line, reaches its place. The master's IR fault, row, re-formed
+# against stopping where it stood: seeds 0-99 74 -> 83, 4500-4549 39 -> 44 of 50, 1300-1399 82 -> 83 (at 0.5 m/s:
+# 77 and 44; 1.0 m/s: 77 and 43; 0.6 m: 81 and 43; 2.0 m: 83 and 44; docs/faults.md)
+BEHIND_ROW_MPS, BEHIND_ROW_M = 1.5, 1.0
 # chosen: its clearance beyond the formation's outermost slot (a formation drifts sideways by half a spacing as it
 # re-forms; a master that handed its user over: its formation then re-centres on the new master, which drives onto
 # the user's line, half a spacing or more sideways — IR on the master, seeds 20-39: re-formed 14/20 with 1.0 m,

@@ -1,13 +1,13 @@
 """The old master's way out after it handed its user over for a broken part (middleware/leaving.py): following, it
 moves out sideways and then back against the walk, past the members behind it; a formation with no slot behind the
-master's (a row) has its members beside the master, so there it stops where it stands and the swarm walks on."""
+master's (a row) has its members beside the master, so there it backs straight off and the swarm walks on."""
 
 from __future__ import annotations
 
 import pytest
 
 import petswarm_env
-from petswarm_env.middleware.leaving import CLEAR_LANE_GAP_M, _slot_behind
+from petswarm_env.middleware.leaving import BEHIND_ROW_M, BEHIND_ROW_MPS, CLEAR_LANE_GAP_M, _slot_behind
 
 
 @pytest.mark.parametrize("shape, slaves, behind", [("wedge", 4, True), ("column", 4, True), ("grid", 4, True),
@@ -27,12 +27,13 @@ def test_a_slot_behind_the_old_masters_lane_is_found_in_the_table_re_rooted_at_t
     assert _slot_behind(table.slot_positions(), renumber[0], near) is behind
 
 
-@pytest.mark.parametrize("seed", [4401, 4416])
-def test_a_rows_old_master_stops_and_the_members_beside_it_stay_in_their_slots(seed):
+@pytest.mark.parametrize("seed", [4401, 4416, 4505, 4519])
+def test_a_rows_old_master_backs_straight_off_and_the_members_beside_it_stay_in_their_slots(seed):
     """Row, IR on the master at 20 s: the old master moved out sideways through the members on its side and carried
     the outer one off with it (seed 4416: 4.9 m off its slot 7 s after the handover; 4401: 2.0 m at the 10 s mark).
-    Now its move out is a stop, the swarm walks on past it, and every slave is within 0.3 m of its slot 10 s after
-    the detection."""
+    Now it backs straight off, out of the row (leaving.BEHIND_ROW_MPS), the swarm walks on past it, and every slave
+    is within 0.3 m of its slot 10 s after the detection. Standing where it stood instead, the new master drove onto
+    it on its way to its user's line and pushed it through the members' lane (seeds 4505, 4519: 0.39 and 0.44 m)."""
     from petswarm.experiments import sensor_faults
 
     moves = []  # the old master's planned move out: (vx, vy, distance)
@@ -45,7 +46,7 @@ def test_a_rows_old_master_stops_and_the_members_beside_it_stay_in_their_slots(s
 
     r = sensor_faults.run("ir", seed, target="master", overrides={"swarm.formation": "row"}, on_step=watch)
     assert r["handovers"] and r["handovers"][0][1] == 0, r["handovers"]
-    assert moves and moves[0][2] == 0.0, f"the old master's move out: {moves}"
+    assert moves and moves[0] == (-BEHIND_ROW_MPS, 0.0, BEHIND_ROW_M), f"the old master's move out: {moves}"
     assert r["reformed"], f"largest live-slave error {r['largest_error_m']:.2f} m 10 s after the detection"
 
 

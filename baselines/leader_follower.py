@@ -156,6 +156,7 @@ class LeaderFollowerPolicy(Policy):
         self._us_rays = [(k, ux, uy) for k, (ux, uy) in zip(self._us, self._us_dirs)]
         self._vmax, self._wmax = spec.max_speed_mps, spec.max_omega_rps
         self._j_odo, self._j_mvalid, self._j_mvel = st["self.odometry"], st["master.valid"], st["master.velocity"]
+        self._j_last = st["self.last_action"]
         self._j_ref, self._j_user, self._j_turn = st["self.offset_from_master_xy"], st["master.user_xy"], st["master.turn_rate"]
         self._j_leading, self._j_rotating, self._j_member = st["master.leading"], st["master.rotating"], st["self.member"]
         act = st["master.activity"]  # one-hot over scenarios.ACTIVITIES: stop, rest, walk, run
@@ -316,10 +317,13 @@ class LeaderFollowerPolicy(Policy):
             # 2's feed-forward), until its IR reaches us again; an echo in the way (within
             # ``detour_m``, less than 45° off the master's direction: the user or a robot between us,
             # whose body also blocks the IR) is rounded on the side away from it: an echo right of the
-            # master's direction is passed on our right; one within ``_TIE_SIN`` of it, clockwise
-            # (chosen: a slave straight behind its user dithered from side to side; always clockwise,
-            # a slave whose echo stood 40° right of the master's direction drove round the user's far
-            # side, lost the echo between two rays, came back, and stood in front of its user 20 s)
+            # master's direction is passed on our right; one within ``_TIE_SIN`` of it, clockwise, or
+            # counter-clockwise if we rounded it so last step (the observation's last action less step 2's
+            # feed-forward) (chosen: a slave straight behind its user dithered from side to side; always
+            # clockwise, a slave whose echo stood 40° right of the master's direction drove round the user's
+            # far side, lost the echo between two rays, came back, and stood in front of its user 20 s;
+            # without the last step's way, moving counter-clockwise turned the master's direction into the
+            # clockwise band and back: a slave dithered 1.8 m ahead of its master 10 s, loss 0.3, seed 5024)
             j = self._j_mir_xy
             mx, my = s[j], s[j + 1]
             dist = max(math.hypot(mx, my), 1e-9)
@@ -327,7 +331,9 @@ class LeaderFollowerPolicy(Policy):
             if self.detour > 0:
                 k, ux_k, uy_k = min(self._us_rays, key=lambda r: o[r[0]])
                 if s[k] < min(self.detour, dist) and ux_k * dx + uy_k * dy > _COS45:
-                    if dx * uy_k - dy * ux_k < -_TIE_SIN:
+                    j = self._j_last  # our last action less the swarm's motion: the way we rounded it last step
+                    was_ccw = (o[j] * vmax - vx) * -uy_k + (o[j + 1] * vmax - vy) * ux_k > 0.5 * self.rejoin
+                    if dx * uy_k - dy * ux_k < (_TIE_SIN if was_ccw else -_TIE_SIN):
                         dx, dy = -uy_k, ux_k  # the echo right of our way: round it counter-clockwise
                     else:
                         dx, dy = uy_k, -ux_k  # round it clockwise, as step 1d circles an echo

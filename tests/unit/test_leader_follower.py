@@ -99,7 +99,10 @@ def numpy_act(p: LeaderFollowerPolicy, obs: np.ndarray) -> np.ndarray:
         k = int(np.argmin(us))
         u = np.array(p._us_dirs[k])
         if p.detour > 0 and float(us[k] * np.float32(p.spec.us_max_range_m)) < min(p.detour, dist) and float(u @ d) > math.cos(math.pi / 4):
-            right = float(d[0] * u[1] - d[1] * u[0]) < -math.sin(math.radians(10.0))  # the echo right of our way
+            la = [float(x) for x in obs[sl["self.last_action"]]]  # the way we rounded it last step
+            was_ccw = (la[0] * vmax - float(v[0])) * -float(u[1]) + (la[1] * vmax - float(v[1])) * float(u[0]) > 0.5 * p.rejoin
+            tie = math.sin(math.radians(10.0))
+            right = float(d[0] * u[1] - d[1] * u[0]) < (tie if was_ccw else -tie)  # the echo right of our way
             d = np.array([-u[1], u[0]]) if right else np.array([u[1], -u[0]])  # round it on the side away from it
         v = v + p.rejoin * d
     else:  # step 1d, nothing in IR sight: circle the nearest echo, turning with the circle; none: turn on the spot
@@ -347,3 +350,26 @@ def test_lost_slave_passes_an_echo_in_its_way():
     obs[us + 0] = 1.0
     obs[us + 4] = 0.7 / policy.spec.us_max_range_m  # behind us: not in the way
     assert policy.act("robot_1", obs).tobytes() == straight.tobytes()
+
+
+def test_a_lost_slave_keeps_rounding_the_way_it_rounded_last_step():
+    """Step 1c: the master's last fix 5° right of an echo dead ahead (within the tie band): clockwise, unless the last
+    action already rounded it counter-clockwise (the observation's last action less the swarm's motion), then on
+    that way until the master lies clearly, 10° and more, right of the echo. Without it a slave whose counter-clockwise
+    move turned the master's direction into the band turned back, and dithered 1.8 m ahead of its master for 10 s
+    (loss 0.3, seed 5024)."""
+    env = petswarm_env.parallel_env()
+    policy = LeaderFollowerPolicy(PolicySpec.from_env(env))
+    sl = policy.spec.layout.slices
+    obs = _lost_obs(policy, master_fix=True)
+    a = math.radians(-5.0)
+    obs[sl["master.ir_xy"]] = (2.0 * math.cos(a) / POS_SCALE_M, 2.0 * math.sin(a) / POS_SCALE_M)
+    obs[sl["self.ultrasonic"].start] = 0.7 / policy.spec.us_max_range_m  # an echo 0.7 m dead ahead (ray 0)
+    assert policy.act("robot_1", obs)[1] < -0.1  # clockwise: to the right
+    obs[sl["self.last_action"]] = (0.0, 0.33, 0.0)  # last step: to the left, counter-clockwise about it
+    act = policy.act("robot_1", obs)
+    assert act[1] > 0.1, act  # on that way
+    assert act.tobytes() == numpy_act(policy, obs).tobytes()
+    a = math.radians(-15.0)  # clearly right of the echo: clockwise again
+    obs[sl["master.ir_xy"]] = (2.0 * math.cos(a) / POS_SCALE_M, 2.0 * math.sin(a) / POS_SCALE_M)
+    assert policy.act("robot_1", obs)[1] < -0.1

@@ -59,6 +59,7 @@ from petswarm_env.middleware.knowledge import FRESH_IR_S
 from petswarm_env.middleware.join import JoinManager, OrganizeResult
 from petswarm_env.middleware.leaving import CLEAR_LANE_GAP_M, Leaving, segment_distance
 from petswarm_env.middleware.matching import PAST_MASTER_M, least_total, move_cost
+from petswarm_env.middleware.replan import STANDING_MPS, Replanning
 from petswarm_env.middleware.station import Station
 
 
@@ -76,15 +77,9 @@ ASTRAY_S = 3.0
 # in one); at 2 reaches a mixed pool's slave stayed >= 5 m off its slot in 2 of 20 runs
 # (python -m petswarm.experiments.measure_mixed --seeds 0-19 --variants plain --assignments closest: 20/20 at 1.5)
 ASTRAY_REACHES = 1.5
-# chosen: a master whose own odometry reads less than this stands (a refill may recruit from beyond the organize's
-# region: RecoveryManager.refill_region_m); a master holding its distance to a standing user creeps below it
-STANDING_MPS = 0.1
-# chosen: a leading master renumbers its members while building only when that saves at least this much of their
-# total move (its IR fixes' errors and the robots' own motion toward their slots stay well below it)
-REPLAN_GAIN_M = 1.0
 
 
-class RecoveryManager(Leaving):
+class RecoveryManager(Leaving, Replanning):
     """Both sides of member removal and refill on one robot."""
 
     def __init__(self, node: Station, join: JoinManager, forget: Callable[[int], None], leave: Callable[[], None]):
@@ -275,42 +270,6 @@ class RecoveryManager(Leaving):
         a member holding no slot of the table, at r with the bearing unknown
         (:func:`~.assignment.slot_distance`). Equal totals keep the robots in member order."""
         return self._least_move(members, formation, None, building)[1]
-
-    def replan_building(self) -> None:
-        """Master, while it stands for the building (seed 000 Fig. 10): when its IR fixes of every member place them
-        so that the standard table or its mirror image, slots given by the least total move (:meth:`removal_plan`),
-        would save at least :data:`REPLAN_GAIN_M` over their numbers, it renumbers them on that table (an
-        acknowledged member update, :meth:`reassign`; a table re-rooted by a master change is kept, Table 3).
-        Table 2 numbers the joining robots by their RSSI distances, blind to the side each stands on (chosen): in
-        leading the user stands among the rear slots, and a slave given a slot on the other side had to pass its
-        user and the robots beside them, and stalled there (leading straight, seeds 1200-1239: 4 formations never
-        built, 2 after 20 s); in following two slaves each on the other's side met head-on behind the master, their
-        keep-outs holding them apart, 0.8-1.0 m off for 40 s (1 + 4, seed 86)."""
-        node = self.node
-        know = node.know
-        if self.busy or node.formation is None or node.cfg.swarm.formation == "custom":
-            return
-        now = node.clock.now
-        slaves = [n for m, n in know.members.items() if m != 0]
-        if not slaves or any(n not in know.ir or now - know.ir[n].time_s > FRESH_IR_S for n in slaves):
-            return
-        members = dict(know.members)
-        standard = formation_for_mode(node.cfg.swarm, len(members), know.mode, leading_user(node.cfg))
-        if node.formation != standard and node.formation != standard.mirrored():
-            return  # a table re-rooted by a master change keeps its references (Table 3)
-        held, cost = self._move_costs(members, node.formation)
-        if any(not 0 < m <= len(row) for m, row in zip(held, cost)):
-            return  # numbers with a gap (a removal under way)
-        now_total = sum(row[m - 1] for m, row in zip(held, cost))
-        table, formation, mirrored = self.removal_plan(members, standard, building=True)
-        if self._least_move(table, formation, None, True)[0] >= now_total - REPLAN_GAIN_M:
-            return
-        vx, vy, _ = node.odometry.read()  # (read last: each read draws the sensor's noise)
-        if math.hypot(vx, vy) < STANDING_MPS:
-            self.mirrored = mirrored
-            self.replans.append((now, mirrored))
-            self.reassign(table, formation)
-            node.members_changed.emit("renumbered", [])  # the swarm's tables (and the experimenter's references) follow
 
     def _least_move(self, members: dict[int, int], formation: Formation, shift: tuple[float, float] | None = None,
                     building: bool = False) -> tuple[float, dict[int, int]]:

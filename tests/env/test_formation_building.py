@@ -192,3 +192,16 @@ def test_a_following_master_renumbers_two_slaves_that_stand_on_each_others_sides
     master = env.episode.truth.swarms[0].master
     assert [m for _, m in master.recovery.replans] == [True] and master.recovery.mirrored
     assert math.isfinite(s["building_time_s"]) and s["building_time_s"] < 15.0, s["building_time_s"]
+
+
+def test_a_following_master_swaps_the_two_slaves_it_sees_when_it_cannot_see_the_rest():
+    """Following, straight walk, seed 4531: the two front slaves of the wedge stood each on the other's side, 0.8 m
+    off their slots, held head-on behind the master by their keep-outs; the rear slaves stood in their IR shadow, so
+    the master never had a fresh fix of every member at once and the renumbering above never came: built at 53.8 s.
+    The master swaps the numbers of the members it sees, among the slots they hold (middleware/replan.py,
+    ``Replanning._swap_seen``), the table unchanged, and the formation builds within 15 s."""
+    env = petswarm_env.parallel_env(**{"user.scenario": "straight", "seed": 4531})
+    s = _run(env)
+    master = env.episode.truth.swarms[0].master
+    assert [m for _, m in master.recovery.replans] == [False] and not master.recovery.mirrored
+    assert math.isfinite(s["building_time_s"]) and s["building_time_s"] < 15.0, s["building_time_s"]

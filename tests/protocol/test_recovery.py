@@ -85,7 +85,8 @@ def test_refill_recruits_a_waiting_robot_into_the_open_number_under_loss():
     env = make(**{"swarm.extra_robots": 1, "radio.loss_prob": 0.2, "faults": [{"at_s": 1.0, "robot": 1, "kind": "dead"}]})
     spare, = [i for i, n in env.episode.fleet.nodes.items() if n.state == "waiting"]  # Table 2 left the farthest out
     run(env, 8.0)
-    log = env.episode.swarm.member_log
+    log = [entry for entry in env.episode.swarm.member_log if entry[1] != "renumbered"]  # (the standing swarm's
+    # members the master sees may swap slots first: middleware/replan.py)
     assert [e for _, e, _ in log] == ["lost", "joined"] and log[1][2] == [spare]
     master = env.episode.swarm.master
     assert master.know.members[4] == spare and len(master.know.members) == 5
@@ -241,7 +242,7 @@ def test_a_spare_walks_with_the_swarm_and_fills_a_lost_members_place():
     master = env.episode.swarm.master
     assert len(master.know.members) == 1 + 5 and len(env.agents) == 5  # the spare joined beside the required 4
     run(env, 5.0)
-    log = env.episode.swarm.member_log
+    log = [entry for entry in env.episode.swarm.member_log if entry[1] != "renumbered"]  # (replan.py, above)
     assert [e for _, e, _ in log] == ["lost"]  # removed; nobody recruited: the spare is inside the swarm already
     assert 2 not in master.know.members.values() and len(master.know.members) == 1 + 4
     assert len(env.agents) == 4 and master.recovery.open_members() == [5]  # the scan looks for a new spare

@@ -95,7 +95,7 @@ class Leaving:
         now = node.clock.now
         self.pace_until_m = 0.0
         self._cleared = (now, 0.0)
-        if node.know.mode == "following" and not _slot_behind(pos, member, 2.0 * node.cfg.robot.radius_m + CLEAR_LANE_GAP_M):
+        if node.know.mode == "following" and not _slot_behind(pos, member, lane_near_m(node.cfg.robot.radius_m)):
             self._clear_dir, self.back_after_m = (1.0, 0.0), 0.0  # straight back, counted along the walk
             self.clear_out = (now, -BEHIND_ROW_MPS, 0.0, BEHIND_ROW_M)
         elif node.know.mode == "following":  # its +x: it faced its user
@@ -132,7 +132,7 @@ class Leaving:
         old = node.formation.slot_positions()
         new = formation.slot_positions()
         me = old[node.know.member]
-        near = 2.0 * node.cfg.robot.radius_m + CLEAR_LANE_GAP_M
+        near = lane_near_m(node.cfg.robot.radius_m)
         held = {n: m for m, n in node.know.members.items()}
         for m, n in members.items():
             if m == 0 or m >= len(new):
@@ -199,6 +199,12 @@ CLEAR_MARGIN_M = 1.5
 # into it there (slave faults, seeds 200-219: zigzag re-formed 19/18/18 of 20, before 17/16/16; straight 20/20/19,
 # before 19/20/20 — calibrated on those seeds, and noisy: 0.6 m read 19/16/13 on the zigzag)
 CLEAR_LANE_GAP_M = 0.4
+
+
+def lane_near_m(radius_m: float) -> float:
+    """How near a robot of radius ``radius_m`` may pass another's place or lane before it is in its way: its diameter
+    and :data:`CLEAR_LANE_GAP_M`."""
+    return 2.0 * radius_m + CLEAR_LANE_GAP_M
 
 
 def _slot_behind(pos, member: int, near_m: float) -> bool:

@@ -57,7 +57,7 @@ from petswarm_env.middleware import messages as msg
 from petswarm_env.middleware.formation import Formation, formation_for_mode, leading_user
 from petswarm_env.middleware.knowledge import FRESH_IR_S
 from petswarm_env.middleware.join import JoinManager, OrganizeResult
-from petswarm_env.middleware.leaving import CLEAR_LANE_GAP_M, Leaving, segment_distance
+from petswarm_env.middleware.leaving import Leaving, lane_near_m, segment_distance
 from petswarm_env.middleware.matching import PAST_MASTER_M, least_total, move_cost
 from petswarm_env.middleware.replan import STANDING_MPS, Replanning
 from petswarm_env.middleware.station import Station
@@ -314,7 +314,7 @@ class RecoveryManager(Leaving, Replanning):
             (c, s_), (tx, ty) = fit
             held, slots, master_at = ([(c * x - s_ * y + tx, s_ * x + c * y + ty) for x, y in points]
                                       for points in (held, slots, master_at))
-        near = 2.0 * node.cfg.robot.radius_m + CLEAR_LANE_GAP_M
+        near = lane_near_m(node.cfg.robot.radius_m)
         cost = []
         for n in slaves:
             fix = know.ir.get(n)

@@ -71,8 +71,7 @@ class Replanning:
         fixes = [(know.ir[n].distance_m * math.cos(know.ir[n].bearing_rad),
                   know.ir[n].distance_m * math.sin(know.ir[n].bearing_rad)) for _, n in holds]
         cost = [[math.hypot(x - float(slots[m][0]), y - float(slots[m][1])) for m, _ in holds] for x, y in fixes]
-        order = least_total([[move_cost(d, True) for d in row] for row in cost])
-        return sum(row[order[i]] for i, row in enumerate(cost)) < sum(row[i] for i, row in enumerate(cost)) - REPLAN_GAIN_M
+        return _least_swap(cost)[1] > REPLAN_GAIN_M
 
     def _swap_seen(self, members: dict[int, int], slaves: list[int], seen: set[int], held: list[int],
                    cost: list[list[float]]) -> None:
@@ -85,9 +84,8 @@ class Replanning:
         if len(rows) < 2:
             return
         slots = [held[i] - 1 for i in rows]
-        order = least_total([[move_cost(cost[i][c], True) for c in slots] for i in rows])
-        now_total = sum(cost[i][c] for i, c in zip(rows, slots))
-        if sum(cost[i][slots[order[a]]] for a, i in enumerate(rows)) >= now_total - REPLAN_GAIN_M:
+        order, saving = _least_swap([[cost[i][c] for c in slots] for i in rows])
+        if saving <= REPLAN_GAIN_M:
             return
         table = dict(members)
         for a, i in enumerate(rows):
@@ -104,3 +102,11 @@ class Replanning:
             self.replans.append((node.clock.now, mirrored))
             self.reassign(table, formation)
             node.members_changed.emit("renumbered", [])  # the swarm's tables (and the experimenter's references) follow
+
+
+def _least_swap(cost: list[list[float]]) -> tuple[list[int], float]:
+    """Robots on the places they hold (row i holds column i of ``cost``, metres) reassigned among those places by the
+    least total move while building (:func:`~.matching.move_cost`): the assignment (row -> column) and the metres it
+    saves over keeping them."""
+    order = least_total([[move_cost(d, True) for d in row] for row in cost])
+    return order, sum(row[i] for i, row in enumerate(cost)) - sum(row[order[i]] for i, row in enumerate(cost))

@@ -268,6 +268,16 @@ class Station:
         return self.formation.links.get(self.know.member, ())
 
     # -- own sensors and the IR module ------------------------------------------------------------
+    def driving_speed(self) -> tuple[float, float, float]:
+        """The driving speed a master broadcasts (seed 000 §3.5, Fig. 9: "the user-connected robot sends its speed
+        ... to sensitively react to the user's speed or direction changes"): the (vx, vy) its MOVE module drives the
+        wheels toward (its controller's own last command, which the wheels reach under their acceleration limits),
+        and the turn rate its wheel odometry measures. Chosen: the wheels' measured (vx, vy) lag each start and stop
+        of the user by the motors' ramp, and the slaves' feed-forward lagged with them (stop-and-go, grid, hold RMSE
+        0.136 -> 0.103 m; docs/results.md); the commanded ω as well made the leading zigzag worse (0.254 -> 0.278 m)."""
+        vx, vy, _ = self._robot.motor_command
+        return (vx, vy, self.odometry.read()[2])
+
     def ahrs_yaw(self) -> float:
         """Own AHRS reading (an own sensor: noisy, drifting)."""
         return self._own_yaw()

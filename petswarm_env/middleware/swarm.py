@@ -135,7 +135,7 @@ class Swarm:
             activity, turn_rate, rotating, user = "stop", 0.0, False, (self._distance_m, 0.0)
         master.send(
             msg.STATUS,
-            velocity=master.odometry.read(),  # (vx, vy, ω): what its own wheels measure, noise and all
+            velocity=master.driving_speed(),  # (vx, vy, ω): its own command's (vx, vy), its wheels' ω (noise and all)
             activity=activity,
             mode="emergency" if self.emergency else self.mode,  # (broadcast_mode)
             turn_rate=turn_rate,

@@ -167,6 +167,15 @@ class Robot(DrivenBody):
         drive_command(self, float(vx), float(vy), float(omega))
 
     @property
+    def motor_command(self) -> tuple[float, float, float]:
+        """What its MOVE module last told the motors (own frame: vx m/s, vy m/s, ω rad/s; after its saturation, a
+        differential body's (v, 0, ω)): the robot's software knows it, its MCU sent it. The motors reach it under
+        their acceleration limits, and the body moves (1 − slip) of it."""
+        me: _Driven = self
+        k: cython.double = me._keep
+        return (me._cx / k, me._cy / k, me._cw / k)
+
+    @property
     def wheel_velocity(self) -> tuple[float, float, float]:
         """What the wheels turn (the odometry's view, the wheel encoders'): the motors' speed, which
         follows the command under the acceleration limits whatever the body does (contacts, shoves),

@@ -230,8 +230,8 @@ def wheel_odometry(robot: _CDriven, ex: cython.double, ey: cython.double, ew: cy
 
 class Odometry:
     """One robot's wheel odometry read on its own, at any clock time, with its own noise stream: the
-    model of :meth:`Sensors.odometry` (:func:`noisy_odometry`). The master reads it for its status
-    broadcast (seed 000 §3.5, Fig. 9: "its driving speed" is what its wheels measure)."""
+    model of :meth:`Sensors.odometry` (:func:`noisy_odometry`). The master reads its turn rate for its status
+    broadcast (:meth:`~petswarm_env.middleware.station.Station.driving_speed`), a leaving robot its own pace."""
 
     def __init__(self, body, cfg: RobotConfig, rng: np.random.Generator):
         self.body = body  # a DrivenBody: its achieved velocity_body after the last substep

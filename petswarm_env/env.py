@@ -54,6 +54,7 @@ state ``state()`` in ``state_space`` (docs/state.md). Infos are flat and numeric
 """
 from __future__ import annotations
 
+import functools
 from typing import Any
 
 import gymnasium
@@ -138,11 +139,10 @@ class PetSwarmEnv(ParallelEnv):
         self._limits = (cfg.robot.max_speed_mps, cfg.robot.max_speed_mps, cfg.robot.max_omega_rps)
         self.layout = ObservationLayout(cfg.robot.ultrasonic.count, self._limits, cfg.robot.ultrasonic.max_range_m,
                                         ir_distance_bound(cfg.ir))
-        self._obs_space = gymnasium.spaces.Box(*observation_bounds(self.layout, cfg), dtype=np.float32)
+        self.observation_bounds = observation_bounds(self.layout, cfg)  # (low, high) of every agent's observation
         self._act_space = gymnasium.spaces.Box(-1.0, 1.0, (3,), np.float32)
-        self._zero = np.zeros(self._obs_space.shape, np.float32)  # a waiting agent's observation (module docstring)
+        self._zero = np.zeros(self.layout.size, np.float32)  # a waiting agent's observation (module docstring)
         self.state_layout = StateLayout(cfg)
-        self.state_space = gymnasium.spaces.Box(self.state_layout.low, self.state_layout.high, dtype=np.float32)
         self.setup = Setup(cfg, self._bodies, self._reach_m, self._arrival_slots, frozenset(self.possible_agents), self.layout,
                            self._limits, self.state_layout)
         self._seed_seq: np.random.SeedSequence | None = None
@@ -153,6 +153,18 @@ class PetSwarmEnv(ParallelEnv):
         self.radio_trace = None
 
     # -- PettingZoo API --------------------------------------------------------------------------
+    # The two Boxes are built when first asked for: gymnasium's Box formats its bounds as text when built,
+    # which cost more than the rest of the env's construction (training/randomize.py builds an env of
+    # every combination of its pools to size their spaces).
+    @functools.cached_property
+    def _obs_space(self) -> gymnasium.spaces.Box:
+        return gymnasium.spaces.Box(*self.observation_bounds, dtype=np.float32)
+
+    @functools.cached_property
+    def state_space(self) -> gymnasium.spaces.Box:
+        """The global state's space (:meth:`state`; petswarm_env/state.py)."""
+        return gymnasium.spaces.Box(self.state_layout.low, self.state_layout.high, dtype=np.float32)
+
     def observation_space(self, agent: str) -> gymnasium.spaces.Box:
         if agent not in self._possible:
             raise KeyError(self._unknown_agent(agent))

@@ -145,9 +145,9 @@ class PoolSpaces:
                 raise ConfigError(f"randomize: the combination {describe_value(over, 200)} changes the observation layout "
                                   "(e.g. robot.ultrasonic.count); a pool may not change the observation's size")
             sig = tuple(s)
-            space = e.observation_space(e.possible_agents[0])
-            low = space.low if low is None else np.minimum(low, space.low)
-            high = space.high if high is None else np.maximum(high, space.high)
+            e_low, e_high = e.observation_bounds
+            low = e_low if low is None else np.minimum(low, e_low)
+            high = e_high if high is None else np.maximum(high, e_high)
             agents.update(e.possible_agents)
             max_robots = max(max_robots, e.state_layout.num_robots)
             max_users = max(max_users, e.state_layout.num_users)

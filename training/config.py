@@ -166,10 +166,19 @@ class RecurrentConfig(Section):
         description="the labelling teacher drives a slave whose reference neighbour is off to its slot about the master "
                     "(TeacherGains.orphan_to_slot)")
 
+    teacher_master_command: bool = Field(
+        TeacherGains.master_command,
+        description="the labelling teacher's reference points lead by what the master commands beyond its motion "
+                    "(TeacherGains.master_command)")
+    teacher_differential_gain: float = Field(
+        TeacherGains.differential_gain, gt=0, le=100.0,
+        description="the labelling teacher's approach gain on a differential body (TeacherGains.differential_gain, 1/s)")
+
     def teacher_gains(self) -> TeacherGains:
-        """The labelling teacher's constants: its defaults with the three above."""
+        """The labelling teacher's constants: its defaults with the five above."""
         return TeacherGains(push=self.teacher_push, user_keep_out_m=self.teacher_user_keep_out_m,
-                            orphan_to_slot=self.teacher_orphan_to_slot)
+                            orphan_to_slot=self.teacher_orphan_to_slot, master_command=self.teacher_master_command,
+                            differential_gain=self.teacher_differential_gain)
 
     @model_validator(mode="after")
     def _check_validation(self) -> RecurrentConfig:

@@ -2,7 +2,8 @@
 
 ``petswarm train`` with ``recurrent.members: N`` trains N students of the same config, with the seeds
 ``seed``, ``seed + 1``, ... (each a whole :func:`~petswarm.training.recurrent.train` run in
-``member_k/`` of the run folder), and writes their average as one policy: the action (a residual's
+``member_k/`` of the run folder; ``num_cpus`` of them at a time, each in a process of its own with
+one thread, which gives the same weights as one after another), and writes their average as one policy: the action (a residual's
 correction) is the mean of the N students' outputs, clipped once. Why: students of the same config
 and data budget differ from one training seed to the next as much as they differ from the scripted
 reference (docs/training.md), and their errors are not the same ones; the mean of several is one
@@ -23,6 +24,8 @@ evaluation seeds)."""
 from __future__ import annotations
 
 import time
+from concurrent.futures import ProcessPoolExecutor
+from multiprocessing import get_context
 from pathlib import Path
 from typing import Any
 
@@ -109,6 +112,14 @@ def write_merged(paths: list[str | Path], out: str | Path, layout, info: dict[st
     save_policy(out, layers, meta["activation"], layout, info, meta.get("behaviours"), residual_of_meta(meta), rec)
 
 
+def _train_member(job: tuple[TrainConfig, Path, str]) -> dict[str, Any]:
+    """One member's whole run in a worker process, its progress lines prefixed with its folder."""
+    from petswarm.training.recurrent import train
+
+    member, folder, command = job
+    return train(member, folder, command=command, progress=lambda line: print(f"[{folder.name}] {line}", flush=True))
+
+
 def train_ensemble(cfg: TrainConfig, out_dir: str | Path, command: str = "", progress=print) -> dict[str, Any]:
     """``recurrent.members`` students (module docstring) in ``out_dir``; returns the train log."""
     from petswarm.baselines.policy import PolicySpec
@@ -124,12 +135,16 @@ def train_ensemble(cfg: TrainConfig, out_dir: str | Path, command: str = "", pro
         raise ConfigError(f"'{out}' already holds a run; choose another --out (a recurrent run is not resumable)")
     out.mkdir(parents=True, exist_ok=True)
     start = time.time()
-    logs = []
-    for m in range(members):
-        member = cfg.model_copy(update={"seed": cfg.seed + m, "recurrent": cfg.recurrent.model_copy(update={"members": 1})})
-        if progress:
-            progress(f"member {m + 1}/{members} (seed {member.seed}) in {out / f'member_{m}'}")
-        logs.append(train(member, out / f"member_{m}", command=command, progress=progress))
+    jobs = [(cfg.model_copy(update={"seed": cfg.seed + m, "recurrent": cfg.recurrent.model_copy(update={"members": 1})}),
+             out / f"member_{m}", command) for m in range(members)]
+    workers = min(max(cfg.num_cpus, 1), members)
+    if progress:
+        progress(f"{members} members (seeds {cfg.seed}-{cfg.seed + members - 1}) in {out}/member_*, {workers} at a time")
+    if workers == 1:
+        logs = [train(*job, progress=progress) for job in jobs]
+    else:  # each member a process of its own (one thread, its own seed: the same weights as one after another)
+        with ProcessPoolExecutor(workers, mp_context=get_context("spawn")) as pool:
+            logs = list(pool.map(_train_member, jobs))
     layout = PetSwarmEnv(cfg.env_config()).layout
     log: dict[str, Any] = {"timesteps": sum(lg["timesteps"] for lg in logs), "wall_time_s": time.time() - start,
                            "evaluations": [], "scripted_eval_rmse_m": None, "command": command, "_start": start,

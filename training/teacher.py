@@ -14,12 +14,16 @@ The teacher's control law, per slave and step (world frame, then into the robot'
 1. *reference point*: the experimenter's (:meth:`.metrics.Experimenter.references`: the
    neighbours' true positions plus the offsets turned by the master's true heading) and its
    velocity (its change over the last step); with ``orphan_to_slot``, a slave whose reference
-   neighbour is off takes its slot about the master's true pose instead;
+   neighbour is off takes its slot about the master's true pose instead; with ``master_command``,
+   the velocity leads by what the master's own last motor command asks beyond the master's motion
+   (a start or a stop of its user: the slaves start and stop with the master, not one motor ramp
+   after it; the students read that command in ``master.velocity``, seed 000 §3.5);
 2. *keep out of the users' way*: a reference point closer than ``user_keep_out_m`` to a user is
    moved out to that distance (as the scripted reference does with the broadcast user position);
 3. *time-optimal approach*: the reference point's velocity plus a correction toward it of speed
    ``min(v_max, gain·d, sqrt(2·decel·d))`` — full speed far away, braking at ``decel`` near it
-   (the scripted reference's linear law, 1.2·d, slows down long before it arrives);
+   (the scripted reference's linear law, 1.2·d, slows down long before it arrives); a differential
+   body, which turns to move sideways, with ``differential_gain`` instead of ``gain``;
 4. *avoidance*: for every other body (robots, users) the closest approach over the next
    ``horizon_s`` at the commanded relative velocity; a pass nearer than the two radii plus
    ``clearance_m`` is pushed out sideways, and a body already closer than that pushes back. Then
@@ -59,6 +63,8 @@ class TeacherGains:
     sonar_keep_out_m: float = 0.5  # the robot's own ultrasonic ranges push it off anything this close (0 = off)
     sonar_gain: float = 5.0  # 1/s per metre inside the keep-out (the scripted slave's step 5)
     orphan_to_slot: bool = False  # a slave whose reference neighbour is off follows its slot about the master instead
+    differential_gain: float = 4.0  # 1/s: step 3's gain on a differential body (2.0 holds the heterogeneous cell better)
+    master_command: bool = False  # the reference points' velocity leads by the master's command beyond its motion
 
 
 class PrivilegedTeacher:
@@ -114,8 +120,24 @@ class PrivilegedTeacher:
                     v = ((rx - last[0]) / dt, (ry - last[1]) / dt, wrap_angle(th_m - last[2]) / dt)
                     if math.hypot(v[0], v[1]) <= env.truth.robots[i].cfg.max_speed_mps:
                         ref_vel[i] = v
+        if self.g.master_command and ref_vel:
+            self._lead_by_master_command(ref_vel, vel, headings)
         self._at, self._xy, self._vel, self._refs, self._ref_vel = now, xy, vel, refs, ref_vel
         self._rad, self._th = radii.tolist(), headings.tolist()
+
+    def _lead_by_master_command(self, ref_vel: dict, vel: list, headings: np.ndarray) -> None:
+        """Step 1's ``master_command``: each swarm's reference points' velocities plus the master's
+        last motor command (its body frame, turned into the world's) less its true velocity."""
+        robots = self.env.truth.robots
+        for swarm in self.env.truth.swarms:
+            i_m = swarm.master.node_id
+            cvx, cvy, _ = robots[i_m].motor_command
+            c, s = math.cos(float(headings[i_m])), math.sin(float(headings[i_m]))
+            lx, ly = c * cvx - s * cvy - vel[i_m][0], s * cvx + c * cvy - vel[i_m][1]
+            for idx in swarm.master.know.members.values():
+                v = ref_vel.get(idx)
+                if v is not None and idx != i_m:
+                    ref_vel[idx] = (v[0] + lx, v[1] + ly, v[2])
 
     def _orphans_to_slots(self, refs: dict, centers: np.ndarray, headings: np.ndarray) -> None:
         """Step 1's exception (``orphan_to_slot``): a slave with a reference neighbour that is off (dead, a
@@ -166,7 +188,9 @@ class PrivilegedTeacher:
         px, py = xy[i]
         ex, ey = rx - px, ry - py
         d = math.hypot(ex, ey)
-        speed = float(approach_speed(d, vmax, g.gain, g.decel_mps2))  # 3
+        spec = env.truth.robots[i].spec
+        gain = g.differential_gain if spec is not None and spec.drive == "differential" else g.gain
+        speed = float(approach_speed(d, vmax, gain, g.decel_mps2))  # 3
         wx, wy = vrx + (speed * ex / d if d > 1e-9 else 0.0), vry + (speed * ey / d if d > 1e-9 else 0.0)
         wx, wy = self._avoid(i, wx, wy)  # 4, from the truth
         c, s = math.cos(th[i]), math.sin(th[i])

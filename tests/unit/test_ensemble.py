@@ -64,3 +64,29 @@ def test_students_of_other_sizes_are_refused(tmp_path, env_spec):
         merge_students([tmp_path / "a.npz", tmp_path / "b.npz"])
     meta, layers, rec = read_policy(tmp_path / "a.npz")
     assert rec.encoder_layers == 2 and len(layers) == 4
+
+
+def _weights(path):
+    """A policy file's arrays except its metadata (which records the config, num_cpus included)."""
+    with np.load(path, allow_pickle=False) as f:
+        return {k: f[k] for k in f.files if k != "meta"}
+
+
+def test_members_trained_side_by_side_are_the_members_trained_one_after_another(tmp_path):
+    from petswarm.training.config import load_train_config
+    from petswarm.training.ensemble import train_ensemble
+
+    tiny = {"timesteps": 60, "recurrent.samples_per_round": 60, "recurrent.updates_per_round": 2, "recurrent.members": 2,
+            "eval.episodes": 1, "env.max_cycles": 30, "recurrent.encoder": [8], "recurrent.hidden_size": 4,
+            "recurrent.head": [4]}
+    runs = {}
+    for cpus in (1, 2):
+        cfg = load_train_config("configs/train/recurrent_command_teacher.yaml", {**tiny, "num_cpus": cpus})
+        cfg = cfg.model_copy(update={"randomize": {"swarm.num_slaves": [2, 3]}})  # two draws: quick to size
+        train_ensemble(cfg, tmp_path / f"cpus{cpus}", progress=None)
+        runs[cpus] = tmp_path / f"cpus{cpus}"
+    for name in ("member_0/policy.npz", "member_1/last.npz", "policy.npz", "last.npz"):
+        one, two = _weights(runs[1] / name), _weights(runs[2] / name)
+        assert one.keys() == two.keys() and all(np.array_equal(one[k], two[k]) for k in one), name
+    # and the members are students of their own seeds, not one student twice
+    assert not np.array_equal(_weights(runs[2] / "member_0/last.npz")["w0"], _weights(runs[2] / "member_1/last.npz")["w0"])

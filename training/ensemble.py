@@ -3,11 +3,11 @@
 ``petswarm train`` with ``recurrent.members: N`` trains N students of the same config, with the seeds
 ``seed``, ``seed + 1``, ... (each a whole :func:`~petswarm.training.recurrent.train` run in
 ``member_k/`` of the run folder; ``num_cpus`` of them at a time, each in a process of its own with
-one thread, which gives the same weights as one after another), and writes their average as one policy: the action (a residual's
-correction) is the mean of the N students' outputs, clipped once. Why: students of the same config
-and data budget differ from one training seed to the next as much as they differ from the scripted
-reference (docs/training.md), and their errors are not the same ones; the mean of several is one
-policy that does not depend on which seed was lucky.
+one thread, which gives the same weights as one after another), and writes their average as one
+policy: the action (a residual's correction) is the mean of the N students' outputs, clipped once.
+Why: students of the same config and data budget differ from one training seed to the next as much
+as they differ from the scripted reference (docs/training.md), and their errors are not the same
+ones; the mean of several is one policy that does not depend on which seed was lucky.
 
 The mean is written as one network of the policy file's recurrent format
 (:mod:`petswarm.baselines.learned`, nothing new to read): the members' first encoder layers stacked

@@ -63,7 +63,7 @@ class TeacherGains:
     sonar_keep_out_m: float = 0.5  # the robot's own ultrasonic ranges push it off anything this close (0 = off)
     sonar_gain: float = 5.0  # 1/s per metre inside the keep-out (the scripted slave's step 5)
     orphan_to_slot: bool = False  # a slave whose reference neighbour is off follows its slot about the master instead
-    differential_gain: float = 4.0  # 1/s: step 3's gain on a differential body (2.0 holds the heterogeneous cell better)
+    differential_gain: float = 4.0  # 1/s: step 3's gain on a differential body (2.0 tried: no clear difference, docs/training.md)
     master_command: bool = False  # the reference points' velocity leads by the master's command beyond its motion
 
 

@@ -85,15 +85,19 @@ def _policy_name(text: str) -> str:
 def _eval_policy_name(text: str) -> str:
     """``petswarm eval``'s --policy: a slave policy, or the privileged teacher (ground truth: an
     evaluation ceiling, never a policy; training/teacher.py)."""
-    from petswarm.training.teacher import TEACHER_NAME
+    from petswarm.training.teacher import TEACHER_NAME, is_teacher, teacher_gains_of
 
-    if text == TEACHER_NAME:
+    if is_teacher(text):
+        try:
+            teacher_gains_of(text)
+        except ValueError as exc:
+            raise argparse.ArgumentTypeError(str(exc)) from None
         return text
     try:
         return _policy_name(text)
     except argparse.ArgumentTypeError:
-        raise argparse.ArgumentTypeError(f"expected scripted, random, learned, {TEACHER_NAME} or a .npz policy file, "
-                                         f"got '{text}'") from None
+        raise argparse.ArgumentTypeError(f"expected scripted, random, learned, {TEACHER_NAME}[:TRAIN_CONFIG] "
+                                         f"or a .npz policy file, got '{text}'") from None
 
 
 def _add_env_config_options(parser: argparse.ArgumentParser) -> None:
@@ -188,7 +192,8 @@ def _add_eval(sub) -> None:
     ev.add_argument("--policy", type=_eval_policy_name, default=None, metavar="scripted|random|learned|PATH",
                     help="policy of every slave not named in --mix (default scripted; learned = the model shipped in the package); "
                     "with --grid: the grid's candidate (default: the grid file's). privileged-teacher drives from ground "
-                    "truth: a ceiling to compare with, not a policy (docs/training.md)")
+                    "truth: a ceiling to compare with, not a policy (docs/training.md); privileged-teacher:TRAIN_CONFIG "
+                    "is the teacher that labels that training config's samples (e.g. :recurrent_command_teacher)")
     ev.add_argument("--mix", metavar="ROBOT=POLICY", action="append", default=[],
                     help="give one robot another policy, e.g. --mix robot_2=learned (repeatable)")
     ev.add_argument("--scenarios", metavar="a,b,...", type=_scenario_list, help="comma-separated scenarios (default: the config's scenario)")

@@ -17,7 +17,7 @@ from petswarm.evaluation.runner import VideoRecorder, chain, run_episode, summar
 from petswarm.evaluation.stats import mean_ci95
 from petswarm_env.config import SCENARIOS, Config, ConfigError, flatten_dotted, load_config
 from petswarm_env.env import PetSwarmEnv
-from petswarm.training.teacher import TEACHER_NAME, TeacherDriver
+from petswarm.training.teacher import TeacherDriver, is_teacher, teacher_gains_of
 
 
 def parse_mix(items: list[str]) -> dict[str, str]:
@@ -40,10 +40,10 @@ def team_label(policy: str, mix: dict[str, str]) -> str:
 
 
 def _driver(env: PetSwarmEnv, name: str, spec: PolicySpec, seed: int):
-    """A slave policy by name, or the privileged teacher (``privileged-teacher``: ground truth,
+    """A slave policy by name, or the privileged teacher (``privileged-teacher[:CONFIG]``: ground truth,
     an evaluation ceiling only; :class:`petswarm.training.teacher.TeacherDriver`)."""
-    if name == TEACHER_NAME:
-        return TeacherDriver(env)
+    if is_teacher(name):
+        return TeacherDriver(env, teacher_gains_of(name))
     return make_policy(name, spec, seed)
 
 

@@ -140,16 +140,22 @@ def _policy_of(word: str, grid: GridFile) -> str:
 
 def _check_policy(word: str, what: str) -> None:
     from petswarm.baselines.registry import POLICY_NAMES
-    from petswarm.training.teacher import TEACHER_NAME
+    from petswarm.training.teacher import TEACHER_NAME, is_teacher, teacher_gains_of
 
-    if word in ROLES or word in POLICY_NAMES or word == TEACHER_NAME:  # the teacher: a ceiling (docs/training.md)
+    if word in ROLES or word in POLICY_NAMES:
+        return
+    if is_teacher(word):  # the teacher: a ceiling (docs/training.md)
+        try:
+            teacher_gains_of(word)
+        except ConfigError as exc:
+            raise ConfigError(f"{what}: {exc}") from None
         return
     if word.endswith(".npz"):
         if not Path(word).is_file():
             raise ConfigError(f"{what}: policy file '{word}' does not exist; give an existing .npz policy file")
         return
     raise ConfigError(f"{what}: unknown policy '{word}'; use candidate, reference, {', '.join(POLICY_NAMES)}, "
-                      f"{TEACHER_NAME} or a .npz path")
+                      f"{TEACHER_NAME}[:TRAIN_CONFIG] or a .npz path")
 
 
 def _label(value: Any) -> str:

@@ -40,6 +40,7 @@ The figures it reaches (the grid with the teacher as candidate) are in docs/trai
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass
 
 import numpy as np
@@ -271,6 +272,34 @@ class PrivilegedTeacher:
 
 
 TEACHER_NAME = "privileged-teacher"  # its name where evaluation takes a policy name (petswarm eval --policy)
+
+
+def is_teacher(name: str) -> bool:
+    """Whether a policy word names the teacher: ``privileged-teacher`` (its defaults) or
+    ``privileged-teacher:CONFIG`` (the teacher that labels a training config's samples)."""
+    return name == TEACHER_NAME or name.startswith(TEACHER_NAME + ":")
+
+
+def teacher_gains_of(name: str) -> TeacherGains:
+    """The gains a teacher word names (:func:`is_teacher`): the defaults, or after the colon a
+    training config (a YAML path or a shipped name, ``recurrent_command_teacher``) whose
+    ``recurrent.teacher_*`` keys give the teacher its samples were labelled by — the ceiling of
+    the policy that config trains. Raises ConfigError naming the word and the fix."""
+    from petswarm import shipped
+    from petswarm.training.config import load_train_config
+    from petswarm_env.config import ConfigError
+
+    config = name.partition(":")[2]
+    if name == TEACHER_NAME:
+        return TeacherGains()
+    path = config if config.endswith((".yaml", ".yml")) and os.path.isfile(config) else shipped(f"train/{config}")
+    if not config or path is None:
+        raise ConfigError(f"'{name}': no training config '{config}'; write {TEACHER_NAME}:NAME with a shipped "
+                          f"training config's name (e.g. {TEACHER_NAME}:recurrent_command_teacher) or a .yaml path")
+    try:
+        return load_train_config(path).recurrent.teacher_gains()
+    except ConfigError as exc:
+        raise ConfigError(f"'{name}': {exc}") from None
 
 
 class TeacherDriver:

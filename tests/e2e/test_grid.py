@@ -197,3 +197,8 @@ def test_the_privileged_teacher_runs_as_a_grid_candidate_and_mixes_in(tmp_path, 
     with pytest.raises(SystemExit):
         main(["run", "--policy", "privileged-teacher"])
     assert "privileged-teacher" not in capsys.readouterr().err.split("got")[0]
+    # the teacher of a training config that does not exist: one line naming it and the fix
+    with pytest.raises(SystemExit):
+        main(["eval", "--grid", grid, "--policy", "privileged-teacher:no_such_config"])
+    err = capsys.readouterr().err.strip()
+    assert "no training config 'no_such_config'" in err and len(err.splitlines()) == 1

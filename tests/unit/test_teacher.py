@@ -109,6 +109,26 @@ def test_the_policy_registry_does_not_know_the_teacher_but_evaluation_does():
     assert isinstance(mixed.per_agent["robot_2"], TeacherDriver)
 
 
+def test_a_teacher_word_names_the_teacher_of_a_training_config(tmp_path):
+    """``privileged-teacher:CONFIG``: the ceiling of the policy a training config trains (its labelling teacher)."""
+    from petswarm.training.teacher import teacher_gains_of
+
+    assert teacher_gains_of(TEACHER_NAME) == TeacherGains()
+    named = load_train_config(RECURRENT.with_name("recurrent_command_teacher.yaml")).recurrent.teacher_gains()
+    assert named.master_command and teacher_gains_of(f"{TEACHER_NAME}:recurrent_command_teacher") == named
+    assert teacher_gains_of(f"{TEACHER_NAME}:{RECURRENT.with_name('recurrent_command_teacher.yaml')}") == named
+    env = parallel_env()
+    env.reset(seed=0)
+    assert make_team(env, f"{TEACHER_NAME}:recurrent_command_teacher", {}, 0).teacher.g == named
+    for bad in ("nope", ""):
+        with pytest.raises(ConfigError, match="no training config"):
+            teacher_gains_of(f"{TEACHER_NAME}:{bad}")
+    broken = tmp_path / "broken.yaml"
+    broken.write_text("recurrent: {teacher_push: -1}\n")
+    with pytest.raises(ConfigError, match="teacher_push"):
+        teacher_gains_of(f"{TEACHER_NAME}:{broken}")
+
+
 def test_privileged_labels_are_the_teachers_and_differ_from_the_references():
     cfg = load_train_config(overrides={"env.max_cycles": 30, "pretrain.teacher": "privileged"})
     env_cfg = cfg.env_config()

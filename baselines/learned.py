@@ -46,6 +46,7 @@ import numpy as np
 
 from petswarm_env.mapping import MOVE_HOLONOMIC, Behaviour
 from petswarm.baselines.leader_follower import LeaderFollowerPolicy
+from petswarm.baselines.members import MemberStack
 from petswarm.baselines.policy import Policy, PolicySpec
 from petswarm_env.config import describe_value
 from petswarm_env.env import ENV_NAME
@@ -495,6 +496,8 @@ class RecurrentPolicy(LearnedPolicy):
         self.encoder_layers = recurrent.encoder_layers
         c = recurrent.cell
         self.cell = GRUCell(*(np.asarray(a, dtype=np.float64) for a in (c.w_ih, c.w_hh, c.b_ih, c.b_hh)))
+        members = (meta or {}).get("info", {}).get("members", 1)  # a mean of students (training/ensemble.py)
+        self._stack = MemberStack.split(self.layers, self.encoder_layers, self.cell, members if isinstance(members, int) else 1)
         self.reset()
 
     def reset(self, seed: int | None = None) -> None:
@@ -512,15 +515,7 @@ class RecurrentPolicy(LearnedPolicy):
         hidden states ``h`` (batch, H) -> (mean actions, unclipped (batch, 3); next hidden states)."""
         x = np.asarray(x, dtype=np.float64)
         x = x if self._identity else x[..., self.index]
-        for w, b in self.layers[:self.encoder_layers]:
-            x = self.act_fn(x @ w.T + b)
-        h = self.cell.step(x, h)
-        y = np.concatenate([x, h], axis=-1)
-        head = self.layers[self.encoder_layers:]
-        for w, b in head[:-1]:
-            y = self.act_fn(y @ w.T + b)
-        w, b = head[-1]
-        return y @ w.T + b, h
+        return self._stack.step(x, np.asarray(h, dtype=np.float64), self.act_fn)  # each member on its own (baselines/members.py)
 
     def forward(self, obs: np.ndarray) -> np.ndarray:
         raise TypeError("a recurrent policy has no one-frame forward pass; use act_all (or step_batch with hidden states)")

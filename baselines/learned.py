@@ -158,9 +158,9 @@ class PolicyVersionWarning(UserWarning):
 
 def shipped_policy_path() -> Path:
     """The learned policy shipped with the package (``petswarm run/eval --policy learned``): the mean of
-    four recurrent students of the privileged teacher, one network (``petswarm train --config
-    recurrent_command_teacher``, training/ensemble.py, docs/training.md)."""
-    return Path(str(resources.files("petswarm.baselines") / "models" / "recurrent_command_teacher.npz"))
+    eight recurrent students of the privileged teacher, one network (``petswarm train --config
+    recurrent_eight_students``, training/ensemble.py, docs/training.md)."""
+    return Path(str(resources.files("petswarm.baselines") / "models" / "recurrent_eight_students.npz"))
 
 
 def feed_forward_policy_path() -> Path:

@@ -6,7 +6,7 @@ rounds of one run:
 - **whole** (the policy before 2026-12-07): the merged network's matrices multiplied whole, the
   zeros outside each student's blocks included.
 
-    python -m petswarm.bench.members_step [--policy baselines/models/recurrent_command_teacher.npz] [--agents 5]
+    python -m petswarm.bench.members_step [--policy baselines/models/recurrent_eight_students.npz] [--agents 5]
 """
 
 from __future__ import annotations

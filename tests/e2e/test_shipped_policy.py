@@ -16,15 +16,15 @@ from petswarm_env.observe import OBS_VERSION
 def test_shipped_policy_records_how_it_was_trained():
     meta, layers = read_policy_file(shipped_policy_path())
     assert meta["env_name"] == ENV_NAME and meta["observation_version"] == OBS_VERSION  # trained on the current observation
-    assert meta["info"]["command"].startswith("petswarm train --config recurrent_command_teacher")
-    assert meta["info"]["members"] == 4 and meta["recurrent"]["hidden_size"] == 4 * 64  # four students' GRUs, side by side
-    assert meta["info"]["timesteps"] >= 1_400_000  # recurrent_command_teacher.npz: four runs of 360 000 labelled samples
+    assert meta["info"]["command"].startswith("petswarm train --config recurrent_eight_students")
+    assert meta["info"]["members"] == 8 and meta["recurrent"]["hidden_size"] == 8 * 64  # eight students' GRUs, side by side
+    assert meta["info"]["timesteps"] >= 2_800_000  # recurrent_eight_students.npz: eight runs of 360 000 labelled samples
     assert meta["recurrent"]["cell"] == "gru" and meta["residual_of"] == "scripted"
     assert layers[-1][0].shape[0] == 3
-    # the committed config is the one it was trained with: `petswarm train --config recurrent_command_teacher` runs the same
+    # the committed config is the one it was trained with: `petswarm train --config recurrent_eight_students` runs the same
     # (keys added to the schema since, at their defaults, change nothing: recurrent.validation_fraction 0, the action
     # target, whose estimate_clip_m is not read, the contact loss weights 0, the labelling teacher's own defaults)
-    committed = load_train_config("configs/train/recurrent_command_teacher.yaml").model_dump(mode="json")
+    committed = load_train_config("configs/train/recurrent_eight_students.yaml").model_dump(mode="json")
     trained = yaml.safe_load(yaml.safe_dump(meta["info"]["train_config"]))
     added = set(committed["recurrent"]) - set(trained["recurrent"])
     defaults = {"validation_fraction": 0.0, "target": "action", "estimate_clip_m": 1.5, "estimate_gain": 4.0,

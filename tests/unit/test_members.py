@@ -1,18 +1,16 @@
 """baselines/members.py: a recurrent policy's step, member by member, against the merged network's
 own products (the form it replaced: ``petswarm.bench.members_step.whole_step``, the oracle here)."""
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
-from petswarm.baselines.learned import ACTIVATIONS, LearnedPolicy, read_policy, save_policy
+from petswarm.baselines.learned import ACTIVATIONS, LearnedPolicy, read_policy, save_policy, shipped_policy_path
 from petswarm.baselines.members import MemberStack
 from petswarm.baselines.policy import PolicySpec
 from petswarm.bench.members_step import whole_step
 from petswarm_env import parallel_env
 
-SHIPPED = Path(__file__).resolve().parents[2] / "baselines" / "models" / "recurrent_command_teacher.npz"
+SHIPPED = shipped_policy_path()  # a mean of eight students (docs/training.md)
 
 
 def _same_steps(policy, x0, steps=25, seed=5):
@@ -40,7 +38,7 @@ def env_spec():
 def test_the_shipped_mean_of_students_steps_member_by_member_as_its_merged_network(env_spec):
     x, spec = env_spec
     policy = LearnedPolicy.load(SHIPPED, spec)
-    assert policy._stack.members == policy.meta["info"]["members"] == 4 and policy._stack.hidden == 64
+    assert policy._stack.members == policy.meta["info"]["members"] == 8 and policy._stack.hidden == 64
     assert _same_steps(policy, x) < 1e-12
 
 
@@ -84,5 +82,5 @@ def test_the_benchmark_runs_both_ways_on_the_same_network():
     from petswarm.bench.members_step import time_steps
 
     res = time_steps(str(SHIPPED), agents=2, steps=3, rounds=2)
-    assert res["count"] == [4] and len(res["members"]) == len(res["whole"]) == 2
+    assert res["count"] == [8] and len(res["members"]) == len(res["whole"]) == 2
     assert res["max_diff"][0] < 1e-12

@@ -82,7 +82,7 @@ class MemberStack:
             encoder.append((t(ws), rows(b)))
         gates = []
         for w in (cell.w_ih, cell.w_hh):  # each gate block-diagonal over the members (training/ensemble.py)
-            per_gate = [_blocks(w[g * m * n:(g + 1) * m * n], m, [slice(None)] if m == 1 else None) for g in range(3)]
+            per_gate = [_blocks(w[g * m * n:(g + 1) * m * n], m) for g in range(3)]
             if any(p is None for p in per_gate):
                 return None
             gates.append(t(np.concatenate(per_gate, axis=1)))
@@ -90,7 +90,7 @@ class MemberStack:
                   for b in (cell.b_ih, cell.b_hh)]
         head = []
         for j, (w, b) in enumerate(layers[k:-1]):  # the first reads [its encoding, its hidden state]
-            if m == 1:
+            if m == 1:  # also with no encoder layer (k = 0), where the head reads [observation, hidden state]
                 ws = np.asarray(w, dtype=np.float64)[None]
             elif j == 0:
                 feed = layers[k - 1][0].shape[0] // m

@@ -114,6 +114,24 @@ class Formation:
             )
         return Formation(self.shape, links), renumber
 
+    def cut(self, num_members: int) -> Formation:
+        """The table of its first ``num_members`` members, every slot where this table puts it: a member keeps
+        its links to kept members; one whose links all lead to members cut off is linked to the first kept
+        member along its first links' way to the master (member 0), its offset that member's slot to its own."""
+        pos = self.slot_positions()
+        links: dict[int, tuple[Link, ...]] = {}
+        for m in range(1, num_members):
+            kept = tuple(lk for lk in self.links[m] if lk.neighbour < num_members)
+            if not kept:
+                nb, seen = self.links[m][0].neighbour, {m}
+                while nb >= num_members and nb not in seen:
+                    seen.add(nb)
+                    nb = self.links[nb][0].neighbour
+                nb = nb if nb < num_members else 0
+                kept = (Link(nb, (round(float(pos[m][0] - pos[nb][0]), 12), round(float(pos[m][1] - pos[nb][1]), 12))),)
+            links[m] = kept
+        return Formation(self.shape, links)
+
     def hierarchy_levels(self, user_position_formation: tuple[float, float]) -> dict[int, int]:
         """Level 1 = farthest from the user, counting up toward the user (seed 000 Fig. 10)."""
         slots = self.slot_positions()
@@ -187,6 +205,21 @@ def formation_for_mode(cfg: SwarmConfig, num_members: int, mode: str,
     if cfg.formation == "wedge":
         return Formation("wedge", _wedge_links(cfg.spacing_m, num_members, user)).rotated(math.pi)
     return _aside_of_user(build_formation(cfg, num_members).rotated(math.pi), user)
+
+
+def table_for_members(cfg: SwarmConfig, num_members: int, mode: str,
+                      user: tuple[float, float] | None = None) -> Formation:
+    """:func:`formation_for_mode` for the members a swarm holds (numbered 0 … ``num_members`` − 1), except
+    that a custom table that cannot be cut to them (a member it keeps refers only to members beyond: a table
+    re-rooted by a master change, or written so) is cut by :meth:`Formation.cut`: each keeps the slot the whole
+    table gives it, a member whose neighbours were cut off referring to the next kept one toward the master."""
+    try:
+        return formation_for_mode(cfg, num_members, mode, user)
+    except ValueError:
+        size = max((link.robot for link in cfg.custom_links), default=0) + 1
+        if cfg.formation != "custom" or num_members >= size:
+            raise
+        return formation_for_mode(cfg, size, mode, user).cut(num_members)
 
 
 def _aside_of_user(formation: Formation, user: tuple[float, float]) -> Formation:

@@ -41,7 +41,7 @@ from dataclasses import dataclass, field
 from petswarm_env.comms.radio import PAN_WAITING, Frame
 from petswarm_env.middleware import assignment
 from petswarm_env.middleware import messages as msg
-from petswarm_env.middleware.formation import Formation, formation_for_mode, leading_user
+from petswarm_env.middleware.formation import Formation, leading_user, table_for_members
 from petswarm_env.middleware.ruta import Bid
 from petswarm_env.middleware.station import Station
 from petswarm_env.middleware.succession import body_can_be_master
@@ -218,7 +218,7 @@ class JoinManager:
         members = {0: node.node_id}  # step 3: the member table, the master is member 0; the filled slots
         members.update({i + 1: chosen[m] for i, m in enumerate(sorted(chosen))})  # numbered 1..n (no gap)
         mode = mode_of()
-        formation = formation_for_mode(node.cfg.swarm, len(members), mode, leading_user(node.cfg))
+        formation = table_for_members(node.cfg.swarm, len(members), mode, leading_user(node.cfg))
         node.know.lf_members = self._lf_members(members, answers)
         yield from self._notify(members, pan, formation, mode, result)  # step 3
         # 4. the master drives its swarm on the new PAN ID
@@ -438,7 +438,7 @@ class JoinManager:
             new.update(picked)
             new = dict(sorted(new.items()))
             node.know.lf_members = node.know.lf_members | self._lf_members(picked, answers)
-            formation = formation_for_mode(node.cfg.swarm, len(new), mode, leading_user(node.cfg))
+            formation = table_for_members(node.cfg.swarm, len(new), mode, leading_user(node.cfg))
             yield from self._notify(new, pan, formation, mode, result, joiners=set(picked.values()))
             result.members = new
             result.elapsed_s = node.clock.now - t0

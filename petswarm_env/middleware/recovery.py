@@ -54,7 +54,7 @@ from collections.abc import Callable
 from petswarm_env.comms.radio import Frame
 from petswarm_env.middleware import assignment, ruta
 from petswarm_env.middleware import messages as msg
-from petswarm_env.middleware.formation import Formation, formation_for_mode, leading_user
+from petswarm_env.middleware.formation import Formation, formation_for_mode, leading_user, table_for_members
 from petswarm_env.middleware.knowledge import FRESH_IR_S
 from petswarm_env.middleware.join import JoinManager, OrganizeResult
 from petswarm_env.middleware.leaving import Leaving, lane_near_m, segment_distance
@@ -370,7 +370,7 @@ class RecoveryManager(Leaving, Replanning):
         if new is None or node.state != "master":
             return
         added = [n for m, n in new.items() if know.members.get(m) != n]
-        formation = formation_for_mode(node.cfg.swarm, len(new), know.mode, leading_user(node.cfg))
+        formation = table_for_members(node.cfg.swarm, len(new), know.mode, leading_user(node.cfg))
         if self.mirrored:  # the table the removal mirrored stays so: the members hold their sides
             formation = formation.mirrored()
         self._commit(new, formation)

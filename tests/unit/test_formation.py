@@ -7,7 +7,7 @@ import pytest
 
 import petswarm_env
 from petswarm_env.config import ConfigError, load_config
-from petswarm_env.middleware.formation import MAX_LINKS, build_formation
+from petswarm_env.middleware.formation import MAX_LINKS, build_formation, formation_for_mode, leading_user, table_for_members
 
 C30, S30 = math.cos(math.radians(30)), math.sin(math.radians(30))
 
@@ -215,6 +215,30 @@ def test_fewer_members_than_the_custom_table_keep_the_rows_of_those_that_joined(
     f = build_formation(custom_cfg(CUSTOM), 3)
     assert set(f.links) == {1, 2} and f.links[2] == build_formation(custom_cfg(CUSTOM), 4).links[2]
     np.testing.assert_allclose(f.slot_positions(), [(0, 0), (-1, 0.5), (-2, 0.5)])
+
+
+def test_a_custom_table_that_cannot_be_cut_plainly_keeps_every_slot():
+    # re-rooted at member 3 by a master change (modes.py, succession.py), the table's member 2 follows member 3;
+    # its swarm, down to three members, refills them: member 2 keeps its slot, now referred to member 1 (member 3's
+    # reference); the plain cut raised inside the simulation clock (a training run's refill)
+    wedge = [{"robot": 1, "neighbour": 0, "offset_m": [-1.0, 1.0]}, {"robot": 2, "neighbour": 0, "offset_m": [-1.0, -1.0]},
+             {"robot": 3, "neighbour": 1, "offset_m": [-1.0, 0.0]}]
+    table, _ = build_formation(custom_cfg(wedge), 4).rerooted(3)
+    assert [lk.neighbour for lk in table.links[2]] == [3] and [lk.neighbour for lk in table.links[3]] == [1]
+    links = [{"robot": m, "neighbour": lk.neighbour, "offset_m": list(lk.offset_m)} for m, lks in table.links.items() for lk in lks]
+    cfg = custom_cfg(links)
+    with pytest.raises(ValueError, match=r"members \[1, 2\], got \[1\]"):
+        formation_for_mode(cfg, 3, "following")
+    whole = formation_for_mode(cfg, 4, "following")
+    cut = table_for_members(cfg, 3, "following")
+    assert cut.size == 3 and cut.links[1] == whole.links[1] and [lk.neighbour for lk in cut.links[2]] == [1]
+    np.testing.assert_allclose(cut.slot_positions(), whole.slot_positions()[:3], atol=1e-9)
+    assert table_for_members(cfg, 2, "following").links == {1: whole.links[1]}
+    for mode in ("following", "leading"):  # a table that can be cut is cut as before
+        user = leading_user(load_config()) if mode == "leading" else None
+        assert table_for_members(custom_cfg(CUSTOM), 3, mode, user).links == formation_for_mode(custom_cfg(CUSTOM), 3, mode, user).links
+    with pytest.raises(ValueError):  # more members than the table: still an error
+        table_for_members(cfg, 5, "following")
 
 
 def test_a_custom_table_for_another_slave_count_is_refused_at_load():

@@ -19,10 +19,13 @@ outputs. Its step equals the mean of the members' steps up to float32 rounding
 The run folder: ``member_0/`` … (each member's own run: its policy.npz, last.npz, train_log.json),
 ``policy.npz`` (the mean of the members' best evaluated students), ``last.npz`` (of their last
 ones) and ``train_log.json`` (the members' logs and the mean's evaluation on the config's
-evaluation seeds)."""
+evaluation seeds). With ``recurrent.member_checkpoint: last`` ``policy.npz`` is the mean of the last
+students and ``members_best.npz`` that of the best: a member's pick among its own evaluations (ten
+short episodes each) is noisy enough to keep a student of an early round (docs/training.md)."""
 
 from __future__ import annotations
 
+import json
 import time
 from concurrent.futures import ProcessPoolExecutor
 from multiprocessing import get_context
@@ -33,9 +36,11 @@ import numpy as np
 
 from petswarm.baselines.learned import GRUCell, LearnedPolicy, Recurrent, read_policy, residual_of_meta, save_policy
 from petswarm.training.callbacks import LAST_POLICY, evaluate_and_keep, public_log, scripted_reference
-from petswarm.training.config import TrainConfig
+from petswarm.training.config import TrainConfig, load_train_config
 from petswarm_env.config import ConfigError
 from petswarm_env.files import write_json_atomic
+
+MEMBERS_BEST_POLICY = "members_best.npz"  # with recurrent.member_checkpoint: last, the mean of the members' best evaluated
 
 ALGORITHM = "ensemble of recurrent actors (GRU), each distilled from the privileged teacher by DAgger"
 
@@ -120,6 +125,33 @@ def _train_member(job: tuple[TrainConfig, Path, str]) -> dict[str, Any]:
     return train(member, folder, command=command, progress=lambda line: print(f"[{folder.name}] {line}", flush=True))
 
 
+def _same_member(cfg: TrainConfig) -> dict[str, Any]:
+    """What a member's weights depend on: its config but the processes at a time and the ensemble's choice of checkpoint."""
+    kept = cfg.model_copy(update={"num_cpus": 1, "recurrent": cfg.recurrent.model_copy(update={"member_checkpoint": "best"})})
+    return kept.model_dump(mode="json")
+
+
+def finished_member(cfg: TrainConfig, folder: Path) -> dict[str, Any] | None:
+    """The train log of the member ``cfg`` already trained whole in ``folder`` (an ensemble run stopped after some of
+    its members finished: :func:`train_ensemble` keeps them), or None where the folder holds no run. A folder with
+    another config's run, or one unfinished, is a :class:`ConfigError` that says to remove it: nothing is deleted here."""
+    from petswarm.training.recurrent import rounds_for
+
+    if not (folder / "train_log.json").exists():
+        return None
+    fix = "remove that folder to train this member again (the other members' folders are kept)"
+    try:
+        log = json.loads((folder / "train_log.json").read_text(encoding="utf-8"))
+        done = load_train_config(folder / "train_config.yaml")
+    except (OSError, ValueError, ConfigError) as exc:
+        raise ConfigError(f"'{folder}' holds a member run that cannot be read ({str(exc).splitlines()[0]}); {fix}") from None
+    if _same_member(done) != _same_member(cfg):
+        raise ConfigError(f"'{folder}' holds a member run of another config; {fix}")
+    if len(log.get("rounds", [])) < rounds_for(cfg) or not all((folder / f).exists() for f in ("policy.npz", LAST_POLICY)):
+        raise ConfigError(f"'{folder}' holds an unfinished member run ({len(log.get('rounds', []))} of {rounds_for(cfg)} rounds); {fix}")
+    return log
+
+
 def train_ensemble(cfg: TrainConfig, out_dir: str | Path, command: str = "", progress=print) -> dict[str, Any]:
     """``recurrent.members`` students (module docstring) in ``out_dir``; returns the train log."""
     from petswarm.baselines.policy import PolicySpec
@@ -137,24 +169,31 @@ def train_ensemble(cfg: TrainConfig, out_dir: str | Path, command: str = "", pro
     start = time.time()
     jobs = [(cfg.model_copy(update={"seed": cfg.seed + m, "recurrent": cfg.recurrent.model_copy(update={"members": 1})}),
              out / f"member_{m}", command) for m in range(members)]
-    workers = min(max(cfg.num_cpus, 1), members)
+    done = {m: log for m, (member, folder, _) in enumerate(jobs) if (log := finished_member(member, folder)) is not None}
+    todo = [job for m, job in enumerate(jobs) if m not in done]
+    workers = min(max(cfg.num_cpus, 1), max(len(todo), 1))
     if progress:
-        progress(f"{members} members (seeds {cfg.seed}-{cfg.seed + members - 1}) in {out}/member_*, {workers} at a time")
+        progress(f"{members} members (seeds {cfg.seed}-{cfg.seed + members - 1}) in {out}/member_*, {workers} at a time"
+                 + (f"; members {', '.join(map(str, sorted(done)))} already trained there: kept" if done else ""))
     if workers == 1:
-        logs = [train(*job, progress=progress) for job in jobs]
+        trained = [train(*job, progress=progress) for job in todo]
     else:  # each member a process of its own (one thread, its own seed: the same weights as one after another)
         with ProcessPoolExecutor(workers, mp_context=get_context("spawn")) as pool:
-            logs = list(pool.map(_train_member, jobs))
+            trained = list(pool.map(_train_member, todo))
+    logs = [done[m] if m in done else trained.pop(0) for m in range(members)]
     layout = PetSwarmEnv(cfg.env_config()).layout
     log: dict[str, Any] = {"timesteps": sum(lg["timesteps"] for lg in logs), "wall_time_s": time.time() - start,
                            "evaluations": [], "scripted_eval_rmse_m": None, "command": command, "_start": start,
                            "members": [{"seed": cfg.seed + m, "folder": f"member_{m}", "timesteps": lg["timesteps"],
                                         "wall_time_s": lg["wall_time_s"], "best": lg.get("best")} for m, lg in enumerate(logs)],
-                           "rounds": [r for lg in logs for r in lg["rounds"]]}
+                           "rounds": [r for lg in logs for r in lg["rounds"]], "members_kept": sorted(done)}
     info = {"algorithm": f"{ALGORITHM}, parameter sharing over slaves", "members": members, "timesteps": log["timesteps"],
             "train_config": cfg.model_dump(mode="json"), "command": command}
     write_merged([out / f"member_{m}" / LAST_POLICY for m in range(members)], out / LAST_POLICY, layout, info)
     best = [out / f"member_{m}" / "policy.npz" for m in range(members)]
+    if cfg.recurrent.member_checkpoint == "last":  # the mean of the last students is the policy; the other beside it
+        write_merged(best, out / MEMBERS_BEST_POLICY, layout, info)
+        best = [out / f"member_{m}" / LAST_POLICY for m in range(members)]
     scratch = out / ".mean_for_evaluation.npz"  # the mean the evaluation drives, written once
     write_merged(best, scratch, layout, info)
     scripted_reference(cfg, log)

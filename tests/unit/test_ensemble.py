@@ -1,7 +1,11 @@
 """training/ensemble.py: the mean of recurrent students as one network of the policy file's format."""
 
+import json
+import shutil
+
 import numpy as np
 import pytest
+import yaml
 
 pytest.importorskip("torch")
 
@@ -9,6 +13,7 @@ from petswarm.baselines.learned import GRUCell, LearnedPolicy, Recurrent, Residu
 from petswarm.baselines.policy import PolicySpec  # noqa: E402
 from petswarm.training.ensemble import merge_students, write_merged  # noqa: E402
 from petswarm_env import parallel_env  # noqa: E402
+from petswarm_env.config import ConfigError  # noqa: E402
 
 
 def _student(path, layout, seed, encoder=(12, 10), hidden=6, head=(7,)):
@@ -76,7 +81,8 @@ def test_members_trained_side_by_side_are_the_members_trained_one_after_another(
     from petswarm.training.config import load_train_config
     from petswarm.training.ensemble import train_ensemble
 
-    tiny = {"timesteps": 60, "recurrent.samples_per_round": 60, "recurrent.updates_per_round": 2, "recurrent.members": 2,
+    tiny = {"timesteps": 120, "recurrent.samples_per_round": 60, "recurrent.updates_per_round": 2, "recurrent.members": 2,
+            "recurrent.eval_every_rounds": 1,  # two rounds, each evaluated: the mean of the best and of the last differ (below)
             "eval.episodes": 1, "env.max_cycles": 30, "recurrent.encoder": [8], "recurrent.hidden_size": 4,
             "recurrent.head": [4]}
     runs = {}
@@ -90,3 +96,38 @@ def test_members_trained_side_by_side_are_the_members_trained_one_after_another(
         assert one.keys() == two.keys() and all(np.array_equal(one[k], two[k]) for k in one), name
     # and the members are students of their own seeds, not one student twice
     assert not np.array_equal(_weights(runs[2] / "member_0/last.npz")["w0"], _weights(runs[2] / "member_1/last.npz")["w0"])
+    # a run folder whose members are trained already (a run stopped after them, or another choice of checkpoint): they
+    # are kept, not trained again; with recurrent.member_checkpoint: last, policy.npz is the mean of their last students
+    # and members_best.npz that of their best (the default run's policy.npz)
+    again = tmp_path / "again"
+    for m in (0, 1):
+        shutil.copytree(runs[1] / f"member_{m}", again / f"member_{m}")
+    cfg = load_train_config("configs/train/recurrent_command_teacher.yaml",
+                            {**tiny, "num_cpus": 2, "recurrent.member_checkpoint": "last"})
+    log = train_ensemble(cfg.model_copy(update={"randomize": {"swarm.num_slaves": [2, 3]}}), again, progress=None)
+    assert log["members_kept"] == [0, 1] and log["timesteps"] == json.loads((runs[1] / "train_log.json").read_text())["timesteps"]
+    for mine, theirs in (("policy.npz", "last.npz"), ("last.npz", "last.npz"), ("members_best.npz", "policy.npz")):
+        one, two = _weights(again / mine), _weights(runs[1] / theirs)
+        assert one.keys() == two.keys() and all(np.array_equal(one[k], two[k]) for k in one), mine
+    assert not all(np.array_equal(a, b) for a, b in zip(_weights(runs[1] / "policy.npz").values(),
+                                                          _weights(runs[1] / "last.npz").values()))
+
+
+def test_a_member_folder_of_an_unfinished_or_other_run_is_refused_and_kept(tmp_path):
+    from petswarm.training.config import load_train_config
+    from petswarm.training.ensemble import finished_member
+
+    cfg = load_train_config("configs/train/recurrent_command_teacher.yaml", {"recurrent.members": 1, "seed": 3})
+    folder = tmp_path / "member_0"
+    assert finished_member(cfg, folder) is None  # nothing there: train it
+    folder.mkdir()
+    (folder / "train_config.yaml").write_text(yaml.safe_dump(cfg.model_dump(mode="json")))
+    (folder / "train_log.json").write_text(json.dumps({"rounds": [{"round": 0}]}))
+    with pytest.raises(ConfigError, match=r"unfinished member run \(1 of 15 rounds\); remove that folder"):
+        finished_member(cfg, folder)
+    with pytest.raises(ConfigError, match="member run of another config; remove that folder"):
+        finished_member(cfg.model_copy(update={"seed": 4}), folder)
+    (folder / "train_log.json").write_text("{")
+    with pytest.raises(ConfigError, match="cannot be read"):
+        finished_member(cfg, folder)
+    assert sorted(p.name for p in folder.iterdir()) == ["train_config.yaml", "train_log.json"]  # nothing removed

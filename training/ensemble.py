@@ -173,7 +173,8 @@ def train_ensemble(cfg: TrainConfig, out_dir: str | Path, command: str = "", pro
     todo = [job for m, job in enumerate(jobs) if m not in done]
     workers = min(max(cfg.num_cpus, 1), max(len(todo), 1))
     if progress:
-        progress(f"{members} members (seeds {cfg.seed}-{cfg.seed + members - 1}) in {out}/member_*, {workers} at a time"
+        progress(f"{members} members (seeds {cfg.seed}-{cfg.seed + members - 1}) in {out}/member_*"
+                 + (f", {workers} at a time" if todo else "")
                  + (f"; members {', '.join(map(str, sorted(done)))} already trained there: kept" if done else ""))
     if workers == 1:
         trained = [train(*job, progress=progress) for job in todo]

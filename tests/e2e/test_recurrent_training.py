@@ -77,11 +77,12 @@ def test_a_validation_split_is_held_out_of_the_fit_and_logged(tmp_path):
         assert r["validation_loss"] == kept[0]["validation_loss"] and np.isfinite(r["fit_loss"])
 
 
-def test_a_run_of_two_students_ships_their_mean(tmp_path):
+def test_a_run_of_two_students_ships_their_mean(tmp_path, capsys):
     """recurrent.members: 2 trains two students (seeds 0 and 1, each a run of its own in member_k/) and
     writes their mean as one recurrent network: policy.npz (the members' best) and last.npz."""
     out = tmp_path / "ens"
     assert train_command("configs/train/recurrent.yaml", SHORT + ["recurrent.members=2"], 600, str(out), False, False, "") == 0
+    assert f"policy: {out}/policy.npz, the mean of the members' best students (median " in capsys.readouterr().out
     log = json.loads((out / "train_log.json").read_text())
     assert [m["seed"] for m in log["members"]] == [0, 1] and len(log["evaluations"]) == 1
     for k in range(2):

@@ -135,10 +135,9 @@ class RecurrentConfig(Section):
     eval_every_rounds: int = Field(1, ge=1, le=1_000_000, description="evaluate (and keep the best as policy.npz) every this many rounds")
     members: int = Field(1, ge=1, le=16, description="train this many students of this config, seeds seed, seed + 1, ..., and ship "
                                                      "their mean as one network (training/ensemble.py; 1: one student)")
-    member_checkpoint: Literal["best", "last"] = Field("best", description="with members > 1: policy.npz is the mean of each "
-                                                                          "member's best evaluated student (best) or of its last "
-                                                                          "round's (last; the mean of the best is then written as "
-                                                                          "members_best.npz)")
+    member_checkpoint: Literal["best", "last"] = Field(
+        "best", description="with members > 1: policy.npz is the mean of each member's best evaluated student (best) or of its "
+                            "last round's (last; the mean of the best is then written as members_best.npz)")
     validation_fraction: float = Field(0.0, ge=0.0, lt=1.0, description="share of each round's episodes whose sequences are held "
                                                                         "out of the fit: their loss and explained share are logged "
                                                                         "(0: none)")

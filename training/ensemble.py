@@ -148,7 +148,8 @@ def finished_member(cfg: TrainConfig, folder: Path) -> dict[str, Any] | None:
     if _same_member(done) != _same_member(cfg):
         raise ConfigError(f"'{folder}' holds a member run of another config; {fix}")
     if len(log.get("rounds", [])) < rounds_for(cfg) or not all((folder / f).exists() for f in ("policy.npz", LAST_POLICY)):
-        raise ConfigError(f"'{folder}' holds an unfinished member run ({len(log.get('rounds', []))} of {rounds_for(cfg)} rounds); {fix}")
+        rounds = f"{len(log.get('rounds', []))} of {rounds_for(cfg)} rounds"
+        raise ConfigError(f"'{folder}' holds an unfinished member run ({rounds}); {fix}")
     return log
 
 

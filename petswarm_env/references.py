@@ -37,6 +37,22 @@ COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py c
 _hypot = math.hypot  # Python's own (CPython's hypot is not the C library's)
 
 
+def _held_link(table: dict, members: dict, link) -> tuple | None:
+    """A link as (neighbour's robot index, offset x, offset y). A neighbour whose member number the swarm leaves open (a
+    custom table keeps its size at a loss, and a master change's re-rooted table the lost master's slot) stands where
+    its own first link puts it: the link goes on along the open members' first links to a member the swarm holds, the
+    offsets added up; None when none is held."""
+    x, y = float(link.offset_m[0]), float(link.offset_m[1])
+    m, seen = link.neighbour, set()
+    while m not in members:
+        if m in seen or not table.get(m):
+            return None
+        seen.add(m)
+        step = table[m][0]
+        x, y, m = x + float(step.offset_m[0]), y + float(step.offset_m[1]), step.neighbour
+    return members[m], x, y
+
+
 @cython.cclass
 class ReferenceTable:
     """The reference links of every organized swarm (module docstring). :meth:`update` with the
@@ -84,19 +100,23 @@ class ReferenceTable:
             if swarm.formation is None or not swarm.organized:
                 continue
             members = swarm.master.know.members
-            for m, links in swarm.formation.links.items():
+            table = swarm.formation.links
+            for m, links in table.items():
                 idx = members.get(m)
                 if idx is None or not links:
+                    continue
+                held = [ref for ref in (_held_link(table, members, link) for link in links) if ref is not None]
+                if not held:
                     continue
                 entry_of[idx] = len(slave)
                 slave.append(idx)
                 master.append(swarm.master.node_id)
                 first.append(len(nb))
-                count.append(len(links))
-                for link in links:
-                    nb.append(members[link.neighbour])
-                    ox.append(link.offset_m[0])
-                    oy.append(link.offset_m[1])
+                count.append(len(held))
+                for j, x, y in held:
+                    nb.append(j)
+                    ox.append(x)
+                    oy.append(y)
         self._slave, self._master = np.array(slave, np.int_), np.array(master, np.int_)
         self._first, self._count = np.array(first, np.int_), np.array(count, np.int_)
         self._nb, self._ox, self._oy = np.array(nb, np.int_), np.array(ox, float), np.array(oy, float)

@@ -11,6 +11,7 @@ Hierarchy levels are numbered from the robot farthest from the user (level 1) (s
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -207,19 +208,26 @@ def formation_for_mode(cfg: SwarmConfig, num_members: int, mode: str,
     return _aside_of_user(build_formation(cfg, num_members).rotated(math.pi), user)
 
 
-def table_for_members(cfg: SwarmConfig, num_members: int, mode: str,
+def table_for_members(cfg: SwarmConfig, members: Iterable[int], mode: str,
                       user: tuple[float, float] | None = None) -> Formation:
-    """:func:`formation_for_mode` for the members a swarm holds (numbered 0 … ``num_members`` − 1), except
-    that a custom table that cannot be cut to them (a member it keeps refers only to members beyond: a table
-    re-rooted by a master change, or written so) is cut by :meth:`Formation.cut`: each keeps the slot the whole
-    table gives it, a member whose neighbours were cut off referring to the next kept one toward the master."""
+    """The neighbour table for the member numbers ``members`` (the master's 0 among them): :func:`formation_for_mode`
+    for as many, except for a custom table, which fixes its size. A custom swarm whose numbers leave one open (the
+    lost master's slot after a master change, a lost member's) keeps its whole table, the open rows open (a held
+    member referring to an open one refers through it: :mod:`petswarm_env.references` measures it so, the robot by its
+    own fixes); one numbered 0 … n − 1 but fewer than the table has is cut to them, by :meth:`Formation.cut` where a
+    plain cut fails (a member it keeps refers only to members beyond: a table re-rooted by a master change, or
+    written so), every slot where the whole table puts it."""
+    numbers = sorted(members)
+    n = len(numbers)
+    size = max((link.robot for link in cfg.custom_links), default=0) + 1
+    if cfg.formation == "custom" and numbers != list(range(n)) and numbers[-1] < size:
+        return formation_for_mode(cfg, size, mode, user)
     try:
-        return formation_for_mode(cfg, num_members, mode, user)
+        return formation_for_mode(cfg, n, mode, user)
     except ValueError:
-        size = max((link.robot for link in cfg.custom_links), default=0) + 1
-        if cfg.formation != "custom" or num_members >= size:
+        if cfg.formation != "custom" or n >= size:
             raise
-        return formation_for_mode(cfg, size, mode, user).cut(num_members)
+        return formation_for_mode(cfg, size, mode, user).cut(n)
 
 
 def _aside_of_user(formation: Formation, user: tuple[float, float]) -> Formation:

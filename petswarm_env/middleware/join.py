@@ -218,7 +218,7 @@ class JoinManager:
         members = {0: node.node_id}  # step 3: the member table, the master is member 0; the filled slots
         members.update({i + 1: chosen[m] for i, m in enumerate(sorted(chosen))})  # numbered 1..n (no gap)
         mode = mode_of()
-        formation = table_for_members(node.cfg.swarm, len(members), mode, leading_user(node.cfg))
+        formation = table_for_members(node.cfg.swarm, members, mode, leading_user(node.cfg))
         node.know.lf_members = self._lf_members(members, answers)
         yield from self._notify(members, pan, formation, mode, result)  # step 3
         # 4. the master drives its swarm on the new PAN ID
@@ -438,7 +438,7 @@ class JoinManager:
             new.update(picked)
             new = dict(sorted(new.items()))
             node.know.lf_members = node.know.lf_members | self._lf_members(picked, answers)
-            formation = table_for_members(node.cfg.swarm, len(new), mode, leading_user(node.cfg))
+            formation = table_for_members(node.cfg.swarm, new, mode, leading_user(node.cfg))
             yield from self._notify(new, pan, formation, mode, result, joiners=set(picked.values()))
             result.members = new
             result.elapsed_s = node.clock.now - t0

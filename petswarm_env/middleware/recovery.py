@@ -370,7 +370,7 @@ class RecoveryManager(Leaving, Replanning):
         if new is None or node.state != "master":
             return
         added = [n for m, n in new.items() if know.members.get(m) != n]
-        formation = table_for_members(node.cfg.swarm, len(new), know.mode, leading_user(node.cfg))
+        formation = table_for_members(node.cfg.swarm, new, know.mode, leading_user(node.cfg))
         if self.mirrored:  # the table the removal mirrored stays so: the members hold their sides
             formation = formation.mirrored()
         self._commit(new, formation)

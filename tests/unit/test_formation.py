@@ -6,6 +6,8 @@ import numpy as np
 import pytest
 
 import petswarm_env
+from petswarm.baselines.policy import PolicySpec
+from petswarm.baselines.registry import make_policy
 from petswarm_env.config import ConfigError, load_config
 from petswarm_env.middleware.formation import MAX_LINKS, build_formation, formation_for_mode, leading_user, table_for_members
 
@@ -231,16 +233,50 @@ def test_a_custom_table_that_cannot_be_cut_plainly_keeps_every_slot():
     with pytest.raises(ValueError, match=r"members \[1, 2\], got \[1\]"):
         formation_for_mode(cfg, 3, "following")
     whole = formation_for_mode(cfg, 4, "following")
-    cut = table_for_members(cfg, 3, "following")
+    cut = table_for_members(cfg, range(3), "following")
     assert cut.size == 3 and cut.links[1] == whole.links[1] and [lk.neighbour for lk in cut.links[2]] == [1]
     np.testing.assert_allclose(cut.slot_positions(), whole.slot_positions()[:3], atol=1e-9)
-    assert table_for_members(cfg, 2, "following").links == {1: whole.links[1]}
+    assert table_for_members(cfg, [0, 1], "following").links == {1: whole.links[1]}
+    # numbers with a gap (the lost master's slot a master change leaves open): the whole table, the open row open
+    assert table_for_members(cfg, [0, 2, 3], "following").links == whole.links
     for mode in ("following", "leading"):  # a table that can be cut is cut as before
         user = leading_user(load_config()) if mode == "leading" else None
         plain = formation_for_mode(custom_cfg(CUSTOM), 3, mode, user)
-        assert table_for_members(custom_cfg(CUSTOM), 3, mode, user).links == plain.links
+        assert table_for_members(custom_cfg(CUSTOM), range(3), mode, user).links == plain.links
     with pytest.raises(ValueError):  # more members than the table: still an error
-        table_for_members(cfg, 5, "following")
+        table_for_members(cfg, range(5), "following")
+
+
+def test_an_open_member_number_is_referred_through():
+    from petswarm_env.references import _held_link
+
+    table = build_formation(custom_cfg([{"robot": 1, "neighbour": 0, "offset_m": [-1.0, 0.0]},
+                                        {"robot": 2, "neighbour": 1, "offset_m": [0.0, 1.0]}]), 3).links
+    assert _held_link(table, {0: 7, 1: 8, 2: 9}, table[2][0]) == (8, 0.0, 1.0)
+    assert _held_link(table, {0: 7, 2: 9}, table[2][0]) == (7, -1.0, 1.0)  # member 1 open: through its link to 0
+    assert _held_link(table, {2: 9}, table[2][0]) is None
+
+
+def test_a_swarm_on_a_table_that_cannot_be_cut_outlives_its_master_and_refills():
+    # a written table whose member 2 refers to member 3; the master dies, a robot arrives: the successor's table leaves
+    # the lost master's slot open, the refill numbers the recruit past it (the metrics raised a KeyError, before that
+    # the refill's plain cut a ValueError)
+    links = [{"robot": 1, "neighbour": 0, "offset_m": [-1.0, 0.0]}, {"robot": 2, "neighbour": 3, "offset_m": [0.0, 1.0]},
+             {"robot": 3, "neighbour": 1, "offset_m": [-1.0, 0.0]}]
+    env = petswarm_env.parallel_env(**{
+        "max_cycles": 500, "swarm.formation": "custom", "swarm.custom_links": links, "swarm.num_slaves": 3,
+        "faults": [{"at_s": 12.0, "robot": "master", "kind": "dead"}], "swarm.extra_robots": 2,
+        "swarm.assignment": "ruta_centralized", "arrivals": [{"at_s": 15.0, "type": "petbot"}]})
+    obs, _ = env.reset(seed=273216)
+    policy = make_policy("scripted", PolicySpec.from_env(env), seed=0)
+    steps = 0
+    while env.agents:
+        obs, *_ = env.step(policy.act_all({a: obs[a] for a in env.agents}))
+        steps += 1
+    swarm = env.episode.truth.swarms[0]
+    members = dict(swarm.master.know.members)
+    assert steps == 500 and swarm.master.node_id != 0 and sorted(members) != list(range(len(members)))
+    assert set(members) <= set(range(swarm.formation.size))  # every member has its row
 
 
 def test_a_custom_table_for_another_slave_count_is_refused_at_load():

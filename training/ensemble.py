@@ -117,12 +117,26 @@ def write_merged(paths: list[str | Path], out: str | Path, layout, info: dict[st
     save_policy(out, layers, meta["activation"], layout, info, meta.get("behaviours"), residual_of_meta(meta), rec)
 
 
-def _train_member(job: tuple[TrainConfig, Path, str]) -> dict[str, Any]:
-    """One member's whole run in a worker process, its progress lines prefixed with its folder."""
+class MemberStopped(RuntimeError):
+    """A member's run raised: the message names the member and how to go on (the members that finished are kept)."""
+
+
+def _run_member(job: tuple[TrainConfig, Path, str], progress) -> dict[str, Any]:
+    """One member's whole run; what it raises comes back as :class:`MemberStopped` naming it."""
     from petswarm.training.recurrent import train
 
     member, folder, command = job
-    return train(member, folder, command=command, progress=lambda line: print(f"[{folder.name}] {line}", flush=True))
+    try:
+        return train(member, folder, command=command, progress=progress)
+    except Exception as exc:  # noqa: BLE001 - any cause: the message carries its text
+        text = " ".join(str(exc).split()) or type(exc).__name__
+        raise MemberStopped(f"{folder.name} (seed {member.seed}) stopped: {text}; remove '{folder}' and run the same "
+                            f"command again: it keeps the members that finished and trains the others") from None
+
+
+def _train_member(job: tuple[TrainConfig, Path, str]) -> dict[str, Any]:
+    """One member's whole run in a worker process, its progress lines prefixed with its folder."""
+    return _run_member(job, lambda line: print(f"[{job[1].name}] {line}", flush=True))
 
 
 def _same_member(cfg: TrainConfig) -> dict[str, Any]:
@@ -156,7 +170,6 @@ def finished_member(cfg: TrainConfig, folder: Path) -> dict[str, Any] | None:
 def train_ensemble(cfg: TrainConfig, out_dir: str | Path, command: str = "", progress=print) -> dict[str, Any]:
     """``recurrent.members`` students (module docstring) in ``out_dir``; returns the train log."""
     from petswarm.baselines.policy import PolicySpec
-    from petswarm.training.recurrent import train
     from petswarm_env.env import PetSwarmEnv
 
     members = cfg.recurrent.members
@@ -178,7 +191,7 @@ def train_ensemble(cfg: TrainConfig, out_dir: str | Path, command: str = "", pro
                  + (f", {workers} at a time" if todo else "")
                  + (f"; members {', '.join(map(str, sorted(done)))} already trained there: kept" if done else ""))
     if workers == 1:
-        trained = [train(*job, progress=progress) for job in todo]
+        trained = [_run_member(job, progress) for job in todo]
     else:  # each member a process of its own (one thread, its own seed: the same weights as one after another)
         with ProcessPoolExecutor(workers, mp_context=get_context("spawn")) as pool:
             trained = list(pool.map(_train_member, todo))

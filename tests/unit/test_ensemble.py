@@ -131,3 +131,27 @@ def test_a_member_folder_of_an_unfinished_or_other_run_is_refused_and_kept(tmp_p
     with pytest.raises(ConfigError, match="cannot be read"):
         finished_member(cfg, folder)
     assert sorted(p.name for p in folder.iterdir()) == ["train_config.yaml", "train_log.json"]  # nothing removed
+
+
+def test_a_member_that_raises_is_named_and_the_finished_ones_are_kept(tmp_path, monkeypatch):
+    import petswarm.training.recurrent as recurrent
+    from petswarm.training.config import load_train_config
+    from petswarm.training.ensemble import MemberStopped, train_ensemble
+
+    real = recurrent.train
+
+    def train(cfg, out, command="", progress=print):
+        if cfg.seed == 1:
+            raise ValueError("a refill\nraised")
+        return real(cfg, out, command=command, progress=progress)
+
+    monkeypatch.setattr(recurrent, "train", train)
+    tiny = {"timesteps": 60, "recurrent.samples_per_round": 60, "recurrent.updates_per_round": 2, "recurrent.members": 2,
+            "eval.episodes": 1, "env.max_cycles": 30, "recurrent.encoder": [8], "recurrent.hidden_size": 4,
+            "recurrent.head": [4], "num_cpus": 1}
+    cfg = load_train_config("configs/train/recurrent_command_teacher.yaml", tiny)
+    cfg = cfg.model_copy(update={"randomize": {"swarm.num_slaves": [2, 3]}})
+    named = r"^member_1 \(seed 1\) stopped: a refill raised; remove '.*member_1' and run the same command again"
+    with pytest.raises(MemberStopped, match=named):
+        train_ensemble(cfg, tmp_path / "run", progress=None)
+    assert (tmp_path / "run" / "member_0" / "last.npz").is_file() and not (tmp_path / "run" / "train_log.json").exists()

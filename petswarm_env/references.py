@@ -37,20 +37,12 @@ COMPILED = cython.compiled  # True in the compiled form (petswarm_env/_core.py c
 _hypot = math.hypot  # Python's own (CPython's hypot is not the C library's)
 
 
-def _held_link(table: dict, members: dict, link) -> tuple | None:
+def _held_link(formation, members: dict, link) -> tuple | None:
     """A link as (neighbour's robot index, offset x, offset y). A neighbour whose member number the swarm leaves open (a
-    custom table keeps its size at a loss, and a master change's re-rooted table the lost master's slot) stands where
-    its own first link puts it: the link goes on along the open members' first links to a member the swarm holds, the
-    offsets added up; None when none is held."""
-    x, y = float(link.offset_m[0]), float(link.offset_m[1])
-    m, seen = link.neighbour, set()
-    while m not in members:
-        if m in seen or not table.get(m):
-            return None
-        seen.add(m)
-        step = table[m][0]
-        x, y, m = x + float(step.offset_m[0]), y + float(step.offset_m[1]), step.neighbour
-    return members[m], x, y
+    custom table keeps its size at a loss, and a master change's re-rooted table the lost master's slot) is referred
+    through (:meth:`~petswarm_env.middleware.formation.Formation.through`); None when no member held is on the way."""
+    held = formation.through(link, members)
+    return None if held is None else (members[held.neighbour], held.offset_m[0], held.offset_m[1])
 
 
 @cython.cclass
@@ -100,12 +92,11 @@ class ReferenceTable:
             if swarm.formation is None or not swarm.organized:
                 continue
             members = swarm.master.know.members
-            table = swarm.formation.links
-            for m, links in table.items():
+            for m, links in swarm.formation.links.items():
                 idx = members.get(m)
                 if idx is None or not links:
                     continue
-                held = [ref for ref in (_held_link(table, members, link) for link in links) if ref is not None]
+                held = [ref for ref in (_held_link(swarm.formation, members, link) for link in links) if ref is not None]
                 if not held:
                     continue
                 entry_of[idx] = len(slave)

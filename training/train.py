@@ -287,13 +287,13 @@ def _in_process_command(cfg: TrainConfig, out: str, resume: bool, run, command: 
     print(header, flush=True)
     log = train_run(cfg, out, command=command, progress=lambda line: print(line, flush=True))
     best = log.get("best")
-    figures = (f"median {best['metric']} ratio to scripted {best['median_ratio']:.2f}, {best['not_built']} formations not built "
-               f"that scripted built" if best else "")
-    chosen = (f"policy: {out}/policy.npz, the best evaluation (after {best['timesteps']} samples, {figures})" if best
-              else f"policy: {out}/policy.npz")
     if algorithm == "recurrent" and cfg.recurrent.members > 1:  # training/ensemble.py: one evaluation, of the mean
-        chosen = (f"policy: {out}/policy.npz, the mean of the members' {cfg.recurrent.member_checkpoint} students"
-                  + (f" ({figures})" if best else ""))
+        what_it_is = f"the mean of the members' {cfg.recurrent.member_checkpoint} students ("
+    else:
+        what_it_is = f"the best evaluation (after {best['timesteps']} samples, " if best else ""
+    chosen = f"policy: {out}/policy.npz" + (
+        f", {what_it_is}median {best['metric']} ratio to scripted {best['median_ratio']:.2f}, {best['not_built']} formations "
+        f"not built that scripted built)" if best else "")
     print(f"{what} {log['timesteps']} agent-samples in {len(log[steps])} {steps}, {log['wall_time_s']:.0f} s; "
           f"{chosen}; the last: {out}/last.npz")
     return 0

@@ -115,21 +115,34 @@ class Formation:
             )
         return Formation(self.shape, links), renumber
 
+    def through(self, link: Link, held) -> Link | None:
+        """``link`` referred to a member in ``held`` (a container of member numbers): a neighbour not held stands
+        where its own first link puts it, so the link goes on along the first links of the members not held, the
+        offsets added up, to the first one held; None when the way reaches none (a loop, or a row without links)."""
+        x, y = float(link.offset_m[0]), float(link.offset_m[1])
+        m, seen = link.neighbour, set()
+        while m not in held:
+            if m in seen or not self.links.get(m):
+                return None
+            seen.add(m)
+            step = self.links[m][0]
+            x, y, m = x + float(step.offset_m[0]), y + float(step.offset_m[1]), step.neighbour
+        return Link(m, (x, y))
+
     def cut(self, num_members: int) -> Formation:
         """The table of its first ``num_members`` members, every slot where this table puts it: a member keeps
-        its links to kept members; one whose links all lead to members cut off is linked to the first kept
-        member along its first links' way to the master (member 0), its offset that member's slot to its own."""
-        pos = self.slot_positions()
+        its links to kept members; one whose links all lead to members cut off refers to the first kept member
+        along its first links' way to the master (:meth:`through`; to the master by its slot where that way loops)."""
+        kept_members = range(num_members)
         links: dict[int, tuple[Link, ...]] = {}
         for m in range(1, num_members):
             kept = tuple(lk for lk in self.links[m] if lk.neighbour < num_members)
             if not kept:
-                nb, seen = self.links[m][0].neighbour, {m}
-                while nb >= num_members and nb not in seen:
-                    seen.add(nb)
-                    nb = self.links[nb][0].neighbour
-                nb = nb if nb < num_members else 0
-                kept = (Link(nb, (round(float(pos[m][0] - pos[nb][0]), 12), round(float(pos[m][1] - pos[nb][1]), 12))),)
+                way = self.through(self.links[m][0], kept_members)
+                if way is None:
+                    pos = self.slot_positions()
+                    way = Link(0, (float(pos[m][0] - pos[0][0]), float(pos[m][1] - pos[0][1])))
+                kept = (way,)
             links[m] = kept
         return Formation(self.shape, links)
 

@@ -251,10 +251,10 @@ def test_an_open_member_number_is_referred_through():
     from petswarm_env.references import _held_link
 
     table = build_formation(custom_cfg([{"robot": 1, "neighbour": 0, "offset_m": [-1.0, 0.0]},
-                                        {"robot": 2, "neighbour": 1, "offset_m": [0.0, 1.0]}]), 3).links
-    assert _held_link(table, {0: 7, 1: 8, 2: 9}, table[2][0]) == (8, 0.0, 1.0)
-    assert _held_link(table, {0: 7, 2: 9}, table[2][0]) == (7, -1.0, 1.0)  # member 1 open: through its link to 0
-    assert _held_link(table, {2: 9}, table[2][0]) is None
+                                        {"robot": 2, "neighbour": 1, "offset_m": [0.0, 1.0]}]), 3)
+    assert _held_link(table, {0: 7, 1: 8, 2: 9}, table.links[2][0]) == (8, 0.0, 1.0)
+    assert _held_link(table, {0: 7, 2: 9}, table.links[2][0]) == (7, -1.0, 1.0)  # member 1 open: through its link to 0
+    assert _held_link(table, {2: 9}, table.links[2][0]) is None
 
 
 def test_a_swarm_on_a_table_that_cannot_be_cut_outlives_its_master_and_refills():

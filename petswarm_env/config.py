@@ -203,7 +203,10 @@ class UserConfig(Section):
     run_speed_mps: float = Field(gt=0, le=FAST_MPS)
     turn_rate_dps: float = Field(gt=0, le=SPIN_DPS)
     start_delay_s: float = Field(ge=0, le=LONG_S)
-    formation_wait_s: float = Field(ge=0, le=LONG_S, description="the user stands until the formation is built (every slave within metrics.BUILT_WITHIN_M of its reference), at most this long after organizing; start_delay_s is the least stand")
+    formation_wait_s: float = Field(ge=0, le=LONG_S, description=(
+        "the user stands until the formation is built (every slave within metrics.BUILT_WITHIN_M of its reference "
+        "and heading within metrics.BUILT_FACING_RAD of its master's), at most this long after organizing; "
+        "start_delay_s is the least stand"))
 
     @model_validator(mode="after")
     def _check_speeds(self) -> UserConfig:

@@ -56,7 +56,7 @@ from petswarm_env.comms.ir_channel import IRChannel
 from petswarm_env.comms.radio import RadioMedium
 from petswarm_env.config import Config
 from petswarm_env.control.arbiter import ControlArbiter, SafetyStage
-from petswarm_env.metrics import BUILT_WITHIN_M, Experimenter
+from petswarm_env.metrics import BUILT_FACING_RAD, BUILT_WITHIN_M, Experimenter
 from petswarm_env.middleware.join import OrganizeError, organize_obstacle
 from petswarm_env.middleware.fleet import Fleet
 from petswarm_env.middleware.formation import formation_for_mode, leading_user
@@ -155,7 +155,7 @@ class Episode:
                                          self.agent_index, self.other_user_robots)
         self.metrics = self.experimenter.metrics
         self.experimenter.runtime = self.runtime
-        self._start_walks({})
+        self._start_walks({}, {})
         self.runtime.start()  # faults and arrivals, in episode time from now
         self.num_cycles = 0
         self.missing_by_pan = {sw.pan: sw.slaves_missing() for sw in self.swarms}  # as organized (metrics.py's figure)
@@ -187,7 +187,7 @@ class Episode:
         # formation and heading errors, contacts (metrics.py's SlaveTruth)
         _, formation_error_m, heading_error_rad, new_contacts = self.experimenter.step(agents, ids)
         if not step_kernel.all_walking(self.sessions):  # only while a user still stands
-            self._start_walks(dict(zip(agents, formation_error_m)))
+            self._start_walks(dict(zip(agents, formation_error_m)), dict(zip(agents, heading_error_rad)))
         infos = step_kernel.infos(agents, ids, self.fleet.nodes, self.missing_by_pan, formation_error_m,
                                   new_contacts, _LIVE_INFO) if with_infos else None
         # every slave's reward in one pass over the slaves (reward.py); the last actions are the
@@ -432,12 +432,17 @@ class Episode:
         # a slave whose master is lost (on its own clock) or in emergency stops
         step_kernel.command_slaves(self._ids, acts, self._scale, masters, nodes, robots, arbiters, rows)
 
-    def _start_walks(self, errors_m: dict[str, float]) -> None:
+    def _start_walks(self, errors_m: dict[str, float], headings_rad: dict[str, float]) -> None:
         """Start the script of each user who has stood long enough (chosen): once their swarm is
         organized, a user stands until they see its formation built — every slave of it within
-        ``metrics.BUILT_WITHIN_M`` of its reference point (``errors_m``, agent -> formation error) —
-        or for ``user.formation_wait_s`` at most; the script's own stand (``user.start_delay_s``)
-        counts from organizing, so the user walks off at the later of the two."""
+        ``metrics.BUILT_WITHIN_M`` of its reference point (``errors_m``, agent -> formation error)
+        and none facing away from the formation's way, its heading within
+        ``metrics.BUILT_FACING_RAD`` (90°) of its master's (``headings_rad``, agent -> heading
+        error) — or for ``user.formation_wait_s`` at most; the script's own stand
+        (``user.start_delay_s``) counts from organizing, so the user walks off at the later of the two.
+        (Facing too: a differential body that reached its slot backwards has to turn round before it
+        can follow; a user walking off at once left an r1 (1.5 rad/s) 4 m behind, out of its IR's
+        reach, and its master removed it as astray: docs/faults.md.)"""
         waited = self.world.now - self.experimenter.organized_at_s
         limit = self.cfg.user.formation_wait_s
         for session in self.sessions:
@@ -445,7 +450,8 @@ class Episode:
             if user.walking or session.paused:
                 continue
             slaves = [f"robot_{i}" for i in session.swarm.slave_ids()]
-            if waited >= limit - 1e-9 or all(errors_m.get(a, math.inf) <= BUILT_WITHIN_M for a in slaves):
+            if waited >= limit - 1e-9 or all(errors_m.get(a, math.inf) <= BUILT_WITHIN_M
+                                             and abs(headings_rad.get(a, math.inf)) <= BUILT_FACING_RAD for a in slaves):
                 user.walking = True
                 user.script_time_s = min(waited, self.cfg.user.start_delay_s)
 

@@ -13,7 +13,7 @@ import petswarm_env
 from petswarm.baselines.leader_follower import LeaderFollowerPolicy
 from petswarm.baselines.policy import PolicySpec
 from petswarm_env.config import ConfigError, load_config
-from petswarm_env.metrics import BUILT_WITHIN_M
+from petswarm_env.metrics import BUILT_FACING_RAD, BUILT_WITHIN_M
 from petswarm_env.middleware import join
 from petswarm_env.scenarios import SCENARIOS
 from petswarm_env.scenarios.base import SCATTER_REACH
@@ -127,6 +127,25 @@ def test_a_swarm_that_never_builds_reports_nan_and_the_user_walks_after_the_wait
     assert math.isfinite(s["formation_rmse_m"])
     assert walked == pytest.approx(4.0, abs=0.11)
 
+
+
+def test_the_user_waits_until_no_slave_faces_away():
+    """The mixed pool (``heterogeneous``, seed 920000000, the scripted reference): every slave stood within
+    ``BUILT_WITHIN_M`` of its reference at 8.0 s, a differential body facing away from its master's way; the user
+    walks off only once every heading is within ``BUILT_FACING_RAD`` of its master's (16.4 s)."""
+    env = petswarm_env.parallel_env(**{"user.scenario": "heterogeneous", "max_cycles": 300})
+    policy = LeaderFollowerPolicy(PolicySpec.from_env(env))
+    obs, _ = env.reset(seed=920000000)
+    ep = env.episode
+    before = None
+    while env.agents and not ep.world.user.walking:
+        before = ep.experimenter.formation_errors(env.agents)
+        obs, *_ = env.step(policy.act_all({a: obs[a] for a in env.agents}))
+    walked = ep.world.now - ep.experimenter.organized_at_s
+    errors, headings = ep.experimenter.formation_errors(env.agents)
+    assert walked < env.cfg.user.formation_wait_s and walked > ep.metrics.building_time_s + 2.0
+    assert max(errors.values()) <= BUILT_WITHIN_M and max(map(abs, headings.values())) <= BUILT_FACING_RAD
+    assert max(map(abs, before[1].values())) > BUILT_FACING_RAD  # one step before: a slave faced away
 
 # heterogeneous: the scripted slave, written for a holonomic body, asks a differential
 # body to move sideways while holding its heading; the two turns cancel and the mixed pool builds

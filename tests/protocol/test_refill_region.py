@@ -58,3 +58,16 @@ def test_the_mixed_pools_spare_fills_the_dead_slaves_place(assignment):
     ns.spares = 0
     waiting = measure_mixed.run(seed, "spare", assignment, ns)
     assert not waiting["by_spare"] and waiting["refill_s"] > row["refill_s"]
+
+
+@pytest.mark.parametrize("seed", [9303, 9305])
+def test_a_differential_slave_that_reached_its_slot_backwards_follows_its_walking_swarm(seed):
+    """RUTA decentralized, the mixed pool with a walking spare: an r1 (1.5 rad/s) stood at its slot facing away from
+    its master's way when its user walked off; it fell 4 m behind, out of its IR's reach, and its master removed it as
+    astray at 17.6-17.8 s, so an arrival held the user's count after the death at 20 s. The user now walks off once no
+    slave faces away (``metrics.BUILT_FACING_RAD``): nobody is removed before the death, and the spare refills."""
+    ns = argparse.Namespace(max_cycles=700, fault_at=20.0, arrivals=[25.0, 35.0], spares=1, spare_type="r1",
+                            judge_at=60.0)
+    row = measure_mixed.run(seed, "spare", "ruta_decentralized", ns)
+    assert all(t > ns.fault_at for t, _ in row["removed"]), row["removed"]
+    assert row["by_pool"] and row["refill_s"] <= 5.0

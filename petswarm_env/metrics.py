@@ -77,7 +77,7 @@ if TYPE_CHECKING:
     from petswarm_env.sim.world import World
 
 BUILT_WITHIN_M = 0.3  # the formation is built once every slave is this close to its reference point (chosen)
-BUILT_FACING_RAD = math.radians(90.0)  # ... and the user walks off once no slave faces away from its master's heading (chosen)
+BUILT_FACING_RAD = math.radians(90.0)  # the user also waits until no slave faces away: each heading this close to its master's (chosen)
 # a lost robot (chosen): this far from its reference point (about the IR's detection range, 2.4-2.8 m, less
 # a slot's distance: where its fixes of its neighbours stop), for this long without a break (a u-turn's or a
 # refill's lag stays shorter: of the scripted reference's 240 episodes of configs/eval/heldout_recurrent.yaml on

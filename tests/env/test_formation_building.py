@@ -128,7 +128,6 @@ def test_a_swarm_that_never_builds_reports_nan_and_the_user_walks_after_the_wait
     assert walked == pytest.approx(4.0, abs=0.11)
 
 
-
 def test_the_user_waits_until_no_slave_faces_away():
     """The mixed pool (``heterogeneous``, seed 920000000, the scripted reference): every slave stood within
     ``BUILT_WITHIN_M`` of its reference at 8.0 s, a differential body facing away from its master's way; the user
@@ -146,6 +145,7 @@ def test_the_user_waits_until_no_slave_faces_away():
     assert walked < env.cfg.user.formation_wait_s and walked > ep.metrics.building_time_s + 2.0
     assert max(errors.values()) <= BUILT_WITHIN_M and max(map(abs, headings.values())) <= BUILT_FACING_RAD
     assert max(map(abs, before[1].values())) > BUILT_FACING_RAD  # one step before: a slave faced away
+
 
 # heterogeneous: the scripted slave, written for a holonomic body, asks a differential
 # body to move sideways while holding its heading; the two turns cancel and the mixed pool builds

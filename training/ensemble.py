@@ -21,7 +21,10 @@ The run folder: ``member_0/`` … (each member's own run: its policy.npz, last.n
 ones) and ``train_log.json`` (the members' logs and the mean's evaluation on the config's
 evaluation seeds). With ``recurrent.member_checkpoint: last`` ``policy.npz`` is the mean of the last
 students and ``members_best.npz`` that of the best: a member's pick among its own evaluations (ten
-short episodes each) is noisy enough to keep a student of an early round (docs/training.md)."""
+short episodes each) is noisy enough to keep a student of an early round (docs/training.md). With
+``recurrent.keep_members: K`` the policy (and ``last.npz``) is the mean of K members only, those of the
+lowest score on a validation grid (training/select_members.py; the log's ``member_validation``), and
+``members_all.npz`` the mean of every member."""
 
 from __future__ import annotations
 
@@ -36,10 +39,12 @@ import numpy as np
 
 from petswarm.baselines.learned import GRUCell, LearnedPolicy, Recurrent, read_policy, residual_of_meta, save_policy
 from petswarm.training.callbacks import LAST_POLICY, evaluate_and_keep, public_log, scripted_reference
-from petswarm.training.config import TrainConfig, load_train_config
+from petswarm.training.config import RecurrentConfig, TrainConfig, load_train_config
+from petswarm.training.select_members import score_members
 from petswarm_env.config import ConfigError
 from petswarm_env.files import write_json_atomic
 
+ALL_MEMBERS_POLICY = "members_all.npz"  # with recurrent.keep_members, the mean of every member (beside the chosen ones')
 MEMBERS_BEST_POLICY = "members_best.npz"  # with recurrent.member_checkpoint: last, the mean of the members' best evaluated
 
 ALGORITHM = "ensemble of recurrent actors (GRU), each distilled from the privileged teacher by DAgger"
@@ -140,8 +145,11 @@ def _train_member(job: tuple[TrainConfig, Path, str]) -> dict[str, Any]:
 
 
 def _same_member(cfg: TrainConfig) -> dict[str, Any]:
-    """What a member's weights depend on: its config but the processes at a time and the ensemble's choice of checkpoint."""
-    kept = cfg.model_copy(update={"num_cpus": 1, "recurrent": cfg.recurrent.model_copy(update={"member_checkpoint": "best"})})
+    """What a member's weights depend on: its config but the processes at a time and the ensemble's choice of checkpoint
+    and of members."""
+    defaults = {k: RecurrentConfig.model_fields[k].get_default(call_default_factory=True)
+                for k in ("member_checkpoint", "keep_members", "member_grid", "member_seeds")}
+    kept = cfg.model_copy(update={"num_cpus": 1, "recurrent": cfg.recurrent.model_copy(update=defaults)})
     return kept.model_dump(mode="json")
 
 
@@ -169,7 +177,7 @@ def finished_member(cfg: TrainConfig, folder: Path) -> dict[str, Any] | None:
 
 def train_ensemble(cfg: TrainConfig, out_dir: str | Path, command: str = "", progress=print) -> dict[str, Any]:
     """``recurrent.members`` students (module docstring) in ``out_dir``; returns the train log."""
-    from petswarm.baselines.policy import PolicySpec
+    from petswarm.evaluation.grid_spec import load_grid
     from petswarm_env.env import PetSwarmEnv
 
     members = cfg.recurrent.members
@@ -181,7 +189,10 @@ def train_ensemble(cfg: TrainConfig, out_dir: str | Path, command: str = "", pro
         raise ConfigError(f"'{out}' already holds a run; choose another --out (a recurrent run is not resumable)")
     out.mkdir(parents=True, exist_ok=True)
     start = time.time()
-    jobs = [(cfg.model_copy(update={"seed": cfg.seed + m, "recurrent": cfg.recurrent.model_copy(update={"members": 1})}),
+    if cfg.recurrent.keep_members:  # the validation grid read before hours of training, not after
+        load_grid(cfg.recurrent.member_grid, None, seed=cfg.recurrent.member_seeds[0])
+    one = {"members": 1, "keep_members": 0}
+    jobs = [(cfg.model_copy(update={"seed": cfg.seed + m, "recurrent": cfg.recurrent.model_copy(update=one)}),
              out / f"member_{m}", command) for m in range(members)]
     done = {m: log for m, (member, folder, _) in enumerate(jobs) if (log := finished_member(member, folder)) is not None}
     todo = [job for m, job in enumerate(jobs) if m not in done]
@@ -204,11 +215,20 @@ def train_ensemble(cfg: TrainConfig, out_dir: str | Path, command: str = "", pro
                            "rounds": [r for lg in logs for r in lg["rounds"]], "members_kept": sorted(done)}
     info = {"algorithm": f"{ALGORITHM}, parameter sharing over slaves", "members": members, "timesteps": log["timesteps"],
             "train_config": cfg.model_dump(mode="json"), "command": command}
-    write_merged([out / f"member_{m}" / LAST_POLICY for m in range(members)], out / LAST_POLICY, layout, info)
     best = [out / f"member_{m}" / "policy.npz" for m in range(members)]
+    last = [out / f"member_{m}" / LAST_POLICY for m in range(members)]
+    chosen = list(range(members))
+    if cfg.recurrent.keep_members:  # the members of the lowest score on the validation grid; the mean of all beside
+        students = last if cfg.recurrent.member_checkpoint == "last" else best
+        log["member_validation"] = score_members(cfg, students, progress)
+        chosen = log["member_validation"]["chosen"]
+        write_merged(students, out / ALL_MEMBERS_POLICY, layout, info)
+        info = {**info, "members": len(chosen), "members_chosen": chosen}
+    best, last = [best[m] for m in chosen], [last[m] for m in chosen]
+    write_merged(last, out / LAST_POLICY, layout, info)
     if cfg.recurrent.member_checkpoint == "last":  # the mean of the last students is the policy; the other beside it
         write_merged(best, out / MEMBERS_BEST_POLICY, layout, info)
-        best = [out / f"member_{m}" / LAST_POLICY for m in range(members)]
+        best = last
     scratch = out / ".mean_for_evaluation.npz"  # the mean the evaluation drives, written once
     write_merged(best, scratch, layout, info)
     scripted_reference(cfg, log)
@@ -221,7 +241,7 @@ def train_ensemble(cfg: TrainConfig, out_dir: str | Path, command: str = "", pro
     write_json_atomic(out / "train_log.json", public_log(log))
     if progress:
         ev = log["evaluations"][-1]
-        progress(f"the mean of {members} students: eval median {cfg.eval.metric} ratio {ev['median_ratio']:.2f} "
+        progress(f"the mean of {len(chosen)} of {members} students: eval median {cfg.eval.metric} ratio {ev['median_ratio']:.2f} "
                  f"(not built {ev['not_built']}), {log['wall_time_s']:.0f} s")
     return public_log(log)
 

@@ -288,7 +288,8 @@ def _in_process_command(cfg: TrainConfig, out: str, resume: bool, run, command: 
     log = train_run(cfg, out, command=command, progress=lambda line: print(line, flush=True))
     best = log.get("best")
     if algorithm == "recurrent" and cfg.recurrent.members > 1:  # training/ensemble.py: one evaluation, of the mean
-        what_it_is = f"the mean of the members' {cfg.recurrent.member_checkpoint} students ("
+        chosen_of = f"{cfg.recurrent.keep_members} chosen of {cfg.recurrent.members} " if cfg.recurrent.keep_members else ""
+        what_it_is = f"the mean of the {chosen_of}members' {cfg.recurrent.member_checkpoint} students ("
     else:
         what_it_is = f"the best evaluation (after {best['timesteps']} samples, " if best else ""
     chosen = f"policy: {out}/policy.npz" + (

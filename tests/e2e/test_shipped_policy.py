@@ -30,7 +30,8 @@ def test_shipped_policy_records_how_it_was_trained():
     defaults = {"validation_fraction": 0.0, "target": "action", "estimate_clip_m": 1.5, "estimate_gain": 4.0,
                 "validation_every": 0, "early_stopping": False, "weight_decay": 0.0, "encoder_dropout": 0.0,
                 "near_m": 0.0, "near_weight": 0.0, "contact_window": 0, "contact_weight": 0.0, "closing_weight": 0.0,
-                "members": 1, "member_checkpoint": "best",
+                "members": 1, "member_checkpoint": "best", "keep_members": 0,
+                "member_grid": "configs/eval/heldout_recurrent.yaml", "member_seeds": [940000000, 942000000, 944000000],
                 "teacher_push": 1.5, "teacher_user_keep_out_m": 1.1, "teacher_orphan_to_slot": False,
                 "teacher_master_command": False, "teacher_differential_gain": 4.0}
     assert added <= set(defaults) and all(committed["recurrent"][k] == defaults[k] for k in added)

@@ -135,17 +135,19 @@ class RecurrentConfig(Section):
     eval_every_rounds: int = Field(1, ge=1, le=1_000_000, description="evaluate (and keep the best as policy.npz) every this many rounds")
     members: int = Field(1, ge=1, le=16, description="train this many students of this config, seeds seed, seed + 1, ..., and ship "
                                                      "their mean as one network (training/ensemble.py; 1: one student)")
-    member_checkpoint: Literal["best", "last"] = Field(
-        "best", description="with members > 1: policy.npz is the mean of each member's best evaluated student (best) or of its "
-                            "last round's (last; the mean of the best is then written as members_best.npz)")
+    member_checkpoint: Literal["best", "last", "validated"] = Field(
+        "best", description="with members > 1: policy.npz is the mean of each member's best evaluated student (best), of its "
+                            "last round's (last; the mean of the best is then written as members_best.npz), or of whichever "
+                            "of the two scores lower on member_grid at member_seeds (validated; training/select_members.py)")
     keep_members: int = Field(0, ge=0, le=16, description="with members > 1: the policy is the mean of this many members, those "
-                                                          "of the lowest score on member_grid at member_seeds "
+                                                          "whose student scores lowest on member_grid at member_seeds "
                                                           "(training/select_members.py; 0: every member)")
     member_grid: str = Field("configs/eval/heldout_recurrent.yaml", min_length=1,
-                             description="with keep_members: the grid file whose cells score each member alone")
+                             description="with keep_members or member_checkpoint: validated: the grid file whose cells "
+                                         "score each member's student alone")
     member_seeds: list[Annotated[int, Field(ge=900_000_000, le=2**62)]] = Field(
         default_factory=lambda: [940_000_000, 942_000_000, 944_000_000], min_length=1, max_length=16,
-        description="with keep_members: the grid's seeds the members are scored on (held-out seeds: >= 900 000 000, "
+        description="with keep_members or validated: the grid's seeds the students are scored on (held-out seeds: >= 900 000 000, "
                     "docs/training.md 'Held-out seeds'; none of the sets the docs report on)")
     validation_fraction: float = Field(0.0, ge=0.0, lt=1.0, description="share of each round's episodes whose sequences are held "
                                                                         "out of the fit: their loss and explained share are logged "
@@ -194,6 +196,9 @@ class RecurrentConfig(Section):
 
     @model_validator(mode="after")
     def _check_validation(self) -> RecurrentConfig:
+        if self.member_checkpoint == "validated" and self.members == 1:
+            raise ValueError("recurrent.member_checkpoint: validated chooses among the students of an ensemble; set "
+                             "recurrent.members above 1, or member_checkpoint: best")
         if self.keep_members and self.keep_members >= self.members:
             raise ValueError(f"recurrent.keep_members ({self.keep_members}) must be below recurrent.members ({self.members}), "
                              "or 0 to keep every member")

@@ -24,7 +24,8 @@ students and ``members_best.npz`` that of the best: a member's pick among its ow
 short episodes each) is noisy enough to keep a student of an early round (docs/training.md). With
 ``recurrent.keep_members: K`` the policy (and ``last.npz``) is the mean of K members only, those of the
 lowest score on a validation grid (training/select_members.py; the log's ``member_validation``), and
-``members_all.npz`` the mean of every member."""
+``members_all.npz`` the mean of every member; with ``member_checkpoint: validated`` each member's student
+is whichever of its best and last scores lower there."""
 
 from __future__ import annotations
 
@@ -189,7 +190,8 @@ def train_ensemble(cfg: TrainConfig, out_dir: str | Path, command: str = "", pro
         raise ConfigError(f"'{out}' already holds a run; choose another --out (a recurrent run is not resumable)")
     out.mkdir(parents=True, exist_ok=True)
     start = time.time()
-    if cfg.recurrent.keep_members:  # the validation grid read before hours of training, not after
+    validated = cfg.recurrent.keep_members or cfg.recurrent.member_checkpoint == "validated"
+    if validated:  # the validation grid read before hours of training, not after
         load_grid(cfg.recurrent.member_grid, None, seed=cfg.recurrent.member_seeds[0])
     one = {"members": 1, "keep_members": 0}
     jobs = [(cfg.model_copy(update={"seed": cfg.seed + m, "recurrent": cfg.recurrent.model_copy(update=one)}),
@@ -217,18 +219,21 @@ def train_ensemble(cfg: TrainConfig, out_dir: str | Path, command: str = "", pro
             "train_config": cfg.model_dump(mode="json"), "command": command}
     best = [out / f"member_{m}" / "policy.npz" for m in range(members)]
     last = [out / f"member_{m}" / LAST_POLICY for m in range(members)]
-    chosen = list(range(members))
-    if cfg.recurrent.keep_members:  # the members of the lowest score on the validation grid; the mean of all beside
-        students = last if cfg.recurrent.member_checkpoint == "last" else best
-        log["member_validation"] = score_members(cfg, students, progress)
+    checkpoint, chosen = cfg.recurrent.member_checkpoint, list(range(members))
+    students = last if checkpoint == "last" else best
+    if validated:  # each member's student, and the members, of the lowest score on the validation grid; all beside
+        options = [[best[m], last[m]] if checkpoint == "validated" else [students[m]] for m in range(members)]
+        log["member_validation"] = score_members(cfg, options, progress)
+        students = [options[m][r["student"]] for m, r in enumerate(log["member_validation"]["members"])]
         chosen = log["member_validation"]["chosen"]
-        write_merged(students, out / ALL_MEMBERS_POLICY, layout, info)
-        info = {**info, "members": len(chosen), "members_chosen": chosen}
-    best, last = [best[m] for m in chosen], [last[m] for m in chosen]
-    write_merged(last, out / LAST_POLICY, layout, info)
-    if cfg.recurrent.member_checkpoint == "last":  # the mean of the last students is the policy; the other beside it
-        write_merged(best, out / MEMBERS_BEST_POLICY, layout, info)
-        best = last
+        if len(chosen) < members:
+            write_merged(students, out / ALL_MEMBERS_POLICY, layout, info)
+        info = {**info, "members": len(chosen), "members_chosen": chosen,
+                "students": [students[m].name for m in chosen]}
+    write_merged([last[m] for m in chosen], out / LAST_POLICY, layout, info)
+    if checkpoint == "last":  # the mean of the last students is the policy; the mean of the best beside it
+        write_merged([best[m] for m in chosen], out / MEMBERS_BEST_POLICY, layout, info)
+    best = [students[m] for m in chosen]
     scratch = out / ".mean_for_evaluation.npz"  # the mean the evaluation drives, written once
     write_merged(best, scratch, layout, info)
     scripted_reference(cfg, log)

@@ -2,6 +2,7 @@
 
 import json
 import math
+import shutil
 
 import numpy as np
 import pytest
@@ -54,11 +55,18 @@ def test_the_member_that_drives_as_the_reference_scores_one_and_a_pushing_member
     paths = [tmp_path / f"m{k}.npz" for k in range(3)]
     for p, bias in zip(paths, (3.0, 0.0, -3.0)):
         _student(p, layout, bias)
-    record = score_members(_config(tmp_path), paths, progress=None)
-    scores = [m["score"] for m in record["members"]]
-    assert scores[1] == 1.0  # no correction: every episode the reference's, bit for bit, on every cell and seed
-    assert scores[0] > 1.0 and scores[2] > 1.0  # half the speed limit pushed one way the whole episode holds worse
-    assert record["chosen"] == [1] and record["seeds"] == [900000000, 900000010] and record["episodes"] == 1
+    shutil.copy(paths[1], tmp_path / "copy.npz")
+    lines = []
+    # member 1 offers two students of the same weights (driven once), member 2 a pushing one and one with no correction
+    record = score_members(_config(tmp_path), [[paths[0]], [paths[1], tmp_path / "copy.npz"], [paths[2], paths[1]]],
+                           progress=lines.append)
+    assert lines[0].startswith("scoring 4 students of 3 members")
+    m0, m1, m2 = record["members"]
+    assert m1["score"] == 1.0  # no correction: every episode the reference's, bit for bit, on every cell and seed
+    assert m0["score"] > 1.0 and m2["scores"][0] > 1.0  # half the speed limit pushed one way the whole episode holds worse
+    assert (m1["student"], m1["scores"]) == (0, [1.0, 1.0]) and (m2["student"], m2["score"], m2["file"]) == (1, 1.0, "m1.npz")
+    assert record["chosen"] == [1]  # members 1 and 2 tie: the lower is kept
+    assert record["seeds"] == [900000000, 900000010] and record["episodes"] == 1
     json.dumps(record)  # the train log's record
 
 
@@ -83,26 +91,32 @@ def _weights(path):
         return {k: f[k] for k in f.files if k != "meta"}
 
 
-def test_an_ensemble_run_ships_the_mean_of_its_chosen_members_and_the_mean_of_all_beside(tmp_path):
+@pytest.mark.parametrize("checkpoint", ["best", "validated"])
+def test_an_ensemble_run_ships_the_mean_of_its_chosen_members_and_the_mean_of_all_beside(tmp_path, checkpoint):
     from petswarm.baselines.learned import read_policy
     from petswarm.training.ensemble import train_ensemble, write_merged
 
     (tmp_path / "grid.yaml").write_text(GRID)
-    tiny = {"timesteps": 60, "recurrent.samples_per_round": 60, "recurrent.updates_per_round": 2, "recurrent.members": 2,
+    tiny = {"timesteps": 120, "recurrent.samples_per_round": 60, "recurrent.updates_per_round": 2, "recurrent.members": 2,
             "eval.episodes": 1, "env.max_cycles": 30, "recurrent.encoder": [8], "recurrent.hidden_size": 4,
             "recurrent.head": [4], "num_cpus": 1, "recurrent.keep_members": 1,
-            "recurrent.member_grid": str(tmp_path / "grid.yaml"), "recurrent.member_seeds": [900000000]}
+            "recurrent.member_grid": str(tmp_path / "grid.yaml"), "recurrent.member_seeds": [900000000],
+            "recurrent.eval_every_rounds": 1, "recurrent.member_checkpoint": checkpoint}  # two rounds: best and last can differ
     cfg = load_train_config("configs/train/recurrent_command_teacher.yaml", tiny)
     run = tmp_path / "run"
     log = train_ensemble(cfg.model_copy(update={"randomize": {"swarm.num_slaves": [2, 3]}}), run, progress=None)
     record = log["member_validation"]
     scores = [m["score"] for m in record["members"]]
     assert len(scores) == 2 and record["chosen"] == [min((0, 1), key=lambda m: (scores[m], m))]
+    for r in record["members"]:  # a member stands for its student of the lower score (its best where they tie)
+        assert r["file"] == ("policy.npz" if checkpoint == "best" else ["policy.npz", "last.npz"][r["student"]])
+        assert r["score"] == min(r["scores"]) and r["scores"].index(r["score"]) == r["student"]
     assert json.loads((run / "train_log.json").read_text())["member_validation"]["chosen"] == record["chosen"]
     layout = PolicySpec.from_env(parallel_env()).layout
     c = record["chosen"][0]
-    for mine, students in (("policy.npz", [run / f"member_{c}/policy.npz"]), ("last.npz", [run / f"member_{c}/last.npz"]),
-                           ("members_all.npz", [run / f"member_{m}/policy.npz" for m in (0, 1)])):
+    own = [record["members"][m]["file"] for m in (0, 1)]
+    for mine, students in (("policy.npz", [run / f"member_{c}" / own[c]]), ("last.npz", [run / f"member_{c}/last.npz"]),
+                           ("members_all.npz", [run / f"member_{m}" / own[m] for m in (0, 1)])):
         write_merged(students, tmp_path / "expected.npz", layout, {"members": len(students)})
         one, two = _weights(run / mine), _weights(tmp_path / "expected.npz")
         assert one.keys() == two.keys() and all(np.array_equal(one[k], two[k]) for k in one), mine

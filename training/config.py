@@ -147,7 +147,7 @@ class RecurrentConfig(Section):
                                          "score each member's student alone")
     member_seeds: list[Annotated[int, Field(ge=900_000_000, le=2**62)]] = Field(
         default_factory=lambda: [940_000_000, 942_000_000, 944_000_000], min_length=1, max_length=16,
-        description="with keep_members or validated: the grid's seeds the students are scored on (held-out seeds: >= 900 000 000, "
+        description="with keep_members or validated: the grid's seeds the students are scored on (held-out: >= 900 000 000, "
                     "docs/training.md 'Held-out seeds'; none of the sets the docs report on)")
     validation_fraction: float = Field(0.0, ge=0.0, lt=1.0, description="share of each round's episodes whose sequences are held "
                                                                         "out of the fit: their loss and explained share are logged "

@@ -193,7 +193,7 @@ def train_ensemble(cfg: TrainConfig, out_dir: str | Path, command: str = "", pro
     validated = cfg.recurrent.keep_members or cfg.recurrent.member_checkpoint == "validated"
     if validated:  # the validation grid read before hours of training, not after
         load_grid(cfg.recurrent.member_grid, None, seed=cfg.recurrent.member_seeds[0])
-    one = {"members": 1, "keep_members": 0}
+    one = {"members": 1, "keep_members": 0, "member_checkpoint": "best"}  # a member is one student: what it reads back
     jobs = [(cfg.model_copy(update={"seed": cfg.seed + m, "recurrent": cfg.recurrent.model_copy(update=one)}),
              out / f"member_{m}", command) for m in range(members)]
     done = {m: log for m, (member, folder, _) in enumerate(jobs) if (log := finished_member(member, folder)) is not None}

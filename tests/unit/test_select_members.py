@@ -95,7 +95,7 @@ def _weights(path):
 @pytest.mark.parametrize("checkpoint", ["best", "validated"])
 def test_an_ensemble_run_ships_the_mean_of_its_chosen_members_and_the_mean_of_all_beside(tmp_path, checkpoint):
     from petswarm.baselines.learned import read_policy
-    from petswarm.training.ensemble import train_ensemble, write_merged
+    from petswarm.training.ensemble import finished_member, train_ensemble, write_merged
 
     (tmp_path / "grid.yaml").write_text(GRID)
     tiny = {"timesteps": 120, "recurrent.samples_per_round": 60, "recurrent.updates_per_round": 2, "recurrent.members": 2,
@@ -104,8 +104,9 @@ def test_an_ensemble_run_ships_the_mean_of_its_chosen_members_and_the_mean_of_al
             "recurrent.member_grid": str(tmp_path / "grid.yaml"), "recurrent.member_seeds": [900000000],
             "recurrent.eval_every_rounds": 1, "recurrent.member_checkpoint": checkpoint}  # two rounds: best and last can differ
     cfg = load_train_config("configs/train/recurrent_command_teacher.yaml", tiny)
+    cfg = cfg.model_copy(update={"randomize": {"swarm.num_slaves": [2, 3]}})
     run = tmp_path / "run"
-    log = train_ensemble(cfg.model_copy(update={"randomize": {"swarm.num_slaves": [2, 3]}}), run, progress=None)
+    log = train_ensemble(cfg, run, progress=None)
     record = log["member_validation"]
     scores = [m["score"] for m in record["members"]]
     assert len(scores) == 2 and record["chosen"] == [min((0, 1), key=lambda m: (scores[m], m))]
@@ -121,5 +122,8 @@ def test_an_ensemble_run_ships_the_mean_of_its_chosen_members_and_the_mean_of_al
         write_merged(students, tmp_path / "expected.npz", layout, {"members": len(students)})
         one, two = _weights(run / mine), _weights(tmp_path / "expected.npz")
         assert one.keys() == two.keys() and all(np.array_equal(one[k], two[k]) for k in one), mine
+    # the same command run again keeps its members: each one's config reads back (as one student) and is the same
+    one = cfg.recurrent.model_copy(update={"members": 1, "keep_members": 0})
+    assert finished_member(cfg.model_copy(update={"seed": cfg.seed + 1, "recurrent": one}), run / "member_1") is not None
     meta, _, _ = read_policy(run / "policy.npz")
     assert meta["info"]["members"] == 1 and meta["info"]["members_chosen"] == record["chosen"]
